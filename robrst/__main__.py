@@ -1,0 +1,5 @@
+import sys
+
+from robrst.cli import main
+
+sys.exit(main())

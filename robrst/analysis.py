@@ -1,0 +1,190 @@
+"""Closed-loop analysis of a plant under an RST controller.
+
+Sensitivities ``S = AS/Delta``, ``T = BR/Delta``, ``U = AR/Delta`` [V/µm] and
+``Sd = BS/Delta`` [µm/V]; closed-loop poles; gain, phase, modulus and delay margins
+(over *all* crossovers, found as roots of polynomials in w**2 and polished); exact
+peaks (:mod:`robrst.hinf`); step responses.  All root finding is done in the scaled
+variable ``p = s / w0``.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import brentq
+
+from robrst import poly
+from robrst.hinf import Peak, mag2_poly, peak_gain, scaled_realization
+from robrst.rst import closed_loop
+
+__all__ = ["Margins", "Analysis", "analyze", "sensitivity", "crossovers", "step_response",
+           "spectral_abscissa"]
+
+SENSITIVITIES = ("S", "T", "U", "Sd")
+
+
+@dataclass(frozen=True)
+class Margins:
+    """Classical margins of the loop ``L = BR/(AS)``.
+
+    ``gain_margin`` is the smallest factor > 1 by which the loop gain can grow
+    before a phase crossover reaches -1 (None: infinite).  ``phase_margin_deg`` is
+    the smallest phase change of either sign, over every gain crossover, that puts
+    ``L`` on -1 (``180 - |arg L(j wc)|``; equal to the usual ``180 + arg L`` when
+    ``arg L`` lies in (-180, 0]).  ``delay_margin_s`` is the smallest pure delay
+    that does so (phase lag only, over every crossover).  None means infinite.
+    """
+
+    gain_margin: float
+    gain_crossover_rad_s: tuple
+    phase_crossover_rad_s: tuple
+    phase_margin_deg: float
+    delay_margin_s: float
+    modulus_margin: float
+
+
+@dataclass(frozen=True, eq=False)
+class Analysis:
+    """Everything :func:`analyze` computes for one plant/controller pair."""
+
+    label: str
+    temperature_C: float
+    stable: bool
+    poles: np.ndarray
+    spectral_abscissa: float
+    peaks: dict
+    margins: Margins
+
+    def as_dict(self, plant):
+        pk = self.peaks
+        m = self.margins
+        return {
+            "label": self.label,
+            "temperature_C": self.temperature_C,
+            "A": plant.A.tolist(),
+            "B": plant.B.tolist(),
+            "stable": bool(self.stable),
+            "closed_loop_poles": [[float(z.real), float(z.imag)] for z in self.poles],
+            "spectral_abscissa": float(self.spectral_abscissa),
+            "Ms": pk["S"].value, "Ms_freq_rad_s": _fin(pk["S"].freq_rad_s),
+            "Mt": pk["T"].value, "Mt_freq_rad_s": _fin(pk["T"].freq_rad_s),
+            "Mu": pk["U"].value, "Mu_freq_rad_s": _fin(pk["U"].freq_rad_s),
+            "Msd": pk["Sd"].value, "Msd_freq_rad_s": _fin(pk["Sd"].freq_rad_s),
+            "gain_margin": m.gain_margin,
+            "phase_margin_deg": m.phase_margin_deg,
+            "modulus_margin": m.modulus_margin,
+            "delay_margin_s": m.delay_margin_s,
+        }
+
+
+def _fin(x):
+    return None if x is None or not np.isfinite(x) else float(x)
+
+
+def sensitivity(plant, ctrl, name, w):
+    """Complex frequency response of sensitivity ``name`` in S, T, U, Sd, Tr at ``w`` [rad/s]."""
+    cl = closed_loop(plant, ctrl)
+    N, D = cl.tf(name)
+    return poly.eval_jw(N, w) / poly.eval_jw(D, w)
+
+
+def spectral_abscissa(Delta):
+    """Largest real part of the roots of ``Delta`` (computed in scaled form)."""
+    w0 = poly.natural_scale(Delta)
+    r = np.roots(poly.to_scaled(poly.trim(Delta), w0)) * w0
+    return float(np.max(r.real)), r
+
+
+def _positive_roots_x(q, w0):
+    """Positive real roots x = w**2 of polynomial q (in scaled x), returned as w [rad/s]."""
+    q = poly.trim(q)
+    if len(q) < 2:
+        return np.zeros(0)
+    r = np.roots(q / np.max(np.abs(q)))
+    x = r[(np.abs(r.imag) <= 1e-7 * np.maximum(1.0, np.abs(r))) & (r.real > 0)].real
+    return np.sort(np.sqrt(x)) * w0
+
+
+def _polish(f, w):
+    """Refine a simple root of f near w with a bracketed solve; keep w if no bracket."""
+    for d in (1e-6, 1e-4, 1e-2):
+        a, b = w * (1 - d), w * (1 + d)
+        fa, fb = f(a), f(b)
+        if np.sign(fa) != np.sign(fb):
+            return brentq(f, a, b, xtol=1e-14 * w, rtol=1e-15)
+    return w
+
+
+def crossovers(num, den):
+    """Gain and phase crossover frequencies [rad/s] of ``L = num/den``.
+
+    Gain crossovers solve ``|num|^2 - |den|^2 = 0`` and phase crossovers
+    ``Im(num(jw) den(-jw)) = 0`` with ``Re L < 0``, both as polynomials in
+    ``x = w**2`` in the scaled variable, then polished on the exact function.
+    """
+    num, den = poly.trim(num), poly.trim(den)
+    w0 = poly.natural_scale(num, den)
+    ns, ds = poly.to_scaled(num, w0), poly.to_scaled(den, w0)
+    L = lambda w: poly.eval_jw(ns, w) / poly.eval_jw(ds, w)  # noqa: E731  (scaled w)
+    g = poly.padd(mag2_poly(ns), -mag2_poly(ds))
+    wg = [_polish(lambda w: np.log(abs(L(w))), w) for w in _positive_roots_x(g, 1.0)]
+    # Im(L) = 0  <=>  odd part of num(s) den(-s) vanishes at s = jw
+    dm = ds * (-1.0) ** np.arange(len(ds) - 1, -1, -1)
+    F = np.polymul(ns, dm)
+    odd = F[::-1][1::2][::-1]  # coefficients of s^(2k+1), highest first
+    k = np.arange(len(odd) - 1, -1, -1)
+    q = odd * (-1.0) ** k
+    wp = [_polish(lambda w: L(w).imag / abs(L(w)), w) for w in _positive_roots_x(q, 1.0)]
+    wp = [w for w in wp if L(w).real < 0]
+    return np.array(wg) * w0, np.array(wp) * w0
+
+
+def margins(plant, ctrl, Ms):
+    num = poly.pmul(plant.B, ctrl.R)
+    den = poly.pmul(plant.A, ctrl.S)
+    wg, wp = crossovers(num, den)
+    L = lambda w: poly.eval_jw(num, w) / poly.eval_jw(den, w)  # noqa: E731
+    gms = [1.0 / abs(L(w)) for w in wp]
+    up = [g for g in gms if g > 1.0]
+    gm = min(up) if up else None
+    # phase change (either sign) that puts L(j wc) on -1: 180 - |arg L|, arg in (-180, 180]
+    args = [float(np.degrees(np.angle(L(w)))) for w in wg]
+    pm = min(180.0 - abs(a) for a in args) if args else None
+    # phase lag a pure delay must add at each crossover before L reaches -1
+    dms = [np.radians((a + 180.0) % 360.0) / w for a, w in zip(args, wg) if w > 0]
+    dm = None if not dms else max(0.0, float(min(dms)))
+    return Margins(gain_margin=gm, gain_crossover_rad_s=tuple(float(w) for w in wg),
+                   phase_crossover_rad_s=tuple(float(w) for w in wp),
+                   phase_margin_deg=pm if pm is None else float(pm),
+                   delay_margin_s=dm, modulus_margin=1.0 / Ms)
+
+
+def analyze(plant, ctrl, rtol=1e-10):
+    """Full closed-loop analysis of ``plant`` under ``ctrl``.
+
+    Returns
+    -------
+    Analysis
+    """
+    cl = closed_loop(plant, ctrl)
+    sa, roots = spectral_abscissa(cl.Delta)
+    peaks = {k: peak_gain(cl.nums[k], cl.Delta, rtol=rtol) for k in SENSITIVITIES}
+    m = margins(plant, ctrl, peaks["S"].value)
+    return Analysis(label=plant.label, temperature_C=plant.temperature_C, stable=sa < 0,
+                    poles=roots, spectral_abscissa=sa, peaks=peaks, margins=m)
+
+
+def step_response(N, D, t):
+    """Response of ``N(s)/D(s)`` to a unit step at t = 0, sampled at ``t`` [s].
+
+    Simulated exactly (matrix exponential of the zero-order-hold discretisation
+    of the balanced scaled realisation), independent of coefficient size.
+    """
+    import scipy.signal as sig
+
+    t = np.asarray(t, dtype=float)
+    w0 = poly.natural_scale(D)
+    A, B, C, d = scaled_realization(N, D, w0)
+    # in scaled time tau = w0 t, dx/dtau = A x + B u, y = C x + d u
+    sys = sig.StateSpace(A, B, C, np.array([[d]]))
+    _, y, _ = sig.lsim(sys, np.ones_like(t), t * w0)
+    return np.asarray(y, dtype=float)

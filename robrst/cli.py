@@ -1,0 +1,111 @@
+"""Command-line interface: ``robrst design PROBLEM.toml [--json]``.
+
+A thin layer: parse arguments, call the pipeline, print.  Every robrst error becomes
+one line on stderr and exit code 2 (1 for an uncertified design).
+"""
+
+import argparse
+import json
+import math
+import sys
+
+from robrst.errors import RobrstError
+
+__all__ = ["main"]
+
+
+def _fmt(x, spec):
+    if x is None:
+        return "inf"
+    if isinstance(x, float) and not math.isfinite(x):
+        return "inf"
+    return format(x, spec)
+
+
+def margins_table(d):
+    """Human-readable margins table of a design's JSON dict."""
+    head = (f"{'model':<8}{'T[°C]':>7}{'stable':>8}{'Ms':>8}{'Mt':>8}{'Mu[V/µm]':>10}"
+            f"{'GM':>8}{'PM[°]':>8}{'MM':>7}{'DM[µs]':>9}")
+    lines = [head, "-" * len(head)]
+    for m in d["models"]:
+        dm = None if m["delay_margin_s"] is None else m["delay_margin_s"] * 1e6
+        lines.append(
+            f"{m['label']:<8}{m['temperature_C']:>7.1f}{str(m['stable']):>8}{m['Ms']:>8.3f}"
+            f"{m['Mt']:>8.3f}{m['Mu']:>10.2f}{_fmt(m['gain_margin'], '.2f'):>8}"
+            f"{_fmt(m['phase_margin_deg'], '.1f'):>8}{m['modulus_margin']:>7.3f}"
+            f"{_fmt(dm, '.1f'):>9}"
+        )
+    return "\n".join(lines)
+
+
+def _summary(d):
+    out = [f"problem {d['problem']}  method {d['method']}  certified: {d['certified']}"]
+    c = d["controller"]
+    for k in "RST":
+        out.append(f"  {k}(s) = " + " ".join(f"{v:.6g}" for v in c[k]))
+    out.append(margins_table(d))
+    cert = d["certificate"]
+    out.append(f"certificate: {len(cert['models'])} models checked (family + temperature sweep),"
+               f" {len(cert['violations'])} violations")
+    if "analytic_check" in d:
+        ac = d["analytic_check"]
+        out.append(f"analytic check: max rel. coefficient error {ac['max_rel_coef_error']:.2e}"
+                   f" -> {'passed' if ac['passed'] else 'FAILED'}")
+    if d.get("comparison"):
+        out.append(d["comparison"]["table"])
+    return "\n".join(out)
+
+
+def cmd_design(args):
+    from robrst.design import run_problem
+    from robrst.spec import load_problem
+
+    quiet = args.quiet or args.json
+    say = (lambda m: None) if quiet else (lambda m: print(m, file=sys.stderr, flush=True))
+    result = run_problem(load_problem(args.problem), progress=say)
+    d = result.as_dict()
+    if args.json:
+        print(json.dumps(d, allow_nan=False, default=_json_default))
+    else:
+        print(_summary(d))
+    if not result.certified:
+        for v in result.certificate.violations[:5]:
+            print(f"robrst: not certified: {v.describe()}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _json_default(x):
+    import numpy as np
+
+    if isinstance(x, (np.floating, np.integer, np.bool_)):
+        return x.item()
+    raise TypeError(f"not JSON serialisable: {type(x).__name__}")
+
+
+def build_parser():
+    p = argparse.ArgumentParser(prog="robrst", description="Robust RST control of piezo actuators")
+    sub = p.add_subparsers(dest="command", required=True)
+    d = sub.add_parser("design", help="design and certify an RST controller from a problem file")
+    d.add_argument("problem", help="problem file (TOML)")
+    d.add_argument("--json", action="store_true", help="print exactly one JSON object")
+    d.add_argument("--quiet", action="store_true", help="no progress lines")
+    d.set_defaults(func=cmd_design)
+    return p
+
+
+def main(argv=None):
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except RobrstError as exc:
+        print(f"robrst: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("robrst: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,145 @@
+"""Temperature-indexed plant families.
+
+A family is a tuple of plants at increasing temperatures [°C] plus a rule to build
+the model at any temperature in range:
+
+* **parametric** — from a nominal model and per-kelvin coefficients: static gain,
+  natural frequency and damping of every complex pole pair of A, and a creep
+  (low-frequency lag–lead) factor ``(tau s + 1 + kappa)/(tau s + 1)`` whose
+  strength ``kappa`` grows with temperature (the paper: fast dynamics barely change,
+  creep grows);
+* **explicit** — coefficients given per temperature, interpolated linearly
+  coefficient by coefficient between neighbours (A stays monic).
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from robrst import poly
+from robrst.errors import SpecError
+from robrst.plant import Plant
+
+__all__ = ["ThermalCoefficients", "PlantFamily", "parametric_family", "explicit_family"]
+
+
+@dataclass(frozen=True)
+class ThermalCoefficients:
+    """Relative change per kelvin of each part of the model, around ``reference_C``.
+
+    ``creep_per_K`` is the creep strength ``kappa`` (fractional extra static
+    displacement reached with time constant ``creep_tau_s``) gained per kelvin above
+    the reference; ``creep_at_ref`` its value at the reference.
+    """
+
+    reference_C: float
+    gain_per_K: float = 0.0
+    resonance_per_K: float = 0.0
+    damping_per_K: float = 0.0
+    creep_per_K: float = 0.0
+    creep_at_ref: float = 0.0
+    creep_tau_s: float = 1.0
+
+
+def _thermal_model(nominal, c, T):
+    dT = float(T) - c.reference_C
+    if dT == 0.0 and c.creep_at_ref == 0.0:
+        return nominal.with_label(f"T{T:g}C", float(T))
+    g = 1.0 + c.gain_per_K * dT
+    if g <= 0:
+        raise SpecError(f"family: gain factor {g:.3g} <= 0 at {T} °C")
+    roots = []
+    for r in np.roots(nominal.A):
+        if abs(r.imag) > 0:
+            wn, zeta = abs(r), -r.real / abs(r)
+            wn *= 1.0 + c.resonance_per_K * dT
+            zeta *= 1.0 + c.damping_per_K * dT
+            if wn <= 0 or zeta <= 0:
+                raise SpecError(f"family: resonance or damping <= 0 at {T} °C")
+            wd = wn * np.sqrt(max(0.0, 1.0 - zeta * zeta))
+            roots.append(complex(-zeta * wn, np.sign(r.imag) * wd))
+        else:
+            roots.append(r)
+    A = poly.from_roots(roots)
+    B = nominal.B * g
+    kappa = c.creep_at_ref + c.creep_per_K * max(dT, 0.0)
+    if kappa < 0:
+        raise SpecError(f"family: creep strength {kappa:.3g} < 0 at {T} °C")
+    if kappa > 0:
+        tau = c.creep_tau_s
+        B = poly.pmul(B, [tau, 1.0 + kappa])
+        A = poly.pmul(A, [tau, 1.0])
+    return Plant(B, A, label=f"T{T:g}C", temperature_C=float(T))
+
+
+@dataclass(frozen=True, eq=False)
+class PlantFamily:
+    """Plants indexed by temperature; ``models[i].temperature_C`` increasing.
+
+    ``reference`` is the index of the nominal model (where the Diophantine
+    equation is imposed).  Use :meth:`at` for any temperature in range.
+    """
+
+    models: tuple
+    reference: int = 0
+    thermal: ThermalCoefficients = None
+    nominal: Plant = None
+
+    def __post_init__(self):
+        temps = [m.temperature_C for m in self.models]
+        if not self.models or any(t is None for t in temps):
+            raise SpecError("family: every model needs a temperature_C")
+        if np.any(np.diff(temps) <= 0):
+            raise SpecError(f"family: temperatures must increase strictly, got {temps}")
+
+    @property
+    def temperatures(self):
+        return np.array([m.temperature_C for m in self.models])
+
+    @property
+    def reference_model(self):
+        return self.models[self.reference]
+
+    @property
+    def range_C(self):
+        return float(self.temperatures[0]), float(self.temperatures[-1])
+
+    def at(self, T):
+        """The model at temperature ``T`` [°C] (within the family's range)."""
+        lo, hi = self.range_C
+        if not lo - 1e-9 <= T <= hi + 1e-9:
+            raise SpecError(f"family: temperature {T} °C outside the range [{lo}, {hi}] °C")
+        if self.thermal is not None:
+            return _thermal_model(self.nominal, self.thermal, T)
+        temps = self.temperatures
+        i = int(np.clip(np.searchsorted(temps, T) - 1, 0, len(temps) - 2)) if len(temps) > 1 else 0
+        if len(temps) == 1 or T == temps[i]:
+            return self.models[i].with_label(f"T{T:g}C", float(T))
+        a, b = self.models[i], self.models[i + 1]
+        if a.n != b.n or a.m != b.m:
+            raise SpecError(
+                f"family: cannot interpolate between {a.temperature_C} and {b.temperature_C} °C:"
+                " models of different degrees"
+            )
+        lam = (T - temps[i]) / (temps[i + 1] - temps[i])
+        return Plant((1 - lam) * a.B + lam * b.B, (1 - lam) * a.A + lam * b.A,
+                     label=f"T{T:g}C", temperature_C=float(T))
+
+    def sweep(self, n):
+        """``n`` models evenly spaced in temperature over the whole range."""
+        return [self.at(T) for T in np.linspace(*self.range_C, n)]
+
+
+def parametric_family(nominal, temperatures, coeffs):
+    """Family generated from ``nominal`` (valid at ``coeffs.reference_C``)."""
+    temps = sorted(float(t) for t in temperatures)
+    models = tuple(_thermal_model(nominal, coeffs, T) for T in temps)
+    ref = int(np.argmin(np.abs(np.array(temps) - coeffs.reference_C)))
+    return PlantFamily(models=models, reference=ref, thermal=coeffs, nominal=nominal)
+
+
+def explicit_family(models, reference_C):
+    """Family from explicit models; the reference is the one closest to ``reference_C``."""
+    models = tuple(sorted(models, key=lambda m: m.temperature_C))
+    temps = np.array([m.temperature_C for m in models])
+    return PlantFamily(models=models, reference=int(np.argmin(np.abs(temps - reference_C))))

@@ -1,0 +1,134 @@
+"""Linear plant models B(s)/A(s) with A monic, and the paper's identified model.
+
+Units: input u [V], output y [µm], s in rad/s.
+"""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from robrst import poly
+from robrst.errors import SpecError
+
+__all__ = ["Plant", "paper_plant", "named_plant", "NAMED_PLANTS"]
+
+
+@dataclass(frozen=True, eq=False)
+class Plant:
+    """A SISO plant ``B(s)/A(s)``, ``A`` monic, ``deg B <= deg A``.
+
+    Parameters
+    ----------
+    B, A : array_like
+        Numerator and denominator coefficients, highest power first.  ``A`` is
+        normalised to be monic (``B`` is divided by the same factor).
+    label : str
+        Name used in reports.
+    temperature_C : float or None
+        Temperature [°C] at which the model holds.
+
+    Examples
+    --------
+    >>> p = Plant([1.0], [1.0, 2.0])
+    >>> float(p.dc_gain)
+    0.5
+    """
+
+    B: np.ndarray
+    A: np.ndarray
+    label: str = "plant"
+    temperature_C: float = None
+    meta: dict = field(default_factory=dict, compare=False)
+
+    def __post_init__(self):
+        try:
+            B = poly.as_poly(self.B, "B")
+            A = poly.as_poly(self.A, "A")
+        except ValueError as exc:
+            raise SpecError(f"plant {self.label!r}: {exc}") from None
+        if len(A) < 2:
+            raise SpecError(f"plant {self.label!r}: A must have degree >= 1")
+        if len(B) > len(A):
+            raise SpecError(
+                f"plant {self.label!r}: improper, deg B = {len(B) - 1} > deg A = {len(A) - 1}"
+            )
+        if np.all(B == 0):
+            raise SpecError(f"plant {self.label!r}: B is identically zero")
+        lead = A[0]
+        object.__setattr__(self, "A", A / lead)
+        object.__setattr__(self, "B", B / lead)
+
+    @property
+    def n(self):
+        """Degree of A."""
+        return len(self.A) - 1
+
+    @property
+    def m(self):
+        """Degree of B."""
+        return len(self.B) - 1
+
+    @property
+    def dc_gain(self):
+        """Static gain B(0)/A(0) [µm/V] (inf for a pole at 0)."""
+        return self.B[-1] / self.A[-1] if self.A[-1] != 0 else np.inf
+
+    def poles(self):
+        return np.roots(self.A)
+
+    def zeros(self):
+        return np.roots(self.B) if self.m > 0 else np.zeros(0)
+
+    def freqresp(self, w):
+        """Complex frequency response at ``w`` [rad/s]."""
+        return poly.eval_jw(self.B, w) / poly.eval_jw(self.A, w)
+
+    @classmethod
+    def from_zpk(cls, zeros, poles, gain, **kw):
+        """Build from zeros, poles [rad/s] and the leading gain ``k`` of ``k*prod(s-z)/prod(s-p)``."""
+        B = float(gain) * poly.from_roots(zeros) if len(zeros) else np.array([float(gain)])
+        return cls(B, poly.from_roots(poles), **kw)
+
+    @classmethod
+    def from_tf(cls, tf, **kw):
+        """Build from a continuous-time SISO ``control.TransferFunction``."""
+        if getattr(tf, "dt", 0) not in (0, None):
+            raise SpecError("from_tf: only continuous-time transfer functions are supported")
+        if tf.ninputs != 1 or tf.noutputs != 1:
+            raise SpecError("from_tf: only SISO transfer functions are supported")
+        num, den = tf.num[0][0], tf.den[0][0]
+        return cls(num, den, **kw)
+
+    def to_tf(self):
+        """Return the model as a ``control.TransferFunction``."""
+        import control
+
+        return control.tf(self.B, self.A)
+
+    def with_label(self, label, temperature_C=None):
+        return Plant(self.B, self.A, label=label, temperature_C=temperature_C, meta=self.meta)
+
+
+def paper_plant():
+    """The identified actuator model D(s) of eq. (4) of the paper.
+
+    ``D(s) = 107 (s^2 + 1.4e4 s + 6.1e7) / ((s + 651)(s^2 + 42 s + 1.5e7))``:
+    static gain 0.668 µm/V, a lightly damped resonance at sqrt(1.5e7) rad/s
+    (616 Hz, damping 0.0054).
+    """
+    B = 107.0 * np.array([1.0, 1.4e4, 6.1e7])
+    A = poly.pmul([1.0, 651.0], [1.0, 42.0, 1.5e7])
+    return Plant(B, A, label="paper_D", meta={"source": "paper eq. (4)"})
+
+
+NAMED_PLANTS = {"paper": paper_plant}
+
+
+def named_plant(name):
+    """Look up a built-in plant by name (``"paper"``)."""
+    try:
+        return NAMED_PLANTS[name]()
+    except KeyError:
+        raise SpecError(
+            f"unknown plant name {name!r}; expected one of {sorted(NAMED_PLANTS)}"
+        ) from None

@@ -1,0 +1,138 @@
+"""Polynomial helpers (numpy order: highest power first) with frequency scaling.
+
+The paper's plant has coefficients from 1 to 1e10 and closed-loop polynomials reach
+1e24.  Every algorithm in robrst works in the scaled Laplace variable ``p = s / w0``
+where these spans shrink to a few decades; :func:`to_scaled` and :func:`from_scaled`
+move coefficient vectors between the two.
+"""
+
+import numpy as np
+
+__all__ = [
+    "as_poly",
+    "trim",
+    "degree",
+    "padd",
+    "pmul",
+    "pprod",
+    "to_scaled",
+    "from_scaled",
+    "monic",
+    "eval_jw",
+    "natural_scale",
+    "from_roots",
+    "rel_coef_error",
+]
+
+
+def as_poly(c, name="polynomial"):
+    """Return ``c`` as a 1-D float array of finite coefficients, leading zeros trimmed."""
+    a = np.atleast_1d(np.asarray(c, dtype=float))
+    if a.ndim != 1 or a.size == 0:
+        raise ValueError(f"{name}: expected a non-empty 1-D list of coefficients")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name}: coefficients must be finite, got {a.tolist()}")
+    return trim(a)
+
+
+def trim(c):
+    """Drop leading zeros (keep at least one coefficient)."""
+    c = np.asarray(c, dtype=float)
+    nz = np.flatnonzero(c != 0.0)
+    return c[nz[0]:].copy() if nz.size else np.zeros(1)
+
+
+def degree(c):
+    """Degree of a trimmed coefficient vector (0 for constants)."""
+    return len(trim(c)) - 1
+
+
+def padd(a, b):
+    """Sum of two polynomials."""
+    return trim(np.polyadd(np.asarray(a, float), np.asarray(b, float)))
+
+
+def pmul(a, b):
+    """Product of two polynomials."""
+    return np.polymul(np.asarray(a, float), np.asarray(b, float))
+
+
+def pprod(*polys):
+    """Product of any number of polynomials (1 for none)."""
+    out = np.ones(1)
+    for p in polys:
+        out = pmul(out, p)
+    return out
+
+
+def to_scaled(c, w0):
+    """Coefficients of ``P(w0 * p)`` in ``p`` (no normalisation).
+
+    Parameters
+    ----------
+    c : array_like
+        Coefficients in ``s``, highest power first.
+    w0 : float
+        Frequency scale [rad/s]; ``s = w0 * p``.
+    """
+    c = np.asarray(c, dtype=float)
+    d = len(c) - 1
+    return c * float(w0) ** np.arange(d, -1, -1)
+
+
+def from_scaled(c, w0):
+    """Inverse of :func:`to_scaled`: coefficients in ``s`` of ``Q(s / w0)``."""
+    c = np.asarray(c, dtype=float)
+    d = len(c) - 1
+    return c / float(w0) ** np.arange(d, -1, -1)
+
+
+def monic(c):
+    """Divide by the leading coefficient."""
+    c = trim(c)
+    return c / c[0]
+
+
+def eval_jw(c, w):
+    """Evaluate a polynomial at ``s = j*w`` (vectorised in ``w``)."""
+    return np.polyval(np.asarray(c, float), 1j * np.asarray(w, float))
+
+
+def natural_scale(*polys):
+    """A frequency scale [rad/s]: geometric mean of the moduli of the non-zero roots.
+
+    Returns 1.0 when no polynomial has a non-zero root.
+    """
+    mags = []
+    for p in polys:
+        p = trim(p)
+        if len(p) > 1:
+            r = np.abs(np.roots(p))
+            mags.extend(r[r > 0])
+    if not mags:
+        return 1.0
+    return float(np.exp(np.mean(np.log(mags))))
+
+
+def from_roots(roots):
+    """Real monic polynomial with the given roots (conjugates must be listed)."""
+    c = np.poly(np.asarray(roots, dtype=complex))
+    if np.max(np.abs(c.imag)) > 1e-9 * max(1.0, np.max(np.abs(c.real))):
+        raise ValueError("roots do not form conjugate pairs; polynomial is not real")
+    return c.real.copy()
+
+
+def rel_coef_error(a, b):
+    """Largest coefficient-wise error relative to the largest coefficient of ``b``.
+
+    Both polynomials are compared in the scaled variable chosen by
+    :func:`natural_scale` on ``b``, so that a 1e24-size constant term does not
+    hide errors in the small leading coefficients.
+    """
+    a, b = trim(a), trim(b)
+    n = max(len(a), len(b))
+    a = np.concatenate([np.zeros(n - len(a)), a])
+    b = np.concatenate([np.zeros(n - len(b)), b])
+    w0 = natural_scale(b)
+    sa, sb = to_scaled(a, w0), to_scaled(b, w0)
+    return float(np.max(np.abs(sa - sb)) / np.max(np.abs(sb)))

@@ -1,0 +1,1 @@
+"""Controller synthesis: analytic pole placement, CasADi NLP, convex variant."""

@@ -1,0 +1,322 @@
+"""Analytic RST pole placement (the paper's method, section 3).
+
+Solves the Diophantine equation ``A S + B R = Am`` with ``S = Sf * S'`` and
+``R = Rf * R'`` (fixed factors ``Sf`` — at least the integrator ``s`` — and ``Rf``)
+through the Sylvester matrix, in the scaled variable ``p = s / w0``.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+
+from robrst import poly
+from robrst.errors import CoprimeError, DegreeError, SpecError
+from robrst.rst import RSTController
+
+__all__ = [
+    "PoleSpec",
+    "characteristic_polynomial",
+    "DiophantineSolution",
+    "solve_diophantine",
+    "diophantine_residual",
+    "tracking_polynomial",
+    "design",
+    "closed_loop_degree",
+]
+
+COPRIME_RTOL = 1e-6
+AUX_MIN_FACTOR = 10.0
+
+
+@dataclass(frozen=True)
+class PoleSpec:
+    """Closed-loop pole specification ``Am = Am_dom * Am_aux``.
+
+    Parameters
+    ----------
+    wn : float
+        Natural frequency of the dominant pair [rad/s] (ignored if ``dominant_roots``).
+    zeta : float
+        Damping of the dominant pair.
+    dominant_real : tuple of float
+        Extra dominant real poles [rad/s, negative].
+    dominant_roots : tuple of complex or None
+        Explicit dominant roots (replaces ``wn``/``zeta``/``dominant_real``).
+    aux_factor : float
+        Auxiliary poles, unless given, are all at ``-aux_factor * |fastest dominant|``.
+    aux_roots : tuple of complex or None
+        Explicit auxiliary roots; each must be >= 10x faster than the dominant ones.
+    """
+
+    wn: float = None
+    zeta: float = None
+    dominant_real: tuple = ()
+    dominant_roots: tuple = None
+    aux_factor: float = 10.0
+    aux_roots: tuple = None
+
+    def dominant(self):
+        if self.dominant_roots is not None:
+            roots = np.asarray(self.dominant_roots, dtype=complex)
+        else:
+            if self.wn is None or self.zeta is None:
+                raise SpecError("poles: give either 'dominant_roots' or both 'wn' and 'zeta'")
+            if not self.wn > 0 or not self.zeta > 0:
+                raise SpecError(
+                    f"poles: wn = {self.wn} and zeta = {self.zeta} must be > 0 (stable poles)"
+                )
+            wn, z = float(self.wn), float(self.zeta)
+            if z < 1:
+                wd = wn * np.sqrt(1 - z * z)
+                pair = [-z * wn + 1j * wd, -z * wn - 1j * wd]
+            else:
+                d = wn * np.sqrt(z * z - 1)
+                pair = [-z * wn + d, -z * wn - d]
+            roots = np.concatenate([pair, np.asarray(self.dominant_real, dtype=complex)])
+        if np.any(roots.real >= 0):
+            raise SpecError(
+                f"poles: dominant roots must be in the open left half-plane, got {roots.tolist()}"
+            )
+        return roots
+
+
+def characteristic_polynomial(spec, degree):
+    """Return ``(Am, Am_dom, Am_aux)`` of total ``degree`` from a :class:`PoleSpec`."""
+    dom = spec.dominant()
+    n_aux = degree - len(dom)
+    if n_aux < 0:
+        raise DegreeError(
+            f"poles: {len(dom)} dominant poles exceed the closed-loop degree {degree}"
+        )
+    fastest = float(np.max(np.abs(dom)))
+    if spec.aux_roots is not None:
+        aux = np.asarray(spec.aux_roots, dtype=complex)
+        if len(aux) != n_aux:
+            raise DegreeError(
+                f"poles.aux_roots: closed-loop degree {degree} needs {n_aux} auxiliary roots,"
+                f" got {len(aux)}"
+            )
+    else:
+        if spec.aux_factor < AUX_MIN_FACTOR:
+            raise SpecError(
+                f"poles.aux_factor = {spec.aux_factor}: auxiliary poles must be at least"
+                f" {AUX_MIN_FACTOR:g}x faster than the dominant ones"
+            )
+        aux = np.full(n_aux, -spec.aux_factor * fastest, dtype=complex)
+    if np.any(aux.real >= 0):
+        raise SpecError(f"poles: auxiliary roots must be stable, got {aux.tolist()}")
+    if n_aux and np.min(np.abs(aux)) < AUX_MIN_FACTOR * fastest * (1 - 1e-12):
+        raise SpecError(
+            f"poles.aux_roots: auxiliary poles must be >= {AUX_MIN_FACTOR:g}x faster than"
+            f" the fastest dominant pole ({fastest:.4g} rad/s)"
+        )
+    Am_dom = poly.from_roots(dom)
+    Am_aux = poly.from_roots(aux) if n_aux else np.ones(1)
+    return poly.pmul(Am_dom, Am_aux), Am_dom, Am_aux
+
+
+@dataclass(frozen=True, eq=False)
+class DiophantineSolution:
+    """Result of :func:`solve_diophantine`.
+
+    ``cond`` is the 2-norm condition number of the scaled, column-equilibrated
+    Sylvester matrix actually solved; ``cond_unscaled`` that of the same system
+    written in s (what a naive solve would face); ``residual`` the relative
+    coefficient error of ``A S + B R - Am`` (see :func:`robrst.poly.rel_coef_error`).
+    """
+
+    R: np.ndarray
+    S: np.ndarray
+    w0: float
+    cond: float
+    cond_unscaled: float
+    residual: float
+
+
+def _check_coprime(Ap, Bp):
+    ra = np.roots(Ap) if len(Ap) > 1 else np.zeros(0)
+    rb = np.roots(Bp) if len(Bp) > 1 else np.zeros(0)
+    for a in ra:
+        for b in rb:
+            if abs(a - b) <= COPRIME_RTOL * max(1.0, abs(a), abs(b)):
+                raise CoprimeError(
+                    f"A*Sf and B*Rf share the root s = {complex(a):.6g} (within relative"
+                    f" {COPRIME_RTOL:g}); the Diophantine equation has no unique solution"
+                    " — cancel the common factor or change the fixed factors",
+                    root=complex(a),
+                )
+
+
+def _sylvester(Ap, Bp, ks):
+    """Square Sylvester matrix for the unknowns [S' (non-leading), R'] and its size."""
+    na = len(Ap) - 1
+    N = na + ks
+    cols = []
+    for j in range(ks - 1, -1, -1):
+        cols.append(_shift(Ap, j, N))
+    for j in range(na - 1, -1, -1):
+        cols.append(_shift(Bp, j, N))
+    return np.column_stack(cols) if cols else np.zeros((0, 0))
+
+
+def _shift(c, j, N):
+    """Coefficients of ``c * p**j`` in the slots p^(N-1) .. p^0."""
+    full = np.concatenate([c, np.zeros(j)])
+    out = np.zeros(N)
+    k = min(len(full), N)
+    out[N - k:] = full[len(full) - k:]
+    return out
+
+
+def diophantine_residual(A, B, R, S, Am):
+    """Relative coefficient error of ``A S + B R = Am``, in the scaled variable.
+
+    Each coefficient's error is divided by the size of the terms that produce it,
+    ``max_k (|A| * |S| + |B| * |R|)_k`` (coefficient-wise products of moduli),
+    after scaling ``s = w0 p`` with ``w0`` the natural scale of ``Am``.  When the
+    target is reached without cancellation this equals the error relative to
+    ``Am``'s coefficients; when ``Am`` results from cancelling much larger terms
+    (poles moved by decades) it measures what floating point can deliver.
+    """
+    w0 = poly.natural_scale(Am)
+    sc = [poly.to_scaled(poly.trim(c), w0) for c in (A, B, R, S, Am)]
+    a, b, r, s_, am = sc
+    lhs = poly.padd(np.polymul(a, s_), np.polymul(b, r))
+    size = poly.padd(np.polymul(np.abs(a), np.abs(s_)), np.polymul(np.abs(b), np.abs(r)))
+    n = max(len(lhs), len(am), len(size))
+    pad = lambda c: np.concatenate([np.zeros(n - len(c)), c])  # noqa: E731
+    return float(np.max(np.abs(pad(lhs) - pad(am))) / np.max(pad(size)))
+
+
+def solve_diophantine(A, B, Am, S_fixed=(1.0, 0.0), R_fixed=(1.0,)):
+    """Solve ``A Sf S' + B Rf R' = Am`` for monic ``S'`` and ``R'`` of degree ``deg(A Sf) - 1``.
+
+    Parameters
+    ----------
+    A, B : array_like
+        Plant polynomials (A monic).
+    Am : array_like
+        Monic target characteristic polynomial, ``deg Am >= deg(A Sf) + deg(B Rf)``.
+    S_fixed, R_fixed : array_like
+        Fixed factors of S (default ``s``: the integrator) and R.
+
+    Returns
+    -------
+    DiophantineSolution
+        Full ``R = Rf R'`` and ``S = Sf S'`` in s.
+
+    Raises
+    ------
+    CoprimeError
+        If ``A Sf`` and ``B Rf`` share a root (the message names it).
+    DegreeError
+        If the degrees admit no unique proper solution.
+    """
+    A, B, Am = poly.monic(A), poly.trim(B), poly.monic(Am)
+    Sf, Rf = poly.trim(S_fixed), poly.trim(R_fixed)
+    Ap = poly.monic(poly.pmul(A, Sf))
+    Bp = poly.pmul(B, Rf) / poly.trim(Sf)[0]
+    na, nb = len(Ap) - 1, len(Bp) - 1
+    ks = len(Am) - 1 - na
+    if ks < 0 or nb > ks:
+        raise DegreeError(
+            f"closed-loop degree {len(Am) - 1} is too low: with deg(A*Sf) = {na} and"
+            f" deg(B*Rf) = {nb} it must be at least {na + nb}"
+        )
+    if na - 1 + len(Rf) - 1 > ks + len(Sf) - 1:
+        raise DegreeError(
+            f"controller would be improper: deg R = {na - 1 + len(Rf) - 1} > deg S ="
+            f" {ks + len(Sf) - 1}; raise the closed-loop degree"
+        )
+    _check_coprime(Ap, Bp)
+    w0 = poly.natural_scale(Am)  # the closed-loop time scale
+    sa = poly.to_scaled(Ap, w0) / w0**na
+    sb = poly.to_scaled(Bp, w0) / w0**na
+    sm = poly.to_scaled(Am, w0) / w0 ** (na + ks)
+    M = _sylvester(sa, sb, ks)
+    rhs = (sm - np.concatenate([sa, np.zeros(ks)]))[1:]  # both monic: leading terms cancel
+    # two-sided equilibration of the scaled matrix (powers of 2: exact)
+    rowscale = 2.0 ** np.round(np.log2(np.max(np.abs(M), axis=1)))
+    Mr = M / rowscale[:, None]
+    colscale = 2.0 ** np.round(np.log2(np.max(np.abs(Mr), axis=0)))
+    Ms = Mr / colscale
+    cond = float(np.linalg.cond(Ms))
+    if not np.isfinite(cond) or cond > 1e15:
+        raise CoprimeError(
+            f"the scaled Sylvester matrix is singular to working precision (cond = {cond:.3g}):"
+            " A*Sf and B*Rf are (nearly) not coprime"
+        )
+    lu = sla.lu_factor(Ms)
+    b = rhs / rowscale
+    y = sla.lu_solve(lu, b)
+    for _ in range(2):  # iterative refinement: residual-driven, cheap, restores backward error
+        y = y + sla.lu_solve(lu, b - Ms @ y)
+    x = y / colscale
+    Ss = np.concatenate([[1.0], x[:ks]])
+    Rs = x[ks:]
+    S1 = poly.from_scaled(Ss, w0) * w0**ks
+    R1 = poly.from_scaled(Rs, w0) * w0**ks
+    S = poly.pmul(Sf, S1) / Sf[0]
+    R = poly.trim(poly.pmul(Rf, R1))
+    Mraw = _sylvester(Ap, Bp, ks)
+    cond_raw = float(np.linalg.cond(Mraw))
+    res = diophantine_residual(A, B, R, S, Am)
+    return DiophantineSolution(R=R, S=S, w0=w0, cond=cond, cond_unscaled=cond_raw, residual=res)
+
+
+def closed_loop_degree(n, m, S_fixed=(1.0, 0.0), R_fixed=(1.0,), extra_degree=0):
+    """Degree of ``Am`` for plant degrees ``n >= m`` and the fixed factors.
+
+    With ``Sf = s`` and ``Rf = 1`` this is the paper's ``2n`` (``deg S = deg R = n``);
+    ``extra_degree`` raises ``deg S`` (and so ``deg Am``) further.
+    """
+    dSf, dRf = len(poly.trim(S_fixed)) - 1, len(poly.trim(R_fixed)) - 1
+    ks = max(n - 1 + dRf, m + dRf) + int(extra_degree)
+    return n + dSf + ks
+
+
+def tracking_polynomial(mode, R, B, Am, Am_aux, zeros=()):
+    """The feed-forward polynomial T.
+
+    Parameters
+    ----------
+    mode : {"paper", "static", "cancel_aux"}
+        ``"paper"``: ``T = Bm_aux`` with zeros at ``zeros`` [rad/s] and ``T(0) = R(0)``;
+        ``"static"``: ``T = Am(0)/B(0)`` (a constant);
+        ``"cancel_aux"``: ``T = Am_aux * Am(0) / (Am_aux(0) B(0))`` (the tracking model
+        keeps only the dominant poles).
+    All three give unit static gain from yr to y.
+    """
+    B0 = B[-1]
+    if B0 == 0:
+        raise SpecError("tracking: B(0) = 0, no unit static gain is possible")
+    if mode == "static":
+        return np.array([Am[-1] / B0])
+    if mode == "cancel_aux":
+        return Am_aux * (Am[-1] / (Am_aux[-1] * B0))
+    if mode == "paper":
+        Bm = poly.from_roots(zeros) if len(zeros) else np.ones(1)
+        return Bm * (R[-1] / Bm[-1])
+    raise SpecError(f"controller.T: unknown mode {mode!r}; expected paper, static or cancel_aux")
+
+
+def design(plant, poles, S_fixed=(1.0, 0.0), R_fixed=(1.0,), extra_degree=0, t_mode="paper",
+           t_zeros=()):
+    """Analytic pole-placement design for ``plant``.
+
+    Returns
+    -------
+    (RSTController, dict)
+        The controller and a dict with ``Am``, ``Am_dom``, ``Am_aux``, ``w0``, ``cond``,
+        ``cond_unscaled`` and ``residual``.
+    """
+    Sf, Rf = poly.trim(S_fixed), poly.trim(R_fixed)
+    degree = closed_loop_degree(plant.n, plant.m, Sf, Rf, extra_degree)
+    Am, Am_dom, Am_aux = characteristic_polynomial(poles, degree)
+    sol = solve_diophantine(plant.A, plant.B, Am, Sf, Rf)
+    T = tracking_polynomial(t_mode, sol.R, plant.B, Am, Am_aux, t_zeros)
+    ctrl = RSTController(R=sol.R, S=sol.S, T=T)
+    info = {"Am": Am, "Am_dom": Am_dom, "Am_aux": Am_aux, "w0": sol.w0, "cond": sol.cond,
+            "cond_unscaled": sol.cond_unscaled, "residual": sol.residual}
+    return ctrl, info
