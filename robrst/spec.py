@@ -142,7 +142,7 @@ def _validate(path, data, schema, key=()):
     out = {}
     for k, v in data.items():
         if k not in schema:
-            close = difflib.get_close_matches(k, schema, n=1)
+            close = difflib.get_close_matches(k, schema, n=1, cutoff=0.5)
             hint = f"; did you mean '{close[0]}'?" if close else ""
             raise _err(path, key + (k,), f"unknown key{hint} (valid: {', '.join(schema)})")
     for k, spec in schema.items():

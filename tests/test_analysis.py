@@ -1,0 +1,132 @@
+"""Margins and exact peaks, cross-checked against python-control and dense grids."""
+
+import control
+import numpy as np
+import pytest
+
+from robrst import poly
+from robrst.analysis import analyze, crossovers, sensitivity, step_response
+from robrst.hinf import peak_gain
+from robrst.plant import Plant, paper_plant
+from robrst.rst import closed_loop
+from robrst.synthesis.analytic import PoleSpec, design
+
+DESIGNS = [(600.0, 1.0, 1), (1000.0, 0.9, 1), (1000.0, 0.9, 0), (2500.0, 0.9, 1), (3000.0, 0.7, 1)]
+
+
+def _dense_peak(N, D, w):
+    g = np.abs(poly.eval_jw(N, w) / poly.eval_jw(D, w))
+    i = int(np.argmax(g))
+    return g[i], w[i]
+
+
+@pytest.mark.parametrize("wn,zeta,extra", DESIGNS)
+def test_exact_peaks_dominate_dense_grid_and_match_refined_maximum(wn, zeta, extra):
+    p = paper_plant()
+    ctrl, _ = design(p, PoleSpec(wn=wn, zeta=zeta), extra_degree=extra)
+    cl = closed_loop(p, ctrl)
+    w = np.logspace(0, 8, 200_001)
+    for name in ("S", "T", "U", "Sd"):
+        N, D = cl.tf(name)
+        pk = peak_gain(N, D)
+        g, wg = _dense_peak(N, D, w)
+        assert pk.value >= g * (1 - 1e-12)
+        if pk.freq_rad_s == 0.0:
+            assert pk.value == pytest.approx(abs(N[-1] / D[-1]), rel=1e-12)
+            assert g <= pk.value * (1 + 1e-12)
+        elif np.isfinite(pk.freq_rad_s):
+            # refine the grid maximum locally (golden section on log w) — independent path
+            from scipy.optimize import minimize_scalar
+            f = lambda lw: -abs(np.polyval(N, 1j * np.exp(lw)) / np.polyval(D, 1j * np.exp(lw)))  # noqa: E731
+            r = minimize_scalar(f, bounds=(np.log(wg) - 1e-3, np.log(wg) + 1e-3),
+                                method="bounded", options={"xatol": 1e-12})
+            assert pk.value == pytest.approx(-r.fun, rel=1e-6)
+        else:
+            assert pk.value == pytest.approx(abs(N[0] / D[0]) if len(N) == len(D) else 0.0, rel=1e-12)
+
+
+@pytest.mark.parametrize("wn,zeta,extra", DESIGNS)
+def test_margins_agree_with_python_control(wn, zeta, extra):
+    p = paper_plant()
+    ctrl, _ = design(p, PoleSpec(wn=wn, zeta=zeta), extra_degree=extra)
+    a = analyze(p, ctrl)
+    L = control.tf(np.polymul(p.B, ctrl.R), np.polymul(p.A, ctrl.S))
+    gm, pm, sm, wpc, wgc, wms = control.stability_margins(L, returnall=True)
+    np.testing.assert_allclose(np.sort(a.margins.gain_crossover_rad_s), np.sort(wgc), rtol=1e-8)
+    # our phase margin is the smallest |180 - |arg L|| over all crossovers
+    expected_pm = min(abs(x) for x in pm)
+    assert a.margins.phase_margin_deg == pytest.approx(expected_pm, rel=1e-8)
+    upper = [g for g in gm if g > 1]
+    if upper:
+        assert a.margins.gain_margin == pytest.approx(min(upper), rel=1e-8)
+    else:
+        assert a.margins.gain_margin is None
+    # modulus margin: exact, so at least python-control's grid-based stability margin
+    assert a.margins.modulus_margin <= np.min(sm) * (1 + 1e-9)
+
+
+def test_delay_margin_brings_loop_to_instability():
+    """A delay just above the margin destabilises the loop (Padé check), just below does not."""
+    p = paper_plant()
+    ctrl, _ = design(p, PoleSpec(wn=1000.0, zeta=0.9), extra_degree=1)
+    dm = analyze(p, ctrl).margins.delay_margin_s
+    wc = analyze(p, ctrl).margins.gain_crossover_rad_s
+    L = lambda w, tau: (np.polyval(np.polymul(p.B, ctrl.R), 1j * w)  # noqa: E731
+                        / np.polyval(np.polymul(p.A, ctrl.S), 1j * w) * np.exp(-1j * w * tau))
+    # at tau = DM the loop passes through -1 at one of the crossovers
+    assert min(abs(L(w, dm) + 1) for w in wc) == pytest.approx(0.0, abs=1e-9)
+    assert min(abs(L(w, 0.9 * dm) + 1) for w in wc) > 1e-3
+
+
+def test_crossovers_of_simple_loop_are_exact():
+    # L = 4/(s (s + 1)): |L| = 1 at w^2 = (sqrt(65) - 1)/2 ; no phase crossover
+    wg, wp = crossovers([4.0], [1.0, 1.0, 0.0])
+    assert wg[0] == pytest.approx(np.sqrt((np.sqrt(65) - 1) / 2), rel=1e-12)
+    assert wp.size == 0
+    # L = 1/(s+1)^3: phase crossover at w = sqrt(3), |L| = 1/8
+    wg, wp = crossovers([1.0], [1.0, 3.0, 3.0, 1.0])
+    assert wp[0] == pytest.approx(np.sqrt(3.0), rel=1e-12)
+
+
+def test_peak_of_known_second_order_system():
+    # |G| peak of wn^2/(s^2 + 2 z wn s + wn^2) = 1/(2 z sqrt(1 - z^2)) at wn sqrt(1 - 2 z^2)
+    for wn, z in ((1.0, 0.1), (3873.0, 0.0054), (1e6, 0.3)):
+        pk = peak_gain([wn**2], [1.0, 2 * z * wn, wn**2])
+        assert pk.value == pytest.approx(1 / (2 * z * np.sqrt(1 - z * z)), rel=1e-9)
+        assert pk.freq_rad_s == pytest.approx(wn * np.sqrt(1 - 2 * z * z), rel=1e-6)
+
+
+def test_paper_plant_peak_against_slycot():
+    pytest.importorskip("slycot")
+    p = paper_plant()
+    assert peak_gain(p.B, p.A).value == pytest.approx(control.linfnorm(p.to_tf())[0], rel=1e-9)
+
+
+def test_closed_loop_static_behaviour_and_step():
+    p = paper_plant()
+    ctrl, info = design(p, PoleSpec(wn=600.0, zeta=1.0), extra_degree=1)
+    cl = closed_loop(p, ctrl)
+    # zero static error: S(0) = 0 and Tr(0) = 1
+    assert abs(np.polyval(cl.nums["S"], 0.0)) == 0.0
+    assert np.polyval(cl.nums["Tr"], 0.0) / np.polyval(cl.Delta, 0.0) == pytest.approx(1.0, rel=1e-12)
+    t = np.linspace(0, 0.05, 2001)
+    y = step_response(*cl.tf("Tr"), t)
+    # compare with python-control on the same (here well-scaled enough) system
+    ref = control.forced_response(control.tf(*cl.tf("Tr")), t, np.ones_like(t)).outputs
+    np.testing.assert_allclose(y, ref, atol=1e-6)
+    assert y[-1] == pytest.approx(1.0, abs=1e-4)
+    # 616 Hz resonance removed: |T| < 1 around it
+    f = np.linspace(560, 680, 121)
+    assert np.max(np.abs(sensitivity(p, ctrl, "T", 2 * np.pi * f))) < 1.0
+
+
+def test_plant_round_trips():
+    p = paper_plant()
+    q = Plant.from_tf(p.to_tf())
+    np.testing.assert_allclose(q.A, p.A, rtol=1e-15)
+    np.testing.assert_allclose(q.B, p.B, rtol=1e-15)
+    z = Plant.from_zpk(p.zeros(), p.poles(), p.B[0])
+    np.testing.assert_allclose(z.A, p.A, rtol=1e-12)
+    np.testing.assert_allclose(z.B, p.B, rtol=1e-12)
+    assert p.dc_gain == pytest.approx(0.668, abs=5e-4)
+    assert np.max(np.abs(p.poles().imag)) / (2 * np.pi) == pytest.approx(616.4, abs=0.1)

@@ -1,0 +1,49 @@
+"""The CLI contract: table, --json with the documented fields, one-line errors."""
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from robrst.cli import main
+
+MODEL_KEYS = {"label", "temperature_C", "A", "B", "stable", "closed_loop_poles", "Ms",
+              "Ms_freq_rad_s", "Mt", "Mu", "gain_margin", "phase_margin_deg",
+              "modulus_margin", "delay_margin_s"}
+
+
+def test_design_json_contract(problems_dir, capsys):
+    rc = main(["design", str(problems_dir / "paper.toml"), "--json"])
+    out = capsys.readouterr()
+    assert rc == 0
+    d = json.loads(out.out)  # exactly one JSON object
+    assert {"problem", "method", "controller", "target_char_poly", "specs", "models",
+            "certified", "solver"} <= set(d)
+    assert set(d["controller"]) == {"R", "S", "T"}
+    assert set(d["specs"]) >= {"Ms_max", "Mt_max", "Mu_max"}
+    assert d["certified"] is True
+    for m in d["models"]:
+        assert MODEL_KEYS <= set(m)
+        assert m["stable"] is True
+    # S has the integrator; static gain of the tracking loop is 1
+    assert d["controller"]["S"][-1] == 0.0
+    assert out.err == ""  # --json is quiet
+
+
+def test_design_table(problems_dir, capsys):
+    assert main(["design", str(problems_dir / "paper.toml")]) == 0
+    out = capsys.readouterr().out
+    assert "Ms" in out and "T28C" in out and "certified: True" in out
+
+
+def test_errors_are_one_line_without_traceback(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[plant]\nname = "paper"\n[poles]\nwn = 600.0\nzeta = 1.0\nwobble = 1\n')
+    r = subprocess.run([sys.executable, "-m", "robrst", "design", str(bad)],
+                       capture_output=True, text=True)
+    assert r.returncode == 2
+    assert r.stdout == ""
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in r.stderr
+    assert "bad.toml: [poles.wobble] unknown key" in lines[0]

@@ -1,0 +1,116 @@
+"""Problem-file validation: each kind of bad input names the file and key."""
+
+import numpy as np
+import pytest
+
+from robrst.errors import CoprimeError, DegreeError, SpecError
+from robrst.design import run_problem
+from robrst.spec import load_problem
+
+GOOD = """
+[plant]
+name = "paper"
+[poles]
+wn = 600.0
+zeta = 1.0
+[controller]
+extra_degree = 1
+"""
+
+
+def write(tmp_path, text, name="p.toml"):
+    f = tmp_path / name
+    f.write_text(text)
+    return f
+
+
+def test_shipped_problems_load(problems_dir):
+    for f in sorted(problems_dir.glob("*.toml")):
+        pr = load_problem(f)
+        assert pr.family.models
+
+
+def test_robust_family_has_seven_temperatures_and_nominal_is_paper_model(problems_dir):
+    pr = load_problem(problems_dir / "paper_robust.toml")
+    t = pr.family.temperatures
+    assert len(t) >= 7 and t[0] == 28.0 and t[-1] == 45.0
+    ref = pr.family.reference_model
+    np.testing.assert_allclose(ref.A, [1.0, 693.0, 1.5027342e7, 9.765e9], rtol=1e-15)
+    # fast dynamics barely change, creep (low frequency) grows with temperature
+    hot = pr.family.models[-1]
+    wr_ref = np.max(np.abs(ref.poles().imag))
+    wr_hot = np.max(np.abs(hot.poles().imag))
+    assert abs(wr_hot / wr_ref - 1) < 0.01
+    slow = lambda m: m.freqresp(np.array([0.01]))[0]  # noqa: E731
+    assert abs(slow(hot)) / abs(slow(ref)) > 1.05
+    # interpolation at any temperature in range
+    mid = pr.family.at(36.5)
+    assert mid.temperature_C == 36.5 and abs(mid.dc_gain - ref.dc_gain) > 0
+
+
+@pytest.mark.parametrize("text,match", [
+    (GOOD.replace("[poles]", "[poles]\nwm = 3.0"), r"p.toml: \[poles.wm\] unknown key; did you mean 'wn'"),
+    (GOOD + "\n[specs]\nMs_mx = 2.0\n", r"\[specs.Ms_mx\] unknown key; did you mean 'Ms_max'"),
+    (GOOD + "\n[bogus]\nx = 1\n", r"\[bogus\] unknown key"),
+    (GOOD.replace('wn = 600.0', 'wn = "fast"'), r"\[poles.wn\] expected a finite number"),
+    (GOOD.replace('zeta = 1.0\n', ''), r"\[poles\] give 'wn' and 'zeta'"),
+    (GOOD.replace('[plant]\nname = "paper"', '[plant]'), r"\[plant\] give exactly one of"),
+    (GOOD.replace('name = "paper"', 'name = "papr"'), r"unknown plant name 'papr'"),
+    (GOOD.replace('name = "paper"', 'B = [1.0, 2.0, 3.0]\nA = [1.0, 2.0]'), r"\[plant\].*improper"),
+    (GOOD.replace('wn = 600.0', 'wn = -600.0'), r"\[poles\].*must be > 0 \(stable poles\)"),
+    (GOOD.replace('extra_degree = 1', 'extra_degree = 1.5'), r"\[controller.extra_degree\] expected an integer"),
+    (GOOD.replace('extra_degree = 1', 'S_fixed = [1.0, 1.0]'), r"\[controller.S_fixed\] must contain the integrator"),
+    (GOOD + "\n[solver]\nmethod = \"magic\"\n", r"\[solver.method\] expected one of analytic, nlp, convex"),
+    (GOOD + "\n[specs]\nMs_max = 0.5\n", r"\[specs.Ms_max\] must be >= 1"),
+    (GOOD + "\n[family]\nreference_C = 28.0\n", r"\[family.temperatures_C\] missing required key"),
+    ("[plant\n", r"p.toml: invalid TOML"),
+])
+def test_bad_problem_files(tmp_path, text, match):
+    with pytest.raises(SpecError, match=match):
+        load_problem(write(tmp_path, text))
+
+
+def test_missing_file_is_a_spec_error(tmp_path):
+    with pytest.raises(SpecError, match="cannot read problem file"):
+        load_problem(tmp_path / "nope.toml")
+
+
+def test_unstable_aux_and_slow_aux_rejected(tmp_path):
+    bad = GOOD.replace("zeta = 1.0", "zeta = 1.0\naux_factor = 4.0")
+    pr = load_problem(write(tmp_path, bad))
+    with pytest.raises(SpecError, match="at least 10x faster"):
+        run_problem(pr)
+
+
+def test_improper_degree_request(tmp_path):
+    bad = GOOD.replace("extra_degree = 1", 'T_mode = "cancel_aux"')
+    with pytest.raises(DegreeError, match="improper"):
+        run_problem(load_problem(write(tmp_path, bad)))
+
+
+def test_non_coprime_plant_file(tmp_path):
+    bad = GOOD.replace('name = "paper"', "B = [1.0, 5.0]\nA = [1.0, 8.0, 15.0]")  # (s+5)/((s+3)(s+5))
+    with pytest.raises(CoprimeError, match="share the root s = -5"):
+        run_problem(load_problem(write(tmp_path, bad)))
+
+
+def test_explicit_family(tmp_path):
+    text = GOOD + """
+[family]
+reference_C = 30.0
+[[family.models]]
+temperature_C = 30.0
+B = [1.0]
+A = [1.0, 2.0, 1.0]
+[[family.models]]
+temperature_C = 40.0
+B = [1.2]
+A = [1.0, 2.2, 1.1]
+"""
+    text = text.replace('name = "paper"', "B = [1.0]\nA = [1.0, 2.0, 1.0]")
+    pr = load_problem(write(tmp_path, text))
+    mid = pr.family.at(35.0)
+    np.testing.assert_allclose(mid.A, [1.0, 2.1, 1.05], rtol=1e-15)
+    np.testing.assert_allclose(mid.B, [1.1], rtol=1e-15)
+    with pytest.raises(SpecError, match="outside the range"):
+        pr.family.at(50.0)
