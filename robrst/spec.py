@@ -93,6 +93,7 @@ SCHEMA = {
         "cert_tol": (NUM, False, 1e-3, "relative tolerance on certified peaks"),
         "max_iter": (int, False, 500, "IPOPT iterations"),
         "ipopt_tol": (NUM, False, 1e-9, "IPOPT tolerance"),
+        "compare_with": (str, False, None, "problem file (relative) whose analytic design is compared"),
     },
 }
 
