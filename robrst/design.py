@@ -96,7 +96,7 @@ def run_problem(problem, progress=None):
         from robrst.synthesis.robust import robust_design
 
         ctrl, Am, solver, extra = robust_design(problem, say)
-    cert = _certify(problem, ctrl)
+    cert = extra.pop("certificate", None) or _certify(problem, ctrl)
     analyses = tuple(analyze(m, ctrl) for m in problem.family.models)
     return DesignResult(problem=problem, method=method, controller=ctrl, target_char_poly=Am,
                         analyses=analyses, certificate=cert, solver=solver, **extra)

@@ -175,7 +175,7 @@ def build_and_solve(setup, x0, ipopt_opts):
         lbx[nx:nx + 2] = [wl, zl]
         ubx[nx:nx + 2] = [wh, zh]
     nlp = {"x": X, "f": f, "g": ca.vertcat(*g)}
-    opts = {"ipopt": dict(ipopt_opts), "print_time": False}
+    opts = {"ipopt": dict(ipopt_opts), "print_time": False, "show_eval_warnings": False}
     solver = ca.nlpsol("rst", "ipopt", nlp, opts)
     sol = solver(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
     stats = solver.stats()

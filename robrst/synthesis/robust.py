@@ -137,9 +137,10 @@ def robust_design(problem, say=lambda m: None):
     Returns
     -------
     (RSTController, Am, solver_info, extra)
-        ``extra`` holds ``analytic_check`` and ``comparison`` for the result.
+        ``extra`` holds ``analytic_check``, ``comparison`` and the final ``certificate``.
     """
     so = problem.solver
+    _a_priori(problem)
     ctrl0, info0 = _initial(problem)
     Am0 = info0["Am"]
     w0 = poly.natural_scale(Am0)
@@ -170,10 +171,12 @@ def robust_design(problem, say=lambda m: None):
             i, kind, label, T, where, v = _binding(labels, g, lbg, ubg)
             what = kind if label is None else f"{kind} of model {label} ({T:g} °C)"
             at = f" at {where * w0 / (2 * np.pi):.4g} Hz" if isinstance(where, float) else ""
-            cls = InfeasibleError if "nfeasib" in status or "Restoration" in status else SolverError
-            raise cls(f"{problem.path}: IPOPT did not converge ({status}) in round {rnd};"
-                      f" binding constraint: {what}{at} (violation {v:.3g})",
-                      binding={"kind": kind, "model": label, "temperature_C": T})
+            msg = (f"{problem.path}: IPOPT did not converge ({status}) in round {rnd};"
+                   f" binding constraint: {what}{at} (violation {v:.3g})")
+            if "nfeasib" in status or "Restoration" in status:
+                raise InfeasibleError(msg, binding={"kind": kind, "model": label,
+                                                    "temperature_C": T})
+            raise SolverError(msg)
         ctrl = controller_from_x(problem, w0, x, T_builder)
         cert = certify(problem.family, ctrl, problem.specs, n_sweep=so["cert_temperatures"],
                        rtol=so["cert_tol"])
@@ -205,8 +208,22 @@ def robust_design(problem, say=lambda m: None):
         solver["wn_rad_s"], solver["zeta"] = float(x[-2 - (so["objective"] == "min_Ms")] * w0), \
             float(x[-1 - (so["objective"] == "min_Ms")])
     extra = {"analytic_check": analytic_check(problem, ctrl, Am),
-             "comparison": comparison(problem, ctrl)}
+             "comparison": comparison(problem, ctrl), "certificate": cert}
     return ctrl, Am, solver, extra
+
+
+def _a_priori(problem):
+    """Specs no controller with an integrator can meet: |T(0)| = 1, |U(0)| = 1/|D(0)|."""
+    sp = problem.specs
+    for m in problem.family.models:
+        checks = (("T", sp["Mt_max"], 1.0), ("U", sp["Mu_max"], abs(1.0 / m.dc_gain)))
+        for name, bound, at_zero in checks:
+            if bound is not None and at_zero > bound:
+                raise InfeasibleError(
+                    f"{problem.path}: specs infeasible; binding constraint: {name} of model"
+                    f" {m.label} ({m.temperature_C:g} °C) at 0 Hz: |{name}(0)| = {at_zero:.4g}"
+                    f" > {bound:.4g} for any controller with an integrator",
+                    binding={"kind": name, "model": m.label, "temperature_C": m.temperature_C})
 
 
 def _initial(problem):
