@@ -124,3 +124,37 @@ def test_ipopt_infeasible_specs_name_the_binding_constraint(tmp_path, problems_d
         run_problem(load_problem(f))
     msg = str(exc.value)
     assert "tight_u.toml" in msg and "binding constraint:" in msg
+
+
+SHAPING = """
+[plant]
+name = "paper"
+[poles]
+wn = 1000.0
+zeta = 0.9
+[controller]
+extra_degree = 2
+[specs]
+Mt_max = 1.3
+Mu_max = 150.0
+[solver]
+method = "{method}"
+objective = "min_Ms"
+n_freq = 150
+"""
+
+
+def test_convex_and_nlp_agree_on_nominal_shaping(tmp_path):
+    res = {}
+    for method in ("convex", "nlp"):
+        f = tmp_path / f"{method}.toml"
+        f.write_text(SHAPING.format(method=method))
+        res[method] = run_problem(load_problem(f))
+        assert res[method].analytic_check["passed"]
+    ms = {k: r.certificate.models[0]["Ms"] for k, r in res.items()}
+    # two different solvers (SOCP interior point vs IPOPT) on the same grid: same optimum
+    assert ms["nlp"] == pytest.approx(ms["convex"], rel=2e-3)
+    # both improve on the analytic design with the same Am
+    ref, _ = analytic_design(res["nlp"].problem)
+    from robrst.analysis import analyze
+    assert ms["nlp"] < analyze(res["nlp"].problem.family.reference_model, ref).peaks["S"].value

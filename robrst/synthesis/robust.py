@@ -78,7 +78,8 @@ def _grid(problem, Am, n_freq):
     r = r[r > 0]
     lo, hi = r.min() / 30.0, r.max() * 30.0
     extra = [np.max(np.abs(m.poles().imag)) for m in problem.family.models]
-    return np.unique(np.concatenate([np.geomspace(lo, hi, n_freq), extra]))
+    far = [hi * 1e2, hi * 1e4]  # the high-frequency limits of |S|, |U| (peaks at infinity)
+    return np.unique(np.concatenate([np.geomspace(lo, hi, n_freq), extra, far]))
 
 
 def _setup(problem, w0, models, nu, Am_s, obj):
@@ -192,6 +193,8 @@ def robust_design(problem, say=lambda m: None):
         for v in cert.violations:
             if v.freq_rad_s is not None:
                 nu = np.unique(np.concatenate([nu, [v.freq_rad_s * f for f in (0.98, 1.0, 1.02)]]))
+            elif v.quantity.endswith("peak"):  # peak at infinity: push the grid further out
+                nu = np.unique(np.concatenate([nu, [nu.max() * 100.0]]))
             if v.temperature_C not in known:
                 models.append(problem.family.at(v.temperature_C))
                 known.add(v.temperature_C)

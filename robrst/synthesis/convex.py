@@ -1,0 +1,93 @@
+"""Convex nominal sensitivity shaping (cvxpy): the Youla-parametrised second path.
+
+With ``Am`` fixed, ``A0 S + B0 R = Am`` is affine in the free coefficients and the
+nominal closed-loop denominator is the constant ``Am``, so ``|A0 S(jw)| <= g |Am(jw)|``
+(and the same for T and U) are second-order-cone constraints.  Minimising ``g``
+shapes the nominal sensitivity; the result also initialises the NLP.
+"""
+
+import cvxpy as cp
+import numpy as np
+
+from robrst import poly
+from robrst.errors import SolverError, SpecError
+from robrst.synthesis.nlp import conv_matrix, jw_matrices, scale_plant
+
+__all__ = ["convex_design", "solve_convex"]
+
+
+def solve_convex(problem, Am, w0, nu, setup_degrees):
+    """Solve the SOCP; return the scaled decision vector ``[S' (non-leading), R']`` and g."""
+    Sf_s, Rf_s, ks, kr = setup_degrees
+    ref = problem.family.reference_model
+    a0, b0 = scale_plant(ref, w0)
+    Am_s = poly.to_scaled(Am, w0) / w0 ** (len(Am) - 1)
+    xs, xr = cp.Variable(ks), cp.Variable(kr + 1)
+    CS = conv_matrix(Sf_s, ks + 1)
+    CR = conv_matrix(Rf_s, kr + 1)
+    S = CS[:, 1:] @ xs + CS[:, 0]
+    R = CR @ xr
+    AS_M = conv_matrix(a0, CS.shape[0])
+    BR_M = conv_matrix(b0, CR.shape[0])
+    AR_M = conv_matrix(a0, CR.shape[0])
+    deg = len(Am_s) - 1
+
+    def pad(M):
+        return np.vstack([np.zeros((deg + 1 - M.shape[0], M.shape[1])), M])
+
+    AS_M, BR_M, AR_M = pad(AS_M), pad(BR_M), pad(AR_M)
+    cons = [(AS_M @ S + BR_M @ R)[1:] == Am_s[1:]]
+    g = cp.Variable()
+    Vr, Vi = jw_matrices(nu, deg)
+    amag = np.abs(np.polyval(Am_s, 1j * nu))
+    sp = problem.specs
+    Vr, Vi = Vr / amag[:, None], Vi / amag[:, None]  # each cone divided by |Am(j nu)|
+    for M, vec, bound in ((AS_M, S, None), (BR_M, R, sp["Mt_max"]), (AR_M, R, sp["Mu_max"])):
+        if M is AS_M:
+            lim = g
+        elif bound is None:
+            continue
+        else:
+            lim = bound
+        re, im = Vr @ (M @ vec), Vi @ (M @ vec)
+        cons.append(cp.norm(cp.vstack([re, im]), 2, axis=0) <= lim)
+    if sp["Ms_max"] is not None:
+        cons.append(g <= sp["Ms_max"])
+    objective = problem.solver["objective"]
+    if objective not in ("min_Ms", "feasibility"):
+        raise SpecError(f"{problem.path}: [solver.objective] the convex method supports min_Ms"
+                        f" or feasibility, got {objective!r}")
+    prob = cp.Problem(cp.Minimize(g if objective == "min_Ms" else 0), cons)
+    try:
+        prob.solve(solver=cp.CLARABEL)
+    except cp.error.SolverError as exc:
+        raise SolverError(f"{problem.path}: convex solver failed ({exc})") from None
+    if prob.status != cp.OPTIMAL:
+        raise SolverError(f"{problem.path}: convex program {prob.status}; specs cannot be met"
+                          " on the nominal model with this Am")
+    return np.concatenate([xs.value, xr.value]), float(g.value)
+
+
+def convex_design(problem, ctrl0, info0, say):
+    """The ``method = "convex"`` path: nominal-model SOCP with the fixed Am, certified."""
+    from robrst.certify import certify
+    from robrst.synthesis import robust
+
+    if problem.solver["free_poles"]:
+        raise SpecError(f"{problem.path}: [solver.free_poles] the convex method needs a fixed Am")
+    Am = info0["Am"]
+    w0 = poly.natural_scale(Am)
+    Sf, Rf, ks, kr, _ = robust._degrees(problem)
+    nu = robust._grid(problem, Am, problem.solver["n_freq"]) / w0
+    x, g = solve_convex(problem, Am, w0, nu, (robust._scaled_factor(Sf, w0),
+                                              robust._scaled_factor(Rf, w0), ks, kr))
+    say(f"convex (SOCP, CLARABEL): grid min |S| peak bound {g:.6g}")
+    ctrl = robust.controller_from_x(problem, w0, x, robust._t_builder(problem))
+    so = problem.solver
+    cert = certify(problem.family, ctrl, problem.specs, n_sweep=so["cert_temperatures"],
+                   rtol=so["cert_tol"])
+    solver = {"name": "cvxpy-clarabel", "w0_rad_s": w0, "grid_peak_S": g,
+              "integral_gain": robust._integral_gain(ctrl)}
+    extra = {"analytic_check": robust.analytic_check(problem, ctrl, Am), "certificate": cert,
+             "comparison": robust.comparison(problem, ctrl)}
+    return ctrl, Am, solver, extra
