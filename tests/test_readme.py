@@ -1,0 +1,25 @@
+"""The README's Python snippets run as written."""
+
+import re
+from pathlib import Path
+
+import pytest
+
+
+def test_readme_python_snippets_run(monkeypatch):
+    root = Path(__file__).parents[1]
+    monkeypatch.chdir(root)
+    blocks = re.findall(r"```python\n(.*?)```", (root / "README.md").read_text(), re.S)
+    assert blocks
+    for code in blocks:
+        ns = {}
+        exec(compile(code, "README.md", "exec"), ns)  # noqa: S102
+        assert ns["result"].certified and ns["a"].stable
+        assert ns["info"]["cond"] < 1e3
+
+
+def test_quick_start_has_exactly_two_commands():
+    text = (Path(__file__).parents[1] / "README.md").read_text()
+    qs = text.split("## Quick start", 1)[1].split("##", 1)[0]
+    cmds = re.findall(r"```bash\n(.*?)```", qs, re.S)[0].strip().splitlines()
+    assert len(cmds) == 2 and "robrst design" in cmds[0] and "pytest" in cmds[1]
