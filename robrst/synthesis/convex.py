@@ -89,5 +89,5 @@ def convex_design(problem, ctrl0, info0, say):
     solver = {"name": "cvxpy-clarabel", "w0_rad_s": w0, "grid_peak_S": g,
               "integral_gain": robust._integral_gain(ctrl)}
     extra = {"analytic_check": robust.analytic_check(problem, ctrl, Am), "certificate": cert,
-             "comparison": robust.comparison(problem, ctrl)}
+             "comparison": robust.comparison(problem, ctrl, cert)}
     return ctrl, Am, solver, extra

@@ -211,7 +211,7 @@ def robust_design(problem, say=lambda m: None):
         solver["wn_rad_s"], solver["zeta"] = float(x[-2 - (so["objective"] == "min_Ms")] * w0), \
             float(x[-1 - (so["objective"] == "min_Ms")])
     extra = {"analytic_check": analytic_check(problem, ctrl, Am),
-             "comparison": comparison(problem, ctrl), "certificate": cert}
+             "comparison": comparison(problem, ctrl, cert), "certificate": cert}
     return ctrl, Am, solver, extra
 
 
@@ -260,8 +260,11 @@ def _integral_gain(ctrl):
     return float(ctrl.R[-1] / Sq[-1])
 
 
-def comparison(problem, ctrl):
-    """Worst-case margins over the family sweep: this controller vs ``compare_with``."""
+def comparison(problem, ctrl, cert=None):
+    """Worst-case margins over the family sweep: this controller vs ``compare_with``.
+
+    ``cert`` is this controller's certificate when already computed.
+    """
     from robrst.design import analytic_design
     from robrst.spec import load_problem
 
@@ -274,9 +277,10 @@ def comparison(problem, ctrl):
     base = load_problem(path)
     ctrl_a, _ = analytic_design(base)
     rows = {}
-    for name, c in (("robust", ctrl), (f"analytic ({path.name})", ctrl_a)):
-        cert = certify(problem.family, c, problem.specs, n_sweep=problem.solver["cert_temperatures"],
-                       rtol=problem.solver["cert_tol"])
+    for name, c, known in (("robust", ctrl, cert), (f"analytic ({path.name})", ctrl_a, None)):
+        cert = known or certify(problem.family, c, problem.specs,
+                                n_sweep=problem.solver["cert_temperatures"],
+                                rtol=problem.solver["cert_tol"])
         rows[name] = {"worst_Ms": cert.worst("Ms"), "worst_Mt": cert.worst("Mt"),
                       "worst_Mu": cert.worst("Mu"), "min_modulus_margin": 1 / cert.worst("Ms"),
                       "max_spectral_abscissa": cert.worst("spectral_abscissa"),
