@@ -139,6 +139,7 @@ def crossovers(num, den):
 
 
 def margins(plant, ctrl, Ms):
+    """Margins of ``L = BR/(AS)`` over every crossover; ``Ms`` is the exact |S| peak."""
     num = poly.pmul(plant.B, ctrl.R)
     den = poly.pmul(plant.A, ctrl.S)
     wg, wp = crossovers(num, den)

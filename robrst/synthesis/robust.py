@@ -203,7 +203,7 @@ def robust_design(problem, say=lambda m: None):
         worst = max(cert.violations, key=lambda v: v.value / max(v.bound, 1e-300))
         raise SolverError(f"{problem.path}: not certified after {so['max_rounds']} rounds;"
                           f" worst: {worst.describe()}")
-    Am = _final_am(problem, x, w0, Am0, ctrl, ref)
+    Am = _final_am(problem, Am0, ctrl, ref)
     solver = {"name": "ipopt", "w0_rad_s": w0, "status": status, "rounds": rounds,
               "iterations": total_iter, "objective": so["objective"],
               "integral_gain": _integral_gain(ctrl), "wall_time_s": time.perf_counter() - t_start}
@@ -248,7 +248,8 @@ def _t_builder(problem):
     return build
 
 
-def _final_am(problem, x, w0, Am0, ctrl, ref):
+def _final_am(problem, Am0, ctrl, ref):
+    """The target Am: fixed, or (free poles) the nominal closed-loop polynomial reached."""
     if not problem.solver["free_poles"]:
         return Am0
     return poly.monic(poly.padd(poly.pmul(ref.A, ctrl.S), poly.pmul(ref.B, ctrl.R)))
