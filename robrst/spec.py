@@ -17,7 +17,7 @@ from robrst.family import ThermalCoefficients, explicit_family, parametric_famil
 from robrst.plant import Plant, named_plant
 from robrst.synthesis.analytic import PoleSpec
 
-__all__ = ["Problem", "load_problem", "parse_problem", "SCHEMA"]
+__all__ = ["Problem", "load_problem", "parse_problem", "SCHEMA", "schema_markdown"]
 
 NUM = (int, float)
 NUMS = "list of numbers"
@@ -91,6 +91,7 @@ SCHEMA = {
         "max_rounds": (int, False, 6, "certification rounds"),
         "cert_temperatures": (int, False, 35, "temperatures in the certification sweep"),
         "cert_tol": (NUM, False, 1e-3, "relative tolerance on certified peaks"),
+        "init": (str, False, "analytic", "NLP start: analytic (Sylvester) | convex (nominal SOCP; fixed poles only)"),
         "max_iter": (int, False, 500, "IPOPT iterations"),
         "ipopt_tol": (NUM, False, 1e-9, "IPOPT tolerance"),
         "compare_with": (str, False, None, "problem file (relative) whose analytic design is compared"),
@@ -110,6 +111,23 @@ class Problem:
     specs: dict
     solver: dict
     raw: dict
+
+
+def schema_markdown(schema=None, prefix=""):
+    """The problem-file reference as Markdown table rows (the README's table)."""
+    schema = SCHEMA if schema is None else schema
+    rows = []
+    for key, val in schema.items():
+        if isinstance(val, dict):
+            rows.extend(schema_markdown(val, f"{prefix}{key}."))
+        elif val[0] == "[[]]":
+            rows.extend(schema_markdown(val[3], f"{prefix}{key}[]."))
+        else:
+            typ, req, default, doc = val
+            tname = typ if isinstance(typ, str) else ("number" if typ == NUM else typ.__name__)
+            rows.append(f"| `{prefix[:-1]}` | `{key}` | {tname} | {'yes' if req else 'no'}"
+                        f" | {default!r} | {doc.replace('|', chr(92) + '|')} |")
+    return rows
 
 
 def _err(path, key, msg):
@@ -262,6 +280,7 @@ def parse_problem(data, path="<problem>"):
     solver = v["solver"] or _validate(path, {}, SCHEMA["solver"])
     _choice(path, ("controller", "T_mode"), ctrl["T_mode"], ("paper", "static", "cancel_aux"))
     _choice(path, ("solver", "method"), solver["method"], ("analytic", "nlp", "convex"))
+    _choice(path, ("solver", "init"), solver["init"], ("analytic", "convex"))
     _choice(path, ("solver", "objective"), solver["objective"],
             ("max_integral_gain", "min_Ms", "feasibility"))
     if ctrl["extra_degree"] < 0:
@@ -280,6 +299,9 @@ def parse_problem(data, path="<problem>"):
         b = (specs if tab == "specs" else solver)[k]
         if b is not None and (len(b) != 2 or not 0 < b[0] < b[1]):
             raise _err(path, (tab, k), f"expected [lo, hi] with 0 < lo < hi, got {b}")
+    if solver["init"] == "convex" and solver["free_poles"]:
+        raise _err(path, ("solver", "init"), "'convex' needs a fixed Am (free_poles = false):"
+                   " the SOCP is posed at fixed closed-loop poles")
     if solver["free_poles"] and (solver["wn_bounds"] is None or solver["zeta_bounds"] is None):
         raise _err(path, ("solver", "free_poles"), "needs 'wn_bounds' and 'zeta_bounds'")
     for k in ("n_freq", "max_rounds", "cert_temperatures", "max_iter"):

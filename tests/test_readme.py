@@ -23,3 +23,16 @@ def test_quick_start_has_exactly_two_commands():
     qs = text.split("## Quick start", 1)[1].split("##", 1)[0]
     cmds = re.findall(r"```bash\n(.*?)```", qs, re.S)[0].strip().splitlines()
     assert len(cmds) == 2 and "robrst design" in cmds[0] and "pytest" in cmds[1]
+
+
+def test_readme_problem_file_reference_matches_schema():
+    from robrst.spec import schema_markdown
+
+    lines = (Path(__file__).parents[1] / "README.md").read_text().splitlines()
+    hdr = lines.index("| table | key | type | required | default | meaning |")
+    table = []
+    for line in lines[hdr + 2:]:
+        if not line.startswith("|"):
+            break
+        table.append(line)
+    assert table == schema_markdown()

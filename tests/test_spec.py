@@ -64,6 +64,8 @@ def test_robust_family_has_seven_temperatures_and_nominal_is_paper_model(problem
     (GOOD + "\n[specs]\nMs_max = 0.5\n", r"\[specs.Ms_max\] must be >= 1"),
     (GOOD + "\n[family]\nreference_C = 28.0\n", r"\[family.temperatures_C\] missing required key"),
     ("[plant\n", r"p.toml: invalid TOML"),
+    (GOOD + '\n[solver]\nmethod = "nlp"\ninit = "convex"\nfree_poles = true\nwn_bounds = [1.0, 2.0]'
+     '\nzeta_bounds = [0.5, 1.0]\n', r"\[solver.init\] 'convex' needs a fixed Am"),
 ])
 def test_bad_problem_files(tmp_path, text, match):
     with pytest.raises(SpecError, match=match):

@@ -16,8 +16,12 @@ from robrst.synthesis.nlp import conv_matrix, jw_matrices, scale_plant
 __all__ = ["convex_design", "solve_convex"]
 
 
-def solve_convex(problem, Am, w0, nu, setup_degrees):
-    """Solve the SOCP; return the scaled decision vector ``[S' (non-leading), R']`` and g."""
+def solve_convex(problem, Am, w0, nu, setup_degrees, objective=None):
+    """Solve the SOCP; return the scaled decision vector ``[S' (non-leading), R']`` and g.
+
+    ``objective`` overrides ``problem.solver["objective"]`` (the NLP initialiser uses
+    ``"min_Ms"``).
+    """
     Sf_s, Rf_s, ks, kr = setup_degrees
     ref = problem.family.reference_model
     a0, b0 = scale_plant(ref, w0)
@@ -53,7 +57,7 @@ def solve_convex(problem, Am, w0, nu, setup_degrees):
         cons.append(cp.norm(cp.vstack([re, im]), 2, axis=0) <= lim)
     if sp["Ms_max"] is not None:
         cons.append(g <= sp["Ms_max"])
-    objective = problem.solver["objective"]
+    objective = objective or problem.solver["objective"]
     if objective not in ("min_Ms", "feasibility"):
         raise SpecError(f"{problem.path}: [solver.objective] the convex method supports min_Ms"
                         f" or feasibility, got {objective!r}")

@@ -97,16 +97,48 @@ def _conv(a, b):
     return ca.vertcat(*terms)
 
 
+def _affine_controller(setup):
+    """Numeric maps ``S = Ls x + s0`` and ``R = Lr x`` of the decision vector ``x``."""
+    ks, kr = setup.ks, setup.kr
+    nx = ks + kr + 1
+    CS = conv_matrix(setup.Sf, ks + 1)          # S = CS @ [1; x[:ks]]
+    CR = conv_matrix(setup.Rf, kr + 1)          # R = CR @ x[ks:nx]
+    Ls = np.zeros((CS.shape[0], nx))
+    Ls[:, :ks] = CS[:, 1:]
+    Lr = np.zeros((CR.shape[0], nx))
+    Lr[:, ks:] = CR
+    return Ls, CS[:, 0], Lr
+
+
+def _product(c, L, l0, n_out):
+    """``conv(c, L x + l0)`` as ``(M, m0)`` padded (leading zeros) to length ``n_out``."""
+    C = conv_matrix(c, L.shape[0])
+    M, m0 = C @ L, C @ l0
+    pad = n_out - M.shape[0]
+    return np.vstack([np.zeros((pad, M.shape[1])), M]), np.concatenate([np.zeros(pad), m0])
+
+
+def _routh_function(deg):
+    c = ca.SX.sym("c", deg + 1)
+    return ca.Function("routh", [c], [routh_column(c / c[0])])
+
+
 def build_and_solve(setup, x0, ipopt_opts):
-    """Build the NLP for ``setup``, solve from ``x0``; return (x, stats, labels, g, lbg, ubg)."""
+    """Build the NLP for ``setup``, solve from ``x0``; return (x, stats, labels, g, lbg, ubg).
+
+    The grid constraints are assembled from numeric matrices (every closed-loop
+    polynomial is affine in the controller coefficients), so the CasADi graph is a
+    handful of matrix products whatever the number of models and frequencies:
+    construction is cheap and derivatives are exact.
+    """
     ks, kr = setup.ks, setup.kr
     nx = ks + kr + 1
     free_poles = setup.Am_fixed is None
-    X = ca.SX.sym("x", nx + (2 if free_poles else 0) + (1 if setup.objective == "min_Ms" else 0))
-    sp = ca.vertcat(1, X[:ks])                 # S' monic
-    rp = X[ks:nx]
-    S = ca.mtimes(ca.DM(conv_matrix(setup.Sf, ks + 1)), sp)
-    R = ca.mtimes(ca.DM(conv_matrix(setup.Rf, kr + 1)), rp)
+    n_var = nx + (2 if free_poles else 0) + (1 if setup.objective == "min_Ms" else 0)
+    X = ca.MX.sym("x", n_var)
+    xc = X[:nx]
+    Ls, s0, Lr = _affine_controller(setup)
+    zero_r = np.zeros(Lr.shape[0])
     g, lbg, ubg, labels = [], [], [], []
 
     def add(expr, lo, hi, label):
@@ -116,60 +148,73 @@ def build_and_solve(setup, x0, ipopt_opts):
         ubg.extend([hi] * n)
         labels.extend(label(i) for i in range(n))
 
+    def closed_loop(a, b):
+        n_out = max(len(a) + Ls.shape[0], len(b) + Lr.shape[0]) - 1
+        AS = _product(a, Ls, s0, n_out)
+        BR = _product(b, Lr, zero_r, n_out)
+        AR = _product(a, Lr, zero_r, n_out)
+        D = (AS[0] + BR[0], AS[1] + BR[1])
+        return D, {"S": AS, "T": BR, "U": AR, "Tband": BR}
+
     # Diophantine equality at the nominal model
     _, _, a0, b0 = setup.models[setup.ref]
-    Delta0 = _padd(ca.mtimes(ca.DM(conv_matrix(a0, S.numel())), S),
-                   ca.mtimes(ca.DM(conv_matrix(b0, R.numel())), R))
-    deg = Delta0.numel() - 1
+    (D0m, D0c), _ = closed_loop(a0, b0)
+    deg = D0m.shape[0] - 1
     if free_poles:
-        wn, zeta = X[nx], X[nx + 1]
-        Am = _am_symbolic(setup, wn, zeta, deg)
+        wz = ca.SX.sym("wz", 2)
+        am_fn = ca.Function("Am", [wz], [_am_symbolic(setup, wz[0], wz[1], deg)])
+        Am = am_fn(X[nx:nx + 2])
     else:
         Am = ca.DM(setup.Am_fixed)
-    add(Delta0[1:] - Am[1:], 0.0, 0.0, lambda i: ("diophantine", None, None, i))
+    add(ca.mtimes(ca.DM(D0m[1:]), xc) + ca.DM(D0c[1:]) - Am[1:], 0.0, 0.0,
+        lambda i: ("diophantine", None, None, i))
     gamma = X[-1] if setup.objective == "min_Ms" else None
+    routh = {}
 
     x0 = np.asarray(x0, float)
-    for mi, (label, T, a, b) in enumerate(setup.models):
-        AS = ca.mtimes(ca.DM(conv_matrix(a, S.numel())), S)
-        BR = ca.mtimes(ca.DM(conv_matrix(b, R.numel())), R)
-        AR = ca.mtimes(ca.DM(conv_matrix(a, R.numel())), R)
-        D = _padd(AS, BR)
-        dD = D.numel() - 1
-        # fixed weights |Delta(x0)(j nu)|^2 normalise each constraint
-        fD = ca.Function("fD", [X], [D])
-        D0 = np.array(fD(x0)).ravel()
-        for key, N, nu in (("S", AS, setup.nu), ("T", BR, setup.nu), ("U", AR, setup.nu),
-                           ("Tband", BR, setup.nu_band)):
+    for label, T, a, b in setup.models:
+        (Dm, Dc), nums = closed_loop(a, b)
+        dD = Dm.shape[0] - 1
+        D0 = Dm @ x0[:nx] + Dc      # fixed weights |Delta(x0)(j nu)|^2 normalise each constraint
+        for key in ("S", "T", "U", "Tband"):
+            nu = setup.nu_band if key == "Tband" else setup.nu
             bound = setup.bounds.get(key)
             if (bound is None and not (key == "S" and gamma is not None)) or len(nu) == 0:
                 continue
             Vr, Vi = jw_matrices(nu, dD)
             w = np.abs(np.polyval(D0, 1j * nu)) ** 2
-            Npad = _pad_to(N, dD + 1)
-            nr, ni = ca.mtimes(ca.DM(Vr), Npad), ca.mtimes(ca.DM(Vi), Npad)
-            dr, di = ca.mtimes(ca.DM(Vr), D), ca.mtimes(ca.DM(Vi), D)
+            Nm, Nc = nums[key]
+            parts = [ca.mtimes(ca.DM(V @ M), xc) + ca.DM(V @ c)
+                     for V in (Vr, Vi) for M, c in ((Nm, Nc), (Dm, Dc))]
+            nr, dr, ni, di = parts
             M2 = gamma ** 2 if (key == "S" and gamma is not None) else bound ** 2
             expr = (nr ** 2 + ni ** 2 - M2 * (dr ** 2 + di ** 2)) / ca.DM(w)
             add(expr, -ca.inf, 0.0, lambda i, k=key, nu=nu, lab=label, t=T: (k, lab, t, float(nu[i])))
             if key == "S" and gamma is not None and bound is not None:
                 add(gamma, -ca.inf, bound, lambda i: ("gamma", None, None, None))
         # stability: Routh first column > 0 (scaled: O(1) entries)
-        add(routh_column(D / D[0]), 1e-9, ca.inf, lambda i, lab=label, t=T: ("routh", lab, t, i))
+        D = ca.mtimes(ca.DM(Dm), xc) + ca.DM(Dc)
+        if dD not in routh:
+            routh[dD] = _routh_function(dD)
+        add(routh[dD](D), 1e-9, ca.inf, lambda i, lab=label, t=T: ("routh", lab, t, i))
+    sp = ca.vertcat(1, X[:ks])                 # S' monic
+    rp = X[ks:nx]
     if setup.stable_controller:
-        Sq = sp if len(setup.Sf) == 2 else S[:-1]
-        add(routh_column(Sq / Sq[0]), 1e-9, ca.inf, lambda i: ("controller_routh", None, None, i))
+        Sq = sp if len(setup.Sf) == 2 else ca.mtimes(ca.DM(Ls), xc)[:-1] + ca.DM(s0[:-1])
+        add(_routh_function(Sq.numel() - 1)(Sq), 1e-9, ca.inf,
+            lambda i: ("controller_routh", None, None, i))
     # objective
     q0 = ca.mtimes(ca.DM(conv_matrix(setup.Sf[:-1], ks + 1)), sp)[-1]  # (S/s)(0)
+    R_0 = ca.mtimes(ca.DM(Lr[-1:]), xc)
     if setup.objective == "max_integral_gain":
         add(ca.vertcat(rp[-1], q0), 1e-12, ca.inf, lambda i: ("positivity", None, None, i))
-        f = -(ca.log(R[-1]) - ca.log(q0))
+        f = -(ca.log(R_0) - ca.log(q0))
     elif setup.objective == "min_Ms":
         f = gamma
     else:
-        f = ca.SX(0.0)
-    lbx = -np.inf * np.ones(X.numel())
-    ubx = np.inf * np.ones(X.numel())
+        f = ca.MX(0.0)
+    lbx = -np.inf * np.ones(n_var)
+    ubx = np.inf * np.ones(n_var)
     if free_poles:
         (wl, wh), (zl, zh) = setup.pole_bounds
         lbx[nx:nx + 2] = [wl, zl]

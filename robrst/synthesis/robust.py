@@ -151,7 +151,7 @@ def robust_design(problem, say=lambda m: None):
         from robrst.synthesis.convex import convex_design
 
         return convex_design(problem, ctrl0, info0, say)
-    x0 = initial_point(problem, w0, ctrl0)
+    x0 = _start(problem, w0, ctrl0, Am0)
     if so["free_poles"]:
         wn0 = min(max(problem.poles.wn, so["wn_bounds"][0]), so["wn_bounds"][1])
         x0 = np.concatenate([x0, [wn0 / w0, problem.poles.zeta]])
@@ -161,7 +161,7 @@ def robust_design(problem, say=lambda m: None):
     nu = _grid(problem, Am0, so["n_freq"])
     models = list(problem.family.models)
     ipopt = {"max_iter": so["max_iter"], "tol": so["ipopt_tol"], "print_level": 0,
-             "sb": "yes", "mu_strategy": "adaptive"}
+             "sb": "yes", "mu_strategy": "monotone"}
     t_start, rounds, total_iter = time.perf_counter(), [], 0
     for rnd in range(1, so["max_rounds"] + 1):
         setup = _setup(problem, w0, models, nu, Am_s, so["objective"])
@@ -213,6 +213,19 @@ def robust_design(problem, say=lambda m: None):
     extra = {"analytic_check": analytic_check(problem, ctrl, Am),
              "comparison": comparison(problem, ctrl, cert), "certificate": cert}
     return ctrl, Am, solver, extra
+
+
+def _start(problem, w0, ctrl0, Am0):
+    """Scaled NLP start: the analytic design, or the nominal convex (SOCP) solution."""
+    if problem.solver["init"] == "analytic":
+        return initial_point(problem, w0, ctrl0)
+    from robrst.synthesis.convex import solve_convex
+
+    Sf, Rf, ks, kr, _ = _degrees(problem)
+    nu = _grid(problem, Am0, problem.solver["n_freq"]) / w0
+    x, _ = solve_convex(problem, Am0, w0, nu,
+                        (_scaled_factor(Sf, w0), _scaled_factor(Rf, w0), ks, kr), "feasibility")
+    return x
 
 
 def _a_priori(problem):
