@@ -38,6 +38,8 @@ def as_poly(c, name="polynomial"):
 def trim(c):
     """Drop leading zeros (keep at least one coefficient)."""
     c = np.asarray(c, dtype=float)
+    if c.size and c[0] != 0.0:
+        return c.copy()
     nz = np.flatnonzero(c != 0.0)
     return c[nz[0]:].copy() if nz.size else np.zeros(1)
 
@@ -49,12 +51,17 @@ def degree(c):
 
 def padd(a, b):
     """Sum of two polynomials."""
-    return trim(np.polyadd(np.asarray(a, float), np.asarray(b, float)))
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    if len(a) < len(b):
+        a, b = b, a
+    out = a.copy()
+    out[len(a) - len(b):] += b
+    return trim(out)
 
 
 def pmul(a, b):
     """Product of two polynomials."""
-    return np.polymul(np.asarray(a, float), np.asarray(b, float))
+    return trim(np.convolve(np.asarray(a, float), np.asarray(b, float)))
 
 
 def pprod(*polys):

@@ -5,7 +5,8 @@ Solves the Diophantine equation ``A S + B R = Am`` with ``S = Sf * S'`` and
 through the Sylvester matrix, in the scaled variable ``p = s / w0``.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 import scipy.linalg as sla
@@ -130,8 +131,13 @@ class DiophantineSolution:
     S: np.ndarray
     w0: float
     cond: float
-    cond_unscaled: float
     residual: float
+    raw_system: tuple = field(default=(), repr=False)  # (Ap, Bp, ks) in s, for cond_unscaled
+
+    @cached_property
+    def cond_unscaled(self):
+        """2-norm condition number of the raw Sylvester matrix (computed on first use)."""
+        return float(np.linalg.cond(_sylvester(*self.raw_system)))
 
 
 def _check_coprime(Ap, Bp):
@@ -169,21 +175,21 @@ def _shift(c, j, N):
     return out
 
 
-def diophantine_residual(A, B, R, S, Am):
+def diophantine_residual(A, B, R, S, Am, w0=None):
     """Relative coefficient error of ``A S + B R = Am``, in the scaled variable.
 
     Each coefficient's error is divided by the size of the terms that produce it,
     ``max_k (|A| * |S| + |B| * |R|)_k`` (coefficient-wise products of moduli),
-    after scaling ``s = w0 p`` with ``w0`` the natural scale of ``Am``.  When the
-    target is reached without cancellation this equals the error relative to
-    ``Am``'s coefficients; when ``Am`` results from cancelling much larger terms
+    after scaling ``s = w0 p`` with ``w0`` the natural scale of ``Am`` (or the given
+    ``w0``).  When the target is reached without cancellation this equals the error
+    relative to ``Am``'s coefficients; when ``Am`` results from cancelling much larger terms
     (poles moved by decades) it measures what floating point can deliver.
     """
-    w0 = poly.natural_scale(Am)
+    w0 = poly.natural_scale(Am) if w0 is None else w0
     sc = [poly.to_scaled(poly.trim(c), w0) for c in (A, B, R, S, Am)]
     a, b, r, s_, am = sc
-    lhs = poly.padd(np.polymul(a, s_), np.polymul(b, r))
-    size = poly.padd(np.polymul(np.abs(a), np.abs(s_)), np.polymul(np.abs(b), np.abs(r)))
+    lhs = poly.padd(poly.pmul(a, s_), poly.pmul(b, r))
+    size = poly.padd(poly.pmul(np.abs(a), np.abs(s_)), poly.pmul(np.abs(b), np.abs(r)))
     n = max(len(lhs), len(am), len(size))
     pad = lambda c: np.concatenate([np.zeros(n - len(c)), c])  # noqa: E731
     return float(np.max(np.abs(pad(lhs) - pad(am))) / np.max(pad(size)))
@@ -259,10 +265,8 @@ def solve_diophantine(A, B, Am, S_fixed=(1.0, 0.0), R_fixed=(1.0,)):
     R1 = poly.from_scaled(Rs, w0) * w0**ks
     S = poly.pmul(Sf, S1) / Sf[0]
     R = poly.trim(poly.pmul(Rf, R1))
-    Mraw = _sylvester(Ap, Bp, ks)
-    cond_raw = float(np.linalg.cond(Mraw))
-    res = diophantine_residual(A, B, R, S, Am)
-    return DiophantineSolution(R=R, S=S, w0=w0, cond=cond, cond_unscaled=cond_raw, residual=res)
+    res = diophantine_residual(A, B, R, S, Am, w0=w0)
+    return DiophantineSolution(R=R, S=S, w0=w0, cond=cond, residual=res, raw_system=(Ap, Bp, ks))
 
 
 def closed_loop_degree(n, m, S_fixed=(1.0, 0.0), R_fixed=(1.0,), extra_degree=0):
