@@ -17,7 +17,8 @@ from robrst.family import ThermalCoefficients, explicit_family, parametric_famil
 from robrst.plant import Plant, named_plant
 from robrst.synthesis.analytic import PoleSpec
 
-__all__ = ["Problem", "load_problem", "parse_problem", "SCHEMA", "schema_markdown"]
+__all__ = ["Problem", "load_problem", "parse_problem", "SCHEMA", "schema_markdown", "validate_table",
+           "key_error"]
 
 NUM = (int, float)
 NUMS = "list of numbers"
@@ -184,6 +185,16 @@ def _validate(path, data, schema, key=()):
         else:
             out[k] = _check_type(path, key + (k,), data[k], typ)
     return out
+
+
+def validate_table(path, data, schema, key=()):
+    """Validate ``data`` against ``schema`` (same rules as problem files); fill defaults."""
+    return _validate(path, data, schema, key)
+
+
+def key_error(path, key, msg):
+    """A :class:`SpecError` naming the file and the key path."""
+    return _err(path, key, msg)
 
 
 def _plant(path, p):

@@ -1,0 +1,219 @@
+"""The twin's symbolic CasADi model: one discrete step, shared by simulation and fitting.
+
+Signal chain (eq. 2 of the paper, ``y = D_T(s) (v + u_c + u_T)``)::
+
+    u_cmd -> delay -> saturation -> slew -> Bouc–Wen (v = g_h (u_a - h)) -> creep bank (u_c)
+    T_amb -> thermal lag (T_s) -> Bouc–Wen in temperature (u_T)
+    v + u_c + u_T -> D_T(s) [gain, resonance, damping at T_s] -> y -> noise -> quantisation
+
+The step maps ``(state, [u_cmd, T_amb, noise], theta) -> (state+, [y_meas, y_true, u_a])``.
+``theta`` holds every continuous parameter (so identification can free any of them);
+structure (delay length, creep time constants, which effects exist) is fixed at build
+time.  The linear part is a controllable-canonical realisation in the scaled time
+``p = w0 t`` (O(1) coefficients) advanced by RK4 with the input held over the sample.
+"""
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from robrst import poly
+from robrst.plant import named_plant
+
+__all__ = ["TwinModel", "build_model", "hysteresis_gain", "creep_taus"]
+
+N_SUB = 2  # RK4 substeps per sample for the linear dynamics
+
+
+@dataclass(frozen=True, eq=False)
+class TwinModel:
+    """A built step function with its parameter vector and state layout."""
+
+    config: object
+    step: ca.Function          # (x, p, theta) -> (x_next, out)
+    output: ca.Function        # (x, p, theta) -> y_meas at this sample (strictly proper plants)
+    theta_names: tuple
+    theta0: np.ndarray
+    n_state: int
+    slices: dict               # name -> slice into the state
+    n_delay: int
+    w0: float
+    dc_gain: float
+    strictly_proper: bool
+
+
+def creep_taus(c):
+    """Time constants of the creep cells [s], log-spaced from tau_min to tau_max."""
+    decades = np.log10(c["tau_max_s"] / c["tau_min_s"])
+    n = int(round(decades * c["cells_per_decade"])) + 1
+    return np.geomspace(c["tau_min_s"], c["tau_max_s"], n)
+
+
+def hysteresis_gain(A, B, G, lo, hi, n=4000):
+    """``g_h`` making the mean slope of ``g_h (u - h)`` over a ``lo..hi`` cycle equal 1.
+
+    The Bouc–Wen state ``h`` is driven through three triangle cycles (the last is
+    periodic); the secant slope of ``u - h`` between the cycle's extremes is measured
+    and inverted, so ``D(0)`` keeps its identified value on average.
+    """
+    u = np.concatenate([np.linspace(lo, hi, n), np.linspace(hi, lo, n)] * 3)
+    du = np.diff(u, prepend=u[0])
+    h, hs = 0.0, np.empty_like(u)
+    for k, d in enumerate(du):
+        h = h + A * d - B * abs(d) * h - G * d * abs(h)
+        hs[k] = h
+    v = u - hs
+    last = slice(4 * n, 6 * n)
+    slope = (np.max(v[last]) - np.min(v[last])) / (hi - lo)
+    return float(1.0 / slope)
+
+
+def _thermal_linear(plant, dT, g, r, d):
+    """Scaled symbolic (a, b) of ``D_T``: gain, complex-pair frequency and damping at dT."""
+    factors = []
+    roots = np.roots(plant.A)
+    done = set()
+    for i, z in enumerate(roots):
+        if i in done:
+            continue
+        if abs(z.imag) > 0:
+            j = int(np.argmin(np.abs(roots - np.conj(z)) + (np.arange(len(roots)) == i) * 1e300))
+            done.update((i, j))
+            wn, zeta = abs(z), -z.real / abs(z)
+            w = wn * (1 + r * dT)
+            ze = zeta * (1 + d * dT)
+            factors.append([1.0, 2 * ze * w, w * w])
+        else:
+            done.add(i)
+            factors.append([1.0, -z.real])
+    a = ca.DM([1.0])
+    for f in factors:
+        a = _conv(a, ca.vertcat(*f))
+    b = ca.DM(plant.B) * (1 + g * dT)
+    return a, b
+
+
+def _conv(a, b):
+    a, b = ca.vertcat(a), ca.vertcat(b)
+    out = [0] * (a.numel() + b.numel() - 1)
+    for i in range(a.numel()):
+        for j in range(b.numel()):
+            out[i + j] = out[i + j] + a[i] * b[j]
+    return ca.vertcat(*out)
+
+
+def build_model(config):
+    """Build the symbolic step of the twin described by ``config`` (a TwinConfig)."""
+    eff = config.effects
+    on = {k: bool(v["enabled"]) for k, v in eff.items()}
+    plant = named_plant(config.plant)
+    n = plant.n
+    w0 = poly.natural_scale(plant.A)
+    dt = config.dt
+    taus = creep_taus(eff["creep"]) if on["creep"] else np.zeros(0)
+    nd = int(round(eff["delay"]["seconds"] * config.fs_hz)) if on["delay"] else 0
+    h = eff["hysteresis"]
+    gh = hysteresis_gain(h["A"], h["B"], h["Gamma"], *h["slope_range_V"]) if on["hysteresis"] else 1.0
+    names = ("gain_per_K", "resonance_per_K", "damping_per_K", "bw_A", "bw_B", "bw_Gamma", "bw_gain",
+             "creep_per_decade", "creep_per_K", "drift_lag_s", "drift_A", "drift_B",
+             "drift_Gamma", "drift_V_per_K", "u_min", "u_max", "slew_V_per_s", "noise_um",
+             "quant_um", "reference_C")
+    td, dr = eff["thermal_dynamics"], eff["thermal_drift"]
+    theta0 = np.array([td["gain_per_K"], td["resonance_per_K"], td["damping_per_K"], h["A"], h["B"],
+                       h["Gamma"], gh, eff["creep"]["per_decade"], eff["creep"]["per_K"],
+                       dr["lag_s"], dr["A"], dr["B"], dr["Gamma"], dr["gain_V_per_K"],
+                       eff["saturation"]["u_min"], eff["saturation"]["u_max"],
+                       eff["slew"]["V_per_s"], eff["noise"]["sigma_um"],
+                       eff["quantization"]["step_um"], config.reference_C])
+    th = ca.SX.sym("theta", len(names))
+    P = dict(zip(names, ca.vertsplit(th)))
+    sizes = {"lin": n, "h": 1, "u_prev": 1, "creep": len(taus), "T_s": 1, "z_T": 1, "delay": nd}
+    slices, k = {}, 0
+    for key, m in sizes.items():
+        slices[key] = slice(k, k + m)
+        k += m
+    x = ca.SX.sym("x", k)
+    p = ca.SX.sym("p", 3)
+    u_cmd, T_amb, noise = p[0], p[1], p[2]
+    xs = {key: x[s] for key, s in slices.items()}
+    # thermal lag and drift (Bouc–Wen in temperature)
+    if on["thermal_drift"] or on["thermal_dynamics"] or on["creep"]:
+        a_lag = ca.exp(-dt / P["drift_lag_s"]) if on["thermal_drift"] else 0.0
+        T_s = xs["T_s"] + (1 - a_lag) * (T_amb - xs["T_s"])
+    else:
+        T_s = T_amb
+    dTs = T_s - xs["T_s"]
+    if on["thermal_drift"]:
+        z = xs["z_T"]
+        z_next = z + P["drift_A"] * dTs - P["drift_B"] * ca.fabs(dTs) * z - P["drift_Gamma"] * dTs * ca.fabs(z)
+        u_T = P["drift_V_per_K"] * z_next
+    else:
+        z_next, u_T = xs["z_T"], 0.0
+    # drive: delay, saturation, slew
+    if nd:
+        u_del = xs["delay"][nd - 1]
+        delay_next = ca.vertcat(u_cmd, xs["delay"][:nd - 1])
+    else:
+        u_del, delay_next = u_cmd, xs["delay"]
+    u_s = ca.fmin(ca.fmax(u_del, P["u_min"]), P["u_max"]) if on["saturation"] else u_del
+    u_prev = xs["u_prev"]
+    if on["slew"]:
+        lim = P["slew_V_per_s"] * dt
+        u_a = u_prev + ca.fmin(ca.fmax(u_s - u_prev, -lim), lim)
+    else:
+        u_a = u_s
+    # hysteresis (Hammerstein: Bouc–Wen on the applied voltage)
+    if on["hysteresis"]:
+        du, hh = u_a - u_prev, xs["h"]
+        h_next = hh + P["bw_A"] * du - P["bw_B"] * ca.fabs(du) * hh - P["bw_Gamma"] * du * ca.fabs(hh)
+        v = P["bw_gain"] * (u_a - h_next)
+    else:
+        h_next, v = xs["h"], u_a
+    # creep: bank of first-order cells, strength growing with the stack temperature
+    dT = T_s - P["reference_C"]
+    if len(taus):
+        a_c = np.exp(-dt / taus)
+        c = xs["creep"]
+        c_next = ca.DM(a_c) * c + ca.DM(1 - a_c) * v
+        per_cell = P["creep_per_decade"] / eff["creep"]["cells_per_decade"]
+        kappa = per_cell * (1 + P["creep_per_K"] * ca.fmax(dT, 0))
+        u_c = kappa * ca.sum1(c_next)
+    else:
+        c_next, u_c = xs["creep"], 0.0
+    wtot = v + u_c + u_T
+    # linear dynamics D_T in scaled time
+    dT_lin = dT if on["thermal_dynamics"] else 0.0
+    a, b = _thermal_linear(plant, dT_lin, P["gain_per_K"], P["resonance_per_K"], P["damping_per_K"])
+    sc = ca.DM(w0 ** -np.arange(0, n + 1))           # a_k / w0^k, highest power first
+    a_s = a * sc
+    b_s = b * sc[n + 1 - b.numel():]
+    b_full = ca.vertcat(ca.DM.zeros(n + 1 - b.numel(), 1), b_s)
+    dfeed = b_full[0]
+    C = (b_full[1:] - dfeed * a_s[1:]).T
+    A_c = ca.vertcat(-a_s[1:].T, ca.horzcat(ca.DM.eye(n - 1), ca.DM.zeros(n - 1, 1))) if n > 1 else -a_s[1:].T
+    B_c = ca.DM.zeros(n, 1)
+    B_c[0] = 1.0
+
+    def f(xl):
+        return w0 * (ca.mtimes(A_c, xl) + B_c * wtot)
+
+    xl = xs["lin"]
+    y_true = ca.mtimes(C, xl) + dfeed * wtot   # output at this sample (before the update)
+    hsub = dt / N_SUB
+    for _ in range(N_SUB):
+        k1 = f(xl)
+        k2 = f(xl + hsub / 2 * k1)
+        k3 = f(xl + hsub / 2 * k2)
+        k4 = f(xl + hsub * k3)
+        xl = xl + hsub / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    y_n = y_true + (P["noise_um"] * noise if on["noise"] else 0.0)
+    if on["quantization"]:
+        y_n = P["quant_um"] * ca.floor(y_n / P["quant_um"] + 0.5)
+    x_next = ca.vertcat(xl, h_next, u_a, c_next, T_s, z_next, delay_next)
+    out = ca.vertcat(y_n, y_true, u_a)
+    step = ca.Function("twin_step", [x, p, th], [x_next, out], ["x", "p", "theta"], ["x_next", "y"])
+    output = ca.Function("twin_output", [x, p, th], [y_n], ["x", "p", "theta"], ["y_meas"])
+    return TwinModel(config=config, step=step, output=output, theta_names=names, theta0=theta0,
+                     n_state=k, slices=slices, n_delay=nd, w0=w0, dc_gain=float(plant.dc_gain),
+                     strictly_proper=plant.m < plant.n)

@@ -1,0 +1,124 @@
+"""Simulation of the twin, open and closed loop, compiled and chunked.
+
+The step function of :mod:`robrst.twin.model` (closed loop: with the discrete RST
+controller inside) is unrolled ``CHUNK`` times with ``mapaccum``, compiled to C once
+(:mod:`robrst.twin.compiled`) and called chunk after chunk.  Noise comes only from
+``numpy.random.default_rng(seed)``.
+"""
+
+from dataclasses import dataclass, field
+import casadi as ca
+import numpy as np
+
+from robrst.errors import DataError, SpecError
+from robrst.twin.compiled import compile_loop
+from robrst.twin.model import build_model
+
+__all__ = ["SimResult", "simulate", "closed_loop_step", "Simulator"]
+
+@dataclass(frozen=True, eq=False)
+class SimResult:
+    """Sampled signals: t [s], u_cmd/u_applied [V], y (measured) / y_true [µm], temp [°C]."""
+
+    t: np.ndarray
+    u_cmd: np.ndarray
+    u_applied: np.ndarray
+    y: np.ndarray
+    y_true: np.ndarray
+    temp: np.ndarray
+    yr: np.ndarray = None
+    meta: dict = field(default_factory=dict)
+
+    def to_dataset(self, comments=()):
+        from robrst.dataset import Dataset
+
+        return Dataset(t=self.t, u=self.u_cmd, y=self.y, temp=self.temp, yr=self.yr,
+                       comments=tuple(comments), source="twin")
+
+
+def closed_loop_step(model, dctrl):
+    """Step of twin + discrete RST: ``(x, [yr, T, noise], theta) -> (x+, [y, y_true, u_a, u])``."""
+    if not model.strictly_proper:
+        raise SpecError("closed-loop simulation needs a strictly proper plant (no feedthrough)")
+    nk = dctrl.A.shape[0]
+    x = ca.SX.sym("x", model.n_state + nk)
+    p = ca.SX.sym("p", 3)
+    th = ca.SX.sym("theta", len(model.theta0))
+    xp, xc = x[:model.n_state], x[model.n_state:]
+    y = model.output(xp, ca.vertcat(0, p[1], p[2]), th)
+    e = ca.vertcat(p[0], y)
+    u = ca.mtimes(ca.DM(dctrl.C), xc) + ca.mtimes(ca.DM(dctrl.D), e)
+    xc_next = ca.mtimes(ca.DM(dctrl.A), xc) + ca.mtimes(ca.DM(dctrl.B), e)
+    xp_next, out = model.step(xp, ca.vertcat(u, p[1], p[2]), th)
+    return ca.Function("twin_cl_step", [x, p, th], [ca.vertcat(xp_next, xc_next),
+                                                    ca.vertcat(out, u)])
+
+
+class Simulator:
+    """A compiled loop for one model (and controller); reusable across runs."""
+
+    def __init__(self, model, dctrl=None):
+        self.model, self.dctrl = model, dctrl
+        step = model.step if dctrl is None else closed_loop_step(model, dctrl)
+        self.loop = compile_loop(step)
+        self.is_compiled = self.loop.is_compiled
+        self.n_x = model.n_state + (0 if dctrl is None else dctrl.A.shape[0])
+
+    def run(self, P, x0, theta=None):
+        """Advance over the columns of ``P`` (3 x N); return (outputs (k x N), final state)."""
+        theta = self.model.theta0 if theta is None else np.asarray(theta, float)
+        return self.loop(np.asarray(P, float), x0, theta)
+
+
+def simulate(config, temp, u=None, yr=None, dctrl=None, seed=0, t0=0.0, theta=None,
+             simulator=None):
+    """Simulate the twin on uniformly sampled profiles (one value per sample).
+
+    Parameters
+    ----------
+    config : TwinConfig
+    temp : array_like
+        Ambient temperature per sample [°C].
+    u : array_like, optional
+        Commanded voltage per sample [V] (open loop).
+    yr : array_like, optional
+        Reference displacement per sample [µm] (closed loop; needs ``dctrl``).
+    dctrl : DiscreteController, optional
+        The RST controller discretised at ``config.fs_hz``.
+    seed : int
+        Seed of the sensor-noise generator.
+
+    Returns
+    -------
+    SimResult
+    """
+    temp = np.asarray(temp, float)
+    N = temp.size
+    if (u is None) == (yr is None):
+        raise SpecError("give exactly one of u (open loop) or yr (closed loop)")
+    sig = np.asarray(u if u is not None else yr, float)
+    if sig.shape != temp.shape or N == 0:
+        raise DataError(f"profiles must have the same non-zero length (got {sig.size}, {N})")
+    if not (np.all(np.isfinite(sig)) and np.all(np.isfinite(temp))):
+        raise DataError("profiles contain NaN or inf")
+    if yr is not None and dctrl is None:
+        raise SpecError("closed-loop simulation needs a discretised controller (dctrl)")
+    if dctrl is not None and abs(dctrl.fs - config.fs_hz) > 1e-9 * config.fs_hz:
+        raise SpecError(f"controller sampled at {dctrl.fs} Hz, twin runs at {config.fs_hz} Hz")
+    sim = simulator or Simulator(build_model(config), dctrl if yr is not None else None)
+    model = sim.model
+    noise = np.random.default_rng(seed).standard_normal(N)
+    P = np.vstack([sig, temp, noise])
+    x0 = np.zeros(sim.n_x)
+    x0[model.slices["T_s"]] = temp[0]
+    if u is not None:
+        x0[model.slices["delay"]] = sig[0]
+        x0[model.slices["u_prev"]] = sig[0] if not config.enabled("hysteresis") else 0.0
+    Y, _ = sim.run(P, x0, theta)
+    t = t0 + np.arange(N) / config.fs_hz
+    u_cmd = sig if u is not None else Y[3]
+    meta = {"twin": config.name, "fs_hz": config.fs_hz, "seed": int(seed),
+            "effects_on": [k for k in config.effects if config.enabled(k)],
+            "compiled": sim.is_compiled}
+    return SimResult(t=t, u_cmd=u_cmd, u_applied=Y[2], y=Y[0], y_true=Y[1], temp=temp,
+                     yr=None if yr is None else sig, meta=meta)
