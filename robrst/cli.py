@@ -75,6 +75,27 @@ def cmd_design(args):
     return 0
 
 
+def cmd_simulate(args):
+    from robrst.twin.config import default_twin, load_twin
+    from robrst.twin.scenarios import run_scenario
+
+    quiet = args.quiet or args.json
+    say = (lambda m: None) if quiet else (lambda m: print(m, file=sys.stderr, flush=True))
+    cfg = load_twin(args.twin) if args.twin else default_twin()
+    out = args.out or f"reports/simulate/{args.scenario}"
+    say(f"simulating {args.scenario} on twin {cfg.name} ({cfg.fs_hz:g} Hz) -> {out}")
+    res = run_scenario(args.scenario, cfg, out_dir=out, fast=args.fast)
+    d = {"scenario": res.name, "claim": res.claim, "metrics": res.metrics, "out": str(out),
+         "datasets": sorted(f"{k}.csv" for k in res.datasets), "figure": f"{res.name}.png"}
+    if args.json:
+        print(json.dumps(d, allow_nan=False, default=_json_default))
+    else:
+        print(f"{res.name}: {res.claim}")
+        print(json.dumps(res.metrics, indent=2, default=_json_default))
+        print(f"wrote {len(res.datasets)} datasets and {res.name}.png to {out}")
+    return 0
+
+
 def _json_default(x):
     import numpy as np
 
@@ -91,6 +112,14 @@ def build_parser():
     d.add_argument("--json", action="store_true", help="print exactly one JSON object")
     d.add_argument("--quiet", action="store_true", help="no progress lines")
     d.set_defaults(func=cmd_design)
+    s = sub.add_parser("simulate", help="run one of the paper's experiments on the digital twin")
+    s.add_argument("scenario", help="fig2 | fig3 | fig45 | fig7 | fig8")
+    s.add_argument("--twin", help="twin file (TOML); default: the built-in paper twin")
+    s.add_argument("--out", help="output folder (default reports/simulate/SCENARIO)")
+    s.add_argument("--fast", action="store_true", help="shorter thermal ramps and sweeps")
+    s.add_argument("--json", action="store_true", help="print exactly one JSON object")
+    s.add_argument("--quiet", action="store_true", help="no progress lines")
+    s.set_defaults(func=cmd_simulate)
     return p
 
 

@@ -23,7 +23,7 @@ from robrst.plant import named_plant
 
 __all__ = ["TwinModel", "build_model", "hysteresis_gain", "creep_taus"]
 
-N_SUB = 2  # RK4 substeps per sample for the linear dynamics
+N_SUB = 4  # RK4 substeps per sample for the linear dynamics (error ~1e-6 of the peak)
 
 
 @dataclass(frozen=True, eq=False)
