@@ -16,7 +16,7 @@ from robrst.twin import build_model, default_twin, simulate
 from robrst.twin.simulate import Simulator
 
 
-def _baseline(model, u, T, fs):
+def _baseline(model, u, fs):
     """solve_ivp over each sample of the linear part (a lower bound on the full chain's cost)."""
     from robrst.plant import named_plant
 
@@ -55,7 +55,7 @@ def run(tiny=False, repeats=3):
     rate = n / float(np.median(times))
     nb = 200 if tiny else 2000
     t0 = time.perf_counter()
-    _baseline(sim.model, u[:nb], T[:nb], fs)
+    _baseline(sim.model, u[:nb], fs)
     rate_b = nb / (time.perf_counter() - t0)
     ratio = rate / rate_b
     head = (f"{rate / 1e6:.2f} M samples/s (compiled={sim.is_compiled}); solve_ivp"

@@ -17,7 +17,8 @@ import numpy as np
 
 from robrst import poly
 
-__all__ = ["NLPSetup", "build_and_solve", "conv_matrix", "jw_matrices", "routh_column"]
+__all__ = ["NLPSetup", "build_and_solve", "conv_matrix", "conv_symbolic", "jw_matrices",
+           "routh_column"]
 
 
 def conv_matrix(c, n):
@@ -80,14 +81,15 @@ class NLPSetup:
 def _am_symbolic(setup, wn, zeta, degree):
     dom = ca.vertcat(1, 2 * zeta * wn, wn ** 2)
     for r in setup.n_dom_real:
-        dom = _conv(dom, ca.vertcat(1, -r))
+        dom = conv_symbolic(dom, ca.vertcat(1, -r))
     aux = ca.DM([1.0])
     for _ in range(degree - 2 - len(setup.n_dom_real)):
-        aux = _conv(aux, ca.vertcat(1, setup.aux_factor * wn))
-    return _conv(dom, aux)
+        aux = conv_symbolic(aux, ca.vertcat(1, setup.aux_factor * wn))
+    return conv_symbolic(dom, aux)
 
 
-def _conv(a, b):
+def conv_symbolic(a, b):
+    """Coefficients of the product of two polynomials with CasADi (or numeric) entries."""
     a, b = ca.vertcat(a), ca.vertcat(b)
     n, m = a.numel(), b.numel()
     terms = [0] * (n + m - 1)

@@ -20,6 +20,7 @@ import numpy as np
 
 from robrst import poly
 from robrst.plant import named_plant
+from robrst.synthesis.nlp import conv_symbolic
 
 __all__ = ["TwinModel", "build_model", "hysteresis_gain", "creep_taus"]
 
@@ -89,18 +90,9 @@ def _thermal_linear(plant, dT, g, r, d):
             factors.append([1.0, -z.real])
     a = ca.DM([1.0])
     for f in factors:
-        a = _conv(a, ca.vertcat(*f))
+        a = conv_symbolic(a, ca.vertcat(*f))
     b = ca.DM(plant.B) * (1 + g * dT)
     return a, b
-
-
-def _conv(a, b):
-    a, b = ca.vertcat(a), ca.vertcat(b)
-    out = [0] * (a.numel() + b.numel() - 1)
-    for i in range(a.numel()):
-        for j in range(b.numel()):
-            out[i + j] = out[i + j] + a[i] * b[j]
-    return ca.vertcat(*out)
 
 
 def build_model(config):

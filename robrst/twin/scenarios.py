@@ -78,8 +78,8 @@ def _loop_width(u, y):
 def fig3(cfg, ctrls, fast=False):
     fs = cfg.fs_hz
     metrics, ds, curves = {"loop_width": {}, "creep": {}}, {}, {}
+    sim = Simulator(build_model(cfg))
     for T in (28.0, 45.0):
-        sim = Simulator(build_model(cfg))
         for f in (0.1, 1.0, 10.0, 50.0):
             n_per = int(round(fs / f))
             cycles = 2
@@ -136,8 +136,8 @@ def fig45(cfg, ctrls, fast=False):
     freqs = np.geomspace(50, 1500, 8 if fast else 16)
     lin = cfg.with_effects(off=("noise", "quantization"))
     steps = {}
+    sim = Simulator(build_model(lin))
     for T in (28.0, 45.0):
-        sim = Simulator(build_model(lin))
         u = np.where(t >= 0.005, 10.0, 0.0)
         r = simulate(lin, np.full(n, T), u=u, simulator=sim)
         steps[T] = r.y_true
@@ -201,8 +201,8 @@ def fig8(cfg, ctrls, fast=False):
     freqs = np.geomspace(100, 1500, 6 if fast else 12)
     for name, c in ctrls.items():
         dc = discretize(c, fs)
+        sim = Simulator(build_model(cfg), dc)
         for T in (28.0, 45.0):
-            sim = Simulator(build_model(cfg), dc)
             r = simulate(cfg, np.full(n, T), yr=yr, dctrl=dc, simulator=sim)
             tail = r.y_true[-int(0.005 * fs):]
             m = {"overshoot": float(np.max(r.y_true) / 10.0 - 1),
