@@ -1,4 +1,4 @@
-"""Command-line interface: ``robrst design PROBLEM.toml [--json]``.
+"""Command-line interface: ``robrst design | simulate | diagnose | report``.
 
 A thin layer: parse arguments, call the pipeline, print.  Every robrst error becomes
 one line on stderr and exit code 2 (1 for an uncertified design).
@@ -96,6 +96,41 @@ def cmd_simulate(args):
     return 0
 
 
+def cmd_diagnose(args):
+    from robrst.dataset import load_dataset
+    from robrst.diagnose import diagnose
+    from robrst.diagnose.summary import summary_text
+    from robrst.fileio import atomic_write_text
+
+    to_stdout = args.json == "-"
+    quiet = args.quiet or to_stdout
+    say = (lambda m: None) if quiet else (lambda m: print(m, file=sys.stderr, flush=True))
+    train = [load_dataset(f) for f in args.train]
+    test = [load_dataset(f) for f in args.test]
+    plant, ref = None, None
+    if args.model:
+        from robrst.spec import load_problem
+
+        fam = load_problem(args.model).family
+        plant, ref = fam.reference_model, fam.reference_model.temperature_C
+    diag = diagnose(train, test, plant=plant, reference_C=ref, progress=say)
+    d = diag.as_dict()
+    text = json.dumps(d, allow_nan=False, default=_json_default, indent=1)
+    if args.report:
+        from robrst.report.diagnosis import write_diagnosis_report
+
+        out = write_diagnosis_report(diag, args.report, progress=say)
+        say(f"wrote the diagnosis report to {out}")
+    if to_stdout:
+        print(text)
+    else:
+        if args.json:
+            atomic_write_text(args.json, text + "\n")
+            say(f"wrote {args.json}")
+        print(summary_text(diag))
+    return 0
+
+
 def _json_default(x):
     import numpy as np
 
@@ -120,6 +155,18 @@ def build_parser():
     s.add_argument("--json", action="store_true", help="print exactly one JSON object")
     s.add_argument("--quiet", action="store_true", help="no progress lines")
     s.set_defaults(func=cmd_simulate)
+    g = sub.add_parser("diagnose", help="where a simulation model misses measured data, and why")
+    g.add_argument("--train", nargs="+", required=True, metavar="FILE",
+                   help="training records (CSV: t,u,y,temp[,yr]); effects are fitted on them")
+    g.add_argument("--test", nargs="+", required=True, metavar="FILE",
+                   help="held-out records; every reported gap is measured on them")
+    g.add_argument("--model", metavar="PROBLEM.toml",
+                   help="problem file whose nominal plant is the simulation model"
+                        " (default: the paper's D(s))")
+    g.add_argument("--json", metavar="OUT.json", help="write the result as JSON ('-' = stdout)")
+    g.add_argument("--report", metavar="DIR", help="write a report folder (md, html, figures)")
+    g.add_argument("--quiet", action="store_true", help="no progress lines")
+    g.set_defaults(func=cmd_diagnose)
     return p
 
 

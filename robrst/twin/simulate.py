@@ -14,7 +14,7 @@ from robrst.errors import DataError, SpecError
 from robrst.twin.compiled import compile_loop
 from robrst.twin.model import build_model
 
-__all__ = ["SimResult", "simulate", "closed_loop_step", "Simulator"]
+__all__ = ["SimResult", "simulate", "closed_loop_step", "Simulator", "rest_state"]
 
 @dataclass(frozen=True, eq=False)
 class SimResult:
@@ -52,6 +52,19 @@ def closed_loop_step(model, dctrl):
     xp_next, out = model.step(xp, ca.vertcat(u, p[1], p[2]), th)
     return ca.Function("twin_cl_step", [x, p, th], [ca.vertcat(xp_next, xc_next),
                                                     ca.vertcat(out, u)])
+
+
+def rest_state(model, u0, T0):
+    """Initial state at rest: linear part and effect memories empty, stack at ``T0``.
+
+    The drive (delay line, slew memory) holds ``u0``; with hysteresis on, the
+    Bouc–Wen memory starts at 0 V so a record starting at ``u0 != 0`` enters the loop.
+    """
+    x0 = np.zeros(model.n_state)
+    x0[model.slices["T_s"]] = T0
+    x0[model.slices["delay"]] = u0
+    x0[model.slices["u_prev"]] = 0.0 if model.config.enabled("hysteresis") else u0
+    return x0
 
 
 class Simulator:
@@ -110,10 +123,7 @@ def simulate(config, temp, u=None, yr=None, dctrl=None, seed=0, t0=0.0, theta=No
     noise = np.random.default_rng(seed).standard_normal(N)
     P = np.vstack([sig, temp, noise])
     x0 = np.zeros(sim.n_x)
-    x0[model.slices["T_s"]] = temp[0]
-    if u is not None:
-        x0[model.slices["delay"]] = sig[0]
-        x0[model.slices["u_prev"]] = sig[0] if not config.enabled("hysteresis") else 0.0
+    x0[:model.n_state] = rest_state(model, sig[0] if u is not None else 0.0, temp[0])
     Y, _ = sim.run(P, x0, theta)
     t = t0 + np.arange(N) / config.fs_hz
     u_cmd = sig if u is not None else Y[3]

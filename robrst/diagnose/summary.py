@@ -1,0 +1,56 @@
+"""Short human-readable summary of a :class:`~robrst.diagnose.core.Diagnosis`."""
+
+import math
+
+__all__ = ["summary_text"]
+
+
+def _pm(v, s):
+    if s is None or not math.isfinite(s):
+        return f"{v:.4g} (not determined by the data)"
+    return f"{v:.4g} ± {s:.2g}"
+
+
+def summary_text(diag):
+    """A dozen lines: gap, verdict, ranked effects, winner's parameters, where."""
+    d = diag.as_dict()
+    g = d["gap"]
+    out = [f"gap of the simulation model (held-out NRMSE): {g['before']:.4g}"
+           f"   noise floor {g['noise_floor']:.3g}   training records {g['before_train']:.4g}",
+           f"cause: {d['cause']} — {d['reason']}"]
+    if d["effects"]:
+        out.append(f"  {'candidate':<18}{'gap before':>11}{'gap after':>11}{'shrink':>9}")
+        rows = d["effects"] + ([dict(d["linear_refit"], name="(linear re-fit)")]
+                               if d["linear_refit"] else [])
+        for e in rows:
+            out.append(f"  {e['name']:<18}{e['gap_before']:>11.4g}{e['gap_after']:>11.4g}"
+                       f"{100 * e['shrink']:>8.1f}%")
+        for label, e in (("winner", diag.winner), ("runner-up", _runner(diag))):
+            if e is None:
+                continue
+            ps = ", ".join(f"{k} = {_pm(v, e.params_std.get(k))}" for k, v in e.params.items())
+            out.append(f"  {label} {e.name}: {ps}")
+    w = d["where"]
+    tw = w["time_windows"]
+    if tw:
+        first = ", ".join(f"{x['file']} {x['start_s']:.3g}–{x['end_s']:.3g} s" for x in tw[:3])
+        out.append(f"where (time): {len(tw)} window(s) above 3x noise, holding"
+                   f" {100 * w['time_windows_energy_fraction']:.0f} % of the residual energy: {first}")
+    else:
+        out.append("where (time): no window rises above 3x the noise")
+    band = w["frequency_band_hz"]
+    out.append("where (frequency): " + (f"{band[0]:.3g}–{band[1]:.3g} Hz" if band
+                                        else "residual spectrum at the noise floor"))
+    reg = w["regime"]
+    if reg.get("dominant"):
+        out.append(f"where (regime): {reg['dominant']} explains {100 * reg[reg['dominant']]:.0f} %"
+                   " of the residual variance")
+    t = d["tests"]
+    out.append(f"residual tests: whiteness {'passed' if t['whiteness']['passed'] else 'failed'},"
+               f" input cross-correlation {'passed' if t['cross_correlation']['passed'] else 'failed'}")
+    return "\n".join(out)
+
+
+def _runner(diag):
+    rest = [e for e in diag.effects if e.name != diag.cause]
+    return rest[0] if rest and diag.winner else None
