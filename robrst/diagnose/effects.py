@@ -123,6 +123,18 @@ def _phys_std(dyn, z, zstd):
     return out
 
 
+def _central_jac(fun, z, lo, hi, rel=1e-5):
+    """Central-difference Jacobian (one-sided at a bound): accurate enough to tell an
+    undetermined direction (collinear columns) from a merely weak one."""
+    cols = []
+    for j in range(len(z)):
+        h = rel * max(1.0, abs(z[j]))
+        a, b = z.copy(), z.copy()
+        a[j], b[j] = max(z[j] - h, lo[j]), min(z[j] + h, hi[j])
+        cols.append((fun(b) - fun(a)) / (b[j] - a[j]))
+    return np.column_stack(cols)
+
+
 def _fit_dynamic(name, records, plant, fs, reference_C, max_nfev):
     dyn = _DYNAMIC[name]
     cfg = replace(default_twin().with_effects(only=[name]), fs_hz=float(fs),
@@ -154,7 +166,8 @@ def _fit_dynamic(name, records, plant, fs, reference_C, max_nfev):
     z0 = np.clip(np.array(dyn.init(summary(records)), float), lo, hi)
     res = optimize.least_squares(resid, z0, bounds=(lo, hi), x_scale="jac", max_nfev=max_nfev,
                                  diff_step=1e-3)
-    zstd = _std(res)
+    zstd = _std(optimize.OptimizeResult(jac=_central_jac(resid, res.x, lo, hi), cost=res.cost),
+                rtol=1e-6)
     phys = dyn.phys(res.x)
     pstd = _phys_std(dyn, res.x, zstd)
     z = res.x.copy()

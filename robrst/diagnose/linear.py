@@ -159,21 +159,25 @@ def refit_linear(plant, records, fs, max_nfev=60):
                      std=dict(zip(keys, map(float, std))), n_eval=int(res.nfev))
 
 
-def _std(res):
-    """1-sigma of least-squares parameters from the final Jacobian (nan if singular)."""
-    J = np.asarray(res.jac)
+def _std(res, rtol=1e-7):
+    """1-sigma of least-squares parameters from the final Jacobian.
+
+    ``cov = s^2 (J^T J)^-1`` through the SVD of ``J``; a parameter taking part in a
+    direction the data do not determine (singular value below ``rtol`` x the largest)
+    gets ``inf``, never a misleadingly small number.
+    """
+    J = np.asarray(res.jac, float)
     m, n = J.shape
     if n == 0:
         return np.zeros(0)
     s2 = 2 * res.cost / max(m - n, 1)
-    try:
-        cov = np.linalg.pinv(J.T @ J, rcond=1e-12) * s2
-        d = np.sqrt(np.clip(np.diag(cov), 0, None))
-    except np.linalg.LinAlgError:
-        d = np.full(n, np.nan)
-    sv = np.linalg.svd(J, compute_uv=False)
-    if sv.size and sv[-1] <= 1e-10 * sv[0]:
-        # unidentifiable direction: flag the parameters with the weakest columns
-        weak = np.linalg.norm(J, axis=0) <= 1e-10 * sv[0]
+    _, sv, Vt = np.linalg.svd(J, full_matrices=False)
+    if sv[0] == 0:
+        return np.full(n, np.inf)
+    good = sv > rtol * sv[0]
+    var = (Vt[good].T ** 2) @ (1.0 / sv[good] ** 2) * s2
+    d = np.sqrt(var)
+    if not good.all():
+        weak = (np.abs(Vt[~good]) > 1e-3).any(axis=0)
         d[weak] = np.inf
     return d

@@ -124,3 +124,48 @@ def confusion(pairs, labels=CASES + ("linear", "cannot_tell")):
     for t, d in pairs:
         m[t][d] = m[t].get(d, 0) + 1
     return m
+
+
+def run_suite(seeds, cases=CASES, progress=None):
+    """Diagnose every (case, seed); return rows ``{case, seed, cause, shrink, ...}``."""
+    from robrst.diagnose.core import diagnose
+
+    rows = []
+    for case in cases:
+        for seed in seeds:
+            train, test, truth = make_case(case, seed)
+            d = diagnose(train, test)
+            w = d.winner
+            rows.append({"case": case, "seed": seed, "cause": d.cause,
+                         "shrink": w.shrink if w else None, "gap_before": d.gap_before,
+                         "noise_floor": d.noise_floor, "band_hz": d.where["frequency_band_hz"],
+                         "windows": len(d.where["time_windows"]),
+                         "dominant_regime": d.where["regime"]["dominant"]})
+            if progress:
+                progress(f"{case:<17} seed {seed}: {d.cause}")
+    return rows
+
+
+def confusion_markdown(rows):
+    """Markdown confusion matrix (rows: hidden effect; columns: diagnosis)."""
+    m = confusion([(r["case"], r["cause"]) for r in rows])
+    cols = [c for c in CASES + ("linear", "cannot_tell")
+            if any(m[t].get(c, 0) for t in CASES) or c in CASES]
+    lines = ["| hidden \\ diagnosed | " + " | ".join(cols) + " |",
+             "|---|" + "---|" * len(cols)]
+    for t in CASES:
+        if sum(m[t].values()) == 0:
+            continue
+        lines.append(f"| {t} | " + " | ".join(str(m[t].get(c, 0)) or "" for c in cols) + " |")
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    import sys
+
+    n = int(sys.argv[1]) if len(sys.argv) > 1 else 5
+    res = run_suite(range(100, 100 + n), progress=lambda s: print(s, file=sys.stderr))
+    print(confusion_markdown(res))
+    shr = [r["shrink"] for r in res if r["shrink"] is not None]
+    print(f"\n{len(res)} cases; held-out shrink of the named effect: min {min(shr):.3f},"
+          f" median {float(np.median(shr)):.4f}")
