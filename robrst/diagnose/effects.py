@@ -24,7 +24,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy import optimize
 
-from robrst.diagnose.linear import LinearSim, _std, refit_linear
+from robrst.diagnose.linear import LinearSim, _std, levenberg_marquardt, refit_linear
 from robrst.twin.config import default_twin
 from robrst.twin.model import build_model
 from robrst.twin.simulate import Simulator, rest_state
@@ -164,8 +164,7 @@ def _fit_dynamic(name, records, plant, fs, reference_C, max_nfev):
 
     lo, hi = np.array(dyn.lower), np.array(dyn.upper)
     z0 = np.clip(np.array(dyn.init(summary(records)), float), lo, hi)
-    res = optimize.least_squares(resid, z0, bounds=(lo, hi), x_scale="jac", max_nfev=max_nfev,
-                                 diff_step=1e-3)
+    res = levenberg_marquardt(resid, z0, lo, hi, max_iter=max(2, max_nfev // (len(z0) + 1)))
     zstd = _std(optimize.OptimizeResult(jac=_central_jac(resid, res.x, lo, hi), cost=res.cost),
                 rtol=1e-6)
     phys = dyn.phys(res.x)
@@ -246,7 +245,7 @@ def _fit_saturation(records, lin):
                      predict=lambda ds: lin(np.clip(ds.u, lo_f, hi_f)))
 
 
-def fit_effect(name, records, plant, fs, reference_C=28.0, max_nfev=40):
+def fit_effect(name, records, plant, fs, reference_C=28.0, max_nfev=120):
     """Fit the simulation model ``plant`` augmented with effect ``name`` on ``records``.
 
     Parameters
