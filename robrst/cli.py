@@ -96,6 +96,22 @@ def cmd_simulate(args):
     return 0
 
 
+def cmd_report(args):
+    from robrst.design import run_problem
+    from robrst.report.design import write_design_report
+    from robrst.spec import load_problem
+
+    say = (lambda m: None) if args.quiet else (lambda m: print(m, file=sys.stderr, flush=True))
+    problem = load_problem(args.problem)
+    out = args.out or f"reports/{problem.name}"
+    say(f"designing {problem.name} ({problem.solver['method']})")
+    result = run_problem(problem, progress=say)
+    path = write_design_report(result, out, progress=say)
+    print(f"wrote {path}/report.md, report.html, result.json and figures"
+          f" (certified: {result.certified})")
+    return 0 if result.certified else 1
+
+
 def cmd_diagnose(args):
     from robrst.dataset import load_dataset
     from robrst.diagnose import diagnose
@@ -167,6 +183,11 @@ def build_parser():
     g.add_argument("--report", metavar="DIR", help="write a report folder (md, html, figures)")
     g.add_argument("--quiet", action="store_true", help="no progress lines")
     g.set_defaults(func=cmd_diagnose)
+    r = sub.add_parser("report", help="design, certify and write a report folder (md, html, PNG)")
+    r.add_argument("problem", help="problem file (TOML)")
+    r.add_argument("--out", help="output folder (default reports/PROBLEM_NAME)")
+    r.add_argument("--quiet", action="store_true", help="no progress lines")
+    r.set_defaults(func=cmd_report)
     return p
 
 

@@ -1,0 +1,132 @@
+"""``robrst report PROBLEM.toml``: the design report folder.
+
+Pipeline: problem -> :func:`robrst.design.run_problem` -> figures + document ->
+:func:`robrst.report.doc.write_folder` (atomic).  Contents: summary, margins table
+per temperature, certificate, analytic-vs-robust comparison, Bode of S/T/U with the
+bounds and certified peaks, Nyquist with the modulus circle, step responses (linear,
+and on the digital twin when the problem's plant is the twin's), and ``result.json``
+(the same JSON as ``robrst design --json``).
+"""
+
+import json
+import math
+
+import numpy as np
+
+from robrst.report import design_figures as figs
+from robrst.report.doc import Doc, write_folder
+
+__all__ = ["design_doc", "write_design_report", "FIGURES"]
+
+FIGURES = ("bode.png", "nyquist.png", "step.png")
+
+
+def _f(x, spec=".3f"):
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "∞"
+    return format(x, spec)
+
+
+def _margins_rows(d):
+    rows = []
+    for m in d["models"]:
+        dm = None if m["delay_margin_s"] is None else m["delay_margin_s"] * 1e6
+        rows.append((m["label"], _f(m["temperature_C"], ".1f"), "yes" if m["stable"] else "NO",
+                     _f(m["Ms"]), _f(m["Mt"]), _f(m["Mu"], ".1f"), _f(m["gain_margin"], ".2f"),
+                     _f(m["phase_margin_deg"], ".1f"), _f(m["modulus_margin"]), _f(dm, ".1f")))
+    return rows
+
+
+def design_doc(result, twin=False):
+    """The report document of a design result (no I/O)."""
+    d = result.as_dict()
+    cert = d["certificate"]
+    specs = d["specs"]
+    worst = {k: max(cert["models"], key=lambda m: m[k]) for k in ("Ms", "Mt", "Mu")}
+    c = d["controller"]
+    blocks = [
+        ("p", f"Problem `{d['problem']}`, method **{d['method']}**, certified:"
+              f" **{str(d['certified']).lower()}**."
+              f" Specs: Ms ≤ {specs['Ms_max']}, Mt ≤ {specs['Mt_max']}, Mu ≤ {specs['Mu_max']} V/µm."),
+        ("pre", "\n".join(f"{k}(s) = " + " ".join(f"{v:.6g}" for v in c[k]) for k in "RST")),
+        ("h2", "Margins per temperature"),
+        ("table", ("model", "T [°C]", "stable", "Ms", "Mt", "Mu [V/µm]", "GM", "PM [°]", "MM",
+                   "DM [µs]"), tuple(_margins_rows(d))),
+        ("h2", "Certificate"),
+        ("p", f"{len(cert['models'])} models checked (family and a dense temperature sweep) with"
+              f" exact peaks (relative tolerance {cert['rtol']:g}); {len(cert['violations'])}"
+              " violations. Worst cases: "
+              + "; ".join(f"{k} = {worst[k][k]:.4g} at {worst[k]['temperature_C']:.1f} °C"
+                          for k in worst)
+              + f"; largest closed-loop spectral abscissa"
+                f" {max(m['spectral_abscissa'] for m in cert['models']):.4g} rad/s."),
+    ]
+    if cert["violations"]:
+        blocks.append(("table", ("model", "quantity", "value", "bound", "ω [rad/s]"),
+                       tuple((v["label"], v["quantity"], _f(v["value"], ".4g"), _f(v["bound"], ".4g"),
+                              _f(v["freq_rad_s"], ".4g")) for v in cert["violations"][:20])))
+    if d.get("analytic_check"):
+        ac = d["analytic_check"]
+        blocks.append(("p", f"Analytic check: max relative coefficient error"
+                            f" {ac['max_rel_coef_error']:.2e} → {'passed' if ac['passed'] else 'FAILED'}."))
+    if d.get("comparison"):
+        blocks += [("h2", "Analytic pole placement vs this design (worst case over the family)"),
+                   ("pre", d["comparison"]["table"])]
+    blocks += [
+        ("h2", "Figures"),
+        ("img", "bode.png", "Bode magnitude of S, T and U per temperature; dashed: spec bounds;"
+                            " ×: certified peaks (frequency in Hz, log axis)"),
+        ("img", "nyquist.png", "Nyquist plot of L = BR/(AS) per temperature with the modulus-margin"
+                               " circles around -1"),
+        ("img", "step.png", "Step responses at the extreme temperatures: 1 µm reference and 1 V"
+                            " input disturbance" + ("; dashed: digital twin (20 kHz Tustin"
+                                                    " controller, every effect on, 10 µm step / 10)"
+                                                    if twin else "")),
+    ]
+    return Doc(title=f"robrst design report: {d['problem']}", blocks=tuple(blocks))
+
+
+def _twin_steps(result, t_end):
+    from robrst.twin.config import default_twin
+    from robrst.twin.discrete import discretize
+    from robrst.twin.simulate import Simulator, simulate
+    from robrst.twin.model import build_model
+
+    cfg = default_twin()
+    dc = discretize(result.controller, cfg.fs_hz)
+    sim = Simulator(build_model(cfg), dc)
+    fam = result.problem.family.models
+    n = int(t_end * cfg.fs_hz)
+    out = {}
+    for T in (fam[0].temperature_C, fam[-1].temperature_C):
+        r = simulate(cfg, np.full(n, T), yr=np.full(n, 10.0), dctrl=dc, seed=0, simulator=sim)
+        out[f"twin, {T:g} °C"] = (r.t, r.y / 10.0)
+    return out
+
+
+def write_design_report(result, out_dir, progress=None):
+    """Write the report folder of ``result``; returns its path."""
+    say = progress or (lambda m: None)
+    twin = (result.problem.raw.get("plant") or {}).get("name") == "paper"
+    doc = design_doc(result, twin=twin)
+
+    def draw(tmp):
+        say("drawing bode.png")
+        figs.bode_figure(result, tmp / "bode.png")
+        say("drawing nyquist.png")
+        figs.nyquist_figure(result, tmp / "nyquist.png")
+        tw = None
+        if twin:
+            say("simulating the digital twin for step.png")
+            tw = _twin_steps(result, figs.step_horizon(result))
+        say("drawing step.png")
+        figs.step_figure(result, tmp / "step.png", twin=tw)
+
+    text = json.dumps(result.as_dict(), allow_nan=False, indent=1, default=_np) + "\n"
+    return write_folder(out_dir, doc, {"result.json": text}, draw)
+
+
+def _np(x):
+    if isinstance(x, (np.floating, np.integer, np.bool_)):
+        return x.item()
+    raise TypeError(f"not JSON serialisable: {type(x).__name__}")
