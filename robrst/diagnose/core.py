@@ -137,7 +137,7 @@ def _name(d, i):
     return d.source or f"record{i}"
 
 
-def _score(fit, test, base_res, gap_before, train, fit_s):
+def _score(fit, test, gap_before, train, fit_s):
     res_te = [d.y - fit.predict(d) for d in test]
     res_tr = [d.y - fit.predict(d) for d in train]
     after = signals.nrmse(test, res_te)
@@ -219,7 +219,7 @@ def diagnose(train, test, plant=None, reference_C=None, effects=EFFECTS, progres
         t0 = time.perf_counter()
         fit = (fit_linear(train, plant, fs) if name == "linear"
                else fit_effect(name, train, plant, fs, ref))
-        sc, r = _score(fit, test, res_te, before, train, time.perf_counter() - t0)
+        sc, r = _score(fit, test, before, train, time.perf_counter() - t0)
         fits[name] = r
         scores.append(sc)
         say(f"[{k}/{len(effects) + 1}] {name:<17} held-out gap {before:.4g} -> {sc.gap_after:.4g}"
