@@ -184,9 +184,10 @@ def diagnose(train, test, plant=None, reference_C=None, effects=EFFECTS, progres
     res_te = base_res[len(train):]
     before = signals.nrmse(test, res_te)
     before_train = signals.nrmse(train, base_res[:len(train)])
-    sig_te = np.sqrt(np.mean([signals.noise_sigma(r, fs) ** 2 for r in res_te]))
+    var = np.array([signals.noise_sigma(r, fs) ** 2 for r in base_res])  # once per record
+    sig_te = np.sqrt(np.mean(var[len(train):]))
     floor = signals.nrmse(test, [np.full(d.n, sig_te) for d in test])
-    sigma = np.sqrt(np.mean([signals.noise_sigma(r, fs) ** 2 for r in base_res]))
+    sigma = np.sqrt(np.mean(var))
     say(f"gap of the simulation model on {len(test)} test record(s): NRMSE {before:.4g}"
         f" (noise floor {floor:.3g})")
     windows, frac = signals.time_windows(all_recs, base_res, sigma, names)

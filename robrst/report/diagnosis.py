@@ -22,6 +22,12 @@ __all__ = ["diagnosis_doc", "write_diagnosis_report", "FIGURES"]
 FIGURES = ("output.png", "residual.png", "spectrum.png", "effects.png")
 
 
+def _save(fig, path):
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
 def _focus(diag):
     """Index (into the records) of the test record with the largest base residual."""
     tr = diag.traces
@@ -46,9 +52,7 @@ def _output_fig(diag, path):
     ax.set_ylabel("displacement y [µm]")
     ax.set_title(f"measured vs simulated: {tr['names'][k]}")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    _save(fig, path)
 
 
 def _residual_fig(diag, path):
@@ -70,9 +74,7 @@ def _residual_fig(diag, path):
     ax.set_ylabel("residual [µm]")
     ax.set_title(f"residual of the simulation model: {name}")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    _save(fig, path)
 
 
 def _spectrum_fig(diag, path):
@@ -89,9 +91,7 @@ def _spectrum_fig(diag, path):
     ax.set_ylabel("PSD [µm²/Hz]")
     ax.set_title("residual spectrum against the noise floor (all records)")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    _save(fig, path)
 
 
 def _effects_fig(diag, path):
@@ -108,9 +108,7 @@ def _effects_fig(diag, path):
     ax.set_ylabel("held-out NRMSE [-] (log)")
     ax.set_title(f"held-out gap before/after each candidate (cause: {diag.cause})")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    _save(fig, path)
 
 
 def diagnosis_doc(diag):
