@@ -90,6 +90,8 @@ SCHEMA = {
         "zeta_bounds": (NUMS, False, None, "[lo, hi]"),
         "n_freq": (int, False, 120, "frequency-grid points per model"),
         "max_rounds": (int, False, 6, "certification rounds"),
+        "exchange": (bool, False, True, "impose the grid by constraint exchange (active subset,"
+                     " grown until every grid point holds); false: every point in one NLP"),
         "cert_temperatures": (int, False, 35, "temperatures in the certification sweep"),
         "cert_tol": (NUM, False, 1e-3, "relative tolerance on certified peaks"),
         "init": (str, False, "analytic", "NLP start: analytic (Sylvester) | convex (nominal SOCP; fixed poles only)"),

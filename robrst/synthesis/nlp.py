@@ -17,7 +17,7 @@ import numpy as np
 
 from robrst import poly
 
-__all__ = ["NLPSetup", "build_and_solve", "conv_matrix", "conv_symbolic", "jw_matrices",
+__all__ = ["GridBlock", "NLPSetup", "build_and_solve", "grid_blocks", "conv_matrix", "conv_symbolic", "jw_matrices",
            "routh_column"]
 
 
@@ -125,30 +125,43 @@ def _routh_function(deg):
     return ca.Function("routh", [c], [routh_column(c / c[0])])
 
 
-def build_and_solve(setup, x0, ipopt_opts):
-    """Build the NLP for ``setup``, solve from ``x0``; return (x, stats, labels, g, lbg, ubg).
+@dataclass(frozen=True, eq=False)
+class GridBlock:
+    """One peak constraint of one model on its frequency grid, in numeric matrices.
 
-    The grid constraints are assembled from numeric matrices (every closed-loop
-    polynomial is affine in the controller coefficients), so the CasADi graph is a
-    handful of matrix products whatever the number of models and frequencies:
-    construction is cheap and derivatives are exact.
+    Every closed-loop polynomial is affine in the controller coefficients ``xc``, so
+    on the grid ``N(j nu) = (Nr + j Ni) xc + (nr + j ni)`` and likewise ``Delta``.
+    The constraint at grid point ``i`` is
+    ``(|N_i|^2 - M^2 |Delta_i|^2) / w_i <= 0`` with the fixed weight
+    ``w_i = |Delta(x_ref)(j nu_i)|^2``; ``bound`` is ``M`` (``None``: the variable
+    ``gamma`` of the ``min_Ms`` objective).
     """
-    ks, kr = setup.ks, setup.kr
-    nx = ks + kr + 1
-    free_poles = setup.Am_fixed is None
-    n_var = nx + (2 if free_poles else 0) + (1 if setup.objective == "min_Ms" else 0)
-    X = ca.MX.sym("x", n_var)
-    xc = X[:nx]
+
+    key: str               # "S", "T", "U" or "Tband"
+    model: int             # index into setup.models
+    label: str
+    temperature_C: float
+    nu: np.ndarray         # scaled frequencies
+    N: tuple               # (Nr, nr, Ni, ni)
+    D: tuple               # (Dr, dr, Di, di)
+    w: np.ndarray
+    bound: object
+
+    def ratio(self, x, gamma=None):
+        """``|N| / (M |Delta|)`` at every grid point for the decision vector ``x``."""
+        xc = np.asarray(x, float)[:self.N[0].shape[1]]
+        Nr, nr, Ni, ni = self.N
+        Dr, dr, Di, di = self.D
+        num = np.hypot(Nr @ xc + nr, Ni @ xc + ni)
+        den = np.hypot(Dr @ xc + dr, Di @ xc + di)
+        M = gamma if self.bound is None else self.bound
+        return num / (M * np.maximum(den, 1e-300))
+
+
+def _closed_loop_maps(setup):
+    """``closed_loop(a, b) -> ((Dm, Dc), {key: (Nm, Nc)})`` affine maps of ``xc``."""
     Ls, s0, Lr = _affine_controller(setup)
     zero_r = np.zeros(Lr.shape[0])
-    g, lbg, ubg, labels = [], [], [], []
-
-    def add(expr, lo, hi, label):
-        g.append(expr)
-        n = expr.numel()
-        lbg.extend([lo] * n)
-        ubg.extend([hi] * n)
-        labels.extend(label(i) for i in range(n))
 
     def closed_loop(a, b):
         n_out = max(len(a) + Ls.shape[0], len(b) + Lr.shape[0]) - 1
@@ -157,6 +170,74 @@ def build_and_solve(setup, x0, ipopt_opts):
         AR = _product(a, Lr, zero_r, n_out)
         D = (AS[0] + BR[0], AS[1] + BR[1])
         return D, {"S": AS, "T": BR, "U": AR, "Tband": BR}
+
+    return closed_loop
+
+
+def grid_blocks(setup, x_ref):
+    """Every grid constraint of ``setup`` as :class:`GridBlock` (weights at ``x_ref``)."""
+    nx = setup.ks + setup.kr + 1
+    x_ref = np.asarray(x_ref, float)[:nx]
+    closed_loop = _closed_loop_maps(setup)
+    min_ms = setup.objective == "min_Ms"
+    blocks = []
+    for j, (label, T, a, b) in enumerate(setup.models):
+        (Dm, Dc), nums = closed_loop(a, b)
+        dD = Dm.shape[0] - 1
+        D_ref = Dm @ x_ref + Dc
+        for key in ("S", "T", "U", "Tband"):
+            nu = setup.nu_band if key == "Tband" else setup.nu
+            bound = setup.bounds.get(key)
+            if key == "S" and min_ms:
+                bound = None
+            elif bound is None:
+                continue
+            if len(nu) == 0:
+                continue
+            Vr, Vi = jw_matrices(nu, dD)
+            Nm, Nc = nums[key]
+            blocks.append(GridBlock(
+                key=key, model=j, label=label, temperature_C=T, nu=np.asarray(nu, float),
+                N=(Vr @ Nm, Vr @ Nc, Vi @ Nm, Vi @ Nc), D=(Vr @ Dm, Vr @ Dc, Vi @ Dm, Vi @ Dc),
+                w=np.abs(np.polyval(D_ref, 1j * nu)) ** 2, bound=bound))
+    return tuple(blocks)
+
+
+def build_and_solve(setup, x0, ipopt_opts, blocks=None, active=None):
+    """Build the NLP for ``setup``, solve from ``x0``; return (x, stats, labels, g, lbg, ubg).
+
+    The grid constraints are assembled from numeric matrices (every closed-loop
+    polynomial is affine in the controller coefficients), so the CasADi graph is a
+    handful of matrix products whatever the number of models and frequencies:
+    construction is cheap and derivatives are exact.
+
+    Parameters
+    ----------
+    blocks : tuple of GridBlock, optional
+        The grid constraints (default: :func:`grid_blocks` weighted at ``x0``).
+    active : sequence of index arrays, optional
+        Per block, the grid points to impose (default: all of them); the
+        exchange method (:mod:`robrst.synthesis.exchange`) passes a subset.
+    """
+    ks, kr = setup.ks, setup.kr
+    nx = ks + kr + 1
+    free_poles = setup.Am_fixed is None
+    n_var = nx + (2 if free_poles else 0) + (1 if setup.objective == "min_Ms" else 0)
+    X = ca.MX.sym("x", n_var)
+    xc = X[:nx]
+    x0 = np.asarray(x0, float)
+    if blocks is None:
+        blocks = grid_blocks(setup, x0)
+    Ls, s0, Lr = _affine_controller(setup)
+    closed_loop = _closed_loop_maps(setup)
+    g, lbg, ubg, labels = [], [], [], []
+
+    def add(expr, lo, hi, label):
+        g.append(expr)
+        n = expr.numel()
+        lbg.extend([lo] * n)
+        ubg.extend([hi] * n)
+        labels.extend(label(i) for i in range(n))
 
     # Diophantine equality at the nominal model
     _, _, a0, b0 = setup.models[setup.ref]
@@ -171,30 +252,24 @@ def build_and_solve(setup, x0, ipopt_opts):
     add(ca.mtimes(ca.DM(D0m[1:]), xc) + ca.DM(D0c[1:]) - Am[1:], 0.0, 0.0,
         lambda i: ("diophantine", None, None, i))
     gamma = X[-1] if setup.objective == "min_Ms" else None
+    for k, blk in enumerate(blocks):
+        idx = np.arange(len(blk.nu)) if active is None else np.asarray(active[k], int)
+        if idx.size == 0:
+            continue
+        nr, dr, ni, di = (ca.mtimes(ca.DM(M[idx]), xc) + ca.DM(c[idx])
+                          for M, c in (blk.N[:2], blk.D[:2], blk.N[2:], blk.D[2:]))
+        M2 = gamma ** 2 if blk.bound is None else blk.bound ** 2
+        expr = (nr ** 2 + ni ** 2 - M2 * (dr ** 2 + di ** 2)) / ca.DM(blk.w[idx])
+        nu = blk.nu[idx]
+        add(expr, -ca.inf, 0.0,
+            lambda i, b=blk, nu=nu: (b.key, b.label, b.temperature_C, float(nu[i])))
+    if gamma is not None and setup.bounds.get("S") is not None:
+        add(gamma, -ca.inf, setup.bounds["S"], lambda i: ("gamma", None, None, None))
+    # stability: Routh first column > 0 (scaled: O(1) entries)
     routh = {}
-
-    x0 = np.asarray(x0, float)
     for label, T, a, b in setup.models:
-        (Dm, Dc), nums = closed_loop(a, b)
+        (Dm, Dc), _ = closed_loop(a, b)
         dD = Dm.shape[0] - 1
-        D0 = Dm @ x0[:nx] + Dc      # fixed weights |Delta(x0)(j nu)|^2 normalise each constraint
-        for key in ("S", "T", "U", "Tband"):
-            nu = setup.nu_band if key == "Tband" else setup.nu
-            bound = setup.bounds.get(key)
-            if (bound is None and not (key == "S" and gamma is not None)) or len(nu) == 0:
-                continue
-            Vr, Vi = jw_matrices(nu, dD)
-            w = np.abs(np.polyval(D0, 1j * nu)) ** 2
-            Nm, Nc = nums[key]
-            parts = [ca.mtimes(ca.DM(V @ M), xc) + ca.DM(V @ c)
-                     for V in (Vr, Vi) for M, c in ((Nm, Nc), (Dm, Dc))]
-            nr, dr, ni, di = parts
-            M2 = gamma ** 2 if (key == "S" and gamma is not None) else bound ** 2
-            expr = (nr ** 2 + ni ** 2 - M2 * (dr ** 2 + di ** 2)) / ca.DM(w)
-            add(expr, -ca.inf, 0.0, lambda i, k=key, nu=nu, lab=label, t=T: (k, lab, t, float(nu[i])))
-            if key == "S" and gamma is not None and bound is not None:
-                add(gamma, -ca.inf, bound, lambda i: ("gamma", None, None, None))
-        # stability: Routh first column > 0 (scaled: O(1) entries)
         D = ca.mtimes(ca.DM(Dm), xc) + ca.DM(Dc)
         if dD not in routh:
             routh[dD] = _routh_function(dD)
@@ -228,16 +303,6 @@ def build_and_solve(setup, x0, ipopt_opts):
     stats = solver.stats()
     gval = np.array(sol["g"]).ravel()
     return np.array(sol["x"]).ravel(), stats, labels, gval, np.array(lbg), np.array(ubg)
-
-
-def _padd(a, b):
-    n = max(a.numel(), b.numel())
-    return _pad_to(a, n) + _pad_to(b, n)
-
-
-def _pad_to(a, n):
-    k = a.numel()
-    return a if k == n else ca.vertcat(ca.DM.zeros(n - k, 1), a)
 
 
 def scale_plant(plant, w0):

@@ -15,6 +15,7 @@ from robrst.certify import certify
 from robrst.errors import InfeasibleError, SolverError
 from robrst.rst import RSTController
 from robrst.synthesis import analytic
+from robrst.synthesis.exchange import solve_exchange
 from robrst.synthesis.nlp import NLPSetup, build_and_solve, scale_plant
 
 __all__ = ["robust_design", "initial_point", "controller_from_x", "analytic_check"]
@@ -165,13 +166,13 @@ def robust_design(problem, say=lambda m: None):
     t_start, rounds, total_iter = time.perf_counter(), [], 0
     for rnd in range(1, so["max_rounds"] + 1):
         setup = _setup(problem, w0, models, nu, Am_s, so["objective"])
-        x, stats, labels, g, lbg, ubg = build_and_solve(setup, x0, ipopt)
+        x, stats, labels, g, lbg, ubg, exch = _solve(setup, x0, ipopt, so["exchange"])
         status = stats["return_status"]
         total_iter += stats.get("iter_count", 0)
         if status not in OK_STATUS:  # second chance: IPOPT's adaptive barrier update
             say(f"round {rnd}: IPOPT {status}; retrying with the adaptive barrier strategy")
-            x, stats, labels, g, lbg, ubg = build_and_solve(
-                setup, x0, {**ipopt, "mu_strategy": "adaptive"})
+            x, stats, labels, g, lbg, ubg, exch = _solve(
+                setup, x0, {**ipopt, "mu_strategy": "adaptive"}, so["exchange"])
             status = stats["return_status"]
             total_iter += stats.get("iter_count", 0)
         if status not in OK_STATUS:
@@ -189,9 +190,10 @@ def robust_design(problem, say=lambda m: None):
                        rtol=so["cert_tol"])
         rounds.append({"round": rnd, "status": status, "iterations": stats.get("iter_count"),
                        "models": len(models), "frequencies": int(len(nu)),
-                       "violations": len(cert.violations)})
+                       "violations": len(cert.violations), **exch})
         say(f"round {rnd}: IPOPT {status} in {stats.get('iter_count')} it, {len(models)} models"
-            f" x {len(nu)} freqs -> {len(cert.violations)} certificate violations")
+            f" x {len(nu)} freqs{_exchange_note(exch)} -> {len(cert.violations)} certificate"
+            " violations")
         if cert.certified:
             break
         x0 = x
@@ -219,6 +221,22 @@ def robust_design(problem, say=lambda m: None):
     extra = {"analytic_check": analytic_check(problem, ctrl, Am),
              "comparison": comparison(problem, ctrl, cert), "certificate": cert}
     return ctrl, Am, solver, extra
+
+
+def _solve(setup, x0, ipopt, exchange):
+    """One NLP on the round's grid: by constraint exchange, or every grid point at once."""
+    if not exchange:
+        return (*build_and_solve(setup, x0, ipopt), {})
+    *out, info = solve_exchange(setup, x0, ipopt)
+    return (*out, {"exchange_rounds": info.rounds, "active_points": info.active_points,
+                   "grid_points": info.grid_points})
+
+
+def _exchange_note(exch):
+    if not exch:
+        return ""
+    return (f" (exchange: {exch['active_points']}/{exch['grid_points']} grid points active,"
+            f" {exch['exchange_rounds']} rounds)")
 
 
 def _start(problem, w0, ctrl0, Am0):

@@ -1,0 +1,91 @@
+"""Constraint exchange: same optimum as the full-grid NLP, every grid point satisfied."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from robrst import poly
+from robrst.rst import closed_loop
+from robrst.spec import load_problem
+from robrst.synthesis import robust
+from robrst.synthesis.exchange import local_maxima, solve_exchange
+from robrst.synthesis.nlp import build_and_solve
+
+ROOT = Path(__file__).parents[1]
+IPOPT = {"max_iter": 500, "tol": 1e-10, "print_level": 0, "sb": "yes",
+         "mu_strategy": "monotone", "nlp_scaling_method": "none"}
+
+
+def _setup(n_freq):
+    problem = load_problem(ROOT / "problems" / "paper_robust.toml")
+    so = problem.solver
+    ctrl0, info0 = robust._initial(problem)
+    Am0 = info0["Am"]
+    w0 = poly.natural_scale(Am0)
+    x0 = np.concatenate([robust.initial_point(problem, w0, ctrl0),
+                         [problem.poles.wn / w0, problem.poles.zeta]])
+    nu = robust._grid(problem, Am0, n_freq)
+    setup = robust._setup(problem, w0, list(problem.family.models), nu, None, so["objective"])
+    return problem, setup, x0, w0, nu
+
+
+@pytest.fixture(scope="module")
+def full_and_exchange():
+    problem, setup, x0, w0, nu = _setup(60)
+    full = build_and_solve(setup, x0, IPOPT)
+    exch = {c: solve_exchange(setup, x0, IPOPT, coarse_points=c) for c in (2, 16)}
+    return problem, setup, w0, nu, full, exch
+
+
+def test_local_maxima_matches_brute_force():
+    rng = np.random.default_rng(3)
+    for n in (1, 2, 3, 7, 50):
+        r = rng.integers(0, 4, n).astype(float)   # plateaus on purpose
+        got = local_maxima(r)
+        for i in range(n):
+            left_ok = i == 0 or r[i] > r[i - 1]
+            right_ok = i == n - 1 or r[i] >= r[i + 1]
+            assert (i in got) == (left_ok and right_ok or n <= 2)
+        # the global maximum is always found
+        assert r[got].max() == r.max()
+
+
+@pytest.mark.parametrize("coarse", [2, 16])
+def test_exchange_reaches_the_full_grid_optimum(full_and_exchange, coarse):
+    problem, setup, w0, nu, full, exch = full_and_exchange
+    x_full, st_full = full[0], full[1]
+    x_ex, st_ex, *_, info = exch[coarse]
+    assert st_full["return_status"] == "Solve_Succeeded"
+    assert st_ex["return_status"] == "Solve_Succeeded"
+    assert info.active_points < info.grid_points / 3
+    tb = robust._t_builder(problem)
+    k_full = robust._integral_gain(robust.controller_from_x(problem, w0, x_full[:-2], tb))
+    k_ex = robust._integral_gain(robust.controller_from_x(problem, w0, x_ex[:-2], tb))
+    np.testing.assert_allclose(k_ex, k_full, rtol=1e-7)
+    np.testing.assert_allclose(x_ex[-2:], x_full[-2:], rtol=1e-5)   # wn, zeta
+
+
+def test_few_starting_points_need_more_rounds(full_and_exchange):
+    *_, exch = full_and_exchange
+    assert exch[2][-1].rounds >= 2
+    assert exch[16][-1].active_points > exch[2][-1].active_points
+
+
+def test_every_grid_point_holds_recomputed_from_the_controller(full_and_exchange):
+    """|S|, |T|, |U| on every (unscaled) grid frequency of every model, via np.polyval."""
+    problem, setup, w0, nu, _, exch = full_and_exchange
+    x = exch[2][0]
+    ctrl = robust.controller_from_x(problem, w0, x[:-2], robust._t_builder(problem))
+    sp = problem.specs
+    band = 2 * np.pi * np.geomspace(*sp["resonance_band_hz"], 25)
+    worst = 0.0
+    for m in problem.family.models:
+        cl = closed_loop(m, ctrl)
+        for name, bound, w in (("S", sp["Ms_max"], nu), ("T", sp["Mt_max"], nu),
+                               ("U", sp["Mu_max"], nu), ("T", sp["T_resonance_max"], band)):
+            N, D = cl.tf(name)
+            mag = np.abs(np.polyval(N, 1j * w) / np.polyval(D, 1j * w))
+            worst = max(worst, float(np.max(mag / (bound * robust.BOUND_MARGIN))))
+    assert worst <= 1.0 + 1e-6
+    assert worst == pytest.approx(exch[2][-1].max_grid_ratio, rel=1e-6)
