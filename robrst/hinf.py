@@ -69,18 +69,6 @@ def mag2_poly(c):
     return ev * (-1.0) ** k  # s^(2k) = (-x)^k
 
 
-def _scale(D):
-    """Geometric mean of the moduli of the non-zero roots of ``D`` (closed form).
-
-    The product of the non-zero roots of a polynomial with ``k`` trailing zero
-    coefficients is ``+-c[-1-k] / c[0]``: no eigenvalue problem needed.
-    """
-    nz = np.flatnonzero(D)
-    D = D[:nz[-1] + 1]
-    n = len(D) - 1
-    return float(abs(D[-1] / D[0]) ** (1.0 / n)) if n > 0 else 1.0
-
-
 def _hamiltonian(A, B, C, d, g):
     """Hamiltonian whose imaginary eigenvalues are the frequencies where |G| = g."""
     n = A.shape[0]
@@ -135,7 +123,7 @@ def peak_gain(N, D, rtol=1e-10, w0=None, max_iter=60):
     Peak
     """
     N, D = poly.trim(N), poly.trim(D)
-    w0 = float(w0 or _scale(D))
+    w0 = float(w0 or poly.natural_scale(D))
     A, B, C, d = scaled_realization(N, D, w0)
     n = A.shape[0]
     Ns, Ds = poly.to_scaled(N, w0), poly.to_scaled(D, w0)

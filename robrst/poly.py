@@ -108,17 +108,23 @@ def eval_jw(c, w):
 def natural_scale(*polys):
     """A frequency scale [rad/s]: geometric mean of the moduli of the non-zero roots.
 
-    Returns 1.0 when no polynomial has a non-zero root.
+    Computed in closed form, without an eigenvalue problem: a polynomial of degree
+    ``n`` with ``k`` trailing zero coefficients has ``n - k`` non-zero roots whose
+    product has modulus ``|c[n-k] / c[0]|``.  Returns 1.0 when no polynomial has a
+    non-zero root.
     """
-    mags = []
+    log_sum, count = 0.0, 0
     for p in polys:
         p = trim(p)
-        if len(p) > 1:
-            r = np.abs(np.roots(p))
-            mags.extend(r[r > 0])
-    if not mags:
-        return 1.0
-    return float(np.exp(np.mean(np.log(mags))))
+        nz = np.flatnonzero(p)
+        if nz.size == 0:
+            continue
+        k = len(p) - 1 - nz[-1]          # roots at zero
+        n = len(p) - 1 - k
+        if n > 0:
+            log_sum += float(np.log(abs(p[n] / p[0])))
+            count += n
+    return float(np.exp(log_sum / count)) if count else 1.0
 
 
 def from_roots(roots):

@@ -141,8 +141,9 @@ class DiophantineSolution:
 
 
 def _check_coprime(Ap, Bp):
-    ra = np.roots(Ap) if len(Ap) > 1 else np.zeros(0)
-    rb = np.roots(Bp) if len(Bp) > 1 else np.zeros(0)
+    if len(Ap) == 1 or len(Bp) == 1:   # a non-zero constant shares no root with anything
+        return
+    ra, rb = np.roots(Ap), np.roots(Bp)
     for a in ra:
         for b in rb:
             if abs(a - b) <= COPRIME_RTOL * max(1.0, abs(a), abs(b)):
@@ -155,24 +156,37 @@ def _check_coprime(Ap, Bp):
 
 
 def _sylvester(Ap, Bp, ks):
-    """Square Sylvester matrix for the unknowns [S' (non-leading), R'] and its size."""
-    na = len(Ap) - 1
+    """Square Sylvester matrix for the unknowns [S' (non-leading), R'].
+
+    Column of ``c * p**j`` holds ``c`` in the rows of the powers ``deg c + j .. j``
+    (row ``i`` is the power ``N - 1 - i``, ``N = deg Ap + ks``).
+    """
+    na, nb = len(Ap) - 1, len(Bp) - 1
     N = na + ks
-    cols = []
-    for j in range(ks - 1, -1, -1):
-        cols.append(_shift(Ap, j, N))
-    for j in range(na - 1, -1, -1):
-        cols.append(_shift(Bp, j, N))
-    return np.column_stack(cols) if cols else np.zeros((0, 0))
+    M = np.zeros((N, N))
+    for col, j in enumerate(range(ks - 1, -1, -1)):
+        M[N - 1 - na - j:N - j, col] = Ap
+    for col, j in enumerate(range(na - 1, -1, -1), start=ks):
+        M[N - 1 - nb - j:N - j, col] = Bp
+    return M
 
 
-def _shift(c, j, N):
-    """Coefficients of ``c * p**j`` in the slots p^(N-1) .. p^0."""
-    full = np.concatenate([c, np.zeros(j)])
-    out = np.zeros(N)
-    k = min(len(full), N)
-    out[N - k:] = full[len(full) - k:]
-    return out
+def _solve_refined(M, b, steps=2):
+    """``M x = b`` by LU (LAPACK getrf/getrs) with ``steps`` of iterative refinement.
+
+    Refinement is residual-driven and cheap (the factors are reused); it restores
+    a small backward error on the equilibrated system.
+    """
+    if M.size == 0:
+        return np.zeros(0)
+    lu, piv, info = sla.lapack.dgetrf(M)
+    if info != 0:
+        raise CoprimeError("the scaled Sylvester matrix is exactly singular:"
+                           " A*Sf and B*Rf are not coprime")
+    x = sla.lapack.dgetrs(lu, piv, b)[0]
+    for _ in range(steps):
+        x = x + sla.lapack.dgetrs(lu, piv, b - M @ x)[0]
+    return x
 
 
 def diophantine_residual(A, B, R, S, Am, w0=None):
@@ -186,13 +200,16 @@ def diophantine_residual(A, B, R, S, Am, w0=None):
     (poles moved by decades) it measures what floating point can deliver.
     """
     w0 = poly.natural_scale(Am) if w0 is None else w0
-    sc = [poly.to_scaled(poly.trim(c), w0) for c in (A, B, R, S, Am)]
-    a, b, r, s_, am = sc
-    lhs = poly.padd(poly.pmul(a, s_), poly.pmul(b, r))
-    size = poly.padd(poly.pmul(np.abs(a), np.abs(s_)), poly.pmul(np.abs(b), np.abs(r)))
-    n = max(len(lhs), len(am), len(size))
-    pad = lambda c: np.concatenate([np.zeros(n - len(c)), c])  # noqa: E731
-    return float(np.max(np.abs(pad(lhs) - pad(am))) / np.max(pad(size)))
+    a, b, r, s_, am = (poly.to_scaled(poly.trim(c), w0) for c in (A, B, R, S, Am))
+    AS, BR = np.convolve(a, s_), np.convolve(b, r)
+    n = max(len(AS), len(BR), len(am))
+    lhs, size = np.zeros(n), np.zeros(n)
+    lhs[n - len(AS):] += AS
+    lhs[n - len(BR):] += BR
+    lhs[n - len(am):] -= am
+    size[n - len(AS):] += np.convolve(np.abs(a), np.abs(s_))
+    size[n - len(BR):] += np.convolve(np.abs(b), np.abs(r))
+    return float(np.max(np.abs(lhs)) / np.max(size))
 
 
 def solve_diophantine(A, B, Am, S_fixed=(1.0, 0.0), R_fixed=(1.0,)):
@@ -247,18 +264,14 @@ def solve_diophantine(A, B, Am, S_fixed=(1.0, 0.0), R_fixed=(1.0,)):
     Mr = M / rowscale[:, None]
     colscale = 2.0 ** np.round(np.log2(np.max(np.abs(Mr), axis=0)))
     Ms = Mr / colscale
-    cond = float(np.linalg.cond(Ms))
+    sv = np.linalg.svd(Ms, compute_uv=False)
+    cond = float(sv[0] / sv[-1]) if sv.size and sv[-1] > 0 else (1.0 if not sv.size else np.inf)
     if not np.isfinite(cond) or cond > 1e15:
         raise CoprimeError(
             f"the scaled Sylvester matrix is singular to working precision (cond = {cond:.3g}):"
             " A*Sf and B*Rf are (nearly) not coprime"
         )
-    lu = sla.lu_factor(Ms)
-    b = rhs / rowscale
-    y = sla.lu_solve(lu, b)
-    for _ in range(2):  # iterative refinement: residual-driven, cheap, restores backward error
-        y = y + sla.lu_solve(lu, b - Ms @ y)
-    x = y / colscale
+    x = _solve_refined(Ms, rhs / rowscale) / colscale
     Ss = np.concatenate([[1.0], x[:ks]])
     Rs = x[ks:]
     S1 = poly.from_scaled(Ss, w0) * w0**ks
