@@ -5,6 +5,11 @@ exact peaks of |S|, |T|, |U| (Hamiltonian bisection, :mod:`robrst.hinf`) and the
 closed-loop spectral abscissa are recomputed from the polynomials alone — nothing
 from the optimiser is trusted.  A controller is certified when every model is
 stable and every peak is within its bound (relative tolerance ``rtol``).
+
+When the specs name a sampling rate, every model is also checked in its sampled
+loop (ZOH plant, Tustin controller, ``delay_samples`` of delay) through the exact
+bilinear equivalence of :mod:`robrst.sampled`; those figures carry the suffix
+``_sampled`` in each record, with physical frequencies (up to Nyquist).
 """
 
 from dataclasses import dataclass
@@ -16,8 +21,9 @@ from robrst import poly
 from robrst.analysis import spectral_abscissa
 from robrst.hinf import peak_gain
 from robrst.rst import closed_loop
+from robrst.sampled import sampled_plant, unwarp, warp
 
-__all__ = ["Violation", "Certificate", "certify", "band_peak", "SPEC_KEYS"]
+__all__ = ["Violation", "Certificate", "certify", "check_model", "band_peak", "SPEC_KEYS"]
 
 SPEC_KEYS = {"S": "Ms_max", "T": "Mt_max", "U": "Mu_max"}
 
@@ -32,10 +38,12 @@ class Violation:
     value: float
     bound: float
     freq_rad_s: float
+    loop: str = "continuous"     # or "sampled"
 
     def describe(self):
         at = "" if self.freq_rad_s is None else f" at {self.freq_rad_s / (2 * np.pi):.4g} Hz"
-        return (f"model {self.label} ({self.temperature_C:g} °C): {self.quantity} ="
+        loop = " in the sampled loop" if self.loop == "sampled" else ""
+        return (f"model {self.label} ({self.temperature_C:g} °C): {self.quantity}{loop} ="
                 f" {self.value:.4g} > {self.bound:.4g}{at}")
 
 
@@ -49,7 +57,9 @@ class Certificate:
     rtol: float
 
     def worst(self, key):
-        return max(m[key] for m in self.models)
+        """Largest ``key`` over the models (``None`` if no record has it)."""
+        vals = [m[key] for m in self.models if key in m]
+        return max(vals) if vals else None
 
     def as_dict(self):
         return {"certified": self.certified, "rtol": self.rtol, "models": list(self.models),
@@ -73,32 +83,58 @@ def band_peak(N, D, w_lo, w_hi, n=400):
     return float(g[i]), float(np.exp(lw[i]))
 
 
-def check_model(plant, ctrl, specs, rtol):
-    """Exact peaks and stability of one model; returns (record, violations)."""
+def check_model(plant, ctrl, specs, rtol, fs=None):
+    """Exact peaks and stability of one model; returns (record, violations).
+
+    With ``fs`` the plant is a sampled-loop plant (:func:`robrst.sampled.sampled_plant`):
+    reported frequencies are mapped back to physical ones, the resonance band is
+    warped, and a closed-loop polynomial that lost degree (a pole at ``z = -1``)
+    counts as unstable.
+    """
     cl = closed_loop(plant, ctrl)
     sa, _ = spectral_abscissa(cl.Delta)
+    if fs is not None and len(cl.Delta) < plant.n + len(poly.trim(ctrl.S)):
+        sa = np.inf
+    loop = "continuous" if fs is None else "sampled"
+    phys = (lambda w: w) if fs is None else (lambda w: float(unwarp(w, fs)))  # noqa: E731
     rec = {"label": plant.label, "temperature_C": plant.temperature_C,
            "spectral_abscissa": sa, "stable": bool(sa < 0)}
     viol = []
     if sa >= 0:
-        viol.append(Violation(plant.label, plant.temperature_C, "spectral_abscissa", sa, 0.0, None))
+        viol.append(Violation(plant.label, plant.temperature_C, "spectral_abscissa", sa, 0.0,
+                              None, loop))
     for name, key in SPEC_KEYS.items():
         pk = peak_gain(cl.nums[name], cl.Delta)
-        freq = float(pk.freq_rad_s) if np.isfinite(pk.freq_rad_s) else None
+        freq = phys(float(pk.freq_rad_s)) if np.isfinite(pk.freq_rad_s) else (
+            None if fs is None else float(np.pi * fs))
         rec[f"M{name.lower()}"] = pk.value
         rec[f"M{name.lower()}_freq_rad_s"] = freq
         bound = specs.get(key)
         if bound is not None and pk.value > bound * (1 + rtol):
             viol.append(Violation(plant.label, plant.temperature_C, f"|{name}| peak", pk.value,
-                                  bound, freq))
+                                  bound, freq, loop))
     if specs.get("T_resonance_max") is not None:
         lo, hi = (2 * np.pi * f for f in specs["resonance_band_hz"])
+        if fs is not None:
+            lo, hi = warp(min(lo, 0.999 * np.pi * fs), fs), warp(min(hi, 0.999 * np.pi * fs), fs)
         val, w = band_peak(cl.nums["T"], cl.Delta, lo, hi)
         rec["Mt_resonance_band"] = val
         if val > specs["T_resonance_max"] * (1 + rtol):
             viol.append(Violation(plant.label, plant.temperature_C, "|T| in resonance band", val,
-                                  specs["T_resonance_max"], w))
+                                  specs["T_resonance_max"], phys(w), loop))
     return rec, viol
+
+
+SAMPLED_KEYS = ("spectral_abscissa", "stable", "Ms", "Ms_freq_rad_s", "Mt", "Mt_freq_rad_s",
+                "Mu", "Mu_freq_rad_s", "Mt_resonance_band")
+
+
+def _check_sampled(plant, ctrl, specs, rtol):
+    fs, k = specs["sample_rate_hz"], specs.get("delay_samples") or 0
+    rec, viol = check_model(sampled_plant(plant, fs, k), ctrl, specs, rtol, fs=fs)
+    viol = [Violation(plant.label, v.temperature_C, v.quantity, v.value, v.bound, v.freq_rad_s,
+                      v.loop) for v in viol]
+    return {f"{key}_sampled": rec[key] for key in SAMPLED_KEYS if key in rec}, viol
 
 
 def certify(family, ctrl, specs, n_sweep=35, rtol=1e-3):
@@ -115,6 +151,10 @@ def certify(family, ctrl, specs, n_sweep=35, rtol=1e-3):
     recs, viols = [], []
     for m in sorted(models, key=lambda m: m.temperature_C):
         rec, v = check_model(m, ctrl, specs, rtol)
+        if specs.get("sample_rate_hz"):
+            rec_s, v_s = _check_sampled(m, ctrl, specs, rtol)
+            rec.update(rec_s)
+            v = v + v_s
         rec["family_member"] = m.temperature_C in known
         recs.append(rec)
         viols.extend(v)

@@ -39,6 +39,8 @@ def margins_table(d):
 
 
 def _summary(d):
+    from robrst.design import sampled_summary
+
     out = [f"problem {d['problem']}  method {d['method']}  certified: {d['certified']}"]
     c = d["controller"]
     for k in "RST":
@@ -47,6 +49,9 @@ def _summary(d):
     cert = d["certificate"]
     out.append(f"certificate: {len(cert['models'])} models checked (family + temperature sweep),"
                f" {len(cert['violations'])} violations")
+    line = sampled_summary(d)
+    if line:
+        out.append(line)
     if "analytic_check" in d:
         ac = d["analytic_check"]
         out.append(f"analytic check: max rel. coefficient error {ac['max_rel_coef_error']:.2e}"

@@ -8,7 +8,7 @@ from robrst.analysis import analyze
 from robrst.certify import certify
 from robrst.synthesis import analytic
 
-__all__ = ["DesignResult", "run_problem", "analytic_design"]
+__all__ = ["DesignResult", "run_problem", "analytic_design", "sampled_summary"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -39,7 +39,9 @@ class DesignResult:
             "controller": self.controller.as_dict(),
             "target_char_poly": None if self.target_char_poly is None
             else np.asarray(self.target_char_poly).tolist(),
-            "specs": {k: p.specs.get(k) for k in ("Ms_max", "Mt_max", "Mu_max")},
+            "specs": {**{k: p.specs.get(k) for k in ("Ms_max", "Mt_max", "Mu_max")},
+                      **({k: p.specs[k] for k in ("sample_rate_hz", "delay_samples")}
+                         if p.specs.get("sample_rate_hz") else {})},
             "models": models,
             "certified": bool(self.certified),
             "certificate": self.certificate.as_dict(),
@@ -100,3 +102,16 @@ def run_problem(problem, progress=None):
     analyses = tuple(analyze(m, ctrl) for m in problem.family.models)
     return DesignResult(problem=problem, method=method, controller=ctrl, target_char_poly=Am,
                         analyses=analyses, certificate=cert, solver=solver, **extra)
+
+
+def sampled_summary(d):
+    """One line on the sampled loop's certificate (``None`` when not asked for)."""
+    sp, models = d["specs"], d["certificate"]["models"]
+    if not sp.get("sample_rate_hz") or not models or "Ms_sampled" not in models[0]:
+        return None
+    worst = {k: max(m[f"{k}_sampled"] for m in models) for k in ("Ms", "Mt", "Mu")}
+    stable = all(m["stable_sampled"] for m in models)
+    return (f"sampled loop (ZOH plant, Tustin controller at {sp['sample_rate_hz']:g} Hz,"
+            f" {sp.get('delay_samples', 0)} samples delay): worst Ms {worst['Ms']:.4g},"
+            f" Mt {worst['Mt']:.4g}, Mu {worst['Mu']:.4g} V/µm;"
+            f" {'all stable' if stable else 'NOT all stable'}")

@@ -81,6 +81,9 @@ SCHEMA = {
         "T_resonance_max": (NUM, False, None, "bound on |T| over the resonance band"),
         "resonance_band_hz": (NUMS, False, None, "[f_lo, f_hi] band for T_resonance_max"),
         "stable_controller": (bool, False, False, "require S/s Hurwitz"),
+        "sample_rate_hz": (NUM, False, None, "also certify (nlp: also design) the sampled loop:"
+                           " ZOH plant, Tustin controller at this rate [Hz]"),
+        "delay_samples": (int, False, 0, "computation delay of the sampled loop [samples]"),
     },
     "solver": {
         "method": (str, False, "analytic", "analytic | nlp | convex"),
@@ -305,6 +308,12 @@ def parse_problem(data, path="<problem>"):
             raise _err(path, ("specs", k), f"must be > 0, got {specs[k]}")
     if specs["Ms_max"] is not None and specs["Ms_max"] < 1:
         raise _err(path, ("specs", "Ms_max"), "must be >= 1 (|S| tends to 1 at high frequency)")
+    if specs["sample_rate_hz"] is not None and not specs["sample_rate_hz"] > 0:
+        raise _err(path, ("specs", "sample_rate_hz"), f"must be > 0, got {specs['sample_rate_hz']}")
+    if specs["delay_samples"] < 0:
+        raise _err(path, ("specs", "delay_samples"), "must be >= 0")
+    if specs["delay_samples"] and specs["sample_rate_hz"] is None:
+        raise _err(path, ("specs", "delay_samples"), "needs 'sample_rate_hz'")
     if (specs["T_resonance_max"] is None) != (specs["resonance_band_hz"] is None):
         raise _err(path, ("specs",), "'T_resonance_max' and 'resonance_band_hz' go together")
     for k in ("wn_bounds", "zeta_bounds", "resonance_band_hz"):

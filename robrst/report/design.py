@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 
+from robrst.design import sampled_summary
 from robrst.report import design_figures as figs
 from robrst.report.doc import Doc, write_folder
 
@@ -59,7 +60,9 @@ def design_doc(result, twin=False):
               + "; ".join(f"{k} = {worst[k][k]:.4g} at {worst[k]['temperature_C']:.1f} °C"
                           for k in worst)
               + f"; largest closed-loop spectral abscissa"
-                f" {max(m['spectral_abscissa'] for m in cert['models']):.4g} rad/s."),
+                f" {max(m['spectral_abscissa'] for m in cert['models']):.4g} rad/s."
+              + (f" Sampled loop, same models: {sampled_summary(d).split(': ', 1)[1]}."
+                 if sampled_summary(d) else "")),
     ]
     if cert["violations"]:
         blocks.append(("table", ("model", "quantity", "value", "bound", "ω [rad/s]"),

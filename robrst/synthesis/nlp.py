@@ -76,6 +76,7 @@ class NLPSetup:
     aux_factor: float
     n_dom_real: tuple      # extra dominant real poles (scaled), fixed
     stable_controller: bool
+    bands: tuple = ()      # per model, its scaled resonance-band grid (default: nu_band)
 
 
 def _am_symbolic(setup, wn, zeta, degree):
@@ -186,7 +187,8 @@ def grid_blocks(setup, x_ref):
         dD = Dm.shape[0] - 1
         D_ref = Dm @ x_ref + Dc
         for key in ("S", "T", "U", "Tband"):
-            nu = setup.nu_band if key == "Tband" else setup.nu
+            band = setup.bands[j] if setup.bands else setup.nu_band
+            nu = band if key == "Tband" else setup.nu
             bound = setup.bounds.get(key)
             if key == "S" and min_ms:
                 bound = None

@@ -14,6 +14,7 @@ from robrst import poly
 from robrst.certify import certify
 from robrst.errors import InfeasibleError, SolverError
 from robrst.rst import RSTController
+from robrst.sampled import sampled_plant, warp
 from robrst.synthesis import analytic
 from robrst.synthesis.exchange import solve_exchange
 from robrst.synthesis.nlp import NLPSetup, build_and_solve, scale_plant
@@ -98,13 +99,18 @@ def _setup(problem, w0, models, nu, Am_s, obj):
         pb = (tuple(v / w0 for v in so["wn_bounds"]), tuple(so["zeta_bounds"]))
         domr = tuple(r / w0 for r in problem.poles.dominant_real)
     ref_T = problem.family.reference_model.temperature_C
-    ms = tuple((m.label, m.temperature_C, *scale_plant(m, w0)) for m in models)
     ref = [m.temperature_C for m in models].index(ref_T)
+    bands = [band] * len(models)
+    if sp["sample_rate_hz"]:   # the sampled loops too (exact bilinear equivalent plants)
+        fs = sp["sample_rate_hz"]
+        models = list(models) + [sampled_plant(m, fs, sp["delay_samples"]) for m in models]
+        bands += [warp(np.minimum(band * w0, 0.999 * np.pi * fs), fs) / w0] * (len(models) // 2)
+    ms = tuple((m.label, m.temperature_C, *scale_plant(m, w0)) for m in models)
     return NLPSetup(w0=w0, models=ms, ref=ref, Sf=_scaled_factor(Sf, w0),
                     Rf=_scaled_factor(Rf, w0), ks=ks, kr=kr, nu=nu / w0, nu_band=band,
                     bounds=bounds, objective=obj, Am_fixed=None if so["free_poles"] else Am_s,
                     pole_bounds=pb, aux_factor=problem.poles.aux_factor, n_dom_real=domr,
-                    stable_controller=sp["stable_controller"])
+                    stable_controller=sp["stable_controller"], bands=tuple(bands))
 
 
 def _binding(labels, g, lbg, ubg):
@@ -200,7 +206,11 @@ def robust_design(problem, say=lambda m: None):
         known = {m.temperature_C for m in models}
         for v in cert.violations:
             if v.freq_rad_s is not None:
-                nu = np.unique(np.concatenate([nu, [v.freq_rad_s * f for f in (0.98, 1.0, 1.02)]]))
+                w = v.freq_rad_s
+                if v.loop == "sampled":   # the NLP grid lives in the loop variable
+                    fs = problem.specs["sample_rate_hz"]
+                    w = float(warp(min(w, 0.9999 * np.pi * fs), fs))
+                nu = np.unique(np.concatenate([nu, [w * f for f in (0.98, 1.0, 1.02)]]))
             elif v.quantity.endswith("peak"):  # peak at infinity: push the grid further out
                 nu = np.unique(np.concatenate([nu, [nu.max() * 100.0]]))
             if v.temperature_C not in known:
@@ -323,6 +333,9 @@ def comparison(problem, ctrl, cert=None):
                       "worst_Mu": cert.worst("Mu"), "min_modulus_margin": 1 / cert.worst("Ms"),
                       "max_spectral_abscissa": cert.worst("spectral_abscissa"),
                       "integral_gain": _integral_gain(c), "certified": cert.certified}
+        if problem.specs["sample_rate_hz"]:
+            rows[name].update({f"worst_{k}_sampled": cert.worst(f"{k}_sampled")
+                               for k in ("Ms", "Mt", "Mu")})
     keys = list(next(iter(rows.values())))
     names = list(rows)
     w = max(len(n) for n in names) + 2
