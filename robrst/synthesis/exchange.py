@@ -99,7 +99,9 @@ def solve_exchange(setup, x0, ipopt_opts, max_rounds=50, coarse_points=COARSE_PO
         As :func:`robrst.synthesis.nlp.build_and_solve` for the last subproblem
         (``stats["iter_count"]`` summed over rounds), plus :class:`ExchangeInfo`.
         A subproblem that fails is returned at once: it is a relaxation of the
-        full-grid program, so its infeasibility is the full program's.
+        full-grid program, so infeasibility IPOPT reports for it holds for the
+        full program as well (as far as IPOPT's local verdict goes).  If the
+        round cap is hit first, the certificate of the caller has the last word.
     """
     x0 = np.asarray(x0, float)
     blocks = grid_blocks(setup, x0)
