@@ -11,7 +11,6 @@ import numpy as np
 
 from benchmarks.bench_synthesis import load
 from benchmarks.harness import BenchResult
-from robrst import poly
 from robrst.synthesis import robust
 from robrst.synthesis.exchange import solve_exchange
 from robrst.synthesis.nlp import build_and_solve
@@ -22,18 +21,7 @@ FULL_GRID_UP_TO = 4000   # models × frequencies for the full-grid reference
 
 
 def _instance(n_models, n_freq):
-    problem = load(False, n_models=n_models, n_freq=n_freq)
-    so = problem.solver
-    ctrl0, info0 = robust._initial(problem)
-    Am0 = info0["Am"]
-    w0 = poly.natural_scale(Am0)
-    wn0 = min(max(problem.poles.wn, so["wn_bounds"][0]), so["wn_bounds"][1])
-    x0 = np.concatenate([robust.initial_point(problem, w0, ctrl0), [wn0 / w0, problem.poles.zeta]])
-    nu = robust._grid(problem, Am0, n_freq)
-    setup = robust._setup(problem, w0, list(problem.family.models), nu, None, so["objective"])
-    ipopt = {"max_iter": so["max_iter"], "tol": so["ipopt_tol"], "print_level": 0, "sb": "yes",
-             "mu_strategy": "monotone", "nlp_scaling_method": "none"}
-    return setup, x0, ipopt
+    return robust.first_round(load(False, n_models=n_models, n_freq=n_freq))
 
 
 def nlp_time(n_models, n_freq, full=False):

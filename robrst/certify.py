@@ -12,7 +12,7 @@ bilinear equivalence of :mod:`robrst.sampled`; those figures carry the suffix
 ``_sampled`` in each record, with physical frequencies (up to Nyquist).
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.optimize import minimize_scalar
@@ -105,8 +105,8 @@ def check_model(plant, ctrl, specs, rtol, fs=None):
                               None, loop))
     for name, key in SPEC_KEYS.items():
         pk = peak_gain(cl.nums[name], cl.Delta)
-        freq = phys(float(pk.freq_rad_s)) if np.isfinite(pk.freq_rad_s) else (
-            None if fs is None else float(np.pi * fs))
+        # a sampled peak at nu = inf is at Nyquist (unwarp(inf) = pi fs)
+        freq = phys(float(pk.freq_rad_s)) if fs is not None or np.isfinite(pk.freq_rad_s) else None
         rec[f"M{name.lower()}"] = pk.value
         rec[f"M{name.lower()}_freq_rad_s"] = freq
         bound = specs.get(key)
@@ -132,8 +132,7 @@ SAMPLED_KEYS = ("spectral_abscissa", "stable", "Ms", "Ms_freq_rad_s", "Mt", "Mt_
 def _check_sampled(plant, ctrl, specs, rtol):
     fs, k = specs["sample_rate_hz"], specs.get("delay_samples") or 0
     rec, viol = check_model(sampled_plant(plant, fs, k), ctrl, specs, rtol, fs=fs)
-    viol = [Violation(plant.label, v.temperature_C, v.quantity, v.value, v.bound, v.freq_rad_s,
-                      v.loop) for v in viol]
+    viol = [replace(v, label=plant.label) for v in viol]   # name the continuous model
     return {f"{key}_sampled": rec[key] for key in SAMPLED_KEYS if key in rec}, viol
 
 

@@ -1,13 +1,13 @@
 """Constraint exchange: same optimum as the full-grid NLP, every grid point satisfied."""
 
+import tomllib
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from robrst import poly
 from robrst.rst import closed_loop
-from robrst.spec import load_problem
+from robrst.spec import parse_problem
 from robrst.synthesis import robust
 from robrst.synthesis.exchange import local_maxima, solve_exchange
 from robrst.synthesis.nlp import build_and_solve
@@ -18,16 +18,12 @@ IPOPT = {"max_iter": 500, "tol": 1e-10, "print_level": 0, "sb": "yes",
 
 
 def _setup(n_freq):
-    problem = load_problem(ROOT / "problems" / "paper_robust.toml")
-    so = problem.solver
-    ctrl0, info0 = robust._initial(problem)
-    Am0 = info0["Am"]
-    w0 = poly.natural_scale(Am0)
-    x0 = np.concatenate([robust.initial_point(problem, w0, ctrl0),
-                         [problem.poles.wn / w0, problem.poles.zeta]])
-    nu = robust._grid(problem, Am0, n_freq)
-    setup = robust._setup(problem, w0, list(problem.family.models), nu, None, so["objective"])
-    return problem, setup, x0, w0, nu
+    path = ROOT / "problems" / "paper_robust.toml"
+    data = tomllib.loads(path.read_text())
+    data["solver"]["n_freq"] = n_freq
+    problem = parse_problem(data, str(path))
+    setup, x0, _ = robust.first_round(problem)
+    return problem, setup, x0, setup.w0, setup.nu * setup.w0
 
 
 @pytest.fixture(scope="module")

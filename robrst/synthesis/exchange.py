@@ -64,16 +64,20 @@ def _initial_active(blocks, x, gamma, coarse_points):
 
 
 def _grow(blocks, active, x, gamma):
-    """Add the near-active (or violated) local maxima; return (new active, number added)."""
-    added, out = 0, []
+    """Add the near-active (or violated) local maxima.
+
+    Returns ``(new active, number added, largest ratio over the whole grid)``.
+    """
+    added, out, worst = 0, [], 0.0
     for b, idx in zip(blocks, active):
         r = b.ratio(x, gamma)
+        worst = max(worst, float(r.max()))
         peaks = local_maxima(r)
         # a violated point lies below a violated local maximum, so peaks cover violations
         new = np.setdiff1d(peaks[r[peaks] > 1.0 - NEAR_ACTIVE], idx)
         added += new.size
         out.append(np.union1d(idx, new))
-    return out, added
+    return out, added, worst
 
 
 def solve_exchange(setup, x0, ipopt_opts, max_rounds=50, coarse_points=COARSE_POINTS):
@@ -112,12 +116,12 @@ def solve_exchange(setup, x0, ipopt_opts, max_rounds=50, coarse_points=COARSE_PO
         x, stats, labels, g, lbg, ubg = build_and_solve(setup, x, ipopt_opts, blocks, active)
         iters += stats.get("iter_count", 0)
         if stats.get("return_status") not in OK_STATUS:
+            worst = max((float(b.ratio(x, _gamma(setup, x)).max()) for b in blocks), default=0.0)
             break
-        active, added = _grow(blocks, active, x, _gamma(setup, x))
+        active, added, worst = _grow(blocks, active, x, _gamma(setup, x))
         if added == 0:
             break
     stats = {**stats, "iter_count": iters}
-    worst = max((float(b.ratio(x, _gamma(setup, x)).max()) for b in blocks), default=0.0)
     info = ExchangeInfo(rounds=rnd, iterations=iters,
                         active_points=int(sum(a.size for a in active)), grid_points=total,
                         max_grid_ratio=worst)

@@ -19,7 +19,7 @@ from robrst.synthesis import analytic
 from robrst.synthesis.exchange import solve_exchange
 from robrst.synthesis.nlp import NLPSetup, build_and_solve, scale_plant
 
-__all__ = ["robust_design", "initial_point", "controller_from_x", "analytic_check"]
+__all__ = ["robust_design", "first_round", "initial_point", "controller_from_x", "analytic_check"]
 
 BOUND_MARGIN = 0.9995  # grid constraints just inside the specs (half the certificate tolerance)
 OK_STATUS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
@@ -159,16 +159,10 @@ def robust_design(problem, say=lambda m: None):
 
         return convex_design(problem, ctrl0, info0, say)
     x0 = _start(problem, w0, ctrl0, Am0)
-    if so["free_poles"]:
-        wn0 = min(max(problem.poles.wn, so["wn_bounds"][0]), so["wn_bounds"][1])
-        x0 = np.concatenate([x0, [wn0 / w0, problem.poles.zeta]])
-    if so["objective"] == "min_Ms":
-        x0 = np.concatenate([x0, [2.0]])
     Am_s = poly.to_scaled(Am0, w0) / w0 ** (len(Am0) - 1)
     nu = _grid(problem, Am0, so["n_freq"])
     models = list(problem.family.models)
-    ipopt = {"max_iter": so["max_iter"], "tol": so["ipopt_tol"], "print_level": 0,
-             "sb": "yes", "mu_strategy": "monotone", "nlp_scaling_method": "none"}
+    ipopt = _ipopt_options(so)
     t_start, rounds, total_iter = time.perf_counter(), [], 0
     for rnd in range(1, so["max_rounds"] + 1):
         setup = _setup(problem, w0, models, nu, Am_s, so["objective"])
@@ -249,17 +243,47 @@ def _exchange_note(exch):
             f" {exch['exchange_rounds']} rounds)")
 
 
-def _start(problem, w0, ctrl0, Am0):
-    """Scaled NLP start: the analytic design, or the nominal convex (SOCP) solution."""
-    if problem.solver["init"] == "analytic":
-        return initial_point(problem, w0, ctrl0)
-    from robrst.synthesis.convex import solve_convex
+def _ipopt_options(so):
+    return {"max_iter": so["max_iter"], "tol": so["ipopt_tol"], "print_level": 0,
+            "sb": "yes", "mu_strategy": "monotone", "nlp_scaling_method": "none"}
 
-    Sf, Rf, ks, kr, _ = _degrees(problem)
-    nu = _grid(problem, Am0, problem.solver["n_freq"]) / w0
-    x, _ = solve_convex(problem, Am0, w0, nu,
-                        (_scaled_factor(Sf, w0), _scaled_factor(Rf, w0), ks, kr), "feasibility")
-    return x
+
+def first_round(problem):
+    """The NLP of the first round of :func:`robust_design`: ``(setup, x0, ipopt_options)``.
+
+    For benchmarks and tests that time or compare one solve on the problem's grid.
+    """
+    so = problem.solver
+    ctrl0, info0 = _initial(problem)
+    Am0 = info0["Am"]
+    w0 = poly.natural_scale(Am0)
+    x0 = _start(problem, w0, ctrl0, Am0)
+    Am_s = poly.to_scaled(Am0, w0) / w0 ** (len(Am0) - 1)
+    setup = _setup(problem, w0, list(problem.family.models), _grid(problem, Am0, so["n_freq"]),
+                   Am_s, so["objective"])
+    return setup, x0, _ipopt_options(so)
+
+
+def _start(problem, w0, ctrl0, Am0):
+    """Scaled NLP start: the analytic design, or the nominal convex (SOCP) solution,
+    extended by ``(wn, zeta)`` (free poles) and ``gamma`` (``min_Ms``)."""
+    so = problem.solver
+    if so["init"] == "analytic":
+        x0 = initial_point(problem, w0, ctrl0)
+    else:
+        from robrst.synthesis.convex import solve_convex
+
+        Sf, Rf, ks, kr, _ = _degrees(problem)
+        nu = _grid(problem, Am0, so["n_freq"]) / w0
+        x0, _ = solve_convex(problem, Am0, w0, nu,
+                             (_scaled_factor(Sf, w0), _scaled_factor(Rf, w0), ks, kr),
+                             "feasibility")
+    if so["free_poles"]:
+        wn0 = min(max(problem.poles.wn, so["wn_bounds"][0]), so["wn_bounds"][1])
+        x0 = np.concatenate([x0, [wn0 / w0, problem.poles.zeta]])
+    if so["objective"] == "min_Ms":
+        x0 = np.concatenate([x0, [2.0]])
+    return x0
 
 
 def _a_priori(problem):
