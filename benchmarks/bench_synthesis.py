@@ -20,13 +20,17 @@ from scipy.optimize import minimize
 
 from benchmarks.harness import BenchResult, alternate, median_ratio
 from robrst import poly
-from robrst.certify import certify
+from robrst.certificate import certify_problem
+from robrst.design import analytic_design
+from robrst.problem import PoleSpec
+from robrst.resources import builtin_problem
 from robrst.spec import parse_problem
 from robrst.synthesis import robust
-from robrst.synthesis.nlp import scale_plant
+from robrst.synthesis.analytic import characteristic_polynomial
+from robrst.synthesis.parametrize import (Parametrization, TrackingRule, frequency_grid,
+                                          integral_gain)
 
-ROOT = Path(__file__).parents[1]
-PROBLEM = ROOT / "problems" / "paper_robust.toml"
+PROBLEM = builtin_problem("paper_robust")
 
 
 def load(tiny, n_models=None, n_freq=None):
@@ -46,29 +50,30 @@ def load(tiny, n_models=None, n_freq=None):
 
 def robrst_solve(problem):
     """The robrst path: NLP + certification loop (what ``robrst design`` runs)."""
-    ctrl, _, solver, extra = robust.robust_design(problem)
-    return ctrl, extra["certificate"], solver
+    res = robust.robust_synthesis(problem, analytic_design(problem))
+    return res.controller, res.certificate, res.solver_dict()
 
 
 def slsqp_solve(problem, maxiter=300):
     """The baseline: SLSQP with finite differences on python-control frequency responses."""
     so, sp = problem.solver, problem.specs
-    ctrl0, info0 = robust._initial(problem)
-    Am0 = info0["Am"]
-    w0 = poly.natural_scale(Am0)
-    wn0 = min(max(problem.poles.wn, so["wn_bounds"][0]), so["wn_bounds"][1])
-    x0 = np.concatenate([robust.initial_point(problem, w0, ctrl0), [wn0 / w0, problem.poles.zeta]])
-    nu = robust._grid(problem, Am0, so["n_freq"])
-    band = np.geomspace(*(2 * np.pi * np.asarray(sp["resonance_band_hz"])), 25)
+    start = analytic_design(problem)
+    Am0 = start.Am
+    sc = poly.Scaling.natural(Am0)
+    w0 = sc.w0
+    ref = problem.family.reference_model
+    param = Parametrization.of(problem.controller, ref, sc)
+    tb = TrackingRule(problem.controller.T_mode, problem.controller.T_zeros, ref.B)
+    wn0 = min(max(problem.poles.wn, so.wn_bounds[0]), so.wn_bounds[1])
+    x0 = np.concatenate([param.vector(start.controller), [wn0 / w0, problem.poles.zeta]])
+    nu = frequency_grid(problem.family, Am0, so.n_freq)
+    band = np.geomspace(*(2 * np.pi * np.asarray(sp.resonance_band_hz)), 25)
     models = problem.family.models
     plants = [control.tf(m.B, m.A) for m in models]
-    tb = robust._t_builder(problem)
     nc = len(x0) - 2
-    ref = problem.family.reference_model
-    a0, b0 = scale_plant(ref, w0)
 
     def ctrl_of(x):
-        return robust.controller_from_x(problem, w0, x[:nc], tb)
+        return param.controller(x[:nc], tb)
 
     def ineq(x):
         c = ctrl_of(x)
@@ -79,8 +84,8 @@ def slsqp_solve(problem, maxiter=300):
             S = control.feedback(1, L)
             T = control.feedback(L, 1)
             U = control.feedback(K, P)
-            for tf_, bound, w in ((S, sp["Ms_max"], nu), (T, sp["Mt_max"], nu),
-                                  (U, sp["Mu_max"], nu), (T, sp["T_resonance_max"], band)):
+            for tf_, bound, w in ((S, sp.Ms_max, nu), (T, sp.Mt_max, nu),
+                                  (U, sp.Mu_max, nu), (T, sp.T_resonance_max, band)):
                 mag = np.abs(tf_(1j * w))
                 out.append(1.0 - mag / (bound * robust.BOUND_MARGIN))  # the same bounds
             Delta = np.polyadd(np.polymul(P.den[0][0], c.S), np.polymul(P.num[0][0], c.R))
@@ -92,36 +97,33 @@ def slsqp_solve(problem, maxiter=300):
         wn, zeta = x[nc] * w0, x[nc + 1]
         Am = _am(problem, wn, zeta, len(Am0) - 1)
         D = np.polyadd(np.polymul(ref.A, c.S), np.polymul(ref.B, c.R))
-        return (poly.to_scaled(D, w0) - poly.to_scaled(Am, w0))[1:] / w0 ** (len(Am0) - 1)
+        return (sc.normalize(D) - sc.normalize(Am))[1:]
 
     def f(x):
         c = ctrl_of(x)
         return -np.log(c.R[-1] / c.S[-2])
 
-    bounds = [(None, None)] * nc + [tuple(b / w0 for b in so["wn_bounds"]),
-                                    tuple(so["zeta_bounds"])]
+    bounds = [(None, None)] * nc + [tuple(b / w0 for b in so.wn_bounds), tuple(so.zeta_bounds)]
     res = minimize(f, x0, method="SLSQP", bounds=bounds, options={"maxiter": maxiter},
                    constraints=[{"type": "ineq", "fun": ineq}, {"type": "eq", "fun": eq}])
     ctrl = ctrl_of(res.x)
-    cert = certify(problem.family, ctrl, sp, n_sweep=so["cert_temperatures"], rtol=so["cert_tol"])
+    cert = certify_problem(problem, ctrl)
     return ctrl, cert, {"success": bool(res.success), "message": res.message, "nit": res.nit,
                         "nfev": res.nfev}
 
 
 def _am(problem, wn, zeta, degree):
-    from robrst.synthesis.analytic import PoleSpec, characteristic_polynomial
-
     p = problem.poles
     spec = PoleSpec(wn=wn, zeta=zeta, aux_factor=p.aux_factor, dominant_real=p.dominant_real)
     return characteristic_polynomial(spec, degree)[0]
 
 
 def _ki(ctrl):
-    return float(ctrl.R[-1] / poly.trim(ctrl.S)[-2])
+    return integral_gain(ctrl)
 
 
 def cli_time(repeats):
-    """Median wall time of ``robrst design problems/paper_robust.toml`` in a fresh process."""
+    """Median wall time of ``robrst design paper_robust`` in a fresh process."""
     times = []
     for _ in range(repeats):
         t0 = time.perf_counter()

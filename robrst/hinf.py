@@ -11,11 +11,10 @@ relative tolerance ``rtol``, not a grid maximum.
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg as sla
 
-from robrst import poly
+from robrst import lti, poly
 
-__all__ = ["Peak", "peak_gain", "scaled_realization", "mag2_poly"]
+__all__ = ["Peak", "peak_gain", "mag2_poly"]
 
 
 @dataclass(frozen=True)
@@ -24,34 +23,6 @@ class Peak:
 
     value: float
     freq_rad_s: float
-
-
-def scaled_realization(N, D, w0):
-    """Balanced controllable-form realisation of ``N/D`` in ``p = s / w0``.
-
-    Returns ``(A, B, C, d)`` with ``G(w0 * p) = C (pI - A)^-1 B + d``.
-    """
-    Ns = poly.to_scaled(poly.trim(N), w0)
-    Ds = poly.to_scaled(poly.trim(D), w0)
-    Ns, Ds = Ns / Ds[0], Ds / Ds[0]
-    n = len(Ds) - 1
-    if len(Ns) > n + 1:
-        raise ValueError("improper transfer function: deg N > deg D")
-    Nf = np.concatenate([np.zeros(n + 1 - len(Ns)), Ns])
-    d = Nf[0]
-    rem = Nf[1:] - d * Ds[1:]
-    A = np.zeros((n, n))
-    A[0, :] = -Ds[1:]
-    A[1:, :-1] = np.eye(n - 1)
-    B = np.zeros((n, 1))
-    B[0, 0] = 1.0
-    C = rem.reshape(1, n)
-    if n:
-        _, (sc, perm) = sla.matrix_balance(A, permute=False, separate=True)
-        A = A * (1 / sc)[:, None] * sc[None, :]
-        B = B / sc[:, None]
-        C = C * sc[None, :]
-    return A, B, C, float(d)
 
 
 def _gain(N, D, w):
@@ -105,7 +76,7 @@ def _polish(Ns, Ds, w, g):
     return (gp, wp) if gp >= g * (1 - 1e-13) else (g, w)
 
 
-def peak_gain(N, D, rtol=1e-10, w0=None, max_iter=60):
+def peak_gain(N, D, rtol=1e-10, scaling=None, max_iter=60):
     """Exact peak of ``|N(jw)/D(jw)|`` over ``w >= 0``.
 
     Parameters
@@ -115,18 +86,19 @@ def peak_gain(N, D, rtol=1e-10, w0=None, max_iter=60):
         roots on the imaginary axis.
     rtol : float
         Relative accuracy of the peak value.
-    w0 : float, optional
-        Frequency scale; default: geometric mean of the moduli of the roots of D.
+    scaling : Scaling, optional
+        Frequency scaling; default: at the geometric mean of the root moduli of D.
 
     Returns
     -------
     Peak
     """
     N, D = poly.trim(N), poly.trim(D)
-    w0 = float(w0 or poly.natural_scale(D))
-    A, B, C, d = scaled_realization(N, D, w0)
+    sc = scaling or poly.Scaling.natural(D)
+    w0 = sc.w0
+    A, B, C, d = lti.companion(N, D, sc)
     n = A.shape[0]
-    Ns, Ds = poly.to_scaled(N, w0), poly.to_scaled(D, w0)
+    Ns, Ds = sc.apply(N), sc.apply(D)
     # candidate lower bounds: w = 0, the pole frequencies, a coarse log grid
     lam = np.linalg.eigvals(A) if n else np.zeros(0)
     mags = np.abs(lam)

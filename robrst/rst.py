@@ -1,13 +1,13 @@
-"""The RST controller ``S u = T yr - R y`` and its closed-loop polynomials."""
+"""The RST controller ``S u = T yr - R y``: polynomials, closed loop, discretisation."""
 
 from dataclasses import dataclass
 
 import numpy as np
 
-from robrst import poly
-from robrst.errors import DegreeError
+from robrst import lti, poly
+from robrst.errors import DegreeError, SpecError
 
-__all__ = ["RSTController", "closed_loop"]
+__all__ = ["RSTController", "closed_loop", "ClosedLoop", "DiscreteController", "discretize"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -72,3 +72,55 @@ def closed_loop(plant, ctrl):
         "Tr": poly.pmul(B, ctrl.T),
     }
     return ClosedLoop(Delta=Delta, nums=nums)
+
+
+@dataclass(frozen=True, eq=False)
+class DiscreteController:
+    """``xc+ = A xc + B [yr, y]``, ``u = C xc + D [yr, y]`` at ``sample_rate_hz``."""
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+    sample_rate_hz: float
+    method: str
+
+
+def discretize(ctrl, sample_rate_hz, method="tustin"):
+    """Discretise ``ctrl`` at ``sample_rate_hz`` [Hz] with the bilinear (Tustin) rule.
+
+    ``u = (T yr - R y) / S`` is realised as one two-input state space in the scaled
+    time ``tau = w0 t`` (:func:`robrst.lti.companion` of ``1/S``, O(1) coefficients
+    whatever the size of R, S, T in s), then mapped by the bilinear transform.
+
+    Returns
+    -------
+    DiscreteController
+    """
+    import scipy.signal as sig
+
+    if method != "tustin":
+        raise SpecError(f"discretisation method {method!r}: only 'tustin' is provided")
+    if not sample_rate_hz > 0:
+        raise SpecError(f"sampling rate must be > 0, got {sample_rate_hz}")
+    sc = poly.Scaling.natural(ctrl.S, ctrl.R)
+    S = poly.trim(ctrl.S)
+    deg = len(S) - 1
+    Ss, Ts, Rs = (sc.normalize(np.concatenate([np.zeros(deg + 1 - len(poly.trim(c))),
+                                                 poly.trim(c)]), deg)
+                  for c in (S, ctrl.T, ctrl.R))
+    # one realisation of 1/S; the two inputs enter through the numerators T and -R
+    A, Bu, _, _ = lti.companion([1.0], Ss, poly.Scaling(1.0), balance=False)
+    rows = []
+    for num in (Ts, -Rs):
+        _, c, d = lti.companion_parts(Ss / Ss[0], num / Ss[0])
+        rows.append((np.asarray(c, float), d))
+    # dual (observable) form: x' = A^T x + [c_T, c_R]^T e, u = Bu^T x + [d_T, d_R] e
+    Ac = A.T
+    Bc = np.column_stack([rows[0][0], rows[1][0]])
+    Cc = Bu.T
+    Dc = np.array([[rows[0][1], rows[1][1]]])
+    Ad, Bd, Cd, Dd, _ = sig.cont2discrete((Ac, Bc, Cc, Dc), sc.w0 / sample_rate_hz,
+                                          method="bilinear")
+    return DiscreteController(A=Ad, B=Bd, C=Cd, D=Dd, sample_rate_hz=float(sample_rate_hz),
+                              method=method)

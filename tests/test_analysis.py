@@ -9,7 +9,17 @@ from robrst.analysis import analyze, crossovers, sensitivity, step_response
 from robrst.hinf import peak_gain
 from robrst.plant import Plant, paper_plant
 from robrst.rst import closed_loop
-from robrst.synthesis.analytic import PoleSpec, design
+from robrst.problem import ControllerStructure, PoleSpec
+from robrst.synthesis.analytic import pole_placement
+
+
+def design(plant, poles, S_fixed=(1.0, 0.0), R_fixed=(1.0,), extra_degree=0, t_mode="paper",
+           t_zeros=()):
+    """Pole placement with the structure given as keywords; returns (controller, design)."""
+    d = pole_placement(plant, poles, ControllerStructure(tuple(S_fixed), tuple(R_fixed),
+                                                         extra_degree, t_mode, tuple(t_zeros)))
+    return d.controller, d
+
 
 DESIGNS = [(600.0, 1.0, 1), (1000.0, 0.9, 1), (1000.0, 0.9, 0), (2500.0, 0.9, 1), (3000.0, 0.7, 1)]
 
@@ -130,3 +140,25 @@ def test_plant_round_trips():
     np.testing.assert_allclose(z.B, p.B, rtol=1e-12)
     assert p.dc_gain == pytest.approx(0.668, abs=5e-4)
     assert np.max(np.abs(p.poles().imag)) / (2 * np.pi) == pytest.approx(616.4, abs=0.1)
+
+
+@pytest.mark.parametrize("wn,zeta,extra", [(1000.0, 0.9, 1), (2500.0, 0.9, 1)])
+def test_slicot_on_raw_coefficients_misses_the_peak_robrst_finds(wn, zeta, extra):
+    """The README's claim: SLICOT's ab13dd (via control.linfnorm) on the *unscaled* |S|
+    returns ~1.0 where the true peak (dense grid + refinement, independent of robrst) is
+    1.29 / 1.87; robrst's scaled Hamiltonian peak matches the true one."""
+    pytest.importorskip("slycot")
+    from scipy.optimize import minimize_scalar
+
+    p = paper_plant()
+    ctrl, _ = design(p, PoleSpec(wn=wn, zeta=zeta), extra_degree=extra)
+    N, D = closed_loop(p, ctrl).tf("S")
+    w = np.logspace(0, 6, 200_001)
+    g, wg = _dense_peak(N, D, w)
+    f = lambda lw: -abs(np.polyval(N, 1j * np.exp(lw)) / np.polyval(D, 1j * np.exp(lw)))  # noqa: E731
+    true = max(g, -minimize_scalar(f, bounds=(np.log(wg) - 1e-3, np.log(wg) + 1e-3),
+                                   method="bounded", options={"xatol": 1e-12}).fun)
+    assert peak_gain(N, D).value == pytest.approx(true, rel=1e-9)
+    with np.errstate(all="ignore"):
+        slicot = control.linfnorm(control.tf(N, D))[0]
+    assert slicot < 0.9 * true

@@ -6,24 +6,34 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from robrst import poly
+from robrst.design import analytic_design
+from robrst.resources import problems_dir
 from robrst.rst import closed_loop
 from robrst.spec import parse_problem
 from robrst.synthesis import robust
 from robrst.synthesis.exchange import local_maxima, solve_exchange
 from robrst.synthesis.nlp import build_and_solve
-
-ROOT = Path(__file__).parents[1]
+from robrst.synthesis.parametrize import Parametrization, TrackingRule, integral_gain
 IPOPT = {"max_iter": 500, "tol": 1e-10, "print_level": 0, "sb": "yes",
          "mu_strategy": "monotone", "nlp_scaling_method": "none"}
 
 
 def _setup(n_freq):
-    path = ROOT / "problems" / "paper_robust.toml"
+    path = problems_dir() / "paper_robust.toml"
     data = tomllib.loads(path.read_text())
     data["solver"]["n_freq"] = n_freq
     problem = parse_problem(data, str(path))
-    setup, x0, _ = robust.first_round(problem)
+    setup, x0, _ = robust.first_round(problem, analytic_design(problem))
     return problem, setup, x0, setup.w0, setup.nu * setup.w0
+
+
+def _controller(problem, w0, x):
+    param = Parametrization.of(problem.controller, problem.family.reference_model,
+                               poly.Scaling(w0))
+    tr = TrackingRule(problem.controller.T_mode, problem.controller.T_zeros,
+                      problem.family.reference_model.B)
+    return param.controller(x, tr)
 
 
 @pytest.fixture(scope="module")
@@ -50,38 +60,36 @@ def test_local_maxima_matches_brute_force():
 @pytest.mark.parametrize("coarse", [2, 16])
 def test_exchange_reaches_the_full_grid_optimum(full_and_exchange, coarse):
     problem, setup, w0, nu, full, exch = full_and_exchange
-    x_full, st_full = full[0], full[1]
-    x_ex, st_ex, *_, info = exch[coarse]
-    assert st_full["return_status"] == "Solve_Succeeded"
-    assert st_ex["return_status"] == "Solve_Succeeded"
+    x_full, x_ex, info = full.x, exch[coarse].x, exch[coarse].exchange
+    assert full.status == "Solve_Succeeded"
+    assert exch[coarse].status == "Solve_Succeeded"
     assert info.active_points < info.grid_points / 3
-    tb = robust._t_builder(problem)
-    k_full = robust._integral_gain(robust.controller_from_x(problem, w0, x_full[:-2], tb))
-    k_ex = robust._integral_gain(robust.controller_from_x(problem, w0, x_ex[:-2], tb))
+    k_full = integral_gain(_controller(problem, w0, x_full[:-2]))
+    k_ex = integral_gain(_controller(problem, w0, x_ex[:-2]))
     np.testing.assert_allclose(k_ex, k_full, rtol=1e-7)
     np.testing.assert_allclose(x_ex[-2:], x_full[-2:], rtol=1e-5)   # wn, zeta
 
 
 def test_few_starting_points_need_more_rounds(full_and_exchange):
     *_, exch = full_and_exchange
-    assert exch[2][-1].rounds >= 2
-    assert exch[16][-1].active_points > exch[2][-1].active_points
+    assert exch[2].exchange.rounds >= 2
+    assert exch[16].exchange.active_points > exch[2].exchange.active_points
 
 
 def test_every_grid_point_holds_recomputed_from_the_controller(full_and_exchange):
     """|S|, |T|, |U| on every (unscaled) grid frequency of every model, via np.polyval."""
     problem, setup, w0, nu, _, exch = full_and_exchange
-    x = exch[2][0]
-    ctrl = robust.controller_from_x(problem, w0, x[:-2], robust._t_builder(problem))
+    x = exch[2].x
+    ctrl = _controller(problem, w0, x[:-2])
     sp = problem.specs
-    band = 2 * np.pi * np.geomspace(*sp["resonance_band_hz"], 25)
+    band = 2 * np.pi * np.geomspace(*sp.resonance_band_hz, 25)
     worst = 0.0
     for m in problem.family.models:
         cl = closed_loop(m, ctrl)
-        for name, bound, w in (("S", sp["Ms_max"], nu), ("T", sp["Mt_max"], nu),
-                               ("U", sp["Mu_max"], nu), ("T", sp["T_resonance_max"], band)):
+        for name, bound, w in (("S", sp.Ms_max, nu), ("T", sp.Mt_max, nu),
+                               ("U", sp.Mu_max, nu), ("T", sp.T_resonance_max, band)):
             N, D = cl.tf(name)
             mag = np.abs(np.polyval(N, 1j * w) / np.polyval(D, 1j * w))
             worst = max(worst, float(np.max(mag / (bound * robust.BOUND_MARGIN))))
     assert worst <= 1.0 + 1e-6
-    assert worst == pytest.approx(exch[2][-1].max_grid_ratio, rel=1e-6)
+    assert worst == pytest.approx(exch[2].exchange.max_grid_ratio, rel=1e-6)

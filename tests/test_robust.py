@@ -23,21 +23,15 @@ objective = "feasibility"
 """
 
 
-@pytest.fixture(scope="module")
-def robust_result():
-    from pathlib import Path
-    return run_problem(load_problem(Path(__file__).parents[1] / "problems" / "paper_robust.toml"))
-
-
 @pytest.mark.parametrize("wn,zeta", [(600.0, 1.0), (1000.0, 0.7), (2500.0, 0.9)])
 def test_nlp_reproduces_sylvester_solution(tmp_path, wn, zeta):
     f = tmp_path / "nominal.toml"
     f.write_text(NOMINAL_NLP.format(wn=wn, zeta=zeta))
     pr = load_problem(f)
     res = run_problem(pr)
-    ref, _ = analytic_design(pr)
-    assert res.analytic_check["kind"] == "sylvester_coefficients"
-    assert res.analytic_check["passed"] and res.analytic_check["max_rel_coef_error"] <= 1e-8
+    ref = analytic_design(pr).controller
+    assert res.analytic_check.kind == "sylvester_coefficients"
+    assert res.analytic_check.passed and res.analytic_check.max_rel_coef_error <= 1e-8
     # and independently of the reported number
     assert poly.rel_coef_error(res.controller.R, ref.R) <= 1e-8
     assert poly.rel_coef_error(res.controller.S, ref.S) <= 1e-8
@@ -50,9 +44,9 @@ def test_paper_robust_is_certified_and_meets_every_spec(robust_result):
     sp = r.problem.specs
     for m in r.certificate.models:
         assert m["stable"] and m["spectral_abscissa"] < 0
-        assert m["Ms"] <= sp["Ms_max"] * (1 + 1e-3)
-        assert m["Mt"] <= sp["Mt_max"] * (1 + 1e-3)
-        assert m["Mu"] <= sp["Mu_max"] * (1 + 1e-3)
+        assert m["Ms"] <= sp.Ms_max * (1 + 1e-3)
+        assert m["Mt"] <= sp.Mt_max * (1 + 1e-3)
+        assert m["Mu"] <= sp.Mu_max * (1 + 1e-3)
         assert m["Mt_resonance_band"] <= 1.0 * (1 + 1e-3)
     temps = [m["temperature_C"] for m in r.certificate.models]
     assert min(temps) == 28.0 and max(temps) == 45.0 and len(temps) >= 30
@@ -90,7 +84,7 @@ def test_certificate_independent_recomputation(robust_result):
 
 
 def test_robust_beats_analytic_on_integral_gain(robust_result):
-    rows = robust_result.comparison["rows"]
+    rows = robust_result.comparison.rows
     rob = rows["robust"]
     ana = rows["analytic (paper.toml)"]
     assert rob["certified"]
@@ -150,12 +144,12 @@ def test_convex_and_nlp_agree_on_nominal_shaping(tmp_path):
         f = tmp_path / f"{method}.toml"
         f.write_text(SHAPING.format(method=method))
         res[method] = run_problem(load_problem(f))
-        assert res[method].analytic_check["passed"]
+        assert res[method].analytic_check.passed
     ms = {k: r.certificate.models[0]["Ms"] for k, r in res.items()}
     # two different solvers (SOCP interior point vs IPOPT) on the same grid: same optimum
     assert ms["nlp"] == pytest.approx(ms["convex"], rel=2e-3)
     # both improve on the analytic design with the same Am
-    ref, _ = analytic_design(res["nlp"].problem)
+    ref = analytic_design(res["nlp"].problem).controller
     from robrst.analysis import analyze
     assert ms["nlp"] < analyze(res["nlp"].problem.family.reference_model, ref).peaks["S"].value
 
@@ -170,7 +164,7 @@ def test_convex_initializer_reaches_the_same_optimum(tmp_path, problems_dir):
         f = tmp_path / f"{init}.toml"
         f.write_text(text.replace("[solver]", f'[solver]\ninit = "{init}"'))
         res[init] = run_problem(load_problem(f))
-        assert res[init].certified and res[init].analytic_check["passed"]
-    ki = {k: r.solver["integral_gain"] for k, r in res.items()}
+        assert res[init].certified and res[init].analytic_check.passed
+    ki = {k: r.integral_gain for k, r in res.items()}
     assert ki["convex"] == pytest.approx(ki["analytic"], rel=1e-6)
     assert poly.rel_coef_error(res["convex"].controller.R, res["analytic"].controller.R) <= 1e-5

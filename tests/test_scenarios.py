@@ -8,7 +8,7 @@ import pytest
 from robrst.cli import main
 from robrst.dataset import load_dataset
 from robrst.twin import default_twin
-from robrst.twin.scenarios import controllers, run_scenario
+from robrst.experiments.scenarios import controllers, run_scenario
 
 
 @pytest.fixture(scope="module")

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy import optimize
 
-from robrst.diagnose.linear import LinearSim, _std, levenberg_marquardt, refit_linear
+from robrst.diagnose.linear import LinearSim, levenberg_marquardt, param_std, refit_linear
 from robrst.twin.config import default_twin
 from robrst.twin.model import build_model
 from robrst.twin.simulate import Simulator, rest_state
@@ -137,7 +137,7 @@ def _central_jac(fun, z, lo, hi, rel=1e-5):
 
 def _fit_dynamic(name, records, plant, fs, reference_C, max_nfev):
     dyn = _DYNAMIC[name]
-    cfg = replace(default_twin().with_effects(only=[name]), fs_hz=float(fs),
+    cfg = replace(default_twin().with_effects(only=[name]), sample_rate_hz=float(fs),
                   reference_C=float(reference_C), name=f"diagnose_{name}")
     input_referred = name != "thermal_dynamics"
     model = build_model(cfg, plant=plant, linear=not input_referred)
@@ -165,7 +165,7 @@ def _fit_dynamic(name, records, plant, fs, reference_C, max_nfev):
     lo, hi = np.array(dyn.lower), np.array(dyn.upper)
     z0 = np.clip(np.array(dyn.init(summary(records)), float), lo, hi)
     res = levenberg_marquardt(resid, z0, lo, hi, max_iter=max(2, max_nfev // (len(z0) + 1)))
-    zstd = _std(optimize.OptimizeResult(jac=_central_jac(resid, res.x, lo, hi), cost=res.cost),
+    zstd = param_std(optimize.OptimizeResult(jac=_central_jac(resid, res.x, lo, hi), cost=res.cost),
                 rtol=1e-6)
     phys = dyn.phys(res.x)
     pstd = _phys_std(dyn, res.x, zstd)
@@ -237,7 +237,7 @@ def _fit_saturation(records, lin):
     J = np.column_stack([(res(best_lo + h, best_hi) - res(best_lo - h, best_hi)) / (2 * h),
                          (res(best_lo, best_hi + h) - res(best_lo, best_hi - h)) / (2 * h)])
     ls = optimize.OptimizeResult(jac=J, cost=0.5 * float(r0 @ r0))
-    std = _std(ls)
+    std = param_std(ls)
     std = np.where(np.linalg.norm(J, axis=0) == 0, np.inf, std)
     lo_f, hi_f = best_lo, best_hi
     return EffectFit(name="saturation", params={"u_min_V": lo_f, "u_max_V": hi_f},

@@ -18,7 +18,7 @@ from robrst import poly
 from robrst.errors import SpecError
 from robrst.plant import Plant
 
-__all__ = ["LinearSim", "zoh_sos", "refit_linear", "LinearFit", "levenberg_marquardt"]
+__all__ = ["LinearSim", "zoh_sos", "refit_linear", "LinearFit", "levenberg_marquardt", "param_std"]
 
 
 def _scaled_ss(b, a):
@@ -153,7 +153,7 @@ def refit_linear(plant, records, fs, max_nfev=200):
     res = levenberg_marquardt(resid, z0, np.full(n, -0.9), np.full(n, 3.0),
                               max_iter=max(2, max_nfev // (n + 1)))
     a, b = model(res.x)
-    std = _std(res)
+    std = param_std(res)
     keys = [f"a{i + 1}" if kind == "a" else f"b{i}" for kind, i in idx]
     fitted = Plant(poly.from_scaled(b, w0), poly.from_scaled(a, w0), label=f"{plant.label}_refit",
                    temperature_C=plant.temperature_C)
@@ -161,7 +161,7 @@ def refit_linear(plant, records, fs, max_nfev=200):
                      std=dict(zip(keys, map(float, std))), n_eval=int(res.nfev))
 
 
-def _std(res, rtol=1e-7):
+def param_std(res, rtol=1e-7):
     """1-sigma of least-squares parameters from the final Jacobian.
 
     ``cov = s^2 (J^T J)^-1`` through the SVD of ``J``; a parameter taking part in a

@@ -16,15 +16,13 @@ relaxation of the full-grid program it is a (local) optimum of the full-grid
 program too.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from robrst.synthesis.nlp import build_and_solve, grid_blocks
 
 __all__ = ["ExchangeInfo", "solve_exchange", "local_maxima"]
-
-OK_STATUS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 NEAR_ACTIVE = 0.02      # local maxima within 2 % below the bound join the active set
 COARSE_POINTS = 16     # evenly spaced starting points per block (plus local maxima)
 
@@ -99,9 +97,9 @@ def solve_exchange(setup, x0, ipopt_opts, max_rounds=50, coarse_points=COARSE_PO
 
     Returns
     -------
-    x, stats, labels, g, lbg, ubg, info
-        As :func:`robrst.synthesis.nlp.build_and_solve` for the last subproblem
-        (``stats["iter_count"]`` summed over rounds), plus :class:`ExchangeInfo`.
+    SolveResult
+        The last subproblem's result with ``iterations`` summed over the rounds and
+        ``exchange`` an :class:`ExchangeInfo`.
         A subproblem that fails is returned at once: it is a relaxation of the
         full-grid program, so infeasibility IPOPT reports for it holds for the
         full program as well (as far as IPOPT's local verdict goes).  If the
@@ -113,16 +111,16 @@ def solve_exchange(setup, x0, ipopt_opts, max_rounds=50, coarse_points=COARSE_PO
     active = _initial_active(blocks, x0, _gamma(setup, x0), coarse_points)
     x, iters = x0, 0
     for rnd in range(1, max_rounds + 1):
-        x, stats, labels, g, lbg, ubg = build_and_solve(setup, x, ipopt_opts, blocks, active)
-        iters += stats.get("iter_count", 0)
-        if stats.get("return_status") not in OK_STATUS:
+        res = build_and_solve(setup, x, ipopt_opts, blocks, active)
+        x = res.x
+        iters += res.iterations
+        if not res.success:
             worst = max((float(b.ratio(x, _gamma(setup, x)).max()) for b in blocks), default=0.0)
             break
         active, added, worst = _grow(blocks, active, x, _gamma(setup, x))
         if added == 0:
             break
-    stats = {**stats, "iter_count": iters}
     info = ExchangeInfo(rounds=rnd, iterations=iters,
                         active_points=int(sum(a.size for a in active)), grid_points=total,
                         max_grid_ratio=worst)
-    return x, stats, labels, g, lbg, ubg, info
+    return replace(res, iterations=iters, exchange=info)

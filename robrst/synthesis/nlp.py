@@ -16,9 +16,10 @@ import casadi as ca
 import numpy as np
 
 from robrst import poly
+from robrst.synthesis.outcome import SolveResult
 
-__all__ = ["GridBlock", "NLPSetup", "build_and_solve", "grid_blocks", "conv_matrix", "conv_symbolic", "jw_matrices",
-           "routh_column"]
+__all__ = ["GridBlock", "NLPSetup", "build_and_solve", "grid_blocks", "conv_matrix",
+           "jw_matrices", "routh_column", "scale_plant"]
 
 
 def conv_matrix(c, n):
@@ -77,27 +78,17 @@ class NLPSetup:
     n_dom_real: tuple      # extra dominant real poles (scaled), fixed
     stable_controller: bool
     bands: tuple = ()      # per model, its scaled resonance-band grid (default: nu_band)
+    rates: tuple = ()      # (label, sample rate [Hz]) of the sampled-loop models
 
 
 def _am_symbolic(setup, wn, zeta, degree):
-    dom = ca.vertcat(1, 2 * zeta * wn, wn ** 2)
+    dom = [1, 2 * zeta * wn, wn ** 2]
     for r in setup.n_dom_real:
-        dom = conv_symbolic(dom, ca.vertcat(1, -r))
-    aux = ca.DM([1.0])
+        dom = poly.conv_generic(dom, [1, -r])
+    aux = [1.0]
     for _ in range(degree - 2 - len(setup.n_dom_real)):
-        aux = conv_symbolic(aux, ca.vertcat(1, setup.aux_factor * wn))
-    return conv_symbolic(dom, aux)
-
-
-def conv_symbolic(a, b):
-    """Coefficients of the product of two polynomials with CasADi (or numeric) entries."""
-    a, b = ca.vertcat(a), ca.vertcat(b)
-    n, m = a.numel(), b.numel()
-    terms = [0] * (n + m - 1)
-    for i in range(n):
-        for j in range(m):
-            terms[i + j] = terms[i + j] + a[i] * b[j]
-    return ca.vertcat(*terms)
+        aux = poly.conv_generic(aux, [1, setup.aux_factor * wn])
+    return ca.vertcat(*poly.conv_generic(dom, aux))
 
 
 def _affine_controller(setup):
@@ -206,7 +197,7 @@ def grid_blocks(setup, x_ref):
 
 
 def build_and_solve(setup, x0, ipopt_opts, blocks=None, active=None):
-    """Build the NLP for ``setup``, solve from ``x0``; return (x, stats, labels, g, lbg, ubg).
+    """Build the NLP for ``setup`` and solve it from ``x0``; return a :class:`SolveResult`.
 
     The grid constraints are assembled from numeric matrices (every closed-loop
     polynomial is affine in the controller coefficients), so the CasADi graph is a
@@ -303,11 +294,14 @@ def build_and_solve(setup, x0, ipopt_opts, blocks=None, active=None):
     solver = ca.nlpsol("rst", "ipopt", nlp, opts)
     sol = solver(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
     stats = solver.stats()
-    gval = np.array(sol["g"]).ravel()
-    return np.array(sol["x"]).ravel(), stats, labels, gval, np.array(lbg), np.array(ubg)
+    return SolveResult(status=stats["return_status"], x=np.array(sol["x"]).ravel(),
+                       objective=float(sol["f"]), iterations=int(stats.get("iter_count", 0)),
+                       g=np.array(sol["g"]).ravel(), lbg=np.array(lbg, float),
+                       ubg=np.array(ubg, float), lam_g=np.array(sol["lam_g"]).ravel(),
+                       labels=tuple(labels), w0=setup.w0, rates=dict(setup.rates))
 
 
-def scale_plant(plant, w0):
+def scale_plant(plant, scaling):
     """Scaled ``(a, b)``: ``A(w0 p) / w0**n`` (monic) and ``B(w0 p) / w0**n``."""
     n = plant.n
-    return (poly.to_scaled(plant.A, w0) / w0 ** n, poly.to_scaled(plant.B, w0) / w0 ** n)
+    return scaling.normalize(plant.A, n), scaling.normalize(plant.B, n)

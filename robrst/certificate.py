@@ -12,6 +12,8 @@ bilinear equivalence of :mod:`robrst.sampled`; those figures carry the suffix
 ``_sampled`` in each record, with physical frequencies (up to Nyquist).
 """
 
+from __future__ import annotations
+
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -20,12 +22,11 @@ from scipy.optimize import minimize_scalar
 from robrst import poly
 from robrst.analysis import spectral_abscissa
 from robrst.hinf import peak_gain
-from robrst.rst import closed_loop
+from robrst.problem import PEAK_SPECS, Problem
+from robrst.rst import RSTController, closed_loop
 from robrst.sampled import sampled_plant, unwarp, warp
 
-__all__ = ["Violation", "Certificate", "certify", "check_model", "band_peak", "SPEC_KEYS"]
-
-SPEC_KEYS = {"S": "Ms_max", "T": "Mt_max", "U": "Mu_max"}
+__all__ = ["Violation", "Certificate", "certify", "certify_problem", "check_model", "band_peak"]
 
 
 @dataclass(frozen=True)
@@ -68,8 +69,9 @@ class Certificate:
 
 def band_peak(N, D, w_lo, w_hi, n=400):
     """Peak of ``|N/D|`` over ``[w_lo, w_hi]`` rad/s: log grid, then local refinement."""
-    w0 = poly.natural_scale(D)
-    Ns, Ds = poly.to_scaled(N, w0), poly.to_scaled(D, w0)
+    sc = poly.Scaling.natural(D)
+    w0 = sc.w0
+    Ns, Ds = sc.apply(N), sc.apply(D)
     f = lambda lw: np.abs(poly.eval_jw(Ns, np.exp(lw) / w0) / poly.eval_jw(Ds, np.exp(lw) / w0))  # noqa: E731
     lw = np.linspace(np.log(w_lo), np.log(w_hi), n)
     g = f(lw)
@@ -103,25 +105,25 @@ def check_model(plant, ctrl, specs, rtol, fs=None):
     if sa >= 0:
         viol.append(Violation(plant.label, plant.temperature_C, "spectral_abscissa", sa, 0.0,
                               None, loop))
-    for name, key in SPEC_KEYS.items():
+    for name in PEAK_SPECS:
         pk = peak_gain(cl.nums[name], cl.Delta)
         # a sampled peak at nu = inf is at Nyquist (unwarp(inf) = pi fs)
         freq = phys(float(pk.freq_rad_s)) if fs is not None or np.isfinite(pk.freq_rad_s) else None
         rec[f"M{name.lower()}"] = pk.value
         rec[f"M{name.lower()}_freq_rad_s"] = freq
-        bound = specs.get(key)
+        bound = specs.peak_bound(name)
         if bound is not None and pk.value > bound * (1 + rtol):
             viol.append(Violation(plant.label, plant.temperature_C, f"|{name}| peak", pk.value,
                                   bound, freq, loop))
-    if specs.get("T_resonance_max") is not None:
-        lo, hi = (2 * np.pi * f for f in specs["resonance_band_hz"])
+    if specs.T_resonance_max is not None:
+        lo, hi = (2 * np.pi * f for f in specs.resonance_band_hz)
         if fs is not None:
             lo, hi = warp(min(lo, 0.999 * np.pi * fs), fs), warp(min(hi, 0.999 * np.pi * fs), fs)
         val, w = band_peak(cl.nums["T"], cl.Delta, lo, hi)
         rec["Mt_resonance_band"] = val
-        if val > specs["T_resonance_max"] * (1 + rtol):
+        if val > specs.T_resonance_max * (1 + rtol):
             viol.append(Violation(plant.label, plant.temperature_C, "|T| in resonance band", val,
-                                  specs["T_resonance_max"], phys(w), loop))
+                                  specs.T_resonance_max, phys(w), loop))
     return rec, viol
 
 
@@ -130,7 +132,7 @@ SAMPLED_KEYS = ("spectral_abscissa", "stable", "Ms", "Ms_freq_rad_s", "Mt", "Mt_
 
 
 def _check_sampled(plant, ctrl, specs, rtol):
-    fs, k = specs["sample_rate_hz"], specs.get("delay_samples") or 0
+    fs, k = specs.sample_rate_hz, specs.delay_samples
     rec, viol = check_model(sampled_plant(plant, fs, k), ctrl, specs, rtol, fs=fs)
     viol = [replace(v, label=plant.label) for v in viol]   # name the continuous model
     return {f"{key}_sampled": rec[key] for key in SAMPLED_KEYS if key in rec}, viol
@@ -150,7 +152,7 @@ def certify(family, ctrl, specs, n_sweep=35, rtol=1e-3):
     recs, viols = [], []
     for m in sorted(models, key=lambda m: m.temperature_C):
         rec, v = check_model(m, ctrl, specs, rtol)
-        if specs.get("sample_rate_hz"):
+        if specs.sampled:
             rec_s, v_s = _check_sampled(m, ctrl, specs, rtol)
             rec.update(rec_s)
             v = v + v_s
@@ -158,3 +160,36 @@ def certify(family, ctrl, specs, n_sweep=35, rtol=1e-3):
         recs.append(rec)
         viols.extend(v)
     return Certificate(certified=not viols, models=tuple(recs), violations=tuple(viols), rtol=rtol)
+
+
+def certify_problem(problem: Problem, ctrl: RSTController) -> Certificate:
+    """Certify ``ctrl`` on ``problem``'s family and specs with its solver options.
+
+    The one entry point every stage uses (design, synthesis rounds, comparison): exact
+    peaks and closed-loop stability on every family model and on
+    ``problem.solver.cert_temperatures`` interpolated temperatures, and the sampled
+    loop when the specs name a sampling rate.
+
+    Parameters
+    ----------
+    problem : Problem
+    ctrl : RSTController
+
+    Returns
+    -------
+    Certificate
+        ``certified`` is true when nothing is violated (relative tolerance
+        ``problem.solver.cert_tol``); ``violations`` names every failed check.
+
+    Examples
+    --------
+    >>> from robrst import certify_problem, load_problem, pole_placement
+    >>> problem = load_problem("paper")
+    >>> ctrl = pole_placement(problem.family.reference_model, problem.poles,
+    ...                       problem.controller).controller
+    >>> certify_problem(problem, ctrl).certified
+    True
+    """
+    so = problem.solver
+    return certify(problem.family, ctrl, problem.specs, n_sweep=so.cert_temperatures,
+                   rtol=so.cert_tol)

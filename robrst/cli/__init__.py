@@ -1,0 +1,49 @@
+"""Command-line interface: ``robrst design | report | simulate | diagnose``.
+
+A thin layer: parse arguments, call the library, print.  Every robrst error becomes
+one line ``robrst: error: ...`` on stderr and exit code 2 (1 for a design that is not
+certified, 0 otherwise); never a traceback.
+"""
+
+import argparse
+import sys
+
+from robrst import __version__
+from robrst.cli import design, diagnose, simulate
+from robrst.errors import RobrstError
+
+__all__ = ["main", "build_parser"]
+
+COMMANDS = (design, simulate, diagnose)
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with robrst's one-line error and exit code 2."""
+
+    def error(self, message):
+        print(f"robrst: error: {message}", file=sys.stderr)
+        raise SystemExit(2)
+
+
+def build_parser():
+    """The argument parser of every command."""
+    p = _Parser(prog="robrst", description="Robust RST control of piezo actuators")
+    p.add_argument("--version", action="version", version=f"robrst {__version__}")
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    for module in COMMANDS:
+        module.add_parsers(sub)
+    return p
+
+
+def main(argv=None):
+    """Run the command line ``argv`` (default ``sys.argv[1:]``); return the exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except RobrstError as exc:
+        print(f"robrst: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("robrst: interrupted", file=sys.stderr)
+        return 130

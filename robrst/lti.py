@@ -1,0 +1,125 @@
+"""State-space kernels of robrst: the one realisation and the one ZOH discretisation.
+
+Every part of robrst that needs a state-space form of ``N(s)/D(s)`` (exact peaks, the
+sampled loop, the twin, the diagnosis's linear simulation) takes it from here, in the
+scaled variable ``p = s / w0`` (:class:`robrst.poly.Scaling`) where the coefficients are
+O(1).  The zero-order-hold discretisation is exact (a matrix exponential), never an
+expansion of a polynomial in ``z``, whose roots cluster at ``z = 1`` and are lost to
+cancellation at high sampling rates.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+
+from robrst import poly
+
+__all__ = ["companion_parts", "companion", "DiscreteSS", "zoh"]
+
+
+def companion_parts(a, b):
+    """The controllable canonical form of ``b/a`` as plain sequences.
+
+    For monic ``a`` (length ``n + 1``) and ``len(b) <= n + 1`` (highest power first),
+    ``b/a = C (pI - A)^-1 B + d`` with ``A``'s first row ``-a[1:]``, ones on the
+    subdiagonal, ``B = e1``.  Only ``+``, ``-`` and ``*`` are used, so the coefficients
+    may be floats or CasADi symbols.
+
+    Returns
+    -------
+    first_row, c_row, d
+        Lists of length ``n``, ``n`` and the feedthrough.
+    """
+    a, b = list(a), list(b)
+    n = len(a) - 1
+    b = [0.0] * (n + 1 - len(b)) + b
+    d = b[0]
+    return [-x for x in a[1:]], [b[k] - d * a[k] for k in range(1, n + 1)], d
+
+
+def companion(N, D, scaling=None, balance=True):
+    """Balanced controllable-form realisation of ``N/D`` in the scaled variable.
+
+    Parameters
+    ----------
+    N, D : array_like
+        Numerator and denominator in s, ``deg N <= deg D``.
+    scaling : Scaling, optional
+        Default: :meth:`robrst.poly.Scaling.natural` of ``D``.
+    balance : bool
+        Diagonal similarity (LAPACK ``gebal``) to equalise row and column norms.
+
+    Returns
+    -------
+    A, B, C, d
+        With ``N(w0 p)/D(w0 p) = C (pI - A)^-1 B + d``.
+    """
+    N, D = poly.trim(N), poly.trim(D)
+    sc = scaling or poly.Scaling.natural(D)
+    Ns, Ds = sc.apply(N), sc.apply(D)
+    Ns, Ds = Ns / Ds[0], Ds / Ds[0]
+    n = len(Ds) - 1
+    if len(Ns) > n + 1:
+        raise ValueError("improper transfer function: deg N > deg D")
+    row, c, d = companion_parts(Ds, Ns)
+    A = np.zeros((n, n))
+    if n:
+        A[0, :] = row
+        A[1:, :-1] = np.eye(n - 1)
+    B = np.zeros((n, 1))
+    if n:
+        B[0, 0] = 1.0
+    C = np.asarray(c, float).reshape(1, n)
+    if n and balance:
+        _, (sc_vec, _) = sla.matrix_balance(A, permute=False, separate=True)
+        A = A * (1 / sc_vec)[:, None] * sc_vec[None, :]
+        B = B / sc_vec[:, None]
+        C = C * sc_vec[None, :]
+    return A, B, C, float(d)
+
+
+@dataclass(frozen=True, eq=False)
+class DiscreteSS:
+    """Exact ZOH discretisation ``x+ = Ad x + Bd u``, ``y = C x + d u`` (scaled states).
+
+    ``A`` is the continuous scaled matrix, ``h = w0 / fs`` the scaled sampling period,
+    ``Gamma = int_0^h exp(A t) dt`` (so ``Ad - I = A Gamma`` without cancellation).
+    """
+
+    Ad: np.ndarray
+    Bd: np.ndarray
+    C: np.ndarray
+    d: float
+    A: np.ndarray
+    Gamma: np.ndarray
+    h: float
+    scaling: object
+
+    @property
+    def poles(self):
+        """Discrete poles (eigenvalues of ``Ad``)."""
+        return np.linalg.eigvals(self.Ad)
+
+
+def zoh(N, D, sample_rate_hz, scaling=None):
+    """Exact zero-order-hold discretisation of ``N(s)/D(s)`` at ``sample_rate_hz``.
+
+    One matrix exponential of the augmented matrix ``[[A h, I h, B h], [0, 0, 0]]`` in
+    scaled time gives ``Ad``, ``Gamma`` and ``Bd`` at once.
+
+    Returns
+    -------
+    DiscreteSS
+    """
+    sc = scaling or poly.Scaling.natural(D)
+    A, B, C, d = companion(N, D, sc)
+    n = A.shape[0]
+    h = sc.w0 / float(sample_rate_hz)
+    M = np.zeros((2 * n + 1, 2 * n + 1))
+    M[:n, :n] = A * h
+    M[:n, n:2 * n] = np.eye(n) * h
+    M[:n, 2 * n:] = B * h
+    E = sla.expm(M)
+    return DiscreteSS(Ad=E[:n, :n], Bd=E[:n, 2 * n:], C=C, d=d, A=A, Gamma=E[:n, n:2 * n],
+                      h=h, scaling=sc)

@@ -1,0 +1,163 @@
+"""What the synthesis returns: solves (status, point, objective, multipliers, binding
+constraints), certification rounds, and the synthesised controller with its certificate."""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from robrst.sampled import unwarp
+from robrst.synthesis.parametrize import integral_gain
+
+__all__ = ["OK_STATUS", "Binding", "SolveResult", "Round", "SynthesisResult"]
+
+OK_STATUS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+
+
+@dataclass(frozen=True)
+class Binding:
+    """A constraint of the NLP named for the user: kind, model, temperature, frequency.
+
+    ``kind`` is ``"S"``, ``"T"``, ``"U"``, ``"Tband"`` (a peak bound on the grid),
+    ``"routh"`` (stability), ``"positivity"``, ``"gamma"`` or ``"controller_routh"``;
+    ``freq_rad_s`` is physical; ``multiplier`` IPOPT's ``lam_g`` (scaled by the
+    constraint's size) and ``violation`` how far the constraint is from holding.
+    """
+
+    kind: str
+    model: str
+    temperature_C: float
+    freq_rad_s: float
+    multiplier: float
+    violation: float
+
+    def describe(self):
+        what = {"S": "|S| peak", "T": "|T| peak", "U": "|U| peak", "Tband": "|T| in the band",
+                "routh": "closed-loop stability (Routh)"}.get(self.kind, self.kind)
+        who = "" if self.model is None else f" of model {self.model} ({self.temperature_C:g} °C)"
+        at = "" if self.freq_rad_s is None else f" at {self.freq_rad_s / (2 * np.pi):.4g} Hz"
+        return f"{what}{who}{at}"
+
+
+@dataclass(frozen=True, eq=False)
+class SolveResult:
+    """One IPOPT solve: status, point, objective, iterations, constraints and multipliers.
+
+    ``labels[i]`` is ``(kind, model label, temperature, scaled frequency or index)`` of
+    constraint ``g[i]``; ``lam_g`` IPOPT's multipliers; ``exchange`` the
+    :class:`~robrst.synthesis.exchange.ExchangeInfo` when solved by constraint exchange.
+    """
+
+    status: str
+    x: np.ndarray
+    objective: float
+    iterations: int
+    g: np.ndarray
+    lbg: np.ndarray
+    ubg: np.ndarray
+    lam_g: np.ndarray
+    labels: tuple
+    w0: float
+    exchange: object = None
+    rates: dict = None       # model label -> sample rate [Hz] of sampled-loop models
+
+    @property
+    def success(self):
+        return self.status in OK_STATUS
+
+    def violations(self):
+        """How far each constraint is from holding (0 where it holds)."""
+        return np.maximum(np.maximum(self.lbg - self.g, self.g - self.ubg), 0.0)
+
+    def _binding_at(self, i, v):
+        kind, label, T, where = self.labels[i]
+        freq = float(where) * self.w0 if isinstance(where, float) else None
+        fs = (self.rates or {}).get(label)
+        if freq is not None and fs:      # the loop variable of a sampled model -> physical
+            freq = float(unwarp(freq, fs))
+        return Binding(kind=kind, model=label, temperature_C=T, freq_rad_s=freq,
+                       multiplier=float(self.lam_g[i]), violation=float(v[i]))
+
+    def binding(self, count=3):
+        """The inequality constraints that bind, strongest first (by ``|multiplier|``).
+
+        The Diophantine equality is structural and never named.  When IPOPT ended on
+        an infeasible point, the violated constraints come first.
+        """
+        v = self.violations()
+        ineq = np.array([lab[0] != "diophantine" for lab in self.labels], bool)
+        order = []
+        bad = np.flatnonzero(ineq & (v > 1e-6))
+        order += list(bad[np.argsort(-v[bad])])
+        act = np.flatnonzero(ineq & (np.abs(self.lam_g) > 0))
+        order += [i for i in act[np.argsort(-np.abs(self.lam_g[act]))] if i not in order]
+        out, seen = [], set()
+        for i in order:
+            b = self._binding_at(i, v)
+            key = (b.kind, b.model)
+            if key not in seen:
+                seen.add(key)
+                out.append(b)
+            if len(out) == count:
+                break
+        return tuple(out)
+
+
+@dataclass(frozen=True)
+class Round:
+    """One certification round: the NLP's outcome and what the certificate found."""
+
+    round: int
+    status: str
+    iterations: int
+    models: int
+    frequencies: int
+    violations: int
+    exchange_rounds: int = None
+    active_points: int = None
+    grid_points: int = None
+
+    def as_dict(self):
+        d = {k: getattr(self, k) for k in ("round", "status", "iterations", "models",
+                                           "frequencies", "violations")}
+        if self.exchange_rounds is not None:
+            d.update(exchange_rounds=self.exchange_rounds, active_points=self.active_points,
+                     grid_points=self.grid_points)
+        return d
+
+
+@dataclass(frozen=True, eq=False)
+class SynthesisResult:
+    """A synthesised controller with its certificate and how the solver got there.
+
+    ``status`` is ``"certified"`` (a failed synthesis raises).  ``solve`` is the last
+    :class:`~robrst.synthesis.outcome.SolveResult`.
+    """
+
+    controller: object
+    Am: np.ndarray
+    certificate: object
+    status: str
+    objective: str
+    w0: float
+    rounds: tuple = ()
+    solve: object = None
+    wall_time_s: float = None
+    wn_rad_s: float = None
+    zeta: float = None
+    name: str = "ipopt"
+    grid_peak_S: float = None
+
+    def solver_dict(self):
+        """The ``solver`` object of the design JSON (fields are only added)."""
+        if self.name != "ipopt":
+            return {"name": self.name, "status": self.status, "w0_rad_s": self.w0,
+                    "grid_peak_S": self.grid_peak_S,
+                    "integral_gain": integral_gain(self.controller)}
+        d = {"name": "ipopt", "w0_rad_s": self.w0, "status": self.solve.status,
+             "rounds": [r.as_dict() for r in self.rounds],
+             "iterations": sum(r.iterations for r in self.rounds), "objective": self.objective,
+             "integral_gain": integral_gain(self.controller), "wall_time_s": self.wall_time_s,
+             "binding": [b.describe() for b in self.solve.binding()]}
+        if self.wn_rad_s is not None:
+            d["wn_rad_s"], d["zeta"] = self.wn_rad_s, self.zeta
+        return d
