@@ -1,0 +1,222 @@
+"""Sweeps in this process: variants against hand-built models, resume, failures, output rules."""
+
+import json
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+from scipy.optimize import minimize_scalar
+from sweep_files import columns_equal, fast_file, load_json, mc_file, write
+
+from robrst.cli import main
+from robrst.errors import OutputError
+from robrst.sweep import load_sweep, run_sweep
+from robrst.spec import load_problem
+from robrst.sweep.context import prepare
+from robrst.sweep.engine import SequentialExecutor, Task, execute
+from robrst.sweep.summary import pareto_front, wilson_interval
+from robrst.sweep.variants import chunks, variant_table
+
+
+def dense_peak(N, D, lo=1.0, hi=1e7, n=200_001):
+    """max |N/D|(jw) on a dense log grid of the unscaled polynomials, refined locally."""
+    f = lambda lw: abs(np.polyval(N, 1j * np.exp(lw)) / np.polyval(D, 1j * np.exp(lw)))  # noqa: E731
+    lw = np.linspace(np.log(lo), np.log(hi), n)
+    g = np.abs(np.polyval(N, 1j * np.exp(lw)) / np.polyval(D, 1j * np.exp(lw)))
+    i = int(np.argmax(g))
+    a, b = lw[max(i - 1, 0)], lw[min(i + 1, n - 1)]
+    r = minimize_scalar(lambda x: -f(x), bounds=(a, b), method="bounded",
+                        options={"xatol": 1e-13})
+    return max(g[i], -r.fun)
+
+
+def test_variant_figures_equal_a_hand_built_model_on_a_dense_grid(tmp_path, robust_result):
+    """Gain, resonance, damping factors and the per-kelvin laws at one temperature, rebuilt
+    from D(s) by hand, give the row's |T|, |T| in band and |U| peaks."""
+    text = (mc_file(tmp_path, robust_result, n=3, chunk=3).read_text()
+            + '\n[[param]]\nname = "temperature_C"\ndist = "grid"\nvalues = [45.0]\n')
+    sweep_path = write(tmp_path, "one_t.toml", text)
+    res = run_sweep(sweep_path, tmp_path / "out", workers=0)
+    ctrl = robust_result.controller
+    wn0, z0 = np.sqrt(1.5e7), 21.0 / np.sqrt(1.5e7)
+    for row in res.table.to_pylist():
+        dT = 45.0 - 28.0
+        wn = wn0 * row["resonance"] * (1 - 0.0001 * dT)
+        z = z0 * row["damping"] * (1 + 0.005 * dT)
+        kappa = row["family.parametric.creep_per_K"] * dT
+        B = np.polymul(107 * row["gain"] * (1 + 0.0015 * dT) * np.array([1, 1.4e4, 6.1e7]),
+                       [0.5, 1 + kappa])
+        A = np.polymul(np.polymul([1, 651.0], [1, 2 * z * wn, wn * wn]), [0.5, 1.0])
+        D = np.polyadd(np.polymul(A, ctrl.S), np.polymul(B, ctrl.R))
+        assert row["status"] == "ok" and row["temperature_C"] == 45.0
+        assert dense_peak(np.polymul(B, ctrl.R), D) == pytest.approx(row["Mt"], rel=1e-7)
+        band = 2 * np.pi * np.array([560.0, 680.0])
+        assert dense_peak(np.polymul(B, ctrl.R), D, *band, n=20_001) == pytest.approx(
+            row["Mt_band"], rel=1e-7)
+        mu = dense_peak(np.polymul(A, ctrl.R), D, hi=1e9)   # the |U| peak is at w -> inf
+        assert row["Mu"] * (1 - 1e-4) <= mu <= row["Mu"] * (1 + 1e-9)
+        ratio = max(row["Mt"] / 1.3, row["Mu"] / 150.0, row["Mt_band"] / 1.0, row["Ms"] / 2)
+        assert row["worst_ratio"] == pytest.approx(ratio, rel=1e-12)
+        assert row["certified"] == (ratio <= 1.001)
+
+
+def test_draws_follow_the_seed_and_the_distributions(tmp_path):
+    sweep = load_sweep(fast_file(tmp_path, n=4000, std=0.1))
+    _, table = prepare(sweep)
+    g, d = table.values[:, 0], table.values[:, 1]
+    assert abs(g.mean() - 1.0) < 4 * 0.1 / np.sqrt(4000) and abs(g.std() / 0.1 - 1) < 0.05
+    assert d.min() >= 0.5 and d.max() <= 2.0 and abs(d.mean() - 1.25) < 0.02
+    u = np.random.default_rng(3).random((4000, 2))       # the documented draw: inverse CDF
+    assert np.allclose(d, 0.5 + 1.5 * u[:, 1])
+    _, again = prepare(sweep)
+    assert np.array_equal(again.values, table.values)
+
+
+def test_yield_interval_and_front():
+    lo, hi = wilson_interval(8, 10)            # Wilson score interval, textbook value
+    assert (round(lo, 4), round(hi, 4)) == (0.4902, 0.9433)
+    # minimise x, maximise y: (2, 5) dominates (3, 4); (1, 1) and (4, 9) are on the front
+    assert pareto_front([3, 2, 1, 4, np.nan], [4, 5, 1, 9, 10]) == [2, 1, 3]
+
+
+def test_interrupted_sweep_resumes_where_it_stopped(tmp_path):
+    path = fast_file(tmp_path, n=30, chunk=5)
+    full = run_sweep(path, tmp_path / "full", workers=0)
+    calls = []
+
+    def stop_after_two(p):
+        calls.append(p.done)
+        if p.done >= 10:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_sweep(path, tmp_path / "run", workers=0, progress=stop_after_two)
+    s = load_json(tmp_path / "run" / "summary.json")
+    assert (s["done"], s["complete"]) == (10, False)
+    assert pq.read_table(tmp_path / "run" / "results.parquet").num_rows == 10
+    seen = []
+    res = run_sweep(path, tmp_path / "run", workers=0, progress=lambda p: seen.append(p.done))
+    assert seen[0] == 10 and seen[-1] == 30 and len(seen) == 1 + 4   # only 4 chunks left
+    assert res.summary["resumed_chunks"] == 2 and res.complete
+    columns_equal(res.table, full.table)
+    assert res.table.column("index").to_pylist() == list(range(30))
+
+
+def test_a_failing_variant_is_a_row_not_a_lost_sweep(tmp_path):
+    res = run_sweep(fast_file(tmp_path, n=40, chunk=8, std=1.0), tmp_path / "o", workers=0)
+    rows = res.table.to_pylist()
+    bad = [r for r in rows if r["status"] != "ok"]
+    assert bad and len(bad) < 40 and res.complete
+    for r in bad:
+        assert r["gain"] <= 0 and r["status"] == "invalid" and not r["certified"]
+        assert "plant factors must be > 0" in r["message"]
+    assert res.summary["failed"] == len(bad) and res.summary["worst"][0]["status"] == "invalid"
+    assert res.summary["yield"] == pytest.approx(sum(r["certified"] for r in rows) / 40)
+
+
+def test_infeasible_design_variant_names_the_binding_constraint(tmp_path):
+    text = ('[sweep]\nkind = "design"\nproblem = "paper_robust"\n'
+            '[[param]]\nname = "specs.Mu_max"\ndist = "grid"\nvalues = [1.0, 0.5]\n')
+    res = run_sweep(write(tmp_path, "d.toml", text), tmp_path / "o", workers=0)
+    for r in res.table.to_pylist():
+        assert r["status"] == "infeasible" and "binding constraint: U" in r["message"]
+
+
+def test_design_sweep_front_and_controllers(tmp_path):
+    text = ('[sweep]\nkind = "design"\nproblem = "paper"\n[design]\nfront_x = "Ms"\n'
+            '[[param]]\nname = "poles.wn"\ndist = "grid"\nlo = 300.0\nhi = 1200.0\nsteps = 4\n'
+            '[[param]]\nname = "specs.Mu_max"\ndist = "grid"\nvalues = [40.0, 150.0]\n')
+    res = run_sweep(write(tmp_path, "d.toml", text), tmp_path / "o", workers=0)
+    rows = res.table.to_pylist()
+    assert [r["poles.wn"] for r in rows] == [300.0, 300.0, 600.0, 600.0, 900.0, 900.0,
+                                            1200.0, 1200.0]
+    for r in rows:   # each row's controller reproduces its own integral gain R(0)/(S/s)(0)
+        assert r["integral_gain"] == pytest.approx(r["R"][-1] / r["S"][-2], rel=1e-12)
+        assert r["certified"] == (r["worst_ratio"] <= 1.001)
+    front = res.summary["front"]["points"]
+    cert = [r for r in rows if r["certified"]]
+    for r in cert:   # nothing certified beats a front point on both Ms and integral gain
+        assert not any(p["Ms"] > r["Ms"] and p["integral_gain"] < r["integral_gain"]
+                       for p in front)
+
+
+def test_fleet_one_design_per_file_and_a_bad_file_is_a_row(tmp_path):
+    fleet = tmp_path / "hand"
+    fleet.mkdir()
+    write(fleet, "finger_1.toml", '[plant]\nB = [80.0, 1.2e6, 5.0e9]\nA = [1.0, 700.0,'
+          ' 1.6e7, 1.05e10]\n')
+    write(fleet, "finger_2.toml", '[plant]\nname = "paper"\n[poles]\nwn = 500.0\nzeta = 1.0\n')
+    write(fleet, "thumb.toml", '[plant]\nB = [1.0]\nA = [1.0, 2.0]\nbogus = 1\n')
+    text = '[sweep]\nkind = "fleet"\nproblem = "paper"\n[fleet]\nfolder = "hand"\n'
+    res = run_sweep(write(tmp_path, "f.toml", text), tmp_path / "o", workers=0)
+    rows = {r["file"]: r for r in res.table.to_pylist()}
+    assert set(rows) == {"finger_1.toml", "finger_2.toml", "thumb.toml"}
+    assert rows["finger_1.toml"]["status"] == rows["finger_2.toml"]["status"] == "ok"
+    assert rows["thumb.toml"]["status"] == "invalid"
+    assert "[plant.bogus] unknown key" in rows["thumb.toml"]["message"]
+
+
+def test_output_folder_rules(tmp_path):
+    path = fast_file(tmp_path, n=10, chunk=5)
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine" / "notes.txt").write_text("keep")
+    with pytest.raises(OutputError, match="not a robrst sweep folder"):
+        run_sweep(path, tmp_path / "mine", workers=0)
+    run_sweep(path, tmp_path / "o", workers=0)
+    (tmp_path / "o" / "notes.txt").write_text("keep")          # the user's own file
+    other = fast_file(tmp_path, n=10, chunk=5, std=0.2, name="other.toml")
+    with pytest.raises(OutputError, match="different sweep"):
+        run_sweep(other, tmp_path / "o", workers=0)
+    res = run_sweep(other, tmp_path / "o", workers=0, restart=True)
+    assert res.summary["resumed_chunks"] == 0
+    assert (tmp_path / "o" / "notes.txt").read_text() == "keep"
+    assert (tmp_path / "mine" / "notes.txt").read_text() == "keep"
+
+
+def test_poison_chunk_loses_only_its_variant(tmp_path):
+    """A chunk whose worker keeps dying is split; only the variant that kills it is lost."""
+
+    class KilledWorker(Exception):
+        pass
+
+    class Dying(SequentialExecutor):
+        def next(self):
+            task, rows = super().next()
+            return (task, KilledWorker("worker died")) if 7 in task.indices else (task, rows)
+
+    ctx, table = prepare(load_sweep(fast_file(tmp_path, n=20, chunk=5)))
+    tasks = [Task(c, np.arange(c.start, c.stop), table.values[c.start:c.stop])
+             for c in chunks(table.n, 5)]
+    got = {}
+    execute(tasks, Dying(ctx), lambda c, rows: got.update({c.index: rows}), window=3)
+    assert sorted(got) == [0, 1, 2, 3]
+    assert [r["index"] for r in got[1]] == [5, 6, 7, 8, 9]
+    status = {r["index"]: r["status"] for rows in got.values() for r in rows}
+    assert status[7] == "worker_lost" and all(s == "ok" for i, s in status.items() if i != 7)
+
+
+def test_cli_json_contract_exit_codes_and_report(tmp_path, capsys):
+    path = fast_file(tmp_path, n=12, chunk=4, std=0.3)
+    rc = main(["sweep", str(path), "--out", str(tmp_path / "o"), "--workers", "0", "--json"])
+    s = json.loads(capsys.readouterr().out)
+    assert {"kind", "n", "done", "certified", "yield", "workers", "wall_s", "worst"} <= set(s)
+    assert rc == (0 if s["yield"] == 1.0 else 1)
+    assert main(["sweep", str(path), "--out", str(tmp_path / "o"), "--workers", "0",
+                 "--json", "--min-yield", "0"]) == 0      # resumed: nothing left to run
+    assert json.loads(capsys.readouterr().out)["resumed_chunks"] == 3
+    md = (tmp_path / "o" / "report" / "report.md").read_text()
+    for png in ("histograms.png", "sensitivity.png", "worst_bode.png"):
+        assert f"]({png})" in md
+        assert (tmp_path / "o" / "report" / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_shipped_paper_montecarlo():
+    sweep = load_sweep("paper_montecarlo")
+    names = {p.name for p in sweep.params}
+    assert sweep.kind == "analysis" and sweep.n >= 1000 and sweep.problem.endswith(
+        "paper_robust.toml")
+    assert {"gain", "resonance", "damping"} <= names
+    assert {f"family.parametric.{k}_per_K" for k in ("gain", "resonance", "damping",
+                                                      "creep")} <= names
+    assert variant_table(sweep).n == 1000
+    assert load_problem(sweep.problem).family.range_C == (28.0, 45.0)
