@@ -44,22 +44,42 @@ def histograms_figure(result, path):
     specs = result.context.base.specs
     with drawing(path, (13, 6.5), 2, 4) as (fig, axes):
         for ax, (name, label, scale, bound) in zip(axes.ravel(), HIST):
-            v = _values(t, name, scale)
-            fin = v[np.isfinite(v)]
-            if fin.size:
-                mid = 0.5 * (fin.min() + fin.max())
-                half = 0.55 * max(np.ptp(fin), 1e-9 * max(abs(mid), 1.0))  # constant data too
-                ax.hist(fin, bins=min(40, max(5, fin.size // 10)), range=(mid - half, mid + half),
-                        color="tab:blue", alpha=0.8)
             b = getattr(specs, bound) if bound else (1.0 if name == "worst_ratio" else None)
-            if b is not None:
-                ax.axvline(b, color="k", ls="--", lw=1, label=f"bound {b:g}")
-                ax.legend(fontsize=8)
+            v = _values(t, name, scale)
             n_inf = int(np.sum(np.isinf(v)))
-            ax.set_title(label + (f" (∞: {n_inf})" if n_inf else ""), fontsize=9)
+            title = label + (f" (∞: {n_inf})" if n_inf else "")
+            _histogram(ax, v[np.isfinite(v)], b)
+            ax.set_title(title, fontsize=9)
             ax.set_ylabel("variants")
-        fig.suptitle(f"{result.sweep.name}: {t.num_rows} variants,"
-                     f" yield {result.summary['yield']:.3f}")
+        fig.suptitle(f"{result.sweep.name}: {t.num_rows} variants evaluated of"
+                     f" {result.summary['done']}, yield {result.summary['yield']:.3f}")
+
+
+def _histogram(ax, fin, bound):
+    """One panel: the histogram, the bound if it is on scale (else named in a note)."""
+    if fin.size == 0:
+        ax.text(0.5, 0.5, "no finite value", ha="center", va="center", transform=ax.transAxes,
+                fontsize=11)
+        return
+    lo, hi = float(fin.min()), float(fin.max())
+    mid = 0.5 * (lo + hi)
+    if hi - lo <= 1e-9 * max(abs(mid), 1.0):     # every variant has the same value
+        ax.text(0.5, 0.5, f"all {fin.size} variants:\n{mid:.6g}"
+                + ("" if bound is None else f"\n(bound {bound:g})"),
+                ha="center", va="center", transform=ax.transAxes, fontsize=11)
+        ax.set_xticks([])
+        return
+    ax.hist(fin, bins=min(40, max(5, fin.size // 10)), color="tab:blue", alpha=0.8)
+    ax.ticklabel_format(axis="x", useOffset=False)
+    if bound is None:
+        return
+    pad = 0.25 * (hi - lo)
+    if lo - pad <= bound <= hi + pad:
+        ax.axvline(bound, color="k", ls="--", lw=1, label=f"bound {bound:g}")
+        ax.legend(fontsize=8)
+    else:
+        ax.text(0.03, 0.95, f"bound {bound:g} off scale", transform=ax.transAxes, fontsize=8,
+                va="top")
 
 
 def sensitivity_figure(result, path):

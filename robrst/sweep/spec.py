@@ -56,7 +56,7 @@ SWEEP_SCHEMA = {
         "seed": Field("int", 0, "seed of the random draws (numpy.random.default_rng)", lo=0),
         "n": Field("int", None, "random draws, repeated at every grid point (default 1)",
                    lo=1, hi=MAX_VARIANTS),
-        "chunk_size": Field("int", None, "variants per task (default: analysis 25, design 2,"
+        "chunk_size": Field("int", None, "variants per task (default: analysis 10, design 2,"
                             " fleet 1)", lo=1, hi=100_000),
         "worst": Field("int", 10, "worst variants listed in summary.json", lo=0, hi=1000),
     },
@@ -336,7 +336,7 @@ def parse_sweep(data, path="<sweep>"):
     if total > MAX_VARIANTS:
         raise key_error(path, ("sweep",), f"{total} variants; at most {MAX_VARIANTS}")
     an, de, fl = v["analysis"] or {}, v["design"] or {}, v["fleet"] or {}
-    chunk = sw["chunk_size"] or {"analysis": 25, "design": 2, "fleet": 1}[kind]
+    chunk = sw["chunk_size"] or {"analysis": 10, "design": 2, "fleet": 1}[kind]
     return Sweep(
         name=sw["name"] or Path(str(path)).stem, kind=kind, path=str(path),
         problem=None if sw["problem"] is None else _resolve_base(path, sw["problem"]),
