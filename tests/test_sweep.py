@@ -1,6 +1,7 @@
 """Sweeps in this process: variants against hand-built models, resume, failures, output rules."""
 
 import json
+import re
 
 import numpy as np
 import pyarrow.parquet as pq
@@ -15,7 +16,8 @@ from robrst.spec import load_problem
 from robrst.sweep.context import prepare
 from robrst.sweep.engine import SequentialExecutor, Task, execute
 from robrst.sweep.summary import pareto_front, wilson_interval
-from robrst.sweep.variants import chunks, variant_table
+from robrst.sweep.spec import Param
+from robrst.sweep.variants import chunks, draw, variant_table
 
 
 def dense_peak(N, D, lo=1.0, hi=1e7, n=200_001):
@@ -70,6 +72,17 @@ def test_draws_follow_the_seed_and_the_distributions(tmp_path):
     assert np.allclose(d, 0.5 + 1.5 * u[:, 1])
     _, again = prepare(sweep)
     assert np.array_equal(again.values, table.values)
+
+
+def test_truncated_and_lognormal_draws_match_scipy_stats():
+    from scipy import stats
+
+    u = np.random.default_rng(11).random(20_000)
+    x = draw(Param("x", "normal", mean=1.0, std=0.5, lo=0.5, hi=2.0), u)
+    assert x.min() >= 0.5 and x.max() <= 2.0
+    assert stats.kstest(x, stats.truncnorm(-1.0, 2.0, loc=1.0, scale=0.5).cdf).pvalue > 0.01
+    y = draw(Param("y", "lognormal", median=2.0, sigma=0.3), u)
+    assert stats.kstest(y, stats.lognorm(0.3, scale=2.0).cdf).pvalue > 0.01
 
 
 def test_yield_interval_and_front():
@@ -220,3 +233,91 @@ def test_shipped_paper_montecarlo():
                                                       "creep")} <= names
     assert variant_table(sweep).n == 1000
     assert load_problem(sweep.problem).family.range_C == (28.0, 45.0)
+
+
+BASE = '[sweep]\nkind = "analysis"\nproblem = "paper"\nn = 4\n'
+GAIN = '[[param]]\nname = "gain"\ndist = "normal"\nmean = 1.0\nstd = 0.1\n'
+BAD = [
+    ('[sweep]\nkind = "analysis"\nproblem = "paper"\nseeed = 1\n',
+     "[sweep.seeed] unknown key; did you mean 'seed'?"),
+    ('[sweep]\nproblem = "paper"\n', "[sweep.kind] missing required key"),
+    ('[sweep]\nkind = "montecarlo"\n', "[sweep.kind] expected one of analysis, design, fleet"),
+    (BASE + '[[param]]\nname = "gain"\ndist = "normal"\nmean = 1.0\n',
+     "[param.0.std] missing: dist = 'normal' needs mean and std"),
+    (BASE + '[[param]]\nname = "gain"\ndist = "uniform"\nlo = 0.9\nhi = 1.1\nmean = 1.0\n',
+     "[param.0.mean] not used by dist = 'uniform'"),
+    (BASE + GAIN.replace('"gain"', '"gian"'), "[param.0.name] unknown parameter 'gian'"),
+    (BASE + GAIN + GAIN, "[param.1.name] parameter 'gain' given twice"),
+    (BASE + '[[param]]\nname = "specs.Ms_max"\ndist = "grid"\nvalues = [0.5]\n',
+     "[param.0.values] expected number >= 1, got 0.5"),
+    (BASE + '[[param]]\nname = "A0"\ndist = "grid"\nvalues = [1.0]\n',
+     "[param.0.name] A0 is the leading coefficient"),
+    ('[sweep]\nkind = "design"\nproblem = "paper"\n[analysis]\nmargins = false\n',
+     "[analysis] only for kind = 'analysis' (this sweep is 'design')"),
+    ('[sweep]\nkind = "design"\nproblem = "nope"\n', "[sweep.problem] nope: problem file not"),
+    (BASE + GAIN + '[set.specs]\nMs_maxx = 2.0\n', "[set.specs.Ms_maxx] unknown key"),
+    ('[sweep]\nkind = "design"\nproblem = "paper"\nn = 3\n'
+     '[[param]]\nname = "poles.wn"\ndist = "grid"\nvalues = [500.0]\n',
+     "[sweep.n] only random parameters"),
+    (BASE + '[[param]]\nname = "family.parametric.gain_per_K"\ndist = "normal"\nmean = 0.0\n'
+     'std = 0.001\n', "family.parametric.gain_per_K: the base problem's family is not"),
+    (BASE + GAIN + '[[param]]\nname = "temperature_C"\ndist = "grid"\nvalues = [40.0]\n',
+     "temperature_C: the base family has no per-kelvin law"),
+    (BASE + '[analysis]\ncontroller = "missing.json"\n' + GAIN, "missing.json: result file not"),
+    (BASE + '[analysis]\ncontroller = "r.json"\n' + GAIN, "r.json: [controller.S] missing"),
+    ('[sweep]\nkind = "fleet"\n[fleet]\nfolder = "nowhere"\n', "[fleet.folder]"),
+    ('[sweep\nkind = "fleet"\n', "invalid TOML"),
+    (BASE.replace('"paper"', '"first_order.toml"') + GAIN.replace('"gain"', '"resonance"'),
+     "resonance: the base model has no complex pole pair"),
+]
+
+
+@pytest.mark.parametrize("text,expected", BAD, ids=[f"bad{i}" for i in range(len(BAD))])
+def test_bad_sweep_file_is_one_clear_line(tmp_path, capsys, text, expected):
+    write(tmp_path, "r.json", '{"controller": {"R": [1.0], "T": [1.0]}}')
+    write(tmp_path, "first_order.toml", '[plant]\nB = [1.0]\nA = [1.0, 2.0]\n'
+          '[poles]\nwn = 10.0\nzeta = 1.0\n')
+    path = write(tmp_path, "bad.toml", text)
+    assert main(["sweep", str(path), "--out", str(tmp_path / "o"), "--workers", "0"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("robrst: error: ") and expected in err[0], err
+    assert not (tmp_path / "o").exists()      # nothing written for a bad sweep
+
+
+def test_bad_arguments_are_one_line(tmp_path, capsys):
+    path = fast_file(tmp_path)
+    for args, expected in ((["--workers", "2", "--scheduler", "tcp://127.0.0.1:1"],
+                            "either workers"), (["--workers", "-1"], "workers: expected"),
+                           (["--min-yield", "2"], "--min-yield"),
+                           ([], "nope.toml: sweep file not found (built-in sweeps:"
+                                " paper_montecarlo, paper_tradeoff)")):
+        target = [str(path)] if args else [str(tmp_path / "nope.toml")]
+        assert main(["sweep", *target, "--out", str(tmp_path / "o"), *args]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and expected in err[0], err
+
+
+def test_readme_sweep_file_reference_matches_schema(root):
+    from robrst.sweep.spec import sweep_schema_markdown
+
+    lines = (root / "README.md").read_text().splitlines()
+    hdr = lines.index("| table | key | type | required | default | meaning |",
+                      lines.index("## Sweep-file reference"))
+    table = [x for x in lines[hdr + 2:hdr + 2 + len(sweep_schema_markdown())]]
+    assert table == sweep_schema_markdown()
+
+
+@pytest.mark.parametrize("name", ["paper_montecarlo", "paper_tradeoff"])
+def test_committed_sweep_examples_are_not_stale(root, name):
+    """The committed report was made from the shipped sweep and base problem as they are now
+    (regenerate with python -m robrst.report.sweep_examples)."""
+    from robrst.sweep.context import fingerprint
+
+    sweep = load_sweep(name)
+    folder = root / "reports" / name
+    s = load_json(folder / "summary.json")
+    assert s["fingerprint"] == fingerprint(sweep, [sweep.path, sweep.problem])
+    assert s["complete"] and s["done"] == s["n"]
+    md = (folder / "report.md").read_text()
+    for png in re.findall(r"\]\(([\w.]+\.png)\)", md):
+        assert (folder / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -6,7 +6,7 @@ import time
 from robrst.cli.common import print_json, progress_printer
 from robrst.errors import SpecError
 
-__all__ = ["add_parsers", "run_sweep_command", "progress_bar"]
+__all__ = ["add_parsers", "run_sweep_command", "progress_bar", "start_line"]
 
 
 def add_parsers(sub):
@@ -52,6 +52,19 @@ def progress_bar(name, stream=sys.stderr, width=30):
     return draw
 
 
+def start_line(sweep, out, say):
+    """A progress callback printing one line when the work starts (not a terminal)."""
+    said = []
+
+    def first(p):
+        if not said:
+            said.append(True)
+            say(f"sweep {sweep.name} ({sweep.kind}): {p.total - p.done} of {p.total} variants"
+                f" to run on {p.workers} workers -> {out}")
+
+    return first
+
+
 def run_sweep_command(args):
     """Run the sweep, write the report; exit 0 when the yield reaches --min-yield, else 1."""
     from robrst.report.sweep import sweep_text, write_sweep_report
@@ -60,11 +73,14 @@ def run_sweep_command(args):
     if not 0.0 <= args.min_yield <= 1.0:
         raise SpecError(f"--min-yield: expected a share between 0 and 1, got {args.min_yield}")
     quiet = args.quiet or args.json
-    say = progress_printer(quiet)
     sweep = load_sweep(args.sweep)
     out = args.out or f"sweeps/{sweep.name}"
-    bar = progress_bar(sweep.name) if not quiet and sys.stderr.isatty() else None
-    say(f"sweep {sweep.name} ({sweep.kind}) -> {out}")
+    if quiet:
+        bar = None
+    elif sys.stderr.isatty():
+        bar = progress_bar(sweep.name)
+    else:
+        bar = start_line(sweep, out, progress_printer(False))
     result = run_sweep(sweep, out, workers=args.workers, scheduler=args.scheduler,
                        progress=bar, restart=args.restart)
     write_sweep_report(result)

@@ -15,6 +15,7 @@ import os
 from collections.abc import Callable
 from pathlib import Path
 
+from robrst.fileio import json_text
 from robrst.report import sweep_figures as figs
 from robrst.report.doc import Doc, write_folder
 from robrst.sweep.engine import SweepResult
@@ -107,6 +108,9 @@ def write_sweep_report(result: SweepResult, out_dir: str | os.PathLike | None = 
                        progress: Callable[[str], None] | None = None) -> Path:
     """Write the report folder of a sweep (default ``result.out / "report"``).
 
+    The folder holds ``report.md``, ``report.html``, the figures and a copy of
+    ``summary.json``.
+
     Parameters
     ----------
     result : SweepResult
@@ -140,7 +144,8 @@ def write_sweep_report(result: SweepResult, out_dir: str | os.PathLike | None = 
             say(f"drawing {name}")
             draw_fn[name](result, tmp / name)
 
-    return write_folder(out_dir or Path(result.out) / "report", doc, {}, draw)
+    extra = {"summary.json": json_text(result.summary, indent=1) + "\n"}
+    return write_folder(out_dir or Path(result.out) / "report", doc, extra, draw)
 
 
 def sweep_text(summary):

@@ -123,11 +123,15 @@ def front_figure(result, path):
                 a1.plot(p0[sel][o], y[sel][o], "-", color=c, lw=1, label=lab)
                 a1.plot(p0[sel & cert], y[sel & cert], "o", color=c, ms=5)
                 a1.plot(p0[sel & ~cert], y[sel & ~cert], "o", mfc="none", color=c, ms=5)
+            failed = [r[names[0]] for r in result.table.to_pylist() if r["status"] != "ok"]
+            if failed:
+                a1.plot(failed, [np.nanmin(y) if np.isfinite(y).any() else 0.0] * len(failed),
+                        "x", color="tab:red", ms=8, label=f"failed ({len(failed)})")
             a1.set_xlabel(names[0])
-            if len(groups) > 1 or groups[0] is not None:
-                a1.legend(fontsize=8)
+            a1.legend(fontsize=8)
         a1.set_ylabel(y_name)
-        a1.set_title("filled: certified; hollow: not certified", fontsize=9)
+        a1.set_title("filled: certified; hollow: not certified; ×: no design (see the table)",
+                     fontsize=9)
         x = _values(t, x_name)
         a2.plot(x[cert], y[cert], "o", color="tab:blue", ms=5, label="certified")
         a2.plot(x[~cert], y[~cert], "o", mfc="none", color="tab:red", ms=5,

@@ -217,7 +217,8 @@ def run_sweep(sweep: Sweep | str | os.PathLike, out: str | os.PathLike,
     plan = chunks(table.n, sweep.chunk_size)
     meta = {"sweep": sweep.name, "kind": sweep.kind, "n": table.n,
             "chunk_size": sweep.chunk_size, "fingerprint": context.fingerprint}
-    store.prepare_folder(out, meta, restart)
+    resumed = store.prepare_folder(out, meta, restart)
+    runs = store.previous_runs(out) if resumed else []
     done = store.done_chunks(out, plan)
     schema = store.arrow_schema(context)
     prior = store.read_results(out, [c for c in plan if c.index in done], schema)
@@ -226,6 +227,7 @@ def run_sweep(sweep: Sweep | str | os.PathLike, out: str | os.PathLike,
              "failed": sum(s != "ok" for s in prior.column("status").to_pylist())}
     pending = [c for c in plan if c.index not in done]
     executor, n_workers, t_ready = None, 0, time.perf_counter()
+    before = count["done"]
 
     def report():
         if progress is not None:
@@ -253,10 +255,12 @@ def run_sweep(sweep: Sweep | str | os.PathLike, out: str | os.PathLike,
             executor.close()
         results = store.read_results(out, [c for c in plan if c.index in done], schema)
         store.write_results(out, results)
-        wall = time.perf_counter() - t0
-        summary = summarise(context, results, table.n, n_workers, wall,
-                            complete=len(done) == len(plan))
-        summary["startup_s"] = t_ready - t0
-        summary["resumed_chunks"] = len(plan) - len(pending)
+        runs = (runs + [{"workers": n_workers, "wall_s": time.perf_counter() - t0,
+                         "startup_s": t_ready - t0, "computed": count["done"] - before}])[-100:]
+        busy = [r for r in runs if r["computed"]] or runs[-1:]
+        summary = summarise(context, results, table.n, busy[-1]["workers"],
+                            sum(r["wall_s"] for r in busy), complete=len(done) == len(plan))
+        summary.update(startup_s=busy[-1]["startup_s"], resumed_chunks=len(plan) - len(pending),
+                       runs=runs)
         store.write_summary(out, summary)
     return SweepResult(sweep=sweep, out=out, context=context, table=results, summary=summary)

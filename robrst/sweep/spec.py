@@ -127,26 +127,6 @@ class Param:
         """True for a distribution, False for a grid."""
         return self.dist != "grid"
 
-    def draw(self, u):
-        """Values for uniform numbers ``u`` in [0, 1) (inverse CDF, truncation included)."""
-        from scipy.special import ndtr, ndtri
-
-        u = np.asarray(u, float)
-        if self.dist == "uniform":
-            return self.lo + (self.hi - self.lo) * u
-        if self.dist == "normal":
-            loc, scale, tr = self.mean, self.std, (lambda x: x)
-        else:
-            loc, scale, tr = np.log(self.median), self.sigma, np.log
-        a = 0.0 if self.lo is None else float(ndtr((tr(self.lo) - loc) / scale))
-        b = 1.0 if self.hi is None else float(ndtr((tr(self.hi) - loc) / scale))
-        x = loc + scale * ndtri(a + (b - a) * u)
-        if self.dist == "lognormal":
-            x = np.exp(x)
-        lo = -np.inf if self.lo is None else self.lo
-        hi = np.inf if self.hi is None else self.hi
-        return np.clip(x, lo, hi)   # rounding at the truncation points only
-
 
 @dataclass(frozen=True)
 class Ageing:
@@ -197,7 +177,10 @@ class Sweep:
 
 def sweep_schema_markdown():
     """The sweep-file reference as Markdown table rows (the README's table)."""
-    return markdown_rows(SWEEP_SCHEMA)
+    return markdown_rows(SWEEP_SCHEMA) + [
+        "| `set.*` | any problem-file key | as in the problem file | no | – | set in the base"
+        " problem before the variants (`[set.solver] cert_temperatures = 12`); checked like a"
+        " problem file |"]
 
 
 def problem_field(name):

@@ -24,7 +24,8 @@ from robrst.fileio import atomic_write_bytes, atomic_write_text, json_text
 from robrst.sweep.evaluate import CONTROLLER_COLUMNS, FIGURE_COLUMNS
 
 __all__ = ["MARKER", "arrow_schema", "rows_table", "prepare_folder", "write_part",
-           "done_chunks", "read_results", "write_results", "write_summary", "PART"]
+           "done_chunks", "read_results", "write_results", "previous_runs", "write_summary",
+           "PART"]
 
 MARKER = ".robrst-sweep"
 PART = re.compile(r"^part-(\d{6,})\.parquet$")
@@ -176,6 +177,16 @@ def write_results(out, table):
     buf = io.BytesIO()
     pq.write_table(table, buf)
     atomic_write_bytes(Path(out) / "results.parquet", buf.getvalue())
+
+
+def previous_runs(out):
+    """The ``runs`` of the folder's earlier ``summary.json`` (``[]`` if none or unreadable)."""
+    try:
+        runs = json.loads((Path(out) / "summary.json").read_text(encoding="utf-8"))["runs"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return []
+    return [r for r in runs if isinstance(r, dict) and {"workers", "wall_s", "startup_s",
+                                                         "computed"} <= set(r)]
 
 
 def write_summary(out, summary):
