@@ -81,7 +81,7 @@ class DaskExecutor:
         self.name = f"robrst-sweep-{context.fingerprint[:16]}"
         self.client.register_plugin(SweepPlugin(self.name, context), name=self.name)
         self.futures = {}
-        self.done = as_completed()
+        self.done = as_completed(loop=self.client.loop)   # this client's loop, not the default's
 
     @property
     def workers(self):

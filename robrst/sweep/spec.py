@@ -30,7 +30,8 @@ from robrst.schema import ArrayOf, Field, key_error, load_toml, markdown_rows, v
 from robrst.spec import SCHEMA as PROBLEM_SCHEMA
 
 __all__ = ["Param", "Ageing", "Sweep", "SWEEP_SCHEMA", "PLANT_PARAMS", "KINDS", "DISTS",
-           "FIGURES", "problem_field", "load_sweep", "parse_sweep", "resolve_sweep_path", "sweep_schema_markdown"]
+           "FIGURES", "problem_field", "load_sweep", "parse_sweep", "resolve_sweep_path",
+           "sweep_schema_markdown"]
 
 KINDS = ("analysis", "design", "fleet")
 DISTS = ("normal", "uniform", "lognormal", "grid")
