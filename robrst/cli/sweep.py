@@ -3,10 +3,10 @@
 import sys
 import time
 
-from robrst.cli.common import print_json, progress_printer
+from robrst.cli.common import print_json
 from robrst.errors import SpecError
 
-__all__ = ["add_parsers", "run_sweep_command", "progress_bar", "start_line"]
+__all__ = ["add_parsers", "run_sweep_command", "progress_bar"]
 
 
 def add_parsers(sub):
@@ -26,7 +26,8 @@ def add_parsers(sub):
                    help="exit 0 when at least this share of the variants is certified"
                         " (default 1.0: all)")
     s.add_argument("--json", action="store_true", help="print summary.json on stdout")
-    s.add_argument("--quiet", action="store_true", help="no progress bar or lines")
+    s.add_argument("--quiet", action="store_true", help="no progress bar (it is drawn only on"
+                                                         " a terminal)")
     s.set_defaults(func=run_sweep_command)
 
 
@@ -44,25 +45,12 @@ def progress_bar(name, stream=sys.stderr, width=30):
         rate = p.done / p.elapsed_s if p.elapsed_s > 0 else 0.0
         cert = f"{p.certified / p.done:.1%} certified" if p.done else ""
         stream.write(f"\r{name} [{bar:<{width}}] {p.done}/{p.total} {cert}"
-                     f" · {p.workers} workers · {p.elapsed_s:.0f} s ")
+                     f" · {rate:.1f}/s · {p.workers} workers · {p.elapsed_s:.0f} s ")
         if p.done >= p.total:
             stream.write("\n")
         stream.flush()
 
     return draw
-
-
-def start_line(sweep, out, say):
-    """A progress callback printing one line when the work starts (not a terminal)."""
-    said = []
-
-    def first(p):
-        if not said:
-            said.append(True)
-            say(f"sweep {sweep.name} ({sweep.kind}): {p.total - p.done} of {p.total} variants"
-                f" to run on {p.workers} workers -> {out}")
-
-    return first
 
 
 def run_sweep_command(args):
@@ -75,12 +63,7 @@ def run_sweep_command(args):
     quiet = args.quiet or args.json
     sweep = load_sweep(args.sweep)
     out = args.out or f"sweeps/{sweep.name}"
-    if quiet:
-        bar = None
-    elif sys.stderr.isatty():
-        bar = progress_bar(sweep.name)
-    else:
-        bar = start_line(sweep, out, progress_printer(False))
+    bar = progress_bar(sweep.name) if not quiet and sys.stderr.isatty() else None
     result = run_sweep(sweep, out, workers=args.workers, scheduler=args.scheduler,
                        progress=bar, restart=args.restart)
     write_sweep_report(result)
