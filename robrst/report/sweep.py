@@ -71,7 +71,7 @@ def sweep_doc(result):
     y = s["yield"]
     lo, hi = s["yield_ci95"]
     blocks = [
-        ("p", f"Sweep `{s['sweep']}` ({s['kind']}, base problem `{result.sweep.problem}`):"
+        ("p", f"Sweep `{s['sweep']}` ({s['kind']}, base problem `{s['problem']}`):"
               f" {s['done']} of {s['n']} variants evaluated"
               f"{'' if s['complete'] else ' (incomplete: run again to resume)'};"
               f" **{s['certified']} certified**"

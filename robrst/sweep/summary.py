@@ -121,7 +121,8 @@ def summarise(context, table, n, workers, wall_s, complete):
     if rows is not None:
         worst = [_record(rows[i], context.names, WORST_KEYS)
                  for i in worst_rows(table, sw.worst)]
-    out = {"sweep": sw.name, "kind": sw.kind, "problem": sw.problem, "n": n, "done": done,
+    out = {"sweep": sw.name, "kind": sw.kind,
+           "problem": None if context.base is None else context.base.name, "n": n, "done": done,
            "complete": bool(complete), "certified": certified,
            "yield": certified / done if done else None, "yield_ci95": [lo, hi],
            "failed": done - counts.get("ok", 0), "statuses": counts, "workers": workers,
