@@ -77,7 +77,12 @@ class DaskExecutor:
         except (OSError, TimeoutError) as exc:
             self.close()
             raise RobrstError(f"cannot reach the Dask scheduler {scheduler}: {exc}") from None
-        self.client.wait_for_workers(1, timeout=60)
+        try:
+            self.client.wait_for_workers(1, timeout=60)
+        except (OSError, TimeoutError):
+            self.close()
+            raise RobrstError(f"no Dask worker joined the scheduler {scheduler} within 60 s;"
+                              " start workers with: dask worker ADDRESS --nthreads 1") from None
         self.name = f"robrst-sweep-{context.fingerprint[:16]}"
         self.client.register_plugin(SweepPlugin(self.name, context), name=self.name)
         self.futures = {}
