@@ -9,7 +9,8 @@ The entry points a user needs, importable from the top level::
 
 Plants and controllers (:class:`Plant`, :class:`RSTController`, :func:`pole_placement`),
 analysis (:func:`analyze`, :func:`certify`), the digital twin (:func:`simulate`), the gap
-diagnosis (``robrst.diagnose.diagnose``) and the reports.  Names are loaded on first use, so
+diagnosis (``robrst.diagnose.diagnose``), sweeps (:func:`load_sweep`, :func:`run_sweep`: Monte
+Carlo, trade-offs and fleets on Dask) and the reports.  Names are loaded on first use, so
 ``import robrst`` stays cheap.
 """
 
@@ -43,8 +44,12 @@ _EXPORTS = {
     "simulate": "robrst.twin.simulate",
     "Dataset": "robrst.dataset", "load_dataset": "robrst.dataset",
     "save_dataset": "robrst.dataset",
+    # sweeps
+    "Sweep": "robrst.sweep.spec", "load_sweep": "robrst.sweep.spec",
+    "run_sweep": "robrst.sweep.engine", "SweepResult": "robrst.sweep.engine",
     # reports
     "write_design_report": "robrst.report.design",
+    "write_sweep_report": "robrst.report.sweep",
     "write_diagnosis_report": "robrst.report.diagnosis",
 }
 

@@ -9,7 +9,7 @@ Layers, bottom to top (README "Architecture")::
     synthesis     synthesis.*
     design        design
     modelling     twin.*, dataset, diagnose.*, identify.*   (on base + maths core only)
-    experiments   experiments.*
+    experiments   experiments.*, sweep.*
     presentation  report.*, cli.*, testing, the package face (robrst/__init__)
 
 Every ``import`` of a robrst module counts, at module level or inside a function body.
@@ -31,7 +31,7 @@ LAYERS = {
     "synthesis": ("robrst.synthesis",),
     "design": ("robrst.design",),
     "modelling": ("robrst.twin", "robrst.dataset", "robrst.diagnose", "robrst.identify"),
-    "experiments": ("robrst.experiments",),
+    "experiments": ("robrst.experiments", "robrst.sweep"),
     "presentation": ("robrst.report", "robrst.cli", "robrst.testing", "robrst.__main__",
                      "robrst"),
 }

@@ -9,7 +9,7 @@ import pytest
 import robrst
 
 ENTRY_POINTS = ("load_problem", "run_problem", "certify_problem", "analyze", "pole_placement",
-                "simulate", "write_design_report")
+                "simulate", "write_design_report", "load_sweep", "run_sweep", "write_sweep_report")
 
 
 def test_every_export_resolves_even_after_every_module_is_imported():
