@@ -28,11 +28,6 @@ def zoh_plant(plant, fs, delay=0):
     return Pd
 
 
-def law(R_z, S_z, T_z, dt):
-    """``(K_R, K_T)``: ``u = K_T yr - K_R y`` from ascending-``q^-1`` coefficient lists."""
-    return control.tf(list(R_z), list(S_z), dt), control.tf(list(T_z), list(S_z), dt)
-
-
 GRID = np.concatenate([np.linspace(1e-6, np.pi, 20000), [np.pi]])
 
 
@@ -50,16 +45,29 @@ def unit_circle_max(f, values=None):
     return max(float(g[i]), -r.fun)
 
 
-def loop_figures(plant, R_z, S_z, T_z, fs, delay=0):
+def feedback_law(exported, dt, form="direct"):
+    """``K_R`` (``u = -K_R y`` part) of an exported controller as a python-control system.
+
+    ``form="direct"``: ``R_z/S_z`` as a discrete transfer function; ``"sections"``: the
+    state space of the sections (``DigitalController.to_ss``), relabelled with ``dt``.
+    """
+    if form == "direct":
+        d = exported.digital
+        return control.tf(list(d.R_z), list(d.S_z), dt)
+    K = -exported.digital.to_ss()[0, 1]
+    return control.ss(K.A, K.B, K.C, K.D, dt)
+
+
+def loop_figures(plant, KR, fs, delay=0):
     """Sampled-loop figures from python-control: Ms, Mt, Mu, closed-loop spectral radius.
 
-    ``S = 1/(1 + L)``, ``T = L/(1 + L)``, ``U = K_R/(1 + L)`` pointwise from python-control's
-    frequency responses of ``P_d`` and ``K_R`` (no transfer-function algebra: expanding
-    ``L/(1 + L)`` into polynomials loses the near-cancelling creep pole).
+    ``KR`` is the feedback law with the ``dt`` of :func:`zoh_plant`.  ``S = 1/(1 + L)``,
+    ``T = L/(1 + L)``, ``U = K_R/(1 + L)`` pointwise from python-control's frequency
+    responses (no transfer-function algebra: expanding ``L/(1 + L)`` into polynomials
+    loses the near-cancelling creep pole).
     """
     Pss = zoh_plant(plant, fs, delay)
     Ptf = control.tf(Pss)
-    KR, _ = law(R_z, S_z, T_z, Pss.dt)
     resp = lambda sys, z: np.asarray(sys(z)).ravel()                    # noqa: E731
     L = lambda z: resp(Ptf, z) * resp(KR, z)                            # noqa: E731
     z = np.exp(1j * GRID)
