@@ -21,8 +21,8 @@ on the target is therefore this realisation:
   is ``F = 0`` exactly, in any precision.
 * **Anti-windup** by back-calculation: ``x <- x + ... + L (sat(u) - u)`` with ``L``
   placing the eigenvalues of ``Ad - L C`` (the controller's dynamics while saturated)
-  at real, distinct, stable poles (:func:`aw_poles`).  Without saturation ``L`` does
-  nothing.
+  at real, distinct, stable poles (:func:`aw_poles`; a Kalman-predictor gain when that
+  placement is ill conditioned).  Without saturation ``L`` does nothing.
 
 One step (``v_k = [w_k-1, yr, y]``, ``w_0 = 0``)::
 
@@ -106,7 +106,9 @@ class DigitalController:
     ``sections`` run inner to outer; ``D`` is the feedthrough ``[d_yr, d_y]`` added to
     the outer section's output.  ``R_z, S_z, T_z`` (ascending powers of ``q^-1``,
     ``S_z[0] = 1``) describe the same law in direct form.  ``ctrl`` is the controller
-    in s it came from, ``w0`` the scaling [rad/s] its sections were built in.
+    in s it came from, ``w0`` the scaling [rad/s] its sections were built in;
+    ``aw_poles_z`` the eigenvalues of ``A - L C`` (the dynamics while saturated) that
+    ``aw_method`` (``placed``, ``kalman`` or ``none``) achieved.
     """
 
     ctrl: RSTController
@@ -118,6 +120,7 @@ class DigitalController:
     S_z: np.ndarray
     T_z: np.ndarray
     aw_poles_z: np.ndarray
+    aw_method: str = "none"
 
     @property
     def n_states(self):
@@ -231,20 +234,38 @@ def aw_poles(ctrl, sample_rate_hz, aw_rad_s=None):
 
 
 def _aw_gain(A, C, targets):
-    """``L`` with ``eig(A - L C) = targets`` (single output); verified, else an error."""
+    """``(L, method)`` making ``A - L C`` (the controller while saturated) stable.
+
+    ``placed``: ``eig(A - L C) = targets`` by pole placement; if that fails or leaves a
+    pole on or outside the unit circle (an ill-conditioned placement), ``kalman``: the
+    steady-state Kalman predictor gain of the discrete Riccati equation (``Q = I``,
+    ``R = 1``), stabilising whenever the realisation is observable; else ``none``
+    (``L = 0``: saturation without anti-windup).
+    """
+    import scipy.linalg as sla
     import scipy.signal as sig
 
-    if A.shape[0] == 0:
-        return np.zeros(0)
+    n = A.shape[0]
+    if n == 0:
+        return np.zeros(0), "none"
+
+    def stable(L):
+        return np.all(np.isfinite(L)) and np.max(np.abs(np.linalg.eigvals(A - np.outer(L, C)))) < 1
+
     try:
         L = sig.place_poles(A.T, C.T, targets).gain_matrix.T.ravel()
-    except (ValueError, np.linalg.LinAlgError) as exc:
-        raise SolverError(f"anti-windup gain: pole placement failed ({exc})") from None
-    got = np.sort(np.linalg.eigvals(A - np.outer(L, C)).real)
-    if np.max(np.abs(got - np.sort(targets))) > 1e-6:
-        raise SolverError("anti-windup gain: placed poles are off by"
-                          f" {np.max(np.abs(got - np.sort(targets))):.2g}")
-    return L
+        if stable(L):
+            return L, "placed"
+    except (ValueError, np.linalg.LinAlgError):
+        pass
+    try:
+        P = sla.solve_discrete_are(A.T, C.T, np.eye(n), np.eye(1))
+        L = (A @ P @ C.T / (1.0 + (C @ P @ C.T).item())).ravel()
+        if stable(L):
+            return L, "kalman"
+    except (ValueError, np.linalg.LinAlgError):
+        pass
+    return np.zeros(n), "none"
 
 
 def digital_controller(ctrl: RSTController, sample_rate_hz: float,
@@ -305,10 +326,11 @@ def digital_controller(ctrl: RSTController, sample_rate_hz: float,
                                           for F, G, H, J, p in raw),
                            D=D, R_z=R_z, S_z=S_z, T_z=T_z, aw_poles_z=targets)
     A, _, C, _, _ = dc.state_space()
-    L = _aw_gain(A, C, targets)
+    L, method = _aw_gain(A, C, targets)
     secs, i = [], 0
     for s in dc.sections:
         secs.append(Section(s.F, s.G, s.H, s.J, L[i:i + s.order], s.pole_rad_s))
         i += s.order
+    achieved = np.linalg.eigvals(A - np.outer(L, C)) if A.size else np.zeros(0)
     return DigitalController(ctrl=ctrl, sample_rate_hz=fs, w0=sc.w0, sections=tuple(secs), D=D,
-                             R_z=R_z, S_z=S_z, T_z=T_z, aw_poles_z=targets)
+                             R_z=R_z, S_z=S_z, T_z=T_z, aw_poles_z=achieved, aw_method=method)

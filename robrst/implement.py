@@ -43,7 +43,8 @@ def rounded(dc, dtype):
                  for s in dc.sections)
     return DigitalController(ctrl=dc.ctrl, sample_rate_hz=dc.sample_rate_hz, w0=dc.w0,
                              sections=secs, D=r(dc.D), R_z=r(dc.R_z), S_z=r(dc.S_z),
-                             T_z=r(dc.T_z), aw_poles_z=dc.aw_poles_z)
+                             T_z=r(dc.T_z), aw_poles_z=dc.aw_poles_z,
+                             aw_method=dc.aw_method)
 
 
 def frequency_grid(n=4000):
@@ -103,10 +104,13 @@ def loop_perturbation(loop, implemented):
         ``mu_y`` (feedback channel: the small-gain figure of the module doc) and
         ``mu_yr`` (feedforward channel: an absolute error on ``|Tr|``).
     """
-    dK = implemented.freqresp(loop.theta) - loop.K
-    PS = loop.P / (1.0 - loop.P * loop.K[:, 1])
-    return {"mu_y": float(np.max(np.abs(PS * dK[:, 1]))),
-            "mu_yr": float(np.max(np.abs(PS * dK[:, 0])))}
+    with np.errstate(all="ignore"):
+        dK = implemented.freqresp(loop.theta) - loop.K
+        PS = loop.P / (1.0 - loop.P * loop.K[:, 1])
+        mu = [np.abs(PS * dK[:, i]) for i in (1, 0)]
+    # a NaN (overflowed coefficients) is no bound at all
+    return {k: float(np.max(m)) if np.all(np.isfinite(m)) else np.inf
+            for k, m in zip(("mu_y", "mu_yr"), mu)}
 
 
 def _nyquist(ctrl):
@@ -214,8 +218,7 @@ def run_direct_form(dc, plant, yr, delay_samples=0, dtype=np.float64):
 def _step_error(reference, runner, n):
     """Largest output and command errors of ``runner`` on a 1 µm step, relative to peaks."""
     y_ref, u_ref = reference
-    with np.errstate(all="ignore"):
-        y, u = runner(np.ones(n))
+    y, u = runner(np.ones(n))
     if not (np.all(np.isfinite(y)) and np.all(np.isfinite(u))):
         return np.inf, np.inf
     return (float(np.max(np.abs(y - y_ref)) / np.max(np.abs(y_ref))),
@@ -223,8 +226,10 @@ def _step_error(reference, runner, n):
 
 
 def _unstable_poles(dc):
-    """Number of poles of the sections outside the unit circle."""
+    """Number of poles of the sections outside the unit circle (-1: not finite)."""
     A = dc.state_space()[0]
+    if not np.all(np.isfinite(A)):
+        return -1
     return int(np.sum(np.abs(np.linalg.eigvals(A)) > 1.0)) if A.size else 0
 
 
@@ -245,19 +250,27 @@ def implementation_report(dc, loops, delay_samples=0, n_steps=2000):
     dict
         Keys ``sections_float64``, ``sections_float32``, ``direct_form_float64``,
         ``direct_form_float32``, each with ``mu_y``, ``mu_yr`` (worst over ``loops``),
-        ``stable_guaranteed`` (``mu_y < 1`` and the same poles on and outside the unit
-        circle as the exact controller: the integrator exactly at ``z = 1``) and the
+        ``stable_guaranteed`` (every exact loop stable, ``mu_y < 1`` and the same poles on
+        and outside the unit circle as the exact controller: the integrator exactly at
+        ``z = 1``) and the
         simulated step's largest output and command errors relative to their peaks
         (``step_error_y``, ``step_error_u``, against the sections in extended precision;
-        ``None`` for a biproper plant without delay).
+        ``None`` when the first loop is unstable or is a biproper plant without delay).
     """
-    k = int(delay_samples)
+    with np.errstate(all="ignore"):
+        return _report(dc, loops, int(delay_samples), n_steps)
+
+
+def _report(dc, loops, k, n_steps):
     plant = loops[0].plant
-    try:
-        reference = run_loop(dc, plant, np.ones(n_steps), k, np.longdouble)
-    except SpecError:
-        reference = None
+    reference = None
+    if loops[0].spectral_radius < 1.0:
+        try:
+            reference = run_loop(dc, plant, np.ones(n_steps), k, np.longdouble)
+        except SpecError:
+            pass
     n_unstable = _unstable_poles(dc)
+    exact_stable = all(lp.spectral_radius < 1.0 for lp in loops)
     out = {}
     for form in ("sections", "direct_form"):
         for name, dt in PRECISIONS.items():
@@ -272,7 +285,7 @@ def implementation_report(dc, loops, delay_samples=0, n_steps=2000):
                 runner = lambda r, impl=impl, dt=dt: run_direct_form(impl, plant, r, k, dt)  # noqa: E731
             figs = [loop_perturbation(lp, resp) for lp in loops]
             rec = {"mu_y": max(f["mu_y"] for f in figs), "mu_yr": max(f["mu_yr"] for f in figs)}
-            rec["stable_guaranteed"] = bool(rec["mu_y"] < 1.0 and same)
+            rec["stable_guaranteed"] = bool(exact_stable and rec["mu_y"] < 1.0 and same)
             rec["step_error_y"] = rec["step_error_u"] = None
             if reference is not None:
                 rec["step_error_y"], rec["step_error_u"] = _step_error(reference, runner, n_steps)
