@@ -233,7 +233,7 @@ def _unstable_poles(dc):
     return int(np.sum(np.abs(np.linalg.eigvals(A)) > 1.0)) if A.size else 0
 
 
-def implementation_report(dc, loops, delay_samples=0, n_steps=2000):
+def implementation_report(dc, loops, delay_samples=0, n_steps=1000):
     """Float64 and float32 sections (and, for comparison, the direct form) vs the exact loop.
 
     Parameters

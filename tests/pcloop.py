@@ -28,6 +28,20 @@ def zoh_plant(plant, fs, delay=0):
     return Pd
 
 
+def resp(sys, z):
+    """Frequency response of a SISO python-control system at the points ``z``.
+
+    Transfer functions through python-control; state spaces by one batched solve of
+    ``C (zI - A)^-1 B + D`` (python-control evaluates them point by point).
+    """
+    z = np.atleast_1d(z)
+    if isinstance(sys, control.TransferFunction):
+        return np.asarray(sys(z)).ravel()
+    n = sys.A.shape[0]
+    X = np.linalg.solve(z[:, None, None] * np.eye(n) - sys.A, np.broadcast_to(sys.B, (z.size, n, 1)))
+    return (sys.C @ X)[:, 0, 0] + sys.D[0, 0]
+
+
 GRID = np.concatenate([np.linspace(1e-6, np.pi, 20000), [np.pi]])
 
 
@@ -68,7 +82,6 @@ def loop_figures(plant, KR, fs, delay=0):
     """
     Pss = zoh_plant(plant, fs, delay)
     Ptf = control.tf(Pss)
-    resp = lambda sys, z: np.asarray(sys(z)).ravel()                    # noqa: E731
     L = lambda z: resp(Ptf, z) * resp(KR, z)                            # noqa: E731
     z = np.exp(1j * GRID)
     Kz = resp(KR, z)

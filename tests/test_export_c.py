@@ -143,3 +143,19 @@ def test_c_saturation_and_anti_windup_against_the_twin(exp, twin_plant, tmp_path
         p[0] = step(r, y_tw[k])
         x = np.asarray(model.step(x, p, th)[0]).ravel()
     assert np.max(np.abs(y_tw - y)) <= 5e-5 * np.max(np.abs(y))
+
+
+def test_the_readme_c_snippet_compiles(exp, tmp_path):
+    from pathlib import Path
+
+    text = (Path(__file__).parents[1] / "README.md").read_text()
+    snippet = text.split("```c\n", 1)[1].split("```", 1)[0]
+    header, source = c_files(exp, "ctrl")
+    for name, body in (("ctrl.h", header), ("ctrl.c", source), ("main.c", snippet)):
+        (tmp_path / name).write_text(body)
+    for real in ("double", "float"):
+        r = subprocess.run([CC, "-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-c",
+                            f"-DROBRST_CTRL_REAL={real}", str(tmp_path / "main.c"),
+                            str(tmp_path / "ctrl.c")], capture_output=True, text=True,
+                           cwd=tmp_path)
+        assert r.returncode == 0, r.stderr

@@ -38,15 +38,27 @@ def add_parsers(sub):
     e.set_defaults(func=run_export)
 
 
-def _write(path, text, json_file=False):
-    """Write ``text`` atomically unless ``path`` holds a file robrst did not write."""
-    path = Path(path)
-    if path.is_file():
-        head = path.read_text(errors="replace")[:400]
-        if (GENERATED not in head) and not (json_file and '"robrst_version"' in head):
-            raise OutputError(f"{path}: exists and was not written by robrst export;"
-                              " refusing to overwrite it (remove it or choose another --out)")
-    return atomic_write_text(path, text)
+def _targets(args):
+    """The files ``args`` will write (none for stdout)."""
+    if args.out is None:
+        return []
+    if args.format != "c":
+        return [Path(args.out)]
+    stem = Path(args.out)
+    stem = stem.with_suffix("") if stem.suffix in (".c", ".h") else stem
+    return [stem.with_name(stem.name + ".h"), stem.with_name(stem.name + ".c")]
+
+
+def _check_targets(paths):
+    """Refuse, before any work, to overwrite a file robrst export did not write."""
+    for path in paths:
+        if path.is_dir():
+            raise OutputError(f"{path}: is a folder; expected a file name")
+        if path.is_file():
+            head = path.read_text(errors="replace")[:400]
+            if GENERATED not in head and '"robrst_version"' not in head:
+                raise OutputError(f"{path}: exists and was not written by robrst export;"
+                                  " refusing to overwrite it (remove it or choose another --out)")
 
 
 def run_export(args):
@@ -54,6 +66,8 @@ def run_export(args):
     say = progress_printer(args.quiet or args.out is None)
     check_prefix(args.prefix)                     # bad arguments fail before the design
     u_range = check_u_range(args.u_range)
+    targets = _targets(args)
+    _check_targets(targets)
     problem = load_problem(args.problem)
     fs, k = sampling(problem, args.fs, args.delay_samples)
     sp = problem.specs
@@ -65,32 +79,17 @@ def run_export(args):
     say(f"discretising at {fs:g} Hz and certifying the sampled loop")
     exp = export_controller(result, fs, k, u_range)
     if args.format == "json":
-        text = json_text(exp.as_dict(), indent=1)
-        if args.out:
-            _write(args.out, text + "\n", json_file=True)
-        else:
-            print(text)
+        texts = [json_text(exp.as_dict(), indent=1) + "\n"]
     elif args.format == "python":
-        text = python_module(exp)
-        if args.out:
-            _write(args.out, text)
-        else:
-            print(text, end="")
+        texts = [python_module(exp)]
     else:
-        stem = None if args.out is None else Path(args.out)
-        if stem is not None and stem.suffix in (".c", ".h"):
-            stem = stem.with_suffix("")
-        header, source = c_files(exp, stem.name if stem else args.prefix, args.prefix)
-        if stem is None:
-            print(header + "\n" + source, end="")
-        else:
-            for suffix, text in ((".h", header), (".c", source)):   # check both, then write
-                p = stem.with_name(stem.name + suffix)
-                if p.is_file() and GENERATED not in p.read_text(errors="replace")[:400]:
-                    raise OutputError(f"{p}: exists and was not written by robrst export;"
-                                      " refusing to overwrite it")
-            for suffix, text in ((".h", header), (".c", source)):
-                _write(stem.with_name(stem.name + suffix), text)
+        name = targets[0].stem if targets else args.prefix
+        texts = list(c_files(exp, name, args.prefix))
+    if not targets:
+        print("\n".join(t.rstrip("\n") for t in texts))
+    _check_targets(targets)                       # again: the design took a while
+    for path, text in zip(targets, texts):
+        atomic_write_text(path, text)
     if args.out:
         print(f"wrote {args.out} ({args.format}; certified: {exp.certified},"
               f" recommended: {exp.recommended})")
