@@ -221,14 +221,16 @@ def aw_poles(ctrl, sample_rate_hz, aw_rad_s=None):
     """Anti-windup poles in z: ``-a, -a r, -a r**2, ...`` (``r`` = 1.25) under Tustin.
 
     ``a`` defaults to the natural frequency of S (geometric mean of its non-zero roots,
-    or of R's); the poles are capped at ``fs`` rad/s so none nears ``z = -1``.
+    or of R's); the whole sequence is lowered, if needed, so that its fastest pole is at
+    most ``fs`` rad/s (none nears ``z = -1``) and the poles stay distinct.
     """
     n = len(ctrl.S) - 1
     a = float(aw_rad_s) if aw_rad_s is not None else poly.Scaling.natural(ctrl.S, ctrl.R).w0
     if not a > 0:
         raise SpecError(f"anti-windup frequency must be > 0 rad/s, got {aw_rad_s}")
-    cont = np.minimum(a * AW_SPREAD ** np.arange(n), float(sample_rate_hz))
-    cont *= 1.0 + 1e-3 * np.arange(n) * (cont == float(sample_rate_hz))   # keep them distinct
+    cont = a * AW_SPREAD ** np.arange(n)
+    if n and cont[-1] > float(sample_rate_hz):
+        cont *= float(sample_rate_hz) / cont[-1]
     q = cont / (2.0 * float(sample_rate_hz))
     return (1.0 - q) / (1.0 + q)
 

@@ -109,6 +109,21 @@ def test_random_plants(seed):
     assert exp.implementation["sections_float64"]["mu_y"] < 1e-9
 
 
+@pytest.mark.parametrize("R_fixed,extra", [((1e-4, 1.0), 1), ((1e-4, 1.0), 0)])
+def test_roll_off_controllers(R_fixed, extra):
+    """A roll-off in R (R_fixed); with extra_degree 0 the controller is biproper (deg R = deg S)."""
+    problem = Problem("rolloff", PlantFamily(models=(Plant([107.0, 1.498e6, 6.527e9],
+                                                           [1.0, 693.0, 1.5027342e7, 9.765e9],
+                                                           temperature_C=28.0),)),
+                      poles=PoleSpec(wn=600.0, zeta=1.0),
+                      controller=ControllerStructure(R_fixed=R_fixed, extra_degree=extra),
+                      specs=Specs(sample_rate_hz=FS))
+    exp = export_controller(run_problem(problem))
+    ctrl = exp.digital.ctrl
+    assert (len(ctrl.R) == len(ctrl.S)) == (extra == 0)
+    _check_against_python_control(exp, problem)
+
+
 @pytest.mark.parametrize("name", list(SHIPPED))
 def test_implementations_against_the_exact_loop(exports, name):
     """The stated bounds: float64 sections ~1e-13, float32 sections within 1e-5 (mu and a

@@ -159,15 +159,11 @@ def sampling(problem, sample_rate_hz=None, delay_samples=None):
     return fs, int(k)
 
 
-def _models(problem):
-    """The models :func:`robrst.certificate.certify` checks: family members and the sweep."""
+def _certified_models(problem, cert):
+    """The plants behind the certificate's records: family members, then the sweep."""
     fam = problem.family
-    models = list(fam.models)
-    n = problem.solver.cert_temperatures
-    if len(models) > 1 and n > 0:
-        known = {m.temperature_C for m in models}
-        models += [m for m in fam.sweep(n) if m.temperature_C not in known]
-    return models
+    members = {m.temperature_C: m for m in fam.models}
+    return [members.get(r["temperature_C"]) or fam.at(r["temperature_C"]) for r in cert.models]
 
 
 def export_controller(result: DesignResult, sample_rate_hz: float | None = None,
@@ -216,13 +212,11 @@ def export_controller(result: DesignResult, sample_rate_hz: float | None = None,
         cert = certify_problem(replace(problem, specs=replace(sp, sample_rate_hz=fs,
                                                               delay_samples=k)), ctrl)
     dc = digital_controller(ctrl, fs)
-    models = _models(problem)
-    loops = [sampled_loop(ctrl, m, fs, k) for m in models]
-    ref = problem.family.reference
-    members = [loops[i] for i in range(len(problem.family.models))]
-    members.insert(0, members.pop(ref))                    # simulate the nominal model
+    loops = [sampled_loop(ctrl, m, fs, k) for m in _certified_models(problem, cert)]
+    nominal = problem.family.reference_model.temperature_C
+    loops.sort(key=lambda lp: lp.plant.temperature_C != nominal)   # simulate the nominal model
     return ExportedController(problem=problem.name, digital=dc, delay_samples=k,
                               certificate=cert,
                               spectral_radius=max(lp.spectral_radius for lp in loops),
-                              implementation=implementation_report(dc, members, k),
+                              implementation=implementation_report(dc, loops, k),
                               u_range=(lo, hi))
