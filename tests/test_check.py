@@ -132,7 +132,8 @@ def test_assert_margins_for_pytest(tmp_path, designs):
     assert_margins(result, path, update=True)
     assert_margins(result, path)
     g = read_golden(path)
-    assert g["models"]["T28C"]["gain_margin"][0] == float("inf")     # null = infinite
+    gm = result.as_dict()["models"][0]["gain_margin"]
+    assert g["models"]["T28C"]["gain_margin"][0] == (float("inf") if gm is None else gm)
     assert len(g["models"]) == len(result.problem.family.models)
     _scale_all = path.read_text().replace("Ms = { value = ", "Ms = { value = 0.9 * ")
     path.write_text(re.sub(r"0\.9 \* ([0-9.e+-]+)", lambda m: repr(0.9 * float(m.group(1))),
@@ -171,3 +172,14 @@ def test_readme_py_snippets_run(tmp_path, monkeypatch, problems_dir):
             assert ns["result"].certified
             assert 1 / ns["sm"] == pytest.approx(ns["result"].certificate.worst("Ms_sampled"),
                                                  rel=1e-6)
+
+
+def test_infinite_margins(tmp_path, designs):
+    """``null`` margins are infinite: written as inf; a finite one later is worse."""
+    d = designs("paper").as_dict()
+    d["models"][0]["gain_margin"] = None
+    path = write_golden(d, tmp_path / "inf.toml")
+    assert "gain_margin = { value = inf" in path.read_text()
+    assert compare_golden(d, path) == []
+    d["models"][0]["gain_margin"] = 40.0
+    assert [w.figure for w in compare_golden(d, path)] == ["gain_margin"]
