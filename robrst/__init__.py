@@ -8,9 +8,11 @@ The entry points a user needs, importable from the top level::
     robrst.write_design_report(result, "out/paper_robust")
 
 Plants and controllers (:class:`Plant`, :class:`RSTController`, :func:`pole_placement`),
-analysis (:func:`analyze`, :func:`certify`), the digital twin (:func:`simulate`), the gap
-diagnosis (``robrst.diagnose.diagnose``), sweeps (:func:`load_sweep`, :func:`run_sweep`: Monte
-Carlo, trade-offs and fleets on Dask) and the reports.  Names are loaded on first use, so
+analysis (:func:`analyze`, :func:`certify`), the digital controller out
+(:func:`export_controller`), margin regression tests (:func:`assert_margins`), the digital
+twin (:func:`simulate`), the gap diagnosis (``robrst.diagnose.diagnose``), sweeps
+(:func:`load_sweep`, :func:`run_sweep`: Monte Carlo, trade-offs and fleets on Dask) and the
+reports.  Names are loaded on first use, so
 ``import robrst`` stays cheap.
 """
 
@@ -31,6 +33,8 @@ _EXPORTS = {
     "RSTController": "robrst.rst", "discretize": "robrst.rst",
     "analyze": "robrst.analysis", "peak_gain": "robrst.hinf",
     "sampled_plant": "robrst.sampled",
+    "tustin_polynomials": "robrst.rst", "closed_loop_control": "robrst.rst",
+    "digital_controller": "robrst.digital", "DigitalController": "robrst.digital",
     # problems and design
     "Problem": "robrst.problem", "PoleSpec": "robrst.problem",
     "ControllerStructure": "robrst.problem", "Specs": "robrst.problem",
@@ -44,6 +48,9 @@ _EXPORTS = {
     "simulate": "robrst.twin.simulate",
     "Dataset": "robrst.dataset", "load_dataset": "robrst.dataset",
     "save_dataset": "robrst.dataset",
+    # the digital controller out, users' regression tests
+    "export_controller": "robrst.export", "ExportedController": "robrst.export",
+    "assert_margins": "robrst.testing",
     # sweeps
     "Sweep": "robrst.sweep.spec", "load_sweep": "robrst.sweep.spec",
     "run_sweep": "robrst.sweep.engine", "SweepResult": "robrst.sweep.engine",

@@ -1,4 +1,4 @@
-"""Command-line interface: ``robrst design | report | simulate | diagnose | sweep``.
+"""Command-line interface: ``robrst design | report | simulate | diagnose | export | check | sweep``.
 
 A thin layer: parse arguments, call the library, print.  Every robrst error becomes
 one line ``robrst: error: ...`` on stderr and exit code 2 (1 for a design that is not
@@ -9,12 +9,12 @@ import argparse
 import sys
 
 from robrst import __version__
-from robrst.cli import design, diagnose, simulate, sweep
+from robrst.cli import check, design, diagnose, export, simulate, sweep
 from robrst.errors import RobrstError
 
 __all__ = ["main", "build_parser"]
 
-COMMANDS = (design, simulate, diagnose, sweep)
+COMMANDS = (design, simulate, diagnose, export, check, sweep)
 
 
 class _Parser(argparse.ArgumentParser):
