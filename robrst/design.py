@@ -14,15 +14,18 @@ from pathlib import Path
 
 import numpy as np
 
-from robrst import poly
-from robrst.analysis import analyze
-from robrst.certificate import certify_problem
+from robrst import poly, timespec
+from robrst.analysis import analyze, spectral_abscissa
+from robrst.certificate import Certificate, Violation, certify_problem
 from robrst.problem import Problem
+from robrst.rst import closed_loop
+from robrst.sampled import sampled_plant
 from robrst.synthesis import analytic
 from robrst.synthesis.parametrize import integral_gain
+from robrst.synthesis.robust import best_achievable
 
 __all__ = ["DesignResult", "AnalyticCheck", "Comparison", "run_problem", "analytic_design",
-           "analytic_check", "comparison"]
+           "analytic_check", "comparison", "with_time_domain"]
 
 
 @dataclass(frozen=True)
@@ -72,6 +75,12 @@ class DesignResult:
     synthesis: object
     analytic_check: AnalyticCheck = None
     comparison: Comparison = None
+    tracking: object = None
+
+    @property
+    def best_achievable(self):
+        """What an uncertified design achieves (its worst violation), or ``None``."""
+        return best_achievable(self.certificate)
 
     @property
     def certified(self):
@@ -118,7 +127,16 @@ class DesignResult:
             "certificate": self.certificate.as_dict(),
             "solver": self.solver_dict(),
             "integral_gain": self.integral_gain,
+            "best_achievable": self.best_achievable,
         }
+        if sp.Mu_hf_max is not None:
+            specs.update(Mu_hf_max=sp.Mu_hf_max, Mu_hf_above_hz=sp.Mu_hf_above_hz)
+        if sp.time_domain:
+            specs.update(overshoot_max_pct=sp.overshoot_max_pct,
+                         settling_time_max_s=sp.settling_time_max_s, step_um=sp.step_um,
+                         step_u_max_V=sp.step_u_max_V)
+        if self.tracking is not None:
+            out["tracking"] = self.tracking.as_dict()
         if self.analytic_check is not None:
             out["analytic_check"] = self.analytic_check.as_dict()
         if self.comparison is not None:
@@ -135,6 +153,39 @@ def analytic_design(problem, poles=None):
     """
     return analytic.pole_placement(problem.family.reference_model, poles or problem.poles,
                                    problem.controller)
+
+
+def with_time_domain(problem, cert, ctrl):
+    """``cert`` (of the feedback ``R/S``) completed by the time-domain specs of ``ctrl``.
+
+    The frequency-domain records of a certificate depend on ``R/S`` only, so a
+    controller whose reference path changed (:mod:`robrst.synthesis.tracking`) keeps
+    them; the reference-step figures (:mod:`robrst.timespec`) are computed on every
+    model of the certificate (family and sweep, and the sampled loop) and added.
+    Spectral abscissae include the roots the new controller adds (its reference filter).
+    """
+    sp = problem.specs
+    recs, viols = [], list(cert.violations)
+    for rec in cert.models:
+        rec = dict(rec)
+        m = problem.family.at(rec["temperature_C"])
+        loops = [(m, None, "")]
+        if sp.sampled:
+            loops.append((sampled_plant(m, sp.sample_rate_hz, sp.delay_samples),
+                          sp.sample_rate_hz, "_sampled"))
+        for plant, fs, suffix in loops:
+            cl = closed_loop(plant, ctrl)
+            sa, _ = spectral_abscissa(cl.Delta)
+            rec[f"spectral_abscissa{suffix}"] = max(rec[f"spectral_abscissa{suffix}"], sa)
+            if not sp.time_domain or not rec[f"stable{suffix}"]:
+                continue
+            t_rec, failed = timespec.check(plant, ctrl, cl, sp, cert.rtol, fs)
+            rec.update({k + suffix: v for k, v in t_rec.items()})
+            viols += [Violation(m.label, m.temperature_C, q, v, b, None,
+                                "sampled" if fs else "continuous") for q, v, b in failed]
+        recs.append(rec)
+    return Certificate(certified=not viols, models=tuple(recs), violations=tuple(viols),
+                       rtol=cert.rtol)
 
 
 def analytic_check(problem, ctrl, Am):
@@ -207,14 +258,22 @@ def comparison(problem, ctrl, cert):
     return Comparison(rows=rows, table="\n".join(lines), range_C=(lo, hi))
 
 
-def run_problem(problem: Problem, progress: Callable[[str], None] | None = None) -> DesignResult:
+def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
+                templates: dict | None = None) -> DesignResult:
     """Run the design the problem asks for, certify it, analyse every family model.
+
+    A synthesis always ends with a controller: when the specs cannot be met the result
+    is the best controller found, ``status == "not_certified"``, with
+    :attr:`DesignResult.best_achievable` and the binding constraints.
 
     Parameters
     ----------
     problem : Problem
     progress : callable, optional
         Called with one line of text per stage (certification rounds included).
+    templates : dict, optional
+        Built NLP solvers by structure, shared between designs of the same structure
+        (see :class:`robrst.synthesis.synthesizer.Synthesizer`).
 
     Returns
     -------
@@ -222,8 +281,8 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None)
 
     Raises
     ------
-    SolverError, InfeasibleError, SpecError, CoprimeError, DegreeError
-        Every failure is a :class:`robrst.errors.RobrstError` naming its cause.
+    SpecError, CoprimeError, DegreeError
+        Ill-posed problems (the message names the cause and the key to change).
 
     Examples
     --------
@@ -238,17 +297,31 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None)
     say = progress or (lambda msg: None)
     method = problem.solver.method
     start = analytic_design(problem)
+    two_dof = problem.controller.T_mode == "reference_model"
     if method == "analytic":
         say(f"analytic pole placement: cond(scaled Sylvester) = {start.cond:.3g}"
             f" (unscaled {start.cond_unscaled:.3g})")
-        stage, cert, check, comp = start, certify_problem(problem, start.controller), None, None
+        stage, check = start, None
+        ctrl, trk = _tracking(problem, start.controller) if two_dof else (start.controller, None)
+        cert = certify_problem(problem, ctrl)
     else:
-        stage = (robust_synthesis if method == "nlp" else convex_synthesis)(problem, start, say)
-        cert = stage.certificate
+        if method == "nlp":
+            stage = robust_synthesis(problem, start, say, templates)
+        else:
+            stage = convex_synthesis(problem, start, say)
         check = analytic_check(problem, stage.controller, stage.Am)
-        comp = comparison(problem, stage.controller, cert)
-    ctrl = stage.controller
+        ctrl, trk = _tracking(problem, stage.controller) if two_dof else (stage.controller, None)
+        cert = stage.certificate
+        if two_dof or problem.specs.time_domain:
+            cert = with_time_domain(problem, cert, ctrl)
+    comp = None if method == "analytic" else comparison(problem, ctrl, cert)
     analyses = tuple(analyze(m, ctrl) for m in problem.family.models)
     return DesignResult(problem=problem, method=method, controller=ctrl,
                         target_char_poly=stage.Am, analyses=analyses, certificate=cert,
-                        synthesis=stage, analytic_check=check, comparison=comp)
+                        synthesis=stage, analytic_check=check, comparison=comp, tracking=trk)
+
+
+def _tracking(problem, ctrl):
+    from robrst.synthesis.tracking import design_tracking
+
+    return design_tracking(problem, ctrl)

@@ -5,7 +5,7 @@ Layers, bottom to top (README "Architecture")::
     base          errors, schema, fileio, resources
     maths core    poly, lti, plant, thermal, family, rst, hinf, analysis, sampled
     problem       problem (typed records), spec (problem files)
-    certificate   certificate
+    certificate   certificate, timespec
     synthesis     synthesis.*
     design        design
     modelling     twin.*, dataset, diagnose.*, identify.*   (on base + maths core only)
@@ -27,7 +27,7 @@ LAYERS = {
     "maths": ("robrst.poly", "robrst.lti", "robrst.plant", "robrst.thermal", "robrst.family",
               "robrst.rst", "robrst.hinf", "robrst.analysis", "robrst.sampled"),
     "problem": ("robrst.problem", "robrst.spec"),
-    "certificate": ("robrst.certificate",),
+    "certificate": ("robrst.certificate", "robrst.timespec"),
     "synthesis": ("robrst.synthesis",),
     "design": ("robrst.design",),
     "modelling": ("robrst.twin", "robrst.dataset", "robrst.diagnose", "robrst.identify"),

@@ -1,0 +1,152 @@
+"""Start points of the robust program, and how good each is before any solve.
+
+Candidates (decision vectors of one :class:`~robrst.synthesis.context.Context`):
+
+* the analytic pole placement at the problem's poles, and — when the nominal poles
+  may move — at several other ``(wn, zeta)``;
+* seeds handed down (the best point of a previous attempt, the lower-degree optimum
+  of the homotopy, embedded by a common factor);
+* when every coefficient is free: an integral controller ``ki/s`` with fast roll-off
+  poles, its gain chosen on a grid (a low-gain integrator is what keeps a stable plant
+  with moving resonances stable; the pole placement cannot reach it);
+* with fixed poles, on demand: the nominal convex (SOCP) design.
+
+:func:`score` rates a start by the worst normalised spec ratio on the grid and the
+largest closed-loop spectral abscissa over the models, without solving anything.
+"""
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from robrst.errors import RobrstError
+from robrst.synthesis import analytic
+from robrst.synthesis.nlp import closed_loop_maps
+
+__all__ = ["Start", "score", "candidates", "abscissa"]
+
+WN_FACTORS = (1.0, 0.5, 2.0, 0.25)
+ZETAS = (1.0, 0.7)
+KI_GRID = np.geomspace(1e-3, 1.0, 25)     # integral start: scaled crossover frequencies
+
+
+@dataclass(frozen=True, eq=False)
+class Start:
+    """A start point: its name, controller vector, worst grid ratio and spectral abscissa."""
+
+    name: str
+    xc: np.ndarray
+    worst: float
+    abscissa: float
+    wn: float = None          # scaled, for the dominant placement
+    zeta: float = None
+
+    @property
+    def stable(self):
+        return self.abscissa < 0
+
+    def key(self):
+        """Sort key: stable first, then the smallest worst ratio."""
+        return (not self.stable, self.worst if self.stable else self.abscissa)
+
+
+def abscissa(setup, xc):
+    """Largest real part of the closed-loop roots over every model of ``setup`` (scaled).
+
+    A sampled-loop model whose closed-loop polynomial lost its leading coefficient
+    (a pole at ``z = -1``) counts as unstable (``inf``).
+    """
+    cl = closed_loop_maps(setup)
+    worst = -np.inf
+    xc = np.asarray(xc, float)[:setup.n_x]
+    for label, T, a, b in setup.models:
+        (Dm, Dc), _ = cl(a, b)
+        D = Dm @ xc + Dc
+        if not np.all(np.isfinite(D)) or abs(D[0]) <= 1e-12 * np.max(np.abs(D)):
+            return np.inf
+        worst = max(worst, float(np.max(np.roots(D).real)))
+    return worst
+
+
+def score(setup, blocks, name, xc, wn=None, zeta=None):
+    """A :class:`Start` for ``xc``: worst ``|N|/(M |Delta|)`` over ``blocks`` and stability."""
+    worst = max((float(b.ratio(xc).max()) for b in blocks), default=0.0)
+    return Start(name=name, xc=np.asarray(xc, float)[:setup.n_x], worst=worst,
+                 abscissa=abscissa(setup, xc), wn=wn, zeta=zeta)
+
+
+def _analytic(ctx, spec):
+    p = ctx.problem
+    structure = replace(p.controller, extra_degree=ctx.extra_degree)
+    try:
+        d = analytic.pole_placement(p.family.reference_model, spec, structure)
+        return ctx.param.vector(d.controller)
+    except (RobrstError, ValueError, np.linalg.LinAlgError):
+        return None
+
+
+def _integral(ctx, setup, blocks):
+    """Integral controllers ``ki/s`` with roll-off poles at ``p = -c`` (scaled)."""
+    par = ctx.param
+    if par.integrators != 1:
+        return []
+    ref = ctx.problem.family.reference_model
+    if ref.A[-1] == 0:
+        return []
+    dc = ref.B[-1] / ref.A[-1]
+    c = 3.0
+    sp = np.poly(-c * np.ones(par.ks)) if par.ks else np.ones(1)
+    rp = np.poly(-c * np.ones(par.kr)) if par.kr else np.ones(1)
+    sfr = par.Sf[:-1]                                  # Sf / p (scaled)
+    gain0 = rp[-1] * par.Rf[-1] / (sp[-1] * sfr[-1])   # low-frequency K(w0 p) p / kappa
+    out = []
+    for wc in KI_GRID:        # loop crossover ~ ki |P(0)|: scaled ki = wc / (w0 P(0)) * w0
+        kappa = wc / (dc * gain0)
+        xc = np.concatenate([sp[1:], kappa * rp])
+        out.append(score(setup, blocks, f"integral (crossover {wc * ctx.w0:.3g} rad/s)", xc))
+    return out
+
+
+def candidates(ctx, setup, blocks, seeds=(), convex=False):
+    """Scored start points for ``setup``, best first (see the module docstring).
+
+    ``seeds`` are ``(name, xc)`` pairs of this context's parametrisation.
+    """
+    p = ctx.problem
+    out = [score(setup, blocks, name, xc) for name, xc in seeds if xc is not None]
+    x = _analytic(ctx, p.poles)
+    if x is not None:
+        wn = None if p.poles.wn is None else p.poles.wn / ctx.w0
+        out.append(score(setup, blocks, "analytic", x, wn=wn, zeta=p.poles.zeta))
+    if setup.placement != "fixed" and p.poles.dominant_roots is None:
+        lo, hi = (p.solver.wn_bounds or (0.0, np.inf)) if setup.placement == "dominant" \
+            else (0.0, np.inf)
+        zlo, zhi = (p.solver.zeta_bounds or (0.0, np.inf)) if setup.placement == "dominant" \
+            else (0.0, np.inf)
+        for f in WN_FACTORS:
+            for z in ZETAS:
+                wn = min(max(p.poles.wn * f, lo), hi)
+                z = min(max(z, zlo), zhi)
+                if (f, z) == (1.0, p.poles.zeta):
+                    continue
+                x = _analytic(ctx, replace(p.poles, wn=wn, zeta=z))
+                if x is not None:
+                    out.append(score(setup, blocks, f"analytic wn={wn:.4g} zeta={z:g}", x,
+                                     wn=wn / ctx.w0, zeta=z))
+    if setup.placement == "free":
+        ints = _integral(ctx, setup, blocks)
+        if ints:
+            out.append(min(ints, key=Start.key))
+    if convex and setup.placement == "fixed":
+        out.extend(_convex(ctx, setup, blocks))
+    return sorted(out, key=Start.key)
+
+
+def _convex(ctx, setup, blocks):
+    from robrst.synthesis.convex import solve_convex   # cvxpy: only when asked for
+
+    try:
+        x, _ = solve_convex(ctx.problem, ctx.Am, ctx.param, setup.nu, "feasibility")
+    except RobrstError:
+        return []
+    return [score(setup, blocks, "convex (nominal SOCP)", x)]
