@@ -72,81 +72,112 @@ def _propagate(Phi, G, x0, n):
     return X
 
 
-def _segments(lam, scale=None):
-    """``[(t_end, h), ...]`` in scaled time: grid steps per stretch of live modes."""
-    sig = -lam.real
-    life = DECAY / np.maximum(sig, 1e-300)
-    order = np.argsort(life)
-    out, t0 = [], 0.0
-    ends = np.unique(life[order])
+def _power(Phi, G, m):
+    """``(Phi**m, sum_{i<m} Phi**i G)`` by binary powering."""
+    P, S = np.eye(len(G)), np.zeros(len(G))
+    Pk, Sk = Phi, G                    # Phi**(2**j), sum_{i<2**j} Phi**i G
+    while m:
+        if m & 1:
+            P, S = Pk @ P, Pk @ S + Sk
+        Sk = Pk @ Sk + Sk
+        Pk = Pk @ Pk
+        m >>= 1
+    return P, S
+
+
+def _segments(decay, speed, unit=None):
+    """``[(t_end, step), ...]``: per stretch of time, a step resolving every live mode.
+
+    ``decay`` and ``speed`` are each mode's decay rate and ``|log|`` rate (per time
+    unit); a mode is live until ``DECAY / decay``.  With ``unit`` (discrete time) steps
+    are whole multiples of it.
+    """
+    life = DECAY / np.maximum(decay, 1e-300)
     merged = []
-    for t in ends:                    # merge ends within a factor 2 (fewer segments)
-        if merged and t < 2 * merged[-1]:
+    for t in np.unique(life):          # merge ends within a factor 4 (fewer segments)
+        if merged and t < 4 * merged[-1]:
             merged[-1] = t
         else:
             merged.append(t)
+    out, t0 = [], 0.0
     for t1 in merged:
-        alive = life >= t1 * (1 - 1e-12)
-        omega = float(np.max(np.abs(lam[alive]))) if np.any(alive) else float(np.max(np.abs(lam)))
-        h = min(1.0 / (POINTS_PER_RAD * omega), (t1 - t0) / 16)
+        fast = float(np.max(speed[life > t0 * (1 + 1e-12)]))
+        h = min(1.0 / (POINTS_PER_RAD * fast), (t1 - t0) / 16)
+        if unit is not None:
+            h = max(1.0, np.floor(h))
+            t1 = np.ceil(t1)
         out.append((t1, h))
         t0 = t1
     total = sum((t1 - ta) / h for (t1, h), ta in zip(out, [0.0] + [t for t, _ in out[:-1]]))
     if total > MAX_POINTS:             # keep the cost bounded: coarser, uniformly
         f = total / MAX_POINTS
-        out = [(t1, h * f) for t1, h in out]
+        out = [(t1, h * f if unit is None else np.ceil(h * f)) for t1, h in out]
     return out
 
 
 class _Response:
-    """Exact step response of ``N/D`` on a mode-adapted grid (scaled time), refinable."""
+    """Exact step response of ``N/D`` on a mode-adapted grid, refinable between points.
+
+    Continuous: scaled time, steps by the exact ZOH of :mod:`robrst.lti`; discrete
+    (``fs``): samples of the bilinear map of the same realisation, strides of whole
+    samples.
+    """
 
     def __init__(self, N, D, sc, fs=None):
-        self.N, self.D, self.sc = N, D, sc
+        self.N, self.D, self.sc, self.cache = N, D, sc, {}
         A, B, C, d = lti.companion(N, D, sc)
         self.discrete = fs is not None
         if self.discrete:
-            Ad, Bd, Cd, dd = _bilinear(A, B, C, d, sc.w0 / fs)
-            lam = np.linalg.eigvals(Ad)
-            n = int(np.ceil(DECAY / max(-np.log(max(np.max(np.abs(lam)), 1e-300)), 1e-9)))
-            X = _propagate(Ad, Bd.ravel(), np.zeros(len(Bd)), min(max(n, 16), MAX_POINTS))
-            self.t, self.y = np.arange(X.shape[1], dtype=float), Cd.ravel() @ X + dd
-            return
-        self.C, self.d = C.ravel(), d
-        ts, Xs, x, t0 = [np.zeros(1)], [np.zeros((len(B), 1))], np.zeros(len(B)), 0.0
-        for t1, h in _segments(np.linalg.eigvals(A), sc.w0):
+            A, B, C, d = _bilinear(A, B, C, d, sc.w0 / fs)
+            logz = np.log(np.linalg.eigvals(A).astype(complex))
+            segs = _segments(-logz.real, np.abs(logz), unit=1)
+            self.Ad, self.Bd = A, B.ravel()
+        else:
+            lam = np.linalg.eigvals(A)
+            segs = _segments(-lam.real, np.abs(lam))
+        self.C, self.d = C.ravel(), float(d)
+        ts, Xs, x, t0 = [np.zeros(1)], [np.zeros((len(self.C), 1))], np.zeros(len(self.C)), 0.0
+        for t1, h in segs:
             n = max(1, int(np.ceil((t1 - t0) / h)))
-            h = (t1 - t0) / n
-            X = _propagate(*self._zoh(h), x, n)
+            if not self.discrete:
+                h = (t1 - t0) / n
+            X = _propagate(*self._step(h), x, n)
             ts.append(t0 + h * np.arange(1, n + 1))
             Xs.append(X[:, 1:])
-            x, t0 = X[:, -1], t1
+            x, t0 = X[:, -1], t0 + n * h
         self.t, self.X = np.concatenate(ts), np.hstack(Xs)
-        self.y = self.C @ self.X + d
+        self.y = self.C @ self.X + self.d
 
-    def _zoh(self, h):
-        """``(Phi, G)`` of one step ``h`` (scaled time) by the exact ZOH of robrst.lti."""
-        z = lti.zoh(self.N, self.D, self.sc.w0 / h, self.sc)
-        return z.Ad, z.Bd.ravel()
+    def _step(self, h):
+        """``(Phi, G)`` of one step ``h`` (scaled time, or whole samples), cached."""
+        if h not in self.cache:
+            if self.discrete:
+                self.cache[h] = _power(self.Ad, self.Bd, int(h))
+            else:
+                z = lti.zoh(self.N, self.D, self.sc.w0 / h, self.sc)
+                self.cache[h] = (z.Ad, z.Bd.ravel())
+        return self.cache[h]
 
     def _fine(self, i, n_sub=256):
-        """Times and outputs on ``[t[i], t[i+1]]`` at ``n_sub`` times the grid's resolution."""
-        h = (self.t[i + 1] - self.t[i]) / n_sub
-        X = _propagate(*self._zoh(h), self.X[:, i], n_sub)
-        return self.t[i] + h * np.arange(n_sub + 1), self.C @ X + self.d
+        """Times and outputs on ``[t[i], t[i+1]]`` at up to ``n_sub`` times the resolution."""
+        h = self.t[i + 1] - self.t[i]
+        if self.discrete:
+            n_sub = int(round(h))
+            if n_sub <= 1:
+                return self.t[i:i + 2], self.y[i:i + 2]
+        X = _propagate(*self._step(h / n_sub if not self.discrete else 1.0), self.X[:, i], n_sub)
+        return self.t[i] + (h / n_sub) * np.arange(n_sub + 1), self.C @ X + self.d
 
     def extreme(self, sign=1.0):
         """Largest ``sign * y`` and its time (refined between the grid points)."""
         i = int(np.argmax(sign * self.y))
         best, tbest = float(sign * self.y[i]), float(self.t[i])
-        if self.discrete:
-            return best, tbest
         for j in (i - 1, i):
             if 0 <= j < len(self.t) - 1:
                 t, y = self._fine(j, 64)
                 k = int(np.argmax(sign * y))
                 v, tk = float(sign * y[k]), float(t[k])
-                if 0 < k < len(t) - 1:          # vertex of the parabola through 3 points
+                if not self.discrete and 0 < k < len(t) - 1:   # vertex of the parabola
                     a, b, c = sign * y[k - 1], sign * y[k], sign * y[k + 1]
                     den = a - 2 * b + c
                     if den < 0:
@@ -157,7 +188,7 @@ class _Response:
         return best, tbest
 
     def settling(self, final):
-        """Last time ``|y - final| > 2 % |final|`` (0 if never)."""
+        """Last time ``|y - final| > 2 % |final|`` (0 if never; the first time back in)."""
         tol = SETTLING_BAND * abs(final)
         out = np.flatnonzero(np.abs(self.y - final) > tol)
         if out.size == 0:
@@ -165,8 +196,6 @@ class _Response:
         i = int(out[-1])
         if i + 1 >= len(self.t):
             return float(self.t[-1])
-        if self.discrete:
-            return float(self.t[i + 1])
         t, y = self._fine(i)
         k = int(np.flatnonzero(np.abs(y - final) > tol)[-1])
         return float(t[min(k + 1, len(t) - 1)])

@@ -1,7 +1,8 @@
 """Tracking, the T in RST: a two-degree-of-freedom design for a stated reference model.
 
 The feedback ``R/S`` is designed for robustness; the reference path is designed here,
-after it, for the nominal model.  With the nominal closed-loop polynomial
+after it, for the nominal model (its sampled loop when the specs name a sampling rate:
+that is the loop that runs).  With the nominal closed-loop polynomial
 ``Delta = A S + B R`` factored into its *well-damped* part ``Delta_wd`` (real roots and
 pairs with damping ``>= T_cancel_damping``) and the rest ``Delta_bad`` (lightly damped
 modes, e.g. resonances a robust low-gain loop leaves in place — cancelling those would
@@ -136,7 +137,10 @@ def design_tracking(problem, ctrl):
     (RSTController, Tracking)
     """
     c = problem.controller
+    sp = problem.specs
     ref = problem.family.reference_model
+    if sp.sampled:   # the loop that runs: cancel the sampled loop's closed-loop factors
+        ref = sampled_plant(ref, sp.sample_rate_hz, sp.delay_samples)
     first = None
     for f in SLOWER:
         out = two_dof(ref, ctrl, c.reference_wn * f, c.reference_zeta, c.T_cancel_damping)
