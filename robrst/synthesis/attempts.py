@@ -189,15 +189,18 @@ class Run:
         """
         setup = ctx.setup(list(ctx.problem.family.models), ctx.nu, placement)
         blocks = grid_blocks(setup, np.ones(ctx.param.n_x))   # weights unused by the scores
-        starts = candidates(ctx, setup, blocks, seeds)
+        convex = ctx.problem.solver.init == "convex" and placement == "fixed"
+        starts = candidates(ctx, setup, blocks, seeds, convex=convex)
         if not starts:
             return None
         named = {s.name: s for s in starts}
         first = starts[0]
         feasible = first.stable and first.worst <= GAMMA_FLOOR
-        if not feasible:
+        if not feasible or convex:
+            prefer = "convex (nominal SOCP)" if convex else "analytic"
             first = next((named[n] for n, _ in seeds if n in named),
-                         named.get("analytic", starts[0]))
+                         named.get(prefer, named.get("analytic", starts[0])))
+            feasible = first.stable and first.worst <= GAMMA_FLOOR
         outs = [self.hard(ctx, placement, ctx.full(first.xc, setup, first.wn, first.zeta),
                           first.name)]
         if outs[0] is not None and outs[0].certified:

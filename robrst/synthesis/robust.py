@@ -40,6 +40,9 @@ from robrst.synthesis.parametrize import integral_gain
 __all__ = ["robust_synthesis", "a_priori_note", "BOUND_MARGIN", "worst_violation",
            "best_achievable"]
 
+NEAR_MISS = 1.5   # on failure, lower degrees are tried when the specs are missed by <= 50 %
+
+
 def a_priori_note(problem):
     """Specs no controller with an integrator can meet (``|T(0)| = 1``, ``|U(0)| = 1/|D(0)|``).
 
@@ -146,8 +149,8 @@ def _homotopy(problem, start, run):
             out = _synthesize(pe, se, run, e, out)
         return out
     out = _synthesize(problem, start, run, extra)
-    if out.certified or extra == 0:
-        return out
+    if out.certified or extra == 0 or out.badness > NEAR_MISS or a_priori_note(problem):
+        return out      # far from the specs: fewer degrees will not meet them either
     run.say(f"not certified with extra_degree {extra}: solving with {extra - 1} first")
     pl, sl = _at_degree(problem, extra - 1)
     lower = _homotopy(pl, sl, run)
