@@ -24,6 +24,7 @@ GAMMA_FLOOR = 0.97       # the soft phase stops once every spec holds with 3 % t
 SOFT_STARTS = 3          # soft-phase attempts (best starts first)
 FREE_BOX, FREE_BOXES, FREE_MAX_ITER = 1.0, 8, 300   # trust regions with freely placed poles
 FREE_EXCHANGE_ROUNDS, FREE_ITER_BUDGET = 10, 1500
+WARM_MU = 1e-4           # IPOPT's initial barrier from a previous design of a nearby variant
 
 
 def worst_violation(cert):
@@ -95,16 +96,19 @@ def refine(problem, cert, models, nu, max_new=2):
 class Run:
     """One synthesis: what its attempts share (built solvers, progress, rounds, notes)."""
 
-    def __init__(self, problem, say, templates):
-        self.problem, self.say, self.templates = problem, say, templates
+    def __init__(self, problem, say, templates, warm=None):
+        self.problem, self.say, self.templates, self.warm = problem, say, templates, warm
         self.rounds, self.notes = [], []
 
     def solve(self, ctx, setup, x0, phase, start, exact=False):
         """One program by constraint exchange (trust regions with freely placed poles)."""
+        ipopt = ctx.ipopt
+        if start == "previous design":   # a near-optimal start: a small barrier keeps it near
+            ipopt = {**ipopt, "mu_init": WARM_MU}
         if setup.placement == "free" and phase.kind == "hard":
             res = self.boxed(ctx, setup, x0, phase, exact)
         else:
-            res = solve_exchange(setup, x0, ctx.ipopt, phase, self.templates, exact=exact)
+            res = solve_exchange(setup, x0, ipopt, phase, self.templates, exact=exact)
             if not res.success:   # second chance: IPOPT's adaptive barrier update
                 res = solve_exchange(setup, x0, {**ctx.ipopt, "mu_strategy": "adaptive"}, phase,
                                      self.templates, exact=exact)
@@ -198,7 +202,7 @@ class Run:
         feasible = first.stable and first.worst <= GAMMA_FLOOR
         if not feasible or convex:
             prefer = "convex (nominal SOCP)" if convex else "analytic"
-            first = next((named[n] for n, _ in seeds if n in named),
+            first = next((named[sd[0]] for sd in seeds if sd[0] in named),
                          named.get(prefer, named.get("analytic", starts[0])))
             feasible = first.stable and first.worst <= GAMMA_FLOOR
         outs = [self.hard(ctx, placement, ctx.full(first.xc, setup, first.wn, first.zeta),

@@ -164,6 +164,16 @@ class SynthesisResult:
     best_achievable: str = None
     notes: tuple = ()
 
+    @property
+    def integral_gain(self):
+        """``lim s R/S`` of the controller [V/(µm s)]."""
+        return integral_gain(self.controller)
+
+    @property
+    def certified(self):
+        """True when the certificate holds."""
+        return self.status == "certified"
+
     def solver_dict(self):
         """The ``solver`` object of the design JSON (fields are only added)."""
         if self.name != "ipopt":

@@ -32,6 +32,7 @@ from dataclasses import replace
 import numpy as np
 
 from robrst import poly
+from robrst.errors import RobrstError
 from robrst.synthesis.attempts import Outcome, Run, worst_violation
 from robrst.synthesis.context import BOUND_MARGIN, Context
 from robrst.synthesis.outcome import SynthesisResult
@@ -109,10 +110,13 @@ def _synthesize(problem, start, run, extra, lower=None):
     placements = {"fixed": [default], "free": ["free"], "auto": [default, "free"]}[so.placement]
     emb = _embedded(ctx, lower) if lower is not None and lower.certified else None
     best, seeds = None, []
+    warm = _warm_seed(ctx, run.warm) if extra == problem.controller.extra_degree else None
     for placement in placements:
         seeded = seeds + ([("lower-degree optimum", emb.x[:ctx.param.n_x])]
                           if emb is not None and _ORDER[emb.placement] <= _ORDER[placement]
                           else [])
+        if warm is not None and _ORDER[warm[0]] <= _ORDER[placement]:
+            seeded = [warm[1]] + seeded
         out = run.attempt(ctx, placement, seeded)
         if out is None:
             continue
@@ -129,6 +133,18 @@ def _synthesize(problem, start, run, extra, lower=None):
                          " with a common factor (the same controller)")
         return emb
     return best
+
+
+def _warm_seed(ctx, warm):
+    """``(placement, seed)`` of a previous result of the same structure, or ``None``."""
+    if warm is None:
+        return None
+    try:
+        xc = ctx.param.vector(warm.controller)
+    except RobrstError:
+        return None
+    wn = None if warm.wn_rad_s is None else warm.wn_rad_s / ctx.w0
+    return warm.placement or "fixed", ("previous design", xc, wn, warm.zeta)
 
 
 def _at_degree(problem, extra):
@@ -160,7 +176,7 @@ def _homotopy(problem, start, run):
     return again
 
 
-def robust_synthesis(problem, start, progress=None, templates=None):
+def robust_synthesis(problem, start, progress=None, templates=None, warm=None):
     """Synthesise, certify and always return a controller; see the module docstring.
 
     Parameters
@@ -171,8 +187,11 @@ def robust_synthesis(problem, start, progress=None, templates=None):
     progress : callable, optional
         Called with one line of text per solve.
     templates : dict, optional
-        Built solvers by structure (:class:`~robrst.synthesis.Synthesizer` shares them
-        between variants).
+        Built solvers by structure (:class:`~robrst.synthesis.synthesizer.Synthesizer`
+        shares them between variants).
+    warm : SynthesisResult, optional
+        A previous result of the same controller structure: its controller is the
+        preferred start (a batch of nearby variants converges in a few iterations).
 
     Returns
     -------
@@ -180,7 +199,7 @@ def robust_synthesis(problem, start, progress=None, templates=None):
         ``status`` ``"certified"`` or ``"not_certified"`` (then ``best_achievable``).
     """
     say = progress or (lambda m: None)
-    run = Run(problem, say, {} if templates is None else templates)
+    run = Run(problem, say, {} if templates is None else templates, warm)
     t0 = time.perf_counter()
     note = a_priori_note(problem)
     if note:

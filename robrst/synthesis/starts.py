@@ -110,10 +110,11 @@ def _integral(ctx, setup, blocks):
 def candidates(ctx, setup, blocks, seeds=(), convex=False):
     """Scored start points for ``setup``, best first (see the module docstring).
 
-    ``seeds`` are ``(name, xc)`` pairs of this context's parametrisation.
+    ``seeds`` are ``(name, xc)`` or ``(name, xc, wn, zeta)`` (scaled ``wn``) of this
+    context's parametrisation.
     """
     p = ctx.problem
-    out = [score(setup, blocks, name, xc) for name, xc in seeds if xc is not None]
+    out = [score(setup, blocks, sd[0], sd[1], *sd[2:4]) for sd in seeds if sd[1] is not None]
     x = _analytic(ctx, p.poles)
     if x is not None:
         wn = None if p.poles.wn is None else p.poles.wn / ctx.w0
