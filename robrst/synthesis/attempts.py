@@ -15,15 +15,18 @@ from robrst.certificate import certify
 from robrst.synthesis.exchange import Phase, solve_exchange
 from robrst.synthesis.nlp import grid_blocks
 from robrst.synthesis.outcome import Round
+from robrst.synthesis.parametrize import integral_gain
 from robrst.synthesis.starts import candidates
 
 __all__ = ["Outcome", "Run", "worst_violation", "frequency_certificate", "refine",
-           "GAMMA_FLOOR"]
+           "objective_value", "GAMMA_FLOOR"]
 
 GAMMA_FLOOR = 0.97       # the soft phase stops once every spec holds with 3 % to spare
 SOFT_STARTS = 3          # soft-phase attempts (best starts first)
-FREE_BOX, FREE_BOXES, FREE_MAX_ITER = 1.0, 8, 300   # trust regions with freely placed poles
-FREE_EXCHANGE_ROUNDS, FREE_ITER_BUDGET = 10, 1500
+FREE_BOX, FREE_BOXES, FREE_MAX_ITER = 1.0, 6, 300   # trust regions with freely placed poles
+FREE_EXCHANGE_ROUNDS, FREE_ITER_BUDGET = 10, 800
+RUN_ITER_BUDGET = 2500    # IPOPT iterations per synthesis: then the best certified point found
+FAR_START = 5.0           # a start missing the specs 5x: no objective phase from it
 WARM_MU = 1e-4           # IPOPT's initial barrier from a previous design of a nearby variant
 
 
@@ -93,12 +96,30 @@ def refine(problem, cert, models, nu, max_new=2):
     return models, nu
 
 
+def objective_value(problem, out):
+    """The objective of a certified outcome (larger is better; ``-inf`` if uncertified)."""
+    if out is None or not out.certified:
+        return -np.inf
+    obj = problem.solver.objective
+    if obj == "max_integral_gain":
+        ki = integral_gain(out.ctrl)
+        return abs(ki) if np.isfinite(ki) else -np.inf
+    if obj == "min_Ms":
+        return -out.cert.worst("Ms")
+    return 0.0
+
+
 class Run:
     """One synthesis: what its attempts share (built solvers, progress, rounds, notes)."""
 
     def __init__(self, problem, say, templates, warm=None):
         self.problem, self.say, self.templates, self.warm = problem, say, templates, warm
         self.rounds, self.notes = [], []
+
+    @property
+    def spent(self):
+        """True once the synthesis has used its IPOPT iteration budget."""
+        return sum(r.iterations for r in self.rounds) > RUN_ITER_BUDGET
 
     def solve(self, ctx, setup, x0, phase, start, exact=False):
         """One program by constraint exchange (trust regions with freely placed poles)."""
@@ -126,24 +147,28 @@ class Run:
         return res
 
     def boxed(self, ctx, setup, x0, phase, exact):
-        """Trust-region solves for freely placed poles: a box around the point, re-centred
-        while the solution lands on it (free coefficients move resonances and slow
-        poles far in one step; IPOPT alone wanders)."""
+        """Trust-region solves for freely placed poles (free coefficients move resonances
+        and slow poles far in one step; IPOPT alone wanders): a box around the point,
+        re-centred and doubled while the solution lands on it, halved after a failure."""
         ipopt = {**ctx.ipopt, "max_iter": min(ctx.ipopt["max_iter"], FREE_MAX_ITER)}
-        best, x, iters, res = None, np.asarray(x0, float), 0, None
+        best, x, iters, res, f = None, np.asarray(x0, float), 0, None, FREE_BOX
         for _ in range(FREE_BOXES):
             c = x[:ctx.param.n_x]
-            r = FREE_BOX * np.abs(c) + 0.05 * np.max(np.abs(c))
+            r = f * np.abs(c) + 0.05 * np.max(np.abs(c))
             res = solve_exchange(setup, x, ipopt, phase, self.templates, exact=exact, box=(c, r),
                                  max_rounds=FREE_EXCHANGE_ROUNDS)
             iters += res.iterations
             if not res.success:
-                break
+                if f <= FREE_BOX / 4 or iters > FREE_ITER_BUDGET:
+                    break
+                f /= 4
+                continue
             gain = best is None or res.objective < best.objective - 1e-3 * abs(best.objective)
             best, x = res, res.x
             inside = np.all(np.abs(res.x[:ctx.param.n_x] - c) < 0.999 * r)
             if inside or not gain or iters > FREE_ITER_BUDGET:
                 break
+            f = min(2 * f, 8 * FREE_BOX)
         return replace(best if best is not None else res, iterations=iters)
 
     def outcome(self, ctx, setup, res, phase, x=None):
@@ -165,6 +190,9 @@ class Run:
         models, nu, last = list(p.family.models), ctx.nu, None
         x = np.concatenate([x[:-1], [1.0]])
         for rnd in range(p.solver.max_rounds):
+            if rnd and self.spent:
+                self.notes.append(f"iteration budget ({RUN_ITER_BUDGET}) spent: refinement stopped")
+                break
             setup = ctx.setup(models, nu, placement)
             res = self.solve(ctx, setup, x, Phase("hard"), name if rnd == 0 else "previous round")
             if not res.success and rnd > 0:   # the refined program: back to the specs first
@@ -198,18 +226,27 @@ class Run:
         if not starts:
             return None
         named = {s.name: s for s in starts}
-        first = starts[0]
+        ok = [s for s in starts if s.stable and s.worst <= GAMMA_FLOOR]
+        first = max(ok, key=lambda s: s.gain) if ok else starts[0]   # boldest feasible start
         feasible = first.stable and first.worst <= GAMMA_FLOOR
         if not feasible or convex:
             prefer = "convex (nominal SOCP)" if convex else "analytic"
             first = next((named[sd[0]] for sd in seeds if sd[0] in named),
                          named.get(prefer, named.get("analytic", starts[0])))
             feasible = first.stable and first.worst <= GAMMA_FLOOR
-        outs = [self.hard(ctx, placement, ctx.full(first.xc, setup, first.wn, first.zeta),
-                          first.name)]
-        if outs[0] is not None and outs[0].certified:
-            return outs[0]
+        outs = []
+        if feasible:   # a start that meets the specs on the grid: certified, it is the fallback
+            outs.append(self.outcome(ctx, setup, None, "start",
+                                     x=ctx.full(first.xc, setup, first.wn, first.zeta)))
+        if first.worst <= FAR_START and not self.spent:
+            out = self.hard(ctx, placement, ctx.full(first.xc, setup, first.wn, first.zeta),
+                            first.name)
+            if out is not None and out.certified:
+                return out
+            outs.append(out)
         for s in [s for s in starts if not (s is first and feasible)][:SOFT_STARTS]:
+            if self.spent and any(o is not None and o.certified for o in outs):
+                break
             x0 = ctx.full(s.xc, setup, s.wn, s.zeta, gamma=max(s.worst * 1.02, GAMMA_FLOOR))
             if s.stable and s.worst <= GAMMA_FLOOR:     # meets the specs already: no soft phase
                 soft, name = self.outcome(ctx, setup, None, "start", x=x0), s.name
@@ -226,12 +263,13 @@ class Run:
             if out is not None and out.certified:
                 return out
             outs += [out, soft]
-            if soft.certified:
-                self.notes.append("the objective could not be improved under the specs;"
-                                  " returning the certified start/soft-goal point")
-                return soft
         outs = [o for o in outs if o is not None]
         if not outs:   # nothing solved: the preferred start, certified for what it achieves
             outs.append(self.outcome(ctx, setup, None, "start",
                                      x=ctx.full(first.xc, setup, first.wn, first.zeta)))
+        certified = [o for o in outs if o.certified]
+        if certified:
+            self.notes.append("the objective could not be improved under the specs; returning"
+                              " the best certified start or soft-goal point")
+            return max(certified, key=lambda o: objective_value(ctx.problem, o))
         return min(outs, key=lambda o: o.badness)

@@ -17,9 +17,10 @@ from robrst.synthesis.nlp import NLPSetup, scale_plant
 from robrst.synthesis.parametrize import (Parametrization, TrackingRule, frequency_grid,
                                           integral_gain)
 
-__all__ = ["Context", "BOUND_MARGIN", "ipopt_options", "CTRL_POLE_RATIO"]
+__all__ = ["Context", "BOUND_MARGIN", "FREE_MARGIN", "ipopt_options", "CTRL_POLE_RATIO"]
 
 BOUND_MARGIN = 0.9995   # grid constraints just inside the specs (half the certificate tolerance)
+FREE_MARGIN = 0.98      # freely placed poles: sharp resonances move between the models
 CTRL_POLE_RATIO = 0.1   # max_integral_gain: controller poles at Re s <= -0.1 |slowest dominant|
 CTRL_MAX = 30.0         # free placement: controller poles at Re s >= -30 |fastest start root|
 
@@ -54,9 +55,12 @@ class Context:
         ref = problem.family.reference_model
         param = Parametrization.of(problem.controller, ref, sc, extra_degree)
         tracking = TrackingRule(problem.controller.T_mode, problem.controller.T_zeros, ref.B)
+        # the integral gain of a stabilising low-gain integral action has the sign of D(0)
         ki = integral_gain(start.controller)
-        sign = float(np.sign(ki)) if np.isfinite(ki) and ki != 0 else float(
-            np.sign(ref.B[-1] * (ref.A[-1] if ref.A[-1] != 0 else 1.0)) or 1.0)
+        if ref.A[-1] != 0 and ref.B[-1] != 0:
+            sign = float(np.sign(ref.B[-1] / ref.A[-1]))
+        else:
+            sign = float(np.sign(ki)) if np.isfinite(ki) and ki != 0 else 1.0
         dom = np.abs(problem.poles.dominant())
         slow = float(np.min(dom))
         if so.free_poles:
@@ -95,7 +99,8 @@ class Context:
         sc, w0 = self.param.scaling, self.w0
         bounds = {"S": sp.Ms_max, "T": sp.Mt_max, "U": sp.Mu_max, "Tband": sp.T_resonance_max,
                   "Uhf": sp.Mu_hf_max}
-        bounds = {k: (None if v is None else v * BOUND_MARGIN) for k, v in bounds.items()}
+        margin = FREE_MARGIN if placement == "free" else BOUND_MARGIN
+        bounds = {k: (None if v is None else v * margin) for k, v in bounds.items()}
         band = np.zeros(0)
         if sp.resonance_band_hz is not None:
             band = np.geomspace(*(2 * np.pi * np.asarray(sp.resonance_band_hz)), 25)

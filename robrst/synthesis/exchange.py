@@ -335,7 +335,12 @@ def solve_exchange(setup, x0, ipopt, phase=Phase(), templates=None, max_rounds=5
     templates = {} if templates is None else templates
     x, iters, worst = x0, 0, np.inf
     for rnd in range(1, max_rounds + 1):
-        res = solve_program(setup, x, ipopt, phase, blocks, active, templates, x_ref=x0, box=box)
+        # later rounds start at the previous optimum: a small initial barrier keeps them there
+        opts = ipopt if rnd == 1 else {**ipopt, "mu_init": min(ipopt.get("mu_init", 0.1), 1e-4)}
+        res = solve_program(setup, x, opts, phase, blocks, active, templates, x_ref=x0, box=box)
+        if not res.success and rnd > 1:      # the warm barrier failed: the default one
+            res = solve_program(setup, x, ipopt, phase, blocks, active, templates, x_ref=x0,
+                                box=box)
         x = res.x
         iters += res.iterations
         ratios = effective_ratios(blocks, limits, x, x[-1])

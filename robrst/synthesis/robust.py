@@ -33,10 +33,9 @@ import numpy as np
 
 from robrst import poly
 from robrst.errors import RobrstError
-from robrst.synthesis.attempts import Outcome, Run, worst_violation
+from robrst.synthesis.attempts import Outcome, Run, objective_value, worst_violation
 from robrst.synthesis.context import BOUND_MARGIN, Context
 from robrst.synthesis.outcome import SynthesisResult
-from robrst.synthesis.parametrize import integral_gain
 
 __all__ = ["robust_synthesis", "a_priori_note", "BOUND_MARGIN", "worst_violation",
            "best_achievable"]
@@ -69,19 +68,6 @@ def best_achievable(cert):
         return (f"best achievable: unstable on model {v.label} ({v.temperature_C:g} °C),"
                 f" spectral abscissa {v.value:.4g} rad/s")
     return "best achievable: " + v.describe()
-
-
-def _objective(problem, out):
-    """The objective value of a certified outcome (larger is better; ``-inf`` if uncertified)."""
-    if out is None or not out.certified:
-        return -np.inf
-    obj = problem.solver.objective
-    if obj == "max_integral_gain":
-        ki = integral_gain(out.ctrl)
-        return abs(ki) if np.isfinite(ki) else -np.inf
-    if obj == "min_Ms":
-        return -out.cert.worst("Ms")
-    return 0.0
 
 
 def _embedded(ctx, lower):
@@ -128,7 +114,7 @@ def _synthesize(problem, start, run, extra, lower=None):
         seeds = [("best point so far", best.x[:ctx.param.n_x])]
         run.notes.append(f"specs not met with {placement} nominal poles"
                          f" ({best_achievable(out.cert)})")
-    if emb is not None and _objective(problem, emb) > _objective(problem, best):
+    if emb is not None and objective_value(problem, emb) > objective_value(problem, best):
         run.notes.append(f"extra_degree {extra}: the lower-degree controller is better; returned"
                          " with a common factor (the same controller)")
         return emb
@@ -165,15 +151,17 @@ def _homotopy(problem, start, run):
             out = _synthesize(pe, se, run, e, out)
         return out
     out = _synthesize(problem, start, run, extra)
-    if out.certified or extra == 0 or out.badness > NEAR_MISS or a_priori_note(problem):
-        return out      # far from the specs: fewer degrees will not meet them either
-    run.say(f"not certified with extra_degree {extra}: solving with {extra - 1} first")
+    optimised = out.certified and out.phase == "hard"
+    if optimised or extra == 0 or out.badness > NEAR_MISS or a_priori_note(problem) or run.spent:
+        return out      # done, or far from the specs: fewer degrees will not meet them either
+    run.say(f"extra_degree {extra}: {'objective not optimised' if out.certified else 'not certified'}"
+            f"; solving with {extra - 1} first")
     pl, sl = _at_degree(problem, extra - 1)
     lower = _homotopy(pl, sl, run)
     if not lower.certified:
         return out
     again = _synthesize(problem, start, run, extra, lower)
-    return again
+    return again if objective_value(problem, again) >= objective_value(problem, out) else out
 
 
 def robust_synthesis(problem, start, progress=None, templates=None, warm=None):

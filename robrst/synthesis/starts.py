@@ -27,7 +27,7 @@ __all__ = ["Start", "score", "candidates", "abscissa"]
 
 WN_FACTORS = (1.0, 0.5, 2.0, 0.25)
 ZETAS = (1.0, 0.7)
-KI_GRID = np.geomspace(1e-3, 1.0, 25)     # integral start: scaled crossover frequencies
+KI_GRID = np.geomspace(1e-3, 1.0, 19)     # integral/PI starts: scaled crossover frequencies
 
 
 @dataclass(frozen=True, eq=False)
@@ -40,6 +40,7 @@ class Start:
     abscissa: float
     wn: float = None          # scaled, for the dominant placement
     zeta: float = None
+    gain: float = 0.0         # integral/PI starts: their crossover (scaled)
 
     @property
     def stable(self):
@@ -86,7 +87,12 @@ def _analytic(ctx, spec):
 
 
 def _integral(ctx, setup, blocks):
-    """Integral controllers ``ki/s`` with roll-off poles at ``p = -c`` (scaled)."""
+    """Integral and PI controllers with roll-off poles at ``p = -c`` (scaled), scored.
+
+    ``K = kappa (p + z) (p + c)^(kr-1) / (p Sf' (p + c)^ks)``: an integrator (``z``
+    far above the crossover) or a PI with its zero at ``z``, the gain set by the loop
+    crossover ``wc`` (``K(jw) P(0) ~ wc / jw`` at low frequency).
+    """
     par = ctx.param
     if par.integrators != 1:
         return []
@@ -96,15 +102,28 @@ def _integral(ctx, setup, blocks):
     dc = ref.B[-1] / ref.A[-1]
     c = 3.0
     sp = np.poly(-c * np.ones(par.ks)) if par.ks else np.ones(1)
-    rp = np.poly(-c * np.ones(par.kr)) if par.kr else np.ones(1)
     sfr = par.Sf[:-1]                                  # Sf / p (scaled)
-    gain0 = rp[-1] * par.Rf[-1] / (sp[-1] * sfr[-1])   # low-frequency K(w0 p) p / kappa
     out = []
-    for wc in KI_GRID:        # loop crossover ~ ki |P(0)|: scaled ki = wc / (w0 P(0)) * w0
-        kappa = wc / (dc * gain0)
-        xc = np.concatenate([sp[1:], kappa * rp])
-        out.append(score(setup, blocks, f"integral (crossover {wc * ctx.w0:.3g} rad/s)", xc))
+    for wc in KI_GRID:
+        for zf in (None, 1.0, 0.3):                    # integral; PI zeros at wc, 0.3 wc
+            if zf is None or par.kr < 1:
+                rp = np.poly(-c * np.ones(par.kr)) if par.kr else np.ones(1)
+                name = f"integral (crossover {wc * ctx.w0:.3g} rad/s)"
+            else:
+                rp = np.convolve([1.0, zf * wc], np.poly(-c * np.ones(par.kr - 1)))
+                name = f"PI (crossover {wc * ctx.w0:.3g} rad/s, zero at {zf:g} of it)"
+            gain0 = rp[-1] * par.Rf[-1] / (sp[-1] * sfr[-1])   # low-frequency K(w0 p) p / kappa
+            kappa = wc / (dc * gain0)
+            st = score(setup, blocks, name, np.concatenate([sp[1:], kappa * rp]))
+            out.append(replace(st, gain=float(wc)))
     return out
+
+
+def _boldest(starts):
+    """The start with the highest crossover that meets the specs on the grid with 10 %
+    to spare (closest to a ``max_integral_gain`` optimum), else the most robust one."""
+    ok = [s for s in starts if s.stable and s.worst <= 0.9]
+    return max(ok, key=lambda s: s.gain) if ok else min(starts, key=Start.key)
 
 
 def candidates(ctx, setup, blocks, seeds=(), convex=False):
@@ -137,7 +156,11 @@ def candidates(ctx, setup, blocks, seeds=(), convex=False):
     if setup.placement == "free":
         ints = _integral(ctx, setup, blocks)
         if ints:
-            out.append(min(ints, key=Start.key))
+            best = min(ints, key=Start.key)
+            out.append(best)
+            bold = _boldest(ints)
+            if bold is not best:
+                out.append(bold)
     if convex and setup.placement == "fixed":
         out.extend(_convex(ctx, setup, blocks))
     return sorted(out, key=Start.key)

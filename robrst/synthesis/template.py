@@ -32,7 +32,7 @@ from robrst.synthesis.nlp import routh_column
 
 __all__ = ["Structure", "Template", "TINY"]
 
-TINY = 1e-300
+TINY = 1e-20           # log clip: its second derivative (1e40) stays finite
 
 
 @dataclass(frozen=True)
