@@ -106,14 +106,15 @@ def local_problem(rng, index=0):
                                                      n_freq=80, cert_temperatures=15))
 
 
-def evaluate(generator, n, seed=0, only_solvable=True):
+def evaluate(generator, n, seed=0, only_solvable=True, indices=None):
     """Run ``n`` problems of ``generator(rng) -> Problem``; returns the :class:`Case` list.
 
+    Problem ``i`` uses ``numpy.random.default_rng([seed, i])`` (``indices`` picks some).
     With ``only_solvable`` the problems no simple controller solves are skipped (they
     still get an answer when run, but do not count for the certification rate).
     """
     cases = []
-    for i in range(n):
+    for i in (range(n) if indices is None else indices):
         rng = np.random.default_rng([seed, i])
         try:
             problem = generator(rng)

@@ -19,6 +19,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from robrst import poly
+from robrst.analysis import spectral_abscissa
 from robrst.errors import RobrstError
 from robrst.synthesis import analytic
 from robrst.synthesis.nlp import closed_loop_maps
@@ -27,7 +29,7 @@ __all__ = ["Start", "score", "candidates", "abscissa"]
 
 WN_FACTORS = (1.0, 0.5, 2.0, 0.25)
 ZETAS = (1.0, 0.7)
-KI_GRID = np.geomspace(1e-3, 1.0, 19)     # integral/PI starts: scaled crossover frequencies
+KI_GRID = np.geomspace(1e-5, 1.0, 26)     # integral/PI starts: scaled crossover frequencies
 
 
 @dataclass(frozen=True, eq=False)
@@ -63,9 +65,12 @@ def abscissa(setup, xc):
     for label, T, a, b in setup.models:
         (Dm, Dc), _ = cl(a, b)
         D = Dm @ xc + Dc
-        if not np.all(np.isfinite(D)) or abs(D[0]) <= 1e-12 * np.max(np.abs(D)):
+        if not np.all(np.isfinite(D)) or D[0] == 0:
             return np.inf
-        worst = max(worst, float(np.max(np.roots(D).real)))
+        Ds = poly.Scaling.natural(D).apply(D)        # its own scale: O(1) coefficients
+        if abs(Ds[0]) <= 1e-12 * np.max(np.abs(Ds)):
+            return np.inf
+        worst = max(worst, spectral_abscissa(D)[0])
     return worst
 
 
