@@ -165,7 +165,8 @@ def run(tiny=False, repeats=3):
             f" integral gain {ki_r:.4g} vs {ki_b:.4g}); CLI CPU: paper_robust {t_cli:.2f} s,"
             f" paper_robust_continuous {t_cli_c:.2f} s")
     return BenchResult(
-        name="robust synthesis (paper_robust)", robrst_path="CasADi/IPOPT, exact derivatives",
+        name="robust synthesis (paper_robust_continuous)",
+        robrst_path="CasADi/IPOPT, exact derivatives",
         baseline="scipy SLSQP, finite differences, python-control",
         goal="≥ 30× faster at equal certified specs; CLI ≤ 0.7 s CPU", headline=head,
         met=bool(ratio >= 30 and equal and t_cli <= 0.7), figures=figures)

@@ -297,7 +297,6 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
     >>> result.certified, result.status
     (True, 'certified')
     """
-    from robrst.synthesis.convex import convex_synthesis   # cvxpy: only for this method
     from robrst.synthesis.robust import robust_synthesis
 
     say = progress or (lambda msg: None)
@@ -314,6 +313,8 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
         if method == "nlp":
             stage = robust_synthesis(problem, start, say, templates)
         else:
+            from robrst.synthesis.convex import convex_synthesis   # cvxpy: only for this method
+
             stage = convex_synthesis(problem, start, say)
         check = analytic_check(problem, stage.controller, stage.Am)
         ctrl, trk = _tracking(problem, stage.controller) if two_dof else (stage.controller, None)

@@ -28,7 +28,7 @@ from robrst.synthesis.template import Structure, Template
 __all__ = ["ExchangeInfo", "Phase", "solve_exchange", "solve_program", "local_maxima",
            "effective_ratios"]
 NEAR_ACTIVE = 0.02      # local maxima within 2 % below the bound join the active set
-COARSE_POINTS = 6       # evenly spaced starting points per block (plus local maxima)
+COARSE_POINTS = 3       # evenly spaced starting points per block (plus local maxima)
 ROUTH_MIN = 1e-9
 
 
