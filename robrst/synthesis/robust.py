@@ -79,7 +79,10 @@ def _embedded(ctx, lower):
     if xc is None:
         return None
     setup = ctx.setup(list(p.family.models), ctx.nu, lower.placement)
-    wz = lower.x[lower.setup.n_x:lower.setup.n_x + 2] if lower.placement == "dominant" else ()
+    wz = ()
+    if lower.placement == "dominant":   # (wn, zeta), wn rescaled to this context's w0
+        k = lower.setup.n_x
+        wz = (lower.x[k] * lower.setup.w0 / ctx.w0, lower.x[k + 1])
     x = ctx.full(xc, setup, *wz)
     return Outcome(ctrl=ctx.controller(x), cert=lower.cert, res=lower.res, phase=lower.phase,
                     placement=lower.placement, x=x, setup=setup)
