@@ -123,7 +123,8 @@ class Template:
              + coef[1] * (-ca.log(ca.fmax(r0, TINY)) + ca.log(ca.fmax(q0, TINY)))
              + coef[2] * ca.sumsqr(xc - par("xref")))
         self.n_g = int(sum(e.numel() for e in g))
-        opts = {"ipopt": dict(st.ipopt), "print_time": False, "show_eval_warnings": False}
+        opts = {"ipopt": dict(st.ipopt), "print_time": False, "show_eval_warnings": False,
+                "calc_lam_p": False}     # parameter multipliers: unused (and noisy on failure)
         self.solver = ca.nlpsol("rst", "ipopt", {"x": X, "p": P, "f": f, "g": ca.vertcat(*g)},
                                 opts)
 
