@@ -70,7 +70,9 @@ def known_controller(problem):
 
 
 def local_problem(rng, index=0):
-    """A random SISO problem: 1-4 poles (real and resonant), maybe a zero, a thermal family."""
+    """A random SISO problem: 1-4 poles (real, sometimes unstable, and resonant), maybe a
+    zero, a thermal family, specs from loose to unreachable (``Mu_max`` below ``1/|D(0)|``
+    in about 1 of 8)."""
     n_res = int(rng.integers(0, 3))
     n_real = int(rng.integers(1 if n_res == 0 else 0, 3))
     A = np.ones(1)
@@ -78,8 +80,9 @@ def local_problem(rng, index=0):
         w = 2 * np.pi * float(rng.uniform(200.0, 3000.0))
         z = float(10 ** rng.uniform(-2.3, -1.0))
         A = np.polymul(A, [1.0, 2 * z * w, w * w])
-    for _ in range(n_real):
-        A = np.polymul(A, [1.0, float(10 ** rng.uniform(1.5, 4.0))])
+    for k in range(n_real):
+        unstable = k == 0 and rng.uniform() < 0.15           # an unstable real pole
+        A = np.polymul(A, [1.0, float(10 ** rng.uniform(1.5, 4.0)) * (-1.0 if unstable else 1.0)])
     B = np.ones(1)
     if len(A) > 2 and rng.uniform() < 0.3:                # one real zero, sometimes RHP
         zero = float(10 ** rng.uniform(3.0, 4.5)) * (-1.0 if rng.uniform() < 0.3 else 1.0)
@@ -94,8 +97,8 @@ def local_problem(rng, index=0):
     family = parametric_family(nominal, temps, coeffs)
     poles_abs = np.abs(np.roots(A))
     wn = float(np.min(poles_abs)) * float(rng.uniform(0.1, 0.5))
-    specs = Specs(Ms_max=float(rng.uniform(1.6, 2.5)), Mt_max=float(rng.uniform(1.2, 1.5)),
-                  Mu_max=float(abs(1.0 / nominal.dc_gain) * rng.uniform(3.0, 30.0)))
+    specs = Specs(Ms_max=float(rng.uniform(1.3, 2.5)), Mt_max=float(rng.uniform(1.1, 1.5)),
+                  Mu_max=float(abs(1.0 / nominal.dc_gain) * 10 ** rng.uniform(-0.2, 1.5)))
     if rng.uniform() < 0.3 and float(np.max(poles_abs)) < 2 * np.pi * 2000.0:
         specs = replace(specs, sample_rate_hz=20000.0)
     objective = ("max_integral_gain", "max_integral_gain", "feasibility")[int(rng.integers(0, 3))]
