@@ -63,7 +63,9 @@ class DesignResult:
 
     ``synthesis`` is the stage's own record: an
     :class:`~robrst.synthesis.analytic.AnalyticDesign` or a
-    :class:`~robrst.synthesis.robust.SynthesisResult`.
+    :class:`~robrst.synthesis.outcome.SynthesisResult`; ``tracking`` the 2-DOF reference
+    path (:class:`~robrst.synthesis.tracking.Tracking`) with ``T_mode = "reference_model"``
+    (then ``controller`` is the 2-DOF controller and ``synthesis.controller`` the feedback).
     """
 
     problem: object

@@ -142,8 +142,9 @@ class SynthesisResult:
     ``solve`` is the :class:`~robrst.synthesis.outcome.SolveResult` the controller came
     from (its ``binding()`` names the limiting constraints); ``placement`` the nominal
     pole placement it was solved with, ``phase`` whether it is the objective's optimum
-    (``"hard"``) or the soft-goal point (``"soft"``: the specs' worst normalised ratio
-    minimised); ``notes`` what the pipeline had to do (fallbacks, relaxations).
+    (``"hard"``), the soft-goal point (``"soft"``: the specs' worst normalised ratio
+    minimised) or a start that met the specs (``"start"``); ``notes`` what the pipeline
+    had to do (fallbacks, relaxations).
     """
 
     controller: object

@@ -1,28 +1,31 @@
-"""Robust synthesis driver: soft goals, then the objective under hard specs, certified.
+"""Robust synthesis driver: the objective under hard specs, soft goals when that fails.
 
-:func:`robust_synthesis` always returns a controller:
+:func:`robust_synthesis` always returns a controller (:mod:`robrst.synthesis.attempts`
+runs one placement):
 
-1. **Starts.**  The analytic pole placement (and, when the nominal poles may move,
-   several other ``(wn, zeta)``), points handed down by a previous attempt, an integral
-   controller when every coefficient is free (:mod:`robrst.synthesis.starts`); each is
-   rated on the grid before anything is solved.
-2. **Phase 1 (soft goals).**  Unless the best start already meets every spec on the
-   grid, minimise ``gamma``, the worst normalised spec ratio ``|N|/(M |Delta|)`` over
-   every model, grid point and spec (systune's soft goals), from the best starts.
-3. **Phase 2 (hard specs).**  From a point that meets the specs, the objective with the
-   specs as constraints; each result is certified exactly (:mod:`robrst.certificate`),
-   offending frequencies and temperatures join the program and it is solved again.
-4. **Placement.**  With ``solver.placement = "auto"`` the nominal closed-loop poles
-   are those of the [poles] table (or ``(wn, zeta)`` within bounds with
-   ``free_poles``); when that cannot meet the specs, every controller coefficient is
-   freed and steps 1–3 run again, seeded with the best point found.
-5. **Homotopy.**  With ``extra_degree > 0`` the lower-degree problem's result, raised
-   by a common factor (the same controller), seeds the program: extra degrees never
-   lose what fewer degrees achieve.
+1. **Starts** (:mod:`robrst.synthesis.starts`): the analytic pole placement (and, when
+   the nominal poles may move, other ``(wn, zeta)``), points handed down (a previous
+   attempt, the lower degree, a previous variant), integral and PI controllers when
+   every coefficient is free; each rated on the grid before anything is solved.
+2. **Hard phase**: from the preferred start (the boldest one meeting the specs on the
+   grid, else a seed, else the analytic design) the objective with the specs as
+   constraints; every result is certified exactly (:mod:`robrst.certificate`), offending
+   frequencies and temperatures join the program and it is solved again.
+3. **Soft phase** (systune's soft goals): when that fails, minimise ``gamma``, the worst
+   normalised spec ratio ``|N|/(M |Delta|)`` over every model, grid point and spec, from
+   the best starts; from a point that meets the specs, the hard phase again.
+4. **Placement**: with ``solver.placement = "auto"`` the nominal closed-loop poles are
+   those of the [poles] table (or ``(wn, zeta)`` within bounds with ``free_poles``);
+   when that cannot meet the specs every controller coefficient is freed (trust-region
+   solves) and 1–3 run again, seeded with the best point found.
+5. **Homotopy**: when a degree does not certify (or its objective could not be
+   optimised), ``extra_degree - 1`` is solved first and its controller, raised by a
+   common factor (the same controller), seeds the program; ``homotopy = "always"``
+   solves every degree from 0 up, so more degrees never give a worse objective.
 
 When the specs cannot be met, the result is the best controller found (smallest worst
-normalised violation, certified for what it achieves), status ``"not_certified"``
-with a ``best_achievable`` summary and the binding constraints from the soft phase's
+violation ratio, certified for what it achieves), status ``"not_certified"`` with a
+``best_achievable`` summary and the binding constraints from the soft phase's IPOPT
 multipliers.  A raw solver status is never the only answer.
 """
 
