@@ -115,6 +115,7 @@ class Run:
     def __init__(self, problem, say, templates, warm=None):
         self.problem, self.say, self.templates, self.warm = problem, say, templates, warm
         self.rounds, self.notes = [], []
+        self.hopeless = False     # set when the specs are provably infeasible
 
     @property
     def spent(self):
@@ -238,13 +239,14 @@ class Run:
         if feasible:   # a start that meets the specs on the grid: certified, it is the fallback
             outs.append(self.outcome(ctx, setup, None, "start",
                                      x=ctx.full(first.xc, setup, first.wn, first.zeta)))
-        if first.worst <= FAR_START and not self.spent:
+        if first.worst <= FAR_START and not self.spent and not self.hopeless:
             out = self.hard(ctx, placement, ctx.full(first.xc, setup, first.wn, first.zeta),
                             first.name)
             if out is not None and out.certified:
                 return out
             outs.append(out)
-        for s in [s for s in starts if not (s is first and feasible)][:SOFT_STARTS]:
+        n_soft = 1 if self.hopeless else SOFT_STARTS   # the best violation is all there is
+        for s in [s for s in starts if not (s is first and feasible)][:n_soft]:
             if self.spent and any(o is not None and o.certified for o in outs):
                 break
             x0 = ctx.full(s.xc, setup, s.wn, s.zeta, gamma=max(s.worst * 1.02, GAMMA_FLOOR))

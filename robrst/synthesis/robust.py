@@ -198,6 +198,7 @@ def robust_synthesis(problem, start, progress=None, templates=None, warm=None):
     note = a_priori_note(problem)
     if note:
         run.notes.append(note)
+        run.hopeless = True
     out = _homotopy(problem, start, run)
     ctrl, cert = out.ctrl, out.cert
     Am, wn, zeta = start.Am, None, None
