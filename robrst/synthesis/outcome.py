@@ -83,16 +83,19 @@ class SolveResult:
     def binding(self, count=3):
         """The inequality constraints that bind, strongest first (by ``|multiplier|``).
 
-        The Diophantine equality is structural and never named.  When IPOPT ended on
-        an infeasible point, the violated constraints come first.
+        The Diophantine equality is structural and never named; multipliers below 1e-4
+        of the largest are an interior point's inactive constraints, not binding ones.
+        When IPOPT ended on an infeasible point, the violated constraints come first.
         """
         v = self.violations()
         ineq = np.array([lab[0] not in ("diophantine", "unused") for lab in self.labels], bool)
         order = []
         bad = np.flatnonzero(ineq & (v > 1e-6))
         order += list(bad[np.argsort(-v[bad])])
-        act = np.flatnonzero(ineq & (np.abs(self.lam_g) > 0))
-        order += [i for i in act[np.argsort(-np.abs(self.lam_g[act]))] if i not in order]
+        lam = np.abs(self.lam_g)
+        big = lam.max(initial=0.0, where=ineq) * 1e-4   # an interior point's inactive rows
+        act = np.flatnonzero(ineq & (lam > big))         # carry mu / slack, not zero
+        order += [i for i in act[np.argsort(-lam[act])] if i not in order]
         out, seen = [], set()
         for i in order:
             b = self._binding_at(i, v)
