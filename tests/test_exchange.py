@@ -1,7 +1,6 @@
 """Constraint exchange: same optimum as the full-grid NLP, every grid point satisfied."""
 
 import tomllib
-from pathlib import Path
 
 import numpy as np
 import pytest
