@@ -43,6 +43,7 @@ _EXPORTS = {
     "certify": "robrst.certificate", "certify_problem": "robrst.certificate",
     "pole_placement": "robrst.synthesis.analytic",
     "run_problem": "robrst.design", "DesignResult": "robrst.design",
+    "Synthesizer": "robrst.synthesis.synthesizer", "step_metrics": "robrst.timespec",
     # twin, data, diagnosis
     "default_twin": "robrst.twin.config", "load_twin": "robrst.twin.config",
     "simulate": "robrst.twin.simulate",

@@ -19,7 +19,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from robrst import poly
+from robrst import poly, timespec
 from robrst.analysis import spectral_abscissa
 from robrst.hinf import peak_gain
 from robrst.problem import PEAK_SPECS, Problem
@@ -124,11 +124,24 @@ def check_model(plant, ctrl, specs, rtol, fs=None):
         if val > specs.T_resonance_max * (1 + rtol):
             viol.append(Violation(plant.label, plant.temperature_C, "|T| in resonance band", val,
                                   specs.T_resonance_max, phys(w), loop))
+    if specs.Mu_hf_max is not None:   # |U| above a corner frequency (up to inf / Nyquist)
+        lo = 2 * np.pi * specs.Mu_hf_above_hz
+        lo = lo if fs is None else warp(min(lo, 0.999 * np.pi * fs), fs)
+        val, w = band_peak(cl.nums["U"], cl.Delta, lo, lo * 1e6)
+        rec["Mu_hf"] = val = max(val, abs(poly.trim(cl.nums["U"])[0] / cl.Delta[0])
+                                 if len(poly.trim(cl.nums["U"])) == len(cl.Delta) else 0.0)
+        if val > specs.Mu_hf_max * (1 + rtol):
+            viol.append(Violation(plant.label, plant.temperature_C, "|U| above corner", val,
+                                  specs.Mu_hf_max, phys(w), loop))
+    if specs.time_domain and sa < 0:   # reference-step specs (robrst.timespec)
+        t_rec, failed = timespec.check(plant, ctrl, cl, specs, rtol, fs)
+        rec.update(t_rec)
+        viol += [Violation(plant.label, plant.temperature_C, q, v, b, None, loop) for q, v, b in failed]
     return rec, viol
 
 
 SAMPLED_KEYS = ("spectral_abscissa", "stable", "Ms", "Ms_freq_rad_s", "Mt", "Mt_freq_rad_s",
-                "Mu", "Mu_freq_rad_s", "Mt_resonance_band")
+                "Mu", "Mu_freq_rad_s", "Mt_resonance_band", "Mu_hf", *timespec.KEYS)
 
 
 def _check_sampled(plant, ctrl, specs, rtol):

@@ -52,6 +52,8 @@ class RSTController:
         Continuous (the coefficients in s, as stored) or, with ``sample_rate_hz``, the
         Tustin controller (``dt = 1/fs``) from :func:`tustin_polynomials`: the arrays
         ``T_z, -R_z`` over ``S_z`` read as polynomials in z.  Inputs ``yr, y``, output ``u``.
+        Expanded polynomials in z lose digits when many roots sit near z = 1 (high sample
+        rates); :meth:`to_ss` is the well-conditioned form.
         """
         import control
 

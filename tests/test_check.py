@@ -146,10 +146,10 @@ def test_assert_margins_for_pytest(tmp_path, designs):
 
 
 def test_sampled_problems_record_the_sampled_peaks(tmp_path, designs):
-    path = write_golden(designs("paper_robust_sampled"), tmp_path / "s.toml")
+    path = write_golden(designs("paper_robust"), tmp_path / "s.toml")
     figs = read_golden(path)["models"]["T45C"]
     assert {"Ms_sampled", "Mt_sampled", "Mu_sampled"} <= set(figs)
-    assert compare_golden(designs("paper_robust_sampled"), path) == []
+    assert compare_golden(designs("paper_robust"), path) == []
 
 
 def test_readme_py_snippets_run(tmp_path, monkeypatch, problems_dir):

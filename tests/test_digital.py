@@ -20,7 +20,7 @@ FS = 20000.0
 @pytest.fixture(scope="module")
 def controllers(designs):
     return {name: designs(name).controller
-            for name in ("paper", "paper_robust", "paper_robust_sampled")}
+            for name in ("paper", "paper_robust", "paper_robust_continuous")}
 
 
 def _python_control_tustin(ctrl, fs):
@@ -54,7 +54,7 @@ def random_controller(rng, n_real=2, n_pairs=1, integrators=1, spread=3.0, bipro
     return RSTController(R, S, T)
 
 
-@pytest.mark.parametrize("name", ["paper", "paper_robust", "paper_robust_sampled"])
+@pytest.mark.parametrize("name", ["paper", "paper_robust", "paper_robust_continuous"])
 def test_direct_form_matches_python_control_tustin(controllers, name):
     ctrl = controllers[name]
     R_z, S_z, T_z = tustin_polynomials(ctrl, FS)
@@ -65,7 +65,7 @@ def test_direct_form_matches_python_control_tustin(controllers, name):
     assert abs(np.sum(S_z)) < 1e-12                  # the integrator: S_z(1) = 0
 
 
-@pytest.mark.parametrize("name", ["paper", "paper_robust", "paper_robust_sampled"])
+@pytest.mark.parametrize("name", ["paper", "paper_robust", "paper_robust_continuous"])
 def test_sections_reproduce_the_controller(controllers, name):
     """Sections vs the polynomials at the Tustin points: relative 1e-12 on both channels."""
     ctrl = controllers[name]

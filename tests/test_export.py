@@ -23,7 +23,7 @@ from robrst.plant import Plant
 from robrst.problem import ControllerStructure, PoleSpec, Problem, Specs
 
 FS = 20000.0
-SHIPPED = {"paper": FS, "paper_robust_sampled": None}   # a rate where the problem names none
+SHIPPED = {"paper": FS, "paper_robust": None}   # a rate where the problem names none
 
 
 def _check_against_python_control(exp, problem):
@@ -149,12 +149,12 @@ def test_implementations_against_the_exact_loop(exports, name):
 
 
 def test_python_module_runs_the_same_step(exports, designs):
-    exp = exports("paper_robust_sampled")
+    exp = exports("paper_robust")
     ns = {}
     exec(compile(python_module(exp), "<generated>", "exec"), ns)   # noqa: S102
     ctrl = ns["Controller"]()
     yr = np.concatenate([np.zeros(10), np.full(400, 20.0)])
-    plant = designs("paper_robust_sampled").problem.family.models[0]
+    plant = designs("paper_robust").problem.family.models[0]
     y_ref, u_ref = run_loop(exp.digital, plant, yr, u_range=exp.u_range)
     u = [ctrl.step(r, y) for r, y in zip(yr, y_ref)]
     assert np.array_equal(u, u_ref)          # same operations, same order: bit for bit

@@ -26,7 +26,7 @@ from robrst.twin.simulate import rest_state
 
 CC = shutil.which(os.environ.get("CC", "gcc")) or shutil.which("cc")
 pytestmark = pytest.mark.skipif(CC is None, reason="no C compiler on this machine")
-NAME = "paper_robust_sampled"
+NAME = "paper_robust"
 
 
 def compile_controller(exp, folder, real="double", defines=()):
@@ -117,20 +117,20 @@ def _overshoot(y, target):
 
 
 def test_c_saturation_and_anti_windup_against_the_twin(exp, twin_plant, tmp_path):
-    """A 90 µm step needs 135 V: the command saturates at 150 V, anti-windup keeps the
+    """A 99 µm step needs 148.5 V: the command saturates at 150 V, anti-windup keeps the
     overshoot small; the same C step drives the compiled twin (saturation on) identically
     up to the twin's RK4 error (2e-5 of the peak)."""
     plant, twin = twin_plant
     fs = twin.sample_rate_hz
-    yr = np.concatenate([np.zeros(10), np.full(3000, 90.0)])
+    yr = np.concatenate([np.zeros(10), np.full(3000, 99.0)])
     y, u = zoh_loop(compile_controller(exp, tmp_path, "double"), plant, fs, yr)
     y_ref, u_ref = run_loop(exp.digital, plant, yr, u_range=exp.u_range)
     assert np.array_equal(u, u_ref)                      # C = the reference step, saturated
     assert u.min() >= 0.0 and u.max() == 150.0 and np.sum(u == 150.0) > 20
-    assert abs(y[-1] - 90.0) < 1e-3
+    assert abs(y[-1] - 99.0) < 1e-3
     no_aw = replace(exp.digital, sections=tuple(replace(s, L=0 * s.L) for s in exp.digital.sections))
     y_wind, _ = run_loop(no_aw, plant, yr, u_range=exp.u_range)
-    assert _overshoot(y, 90.0) < 0.5 * _overshoot(y_wind, 90.0)
+    assert _overshoot(y, 99.0) < 0.5 * _overshoot(y_wind, 99.0)
     # the twin: its compiled step with the amplifier saturation on, the C step per sample
     model = build_model(replace(twin.with_effects(only=["saturation"])))
     step = compile_controller(exp, tmp_path, "double", ["-DRC_U_MIN=0.0"])

@@ -6,7 +6,7 @@ Layers, bottom to top (README "Architecture")::
     maths core    poly, lti, plant, thermal, family, rst, hinf, analysis, sampled, digital,
                   implement
     problem       problem (typed records), spec (problem files)
-    certificate   certificate
+    certificate   certificate, timespec
     synthesis     synthesis.*
     design        design
     modelling     twin.*, dataset, diagnose.*, identify.*   (on base + maths core only)
@@ -29,7 +29,7 @@ LAYERS = {
               "robrst.rst", "robrst.hinf", "robrst.analysis", "robrst.sampled",
               "robrst.digital", "robrst.implement"),
     "problem": ("robrst.problem", "robrst.spec"),
-    "certificate": ("robrst.certificate",),
+    "certificate": ("robrst.certificate", "robrst.timespec"),
     "synthesis": ("robrst.synthesis",),
     "design": ("robrst.design",),
     "modelling": ("robrst.twin", "robrst.dataset", "robrst.diagnose", "robrst.identify"),

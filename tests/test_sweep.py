@@ -59,9 +59,15 @@ def test_variant_figures_equal_a_hand_built_model_on_a_dense_grid(tmp_path, robu
             row["Mt_band"], rel=1e-7)
         mu = dense_peak(np.polymul(A, ctrl.R), D, hi=1e9)   # the |U| peak is at w -> inf
         assert row["Mu"] * (1 - 1e-4) <= mu <= row["Mu"] * (1 + 1e-9)
-        ratio = max(row["Mt"] / 1.3, row["Mu"] / 150.0, row["Mt_band"] / 1.0, row["Ms"] / 2)
-        assert row["worst_ratio"] == pytest.approx(ratio, rel=1e-12)
-        assert row["certified"] == (ratio <= 1.001)
+        ratio = max(row["Mt"] / 1.3, row["Mu"] / 150.0, row["Mt_band"] / 1.0, row["Ms"] / 2,
+                    row["Ms_sampled"] / 2, row["Mt_sampled"] / 1.3, row["Mu_sampled"] / 150.0)
+        assert row["worst_ratio"] >= ratio * (1 - 1e-12)
+        # the worst ratio is either one of these figures or a violated bound (overshoot, ...)
+        named = re.search(r"= ([0-9.e+-]+) > ([0-9.e+-]+)", row["violation"] or "")
+        if row["worst_ratio"] > ratio * (1 + 1e-12):
+            assert named and float(named[1]) / float(named[2]) == pytest.approx(
+                row["worst_ratio"], rel=1e-3)
+        assert row["certified"] == (row["worst_ratio"] <= 1.001)
 
 
 def test_draws_follow_the_seed_and_the_distributions(tmp_path):
@@ -130,11 +136,17 @@ def test_a_failing_variant_is_a_row_not_a_lost_sweep(tmp_path):
 
 
 def test_infeasible_design_variant_names_the_binding_constraint(tmp_path):
-    text = ('[sweep]\nkind = "design"\nproblem = "paper_robust"\n'
+    """|U(0)| = |A(0)/B(0)| for any controller with an integral action: 1.496 V/µm at 28 °C
+    (651 * 1.5e7 / (107 * 6.1e7): the inverse of the static gain), so Mu_max below it
+    is infeasible; the variant still gets the best controller, not certified, and why."""
+    text = ('[sweep]\nkind = "design"\nproblem = "paper_robust_continuous"\n'
             '[[param]]\nname = "specs.Mu_max"\ndist = "grid"\nvalues = [1.0, 0.5]\n')
     res = run_sweep(write(tmp_path, "d.toml", text), tmp_path / "o", workers=0)
+    u0 = 651 * 1.5e7 / (107 * 6.1e7)
     for r in res.table.to_pylist():
-        assert r["status"] == "infeasible" and "binding constraint: U" in r["message"]
+        assert r["status"] == "ok" and not r["certified"] and r["worst_ratio"] > 1.001
+        assert "infeasible" in r["message"] and f"|U(0)| = {u0:.4g}" in r["message"]
+        assert r["Mu"] >= u0 * (1 - 1e-9)
 
 
 def test_design_sweep_front_and_controllers(tmp_path):

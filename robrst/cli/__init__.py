@@ -6,7 +6,15 @@ certified, 0 otherwise); never a traceback.
 """
 
 import argparse
+import os
 import sys
+
+# robrst's matrices are small (< 30 x 30): BLAS threads only add wake-up latency (scipy's
+# expm is ~300x slower with two OpenBLAS threads on a 2-core machine).  The command line
+# is robrst's own process, so it sets the default before numpy loads; users' scripts keep
+# their own settings.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
 
 from robrst import __version__
 from robrst.cli import check, design, diagnose, export, simulate, sweep

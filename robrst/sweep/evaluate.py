@@ -12,7 +12,8 @@ Row figures are worst cases over the variant's family and the certificate's temp
 sweep (``Ms``, ``Mt``, ``Mu``, ``Mt_band``, ``spectral_abscissa``; ``modulus_margin = 1/Ms``),
 from :func:`robrst.certificate.certify_problem`; gain, phase and delay margins are the smallest
 over the family's models (:func:`robrst.analysis.margins`).  ``worst_ratio`` is the largest
-figure/bound over the specs (> 1 + cert_tol: violated; ``inf``: unstable).
+figure/bound over the specs and every violation the certificate found (> 1 + cert_tol:
+violated; ``inf``: unstable).
 """
 
 import threading
@@ -30,7 +31,7 @@ from robrst.synthesis.parametrize import integral_gain
 
 __all__ = ["SweepContext", "WorkerState", "build_state", "evaluate_chunk", "evaluate_variant",
            "problem_of", "fleet_problem", "FIGURE_COLUMNS", "CONTROLLER_COLUMNS", "status_of",
-           "failed_row"]
+           "failed_row", "design_cause"]
 
 # column -> arrow type name; the same columns for every kind
 FIGURE_COLUMNS = {
@@ -113,6 +114,10 @@ def _figures(problem, ctrl, cert, member_margins):
                    _ratio(cert.worst("Mu_sampled"), sp.Mu_max),
                    _ratio(cert.worst("Mt_resonance_band_sampled"), sp.T_resonance_max)]
     stable = all(r["stable"] for r in recs) and all(r.get("stable_sampled", True) for r in recs)
+    # every violated bound counts too (time-domain specs, |U| above a corner, ...): a variant
+    # that is not certified never shows a worst ratio within its bounds
+    ratios += [v.value / v.bound for v in cert.violations
+               if v.bound and v.bound > 0 and np.isfinite(v.value)]
     ratios = [r for r in ratios if r is not None]
     worst = max(ratios) if ratios else 0.0
     viol = max(cert.violations, key=lambda v: v.value / max(abs(v.bound), 1e-300),
@@ -163,7 +168,20 @@ def _design_row(state, problem):
     row = _figures(problem, result.controller, result.certificate,
                    _smallest([a.margins for a in result.analyses]))
     row.update({k: getattr(result.controller, k).tolist() for k in CONTROLLER_COLUMNS})
+    if not result.certified:
+        row["message"] = design_cause(result)
     return row
+
+
+def design_cause(result):
+    """Why a design is not certified: the synthesis's proof of infeasibility if it found
+    one, else what the best controller achieves (its binding constraint)."""
+    syn = result.synthesis
+    notes = getattr(syn, "notes", ())
+    proof = [n for n in notes if "infeasible" in n]
+    if proof:
+        return proof[0]
+    return getattr(syn, "best_achievable", None) or result.best_achievable
 
 
 def problem_of(context, index, values):
@@ -195,7 +213,8 @@ def evaluate_variant(state, index, values):
             row = _analysis_row(state, values)
         else:
             row = _design_row(state, problem_of(ctx, index, values))
-        row.update(status="ok", message=None)
+        row.setdefault("message", None)
+        row["status"] = "ok"
     except Exception as exc:   # noqa: BLE001 — a failing variant is a row, never a lost sweep
         row = failed_row(status_of(exc), exc)
     row.update(seconds=time.perf_counter() - t0, cpu_s=time.process_time() - c0)
