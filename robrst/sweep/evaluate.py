@@ -4,7 +4,8 @@
 document, the fixed controller of an analysis, a fleet's documents); it is built once by the
 driver and shipped once to every worker.  :func:`build_state` turns it into the worker's
 :class:`WorkerState` — the one place where per-worker set-up happens (today: the designer,
-``run_problem``; a synthesiser compiled once per problem structure drops in here).
+``run_problem`` with one dict of built NLP solvers per worker, so every design variant of
+the same structure reuses the program compiled for the first).
 :func:`evaluate_chunk` then returns one row per variant; a variant that fails is a row with
 its status and message, never an exception.
 
@@ -69,6 +70,7 @@ class WorkerState:
     context: SweepContext
     designer: object = None
     lock: object = field(default_factory=threading.Lock)
+    templates: dict = field(default_factory=dict)   # built NLP solvers, shared by the variants
 
 
 def build_state(context):
@@ -164,7 +166,7 @@ def _analysis_row(state, values):
 
 def _design_row(state, problem):
     with state.lock:   # a cached solver is not re-entrant: one design at a time per worker
-        result = state.designer(problem)
+        result = state.designer(problem, templates=state.templates)
     row = _figures(problem, result.controller, result.certificate,
                    _smallest([a.margins for a in result.analyses]))
     row.update({k: getattr(result.controller, k).tolist() for k in CONTROLLER_COLUMNS})
