@@ -23,8 +23,9 @@ Am_ref)`` carries the plant's resonances as zeros: the reference never excites t
 
 :func:`design_tracking` chooses the reference model's bandwidth: the stated
 ``reference_wn`` if the time-domain specs hold on every family model, else the first
-of ``0.7, 0.5, 0.35, 0.25`` times it that does (the time-domain certificate has the
-last word).
+of ``0.7, 0.5, 0.35, 0.25`` times it that does; when none does, it cancels one more
+nominal closed-loop pair (the best damped of those kept, never one damped below
+``CANCEL_FLOOR``) and tries again (the time-domain certificate has the last word).
 """
 
 from dataclasses import dataclass
@@ -37,9 +38,11 @@ from robrst.rst import RSTController, closed_loop
 from robrst.sampled import sampled_plant
 from robrst.timespec import check as time_check
 
-__all__ = ["Tracking", "two_dof", "design_tracking", "reference_model"]
+__all__ = ["Tracking", "two_dof", "design_tracking", "reference_model", "cancel_thresholds",
+           "CANCEL_FLOOR"]
 
 SLOWER = (1.0, 0.7, 0.5, 0.35, 0.25)
+CANCEL_FLOOR = 0.2   # never cancel a closed-loop factor less damped than this (resonances)
 
 
 @dataclass(frozen=True, eq=False)
@@ -142,9 +145,26 @@ def design_tracking(problem, ctrl):
     if sp.sampled:   # the loop that runs: cancel the sampled loop's closed-loop factors
         ref = sampled_plant(ref, sp.sample_rate_hz, sp.delay_samples)
     first = None
-    for f in SLOWER:
-        out = two_dof(ref, ctrl, c.reference_wn * f, c.reference_zeta, c.T_cancel_damping)
-        first = first or out
-        if not problem.specs.time_domain or _meets(problem, out[0]):
-            return out
+    for damping in cancel_thresholds(ref, ctrl, c.T_cancel_damping):
+        for f in SLOWER:
+            out = two_dof(ref, ctrl, c.reference_wn * f, c.reference_zeta, damping)
+            first = first or out
+            if not problem.specs.time_domain or _meets(problem, out[0]):
+                return out
     return first
+
+
+def cancel_thresholds(plant, ctrl, preferred):
+    """Damping thresholds to try: ``preferred``, then each kept pair's own damping down to
+    :data:`CANCEL_FLOOR` (one more factor cancelled each time, best damped first).
+
+    A nominal closed-loop pair just below ``preferred`` (e.g. damping 0.49 at 0.5) left in
+    the reference path gives ~12 % overshoot; cancelling it is robust when its damping is
+    well above a resonance's, and the time-domain certificate has the last word.
+    """
+    Delta = poly.padd(poly.pmul(plant.A, ctrl.S), poly.pmul(plant.B, ctrl.R))
+    sc = poly.Scaling.natural(Delta)
+    r = sc.unfreq(np.roots(sc.apply(poly.trim(Delta))))
+    damp = -r.real / np.maximum(np.abs(r), 1e-300)
+    kept = np.unique(np.round(damp[(damp < preferred) & (damp >= CANCEL_FLOOR) & (r.real < 0)], 12))
+    return (preferred, *sorted((float(d) * (1 - 1e-9) for d in kept), reverse=True))
