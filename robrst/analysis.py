@@ -29,11 +29,14 @@ class Margins:
     """Classical margins of the loop ``L = BR/(AS)``.
 
     ``gain_margin`` is the smallest factor > 1 by which the loop gain can grow
-    before a phase crossover reaches -1 (None: infinite).  ``phase_margin_deg`` is
-    the smallest phase change of either sign, over every gain crossover, that puts
-    ``L`` on -1 (``180 - |arg L(j wc)|``; equal to the usual ``180 + arg L`` when
-    ``arg L`` lies in (-180, 0]).  ``delay_margin_s`` is the smallest pure delay
-    that does so (phase lag only, over every crossover).  None means infinite.
+    before a phase crossover reaches -1 (None: infinite); ``gain_margin_lower`` the
+    largest factor < 1 to which it can shrink before one does (None: down to 0, as in
+    a loop stable for every smaller gain).  python-control's ``stability_margins`` gm
+    is whichever of the two is closer to 1 in log.  ``phase_margin_deg`` follows
+    python-control: at every gain crossover ``(arg L(j wc) mod 360) - 180``, the one
+    smallest in magnitude, with its sign (negative: ``arg L`` in (0, 180)).
+    ``delay_margin_s`` is the smallest pure delay that puts ``L`` on -1 (phase lag
+    only, over every crossover).  None means infinite.
     """
 
     gain_margin: float
@@ -42,6 +45,7 @@ class Margins:
     phase_margin_deg: float
     delay_margin_s: float
     modulus_margin: float
+    gain_margin_lower: float = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -72,6 +76,7 @@ class Analysis:
             "Mu": pk["U"].value, "Mu_freq_rad_s": _fin(pk["U"].freq_rad_s),
             "Msd": pk["Sd"].value, "Msd_freq_rad_s": _fin(pk["Sd"].freq_rad_s),
             "gain_margin": m.gain_margin,
+            "gain_margin_lower": m.gain_margin_lower,
             "phase_margin_deg": m.phase_margin_deg,
             "modulus_margin": m.modulus_margin,
             "delay_margin_s": m.delay_margin_s,
@@ -151,17 +156,20 @@ def margins(plant, ctrl, Ms):
     L = lambda w: poly.eval_jw(num, w) / poly.eval_jw(den, w)  # noqa: E731
     gms = [1.0 / abs(L(w)) for w in wp]
     up = [g for g in gms if g > 1.0]
+    down = [g for g in gms if g < 1.0]
     gm = min(up) if up else None
-    # phase change (either sign) that puts L(j wc) on -1: 180 - |arg L|, arg in (-180, 180]
+    gm_lower = max(down) if down else None
+    # python-control's phase margin: (arg L(j wc) mod 360) - 180, smallest in magnitude
     args = [float(np.degrees(np.angle(L(w)))) for w in wg]
-    pm = min(180.0 - abs(a) for a in args) if args else None
+    pms = [a % 360.0 - 180.0 for a in args]
+    pm = min(pms, key=abs) if pms else None
     # phase lag a pure delay must add at each crossover before L reaches -1
     dms = [np.radians((a + 180.0) % 360.0) / w for a, w in zip(args, wg) if w > 0]
     dm = None if not dms else max(0.0, float(min(dms)))
     return Margins(gain_margin=gm, gain_crossover_rad_s=tuple(float(w) for w in wg),
                    phase_crossover_rad_s=tuple(float(w) for w in wp),
                    phase_margin_deg=pm if pm is None else float(pm),
-                   delay_margin_s=dm, modulus_margin=1.0 / Ms)
+                   delay_margin_s=dm, modulus_margin=1.0 / Ms, gain_margin_lower=gm_lower)
 
 
 def analyze(plant: Plant, ctrl: RSTController, rtol: float = 1e-10) -> Analysis:

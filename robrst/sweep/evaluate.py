@@ -147,7 +147,8 @@ def _smallest(ms):
     """Smallest gain, phase and delay margins over the models (``inf``: none is finite)."""
     if not ms:
         return None, None, None
-    return (min(_inf(m.gain_margin) for m in ms), min(_inf(m.phase_margin_deg) for m in ms),
+    return (min(_inf(m.gain_margin) for m in ms),
+            min((_inf(m.phase_margin_deg) for m in ms), key=abs),   # signed, smallest |.|
             min(_inf(m.delay_margin_s) for m in ms))
 
 
