@@ -519,6 +519,21 @@ def _accurate_gain(N, D, w):
     return g
 
 
+def local_maxima(N, D, n_grid=20000, k=8):
+    """Frequencies [rad/s] of the ``k`` largest local maxima of |N/D| on a dense log grid."""
+    N, D = _strip(N), _strip(D)
+    roots = np.concatenate([_roots_scaled(D), _roots_scaled(N)])
+    mags = np.abs(roots)
+    mags = mags[mags > 0]
+    lo = (mags.min() if mags.size else 1.0) * 1e-4
+    hi = (mags.max() if mags.size else 1.0) * 1e4
+    w = np.unique(np.concatenate([np.geomspace(lo, hi, n_grid), mags,
+                                  np.abs(roots.imag[roots.imag != 0])]))
+    g = _gain(N, D, w)
+    inner = np.flatnonzero((g[1:-1] >= g[:-2]) & (g[1:-1] >= g[2:])) + 1
+    return w[sorted(inner, key=lambda i: -g[i])[:k]]
+
+
 def dense_peak(N, D, band=None, n_grid=20000, n_refine=8):
     """max |N(jw)/D(jw)| on a dense log grid of the unscaled polynomials, refined locally.
 

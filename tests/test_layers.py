@@ -3,7 +3,7 @@
 Layers, bottom to top (README "Architecture")::
 
     base          errors, schema, fileio, resources
-    maths core    poly, lti, plant, thermal, family, rst, hinf, analysis, sampled
+    maths core    poly, lti, plant, thermal, family, rst, hinf, analysis, sampled, interval
     problem       problem (typed records), spec (problem files)
     certificate   certificate
     synthesis     synthesis.*
@@ -25,7 +25,7 @@ PKG = Path(__file__).resolve().parents[1] / "robrst"
 LAYERS = {
     "base": ("robrst.errors", "robrst.schema", "robrst.fileio", "robrst.resources"),
     "maths": ("robrst.poly", "robrst.lti", "robrst.plant", "robrst.thermal", "robrst.family",
-              "robrst.rst", "robrst.hinf", "robrst.analysis", "robrst.sampled"),
+              "robrst.rst", "robrst.hinf", "robrst.analysis", "robrst.sampled", "robrst.interval"),
     "problem": ("robrst.problem", "robrst.spec"),
     "certificate": ("robrst.certificate",),
     "synthesis": ("robrst.synthesis",),
