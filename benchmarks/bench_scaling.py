@@ -9,12 +9,9 @@ import time
 
 import numpy as np
 
-from benchmarks.bench_synthesis import load
+from benchmarks.bench_synthesis import first_setup, load
 from benchmarks.harness import BenchResult
-from robrst.design import analytic_design
-from robrst.synthesis import robust
-from robrst.synthesis.exchange import solve_exchange
-from robrst.synthesis.nlp import build_and_solve
+from robrst.synthesis.exchange import solve_exchange, solve_program
 from robrst.synthesis.outcome import OK_STATUS
 
 SIZES = ((1, 50), (2, 125), (4, 250), (8, 500), (16, 1000), (32, 2000))
@@ -23,8 +20,8 @@ FULL_GRID_UP_TO = 4000   # models × frequencies for the full-grid reference
 
 
 def _instance(n_models, n_freq):
-    problem = load(False, n_models=n_models, n_freq=n_freq)
-    return robust.first_round(problem, analytic_design(problem))
+    ctx, setup, x0 = first_setup(load(False, n_models=n_models, n_freq=n_freq))
+    return setup, x0, ctx.ipopt
 
 
 def nlp_time(n_models, n_freq, full=False):
@@ -38,7 +35,7 @@ def nlp_time(n_models, n_freq, full=False):
            "active_points": info.active_points, "grid_points": info.grid_points}
     if full:
         t0 = time.perf_counter()
-        full_res = build_and_solve(setup, x0, ipopt)
+        full_res = solve_program(setup, x0, ipopt)
         row.update(full_grid_time_s=time.perf_counter() - t0,
                    full_grid_iterations=full_res.iterations)
     return row

@@ -8,8 +8,11 @@ The entry points a user needs, importable from the top level::
     robrst.write_design_report(result, "out/paper_robust")
 
 Plants and controllers (:class:`Plant`, :class:`RSTController`, :func:`pole_placement`),
-analysis (:func:`analyze`, :func:`certify`), the digital twin (:func:`simulate`), the gap
-diagnosis (``robrst.diagnose.diagnose``) and the reports.  Names are loaded on first use, so
+analysis (:func:`analyze`, :func:`certify`), the digital controller out
+(:func:`export_controller`), margin regression tests (:func:`assert_margins`), the digital
+twin (:func:`simulate`), the gap diagnosis (``robrst.diagnose.diagnose``), sweeps
+(:func:`load_sweep`, :func:`run_sweep`: Monte Carlo, trade-offs and fleets on Dask) and the
+reports.  Names are loaded on first use, so
 ``import robrst`` stays cheap.
 """
 
@@ -30,6 +33,8 @@ _EXPORTS = {
     "RSTController": "robrst.rst", "discretize": "robrst.rst",
     "analyze": "robrst.analysis", "peak_gain": "robrst.hinf",
     "sampled_plant": "robrst.sampled",
+    "tustin_polynomials": "robrst.rst", "closed_loop_control": "robrst.rst",
+    "digital_controller": "robrst.digital", "DigitalController": "robrst.digital",
     # problems and design
     "Problem": "robrst.problem", "PoleSpec": "robrst.problem",
     "ControllerStructure": "robrst.problem", "Specs": "robrst.problem",
@@ -38,13 +43,21 @@ _EXPORTS = {
     "certify": "robrst.certificate", "certify_problem": "robrst.certificate",
     "pole_placement": "robrst.synthesis.analytic",
     "run_problem": "robrst.design", "DesignResult": "robrst.design",
+    "Synthesizer": "robrst.synthesis.synthesizer", "step_metrics": "robrst.timespec",
     # twin, data, diagnosis
     "default_twin": "robrst.twin.config", "load_twin": "robrst.twin.config",
     "simulate": "robrst.twin.simulate",
     "Dataset": "robrst.dataset", "load_dataset": "robrst.dataset",
     "save_dataset": "robrst.dataset",
+    # the digital controller out, users' regression tests
+    "export_controller": "robrst.export", "ExportedController": "robrst.export",
+    "assert_margins": "robrst.testing",
+    # sweeps
+    "Sweep": "robrst.sweep.spec", "load_sweep": "robrst.sweep.spec",
+    "run_sweep": "robrst.sweep.engine", "SweepResult": "robrst.sweep.engine",
     # reports
     "write_design_report": "robrst.report.design",
+    "write_sweep_report": "robrst.report.sweep",
     "write_diagnosis_report": "robrst.report.diagnosis",
 }
 

@@ -12,7 +12,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import brentq
 
 from robrst import lti, poly
 from robrst.hinf import Peak, mag2_poly, peak_gain
@@ -109,6 +108,8 @@ def _positive_roots_x(q, w0):
 
 def _polish(f, w):
     """Refine a simple root of f near w with a bracketed solve; keep w if no bracket."""
+    from scipy.optimize import brentq   # scipy.optimize costs 0.2 s of import: only here
+
     for d in (1e-6, 1e-4, 1e-2):
         a, b = w * (1 - d), w * (1 + d)
         fa, fb = f(a), f(b)

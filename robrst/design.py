@@ -9,20 +9,23 @@ against the closed-form Diophantine solution and compares it with an analytic de
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
-from robrst import poly
-from robrst.analysis import analyze
-from robrst.certificate import certify_problem
+from robrst import poly, timespec
+from robrst.analysis import analyze, spectral_abscissa
+from robrst.certificate import Violation, certify, certify_problem
 from robrst.problem import Problem
+from robrst.rst import closed_loop
+from robrst.sampled import sampled_plant
 from robrst.synthesis import analytic
 from robrst.synthesis.parametrize import integral_gain
+from robrst.synthesis.robust import best_achievable
 
 __all__ = ["DesignResult", "AnalyticCheck", "Comparison", "run_problem", "analytic_design",
-           "analytic_check", "comparison"]
+           "analytic_check", "comparison", "with_time_domain"]
 
 
 @dataclass(frozen=True)
@@ -60,7 +63,9 @@ class DesignResult:
 
     ``synthesis`` is the stage's own record: an
     :class:`~robrst.synthesis.analytic.AnalyticDesign` or a
-    :class:`~robrst.synthesis.robust.SynthesisResult`.
+    :class:`~robrst.synthesis.outcome.SynthesisResult`; ``tracking`` the 2-DOF reference
+    path (:class:`~robrst.synthesis.tracking.Tracking`) with ``T_mode = "reference_model"``
+    (then ``controller`` is the 2-DOF controller and ``synthesis.controller`` the feedback).
     """
 
     problem: object
@@ -72,6 +77,12 @@ class DesignResult:
     synthesis: object
     analytic_check: AnalyticCheck = None
     comparison: Comparison = None
+    tracking: object = None
+
+    @property
+    def best_achievable(self):
+        """What an uncertified design achieves (its worst violation), or ``None``."""
+        return best_achievable(self.certificate)
 
     @property
     def certified(self):
@@ -118,7 +129,16 @@ class DesignResult:
             "certificate": self.certificate.as_dict(),
             "solver": self.solver_dict(),
             "integral_gain": self.integral_gain,
+            "best_achievable": self.best_achievable,
         }
+        if sp.Mu_hf_max is not None:
+            specs.update(Mu_hf_max=sp.Mu_hf_max, Mu_hf_above_hz=sp.Mu_hf_above_hz)
+        if sp.time_domain:
+            specs.update(overshoot_max_pct=sp.overshoot_max_pct,
+                         settling_time_max_s=sp.settling_time_max_s, step_um=sp.step_um,
+                         step_u_max_V=sp.step_u_max_V)
+        if self.tracking is not None:
+            out["tracking"] = self.tracking.as_dict()
         if self.analytic_check is not None:
             out["analytic_check"] = self.analytic_check.as_dict()
         if self.comparison is not None:
@@ -135,6 +155,39 @@ def analytic_design(problem, poles=None):
     """
     return analytic.pole_placement(problem.family.reference_model, poles or problem.poles,
                                    problem.controller)
+
+
+def with_time_domain(problem, cert, ctrl):
+    """``cert`` (of the feedback ``R/S``) completed by the time-domain specs of ``ctrl``.
+
+    The frequency-domain records of a certificate depend on ``R/S`` only, so a
+    controller whose reference path changed (:mod:`robrst.synthesis.tracking`) keeps
+    them; the reference-step figures (:mod:`robrst.timespec`) are computed on every
+    model of the certificate (family and sweep, and the sampled loop) and added.
+    Spectral abscissae include the roots the new controller adds (its reference filter).
+    """
+    sp = problem.specs
+    recs, viols = [], list(cert.violations)
+    for rec in cert.models:
+        rec = dict(rec)
+        m = problem.family.at(rec["temperature_C"])
+        loops = [(m, None, "")]
+        if sp.sampled:
+            loops.append((sampled_plant(m, sp.sample_rate_hz, sp.delay_samples),
+                          sp.sample_rate_hz, "_sampled"))
+        for plant, fs, suffix in loops:
+            cl = closed_loop(plant, ctrl)
+            sa, _ = spectral_abscissa(cl.Delta)
+            rec[f"spectral_abscissa{suffix}"] = max(rec[f"spectral_abscissa{suffix}"], sa)
+            if not sp.time_domain or not rec[f"stable{suffix}"]:
+                continue
+            t_rec, failed = timespec.check(plant, ctrl, cl, sp, cert.rtol, fs)
+            rec.update({k + suffix: v for k, v in t_rec.items()})
+            viols += [Violation(m.label, m.temperature_C, q, v, b, None,
+                                "sampled" if fs else "continuous") for q, v, b in failed]
+        recs.append(rec)
+    return replace(cert, certified=not viols, models=tuple(recs), violations=tuple(viols),
+                   interval={**cert.interval, "time_domain": "checked points"})
 
 
 def analytic_check(problem, ctrl, Am):
@@ -173,12 +226,16 @@ def _worst(cert, ctrl, sampled):
 def comparison(problem, ctrl, cert):
     """Worst-case margins over the family: this controller vs ``compare_with``'s analytic design.
 
+    This controller's figures come from its certificate (reused, not recomputed); the
+    analytic design's are computed on the family members only (both loops), which is
+    what the comparison shows — a certificate of the analytic design is not the point.
+
     Parameters
     ----------
     problem : Problem
     ctrl : RSTController
     cert : Certificate
-        This controller's certificate (reused, not recomputed).
+        This controller's certificate.
 
     Returns
     -------
@@ -192,13 +249,15 @@ def comparison(problem, ctrl, cert):
         return None
     path = Path(problem.path).parent / other
     ctrl_a = analytic_design(load_problem(path)).controller
+    cert_a = certify(problem.family, ctrl_a, problem.specs, n_sweep=0,
+                     rtol=problem.solver.cert_tol)
     rows = {"robust": _worst(cert, ctrl, problem.specs.sampled),
-            f"analytic ({path.name})": _worst(certify_problem(problem, ctrl_a), ctrl_a,
-                                             problem.specs.sampled)}
+            f"analytic ({path.name})": _worst(cert_a, ctrl_a, problem.specs.sampled)}
     lo, hi = problem.family.range_C
     names = list(rows)
     w = max(len(n) for n in names) + 2
-    lines = [f"worst case over the family ({lo:g}..{hi:g} °C sweep):",
+    lines = [f"worst case over the family ({lo:g}..{hi:g} °C; robust: certificate sweep,"
+             " analytic: family members):",
              f"{'':<22}" + "".join(f"{n:>{w}}" for n in names)]
     for k in rows["robust"]:
         lines.append(f"{k:<22}" + "".join(
@@ -207,14 +266,22 @@ def comparison(problem, ctrl, cert):
     return Comparison(rows=rows, table="\n".join(lines), range_C=(lo, hi))
 
 
-def run_problem(problem: Problem, progress: Callable[[str], None] | None = None) -> DesignResult:
+def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
+                templates: dict | None = None) -> DesignResult:
     """Run the design the problem asks for, certify it, analyse every family model.
+
+    A synthesis always ends with a controller: when the specs cannot be met the result
+    is the best controller found, ``status == "not_certified"``, with
+    :attr:`DesignResult.best_achievable` and the binding constraints.
 
     Parameters
     ----------
     problem : Problem
     progress : callable, optional
         Called with one line of text per stage (certification rounds included).
+    templates : dict, optional
+        Built NLP solvers by structure, shared between designs of the same structure
+        (see :class:`robrst.synthesis.synthesizer.Synthesizer`).
 
     Returns
     -------
@@ -222,8 +289,8 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None)
 
     Raises
     ------
-    SolverError, InfeasibleError, SpecError, CoprimeError, DegreeError
-        Every failure is a :class:`robrst.errors.RobrstError` naming its cause.
+    SpecError, CoprimeError, DegreeError
+        Ill-posed problems (the message names the cause and the key to change).
 
     Examples
     --------
@@ -232,23 +299,38 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None)
     >>> result.certified, result.status
     (True, 'certified')
     """
-    from robrst.synthesis.convex import convex_synthesis   # cvxpy: only for this method
     from robrst.synthesis.robust import robust_synthesis
 
     say = progress or (lambda msg: None)
     method = problem.solver.method
     start = analytic_design(problem)
+    two_dof = problem.controller.T_mode == "reference_model"
     if method == "analytic":
         say(f"analytic pole placement: cond(scaled Sylvester) = {start.cond:.3g}"
             f" (unscaled {start.cond_unscaled:.3g})")
-        stage, cert, check, comp = start, certify_problem(problem, start.controller), None, None
+        stage, check = start, None
+        ctrl, trk = _tracking(problem, start.controller) if two_dof else (start.controller, None)
+        cert = certify_problem(problem, ctrl)
     else:
-        stage = (robust_synthesis if method == "nlp" else convex_synthesis)(problem, start, say)
-        cert = stage.certificate
+        if method == "nlp":
+            stage = robust_synthesis(problem, start, say, templates)
+        else:
+            from robrst.synthesis.convex import convex_synthesis   # cvxpy: only for this method
+
+            stage = convex_synthesis(problem, start, say)
         check = analytic_check(problem, stage.controller, stage.Am)
-        comp = comparison(problem, stage.controller, cert)
-    ctrl = stage.controller
+        ctrl, trk = _tracking(problem, stage.controller) if two_dof else (stage.controller, None)
+        cert = stage.certificate
+        if two_dof or problem.specs.time_domain:
+            cert = with_time_domain(problem, cert, ctrl)
+    comp = None if method == "analytic" else comparison(problem, ctrl, cert)
     analyses = tuple(analyze(m, ctrl) for m in problem.family.models)
     return DesignResult(problem=problem, method=method, controller=ctrl,
                         target_char_poly=stage.Am, analyses=analyses, certificate=cert,
-                        synthesis=stage, analytic_check=check, comparison=comp)
+                        synthesis=stage, analytic_check=check, comparison=comp, tracking=trk)
+
+
+def _tracking(problem, ctrl):
+    from robrst.synthesis.tracking import design_tracking
+
+    return design_tracking(problem, ctrl)

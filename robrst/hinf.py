@@ -190,7 +190,8 @@ def peak_gain(N, D, rtol=1e-10, scaling=None, max_iter=60, band=None):
     max_iter : int
         Cap on the level-set verifications (each raises the value by ``> rtol``).
     band : (float, float), optional
-        ``(w_lo, w_hi)`` [rad/s]: the frequency-limited peak over that closed band.
+        ``(w_lo, w_hi)`` [rad/s]: the frequency-limited peak over that closed band
+        (``w_hi = inf``: everything above ``w_lo``, the limit at infinity included).
 
     Returns
     -------
@@ -233,7 +234,7 @@ def _peak(N, D, rtol, scaling, max_iter, band):
         lo, hi = (float(b) / w0 for b in band)
         if not 0 <= lo <= hi:
             raise ValueError(f"peak_gain: band must satisfy 0 <= lo <= hi, got {band}")
-        edges = np.array([lo, hi])
+        edges = np.array([lo, hi]) if np.isfinite(hi) else np.array([lo])
     if n == 0:
         return Peak(float(_gain(NDs, edges[:1])[0]), float(edges[0] * w0))
     qN, qD = mag2_poly(NDs[0]), mag2_poly(NDs[1])
@@ -244,7 +245,7 @@ def _peak(N, D, rtol, scaling, max_iter, band):
     vals = _gain(NDs, nu)
     i = int(np.argmax(vals))
     g, w_pk = float(vals[i]), float(nu[i])
-    if band is None and abs(d) >= g:
+    if hi == np.inf and abs(d) >= g:
         g, w_pk = abs(d), np.inf
     if 0 < w_pk < np.inf:
         g2, w2 = _polish(P, NDs, w_pk, g)
@@ -257,7 +258,7 @@ def _peak(N, D, rtol, scaling, max_iter, band):
         ws = _crossings(A, B, C, d, g * (1 + 2 * rtol))
         ws = np.sort(np.concatenate([edges, ws[(ws > lo) & (ws < hi)]]))
         mids = np.where(ws[:-1] > 0, np.sqrt(ws[:-1] * ws[1:]), 0.5 * (ws[:-1] + ws[1:]))
-        cand = np.concatenate([mids, ws, [2.0 * ws[-1] + 1.0] if band is None else []])
+        cand = np.concatenate([mids, ws, [2.0 * ws[-1] + 1.0] if hi == np.inf else []])
         v = _gain(NDs, cand)
         j = int(np.argmax(v))
         if not v[j] > g * (1 + rtol):

@@ -15,7 +15,8 @@ import scipy.linalg as sla
 
 from robrst import poly
 
-__all__ = ["companion_parts", "companion", "DiscreteSS", "zoh"]
+__all__ = ["companion_parts", "companion", "DiscreteSS", "zoh", "transmission_zeros", "ss_to_poly",
+           "d2c"]
 
 
 def companion_parts(a, b):
@@ -123,3 +124,70 @@ def zoh(N, D, sample_rate_hz, scaling=None):
     E = sla.expm(M)
     return DiscreteSS(Ad=E[:n, :n], Bd=E[:n, 2 * n:], C=C, d=d, A=A, Gamma=E[:n, n:2 * n],
                       h=h, scaling=sc)
+
+
+def transmission_zeros(A, B, C, d):
+    """Finite transmission zeros of a SISO state space (generalised eigenvalues)."""
+    n = A.shape[0]
+    M = np.block([[A, B], [C, np.array([[d]])]])
+    E = np.zeros_like(M)
+    E[:n, :n] = np.eye(n)
+    ab = sla.eigvals(M, E, homogeneous_eigvals=True)
+    alpha, beta = ab
+    scale = np.maximum(np.abs(alpha), 1.0)
+    finite = np.abs(beta) > 1e-12 * scale
+    return alpha[finite] / beta[finite]
+
+
+# an irregular point of the scaled plane where the gain is matched
+_GAIN_POINT = 0.4127 + 0.9111j
+
+
+def ss_to_poly(A, B, C, d):
+    """``C (sI - A)^-1 B + d`` as polynomials ``(N, D)`` in s, highest power first.
+
+    Poles are the eigenvalues of ``A``, zeros its transmission zeros, both computed in
+    the scaled time of the natural scale of the poles (so entries spanning decades do not
+    matter); the gain is matched at one point of the scaled plane.  No polynomial is
+    expanded until the end.
+    """
+    A, B = np.atleast_2d(np.asarray(A, float)), np.asarray(B, float).reshape(-1, 1)
+    C, d = np.asarray(C, float).reshape(1, -1), float(np.asarray(d, float).ravel()[0])
+    n = A.shape[0]
+    if n == 0:
+        return np.array([d]), np.ones(1)
+    lam = np.linalg.eigvals(A)
+    nz = np.abs(lam[lam != 0])
+    w0 = float(np.exp(np.mean(np.log(nz)))) if nz.size else 1.0
+    As, Bs = A / w0, B / w0                     # C (pI - As)^-1 Bs + d with s = w0 p
+    poles = lam / w0
+    zeros = transmission_zeros(As, Bs, C, d)
+    p0 = _GAIN_POINT
+    val = (C @ np.linalg.solve(p0 * np.eye(n) - As, Bs)).item() + d
+    gain = (val * np.prod(p0 - poles) / np.prod(p0 - zeros)).real
+    N = gain * w0 ** (len(poles) - len(zeros)) * (poly.from_roots(w0 * zeros) if zeros.size
+                                                   else np.ones(1))
+    return poly.trim(N), poly.from_roots(w0 * poles)
+
+
+def d2c(Ad, Bd, dt):
+    """Continuous ``(A, B)`` whose zero-order hold at period ``dt`` is ``(Ad, Bd)``.
+
+    The inverse of :func:`zoh`: the principal matrix logarithm of ``[[Ad, Bd], [0, 1]]``.
+    Defined when no eigenvalue of ``Ad`` is zero or real negative (those have no real
+    continuous pre-image); otherwise ``ValueError`` naming the eigenvalue.
+    """
+    Ad, Bd = np.atleast_2d(np.asarray(Ad, float)), np.asarray(Bd, float).reshape(-1, 1)
+    n = Ad.shape[0]
+    for z in np.linalg.eigvals(Ad):
+        if abs(z) < 1e-12 or (abs(z.imag) <= 1e-12 * abs(z) and z.real < 0):
+            raise ValueError(f"discrete pole z = {complex(z):.6g} has no continuous"
+                             " zero-order-hold pre-image (zero or negative real)")
+    M = np.zeros((n + 1, n + 1))
+    M[:n, :n], M[:n, n:] = Ad, Bd
+    M[n, n] = 1.0
+    L = sla.logm(M)
+    if np.max(np.abs(L.imag)) > 1e-9 * max(1.0, np.max(np.abs(L.real))):
+        raise ValueError("the discrete model has no real continuous zero-order-hold pre-image")
+    L = L.real / float(dt)
+    return L[:n, :n], L[:n, n:]

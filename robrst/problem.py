@@ -14,12 +14,15 @@ import numpy as np
 from robrst.errors import SpecError
 
 __all__ = ["PoleSpec", "ControllerStructure", "Specs", "SolverOptions", "Problem",
-           "PEAK_SPECS", "METHODS", "OBJECTIVES", "T_MODES", "INITS"]
+           "PEAK_SPECS", "METHODS", "OBJECTIVES", "T_MODES", "INITS", "PLACEMENTS",
+           "HOMOTOPIES"]
 
 METHODS = ("analytic", "nlp", "convex")
 OBJECTIVES = ("max_integral_gain", "min_Ms", "feasibility")
-T_MODES = ("paper", "static", "cancel_aux")
+T_MODES = ("paper", "static", "cancel_aux", "reference_model")
 INITS = ("analytic", "convex")
+PLACEMENTS = ("auto", "fixed", "free")
+HOMOTOPIES = ("on_failure", "always")
 PEAK_SPECS = {"S": "Ms_max", "T": "Mt_max", "U": "Mu_max"}   # sensitivity -> bound attribute
 
 
@@ -94,6 +97,12 @@ class ControllerStructure:
     first; ``S_fixed`` contains the integrator ``s``); ``extra_degree`` raises
     ``deg S`` above the paper's minimum (free Youla parameter for the NLP);
     ``T_mode`` and ``T_zeros`` choose the feed-forward polynomial T.
+
+    Roll-off: ``deg R <= deg S - relative_degree`` (1: a strictly proper controller),
+    and ``roll_off_order`` poles at ``roll_off_hz`` fixed in ``S`` (their order adds to
+    the relative degree).  ``T_mode = "reference_model"`` designs T for the reference
+    model of ``reference_wn``/``reference_zeta`` (two degrees of freedom, see
+    :mod:`robrst.synthesis.tracking`).
     """
 
     S_fixed: tuple = (1.0, 0.0)
@@ -101,6 +110,27 @@ class ControllerStructure:
     extra_degree: int = 0
     T_mode: str = "paper"
     T_zeros: tuple = ()
+    relative_degree: int = 0
+    roll_off_order: int = 0
+    roll_off_hz: float = None
+    reference_wn: float = None
+    reference_zeta: float = 1.0
+    T_cancel_damping: float = 0.5
+
+    @property
+    def S_total(self):
+        """``S_fixed`` times the fixed roll-off factor ``(s/wc + 1)**roll_off_order``."""
+        S = np.asarray(self.S_fixed, float)
+        if self.roll_off_order:
+            wc = 2 * np.pi * self.roll_off_hz
+            for _ in range(self.roll_off_order):
+                S = np.convolve(S, [1.0 / wc, 1.0])
+        return S
+
+    @property
+    def controller_relative_degree(self):
+        """Required ``deg S - deg R`` of the controller."""
+        return int(self.relative_degree) + int(self.roll_off_order)
 
 
 @dataclass(frozen=True)
@@ -111,7 +141,11 @@ class Specs:
     (``Mu_max``) and on ``|T|`` over ``resonance_band_hz`` (``T_resonance_max``);
     ``stable_controller`` asks for ``S/s`` Hurwitz; with ``sample_rate_hz`` the sampled
     loop (ZOH plant, Tustin controller, ``delay_samples`` of delay) is designed and
-    certified as well.  ``None`` means no bound.
+    certified as well.  ``Mu_hf_max`` bounds ``|U|`` above ``Mu_hf_above_hz`` (the
+    amplifier budget at high frequency).  Time-domain specs (certified on every model
+    and the sweep, :mod:`robrst.timespec`): ``overshoot_max_pct`` and
+    ``settling_time_max_s`` (2 %) of a reference step, and ``step_u_max_V`` on the peak
+    control voltage for a reference step of ``step_um``.  ``None`` means no bound.
     """
 
     Ms_max: float = None
@@ -123,6 +157,25 @@ class Specs:
     stable_controller: bool = False
     sample_rate_hz: float = None
     delay_samples: int = 0
+    Mu_hf_max: float = None
+    Mu_hf_above_hz: float = None
+    overshoot_max_pct: float = None
+    settling_time_max_s: float = None
+    step_um: float = 1.0
+    step_u_max_V: float = None
+
+    @property
+    def time_domain(self):
+        """True when a time-domain spec is given."""
+        return any(v is not None for v in (self.overshoot_max_pct, self.settling_time_max_s,
+                                           self.step_u_max_V))
+
+    def without_time_domain(self):
+        """These specs without the time-domain ones (what the feedback synthesis certifies)."""
+        from dataclasses import replace
+
+        return replace(self, overshoot_max_pct=None, settling_time_max_s=None,
+                       step_u_max_V=None)
 
     def peak_bound(self, name):
         """Bound on the peak of sensitivity ``name`` (S, T or U), or ``None``."""
@@ -136,7 +189,16 @@ class Specs:
 
 @dataclass(frozen=True)
 class SolverOptions:
-    """How the controller is computed and certified (see the problem-file reference)."""
+    """How the controller is computed and certified (see the problem-file reference).
+
+    ``placement``: ``"fixed"`` keeps the nominal closed-loop poles the [poles] table
+    (and ``free_poles``) asks for; ``"free"`` lets every controller coefficient move
+    (the pole placement is only a start); ``"auto"`` starts as ``"fixed"`` and frees the
+    poles when the specs cannot be met with them.  ``homotopy``: ``"on_failure"``
+    solves ``extra_degree - 1`` (recursively) only when the requested degree does not
+    certify; ``"always"`` solves every degree from 0 up, each seeded with the one
+    below, so more degrees never give a worse certified objective.
+    """
 
     method: str = "analytic"
     objective: str = "max_integral_gain"
@@ -152,6 +214,8 @@ class SolverOptions:
     max_iter: int = 500
     ipopt_tol: float = 1e-9
     compare_with: str = None
+    placement: str = "auto"
+    homotopy: str = "on_failure"
 
 
 @dataclass(frozen=True, eq=False)

@@ -1,13 +1,14 @@
-"""Files the package ships: the paper's problem files and twin file.
+"""Files the package ships: the paper's problem files, twin file and sweep files.
 
-They live in ``robrst/problems/`` inside the installed package, so every documented
-command runs from any folder without a source checkout.
+They live in ``robrst/problems/`` (sweep files in ``robrst/problems/sweeps/``) inside the
+installed package, so every documented command runs from any folder without a source checkout.
 """
 
 from importlib import resources
 from pathlib import Path
 
-__all__ = ["problems_dir", "builtin_problem", "problem_names", "builtin_twin"]
+__all__ = ["problems_dir", "builtin_problem", "problem_names", "builtin_twin", "sweeps_dir",
+           "sweep_names", "builtin_sweep"]
 
 
 def problems_dir():
@@ -31,3 +32,21 @@ def builtin_problem(name):
 def builtin_twin(name="twin_paper"):
     """Path of a built-in twin file (default: the paper's actuator)."""
     return problems_dir() / f"{name}.toml"
+
+
+def sweeps_dir():
+    """The folder holding the built-in sweep files (``problems/sweeps``)."""
+    return problems_dir() / "sweeps"
+
+
+def sweep_names():
+    """Names of the built-in sweeps (file stems)."""
+    return sorted(p.stem for p in sweeps_dir().glob("*.toml"))
+
+
+def builtin_sweep(name):
+    """Path of the built-in sweep ``name`` (with or without ``.toml``), or ``None``."""
+    stem = Path(name).name.removesuffix(".toml")
+    if Path(name).parent != Path(".") or stem not in sweep_names():
+        return None
+    return sweeps_dir() / f"{stem}.toml"

@@ -19,7 +19,6 @@ the sampled loop unchanged, including the exact Hamiltonian peaks.
 from math import comb
 
 import numpy as np
-import scipy.linalg as sla
 
 from robrst import lti, poly
 from robrst.errors import SpecError
@@ -65,19 +64,6 @@ def _w_plane(dss):
     return Aw, Bw, dss.C, dw
 
 
-def _zeros(A, B, C, d):
-    """Finite transmission zeros of a SISO state space (generalised eigenvalues)."""
-    n = A.shape[0]
-    M = np.block([[A, B], [C, np.array([[d]])]])
-    E = np.zeros_like(M)
-    E[:n, :n] = np.eye(n)
-    ab = sla.eigvals(M, E, homogeneous_eigvals=True)
-    alpha, beta = ab
-    scale = np.maximum(np.abs(alpha), 1.0)
-    finite = np.abs(beta) > 1e-12 * scale
-    return alpha[finite] / beta[finite]
-
-
 def sampled_plant(plant, sample_rate_hz, delay_samples=0):
     """The plant ``P_w(s)`` of the sampled loop (see the module docstring).
 
@@ -114,7 +100,7 @@ def sampled_plant(plant, sample_rate_hz, delay_samples=0):
     lam = np.linalg.eigvals(dss.A)
     poles = (2.0 / h) * np.tanh(lam * h / 2.0)
     Aw, Bw, Cw, dw = _w_plane(dss)
-    zeros = _zeros(Aw, Bw, Cw, dw)
+    zeros = lti.transmission_zeros(Aw, Bw, Cw, dw)
     p0 = _GAIN_POINT
     val = (Cw @ np.linalg.solve(p0 * np.eye(len(lam)) - Aw, Bw)).item() + dw
     gain = val * np.prod(p0 - poles) / np.prod(p0 - zeros)

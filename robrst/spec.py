@@ -15,8 +15,8 @@ from robrst import resources
 from robrst.errors import SpecError
 from robrst.family import PlantFamily, ThermalCoefficients, explicit_family, parametric_family
 from robrst.plant import Plant, named_plant
-from robrst.problem import (INITS, METHODS, OBJECTIVES, T_MODES, ControllerStructure, PoleSpec,
-                            Problem, SolverOptions, Specs)
+from robrst.problem import (HOMOTOPIES, INITS, METHODS, OBJECTIVES, PLACEMENTS, T_MODES,
+                            ControllerStructure, PoleSpec, Problem, SolverOptions, Specs)
 from robrst.schema import ArrayOf, Field, key_error, load_toml, markdown_rows, validate
 
 __all__ = ["load_problem", "parse_problem", "resolve_problem_path", "SCHEMA", "schema_markdown"]
@@ -62,8 +62,20 @@ SCHEMA = {
         "S_fixed": Field("numbers", (1.0, 0.0), "fixed factor of S (must contain s)"),
         "R_fixed": Field("numbers", (1.0,), "fixed factor of R (e.g. a roll-off)"),
         "extra_degree": Field("int", 0, "degrees of S above the paper's minimum", lo=0, hi=20),
-        "T_mode": Field("str", "paper", "paper | static | cancel_aux", choices=T_MODES),
+        "T_mode": Field("str", "paper", "paper | static | cancel_aux | reference_model",
+                        choices=T_MODES),
         "T_zeros": Field("numbers", (), "zeros of T = Bm_aux [rad/s] (T_mode = paper)"),
+        "relative_degree": Field("int", 0, "deg R <= deg S - this (1: strictly proper controller)",
+                                 lo=0, hi=10),
+        "roll_off_order": Field("int", 0, "poles of a fixed roll-off factor (s/wc + 1)^order in S"
+                                " (adds to the relative degree)", lo=0, hi=10),
+        "roll_off_hz": Field("number", None, "corner wc/2pi of the roll-off factor [Hz]",
+                             positive=True),
+        "reference_wn": Field("number", None, "reference model bandwidth [rad/s]"
+                              " (T_mode = reference_model)", positive=True),
+        "reference_zeta": Field("number", 1.0, "reference model damping", positive=True),
+        "T_cancel_damping": Field("number", 0.5, "T cancels nominal closed-loop factors at least"
+                                  " this damped (T_mode = reference_model)", lo=0.0, hi=1.0),
     },
     "poles": {
         "wn": Field("number", None, "dominant natural frequency [rad/s]", positive=True),
@@ -89,6 +101,16 @@ SCHEMA = {
                                 positive=True, hi=1e9),
         "delay_samples": Field("int", 0, "computation delay of the sampled loop [samples]",
                                lo=0, hi=1000),
+        "Mu_hf_max": Field("number", None, "bound on |U| above Mu_hf_above_hz [V/µm]",
+                           positive=True),
+        "Mu_hf_above_hz": Field("number", None, "where the Mu_hf_max bound starts [Hz]",
+                                positive=True),
+        "overshoot_max_pct": Field("number", None, "overshoot of a reference step [%]", lo=0.0),
+        "settling_time_max_s": Field("number", None, "2 % settling time of a reference step [s]",
+                                     positive=True),
+        "step_um": Field("number", 1.0, "reference step for step_u_max_V [µm]", positive=True),
+        "step_u_max_V": Field("number", None, "peak |u| for a reference step of step_um [V]",
+                              positive=True),
     },
     "solver": {
         "method": Field("str", "analytic", "analytic | nlp | convex", choices=METHODS),
@@ -111,6 +133,12 @@ SCHEMA = {
         "ipopt_tol": Field("number", 1e-9, "IPOPT tolerance", positive=True, hi=1e-2),
         "compare_with": Field("str", None, "problem file (relative) whose analytic design is"
                               " compared"),
+        "placement": Field("str", "auto", "nominal closed-loop poles: fixed (as [poles] and"
+                           " free_poles ask) | free (every coefficient free) | auto (fixed, freed"
+                           " when the specs cannot be met)", choices=PLACEMENTS),
+        "homotopy": Field("str", "on_failure", "lower extra_degree solved first: on_failure |"
+                          " always (more degrees never certify a worse objective)",
+                          choices=HOMOTOPIES),
     },
 }
 
@@ -212,6 +240,16 @@ def _check_pairs(path, specs, solver):
             raise key_error(path, (tab, k), f"expected [lo, hi] with 0 < lo < hi, got {list(b)}")
 
 
+def _check_new_keys(path, ctrl, specs):
+    if (specs.Mu_hf_max is None) != (specs.Mu_hf_above_hz is None):
+        raise key_error(path, ("specs",), "'Mu_hf_max' and 'Mu_hf_above_hz' go together")
+    if ctrl.roll_off_order and ctrl.roll_off_hz is None:
+        raise key_error(path, ("controller", "roll_off_hz"), "needed with roll_off_order > 0")
+    if ctrl.T_mode == "reference_model" and ctrl.reference_wn is None:
+        raise key_error(path, ("controller", "reference_wn"), "needed with T_mode ="
+                        " 'reference_model'")
+
+
 def parse_problem(data, path="<problem>"):
     """Validate a parsed TOML document and build the :class:`~robrst.problem.Problem`.
 
@@ -245,6 +283,7 @@ def parse_problem(data, path="<problem>"):
         raise key_error(path, ("specs", "delay_samples"), "needs 'sample_rate_hz'")
     if (specs.T_resonance_max is None) != (specs.resonance_band_hz is None):
         raise key_error(path, ("specs",), "'T_resonance_max' and 'resonance_band_hz' go together")
+    _check_new_keys(path, ctrl, specs)
     _check_pairs(path, specs, solver)
     if solver.init == "convex" and solver.free_poles:
         raise key_error(path, ("solver", "init"), "'convex' needs a fixed Am (free_poles = false):"

@@ -45,3 +45,20 @@ def designs():
 @pytest.fixture(scope="session")
 def robust_result(designs):
     return designs("paper_robust")
+
+
+@pytest.fixture(scope="session")
+def exports(designs):
+    """Exported digital controllers of the shipped problems (20 kHz where none is named)."""
+    from robrst.export import export_controller
+
+    cache = {}
+
+    def get(name):
+        if name not in cache:
+            result = designs(name)
+            fs = None if result.problem.specs.sampled else 20000.0
+            cache[name] = export_controller(result, fs)
+        return cache[name]
+
+    return get

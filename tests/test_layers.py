@@ -3,14 +3,15 @@
 Layers, bottom to top (README "Architecture")::
 
     base          errors, schema, fileio, resources
-    maths core    poly, lti, plant, thermal, family, rst, hinf, analysis, sampled, interval
+    maths core    poly, lti, plant, thermal, family, rst, hinf, analysis, sampled, digital,
+                  implement, interval
     problem       problem (typed records), spec (problem files)
-    certificate   certificate
+    certificate   certificate, modelcheck, timespec
     synthesis     synthesis.*
     design        design
     modelling     twin.*, dataset, diagnose.*, identify.*   (on base + maths core only)
-    experiments   experiments.*
-    presentation  report.*, cli.*, testing, the package face (robrst/__init__)
+    experiments   experiments.*, sweep.*
+    presentation  report.*, cli.*, export.*, testing, the package face (robrst/__init__)
 
 Every ``import`` of a robrst module counts, at module level or inside a function body.
 """
@@ -25,15 +26,16 @@ PKG = Path(__file__).resolve().parents[1] / "robrst"
 LAYERS = {
     "base": ("robrst.errors", "robrst.schema", "robrst.fileio", "robrst.resources"),
     "maths": ("robrst.poly", "robrst.lti", "robrst.plant", "robrst.thermal", "robrst.family",
-              "robrst.rst", "robrst.hinf", "robrst.analysis", "robrst.sampled", "robrst.interval"),
+              "robrst.rst", "robrst.hinf", "robrst.analysis", "robrst.sampled",
+              "robrst.digital", "robrst.implement", "robrst.interval"),
     "problem": ("robrst.problem", "robrst.spec"),
-    "certificate": ("robrst.certificate",),
+    "certificate": ("robrst.certificate", "robrst.modelcheck", "robrst.timespec"),
     "synthesis": ("robrst.synthesis",),
     "design": ("robrst.design",),
     "modelling": ("robrst.twin", "robrst.dataset", "robrst.diagnose", "robrst.identify"),
-    "experiments": ("robrst.experiments",),
-    "presentation": ("robrst.report", "robrst.cli", "robrst.testing", "robrst.__main__",
-                     "robrst"),
+    "experiments": ("robrst.experiments", "robrst.sweep"),
+    "presentation": ("robrst.report", "robrst.cli", "robrst.testing", "robrst.export",
+                     "robrst.__main__", "robrst"),
 }
 ORDER = ("base", "maths", "problem", "certificate", "synthesis", "design")
 ALLOWED = {name: set(ORDER[:i + 1]) for i, name in enumerate(ORDER)}

@@ -23,7 +23,7 @@ FS = 20000.0
 
 @pytest.fixture(scope="module")
 def controllers(designs):
-    return {name: designs(name).controller for name in ("paper", "paper_robust")}
+    return {name: designs(name).controller for name in ("paper", "paper_robust_continuous")}
 
 
 def _scaled_tf(num, den, w0, dt=None):
@@ -68,7 +68,7 @@ def test_warp_round_trip():
 
 
 @pytest.mark.parametrize("delay", [0, 1, 2])
-@pytest.mark.parametrize("name", ["paper", "paper_robust"])
+@pytest.mark.parametrize("name", ["paper", "paper_robust_continuous"])
 def test_sampled_peak_matches_python_control_discrete_loop(controllers, name, delay):
     """Exact Ms of the warped loop vs python-control's discrete loop on the unit circle."""
     ctrl = controllers[name]
@@ -94,7 +94,7 @@ def test_sampled_closed_loop_poles_map_to_the_discrete_ones(controllers, delay):
 
 
 def test_sampled_problem_is_certified_and_agrees_with_python_control(designs):
-    res = designs("paper_robust_sampled")
+    res = designs("paper_robust")
     assert res.certified
     sp = res.problem.specs
     recs = res.certificate.models
@@ -109,9 +109,17 @@ def test_sampled_problem_is_certified_and_agrees_with_python_control(designs):
         L, poles = python_control_loop(res.problem.family.at(T), res.controller, FS, 0)
         assert rec["Ms_sampled"] == pytest.approx(unit_circle_peak(L, FS), rel=1e-6)
         assert np.max(np.abs(poles)) < 1
-    # the continuous-only robust design violates nothing continuous but is worse sampled
-    L, _ = python_control_loop(paper_plant(), designs("paper_robust").controller, FS, 0)
-    assert unit_circle_peak(L, FS) > max(m["Ms_sampled"] for m in recs) + 0.1
+    # the continuous-only robust design spends the amplifier at Nyquist once sampled:
+    # |U| = |K_d / (1 + L)| at z = -1 beyond the bound; the sampled design's K_d(-1) = 0
+    for name, bad in (("paper_robust_continuous", True), ("paper_robust", False)):
+        ctrl = designs(name).controller
+        L, _ = python_control_loop(paper_plant(), ctrl, FS, 0)
+        w0 = float(np.sqrt(abs(paper_plant().A[-1])) ** (2 / 3))
+        Kd = control.c2d(control.ss(_scaled_tf(ctrl.R, ctrl.S, w0)), w0 / FS, "tustin")
+        u_nyq = abs(complex(Kd(-1.0)) / (1 + complex(L(-1.0))))
+        assert (u_nyq > sp.Mu_max) == bad
+        if not bad:
+            assert u_nyq <= 1e-6 * sp.Mu_max     # roll-off: strictly proper K -> K_d(-1) = 0
 
 
 @pytest.mark.parametrize("edit,key", [

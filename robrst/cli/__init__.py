@@ -1,4 +1,4 @@
-"""Command-line interface: ``robrst design | report | simulate | diagnose``.
+"""Command-line interface: ``robrst design | report | simulate | diagnose | export | check | sweep``.
 
 A thin layer: parse arguments, call the library, print.  Every robrst error becomes
 one line ``robrst: error: ...`` on stderr and exit code 2 (1 for a design that is not
@@ -6,15 +6,23 @@ certified, 0 otherwise); never a traceback.
 """
 
 import argparse
+import os
 import sys
 
+# robrst's matrices are small (< 30 x 30): BLAS threads only add wake-up latency (scipy's
+# expm is ~300x slower with two OpenBLAS threads on a 2-core machine).  The command line
+# is robrst's own process, so it sets the default before numpy loads; users' scripts keep
+# their own settings.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
 from robrst import __version__
-from robrst.cli import design, diagnose, simulate
+from robrst.cli import check, design, diagnose, export, simulate, sweep
 from robrst.errors import RobrstError
 
 __all__ = ["main", "build_parser"]
 
-COMMANDS = (design, simulate, diagnose)
+COMMANDS = (design, simulate, diagnose, export, check, sweep)
 
 
 class _Parser(argparse.ArgumentParser):

@@ -233,14 +233,16 @@ def solve_diophantine(A, B, Am, S_fixed=(1.0, 0.0), R_fixed=(1.0,)):
     return DiophantineSolution(R=R, S=S, w0=w0, cond=cond, residual=res, raw_system=(Ap, Bp, ks))
 
 
-def closed_loop_degree(n, m, S_fixed=(1.0, 0.0), R_fixed=(1.0,), extra_degree=0):
+def closed_loop_degree(n, m, S_fixed=(1.0, 0.0), R_fixed=(1.0,), extra_degree=0,
+                       relative_degree=0):
     """Degree of ``Am`` for plant degrees ``n >= m`` and the fixed factors.
 
     With ``Sf = s`` and ``Rf = 1`` this is the paper's ``2n`` (``deg S = deg R = n``);
-    ``extra_degree`` raises ``deg S`` (and so ``deg Am``) further.
+    ``extra_degree`` raises ``deg S`` (and so ``deg Am``) further, and so does
+    ``relative_degree`` (``deg R <= deg S - relative_degree``: roll-off).
     """
     dSf, dRf = len(poly.trim(S_fixed)) - 1, len(poly.trim(R_fixed)) - 1
-    ks = max(n - 1 + dRf, m + dRf) + int(extra_degree)
+    ks = max(n - 1 + dRf + int(relative_degree), m + dRf) + int(extra_degree)
     return n + dSf + ks
 
 
@@ -327,11 +329,13 @@ def pole_placement(plant: Plant, poles: PoleSpec,
     >>> float(d.controller.S[-1]), d.cond < 1e3      # integrator in S; well conditioned
     (0.0, True)
     """
-    Sf, Rf = poly.trim(structure.S_fixed), poly.trim(structure.R_fixed)
-    degree = closed_loop_degree(plant.n, plant.m, Sf, Rf, structure.extra_degree)
+    Sf, Rf = poly.trim(structure.S_total), poly.trim(structure.R_fixed)
+    degree = closed_loop_degree(plant.n, plant.m, Sf, Rf, structure.extra_degree,
+                                structure.controller_relative_degree)
     Am, Am_dom, Am_aux = characteristic_polynomial(poles, degree)
     sol = solve_diophantine(plant.A, plant.B, Am, Sf, Rf)
-    T = tracking_polynomial(structure.T_mode, sol.R, plant.B, Am, Am_aux, structure.T_zeros)
+    mode = "static" if structure.T_mode == "reference_model" else structure.T_mode
+    T = tracking_polynomial(mode, sol.R, plant.B, Am, Am_aux, structure.T_zeros)
     if len(T) > len(sol.S):
         n_dom = len(Am_dom) - 1
         raise DegreeError(

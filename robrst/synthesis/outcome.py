@@ -17,7 +17,7 @@ OK_STATUS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 class Binding:
     """A constraint of the NLP named for the user: kind, model, temperature, frequency.
 
-    ``kind`` is ``"S"``, ``"T"``, ``"U"``, ``"Tband"`` (a peak bound on the grid),
+    ``kind`` is ``"S"``, ``"T"``, ``"U"``, ``"Tband"``, ``"Uhf"`` (a peak bound on the grid),
     ``"routh"`` (stability), ``"positivity"``, ``"gamma"`` or ``"controller_routh"``;
     ``freq_rad_s`` is physical; ``multiplier`` IPOPT's ``lam_g`` (scaled by the
     constraint's size) and ``violation`` how far the constraint is from holding.
@@ -32,7 +32,10 @@ class Binding:
 
     def describe(self):
         what = {"S": "|S| peak", "T": "|T| peak", "U": "|U| peak", "Tband": "|T| in the band",
-                "routh": "closed-loop stability (Routh)"}.get(self.kind, self.kind)
+                "Uhf": "|U| above the high-frequency corner",
+                "routh": "closed-loop stability (Routh)",
+                "controller_routh": "controller poles (stability / integral-gain shift)",
+                "positivity": "sign of the integral gain"}.get(self.kind, self.kind)
         who = "" if self.model is None else f" of model {self.model} ({self.temperature_C:g} °C)"
         at = "" if self.freq_rad_s is None else f" at {self.freq_rad_s / (2 * np.pi):.4g} Hz"
         return f"{what}{who}{at}"
@@ -80,16 +83,19 @@ class SolveResult:
     def binding(self, count=3):
         """The inequality constraints that bind, strongest first (by ``|multiplier|``).
 
-        The Diophantine equality is structural and never named.  When IPOPT ended on
-        an infeasible point, the violated constraints come first.
+        The Diophantine equality is structural and never named; multipliers below 1e-4
+        of the largest are an interior point's inactive constraints, not binding ones.
+        When IPOPT ended on an infeasible point, the violated constraints come first.
         """
         v = self.violations()
-        ineq = np.array([lab[0] != "diophantine" for lab in self.labels], bool)
+        ineq = np.array([lab[0] not in ("diophantine", "unused") for lab in self.labels], bool)
         order = []
         bad = np.flatnonzero(ineq & (v > 1e-6))
         order += list(bad[np.argsort(-v[bad])])
-        act = np.flatnonzero(ineq & (np.abs(self.lam_g) > 0))
-        order += [i for i in act[np.argsort(-np.abs(self.lam_g[act]))] if i not in order]
+        lam = np.abs(self.lam_g)
+        big = lam.max(initial=0.0, where=ineq) * 1e-4   # an interior point's inactive rows
+        act = np.flatnonzero(ineq & (lam > big))         # carry mu / slack, not zero
+        order += [i for i in act[np.argsort(-lam[act])] if i not in order]
         out, seen = [], set()
         for i in order:
             b = self._binding_at(i, v)
@@ -115,10 +121,15 @@ class Round:
     exchange_rounds: int = None
     active_points: int = None
     grid_points: int = None
+    phase: str = "hard"        # "soft" (worst normalised spec ratio) or "hard" (objective)
+    placement: str = None      # "fixed", "dominant" or "free"
+    start: str = None          # the start point's name
+    gamma: float = None        # soft phase: worst normalised spec ratio reached on the grid
 
     def as_dict(self):
         d = {k: getattr(self, k) for k in ("round", "status", "iterations", "models",
-                                           "frequencies", "violations")}
+                                           "frequencies", "violations", "phase", "placement",
+                                           "start", "gamma")}
         if self.exchange_rounds is not None:
             d.update(exchange_rounds=self.exchange_rounds, active_points=self.active_points,
                      grid_points=self.grid_points)
@@ -129,8 +140,14 @@ class Round:
 class SynthesisResult:
     """A synthesised controller with its certificate and how the solver got there.
 
-    ``status`` is ``"certified"`` (a failed synthesis raises).  ``solve`` is the last
-    :class:`~robrst.synthesis.outcome.SolveResult`.
+    ``status`` is ``"certified"`` or ``"not_certified"`` (the best controller found,
+    certified for what it achieves: ``best_achievable`` says how far from the specs).
+    ``solve`` is the :class:`~robrst.synthesis.outcome.SolveResult` the controller came
+    from (its ``binding()`` names the limiting constraints); ``placement`` the nominal
+    pole placement it was solved with, ``phase`` whether it is the objective's optimum
+    (``"hard"``), the soft-goal point (``"soft"``: the specs' worst normalised ratio
+    minimised) or a start that met the specs (``"start"``); ``notes`` what the pipeline
+    had to do (fallbacks, relaxations).
     """
 
     controller: object
@@ -146,6 +163,20 @@ class SynthesisResult:
     zeta: float = None
     name: str = "ipopt"
     grid_peak_S: float = None
+    placement: str = None
+    phase: str = "hard"
+    best_achievable: str = None
+    notes: tuple = ()
+
+    @property
+    def integral_gain(self):
+        """``lim s R/S`` of the controller [V/(µm s)]."""
+        return integral_gain(self.controller)
+
+    @property
+    def certified(self):
+        """True when the certificate holds."""
+        return self.status == "certified"
 
     def solver_dict(self):
         """The ``solver`` object of the design JSON (fields are only added)."""
@@ -153,11 +184,14 @@ class SynthesisResult:
             return {"name": self.name, "status": self.status, "w0_rad_s": self.w0,
                     "grid_peak_S": self.grid_peak_S,
                     "integral_gain": integral_gain(self.controller)}
-        d = {"name": "ipopt", "w0_rad_s": self.w0, "status": self.solve.status,
+        d = {"name": "ipopt", "w0_rad_s": self.w0,
+             "status": None if self.solve is None else self.solve.status,
              "rounds": [r.as_dict() for r in self.rounds],
              "iterations": sum(r.iterations for r in self.rounds), "objective": self.objective,
              "integral_gain": integral_gain(self.controller), "wall_time_s": self.wall_time_s,
-             "binding": [b.describe() for b in self.solve.binding()]}
+             "binding": [] if self.solve is None else [b.describe() for b in self.solve.binding()],
+             "placement": self.placement, "phase": self.phase, "synthesis_status": self.status,
+             "best_achievable": self.best_achievable, "notes": list(self.notes)}
         if self.wn_rad_s is not None:
             d["wn_rad_s"], d["zeta"] = self.wn_rad_s, self.zeta
         return d
