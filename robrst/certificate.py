@@ -39,8 +39,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from robrst.interval import segment_crossing
-from robrst.modelcheck import (BOUNDED, JUMPS, RESOLVE_FACTOR, Violation, band_peak, check_all,
-                               check_model, margins)
+from robrst.modelcheck import (BOUNDED, FIGURE_OF, JUMPS, RESOLVE_FACTOR, Violation,
+                               band_peak, check_all, check_model, margins)
 from robrst.problem import Problem
 from robrst.rst import RSTController, closed_loop
 
@@ -94,7 +94,8 @@ class Certificate:
                 out[k] = max(out.get(k, -np.inf), ratio(v, lim))
         for v in self.violations:
             if v.kind == "exceeds" and v.bound and v.bound > 0 and np.isfinite(v.value):
-                k = v.quantity + ("_sampled" if v.loop == "sampled" else "")
+                k = FIGURE_OF.get(v.quantity, v.quantity) + ("_sampled" if v.loop == "sampled"
+                                                              else "")
                 if k not in out:
                     out[k] = max(out.get(k, -np.inf), v.value / v.bound)
         return out

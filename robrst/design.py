@@ -17,6 +17,7 @@ import numpy as np
 from robrst import poly, timespec
 from robrst.analysis import analyze, spectral_abscissa
 from robrst.certificate import Violation, certify, certify_problem
+from robrst.errors import CoprimeError, DegreeError
 from robrst.problem import Problem
 from robrst.rst import closed_loop
 from robrst.sampled import sampled_plant
@@ -152,9 +153,19 @@ def analytic_design(problem, poles=None):
     Returns
     -------
     AnalyticDesign
+
+    Raises
+    ------
+    DegreeError, CoprimeError
+        The message starts with the problem file's path (when it has one).
     """
-    return analytic.pole_placement(problem.family.reference_model, poles or problem.poles,
-                                   problem.controller)
+    try:
+        return analytic.pole_placement(problem.family.reference_model, poles or problem.poles,
+                                       problem.controller)
+    except (DegreeError, CoprimeError) as exc:
+        if problem.path and not str(problem.path).startswith("<") and str(problem.path) not in str(exc):
+            exc.args = (f"{problem.path}: {exc}",) + exc.args[1:]
+        raise
 
 
 def with_time_domain(problem, cert, ctrl):

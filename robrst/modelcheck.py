@@ -25,7 +25,7 @@ from robrst.rst import closed_loop
 from robrst.sampled import sampled_plant, unwarp, warp
 
 __all__ = ["Violation", "check_model", "check_all", "margins", "band_peak", "BOUNDED",
-           "JUMPS", "SAMPLED_KEYS", "RESOLVE_FACTOR"]
+           "FIGURE_OF", "JUMPS", "SAMPLED_KEYS", "RESOLVE_FACTOR"]
 
 RESOLVE_FACTOR = 64.0  # stability resolved when the distance to instability > this x n eps
 
@@ -147,6 +147,8 @@ BOUNDED = (("Ms", "Ms_max"), ("Mt", "Mt_max"), ("Mu", "Mu_max"),
            ("Mt_resonance_band", "T_resonance_max"), ("Mu_hf", "Mu_hf_max"),
            ("overshoot_pct", "overshoot_max_pct"), ("settling_time_s", "settling_time_max_s"),
            ("step_u_peak_V", "step_u_max_V"))
+FIGURE_OF = {"|S| peak": "Ms", "|T| peak": "Mt", "|U| peak": "Mu",   # violation -> record
+             "|T| in resonance band": "Mt_resonance_band", "|U| above corner": "Mu_hf"}
 JUMPS = ("settling_time_s", "settling_time_s_sampled")   # piecewise continuous figures
 
 
