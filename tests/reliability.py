@@ -54,13 +54,14 @@ class Outcome:
     figure_low: bool = False
 
 
-def run_seed(seed, n_temps=33, n_grid=20000):
-    """Design random problem ``seed`` and classify the outcome (module docstring)."""
+def run_seed(seed, n_temps=33, n_grid=20000, method=None):
+    """Design random problem ``seed`` (``method`` forces ``solver.method``) and classify
+    the outcome (module docstring)."""
     from robrst.design import run_problem
     from robrst.errors import RobrstError
 
     t0 = time.perf_counter()
-    case = random_case(seed)
+    case = random_case(seed, method=method)
     try:
         res = run_problem(case.problem())
     except RobrstError as exc:
