@@ -18,6 +18,7 @@ from robrst import poly, timespec
 from robrst.analysis import analyze, spectral_abscissa
 from robrst.certificate import Violation, certify, certify_problem
 from robrst.errors import CoprimeError, DegreeError
+from robrst.modelcheck import BOUNDED
 from robrst.problem import Problem
 from robrst.rst import closed_loop
 from robrst.sampled import sampled_plant
@@ -197,8 +198,10 @@ def with_time_domain(problem, cert, ctrl):
             viols += [Violation(m.label, m.temperature_C, q, v, b, None,
                                 "sampled" if fs else "continuous") for q, v, b in failed]
         recs.append(rec)
+    bounds = {**cert.bounds, **{key: getattr(sp, attr) for key, attr in BOUNDED
+                                if getattr(sp, attr) is not None}}
     return replace(cert, certified=not viols, models=tuple(recs), violations=tuple(viols),
-                   interval={**cert.interval, "time_domain": "checked points"})
+                   interval={**cert.interval, "time_domain": "checked points"}, bounds=bounds)
 
 
 def analytic_check(problem, ctrl, Am):
