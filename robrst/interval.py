@@ -21,7 +21,8 @@ import numpy as np
 
 from robrst import poly
 
-__all__ = ["SegmentCrossing", "segment_crossing", "distance_to_instability"]
+__all__ = ["SegmentCrossing", "segment_crossing", "distance_to_instability", "hurwitz_guardian",
+           "ParameterProof", "parameter_crossing"]
 
 EPS = np.finfo(float).eps
 
@@ -142,3 +143,81 @@ def distance_to_instability(parts, Delta, roots, n_grid=400):
             t = np.geomspace(w[j] / 1.05, w[j] * 1.05, 201)
             r = np.concatenate([r, rho(t)])
         return float(np.nanmin(r))
+
+
+def hurwitz_guardian(c):
+    """``a_n * H_{n-1}`` of ``c`` (highest power first, ``c[0] > 0``): zero exactly when
+    a root lies on the imaginary axis (the guardian map of Hurwitz stability).
+
+    ``H_{n-1}`` is the leading ``(n-1)``-th principal minor of the Hurwitz matrix.
+    """
+    c = np.asarray(c, float)
+    n = len(c) - 1
+    if n < 1:
+        return float(c[0])
+    m = n - 1
+    H = np.zeros((m, m))
+    for i in range(m):
+        for j in range(m):
+            k = 2 * j - i + 1                  # h_ij = a_(2j - i + 1), 0-based
+            if 0 <= k <= n:
+                H[i, j] = c[k]
+    return float(c[-1] * (np.linalg.det(H) if m else 1.0))
+
+
+@dataclass(frozen=True)
+class ParameterProof:
+    """Result of :func:`parameter_crossing`: ``proved`` (no root reaches the imaginary axis
+    on ``[a, b]``), else ``candidate_T`` (a root of the guardian inside, or ``None`` when the
+    interpolation could not be validated), and the number of nodes used."""
+
+    proved: bool
+    candidate_T: float = None
+    nodes: int = 0
+
+
+def parameter_crossing(delta_at, a, b, deg_T, max_doublings=3):
+    """Prove that ``delta_at(T)`` keeps its roots off the imaginary axis for ``T`` in [a, b].
+
+    ``delta_at(T)`` must be a polynomial in ``s`` (degree ``n``, constant, positive leading
+    coefficient) whose coefficients are polynomials in ``T`` of degree ``<= deg_T``.  The guardian
+    ``a_n(T) H_{n-1}(T)`` (:func:`hurwitz_guardian`, in a fixed frequency scaling) is then
+    a polynomial in ``T`` of degree ``<= n deg_T``: it is interpolated at Chebyshev nodes inside ``(a, b)``
+    (never at the ends), the interpolant is validated at the midpoints between nodes
+    (relative ``1e-7`` of its size; nodes are doubled otherwise) and its real roots in
+    ``[a, b]`` are the only temperatures where a root can cross.  No root: proved (if
+    ``delta_at`` is Hurwitz anywhere on ``[a, b]``, it is Hurwitz on all of it).
+
+    Returns
+    -------
+    ParameterProof
+    """
+    mid = delta_at(0.5 * (a + b))
+    sc = poly.Scaling.natural(mid)
+    n_s = len(poly.trim(mid))
+    N = (n_s - 1) * int(deg_T) + 1
+    for _ in range(max_doublings + 1):
+        k = np.arange(N)
+        x = np.cos(np.pi * (k + 0.5) / N)                    # Chebyshev nodes in (-1, 1)
+        xm = np.cos(np.pi * (k[:-1] + 1.0) / N)              # midpoints between nodes
+        g = []
+        for t in np.concatenate([x, xm]):
+            d = poly.trim(delta_at(0.5 * (a + b) + 0.5 * (b - a) * t))
+            if len(d) != n_s or d[0] <= 0:
+                return ParameterProof(False, float(0.5 * (a + b) + 0.5 * (b - a) * t), N)
+            ds = sc.apply(d)
+            g.append(hurwitz_guardian(ds / np.max(np.abs(ds))))
+        g = np.array(g)
+        coef = np.polynomial.chebyshev.chebfit(x, g[:N], N - 1)
+        fit = np.polynomial.chebyshev.chebval(xm, coef)
+        size = np.max(np.abs(g))
+        if size > 0 and np.max(np.abs(fit - g[N:])) <= 1e-7 * size:
+            break
+        N = 2 * N
+    else:
+        return ParameterProof(False, None, N)
+    r = np.polynomial.chebyshev.chebroots(coef) if N > 1 else np.zeros(0)
+    inside = r[(np.abs(r.imag) <= 1e-6) & (np.abs(r.real) <= 1 + 1e-9)].real
+    if inside.size:
+        return ParameterProof(False, float(0.5 * (a + b) + 0.5 * (b - a) * inside.min()), N)
+    return ParameterProof(True, None, N)

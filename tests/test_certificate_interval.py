@@ -79,3 +79,46 @@ def test_design_json_carries_interval_and_ratios(capsys):
     assert cert["interval"]["stability"] == "single_model"
     assert cert["ratios"]["Ms"] == pytest.approx(out["models"][0]["Ms"] / out["specs"]["Ms_max"],
                                                  rel=1e-9)
+
+
+def _parametric_cases(n):
+    from robrst.design import analytic_design
+    from robrst.errors import RobrstError
+
+    seed = 0
+    while n:
+        case = rp.draw_case(rp.NumpyChooser(seed), seed=seed, method="analytic")
+        seed += 1
+        if case.kind["family"] != "parametric":
+            continue
+        try:
+            pr = case.problem()
+            ctrl = analytic_design(pr).controller
+        except RobrstError:
+            continue
+        n -= 1
+        yield case, pr, ctrl
+
+
+def test_parametric_guardian_proof_agrees_with_the_independent_family_law():
+    """Parametric families: 'guardian_map' (stability proved over the interval) only when
+    the checker's own thermal law finds every one of 401 temperatures stable; every stable
+    case of the sample is proved."""
+    from dataclasses import replace
+
+    from robrst.certificate import certify
+
+    seen = {"proved": 0, "unstable": 0}
+    for case, pr, ctrl in _parametric_cases(4):
+        cert = certify(pr.family, ctrl, replace(pr.specs, sample_rate_hz=None), n_sweep=8)
+        lo, hi = pr.family.range_C
+        unstable = []
+        for T in np.linspace(lo, hi, 401):
+            B, A = rp.model_at(case.data, T)
+            if not rp.stability(rp._strip(rp._add(rp._mul(A, ctrl.S), rp._mul(B, ctrl.R))))[0]:
+                unstable.append(T)
+        proved = cert.interval["stability"] == "guardian_map"
+        assert not (proved and unstable), (case.seed, unstable[:3])
+        assert proved or unstable, (case.seed, cert.interval.get("guardian"))
+        seen["proved" if proved else "unstable"] += 1
+    assert seen["proved"] >= 1 and seen["unstable"] >= 1, seen
