@@ -506,8 +506,19 @@ def _eval_cond(c, w):
 
 
 def _gain(N, D, w):
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        return np.abs(np.polyval(N, 1j * w) / np.polyval(D, 1j * w))
+    """|N/D|(jw); above 1 rad/s through the reversed polynomials in 1/(jw) (no overflow of
+    w**n at high frequency, where a tiny leading coefficient puts a root)."""
+    N, D = np.asarray(N, float), np.asarray(D, float)
+    n = max(len(N), len(D))
+    Np, Dp = np.pad(N, (n - len(N), 0)), np.pad(D, (n - len(D), 0))
+    w = np.asarray(w, float)
+    out = np.empty(w.shape)
+    low = np.abs(w) <= 1.0
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore", under="ignore"):
+        out[low] = np.abs(np.polyval(Np, 1j * w[low]) / np.polyval(Dp, 1j * w[low]))
+        z = 1.0 / (1j * w[~low])
+        out[~low] = np.abs(np.polyval(Np[::-1], z) / np.polyval(Dp[::-1], z))
+    return out
 
 
 def _accurate_gain(N, D, w):
