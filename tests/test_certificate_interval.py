@@ -53,7 +53,8 @@ def test_shipped_certificate_interval_record_and_ratios(designs, capsys):
     res = designs("paper_robust")
     cert = res.certificate
     iv = cert.interval
-    assert iv["range_C"] == [28.0, 45.0] and iv["stability"] == "refined_sweep"
+    assert iv["range_C"] == [28.0, 45.0] and iv["stability"] == "guardian_map"
+    assert iv["guardian"]["proved"] and iv["sampled"] == "refined_sweep"
     temps = sorted(m["temperature_C"] for m in cert.models)
     assert iv["points"] == len(temps) and temps[0] == 28.0 and temps[-1] == 45.0
     assert iv["max_spacing_C"] == pytest.approx(np.max(np.diff(temps)))
