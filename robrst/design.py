@@ -9,14 +9,16 @@ against the closed-form Diophantine solution and compares it with an analytic de
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from robrst import poly, timespec
 from robrst.analysis import analyze, spectral_abscissa
-from robrst.certificate import Certificate, Violation, certify, certify_problem
+from robrst.certificate import Violation, certify, certify_problem
+from robrst.errors import CoprimeError, DegreeError
+from robrst.modelcheck import BOUNDED
 from robrst.problem import Problem
 from robrst.rst import closed_loop
 from robrst.sampled import sampled_plant
@@ -152,9 +154,19 @@ def analytic_design(problem, poles=None):
     Returns
     -------
     AnalyticDesign
+
+    Raises
+    ------
+    DegreeError, CoprimeError
+        The message starts with the problem file's path (when it has one).
     """
-    return analytic.pole_placement(problem.family.reference_model, poles or problem.poles,
-                                   problem.controller)
+    try:
+        return analytic.pole_placement(problem.family.reference_model, poles or problem.poles,
+                                       problem.controller)
+    except (DegreeError, CoprimeError) as exc:
+        if problem.path and not str(problem.path).startswith("<") and str(problem.path) not in str(exc):
+            exc.args = (f"{problem.path}: {exc}",) + exc.args[1:]
+        raise
 
 
 def with_time_domain(problem, cert, ctrl):
@@ -186,8 +198,10 @@ def with_time_domain(problem, cert, ctrl):
             viols += [Violation(m.label, m.temperature_C, q, v, b, None,
                                 "sampled" if fs else "continuous") for q, v, b in failed]
         recs.append(rec)
-    return Certificate(certified=not viols, models=tuple(recs), violations=tuple(viols),
-                       rtol=cert.rtol)
+    bounds = {**cert.bounds, **{key: getattr(sp, attr) for key, attr in BOUNDED
+                                if getattr(sp, attr) is not None}}
+    return replace(cert, certified=not viols, models=tuple(recs), violations=tuple(viols),
+                   interval={**cert.interval, "time_domain": "checked points"}, bounds=bounds)
 
 
 def analytic_check(problem, ctrl, Am):

@@ -4,9 +4,9 @@ Layers, bottom to top (README "Architecture")::
 
     base          errors, schema, fileio, resources
     maths core    poly, lti, plant, thermal, family, rst, hinf, analysis, sampled, digital,
-                  implement
+                  implement, interval
     problem       problem (typed records), spec (problem files)
-    certificate   certificate, timespec
+    certificate   certificate, modelcheck, timespec
     synthesis     synthesis.*
     design        design
     modelling     twin.*, dataset, diagnose.*, identify.*   (on base + maths core only)
@@ -27,9 +27,9 @@ LAYERS = {
     "base": ("robrst.errors", "robrst.schema", "robrst.fileio", "robrst.resources"),
     "maths": ("robrst.poly", "robrst.lti", "robrst.plant", "robrst.thermal", "robrst.family",
               "robrst.rst", "robrst.hinf", "robrst.analysis", "robrst.sampled",
-              "robrst.digital", "robrst.implement"),
+              "robrst.digital", "robrst.implement", "robrst.interval"),
     "problem": ("robrst.problem", "robrst.spec"),
-    "certificate": ("robrst.certificate", "robrst.timespec"),
+    "certificate": ("robrst.certificate", "robrst.modelcheck", "robrst.timespec"),
     "synthesis": ("robrst.synthesis",),
     "design": ("robrst.design",),
     "modelling": ("robrst.twin", "robrst.dataset", "robrst.diagnose", "robrst.identify"),

@@ -99,29 +99,14 @@ def status_of(exc):
     return "error"
 
 
-def _ratio(value, bound):
-    return None if bound is None or value is None else value / bound
-
-
 def _figures(problem, ctrl, cert, member_margins):
-    sp = problem.specs
     recs = cert.models
     worst_ms = max(recs, key=lambda r: r["Ms"]) if recs else {}
-    ratios = [_ratio(cert.worst("Ms"), sp.Ms_max), _ratio(cert.worst("Mt"), sp.Mt_max),
-              _ratio(cert.worst("Mu"), sp.Mu_max),
-              _ratio(cert.worst("Mt_resonance_band"), sp.T_resonance_max)]
-    if sp.sampled:
-        ratios += [_ratio(cert.worst("Ms_sampled"), sp.Ms_max),
-                   _ratio(cert.worst("Mt_sampled"), sp.Mt_max),
-                   _ratio(cert.worst("Mu_sampled"), sp.Mu_max),
-                   _ratio(cert.worst("Mt_resonance_band_sampled"), sp.T_resonance_max)]
     stable = all(r["stable"] for r in recs) and all(r.get("stable_sampled", True) for r in recs)
-    # every violated bound counts too (time-domain specs, |U| above a corner, ...): a variant
-    # that is not certified never shows a worst ratio within its bounds
-    ratios += [v.value / v.bound for v in cert.violations
-               if v.bound and v.bound > 0 and np.isfinite(v.value)]
-    ratios = [r for r in ratios if r is not None]
-    worst = max(ratios) if ratios else 0.0
+    # every bound the certificate checked (peaks, band peaks, sampled loop, time-domain specs,
+    # |U| above a corner, violated hook bounds): one source, Certificate.ratios()
+    ratios = cert.ratios()
+    worst = max(ratios.values()) if ratios else 0.0
     viol = max(cert.violations, key=lambda v: v.value / max(abs(v.bound), 1e-300),
                default=None)
     gm, pm, dm = member_margins

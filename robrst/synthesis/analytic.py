@@ -218,9 +218,13 @@ def solve_diophantine(A, B, Am, S_fixed=(1.0, 0.0), R_fixed=(1.0,)):
     sv = np.linalg.svd(Ms, compute_uv=False)
     cond = float(sv[0] / sv[-1]) if sv.size and sv[-1] > 0 else (1.0 if not sv.size else np.inf)
     if not np.isfinite(cond) or cond > 1e15:
-        raise CoprimeError(
-            f"the scaled Sylvester matrix is singular to working precision (cond = {cond:.3g}):"
-            " A*Sf and B*Rf are (nearly) not coprime"
+        raise CoprimeError(   # coprime (checked above): the cause is conditioning
+            f"the pole-placement (Diophantine) system is too ill-conditioned for double"
+            f" precision (cond of the scaled Sylvester matrix = {cond:.3g}); A*Sf and B*Rf"
+            f" share no root, the requested closed-loop poles are too far from the plant's"
+            f" (closed-loop scale {w0:.3g} rad/s, degree {na + ks}): move [poles] wn,"
+            f" aux_factor or dominant_real towards the plant's poles, or lower"
+            f" [controller] extra_degree"
         )
     x = _solve_refined(Ms, rhs / rowscale) / colscale
     Ss = np.concatenate([[1.0], x[:ks]])

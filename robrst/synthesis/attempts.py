@@ -58,7 +58,7 @@ class Outcome:
         v = worst_violation(self.cert)
         if v is None:
             return 0.0
-        if v.quantity == "spectral_abscissa":
+        if v.quantity == "spectral_abscissa" or not v.bound:   # crossing / unresolved: bound 0
             return np.inf
         return v.value / v.bound
 
