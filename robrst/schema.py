@@ -18,9 +18,10 @@ from pathlib import Path
 from robrst.errors import SpecError
 
 __all__ = ["Field", "ArrayOf", "validate", "key_error", "load_toml", "markdown_rows",
-           "MAX_LIST"]
+           "MAX_LIST", "MAX_MAGNITUDE"]
 
 MAX_LIST = 10_000   # longest list of numbers any robrst file may hold
+MAX_MAGNITUDE = 1e100   # any number in a robrst file: 0 or 1e-100 <= |x| <= 1e100
 TYPE_NAMES = {"number": "number", "numbers": "list of numbers", "int": "int", "str": "str",
               "bool": "bool"}
 
@@ -96,6 +97,9 @@ def _is_number(v):
 
 
 def _check_range(path, key, field, v):
+    if v != 0 and not 1.0 / MAX_MAGNITUDE <= abs(v) <= MAX_MAGNITUDE:
+        raise key_error(path, key, f"expected 0 or a magnitude between {1 / MAX_MAGNITUDE:g}"
+                        f" and {MAX_MAGNITUDE:g}, got {v!r}")
     bad = ((field.positive and not v > 0) or (field.lo is not None and v < field.lo)
            or (field.hi is not None and v > field.hi))
     if bad:
@@ -232,9 +236,12 @@ def load_toml(path, what="file"):
         raise SpecError(f"{path}: line {line}: not valid UTF-8 (byte 0x{raw[exc.start]:02x});"
                         f" save the {what} as UTF-8") from None
     try:
-        return tomllib.loads(text.removeprefix("\ufeff"))
+        doc = tomllib.loads(text.removeprefix("\ufeff"))
     except tomllib.TOMLDecodeError as exc:
         raise SpecError(f"{path}: invalid TOML ({exc})") from None
+    if not doc:
+        raise SpecError(f"{path}: empty {what}; expected TOML tables (see the README's reference)")
+    return doc
 
 
 def markdown_rows(schema, prefix=""):

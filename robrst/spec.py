@@ -276,6 +276,10 @@ def parse_problem(data, path="<problem>"):
     ctrl = ControllerStructure(**_table(path, v, "controller"))
     specs = Specs(**_table(path, v, "specs"))
     solver = SolverOptions(**_table(path, v, "solver"))
+    for k in ("S_fixed", "R_fixed"):
+        if not getattr(ctrl, k) or getattr(ctrl, k)[0] == 0.0:
+            raise key_error(path, ("controller", k), "expected polynomial coefficients, highest"
+                            f" power first, with a non-zero leading one, got {list(getattr(ctrl, k))}")
     if len(ctrl.S_fixed) < 2 or ctrl.S_fixed[-1] != 0.0:
         raise key_error(path, ("controller", "S_fixed"),
                         "must contain the integrator s (last coefficient 0)")
@@ -290,6 +294,11 @@ def parse_problem(data, path="<problem>"):
                         " the SOCP is posed at fixed closed-loop poles")
     if solver.free_poles and (solver.wn_bounds is None or solver.zeta_bounds is None):
         raise key_error(path, ("solver", "free_poles"), "needs 'wn_bounds' and 'zeta_bounds'")
+    if solver.compare_with and not str(path).startswith("<"):
+        other = Path(str(path)).parent / solver.compare_with
+        if not other.is_file():
+            raise key_error(path, ("solver", "compare_with"),
+                            f"expected a problem file beside this one, {other} does not exist")
     meta = v["problem"] or {}
     name = meta.get("name") or Path(str(path)).stem
     return Problem(name=name, family=family, poles=poles, controller=ctrl, specs=specs,

@@ -55,3 +55,13 @@ def main(argv=None):
     except KeyboardInterrupt:
         print("robrst: interrupted", file=sys.stderr)
         return 130
+    except Exception as exc:   # noqa: BLE001 — the CLI never ends in a traceback
+        if os.environ.get("ROBRST_DEBUG"):
+            raise
+        where = next((str(getattr(args, k)) for k in ("problem", "file", "sweep", "scenario")
+                      if isinstance(getattr(args, k, None), (str, os.PathLike))), "")
+        msg = " ".join(str(exc).split()) or "no message"
+        print(f"robrst: error: {where + ': ' if where else ''}computation failed"
+              f" ({type(exc).__name__}: {msg}); the input is outside what robrst can compute"
+              " (set ROBRST_DEBUG=1 for the traceback and please report it)", file=sys.stderr)
+        return 2

@@ -1,6 +1,7 @@
 """``robrst simulate``: the paper's experiments on the digital twin."""
 
 from robrst.cli.common import print_json, progress_printer
+from robrst.errors import SpecError
 from robrst.fileio import json_text
 
 __all__ = ["add_parsers", "run_simulate"]
@@ -20,8 +21,12 @@ def add_parsers(sub):
 
 def run_simulate(args):
     """Run the scenario, write its datasets and figure, print its metrics."""
-    from robrst.experiments.scenarios import run_scenario
+    from robrst.experiments.scenarios import SCENARIOS, run_scenario
     from robrst.report.scenario import write_scenario
+
+    if args.scenario not in SCENARIOS:    # before any progress line: one line, exit 2
+        raise SpecError(f"unknown scenario {args.scenario!r}; expected one of"
+                        f" {', '.join(SCENARIOS)}")
     from robrst.twin.config import default_twin, load_twin
 
     say = progress_printer(args.quiet or args.json)

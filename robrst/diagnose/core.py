@@ -120,6 +120,9 @@ def check_records(train, test):
         if d.n < MIN_SAMPLES:
             raise DataError(f"{d.source or 'record'}: too short ({d.n} samples); a diagnosis"
                             f" needs at least {MIN_SAMPLES} samples per record")
+        if np.ptp(d.y) == 0.0 and np.ptp(d.u) > 0.0:   # both constant: no excitation
+            raise DataError(f"{d.source or 'record'}: column y is constant ({d.y[0]:g} µm)"
+                            " while u varies: no sensor signal to compare the model with")
     fs0 = recs[0].fs
     for d in recs[1:]:
         if abs(d.fs - fs0) > 1e-6 * fs0:

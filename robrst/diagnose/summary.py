@@ -11,12 +11,17 @@ def _pm(v, s):
     return f"{v:.4g} ± {s:.2g}"
 
 
+def _g(v, fmt):
+    return "n/a" if v is None else format(v, fmt)
+
+
 def summary_text(diag):
     """A dozen lines: gap, verdict, ranked effects, winner's parameters, where."""
     d = diag.as_dict()
     g = d["gap"]
-    out = [f"gap of the simulation model (held-out NRMSE): {g['before']:.4g}"
-           f"   noise floor {g['noise_floor']:.3g}   training records {g['before_train']:.4g}",
+    out = [f"gap of the simulation model (held-out NRMSE): {_g(g['before'], '.4g')}"
+           f"   noise floor {_g(g['noise_floor'], '.3g')}"
+           f"   training records {_g(g['before_train'], '.4g')}",
            f"cause: {d['cause']} — {d['reason']}"]
     if d["effects"]:
         out.append(f"  {'candidate':<18}{'gap before':>11}{'gap after':>11}{'shrink':>9}")

@@ -131,8 +131,8 @@ def check_u_range(u_range):
     if u_range is None:
         return default_u_range()
     lo, hi = (float(u) for u in u_range)
-    if not lo < hi:
-        raise SpecError(f"amplifier range must be [u_min, u_max] with u_min < u_max,"
+    if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
+        raise SpecError(f"--u-range: amplifier range must be [u_min, u_max] with u_min < u_max,"
                         f" got [{lo}, {hi}]")
     return lo, hi
 
@@ -153,9 +153,11 @@ def sampling(problem, sample_rate_hz=None, delay_samples=None):
                         " (specs.sample_rate_hz): give one (--fs HZ)")
     fs = float(fs)
     if not (np.isfinite(fs) and 0 < fs <= 1e9):
-        raise SpecError(f"sampling rate must be a number in (0, 1e9] Hz, got {fs}")
+        raise SpecError(f"--fs / specs.sample_rate_hz: sampling rate must be a number in"
+                        f" (0, 1e9] Hz, got {fs}")
     if int(k) != k or not 0 <= k <= 1000:
-        raise SpecError(f"delay_samples must be a whole number in 0..1000, got {k}")
+        raise SpecError(f"--delay-samples / specs.delay_samples: must be a whole number in"
+                        f" 0..1000, got {k}")
     return fs, int(k)
 
 

@@ -311,6 +311,10 @@ def parse_sweep(data, path="<sweep>"):
         raise key_error(path, ("param",), "a fleet sweep varies files, not parameters")
     if kind != "fleet" and sw["problem"] is None:
         raise key_error(path, ("sweep", "problem"), f"missing: a {kind} sweep needs a base problem")
+    base = None if sw["problem"] is None else _resolve_base(path, sw["problem"])
+    if kind != "fleet" and not params:
+        raise key_error(path, ("param",), f"a {kind} sweep needs at least one [[param]] table"
+                        " (what varies between the variants)")
     if sw["n"] is not None and not any(p.random for p in params) and sw["n"] > 1:
         raise key_error(path, ("sweep", "n"), "only random parameters (normal, uniform,"
                         " lognormal) are drawn n times; a grid needs no n")
@@ -323,7 +327,7 @@ def parse_sweep(data, path="<sweep>"):
     chunk = sw["chunk_size"] or {"analysis": 10, "design": 2, "fleet": 1}[kind]
     return Sweep(
         name=sw["name"] or Path(str(path)).stem, kind=kind, path=str(path),
-        problem=None if sw["problem"] is None else _resolve_base(path, sw["problem"]),
+        problem=base,
         description=sw["description"], seed=sw["seed"], n=sw["n"], chunk_size=chunk,
         worst=sw["worst"], params=params, overrides=tuple(overrides),
         ageing=Ageing(**(v["ageing"] or {})), controller=an.get("controller", "design"),
