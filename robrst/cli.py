@@ -9,6 +9,7 @@ import json
 import math
 import sys
 
+from robrst import cli_convert, cli_identify
 from robrst.errors import RobrstError
 
 __all__ = ["main"]
@@ -193,6 +194,8 @@ def build_parser():
     r.add_argument("--out", help="output folder (default reports/PROBLEM_NAME)")
     r.add_argument("--quiet", action="store_true", help="no progress lines")
     r.set_defaults(func=cmd_report)
+    for command in (cli_identify, cli_convert):
+        command.add_parser(sub)
     return p
 
 
