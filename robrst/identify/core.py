@@ -5,7 +5,7 @@ Pipeline (:func:`identify`)::
     records --group by temperature--> per group: fit records + held-out records
       -> for each candidate order: vector fitting (z-domain) -> output-error residues
          -> held-out NRMSE (simulated: steady state for periodic records, from rest else)
-      -> order = the smallest within ORDER_TOL of the best held-out NRMSE
+      -> order = the smallest within ORDER_TOL (relative, + 1e-9) of the best held-out NRMSE
       -> final fit on every training record at that order -> continuous time (exact ZOH inverse)
 
 Held-out records: ``validate`` if given; else the last third of the training records
@@ -158,12 +158,17 @@ def _split(records):
 def _fit_order(data, n, feedthrough):
     """Vector fitting at order n; keeps the iterate of lowest output-error cost."""
     poles = initial_poles(n, data.fs, *data.band)
-    best = None
+    best, stale = None, 0
     for _ in range(VF_ITER):
         poles = vector_fit(data, poles, n_iter=1, feedthrough=feedthrough)
         dm, cost = fit_residues(data, poles, feedthrough)
-        if best is None or cost < best[1] * (1 - 1e-9):
+        if best is None or cost < best[1] * (1 - 1e-6):
+            stale = 0 if best is None or cost < best[1] * (1 - 1e-3) else stale + 1
             best = (dm, cost)
+        else:
+            stale += 1
+        if stale >= 2:      # converged: no real progress for two iterations
+            break
     return best[0]
 
 
@@ -239,7 +244,7 @@ def identify(train, validate=None, order="auto", max_order=None, feedthrough=Fal
             raise SpecError("no candidate order gives a usable model: "
                             + "; ".join(s.note for s in scores[:3]))
         best = min(s.heldout_nrmse for s in finite)
-        chosen = next(s for s in finite if s.heldout_nrmse <= best * (1 + ORDER_TOL))
+        chosen = next(s for s in finite if s.heldout_nrmse <= best * (1 + ORDER_TOL) + 1e-9)
         out = []
         for T, recs in groups:
             dm = _fit_order(fit_data(recs), chosen.order, feedthrough)
