@@ -203,7 +203,8 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
     train_p = [prepare(d, ref) for d in train]
     max_delay = int(max(1, min(round(5e-3 * fs), 200)))
     setup = Setup(fs=fs, ref=ref, train=train_p, train_full=preps[:n_tr], test=preps[n_tr:],
-                  test_records=test, train_records=train, lin=lin, stats=summary(train),
+                  test_records=test, train_records=train, lin=lin,
+                  lin_modal=LinearPart(model, fs, modal_gains=True), stats=summary(train),
                   noise_sigma=sigma, plant=plant if (model.n_in, model.n_out) == (1, 1) else None,
                   effects=tried, dynamic=_levels_ok(train, test) and "hysteresis" in tried,
                   delays=(search_delay(train_p, lin, max_delay) if "delay" in tried

@@ -24,7 +24,7 @@ from robrst.diagnose.linear import parameter_std
 
 __all__ = ["Prepared", "prepare", "Fitted", "fit_model", "level_factor"]
 
-SLOPE_KINDS = ("dlog_freq", "dlog_damping", "input_gain", "gain")
+SLOPE_KINDS = ("dlog_freq", "dlog_damping", "input_gain", "gain", "mode_gain")
 
 
 @dataclass(frozen=True, eq=False)

@@ -5,7 +5,9 @@ SISO :class:`~robrst.plant.Plant` is converted).  Its corrections ``theta`` are
 
 * per mode: the natural frequency (``dlog_freq``, log ratio) and, for a complex pair,
   the damping (``dlog_damping``);
-* a gain: one overall ``gain`` (one input) or one ``input_gain`` per input.
+* a gain: one overall ``gain`` (one input) or one ``input_gain`` per input;
+* optionally (``modal_gains``, used by the dynamic form of hysteresis) a relative gain
+  per mode (``mode_gain``: the mode's participation).
 
 The *zeros* of every channel stay the user's: when poles move, the residues are those
 of the same numerators over the new denominator,
@@ -31,9 +33,10 @@ from robrst.plant import Plant
 __all__ = ["LinearPart", "LinearSim", "as_modal", "refit_linear", "LinearFit", "PRIOR_SD",
            "BOUNDS", "parameter_std"]
 
-PRIOR_SD = {"dlog_freq": 0.1, "dlog_damping": 1.0, "gain": 0.2, "input_gain": 0.2}
+PRIOR_SD = {"dlog_freq": 0.1, "dlog_damping": 1.0, "gain": 0.2, "input_gain": 0.2,
+            "mode_gain": 0.2}
 BOUNDS = {"dlog_freq": (-0.5, 0.5), "dlog_damping": (-3.0, 3.0), "gain": (-0.9, 2.0),
-          "input_gain": (-0.9, 2.0)}
+          "input_gain": (-0.9, 2.0), "mode_gain": (-0.9, 2.0)}
 FD_STEP = 1e-6
 
 
@@ -45,8 +48,9 @@ def as_modal(model):
 class LinearPart:
     """Corrections ``theta`` of a modal model and the sampled simulation at ``fs`` [Hz]."""
 
-    def __init__(self, model, fs):
+    def __init__(self, model, fs, modal_gains=False):
         self.model = as_modal(model)
+        self.modal_gains = bool(modal_gains)
         self.fs = float(fs)
         m = self.model
         self.weight = pair_weight(m.poles)
@@ -58,6 +62,9 @@ class LinearPart:
             if pole.imag > 0:
                 names.append(f"mode{p + 1}_dlog_damping")
                 kinds.append(("dlog_damping", p))
+            if modal_gains:
+                names.append(f"mode{p + 1}_gain")
+                kinds.append(("mode_gain", p))
         if m.n_in > 1:
             for j in range(m.n_in):
                 names.append(f"u{j + 1}_input_gain")
@@ -70,7 +77,9 @@ class LinearPart:
         self.lower = np.array([BOUNDS[k][0] for k, _ in kinds])
         self.upper = np.array([BOUNDS[k][1] for k, _ in kinds])
         self.prior_sd = np.array([PRIOR_SD[k] for k, _ in kinds])
-        self.moves = tuple(i for i, (k, _) in enumerate(kinds) if k in ("dlog_freq", "dlog_damping"))
+        self.moves = tuple(i for i, (k, _) in enumerate(kinds)
+                           if k in ("dlog_freq", "dlog_damping", "mode_gain"))
+        self._cache = {}          # sampled transfers by (theta, N): records share DFT grids
 
     @property
     def size(self):
@@ -120,6 +129,9 @@ class LinearPart:
                 ratio = np.prod((x - P0[others]) / (x - P1[others]))
                 rest = np.tensordot((x - P0[p]) / (x - P0[others]), R0[others], axes=1)
                 R[p] = ratio * (R0[p] + rest)
+        for t, (kind, q) in zip(theta, self.kinds):
+            if kind == "mode_gain":
+                R[q] = R[q] * (1.0 + t)
         return new, R * self._gains(theta)[None, None, :]
 
     def continuous(self, theta):
@@ -129,17 +141,28 @@ class LinearPart:
         return ModalModel(new, R, D, label=f"{self.model.label}_refit",
                           temperature_C=self.model.temperature_C)
 
+    def _H(self, theta, N):
+        """Sampled transfer ``(N//2 + 1, m, k)`` on the DFT grid of length N (cached)."""
+        key = (np.asarray(theta, float).tobytes(), int(N))
+        H = self._cache.get(key)
+        if H is None:
+            new, R = self._modes(theta)
+            zp, Rd = zoh(new, R, self.fs)
+            z = np.exp(2j * np.pi * np.arange(N // 2 + 1) / N)
+            H = self._transfer(zp, Rd, z) + (self.model.D * self._gains(theta)[None, :])[None]
+            if len(self._cache) > 256:
+                self._cache.clear()
+            self._cache[key] = H
+        return H
+
     def _parts(self, theta, V, periodic):
         """Per-input output contributions ``(N or F, m, k)`` (spectra when periodic)."""
+        N = V.shape[0]
+        if periodic:
+            return self._H(theta, N) * np.fft.rfft(V, axis=0)[:, None, :]
         new, R = self._modes(theta)
         zp, Rd = zoh(new, R, self.fs)
         D = self.model.D * self._gains(theta)[None, :]
-        N = V.shape[0]
-        if periodic:
-            z = np.exp(2j * np.pi * np.arange(N // 2 + 1) / N)
-            Vf = np.fft.rfft(V, axis=0)
-            H = self._transfer(zp, Rd, z) + D[None]
-            return H * Vf[:, None, :]
         out = V[:, None, :] * D[None]
         for p in range(zp.size):
             self._add_mode(out, zp[p], Rd[p], V, p)
@@ -176,13 +199,12 @@ class LinearPart:
         X = np.asarray(X, float).reshape(len(X), -1)
         inputs = np.asarray(inputs, int)
         N = X.shape[0]
+        if periodic:
+            H = self._H(theta, N)[:, :, inputs]
+            return np.fft.irfft(H * np.fft.rfft(X, axis=0)[:, None, :], n=N, axis=0)
         new, R = self._modes(theta)
         zp, Rd = zoh(new, R, self.fs)
         D = (self.model.D * self._gains(theta)[None, :])[:, inputs]
-        if periodic:
-            z = np.exp(2j * np.pi * np.arange(N // 2 + 1) / N)
-            H = self._transfer(zp, Rd[:, :, inputs], z) + D[None]
-            return np.fft.irfft(H * np.fft.rfft(X, axis=0)[:, None, :], n=N, axis=0)
         Y = X[:, None, :] * D[None]
         for p in range(zp.size):
             self._add_mode(Y, zp[p], Rd[p], X, p, inputs)

@@ -49,6 +49,7 @@ class Setup:
     test_records: list     # Dataset (held-out gap normalisation)
     train_records: list
     lin: object            # LinearPart
+    lin_modal: object      # LinearPart with per-mode gains (dynamic form of hysteresis)
     stats: dict
     noise_sigma: float
     plant: object          # SISO Plant of the user's model (thermal_dynamics) or None
@@ -113,7 +114,8 @@ def _fit(setup, name, effects, joint, dynamic=False, start=None, theta=None, max
          ftol=1e-8, screen=False):
     t0 = time.perf_counter()
     train = _screen(setup.train, SCREEN_SAMPLES) if screen else setup.train
-    fit = fit_model(name, effects, train, setup.lin, _chain(setup, effects),
+    lin = setup.lin_modal if dynamic else setup.lin
+    fit = fit_model(name, effects, train, lin, _chain(setup, effects),
                     setup.noise_sigma, joint=joint, dynamic=dynamic, start=start, theta=theta,
                     max_nfev=max_nfev, ftol=ftol)
     return score(setup, fit, t0)
