@@ -8,7 +8,7 @@ from pathlib import Path
 
 from benchmarks.harness import write_reports
 
-BENCHES = ("analytic", "synthesis", "scaling", "peaks", "twin", "diagnosis")
+BENCHES = ("analytic", "synthesis", "variants", "scaling", "peaks", "twin", "diagnosis", "sweep")
 
 
 def available():

@@ -9,11 +9,10 @@ import time
 
 import numpy as np
 
-from benchmarks.bench_synthesis import load
+from benchmarks.bench_synthesis import first_setup, load
 from benchmarks.harness import BenchResult
-from robrst.synthesis import robust
-from robrst.synthesis.exchange import solve_exchange
-from robrst.synthesis.nlp import build_and_solve
+from robrst.synthesis.exchange import solve_exchange, solve_program
+from robrst.synthesis.outcome import OK_STATUS
 
 SIZES = ((1, 50), (2, 125), (4, 250), (8, 500), (16, 1000), (32, 2000))
 TINY_SIZES = ((1, 20), (2, 40))
@@ -21,22 +20,24 @@ FULL_GRID_UP_TO = 4000   # models × frequencies for the full-grid reference
 
 
 def _instance(n_models, n_freq):
-    return robust.first_round(load(False, n_models=n_models, n_freq=n_freq))
+    ctx, setup, x0 = first_setup(load(False, n_models=n_models, n_freq=n_freq))
+    return setup, x0, ctx.ipopt
 
 
 def nlp_time(n_models, n_freq, full=False):
     """Wall time of one exchange solve (build + IPOPT + grid checks); optionally the full grid."""
     setup, x0, ipopt = _instance(n_models, n_freq)
     t0 = time.perf_counter()
-    _, stats, *_, info = solve_exchange(setup, x0, ipopt)
-    row = {"time_s": time.perf_counter() - t0, "iterations": int(stats["iter_count"]),
-           "status": stats["return_status"], "exchange_rounds": info.rounds,
+    res = solve_exchange(setup, x0, ipopt)
+    info = res.exchange
+    row = {"time_s": time.perf_counter() - t0, "iterations": res.iterations,
+           "status": res.status, "exchange_rounds": info.rounds,
            "active_points": info.active_points, "grid_points": info.grid_points}
     if full:
         t0 = time.perf_counter()
-        _, st, *_ = build_and_solve(setup, x0, ipopt)
+        full_res = solve_program(setup, x0, ipopt)
         row.update(full_grid_time_s=time.perf_counter() - t0,
-                   full_grid_iterations=int(st["iter_count"]))
+                   full_grid_iterations=full_res.iterations)
     return row
 
 
@@ -69,7 +70,7 @@ def run(tiny=False):
     table += ["", f"Log-log growth exponent over the larger sizes: {slope_tot:.2f} total,"
               f" {slope_it:.2f} per iteration (1 = linear); the single full-grid NLP grows"
               f" with exponent {slope_full:.2f} up to {FULL_GRID_UP_TO} points."]
-    ok = all(r["status"] in robust.OK_STATUS for r in rows)
+    ok = all(r["status"] in OK_STATUS for r in rows)
     return BenchResult(
         name="synthesis scaling", robrst_path="NLP by constraint exchange (build + IPOPT + grid checks)",
         baseline="— (full-grid NLP for reference)", goal="growth ≤ linear in models × frequencies",

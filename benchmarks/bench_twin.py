@@ -41,7 +41,7 @@ def _baseline(model, u, fs):
 
 def run(tiny=False, repeats=3):
     cfg = default_twin()
-    fs = cfg.fs_hz
+    fs = cfg.sample_rate_hz
     n = int((0.05 if tiny else 10.0) * fs)
     rng = np.random.default_rng(0)
     u = np.clip(75 + 30 * np.cumsum(rng.normal(0, 0.01, n)), 0, 150)

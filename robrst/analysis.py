@@ -7,14 +7,16 @@ peaks (:mod:`robrst.hinf`); step responses.  All root finding is done in the sca
 variable ``p = s / w0``.
 """
 
+from __future__ import annotations
+
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import brentq
 
-from robrst import poly
-from robrst.hinf import Peak, mag2_poly, peak_gain, scaled_realization
-from robrst.rst import closed_loop
+from robrst import lti, poly
+from robrst.hinf import Peak, mag2_poly, peak_gain
+from robrst.plant import Plant
+from robrst.rst import RSTController, closed_loop
 
 __all__ = ["Margins", "Analysis", "analyze", "sensitivity", "crossovers", "step_response",
            "spectral_abscissa"]
@@ -27,11 +29,14 @@ class Margins:
     """Classical margins of the loop ``L = BR/(AS)``.
 
     ``gain_margin`` is the smallest factor > 1 by which the loop gain can grow
-    before a phase crossover reaches -1 (None: infinite).  ``phase_margin_deg`` is
-    the smallest phase change of either sign, over every gain crossover, that puts
-    ``L`` on -1 (``180 - |arg L(j wc)|``; equal to the usual ``180 + arg L`` when
-    ``arg L`` lies in (-180, 0]).  ``delay_margin_s`` is the smallest pure delay
-    that does so (phase lag only, over every crossover).  None means infinite.
+    before a phase crossover reaches -1 (None: infinite); ``gain_margin_lower`` the
+    largest factor < 1 to which it can shrink before one does (None: down to 0, as in
+    a loop stable for every smaller gain).  python-control's ``stability_margins`` gm
+    is whichever of the two is closer to 1 in log.  ``phase_margin_deg`` follows
+    python-control: at every gain crossover ``(arg L(j wc) mod 360) - 180``, the one
+    smallest in magnitude, with its sign (negative: ``arg L`` in (0, 180)).
+    ``delay_margin_s`` is the smallest pure delay that puts ``L`` on -1 (phase lag
+    only, over every crossover).  None means infinite.
     """
 
     gain_margin: float
@@ -40,6 +45,7 @@ class Margins:
     phase_margin_deg: float
     delay_margin_s: float
     modulus_margin: float
+    gain_margin_lower: float = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -70,6 +76,7 @@ class Analysis:
             "Mu": pk["U"].value, "Mu_freq_rad_s": _fin(pk["U"].freq_rad_s),
             "Msd": pk["Sd"].value, "Msd_freq_rad_s": _fin(pk["Sd"].freq_rad_s),
             "gain_margin": m.gain_margin,
+            "gain_margin_lower": m.gain_margin_lower,
             "phase_margin_deg": m.phase_margin_deg,
             "modulus_margin": m.modulus_margin,
             "delay_margin_s": m.delay_margin_s,
@@ -89,8 +96,8 @@ def sensitivity(plant, ctrl, name, w):
 
 def spectral_abscissa(Delta):
     """Largest real part of the roots of ``Delta`` (computed in scaled form)."""
-    w0 = poly.natural_scale(Delta)
-    r = np.roots(poly.to_scaled(poly.trim(Delta), w0)) * w0
+    sc = poly.Scaling.natural(Delta)
+    r = sc.unfreq(np.roots(sc.apply(poly.trim(Delta))))
     return float(np.max(r.real)), r
 
 
@@ -106,6 +113,8 @@ def _positive_roots_x(q, w0):
 
 def _polish(f, w):
     """Refine a simple root of f near w with a bracketed solve; keep w if no bracket."""
+    from scipy.optimize import brentq   # scipy.optimize costs 0.2 s of import: only here
+
     for d in (1e-6, 1e-4, 1e-2):
         a, b = w * (1 - d), w * (1 + d)
         fa, fb = f(a), f(b)
@@ -122,8 +131,9 @@ def crossovers(num, den):
     ``x = w**2`` in the scaled variable, then polished on the exact function.
     """
     num, den = poly.trim(num), poly.trim(den)
-    w0 = poly.natural_scale(num, den)
-    ns, ds = poly.to_scaled(num, w0), poly.to_scaled(den, w0)
+    sc = poly.Scaling.natural(num, den)
+    w0 = sc.w0
+    ns, ds = sc.apply(num), sc.apply(den)
     L = lambda w: poly.eval_jw(ns, w) / poly.eval_jw(ds, w)  # noqa: E731  (scaled w)
     g = poly.padd(mag2_poly(ns), -mag2_poly(ds))
     wg = [_polish(lambda w: np.log(abs(L(w))), w) for w in _positive_roots_x(g, 1.0)]
@@ -146,25 +156,44 @@ def margins(plant, ctrl, Ms):
     L = lambda w: poly.eval_jw(num, w) / poly.eval_jw(den, w)  # noqa: E731
     gms = [1.0 / abs(L(w)) for w in wp]
     up = [g for g in gms if g > 1.0]
+    down = [g for g in gms if g < 1.0]
     gm = min(up) if up else None
-    # phase change (either sign) that puts L(j wc) on -1: 180 - |arg L|, arg in (-180, 180]
+    gm_lower = max(down) if down else None
+    # python-control's phase margin: (arg L(j wc) mod 360) - 180, smallest in magnitude
     args = [float(np.degrees(np.angle(L(w)))) for w in wg]
-    pm = min(180.0 - abs(a) for a in args) if args else None
+    pms = [a % 360.0 - 180.0 for a in args]
+    pm = min(pms, key=abs) if pms else None
     # phase lag a pure delay must add at each crossover before L reaches -1
     dms = [np.radians((a + 180.0) % 360.0) / w for a, w in zip(args, wg) if w > 0]
     dm = None if not dms else max(0.0, float(min(dms)))
     return Margins(gain_margin=gm, gain_crossover_rad_s=tuple(float(w) for w in wg),
                    phase_crossover_rad_s=tuple(float(w) for w in wp),
                    phase_margin_deg=pm if pm is None else float(pm),
-                   delay_margin_s=dm, modulus_margin=1.0 / Ms)
+                   delay_margin_s=dm, modulus_margin=1.0 / Ms, gain_margin_lower=gm_lower)
 
 
-def analyze(plant, ctrl, rtol=1e-10):
+def analyze(plant: Plant, ctrl: RSTController, rtol: float = 1e-10) -> Analysis:
     """Full closed-loop analysis of ``plant`` under ``ctrl``.
+
+    Parameters
+    ----------
+    plant : Plant
+    ctrl : RSTController
+    rtol : float
+        Relative accuracy of the exact peaks.
 
     Returns
     -------
     Analysis
+        Stability, closed-loop poles, exact peaks of S, T, U, Sd, and the margins.
+
+    Examples
+    --------
+    >>> from robrst import analyze, paper_plant, pole_placement, PoleSpec
+    >>> ctrl = pole_placement(paper_plant(), PoleSpec(wn=600.0, zeta=1.0)).controller
+    >>> a = analyze(paper_plant(), ctrl)
+    >>> bool(a.stable), round(float(a.margins.phase_margin_deg), 1)
+    (True, 86.7)
     """
     cl = closed_loop(plant, ctrl)
     sa, roots = spectral_abscissa(cl.Delta)
@@ -183,8 +212,9 @@ def step_response(N, D, t):
     import scipy.signal as sig
 
     t = np.asarray(t, dtype=float)
-    w0 = poly.natural_scale(D)
-    A, B, C, d = scaled_realization(N, D, w0)
+    sc = poly.Scaling.natural(D)
+    w0 = sc.w0
+    A, B, C, d = lti.companion(N, D, sc)
     # in scaled time tau = w0 t, dx/dtau = A x + B u, y = C x + d u
     sys = sig.StateSpace(A, B, C, np.array([[d]]))
     _, y, _ = sig.lsim(sys, np.ones_like(t), t * w0)

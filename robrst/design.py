@@ -1,19 +1,74 @@
-"""The design pipeline: problem -> plant family -> synthesis -> certificate -> result."""
+"""The design pipeline: problem -> synthesis -> certificate -> analysis -> result.
 
-from dataclasses import dataclass
+:func:`run_problem` runs the method the problem asks for (analytic pole placement, the
+robust NLP or the convex program), certifies the controller on the whole family
+(:mod:`robrst.certificate`), analyses every family model, checks a synthesised controller
+against the closed-form Diophantine solution and compares it with an analytic design.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
 
-from robrst.analysis import analyze
-from robrst.certify import certify
+from robrst import poly, timespec
+from robrst.analysis import analyze, spectral_abscissa
+from robrst.certificate import Violation, certify, certify_problem
+from robrst.errors import CoprimeError, DegreeError
+from robrst.modelcheck import BOUNDED
+from robrst.problem import Problem
+from robrst.rst import closed_loop
+from robrst.sampled import sampled_plant
 from robrst.synthesis import analytic
+from robrst.synthesis.parametrize import integral_gain
+from robrst.synthesis.robust import best_achievable
 
-__all__ = ["DesignResult", "run_problem", "analytic_design", "sampled_summary"]
+__all__ = ["DesignResult", "AnalyticCheck", "Comparison", "run_problem", "analytic_design",
+           "analytic_check", "comparison", "with_time_domain"]
+
+
+@dataclass(frozen=True)
+class AnalyticCheck:
+    """A synthesised controller against the closed-form Diophantine solution.
+
+    ``kind`` is ``"sylvester_coefficients"`` (no free degree: the solution is unique and
+    must be reproduced coefficient by coefficient) or ``"diophantine_residual"``.
+    """
+
+    kind: str
+    max_rel_coef_error: float
+    passed: bool
+
+    def as_dict(self):
+        return {"kind": self.kind, "max_rel_coef_error": self.max_rel_coef_error,
+                "passed": self.passed}
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """Worst-case figures over the family for this design and an analytic one."""
+
+    rows: dict
+    table: str
+    range_C: tuple
+
+    def as_dict(self):
+        return {"rows": self.rows, "table": self.table}
 
 
 @dataclass(frozen=True, eq=False)
 class DesignResult:
-    """A certified (or explicitly uncertified) design and everything reported about it."""
+    """A certified (or explicitly uncertified) design and everything reported about it.
+
+    ``synthesis`` is the stage's own record: an
+    :class:`~robrst.synthesis.analytic.AnalyticDesign` or a
+    :class:`~robrst.synthesis.outcome.SynthesisResult`; ``tracking`` the 2-DOF reference
+    path (:class:`~robrst.synthesis.tracking.Tracking`) with ``T_mode = "reference_model"``
+    (then ``controller`` is the 2-DOF controller and ``synthesis.controller`` the feedback).
+    """
 
     problem: object
     method: str
@@ -21,97 +76,275 @@ class DesignResult:
     target_char_poly: object
     analyses: tuple
     certificate: object
-    solver: dict
-    analytic_check: dict = None
-    comparison: dict = None
+    synthesis: object
+    analytic_check: AnalyticCheck = None
+    comparison: Comparison = None
+    tracking: object = None
+
+    @property
+    def best_achievable(self):
+        """What an uncertified design achieves (its worst violation), or ``None``."""
+        return best_achievable(self.certificate)
 
     @property
     def certified(self):
+        """True when the certificate holds over the whole family and sweep."""
         return self.certificate.certified
+
+    @property
+    def status(self):
+        """``"certified"`` or ``"not_certified"``."""
+        return "certified" if self.certified else "not_certified"
+
+    @property
+    def integral_gain(self):
+        """``lim s R/S`` [V/(µm s)] of the controller."""
+        return integral_gain(self.controller)
+
+    def solver_dict(self):
+        """The ``solver`` object of the JSON contract."""
+        s = self.synthesis
+        if isinstance(s, analytic.AnalyticDesign):
+            return {"name": "sylvester", "status": s.status, "w0_rad_s": s.w0, "cond": s.cond,
+                    "cond_unscaled": s.cond_unscaled, "residual": s.residual}
+        return s.solver_dict()
 
     def as_dict(self):
         """The public JSON contract of ``robrst design --json`` (fields are only added)."""
         p = self.problem
+        sp = p.specs
         models = [a.as_dict(m) for a, m in zip(self.analyses, p.family.models)]
+        specs = {"Ms_max": sp.Ms_max, "Mt_max": sp.Mt_max, "Mu_max": sp.Mu_max}
+        if sp.sampled:
+            specs.update(sample_rate_hz=sp.sample_rate_hz, delay_samples=sp.delay_samples)
         out = {
             "problem": p.name,
             "method": self.method,
+            "status": self.status,
             "controller": self.controller.as_dict(),
             "target_char_poly": None if self.target_char_poly is None
             else np.asarray(self.target_char_poly).tolist(),
-            "specs": {**{k: p.specs.get(k) for k in ("Ms_max", "Mt_max", "Mu_max")},
-                      **({k: p.specs[k] for k in ("sample_rate_hz", "delay_samples")}
-                         if p.specs.get("sample_rate_hz") else {})},
+            "specs": specs,
+            "temperature_range_C": list(p.family.range_C),
             "models": models,
             "certified": bool(self.certified),
             "certificate": self.certificate.as_dict(),
-            "solver": self.solver,
+            "solver": self.solver_dict(),
+            "integral_gain": self.integral_gain,
+            "best_achievable": self.best_achievable,
         }
+        if sp.Mu_hf_max is not None:
+            specs.update(Mu_hf_max=sp.Mu_hf_max, Mu_hf_above_hz=sp.Mu_hf_above_hz)
+        if sp.time_domain:
+            specs.update(overshoot_max_pct=sp.overshoot_max_pct,
+                         settling_time_max_s=sp.settling_time_max_s, step_um=sp.step_um,
+                         step_u_max_V=sp.step_u_max_V)
+        if self.tracking is not None:
+            out["tracking"] = self.tracking.as_dict()
         if self.analytic_check is not None:
-            out["analytic_check"] = self.analytic_check
+            out["analytic_check"] = self.analytic_check.as_dict()
         if self.comparison is not None:
-            out["comparison"] = self.comparison
+            out["comparison"] = self.comparison.as_dict()
         return out
 
 
 def analytic_design(problem, poles=None):
-    """Pole placement on the reference model of ``problem`` (the paper's method)."""
+    """Pole placement on the reference model of ``problem`` (the paper's method).
+
+    Returns
+    -------
+    AnalyticDesign
+
+    Raises
+    ------
+    DegreeError, CoprimeError
+        The message starts with the problem file's path (when it has one).
+    """
+    try:
+        return analytic.pole_placement(problem.family.reference_model, poles or problem.poles,
+                                       problem.controller)
+    except (DegreeError, CoprimeError) as exc:
+        if problem.path and not str(problem.path).startswith("<") and str(problem.path) not in str(exc):
+            exc.args = (f"{problem.path}: {exc}",) + exc.args[1:]
+        raise
+
+
+def with_time_domain(problem, cert, ctrl):
+    """``cert`` (of the feedback ``R/S``) completed by the time-domain specs of ``ctrl``.
+
+    The frequency-domain records of a certificate depend on ``R/S`` only, so a
+    controller whose reference path changed (:mod:`robrst.synthesis.tracking`) keeps
+    them; the reference-step figures (:mod:`robrst.timespec`) are computed on every
+    model of the certificate (family and sweep, and the sampled loop) and added.
+    Spectral abscissae include the roots the new controller adds (its reference filter).
+    """
+    sp = problem.specs
+    recs, viols = [], list(cert.violations)
+    for rec in cert.models:
+        rec = dict(rec)
+        m = problem.family.at(rec["temperature_C"])
+        loops = [(m, None, "")]
+        if sp.sampled:
+            loops.append((sampled_plant(m, sp.sample_rate_hz, sp.delay_samples),
+                          sp.sample_rate_hz, "_sampled"))
+        for plant, fs, suffix in loops:
+            cl = closed_loop(plant, ctrl)
+            sa, _ = spectral_abscissa(cl.Delta)
+            rec[f"spectral_abscissa{suffix}"] = max(rec[f"spectral_abscissa{suffix}"], sa)
+            if not sp.time_domain or not rec[f"stable{suffix}"]:
+                continue
+            t_rec, failed = timespec.check(plant, ctrl, cl, sp, cert.rtol, fs)
+            rec.update({k + suffix: v for k, v in t_rec.items()})
+            viols += [Violation(m.label, m.temperature_C, q, v, b, None,
+                                "sampled" if fs else "continuous") for q, v, b in failed]
+        recs.append(rec)
+    bounds = {**cert.bounds, **{key: getattr(sp, attr) for key, attr in BOUNDED
+                                if getattr(sp, attr) is not None}}
+    return replace(cert, certified=not viols, models=tuple(recs), violations=tuple(viols),
+                   interval={**cert.interval, "time_domain": "checked points"}, bounds=bounds)
+
+
+def analytic_check(problem, ctrl, Am):
+    """Compare a synthesised controller with the Sylvester solution for the same ``Am``.
+
+    With no free degree (``extra_degree = 0``) the Diophantine solution is unique and
+    the synthesis must reproduce it coefficient by coefficient; with free degrees the
+    check is the Diophantine residual at the nominal model.
+
+    Returns
+    -------
+    AnalyticCheck
+    """
+    ref = problem.family.reference_model
     c = problem.controller
-    return analytic.design(
-        problem.family.reference_model, poles or problem.poles, S_fixed=c["S_fixed"],
-        R_fixed=c["R_fixed"], extra_degree=c["extra_degree"], t_mode=c["T_mode"],
-        t_zeros=c["T_zeros"],
-    )
+    if c.extra_degree == 0:
+        sol = analytic.solve_diophantine(ref.A, ref.B, Am, c.S_fixed, c.R_fixed)
+        err = max(poly.rel_coef_error(ctrl.R, sol.R), poly.rel_coef_error(ctrl.S, sol.S))
+        kind = "sylvester_coefficients"
+    else:
+        err = analytic.diophantine_residual(ref.A, ref.B, ctrl.R, ctrl.S, Am)
+        kind = "diophantine_residual"
+    return AnalyticCheck(kind=kind, max_rel_coef_error=float(err), passed=bool(err <= 1e-8))
 
 
-def _certify(problem, ctrl):
-    s = problem.solver
-    return certify(problem.family, ctrl, problem.specs, n_sweep=s["cert_temperatures"],
-                   rtol=s["cert_tol"])
+def _worst(cert, ctrl, sampled):
+    row = {"worst_Ms": cert.worst("Ms"), "worst_Mt": cert.worst("Mt"),
+           "worst_Mu": cert.worst("Mu"), "min_modulus_margin": 1 / cert.worst("Ms"),
+           "max_spectral_abscissa": cert.worst("spectral_abscissa"),
+           "integral_gain": integral_gain(ctrl), "certified": cert.certified}
+    if sampled:
+        row.update({f"worst_{k}_sampled": cert.worst(f"{k}_sampled") for k in ("Ms", "Mt", "Mu")})
+    return row
 
 
-def run_problem(problem, progress=None):
-    """Run the design the problem file asks for and certify it.
+def comparison(problem, ctrl, cert):
+    """Worst-case margins over the family: this controller vs ``compare_with``'s analytic design.
+
+    This controller's figures come from its certificate (reused, not recomputed); the
+    analytic design's are computed on the family members only (both loops), which is
+    what the comparison shows — a certificate of the analytic design is not the point.
 
     Parameters
     ----------
-    problem : robrst.spec.Problem
+    problem : Problem
+    ctrl : RSTController
+    cert : Certificate
+        This controller's certificate.
+
+    Returns
+    -------
+    Comparison or None
+        ``None`` when the problem names no ``compare_with`` file.
+    """
+    from robrst.spec import load_problem
+
+    other = problem.solver.compare_with
+    if not other:
+        return None
+    path = Path(problem.path).parent / other
+    ctrl_a = analytic_design(load_problem(path)).controller
+    cert_a = certify(problem.family, ctrl_a, problem.specs, n_sweep=0,
+                     rtol=problem.solver.cert_tol)
+    rows = {"robust": _worst(cert, ctrl, problem.specs.sampled),
+            f"analytic ({path.name})": _worst(cert_a, ctrl_a, problem.specs.sampled)}
+    lo, hi = problem.family.range_C
+    names = list(rows)
+    w = max(len(n) for n in names) + 2
+    lines = [f"worst case over the family ({lo:g}..{hi:g} °C; robust: certificate sweep,"
+             " analytic: family members):",
+             f"{'':<22}" + "".join(f"{n:>{w}}" for n in names)]
+    for k in rows["robust"]:
+        lines.append(f"{k:<22}" + "".join(
+            f"{(str(rows[n][k]) if isinstance(rows[n][k], bool) else format(rows[n][k], '.4g')):>{w}}"
+            for n in names))
+    return Comparison(rows=rows, table="\n".join(lines), range_C=(lo, hi))
+
+
+def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
+                templates: dict | None = None) -> DesignResult:
+    """Run the design the problem asks for, certify it, analyse every family model.
+
+    A synthesis always ends with a controller: when the specs cannot be met the result
+    is the best controller found, ``status == "not_certified"``, with
+    :attr:`DesignResult.best_achievable` and the binding constraints.
+
+    Parameters
+    ----------
+    problem : Problem
     progress : callable, optional
         Called with one line of text per stage (certification rounds included).
+    templates : dict, optional
+        Built NLP solvers by structure, shared between designs of the same structure
+        (see :class:`robrst.synthesis.synthesizer.Synthesizer`).
 
     Returns
     -------
     DesignResult
-        Raises :class:`robrst.errors.SolverError` (or a subclass) on failure.
+
+    Raises
+    ------
+    SpecError, CoprimeError, DegreeError
+        Ill-posed problems (the message names the cause and the key to change).
+
+    Examples
+    --------
+    >>> from robrst import load_problem, run_problem
+    >>> result = run_problem(load_problem("paper"))
+    >>> result.certified, result.status
+    (True, 'certified')
     """
+    from robrst.synthesis.robust import robust_synthesis
+
     say = progress or (lambda msg: None)
-    method = problem.solver["method"]
+    method = problem.solver.method
+    start = analytic_design(problem)
+    two_dof = problem.controller.T_mode == "reference_model"
     if method == "analytic":
-        ctrl, info = analytic_design(problem)
-        say(f"analytic pole placement: cond(scaled Sylvester) = {info['cond']:.3g}"
-            f" (unscaled {info['cond_unscaled']:.3g})")
-        solver = {"name": "sylvester", "w0_rad_s": info["w0"], "cond": info["cond"],
-                  "cond_unscaled": info["cond_unscaled"], "residual": info["residual"]}
-        Am = info["Am"]
-        extra = {}
+        say(f"analytic pole placement: cond(scaled Sylvester) = {start.cond:.3g}"
+            f" (unscaled {start.cond_unscaled:.3g})")
+        stage, check = start, None
+        ctrl, trk = _tracking(problem, start.controller) if two_dof else (start.controller, None)
+        cert = certify_problem(problem, ctrl)
     else:
-        from robrst.synthesis.robust import robust_design
+        if method == "nlp":
+            stage = robust_synthesis(problem, start, say, templates)
+        else:
+            from robrst.synthesis.convex import convex_synthesis   # cvxpy: only for this method
 
-        ctrl, Am, solver, extra = robust_design(problem, say)
-    cert = extra.pop("certificate", None) or _certify(problem, ctrl)
+            stage = convex_synthesis(problem, start, say)
+        check = analytic_check(problem, stage.controller, stage.Am)
+        ctrl, trk = _tracking(problem, stage.controller) if two_dof else (stage.controller, None)
+        cert = stage.certificate
+        if two_dof or problem.specs.time_domain:
+            cert = with_time_domain(problem, cert, ctrl)
+    comp = None if method == "analytic" else comparison(problem, ctrl, cert)
     analyses = tuple(analyze(m, ctrl) for m in problem.family.models)
-    return DesignResult(problem=problem, method=method, controller=ctrl, target_char_poly=Am,
-                        analyses=analyses, certificate=cert, solver=solver, **extra)
+    return DesignResult(problem=problem, method=method, controller=ctrl,
+                        target_char_poly=stage.Am, analyses=analyses, certificate=cert,
+                        synthesis=stage, analytic_check=check, comparison=comp, tracking=trk)
 
 
-def sampled_summary(d):
-    """One line on the sampled loop's certificate (``None`` when not asked for)."""
-    sp, models = d["specs"], d["certificate"]["models"]
-    if not sp.get("sample_rate_hz") or not models or "Ms_sampled" not in models[0]:
-        return None
-    worst = {k: max(m[f"{k}_sampled"] for m in models) for k in ("Ms", "Mt", "Mu")}
-    stable = all(m["stable_sampled"] for m in models)
-    return (f"sampled loop (ZOH plant, Tustin controller at {sp['sample_rate_hz']:g} Hz,"
-            f" {sp.get('delay_samples', 0)} samples delay): worst Ms {worst['Ms']:.4g},"
-            f" Mt {worst['Mt']:.4g}, Mu {worst['Mu']:.4g} V/µm;"
-            f" {'all stable' if stable else 'NOT all stable'}")
+def _tracking(problem, ctrl):
+    from robrst.synthesis.tracking import design_tracking
+
+    return design_tracking(problem, ctrl)

@@ -12,6 +12,7 @@ __all__ = [
     "DataError",
     "SolverError",
     "InfeasibleError",
+    "OutputError",
 ]
 
 
@@ -49,3 +50,7 @@ class InfeasibleError(SolverError):
     def __init__(self, message, binding=None):
         super().__init__(message)
         self.binding = binding or {}
+
+
+class OutputError(RobrstError, ValueError):
+    """An output path robrst must not or cannot write (names the path and why)."""

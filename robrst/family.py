@@ -19,49 +19,23 @@ import numpy as np
 from robrst import poly
 from robrst.errors import SpecError
 from robrst.plant import Plant
+from robrst.thermal import ThermalCoefficients, modal_form, thermal_polynomials
 
 __all__ = ["ThermalCoefficients", "PlantFamily", "parametric_family", "explicit_family"]
 
 
-@dataclass(frozen=True)
-class ThermalCoefficients:
-    """Relative change per kelvin of each part of the model, around ``reference_C``.
-
-    ``creep_per_K`` is the creep strength ``kappa`` (fractional extra static
-    displacement reached with time constant ``creep_tau_s``) gained per kelvin above
-    the reference; ``creep_at_ref`` its value at the reference.
-    """
-
-    reference_C: float
-    gain_per_K: float = 0.0
-    resonance_per_K: float = 0.0
-    damping_per_K: float = 0.0
-    creep_per_K: float = 0.0
-    creep_at_ref: float = 0.0
-    creep_tau_s: float = 1.0
-
-
 def _thermal_model(nominal, c, T):
+    """The model at ``T`` [°C]: the thermal law of :mod:`robrst.thermal` plus creep."""
     dT = float(T) - c.reference_C
     if dT == 0.0 and c.creep_at_ref == 0.0:
         return nominal.with_label(f"T{T:g}C", float(T))
-    g = 1.0 + c.gain_per_K * dT
-    if g <= 0:
-        raise SpecError(f"family: gain factor {g:.3g} <= 0 at {T} °C")
-    roots = []
-    for r in np.roots(nominal.A):
-        if abs(r.imag) > 0:
-            wn, zeta = abs(r), -r.real / abs(r)
-            wn *= 1.0 + c.resonance_per_K * dT
-            zeta *= 1.0 + c.damping_per_K * dT
-            if wn <= 0 or zeta <= 0:
-                raise SpecError(f"family: resonance or damping <= 0 at {T} °C")
-            wd = wn * np.sqrt(max(0.0, 1.0 - zeta * zeta))
-            roots.append(complex(-zeta * wn, np.sign(r.imag) * wd))
-        else:
-            roots.append(r)
-    A = poly.from_roots(roots)
-    B = nominal.B * g
+    if not 1.0 + c.gain_per_K * dT > 0:
+        raise SpecError(f"family: gain factor {1.0 + c.gain_per_K * dT:.3g} <= 0 at {T} °C")
+    form = modal_form(nominal)
+    if form.pairs and not (1 + c.resonance_per_K * dT > 0 and 1 + c.damping_per_K * dT > 0):
+        raise SpecError(f"family: resonance or damping <= 0 at {T} °C")
+    B, A = (np.asarray(x, float) for x in
+            thermal_polynomials(form, dT, c.gain_per_K, c.resonance_per_K, c.damping_per_K))
     kappa = c.creep_at_ref + c.creep_per_K * max(dT, 0.0)
     if kappa < 0:
         raise SpecError(f"family: creep strength {kappa:.3g} < 0 at {T} °C")

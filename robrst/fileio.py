@@ -1,20 +1,39 @@
-"""Atomic file output: a failure never leaves a half-written file.
+"""Output files: atomic writes with the user's umask, and robrst's JSON text.
 
 Every report, dataset and JSON file robrst writes goes through these helpers: the
-content is written to a temporary file in the target folder, flushed, and renamed
+content is written to a temporary file in the target folder, flushed, given the
+permissions a plain ``open(path, "w")`` would give (the user's umask), and renamed
 over the target (``os.replace`` is atomic on POSIX and Windows).
 """
 
+import json
+import math
 import os
 import tempfile
 from pathlib import Path
 
-__all__ = ["atomic_write_bytes", "atomic_write_text"]
+import numpy as np
+
+from robrst.errors import OutputError
+
+__all__ = ["atomic_write_bytes", "atomic_write_text", "json_text", "jsonable", "umask_mode"]
+
+
+def umask_mode(mode=0o666):
+    """``mode`` with the process's umask applied (what ``open`` would create)."""
+    mask = os.umask(0)
+    os.umask(mask)
+    return mode & ~mask
 
 
 def atomic_write_bytes(path, data):
     """Write ``data`` to ``path`` atomically; create the parent folder if needed."""
     path = Path(path)
+    if path.is_dir():
+        raise OutputError(f"{path}: is a folder; expected a file name")
+    for parent in path.parents:
+        if parent.exists() and not parent.is_dir():
+            raise OutputError(f"{path}: {parent} is a file, not a folder")
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
@@ -22,6 +41,7 @@ def atomic_write_bytes(path, data):
             fh.write(data)
             fh.flush()
             os.fsync(fh.fileno())
+        os.chmod(tmp, umask_mode())
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
@@ -32,3 +52,29 @@ def atomic_write_bytes(path, data):
 def atomic_write_text(path, text):
     """Write UTF-8 ``text`` to ``path`` atomically."""
     return atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def jsonable(x):
+    """``x`` with numpy scalars/arrays as Python values and non-finite floats as ``None``.
+
+    JSON has no ``inf``/``nan``; robrst's contract writes ``null`` for an infinite
+    margin or gain (documented in the README).
+    """
+    if isinstance(x, dict):
+        return {str(k): jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return jsonable(x.tolist())
+    if isinstance(x, (bool, np.bool_)):
+        return bool(x)
+    if isinstance(x, (np.integer,)):
+        return int(x)
+    if isinstance(x, (float, np.floating)):
+        return float(x) if math.isfinite(x) else None
+    return x
+
+
+def json_text(obj, indent=None):
+    """robrst's JSON text of ``obj`` (see :func:`jsonable`)."""
+    return json.dumps(jsonable(obj), allow_nan=False, indent=indent)

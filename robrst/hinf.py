@@ -1,76 +1,131 @@
-"""Exact peak gain of a SISO rational transfer function ``N(s)/D(s)``.
+"""Exact peak gain of a SISO rational transfer function ``N(s)/D(s)``, globally.
 
-The peak ``max_w |G(jw)|`` (the H-infinity norm when D is Hurwitz, the L-infinity
-norm otherwise) is computed with the Bruinsma–Steinbuch bisection on the imaginary
-eigenvalues of a Hamiltonian matrix, in the scaled variable ``p = s / w0``, then the
-peak frequency is polished by Newton steps on the stationarity condition of
-``|G|^2`` (a polynomial in ``w^2``).  This is exact up to the
-relative tolerance ``rtol``, not a grid maximum.
+The peak ``sup_w |G(jw)|`` (the H-infinity norm when D is Hurwitz, the L-infinity
+norm otherwise), over all ``w >= 0`` or over a band ``[w_lo, w_hi]``, is computed in
+the scaled variable ``p = s / w0`` (:class:`robrst.poly.Scaling`) from the two even
+polynomials of ``x = nu**2``::
+
+    |N(j nu)|^2 = qN(x),   |D(j nu)|^2 = qD(x).
+
+1. **Candidates.**  Every local maximum of ``|G|^2 = qN/qD`` is a positive real root of
+   the stationarity polynomial ``qN' qD - qN qD'``; ``|G|`` is evaluated (complex Horner,
+   not through ``qN/qD``) at all of them, at ``w = 0`` and ``w = inf`` (``|N/D|`` limits)
+   or at the band edges.  The largest value is a guaranteed lower bound ``g``.
+2. **Level-set verification** (Bruinsma–Steinbuch, on the polynomial of the Hamiltonian's
+   imaginary eigenvalues): the frequencies where ``|G| = g (1 + 2 rtol)`` are the positive
+   real roots of ``qN - g^2 (1 + 2 rtol)^2 qD``.  Between two consecutive crossings (or a
+   crossing and a band edge) ``|G|`` is on one side of the level; ``|G|`` is evaluated at
+   every geometric midpoint and crossing, and ``g`` raised to the best value, until no
+   interval lies above the level.  Roots are accepted as real loosely (imaginary part up to
+   5 % of the modulus): a spurious crossing only costs an evaluation, a missed one could
+   lose a peak.
+
+On return the supremum lies in ``[value, value (1 + 2 rtol)]``: no frequency has a larger
+gain (the verification found none at that level), and ``value`` is attained at
+``freq_rad_s``.  The peak frequency is polished by Newton steps on the stationarity
+polynomial.  An ``n``-th order ``D`` costs one eigenvalue problem of size ``2n - 1`` and
+usually one of size ``n`` (half the size of the Hamiltonian, an eighth of its cost).
 """
 
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg as sla
 
-from robrst import poly
+from robrst import lti, poly
 
-__all__ = ["Peak", "peak_gain", "scaled_realization", "mag2_poly"]
+__all__ = ["Peak", "peak_gain", "mag2_poly"]
+
+LOOSE = 0.05   # roots with |Im x| <= LOOSE |x| are treated as real (candidates only)
+MAX_SPREAD = 1e12   # pole-magnitude ratio beyond which float64 eigenvalues cannot verify
 
 
 @dataclass(frozen=True)
 class Peak:
-    """Exact peak ``value`` of ``|G(jw)|`` at ``freq_rad_s`` (inf if at w = inf)."""
+    """Exact peak ``value`` of ``|G(jw)|`` at ``freq_rad_s`` (inf if at w = inf).
+
+    ``verified`` is false when the poles of ``D`` span more than ``MAX_SPREAD`` (12
+    decades): double-precision eigenvalues then cannot prove that no higher peak exists,
+    and ``value`` is the best of the level-set iteration and a dense scan (a lower bound).
+    """
 
     value: float
     freq_rad_s: float
-
-
-def scaled_realization(N, D, w0):
-    """Balanced controllable-form realisation of ``N/D`` in ``p = s / w0``.
-
-    Returns ``(A, B, C, d)`` with ``G(w0 * p) = C (pI - A)^-1 B + d``.
-    """
-    Ns = poly.to_scaled(poly.trim(N), w0)
-    Ds = poly.to_scaled(poly.trim(D), w0)
-    Ns, Ds = Ns / Ds[0], Ds / Ds[0]
-    n = len(Ds) - 1
-    if len(Ns) > n + 1:
-        raise ValueError("improper transfer function: deg N > deg D")
-    Nf = np.concatenate([np.zeros(n + 1 - len(Ns)), Ns])
-    d = Nf[0]
-    rem = Nf[1:] - d * Ds[1:]
-    A = np.zeros((n, n))
-    A[0, :] = -Ds[1:]
-    A[1:, :-1] = np.eye(n - 1)
-    B = np.zeros((n, 1))
-    B[0, 0] = 1.0
-    C = rem.reshape(1, n)
-    if n:
-        _, (sc, perm) = sla.matrix_balance(A, permute=False, separate=True)
-        A = A * (1 / sc)[:, None] * sc[None, :]
-        B = B / sc[:, None]
-        C = C * sc[None, :]
-    return A, B, C, float(d)
-
-
-def _gain(N, D, w):
-    return np.abs(poly.eval_jw(N, w) / poly.eval_jw(D, w))
+    verified: bool = True
 
 
 def mag2_poly(c):
-    """Polynomial ``q`` in ``x = w**2`` with ``|c(jw)|**2 == q(w**2)``."""
+    """Polynomial ``q`` in ``x = w**2`` with ``|c(jw)|**2 == q(w**2)`` (length ``len(c)``)."""
     c = np.asarray(c, dtype=float)
     d = len(c) - 1
-    cm = c * (-1.0) ** np.arange(d, -1, -1)  # c(-s)
-    e = np.polymul(c, cm)  # even polynomial in s, degree 2d
-    ev = e[::2]  # coefficients of s^(2d), s^(2d-2), ..., s^0
-    k = np.arange(d, -1, -1)
-    return ev * (-1.0) ** k  # s^(2k) = (-x)^k
+    sign = (-1.0) ** np.arange(d, -1, -1)
+    e = np.convolve(c, c * sign)          # c(s) c(-s), even, degree 2d
+    return e[::2] * sign                  # s^(2k) = (-x)^k
+
+
+def _roots(c):
+    """Roots of ``c`` (leading zeros dropped) from its companion matrix."""
+    nz = np.flatnonzero(c)
+    if nz.size == 0:
+        return np.zeros(0, complex)
+    c = c[nz[0]:]
+    n = len(c) - 1
+    if n < 1:
+        return np.zeros(0, complex)
+    M = np.zeros((n, n))
+    M[0, :] = -c[1:] / c[0]
+    M.flat[n::n + 1] = 1.0
+    return np.linalg.eigvals(M)
+
+
+def _positive_real(r):
+    keep = (np.abs(r.imag) <= LOOSE * np.abs(r)) & (r.real > 0)
+    return np.sqrt(r.real[keep])
+
+
+def _gain(NDs, nu):
+    """``|N/D|(j nu)`` for the stacked scaled pair ``NDs = [Ns; Ds]`` (rows of powers).
+
+    Powers of ``j nu`` times the coefficients (one matrix product); Horner's rule where
+    the powers would overflow.
+    """
+    nu = np.asarray(nu, float)
+    n = NDs.shape[1] - 1
+    if nu.size and np.max(nu) < 1e300 ** (1.0 / max(n, 1)):
+        y = ((1j * nu)[:, None] ** np.arange(n, -1, -1)) @ NDs.T
+        g = np.abs(y[:, 0] / y[:, 1])
+    else:
+        s = 1j * nu
+        y = np.zeros((2, s.size), complex)
+        for k in range(n + 1):
+            y = y * s + NDs[:, k:k + 1]
+        g = np.abs(y[0] / y[1])
+    g[np.isnan(g)] = 0.0
+    return g
+
+
+def _spread(c):
+    """Ratio of the largest to the smallest non-zero root modulus of ``c``, estimated
+    from its Newton polygon (within a factor of about ``4 deg c``)."""
+    a = np.abs(c)
+    nz = np.flatnonzero(a)
+    a = a[nz[0]:nz[-1] + 1]
+    n = len(a) - 1
+    if n < 1:
+        return 1.0
+    k = 1.0 / np.arange(1, n + 1)
+    big = np.max((a[1:] / a[0]) ** k)
+    return float(big * np.max((a[-2::-1] / a[-1]) ** k))
+
+
+def _horner(c, x):
+    out = 0.0
+    for a in c:
+        out = out * x + a
+    return out
 
 
 def _hamiltonian(A, B, C, d, g):
-    """Hamiltonian whose imaginary eigenvalues are the frequencies where |G| = g."""
+    """Hamiltonian whose imaginary eigenvalues ``j nu`` are the frequencies where |G| = g."""
     n = A.shape[0]
     R = d * d - g * g
     H = np.empty((2 * n, 2 * n))
@@ -81,82 +136,161 @@ def _hamiltonian(A, B, C, d, g):
     return H
 
 
-def _polish(Ns, Ds, w, g):
-    """Newton on the stationarity condition of ``|G|^2`` in ``x = w^2`` near ``w``.
+def _crossings(A, B, C, d, g):
+    """Frequencies ``nu > 0`` where |G| may equal ``g``: near-imaginary Hamiltonian eigenvalues."""
+    ev = np.linalg.eigvals(_hamiltonian(A, B, C, d, g))
+    keep = (np.abs(ev.real) <= LOOSE * np.abs(ev)) & (ev.imag > 0)
+    return ev.imag[keep]
 
-    ``|G(jw)|^2 = qN(x) / qD(x)`` is stationary where ``qN' qD - qN qD' = 0``;
-    a few Newton steps from the bisection's ``w`` reach that root.  Returns the
-    polished point unless it is lower than the start (beyond rounding), in which
-    case Newton left the peak and the start is kept.
+
+def _polish(P, NDs, nu, g):
+    """Newton on the stationarity polynomial ``P`` in ``x = nu^2`` near ``nu``.
+
+    Returns the polished point unless it is lower than the start (beyond rounding).
     """
-    qN, qD = mag2_poly(Ns), mag2_poly(Ds)
-    P = np.polysub(np.polymul(np.polyder(qN), qD), np.polymul(qN, np.polyder(qD)))
-    dP = np.polyder(P)
-    x0 = x = w * w
+    P = P.tolist()
+    dP = [a * k for a, k in zip(P, range(len(P) - 1, 0, -1))]
+    x0 = x = nu * nu
     for _ in range(12):
-        step = np.polyval(P, x) / np.polyval(dP, x)
+        den = _horner(dP, x)
+        if den == 0:
+            return g, nu
+        step = _horner(P, x) / den
         x = x - step
         if not (x0 / 1.2 < x < x0 * 1.2):
-            return g, w
+            return g, nu
         if abs(step) <= 1e-15 * x:
             break
-    wp = float(np.sqrt(x))
-    gp = float(_gain(Ns, Ds, wp))
-    return (gp, wp) if gp >= g * (1 - 1e-13) else (g, w)
+    nup = float(np.sqrt(x))
+    gp = float(_gain(NDs, [nup])[0])
+    return (gp, nup) if gp >= g * (1 - 1e-13) else (g, nu)
 
 
-def peak_gain(N, D, rtol=1e-10, w0=None, max_iter=60):
-    """Exact peak of ``|N(jw)/D(jw)|`` over ``w >= 0``.
+def _prepare(N, D):
+    """Trimmed ``N, D`` with common factors ``s^k`` cancelled."""
+    N, D = poly.trim(N), poly.trim(D)
+    if not np.any(D):
+        raise ValueError("peak_gain: the denominator is identically zero")
+    while len(N) > 1 and len(D) > 1 and N[-1] == 0.0 and D[-1] == 0.0:
+        N, D = N[:-1], D[:-1]
+    return N, D
+
+
+def peak_gain(N, D, rtol=1e-10, scaling=None, max_iter=60, band=None):
+    """Exact peak of ``|N(jw)/D(jw)|`` over ``w >= 0`` (or over a band).
 
     Parameters
     ----------
     N, D : array_like
-        Numerator and denominator in s (rad/s), ``deg N <= deg D``; D without
-        roots on the imaginary axis.
+        Numerator and denominator in s (rad/s), highest power first.
     rtol : float
-        Relative accuracy of the peak value.
-    w0 : float, optional
-        Frequency scale; default: geometric mean of the moduli of the roots of D.
+        Relative accuracy: the supremum lies in ``[value, value (1 + 2 rtol)]``.
+    scaling : Scaling, optional
+        Frequency scaling; default: at the geometric mean of the root moduli of D.
+    max_iter : int
+        Cap on the level-set verifications (each raises the value by ``> rtol``).
+    band : (float, float), optional
+        ``(w_lo, w_hi)`` [rad/s]: the frequency-limited peak over that closed band
+        (``w_hi = inf``: everything above ``w_lo``, the limit at infinity included).
 
     Returns
     -------
     Peak
+        ``value`` (``inf`` for ``deg N > deg D`` or a pole on the imaginary axis) and the
+        frequency where it is attained (``inf``: the limit at infinite frequency).
+
+    Examples
+    --------
+    >>> from robrst.hinf import peak_gain
+    >>> pk = peak_gain([1.0], [1.0, 0.2, 1.0])          # 1 / (s^2 + 0.2 s + 1)
+    >>> round(pk.value, 6), round(pk.freq_rad_s, 6)
+    (5.025189, 0.989949)
+    >>> round(peak_gain([1.0], [1.0, 0.2, 1.0], band=(2.0, 3.0)).value, 6)   # at the edge 2 rad/s
+    0.330409
     """
-    N, D = poly.trim(N), poly.trim(D)
-    w0 = float(w0 or poly.natural_scale(D))
-    A, B, C, d = scaled_realization(N, D, w0)
-    n = A.shape[0]
-    Ns, Ds = poly.to_scaled(N, w0), poly.to_scaled(D, w0)
-    # candidate lower bounds: w = 0, the pole frequencies, a coarse log grid
-    lam = np.linalg.eigvals(A) if n else np.zeros(0)
-    mags = np.abs(lam)
-    nzm = mags[mags > 0]
-    lo, hi = (nzm.min(), nzm.max()) if nzm.size else (1.0, 1.0)
-    cand = np.concatenate([[0.0], nzm, np.abs(lam.imag), np.geomspace(lo / 100, hi * 100, 64)])
-    vals = _gain(Ns, Ds, cand)
+    N, D = _prepare(N, D)
+    if len(N) > len(D):
+        return Peak(np.inf, np.inf)
+    with np.errstate(all="ignore"):   # inf at a pole on the axis is a valid answer
+        return _peak(N, D, rtol, scaling, max_iter, band)
+
+
+def _peak(N, D, rtol, scaling, max_iter, band):
+    if not np.any(N):
+        return Peak(0.0, 0.0 if band is None else float(band[0]))
+    sc = scaling or poly.Scaling.natural(D)
+    w0 = sc.w0
+    A, B, C, d = lti.companion(N, D, sc, balance=False)   # LAPACK balances H itself
+    Ns, Ds = sc.apply(N), sc.apply(D)
+    Ds0 = Ds[0]
+    n = len(Ds) - 1
+    NDs = np.zeros((2, n + 1))
+    NDs[0, n + 1 - len(Ns):] = Ns / Ds0
+    NDs[1] = Ds / Ds0
+    if band is None:
+        lo, hi = 0.0, np.inf
+        edges = np.array([0.0])
+    else:
+        lo, hi = (float(b) / w0 for b in band)
+        if not 0 <= lo <= hi:
+            raise ValueError(f"peak_gain: band must satisfy 0 <= lo <= hi, got {band}")
+        edges = np.array([lo, hi]) if np.isfinite(hi) else np.array([lo])
+    if n == 0:
+        return Peak(float(_gain(NDs, edges[:1])[0]), float(edges[0] * w0))
+    qN, qD = mag2_poly(NDs[0]), mag2_poly(NDs[1])
+    P = np.convolve(np.polyder(qN), qD) - np.convolve(qN, np.polyder(qD))
+    spread = _spread(NDs[1])
+    nu = np.concatenate([edges, _positive_real(_roots(P))])
+    nu = nu[(nu >= lo) & (nu <= hi)]
+    vals = _gain(NDs, nu)
     i = int(np.argmax(vals))
-    g_lb, w_pk = float(vals[i]), float(cand[i])
-    if abs(d) >= g_lb:
-        g_lb, w_pk = abs(d), np.inf
-    if n == 0 or g_lb == 0.0:
-        return Peak(g_lb, w_pk * w0 if np.isfinite(w_pk) else np.inf)
+    g, w_pk = float(vals[i]), float(nu[i])
+    if hi == np.inf and abs(d) >= g:
+        g, w_pk = abs(d), np.inf
+    if 0 < w_pk < np.inf:
+        g2, w2 = _polish(P, NDs, w_pk, g)
+        if lo <= w2 <= hi:
+            g, w_pk = g2, w2
+    verified = spread <= MAX_SPREAD
     for _ in range(max_iter):
-        ev = np.linalg.eigvals(_hamiltonian(A, B, C, d, (1 + 2 * rtol) * g_lb))
-        on_axis = ev[np.abs(ev.real) <= 1e-7 * np.maximum(1.0, np.abs(ev))]
-        ws = np.unique(np.round(np.abs(on_axis.imag), 12))
-        ws = ws[ws > 0] if ws.size > 1 else ws
-        if ws.size == 0:
+        if not np.isfinite(g) or g == 0.0:
             break
-        if ws.size == 1:
-            mids = ws
-        else:
-            mids = np.sqrt(ws[:-1] * ws[1:]) if ws[0] > 0 else 0.5 * (ws[:-1] + ws[1:])
-            mids = np.concatenate([mids, ws])
-        vals = _gain(Ns, Ds, mids)
-        j = int(np.argmax(vals))
-        if vals[j] <= g_lb * (1 + rtol):
+        ws = _crossings(A, B, C, d, g * (1 + 2 * rtol))
+        ws = np.sort(np.concatenate([edges, ws[(ws > lo) & (ws < hi)]]))
+        mids = np.where(ws[:-1] > 0, np.sqrt(ws[:-1] * ws[1:]), 0.5 * (ws[:-1] + ws[1:]))
+        cand = np.concatenate([mids, ws, [2.0 * ws[-1] + 1.0] if hi == np.inf else []])
+        v = _gain(NDs, cand)
+        j = int(np.argmax(v))
+        if not v[j] > g * (1 + rtol):
             break
-        g_lb, w_pk = float(vals[j]), float(mids[j])
-    if np.isfinite(w_pk) and w_pk > 0:
-        g_lb, w_pk = _polish(Ns, Ds, w_pk, g_lb)
-    return Peak(g_lb, w_pk * w0 if np.isfinite(w_pk) else np.inf)
+        g, w_pk = float(v[j]), float(cand[j])
+        if 0 < w_pk < np.inf:
+            g2, w2 = _polish(P, NDs, w_pk, g)
+            if lo <= w2 <= hi:
+                g, w_pk = g2, w2
+    else:
+        verified = False
+    if not verified:    # beyond what the eigenvalues resolve: a dense scan as well
+        g, w_pk = _scan(NDs, np.abs(_roots(NDs[1])), lo, hi, g, w_pk)
+    return Peak(g, w_pk * w0 if np.isfinite(w_pk) else np.inf, verified)
+
+
+def _scan(NDs, mags, lo, hi, g, w_pk, per_decade=50):
+    """Best of ``(g, w_pk)`` and a dense log scan of the poles' span, refined locally."""
+    pos = mags[mags > 0]
+    a = max(pos.min() / 1e3 if pos.size else 1e-3, lo if lo > 0 else 0.0)
+    b = min(pos.max() * 1e3 if pos.size else 1e3, hi)
+    if not b > a > 0:
+        return g, w_pk
+    t = np.linspace(np.log(a), np.log(b), int(per_decade * np.log10(b / a)) + 2)
+    v = _gain(NDs, np.exp(t))
+    for j in np.argsort(v)[::-1][:4]:
+        ta, tb = t[max(j - 1, 0)], t[min(j + 1, len(t) - 1)]
+        for _ in range(6):
+            tt = np.linspace(ta, tb, 33)
+            vv = _gain(NDs, np.exp(tt))
+            k = int(np.argmax(vv))
+            if vv[k] > g:
+                g, w_pk = float(vv[k]), float(np.exp(tt[k]))
+            ta, tb = tt[max(k - 1, 0)], tt[min(k + 1, 32)]
+    return g, w_pk

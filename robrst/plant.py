@@ -93,11 +93,85 @@ class Plant:
     def from_tf(cls, tf, **kw):
         """Build from a continuous-time SISO ``control.TransferFunction``."""
         if getattr(tf, "dt", 0) not in (0, None):
-            raise SpecError("from_tf: only continuous-time transfer functions are supported")
+            raise SpecError("from_tf: only continuous-time transfer functions are supported"
+                            " (use Plant.from_control for discrete ones)")
         if tf.ninputs != 1 or tf.noutputs != 1:
             raise SpecError("from_tf: only SISO transfer functions are supported")
         num, den = tf.num[0][0], tf.den[0][0]
         return cls(num, den, **kw)
+
+    @classmethod
+    def from_control(cls, sys, label="plant", temperature_C=None):
+        """Build from a SISO python-control ``TransferFunction`` or ``StateSpace``.
+
+        Continuous systems are taken as they are (a state space through its poles,
+        transmission zeros and gain, :func:`robrst.lti.ss_to_poly`).  A **discrete**
+        system (``dt > 0``) is read as what a controller at ``fs = 1/dt`` sees: the
+        zero-order-hold model of a continuous plant, possibly behind ``k`` samples of
+        delay (``k`` poles at ``z = 0``).  The plant returned is that continuous plant
+        (the exact inverse of the ZOH, :func:`robrst.lti.d2c`), with
+        ``meta["sample_rate_hz"] = 1/dt`` and ``meta["delay_samples"] = k``: put both
+        in :class:`~robrst.problem.Specs` and robrst designs and certifies the sampled
+        loop, whose plant is then exactly the discrete model given.
+
+        Parameters
+        ----------
+        sys : control.TransferFunction or control.StateSpace
+        label : str
+        temperature_C : float, optional
+
+        Returns
+        -------
+        Plant
+
+        Raises
+        ------
+        SpecError
+            Not SISO, an unspecified sampling period (``dt = True``), or a discrete
+            pole with no continuous pre-image (real negative, or zero other than delays).
+
+        Examples
+        --------
+        >>> import control
+        >>> Pd = control.c2d(control.tf([2.0], [1.0, 3.0]), 0.1)    # ZOH at 10 Hz
+        >>> p = Plant.from_control(Pd)
+        >>> [round(float(c), 9) for c in (*p.B, *p.A)], p.meta["sample_rate_hz"]
+        ([2.0, 1.0, 3.0], 10.0)
+        """
+        import control
+
+        from robrst import lti
+
+        if not isinstance(sys, (control.TransferFunction, control.StateSpace)):
+            raise SpecError(f"from_control: expected a control.TransferFunction or StateSpace,"
+                            f" got {type(sys).__name__}")
+        if sys.ninputs != 1 or sys.noutputs != 1:
+            raise SpecError(f"from_control: only SISO systems are supported"
+                            f" ({sys.ninputs} inputs, {sys.noutputs} outputs)")
+        dt = sys.dt
+        kw = dict(label=label, temperature_C=temperature_C)
+        if dt is True:
+            raise SpecError("from_control: discrete system with an unspecified sampling period"
+                            " (dt = True); give dt in seconds")
+        if dt in (0, None):
+            if isinstance(sys, control.TransferFunction):
+                return cls(sys.num[0][0], sys.den[0][0], **kw)
+            return cls(*lti.ss_to_poly(sys.A, sys.B, sys.C, sys.D), **kw)
+        if isinstance(sys, control.StateSpace) and np.all(np.abs(np.linalg.eigvals(sys.A)) > DELAY_TOL):
+            A, B, C, d = sys.A, sys.B, sys.C, float(np.asarray(sys.D).ravel()[0])
+            k = 0
+        else:
+            tf = control.tf(sys) if isinstance(sys, control.StateSpace) else sys
+            num, den, k = _strip_delay(poly.trim(tf.num[0][0]), poly.trim(tf.den[0][0]))
+            A, B, C, d = lti.companion(num, den, poly.Scaling(1.0))
+        try:
+            Ac, Bc = lti.d2c(A, B, dt)
+        except ValueError as exc:
+            raise SpecError(f"from_control: {exc}") from None
+        plant = cls(*lti.ss_to_poly(Ac, Bc, C, d), **kw)
+        meta = {"sample_rate_hz": 1.0 / float(dt), "delay_samples": k,
+                "source": "inverse zero-order hold of a discrete model"}
+        return Plant(plant.B, plant.A, meta=meta, **kw)
 
     def to_tf(self):
         """Return the model as a ``control.TransferFunction``."""
@@ -107,6 +181,28 @@ class Plant:
 
     def with_label(self, label, temperature_C=None):
         return Plant(self.B, self.A, label=label, temperature_C=temperature_C, meta=self.meta)
+
+
+DELAY_TOL = 1e-9   # a discrete pole (or trailing coefficient) this small is a pure delay
+
+
+def _strip_delay(num, den):
+    """``num/den`` in z as ``z^-k num'/den'`` with ``den'(0) != 0``; returns ``(num', den', k)``.
+
+    Trailing coefficients below ``DELAY_TOL`` of the largest count as zero (a delay
+    realised in state space comes back with round-off there).
+    """
+    num, den = (np.where(np.abs(c) <= DELAY_TOL * np.max(np.abs(c)), 0.0, c) for c in (num, den))
+    tz = lambda c: len(c) - 1 - int(np.flatnonzero(c)[-1])    # noqa: E731  (roots at z = 0)
+    common = min(tz(num), tz(den))
+    num, den = num[:len(num) - common], den[:len(den) - common]
+    k = tz(den)
+    den = den[:len(den) - k]
+    if len(num) > len(den):
+        raise SpecError("from_control: the discrete model is not a delayed zero-order-hold"
+                        " model (its numerator outgrows the denominator once the delay is"
+                        " removed)")
+    return num, den, k
 
 
 def paper_plant():

@@ -6,9 +6,13 @@ where these spans shrink to a few decades; :func:`to_scaled` and :func:`from_sca
 move coefficient vectors between the two.
 """
 
+from dataclasses import dataclass
+
 import numpy as np
 
 __all__ = [
+    "Scaling",
+    "conv_generic",
     "as_poly",
     "trim",
     "degree",
@@ -92,6 +96,76 @@ def from_scaled(c, w0):
     c = np.asarray(c, dtype=float)
     d = len(c) - 1
     return c / float(w0) ** np.arange(d, -1, -1)
+
+
+def conv_generic(a, b):
+    """Coefficients of the product of two polynomials given as sequences of any ring elements.
+
+    Uses only ``+`` and ``*``, so the entries may be floats or CasADi symbols (the twin's
+    symbolic model and the numeric family share one thermal law through it).  Returns a list.
+    """
+    a, b = list(a), list(b)
+    out = [0] * (len(a) + len(b) - 1)
+    for i, x in enumerate(a):
+        for j, y in enumerate(b):
+            out[i + j] = out[i + j] + x * y
+    return out
+
+
+@dataclass(frozen=True)
+class Scaling:
+    """The frequency scaling ``s = w0 p`` that every algorithm of robrst works in.
+
+    Coefficients from 1 to 1e10 (closed loops: 1e24) become O(1) in the scaled variable
+    ``p``.  :meth:`normalize` maps a polynomial ``c(s)`` of (nominal) degree ``n`` to
+    ``c(w0 p) / w0**n`` (monic stays monic; ratios of polynomials of equal nominal degree
+    are unchanged); :meth:`denormalize` undoes it.  :meth:`apply`/:meth:`undo` are the
+    plain substitution ``c(w0 p)`` and its inverse; :meth:`freq`/:meth:`unfreq` map
+    frequencies.
+
+    Examples
+    --------
+    >>> sc = Scaling(10.0)
+    >>> sc.normalize([1.0, 20.0, 300.0]).tolist()
+    [1.0, 2.0, 3.0]
+    >>> sc.denormalize(sc.normalize([2.0, 5.0])).tolist()
+    [2.0, 5.0]
+    """
+
+    w0: float
+
+    @classmethod
+    def natural(cls, *polys):
+        """The scaling at the geometric mean of the polynomials' root moduli."""
+        return cls(natural_scale(*polys))
+
+    def apply(self, c):
+        """Coefficients of ``c(w0 p)`` in ``p``."""
+        return to_scaled(c, self.w0)
+
+    def undo(self, c):
+        """Coefficients in ``s`` of ``c(s / w0)``."""
+        return from_scaled(c, self.w0)
+
+    def normalize(self, c, degree=None):
+        """``c(w0 p) / w0**degree`` (``degree`` defaults to ``len(c) - 1``)."""
+        c = np.asarray(c, dtype=float)
+        n = len(c) - 1 if degree is None else degree
+        return to_scaled(c, self.w0) / float(self.w0) ** n
+
+    def denormalize(self, c, degree=None):
+        """Inverse of :meth:`normalize`: coefficients in ``s``."""
+        c = np.asarray(c, dtype=float)
+        n = len(c) - 1 if degree is None else degree
+        return from_scaled(c, self.w0) * float(self.w0) ** n
+
+    def freq(self, w):
+        """Physical frequency [rad/s] -> scaled frequency (complex values allowed)."""
+        return np.asarray(w) / self.w0
+
+    def unfreq(self, nu):
+        """Scaled frequency -> physical frequency [rad/s] (complex values allowed)."""
+        return np.asarray(nu) * self.w0
 
 
 def monic(c):

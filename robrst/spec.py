@@ -1,354 +1,354 @@
-"""Problem files (TOML) -> frozen, validated :class:`Problem` specs.
+"""Problem files (TOML) -> a validated :class:`~robrst.problem.Problem`.
 
-Every key is declared in :data:`SCHEMA`; unknown or misspelled keys are rejected
-with the file name, the key path and the closest valid key.  The README's
-"Problem-file reference" documents the same schema.
+Every key is declared in :data:`SCHEMA` (validated by the neutral :mod:`robrst.schema`);
+unknown or misspelled keys are rejected with the file name, the key path and the
+closest valid key.  The README's "Problem-file reference" is generated from the same
+schema.  Built-in problem files ship with the package (:mod:`robrst.resources`).
 """
 
-import difflib
-import tomllib
-from dataclasses import dataclass
+from __future__ import annotations
+
+import os
 from pathlib import Path
 
-import numpy as np
-
+from robrst import resources
 from robrst.errors import SpecError
-from robrst.family import ThermalCoefficients, explicit_family, parametric_family
+from robrst.family import PlantFamily, ThermalCoefficients, explicit_family, parametric_family
 from robrst.plant import Plant, named_plant
-from robrst.synthesis.analytic import PoleSpec
+from robrst.problem import (HOMOTOPIES, INITS, METHODS, OBJECTIVES, PLACEMENTS, T_MODES,
+                            ControllerStructure, PoleSpec, Problem, SolverOptions, Specs)
+from robrst.schema import ArrayOf, Field, key_error, load_toml, markdown_rows, validate
 
-__all__ = ["Problem", "load_problem", "parse_problem", "SCHEMA", "schema_markdown", "validate_table",
-           "key_error"]
+__all__ = ["load_problem", "parse_problem", "resolve_problem_path", "SCHEMA", "schema_markdown"]
 
-NUM = (int, float)
-NUMS = "list of numbers"
+TEMP = dict(lo=-100.0, hi=500.0)      # plausible temperatures [°C]
+BAND = dict(positive=True, length=2)  # [lo, hi] pairs
 
-# key -> (type, required, default, doc); nested tables are dicts; "[[..]]" lists of tables.
 SCHEMA = {
     "problem": {
-        "name": (str, False, None, "problem name (default: file stem)"),
-        "description": (str, False, "", "free text"),
+        "name": Field("str", None, "problem name (default: file stem)"),
+        "description": Field("str", "", "free text"),
     },
     "plant": {
-        "name": (str, False, None, "built-in model: 'paper' = D(s) of eq. (4)"),
-        "B": (NUMS, False, None, "numerator coefficients [µm/V], highest power first"),
-        "A": (NUMS, False, None, "denominator coefficients, highest power first"),
-        "zeros": (NUMS, False, None, "real zeros [rad/s] (with 'poles', 'gain')"),
-        "poles": (NUMS, False, None, "real poles [rad/s]"),
-        "gain": (NUM, False, None, "leading gain k of k*prod(s-z)/prod(s-p)"),
-        "temperature_C": (NUM, False, 28.0, "temperature of the nominal model [°C]"),
-        "source": (str, False, "", "where the model comes from"),
+        "name": Field("str", None, "built-in model: 'paper' = D(s) of eq. (4)"),
+        "B": Field("numbers", None, "numerator coefficients [µm/V], highest power first"),
+        "A": Field("numbers", None, "denominator coefficients, highest power first"),
+        "zeros": Field("numbers", None, "real zeros [rad/s] (with 'poles', 'gain')"),
+        "poles": Field("numbers", None, "real poles [rad/s]"),
+        "gain": Field("number", None, "leading gain k of k*prod(s-z)/prod(s-p)"),
+        "temperature_C": Field("number", 28.0, "temperature of the nominal model [°C]", **TEMP),
+        "source": Field("str", "", "where the model comes from"),
     },
     "family": {
-        "reference_C": (NUM, False, None, "temperature of the nominal model (default plant.temperature_C)"),
-        "temperatures_C": (NUMS, False, None, "temperatures of a parametric family [°C]"),
-        "source": (str, False, "", "where the coefficients come from"),
+        "reference_C": Field("number", None, "temperature of the nominal model (default"
+                             " plant.temperature_C)", **TEMP),
+        "temperatures_C": Field("numbers", None, "temperatures of a parametric family [°C]", **TEMP),
+        "source": Field("str", "", "where the coefficients come from"),
         "parametric": {
-            "gain_per_K": (NUM, False, 0.0, "relative static-gain change per K"),
-            "resonance_per_K": (NUM, False, 0.0, "relative natural-frequency change per K"),
-            "damping_per_K": (NUM, False, 0.0, "relative damping change per K"),
-            "creep_per_K": (NUM, False, 0.0, "creep strength gained per K above reference"),
-            "creep_at_ref": (NUM, False, 0.0, "creep strength at the reference temperature"),
-            "creep_tau_s": (NUM, False, 1.0, "creep time constant [s]"),
+            "gain_per_K": Field("number", 0.0, "relative static-gain change per K"),
+            "resonance_per_K": Field("number", 0.0, "relative natural-frequency change per K"),
+            "damping_per_K": Field("number", 0.0, "relative damping change per K"),
+            "creep_per_K": Field("number", 0.0, "creep strength gained per K above reference"),
+            "creep_at_ref": Field("number", 0.0, "creep strength at the reference temperature"),
+            "creep_tau_s": Field("number", 1.0, "creep time constant [s]", positive=True),
         },
-        "models": ("[[]]", False, None, {
-            "temperature_C": (NUM, True, None, "temperature [°C]"),
-            "B": (NUMS, True, None, "numerator coefficients"),
-            "A": (NUMS, True, None, "denominator coefficients"),
+        "models": ArrayOf({
+            "temperature_C": Field("number", None, "temperature [°C]", required=True, **TEMP),
+            "B": Field("numbers", None, "numerator coefficients", required=True),
+            "A": Field("numbers", None, "denominator coefficients", required=True),
         }),
     },
     "controller": {
-        "S_fixed": (NUMS, False, [1.0, 0.0], "fixed factor of S (must contain s)"),
-        "R_fixed": (NUMS, False, [1.0], "fixed factor of R (e.g. a roll-off)"),
-        "extra_degree": (int, False, 0, "degrees of S above the paper's minimum"),
-        "T_mode": (str, False, "paper", "paper | static | cancel_aux"),
-        "T_zeros": (NUMS, False, [], "zeros of T = Bm_aux [rad/s] (T_mode = paper)"),
+        "S_fixed": Field("numbers", (1.0, 0.0), "fixed factor of S (must contain s)"),
+        "R_fixed": Field("numbers", (1.0,), "fixed factor of R (e.g. a roll-off)"),
+        "extra_degree": Field("int", 0, "degrees of S above the paper's minimum", lo=0, hi=20),
+        "T_mode": Field("str", "paper", "paper | static | cancel_aux | reference_model",
+                        choices=T_MODES),
+        "T_zeros": Field("numbers", (), "zeros of T = Bm_aux [rad/s] (T_mode = paper)"),
+        "relative_degree": Field("int", 0, "deg R <= deg S - this (1: strictly proper controller)",
+                                 lo=0, hi=10),
+        "roll_off_order": Field("int", 0, "poles of a fixed roll-off factor (s/wc + 1)^order in S"
+                                " (adds to the relative degree)", lo=0, hi=10),
+        "roll_off_hz": Field("number", None, "corner wc/2pi of the roll-off factor [Hz]",
+                             positive=True),
+        "reference_wn": Field("number", None, "reference model bandwidth [rad/s]"
+                              " (T_mode = reference_model)", positive=True),
+        "reference_zeta": Field("number", 1.0, "reference model damping", positive=True),
+        "T_cancel_damping": Field("number", 0.5, "T cancels nominal closed-loop factors at least"
+                                  " this damped (T_mode = reference_model)", lo=0.0, hi=1.0),
     },
     "poles": {
-        "wn": (NUM, False, None, "dominant natural frequency [rad/s]"),
-        "zeta": (NUM, False, None, "dominant damping"),
-        "dominant_real": (NUMS, False, [], "extra dominant real poles [rad/s, < 0]"),
-        "dominant_roots_re": (NUMS, False, None, "explicit dominant roots, real parts"),
-        "dominant_roots_im": (NUMS, False, None, "explicit dominant roots, imaginary parts"),
-        "aux_factor": (NUM, False, 10.0, "auxiliary poles at -aux_factor*|fastest dominant|"),
-        "aux_roots": (NUMS, False, None, "explicit real auxiliary roots [rad/s]"),
+        "wn": Field("number", None, "dominant natural frequency [rad/s]", positive=True),
+        "zeta": Field("number", None, "dominant damping", positive=True),
+        "dominant_real": Field("numbers", (), "extra dominant real poles [rad/s, < 0]"),
+        "dominant_roots_re": Field("numbers", None, "explicit dominant roots, real parts"),
+        "dominant_roots_im": Field("numbers", None, "explicit dominant roots, imaginary parts"),
+        "aux_factor": Field("number", 10.0, "auxiliary poles at -aux_factor*|fastest dominant|",
+                            positive=True),
+        "aux_roots": Field("numbers", None, "explicit real auxiliary roots [rad/s]"),
     },
     "specs": {
-        "Ms_max": (NUM, False, None, "bound on |S| (modulus margin >= 1/Ms_max)"),
-        "Mt_max": (NUM, False, None, "bound on |T|"),
-        "Mu_max": (NUM, False, None, "bound on |U| [V/µm]"),
-        "Mu_reason": (str, False, "", "why this Mu bound"),
-        "T_resonance_max": (NUM, False, None, "bound on |T| over the resonance band"),
-        "resonance_band_hz": (NUMS, False, None, "[f_lo, f_hi] band for T_resonance_max"),
-        "stable_controller": (bool, False, False, "require S/s Hurwitz"),
-        "sample_rate_hz": (NUM, False, None, "also certify (nlp: also design) the sampled loop:"
-                           " ZOH plant, Tustin controller at this rate [Hz]"),
-        "delay_samples": (int, False, 0, "computation delay of the sampled loop [samples]"),
+        "Ms_max": Field("number", None, "bound on |S| (modulus margin >= 1/Ms_max)", lo=1.0),
+        "Mt_max": Field("number", None, "bound on |T|", positive=True),
+        "Mu_max": Field("number", None, "bound on |U| [V/µm]", positive=True),
+        "Mu_reason": Field("str", "", "why this Mu bound"),
+        "T_resonance_max": Field("number", None, "bound on |T| over the resonance band",
+                                 positive=True),
+        "resonance_band_hz": Field("numbers", None, "[f_lo, f_hi] band for T_resonance_max", **BAND),
+        "stable_controller": Field("bool", False, "require S/s Hurwitz"),
+        "sample_rate_hz": Field("number", None, "also certify (nlp: also design) the sampled loop:"
+                                " ZOH plant, Tustin controller at this rate [Hz]",
+                                positive=True, hi=1e9),
+        "delay_samples": Field("int", 0, "computation delay of the sampled loop [samples]",
+                               lo=0, hi=1000),
+        "Mu_hf_max": Field("number", None, "bound on |U| above Mu_hf_above_hz [V/µm]",
+                           positive=True),
+        "Mu_hf_above_hz": Field("number", None, "where the Mu_hf_max bound starts [Hz]",
+                                positive=True),
+        "overshoot_max_pct": Field("number", None, "overshoot of a reference step [%]", lo=0.0),
+        "settling_time_max_s": Field("number", None, "2 % settling time of a reference step [s]",
+                                     positive=True),
+        "step_um": Field("number", 1.0, "reference step for step_u_max_V [µm]", positive=True),
+        "step_u_max_V": Field("number", None, "peak |u| for a reference step of step_um [V]",
+                              positive=True),
     },
     "solver": {
-        "method": (str, False, "analytic", "analytic | nlp | convex"),
-        "objective": (str, False, "max_integral_gain", "max_integral_gain | min_Ms | feasibility"),
-        "free_poles": (bool, False, False, "let wn and zeta vary within the bounds"),
-        "wn_bounds": (NUMS, False, None, "[lo, hi] rad/s"),
-        "zeta_bounds": (NUMS, False, None, "[lo, hi]"),
-        "n_freq": (int, False, 120, "frequency-grid points per model"),
-        "max_rounds": (int, False, 6, "certification rounds"),
-        "exchange": (bool, False, True, "impose the grid by constraint exchange (active subset,"
-                     " grown until every grid point holds); false: every point in one NLP"),
-        "cert_temperatures": (int, False, 35, "temperatures in the certification sweep"),
-        "cert_tol": (NUM, False, 1e-3, "relative tolerance on certified peaks"),
-        "init": (str, False, "analytic", "NLP start: analytic (Sylvester) | convex (nominal SOCP; fixed poles only)"),
-        "max_iter": (int, False, 500, "IPOPT iterations"),
-        "ipopt_tol": (NUM, False, 1e-9, "IPOPT tolerance"),
-        "compare_with": (str, False, None, "problem file (relative) whose analytic design is compared"),
+        "method": Field("str", "analytic", "analytic | nlp | convex", choices=METHODS),
+        "objective": Field("str", "max_integral_gain", "max_integral_gain | min_Ms | feasibility",
+                           choices=OBJECTIVES),
+        "free_poles": Field("bool", False, "let wn and zeta vary within the bounds"),
+        "wn_bounds": Field("numbers", None, "[lo, hi] rad/s", **BAND),
+        "zeta_bounds": Field("numbers", None, "[lo, hi]", **BAND),
+        "n_freq": Field("int", 120, "frequency-grid points per model", lo=2, hi=20000),
+        "max_rounds": Field("int", 6, "certification rounds", lo=1, hi=100),
+        "exchange": Field("bool", True, "impose the grid by constraint exchange (active subset,"
+                          " grown until every grid point holds); false: every point in one NLP"),
+        "cert_temperatures": Field("int", 35, "temperatures in the certification sweep",
+                                   lo=1, hi=10000),
+        "cert_tol": Field("number", 1e-3, "relative tolerance on certified peaks",
+                          positive=True, hi=0.1),
+        "init": Field("str", "analytic", "NLP start: analytic (Sylvester) | convex (nominal SOCP;"
+                      " fixed poles only)", choices=INITS),
+        "max_iter": Field("int", 500, "IPOPT iterations", lo=1, hi=100000),
+        "ipopt_tol": Field("number", 1e-9, "IPOPT tolerance", positive=True, hi=1e-2),
+        "compare_with": Field("str", None, "problem file (relative) whose analytic design is"
+                              " compared"),
+        "placement": Field("str", "auto", "nominal closed-loop poles: fixed (as [poles] and"
+                           " free_poles ask) | free (every coefficient free) | auto (fixed, freed"
+                           " when the specs cannot be met)", choices=PLACEMENTS),
+        "homotopy": Field("str", "on_failure", "lower extra_degree solved first: on_failure |"
+                          " always (more degrees never certify a worse objective)",
+                          choices=HOMOTOPIES),
     },
 }
 
 
-@dataclass(frozen=True, eq=False)
-class Problem:
-    """A validated problem: where it came from, the family, and the design choices."""
-
-    name: str
-    path: str
-    family: object
-    poles: PoleSpec
-    controller: dict
-    specs: dict
-    solver: dict
-    raw: dict
-
-
-def schema_markdown(schema=None, prefix=""):
+def schema_markdown():
     """The problem-file reference as Markdown table rows (the README's table)."""
-    schema = SCHEMA if schema is None else schema
-    rows = []
-    for key, val in schema.items():
-        if isinstance(val, dict):
-            rows.extend(schema_markdown(val, f"{prefix}{key}."))
-        elif val[0] == "[[]]":
-            rows.extend(schema_markdown(val[3], f"{prefix}{key}[]."))
-        else:
-            typ, req, default, doc = val
-            tname = typ if isinstance(typ, str) else ("number" if typ == NUM else typ.__name__)
-            rows.append(f"| `{prefix[:-1]}` | `{key}` | {tname} | {'yes' if req else 'no'}"
-                        f" | {default!r} | {doc.replace('|', chr(92) + '|')} |")
-    return rows
-
-
-def _err(path, key, msg):
-    where = ".".join(key) if key else "(top level)"
-    return SpecError(f"{path}: [{where}] {msg}")
-
-
-def _check_type(path, key, value, typ):
-    if typ == NUMS:
-        if not isinstance(value, list) or not all(
-            isinstance(v, NUM) and not isinstance(v, bool) for v in value
-        ):
-            raise _err(path, key, f"expected a list of numbers, got {value!r}")
-        if not all(np.isfinite(value)):
-            raise _err(path, key, f"numbers must be finite, got {value!r}")
-        return [float(v) for v in value]
-    if typ == NUM:
-        if isinstance(value, bool) or not isinstance(value, NUM) or not np.isfinite(value):
-            raise _err(path, key, f"expected a finite number, got {value!r}")
-        return float(value)
-    if typ is int and (isinstance(value, bool) or not isinstance(value, int)):
-        raise _err(path, key, f"expected an integer, got {value!r}")
-    if not isinstance(value, typ):
-        raise _err(path, key, f"expected {typ.__name__}, got {value!r}")
-    return value
-
-
-def _validate(path, data, schema, key=()):
-    if not isinstance(data, dict):
-        raise _err(path, key, f"expected a table, got {data!r}")
-    out = {}
-    for k, v in data.items():
-        if k not in schema:
-            close = difflib.get_close_matches(k, schema, n=1, cutoff=0.5)
-            hint = f"; did you mean '{close[0]}'?" if close else ""
-            raise _err(path, key + (k,), f"unknown key{hint} (valid: {', '.join(schema)})")
-    for k, spec in schema.items():
-        if isinstance(spec, dict):
-            out[k] = _validate(path, data[k], spec, key + (k,)) if k in data else None
-            continue
-        typ, required, default, doc = spec
-        if typ == "[[]]":
-            if k in data:
-                if not isinstance(data[k], list):
-                    raise _err(path, key + (k,), "expected an array of tables [[...]]")
-                out[k] = [_validate(path, d, doc, key + (k, str(i))) for i, d in enumerate(data[k])]
-            else:
-                out[k] = None
-            continue
-        if k not in data:
-            if required:
-                raise _err(path, key + (k,), f"missing required key ({doc})")
-            out[k] = list(default) if isinstance(default, list) else default
-        else:
-            out[k] = _check_type(path, key + (k,), data[k], typ)
-    return out
-
-
-def validate_table(path, data, schema, key=()):
-    """Validate ``data`` against ``schema`` (same rules as problem files); fill defaults."""
-    return _validate(path, data, schema, key)
-
-
-def key_error(path, key, msg):
-    """A :class:`SpecError` naming the file and the key path."""
-    return _err(path, key, msg)
+    return markdown_rows(SCHEMA)
 
 
 def _plant(path, p):
     if p is None:
-        raise _err(path, ("plant",), "missing required table [plant]")
+        raise key_error(path, ("plant",), "missing required table [plant]")
     kinds = [k for k in ("name", "B", "zeros") if p[k] is not None]
     if p["A"] is not None and p["B"] is None:
-        raise _err(path, ("plant", "B"), "missing: 'A' is given without 'B'")
+        raise key_error(path, ("plant", "B"), "missing: 'A' is given without 'B'")
     if len(kinds) != 1:
-        raise _err(path, ("plant",), "give exactly one of: name | B and A | zeros, poles and gain")
+        raise key_error(path, ("plant",), "give exactly one of: name | B and A | zeros, poles and gain")
     T = p["temperature_C"]
     try:
         if p["name"] is not None:
             pl = named_plant(p["name"])
         elif p["B"] is not None:
             if p["A"] is None:
-                raise _err(path, ("plant", "A"), "missing required key (with 'B')")
+                raise key_error(path, ("plant", "A"), "missing required key (with 'B')")
             pl = Plant(p["B"], p["A"], label="plant")
         else:
             if p["poles"] is None or p["gain"] is None:
-                raise _err(path, ("plant",), "'zeros' needs 'poles' and 'gain'")
+                raise key_error(path, ("plant",), "'zeros' needs 'poles' and 'gain'")
             pl = Plant.from_zpk(p["zeros"], p["poles"], p["gain"])
     except SpecError as exc:
         if str(exc).startswith(str(path)):
             raise
-        raise _err(path, ("plant",), str(exc)) from None
+        raise key_error(path, ("plant",), str(exc)) from None
     return Plant(pl.B, pl.A, label=f"T{T:g}C", temperature_C=T, meta=pl.meta)
 
 
 def _family(path, f, nominal):
-    from robrst.family import PlantFamily
-
     if f is None:
         return PlantFamily(models=(nominal,), reference=0)
     ref = f["reference_C"] if f["reference_C"] is not None else nominal.temperature_C
     if f["models"] is not None:
         if f["temperatures_C"] is not None or f["parametric"] is not None:
-            raise _err(path, ("family",), "give either 'models' or 'temperatures_C'+'parametric'")
+            raise key_error(path, ("family",), "give either 'models' or 'temperatures_C'+'parametric'")
+        if not f["models"]:
+            raise key_error(path, ("family", "models"), "expected at least one [[family.models]]")
         models = []
         for i, m in enumerate(f["models"]):
             try:
                 models.append(Plant(m["B"], m["A"], label=f"T{m['temperature_C']:g}C",
                                     temperature_C=m["temperature_C"]))
             except SpecError as exc:
-                raise _err(path, ("family", "models", str(i)), str(exc)) from None
+                raise key_error(path, ("family", "models", str(i)), str(exc)) from None
         try:
             return explicit_family(models, ref)
         except SpecError as exc:
-            raise _err(path, ("family", "models"), str(exc)) from None
+            raise key_error(path, ("family", "models"), str(exc)) from None
     if f["temperatures_C"] is None:
-        raise _err(path, ("family", "temperatures_C"), "missing required key")
-    par = f["parametric"] or _validate(path, {}, SCHEMA["family"]["parametric"])
+        raise key_error(path, ("family", "temperatures_C"), "missing required key")
+    if not f["temperatures_C"]:
+        raise key_error(path, ("family", "temperatures_C"), "expected at least one temperature")
+    par = f["parametric"] or validate(path, {}, SCHEMA["family"]["parametric"])
     coeffs = ThermalCoefficients(reference_C=ref, **par)
     try:
         return parametric_family(nominal, f["temperatures_C"], coeffs)
     except SpecError as exc:
-        raise _err(path, ("family",), str(exc)) from None
+        raise key_error(path, ("family",), str(exc)) from None
 
 
 def _poles(path, p):
     if p is None:
-        raise _err(path, ("poles",), "missing required table [poles]")
+        raise key_error(path, ("poles",), "missing required table [poles]")
     dom = None
     if p["dominant_roots_re"] is not None:
-        im = p["dominant_roots_im"] or [0.0] * len(p["dominant_roots_re"])
+        im = p["dominant_roots_im"] or (0.0,) * len(p["dominant_roots_re"])
         if len(im) != len(p["dominant_roots_re"]):
-            raise _err(path, ("poles", "dominant_roots_im"), "must match dominant_roots_re in length")
+            raise key_error(path, ("poles", "dominant_roots_im"),
+                            "must match dominant_roots_re in length")
         dom = tuple(complex(a, b) for a, b in zip(p["dominant_roots_re"], im))
     elif p["wn"] is None or p["zeta"] is None:
-        raise _err(path, ("poles",), "give 'wn' and 'zeta' (or 'dominant_roots_re')")
-    spec = PoleSpec(wn=p["wn"], zeta=p["zeta"], dominant_real=tuple(p["dominant_real"]),
-                    dominant_roots=dom, aux_factor=p["aux_factor"],
-                    aux_roots=None if p["aux_roots"] is None else tuple(p["aux_roots"]))
+        raise key_error(path, ("poles",), "give 'wn' and 'zeta' (or 'dominant_roots_re')")
+    spec = PoleSpec(wn=p["wn"], zeta=p["zeta"], dominant_real=p["dominant_real"],
+                    dominant_roots=dom, aux_factor=p["aux_factor"], aux_roots=p["aux_roots"])
     try:
         spec.dominant()
     except SpecError as exc:
-        raise _err(path, ("poles",), str(exc).removeprefix("poles: ")) from None
+        raise key_error(path, ("poles",), str(exc).removeprefix("poles: ")) from None
     return spec
 
 
-def _choice(path, key, value, choices):
-    if value not in choices:
-        raise _err(path, key, f"expected one of {', '.join(choices)}, got {value!r}")
+def _table(path, v, name):
+    return v[name] or validate(path, {}, SCHEMA[name], (name,))
+
+
+def _check_pairs(path, specs, solver):
+    for tab, rec, k in (("specs", specs, "resonance_band_hz"), ("solver", solver, "wn_bounds"),
+                        ("solver", solver, "zeta_bounds")):
+        b = getattr(rec, k)
+        if b is not None and not b[0] < b[1]:
+            raise key_error(path, (tab, k), f"expected [lo, hi] with 0 < lo < hi, got {list(b)}")
+
+
+def _check_new_keys(path, ctrl, specs):
+    if (specs.Mu_hf_max is None) != (specs.Mu_hf_above_hz is None):
+        raise key_error(path, ("specs",), "'Mu_hf_max' and 'Mu_hf_above_hz' go together")
+    if ctrl.roll_off_order and ctrl.roll_off_hz is None:
+        raise key_error(path, ("controller", "roll_off_hz"), "needed with roll_off_order > 0")
+    if ctrl.T_mode == "reference_model" and ctrl.reference_wn is None:
+        raise key_error(path, ("controller", "reference_wn"), "needed with T_mode ="
+                        " 'reference_model'")
 
 
 def parse_problem(data, path="<problem>"):
-    """Validate a parsed TOML document; see :func:`load_problem`."""
-    v = _validate(path, data, SCHEMA)
-    nominal = _plant(path, v["plant"])
-    family = _family(path, v["family"], nominal)
-    poles = _poles(path, v["poles"])
-    ctrl = v["controller"] or _validate(path, {}, SCHEMA["controller"])
-    specs = v["specs"] or _validate(path, {}, SCHEMA["specs"])
-    solver = v["solver"] or _validate(path, {}, SCHEMA["solver"])
-    _choice(path, ("controller", "T_mode"), ctrl["T_mode"], ("paper", "static", "cancel_aux"))
-    _choice(path, ("solver", "method"), solver["method"], ("analytic", "nlp", "convex"))
-    _choice(path, ("solver", "init"), solver["init"], ("analytic", "convex"))
-    _choice(path, ("solver", "objective"), solver["objective"],
-            ("max_integral_gain", "min_Ms", "feasibility"))
-    if ctrl["extra_degree"] < 0:
-        raise _err(path, ("controller", "extra_degree"), "must be >= 0")
-    if len(ctrl["S_fixed"]) < 2 or ctrl["S_fixed"][-1] != 0.0:
-        raise _err(path, ("controller", "S_fixed"), "must contain the integrator s (last coefficient 0)")
-    for k in ("Ms_max", "Mt_max", "Mu_max", "T_resonance_max"):
-        if specs[k] is not None and specs[k] <= 0:
-            raise _err(path, ("specs", k), f"must be > 0, got {specs[k]}")
-    if specs["Ms_max"] is not None and specs["Ms_max"] < 1:
-        raise _err(path, ("specs", "Ms_max"), "must be >= 1 (|S| tends to 1 at high frequency)")
-    if specs["sample_rate_hz"] is not None and not specs["sample_rate_hz"] > 0:
-        raise _err(path, ("specs", "sample_rate_hz"), f"must be > 0, got {specs['sample_rate_hz']}")
-    if specs["delay_samples"] < 0:
-        raise _err(path, ("specs", "delay_samples"), "must be >= 0")
-    if specs["delay_samples"] and specs["sample_rate_hz"] is None:
-        raise _err(path, ("specs", "delay_samples"), "needs 'sample_rate_hz'")
-    if (specs["T_resonance_max"] is None) != (specs["resonance_band_hz"] is None):
-        raise _err(path, ("specs",), "'T_resonance_max' and 'resonance_band_hz' go together")
-    for k in ("wn_bounds", "zeta_bounds", "resonance_band_hz"):
-        tab = "specs" if k == "resonance_band_hz" else "solver"
-        b = (specs if tab == "specs" else solver)[k]
-        if b is not None and (len(b) != 2 or not 0 < b[0] < b[1]):
-            raise _err(path, (tab, k), f"expected [lo, hi] with 0 < lo < hi, got {b}")
-    if solver["init"] == "convex" and solver["free_poles"]:
-        raise _err(path, ("solver", "init"), "'convex' needs a fixed Am (free_poles = false):"
-                   " the SOCP is posed at fixed closed-loop poles")
-    if solver["free_poles"] and (solver["wn_bounds"] is None or solver["zeta_bounds"] is None):
-        raise _err(path, ("solver", "free_poles"), "needs 'wn_bounds' and 'zeta_bounds'")
-    for k in ("n_freq", "max_rounds", "cert_temperatures", "max_iter"):
-        if solver[k] < 1:
-            raise _err(path, ("solver", k), "must be >= 1")
-    name = (v["problem"] or {}).get("name") or Path(str(path)).stem
-    return Problem(name=name, path=str(path), family=family, poles=poles, controller=ctrl,
-                   specs=specs, solver=solver, raw=data)
+    """Validate a parsed TOML document and build the :class:`~robrst.problem.Problem`.
 
+    Parameters
+    ----------
+    data : dict
+        The parsed TOML document.
+    path : str or Path
+        Where it came from (named in every error).
 
-def load_problem(path):
-    """Read and validate a TOML problem file.
+    Returns
+    -------
+    Problem
 
     Raises
     ------
     SpecError
         Naming the file and the key path of the first problem found.
     """
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise SpecError(f"{path}: cannot read problem file ({exc.strerror})") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise SpecError(f"{path}: invalid TOML ({exc})") from None
-    return parse_problem(data, path)
+    v = validate(path, data, SCHEMA)
+    nominal = _plant(path, v["plant"])
+    family = _family(path, v["family"], nominal)
+    poles = _poles(path, v["poles"])
+    ctrl = ControllerStructure(**_table(path, v, "controller"))
+    specs = Specs(**_table(path, v, "specs"))
+    solver = SolverOptions(**_table(path, v, "solver"))
+    for k in ("S_fixed", "R_fixed"):
+        if not getattr(ctrl, k) or getattr(ctrl, k)[0] == 0.0:
+            raise key_error(path, ("controller", k), "expected polynomial coefficients, highest"
+                            f" power first, with a non-zero leading one, got {list(getattr(ctrl, k))}")
+    if len(ctrl.S_fixed) < 2 or ctrl.S_fixed[-1] != 0.0:
+        raise key_error(path, ("controller", "S_fixed"),
+                        "must contain the integrator s (last coefficient 0)")
+    if specs.delay_samples and specs.sample_rate_hz is None:
+        raise key_error(path, ("specs", "delay_samples"), "needs 'sample_rate_hz'")
+    if (specs.T_resonance_max is None) != (specs.resonance_band_hz is None):
+        raise key_error(path, ("specs",), "'T_resonance_max' and 'resonance_band_hz' go together")
+    _check_new_keys(path, ctrl, specs)
+    _check_pairs(path, specs, solver)
+    if solver.init == "convex" and solver.free_poles:
+        raise key_error(path, ("solver", "init"), "'convex' needs a fixed Am (free_poles = false):"
+                        " the SOCP is posed at fixed closed-loop poles")
+    if solver.free_poles and (solver.wn_bounds is None or solver.zeta_bounds is None):
+        raise key_error(path, ("solver", "free_poles"), "needs 'wn_bounds' and 'zeta_bounds'")
+    if solver.compare_with and not str(path).startswith("<"):
+        other = Path(str(path)).parent / solver.compare_with
+        if not other.is_file():
+            raise key_error(path, ("solver", "compare_with"),
+                            f"expected a problem file beside this one, {other} does not exist")
+    meta = v["problem"] or {}
+    name = meta.get("name") or Path(str(path)).stem
+    return Problem(name=name, family=family, poles=poles, controller=ctrl, specs=specs,
+                   solver=solver, path=str(path), description=meta.get("description", ""),
+                   plant_name=v["plant"]["name"])
+
+
+def resolve_problem_path(name_or_path):
+    """A problem file's path: an existing file, or a built-in problem by name.
+
+    ``"paper_robust"`` and ``"paper_robust.toml"`` name the built-in problem when no
+    such file exists in the current folder.
+
+    Raises
+    ------
+    SpecError
+        Neither a file nor a built-in problem (the message lists the built-ins).
+    """
+    p = Path(name_or_path)
+    if p.exists():
+        return p
+    builtin = resources.builtin_problem(str(name_or_path))
+    if builtin is not None:
+        return builtin
+    raise SpecError(f"{p}: problem file not found (built-in problems:"
+                    f" {', '.join(resources.problem_names())})")
+
+
+def load_problem(path: str | os.PathLike) -> Problem:
+    """Read and validate a TOML problem file (or a built-in problem by name).
+
+    Parameters
+    ----------
+    path : str or Path
+        A problem file, or the name of a built-in problem (``"paper_robust"``).
+
+    Returns
+    -------
+    Problem
+
+    Raises
+    ------
+    SpecError
+        Naming the file and the key path of the first problem found.
+
+    Examples
+    --------
+    >>> from robrst import load_problem
+    >>> load_problem("paper").specs.Ms_max
+    2.0
+    """
+    path = resolve_problem_path(path)
+    return parse_problem(load_toml(path, "problem file"), path)

@@ -1,15 +1,64 @@
+"""Shared fixtures: the shipped problems and their designs, computed once per session."""
+
 import pathlib
 
 import pytest
 
+from robrst.design import run_problem
+from robrst.resources import problems_dir as _problems_dir
+from robrst.spec import load_problem
+
 ROOT = pathlib.Path(__file__).resolve().parents[1]
+SHARED = ROOT.parent / "shared"
 
 
-@pytest.fixture
+@pytest.fixture(scope="session")
 def root():
     return ROOT
 
 
-@pytest.fixture
+@pytest.fixture(scope="session")
 def problems_dir():
-    return ROOT / "problems"
+    """The built-in problem files (package data)."""
+    return _problems_dir()
+
+
+@pytest.fixture(scope="session")
+def shared_dir():
+    """``../shared`` beside the checkout (reproducers, real data)."""
+    return SHARED
+
+
+@pytest.fixture(scope="session")
+def designs():
+    """Design results of the shipped problems, computed on first use and shared."""
+    cache = {}
+
+    def get(name):
+        if name not in cache:
+            cache[name] = run_problem(load_problem(name))
+        return cache[name]
+
+    return get
+
+
+@pytest.fixture(scope="session")
+def robust_result(designs):
+    return designs("paper_robust")
+
+
+@pytest.fixture(scope="session")
+def exports(designs):
+    """Exported digital controllers of the shipped problems (20 kHz where none is named)."""
+    from robrst.export import export_controller
+
+    cache = {}
+
+    def get(name):
+        if name not in cache:
+            result = designs(name)
+            fs = None if result.problem.specs.sampled else 20000.0
+            cache[name] = export_controller(result, fs)
+        return cache[name]
+
+    return get

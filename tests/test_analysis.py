@@ -8,8 +8,18 @@ from robrst import poly
 from robrst.analysis import analyze, crossovers, sensitivity, step_response
 from robrst.hinf import peak_gain
 from robrst.plant import Plant, paper_plant
-from robrst.rst import closed_loop
-from robrst.synthesis.analytic import PoleSpec, design
+from robrst.rst import RSTController, closed_loop
+from robrst.problem import ControllerStructure, PoleSpec
+from robrst.synthesis.analytic import pole_placement
+
+
+def design(plant, poles, S_fixed=(1.0, 0.0), R_fixed=(1.0,), extra_degree=0, t_mode="paper",
+           t_zeros=()):
+    """Pole placement with the structure given as keywords; returns (controller, design)."""
+    d = pole_placement(plant, poles, ControllerStructure(tuple(S_fixed), tuple(R_fixed),
+                                                         extra_degree, t_mode, tuple(t_zeros)))
+    return d.controller, d
+
 
 DESIGNS = [(600.0, 1.0, 1), (1000.0, 0.9, 1), (1000.0, 0.9, 0), (2500.0, 0.9, 1), (3000.0, 0.7, 1)]
 
@@ -53,14 +63,24 @@ def test_margins_agree_with_python_control(wn, zeta, extra):
     L = control.tf(np.polymul(p.B, ctrl.R), np.polymul(p.A, ctrl.S))
     gm, pm, sm, wpc, wgc, wms = control.stability_margins(L, returnall=True)
     np.testing.assert_allclose(np.sort(a.margins.gain_crossover_rad_s), np.sort(wgc), rtol=1e-8)
-    # our phase margin is the smallest |180 - |arg L|| over all crossovers
-    expected_pm = min(abs(x) for x in pm)
-    assert a.margins.phase_margin_deg == pytest.approx(expected_pm, rel=1e-8)
-    upper = [g for g in gm if g > 1]
+    # python-control's phase margin: the crossover's (arg L mod 360) - 180 smallest in
+    # magnitude, signed (negative where arg L lies in (0, 180), e.g. near the resonance)
+    gm1, pm1, *_ = control.stability_margins(L)
+    assert a.margins.phase_margin_deg == pytest.approx(pm1, rel=1e-8)
+    assert a.margins.phase_margin_deg == pytest.approx(min(pm, key=abs), rel=1e-8)
+    upper, lower = [g for g in gm if g > 1], [g for g in gm if g < 1]
     if upper:
         assert a.margins.gain_margin == pytest.approx(min(upper), rel=1e-8)
     else:
         assert a.margins.gain_margin is None
+    if lower:
+        assert a.margins.gain_margin_lower == pytest.approx(max(lower), rel=1e-8)
+    else:
+        assert a.margins.gain_margin_lower is None
+    # python-control's single gm is the one of the two closer to 1 in log
+    ours = [g for g in (a.margins.gain_margin, a.margins.gain_margin_lower) if g is not None]
+    if ours:
+        assert min(ours, key=lambda g: abs(np.log(g))) == pytest.approx(gm1, rel=1e-8)
     # modulus margin: exact, so at least python-control's grid-based stability margin
     assert a.margins.modulus_margin <= np.min(sm) * (1 + 1e-9)
 
@@ -130,3 +150,45 @@ def test_plant_round_trips():
     np.testing.assert_allclose(z.B, p.B, rtol=1e-12)
     assert p.dc_gain == pytest.approx(0.668, abs=5e-4)
     assert np.max(np.abs(p.poles().imag)) / (2 * np.pi) == pytest.approx(616.4, abs=0.1)
+
+
+@pytest.mark.parametrize("wn,zeta,extra", [(1000.0, 0.9, 1), (2500.0, 0.9, 1)])
+def test_slicot_on_raw_coefficients_misses_the_peak_robrst_finds(wn, zeta, extra):
+    """The README's claim: SLICOT's ab13dd (via control.linfnorm) on the *unscaled* |S|
+    returns ~1.0 where the true peak (dense grid + refinement, independent of robrst) is
+    1.29 / 1.87; robrst's scaled Hamiltonian peak matches the true one."""
+    pytest.importorskip("slycot")
+    from scipy.optimize import minimize_scalar
+
+    p = paper_plant()
+    ctrl, _ = design(p, PoleSpec(wn=wn, zeta=zeta), extra_degree=extra)
+    N, D = closed_loop(p, ctrl).tf("S")
+    w = np.logspace(0, 6, 200_001)
+    g, wg = _dense_peak(N, D, w)
+    f = lambda lw: -abs(np.polyval(N, 1j * np.exp(lw)) / np.polyval(D, 1j * np.exp(lw)))  # noqa: E731
+    true = max(g, -minimize_scalar(f, bounds=(np.log(wg) - 1e-3, np.log(wg) + 1e-3),
+                                   method="bounded", options={"xatol": 1e-12}).fun)
+    assert peak_gain(N, D).value == pytest.approx(true, rel=1e-9)
+    with np.errstate(all="ignore"):
+        slicot = control.linfnorm(control.tf(N, D))[0]
+    assert slicot < 0.9 * true
+
+
+@pytest.mark.parametrize("k", [0.5 / 0.997, 1.0, 3.0])
+def test_lower_gain_margin_of_a_conditionally_stable_loop(k):
+    """L = k (s+1)^2 / s^3 is stable exactly for k > 1/2 (Routh on s^3 + k s^2 + 2k s + k):
+    the loop tolerates no gain reduction below 1/(2k) and any increase.  At k = 0.5/0.997 it
+    goes unstable at 0.997x gain: robrst must not report only an upward margin."""
+    from robrst.analysis import margins
+
+    p = Plant([1.0, 2.0, 1.0], [1.0, 0.0, 0.0, 0.0])
+    ctrl = RSTController(R=[k], S=[1.0], T=[k])
+    a = analyze(p, ctrl)
+    assert a.stable
+    assert a.margins.gain_margin_lower == pytest.approx(0.5 / k, rel=1e-9)
+    assert a.margins.gain_margin is None
+    gm, pm, *_ = control.stability_margins(control.tf([k, 2 * k, k], [1, 0, 0, 0]))
+    assert gm == pytest.approx(0.5 / k, rel=1e-9)              # python-control's gm: the lower one
+    assert a.margins.phase_margin_deg == pytest.approx(pm, rel=1e-9)
+    m = margins(p, ctrl, a.peaks["S"].value)
+    assert m == a.margins

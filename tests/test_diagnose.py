@@ -113,7 +113,7 @@ def test_eta2_matches_definition():
 
 def _twin_records(effect, over, seeds=(5, 6), temps=((28, 44), (40, 30))):
     """Steps with the temperature going a -> b -> a (a reversal makes B and Gamma distinct)."""
-    cfg = replace(default_twin().with_effects(only=[effect], **{effect: over}), fs_hz=FS)
+    cfg = replace(default_twin().with_effects(only=[effect], **{effect: over}), sample_rate_hz=FS)
     out = []
     for s, (a, b) in zip(seeds, temps):
         u = _steps(30000, s, lo=5.0, hi=145.0)
@@ -146,7 +146,7 @@ def test_effect_fit_round_trip(effect, over, tol):
 def test_undetermined_parameters_get_infinite_uncertainty():
     """One-way temperature ramps only determine B + Gamma of the drift: say so."""
     over = {"lag_s": 2.0, "B": 0.15, "Gamma": 0.1, "gain_V_per_K": 0.7}
-    cfg = replace(default_twin().with_effects(only=["thermal_drift"], thermal_drift=over), fs_hz=FS)
+    cfg = replace(default_twin().with_effects(only=["thermal_drift"], thermal_drift=over), sample_rate_hz=FS)
     u = _steps(30000, 5, lo=5.0, hi=145.0)
     temp = np.linspace(28.0, 44.0, u.size)
     rec = _ds(u, simulate(cfg, temp, u=u).y_true, temp)
@@ -185,7 +185,7 @@ def test_bad_inputs_give_clear_errors_or_cannot_tell():
 
 def test_cli_diagnose_json_and_errors(tmp_path, capsys):
     cfg = replace(default_twin().with_effects(only=["delay", "noise"], delay={"seconds": 0.0008}),
-                  fs_hz=FS)
+                  sample_rate_hz=FS)
     files = []
     for s in (11, 12, 13):
         u = _steps(15000, s)

@@ -8,8 +8,18 @@ from hypothesis import strategies as st
 from robrst import poly
 from robrst.errors import CoprimeError, DegreeError, SpecError
 from robrst.plant import Plant, paper_plant
-from robrst.synthesis.analytic import (PoleSpec, characteristic_polynomial, design,
+from robrst.problem import ControllerStructure, PoleSpec
+from robrst.synthesis.analytic import (characteristic_polynomial, pole_placement,
                                        solve_diophantine)
+
+
+def design(plant, poles, S_fixed=(1.0, 0.0), R_fixed=(1.0,), extra_degree=0, t_mode="paper",
+           t_zeros=()):
+    """Pole placement with the structure given as keywords; returns (controller, design)."""
+    d = pole_placement(plant, poles, ControllerStructure(tuple(S_fixed), tuple(R_fixed),
+                                                         extra_degree, t_mode, tuple(t_zeros)))
+    return d.controller, d
+
 
 RTOL = 1e-9
 
@@ -24,12 +34,12 @@ def test_paper_plant_identity_and_degrees():
     ctrl, info = design(p, PoleSpec(wn=600.0, zeta=1.0))
     # paper eq. (13): deg R = deg S = n = 3, deg Am = 2n, beta0 = 0, S monic
     assert len(ctrl.R) - 1 == 3 and len(ctrl.S) - 1 == 3
-    assert len(info["Am"]) - 1 == 6
+    assert len(info.Am) - 1 == 6
     assert ctrl.S[-1] == 0.0 and ctrl.S[0] == 1.0
-    assert identity_error(p, ctrl, info["Am"]) <= RTOL
-    assert info["residual"] <= RTOL
+    assert identity_error(p, ctrl, info.Am) <= RTOL
+    assert info.residual <= RTOL
     # scaling makes the solve well conditioned; the raw Sylvester matrix is not
-    assert info["cond"] < 1e3 < 1e12 < info["cond_unscaled"]
+    assert info.cond < 1e3 < 1e12 < info.cond_unscaled
 
 
 def test_identity_checked_by_independent_polynomial_arithmetic():
@@ -38,7 +48,7 @@ def test_identity_checked_by_independent_polynomial_arithmetic():
     ctrl, info = design(p, PoleSpec(wn=1000.0, zeta=0.8), extra_degree=1)
     P = np.polynomial.Polynomial
     lhs = P(p.A[::-1]) * P(ctrl.S[::-1]) + P(p.B[::-1]) * P(ctrl.R[::-1])
-    Am = info["Am"][::-1]
+    Am = info.Am[::-1]
     np.testing.assert_allclose(lhs.coef, Am, rtol=1e-9, atol=0)
 
 
@@ -48,12 +58,12 @@ def test_tracking_modes_give_unit_static_gain():
     spec = PoleSpec(wn=600.0, zeta=1.0, dominant_real=(-800.0, -900.0))
     for mode, zeros in (("paper", ()), ("paper", (-2e4,)), ("static", ()), ("cancel_aux", ())):
         ctrl, info = design(p, spec, extra_degree=1, t_mode=mode, t_zeros=zeros)
-        Am = info["Am"]
+        Am = info.Am
         gain = p.B[-1] * ctrl.T[-1] / Am[-1]
         assert gain == pytest.approx(1.0, rel=1e-12)
         assert ctrl.T[-1] == pytest.approx(ctrl.R[-1], rel=1e-12)  # T(0) = R(0), paper
     ctrl, info = design(p, spec, extra_degree=1, t_mode="cancel_aux")
-    np.testing.assert_allclose(ctrl.T / ctrl.T[0], info["Am_aux"], rtol=1e-12)
+    np.testing.assert_allclose(ctrl.T / ctrl.T[0], info.Am_aux, rtol=1e-12)
     with pytest.raises(DegreeError, match="improper"):
         design(p, PoleSpec(wn=600.0, zeta=1.0), extra_degree=1, t_mode="cancel_aux")
 
@@ -63,7 +73,7 @@ def test_fixed_factors_are_kept():
     Rf = [1 / 3e4, 1.0]  # roll-off zero at -3e4 rad/s in R
     ctrl, info = design(p, PoleSpec(wn=600.0, zeta=1.0), R_fixed=Rf)
     assert np.polyval(ctrl.R, -3e4) == pytest.approx(0.0, abs=1e-9 * np.max(np.abs(ctrl.R)) * 3e4 ** 4)
-    assert identity_error(p, ctrl, info["Am"]) <= RTOL
+    assert identity_error(p, ctrl, info.Am) <= RTOL
 
 
 @st.composite
@@ -102,10 +112,10 @@ def coprime_plants(draw):
 def test_random_coprime_plants_identity(pc, dec, zeta, extra):
     plant, centre = pc
     ctrl, info = design(plant, PoleSpec(wn=centre * 10 ** dec, zeta=zeta), extra_degree=extra)
-    assert info["residual"] <= RTOL
+    assert info.residual <= RTOL
     # recomputed independently with numpy.polynomial in p = s / w0, w0 = |Am(0)|^(1/deg),
     # relative to the size of the terms |A||S| + |B||R| (backward error)
-    Am = info["Am"]
+    Am = info.Am
     w0 = abs(Am[-1]) ** (1.0 / (len(Am) - 1))
     P = np.polynomial.Polynomial
 

@@ -12,7 +12,7 @@ from robrst.dataset import Dataset, save_dataset
 from robrst.errors import DataError, SpecError
 from robrst.identify.core import identify
 from robrst.identify.modal import ModalModel
-from robrst.identify.modelfile import load_linear_model
+from robrst.experiments.linear_model import load_linear_model
 from robrst.plant import Plant, paper_plant
 from robrst.spec import load_problem
 

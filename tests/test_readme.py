@@ -15,7 +15,7 @@ def test_readme_python_snippets_run(monkeypatch):
         ns = {}
         exec(compile(code, "README.md", "exec"), ns)  # noqa: S102
         assert ns["result"].certified and ns["a"].stable
-        assert ns["info"]["cond"] < 1e3
+        assert ns["d"].cond < 1e3
         assert (ns["folder"] / "report.html").is_file() and (ns["folder"] / "bode.png").is_file()
         assert ns["diag"].cause == "hysteresis" and ns["diag"].winner.shrink > 0.99
 

@@ -1,63 +1,64 @@
-"""Sampled loop (ZOH plant, Tustin controller, delay) as an exact continuous-variable loop."""
+"""Sampled loop (ZOH plant, Tustin controller, delay) as an exact continuous-variable loop.
 
-import warnings
-from pathlib import Path
+The independent reference is python-control's discrete loop: ``control.c2d`` of the
+plant (ZOH) and of the controller (Tustin), both in a time-scaled variable so their
+coefficients are O(1), closed with ``control.feedback``; peaks on a dense unit-circle
+grid with local refinement.
+"""
 
+import control
 import numpy as np
 import pytest
-from scipy import signal
+from scipy.optimize import minimize_scalar
 
-from robrst import poly
-from robrst.design import run_problem
 from robrst.errors import SpecError
 from robrst.hinf import peak_gain
 from robrst.plant import paper_plant
 from robrst.rst import closed_loop
 from robrst.sampled import sampled_plant, unwarp, warp
 from robrst.spec import load_problem
-from robrst.twin.discrete import discrete_margins, discretize
 
-ROOT = Path(__file__).parents[1]
 FS = 20000.0
 
 
 @pytest.fixture(scope="module")
-def controllers():
-    out = {}
-    for name in ("paper", "paper_robust"):
-        out[name] = run_problem(load_problem(ROOT / "problems" / f"{name}.toml")).controller
-    return out
+def controllers(designs):
+    return {name: designs(name).controller for name in ("paper", "paper_robust_continuous")}
 
 
-def _discrete_closed_loop_poles(plant, ctrl, fs, delay):
-    """Eigenvalues of the sampled loop from state space: ZOH plant, Tustin controller, delay."""
-    n = plant.n
-    w0 = poly.natural_scale(plant.A)
-    a = poly.to_scaled(plant.A, w0) / w0 ** n
-    b = poly.to_scaled(np.concatenate([np.zeros(n + 1 - len(plant.B)), plant.B]), w0) / w0 ** n
-    with warnings.catch_warnings():   # the zero-padded numerator is intended
-        warnings.simplefilter("ignore", signal.BadCoefficients)
-        ss = signal.tf2ss(b, a)
-    Ap, Bp, Cp, Dp, _ = signal.cont2discrete(ss, w0 / fs, method="zoh")
-    dc = discretize(ctrl, fs)
-    Ac, Bcy, Cc, Dcy = dc.A, dc.B[:, 1:2], dc.C, dc.D[:, 1:2]
-    nc = Ac.shape[0]
-    # states: plant x, controller xc, then `delay` shift registers of u
-    N = n + nc + delay
-    M = np.zeros((N, N))
-    u_row = np.zeros((1, N))                      # u = Cc xc + Dcy Cp x
-    u_row[:, :n] = Dcy @ Cp
-    u_row[:, n:n + nc] = Cc
-    applied = u_row if delay == 0 else np.eye(N)[n + nc + delay - 1:n + nc + delay]
-    M[:n] = Bp @ applied
-    M[:n, :n] += Ap
-    M[n:n + nc, :n] = Bcy @ Cp
-    M[n:n + nc, n:n + nc] = Ac
+def _scaled_tf(num, den, w0, dt=None):
+    """``num(w0 p)/den(w0 p)`` with O(1) coefficients (numerator padded to deg den)."""
+    n = len(den) - 1
+    num = np.concatenate([np.zeros(n + 1 - len(num)), num])
+    k = w0 ** -np.arange(n + 1)            # c_k / w0^k, highest power first
+    args = (num * k, den * k) if dt is None else (num * k, den * k, dt)
+    return control.tf(*args)
+
+
+def python_control_loop(plant, ctrl, fs, delay):
+    """(discrete loop gain L(z) = P_d z^-k K_d, closed-loop poles) from python-control."""
+    w0 = float(np.sqrt(abs(plant.A[-1])) ** (2 / plant.n)) or 1.0   # any O(1) time scale
+    h = w0 / fs
+    Pd = control.c2d(control.ss(_scaled_tf(plant.B, plant.A, w0)), h, "zoh")
+    Kd = control.c2d(control.ss(_scaled_tf(ctrl.R, ctrl.S, w0)), h, "tustin")
     if delay:
-        M[n + nc] = u_row
-        for i in range(1, delay):
-            M[n + nc + i, n + nc + i - 1] = 1.0
-    return np.linalg.eigvals(M)
+        Pd = Pd * control.tf([1.0], [1.0] + [0.0] * delay, h)
+    L = Pd * Kd
+    poles = control.feedback(Pd, Kd).poles()
+    return L, poles
+
+
+def unit_circle_peak(L, fs, n=20000):
+    """max |1/(1 + L)| over the unit circle: dense grid plus local refinement."""
+    h = L.dt
+    w = np.linspace(1e-6, np.pi, n)
+    f = lambda x: abs(1.0 / (1.0 + complex(L(np.exp(1j * x)))))  # noqa: E731
+    g = np.abs(1.0 / (1.0 + L(np.exp(1j * w)).ravel()))
+    i = int(np.argmax(g))
+    r = minimize_scalar(lambda x: -f(x), bounds=(w[max(i - 1, 0)], w[min(i + 1, n - 1)]),
+                        method="bounded", options={"xatol": 1e-12})
+    assert h > 0
+    return max(g[i], -r.fun)
 
 
 def test_warp_round_trip():
@@ -67,22 +68,22 @@ def test_warp_round_trip():
 
 
 @pytest.mark.parametrize("delay", [0, 1, 2])
-@pytest.mark.parametrize("name", ["paper", "paper_robust"])
-def test_sampled_peak_matches_state_space_frequency_response(controllers, name, delay):
-    """Exact Ms of the warped loop vs a dense grid of the ZOH/Tustin state-space loop."""
+@pytest.mark.parametrize("name", ["paper", "paper_robust_continuous"])
+def test_sampled_peak_matches_python_control_discrete_loop(controllers, name, delay):
+    """Exact Ms of the warped loop vs python-control's discrete loop on the unit circle."""
     ctrl = controllers[name]
-    for plant in (paper_plant(), load_problem(ROOT / "problems" / "paper_robust.toml").family.at(45.0)):
+    for plant in (paper_plant(), load_problem("paper_robust").family.at(45.0)):
         cl = closed_loop(sampled_plant(plant, FS, delay), ctrl)
         exact = peak_gain(cl.nums["S"], cl.Delta).value
-        grid = discrete_margins(plant, ctrl, FS, delay_samples=delay, n_grid=20000)["Ms_discrete"]
-        assert exact >= grid * (1 - 1e-9)
-        assert exact <= grid * (1 + 1e-4)
+        L, _ = python_control_loop(plant, ctrl, FS, delay)
+        ref = unit_circle_peak(L, FS)
+        assert exact == pytest.approx(ref, rel=1e-6)
 
 
 @pytest.mark.parametrize("delay", [0, 1])
 def test_sampled_closed_loop_poles_map_to_the_discrete_ones(controllers, delay):
     plant, ctrl = paper_plant(), controllers["paper"]
-    z = _discrete_closed_loop_poles(plant, ctrl, FS, delay)
+    _, z = python_control_loop(plant, ctrl, FS, delay)
     q = 2 * FS * (z - 1) / (z + 1)
     cl = closed_loop(sampled_plant(plant, FS, delay), ctrl)
     roots = np.roots(cl.Delta)
@@ -92,25 +93,33 @@ def test_sampled_closed_loop_poles_map_to_the_discrete_ones(controllers, delay):
     assert (np.max(np.abs(z)) < 1) == (np.max(roots.real) < 0)
 
 
-def test_sampled_problem_is_certified_and_agrees_with_independent_grid():
-    res = run_problem(load_problem(ROOT / "problems" / "paper_robust_sampled.toml"))
+def test_sampled_problem_is_certified_and_agrees_with_python_control(designs):
+    res = designs("paper_robust")
     assert res.certified
     sp = res.problem.specs
     recs = res.certificate.models
     assert all(m["stable_sampled"] and m["spectral_abscissa_sampled"] < 0 for m in recs)
     for m in recs:
-        assert m["Ms_sampled"] <= sp["Ms_max"] * (1 + 1e-3)
-        assert m["Mt_sampled"] <= sp["Mt_max"] * (1 + 1e-3)
-        assert m["Mu_sampled"] <= sp["Mu_max"] * (1 + 1e-3)
-        assert m["Mt_resonance_band_sampled"] <= sp["T_resonance_max"] * (1 + 1e-3)
+        assert m["Ms_sampled"] <= sp.Ms_max * (1 + 1e-3)
+        assert m["Mt_sampled"] <= sp.Mt_max * (1 + 1e-3)
+        assert m["Mu_sampled"] <= sp.Mu_max * (1 + 1e-3)
+        assert m["Mt_resonance_band_sampled"] <= sp.T_resonance_max * (1 + 1e-3)
     for T in (28.0, 45.0):
         rec = next(m for m in recs if m["temperature_C"] == T)
-        dm = discrete_margins(res.problem.family.at(T), res.controller, FS, n_grid=20000)
-        np.testing.assert_allclose(rec["Ms_sampled"], dm["Ms_discrete"], rtol=1e-4)
-    # the continuous-only robust design violates nothing continuous but is worse sampled
-    base = run_problem(load_problem(ROOT / "problems" / "paper_robust.toml"))
-    dm = discrete_margins(paper_plant(), base.controller, FS, n_grid=20000)
-    assert dm["Ms_discrete"] > max(m["Ms_sampled"] for m in recs) + 0.1
+        L, poles = python_control_loop(res.problem.family.at(T), res.controller, FS, 0)
+        assert rec["Ms_sampled"] == pytest.approx(unit_circle_peak(L, FS), rel=1e-6)
+        assert np.max(np.abs(poles)) < 1
+    # the continuous-only robust design spends the amplifier at Nyquist once sampled:
+    # |U| = |K_d / (1 + L)| at z = -1 beyond the bound; the sampled design's K_d(-1) = 0
+    for name, bad in (("paper_robust_continuous", True), ("paper_robust", False)):
+        ctrl = designs(name).controller
+        L, _ = python_control_loop(paper_plant(), ctrl, FS, 0)
+        w0 = float(np.sqrt(abs(paper_plant().A[-1])) ** (2 / 3))
+        Kd = control.c2d(control.ss(_scaled_tf(ctrl.R, ctrl.S, w0)), w0 / FS, "tustin")
+        u_nyq = abs(complex(Kd(-1.0)) / (1 + complex(L(-1.0))))
+        assert (u_nyq > sp.Mu_max) == bad
+        if not bad:
+            assert u_nyq <= 1e-6 * sp.Mu_max     # roll-off: strictly proper K -> K_d(-1) = 0
 
 
 @pytest.mark.parametrize("edit,key", [

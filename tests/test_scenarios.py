@@ -8,7 +8,7 @@ import pytest
 from robrst.cli import main
 from robrst.dataset import load_dataset
 from robrst.twin import default_twin
-from robrst.twin.scenarios import controllers, run_scenario
+from robrst.experiments.scenarios import controllers, run_scenario
 
 
 @pytest.fixture(scope="module")
@@ -49,8 +49,9 @@ def test_fig8_oscillation_removed_static_error_small(ctrls):
     a28, a45 = m["analytic_28C"], m["analytic_45C"]
     assert a28["max_T_gain_100_1500Hz"] < 1.0 and a45["max_T_gain_100_1500Hz"] < 1.0
     assert a28["overshoot"] < 0.05 and a45["static_error_um"] < 0.2
-    for k in ("robust_28C", "robust_45C"):
-        assert m[k]["static_error_um"] < 0.02
+    for T in ("28C", "45C"):   # the robust design (paper_robust) rejects the creep better
+        assert m[f"robust_{T}"]["static_error_um"] < 0.6 * m[f"analytic_{T}"]["static_error_um"]
+        assert m[f"robust_{T}"]["static_error_um"] < 0.1
 
 
 def test_cli_simulate_writes_datasets_and_figure(tmp_path, capsys):

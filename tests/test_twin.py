@@ -8,8 +8,9 @@ from robrst.analysis import step_response
 from robrst.family import ThermalCoefficients, parametric_family
 from robrst.plant import paper_plant
 from robrst.rst import closed_loop
-from robrst.twin import default_twin, discretize, simulate
-from robrst.twin.scenarios import _loop_width
+from robrst.experiments.scenarios import loop_width
+from robrst.rst import discretize
+from robrst.twin import default_twin, simulate
 
 FS = 20000.0
 
@@ -55,7 +56,7 @@ def _loop(cfg, amp, f=0.1, T=28.0, offset=75.0):
     t = np.arange(2 * n_per) / FS
     u = offset - amp * np.cos(2 * np.pi * f * t)
     r = simulate(cfg, np.full(t.size, T), u=u)
-    return _loop_width(r.u_applied[n_per:], r.y_true[n_per:]), r
+    return loop_width(r.u_applied[n_per:], r.y_true[n_per:]), r
 
 
 def test_hysteresis_signature_full_range_and_small_amplitude():
@@ -133,7 +134,7 @@ def test_discrete_rst_loop_matches_continuous_design():
     from robrst.design import analytic_design
     from robrst.spec import load_problem
 
-    ctrl, _ = analytic_design(load_problem("problems/paper.toml"))
+    ctrl = analytic_design(load_problem("paper")).controller
     cfg = default_twin().with_effects(only=[])
     n = int(0.03 * FS)
     r = simulate(cfg, np.full(n, 28.0), yr=np.full(n, 10.0), dctrl=discretize(ctrl, FS))

@@ -17,7 +17,7 @@ resonances and damping (the usual model errors) but cannot imitate a delay or an
 effect by rotating phases.  ``theta = 0`` is the user's model; corrections are bounded
 (:data:`BOUNDS`) and carry Gaussian priors (:data:`PRIOR_SD`): a re-fit is regularised
 toward the user's model.  Records are simulated exactly (ZOH,
-:func:`~robrst.identify.modal.zoh`) from rest by first-order recursions, or in periodic
+:func:`~robrst.lti.zoh_modal`) from rest by first-order recursions, or in periodic
 steady state on the DFT grid.  :class:`LinearPart` returns outputs and their Jacobian
 (gains analytically, frequencies and damping by forward differences).
 """
@@ -27,7 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import optimize, signal
 
-from robrst.identify.modal import ModalModel, pair_weight, zoh
+from robrst.identify.modal import ModalModel, pair_weight
+from robrst.lti import zoh_modal
 from robrst.plant import Plant
 
 __all__ = ["LinearPart", "LinearSim", "as_modal", "refit_linear", "LinearFit", "PRIOR_SD",
@@ -147,7 +148,7 @@ class LinearPart:
         H = self._cache.get(key)
         if H is None:
             new, R = self._modes(theta)
-            zp, Rd = zoh(new, R, self.fs)
+            zp, Rd = zoh_modal(new, R, self.fs)
             z = np.exp(2j * np.pi * np.arange(N // 2 + 1) / N)
             H = self._transfer(zp, Rd, z) + (self.model.D * self._gains(theta)[None, :])[None]
             if len(self._cache) > 256:
@@ -161,7 +162,7 @@ class LinearPart:
         if periodic:
             return self._H(theta, N) * np.fft.rfft(V, axis=0)[:, None, :]
         new, R = self._modes(theta)
-        zp, Rd = zoh(new, R, self.fs)
+        zp, Rd = zoh_modal(new, R, self.fs)
         D = self.model.D * self._gains(theta)[None, :]
         out = V[:, None, :] * D[None]
         for p in range(zp.size):
@@ -203,7 +204,7 @@ class LinearPart:
             H = self._H(theta, N)[:, :, inputs]
             return np.fft.irfft(H * np.fft.rfft(X, axis=0)[:, None, :], n=N, axis=0)
         new, R = self._modes(theta)
-        zp, Rd = zoh(new, R, self.fs)
+        zp, Rd = zoh_modal(new, R, self.fs)
         D = (self.model.D * self._gains(theta)[None, :])[:, inputs]
         Y = X[:, None, :] * D[None]
         for p in range(zp.size):

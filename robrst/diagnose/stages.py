@@ -88,7 +88,7 @@ def stage(name, fs, reference_C=28.0, plant=None):
     contains the linear dynamics; the other effects stop at the effective input.
     The compiled library is cached on disk (:mod:`robrst.twin.compiled`).
     """
-    cfg = replace(default_twin().with_effects(only=[name]), fs_hz=float(fs),
+    cfg = replace(default_twin().with_effects(only=[name]), sample_rate_hz=float(fs),
                   reference_C=float(reference_C), name=f"diagnose_{name}")
     model = build_model(cfg, plant=plant, linear=name == "thermal_dynamics")
     index = {k: i for i, k in enumerate(model.theta_names)}

@@ -97,7 +97,7 @@ def make_case(effect, seed, fs=5000.0, duration_s=8.0):
     over = {"noise": {"sigma_um": sigma}}
     if params:
         over[effect] = params
-    cfg = replace(default_twin().with_effects(only=on, **over), fs_hz=float(fs),
+    cfg = replace(default_twin().with_effects(only=on, **over), sample_rate_hz=float(fs),
                   name=f"withheld_{effect}_{seed}")
     n = int(duration_s * fs)
     kinds = list(rng.permutation(KINDS))

@@ -7,7 +7,7 @@ its conjugate term is implied, so every model is real.  This form needs no expan
 polynomial (coefficients of a 28th-order denominator would span hundreds of decades)
 and makes the zero-order-hold discretisation exact mode by mode.
 
-:func:`zoh` is the one ZOH discretisation of the modal form; :class:`DiscreteModel`
+:func:`robrst.lti.zoh_modal` is the ZOH discretisation of the modal form; :class:`DiscreteModel`
 simulates the sampled model from rest (parallel first-order recursions) or in
 periodic steady state (exact, through the DFT).
 """
@@ -18,28 +18,15 @@ import numpy as np
 from scipy import signal
 
 from robrst.errors import SpecError
+from robrst.lti import zoh_modal
 from robrst.plant import Plant
 
-__all__ = ["ModalModel", "DiscreteModel", "zoh", "pair_weight"]
+__all__ = ["ModalModel", "DiscreteModel", "pair_weight"]
 
 
 def pair_weight(poles):
     """2 for the stored member of a complex pair (its conjugate is implied), 1 for real."""
     return np.where(np.imag(poles) > 0, 2.0, 1.0)
-
-
-def zoh(poles, residues, fs):
-    """Exact zero-order-hold discretisation of a modal model at ``fs`` [Hz].
-
-    A mode ``R / (s - p)`` becomes ``R (e^{pT} - 1) / p / (z - e^{pT})`` (``R T`` at
-    ``p = 0``).  Returns ``(z_poles, discrete residues)``; the feedthrough is unchanged.
-    """
-    T = 1.0 / float(fs)
-    p = np.asarray(poles, complex)
-    pt = p * T
-    small = np.abs(pt) < 1e-8
-    factor = np.where(small, T * (1 + pt / 2), np.expm1(pt) / np.where(small, 1.0, p))
-    return np.exp(pt), np.asarray(residues, complex) * factor[:, None, None]
 
 
 @dataclass(frozen=True, eq=False)
@@ -107,7 +94,7 @@ class ModalModel:
 
     def discretise(self, fs):
         """The ZOH-sampled model at ``fs`` [Hz] (:class:`DiscreteModel`)."""
-        zp, dres = zoh(self.poles, self.residues, fs)
+        zp, dres = zoh_modal(self.poles, self.residues, fs)
         return DiscreteModel(zp, dres, self.D, float(fs), pair_weight(self.poles))
 
     def channel(self, i=0, j=0, label=None):

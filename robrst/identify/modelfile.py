@@ -34,8 +34,8 @@ from robrst.errors import SpecError
 from robrst.fileio import atomic_write_text
 from robrst.identify.modal import ModalModel
 
-__all__ = ["problem_text", "model_text", "write_identified", "load_linear_model", "MARKER",
-           "FORMAT"]
+__all__ = ["problem_text", "model_text", "write_identified", "read_model_data", "modal_models",
+           "MARKER", "FORMAT"]
 
 MARKER = "# written by robrst identify"
 FORMAT = "robrst-modal-1"
@@ -194,26 +194,22 @@ def _modal_models(path, data):
     return tuple(out)
 
 
-def load_linear_model(path):
-    """Models of a model file or of a problem file's family, lowest temperature first.
-
-    Returns ``(models, reference_C)``: a tuple of :class:`ModalModel` and the
-    reference temperature (None when the file states none).
-    """
+def read_model_data(path):
+    """The TOML table of a model or problem file (robrst's errors name the file)."""
     path = Path(path)
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        return tomllib.loads(path.read_text(encoding="utf-8"))
     except OSError as exc:
         raise SpecError(f"{path}: cannot read model file ({exc.strerror})") from None
     except tomllib.TOMLDecodeError as exc:
         raise SpecError(f"{path}: invalid TOML ({exc})") from None
-    if "model" in data:
-        models = _modal_models(path, data)
-        return models, models[0].temperature_C
-    from robrst.spec import parse_problem
 
-    # only [plant] and [family] matter here: a file straight from `robrst identify` has no
-    # [poles] yet, so a placeholder stands in for that (unused) table
-    fam = parse_problem({"poles": {"wn": 1.0, "zeta": 1.0}, **data}, path).family
-    models = tuple(ModalModel.from_plant(p) for p in fam.models)
-    return models, fam.reference_model.temperature_C
+
+def modal_models(path, data):
+    """Models of a model file's ``[model]`` table (``data`` as read from ``path``).
+
+    Returns ``(models, reference_C)``: a tuple of :class:`ModalModel`, lowest
+    temperature first, and the reference temperature (None when the file states none).
+    """
+    models = _modal_models(path, data)
+    return models, models[0].temperature_C

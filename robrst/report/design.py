@@ -8,14 +8,20 @@ and on the digital twin when the problem's plant is the twin's), and ``result.js
 (the same JSON as ``robrst design --json``).
 """
 
-import json
+from __future__ import annotations
+
 import math
+import os
+from collections.abc import Callable
+from pathlib import Path
 
-import numpy as np
-
-from robrst.design import sampled_summary
+from robrst.design import DesignResult
+from robrst.experiments.scenarios import twin_step_responses
+from robrst.fileio import json_text
 from robrst.report import design_figures as figs
 from robrst.report.doc import Doc, write_folder
+from robrst.report.text import sampled_summary
+from robrst.twin.config import default_twin
 
 __all__ = ["design_doc", "write_design_report", "FIGURES"]
 
@@ -89,28 +95,35 @@ def design_doc(result, twin=False):
     return Doc(title=f"robrst design report: {d['problem']}", blocks=tuple(blocks))
 
 
-def _twin_steps(result, t_end):
-    from robrst.twin.config import default_twin
-    from robrst.twin.discrete import discretize
-    from robrst.twin.simulate import Simulator, simulate
-    from robrst.twin.model import build_model
+def write_design_report(result: DesignResult, out_dir: str | os.PathLike,
+                        progress: Callable[[str], None] | None = None,
+                        force: bool = False) -> Path:
+    """Write the report folder of ``result``.
 
-    cfg = default_twin()
-    dc = discretize(result.controller, cfg.fs_hz)
-    sim = Simulator(build_model(cfg), dc)
-    fam = result.problem.family.models
-    n = int(t_end * cfg.fs_hz)
-    out = {}
-    for T in (fam[0].temperature_C, fam[-1].temperature_C):
-        r = simulate(cfg, np.full(n, T), yr=np.full(n, 10.0), dctrl=dc, seed=0, simulator=sim)
-        out[f"twin, {T:g} °C"] = (r.t, r.y / 10.0)
-    return out
+    Parameters
+    ----------
+    result : DesignResult
+    out_dir : str or Path
+        A new folder or an earlier robrst report (replaced atomically); any other
+        existing folder is refused unless ``force`` (see :func:`robrst.report.doc.write_folder`).
+    progress : callable, optional
+    force : bool
 
+    Returns
+    -------
+    Path
 
-def write_design_report(result, out_dir, progress=None):
-    """Write the report folder of ``result``; returns its path."""
+    Examples
+    --------
+    >>> import tempfile
+    >>> from robrst import load_problem, run_problem, write_design_report
+    >>> out = write_design_report(run_problem(load_problem("paper")),
+    ...                           tempfile.mkdtemp() + "/paper")
+    >>> sorted(p.name for p in out.glob("*.png"))
+    ['bode.png', 'nyquist.png', 'step.png']
+    """
     say = progress or (lambda m: None)
-    twin = (result.problem.raw.get("plant") or {}).get("name") == "paper"
+    twin = result.problem.plant_name == "paper"
     doc = design_doc(result, twin=twin)
 
     def draw(tmp):
@@ -121,15 +134,12 @@ def write_design_report(result, out_dir, progress=None):
         tw = None
         if twin:
             say("simulating the digital twin for step.png")
-            tw = _twin_steps(result, figs.step_horizon(result))
+            fam = result.problem.family.models
+            tw = twin_step_responses(default_twin(), result.controller,
+                                     (fam[0].temperature_C, fam[-1].temperature_C),
+                                     figs.step_horizon(result))
         say("drawing step.png")
         figs.step_figure(result, tmp / "step.png", twin=tw)
 
-    text = json.dumps(result.as_dict(), allow_nan=False, indent=1, default=_np) + "\n"
-    return write_folder(out_dir, doc, {"result.json": text}, draw)
-
-
-def _np(x):
-    if isinstance(x, (np.floating, np.integer, np.bool_)):
-        return x.item()
-    raise TypeError(f"not JSON serialisable: {type(x).__name__}")
+    text = json_text(result.as_dict(), indent=1) + "\n"
+    return write_folder(out_dir, doc, {"result.json": text}, draw, force=force)

@@ -1,28 +1,21 @@
 """Figures of a design report: Bode of S, T, U; Nyquist with the modulus circle; steps.
 
 Every function takes a :class:`~robrst.design.DesignResult` and a file path and
-writes one PNG (matplotlib, Agg backend).  Frequencies are in Hz on log axes,
-magnitudes in dB, time in ms, displacement in µm.
+writes one PNG (:func:`robrst.report.figure.drawing`: no global matplotlib state).
+Frequencies are in Hz on log axes, magnitudes in dB, time in ms, displacement in µm.
 """
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from robrst import poly  # noqa: E402
-from robrst.analysis import sensitivity, step_response  # noqa: E402
-from robrst.rst import closed_loop  # noqa: E402
+from robrst import poly
+from robrst.analysis import sensitivity, step_response
+from robrst.report.figure import colors as _colors
+from robrst.report.figure import drawing
+from robrst.rst import closed_loop
 
 __all__ = ["bode_figure", "nyquist_figure", "step_figure", "step_horizon"]
 
-plt.rcParams.update({"font.size": 10, "axes.grid": True, "grid.alpha": 0.3})
 _F = np.logspace(0, 4.7, 1500)  # 1 Hz .. 50 kHz
-
-
-def _colors(n):
-    return plt.cm.coolwarm(np.linspace(0, 1, max(n, 2)))
 
 
 def _db(x):
@@ -33,7 +26,11 @@ def bode_figure(result, path):
     """|S|, |T|, |U| for every family temperature, spec bounds dashed, peaks marked."""
     fam = result.problem.family.models
     specs = result.problem.specs
-    fig, axes = plt.subplots(3, 1, figsize=(8, 9), sharex=True)
+    with drawing(path, (8, 9), 3, 1, sharex=True) as (fig, axes):
+        _bode(result, fam, specs, axes)
+
+
+def _bode(result, fam, specs, axes):
     cols = _colors(len(fam))
     for (name, key, unit), ax in zip((("S", "Ms_max", "-"), ("T", "Mt_max", "-"),
                                       ("U", "Mu_max", "V/µm")), axes):
@@ -43,24 +40,25 @@ def bode_figure(result, path):
             pk = a.peaks[name]
             if pk.freq_rad_s is not None and np.isfinite(pk.freq_rad_s):
                 ax.plot(pk.freq_rad_s / (2 * np.pi), _db(pk.value), "x", color=c, ms=8)
-        if specs.get(key) is not None:
-            ax.axhline(_db(specs[key]), color="k", ls="--", lw=1,
-                       label=f"bound {key} = {specs[key]:g}")
+        bound = getattr(specs, key)
+        if bound is not None:
+            ax.axhline(_db(bound), color="k", ls="--", lw=1, label=f"bound {key} = {bound:g}")
         ax.set_ylabel(f"|{name}| [dB{'' if unit == '-' else ' re 1 ' + unit}]")
         ax.set_title(f"|{name}(j2πf)| per temperature (× = certified peak)")
     axes[0].legend(fontsize=8, ncol=3, loc="lower right")
     axes[2].legend(fontsize=8, loc="lower left")
     axes[-1].set_xlabel("frequency f [Hz] (log)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
 
 
 def nyquist_figure(result, path):
     """Loop L = BR/(AS) per temperature around -1 with the modulus-margin circles."""
+    with drawing(path, (7, 6.5)) as (fig, ax):
+        _nyquist(result, ax)
+
+
+def _nyquist(result, ax):
     fam = result.problem.family.models
     w = 2 * np.pi * np.logspace(-1, 5, 6000)
-    fig, ax = plt.subplots(figsize=(7, 6.5))
     for m, c in zip(fam, _colors(len(fam))):
         L = (poly.eval_jw(poly.pmul(m.B, result.controller.R), w)
              / poly.eval_jw(poly.pmul(m.A, result.controller.S), w))
@@ -68,7 +66,7 @@ def nyquist_figure(result, path):
         ax.plot(L.real, L.imag, color=c, lw=1.2, label=f"{m.temperature_C:g} °C")
         ax.plot(L.real, -L.imag, color=c, lw=0.6, ls=":")
     th = np.linspace(0, 2 * np.pi, 400)
-    ms_max = result.problem.specs.get("Ms_max")
+    ms_max = result.problem.specs.Ms_max
     if ms_max:
         r = 1 / ms_max
         ax.plot(-1 + r * np.cos(th), r * np.sin(th), "k--", lw=1,
@@ -85,9 +83,6 @@ def nyquist_figure(result, path):
     ax.set_ylabel("Im L(jω) [-]")
     ax.set_title("Nyquist plot of the loop (solid ω > 0, dotted ω < 0)")
     ax.legend(fontsize=8, loc="lower left")
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
 
 
 def step_horizon(result, t_max=1.0):
@@ -116,7 +111,11 @@ def step_figure(result, path, twin=None):
     fam = result.problem.family.models
     ext = [fam[0], fam[-1]] if len(fam) > 1 else [fam[0]]
     t = np.linspace(0, step_horizon(result), 2000)
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4.2))
+    with drawing(path, (11, 4.2), 1, 2) as (fig, (a1, a2)):
+        _steps(result, ext, t, twin, a1, a2)
+
+
+def _steps(result, ext, t, twin, a1, a2):
     for m, c in zip(ext, ("tab:blue", "tab:red")):
         cl = closed_loop(m, result.controller)
         a1.plot(t * 1e3, step_response(cl.nums["Tr"], cl.Delta, t), color=c,
@@ -132,6 +131,3 @@ def step_figure(result, path, twin=None):
     for a in (a1, a2):
         a.set_xlabel("time t [ms]")
         a.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)

@@ -8,22 +8,17 @@ candidate, and the gap per record against its excitation level (model and final
 model, with the noise floor).  ``diagnosis.json`` is the ``--json`` result.
 """
 
-import json
 
 import numpy as np
-from matplotlib.figure import Figure
 
 from robrst.diagnose.summary import summary_text
+from robrst.fileio import json_text
 from robrst.report.doc import Doc, write_folder
+from robrst.report.figure import drawing
 
 __all__ = ["diagnosis_doc", "write_diagnosis_report", "FIGURES", "levels_figure"]
 
 FIGURES = ("output.png", "residual.png", "spectrum.png", "effects.png", "levels.png")
-
-
-def _save(fig, path):
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
 
 
 def _focus(diag):
@@ -45,21 +40,19 @@ def _output_fig(diag, path):
     d = tr["records"][k]
     y, r = _first(d.Y), _first(tr["base_residuals"][k])
     n = min(d.n, d.period if d.period else d.n)
-    fig = Figure(figsize=(10, 4))
-    ax = fig.subplots()
-    ax.plot(d.t[:n], y[:n], color="k", lw=1, label="measured")
-    ax.plot(d.t[:n], (y - r)[:n], color="tab:blue", lw=1, label="model under diagnosis")
-    fit = tr.get("fit_residuals", {})
-    key = "final" if "final" in fit else (diag.cause if diag.cause in fit else None)
-    if key:
-        rr = _first(fit[key][k - len(diag.data["train"])])
-        ax.plot(d.t[:n], (y - rr)[:n], color="tab:orange", lw=1, ls="--",
-                label=f"final model ({' + '.join(diag.causes) or diag.cause})")
-    ax.set_xlabel("time t [s]")
-    ax.set_ylabel("displacement y [µm]" + (" (output 1)" if d.n_out > 1 else ""))
-    ax.set_title(f"measured vs simulated: {tr['names'][k]}" + (" (one period)" if d.period else ""))
-    ax.legend(fontsize=8)
-    _save(fig, path)
+    with drawing(path, (10, 4)) as (fig, ax):
+        ax.plot(d.t[:n], y[:n], color="k", lw=1, label="measured")
+        ax.plot(d.t[:n], (y - r)[:n], color="tab:blue", lw=1, label="model under diagnosis")
+        fit = tr.get("fit_residuals", {})
+        key = "final" if "final" in fit else (diag.cause if diag.cause in fit else None)
+        if key:
+            rr = _first(fit[key][k - len(diag.data["train"])])
+            ax.plot(d.t[:n], (y - rr)[:n], color="tab:orange", lw=1, ls="--",
+                    label=f"final model ({' + '.join(diag.causes) or diag.cause})")
+        ax.set_xlabel("time t [s]")
+        ax.set_ylabel("displacement y [µm]" + (" (output 1)" if d.n_out > 1 else ""))
+        ax.set_title(f"measured vs simulated: {tr['names'][k]}" + (" (one period)" if d.period else ""))
+        ax.legend(fontsize=8)
 
 
 def _residual_fig(diag, path):
@@ -67,47 +60,43 @@ def _residual_fig(diag, path):
     k = _focus(diag)
     d, r, name = tr["records"][k], np.asarray(tr["base_residuals"][k]), tr["names"][k]
     r = r if r.ndim == 1 else np.sqrt(np.mean(r ** 2, axis=1))
-    fig = Figure(figsize=(10, 3.6))
-    ax = fig.subplots()
-    ax.plot(d.t, r, color="tab:blue", lw=0.8,
-            label="residual y - y_model" + (" (rms over outputs)" if d.n_out > 1 else ""))
-    first = True
-    for w in diag.where["time_windows"]:
-        if w["file"] == name:
-            ax.axvspan(w["start_s"], w["end_s"], color="tab:red", alpha=0.15,
-                       label="gap window (> 3× noise)" if first else None)
-            first = False
-    s = diag.data["noise_sigma_um"]
-    ax.axhline(3 * s, color="gray", ls=":", lw=1, label="±3× noise σ")
-    ax.axhline(-3 * s, color="gray", ls=":", lw=1)
-    ax.set_xlabel("time t [s]")
-    ax.set_ylabel("residual [µm]")
-    ax.set_title(f"residual of the simulation model: {name}")
-    ax.legend(fontsize=8)
-    _save(fig, path)
+    with drawing(path, (10, 3.6)) as (fig, ax):
+        ax.plot(d.t, r, color="tab:blue", lw=0.8,
+                label="residual y - y_model" + (" (rms over outputs)" if d.n_out > 1 else ""))
+        first = True
+        for w in diag.where["time_windows"]:
+            if w["file"] == name:
+                ax.axvspan(w["start_s"], w["end_s"], color="tab:red", alpha=0.15,
+                           label="gap window (> 3× noise)" if first else None)
+                first = False
+        s = diag.data["noise_sigma_um"]
+        ax.axhline(3 * s, color="gray", ls=":", lw=1, label="±3× noise σ")
+        ax.axhline(-3 * s, color="gray", ls=":", lw=1)
+        ax.set_xlabel("time t [s]")
+        ax.set_ylabel("residual [µm]")
+        ax.set_title(f"residual of the simulation model: {name}")
+        ax.legend(fontsize=8)
 
 
 def _spectrum_fig(diag, path):
     tr = diag.traces
     f, P = tr["psd_f"], tr["psd"]
-    fig = Figure(figsize=(8, 4))
-    ax = fig.subplots()
-    ax.loglog(f[1:], P[1:], color="tab:blue", lw=1, label="residual PSD")
-    ax.axhline(tr["noise_psd"], color="k", ls="--", lw=1, label="noise floor (white)")
-    band = diag.where["frequency_band_hz"]
-    if band:
-        ax.axvspan(max(band[0], f[1]), max(band[1], f[1]), color="tab:red", alpha=0.15,
-                   label=f"gap band {band[0]:.3g}–{band[1]:.3g} Hz")
-    for fd in diag.findings:
-        if fd["kind"] == "unmodelled_dynamics":
-            lo, hi = fd["band_hz"]
-            ax.axvspan(lo, hi, color="tab:green", alpha=0.15,
-                       label=f"unmodelled dynamics {lo:.3g}–{hi:.3g} Hz")
-    ax.set_xlabel("frequency f [Hz] (log)")
-    ax.set_ylabel("PSD [µm²/Hz]")
-    ax.set_title("residual spectrum against the noise floor (all records)")
-    ax.legend(fontsize=8)
-    _save(fig, path)
+    with drawing(path, (8, 4)) as (fig, ax):
+        ax.loglog(f[1:], P[1:], color="tab:blue", lw=1, label="residual PSD")
+        ax.axhline(tr["noise_psd"], color="k", ls="--", lw=1, label="noise floor (white)")
+        band = diag.where["frequency_band_hz"]
+        if band:
+            ax.axvspan(max(band[0], f[1]), max(band[1], f[1]), color="tab:red", alpha=0.15,
+                       label=f"gap band {band[0]:.3g}–{band[1]:.3g} Hz")
+        for fd in diag.findings:
+            if fd["kind"] == "unmodelled_dynamics":
+                lo, hi = fd["band_hz"]
+                ax.axvspan(lo, hi, color="tab:green", alpha=0.15,
+                           label=f"unmodelled dynamics {lo:.3g}–{hi:.3g} Hz")
+        ax.set_xlabel("frequency f [Hz] (log)")
+        ax.set_ylabel("PSD [µm²/Hz]")
+        ax.set_title("residual spectrum against the noise floor (all records)")
+        ax.legend(fontsize=8)
 
 
 def _effects_fig(diag, path):
@@ -118,49 +107,46 @@ def _effects_fig(diag, path):
     if diag.final:
         rows.append(("final: " + " + ".join(diag.final["effects"]), diag.gap_before,
                      diag.final["gap_after"]))
-    fig = Figure(figsize=(9, 4))
-    ax = fig.subplots()
-    if rows:
-        x = np.arange(len(rows))
-        ax.bar(x - 0.2, [r[1] for r in rows], 0.4, color="tab:gray", label="before")
-        ax.bar(x + 0.2, [r[2] for r in rows], 0.4, color="tab:orange", label="after")
-        ax.set_xticks(x, [r[0] for r in rows], rotation=20, fontsize=8)
-        ax.set_yscale("log")
-    ax.axhline(diag.noise_floor, color="k", ls="--", lw=1, label="noise floor")
-    ax.set_ylabel("held-out NRMSE [-] (log)")
-    ax.set_title(f"held-out gap per candidate (cause: {diag.cause})")
-    ax.legend(fontsize=8)
-    _save(fig, path)
-
-
-def levels_figure(per_record, final_per_record=None, title="gap per record against its level"):
-    """Gap (NRMSE) per record against its excitation level: a Figure."""
-    fig = Figure(figsize=(8, 4))
-    ax = fig.subplots()
-    for split, marker in (("train", "o"), ("test", "s")):
-        rows = [r for r in per_record if r["split"] == split]
+    with drawing(path, (9, 4)) as (fig, ax):
         if rows:
-            ax.scatter([r["level_V"] for r in rows], [r["gap"] for r in rows], marker=marker,
-                       color="tab:blue", label=f"model under diagnosis ({split})")
-            ax.scatter([r["level_V"] for r in rows], [r["noise_floor"] for r in rows],
-                       marker="_", color="k", s=200,
-                       label="noise floor" if split == "train" else None)
-    if final_per_record:
-        lv = {r["file"]: r["level_V"] for r in per_record}
-        ax.scatter([lv[r["file"]] for r in final_per_record], [r["gap"] for r in final_per_record],
-                   marker="s", color="tab:orange", label="final model (test)")
-    ax.set_yscale("log")
-    ax.set_xlabel("excitation level: input rms [V]")
-    ax.set_ylabel("NRMSE [-] (log)")
-    ax.set_title(title)
-    ax.legend(fontsize=8)
-    return fig
+            x = np.arange(len(rows))
+            ax.bar(x - 0.2, [r[1] for r in rows], 0.4, color="tab:gray", label="before")
+            ax.bar(x + 0.2, [r[2] for r in rows], 0.4, color="tab:orange", label="after")
+            ax.set_xticks(x, [r[0] for r in rows], rotation=20, fontsize=8)
+            ax.set_yscale("log")
+        ax.axhline(diag.noise_floor, color="k", ls="--", lw=1, label="noise floor")
+        ax.set_ylabel("held-out NRMSE [-] (log)")
+        ax.set_title(f"held-out gap per candidate (cause: {diag.cause})")
+        ax.legend(fontsize=8)
+
+
+def levels_figure(path, per_record, final_per_record=None,
+                  title="gap per record against its level"):
+    """Draw the gap (NRMSE) per record against its excitation level into the PNG ``path``."""
+    with drawing(path, (8, 4)) as (fig, ax):
+        for split, marker in (("train", "o"), ("test", "s")):
+            rows = [r for r in per_record if r["split"] == split]
+            if rows:
+                ax.scatter([r["level_V"] for r in rows], [r["gap"] for r in rows], marker=marker,
+                           color="tab:blue", label=f"model under diagnosis ({split})")
+                ax.scatter([r["level_V"] for r in rows], [r["noise_floor"] for r in rows],
+                           marker="_", color="k", s=200,
+                           label="noise floor" if split == "train" else None)
+        if final_per_record:
+            lv = {r["file"]: r["level_V"] for r in per_record}
+            ax.scatter([lv[r["file"]] for r in final_per_record], [r["gap"] for r in final_per_record],
+                       marker="s", color="tab:orange", label="final model (test)")
+        ax.set_yscale("log")
+        ax.set_xlabel("excitation level: input rms [V]")
+        ax.set_ylabel("NRMSE [-] (log)")
+        ax.set_title(title)
+        ax.legend(fontsize=8)
 
 
 def _levels_fig(diag, path):
     g = diag.as_dict()["gap"]
     final = diag.final["gap_per_record"] if diag.final else None
-    _save(levels_figure(g["per_record"], final), path)
+    levels_figure(path, g["per_record"], final)
 
 
 def diagnosis_doc(diag):
@@ -190,8 +176,8 @@ def diagnosis_doc(diag):
     return Doc(title="robrst gap diagnosis", blocks=tuple(blocks))
 
 
-def write_diagnosis_report(diag, out_dir, progress=None):
-    """Write the diagnosis report folder; returns its path."""
+def write_diagnosis_report(diag, out_dir, progress=None, force=False):
+    """Write the diagnosis report folder (see :func:`robrst.report.doc.write_folder`); returns its path."""
     say = progress or (lambda m: None)
 
     def draw(tmp):
@@ -200,5 +186,6 @@ def write_diagnosis_report(diag, out_dir, progress=None):
             say(f"drawing {name}")
             fn(diag, tmp / name)
 
-    text = json.dumps(diag.as_dict(), allow_nan=False, indent=1) + "\n"
-    return write_folder(out_dir, diagnosis_doc(diag), {"diagnosis.json": text}, draw)
+    text = json_text(diag.as_dict(), indent=1) + "\n"
+    return write_folder(out_dir, diagnosis_doc(diag), {"diagnosis.json": text}, draw,
+                        force=force)

@@ -14,7 +14,10 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["Doc", "to_markdown", "to_html", "write_folder"]
+from robrst.errors import OutputError
+from robrst.fileio import atomic_write_bytes, umask_mode
+
+__all__ = ["Doc", "to_markdown", "to_html", "write_folder", "MARKER"]
 
 _CSS = ("body{font-family:system-ui,sans-serif;max-width:60em;margin:2em auto;padding:0 1em;"
         "color:#222}table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #bbb;"
@@ -86,27 +89,79 @@ def to_html(doc):
     return "\n".join(out)
 
 
-def write_folder(out_dir, doc, extra_files, render_figures):
-    """Write ``report.md``, ``report.html``, ``extra_files`` and the figures atomically.
+MARKER = ".robrst-report"
+
+
+def _check_target(out, force):
+    """Refuse targets whose replacement could lose what robrst did not write."""
+    resolved = out.resolve()
+    cwd = Path.cwd().resolve()
+    if resolved == cwd or resolved in cwd.parents:
+        raise OutputError(f"{out}: refusing to write a report over the current folder or one"
+                          " of its parents; give a new folder name with --out")
+    for parent in resolved.parents:
+        if parent.exists() and not parent.is_dir():
+            raise OutputError(f"{out}: {parent} is a file, not a folder")
+    if resolved.exists() and not resolved.is_dir():
+        raise OutputError(f"{out}: is a file; expected a report folder")
+    if not resolved.is_dir() or not any(resolved.iterdir()):
+        return "new"
+    marker = resolved / MARKER
+    if not marker.is_file():
+        if force:
+            return "merge"
+        raise OutputError(f"{out}: folder exists and is not a robrst report (no {MARKER});"
+                          " refusing to replace it; choose another --out, or --force to write"
+                          " the report files into it (nothing else is touched)")
+    ours = set(marker.read_text(encoding="utf-8", errors="replace").split()) | {MARKER}
+    extra = sorted(p.name for p in resolved.iterdir() if p.name not in ours)
+    if extra:
+        if force:
+            return "merge"
+        raise OutputError(f"{out}: the report folder holds files robrst did not write"
+                          f" ({', '.join(extra[:5])}); refusing to replace it; choose another"
+                          " --out, or --force to update the report files only")
+    return "replace"
+
+
+def write_folder(out_dir, doc, extra_files, render_figures, force=False):
+    """Write ``report.md``, ``report.html``, ``extra_files`` and the figures.
 
     ``render_figures(tmp_dir)`` draws every image the document references into
     ``tmp_dir``; ``extra_files`` maps file names to text (e.g. the JSON result).
+
+    A new folder, or an earlier robrst report (recognised by its ``.robrst-report``
+    marker, listing the files robrst wrote), is replaced atomically: the report is built
+    in a temporary sibling and swapped in, so a failure never leaves half a report.  A
+    folder robrst did not write is refused (:class:`~robrst.errors.OutputError`) unless
+    ``force``, which writes the report files into it one by one, atomically, and touches
+    nothing else.
     """
     out = Path(out_dir)
+    mode = _check_target(out, force)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
-    tmp.chmod(0o755)
+    tmp.chmod(umask_mode(0o777))
     try:
         render_figures(tmp)
         missing = [f for f in doc.images() if not (tmp / f).is_file()]
         if missing:
             raise RuntimeError(f"report figures not drawn: {missing}")
-        (tmp / "report.md").write_text(to_markdown(doc) + "\n")
-        (tmp / "report.html").write_text(to_html(doc) + "\n")
-        for name, text in extra_files.items():
-            (tmp / name).write_text(text)
+        texts = {"report.md": to_markdown(doc) + "\n", "report.html": to_html(doc) + "\n",
+                 **extra_files}
+        for name, text in texts.items():
+            (tmp / name).write_text(text, encoding="utf-8")
+        names = sorted(p.name for p in tmp.iterdir())
+        (tmp / MARKER).write_text("\n".join(names) + "\n", encoding="utf-8")
+        for p in tmp.iterdir():
+            p.chmod(umask_mode())
+        if mode == "merge":
+            for p in sorted(tmp.iterdir()):
+                atomic_write_bytes(out / p.name, p.read_bytes())
+            shutil.rmtree(tmp)
+            return out
         old = None
-        if out.exists():
+        if mode == "replace":
             old = out.with_name(f".{out.name}.old.{os.getpid()}")
             os.replace(out, old)
         os.replace(tmp, out)

@@ -9,27 +9,26 @@ and ``OUT/diagnosis_twin`` (a gap diagnosis of twin data with a hidden effect, c
 import sys
 from pathlib import Path
 
+from robrst.design import run_problem
+from robrst.diagnose import diagnose
+from robrst.diagnose.validation import make_case
+from robrst.report.design import write_design_report
+from robrst.report.diagnosis import write_diagnosis_report
+from robrst.spec import load_problem
+
 __all__ = ["write_examples", "DIAGNOSIS_CASE"]
 
 DIAGNOSIS_CASE = ("hysteresis", 100)
-ROOT = Path(__file__).resolve().parents[2]
 
 
 def write_examples(out="reports", progress=None):
     """Write the three example report folders under ``out``; returns their paths."""
-    from robrst.design import run_problem
-    from robrst.diagnose import diagnose
-    from robrst.diagnose.validation import make_case
-    from robrst.report.design import write_design_report
-    from robrst.report.diagnosis import write_diagnosis_report
-    from robrst.spec import load_problem
-
     say = progress or (lambda m: None)
     out = Path(out)
     paths = []
     for name in ("paper", "paper_robust"):
         say(f"report {name}")
-        res = run_problem(load_problem(ROOT / "problems" / f"{name}.toml"))
+        res = run_problem(load_problem(name))
         paths.append(write_design_report(res, out / name, progress=say))
     say("diagnosis of twin data with a hidden effect")
     train, test, _ = make_case(*DIAGNOSIS_CASE)

@@ -6,14 +6,14 @@ held-out NRMSE of every candidate order, and measured vs simulated output on a r
 ``identified.json`` is the ``--json`` result.
 """
 
-import json
 
 import numpy as np
-from matplotlib.figure import Figure
 from scipy import signal
 
+from robrst.fileio import json_text
 from robrst.identify.core import simulate_record
 from robrst.report.doc import Doc, write_folder
+from robrst.report.figure import drawing
 
 __all__ = ["write_identification_report", "identification_doc", "FIGURES"]
 
@@ -43,40 +43,35 @@ def _frf_fig(ident, records, path):
     f, H = _h1(records, ident.fs)
     fm = np.geomspace(max(f[1], 1e-3), ident.fs / 2, 600)
     G = m.freqresp(2 * np.pi * fm)
-    fig = Figure(figsize=(3.2 * m.n_in + 1, 2.4 * m.n_out + 1))
-    axes = np.atleast_2d(fig.subplots(m.n_out, m.n_in, squeeze=False))
-    for i in range(m.n_out):
-        for j in range(m.n_in):
-            ax = axes[i, j]
-            ax.loglog(f[1:], np.abs(H[1:, i, j]), color="0.6", lw=0.8, label="H1 (records)")
-            ax.loglog(fm, np.abs(G[:, i, j]), color="tab:blue", lw=1.2,
-                      label=f"identified, order {ident.order}")
-            ax.set_title(f"y{i + 1} from u{j + 1}", fontsize=9)
-            if i == m.n_out - 1:
-                ax.set_xlabel("f [Hz]")
-            if j == 0:
-                ax.set_ylabel("|G| [µm/V]")
-    axes[0, 0].legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=80)
+    size = (3.2 * m.n_in + 1, 2.4 * m.n_out + 1)
+    with drawing(path, size, m.n_out, m.n_in, squeeze=False) as (fig, axes):
+        for i in range(m.n_out):
+            for j in range(m.n_in):
+                ax = axes[i, j]
+                ax.loglog(f[1:], np.abs(H[1:, i, j]), color="0.6", lw=0.8, label="H1 (records)")
+                ax.loglog(fm, np.abs(G[:, i, j]), color="tab:blue", lw=1.2,
+                          label=f"identified, order {ident.order}")
+                ax.set_title(f"y{i + 1} from u{j + 1}", fontsize=9)
+                if i == m.n_out - 1:
+                    ax.set_xlabel("f [Hz]")
+                if j == 0:
+                    ax.set_ylabel("|G| [µm/V]")
+        axes[0, 0].legend(fontsize=7)
 
 
 def _orders_fig(ident, path):
     s = [x for x in ident.scores if np.isfinite(x.heldout_nrmse)]
-    fig = Figure(figsize=(8, 3.8))
-    ax = fig.subplots()
-    if s:
-        ax.semilogy([x.order for x in s], [x.heldout_nrmse for x in s], "o-", color="tab:blue",
-                    label="held-out")
-        ax.semilogy([x.order for x in s], [x.train_nrmse for x in s], ".--", color="tab:gray",
-                    label="fit records")
-    ax.axvline(ident.order, color="tab:orange", ls=":", label=f"chosen: {ident.order}")
-    ax.set_xlabel("order (number of poles)")
-    ax.set_ylabel("NRMSE [-] (log)")
-    ax.set_title("order selection on held-out records")
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
+    with drawing(path, (8, 3.8)) as (fig, ax):
+        if s:
+            ax.semilogy([x.order for x in s], [x.heldout_nrmse for x in s], "o-", color="tab:blue",
+                        label="held-out")
+            ax.semilogy([x.order for x in s], [x.train_nrmse for x in s], ".--", color="tab:gray",
+                        label="fit records")
+        ax.axvline(ident.order, color="tab:orange", ls=":", label=f"chosen: {ident.order}")
+        ax.set_xlabel("order (number of poles)")
+        ax.set_ylabel("NRMSE [-] (log)")
+        ax.set_title("order selection on held-out records")
+        ax.legend(fontsize=8)
 
 
 def _output_fig(ident, records, path):
@@ -84,16 +79,13 @@ def _output_fig(ident, records, path):
     dm = ident.models[0].discretise(ident.fs)
     Yh = simulate_record(dm, d)
     n = d.period or min(d.n, 4000)
-    fig = Figure(figsize=(10, 3.8))
-    ax = fig.subplots()
-    ax.plot(d.t[:n], d.Y[:n, 0], color="k", lw=1, label="measured (output 1)")
-    ax.plot(d.t[:n], Yh[:n, 0], color="tab:blue", lw=1, ls="--", label="identified model")
-    ax.set_xlabel("time t [s]")
-    ax.set_ylabel("y [µm]")
-    ax.set_title(f"measured vs simulated: {d.source or 'record'}")
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
+    with drawing(path, (10, 3.8)) as (fig, ax):
+        ax.plot(d.t[:n], d.Y[:n, 0], color="k", lw=1, label="measured (output 1)")
+        ax.plot(d.t[:n], Yh[:n, 0], color="tab:blue", lw=1, ls="--", label="identified model")
+        ax.set_xlabel("time t [s]")
+        ax.set_ylabel("y [µm]")
+        ax.set_title(f"measured vs simulated: {d.source or 'record'}")
+        ax.legend(fontsize=8)
 
 
 def identification_doc(ident):
@@ -126,5 +118,5 @@ def write_identification_report(ident, records, out_dir, progress=None):
         _orders_fig(ident, tmp / "orders.png")
         _output_fig(ident, records, tmp / "output.png")
 
-    text = json.dumps(ident.as_dict(), allow_nan=False, indent=1) + "\n"
+    text = json_text(ident.as_dict(), indent=1) + "\n"
     return write_folder(out_dir, identification_doc(ident), {"identified.json": text}, draw)

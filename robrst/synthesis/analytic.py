@@ -5,6 +5,8 @@ Solves the Diophantine equation ``A S + B R = Am`` with ``S = Sf * S'`` and
 through the Sylvester matrix, in the scaled variable ``p = s / w0``.
 """
 
+from __future__ import annotations
+
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -13,73 +15,23 @@ import scipy.linalg as sla
 
 from robrst import poly
 from robrst.errors import CoprimeError, DegreeError, SpecError
+from robrst.plant import Plant
+from robrst.problem import ControllerStructure, PoleSpec
 from robrst.rst import RSTController
 
 __all__ = [
-    "PoleSpec",
     "characteristic_polynomial",
     "DiophantineSolution",
     "solve_diophantine",
     "diophantine_residual",
     "tracking_polynomial",
-    "design",
+    "AnalyticDesign",
+    "pole_placement",
     "closed_loop_degree",
 ]
 
 COPRIME_RTOL = 1e-6
 AUX_MIN_FACTOR = 10.0
-
-
-@dataclass(frozen=True)
-class PoleSpec:
-    """Closed-loop pole specification ``Am = Am_dom * Am_aux``.
-
-    Parameters
-    ----------
-    wn : float
-        Natural frequency of the dominant pair [rad/s] (ignored if ``dominant_roots``).
-    zeta : float
-        Damping of the dominant pair.
-    dominant_real : tuple of float
-        Extra dominant real poles [rad/s, negative].
-    dominant_roots : tuple of complex or None
-        Explicit dominant roots (replaces ``wn``/``zeta``/``dominant_real``).
-    aux_factor : float
-        Auxiliary poles, unless given, are all at ``-aux_factor * |fastest dominant|``.
-    aux_roots : tuple of complex or None
-        Explicit auxiliary roots; each must be >= 10x faster than the dominant ones.
-    """
-
-    wn: float = None
-    zeta: float = None
-    dominant_real: tuple = ()
-    dominant_roots: tuple = None
-    aux_factor: float = 10.0
-    aux_roots: tuple = None
-
-    def dominant(self):
-        if self.dominant_roots is not None:
-            roots = np.asarray(self.dominant_roots, dtype=complex)
-        else:
-            if self.wn is None or self.zeta is None:
-                raise SpecError("poles: give either 'dominant_roots' or both 'wn' and 'zeta'")
-            if not self.wn > 0 or not self.zeta > 0:
-                raise SpecError(
-                    f"poles: wn = {self.wn} and zeta = {self.zeta} must be > 0 (stable poles)"
-                )
-            wn, z = float(self.wn), float(self.zeta)
-            if z < 1:
-                wd = wn * np.sqrt(1 - z * z)
-                pair = [-z * wn + 1j * wd, -z * wn - 1j * wd]
-            else:
-                d = wn * np.sqrt(z * z - 1)
-                pair = [-z * wn + d, -z * wn - d]
-            roots = np.concatenate([pair, np.asarray(self.dominant_real, dtype=complex)])
-        if np.any(roots.real >= 0):
-            raise SpecError(
-                f"poles: dominant roots must be in the open left half-plane, got {roots.tolist()}"
-            )
-        return roots
 
 
 def characteristic_polynomial(spec, degree):
@@ -199,8 +151,8 @@ def diophantine_residual(A, B, R, S, Am, w0=None):
     relative to ``Am``'s coefficients; when ``Am`` results from cancelling much larger terms
     (poles moved by decades) it measures what floating point can deliver.
     """
-    w0 = poly.natural_scale(Am) if w0 is None else w0
-    a, b, r, s_, am = (poly.to_scaled(poly.trim(c), w0) for c in (A, B, R, S, Am))
+    sc = poly.Scaling.natural(Am) if w0 is None else poly.Scaling(w0)
+    a, b, r, s_, am = (sc.apply(poly.trim(c)) for c in (A, B, R, S, Am))
     AS, BR = np.convolve(a, s_), np.convolve(b, r)
     n = max(len(AS), len(BR), len(am))
     lhs, size = np.zeros(n), np.zeros(n)
@@ -253,10 +205,9 @@ def solve_diophantine(A, B, Am, S_fixed=(1.0, 0.0), R_fixed=(1.0,)):
             f" {ks + len(Sf) - 1}; raise the closed-loop degree"
         )
     _check_coprime(Ap, Bp)
-    w0 = poly.natural_scale(Am)  # the closed-loop time scale
-    sa = poly.to_scaled(Ap, w0) / w0**na
-    sb = poly.to_scaled(Bp, w0) / w0**na
-    sm = poly.to_scaled(Am, w0) / w0 ** (na + ks)
+    sc = poly.Scaling.natural(Am)  # the closed-loop time scale
+    w0 = sc.w0
+    sa, sb, sm = sc.normalize(Ap, na), sc.normalize(Bp, na), sc.normalize(Am, na + ks)
     M = _sylvester(sa, sb, ks)
     rhs = (sm - np.concatenate([sa, np.zeros(ks)]))[1:]  # both monic: leading terms cancel
     # two-sided equilibration of the scaled matrix (powers of 2: exact)
@@ -267,29 +218,35 @@ def solve_diophantine(A, B, Am, S_fixed=(1.0, 0.0), R_fixed=(1.0,)):
     sv = np.linalg.svd(Ms, compute_uv=False)
     cond = float(sv[0] / sv[-1]) if sv.size and sv[-1] > 0 else (1.0 if not sv.size else np.inf)
     if not np.isfinite(cond) or cond > 1e15:
-        raise CoprimeError(
-            f"the scaled Sylvester matrix is singular to working precision (cond = {cond:.3g}):"
-            " A*Sf and B*Rf are (nearly) not coprime"
+        raise CoprimeError(   # coprime (checked above): the cause is conditioning
+            f"the pole-placement (Diophantine) system is too ill-conditioned for double"
+            f" precision (cond of the scaled Sylvester matrix = {cond:.3g}); A*Sf and B*Rf"
+            f" share no root, the requested closed-loop poles are too far from the plant's"
+            f" (closed-loop scale {w0:.3g} rad/s, degree {na + ks}): move [poles] wn,"
+            f" aux_factor or dominant_real towards the plant's poles, or lower"
+            f" [controller] extra_degree"
         )
     x = _solve_refined(Ms, rhs / rowscale) / colscale
     Ss = np.concatenate([[1.0], x[:ks]])
     Rs = x[ks:]
-    S1 = poly.from_scaled(Ss, w0) * w0**ks
-    R1 = poly.from_scaled(Rs, w0) * w0**ks
+    S1, R1 = sc.denormalize(Ss, ks), sc.denormalize(Rs, ks)
+    # A Sf S1 / Sf0 + B Rf R1 / Sf0 = Ap S1 + Bp R1 = Am  (Sf need not be monic)
     S = poly.pmul(Sf, S1) / Sf[0]
-    R = poly.trim(poly.pmul(Rf, R1))
+    R = poly.trim(poly.pmul(Rf, R1) / Sf[0])
     res = diophantine_residual(A, B, R, S, Am, w0=w0)
     return DiophantineSolution(R=R, S=S, w0=w0, cond=cond, residual=res, raw_system=(Ap, Bp, ks))
 
 
-def closed_loop_degree(n, m, S_fixed=(1.0, 0.0), R_fixed=(1.0,), extra_degree=0):
+def closed_loop_degree(n, m, S_fixed=(1.0, 0.0), R_fixed=(1.0,), extra_degree=0,
+                       relative_degree=0):
     """Degree of ``Am`` for plant degrees ``n >= m`` and the fixed factors.
 
     With ``Sf = s`` and ``Rf = 1`` this is the paper's ``2n`` (``deg S = deg R = n``);
-    ``extra_degree`` raises ``deg S`` (and so ``deg Am``) further.
+    ``extra_degree`` raises ``deg S`` (and so ``deg Am``) further, and so does
+    ``relative_degree`` (``deg R <= deg S - relative_degree``: roll-off).
     """
     dSf, dRf = len(poly.trim(S_fixed)) - 1, len(poly.trim(R_fixed)) - 1
-    ks = max(n - 1 + dRf, m + dRf) + int(extra_degree)
+    ks = max(n - 1 + dRf + int(relative_degree), m + dRf) + int(extra_degree)
     return n + dSf + ks
 
 
@@ -318,22 +275,78 @@ def tracking_polynomial(mode, R, B, Am, Am_aux, zeros=()):
     raise SpecError(f"controller.T: unknown mode {mode!r}; expected paper, static or cancel_aux")
 
 
-def design(plant, poles, S_fixed=(1.0, 0.0), R_fixed=(1.0,), extra_degree=0, t_mode="paper",
-           t_zeros=()):
-    """Analytic pole-placement design for ``plant``.
+@dataclass(frozen=True, eq=False)
+class AnalyticDesign:
+    """Result of :func:`pole_placement`.
+
+    ``cond`` is the condition number of the scaled Sylvester matrix actually solved,
+    ``cond_unscaled`` that of the same system written in s, ``residual`` the relative
+    error of ``A S + B R = Am`` (:func:`diophantine_residual`), ``w0`` [rad/s] the scale.
+    """
+
+    controller: RSTController
+    Am: np.ndarray
+    Am_dom: np.ndarray
+    Am_aux: np.ndarray
+    w0: float
+    cond: float
+    residual: float
+    solution: DiophantineSolution = field(repr=False, default=None)
+
+    @property
+    def cond_unscaled(self):
+        """Condition number of the unscaled Sylvester matrix (computed on first use)."""
+        return self.solution.cond_unscaled
+
+    @property
+    def status(self):
+        """Always ``"solved"``: failures raise instead of returning."""
+        return "solved"
+
+
+def pole_placement(plant: Plant, poles: PoleSpec,
+                   structure: ControllerStructure = ControllerStructure()) -> AnalyticDesign:
+    """Analytic pole-placement design for ``plant`` (the paper's method).
+
+    Parameters
+    ----------
+    plant : Plant
+    poles : PoleSpec
+        Closed-loop poles ``Am = Am_dom * Am_aux``.
+    structure : ControllerStructure
+        Fixed factors of S and R, extra degrees, and the T rule.
 
     Returns
     -------
-    (RSTController, dict)
-        The controller and a dict with ``Am``, ``Am_dom``, ``Am_aux``, ``w0``, ``cond``,
-        ``cond_unscaled`` and ``residual``.
+    AnalyticDesign
+
+    Raises
+    ------
+    CoprimeError, DegreeError, SpecError
+        The message names the cause and the key to change.
+
+    Examples
+    --------
+    >>> from robrst import paper_plant, PoleSpec, ControllerStructure, pole_placement
+    >>> d = pole_placement(paper_plant(), PoleSpec(wn=600.0, zeta=1.0),
+    ...                    ControllerStructure(extra_degree=1))
+    >>> float(d.controller.S[-1]), d.cond < 1e3      # integrator in S; well conditioned
+    (0.0, True)
     """
-    Sf, Rf = poly.trim(S_fixed), poly.trim(R_fixed)
-    degree = closed_loop_degree(plant.n, plant.m, Sf, Rf, extra_degree)
+    Sf, Rf = poly.trim(structure.S_total), poly.trim(structure.R_fixed)
+    degree = closed_loop_degree(plant.n, plant.m, Sf, Rf, structure.extra_degree,
+                                structure.controller_relative_degree)
     Am, Am_dom, Am_aux = characteristic_polynomial(poles, degree)
     sol = solve_diophantine(plant.A, plant.B, Am, Sf, Rf)
-    T = tracking_polynomial(t_mode, sol.R, plant.B, Am, Am_aux, t_zeros)
+    mode = "static" if structure.T_mode == "reference_model" else structure.T_mode
+    T = tracking_polynomial(mode, sol.R, plant.B, Am, Am_aux, structure.T_zeros)
+    if len(T) > len(sol.S):
+        n_dom = len(Am_dom) - 1
+        raise DegreeError(
+            f"[controller.T_mode] = {structure.T_mode!r} gives deg T = {len(T) - 1} > deg S ="
+            f" {len(sol.S) - 1} (an improper controller): T = Am_aux keeps every auxiliary pole,"
+            f" which needs at least deg A = {plant.n} dominant poles (now {n_dom}); add"
+            " [poles.dominant_real] poles or use T_mode 'paper' or 'static'")
     ctrl = RSTController(R=sol.R, S=sol.S, T=T)
-    info = {"Am": Am, "Am_dom": Am_dom, "Am_aux": Am_aux, "w0": sol.w0, "cond": sol.cond,
-            "cond_unscaled": sol.cond_unscaled, "residual": sol.residual}
-    return ctrl, info
+    return AnalyticDesign(controller=ctrl, Am=Am, Am_dom=Am_dom, Am_aux=Am_aux, w0=sol.w0,
+                          cond=sol.cond, residual=sol.residual, solution=sol)

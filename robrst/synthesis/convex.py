@@ -10,22 +10,34 @@ import cvxpy as cp
 import numpy as np
 
 from robrst import poly
+from robrst.certificate import certify_problem
 from robrst.errors import SolverError, SpecError
 from robrst.synthesis.nlp import conv_matrix, jw_matrices, scale_plant
+from robrst.synthesis.parametrize import Parametrization, TrackingRule, frequency_grid
+from robrst.synthesis.outcome import SynthesisResult
 
-__all__ = ["convex_design", "solve_convex"]
+__all__ = ["convex_synthesis", "solve_convex"]
 
 
-def solve_convex(problem, Am, w0, nu, setup_degrees, objective=None):
+def solve_convex(problem, Am, param, nu, objective=None):
     """Solve the SOCP; return the scaled decision vector ``[S' (non-leading), R']`` and g.
 
-    ``objective`` overrides ``problem.solver["objective"]`` (the NLP initialiser uses
-    ``"min_Ms"``).
+    Parameters
+    ----------
+    problem : Problem
+    Am : ndarray
+        The fixed closed-loop polynomial (in s).
+    param : Parametrization
+        Degrees, fixed factors and scaling of the decision vector.
+    nu : ndarray
+        Scaled frequency grid.
+    objective : str, optional
+        Overrides ``problem.solver.objective`` (the NLP initialiser uses ``"feasibility"``).
     """
-    Sf_s, Rf_s, ks, kr = setup_degrees
+    Sf_s, Rf_s, ks, kr = param.Sf, param.Rf, param.ks, param.kr
     ref = problem.family.reference_model
-    a0, b0 = scale_plant(ref, w0)
-    Am_s = poly.to_scaled(Am, w0) / w0 ** (len(Am) - 1)
+    a0, b0 = scale_plant(ref, param.scaling)
+    Am_s = param.scaling.normalize(Am)
     xs, xr = cp.Variable(ks), cp.Variable(kr + 1)
     CS = conv_matrix(Sf_s, ks + 1)
     CR = conv_matrix(Rf_s, kr + 1)
@@ -46,7 +58,7 @@ def solve_convex(problem, Am, w0, nu, setup_degrees, objective=None):
     amag = np.abs(np.polyval(Am_s, 1j * nu))
     sp = problem.specs
     Vr, Vi = Vr / amag[:, None], Vi / amag[:, None]  # each cone divided by |Am(j nu)|
-    for M, vec, bound in ((AS_M, S, None), (BR_M, R, sp["Mt_max"]), (AR_M, R, sp["Mu_max"])):
+    for M, vec, bound in ((AS_M, S, None), (BR_M, R, sp.Mt_max), (AR_M, R, sp.Mu_max)):
         if M is AS_M:
             lim = g
         elif bound is None:
@@ -55,9 +67,9 @@ def solve_convex(problem, Am, w0, nu, setup_degrees, objective=None):
             lim = bound
         re, im = Vr @ (M @ vec), Vi @ (M @ vec)
         cons.append(cp.norm(cp.vstack([re, im]), 2, axis=0) <= lim)
-    if sp["Ms_max"] is not None:
-        cons.append(g <= sp["Ms_max"])
-    objective = objective or problem.solver["objective"]
+    if sp.Ms_max is not None:
+        cons.append(g <= sp.Ms_max)
+    objective = objective or problem.solver.objective
     if objective not in ("min_Ms", "feasibility"):
         raise SpecError(f"{problem.path}: [solver.objective] the convex method supports min_Ms"
                         f" or feasibility, got {objective!r}")
@@ -72,26 +84,33 @@ def solve_convex(problem, Am, w0, nu, setup_degrees, objective=None):
     return np.concatenate([xs.value, xr.value]), float(g.value)
 
 
-def convex_design(problem, ctrl0, info0, say):
-    """The ``method = "convex"`` path: nominal-model SOCP with the fixed Am, certified."""
-    from robrst.certify import certify
-    from robrst.synthesis import robust
+def convex_synthesis(problem, start, progress=None):
+    """The ``method = "convex"`` path: nominal-model SOCP with the fixed Am, certified.
 
-    if problem.solver["free_poles"]:
+    Parameters
+    ----------
+    problem : Problem
+    start : AnalyticDesign
+        The analytic design (its ``Am`` is kept).
+    progress : callable, optional
+
+    Returns
+    -------
+    SynthesisResult
+    """
+    say = progress or (lambda m: None)
+    if problem.solver.free_poles:
         raise SpecError(f"{problem.path}: [solver.free_poles] the convex method needs a fixed Am")
-    Am = info0["Am"]
-    w0 = poly.natural_scale(Am)
-    Sf, Rf, ks, kr, _ = robust._degrees(problem)
-    nu = robust._grid(problem, Am, problem.solver["n_freq"]) / w0
-    x, g = solve_convex(problem, Am, w0, nu, (robust._scaled_factor(Sf, w0),
-                                              robust._scaled_factor(Rf, w0), ks, kr))
+    Am = start.Am
+    sc = poly.Scaling.natural(Am)
+    param = Parametrization.of(problem.controller, problem.family.reference_model, sc)
+    nu = sc.freq(frequency_grid(problem.family, Am, problem.solver.n_freq))
+    x, g = solve_convex(problem, Am, param, nu)
     say(f"convex (SOCP, CLARABEL): grid min |S| peak bound {g:.6g}")
-    ctrl = robust.controller_from_x(problem, w0, x, robust._t_builder(problem))
-    so = problem.solver
-    cert = certify(problem.family, ctrl, problem.specs, n_sweep=so["cert_temperatures"],
-                   rtol=so["cert_tol"])
-    solver = {"name": "cvxpy-clarabel", "w0_rad_s": w0, "grid_peak_S": g,
-              "integral_gain": robust._integral_gain(ctrl)}
-    extra = {"analytic_check": robust.analytic_check(problem, ctrl, Am), "certificate": cert,
-             "comparison": robust.comparison(problem, ctrl, cert)}
-    return ctrl, Am, solver, extra
+    tracking = TrackingRule(problem.controller.T_mode, problem.controller.T_zeros,
+                            problem.family.reference_model.B)
+    ctrl = param.controller(x, tracking)
+    cert = certify_problem(problem, ctrl)
+    return SynthesisResult(controller=ctrl, Am=Am, certificate=cert,
+                           status="certified" if cert.certified else "not_certified", objective=problem.solver.objective, w0=sc.w0,
+                           name="cvxpy-clarabel", grid_peak_S=g)

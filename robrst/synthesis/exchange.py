@@ -1,32 +1,45 @@
-"""Exchange method for the grid constraints of the robust NLP (semi-infinite programming).
+"""Exchange method for the grid constraints of the robust program (semi-infinite programming).
 
 A peak bound ``|N(j nu)| <= M |Delta(j nu)|`` on a frequency grid of every model
 is a large set of constraints of which only a few are active at the optimum: the
-points next to each peak.  Imposing all of them makes every IPOPT iteration factor
-a KKT matrix with a dense ``(models x frequencies) x variables`` Jacobian block,
-whose cost grows faster than the grid.  The exchange method solves the NLP on an
-*active subset* of grid points, evaluates every grid point numerically at the
-solution (cheap: a matrix-vector product per block), adds the local maxima that
-violate — or nearly reach — their bound, and solves again from the previous
-solution, until no grid point is violated.
+points next to each peak.  The exchange method solves the program on an *active
+subset* of grid points, evaluates every grid point numerically at the solution
+(a matrix-vector product per block), adds the local maxima that violate — or nearly
+reach — their bound, and solves again from the previous solution, until no grid point
+is violated.  The active set only grows, so the loop ends; the final point satisfies
+every grid constraint and is a (local) optimum of the full-grid program.
 
-The active set only grows, so the loop ends after finitely many rounds; the final
-point satisfies every grid constraint, and since it is a (local) optimum of a
-relaxation of the full-grid program it is a (local) optimum of the full-grid
-program too.
+The program itself is one parametric solver per structure
+(:class:`~robrst.synthesis.template.Template`, cached in ``templates``): an exchange
+round only changes the parameters, it never rebuilds the CasADi graph.
 """
 
 from dataclasses import dataclass
 
 import numpy as np
 
-from robrst.synthesis.nlp import build_and_solve, grid_blocks
+from robrst.certificate import band_peak
+from robrst.hinf import peak_gain
+from robrst.synthesis.nlp import (closed_loop_maps, controller_conditions, grid_blocks,
+                                  objective_rows)
+from robrst.synthesis.outcome import SolveResult
+from robrst.synthesis.template import Structure, Template
 
-__all__ = ["ExchangeInfo", "solve_exchange", "local_maxima"]
-
-OK_STATUS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+__all__ = ["ExchangeInfo", "Phase", "solve_exchange", "solve_program", "local_maxima",
+           "effective_ratios"]
 NEAR_ACTIVE = 0.02      # local maxima within 2 % below the bound join the active set
-COARSE_POINTS = 16     # evenly spaced starting points per block (plus local maxima)
+COARSE_POINTS = 3       # evenly spaced starting points per block (plus local maxima)
+ROUTH_MIN = 1e-9
+
+
+@dataclass(frozen=True)
+class Phase:
+    """What is solved: ``"soft"`` (minimise the worst normalised spec ratio ``gamma``,
+    systune's soft goals, down to ``gamma_floor``) or ``"hard"`` (the problem's objective
+    with every spec a constraint)."""
+
+    kind: str = "hard"
+    gamma_floor: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -37,7 +50,7 @@ class ExchangeInfo:
     iterations: int
     active_points: int
     grid_points: int
-    max_grid_ratio: float   # max over every grid point of |N| / (M |Delta|) at the result
+    max_grid_ratio: float   # max over every grid point of |N| / (limit |Delta|) at the result
 
 
 def local_maxima(r):
@@ -50,79 +63,302 @@ def local_maxima(r):
     return np.flatnonzero(left & right)
 
 
-def _gamma(setup, x):
-    return float(x[-1]) if setup.objective == "min_Ms" else None
-
-
-def _initial_active(blocks, x, gamma, coarse_points):
-    active = []
+def _limits(setup, blocks, phase):
+    """Per block ``(m, scaled)``: the constraint is ``|N| <= m (gamma if scaled else 1) |D|``."""
+    out = []
     for b in blocks:
-        n = len(b.nu)
+        if phase.kind == "soft":
+            out.append((b.bound, True))
+        elif setup.objective == "min_Ms" and b.key == "S":
+            out.append((1.0, True))
+        else:
+            out.append((b.bound, False))
+    return out
+
+
+def effective_ratios(blocks, limits, x, gamma):
+    """Per block, ``|N| / (limit |Delta|)`` at every grid point."""
+    return [b.ratio(x) * b.bound / (m * (gamma if sc else 1.0)) for b, (m, sc) in zip(blocks, limits)]
+
+
+def _capacity(n, lo=32):
+    c = lo
+    while c < n:
+        c *= 2
+    return c
+
+
+def _structure(setup, phase, n_slots, ipopt, groups):
+    ctrl = _ctrl(setup, phase)
+    deg_eq = len(setup.Am_fixed) - 1 if setup.placement == "fixed" else (
+        0 if setup.placement == "free" else groups[setup.ref][0])
+    return Structure(nx=setup.n_x, placement=setup.placement, deg_eq=deg_eq,
+                     n_dom_real=len(setup.n_dom_real), groups=_group_caps(groups),
+                     slots=_capacity(n_slots), ipopt=tuple(sorted(ipopt.items())),
+                     ctrl_deg=-1 if ctrl is None else ctrl[2] - 1,
+                     ctrl_count=1 if ctrl is None else ctrl[3])
+
+
+def _ctrl(setup, phase):
+    """``(M, m, len, count)`` of the controller-pole conditions of this phase, or ``None``."""
+    shift = setup.ctrl_shift if (phase.kind == "hard" and
+                                 setup.objective == "max_integral_gain") else None
+    out = controller_conditions(setup, shift, setup.stable_controller,
+                                bounded=setup.placement == "free")
+    if out is None:
+        return None
+    count = int(shift is not None or setup.stable_controller) + int(
+        setup.placement == "free" and setup.ctrl_max is not None)
+    return out[0], out[1], out[0].shape[0] // count, count
+
+
+def _group_caps(groups):
+    degs = {}
+    for deg, *_ in groups:
+        degs[deg] = degs.get(deg, 0) + 1
+    return tuple((d, -(-n // 4) * 4) for d, n in sorted(degs.items()))
+
+
+def _routh_rows(setup):
+    """Per model ``(deg, Dm, Dc)`` of its closed-loop polynomial."""
+    cl = closed_loop_maps(setup)
+    out = []
+    for label, T, a, b in setup.models:
+        (Dm, Dc), _ = cl(a, b)
+        out.append((Dm.shape[0] - 1, Dm, Dc))
+    return out
+
+
+def _values(setup, st, blocks, limits, active, rows, phase, x_ref):
+    """Parameters, constraint bounds and labels of one solve."""
+    nx, K = st.nx, st.slots
+    v = {k: np.zeros((K, nx)) for k in ("NR", "NI", "DR", "DI")}
+    v.update({k: np.zeros(K) for k in ("nr", "ni", "dr", "di", "m2", "sg")})
+    v["w"], v["dr"] = np.ones(K), np.ones(K)      # unused slots: 0 / 1
+    v["rho"] = [0.0 if setup.placement == "free" else 1.0]
+    lbg, ubg, labels = [], [], []
+    ref_deg, D0m, D0c = rows[setup.ref]
+    if st.placement != "free":
+        v["D0m"], v["D0c"] = D0m[1:], D0c[1:]
+        if st.placement == "fixed":
+            v["Am"] = setup.Am_fixed[1:]
+        else:
+            v["aux"], v["domr"] = [setup.aux_factor], list(setup.n_dom_real)
+        lbg += [0.0] * st.deg_eq
+        ubg += [0.0] * st.deg_eq
+        labels += [("diophantine", None, None, i) for i in range(st.deg_eq)]
+    i = 0
+    for b, (m, sc), idx in zip(blocks, limits, active):
+        n = len(idx)
+        sl = slice(i, i + n)
+        v["NR"][sl], v["nr"][sl], v["NI"][sl], v["ni"][sl] = (a[idx] for a in b.N)
+        v["DR"][sl], v["dr"][sl], v["DI"][sl], v["di"][sl] = (a[idx] for a in b.D)
+        v["w"][sl], v["m2"][sl], v["sg"][sl] = b.w[idx], m * m, float(sc)
+        labels += [(b.key, b.label, b.temperature_C, float(nu)) for nu in b.nu[idx]]
+        i += n
+    lbg += [-np.inf] * K
+    ubg += [0.0] * i + [np.inf] * (K - i)
+    labels += [("unused", None, None, None)] * (K - i)
+    for gi, (deg, cap) in enumerate(st.groups):
+        mine = [(j, r) for j, r in enumerate(rows) if r[0] == deg]
+        Dm = np.zeros((cap * (deg + 1), nx))
+        Dc = np.tile(np.poly(-np.ones(deg)), cap)          # (p + 1)^deg: unused, Hurwitz
+        for k, (j, (_, m_, c_)) in enumerate(mine):
+            Dm[k * (deg + 1):(k + 1) * (deg + 1)] = m_
+            Dc[k * (deg + 1):(k + 1) * (deg + 1)] = c_
+            label, T = setup.models[j][:2]
+            labels += [("routh", label, T, r) for r in range(deg + 1)]
+        labels += [("unused", None, None, None)] * ((cap - len(mine)) * (deg + 1))
+        v[f"Dm{gi}"], v[f"Dc{gi}"] = Dm, Dc
+        used = len(mine) * (deg + 1)
+        lbg += [ROUTH_MIN] * used + [-np.inf] * (cap * (deg + 1) - used)
+        ubg += [np.inf] * (cap * (deg + 1))
+    r0, q0, q0c = objective_rows(setup)
+    v.update(r0=r0, q0=q0, q0c=[q0c], xref=np.asarray(x_ref, float)[:nx])
+    hard_ki = phase.kind == "hard" and setup.objective == "max_integral_gain"
+    lbg += [1e-12, 1e-12] if hard_ki else [-np.inf, -np.inf]
+    ubg += [np.inf, np.inf]
+    labels += [("positivity", None, None, 0), ("positivity", None, None, 1)]
+    if st.ctrl_deg >= 0:
+        M, m, _, _ = _ctrl(setup, phase)
+        v["Cm"], v["Cc"] = M, m
+        lbg += [ROUTH_MIN] * len(m)
+        ubg += [np.inf] * len(m)
+        labels += [("controller_routh", None, None, r) for r in range(len(m))]
+    # a small proximal term fixes the directions the objective and the active
+    # constraints leave free (the Youla parameter's null directions), relative to |x_ref|
+    reg = {"soft": 1e-4, "max_integral_gain": 1e-10, "min_Ms": 1e-10, "feasibility": 1e-2}[
+        "soft" if phase.kind == "soft" else setup.objective]
+    reg /= 1.0 + float(np.dot(v["xref"], v["xref"]))
+    v["coef"] = {"soft": [1.0, 0.0, reg], "max_integral_gain": [0.0, 1.0, reg],
+                 "min_Ms": [1.0, 0.0, reg], "feasibility": [0.0, 0.0, reg]}[
+        "soft" if phase.kind == "soft" else setup.objective]
+    return v, np.array(lbg), np.array(ubg), tuple(labels)
+
+
+def _var_bounds(setup, st, phase, box=None):
+    n = st.n_var
+    lbx, ubx = -np.inf * np.ones(n), np.inf * np.ones(n)
+    if box is not None:                     # a trust region on the controller coefficients
+        c, r = box
+        lbx[:st.nx], ubx[:st.nx] = c - r, c + r
+    if setup.placement == "dominant":
+        (wl, wh), (zl, zh) = setup.pole_bounds
+        lbx[st.nx:st.nx + 2] = [wl, zl]
+        ubx[st.nx:st.nx + 2] = [wh, zh]
+    if phase.kind == "soft":
+        lbx[-1] = phase.gamma_floor
+    elif setup.objective == "min_Ms":
+        lbx[-1] = 0.0
+        if setup.bounds.get("S") is not None:
+            ubx[-1] = setup.bounds["S"]
+    else:
+        lbx[-1] = ubx[-1] = 1.0
+    return lbx, ubx
+
+
+def solve_program(setup, x0, ipopt, phase=Phase(), blocks=None, active=None, templates=None,
+                  x_ref=None, box=None):
+    """Solve the program on the ``active`` grid points of ``blocks`` (default: all).
+
+    ``x0`` is the full variable vector ``[xc, (wn, zeta), gamma]``.  ``templates``
+    caches built solvers by structure (a dict; default: a fresh one); ``box`` =
+    ``(center, radius)`` bounds the controller coefficients (a trust region).
+
+    Returns
+    -------
+    SolveResult
+    """
+    x0 = np.asarray(x0, float)
+    blocks = grid_blocks(setup, x0) if blocks is None else blocks
+    if active is None:
+        active = [np.arange(len(b.nu)) for b in blocks]
+    limits = _limits(setup, blocks, phase)
+    rows = _routh_rows(setup)
+    st = _structure(setup, phase, sum(len(a) for a in active), ipopt, rows)
+    cache = {} if templates is None else templates
+    if st not in cache:
+        cache[st] = Template(st)
+    tpl = cache[st]
+    v, lbg, ubg, labels = _values(setup, st, blocks, limits, active, rows, phase,
+                                  x0 if x_ref is None else x_ref)
+    lbx, ubx = _var_bounds(setup, st, phase, box)
+    x0 = np.clip(x0, lbx, ubx)
+    out = tpl.solve(v, x0, lbx, ubx, lbg, ubg)
+    return SolveResult(status=out["status"], x=out["x"], objective=out["f"],
+                       iterations=out["iterations"], g=out["g"], lbg=lbg, ubg=ubg,
+                       lam_g=out["lam_g"], labels=labels, w0=setup.w0, rates=dict(setup.rates))
+
+
+def _initial_active(ratios, coarse_points):
+    active = []
+    for r in ratios:
+        n = len(r)
         coarse = np.unique(np.linspace(0, n - 1, min(n, coarse_points)).round().astype(int))
-        active.append(np.union1d(coarse, local_maxima(b.ratio(x, gamma))))
+        active.append(np.union1d(coarse, local_maxima(r)))
     return active
 
 
-def _grow(blocks, active, x, gamma):
-    """Add the near-active (or violated) local maxima.
-
-    Returns ``(new active, number added, largest ratio over the whole grid)``.
-    """
-    added, out, worst = 0, [], 0.0
-    for b, idx in zip(blocks, active):
-        r = b.ratio(x, gamma)
-        worst = max(worst, float(r.max()))
-        peaks = local_maxima(r)
-        # a violated point lies below a violated local maximum, so peaks cover violations
-        new = np.setdiff1d(peaks[r[peaks] > 1.0 - NEAR_ACTIVE], idx)
-        added += new.size
-        out.append(np.union1d(idx, new))
-    return out, added, worst
+def _exact_peak(b, x):
+    """Exact peak ``(value, scaled frequency)`` of block ``b``'s ratio at ``x``."""
+    N, D = b.polys(x)
+    if b.key == "Tband":
+        return band_peak(N, D, b.nu[0], b.nu[-1])
+    if b.key == "Uhf":
+        return band_peak(N, D, b.nu[0], b.nu[0] * 1e6)
+    pk = peak_gain(N, D)
+    return pk.value, pk.freq_rad_s
 
 
-def solve_exchange(setup, x0, ipopt_opts, max_rounds=50, coarse_points=COARSE_POINTS):
-    """Solve the NLP of ``setup`` on its whole grid by constraint exchange.
+def _exact_growth(blocks, limits, active, x, gamma):
+    """Add every block's exact peak frequency where it is near or above its limit."""
+    added = 0
+    for k, (b, (m, sc)) in enumerate(zip(blocks, limits)):
+        try:
+            val, nu = _exact_peak(b, x)
+        except (np.linalg.LinAlgError, ValueError, FloatingPointError):
+            continue
+        if not np.isfinite(nu) or nu <= 0 or val / (m * (gamma if sc else 1.0)) <= 1.0 - NEAR_ACTIVE:
+            continue
+        if np.min(np.abs(b.nu - nu)) <= 1e-9 * nu:
+            continue
+        keep = b.nu[active[k]]
+        blocks[k] = b.with_points([nu])
+        active[k] = np.union1d(np.searchsorted(blocks[k].nu, keep),
+                               np.searchsorted(blocks[k].nu, [nu]))
+        added += 1
+    return added
+
+
+def solve_exchange(setup, x0, ipopt, phase=Phase(), templates=None, max_rounds=50,
+                   coarse_points=COARSE_POINTS, exact=False, box=None):
+    """Solve the program of ``setup`` on its whole grid by constraint exchange.
 
     Parameters
     ----------
     setup : NLPSetup
     x0 : ndarray
-        Starting point (scaled decision vector); also the point whose closed-loop
-        ``|Delta|^2`` weights every grid constraint.
-    ipopt_opts : dict
+        Starting point ``[xc, (wn, zeta), gamma]``; its closed-loop ``|Delta|^2``
+        weights every grid constraint.
+    ipopt : dict
+        IPOPT options.
+    phase : Phase
+    templates : dict, optional
+        Built solvers by structure, shared between calls.
     max_rounds : int
-        Safety cap on exchange rounds (the active set grows every round, so the
-        loop ends anyway once the whole grid is active).
+        Safety cap on exchange rounds.
     coarse_points : int
         Evenly spaced grid points per block in the first active set, next to the
         local maxima of each constraint at ``x0``.
+    exact : bool
+        Once the grid holds, also add each block's *exact* peak frequency
+        (:func:`robrst.hinf.peak_gain`, the certificate's band peak) when it is near
+        or above its bound, and solve again: the semi-infinite program's own
+        exchange, for loops whose resonances fall between grid points.
+    box : (ndarray, ndarray), optional
+        Trust region ``|xc - center| <= radius`` on the controller coefficients.
 
     Returns
     -------
-    x, stats, labels, g, lbg, ubg, info
-        As :func:`robrst.synthesis.nlp.build_and_solve` for the last subproblem
-        (``stats["iter_count"]`` summed over rounds), plus :class:`ExchangeInfo`.
-        A subproblem that fails is returned at once: it is a relaxation of the
-        full-grid program, so infeasibility IPOPT reports for it holds for the
-        full program as well (as far as IPOPT's local verdict goes).  If the
-        round cap is hit first, the certificate of the caller has the last word.
+    SolveResult
+        The last subproblem's result with ``iterations`` summed over the rounds and
+        ``exchange`` an :class:`ExchangeInfo`.  A subproblem that fails is returned at
+        once (it is a relaxation of the full-grid program).
     """
+    from dataclasses import replace
+
     x0 = np.asarray(x0, float)
-    blocks = grid_blocks(setup, x0)
+    blocks = list(grid_blocks(setup, x0))
+    limits = _limits(setup, blocks, phase)
     total = sum(len(b.nu) for b in blocks)
-    active = _initial_active(blocks, x0, _gamma(setup, x0), coarse_points)
-    x, iters = x0, 0
+    active = _initial_active(effective_ratios(blocks, limits, x0, x0[-1]), coarse_points)
+    templates = {} if templates is None else templates
+    x, iters, worst = x0, 0, np.inf
     for rnd in range(1, max_rounds + 1):
-        x, stats, labels, g, lbg, ubg = build_and_solve(setup, x, ipopt_opts, blocks, active)
-        iters += stats.get("iter_count", 0)
-        if stats.get("return_status") not in OK_STATUS:
-            worst = max((float(b.ratio(x, _gamma(setup, x)).max()) for b in blocks), default=0.0)
+        # later rounds start at the previous optimum: a small initial barrier keeps them there
+        opts = ipopt if rnd == 1 else {**ipopt, "mu_init": min(ipopt.get("mu_init", 0.1), 1e-4)}
+        res = solve_program(setup, x, opts, phase, blocks, active, templates, x_ref=x0, box=box)
+        if not res.success and rnd > 1:      # the warm barrier failed: the default one
+            res = solve_program(setup, x, ipopt, phase, blocks, active, templates, x_ref=x0,
+                                box=box)
+        x = res.x
+        iters += res.iterations
+        ratios = effective_ratios(blocks, limits, x, x[-1])
+        worst = max((float(r.max()) for r in ratios), default=0.0)
+        if not res.success:
             break
-        active, added, worst = _grow(blocks, active, x, _gamma(setup, x))
+        added = 0
+        for k, r in enumerate(ratios):
+            peaks = local_maxima(r)
+            new = np.setdiff1d(peaks[r[peaks] > 1.0 - NEAR_ACTIVE], active[k])
+            added += new.size
+            active[k] = np.union1d(active[k], new)
+        if added == 0 and exact:
+            added = _exact_growth(blocks, limits, active, x, x[-1])
         if added == 0:
             break
-    stats = {**stats, "iter_count": iters}
     info = ExchangeInfo(rounds=rnd, iterations=iters,
-                        active_points=int(sum(a.size for a in active)), grid_points=total,
+                        active_points=int(sum(a.size for a in active)),
+                        grid_points=max(total, sum(len(b.nu) for b in blocks)),
                         max_grid_ratio=worst)
-    return x, stats, labels, g, lbg, ubg, info
+    return replace(res, iterations=iters, exchange=info)

@@ -1,13 +1,17 @@
-"""The robust RST nonlinear program in CasADi (solved by IPOPT).
+"""Numeric data of the robust RST program (everything but the CasADi graph).
 
 Everything is posed in the scaled variable ``p = s / w0``.  Plant polynomials are
 divided by ``w0**deg A`` and the controller by ``w0**deg S``, which keeps every
 closed-loop ratio unchanged while bringing coefficients to O(1).  Decision
-variables: the free coefficients of ``S'`` and ``R'`` (``S = Sf S'``, ``R = Rf R'``)
-and optionally the dominant pole parameters ``(wn, zeta)``.  Every closed-loop
-polynomial is *affine* in the controller coefficients, so on a frequency grid each
-peak constraint ``|N(jw)|^2 <= M^2 |Delta(jw)|^2`` (denominators cleared, divided by
-a fixed weight ``|Delta_0(jw)|^2``) is a quadratic in the variables.
+variables: the free coefficients of ``S'`` and ``R'`` (``S = Sf S'``, ``R = Rf R'``),
+optionally the dominant pole parameters ``(wn, zeta)``, and ``gamma`` (the worst
+normalised spec ratio of the soft-goal phase, or the |S| bound of ``min_Ms``).  Every
+closed-loop polynomial is *affine* in the controller coefficients, so on a frequency
+grid each peak constraint ``|N(jw)|^2 <= M^2 |Delta(jw)|^2`` (denominators cleared,
+divided by a fixed weight ``|Delta_0(jw)|^2``) is a quadratic in the variables: this
+module turns a problem into those numeric rows (:class:`GridBlock`), the Routh and
+Diophantine maps; :mod:`robrst.synthesis.template` holds the one CasADi program that
+takes them as parameters.
 """
 
 from dataclasses import dataclass
@@ -15,10 +19,12 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from robrst import poly
 
-__all__ = ["GridBlock", "NLPSetup", "build_and_solve", "grid_blocks", "conv_matrix", "conv_symbolic", "jw_matrices",
-           "routh_column"]
+__all__ = ["GridBlock", "NLPSetup", "grid_blocks", "conv_matrix", "jw_matrices",
+           "routh_column", "scale_plant", "closed_loop_maps", "affine_controller",
+           "objective_rows", "shift_matrix", "controller_conditions", "PEAK_KEYS"]
+
+PEAK_KEYS = ("S", "T", "U", "Tband", "Uhf")
 
 
 def conv_matrix(c, n):
@@ -56,9 +62,31 @@ def routh_column(c):
     return ca.vertcat(*col)
 
 
+def shift_matrix(deg, a):
+    """Matrix ``M`` with ``M @ c`` the coefficients of ``c(p - a)`` (``len(c) == deg + 1``)."""
+    M = np.zeros((deg + 1, deg + 1))
+    for j in range(deg + 1):          # column j: the monomial p**(deg - j)
+        col = np.ones(1)
+        for _ in range(deg - j):
+            col = np.convolve(col, [1.0, -a])
+        M[j:, j] = col
+    return M
+
+
 @dataclass(frozen=True, eq=False)
 class NLPSetup:
-    """Numeric data of one NLP instance (all polynomials scaled)."""
+    """Numeric data of one program instance (all polynomials scaled).
+
+    ``placement`` is ``"fixed"`` (nominal closed loop = ``Am_fixed``), ``"dominant"``
+    (``(wn, zeta)`` free within ``pole_bounds``) or ``"free"`` (no Diophantine
+    equality: stability of every model by Routh only).  ``bands`` and ``hf`` hold
+    per model the scaled grids of the resonance-band and high-frequency |U| bounds.
+    ``ctrl_shift``: the controller's poles other than its integrators are kept at
+    ``Re p <= -ctrl_shift`` (``None``: not imposed) — ``max_integral_gain`` needs it,
+    else a second slow controller pole makes ``lim s K(s)`` unbounded;
+    ``ctrl_max``: and at ``Re p >= -ctrl_max`` (with every coefficient free, a
+    controller pole can otherwise run off to infinity chasing a PI/PID limit).
+    """
 
     w0: float
     models: tuple          # ((label, T, a, b), ...) scaled plant polynomials
@@ -68,39 +96,33 @@ class NLPSetup:
     ks: int                # degree of S'
     kr: int                # degree of R'
     nu: np.ndarray         # scaled frequency grid
-    nu_band: np.ndarray    # scaled resonance-band grid (may be empty)
-    bounds: dict           # {"S": Ms, "T": Mt, "U": Mu(scaled), "Tband": ...}
+    bounds: dict           # {"S": Ms, "T": Mt, "U": Mu, "Tband": ..., "Uhf": ...}
     objective: str
-    Am_fixed: np.ndarray   # scaled monic Am, or None when the poles are free
-    pole_bounds: tuple     # ((wn_lo, wn_hi), (z_lo, z_hi)) scaled, or None
+    Am_fixed: np.ndarray   # scaled monic Am (placement "fixed")
+    pole_bounds: tuple     # ((wn_lo, wn_hi), (z_lo, z_hi)) scaled (placement "dominant")
     aux_factor: float
     n_dom_real: tuple      # extra dominant real poles (scaled), fixed
     stable_controller: bool
-    bands: tuple = ()      # per model, its scaled resonance-band grid (default: nu_band)
+    bands: tuple = ()      # per model, its scaled resonance-band grid
+    rates: tuple = ()      # (label, sample rate [Hz]) of the sampled-loop models
+    placement: str = "fixed"
+    hf: tuple = ()         # per model, its scaled grid above the Mu_hf frequency
+    integrators: int = 1
+    sign: float = 1.0      # sign of the integral gain of a stabilising controller
+    ctrl_shift: float = None
+    ctrl_max: float = None
+    grids: tuple = ()      # per model, its scaled grid for S, T, U (default: nu)
+
+    @property
+    def n_x(self):
+        return self.ks + self.kr + 1
+
+    @property
+    def free_poles(self):
+        return self.placement == "dominant"
 
 
-def _am_symbolic(setup, wn, zeta, degree):
-    dom = ca.vertcat(1, 2 * zeta * wn, wn ** 2)
-    for r in setup.n_dom_real:
-        dom = conv_symbolic(dom, ca.vertcat(1, -r))
-    aux = ca.DM([1.0])
-    for _ in range(degree - 2 - len(setup.n_dom_real)):
-        aux = conv_symbolic(aux, ca.vertcat(1, setup.aux_factor * wn))
-    return conv_symbolic(dom, aux)
-
-
-def conv_symbolic(a, b):
-    """Coefficients of the product of two polynomials with CasADi (or numeric) entries."""
-    a, b = ca.vertcat(a), ca.vertcat(b)
-    n, m = a.numel(), b.numel()
-    terms = [0] * (n + m - 1)
-    for i in range(n):
-        for j in range(m):
-            terms[i + j] = terms[i + j] + a[i] * b[j]
-    return ca.vertcat(*terms)
-
-
-def _affine_controller(setup):
+def affine_controller(setup):
     """Numeric maps ``S = Ls x + s0`` and ``R = Lr x`` of the decision vector ``x``."""
     ks, kr = setup.ks, setup.kr
     nx = ks + kr + 1
@@ -121,9 +143,51 @@ def _product(c, L, l0, n_out):
     return np.vstack([np.zeros((pad, M.shape[1])), M]), np.concatenate([np.zeros(pad), m0])
 
 
-def _routh_function(deg):
-    c = ca.SX.sym("c", deg + 1)
-    return ca.Function("routh", [c], [routh_column(c / c[0])])
+def closed_loop_maps(setup):
+    """``closed_loop(a, b) -> ((Dm, Dc), {key: (Nm, Nc)})`` affine maps of ``xc``."""
+    Ls, s0, Lr = affine_controller(setup)
+    zero_r = np.zeros(Lr.shape[0])
+
+    def closed_loop(a, b):
+        n_out = max(len(a) + Ls.shape[0], len(b) + Lr.shape[0]) - 1
+        AS = _product(a, Ls, s0, n_out)
+        BR = _product(b, Lr, zero_r, n_out)
+        AR = _product(a, Lr, zero_r, n_out)
+        D = (AS[0] + BR[0], AS[1] + BR[1])
+        return D, {"S": AS, "T": BR, "U": AR, "Tband": BR, "Uhf": AR}
+
+    return closed_loop
+
+
+def objective_rows(setup):
+    """Rows ``(r0, q0, q0c)``: ``sign R(0) = r0 @ x``, ``(S/s^k)(0) = q0 @ x + q0c``."""
+    Ls, s0, Lr = affine_controller(setup)
+    k = setup.integrators
+    return setup.sign * Lr[-1], Ls[-1 - k], float(s0[-1 - k])
+
+
+def controller_conditions(setup, shift, stable, bounded):
+    """Hurwitz conditions on the controller's poles other than its integrators.
+
+    Returns ``(M, m)`` stacking the coefficients, affine in ``x``, of the polynomials
+    that must be Hurwitz: ``Q(p - shift)`` (``Re p <= -shift``; ``stable`` with shift
+    0) and ``Q(-p - ctrl_max)`` (``bounded``: ``Re p >= -ctrl_max``), with ``Q = S/s^k``.
+    ``None`` when nothing is asked or ``Q`` is a constant.
+    """
+    Ls, s0, _ = affine_controller(setup)
+    k = setup.integrators
+    Lq, q = Ls[:len(s0) - k], s0[:len(s0) - k]
+    d = Lq.shape[0] - 1
+    mats = []
+    if shift is not None or stable:
+        mats.append(shift_matrix(d, shift or 0.0))
+    if bounded and setup.ctrl_max is not None:
+        flip = np.diag((-1.0) ** np.arange(d, -1, -1))
+        mats.append(shift_matrix(d, -setup.ctrl_max) @ flip)
+    if d < 1 or not mats:
+        return None
+    M = np.vstack([T @ Lq for T in mats])
+    return M, np.concatenate([T @ q for T in mats])
 
 
 @dataclass(frozen=True, eq=False)
@@ -133,12 +197,12 @@ class GridBlock:
     Every closed-loop polynomial is affine in the controller coefficients ``xc``, so
     on the grid ``N(j nu) = (Nr + j Ni) xc + (nr + j ni)`` and likewise ``Delta``.
     The constraint at grid point ``i`` is
-    ``(|N_i|^2 - M^2 |Delta_i|^2) / w_i <= 0`` with the fixed weight
-    ``w_i = |Delta(x_ref)(j nu_i)|^2``; ``bound`` is ``M`` (``None``: the variable
-    ``gamma`` of the ``min_Ms`` objective).
+    ``(|N_i|^2 - (g M)^2 |Delta_i|^2) / w_i <= 0`` with the fixed weight
+    ``w_i = |Delta(x_ref)(j nu_i)|^2``; ``bound`` is ``M`` and ``g`` is 1 or, for a
+    soft (scaled) block, the variable ``gamma``.
     """
 
-    key: str               # "S", "T", "U" or "Tband"
+    key: str               # "S", "T", "U", "Tband" or "Uhf"
     model: int             # index into setup.models
     label: str
     temperature_C: float
@@ -146,168 +210,69 @@ class GridBlock:
     N: tuple               # (Nr, nr, Ni, ni)
     D: tuple               # (Dr, dr, Di, di)
     w: np.ndarray
-    bound: object
+    bound: float
+    maps: tuple = None     # (Nm, Nc, Dm, Dc): N = Nm x + Nc, Delta = Dm x + Dc
+    D_ref: np.ndarray = None
 
-    def ratio(self, x, gamma=None):
+    def polys(self, x):
+        """Numerator and closed-loop polynomial (scaled) at the decision vector ``x``."""
+        Nm, Nc, Dm, Dc = self.maps
+        xc = np.asarray(x, float)[:Nm.shape[1]]
+        return Nm @ xc + Nc, Dm @ xc + Dc
+
+    def with_points(self, nu_new):
+        """This block with the frequencies ``nu_new`` added (sorted, duplicates dropped)."""
+        nu = np.unique(np.concatenate([self.nu, np.asarray(nu_new, float)]))
+        return _block(self.key, self.model, self.label, self.temperature_C, nu, self.maps,
+                      self.D_ref, self.bound)
+
+    def ratio(self, x):
         """``|N| / (M |Delta|)`` at every grid point for the decision vector ``x``."""
         xc = np.asarray(x, float)[:self.N[0].shape[1]]
         Nr, nr, Ni, ni = self.N
         Dr, dr, Di, di = self.D
         num = np.hypot(Nr @ xc + nr, Ni @ xc + ni)
         den = np.hypot(Dr @ xc + dr, Di @ xc + di)
-        M = gamma if self.bound is None else self.bound
-        return num / (M * np.maximum(den, 1e-300))
+        return num / (self.bound * np.maximum(den, 1e-300))
 
 
-def _closed_loop_maps(setup):
-    """``closed_loop(a, b) -> ((Dm, Dc), {key: (Nm, Nc)})`` affine maps of ``xc``."""
-    Ls, s0, Lr = _affine_controller(setup)
-    zero_r = np.zeros(Lr.shape[0])
+def grid_blocks(setup, x_ref, min_ms_unbounded=True):
+    """Every grid constraint of ``setup`` as :class:`GridBlock` (weights at ``x_ref``).
 
-    def closed_loop(a, b):
-        n_out = max(len(a) + Ls.shape[0], len(b) + Lr.shape[0]) - 1
-        AS = _product(a, Ls, s0, n_out)
-        BR = _product(b, Lr, zero_r, n_out)
-        AR = _product(a, Lr, zero_r, n_out)
-        D = (AS[0] + BR[0], AS[1] + BR[1])
-        return D, {"S": AS, "T": BR, "U": AR, "Tband": BR}
-
-    return closed_loop
-
-
-def grid_blocks(setup, x_ref):
-    """Every grid constraint of ``setup`` as :class:`GridBlock` (weights at ``x_ref``)."""
-    nx = setup.ks + setup.kr + 1
+    The |S| block of ``min_Ms`` without an ``Ms_max`` gets the bound 1 (its scale is
+    ``gamma`` itself).
+    """
+    nx = setup.n_x
     x_ref = np.asarray(x_ref, float)[:nx]
-    closed_loop = _closed_loop_maps(setup)
-    min_ms = setup.objective == "min_Ms"
+    closed_loop = closed_loop_maps(setup)
     blocks = []
     for j, (label, T, a, b) in enumerate(setup.models):
         (Dm, Dc), nums = closed_loop(a, b)
-        dD = Dm.shape[0] - 1
         D_ref = Dm @ x_ref + Dc
-        for key in ("S", "T", "U", "Tband"):
-            band = setup.bands[j] if setup.bands else setup.nu_band
-            nu = band if key == "Tband" else setup.nu
+        for key in PEAK_KEYS:
+            nu = {"Tband": setup.bands[j] if setup.bands else (),
+                  "Uhf": setup.hf[j] if setup.hf else ()}.get(
+                key, setup.grids[j] if setup.grids else setup.nu)
             bound = setup.bounds.get(key)
-            if key == "S" and min_ms:
-                bound = None
-            elif bound is None:
+            if key == "S" and bound is None and setup.objective == "min_Ms" and min_ms_unbounded:
+                bound = 1.0
+            if bound is None or len(nu) == 0:
                 continue
-            if len(nu) == 0:
-                continue
-            Vr, Vi = jw_matrices(nu, dD)
-            Nm, Nc = nums[key]
-            blocks.append(GridBlock(
-                key=key, model=j, label=label, temperature_C=T, nu=np.asarray(nu, float),
-                N=(Vr @ Nm, Vr @ Nc, Vi @ Nm, Vi @ Nc), D=(Vr @ Dm, Vr @ Dc, Vi @ Dm, Vi @ Dc),
-                w=np.abs(np.polyval(D_ref, 1j * nu)) ** 2, bound=bound))
+            blocks.append(_block(key, j, label, T, np.asarray(nu, float),
+                                 (*nums[key], Dm, Dc), D_ref, float(bound)))
     return tuple(blocks)
 
 
-def build_and_solve(setup, x0, ipopt_opts, blocks=None, active=None):
-    """Build the NLP for ``setup``, solve from ``x0``; return (x, stats, labels, g, lbg, ubg).
-
-    The grid constraints are assembled from numeric matrices (every closed-loop
-    polynomial is affine in the controller coefficients), so the CasADi graph is a
-    handful of matrix products whatever the number of models and frequencies:
-    construction is cheap and derivatives are exact.
-
-    Parameters
-    ----------
-    blocks : tuple of GridBlock, optional
-        The grid constraints (default: :func:`grid_blocks` weighted at ``x0``).
-    active : sequence of index arrays, optional
-        Per block, the grid points to impose (default: all of them); the
-        exchange method (:mod:`robrst.synthesis.exchange`) passes a subset.
-    """
-    ks, kr = setup.ks, setup.kr
-    nx = ks + kr + 1
-    free_poles = setup.Am_fixed is None
-    n_var = nx + (2 if free_poles else 0) + (1 if setup.objective == "min_Ms" else 0)
-    X = ca.MX.sym("x", n_var)
-    xc = X[:nx]
-    x0 = np.asarray(x0, float)
-    if blocks is None:
-        blocks = grid_blocks(setup, x0)
-    Ls, s0, Lr = _affine_controller(setup)
-    closed_loop = _closed_loop_maps(setup)
-    g, lbg, ubg, labels = [], [], [], []
-
-    def add(expr, lo, hi, label):
-        g.append(expr)
-        n = expr.numel()
-        lbg.extend([lo] * n)
-        ubg.extend([hi] * n)
-        labels.extend(label(i) for i in range(n))
-
-    # Diophantine equality at the nominal model
-    _, _, a0, b0 = setup.models[setup.ref]
-    (D0m, D0c), _ = closed_loop(a0, b0)
-    deg = D0m.shape[0] - 1
-    if free_poles:
-        wz = ca.SX.sym("wz", 2)
-        am_fn = ca.Function("Am", [wz], [_am_symbolic(setup, wz[0], wz[1], deg)])
-        Am = am_fn(X[nx:nx + 2])
-    else:
-        Am = ca.DM(setup.Am_fixed)
-    add(ca.mtimes(ca.DM(D0m[1:]), xc) + ca.DM(D0c[1:]) - Am[1:], 0.0, 0.0,
-        lambda i: ("diophantine", None, None, i))
-    gamma = X[-1] if setup.objective == "min_Ms" else None
-    for k, blk in enumerate(blocks):
-        idx = np.arange(len(blk.nu)) if active is None else np.asarray(active[k], int)
-        if idx.size == 0:
-            continue
-        nr, dr, ni, di = (ca.mtimes(ca.DM(M[idx]), xc) + ca.DM(c[idx])
-                          for M, c in (blk.N[:2], blk.D[:2], blk.N[2:], blk.D[2:]))
-        M2 = gamma ** 2 if blk.bound is None else blk.bound ** 2
-        expr = (nr ** 2 + ni ** 2 - M2 * (dr ** 2 + di ** 2)) / ca.DM(blk.w[idx])
-        nu = blk.nu[idx]
-        add(expr, -ca.inf, 0.0,
-            lambda i, b=blk, nu=nu: (b.key, b.label, b.temperature_C, float(nu[i])))
-    if gamma is not None and setup.bounds.get("S") is not None:
-        add(gamma, -ca.inf, setup.bounds["S"], lambda i: ("gamma", None, None, None))
-    # stability: Routh first column > 0 (scaled: O(1) entries)
-    routh = {}
-    for label, T, a, b in setup.models:
-        (Dm, Dc), _ = closed_loop(a, b)
-        dD = Dm.shape[0] - 1
-        D = ca.mtimes(ca.DM(Dm), xc) + ca.DM(Dc)
-        if dD not in routh:
-            routh[dD] = _routh_function(dD)
-        add(routh[dD](D), 1e-9, ca.inf, lambda i, lab=label, t=T: ("routh", lab, t, i))
-    sp = ca.vertcat(1, X[:ks])                 # S' monic
-    rp = X[ks:nx]
-    if setup.stable_controller:
-        Sq = sp if len(setup.Sf) == 2 else ca.mtimes(ca.DM(Ls), xc)[:-1] + ca.DM(s0[:-1])
-        add(_routh_function(Sq.numel() - 1)(Sq), 1e-9, ca.inf,
-            lambda i: ("controller_routh", None, None, i))
-    # objective
-    q0 = ca.mtimes(ca.DM(conv_matrix(setup.Sf[:-1], ks + 1)), sp)[-1]  # (S/s)(0)
-    R_0 = ca.mtimes(ca.DM(Lr[-1:]), xc)
-    if setup.objective == "max_integral_gain":
-        add(ca.vertcat(rp[-1], q0), 1e-12, ca.inf, lambda i: ("positivity", None, None, i))
-        f = -(ca.log(R_0) - ca.log(q0))
-    elif setup.objective == "min_Ms":
-        f = gamma
-    else:
-        f = ca.MX(0.0)
-    lbx = -np.inf * np.ones(n_var)
-    ubx = np.inf * np.ones(n_var)
-    if free_poles:
-        (wl, wh), (zl, zh) = setup.pole_bounds
-        lbx[nx:nx + 2] = [wl, zl]
-        ubx[nx:nx + 2] = [wh, zh]
-    nlp = {"x": X, "f": f, "g": ca.vertcat(*g)}
-    opts = {"ipopt": dict(ipopt_opts), "print_time": False, "show_eval_warnings": False}
-    solver = ca.nlpsol("rst", "ipopt", nlp, opts)
-    sol = solver(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
-    stats = solver.stats()
-    gval = np.array(sol["g"]).ravel()
-    return np.array(sol["x"]).ravel(), stats, labels, gval, np.array(lbg), np.array(ubg)
+def _block(key, model, label, T, nu, maps, D_ref, bound):
+    Nm, Nc, Dm, Dc = maps
+    Vr, Vi = jw_matrices(nu, Dm.shape[0] - 1)
+    return GridBlock(key=key, model=model, label=label, temperature_C=T, nu=nu,
+                     N=(Vr @ Nm, Vr @ Nc, Vi @ Nm, Vi @ Nc), D=(Vr @ Dm, Vr @ Dc, Vi @ Dm, Vi @ Dc),
+                     w=np.maximum(np.abs(np.polyval(D_ref, 1j * nu)) ** 2, 1e-300), bound=bound,
+                     maps=maps, D_ref=D_ref)
 
 
-def scale_plant(plant, w0):
+def scale_plant(plant, scaling):
     """Scaled ``(a, b)``: ``A(w0 p) / w0**n`` (monic) and ``B(w0 p) / w0**n``."""
     n = plant.n
-    return (poly.to_scaled(plant.A, w0) / w0 ** n, poly.to_scaled(plant.B, w0) / w0 ** n)
+    return scaling.normalize(plant.A, n), scaling.normalize(plant.B, n)

@@ -9,66 +9,76 @@ temperature), ``thermal_drift`` (lagged, saturating, hysteretic in temperature),
 (sensor).
 """
 
-import tomllib
 from dataclasses import dataclass, field, replace
-from pathlib import Path
 
+from robrst import resources
 from robrst.errors import SpecError
 from robrst.plant import named_plant
-from robrst.spec import NUM, NUMS, key_error, validate_table
+from robrst.schema import Field, key_error, load_toml, validate
 
 __all__ = ["EFFECTS", "TWIN_SCHEMA", "TwinConfig", "load_twin", "parse_twin", "default_twin"]
 
 EFFECTS = ("thermal_dynamics", "hysteresis", "creep", "thermal_drift", "delay", "saturation",
            "slew", "noise", "quantization")
 
-_ON = (bool, False, True, "switch the effect on/off")
+_ON = Field("bool", True, "switch the effect on/off")
+_SRC = Field("str", "", "")
 TWIN_SCHEMA = {
     "twin": {
-        "name": (str, False, "twin", "name"),
-        "plant": (str, False, "paper", "built-in nominal linear model (D(s) of eq. 4)"),
-        "fs_hz": (NUM, False, 20000.0, "simulation and control sampling rate [Hz]"),
-        "reference_C": (NUM, False, 28.0, "temperature of the nominal model [°C]"),
-        "source": (str, False, "", "where the defaults come from"),
+        "name": Field("str", "twin", "name"),
+        "plant": Field("str", "paper", "built-in nominal linear model (D(s) of eq. 4)"),
+        "sample_rate_hz": Field("number", None, "simulation and control sampling rate [Hz]"
+                                " (default 20000)", positive=True, hi=1e8),
+        "fs_hz": Field("number", None, "older name of sample_rate_hz", positive=True, hi=1e8),
+        "reference_C": Field("number", 28.0, "temperature of the nominal model [°C]",
+                             lo=-100.0, hi=500.0),
+        "source": Field("str", "", "where the defaults come from"),
     },
     "thermal_dynamics": {"enabled": _ON,
-                         "gain_per_K": (NUM, False, 0.0015, "relative static gain per K"),
-                         "resonance_per_K": (NUM, False, -0.0001, "relative resonance per K"),
-                         "damping_per_K": (NUM, False, 0.005, "relative damping per K"),
-                         "source": (str, False, "", "")},
+                         "gain_per_K": Field("number", 0.0015, "relative static gain per K"),
+                         "resonance_per_K": Field("number", -0.0001, "relative resonance per K"),
+                         "damping_per_K": Field("number", 0.005, "relative damping per K"),
+                         "source": _SRC},
     "hysteresis": {"enabled": _ON,
-                   "A": (NUM, False, 0.45, "Bouc–Wen A [-]"),
-                   "B": (NUM, False, 0.0045, "Bouc–Wen beta [1/V]"),
-                   "Gamma": (NUM, False, 0.0045, "Bouc–Wen gamma [1/V]"),
-                   "slope_range_V": (NUMS, False, [0.0, 150.0],
-                                     "voltage cycle on which the mean slope of u-h is 1"),
-                   "source": (str, False, "", "")},
+                   "A": Field("number", 0.45, "Bouc–Wen A [-]"),
+                   "B": Field("number", 0.0045, "Bouc–Wen beta [1/V]"),
+                   "Gamma": Field("number", 0.0045, "Bouc–Wen gamma [1/V]"),
+                   "slope_range_V": Field("numbers", (0.0, 150.0),
+                                          "voltage cycle on which the mean slope of u-h is 1",
+                                          length=2),
+                   "source": _SRC},
     "creep": {"enabled": _ON,
-              "per_decade": (NUM, False, 0.01, "creep per decade of time at reference_C [-]"),
-              "per_K": (NUM, False, 0.05, "relative growth of creep per K above reference"),
-              "tau_min_s": (NUM, False, 0.1, "fastest cell [s]"),
-              "tau_max_s": (NUM, False, 1.0e4, "slowest cell [s]"),
-              "cells_per_decade": (int, False, 2, "cells per decade"),
-              "source": (str, False, "", "")},
+              "per_decade": Field("number", 0.01, "creep per decade of time at reference_C [-]",
+                                  lo=0.0),
+              "per_K": Field("number", 0.05, "relative growth of creep per K above reference"),
+              "tau_min_s": Field("number", 0.1, "fastest cell [s]", positive=True),
+              "tau_max_s": Field("number", 1.0e4, "slowest cell [s]", positive=True, hi=1e9),
+              "cells_per_decade": Field("int", 2, "cells per decade", lo=1, hi=20),
+              "source": _SRC},
     "thermal_drift": {"enabled": _ON,
-                      "lag_s": (NUM, False, 20.0, "thermal lag of the stack [s]"),
-                      "A": (NUM, False, 1.0, "Bouc–Wen A in temperature [-]"),
-                      "B": (NUM, False, 0.1, "beta [1/K]"),
-                      "Gamma": (NUM, False, 0.1, "gamma [1/K]"),
-                      "gain_V_per_K": (NUM, False, 0.9, "input-referred drift [V/K]"),
-                      "source": (str, False, "", "")},
-    "delay": {"enabled": _ON, "seconds": (NUM, False, 0.0, "transport delay [s], whole samples"),
-              "source": (str, False, "", "")},
-    "saturation": {"enabled": _ON, "u_min": (NUM, False, 0.0, "amplifier low limit [V]"),
-                   "u_max": (NUM, False, 150.0, "amplifier high limit [V]"),
-                   "source": (str, False, "", "")},
-    "slew": {"enabled": _ON, "V_per_s": (NUM, False, 6.0e4, "slew-rate limit [V/s]"),
-             "source": (str, False, "", "")},
-    "noise": {"enabled": _ON, "sigma_um": (NUM, False, 0.005, "sensor noise std [µm]"),
-              "source": (str, False, "", "")},
-    "quantization": {"enabled": _ON, "step_um": (NUM, False, 0.0015, "sensor LSB [µm]"),
-                     "source": (str, False, "", "")},
+                      "lag_s": Field("number", 20.0, "thermal lag of the stack [s]", positive=True),
+                      "A": Field("number", 1.0, "Bouc–Wen A in temperature [-]"),
+                      "B": Field("number", 0.1, "beta [1/K]"),
+                      "Gamma": Field("number", 0.1, "gamma [1/K]"),
+                      "gain_V_per_K": Field("number", 0.9, "input-referred drift [V/K]"),
+                      "source": _SRC},
+    "delay": {"enabled": _ON,
+              "seconds": Field("number", 0.0, "transport delay [s], whole samples", lo=0.0, hi=10.0),
+              "source": _SRC},
+    "saturation": {"enabled": _ON, "u_min": Field("number", 0.0, "amplifier low limit [V]"),
+                   "u_max": Field("number", 150.0, "amplifier high limit [V]"),
+                   "source": _SRC},
+    "slew": {"enabled": _ON,
+             "V_per_s": Field("number", 6.0e4, "slew-rate limit [V/s]", positive=True),
+             "source": _SRC},
+    "noise": {"enabled": _ON,
+              "sigma_um": Field("number", 0.005, "sensor noise std [µm]", lo=0.0),
+              "source": _SRC},
+    "quantization": {"enabled": _ON,
+                     "step_um": Field("number", 0.0015, "sensor LSB [µm]", positive=True),
+                     "source": _SRC},
 }
+DEFAULT_RATE_HZ = 20000.0
 
 
 @dataclass(frozen=True)
@@ -81,7 +91,7 @@ class TwinConfig:
 
     name: str = "twin"
     plant: str = "paper"
-    fs_hz: float = 20000.0
+    sample_rate_hz: float = DEFAULT_RATE_HZ
     reference_C: float = 28.0
     effects: dict = field(default_factory=dict)
     path: str = "<default>"
@@ -114,25 +124,21 @@ class TwinConfig:
 
     @property
     def dt(self):
-        return 1.0 / self.fs_hz
+        return 1.0 / self.sample_rate_hz
 
 
 def parse_twin(data, path="<twin>"):
     """Validate a parsed twin TOML document; see :func:`load_twin`."""
-    v = validate_table(path, data, TWIN_SCHEMA)
-    tw = v["twin"] or validate_table(path, {}, TWIN_SCHEMA["twin"], ("twin",))
-    effects = {k: (v[k] or validate_table(path, {}, TWIN_SCHEMA[k], (k,))) for k in EFFECTS}
-    if tw["fs_hz"] <= 0:
-        raise key_error(path, ("twin", "fs_hz"), f"must be > 0, got {tw['fs_hz']}")
-    named_plant(tw["plant"])  # raises with the valid names
-    positive = {("creep", "tau_min_s"), ("creep", "tau_max_s"), ("creep", "cells_per_decade"),
-                ("thermal_drift", "lag_s"), ("slew", "V_per_s"), ("quantization", "step_um")}
-    for e, p in positive:
-        if effects[e][p] <= 0:
-            raise key_error(path, (e, p), f"must be > 0, got {effects[e][p]}")
-    for e, p in (("delay", "seconds"), ("noise", "sigma_um"), ("creep", "per_decade")):
-        if effects[e][p] < 0:
-            raise key_error(path, (e, p), f"must be >= 0, got {effects[e][p]}")
+    v = validate(path, data, TWIN_SCHEMA)
+    tw = v["twin"] or validate(path, {}, TWIN_SCHEMA["twin"], ("twin",))
+    effects = {k: dict(v[k] or validate(path, {}, TWIN_SCHEMA[k], (k,))) for k in EFFECTS}
+    if tw["fs_hz"] is not None and tw["sample_rate_hz"] is not None:
+        raise key_error(path, ("twin", "fs_hz"), "give sample_rate_hz only (fs_hz is its older name)")
+    rate = tw["sample_rate_hz"] or tw["fs_hz"] or DEFAULT_RATE_HZ
+    try:
+        named_plant(tw["plant"])
+    except SpecError as exc:
+        raise key_error(path, ("twin", "plant"), str(exc)) from None
     if effects["creep"]["tau_max_s"] <= effects["creep"]["tau_min_s"]:
         raise key_error(path, ("creep", "tau_max_s"), "must exceed tau_min_s")
     if effects["saturation"]["u_max"] <= effects["saturation"]["u_min"]:
@@ -141,27 +147,34 @@ def parse_twin(data, path="<twin>"):
     if not 0 <= h["A"] < 1 or h["B"] + h["Gamma"] <= 0 or abs(h["Gamma"]) > h["B"] + 1e-15:
         raise key_error(path, ("hysteresis",), "Bouc–Wen needs 0 <= A < 1, B + Gamma > 0 and"
                         " |Gamma| <= B (bounded, passive loops)")
-    if len(h["slope_range_V"]) != 2 or not h["slope_range_V"][0] < h["slope_range_V"][1]:
+    if not h["slope_range_V"][0] < h["slope_range_V"][1]:
         raise key_error(path, ("hysteresis", "slope_range_V"), "expected [lo, hi] with lo < hi")
     d = effects["thermal_drift"]
     if d["B"] + d["Gamma"] <= 0 or abs(d["Gamma"]) > d["B"] + 1e-15:
         raise key_error(path, ("thermal_drift",), "needs B + Gamma > 0 and |Gamma| <= B")
-    return TwinConfig(name=tw["name"], plant=tw["plant"], fs_hz=tw["fs_hz"],
+    return TwinConfig(name=tw["name"], plant=tw["plant"], sample_rate_hz=rate,
                       reference_C=tw["reference_C"], effects=effects, path=str(path))
 
 
 def load_twin(path):
-    """Load and validate a twin TOML file (errors name the file and the key)."""
-    path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise SpecError(f"{path}: twin file not found") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise SpecError(f"{path}: invalid TOML: {exc}") from None
-    return parse_twin(data, str(path))
+    """Load and validate a twin TOML file (errors name the file and the key).
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    TwinConfig
+    """
+    return parse_twin(load_toml(path, "twin file"), str(path))
 
 
 def default_twin():
     """The paper's twin with every effect on (the built-in defaults)."""
     return parse_twin({}, "<default twin>")
+
+
+def paper_twin_file():
+    """Path of the shipped twin file of the paper's actuator (same values, with sources)."""
+    return resources.builtin_twin()

@@ -18,9 +18,9 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from robrst import poly
+from robrst import lti, poly
 from robrst.plant import named_plant
-from robrst.synthesis.nlp import conv_symbolic
+from robrst.thermal import modal_form, thermal_polynomials
 
 __all__ = ["TwinModel", "build_model", "hysteresis_gain", "creep_taus", "substeps"]
 
@@ -80,44 +80,24 @@ def hysteresis_gain(A, B, G, lo, hi, n=4000):
     return float(1.0 / slope)
 
 
-def _thermal_linear(plant, dT, g, r, d):
-    """Scaled symbolic (a, b) of ``D_T``: gain, complex-pair frequency and damping at dT."""
-    factors = []
-    roots = np.roots(plant.A)
-    done = set()
-    for i, z in enumerate(roots):
-        if i in done:
-            continue
-        if abs(z.imag) > 0:
-            j = int(np.argmin(np.abs(roots - np.conj(z)) + (np.arange(len(roots)) == i) * 1e300))
-            done.update((i, j))
-            wn, zeta = abs(z), -z.real / abs(z)
-            w = wn * (1 + r * dT)
-            ze = zeta * (1 + d * dT)
-            factors.append([1.0, 2 * ze * w, w * w])
-        else:
-            done.add(i)
-            factors.append([1.0, -z.real])
-    a = ca.DM([1.0])
-    for f in factors:
-        a = conv_symbolic(a, ca.vertcat(*f))
-    b = ca.DM(plant.B) * (1 + g * dT)
-    return a, b
-
-
 def _linear_step(plant, w0, dt, xl, wtot, dT_lin, P):
-    """RK4 step of ``D_T`` in scaled time; returns (next state, output at this sample)."""
+    """RK4 step of ``D_T`` in scaled time; returns (next state, output at this sample).
+
+    ``D_T`` comes from the thermal law of :mod:`robrst.thermal` with symbolic
+    coefficients, realised in controllable form (:func:`robrst.lti.companion_parts`)
+    in the scaled time ``p = w0 t``.
+    """
     n = plant.n
-    a, b = _thermal_linear(plant, dT_lin, P["gain_per_K"], P["resonance_per_K"], P["damping_per_K"])
-    sc = ca.DM(w0 ** -np.arange(0, n + 1))           # a_k / w0^k, highest power first
-    a_s = a * sc
-    b_s = b * sc[n + 1 - b.numel():]
-    b_full = ca.vertcat(ca.DM.zeros(n + 1 - b.numel(), 1), b_s)
-    dfeed = b_full[0]
-    C = (b_full[1:] - dfeed * a_s[1:]).T
-    A_c = ca.vertcat(-a_s[1:].T, ca.horzcat(ca.DM.eye(n - 1), ca.DM.zeros(n - 1, 1))) if n > 1 else -a_s[1:].T
+    b, a = thermal_polynomials(modal_form(plant), dT_lin, P["gain_per_K"],
+                               P["resonance_per_K"], P["damping_per_K"])
+    a_s = [c * w0 ** -k for k, c in enumerate(a)]               # a_k / w0^k: monic, O(1)
+    b_s = [c * w0 ** -(k + n + 1 - len(b)) for k, c in enumerate(b)]
+    row, c_row, dfeed = lti.companion_parts(a_s, b_s)
+    A_c = ca.vertcat(ca.horzcat(*row),
+                     ca.horzcat(ca.DM.eye(n - 1), ca.DM.zeros(n - 1, 1))) if n > 1 else ca.horzcat(*row)
     B_c = ca.DM.zeros(n, 1)
     B_c[0] = 1.0
+    C = ca.horzcat(*c_row)
 
     def f(xl):
         return w0 * (ca.mtimes(A_c, xl) + B_c * wtot)
@@ -150,7 +130,7 @@ def build_model(config, plant=None, linear=True):
     w0 = poly.natural_scale(plant.A)
     dt = config.dt
     taus = creep_taus(eff["creep"]) if on["creep"] else np.zeros(0)
-    nd = int(round(eff["delay"]["seconds"] * config.fs_hz)) if on["delay"] else 0
+    nd = int(round(eff["delay"]["seconds"] * config.sample_rate_hz)) if on["delay"] else 0
     h = eff["hysteresis"]
     gh = hysteresis_gain(h["A"], h["B"], h["Gamma"], *h["slope_range_V"]) if on["hysteresis"] else 1.0
     names = ("gain_per_K", "resonance_per_K", "damping_per_K", "bw_A", "bw_B", "bw_Gamma", "bw_gain",

@@ -6,11 +6,18 @@ controller inside) is unrolled ``CHUNK`` times with ``mapaccum``, compiled to C 
 ``numpy.random.default_rng(seed)``.
 """
 
+from __future__ import annotations
+
 from dataclasses import dataclass, field
+
 import casadi as ca
 import numpy as np
 
+from numpy.typing import ArrayLike
+
 from robrst.errors import DataError, SpecError
+from robrst.rst import DiscreteController
+from robrst.twin.config import TwinConfig
 from robrst.twin.compiled import compile_loop
 from robrst.twin.model import build_model
 
@@ -83,8 +90,10 @@ class Simulator:
         return self.loop(np.asarray(P, float), x0, theta)
 
 
-def simulate(config, temp, u=None, yr=None, dctrl=None, seed=0, t0=0.0, theta=None,
-             simulator=None):
+def simulate(config: TwinConfig, temp: ArrayLike, u: ArrayLike | None = None,
+             yr: ArrayLike | None = None, dctrl: DiscreteController | None = None,
+             seed: int = 0, t0: float = 0.0, theta: ArrayLike | None = None,
+             simulator: Simulator | None = None) -> SimResult:
     """Simulate the twin on uniformly sampled profiles (one value per sample).
 
     Parameters
@@ -97,13 +106,28 @@ def simulate(config, temp, u=None, yr=None, dctrl=None, seed=0, t0=0.0, theta=No
     yr : array_like, optional
         Reference displacement per sample [µm] (closed loop; needs ``dctrl``).
     dctrl : DiscreteController, optional
-        The RST controller discretised at ``config.fs_hz``.
+        The RST controller discretised at ``config.sample_rate_hz``.
     seed : int
         Seed of the sensor-noise generator.
+    t0 : float
+        Time of the first sample [s].
+    theta : array_like, optional
+        The model's parameter vector (default: the config's values).
+    simulator : Simulator, optional
+        A compiled loop to reuse across runs (same config and controller).
 
     Returns
     -------
     SimResult
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from robrst import default_twin, simulate
+    >>> twin = default_twin().with_effects(only=[])
+    >>> r = simulate(twin, np.full(2000, 28.0), u=np.full(2000, 10.0))
+    >>> abs(float(r.y_true[-1]) - 6.68) < 0.3     # 10 V x 0.668 um/V, ringing at 616 Hz
+    True
     """
     temp = np.asarray(temp, float)
     N = temp.size
@@ -116,8 +140,8 @@ def simulate(config, temp, u=None, yr=None, dctrl=None, seed=0, t0=0.0, theta=No
         raise DataError("profiles contain NaN or inf")
     if yr is not None and dctrl is None:
         raise SpecError("closed-loop simulation needs a discretised controller (dctrl)")
-    if dctrl is not None and abs(dctrl.fs - config.fs_hz) > 1e-9 * config.fs_hz:
-        raise SpecError(f"controller sampled at {dctrl.fs} Hz, twin runs at {config.fs_hz} Hz")
+    if dctrl is not None and abs(dctrl.sample_rate_hz - config.sample_rate_hz) > 1e-9 * config.sample_rate_hz:
+        raise SpecError(f"controller sampled at {dctrl.sample_rate_hz} Hz, twin runs at {config.sample_rate_hz} Hz")
     sim = simulator or Simulator(build_model(config), dctrl if yr is not None else None)
     model = sim.model
     noise = np.random.default_rng(seed).standard_normal(N)
@@ -125,9 +149,9 @@ def simulate(config, temp, u=None, yr=None, dctrl=None, seed=0, t0=0.0, theta=No
     x0 = np.zeros(sim.n_x)
     x0[:model.n_state] = rest_state(model, sig[0] if u is not None else 0.0, temp[0])
     Y, _ = sim.run(P, x0, theta)
-    t = t0 + np.arange(N) / config.fs_hz
+    t = t0 + np.arange(N) / config.sample_rate_hz
     u_cmd = sig if u is not None else Y[3]
-    meta = {"twin": config.name, "fs_hz": config.fs_hz, "seed": int(seed),
+    meta = {"twin": config.name, "sample_rate_hz": config.sample_rate_hz, "seed": int(seed),
             "effects_on": [k for k in config.effects if config.enabled(k)],
             "compiled": sim.is_compiled}
     return SimResult(t=t, u_cmd=u_cmd, u_applied=Y[2], y=Y[0], y_true=Y[1], temp=temp,

@@ -1,20 +1,19 @@
 """``robrst identify``: a continuous-time linear model from records, written as a file.
 
-Handler pair for the CLI: :func:`add_parser` registers the sub-command, :func:`run`
-executes it.  ``--json -`` prints the result as one JSON object.
+Handler pair for the CLI: :func:`add_parsers` registers the sub-command,
+:func:`run_identify` executes it.  ``--json -`` prints the result as one JSON object.
 """
 
-import json
-import sys
-
+from robrst.cli.common import progress_printer
 from robrst.errors import SpecError
+from robrst.fileio import atomic_write_text, json_text
 
-__all__ = ["add_parser", "run"]
+__all__ = ["add_parsers", "run_identify"]
 
 
-def add_parser(subparsers):
+def add_parsers(sub):
     """Register ``identify`` on an argparse sub-parser collection."""
-    g = subparsers.add_parser("identify", help="fit a continuous-time linear model to records")
+    g = sub.add_parser("identify", help="fit a continuous-time linear model to records")
     g.add_argument("--train", nargs="+", required=True, metavar="FILE",
                    help="records (CSV or .npz; steps, multisines or any input)")
     g.add_argument("--validate", nargs="+", metavar="FILE",
@@ -30,8 +29,7 @@ def add_parser(subparsers):
     g.add_argument("--report", metavar="DIR", help="write a report folder (md, html, figures)")
     g.add_argument("--json", metavar="OUT.json", help="write the result as JSON ('-' = stdout)")
     g.add_argument("--quiet", action="store_true", help="no progress lines")
-    g.set_defaults(func=run)
-    return g
+    g.set_defaults(func=run_identify)
 
 
 def _order(text):
@@ -58,16 +56,15 @@ def _channel(text):
     return i - 1, j - 1
 
 
-def run(args):
+def run_identify(args):
     """Identify and write; returns the exit code (0)."""
     from robrst.dataset import load_dataset
-    from robrst.fileio import atomic_write_text
     from robrst.identify.core import identify
     from robrst.identify.modelfile import write_identified
 
     to_stdout = args.json == "-"
     quiet = args.quiet or to_stdout
-    say = (lambda m: None) if quiet else (lambda m: print(m, file=sys.stderr, flush=True))
+    say = progress_printer(quiet)
     order, channel = _order(args.order), _channel(args.channel)
     train = [load_dataset(f) for f in args.train]
     val = [load_dataset(f) for f in args.validate] if args.validate else None
@@ -81,7 +78,7 @@ def run(args):
 
         folder = write_identification_report(ident, train, args.report, progress=say)
         say(f"wrote the identification report to {folder}")
-    text = json.dumps(d, allow_nan=False)
+    text = json_text(d)
     if to_stdout:
         print(text)
     else:

@@ -1,21 +1,26 @@
 """The paper's experiments on the twin (Fig. 2, 3, 4/5, 7, 8): datasets, figures, numbers.
 
 Each scenario returns a :class:`ScenarioResult` whose ``metrics`` turn the paper's
-qualitative claim into numbers; :func:`run_scenario` also writes the datasets (CSV,
-the project's data format, decimated for the slow thermal experiments) and a figure.
+qualitative claim into numbers, with its datasets (the project's data format,
+decimated for the slow thermal experiments) and the curves of its figure
+(:func:`robrst.report.scenario.write_scenario` writes both).
 """
 
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
-from robrst.dataset import Dataset, save_dataset
+from robrst.dataset import Dataset
+from robrst.design import analytic_design, run_problem
 from robrst.errors import SpecError
-from robrst.twin.simulate import Simulator, simulate
+from robrst.plant import named_plant
+from robrst.rst import discretize
+from robrst.spec import load_problem
 from robrst.twin.model import build_model
+from robrst.twin.simulate import Simulator, simulate
 
-__all__ = ["SCENARIOS", "ScenarioResult", "run_scenario", "controllers"]
+__all__ = ["SCENARIOS", "ScenarioResult", "run_scenario", "controllers", "twin_step_responses",
+           "loop_width"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -39,7 +44,7 @@ def _temp_profile(fs, up_s, hold_s, down_s, T0=28.0, T1=45.0, T2=28.0):
 
 
 def fig2(cfg, ctrls, fast=False):
-    fs = cfg.fs_hz
+    fs = cfg.sample_rate_hz
     T = _temp_profile(fs, *((30, 10, 30) if fast else (240, 60, 240)))
     metrics, ds, curves = {}, {}, {}
     sim = Simulator(build_model(cfg))
@@ -65,7 +70,7 @@ def fig2(cfg, ctrls, fast=False):
                           " hysteresis versus temperature", metrics, ds, curves)
 
 
-def _loop_width(u, y):
+def loop_width(u, y):
     """Max vertical gap between the two branches of a y(u) loop, relative to the stroke."""
     grid = np.linspace(np.min(u) + 0.05 * np.ptp(u), np.max(u) - 0.05 * np.ptp(u), 50)
     du = np.gradient(u)
@@ -76,7 +81,7 @@ def _loop_width(u, y):
 
 
 def fig3(cfg, ctrls, fast=False):
-    fs = cfg.fs_hz
+    fs = cfg.sample_rate_hz
     metrics, ds, curves = {"loop_width": {}, "creep": {}}, {}, {}
     sim = Simulator(build_model(cfg))
     for T in (28.0, 45.0):
@@ -88,7 +93,7 @@ def fig3(cfg, ctrls, fast=False):
             u = 75.0 - 75.0 * np.cos(2 * np.pi * f * t)
             r = simulate(cfg, np.full(n, T), u=u, simulator=sim)
             last = slice(n_per, n)
-            w = _loop_width(r.u_applied[last], r.y_true[last])
+            w = loop_width(r.u_applied[last], r.y_true[last])
             metrics["loop_width"][f"{T:g}C_{f:g}Hz"] = w
             dec = max(1, n_per // 2000)
             ds[f"fig3_loop_{T:g}C_{f:g}Hz"] = _ds(r, dec, f"Fig. 3a: loop {f:g} Hz at {T:g} °C")
@@ -109,7 +114,7 @@ def fig3(cfg, ctrls, fast=False):
 
 
 def _harmonic(cfg, sim, freqs, T, amp, offset, closed=False, dctrl=None):
-    fs, out = cfg.fs_hz, []
+    fs, out = cfg.sample_rate_hz, []
     for f in freqs:
         n_per = max(int(round(fs / f)), 20)
         n = n_per * max(4, int(np.ceil(0.05 * f)) + 3)
@@ -126,9 +131,7 @@ def _harmonic(cfg, sim, freqs, T, amp, offset, closed=False, dctrl=None):
 
 
 def fig45(cfg, ctrls, fast=False):
-    from robrst.plant import named_plant
-
-    fs = cfg.fs_hz
+    fs = cfg.sample_rate_hz
     D = named_plant(cfg.plant)
     n = int(0.06 * fs)
     t = np.arange(n) / fs
@@ -145,7 +148,7 @@ def fig45(cfg, ctrls, fast=False):
         curves[f"step {T:g} °C"] = (t, r.y_true, "time [s]", "displacement [µm]")
         mag = _harmonic(lin, sim, freqs, T, 5.0, 75.0)
         metrics[f"harmonic_{T:g}C"] = dict(zip([f"{f:.4g}" for f in freqs], mag.tolist()))
-    import control
+    import control   # python-control: independent reference response of D(s)
 
     ymod = control.forced_response(control.tf(D.B, D.A), t, np.where(t >= 0.005, 10.0, 0.0)).outputs
     final = ymod[-1]
@@ -158,20 +161,14 @@ def fig45(cfg, ctrls, fast=False):
 
 
 def controllers():
-    """The analytic (paper.toml) and robust (paper_robust.toml) controllers, by name."""
-    from robrst.design import analytic_design, run_problem
-    from robrst.spec import load_problem
-
-    root = Path(__file__).parents[2] / "problems"
-    a, _ = analytic_design(load_problem(root / "paper.toml"))
-    r = run_problem(load_problem(root / "paper_robust.toml")).controller
+    """The analytic (built-in ``paper``) and robust (``paper_robust``) controllers, by name."""
+    a = analytic_design(load_problem("paper")).controller
+    r = run_problem(load_problem("paper_robust")).controller
     return {"analytic": a, "robust": r}
 
 
 def fig7(cfg, ctrls, fast=False):
-    from robrst.twin.discrete import discretize
-
-    fs = cfg.fs_hz
+    fs = cfg.sample_rate_hz
     T = np.concatenate([np.full(int(0.5 * fs), 28.0), _temp_profile(fs, *((20, 5, 20) if fast else (120, 30, 120)),
                                                                      T2=30.0)])
     yr = np.full(T.size, 20.0)
@@ -191,9 +188,7 @@ def fig7(cfg, ctrls, fast=False):
 
 
 def fig8(cfg, ctrls, fast=False):
-    from robrst.twin.discrete import discretize
-
-    fs = cfg.fs_hz
+    fs = cfg.sample_rate_hz
     n = int(0.05 * fs)
     t = np.arange(n) / fs
     yr = np.where(t >= 0.005, 10.0, 0.0)
@@ -218,39 +213,41 @@ def fig8(cfg, ctrls, fast=False):
 SCENARIOS = {"fig2": fig2, "fig3": fig3, "fig45": fig45, "fig7": fig7, "fig8": fig8}
 
 
-def run_scenario(name, cfg, out_dir=None, fast=False, ctrls=None):
-    """Run a scenario; with ``out_dir`` write its datasets (CSV) and figure (PNG)."""
+def run_scenario(name, cfg, fast=False, ctrls=None):
+    """Run one of the paper's experiments on the twin ``cfg``.
+
+    Parameters
+    ----------
+    name : {"fig2", "fig3", "fig45", "fig7", "fig8"}
+    cfg : TwinConfig
+    fast : bool
+        Shorter thermal ramps and sweeps.
+    ctrls : dict, optional
+        Controllers by name for the closed-loop scenarios (default :func:`controllers`).
+
+    Returns
+    -------
+    ScenarioResult
+    """
     if name not in SCENARIOS:
         raise SpecError(f"unknown scenario {name!r}; expected one of {', '.join(SCENARIOS)}")
     needs = name in ("fig7", "fig8")
-    res = SCENARIOS[name](cfg, (ctrls or controllers()) if needs else None, fast)
-    if out_dir is not None:
-        out = Path(out_dir)
-        for k, d in res.datasets.items():
-            save_dataset(d, out / f"{k}.csv")
-        _figure(res, out / f"{name}.png")
-    return res
+    return SCENARIOS[name](cfg, (ctrls or controllers()) if needs else None, fast)
 
 
-def _figure(res, path):
-    import io
+def twin_step_responses(cfg, ctrl, temperatures, t_end, step_um=10.0):
+    """Reference steps of ``step_um`` on the twin with ``ctrl`` (Tustin at the twin's rate).
 
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from robrst.fileio import atomic_write_bytes
-
-    fig, ax = plt.subplots(figsize=(8, 5))
-    for label, (x, y, xl, yl) in res.curves.items():
-        ax.plot(x, y, label=label, lw=1)
-        ax.set_xlabel(xl)
-        ax.set_ylabel(yl)
-    ax.set_title(f"{res.name}: {res.claim}", fontsize=10)
-    ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8)
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
-    plt.close(fig)
-    atomic_write_bytes(path, buf.getvalue())
+    Returns
+    -------
+    dict
+        ``label -> (t [s], y / step_um)`` per temperature.
+    """
+    dc = discretize(ctrl, cfg.sample_rate_hz)
+    sim = Simulator(build_model(cfg), dc)
+    n = int(t_end * cfg.sample_rate_hz)
+    out = {}
+    for T in temperatures:
+        r = simulate(cfg, np.full(n, T), yr=np.full(n, step_um), dctrl=dc, seed=0, simulator=sim)
+        out[f"twin, {T:g} °C"] = (r.t, r.y / step_um)
+    return out

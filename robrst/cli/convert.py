@@ -1,19 +1,19 @@
 """``robrst convert``: arrays as labs store them -> robrst record files (``.npz`` or CSV).
 
-Handler pair for the CLI: :func:`add_parser` registers the sub-command, :func:`run`
-executes it (prints one line per file written).
+Handler pair for the CLI: :func:`add_parsers` registers the sub-command,
+:func:`run_convert` executes it (prints one line per file written).
 """
 
 from pathlib import Path
 
 from robrst.errors import DataError
 
-__all__ = ["add_parser", "run"]
+__all__ = ["add_parsers", "run_convert"]
 
 
-def add_parser(subparsers):
+def add_parsers(sub):
     """Register ``convert`` on an argparse sub-parser collection."""
-    c = subparsers.add_parser(
+    c = sub.add_parser(
         "convert", help="convert .npy arrays (e.g. time x channel x realization x period) to"
                         " robrst records")
     c.add_argument("u", metavar="U.npy", help="input array [V unless --u-unit]")
@@ -30,11 +30,10 @@ def add_parser(subparsers):
     c.add_argument("--csv", action="store_true", help="write CSV instead of .npz")
     c.add_argument("--overwrite", action="store_true",
                    help="replace existing files of the same names")
-    c.set_defaults(func=run)
-    return c
+    c.set_defaults(func=run_convert)
 
 
-def run(args):
+def run_convert(args):
     """Convert; returns the exit code (0)."""
     from robrst.convert import load_array, records_from_arrays
     from robrst.dataset import save_dataset

@@ -1,0 +1,47 @@
+"""``robrst check``: margins of a design against a golden file (users' regression tests)."""
+
+from robrst.cli.common import progress_printer
+from robrst.design import run_problem
+from robrst.errors import SpecError
+from robrst.spec import load_problem
+from robrst.testing import compare_golden, golden_figures, read_golden, write_golden
+
+__all__ = ["add_parsers", "run_check"]
+
+
+def add_parsers(sub):
+    """Register ``check``."""
+    c = sub.add_parser("check", help="compare a design's margins with a golden file"
+                                     " (exit 0 nothing worse, 1 something worse, 2 error)")
+    c.add_argument("problem", help="problem file (TOML), or a built-in problem by name")
+    c.add_argument("--golden", required=True, metavar="FILE", help="golden margins (TOML)")
+    c.add_argument("--update", action="store_true",
+                   help="write the golden from this design instead of comparing")
+    c.add_argument("--quiet", action="store_true", help="no progress lines")
+    c.set_defaults(func=run_check)
+
+
+def run_check(args):
+    """Design, then write the golden (``--update``) or print every figure that got worse."""
+    say = progress_printer(args.quiet)
+    golden = None if args.update else read_golden(args.golden)   # a bad golden fails first
+    problem = load_problem(args.problem)
+    if golden is not None and golden["problem"] != problem.name:
+        raise SpecError(f"{args.golden}: golden is for problem {golden['problem']!r},"
+                        f" not {problem.name!r}")
+    say(f"designing {problem.name} ({problem.solver.method})")
+    result = run_problem(problem, progress=say)
+    if args.update:
+        write_golden(result, args.golden)
+        g = golden_figures(result)
+        n = sum(len(m) - 1 for m in g["models"].values())
+        print(f"wrote {args.golden}: {n} figures over {len(g['models'])} models"
+              f" (certified: {g['certified']})")
+        return 0
+    worse = compare_golden(result, golden)
+    for w in worse:
+        print(w.describe())
+    n = sum(len(m) for m in golden["models"].values())
+    print(f"robrst check: {len(worse)} of {n} figures worse than {args.golden}"
+          if worse else f"robrst check: no figure worse than {args.golden} ({n} figures)")
+    return 1 if worse else 0

@@ -1,0 +1,58 @@
+"""``robrst design`` and ``robrst report``."""
+
+import sys
+
+from robrst.cli.common import print_json, progress_printer
+from robrst.design import run_problem
+from robrst.report.text import design_summary
+from robrst.spec import load_problem
+
+__all__ = ["add_parsers", "run_design", "run_report"]
+
+
+def add_parsers(sub):
+    """Register ``design`` and ``report``."""
+    d = sub.add_parser("design", help="design and certify an RST controller from a problem file")
+    d.add_argument("problem", help="problem file (TOML), or a built-in problem by name")
+    d.add_argument("--json", action="store_true", help="print exactly one JSON object")
+    d.add_argument("--quiet", action="store_true", help="no progress lines")
+    d.set_defaults(func=run_design)
+    r = sub.add_parser("report", help="design, certify and write a report folder (md, html, PNG)")
+    r.add_argument("problem", help="problem file (TOML), or a built-in problem by name")
+    r.add_argument("--out", help="output folder (default reports/PROBLEM_NAME)")
+    r.add_argument("--force", action="store_true",
+                   help="write into an existing folder that is not a robrst report"
+                        " (only the report's own files are written; nothing is deleted)")
+    r.add_argument("--quiet", action="store_true", help="no progress lines")
+    r.set_defaults(func=run_report)
+
+
+def run_design(args):
+    """Design, print the summary (or the JSON); exit 0 certified, 1 not certified."""
+    say = progress_printer(args.quiet or args.json)
+    result = run_problem(load_problem(args.problem), progress=say)
+    d = result.as_dict()
+    if args.json:
+        print_json(d)
+    else:
+        print(design_summary(d))
+    if not result.certified:
+        for v in result.certificate.violations[:5]:
+            print(f"robrst: not certified: {v.describe()}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def run_report(args):
+    """Design, certify and write the report folder."""
+    from robrst.report.design import write_design_report
+
+    say = progress_printer(args.quiet)
+    problem = load_problem(args.problem)
+    out = args.out or f"reports/{problem.name}"
+    say(f"designing {problem.name} ({problem.solver.method})")
+    result = run_problem(problem, progress=say)
+    path = write_design_report(result, out, progress=say, force=args.force)
+    print(f"wrote {path}/report.md, report.html, result.json and figures"
+          f" (certified: {result.certified})")
+    return 0 if result.certified else 1

@@ -1,0 +1,46 @@
+"""``robrst simulate``: the paper's experiments on the digital twin."""
+
+from robrst.cli.common import print_json, progress_printer
+from robrst.errors import SpecError
+from robrst.fileio import json_text
+
+__all__ = ["add_parsers", "run_simulate"]
+
+
+def add_parsers(sub):
+    """Register ``simulate``."""
+    s = sub.add_parser("simulate", help="run one of the paper's experiments on the digital twin")
+    s.add_argument("scenario", help="fig2 | fig3 | fig45 | fig7 | fig8")
+    s.add_argument("--twin", help="twin file (TOML); default: the built-in paper twin")
+    s.add_argument("--out", help="output folder (default reports/simulate/SCENARIO)")
+    s.add_argument("--fast", action="store_true", help="shorter thermal ramps and sweeps")
+    s.add_argument("--json", action="store_true", help="print exactly one JSON object")
+    s.add_argument("--quiet", action="store_true", help="no progress lines")
+    s.set_defaults(func=run_simulate)
+
+
+def run_simulate(args):
+    """Run the scenario, write its datasets and figure, print its metrics."""
+    from robrst.experiments.scenarios import SCENARIOS, run_scenario
+    from robrst.report.scenario import write_scenario
+
+    if args.scenario not in SCENARIOS:    # before any progress line: one line, exit 2
+        raise SpecError(f"unknown scenario {args.scenario!r}; expected one of"
+                        f" {', '.join(SCENARIOS)}")
+    from robrst.twin.config import default_twin, load_twin
+
+    say = progress_printer(args.quiet or args.json)
+    cfg = load_twin(args.twin) if args.twin else default_twin()
+    out = args.out or f"reports/simulate/{args.scenario}"
+    say(f"simulating {args.scenario} on twin {cfg.name} ({cfg.sample_rate_hz:g} Hz) -> {out}")
+    res = run_scenario(args.scenario, cfg, fast=args.fast)
+    write_scenario(res, out)
+    d = {"scenario": res.name, "claim": res.claim, "metrics": res.metrics, "out": str(out),
+         "datasets": sorted(f"{k}.csv" for k in res.datasets), "figure": f"{res.name}.png"}
+    if args.json:
+        print_json(d)
+    else:
+        print(f"{res.name}: {res.claim}")
+        print(json_text(res.metrics, indent=2))
+        print(f"wrote {len(res.datasets)} datasets and {res.name}.png to {out}")
+    return 0

@@ -1,0 +1,77 @@
+"""``robrst sweep``: Monte Carlo analyses, trade-off and fleet sweeps, on Dask."""
+
+import sys
+import time
+
+from robrst.cli.common import print_json
+from robrst.errors import SpecError
+
+__all__ = ["add_parsers", "run_sweep_command", "progress_bar"]
+
+
+def add_parsers(sub):
+    """Register ``sweep``."""
+    s = sub.add_parser("sweep", help="run a sweep file: Monte Carlo analysis, design trade-off"
+                                     " or fleet, on a Dask cluster; resumes an interrupted run")
+    s.add_argument("sweep", help="sweep file (TOML), or a built-in sweep by name")
+    s.add_argument("--out", help="output folder (default sweeps/SWEEP_NAME); an earlier run of"
+                                 " the same sweep there is resumed")
+    s.add_argument("--workers", type=int, help="processes of the local Dask cluster (default:"
+                                               " one per core); 0: run in this process")
+    s.add_argument("--scheduler", help="address of a running Dask scheduler"
+                                       " (tcp://host:8786) instead of a local cluster")
+    s.add_argument("--restart", action="store_true",
+                   help="discard robrst's earlier results in --out instead of resuming")
+    s.add_argument("--min-yield", type=float, default=1.0,
+                   help="exit 0 when at least this share of the variants is certified"
+                        " (default 1.0: all)")
+    s.add_argument("--json", action="store_true", help="print summary.json on stdout")
+    s.add_argument("--quiet", action="store_true", help="no progress bar (it is drawn only on"
+                                                         " a terminal)")
+    s.set_defaults(func=run_sweep_command)
+
+
+def progress_bar(name, stream=sys.stderr, width=30):
+    """A progress callback drawing one line, redrawn in place (for a terminal)."""
+    state = {"t": 0.0}
+
+    def draw(p):
+        now = time.monotonic()
+        if p.done < p.total and now - state["t"] < 0.2:
+            return
+        state["t"] = now
+        frac = p.done / p.total if p.total else 1.0
+        bar = "#" * int(round(width * frac))
+        rate = p.done / p.elapsed_s if p.elapsed_s > 0 else 0.0
+        cert = f"{p.certified / p.done:.1%} certified" if p.done else ""
+        stream.write(f"\r{name} [{bar:<{width}}] {p.done}/{p.total} {cert}"
+                     f" · {rate:.1f}/s · {p.workers} workers · {p.elapsed_s:.0f} s ")
+        if p.done >= p.total:
+            stream.write("\n")
+        stream.flush()
+
+    return draw
+
+
+def run_sweep_command(args):
+    """Run the sweep, write the report; exit 0 when the yield reaches --min-yield, else 1."""
+    from robrst.report.sweep import sweep_text, write_sweep_report
+    from robrst.sweep import load_sweep, run_sweep
+
+    if not 0.0 <= args.min_yield <= 1.0:
+        raise SpecError(f"--min-yield: expected a share between 0 and 1, got {args.min_yield}")
+    quiet = args.quiet or args.json
+    sweep = load_sweep(args.sweep)
+    out = args.out or f"sweeps/{sweep.name}"
+    bar = progress_bar(sweep.name) if not quiet and sys.stderr.isatty() else None
+    result = run_sweep(sweep, out, workers=args.workers, scheduler=args.scheduler,
+                       progress=bar, restart=args.restart)
+    write_sweep_report(result)
+    s = result.summary
+    if args.json:
+        print_json(s)
+    else:
+        print(sweep_text(s))
+        print(f"wrote {out}/results.parquet, {out}/summary.json and {out}/report/")
+    ok = s["complete"] and s["yield"] is not None and s["yield"] >= args.min_yield
+    return 0 if ok else 1

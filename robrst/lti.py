@@ -1,0 +1,210 @@
+"""State-space kernels of robrst: the one realisation and the one ZOH discretisation.
+
+The modal (partial-fraction) form of the identified models has its own exact ZOH,
+:func:`zoh_modal` (mode by mode, no realisation needed).
+
+Every part of robrst that needs a state-space form of ``N(s)/D(s)`` (exact peaks, the
+sampled loop, the twin, the diagnosis's linear simulation) takes it from here, in the
+scaled variable ``p = s / w0`` (:class:`robrst.poly.Scaling`) where the coefficients are
+O(1).  The zero-order-hold discretisation is exact (a matrix exponential), never an
+expansion of a polynomial in ``z``, whose roots cluster at ``z = 1`` and are lost to
+cancellation at high sampling rates.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+
+from robrst import poly
+
+__all__ = ["companion_parts", "companion", "DiscreteSS", "zoh", "zoh_modal", "transmission_zeros",
+           "ss_to_poly", "d2c"]
+
+
+def companion_parts(a, b):
+    """The controllable canonical form of ``b/a`` as plain sequences.
+
+    For monic ``a`` (length ``n + 1``) and ``len(b) <= n + 1`` (highest power first),
+    ``b/a = C (pI - A)^-1 B + d`` with ``A``'s first row ``-a[1:]``, ones on the
+    subdiagonal, ``B = e1``.  Only ``+``, ``-`` and ``*`` are used, so the coefficients
+    may be floats or CasADi symbols.
+
+    Returns
+    -------
+    first_row, c_row, d
+        Lists of length ``n``, ``n`` and the feedthrough.
+    """
+    a, b = list(a), list(b)
+    n = len(a) - 1
+    b = [0.0] * (n + 1 - len(b)) + b
+    d = b[0]
+    return [-x for x in a[1:]], [b[k] - d * a[k] for k in range(1, n + 1)], d
+
+
+def companion(N, D, scaling=None, balance=True):
+    """Balanced controllable-form realisation of ``N/D`` in the scaled variable.
+
+    Parameters
+    ----------
+    N, D : array_like
+        Numerator and denominator in s, ``deg N <= deg D``.
+    scaling : Scaling, optional
+        Default: :meth:`robrst.poly.Scaling.natural` of ``D``.
+    balance : bool
+        Diagonal similarity (LAPACK ``gebal``) to equalise row and column norms.
+
+    Returns
+    -------
+    A, B, C, d
+        With ``N(w0 p)/D(w0 p) = C (pI - A)^-1 B + d``.
+    """
+    N, D = poly.trim(N), poly.trim(D)
+    sc = scaling or poly.Scaling.natural(D)
+    Ns, Ds = sc.apply(N), sc.apply(D)
+    Ns, Ds = Ns / Ds[0], Ds / Ds[0]
+    n = len(Ds) - 1
+    if len(Ns) > n + 1:
+        raise ValueError("improper transfer function: deg N > deg D")
+    row, c, d = companion_parts(Ds, Ns)
+    A = np.zeros((n, n))
+    if n:
+        A[0, :] = row
+        A[1:, :-1] = np.eye(n - 1)
+    B = np.zeros((n, 1))
+    if n:
+        B[0, 0] = 1.0
+    C = np.asarray(c, float).reshape(1, n)
+    if n and balance:
+        _, (sc_vec, _) = sla.matrix_balance(A, permute=False, separate=True)
+        A = A * (1 / sc_vec)[:, None] * sc_vec[None, :]
+        B = B / sc_vec[:, None]
+        C = C * sc_vec[None, :]
+    return A, B, C, float(d)
+
+
+@dataclass(frozen=True, eq=False)
+class DiscreteSS:
+    """Exact ZOH discretisation ``x+ = Ad x + Bd u``, ``y = C x + d u`` (scaled states).
+
+    ``A`` is the continuous scaled matrix, ``h = w0 / fs`` the scaled sampling period,
+    ``Gamma = int_0^h exp(A t) dt`` (so ``Ad - I = A Gamma`` without cancellation).
+    """
+
+    Ad: np.ndarray
+    Bd: np.ndarray
+    C: np.ndarray
+    d: float
+    A: np.ndarray
+    Gamma: np.ndarray
+    h: float
+    scaling: object
+
+    @property
+    def poles(self):
+        """Discrete poles (eigenvalues of ``Ad``)."""
+        return np.linalg.eigvals(self.Ad)
+
+
+def zoh(N, D, sample_rate_hz, scaling=None):
+    """Exact zero-order-hold discretisation of ``N(s)/D(s)`` at ``sample_rate_hz``.
+
+    One matrix exponential of the augmented matrix ``[[A h, I h, B h], [0, 0, 0]]`` in
+    scaled time gives ``Ad``, ``Gamma`` and ``Bd`` at once.
+
+    Returns
+    -------
+    DiscreteSS
+    """
+    sc = scaling or poly.Scaling.natural(D)
+    A, B, C, d = companion(N, D, sc)
+    n = A.shape[0]
+    h = sc.w0 / float(sample_rate_hz)
+    M = np.zeros((2 * n + 1, 2 * n + 1))
+    M[:n, :n] = A * h
+    M[:n, n:2 * n] = np.eye(n) * h
+    M[:n, 2 * n:] = B * h
+    E = sla.expm(M)
+    return DiscreteSS(Ad=E[:n, :n], Bd=E[:n, 2 * n:], C=C, d=d, A=A, Gamma=E[:n, n:2 * n],
+                      h=h, scaling=sc)
+
+
+def zoh_modal(poles, residues, sample_rate_hz):
+    """Exact zero-order-hold discretisation of a modal (partial-fraction) model at ``sample_rate_hz``.
+
+    A mode ``R / (s - p)`` becomes ``R (e^{pT} - 1) / p / (z - e^{pT})`` (``R T`` at
+    ``p = 0``).  Returns ``(z_poles, discrete residues)``; the feedthrough is unchanged.
+    """
+    T = 1.0 / float(sample_rate_hz)
+    p = np.asarray(poles, complex)
+    pt = p * T
+    small = np.abs(pt) < 1e-8
+    factor = np.where(small, T * (1 + pt / 2), np.expm1(pt) / np.where(small, 1.0, p))
+    return np.exp(pt), np.asarray(residues, complex) * factor[:, None, None]
+
+
+def transmission_zeros(A, B, C, d):
+    """Finite transmission zeros of a SISO state space (generalised eigenvalues)."""
+    n = A.shape[0]
+    M = np.block([[A, B], [C, np.array([[d]])]])
+    E = np.zeros_like(M)
+    E[:n, :n] = np.eye(n)
+    ab = sla.eigvals(M, E, homogeneous_eigvals=True)
+    alpha, beta = ab
+    scale = np.maximum(np.abs(alpha), 1.0)
+    finite = np.abs(beta) > 1e-12 * scale
+    return alpha[finite] / beta[finite]
+
+
+# an irregular point of the scaled plane where the gain is matched
+_GAIN_POINT = 0.4127 + 0.9111j
+
+
+def ss_to_poly(A, B, C, d):
+    """``C (sI - A)^-1 B + d`` as polynomials ``(N, D)`` in s, highest power first.
+
+    Poles are the eigenvalues of ``A``, zeros its transmission zeros, both computed in
+    the scaled time of the natural scale of the poles (so entries spanning decades do not
+    matter); the gain is matched at one point of the scaled plane.  No polynomial is
+    expanded until the end.
+    """
+    A, B = np.atleast_2d(np.asarray(A, float)), np.asarray(B, float).reshape(-1, 1)
+    C, d = np.asarray(C, float).reshape(1, -1), float(np.asarray(d, float).ravel()[0])
+    n = A.shape[0]
+    if n == 0:
+        return np.array([d]), np.ones(1)
+    lam = np.linalg.eigvals(A)
+    nz = np.abs(lam[lam != 0])
+    w0 = float(np.exp(np.mean(np.log(nz)))) if nz.size else 1.0
+    As, Bs = A / w0, B / w0                     # C (pI - As)^-1 Bs + d with s = w0 p
+    poles = lam / w0
+    zeros = transmission_zeros(As, Bs, C, d)
+    p0 = _GAIN_POINT
+    val = (C @ np.linalg.solve(p0 * np.eye(n) - As, Bs)).item() + d
+    gain = (val * np.prod(p0 - poles) / np.prod(p0 - zeros)).real
+    N = gain * w0 ** (len(poles) - len(zeros)) * (poly.from_roots(w0 * zeros) if zeros.size
+                                                   else np.ones(1))
+    return poly.trim(N), poly.from_roots(w0 * poles)
+
+
+def d2c(Ad, Bd, dt):
+    """Continuous ``(A, B)`` whose zero-order hold at period ``dt`` is ``(Ad, Bd)``.
+
+    The inverse of :func:`zoh`: the principal matrix logarithm of ``[[Ad, Bd], [0, 1]]``.
+    Defined when no eigenvalue of ``Ad`` is zero or real negative (those have no real
+    continuous pre-image); otherwise ``ValueError`` naming the eigenvalue.
+    """
+    Ad, Bd = np.atleast_2d(np.asarray(Ad, float)), np.asarray(Bd, float).reshape(-1, 1)
+    n = Ad.shape[0]
+    for z in np.linalg.eigvals(Ad):
+        if abs(z) < 1e-12 or (abs(z.imag) <= 1e-12 * abs(z) and z.real < 0):
+            raise ValueError(f"discrete pole z = {complex(z):.6g} has no continuous"
+                             " zero-order-hold pre-image (zero or negative real)")
+    M = np.zeros((n + 1, n + 1))
+    M[:n, :n], M[:n, n:] = Ad, Bd
+    M[n, n] = 1.0
+    L = sla.logm(M)
+    if np.max(np.abs(L.imag)) > 1e-9 * max(1.0, np.max(np.abs(L.real))):
+        raise ValueError("the discrete model has no real continuous zero-order-hold pre-image")
+    L = L.real / float(dt)
+    return L[:n, :n], L[:n, n:]

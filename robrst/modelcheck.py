@@ -1,0 +1,202 @@
+"""Per-model checks of the certificate: exact peaks, stability, sampled loop, hooks.
+
+:func:`check_model` recomputes every figure of one closed loop from the polynomials:
+exact global peaks of ``|S|, |T|, |U|`` (:func:`robrst.hinf.peak_gain`), the exact
+frequency-limited peaks (``|T|`` over the resonance band, ``|U|`` above a corner), the
+spectral abscissa and whether double precision resolves that verdict
+(:func:`robrst.interval.distance_to_instability`), and the reference-step figures
+(:mod:`robrst.timespec`).  :func:`check_all` adds the exact sampled loop and the
+caller's extra checks; :func:`margins` lists the ``{figure: (value, limit)}`` pairs that
+:mod:`robrst.certificate` refines over the temperature interval.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from robrst import poly, timespec
+from robrst.analysis import spectral_abscissa
+from robrst.hinf import peak_gain
+from robrst.interval import distance_to_instability
+from robrst.problem import PEAK_SPECS
+from robrst.rst import closed_loop
+from robrst.sampled import sampled_plant, unwarp, warp
+
+__all__ = ["Violation", "check_model", "check_all", "margins", "band_peak", "BOUNDED",
+           "FIGURE_OF", "JUMPS", "SAMPLED_KEYS", "RESOLVE_FACTOR"]
+
+RESOLVE_FACTOR = 64.0  # stability resolved when the distance to instability > this x n eps
+
+@dataclass(frozen=True)
+class Violation:
+    """One failed check: model, temperature, quantity, value, bound, frequency.
+
+    ``kind`` is ``"exceeds"`` (``value > bound``), ``"crossing"`` (a closed-loop root
+    reaches the imaginary axis between two checked temperatures) or ``"unresolved"`` (the
+    check could not be decided: ``quantity`` says why; nothing is certified then).
+    """
+
+    label: str
+    temperature_C: float
+    quantity: str
+    value: float
+    bound: float
+    freq_rad_s: float
+    loop: str = "continuous"     # or "sampled"
+    kind: str = "exceeds"
+
+    def describe(self):
+        at = "" if self.freq_rad_s is None else f" at {self.freq_rad_s / (2 * np.pi):.4g} Hz"
+        loop = " in the sampled loop" if self.loop == "sampled" else ""
+        if self.kind != "exceeds":
+            return f"model {self.label} ({self.temperature_C:g} °C){loop}: {self.quantity}{at}"
+        return (f"model {self.label} ({self.temperature_C:g} °C): {self.quantity}{loop} ="
+                f" {self.value:.4g} > {self.bound:.4g}{at}")
+
+
+
+def band_peak(N, D, w_lo, w_hi):
+    """Exact peak of ``|N/D|`` over ``[w_lo, w_hi]`` rad/s: ``(value, frequency)``."""
+    pk = peak_gain(N, D, band=(w_lo, w_hi))
+    return pk.value, pk.freq_rad_s
+
+
+def _stability(plant, ctrl, cl, fs):
+    sa, roots = spectral_abscissa(cl.Delta)
+    if fs is not None and len(cl.Delta) < plant.n + len(poly.trim(ctrl.S)):
+        return np.inf, None       # a pole at z = -1 (lost degree)
+    rho = distance_to_instability([(plant.A, ctrl.S), (plant.B, ctrl.R)], cl.Delta, roots)
+    return sa, rho
+
+
+def check_model(plant, ctrl, specs, rtol, fs=None):
+    """Exact peaks and stability of one model; returns (record, violations).
+
+    With ``fs`` the plant is a sampled-loop plant (:func:`robrst.sampled.sampled_plant`):
+    reported frequencies are mapped back to physical ones, the resonance band is
+    warped, and a closed-loop polynomial that lost degree (a pole at ``z = -1``)
+    counts as unstable.
+    """
+    cl = closed_loop(plant, ctrl)
+    sa, rho = _stability(plant, ctrl, cl, fs)
+    loop = "continuous" if fs is None else "sampled"
+    phys = (lambda w: w) if fs is None else (lambda w: float(unwarp(w, fs)))  # noqa: E731
+    rec = {"label": plant.label, "temperature_C": plant.temperature_C,
+           "spectral_abscissa": sa, "stable": bool(sa < 0), "distance_to_instability": rho,
+           "closed_loop_degree": len(poly.trim(cl.Delta)) - 1}
+    viol = []
+
+    def add(quantity, value, bound, freq=None, kind="exceeds"):
+        viol.append(Violation(plant.label, plant.temperature_C, quantity, value, bound, freq,
+                              loop, kind))
+
+    if sa >= 0:
+        add("spectral_abscissa", sa, 0.0)
+    elif rho is not None and not rho > RESOLVE_FACTOR * len(cl.Delta) * np.finfo(float).eps:
+        add(f"stability not resolved in double precision: A S + B R is within {rho:.2g}"
+            " (relative) of a polynomial with a root on the imaginary axis (cancellation in"
+            " the closed-loop coefficients)", rho, RESOLVE_FACTOR, kind="unresolved")
+    for name in PEAK_SPECS:
+        pk = peak_gain(cl.nums[name], cl.Delta)
+        # a sampled peak at nu = inf is at Nyquist (unwarp(inf) = pi fs)
+        freq = phys(float(pk.freq_rad_s)) if fs is not None or np.isfinite(pk.freq_rad_s) else None
+        rec[f"M{name.lower()}"] = pk.value
+        rec[f"M{name.lower()}_freq_rad_s"] = freq
+        bound = specs.peak_bound(name)
+        if bound is not None and pk.value > bound * (1 + rtol):
+            add(f"|{name}| peak", pk.value, bound, freq)
+        elif bound is not None and not pk.verified:
+            add(f"|{name}| peak not verified: the closed-loop poles span more than 12 decades",
+                pk.value, bound, freq, kind="unresolved")
+    if specs.T_resonance_max is not None:
+        lo, hi = (2 * np.pi * f for f in specs.resonance_band_hz)
+        if fs is not None:
+            lo, hi = warp(min(lo, 0.999 * np.pi * fs), fs), warp(min(hi, 0.999 * np.pi * fs), fs)
+        pk = peak_gain(cl.nums["T"], cl.Delta, band=(float(lo), float(hi)))
+        rec["Mt_resonance_band"] = pk.value
+        rec["Mt_resonance_band_freq_rad_s"] = phys(pk.freq_rad_s)
+        if pk.value > specs.T_resonance_max * (1 + rtol):
+            add("|T| in resonance band", pk.value, specs.T_resonance_max, phys(pk.freq_rad_s))
+        elif not pk.verified:
+            add("|T| band peak not verified: the closed-loop poles span more than 12 decades",
+                pk.value, specs.T_resonance_max, kind="unresolved")
+    if specs.Mu_hf_max is not None:   # |U| above a corner frequency (up to inf / Nyquist)
+        lo = 2 * np.pi * specs.Mu_hf_above_hz
+        lo = lo if fs is None else warp(min(lo, 0.999 * np.pi * fs), fs)
+        pk = peak_gain(cl.nums["U"], cl.Delta, band=(float(lo), np.inf))
+        rec["Mu_hf"] = pk.value
+        if pk.value > specs.Mu_hf_max * (1 + rtol):
+            add("|U| above corner", pk.value, specs.Mu_hf_max, phys(pk.freq_rad_s))
+        elif not pk.verified:
+            add("|U| above corner not verified: the closed-loop poles span more than 12"
+                " decades", pk.value, specs.Mu_hf_max, kind="unresolved")
+    if specs.time_domain and sa < 0:   # reference-step specs (robrst.timespec)
+        t_rec, failed = timespec.check(plant, ctrl, cl, specs, rtol, fs)
+        rec.update(t_rec)
+        for q, v, b in failed:
+            add(q, v, b)
+    return rec, viol
+
+
+SAMPLED_KEYS = ("spectral_abscissa", "stable", "Ms", "Ms_freq_rad_s", "Mt", "Mt_freq_rad_s",
+                "Mu", "Mu_freq_rad_s", "Mt_resonance_band", "distance_to_instability", "Mu_hf",
+                *timespec.KEYS)
+BOUNDED = (("Ms", "Ms_max"), ("Mt", "Mt_max"), ("Mu", "Mu_max"),
+           ("Mt_resonance_band", "T_resonance_max"), ("Mu_hf", "Mu_hf_max"),
+           ("overshoot_pct", "overshoot_max_pct"), ("settling_time_s", "settling_time_max_s"),
+           ("step_u_peak_V", "step_u_max_V"))
+FIGURE_OF = {"|S| peak": "Ms", "|T| peak": "Mt", "|U| peak": "Mu",   # violation -> record
+             "|T| in resonance band": "Mt_resonance_band", "|U| above corner": "Mu_hf"}
+JUMPS = ("settling_time_s", "settling_time_s_sampled")   # piecewise continuous figures
+
+
+def check_sampled(plant, ctrl, specs, rtol):
+    fs, k = specs.sample_rate_hz, specs.delay_samples
+    rec, viol = check_model(sampled_plant(plant, fs, k), ctrl, specs, rtol, fs=fs)
+    viol = [replace(v, label=plant.label) for v in viol]   # name the continuous model
+    return {f"{key}_sampled": rec[key] for key in SAMPLED_KEYS if key in rec}, viol
+
+
+def check_all(m, ctrl, specs, rtol, checks):
+    """Every per-model check on model ``m``: continuous, sampled, then the hooks.
+
+    Returns
+    -------
+    record : dict
+    violations : list of Violation
+    """
+    rec, v = check_model(m, ctrl, specs, rtol)
+    if specs.sampled:
+        rec_s, v_s = check_sampled(m, ctrl, specs, rtol)
+        rec.update(rec_s)
+        v = v + v_s
+    for check in checks:
+        rec_x, v_x = check(m, ctrl, specs, rtol)
+        margins = {**rec.get("margins", {}), **rec_x.pop("margins", {})}
+        rec.update(rec_x)
+        if margins:
+            rec["margins"] = margins
+        v = v + list(v_x)
+    return rec, v
+
+
+def margins(rec, specs, rtol):
+    """``{figure: (value, limit)}`` of a record: what the refinement watches.
+
+    Returns
+    -------
+    dict
+    """
+    out = {}
+    for suffix in ("", "_sampled"):
+        sa = rec.get("spectral_abscissa" + suffix)
+        if sa is not None and np.isfinite(sa):
+            out["spectral_abscissa" + suffix] = (sa, 0.0)
+        for key, attr in BOUNDED:
+            b, v = getattr(specs, attr), rec.get(key + suffix)
+            if b is not None and v is not None and np.isfinite(v):
+                out[key + suffix] = (v, b * (1 + rtol))
+    out.update(rec.get("margins", {}))
+    return out

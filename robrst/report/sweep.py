@@ -1,0 +1,170 @@
+"""A sweep's report folder (``DIR/report``) and its plain-text summary.
+
+Contents: the yield (with its 95 % interval), the statuses, the spread of every figure, the
+worst variants with their parameters, and figures — ``histograms.png`` and
+``sensitivity.png`` (analysis), ``front.png`` (design: the trade-off and its Pareto front),
+``fleet.png`` (fleet), ``worst_bode.png`` (all kinds: the worst variant evaluated).
+Written by :func:`robrst.report.doc.write_folder` (atomic, marker, never over a folder robrst
+did not write).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Callable
+from pathlib import Path
+
+from robrst.fileio import json_text
+from robrst.report import sweep_figures as figs
+from robrst.report.doc import Doc, write_folder
+from robrst.sweep.engine import SweepResult
+
+__all__ = ["sweep_doc", "write_sweep_report", "sweep_text", "figure_files"]
+
+
+def _f(x, spec=".4g"):
+    if x is None:
+        return "–"
+    if isinstance(x, float) and not math.isfinite(x):
+        return "∞"
+    return format(x, spec)
+
+
+def figure_files(result):
+    """The figures the report of ``result`` holds (``(file, caption)``)."""
+    kind = result.sweep.kind
+    out = []
+    if result.summary["done"] == 0:
+        return out
+    if kind == "analysis":
+        out += [("histograms.png", "Worst case of every variant evaluated over its temperatures"
+                 " (its family and the certificate's sweep); dashed: the specs"),
+                ("sensitivity.png", "Worst figure/bound of every variant against each varied"
+                 " parameter (> 1: a spec violated)")]
+    elif kind == "design":
+        out.append(("front.png", "Trade-off: the maximised figure against the first parameter"
+                    " and the Pareto front of the certified designs"))
+    else:
+        out.append(("fleet.png", "Each fleet member's design: worst figure/bound and integral"
+                    " gain"))
+    if figs.worst_ok_row(result) is not None:
+        out.append(("worst_bode.png", "|S|, |T| and |U| of the worst variant evaluated, per"
+                    " temperature; dashed: the specs"))
+    return out
+
+
+def _worst_table(s):
+    rows = []
+    for w in s["worst"]:
+        params = ", ".join(f"{k}={v:.4g}" for k, v in w["params"].items())
+        rows.append((w.get("file", w["index"]), w["status"], _f(w["worst_ratio"]),
+                     _f(w["Ms"]), _f(w["Mt"]), _f(w["Mu"]),
+                     w["violation"] or w["message"] or "", params))
+    return ("variant", "status", "figure/bound", "Ms", "Mt", "Mu", "worst violation or error",
+            "parameters"), tuple(rows)
+
+
+def sweep_doc(result):
+    """The report document of a sweep result (no I/O)."""
+    s = result.summary
+    y = s["yield"]
+    lo, hi = s["yield_ci95"]
+    blocks = [
+        ("p", f"Sweep `{s['sweep']}` ({s['kind']}, base problem `{s['problem']}`):"
+              f" {s['done']} of {s['n']} variants evaluated"
+              f"{'' if s['complete'] else ' (incomplete: run again to resume)'};"
+              f" **{s['certified']} certified**"
+              + ("" if y is None else f", yield **{y:.4f}** (95 % interval {lo:.4f}–{hi:.4f})")
+              + f". {s['workers']} workers, {s['wall_s']:.1f} s wall,"
+                f" {_f(s['cpu_s_per_variant'], '.3g')} s CPU per variant."),
+        ("table", ("status", "variants"), tuple(sorted(s["statuses"].items()))),
+        ("h2", "Spread of the figures"),
+        ("table", ("figure", "min", "5 %", "median", "95 %", "max"),
+         tuple((k, *(_f(v[q]) for q in ("min", "p05", "median", "p95", "max")))
+               for k, v in s["figures"].items())),
+        ("h2", "Worst variants"),
+        ("table", *_worst_table(s)),
+    ]
+    if "controller" in s:
+        c = s["controller"]
+        blocks.append(("pre", "\n".join(f"{k}(s) = " + " ".join(f"{v:.6g}" for v in c[k])
+                                        for k in "RST")))
+    if "front" in s:
+        f = s["front"]
+        blocks += [("h2", f"Pareto front ({f['x']} minimised, {f['y']} maximised)"),
+                   ("table", ("variant", "parameters", f["x"], f["y"]),
+                    tuple((p.get("file", p["index"]),
+                           ", ".join(f"{k}={v:.4g}" for k, v in p["params"].items()),
+                           _f(p[f["x"]]), _f(p[f["y"]])) for p in f["points"]))]
+    figures = figure_files(result)
+    if figures:
+        blocks.append(("h2", "Figures"))
+        blocks += [("img", f, cap) for f, cap in figures]
+    return Doc(title=f"robrst sweep report: {s['sweep']}", blocks=tuple(blocks))
+
+
+def write_sweep_report(result: SweepResult, out_dir: str | os.PathLike | None = None,
+                       progress: Callable[[str], None] | None = None) -> Path:
+    """Write the report folder of a sweep (default ``result.out / "report"``).
+
+    The folder holds ``report.md``, ``report.html``, the figures and a copy of
+    ``summary.json``.
+
+    Parameters
+    ----------
+    result : SweepResult
+    out_dir : str or Path, optional
+    progress : callable, optional
+
+    Returns
+    -------
+    Path
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from robrst import run_sweep, write_sweep_report
+    >>> from robrst.sweep import parse_sweep
+    >>> sweep = parse_sweep({"sweep": {"kind": "analysis", "problem": "paper", "n": 8},
+    ...                      "param": [{"name": "gain", "dist": "normal", "mean": 1.0,
+    ...                                 "std": 0.1}]})
+    >>> result = run_sweep(sweep, tempfile.mkdtemp() + "/mc", workers=0)
+    >>> sorted(p.name for p in write_sweep_report(result).glob("*.png"))
+    ['histograms.png', 'sensitivity.png', 'worst_bode.png']
+    """
+    say = progress or (lambda m: None)
+    doc = sweep_doc(result)
+    draw_fn = {"histograms.png": figs.histograms_figure,
+               "sensitivity.png": figs.sensitivity_figure, "front.png": figs.front_figure,
+               "fleet.png": figs.fleet_figure, "worst_bode.png": figs.worst_bode_figure}
+
+    def draw(tmp):
+        for name, _ in figure_files(result):
+            say(f"drawing {name}")
+            draw_fn[name](result, tmp / name)
+
+    extra = {"summary.json": json_text(result.summary, indent=1) + "\n"}
+    return write_folder(out_dir or Path(result.out) / "report", doc, extra, draw)
+
+
+def sweep_text(summary):
+    """A few lines for the terminal: counts, yield, figures, the worst variants."""
+    s = summary
+    lines = [f"sweep {s['sweep']} ({s['kind']}): {s['done']}/{s['n']} variants"
+             f"{'' if s['complete'] else ' (incomplete: run again to resume)'},"
+             f" {s['workers']} workers, {s['wall_s']:.1f} s"]
+    if s["yield"] is not None:
+        lo, hi = s["yield_ci95"]
+        lines.append(f"certified: {s['certified']} of {s['done']}, yield {s['yield']:.4f}"
+                     f" (95 % interval {lo:.4f}..{hi:.4f}); failed: {s['failed']}")
+    for k in ("Ms", "Mt", "Mu", "Mt_band", "integral_gain"):
+        if k in s["figures"]:
+            v = s["figures"][k]
+            lines.append(f"  {k:<14} median {_f(v['median'])}, 95 % {_f(v['p95'])},"
+                         f" worst {_f(v['max'])}")
+    for w in s["worst"][:5]:
+        who = w.get("file", f"#{w['index']}")
+        lines.append(f"  worst {who}: {w['status']}, figure/bound {_f(w['worst_ratio'])}:"
+                     f" {w['violation'] or w['message'] or 'certified'}")
+    return "\n".join(lines)

@@ -1,0 +1,211 @@
+"""Figures of a sweep report: histograms, sensitivity, trade-off front, fleet, worst-case Bode.
+
+Every function takes a :class:`~robrst.sweep.engine.SweepResult` and a file path and writes
+one PNG (:func:`robrst.report.figure.drawing`: no global matplotlib state).  Only variants
+evaluated without error (status ``ok``) are drawn; infinite margins are counted in the titles.
+"""
+
+import numpy as np
+
+from robrst.analysis import sensitivity
+from robrst.report.figure import colors, drawing
+from robrst.sweep.evaluate import problem_of
+from robrst.sweep.summary import pareto_front, worst_rows
+from robrst.rst import RSTController
+
+__all__ = ["histograms_figure", "sensitivity_figure", "front_figure", "fleet_figure",
+           "worst_bode_figure", "worst_ok_row", "HIST"]
+
+# figure column -> (axis label, scale, spec bound attribute)
+HIST = (("Ms", "worst |S| peak Ms [-]", 1.0, "Ms_max"),
+        ("Mt", "worst |T| peak Mt [-]", 1.0, "Mt_max"),
+        ("Mu", "worst |U| peak Mu [V/µm]", 1.0, "Mu_max"),
+        ("Mt_band", "worst |T| in the resonance band [-]", 1.0, "T_resonance_max"),
+        ("gain_margin", "smallest gain margin [-]", 1.0, None),
+        ("phase_margin_deg", "smallest phase margin [°]", 1.0, None),
+        ("delay_margin_s", "smallest delay margin [µs]", 1e6, None),
+        ("worst_ratio", "worst figure / bound [-]", 1.0, None))
+_F = np.logspace(0, 4.7, 1200)   # 1 Hz .. 50 kHz
+
+
+def _ok(table):
+    keep = [i for i, s in enumerate(table.column("status").to_pylist()) if s == "ok"]
+    return table.take(keep)
+
+
+def _values(table, name, scale=1.0):
+    v = np.array([np.nan if x is None else x for x in table.column(name).to_pylist()], float)
+    return v * scale
+
+
+def histograms_figure(result, path):
+    """Histograms of the worst-case figures of every variant, spec bounds dashed."""
+    t = _ok(result.table)
+    specs = result.context.base.specs
+    with drawing(path, (13, 6.5), 2, 4) as (fig, axes):
+        for ax, (name, label, scale, bound) in zip(axes.ravel(), HIST):
+            b = getattr(specs, bound) if bound else (1.0 if name == "worst_ratio" else None)
+            v = _values(t, name, scale)
+            n_inf = int(np.sum(np.isinf(v)))
+            title = label + (f" (∞: {n_inf})" if n_inf else "")
+            _histogram(ax, v[np.isfinite(v)], b)
+            ax.set_title(title, fontsize=9)
+            ax.set_ylabel("variants")
+        fig.suptitle(f"{result.sweep.name}: {t.num_rows} variants evaluated of"
+                     f" {result.summary['done']}, yield {result.summary['yield']:.3f}")
+
+
+def _histogram(ax, fin, bound):
+    """One panel: the histogram, the bound if it is on scale (else named in a note)."""
+    if fin.size == 0:
+        ax.text(0.5, 0.5, "no finite value", ha="center", va="center", transform=ax.transAxes,
+                fontsize=11)
+        return
+    lo, hi = float(fin.min()), float(fin.max())
+    mid = 0.5 * (lo + hi)
+    if hi - lo <= 1e-9 * max(abs(mid), 1.0):     # every variant has the same value
+        ax.text(0.5, 0.5, f"all {fin.size} variants:\n{mid:.6g}"
+                + ("" if bound is None else f"\n(bound {bound:g})"),
+                ha="center", va="center", transform=ax.transAxes, fontsize=11)
+        ax.set_xticks([])
+        return
+    ax.hist(fin, bins=min(40, max(5, fin.size // 10)), color="tab:blue", alpha=0.8)
+    ax.ticklabel_format(axis="x", useOffset=False)
+    if bound is None:
+        return
+    pad = 0.25 * (hi - lo)
+    if lo - pad <= bound <= hi + pad:
+        ax.axvline(bound, color="k", ls="--", lw=1, label=f"bound {bound:g}")
+        ax.legend(fontsize=8)
+    else:
+        ax.text(0.03, 0.95, f"bound {bound:g} off scale", transform=ax.transAxes, fontsize=8,
+                va="top")
+
+
+def sensitivity_figure(result, path):
+    """``worst_ratio`` against every varied parameter (certified blue, not certified red)."""
+    t = _ok(result.table)
+    names = list(result.context.names)[:8]
+    ncols = min(4, max(1, len(names)))
+    nrows = max(1, -(-len(names) // ncols))
+    ratio = _values(t, "worst_ratio")
+    cert = np.array(t.column("certified").to_pylist(), bool)
+    with drawing(path, (3.3 * ncols, 3.0 * nrows), nrows, ncols, squeeze=False) as (fig, axes):
+        for ax, name in zip(axes.ravel(), names):
+            x = _values(t, name)
+            ax.plot(x[cert], ratio[cert], ".", ms=3, color="tab:blue", label="certified")
+            ax.plot(x[~cert], ratio[~cert], ".", ms=4, color="tab:red", label="not certified")
+            ax.axhline(1.0, color="k", ls="--", lw=1)
+            ax.set_xlabel(name, fontsize=8)
+            ax.set_ylabel("worst figure / bound")
+        for ax in axes.ravel()[len(names):]:
+            ax.set_visible(False)
+        axes.ravel()[0].legend(fontsize=7)
+
+
+def front_figure(result, path):
+    """Trade-off: the maximised figure against the first parameter, and the Pareto front."""
+    t = _ok(result.table)
+    x_name, y_name = result.sweep.front
+    names = list(result.context.names)
+    cert = np.array(t.column("certified").to_pylist(), bool)
+    y = _values(t, y_name)
+    with drawing(path, (12, 4.8), 1, 2) as (fig, (a1, a2)):
+        if names:
+            p0 = _values(t, names[0])
+            groups = np.unique(_values(t, names[1])) if len(names) > 1 else [None]
+            if len(groups) > 8:
+                groups = [None]
+            for g, c in zip(groups, colors(len(groups), "viridis")):
+                sel = np.ones(t.num_rows, bool) if g is None else _values(t, names[1]) == g
+                o = np.argsort(p0[sel])
+                lab = "" if g is None else f"{names[1]} = {g:g}"
+                a1.plot(p0[sel][o], y[sel][o], "-", color=c, lw=1, label=lab)
+                a1.plot(p0[sel & cert], y[sel & cert], "o", color=c, ms=5)
+                a1.plot(p0[sel & ~cert], y[sel & ~cert], "o", mfc="none", color=c, ms=5)
+            failed = [r[names[0]] for r in result.table.to_pylist() if r["status"] != "ok"]
+            if failed:
+                a1.plot(failed, [np.nanmin(y) if np.isfinite(y).any() else 0.0] * len(failed),
+                        "x", color="tab:red", ms=8, label=f"failed ({len(failed)})")
+            a1.set_xlabel(names[0])
+            a1.legend(fontsize=8)
+        a1.set_ylabel(y_name)
+        a1.set_title("filled: certified; hollow: not certified; ×: no design (see the table)",
+                     fontsize=9)
+        x = _values(t, x_name)
+        a2.plot(x[cert], y[cert], "o", color="tab:blue", ms=5, label="certified")
+        a2.plot(x[~cert], y[~cert], "o", mfc="none", color="tab:red", ms=5,
+                label="not certified")
+        xs, ys = np.where(cert, x, np.nan), np.where(cert, y, np.nan)
+        f = pareto_front(xs, ys)
+        if f:
+            a2.step(x[f], y[f], where="post", color="k", lw=1.2, label="Pareto front")
+        a2.set_xlabel(f"{x_name} (achieved, minimised)")
+        a2.set_ylabel(f"{y_name} (maximised)")
+        a2.legend(fontsize=8)
+
+
+def fleet_figure(result, path):
+    """Per fleet member: worst figure/bound and integral gain."""
+    t = result.table
+    files = t.column("file").to_pylist()
+    ratio = _values(t, "worst_ratio")
+    gain = _values(t, "integral_gain")
+    cert = t.column("certified").to_pylist()
+    pos = np.arange(len(files))
+    with drawing(path, (max(6, 0.8 * len(files) + 3), 6), 2, 1, sharex=True) as (fig, (a1, a2)):
+        a1.bar(pos, np.where(np.isfinite(ratio), ratio, np.nan),
+               color=["tab:blue" if c else "tab:red" for c in cert])
+        a1.axhline(1.0, color="k", ls="--", lw=1)
+        a1.set_ylabel("worst figure / bound")
+        a1.set_title("blue: certified; red: not certified or failed", fontsize=9)
+        a2.bar(pos, gain, color="tab:gray")
+        a2.set_ylabel("integral gain [V/(µm s)]")
+        a2.set_xticks(pos, files, rotation=30, ha="right", fontsize=8)
+
+
+def worst_ok_row(result):
+    """The worst variant evaluated without error (a dict), or ``None``."""
+    t = _ok(result.table)
+    rows = worst_rows(t, 1)
+    return t.slice(rows[0], 1).to_pylist()[0] if rows else None
+
+
+def worst_bode_figure(result, path):
+    """|S|, |T|, |U| of the worst variant per temperature; thin grey: the base family."""
+    row = worst_ok_row(result)
+    ctx = result.context
+    values = {k: row[k] for k in ctx.names}
+    problem = problem_of(ctx, row["index"], values)
+    if ctx.controller is not None:
+        ctrl = ctx.controller
+    else:
+        ctrl = RSTController(row["R"], row["S"], row["T"])
+    base = ctx.base.family.models if ctx.base is not None and ctx.sweep.kind == "analysis" else ()
+    sp = problem.specs
+    fam = problem.family.models
+    with drawing(path, (8, 9), 3, 1, sharex=True) as (fig, axes):
+        for (name, key), ax in zip((("S", "Ms_max"), ("T", "Mt_max"), ("U", "Mu_max")), axes):
+            for m in base:
+                ax.semilogx(_F, _db(sensitivity(m, ctrl, name, 2 * np.pi * _F)), color="0.7",
+                            lw=0.8)
+            for m, c in zip(fam, colors(len(fam))):
+                ax.semilogx(_F, _db(sensitivity(m, ctrl, name, 2 * np.pi * _F)), color=c,
+                            lw=1.2, label=f"{m.temperature_C:g} °C")
+            b = getattr(sp, key)
+            if b is not None:
+                ax.axhline(_db(b), color="k", ls="--", lw=1, label=f"{key} = {b:g}")
+            if name == "T" and sp.T_resonance_max is not None:
+                ax.plot(sp.resonance_band_hz, [_db(sp.T_resonance_max)] * 2, "r-", lw=2,
+                        label="resonance-band bound")
+            ax.set_ylabel(f"|{name}| [dB]")
+        axes[0].legend(fontsize=7, ncol=4, loc="lower right")
+        axes[1].legend(fontsize=7, loc="lower left")
+        axes[-1].set_xlabel("frequency f [Hz] (log)")
+        what = f"file {row['file']}" if "file" in row else f"variant {row['index']}"
+        axes[0].set_title(f"worst case: {what}, worst figure/bound {row['worst_ratio']:.4g}"
+                          + (" (grey: nominal family)" if base else ""), fontsize=9)
+
+
+def _db(x):
+    return 20 * np.log10(np.maximum(np.abs(x), 1e-300))

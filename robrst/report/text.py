@@ -1,0 +1,63 @@
+"""Plain-text views of a design's JSON dict, shared by the CLI and the reports."""
+
+import math
+
+__all__ = ["margins_table", "sampled_summary", "design_summary", "fmt"]
+
+
+def fmt(x, spec):
+    """``format(x, spec)``; ``"inf"`` for ``None`` (an infinite margin) or a non-finite value."""
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "inf"
+    return format(x, spec)
+
+
+def margins_table(d):
+    """Margins per model (label, temperature, stable, Ms, Mt, Mu, GM, PM, MM, DM)."""
+    head = (f"{'model':<8}{'T[°C]':>7}{'stable':>8}{'Ms':>8}{'Mt':>8}{'Mu[V/µm]':>10}"
+            f"{'GM':>8}{'PM[°]':>8}{'MM':>7}{'DM[µs]':>9}")
+    lines = [head, "-" * len(head)]
+    for m in d["models"]:
+        dm = None if m["delay_margin_s"] is None else m["delay_margin_s"] * 1e6
+        lines.append(
+            f"{m['label']:<8}{m['temperature_C']:>7.1f}{str(m['stable']):>8}{m['Ms']:>8.3f}"
+            f"{m['Mt']:>8.3f}{m['Mu']:>10.2f}{fmt(m['gain_margin'], '.2f'):>8}"
+            f"{fmt(m['phase_margin_deg'], '.1f'):>8}{m['modulus_margin']:>7.3f}"
+            f"{fmt(dm, '.1f'):>9}"
+        )
+    return "\n".join(lines)
+
+
+def sampled_summary(d):
+    """One line on the sampled loop's certificate (``None`` when not asked for)."""
+    sp, models = d["specs"], d["certificate"]["models"]
+    if not sp.get("sample_rate_hz") or not models or "Ms_sampled" not in models[0]:
+        return None
+    worst = {k: max(m[f"{k}_sampled"] for m in models) for k in ("Ms", "Mt", "Mu")}
+    stable = all(m["stable_sampled"] for m in models)
+    return (f"sampled loop (ZOH plant, Tustin controller at {sp['sample_rate_hz']:g} Hz,"
+            f" {sp.get('delay_samples', 0)} samples delay): worst Ms {worst['Ms']:.4g},"
+            f" Mt {worst['Mt']:.4g}, Mu {worst['Mu']:.4g} V/µm;"
+            f" {'all stable' if stable else 'NOT all stable'}")
+
+
+def design_summary(d):
+    """The text ``robrst design`` prints: controller, margins, certificate, checks."""
+    out = [f"problem {d['problem']}  method {d['method']}  certified: {d['certified']}"]
+    c = d["controller"]
+    for k in "RST":
+        out.append(f"  {k}(s) = " + " ".join(f"{v:.6g}" for v in c[k]))
+    out.append(margins_table(d))
+    cert = d["certificate"]
+    out.append(f"certificate: {len(cert['models'])} models checked (family + temperature sweep),"
+               f" {len(cert['violations'])} violations")
+    line = sampled_summary(d)
+    if line:
+        out.append(line)
+    if "analytic_check" in d:
+        ac = d["analytic_check"]
+        out.append(f"analytic check: max rel. coefficient error {ac['max_rel_coef_error']:.2e}"
+                   f" -> {'passed' if ac['passed'] else 'FAILED'}")
+    if d.get("comparison"):
+        out.append(d["comparison"]["table"])
+    return "\n".join(out)

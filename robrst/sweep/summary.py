@@ -1,0 +1,152 @@
+"""The summary of a sweep's results: yield, statistics, worst variants, trade-off front.
+
+``summary.json`` (a public contract: fields are only added) holds ``kind, n, done,
+certified, yield, workers, wall_s, worst`` and more (see the README).  The yield is the
+share of the *finished* variants that are certified (a failed variant counts as not
+certified), with its 95 % Wilson score interval.  The worst variants are the failed ones
+first, then by ``worst_ratio`` (largest figure/bound over the specs), with their parameters.
+"""
+
+import math
+
+import numpy as np
+
+__all__ = ["wilson_interval", "pareto_front", "figure_stats", "worst_rows", "summarise",
+           "STAT_FIGURES"]
+
+STAT_FIGURES = ("Ms", "Mt", "Mu", "Mt_band", "modulus_margin", "gain_margin",
+                "phase_margin_deg", "delay_margin_s", "spectral_abscissa", "integral_gain",
+                "worst_ratio", "seconds", "cpu_s")
+
+
+def wilson_interval(k, n, z=1.959963984540054):
+    """95 % Wilson score interval of a proportion ``k/n`` (``(None, None)`` for n = 0)."""
+    if n == 0:
+        return None, None
+    p = k / n
+    d = 1 + z * z / n
+    c = (p + z * z / (2 * n)) / d
+    h = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / d
+    return max(0.0, c - h), min(1.0, c + h)
+
+
+def pareto_front(x, y):
+    """Indices of the points not dominated when minimising ``x`` and maximising ``y``.
+
+    Points with a non-finite coordinate are left out.  Ordered by increasing ``x``.
+    """
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    ok = np.flatnonzero(np.isfinite(x) & np.isfinite(y))
+    order = ok[np.lexsort((-y[ok], x[ok]))]
+    front, best = [], -np.inf
+    for i in order:
+        if y[i] > best:
+            front.append(int(i))
+            best = y[i]
+    return front
+
+
+def _col(table, name):
+    return np.array([np.nan if v is None else v for v in table.column(name).to_pylist()],
+                    dtype=float)
+
+
+def figure_stats(table, names=STAT_FIGURES):
+    """min, 5 %, median, 95 %, max of every figure over the variants evaluated."""
+    out = {}
+    for name in names:
+        if name not in table.column_names:
+            continue
+        v = _col(table, name)
+        v = v[~np.isnan(v)]
+        if v.size == 0:
+            continue
+        q = np.quantile(v, [0.0, 0.05, 0.5, 0.95, 1.0], method="inverted_cdf")   # data points
+        out[name] = dict(zip(("min", "p05", "median", "p95", "max"), (float(x) for x in q)))
+    return out
+
+
+def _record(row, names, extra):
+    rec = {"index": row["index"], "params": {k: row[k] for k in names}}
+    if "file" in row:
+        rec["file"] = row["file"]
+    rec.update({k: row.get(k) for k in extra})
+    return rec
+
+
+WORST_KEYS = ("status", "certified", "worst_ratio", "Ms", "Ms_temperature_C", "Mt", "Mu",
+              "Mt_band", "gain_margin", "phase_margin_deg", "delay_margin_s",
+              "spectral_abscissa", "integral_gain", "violation", "message")
+
+
+def worst_rows(table, count):
+    """Row indices (in ``table``) of the ``count`` worst variants: failed first, then by ratio."""
+    if table.num_rows == 0 or count == 0:
+        return []
+    failed = np.array([s != "ok" for s in table.column("status").to_pylist()])
+    ratio = np.nan_to_num(_col(table, "worst_ratio"), nan=np.inf, posinf=np.inf)
+    index = _col(table, "index")
+    order = np.lexsort((index, -ratio, ~failed))
+    return [int(i) for i in order[:count]]
+
+
+def summarise(context, table, n, workers, wall_s, complete):
+    """The summary of ``table`` (the finished rows).
+
+    Parameters
+    ----------
+    context : SweepContext
+    table : pyarrow.Table
+    n : int
+        Variants in the sweep.
+    workers : int
+    wall_s : float
+        Wall time of this run [s].
+    complete : bool
+        Every variant is finished.
+
+    Returns
+    -------
+    dict
+    """
+    sw = context.sweep
+    done = table.num_rows
+    statuses = table.column("status").to_pylist()
+    certified = sum(bool(c) for c in table.column("certified").to_pylist())
+    lo, hi = wilson_interval(certified, done)
+    counts = {s: statuses.count(s) for s in sorted(set(statuses))}
+    cpu = float(np.nansum(_col(table, "cpu_s"))) if done else 0.0
+    rows = table.to_pylist() if done <= 200_000 else None
+    worst = []
+    if rows is not None:
+        worst = [_record(rows[i], context.names, WORST_KEYS)
+                 for i in worst_rows(table, sw.worst)]
+    out = {"sweep": sw.name, "kind": sw.kind,
+           "problem": None if context.base is None else context.base.name, "n": n, "done": done,
+           "complete": bool(complete), "certified": certified,
+           "yield": certified / done if done else None, "yield_ci95": [lo, hi],
+           "failed": done - counts.get("ok", 0), "statuses": counts, "workers": workers,
+           "wall_s": wall_s, "cpu_s": cpu, "cpu_s_per_variant": cpu / done if done else None,
+           "chunk_size": sw.chunk_size, "seed": sw.seed, "params": list(context.names),
+           "fingerprint": context.fingerprint, "figures": figure_stats(table), "worst": worst,
+           "results": "results.parquet", "report": "report"}
+    if context.controller is not None:
+        out["controller"] = context.controller.as_dict()
+    if context.base is not None:
+        sp = context.base.specs
+        out["specs"] = {"Ms_max": sp.Ms_max, "Mt_max": sp.Mt_max, "Mu_max": sp.Mu_max,
+                        "T_resonance_max": sp.T_resonance_max}
+        out["temperature_range_C"] = list(context.base.family.range_C)
+    if sw.kind != "analysis" and rows is not None:
+        x, y = sw.front
+        ok = [i for i, r in enumerate(rows) if r["certified"]]
+        xs = [_finite(rows[i][x]) for i in ok]
+        ys = [_finite(rows[i][y]) for i in ok]
+        out["front"] = {"x": x, "y": y, "points": [
+            _record(rows[ok[j]], context.names, (x, y, "Ms", "Mt", "Mu", "integral_gain"))
+            for j in pareto_front(xs, ys)]}
+    return out
+
+
+def _finite(v):
+    return np.nan if v is None else float(v)

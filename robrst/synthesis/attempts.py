@@ -1,0 +1,277 @@
+"""One attempt of the robust synthesis: a placement, its starts, phases and rounds.
+
+:class:`Run` holds what the attempts of one synthesis share (the built solvers, the
+progress lines, the rounds and notes); :meth:`Run.attempt` runs, for one nominal pole
+placement, the objective under hard specs from the preferred start and, when that
+fails, the soft-goal phase from the best starts followed by the objective again, each
+result certified and refined round by round (see :mod:`robrst.synthesis.robust`).
+"""
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from robrst.certificate import certify
+from robrst.synthesis.exchange import Phase, solve_exchange
+from robrst.synthesis.nlp import grid_blocks
+from robrst.synthesis.outcome import Round
+from robrst.synthesis.parametrize import integral_gain
+from robrst.synthesis.starts import candidates
+
+__all__ = ["Outcome", "Run", "worst_violation", "frequency_certificate", "refine",
+           "objective_value", "GAMMA_FLOOR"]
+
+GAMMA_FLOOR = 0.97       # the soft phase stops once every spec holds with 3 % to spare
+SOFT_STARTS = 3          # soft-phase attempts (best starts first)
+FREE_BOX, FREE_BOXES, FREE_MAX_ITER = 1.0, 6, 300   # trust regions with freely placed poles
+FREE_EXCHANGE_ROUNDS, FREE_ITER_BUDGET = 10, 800
+RUN_ITER_BUDGET = 2500    # IPOPT iterations per synthesis: then the best certified point found
+FAR_START = 5.0           # a start missing the specs 5x: no objective phase from it
+WARM_MU = 1e-4           # IPOPT's initial barrier from a previous design of a nearby variant
+
+
+def worst_violation(cert):
+    """The certificate's violation with the largest ratio to its bound (``None``: none)."""
+    if not cert.violations:
+        return None
+    return max(cert.violations, key=lambda v: np.inf if v.bound == 0 else v.value / v.bound)
+
+
+@dataclass(frozen=True, eq=False)
+class Outcome:
+    """A point of an attempt: controller, certificate, solve, phase and placement."""
+
+    ctrl: object
+    cert: object
+    res: object
+    phase: str
+    placement: str
+    x: np.ndarray
+    setup: object
+
+    @property
+    def certified(self):
+        return self.cert.certified
+
+    @property
+    def badness(self):
+        v = worst_violation(self.cert)
+        if v is None:
+            return 0.0
+        if v.quantity == "spectral_abscissa" or not v.bound:   # crossing / unresolved: bound 0
+            return np.inf
+        return v.value / v.bound
+
+
+def frequency_certificate(problem, ctrl):
+    so = problem.solver
+    return certify(problem.family, ctrl, problem.specs.without_time_domain(),
+                   n_sweep=so.cert_temperatures, rtol=so.cert_tol)
+
+
+def refine(problem, cert, models, nu, max_new=2):
+    """Add the certificate's offending frequencies, and its worst temperatures, to the program.
+
+    Every offending frequency joins the grid (with its 2 % neighbours); of the offending
+    temperatures not yet modelled only the ``max_new`` worst join (the family members
+    already span the range: most violations between them are the same peak).
+    """
+    known = {m.temperature_C for m in models}
+    fs = problem.specs.sample_rate_hz
+    new_T = {}
+    for v in cert.violations:
+        if v.freq_rad_s is not None:
+            w = v.freq_rad_s
+            if v.loop == "sampled":   # grid frequencies are physical; the setup warps them
+                w = min(w, 0.999 * np.pi * fs)
+            nu = np.unique(np.concatenate([nu, [w * f for f in (0.98, 1.0, 1.02)]]))
+        elif v.quantity.endswith("peak"):  # peak at infinity: push the grid further out
+            nu = np.unique(np.concatenate([nu, [nu.max() * 100.0]]))
+        if v.temperature_C not in known:
+            r = v.value / v.bound if v.bound else np.inf
+            new_T[v.temperature_C] = max(new_T.get(v.temperature_C, 0.0), r)
+    for T in sorted(new_T, key=lambda t: -new_T[t])[:max_new]:
+        models.append(problem.family.at(T))
+    models.sort(key=lambda m: m.temperature_C)
+    return models, nu
+
+
+def objective_value(problem, out):
+    """The objective of a certified outcome (larger is better; ``-inf`` if uncertified)."""
+    if out is None or not out.certified:
+        return -np.inf
+    obj = problem.solver.objective
+    if obj == "max_integral_gain":
+        ki = integral_gain(out.ctrl)
+        return abs(ki) if np.isfinite(ki) else -np.inf
+    if obj == "min_Ms":
+        return -out.cert.worst("Ms")
+    return 0.0
+
+
+class Run:
+    """One synthesis: what its attempts share (built solvers, progress, rounds, notes)."""
+
+    def __init__(self, problem, say, templates, warm=None):
+        self.problem, self.say, self.templates, self.warm = problem, say, templates, warm
+        self.rounds, self.notes = [], []
+        self.hopeless = False     # set when the specs are provably infeasible
+
+    @property
+    def spent(self):
+        """True once the synthesis has used its IPOPT iteration budget."""
+        return sum(r.iterations for r in self.rounds) > RUN_ITER_BUDGET
+
+    def solve(self, ctx, setup, x0, phase, start, exact=False):
+        """One program by constraint exchange (trust regions with freely placed poles)."""
+        ipopt = ctx.ipopt
+        if start == "previous design":   # a near-optimal start: a small barrier keeps it near
+            ipopt = {**ipopt, "mu_init": WARM_MU}
+        if setup.placement == "free" and phase.kind == "hard":
+            res = self.boxed(ctx, setup, x0, phase, exact)
+        else:
+            res = solve_exchange(setup, x0, ipopt, phase, self.templates, exact=exact)
+            if not res.success:   # second chance: IPOPT's adaptive barrier update
+                res = solve_exchange(setup, x0, {**ctx.ipopt, "mu_strategy": "adaptive"}, phase,
+                                     self.templates, exact=exact)
+        ex = res.exchange
+        gamma = float(res.x[-1]) if phase.kind == "soft" else None
+        self.rounds.append(Round(
+            round=len(self.rounds) + 1, status=res.status, iterations=res.iterations,
+            models=len(setup.models), frequencies=int(len(setup.nu)), violations=-1,
+            exchange_rounds=ex.rounds, active_points=ex.active_points,
+            grid_points=ex.grid_points, phase=phase.kind, placement=setup.placement,
+            start=start, gamma=gamma))
+        self.say(f"{phase.kind} phase ({setup.placement} poles, from {start}): IPOPT"
+                 f" {res.status} in {res.iterations} it, {len(setup.models)} models x"
+                 f" {len(setup.nu)} freqs" + (f", worst spec ratio {gamma:.4g}" if gamma else ""))
+        return res
+
+    def boxed(self, ctx, setup, x0, phase, exact):
+        """Trust-region solves for freely placed poles (free coefficients move resonances
+        and slow poles far in one step; IPOPT alone wanders): a box around the point,
+        re-centred and doubled while the solution lands on it, halved after a failure."""
+        ipopt = {**ctx.ipopt, "max_iter": min(ctx.ipopt["max_iter"], FREE_MAX_ITER)}
+        best, x, iters, res, f = None, np.asarray(x0, float), 0, None, FREE_BOX
+        for _ in range(FREE_BOXES):
+            c = x[:ctx.param.n_x]
+            r = f * np.abs(c) + 0.05 * np.max(np.abs(c))
+            res = solve_exchange(setup, x, ipopt, phase, self.templates, exact=exact, box=(c, r),
+                                 max_rounds=FREE_EXCHANGE_ROUNDS)
+            iters += res.iterations
+            if not res.success:
+                if f <= FREE_BOX / 4 or iters > FREE_ITER_BUDGET:
+                    break
+                f /= 4
+                continue
+            gain = best is None or res.objective < best.objective - 1e-3 * abs(best.objective)
+            best, x = res, res.x
+            inside = np.all(np.abs(res.x[:ctx.param.n_x] - c) < 0.999 * r)
+            if inside or not gain or iters > FREE_ITER_BUDGET:
+                break
+            f = min(2 * f, 8 * FREE_BOX)
+        return replace(best if best is not None else res, iterations=iters)
+
+    def outcome(self, ctx, setup, res, phase, x=None):
+        """Certify the point ``x`` (default: the solve's) for the frequency-domain specs."""
+        x = res.x if x is None else x
+        ctrl = ctx.controller(x)
+        cert = frequency_certificate(ctx.problem, ctrl)
+        if res is not None and self.rounds:
+            self.rounds[-1] = replace(self.rounds[-1], violations=len(cert.violations))
+        return Outcome(ctrl=ctrl, cert=cert, res=res, phase=phase, placement=setup.placement,
+                       x=np.asarray(x, float), setup=setup)
+
+    def hard(self, ctx, placement, x, name):
+        """The objective under hard specs from ``x``, certified, refined round by round.
+
+        Returns the last outcome (``None`` if IPOPT failed in the first round).
+        """
+        p = ctx.problem
+        models, nu, last = list(p.family.models), ctx.nu, None
+        x = np.concatenate([x[:-1], [1.0]])
+        for rnd in range(p.solver.max_rounds):
+            if rnd and self.spent:
+                self.notes.append(f"iteration budget ({RUN_ITER_BUDGET}) spent: refinement stopped")
+                break
+            setup = ctx.setup(models, nu, placement)
+            res = self.solve(ctx, setup, x, Phase("hard"), name if rnd == 0 else "previous round")
+            if not res.success and rnd > 0:   # the refined program: back to the specs first
+                x0 = np.concatenate([x[:-1], [max(last.badness, 1.0) * 1.02]])
+                soft = self.solve(ctx, setup, x0, Phase("soft", GAMMA_FLOOR), "previous round")
+                if soft.success and soft.x[-1] <= 1.0:
+                    res = self.solve(ctx, setup, soft.x, Phase("hard"), "soft-goal point")
+                    if not res.success:
+                        res = soft
+            if not res.success:
+                self.notes.append(f"objective phase ({placement} poles, from {name}) ended with"
+                                  f" IPOPT {res.status}")
+                break
+            last = self.outcome(ctx, setup, res, "hard")
+            if last.certified:
+                break
+            x = res.x
+            models, nu = refine(p, last.cert, models, nu)
+        return last
+
+    def attempt(self, ctx, placement, seeds):
+        """Hard phase from the preferred start; if that fails, soft phase then hard phase.
+
+        The preferred start is the best one when it already meets the specs on the grid,
+        else a seed handed down, else the analytic design at the problem's poles.
+        """
+        setup = ctx.setup(list(ctx.problem.family.models), ctx.nu, placement)
+        blocks = grid_blocks(setup, np.ones(ctx.param.n_x))   # weights unused by the scores
+        convex = ctx.problem.solver.init == "convex" and placement == "fixed"
+        starts = candidates(ctx, setup, blocks, seeds, convex=convex)
+        if not starts:
+            return None
+        named = {s.name: s for s in starts}
+        ok = [s for s in starts if s.stable and s.worst <= GAMMA_FLOOR]
+        first = max(ok, key=lambda s: s.gain) if ok else starts[0]   # boldest feasible start
+        feasible = first.stable and first.worst <= GAMMA_FLOOR
+        if not feasible or convex:
+            prefer = "convex (nominal SOCP)" if convex else "analytic"
+            first = next((named[sd[0]] for sd in seeds if sd[0] in named),
+                         named.get(prefer, named.get("analytic", starts[0])))
+            feasible = first.stable and first.worst <= GAMMA_FLOOR
+        outs = []
+        if feasible:   # a start that meets the specs on the grid: certified, it is the fallback
+            outs.append(self.outcome(ctx, setup, None, "start",
+                                     x=ctx.full(first.xc, setup, first.wn, first.zeta)))
+        if first.worst <= FAR_START and not self.spent and not self.hopeless:
+            out = self.hard(ctx, placement, ctx.full(first.xc, setup, first.wn, first.zeta),
+                            first.name)
+            if out is not None and out.certified:
+                return out
+            outs.append(out)
+        n_soft = 1 if self.hopeless else SOFT_STARTS   # the best violation is all there is
+        for s in [s for s in starts if not (s is first and feasible)][:n_soft]:
+            if self.spent and any(o is not None and o.certified for o in outs):
+                break
+            x0 = ctx.full(s.xc, setup, s.wn, s.zeta, gamma=max(s.worst * 1.02, GAMMA_FLOOR))
+            if s.stable and s.worst <= GAMMA_FLOOR:     # meets the specs already: no soft phase
+                soft, name = self.outcome(ctx, setup, None, "start", x=x0), s.name
+            else:
+                if not s.stable:
+                    x0[-1] = max(s.worst, 1.0) * 2
+                res = self.solve(ctx, setup, x0, Phase("soft", GAMMA_FLOOR), s.name)
+                soft = self.outcome(ctx, setup, res, "soft")
+                name = f"soft-goal point from {s.name}"
+                if not (res.success and res.x[-1] <= 1.0):
+                    outs.append(soft)
+                    continue
+            out = self.hard(ctx, placement, soft.x, name)
+            if out is not None and out.certified:
+                return out
+            outs += [out, soft]
+        outs = [o for o in outs if o is not None]
+        if not outs:   # nothing solved: the preferred start, certified for what it achieves
+            outs.append(self.outcome(ctx, setup, None, "start",
+                                     x=ctx.full(first.xc, setup, first.wn, first.zeta)))
+        certified = [o for o in outs if o.certified]
+        if certified:
+            self.notes.append("the objective could not be improved under the specs; returning"
+                              " the best certified start or soft-goal point")
+            return max(certified, key=lambda o: objective_value(ctx.problem, o))
+        return min(outs, key=lambda o: o.badness)

@@ -1,0 +1,159 @@
+"""What every solve of one problem shares: scaling, parametrisation, grids, setups.
+
+:class:`Context` is built once per problem (and per controller degree of the
+homotopy): the frequency scaling ``w0`` (of the start's closed-loop polynomial), the
+decision-vector parametrisation, the frequency grid, the sampled-loop plants, and
+:meth:`Context.setup` turns a list of models and a grid into the numeric
+:class:`~robrst.synthesis.nlp.NLPSetup` of one program.
+"""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from robrst import poly
+from robrst.sampled import sampled_plant, warp
+from robrst.synthesis.nlp import NLPSetup, scale_plant
+from robrst.synthesis.parametrize import (Parametrization, TrackingRule, frequency_grid,
+                                          integral_gain)
+
+__all__ = ["Context", "BOUND_MARGIN", "FREE_MARGIN", "ipopt_options", "CTRL_POLE_RATIO"]
+
+BOUND_MARGIN = 0.9995   # grid constraints just inside the specs (half the certificate tolerance)
+FREE_MARGIN = 0.98      # freely placed poles: sharp resonances move between the models
+CTRL_POLE_RATIO = 0.1   # max_integral_gain: controller poles at Re s <= -0.1 |slowest dominant|
+CTRL_MAX = 30.0         # free placement: controller poles at Re s >= -30 |fastest start root|
+
+
+def ipopt_options(so):
+    """IPOPT options of the problem's solver settings."""
+    return {"max_iter": so.max_iter, "tol": so.ipopt_tol, "print_level": 0,
+            "sb": "yes", "mu_strategy": "monotone", "nlp_scaling_method": "none"}
+
+
+@dataclass(frozen=True, eq=False)
+class Context:
+    """Per-problem data of the synthesis (see the module docstring)."""
+
+    problem: object
+    param: Parametrization
+    tracking: TrackingRule
+    nu: np.ndarray             # physical frequency grid [rad/s]
+    Am: np.ndarray             # the start's closed-loop polynomial (in s)
+    sign: float
+    ctrl_shift: float          # scaled
+    ctrl_max: float            # scaled: controller poles no faster than this (free placement)
+    ipopt: dict
+    extra_degree: int = 0
+    sampled_cache: dict = field(default_factory=dict)
+
+    @classmethod
+    def of(cls, problem, start, extra_degree=None):
+        """The context of ``problem`` around the analytic design ``start``."""
+        so = problem.solver
+        sc = poly.Scaling.natural(start.Am)
+        ref = problem.family.reference_model
+        param = Parametrization.of(problem.controller, ref, sc, extra_degree)
+        tracking = TrackingRule(problem.controller.T_mode, problem.controller.T_zeros, ref.B)
+        # the integral gain of a stabilising low-gain integral action has the sign of D(0)
+        ki = integral_gain(start.controller)
+        if ref.A[-1] != 0 and ref.B[-1] != 0:
+            sign = float(np.sign(ref.B[-1] / ref.A[-1]))
+        else:
+            sign = float(np.sign(ki)) if np.isfinite(ki) and ki != 0 else 1.0
+        dom = np.abs(problem.poles.dominant())
+        slow = float(np.min(dom))
+        if so.free_poles:
+            slow = min(slow, so.wn_bounds[0] * min(1.0, so.zeta_bounds[0]))
+        q = poly.trim(start.controller.S)
+        q = q[:len(q) - param.integrators] if len(q) > param.integrators else np.ones(1)
+        fast = max([float(np.max(np.abs(np.roots(c)))) for c in (q, start.Am) if len(c) > 1],
+                   default=sc.w0)
+        return cls(problem=problem, param=param, tracking=tracking, ctrl_max=CTRL_MAX * fast / sc.w0,
+                   nu=frequency_grid(problem.family, start.Am, so.n_freq), Am=start.Am,
+                   sign=sign, ctrl_shift=CTRL_POLE_RATIO * slow / sc.w0,
+                   ipopt=ipopt_options(so),
+                   extra_degree=problem.controller.extra_degree if extra_degree is None
+                   else extra_degree)
+
+    @property
+    def w0(self):
+        return self.param.scaling.w0
+
+    def sampled(self, model):
+        """The sampled-loop plant of ``model`` (cached)."""
+        sp = self.problem.specs
+        key = model.temperature_C
+        if key not in self.sampled_cache:
+            self.sampled_cache[key] = sampled_plant(model, sp.sample_rate_hz, sp.delay_samples)
+        return self.sampled_cache[key]
+
+    def default_placement(self):
+        """``"dominant"`` with free poles, else ``"fixed"``."""
+        return "dominant" if self.problem.solver.free_poles else "fixed"
+
+    def setup(self, models, nu, placement):
+        """The numeric program data for ``models`` on the grid ``nu`` [rad/s]."""
+        p = self.problem
+        sp, so = p.specs, p.solver
+        sc, w0 = self.param.scaling, self.w0
+        bounds = {"S": sp.Ms_max, "T": sp.Mt_max, "U": sp.Mu_max, "Tband": sp.T_resonance_max,
+                  "Uhf": sp.Mu_hf_max}
+        margin = FREE_MARGIN if placement == "free" else BOUND_MARGIN
+        bounds = {k: (None if v is None else v * margin) for k, v in bounds.items()}
+        band = np.zeros(0)
+        if sp.resonance_band_hz is not None:
+            band = np.geomspace(*(2 * np.pi * np.asarray(sp.resonance_band_hz)), 25)
+        hf = np.zeros(0)
+        if sp.Mu_hf_above_hz is not None:
+            lo = 2 * np.pi * sp.Mu_hf_above_hz
+            hf = np.geomspace(lo, max(lo, nu.max()) * 1e3, 40)
+        ref_T = p.family.reference_model.temperature_C
+        ref = [m.temperature_C for m in models].index(ref_T)
+        bands, hfs, rates = [band / w0] * len(models), [hf / w0] * len(models), ()
+        grids = [nu / w0] * len(models)
+        if sp.sampled:   # the sampled loops too (exact bilinear equivalent plants)
+            fs = sp.sample_rate_hz
+            nyq = np.pi * fs
+            sampled = [self.sampled(m) for m in models]
+            rates = tuple((m.label, fs) for m in sampled)
+            below = nu[nu < nyq]          # the physical grid, warped; far points stay far
+            grid_s = np.unique(np.concatenate([warp(np.concatenate([below, [0.99 * nyq]]), fs),
+                                               nu[nu >= nyq] * 1e2]))
+            grids += [grid_s / w0] * len(sampled)
+            bands += [warp(np.minimum(band, 0.999 * nyq), fs) / w0] * len(sampled)
+            hf_s = np.unique(np.concatenate([hf[hf < nyq], [0.99 * nyq, 0.9999 * nyq]])) \
+                if hf.size else hf
+            hfs += [warp(hf_s, fs) / w0] * len(sampled)
+            models = list(models) + sampled
+        ms = tuple((m.label, m.temperature_C, *scale_plant(m, sc)) for m in models)
+        pb, domr = None, ()
+        if placement == "dominant":
+            pb = (tuple(v / w0 for v in so.wn_bounds), tuple(so.zeta_bounds))
+            domr = tuple(r / w0 for r in p.poles.dominant_real)
+        return NLPSetup(w0=w0, models=ms, ref=ref, Sf=self.param.Sf, Rf=self.param.Rf,
+                        ks=self.param.ks, kr=self.param.kr, nu=nu / w0, bounds=bounds,
+                        objective=so.objective,
+                        Am_fixed=sc.normalize(self.Am) if placement == "fixed" else None,
+                        pole_bounds=pb, aux_factor=p.poles.aux_factor, n_dom_real=domr,
+                        stable_controller=sp.stable_controller, bands=tuple(bands),
+                        rates=rates, placement=placement, hf=tuple(hfs),
+                        integrators=self.param.integrators, sign=self.sign,
+                        ctrl_shift=self.ctrl_shift, ctrl_max=self.ctrl_max,
+                        grids=tuple(grids))
+
+    def full(self, xc, setup, wn=None, zeta=None, gamma=1.0):
+        """The full variable vector ``[xc, (wn, zeta), gamma]`` for ``setup``."""
+        parts = [np.asarray(xc, float)[:self.param.n_x]]
+        if setup.placement == "dominant":
+            (wl, wh), (zl, zh) = setup.pole_bounds
+            p = self.problem.poles
+            wn = p.wn / self.w0 if wn is None else wn
+            zeta = p.zeta if zeta is None else zeta
+            parts.append([min(max(wn, wl), wh), min(max(zeta, zl), zh)])
+        parts.append([gamma])
+        return np.concatenate(parts)
+
+    def controller(self, x):
+        """The RST controller of a (full) variable vector."""
+        return self.param.controller(np.asarray(x, float)[:self.param.n_x], self.tracking)

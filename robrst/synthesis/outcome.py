@@ -1,0 +1,197 @@
+"""What the synthesis returns: solves (status, point, objective, multipliers, binding
+constraints), certification rounds, and the synthesised controller with its certificate."""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from robrst.sampled import unwarp
+from robrst.synthesis.parametrize import integral_gain
+
+__all__ = ["OK_STATUS", "Binding", "SolveResult", "Round", "SynthesisResult"]
+
+OK_STATUS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+
+
+@dataclass(frozen=True)
+class Binding:
+    """A constraint of the NLP named for the user: kind, model, temperature, frequency.
+
+    ``kind`` is ``"S"``, ``"T"``, ``"U"``, ``"Tband"``, ``"Uhf"`` (a peak bound on the grid),
+    ``"routh"`` (stability), ``"positivity"``, ``"gamma"`` or ``"controller_routh"``;
+    ``freq_rad_s`` is physical; ``multiplier`` IPOPT's ``lam_g`` (scaled by the
+    constraint's size) and ``violation`` how far the constraint is from holding.
+    """
+
+    kind: str
+    model: str
+    temperature_C: float
+    freq_rad_s: float
+    multiplier: float
+    violation: float
+
+    def describe(self):
+        what = {"S": "|S| peak", "T": "|T| peak", "U": "|U| peak", "Tband": "|T| in the band",
+                "Uhf": "|U| above the high-frequency corner",
+                "routh": "closed-loop stability (Routh)",
+                "controller_routh": "controller poles (stability / integral-gain shift)",
+                "positivity": "sign of the integral gain"}.get(self.kind, self.kind)
+        who = "" if self.model is None else f" of model {self.model} ({self.temperature_C:g} °C)"
+        at = "" if self.freq_rad_s is None else f" at {self.freq_rad_s / (2 * np.pi):.4g} Hz"
+        return f"{what}{who}{at}"
+
+
+@dataclass(frozen=True, eq=False)
+class SolveResult:
+    """One IPOPT solve: status, point, objective, iterations, constraints and multipliers.
+
+    ``labels[i]`` is ``(kind, model label, temperature, scaled frequency or index)`` of
+    constraint ``g[i]``; ``lam_g`` IPOPT's multipliers; ``exchange`` the
+    :class:`~robrst.synthesis.exchange.ExchangeInfo` when solved by constraint exchange.
+    """
+
+    status: str
+    x: np.ndarray
+    objective: float
+    iterations: int
+    g: np.ndarray
+    lbg: np.ndarray
+    ubg: np.ndarray
+    lam_g: np.ndarray
+    labels: tuple
+    w0: float
+    exchange: object = None
+    rates: dict = None       # model label -> sample rate [Hz] of sampled-loop models
+
+    @property
+    def success(self):
+        return self.status in OK_STATUS
+
+    def violations(self):
+        """How far each constraint is from holding (0 where it holds)."""
+        return np.maximum(np.maximum(self.lbg - self.g, self.g - self.ubg), 0.0)
+
+    def _binding_at(self, i, v):
+        kind, label, T, where = self.labels[i]
+        freq = float(where) * self.w0 if isinstance(where, float) else None
+        fs = (self.rates or {}).get(label)
+        if freq is not None and fs:      # the loop variable of a sampled model -> physical
+            freq = float(unwarp(freq, fs))
+        return Binding(kind=kind, model=label, temperature_C=T, freq_rad_s=freq,
+                       multiplier=float(self.lam_g[i]), violation=float(v[i]))
+
+    def binding(self, count=3):
+        """The inequality constraints that bind, strongest first (by ``|multiplier|``).
+
+        The Diophantine equality is structural and never named; multipliers below 1e-4
+        of the largest are an interior point's inactive constraints, not binding ones.
+        When IPOPT ended on an infeasible point, the violated constraints come first.
+        """
+        v = self.violations()
+        ineq = np.array([lab[0] not in ("diophantine", "unused") for lab in self.labels], bool)
+        order = []
+        bad = np.flatnonzero(ineq & (v > 1e-6))
+        order += list(bad[np.argsort(-v[bad])])
+        lam = np.abs(self.lam_g)
+        big = lam.max(initial=0.0, where=ineq) * 1e-4   # an interior point's inactive rows
+        act = np.flatnonzero(ineq & (lam > big))         # carry mu / slack, not zero
+        order += [i for i in act[np.argsort(-lam[act])] if i not in order]
+        out, seen = [], set()
+        for i in order:
+            b = self._binding_at(i, v)
+            key = (b.kind, b.model)
+            if key not in seen:
+                seen.add(key)
+                out.append(b)
+            if len(out) == count:
+                break
+        return tuple(out)
+
+
+@dataclass(frozen=True)
+class Round:
+    """One certification round: the NLP's outcome and what the certificate found."""
+
+    round: int
+    status: str
+    iterations: int
+    models: int
+    frequencies: int
+    violations: int
+    exchange_rounds: int = None
+    active_points: int = None
+    grid_points: int = None
+    phase: str = "hard"        # "soft" (worst normalised spec ratio) or "hard" (objective)
+    placement: str = None      # "fixed", "dominant" or "free"
+    start: str = None          # the start point's name
+    gamma: float = None        # soft phase: worst normalised spec ratio reached on the grid
+
+    def as_dict(self):
+        d = {k: getattr(self, k) for k in ("round", "status", "iterations", "models",
+                                           "frequencies", "violations", "phase", "placement",
+                                           "start", "gamma")}
+        if self.exchange_rounds is not None:
+            d.update(exchange_rounds=self.exchange_rounds, active_points=self.active_points,
+                     grid_points=self.grid_points)
+        return d
+
+
+@dataclass(frozen=True, eq=False)
+class SynthesisResult:
+    """A synthesised controller with its certificate and how the solver got there.
+
+    ``status`` is ``"certified"`` or ``"not_certified"`` (the best controller found,
+    certified for what it achieves: ``best_achievable`` says how far from the specs).
+    ``solve`` is the :class:`~robrst.synthesis.outcome.SolveResult` the controller came
+    from (its ``binding()`` names the limiting constraints); ``placement`` the nominal
+    pole placement it was solved with, ``phase`` whether it is the objective's optimum
+    (``"hard"``), the soft-goal point (``"soft"``: the specs' worst normalised ratio
+    minimised) or a start that met the specs (``"start"``); ``notes`` what the pipeline
+    had to do (fallbacks, relaxations).
+    """
+
+    controller: object
+    Am: np.ndarray
+    certificate: object
+    status: str
+    objective: str
+    w0: float
+    rounds: tuple = ()
+    solve: object = None
+    wall_time_s: float = None
+    wn_rad_s: float = None
+    zeta: float = None
+    name: str = "ipopt"
+    grid_peak_S: float = None
+    placement: str = None
+    phase: str = "hard"
+    best_achievable: str = None
+    notes: tuple = ()
+
+    @property
+    def integral_gain(self):
+        """``lim s R/S`` of the controller [V/(µm s)]."""
+        return integral_gain(self.controller)
+
+    @property
+    def certified(self):
+        """True when the certificate holds."""
+        return self.status == "certified"
+
+    def solver_dict(self):
+        """The ``solver`` object of the design JSON (fields are only added)."""
+        if self.name != "ipopt":
+            return {"name": self.name, "status": self.status, "w0_rad_s": self.w0,
+                    "grid_peak_S": self.grid_peak_S,
+                    "integral_gain": integral_gain(self.controller)}
+        d = {"name": "ipopt", "w0_rad_s": self.w0,
+             "status": None if self.solve is None else self.solve.status,
+             "rounds": [r.as_dict() for r in self.rounds],
+             "iterations": sum(r.iterations for r in self.rounds), "objective": self.objective,
+             "integral_gain": integral_gain(self.controller), "wall_time_s": self.wall_time_s,
+             "binding": [] if self.solve is None else [b.describe() for b in self.solve.binding()],
+             "placement": self.placement, "phase": self.phase, "synthesis_status": self.status,
+             "best_achievable": self.best_achievable, "notes": list(self.notes)}
+        if self.wn_rad_s is not None:
+            d["wn_rad_s"], d["zeta"] = self.wn_rad_s, self.zeta
+        return d

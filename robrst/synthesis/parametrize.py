@@ -1,0 +1,175 @@
+"""The decision vector of the synthesis and the controller it stands for.
+
+``S = Sf S'`` (``S'`` monic of degree ``ks``) and ``R = Rf R'`` (degree ``kr``), written
+in the scaled variable ``p = s / w0`` and normalised (:meth:`robrst.poly.Scaling.normalize`)
+so every coefficient is O(1).  The decision vector is ``x = [S' (non-leading), R']``.
+:class:`Parametrization` maps a controller to ``x`` and back; the NLP, the convex
+program and the robust driver share it.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from robrst import poly
+from robrst.errors import SolverError
+from robrst.rst import RSTController
+from robrst.synthesis import analytic
+
+__all__ = ["Parametrization", "TrackingRule", "integral_gain", "frequency_grid"]
+
+
+def _scaled_factor(F, scaling):
+    Fs = scaling.apply(poly.trim(F))
+    return Fs / Fs[0]
+
+
+@dataclass(frozen=True, eq=False)
+class Parametrization:
+    """Degrees, fixed factors and scaling of the controller's free coefficients.
+
+    Use :meth:`of` to build it from a controller structure and the nominal plant.
+    """
+
+    scaling: poly.Scaling
+    S_fixed: np.ndarray     # unscaled fixed factors
+    R_fixed: np.ndarray
+    Sf: np.ndarray          # scaled, monic
+    Rf: np.ndarray          # scaled, leading coefficient 1
+    ks: int                 # degree of S'
+    kr: int                 # degree of R'
+    deg_s: int              # degree of S
+
+    @classmethod
+    def of(cls, structure, plant, scaling, extra_degree=None):
+        """The parametrisation of ``structure`` (ControllerStructure) for ``plant``.
+
+        ``extra_degree`` overrides the structure's (the lower-degree problems of the
+        homotopy).
+        """
+        Sf, Rf = poly.trim(structure.S_total), poly.trim(structure.R_fixed)
+        extra = structure.extra_degree if extra_degree is None else extra_degree
+        rel = structure.controller_relative_degree
+        deg_am = analytic.closed_loop_degree(plant.n, plant.m, Sf, Rf, extra, rel)
+        deg_s = deg_am - plant.n
+        ks = deg_s - (len(Sf) - 1)
+        kr = deg_s - rel - (len(Rf) - 1)  # R up to deg S - rel: extra degrees are free
+        return cls(scaling=scaling, S_fixed=Sf, R_fixed=Rf, Sf=_scaled_factor(Sf, scaling),
+                   Rf=_scaled_factor(Rf, scaling), ks=ks, kr=kr, deg_s=deg_s)
+
+    @property
+    def n_x(self):
+        """Length of the controller part of the decision vector."""
+        return self.ks + self.kr + 1
+
+    @property
+    def integrators(self):
+        """Number of roots at ``s = 0`` in the fixed factor of S."""
+        nz = np.flatnonzero(self.S_fixed)
+        return len(self.S_fixed) - 1 - int(nz[-1])
+
+    def vector(self, ctrl):
+        """The scaled decision vector of a controller that contains the fixed factors."""
+        sc, n = self.scaling, self.deg_s
+        pad = lambda c: np.concatenate([np.zeros(n + 1 - len(c)), c])  # noqa: E731
+        if len(poly.trim(ctrl.S)) != n + 1 or len(poly.trim(ctrl.R)) > len(self.R_fixed) + self.kr:
+            raise SolverError("initial controller has the wrong degrees for the structure")
+        Ss, Rs = sc.normalize(pad(ctrl.S), n), sc.normalize(pad(ctrl.R), n)
+        sp, rem = np.polydiv(Ss, self.Sf)
+        rp, rem2 = np.polydiv(Rs, self.Rf)
+        if np.max(np.abs(rem)) > 1e-8 or np.max(np.abs(rem2)) > 1e-8 * max(1, np.max(np.abs(Rs))):
+            raise SolverError("initial controller does not contain the fixed factors")
+        if len(rp) > self.kr + 1:          # leading zeros of the padding
+            rp = rp[len(rp) - self.kr - 1:]
+        rp = np.concatenate([np.zeros(self.kr + 1 - len(rp)), rp]) / sp[0]
+        sp = sp / sp[0]
+        return np.concatenate([sp[1:], rp])
+
+    def controller(self, x, tracking):
+        """The unscaled RST controller of the decision vector ``x``.
+
+        ``tracking`` builds T from R (a :class:`TrackingRule`).
+        """
+        sp = np.concatenate([[1.0], x[:self.ks]])
+        rp = x[self.ks:self.n_x]
+        S = self.scaling.denormalize(np.polymul(self.Sf, sp), self.deg_s)
+        R = poly.trim(self.scaling.denormalize(np.polymul(self.Rf, rp), self.deg_s))
+        k = self.integrators
+        S[len(S) - k:] = 0.0  # the integrators are structural (exact zeros, not 1e-300)
+        return RSTController(R=R, S=S, T=tracking(R))
+
+    def embed(self, ctrl, root):
+        """``ctrl`` of a lower degree raised to this one: R and S times ``(s - root)``.
+
+        The controller ``R/S`` is unchanged (a common factor); returns the decision
+        vector, or ``None`` if the degrees do not fit.
+        """
+        f = poly.from_roots([root])
+        R, S = poly.pmul(ctrl.R, f), poly.pmul(ctrl.S, f)
+        if len(S) != self.deg_s + 1:
+            return None
+        try:
+            return self.vector(RSTController(R=R, S=S, T=ctrl.T))
+        except SolverError:
+            return None
+
+
+@dataclass(frozen=True, eq=False)
+class TrackingRule:
+    """``T`` from ``R`` with unit static gain (``T(0) = R(0)``): the structure's T_mode."""
+
+    mode: str
+    zeros: tuple
+    B: np.ndarray          # numerator of the nominal plant
+
+    def __call__(self, R):
+        Am0 = np.array([R[-1] * self.B[-1]])
+        if self.mode == "static":
+            return analytic.tracking_polynomial("static", R, self.B, Am0, np.ones(1))
+        return analytic.tracking_polynomial("paper", R, self.B, Am0, np.ones(1), self.zeros)
+
+
+def integral_gain(ctrl):
+    """``lim_{s->0} s R/S`` [V/(µm s)]: the low-frequency disturbance-rejection gain.
+
+    ``inf`` when ``S`` has more than one root at ``s = 0`` (JSON: ``null``).
+    """
+    Sq = poly.trim(ctrl.S)[:-1]
+    return float(ctrl.R[-1] / Sq[-1]) if Sq[-1] != 0 else float("inf")
+
+
+RESONANCE_DAMPING = 0.1     # poles less damped than this get a dense grid around them
+
+
+def _resonance_points(roots):
+    """Points every half damping bandwidth within +-10 of them around lightly damped roots."""
+    out = []
+    for r in roots:
+        w = abs(r)
+        if w == 0 or r.imag <= 0:
+            continue
+        z = -r.real / w
+        if z < RESONANCE_DAMPING:
+            h = max(z, 1e-4)
+            out.append(w * (1 + 0.5 * h * np.arange(-10, 11)))
+    return out
+
+
+def frequency_grid(family, Am, n_freq):
+    """The NLP's frequency grid [rad/s]: log-spaced around every pole, zero and Am root,
+    dense around every lightly damped pole of every model (their peaks are narrow)."""
+    roots = [np.abs(np.roots(Am))]
+    extra = []
+    for m in family.models:
+        p = m.poles()
+        roots.append(np.abs(p))
+        extra += _resonance_points(p)
+        if m.m:
+            roots.append(np.abs(m.zeros()))
+    r = np.concatenate(roots)
+    r = r[r > 0]
+    lo, hi = r.min() / 30.0, r.max() * 30.0
+    extra += [[np.max(np.abs(m.poles().imag)) for m in family.models]]
+    far = [hi * 1e2, hi * 1e4]  # the high-frequency limits of |S|, |U| (peaks at infinity)
+    pts = np.concatenate([np.geomspace(lo, hi, n_freq), *extra, far])
+    return np.unique(pts[pts > 0])

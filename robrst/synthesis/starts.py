@@ -1,0 +1,181 @@
+"""Start points of the robust program, and how good each is before any solve.
+
+Candidates (decision vectors of one :class:`~robrst.synthesis.context.Context`):
+
+* the analytic pole placement at the problem's poles, and — when the nominal poles
+  may move — at several other ``(wn, zeta)``;
+* seeds handed down (the best point of a previous attempt, the lower-degree optimum
+  of the homotopy, embedded by a common factor);
+* when every coefficient is free: an integral controller ``ki/s`` with fast roll-off
+  poles, its gain chosen on a grid (a low-gain integrator is what keeps a stable plant
+  with moving resonances stable; the pole placement cannot reach it);
+* with fixed poles, on demand: the nominal convex (SOCP) design.
+
+:func:`score` rates a start by the worst normalised spec ratio on the grid and the
+largest closed-loop spectral abscissa over the models, without solving anything.
+"""
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from robrst import poly
+from robrst.analysis import spectral_abscissa
+from robrst.errors import RobrstError
+from robrst.synthesis import analytic
+from robrst.synthesis.nlp import closed_loop_maps
+
+__all__ = ["Start", "score", "candidates", "abscissa"]
+
+WN_FACTORS = (1.0, 0.5, 2.0, 0.25)
+ZETAS = (1.0, 0.7)
+KI_GRID = np.geomspace(1e-5, 1.0, 26)     # integral/PI starts: scaled crossover frequencies
+
+
+@dataclass(frozen=True, eq=False)
+class Start:
+    """A start point: its name, controller vector, worst grid ratio and spectral abscissa."""
+
+    name: str
+    xc: np.ndarray
+    worst: float
+    abscissa: float
+    wn: float = None          # scaled, for the dominant placement
+    zeta: float = None
+    gain: float = 0.0         # integral/PI starts: their crossover (scaled)
+
+    @property
+    def stable(self):
+        return self.abscissa < 0
+
+    def key(self):
+        """Sort key: stable first, then the smallest worst ratio."""
+        return (not self.stable, self.worst if self.stable else self.abscissa)
+
+
+def abscissa(setup, xc):
+    """Largest real part of the closed-loop roots over every model of ``setup`` (scaled).
+
+    A sampled-loop model whose closed-loop polynomial lost its leading coefficient
+    (a pole at ``z = -1``) counts as unstable (``inf``).
+    """
+    cl = closed_loop_maps(setup)
+    worst = -np.inf
+    xc = np.asarray(xc, float)[:setup.n_x]
+    for label, T, a, b in setup.models:
+        (Dm, Dc), _ = cl(a, b)
+        D = Dm @ xc + Dc
+        if not np.all(np.isfinite(D)) or D[0] == 0:
+            return np.inf
+        Ds = poly.Scaling.natural(D).apply(D)        # its own scale: O(1) coefficients
+        if abs(Ds[0]) <= 1e-12 * np.max(np.abs(Ds)):
+            return np.inf
+        worst = max(worst, spectral_abscissa(D)[0])
+    return worst
+
+
+def score(setup, blocks, name, xc, wn=None, zeta=None):
+    """A :class:`Start` for ``xc``: worst ``|N|/(M |Delta|)`` over ``blocks`` and stability."""
+    worst = max((float(b.ratio(xc).max()) for b in blocks), default=0.0)
+    return Start(name=name, xc=np.asarray(xc, float)[:setup.n_x], worst=worst,
+                 abscissa=abscissa(setup, xc), wn=wn, zeta=zeta)
+
+
+def _analytic(ctx, spec):
+    p = ctx.problem
+    structure = replace(p.controller, extra_degree=ctx.extra_degree)
+    try:
+        d = analytic.pole_placement(p.family.reference_model, spec, structure)
+        return ctx.param.vector(d.controller)
+    except (RobrstError, ValueError, np.linalg.LinAlgError):
+        return None
+
+
+def _integral(ctx, setup, blocks):
+    """Integral and PI controllers with roll-off poles at ``p = -c`` (scaled), scored.
+
+    ``K = kappa (p + z) (p + c)^(kr-1) / (p Sf' (p + c)^ks)``: an integrator (``z``
+    far above the crossover) or a PI with its zero at ``z``, the gain set by the loop
+    crossover ``wc`` (``K(jw) P(0) ~ wc / jw`` at low frequency).
+    """
+    par = ctx.param
+    if par.integrators != 1:
+        return []
+    ref = ctx.problem.family.reference_model
+    if ref.A[-1] == 0:
+        return []
+    dc = ref.B[-1] / ref.A[-1]
+    c = 3.0
+    sp = np.poly(-c * np.ones(par.ks)) if par.ks else np.ones(1)
+    sfr = par.Sf[:-1]                                  # Sf / p (scaled)
+    out = []
+    for wc in KI_GRID:
+        for zf in (None, 1.0, 0.3):                    # integral; PI zeros at wc, 0.3 wc
+            if zf is None or par.kr < 1:
+                rp = np.poly(-c * np.ones(par.kr)) if par.kr else np.ones(1)
+                name = f"integral (crossover {wc * ctx.w0:.3g} rad/s)"
+            else:
+                rp = np.convolve([1.0, zf * wc], np.poly(-c * np.ones(par.kr - 1)))
+                name = f"PI (crossover {wc * ctx.w0:.3g} rad/s, zero at {zf:g} of it)"
+            gain0 = rp[-1] * par.Rf[-1] / (sp[-1] * sfr[-1])   # low-frequency K(w0 p) p / kappa
+            kappa = wc / (dc * gain0)
+            st = score(setup, blocks, name, np.concatenate([sp[1:], kappa * rp]))
+            out.append(replace(st, gain=float(wc)))
+    return out
+
+
+def _boldest(starts):
+    """The start with the highest crossover that meets the specs on the grid with 10 %
+    to spare (closest to a ``max_integral_gain`` optimum), else the most robust one."""
+    ok = [s for s in starts if s.stable and s.worst <= 0.9]
+    return max(ok, key=lambda s: s.gain) if ok else min(starts, key=Start.key)
+
+
+def candidates(ctx, setup, blocks, seeds=(), convex=False):
+    """Scored start points for ``setup``, best first (see the module docstring).
+
+    ``seeds`` are ``(name, xc)`` or ``(name, xc, wn, zeta)`` (scaled ``wn``) of this
+    context's parametrisation.
+    """
+    p = ctx.problem
+    out = [score(setup, blocks, sd[0], sd[1], *sd[2:4]) for sd in seeds if sd[1] is not None]
+    x = _analytic(ctx, p.poles)
+    if x is not None:
+        wn = None if p.poles.wn is None else p.poles.wn / ctx.w0
+        out.append(score(setup, blocks, "analytic", x, wn=wn, zeta=p.poles.zeta))
+    if setup.placement != "fixed" and p.poles.dominant_roots is None:
+        lo, hi = (p.solver.wn_bounds or (0.0, np.inf)) if setup.placement == "dominant" \
+            else (0.0, np.inf)
+        zlo, zhi = (p.solver.zeta_bounds or (0.0, np.inf)) if setup.placement == "dominant" \
+            else (0.0, np.inf)
+        for f in WN_FACTORS:
+            for z in ZETAS:
+                wn = min(max(p.poles.wn * f, lo), hi)
+                z = min(max(z, zlo), zhi)
+                if (f, z) == (1.0, p.poles.zeta):
+                    continue
+                x = _analytic(ctx, replace(p.poles, wn=wn, zeta=z))
+                if x is not None:
+                    out.append(score(setup, blocks, f"analytic wn={wn:.4g} zeta={z:g}", x,
+                                     wn=wn / ctx.w0, zeta=z))
+    if setup.placement == "free":
+        ints = _integral(ctx, setup, blocks)
+        if ints:
+            best = min(ints, key=Start.key)
+            out.append(best)
+            bold = _boldest(ints)
+            if bold is not best:
+                out.append(bold)
+    if convex and setup.placement == "fixed":
+        out.extend(_convex(ctx, setup, blocks))
+    return sorted(out, key=Start.key)
+
+
+def _convex(ctx, setup, blocks):
+    from robrst.synthesis.convex import solve_convex   # cvxpy: only when asked for
+
+    try:
+        x, _ = solve_convex(ctx.problem, ctx.Am, ctx.param, setup.nu, "feasibility")
+    except RobrstError:
+        return []
+    return [score(setup, blocks, "convex (nominal SOCP)", x)]

@@ -1,0 +1,159 @@
+"""The robust RST program as one CasADi/IPOPT solver, built once per structure.
+
+Everything that depends on the plants, the grid, the bounds and the phase enters as a
+*parameter* (the numeric rows of :mod:`robrst.synthesis.nlp`), so one built solver
+serves every certification round, every exchange round, both phases (soft goals and
+hard specs) and every variant of a problem with the same degrees: only the
+:class:`Structure` (degrees, how many constraint slots, which constraint families)
+decides what is built.  Unused slots carry zero rows and infinite bounds.
+
+Variables ``X = [xc, (wn, zeta), gamma]``.  Constraints, in order:
+
+1. the Diophantine equality at the nominal model (placement ``fixed``/``dominant``);
+2. ``slots`` peak constraints ``(|N|^2 - m2 (sg gamma^2 + 1 - sg) |Delta|^2) / W <= 0``
+   with ``W = rho w + (1 - rho) |Delta|^2``: a fixed weight (``rho = 1``, quadratic
+   constraints, right when the nominal closed loop is pinned) or the ratio itself
+   (``rho = 0``, well scaled wherever the closed-loop poles go);
+3. Routh first columns of every model's closed-loop polynomial, by degree group;
+4. positivity of ``sign R(0)`` and ``(S/s^k)(0)`` (``max_integral_gain``);
+5. Routh columns of the controller polynomials ``(S/s^k)(p - shift)`` and
+   ``(S/s^k)(-p - ctrl_max)`` (optional: the controller's poles in a strip).
+
+Objective ``c_gamma gamma + c_ki (-log(sign R(0)) + log((S/s^k)(0))) + c_reg |xc - xref|^2``.
+"""
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from robrst import poly
+from robrst.synthesis.nlp import routh_column
+
+__all__ = ["Structure", "Template", "TINY"]
+
+TINY = 1e-20           # log clip: its second derivative (1e40) stays finite
+
+
+@dataclass(frozen=True)
+class Structure:
+    """What a built solver depends on (its cache key)."""
+
+    nx: int
+    placement: str          # "fixed" | "dominant" | "free"
+    deg_eq: int             # Diophantine rows (deg Am), 0 for "free"
+    n_dom_real: int
+    groups: tuple           # ((degree of Delta, capacity), ...)
+    slots: int
+    ctrl_deg: int           # degree of the controller polynomial under Routh, -1: none
+    ipopt: tuple            # IPOPT options as sorted (key, value) pairs
+    ctrl_count: int = 1     # how many controller polynomials are under Routh
+
+    @property
+    def n_var(self):
+        return self.nx + (2 if self.placement == "dominant" else 0) + 1
+
+
+class Template:
+    """One CasADi NLP with parameters (see the module docstring).
+
+    Parameters
+    ----------
+    structure : Structure
+    """
+
+    def __init__(self, structure):
+        st = self.structure = structure
+        nx, K = st.nx, st.slots
+        blocks = [(k, (K, nx)) for k in ("NR", "NI", "DR", "DI")]
+        blocks += [(k, (K,)) for k in ("nr", "ni", "dr", "di", "w", "m2", "sg")]
+        blocks += [("rho", (1,))]
+        for i, (deg, cap) in enumerate(st.groups):
+            blocks += [(f"Dm{i}", (cap * (deg + 1), nx)), (f"Dc{i}", (cap * (deg + 1),))]
+        if st.placement != "free":
+            blocks += [("D0m", (st.deg_eq, nx)), ("D0c", (st.deg_eq,))]
+            blocks += [("Am", (st.deg_eq,))] if st.placement == "fixed" else \
+                [("aux", (1,)), ("domr", (st.n_dom_real,))]
+        blocks += [("r0", (nx,)), ("q0", (nx,)), ("q0c", (1,)), ("coef", (3,)), ("xref", (nx,))]
+        if st.ctrl_deg >= 0:
+            nc = st.ctrl_count * (st.ctrl_deg + 1)
+            blocks += [("Cm", (nc, nx)), ("Cc", (nc,))]
+        self.layout, off = {}, 0
+        for name, shape in blocks:
+            size = int(np.prod(shape))
+            self.layout[name] = (off, shape)
+            off += size
+        self.n_p = off
+        P = ca.MX.sym("p", off)
+        X = ca.MX.sym("x", st.n_var)
+        xc, gamma = X[:nx], X[-1]
+
+        def par(name):
+            o, shape = self.layout[name]
+            v = P[o:o + int(np.prod(shape))]
+            return ca.reshape(v, *shape) if len(shape) == 2 else v
+
+        g = []
+        if st.placement != "free":
+            if st.placement == "fixed":
+                Am = par("Am")
+            else:
+                Am = self._am(X[nx], X[nx + 1], par("aux"), par("domr"), st.deg_eq)
+            g.append(ca.mtimes(par("D0m"), xc) + par("D0c") - Am)
+        lin = {k: ca.mtimes(par(k.upper()), xc) + par(k) for k in ("nr", "ni", "dr", "di")}
+        scale = par("m2") * (par("sg") * gamma ** 2 + 1 - par("sg"))
+        d2 = lin["dr"] ** 2 + lin["di"] ** 2
+        rho = par("rho")
+        g.append((lin["nr"] ** 2 + lin["ni"] ** 2 - scale * d2) / (rho * par("w") + (1 - rho) * d2))
+        for i, (deg, cap) in enumerate(st.groups):
+            D = ca.mtimes(par(f"Dm{i}"), xc) + par(f"Dc{i}")
+            c = ca.SX.sym("c", deg + 1)
+            fn = ca.Function("routh", [c], [routh_column(c / c[0])]).map(cap)
+            g.append(ca.vec(fn(ca.reshape(D, deg + 1, cap))))
+        r0 = ca.dot(par("r0"), xc)
+        q0 = ca.dot(par("q0"), xc) + par("q0c")
+        g.append(ca.vertcat(r0, q0))
+        if st.ctrl_deg >= 0:
+            c = ca.SX.sym("c", st.ctrl_deg + 1)
+            fn = ca.Function("routh_c", [c], [routh_column(c / c[0])]).map(st.ctrl_count)
+            C = ca.mtimes(par("Cm"), xc) + par("Cc")
+            g.append(ca.vec(fn(ca.reshape(C, st.ctrl_deg + 1, st.ctrl_count))))
+        coef = par("coef")
+        f = (coef[0] * gamma
+             + coef[1] * (-ca.log(ca.fmax(r0, TINY)) + ca.log(ca.fmax(q0, TINY)))
+             + coef[2] * ca.sumsqr(xc - par("xref")))
+        self.n_g = int(sum(e.numel() for e in g))
+        opts = {"ipopt": dict(st.ipopt), "print_time": False, "show_eval_warnings": False,
+                "calc_lam_p": False}     # parameter multipliers: unused (and noisy on failure)
+        self.solver = ca.nlpsol("rst", "ipopt", {"x": X, "p": P, "f": f, "g": ca.vertcat(*g)},
+                                opts)
+
+    @staticmethod
+    def _am(wn, zeta, aux, domr, degree):
+        dom = [1, 2 * zeta * wn, wn ** 2]
+        for i in range(domr.numel()):
+            dom = poly.conv_generic(dom, [1, -domr[i]])
+        am = dom
+        for _ in range(degree - 2 - domr.numel()):
+            am = poly.conv_generic(am, [1, aux * wn])
+        return ca.vertcat(*am[1:])
+
+    def pack(self, values):
+        """The parameter vector from a dict of arrays (missing blocks are zero)."""
+        p = np.zeros(self.n_p)
+        for name, v in values.items():
+            o, shape = self.layout[name]
+            a = np.asarray(v, float)
+            if a.shape != tuple(shape):
+                raise ValueError(f"parameter {name}: shape {a.shape}, expected {shape}")
+            p[o:o + a.size] = a.ravel(order="F")
+        return p
+
+    def solve(self, values, x0, lbx, ubx, lbg, ubg):
+        """Solve with parameters ``values``; returns IPOPT's raw outcome as a dict."""
+        sol = self.solver(x0=x0, p=self.pack(values), lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+        stats = self.solver.stats()
+        return {"status": stats["return_status"], "x": np.array(sol["x"]).ravel(),
+                "f": float(sol["f"]), "g": np.array(sol["g"]).ravel(),
+                "lam_g": np.array(sol["lam_g"]).ravel(),
+                "iterations": int(stats.get("iter_count", 0))}

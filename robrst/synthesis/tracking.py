@@ -1,0 +1,170 @@
+"""Tracking, the T in RST: a two-degree-of-freedom design for a stated reference model.
+
+The feedback ``R/S`` is designed for robustness; the reference path is designed here,
+after it, for the nominal model (its sampled loop when the specs name a sampling rate:
+that is the loop that runs).  With the nominal closed-loop polynomial
+``Delta = A S + B R`` factored into its *well-damped* part ``Delta_wd`` (real roots and
+pairs with damping ``>= T_cancel_damping``) and the rest ``Delta_bad`` (lightly damped
+modes, e.g. resonances a robust low-gain loop leaves in place — cancelling those would
+not survive a shift of the resonance with temperature), and a reference model
+``Am_ref`` (a pair ``(reference_wn, reference_zeta)`` and real poles at
+``-2 reference_wn`` up to the degree properness needs),
+
+    T' = c Delta_wd,   R' = R Am_ref,   S' = S Am_ref,
+
+so that ``y/yr = B T' / (Delta Am_ref) = c B / (Delta_bad Am_ref)`` at the nominal
+model: the reference model, the plant's zeros and the lightly damped modes only, unit
+static gain (``c``).  ``Am_ref`` is a common factor of ``R'`` and ``S'`` (the feedback
+``R'/S' = R/S`` is unchanged, so every frequency-domain figure and the certificate's
+stability carry over); the control law ``S' u = T' yr - R' y`` contains the reference
+filter, so every tool that takes an RST controller (closed loop, discretisation, twin)
+tracks through it without knowing about it.  The voltage ``u/yr = c A / (Delta_bad
+Am_ref)`` carries the plant's resonances as zeros: the reference never excites them.
+
+:func:`design_tracking` chooses the reference model's bandwidth: the stated
+``reference_wn`` if the time-domain specs hold on every family model, else the first
+of ``0.7, 0.5, 0.35, 0.25`` times it that does; when none does, it cancels one more
+nominal closed-loop pair (the best damped of those kept, never one damped below
+``CANCEL_FLOOR``) and tries again (the time-domain certificate has the last word).
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from robrst import poly
+from robrst.analysis import spectral_abscissa
+from robrst.rst import RSTController, closed_loop
+from robrst.sampled import sampled_plant
+from robrst.timespec import check as time_check
+
+__all__ = ["Tracking", "two_dof", "design_tracking", "reference_model", "cancel_thresholds",
+           "CANCEL_FLOOR"]
+
+SLOWER = (1.0, 0.7, 0.5, 0.35, 0.25)
+CANCEL_FLOOR = 0.2   # never cancel a closed-loop factor less damped than this (resonances)
+
+
+@dataclass(frozen=True, eq=False)
+class Tracking:
+    """The 2-DOF reference path: ``Am_ref``, the cancelled ``Delta_wd``, gain ``c``."""
+
+    reference_wn: float
+    reference_zeta: float
+    Am_ref: np.ndarray
+    Delta_wd: np.ndarray
+    Delta_bad: np.ndarray
+    gain: float
+
+    def as_dict(self):
+        return {"reference_wn_rad_s": self.reference_wn, "reference_zeta": self.reference_zeta,
+                "reference_den": self.Am_ref.tolist(), "cancelled": self.Delta_wd.tolist(),
+                "kept": self.Delta_bad.tolist()}
+
+
+def _split(Delta, min_damping):
+    """``(Delta_wd, Delta_bad)``: roots with damping ``>= min_damping`` and the rest."""
+    sc = poly.Scaling.natural(Delta)
+    r = sc.unfreq(np.roots(sc.apply(poly.trim(Delta))))
+    r = r[np.argsort(r.imag)]
+    damp = -r.real / np.maximum(np.abs(r), 1e-300)
+    good = (damp >= min_damping) & (r.real < 0)
+    wd, bad = r[good], r[~good]
+    return poly.from_roots(wd) if wd.size else np.ones(1), \
+        poly.from_roots(bad) if bad.size else np.ones(1)
+
+
+def reference_model(wn, zeta, degree):
+    """``Am_ref``: the pair ``(wn, zeta)`` and ``degree - 2`` real poles at ``-2 wn``."""
+    pair = [1.0, 2 * zeta * wn, wn * wn]
+    den = np.asarray(pair, float)
+    for _ in range(max(degree, 2) - 2):
+        den = np.convolve(den, [1.0, 2.0 * wn])
+    return den
+
+
+def two_dof(plant, ctrl, wn, zeta, min_damping=0.5):
+    """The 2-DOF controller for the reference model ``(wn, zeta)`` on ``plant``.
+
+    Parameters
+    ----------
+    plant : Plant
+        The nominal model.
+    ctrl : RSTController
+        The feedback design (its T is ignored).
+    wn, zeta : float
+        Reference model bandwidth [rad/s] and damping.
+    min_damping : float
+        Nominal closed-loop factors at least this damped are cancelled by T.
+
+    Returns
+    -------
+    (RSTController, Tracking)
+    """
+    Delta = poly.padd(poly.pmul(plant.A, ctrl.S), poly.pmul(plant.B, ctrl.R))
+    Delta = Delta / Delta[0]
+    wd, bad = _split(Delta, min_damping)
+    deg_s, deg_wd = len(poly.trim(ctrl.S)) - 1, len(wd) - 1
+    # proper T (deg wd <= deg S + deg Am_ref) and no voltage jump (one more)
+    degree = max(2, deg_wd - deg_s + 1)
+    am = reference_model(wn, zeta, degree)
+    c = poly.trim(Delta)[-1] * am[-1] / (plant.B[-1] * wd[-1])
+    # exact zeros of S (integrators) stay exact zeros in the product
+    out = RSTController(R=poly.pmul(ctrl.R, am), S=poly.pmul(ctrl.S, am), T=c * wd)
+    return out, Tracking(reference_wn=float(wn), reference_zeta=float(zeta), Am_ref=am,
+                         Delta_wd=wd, Delta_bad=bad, gain=float(c))
+
+
+def _meets(problem, ctrl):
+    sp = problem.specs
+    so = problem.solver
+    for m in problem.family.models:
+        plants = [(m, None)]
+        if sp.sampled:
+            plants.append((sampled_plant(m, sp.sample_rate_hz, sp.delay_samples),
+                           sp.sample_rate_hz))
+        for pl, fs in plants:
+            cl = closed_loop(pl, ctrl)
+            if spectral_abscissa(cl.Delta)[0] >= 0:
+                return False
+            if time_check(pl, ctrl, cl, sp, so.cert_tol, fs)[1]:
+                return False
+    return True
+
+
+def design_tracking(problem, ctrl):
+    """The problem's 2-DOF controller (``T_mode = "reference_model"``), see the module doc.
+
+    Returns
+    -------
+    (RSTController, Tracking)
+    """
+    c = problem.controller
+    sp = problem.specs
+    ref = problem.family.reference_model
+    if sp.sampled:   # the loop that runs: cancel the sampled loop's closed-loop factors
+        ref = sampled_plant(ref, sp.sample_rate_hz, sp.delay_samples)
+    first = None
+    for damping in cancel_thresholds(ref, ctrl, c.T_cancel_damping):
+        for f in SLOWER:
+            out = two_dof(ref, ctrl, c.reference_wn * f, c.reference_zeta, damping)
+            first = first or out
+            if not problem.specs.time_domain or _meets(problem, out[0]):
+                return out
+    return first
+
+
+def cancel_thresholds(plant, ctrl, preferred):
+    """Damping thresholds to try: ``preferred``, then each kept pair's own damping down to
+    :data:`CANCEL_FLOOR` (one more factor cancelled each time, best damped first).
+
+    A nominal closed-loop pair just below ``preferred`` (e.g. damping 0.49 at 0.5) left in
+    the reference path gives ~12 % overshoot; cancelling it is robust when its damping is
+    well above a resonance's, and the time-domain certificate has the last word.
+    """
+    Delta = poly.padd(poly.pmul(plant.A, ctrl.S), poly.pmul(plant.B, ctrl.R))
+    sc = poly.Scaling.natural(Delta)
+    r = sc.unfreq(np.roots(sc.apply(poly.trim(Delta))))
+    damp = -r.real / np.maximum(np.abs(r), 1e-300)
+    kept = np.unique(np.round(damp[(damp < preferred) & (damp >= CANCEL_FLOOR) & (r.real < 0)], 12))
+    return (preferred, *sorted((float(d) * (1 - 1e-9) for d in kept), reverse=True))

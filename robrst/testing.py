@@ -1,0 +1,342 @@
+"""Regression tests on the margins of your own designs: golden files and ``assert_margins``.
+
+A golden file is TOML written by ``robrst check PROBLEM --golden FILE --update`` (or
+:func:`write_golden`): per model of the family the design's figures (``Ms``, ``Mt``,
+``Mu``, the gain margins, the phase margin, the modulus and delay margins and, for a
+sampled problem, the sampled peaks), the design's ``certified`` and its objective, each
+with its tolerance.  Checking compares a new design with it and lists every figure that
+got *worse* beyond its tolerance; improvements never fail.  Which way is worse:
+
+==========================================  ==============================================
+figure                                      worse when
+==========================================  ==============================================
+``Ms``, ``Mt``, ``Mu``, ``Msd``, ``*_sampled``  ``current > value (1 + rtol) + atol``
+``modulus_margin``, ``delay_margin_s``      ``current < value (1 - rtol) - atol``
+``phase_margin_deg``                        ``|current| < |value| (1 - rtol) - atol``
+``gain_margin*`` (every gain margin)        ``|ln current| < |ln value| (1 - rtol) - atol``
+``certified``                               ``true`` became ``false``
+``integral_gain`` (objective)               ``current < value (1 - rtol) - atol``
+``worst_Ms`` (objective ``min_Ms``)         ``current > value (1 + rtol) + atol``
+==========================================  ==============================================
+
+Figures are read by name from ``DesignResult.as_dict()["models"]`` (and the certificate's
+family-member records for ``*_sampled``); fields added later are ignored until a golden
+names them.  ``null``/missing margins are infinite (``inf`` in the golden).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+from robrst import __version__
+from robrst.errors import OutputError, SpecError
+from robrst.fileio import atomic_write_text
+
+__all__ = ["Worse", "golden_figures", "write_golden", "read_golden", "compare_golden",
+           "assert_margins", "MARKER", "DEFAULT_TOL"]
+
+MARKER = "# robrst margins golden"
+FORMAT = 1
+PEAKS = ("Ms", "Mt", "Mu", "Msd")
+SAMPLED = ("Ms_sampled", "Mt_sampled", "Mu_sampled")
+DEFAULT_TOL = {"rtol": 1e-4, "phase_atol_deg": 1e-2}
+OBJECTIVES = {"integral_gain": "smaller", "worst_Ms": "larger"}   # name -> which way is worse
+_GAIN = re.compile(r"^gain_margins?(_[a-z]+)?$")
+
+
+def direction(name):
+    """Which way figure ``name`` gets worse: ``larger``, ``smaller``, ``abs``, ``log`` or None."""
+    if name in PEAKS or name in SAMPLED:
+        return "larger"
+    if name in ("modulus_margin", "delay_margin_s"):
+        return "smaller"
+    if name == "phase_margin_deg":
+        return "abs"
+    if _GAIN.match(name) and not name.endswith(("_freq", "_rad_s", "_hz")):
+        return "log"
+    return None
+
+
+@dataclass(frozen=True)
+class Worse:
+    """One figure that got worse: where, what, the golden and current values, the tolerance."""
+
+    model: str
+    figure: str
+    golden: object
+    current: object
+    tolerance: str
+
+    def describe(self):
+        f = lambda v: v if isinstance(v, (bool, str)) else f"{v:.6g}"   # noqa: E731
+        where = f"{self.model} " if self.model else ""
+        return (f"{where}{self.figure}: {f(self.current)} is worse than golden"
+                f" {f(self.golden)} ({self.tolerance})")
+
+
+def _num(v):
+    return math.inf if v is None else float(v)
+
+
+def _as_dict(result):
+    return result if isinstance(result, dict) else result.as_dict()
+
+
+def _objective(result, d):
+    kind = getattr(getattr(getattr(result, "problem", None), "solver", None), "objective", None)
+    if kind == "min_Ms":
+        return "worst_Ms", max(m["Ms"] for m in d["certificate"]["models"])
+    if kind == "feasibility":
+        return None, None
+    return "integral_gain", d.get("integral_gain")
+
+
+def golden_figures(result):
+    """The figures of ``result`` (a DesignResult or its ``as_dict()``) a golden records.
+
+    Returns
+    -------
+    dict
+        ``{"problem", "certified", "objective": (name, value), "models": {label:
+        {"temperature_C": T, figure: value, ...}}}``.
+    """
+    d = _as_dict(result)
+    sampled = {m["label"]: m for m in d.get("certificate", {}).get("models", [])
+               if m.get("family_member", True)}
+    models = {}
+    for m in d["models"]:
+        figs = {k: v for k, v in m.items()
+                if direction(k) and (v is None or isinstance(v, (int, float)))
+                and not isinstance(v, bool)}
+        rec = sampled.get(m["label"], {})
+        figs.update({k: rec[k] for k in SAMPLED if k in rec})
+        models[m["label"]] = {"temperature_C": m.get("temperature_C"), **figs}
+    return {"problem": d["problem"], "certified": bool(d["certified"]),
+            "objective": _objective(result, d), "models": models}
+
+
+def _toml(v):
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, str):
+        return json.dumps(v)
+    v = _num(v)
+    return ("inf" if v > 0 else "-inf") if math.isinf(v) else repr(v)
+
+
+def _tol(name, rtol, phase_atol):
+    return f"atol = {phase_atol!r}" if direction(name) == "abs" else f"rtol = {rtol!r}"
+
+
+def write_golden(result, path, rtol=DEFAULT_TOL["rtol"],
+                 phase_atol_deg=DEFAULT_TOL["phase_atol_deg"]):
+    """Write the golden of ``result`` to ``path`` (atomically; only over a robrst golden).
+
+    Raises
+    ------
+    OutputError
+        ``path`` exists and is not a robrst golden (nothing is overwritten).
+    """
+    path = Path(path)
+    if path.exists() and (path.is_dir() or not path.read_text(errors="replace").startswith(MARKER)):
+        raise OutputError(f"{path}: exists and is not a robrst golden (it does not start with"
+                          f" {MARKER!r}); refusing to overwrite it")
+    g = golden_figures(result)
+    lines = [f"{MARKER} for problem {json.dumps(g['problem'])}, written by robrst {__version__}.",
+             "# `robrst check PROBLEM --golden THIS_FILE` fails on every figure worse than its",
+             "# value beyond its tolerance (peaks: larger; margins: smaller; phase margin:",
+             "# smaller |pm|; gain margins: closer to 1; inf = infinite).  Edit tolerances",
+             "# freely; delete a figure to stop checking it.", "",
+             "[golden]", f"format = {FORMAT}", f"problem = {_toml(g['problem'])}",
+             f"robrst_version = {_toml(__version__)}", "", "[design]",
+             f"certified = {_toml(g['certified'])}"]
+    name, value = g["objective"]
+    if name is not None and value is not None:
+        lines.append(f"objective = {{ name = {_toml(name)}, value = {_toml(value)},"
+                     f" rtol = {rtol!r} }}")
+    for label, figs in g["models"].items():
+        lines += ["", f"[models.{json.dumps(label)}]"]
+        if figs.get("temperature_C") is not None:
+            lines.append(f"temperature_C = {_toml(figs['temperature_C'])}")
+        lines += [f"{k} = {{ value = {_toml(v)}, {_tol(k, rtol, phase_atol_deg)} }}"
+                  for k, v in figs.items() if k != "temperature_C"]
+    atomic_write_text(path, "\n".join(lines) + "\n")
+    return path
+
+
+def _bad(path, where, what):
+    return SpecError(f"{path}: [{where}] {what}")
+
+
+def _figure(path, where, v):
+    """A validated ``{value, rtol, atol}`` entry."""
+    if not isinstance(v, dict) or "value" not in v:
+        raise _bad(path, where, "expected { value = number, rtol = number | atol = number }")
+    unknown = set(v) - {"value", "rtol", "atol"}
+    if unknown:
+        raise _bad(path, where, f"unknown key(s) {sorted(unknown)}; expected value, rtol, atol")
+    val = v["value"]
+    if isinstance(val, bool) or not isinstance(val, (int, float)) or math.isnan(val):
+        raise _bad(path, where, f"value must be a number (inf allowed), got {val!r}")
+    tol = {}
+    for k in ("rtol", "atol"):
+        t = v.get(k, 0.0)
+        if isinstance(t, bool) or not isinstance(t, (int, float)) or not 0 <= t < math.inf:
+            raise _bad(path, f"{where}.{k}", f"must be a finite number >= 0, got {t!r}")
+        tol[k] = float(t)
+    return float(val), tol["rtol"], tol["atol"]
+
+
+def read_golden(path):
+    """Parse and validate a golden file; errors name the file and the key.
+
+    Returns
+    -------
+    dict
+        ``{"problem", "certified", "objective": (name, value, rtol, atol) or None,
+        "models": {label: {figure: (value, rtol, atol)}}}``.
+    """
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise SpecError(f"{path}: golden file not found (write one with --update)") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SpecError(f"{path}: cannot read the golden file ({exc})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise SpecError(f"{path}: not valid TOML ({exc})") from None
+    unknown = set(data) - {"golden", "design", "models"}
+    if unknown:
+        raise _bad(path, sorted(unknown)[0], "unknown table; expected golden, design, models")
+    head = data.get("golden")
+    if not isinstance(head, dict) or head.get("format") != FORMAT \
+            or not isinstance(head.get("problem"), str):
+        raise _bad(path, "golden", f"expected format = {FORMAT} and problem = \"NAME\"")
+    design = data.get("design", {})
+    if not isinstance(design, dict) or not isinstance(design.get("certified", False), bool):
+        raise _bad(path, "design.certified", "expected true or false")
+    obj = design.get("objective")
+    if obj is not None:
+        if not isinstance(obj, dict) or obj.get("name") not in OBJECTIVES:
+            raise _bad(path, "design.objective", f"expected {{ name = one of {sorted(OBJECTIVES)},"
+                       " value = number, rtol = number }")
+        obj = (obj["name"], *_figure(path, "design.objective",
+                                     {k: v for k, v in obj.items() if k != "name"}))
+    models = data.get("models", {})
+    if not isinstance(models, dict):
+        raise _bad(path, "models", "expected a table of models")
+    out = {}
+    for label, figs in models.items():
+        if not isinstance(figs, dict):
+            raise _bad(path, f"models.{label}", "expected a table of figures")
+        out[label] = {}
+        for k, v in figs.items():
+            if k == "temperature_C":
+                continue
+            if direction(k) is None:
+                raise _bad(path, f"models.{label}.{k}", "not a margin figure robrst checks")
+            out[label][k] = _figure(path, f"models.{label}.{k}", v)
+    return {"problem": head["problem"], "certified": design.get("certified", False),
+            "objective": obj, "models": out}
+
+
+def _worse(name, cur, val, rtol, atol):
+    """True when ``cur`` is worse than ``val`` beyond the tolerance (see the module table)."""
+    way = OBJECTIVES.get(name) or direction(name)
+    c, g = _num(cur), val
+    if way == "larger":
+        return c > g * (1 + rtol) + atol
+    if way == "smaller":
+        return c < g * (1 - rtol) - atol
+    if way == "abs":
+        return abs(c) < abs(g) * (1 - rtol) - atol
+    lg = lambda x: math.inf if x in (0.0, math.inf) else abs(math.log(x))   # noqa: E731
+    return lg(c) < lg(g) * (1 - rtol) - atol
+
+
+def _tol_text(rtol, atol):
+    return ", ".join(t for t in (f"rtol {rtol:g}" if rtol else "", f"atol {atol:g}" if atol else "")
+                     if t) or "no tolerance"
+
+
+def compare_golden(result, golden):
+    """Every figure of ``result`` worse than ``golden`` (a path or :func:`read_golden`'s dict).
+
+    Returns
+    -------
+    list of Worse
+        Empty when nothing got worse.  A model of the golden missing from the design is
+        one entry (figure ``model``).
+    """
+    g = read_golden(golden) if isinstance(golden, (str, Path)) else golden
+    cur = golden_figures(result)
+    if g["problem"] != cur["problem"]:
+        raise SpecError(f"golden is for problem {g['problem']!r}, the design is"
+                        f" {cur['problem']!r}")
+    out = []
+    if g["certified"] and not cur["certified"]:
+        out.append(Worse("", "certified", True, False, "must stay certified"))
+    if g["objective"] is not None:
+        name, val, rtol, atol = g["objective"]
+        cname, cval = cur["objective"]
+        if cname != name:
+            raise SpecError(f"golden objective {name!r}, the design optimises {cname!r}")
+        if _worse(name, cval, val, rtol, atol):
+            out.append(Worse("", name, val, _num(cval), _tol_text(rtol, atol)))
+    for label, figs in g["models"].items():
+        have = cur["models"].get(label)
+        if have is None:
+            out.append(Worse(label, "model", "present", "missing", "every golden model"))
+            continue
+        for k, (val, rtol, atol) in figs.items():
+            if k not in have:
+                raise SpecError(f"golden figure {label}.{k} is not a figure of this design")
+            if _worse(k, have[k], val, rtol, atol):
+                out.append(Worse(label, k, val, _num(have[k]), _tol_text(rtol, atol)))
+    return out
+
+
+def assert_margins(result: object, golden: str | Path, update: bool = False) -> None:
+    """Fail (``AssertionError``) when a margin of ``result`` got worse than ``golden``.
+
+    Parameters
+    ----------
+    result : DesignResult or dict
+        A design (:func:`robrst.run_problem`) or its ``as_dict()``.
+    golden : str or Path
+        The golden file (see the module documentation for its format and the rules).
+    update : bool
+        Write (or rewrite) the golden from ``result`` instead of checking.
+
+    Returns
+    -------
+    None
+
+    Raises
+    ------
+    AssertionError
+        One line per figure that got worse.
+    SpecError
+        A malformed golden (names the file and the key), or one of another problem.
+
+    Examples
+    --------
+    >>> import tempfile, robrst
+    >>> from robrst.testing import assert_margins
+    >>> result = robrst.run_problem(robrst.load_problem("paper"))
+    >>> golden = tempfile.mkdtemp() + "/paper_margins.toml"
+    >>> assert_margins(result, golden, update=True)     # once, then commit the file
+    >>> assert_margins(result, golden)                  # in your test suite
+    """
+    if update:
+        write_golden(result, golden)
+        return
+    worse = compare_golden(result, golden)
+    if worse:
+        raise AssertionError(f"{len(worse)} figure(s) worse than {golden}:\n"
+                             + "\n".join(w.describe() for w in worse))

@@ -1,0 +1,125 @@
+"""The certificate over the temperature interval: the crossing test, the interval record,
+ratios(); every verdict against an independent computation (roots + exact Routh of the
+unscaled polynomials on dense parameter grids, :mod:`random_problems`)."""
+
+import json
+
+import numpy as np
+import pytest
+
+import random_problems as rp
+from robrst.cli import main
+from robrst.interval import segment_crossing
+
+
+def _hurwitz(rng, n, lo=0.1, hi=1e3):
+    D = np.ones(1)
+    while len(D) - 1 < n:
+        w = 10 ** rng.uniform(np.log10(lo), np.log10(hi))
+        if n - (len(D) - 1) >= 2 and rng.uniform() < 0.6:
+            D = np.polymul(D, [1.0, 2 * rng.uniform(0.01, 0.3) * w, w * w])
+        else:
+            D = np.polymul(D, [1.0, w])
+    return D
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_segment_crossing_agrees_with_a_dense_parameter_grid(seed):
+    """Two Hurwitz ends: 'no crossing' must mean every point of a dense grid (log-dense at
+    both ends) is stable; a reported crossing must be a root on the imaginary axis."""
+    rng = np.random.default_rng([41, seed])
+    n = int(rng.integers(3, 8))
+    Da = _hurwitz(rng, n)
+    # odd seeds: two unrelated Hurwitz ends (crossings are common); even: a perturbed copy
+    Db = _hurwitz(rng, n) if seed % 2 else Da * (1 + rng.normal(0, 10 ** rng.uniform(-3, 0),
+                                                                n + 1))
+    Db[0] = 1.0
+    if not (rp.stability(Da)[0] and rp.stability(Db)[0]):
+        pytest.skip("an end is not Hurwitz")
+    cr = segment_crossing(Da, Db)
+    ends = np.geomspace(1e-9, 1.0, 150)
+    lams = np.unique(np.concatenate([np.linspace(0.0, 1.0, 401), ends, 1.0 - ends]))
+    unstable = [lam for lam in lams if not rp.stability((1 - lam) * Da + lam * Db)[0]]
+    if not cr.crossing:
+        assert not unstable, unstable[:3]
+    else:    # the polynomial at the reported lambda has a root at j * freq (numpy's roots)
+        r = np.roots((1 - cr.lam) * Da + cr.lam * Db)
+        w = cr.freq_rad_s
+        assert np.min(np.abs(r - 1j * w)) <= 1e-5 * max(w, np.min(np.abs(r))), (cr, r)
+        assert unstable or cr.lam in (0.0, 1.0)
+
+
+def test_shipped_certificate_interval_record_and_ratios(designs, capsys):
+    res = designs("paper_robust")
+    cert = res.certificate
+    iv = cert.interval
+    assert iv["range_C"] == [28.0, 45.0] and iv["stability"] == "guardian_map"
+    assert iv["guardian"]["proved"] and iv["sampled"] == "refined_sweep"
+    temps = sorted(m["temperature_C"] for m in cert.models)
+    assert iv["points"] == len(temps) and temps[0] == 28.0 and temps[-1] == 45.0
+    assert iv["max_spacing_C"] == pytest.approx(np.max(np.diff(temps)))
+    sp = res.problem.specs
+    # ratios() by hand from the model records
+    for key, bound in (("Ms", sp.Ms_max), ("Mt_resonance_band_sampled", sp.T_resonance_max),
+                       ("overshoot_pct", sp.overshoot_max_pct)):
+        if bound is None:
+            continue
+        worst = max(m[key] for m in cert.models if m.get(key) is not None)
+        assert cert.ratios()[key] == pytest.approx(worst / bound, rel=1e-12)
+    assert max(cert.ratios().values()) <= 1 + cert.rtol
+    d = json.loads(json.dumps(cert.as_dict()))
+    assert set(d) >= {"certified", "rtol", "models", "violations", "interval", "interval_proof",
+                      "interval_resolution_C", "ratios"}
+
+
+def test_design_json_carries_interval_and_ratios(capsys):
+    rc = main(["design", "paper", "--json"])
+    out = json.loads(capsys.readouterr().out)
+    assert rc == 0
+    cert = out["certificate"]
+    assert cert["interval"]["stability"] == "single_model"
+    assert cert["ratios"]["Ms"] == pytest.approx(out["models"][0]["Ms"] / out["specs"]["Ms_max"],
+                                                 rel=1e-9)
+
+
+def _parametric_cases(n):
+    from robrst.design import analytic_design
+    from robrst.errors import RobrstError
+
+    seed = 0
+    while n:
+        case = rp.draw_case(rp.NumpyChooser(seed), seed=seed, method="analytic")
+        seed += 1
+        if case.kind["family"] != "parametric":
+            continue
+        try:
+            pr = case.problem()
+            ctrl = analytic_design(pr).controller
+        except RobrstError:
+            continue
+        n -= 1
+        yield case, pr, ctrl
+
+
+def test_parametric_guardian_proof_agrees_with_the_independent_family_law():
+    """Parametric families: 'guardian_map' (stability proved over the interval) only when
+    the checker's own thermal law finds every one of 401 temperatures stable; every stable
+    case of the sample is proved."""
+    from dataclasses import replace
+
+    from robrst.certificate import certify
+
+    seen = {"proved": 0, "unstable": 0}
+    for case, pr, ctrl in _parametric_cases(4):
+        cert = certify(pr.family, ctrl, replace(pr.specs, sample_rate_hz=None), n_sweep=8)
+        lo, hi = pr.family.range_C
+        unstable = []
+        for T in np.linspace(lo, hi, 401):
+            B, A = rp.model_at(case.data, T)
+            if not rp.stability(rp._strip(rp._add(rp._mul(A, ctrl.S), rp._mul(B, ctrl.R))))[0]:
+                unstable.append(T)
+        proved = cert.interval["stability"] == "guardian_map"
+        assert not (proved and unstable), (case.seed, unstable[:3])
+        assert proved or unstable, (case.seed, cert.interval.get("guardian"))
+        seen["proved" if proved else "unstable"] += 1
+    assert seen["proved"] >= 1 and seen["unstable"] >= 1, seen

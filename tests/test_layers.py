@@ -1,0 +1,138 @@
+"""The architecture as a test: imports point down the layers, never in a cycle.
+
+Layers, bottom to top (README "Architecture")::
+
+    base          errors, schema, fileio, resources
+    maths core    poly, lti, plant, thermal, family, rst, hinf, analysis, sampled, digital,
+                  implement, interval
+    problem       problem (typed records), spec (problem files)
+    certificate   certificate, modelcheck, timespec
+    synthesis     synthesis.*
+    design        design
+    modelling     twin.*, dataset, diagnose.*, identify.*   (on base + maths core only)
+    experiments   experiments.*, sweep.*
+    presentation  report.*, cli.*, export.*, testing, the package face (robrst/__init__)
+
+Every ``import`` of a robrst module counts, at module level or inside a function body.
+"""
+
+import ast
+from pathlib import Path
+
+import pytest
+
+PKG = Path(__file__).resolve().parents[1] / "robrst"
+
+LAYERS = {
+    "base": ("robrst.errors", "robrst.schema", "robrst.fileio", "robrst.resources"),
+    "maths": ("robrst.poly", "robrst.lti", "robrst.plant", "robrst.thermal", "robrst.family",
+              "robrst.rst", "robrst.hinf", "robrst.analysis", "robrst.sampled",
+              "robrst.digital", "robrst.implement", "robrst.interval"),
+    "problem": ("robrst.problem", "robrst.spec"),
+    "certificate": ("robrst.certificate", "robrst.modelcheck", "robrst.timespec"),
+    "synthesis": ("robrst.synthesis",),
+    "design": ("robrst.design",),
+    "modelling": ("robrst.twin", "robrst.dataset", "robrst.diagnose", "robrst.identify",
+                  "robrst.convert"),
+    "experiments": ("robrst.experiments", "robrst.sweep"),
+    "presentation": ("robrst.report", "robrst.cli", "robrst.testing", "robrst.export",
+                     "robrst.__main__", "robrst"),
+}
+ORDER = ("base", "maths", "problem", "certificate", "synthesis", "design")
+ALLOWED = {name: set(ORDER[:i + 1]) for i, name in enumerate(ORDER)}
+ALLOWED["modelling"] = {"base", "maths", "modelling"}
+ALLOWED["experiments"] = set(ORDER) | {"modelling", "experiments"}
+ALLOWED["presentation"] = set(LAYERS)
+
+
+def module_name(path):
+    parts = list(path.relative_to(PKG.parent).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+MODULES = {module_name(p): p for p in PKG.rglob("*.py")}
+
+
+def layer_of(mod):
+    best = None
+    for layer, prefixes in LAYERS.items():
+        for pre in prefixes:
+            if (mod == pre or mod.startswith(pre + ".")) and (best is None or len(pre) > best[1]):
+                best = (layer, len(pre))
+    return best[0] if best else None
+
+
+def imports_of(mod):
+    """robrst modules imported by ``mod`` (anywhere in the file), with line numbers."""
+    tree = ast.parse(MODULES[mod].read_text(encoding="utf-8"))
+    out = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            if node.module.split(".")[0] != "robrst":
+                continue
+            subs = [f"{node.module}.{a.name}" for a in node.names
+                    if f"{node.module}.{a.name}" in MODULES]
+            if subs:
+                out += [(s, node.lineno) for s in subs]
+            if len(subs) < len(node.names):
+                out.append((node.module, node.lineno))
+        elif isinstance(node, ast.Import):
+            out += [(a.name, node.lineno) for a in node.names if a.name.split(".")[0] == "robrst"]
+    return [(t, line) for t, line in out if t != mod and not mod.startswith(t + ".")]
+
+
+def test_every_module_has_a_layer():
+    assert [m for m in MODULES if layer_of(m) is None] == []
+
+
+def test_no_import_points_up_a_layer():
+    bad = []
+    for mod in MODULES:
+        src = layer_of(mod)
+        for target, line in imports_of(mod):
+            dst = layer_of(target)
+            if dst not in ALLOWED[src]:
+                bad.append(f"{mod}:{line} ({src}) imports {target} ({dst})")
+    assert bad == []
+
+
+def test_no_import_cycle():
+    graph = {m: {t for t, _ in imports_of(m) if t in MODULES} for m in MODULES}
+    state, cycles = {}, []
+
+    def visit(v, path):
+        state[v] = "open"
+        for w in graph[v]:
+            if state.get(w) == "open":
+                cycles.append(" -> ".join(path[path.index(w):] + [w]))
+            elif w not in state:
+                visit(w, path + [w])
+        state[v] = "done"
+
+    for m in sorted(graph):
+        if m not in state:
+            visit(m, [m])
+    assert cycles == []
+
+
+def test_no_private_name_across_modules():
+    bad = []
+    for mod, path in MODULES.items():
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom) and node.module and node.level == 0 \
+                    and node.module.startswith("robrst"):
+                bad += [f"{mod} takes {node.module}.{a.name}" for a in node.names
+                        if a.name.startswith("_") and not a.name.startswith("__")]
+    assert bad == []
+
+
+@pytest.mark.parametrize("mod", sorted(MODULES))
+def test_modules_stay_small(mod):
+    assert len(MODULES[mod].read_text(encoding="utf-8").splitlines()) < 400
+
+
+def test_the_layering_test_can_fail():
+    """An upward import is caught: the checker is not vacuous."""
+    assert layer_of("robrst.certificate") == "certificate"
+    assert "design" not in ALLOWED[layer_of("robrst.synthesis.robust")]
+    assert "problem" not in ALLOWED[layer_of("robrst.twin.model")]
