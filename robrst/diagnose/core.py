@@ -52,7 +52,7 @@ def check_records(train, test, n_in=None, n_out=None):
     """Validate record sets; return the common sampling rate [Hz].
 
     Raises :class:`DataError` naming the file for empty sets, records shorter than
-    ``MIN_SAMPLES``, sampling rates that differ (relative 1e-6) and channel counts that
+    ``MIN_SAMPLES``, a constant output while the input varies, sampling rates that differ (relative 1e-6) and channel counts that
     differ from each other or from the model's.
     """
     if not train or not test:
@@ -68,6 +68,11 @@ def check_records(train, test, n_in=None, n_out=None):
         if (d.n_in, d.n_out) != (k, m):
             raise DataError(f"{name}: {d.n_in} input(s) and {d.n_out} output(s), but the model"
                             f" has {k} and {m}")
+        flat = [j for j in range(d.n_out) if np.ptp(d.Y[:, j]) == 0.0]
+        if flat and np.ptp(d.U, axis=0).max() > 0.0:   # u varies, a sensor column does not
+            col = "y" if d.n_out == 1 else f"y{flat[0] + 1}"
+            raise DataError(f"{name}: column {col} is constant ({d.Y[0, flat[0]]:g} µm)"
+                            " while u varies: no sensor signal to compare the model with")
     fs0 = recs[0].fs
     for d in recs[1:]:
         if abs(d.fs - fs0) > 1e-6 * fs0:
