@@ -22,7 +22,8 @@
 
   ``G(s) = sum_i R_i/(s - p_i) (+ conjugate terms) + D``, inputs V, outputs µm.
 
-:func:`load_linear_model` reads either kind for ``robrst diagnose --model``.
+:func:`modal_models` reads a model file; :func:`robrst.experiments.linear_model.load_linear_model`
+reads either kind (problem files through :mod:`robrst.spec`, a layer above this one).
 """
 
 import tomllib
