@@ -11,13 +11,18 @@ def _pm(v, s):
     return f"{v:.4g} ± {s:.2g}"
 
 
+def _g(v, fmt):
+    return "n/a" if v is None else format(v, fmt)
+
+
 def summary_text(diag):
     """A dozen lines: gap, verdict, findings, candidates, the selected effects, where."""
     d = diag.as_dict()
     g = d["gap"]
-    out = [f"gap of the simulation model (held-out NRMSE): {g['before']:.4g}"
-           f"   noise floor {g['noise_floor']:.3g} ({g['noise_floor_method'].replace('_', ' ')})"
-           f"   training records {g['before_train']:.4g}",
+    out = [f"gap of the simulation model (held-out NRMSE): {_g(g['before'], '.4g')}"
+           f"   noise floor {_g(g['noise_floor'], '.3g')}"
+           f" ({(g['noise_floor_method'] or 'n/a').replace('_', ' ')})"
+           f"   training records {_g(g['before_train'], '.4g')}",
            f"cause: {d['cause']} — {d['reason']}"]
     for f in d["findings"] or []:
         out.append(f"finding {f['kind']}: {f['message']}")
