@@ -18,8 +18,8 @@ import scipy.linalg as sla
 
 from robrst import poly
 
-__all__ = ["companion_parts", "companion", "DiscreteSS", "zoh", "zoh_modal", "transmission_zeros",
-           "ss_to_poly", "d2c"]
+__all__ = ["companion_parts", "companion", "DiscreteSS", "zoh", "zoh_modal", "d2c_modal",
+           "transmission_zeros", "ss_to_poly", "d2c"]
 
 
 def companion_parts(a, b):
@@ -141,6 +141,22 @@ def zoh_modal(poles, residues, sample_rate_hz):
     small = np.abs(pt) < 1e-8
     factor = np.where(small, T * (1 + pt / 2), np.expm1(pt) / np.where(small, 1.0, p))
     return np.exp(pt), np.asarray(residues, complex) * factor[:, None, None]
+
+
+def d2c_modal(zpoles, residues, sample_rate_hz):
+    """Exact inverse of :func:`zoh_modal`: continuous poles and residues of a sampled modal model.
+
+    ``z = e^{pT}`` gives ``p = log(z) / T`` (real for a real positive ``z``) and the
+    residue ``R = Rd p / (z - 1)`` (``Rd / T`` at ``z = 1``).  The caller refuses poles on
+    the negative real axis (no real continuous counterpart).  Returns ``(poles, residues)``.
+    """
+    fs = float(sample_rate_hz)
+    z = np.asarray(zpoles, complex)
+    s = fs * np.log(z)
+    s = np.where(np.abs(z.imag) == 0, s.real + 0j, s)
+    at_one = np.abs(z - 1) < 1e-12
+    factor = np.where(at_one, fs, s / np.where(at_one, 1.0, z - 1))
+    return s, np.asarray(residues, complex) * factor[:, None, None]
 
 
 def transmission_zeros(A, B, C, d):

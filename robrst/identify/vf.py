@@ -28,6 +28,7 @@ from scipy import linalg, signal
 
 from robrst.errors import SpecError
 from robrst.identify.modal import DiscreteModel, ModalModel, pair_weight
+from robrst.lti import d2c_modal
 
 __all__ = ["FitData", "fit_data", "initial_poles", "vector_fit", "fit_residues",
            "to_continuous", "EXCITED_DB"]
@@ -263,9 +264,5 @@ def to_continuous(dmodel, label="identified", temperature_C=None):
     if np.any(bad):
         raise SpecError(f"identified pole z = {z[bad][0].real:.3g} on the negative real axis has"
                         " no continuous-time counterpart (too high an order for the data?)")
-    fs = dmodel.fs
-    s = fs * np.log(z)
-    s = np.where(np.abs(z.imag) == 0, s.real + 0j, s)
-    factor = np.where(np.abs(z - 1) < 1e-12, fs, s / np.where(np.abs(z - 1) < 1e-12, 1.0, z - 1))
-    return ModalModel(s, dmodel.residues * factor[:, None, None], dmodel.D, label=label,
-                      temperature_C=temperature_C)
+    s, residues = d2c_modal(z, dmodel.residues, dmodel.fs)
+    return ModalModel(s, residues, dmodel.D, label=label, temperature_C=temperature_C)
