@@ -63,6 +63,11 @@ def test_linear_refit_round_trip():
     np.testing.assert_allclose(fit.plant.B, true.B, rtol=1e-6)
     # the re-fit keeps the user's zeros: a common gain and per-mode frequency/damping changes
     assert fit.rel_change["gain"] == pytest.approx(0.07, abs=1e-6)
+    # the JSON contract's coefficient keys stay: b0.. of B, a1.. of monic A (true changes)
+    for i, r in enumerate((0.07, 0.07, 0.07)):
+        assert fit.rel_change[f"b{i}"] == pytest.approx(r, abs=1e-5)
+    for i, r in enumerate((0.04, -0.03, 0.01), start=1):
+        assert fit.rel_change[f"a{i}"] == pytest.approx(r, abs=1e-5)
 
 
 def test_noise_sigma_recovers_white_noise_under_low_frequency_error():

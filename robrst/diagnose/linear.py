@@ -31,7 +31,7 @@ from robrst.identify.modal import ModalModel, pair_weight
 from robrst.lti import zoh_modal
 from robrst.plant import Plant
 
-__all__ = ["LinearPart", "LinearSim", "as_modal", "refit_linear", "LinearFit", "PRIOR_SD",
+__all__ = ["coefficient_changes", "LinearPart", "LinearSim", "as_modal", "refit_linear", "LinearFit", "PRIOR_SD",
            "BOUNDS", "parameter_std"]
 
 PRIOR_SD = {"dlog_freq": 0.1, "dlog_damping": 1.0, "gain": 0.2, "input_gain": 0.2,
@@ -313,10 +313,29 @@ def refit_linear(plant, records, fs, max_nfev=60):
                                  max_nfev=max_nfev)
     std = parameter_std(res.jac, res.cost, len(res.fun))
     fitted = lp.continuous(res.x)
+    rel = dict(zip(lp.names, map(float, res.x)))
+    sd = dict(zip(lp.names, map(float, std)))
     if isinstance(plant, Plant):
         fitted = fitted.channel(0, 0, label=f"{plant.label}_refit")
-    return LinearFit(plant=fitted, rel_change=dict(zip(lp.names, map(float, res.x))),
-                     std=dict(zip(lp.names, map(float, std))), n_eval=int(res.nfev))
+        coef = coefficient_changes(plant, fitted)
+        rel.update(coef)                       # the JSON contract's keys b0.., a1.. (kept)
+        sd.update({k: float("nan") for k in coef})
+    return LinearFit(plant=fitted, rel_change=rel, std=sd, n_eval=int(res.nfev))
+
+
+def coefficient_changes(plant, fitted):
+    """Relative change of every non-zero coefficient, ``b{i}`` of B and ``a{i}`` of monic A
+    (highest power first, ``a0`` = 1 omitted): the keys earlier versions reported."""
+    out = {}
+    if len(fitted.A) != len(plant.A) or len(fitted.B) != len(plant.B):
+        return out
+    for i in range(1, len(plant.A)):
+        if plant.A[i] != 0:
+            out[f"a{i}"] = float(fitted.A[i] / plant.A[i] - 1.0)
+    for i, b in enumerate(plant.B):
+        if b != 0:
+            out[f"b{i}"] = float(fitted.B[i] / b - 1.0)
+    return out
 
 
 def parameter_std(J, cost, m, rtol=1e-7):
