@@ -1,5 +1,8 @@
 """State-space kernels of robrst: the one realisation and the one ZOH discretisation.
 
+The modal (partial-fraction) form of the identified models has its own exact ZOH,
+:func:`zoh_modal` (mode by mode, no realisation needed).
+
 Every part of robrst that needs a state-space form of ``N(s)/D(s)`` (exact peaks, the
 sampled loop, the twin, the diagnosis's linear simulation) takes it from here, in the
 scaled variable ``p = s / w0`` (:class:`robrst.poly.Scaling`) where the coefficients are
@@ -15,8 +18,8 @@ import scipy.linalg as sla
 
 from robrst import poly
 
-__all__ = ["companion_parts", "companion", "DiscreteSS", "zoh", "transmission_zeros", "ss_to_poly",
-           "d2c"]
+__all__ = ["companion_parts", "companion", "DiscreteSS", "zoh", "zoh_modal", "d2c_modal",
+           "transmission_zeros", "ss_to_poly", "d2c"]
 
 
 def companion_parts(a, b):
@@ -124,6 +127,36 @@ def zoh(N, D, sample_rate_hz, scaling=None):
     E = sla.expm(M)
     return DiscreteSS(Ad=E[:n, :n], Bd=E[:n, 2 * n:], C=C, d=d, A=A, Gamma=E[:n, n:2 * n],
                       h=h, scaling=sc)
+
+
+def zoh_modal(poles, residues, sample_rate_hz):
+    """Exact zero-order-hold discretisation of a modal (partial-fraction) model at ``sample_rate_hz``.
+
+    A mode ``R / (s - p)`` becomes ``R (e^{pT} - 1) / p / (z - e^{pT})`` (``R T`` at
+    ``p = 0``).  Returns ``(z_poles, discrete residues)``; the feedthrough is unchanged.
+    """
+    T = 1.0 / float(sample_rate_hz)
+    p = np.asarray(poles, complex)
+    pt = p * T
+    small = np.abs(pt) < 1e-8
+    factor = np.where(small, T * (1 + pt / 2), np.expm1(pt) / np.where(small, 1.0, p))
+    return np.exp(pt), np.asarray(residues, complex) * factor[:, None, None]
+
+
+def d2c_modal(zpoles, residues, sample_rate_hz):
+    """Exact inverse of :func:`zoh_modal`: continuous poles and residues of a sampled modal model.
+
+    ``z = e^{pT}`` gives ``p = log(z) / T`` (real for a real positive ``z``) and the
+    residue ``R = Rd p / (z - 1)`` (``Rd / T`` at ``z = 1``).  The caller refuses poles on
+    the negative real axis (no real continuous counterpart).  Returns ``(poles, residues)``.
+    """
+    fs = float(sample_rate_hz)
+    z = np.asarray(zpoles, complex)
+    s = fs * np.log(z)
+    s = np.where(np.abs(z.imag) == 0, s.real + 0j, s)
+    at_one = np.abs(z - 1) < 1e-12
+    factor = np.where(at_one, fs, s / np.where(at_one, 1.0, z - 1))
+    return s, np.asarray(residues, complex) * factor[:, None, None]
 
 
 def transmission_zeros(A, B, C, d):

@@ -133,7 +133,8 @@ def csv_case(nm, text):
 lines = GOOD_CSV.splitlines()
 csv_case("csv_empty", "")
 csv_case("csv_header_only", "t,u,y,temp\n")
-csv_case("csv_missing_col", "\n".join(l.rsplit(",", 1)[0] for l in lines) + "\n")
+# temp is optional (constant-temperature labs); y is not: drop the y column
+csv_case("csv_missing_col", "\n".join(",".join(l.split(",")[:2] + l.split(",")[3:]) for l in lines) + "\n")
 csv_case("csv_extra_col", "\n".join(l + ",1" for l in lines) + "\n")
 csv_case("csv_text_cell", GOOD_CSV.replace("\n0.0005,", "\nabc,", 1))
 csv_case("csv_nan", "\n".join(lines[:10] + [lines[10].replace(",28.0", ",nan")] + lines[11:]) + "\n")

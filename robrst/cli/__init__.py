@@ -1,4 +1,5 @@
-"""Command-line interface: ``robrst design | report | simulate | diagnose | export | check | sweep``.
+"""Command-line interface: ``robrst design | report | simulate | diagnose | identify | convert |
+export | check | sweep``.
 
 A thin layer: parse arguments, call the library, print.  Every robrst error becomes
 one line ``robrst: error: ...`` on stderr and exit code 2 (1 for a design that is not
@@ -17,12 +18,12 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 from robrst import __version__
-from robrst.cli import check, design, diagnose, export, simulate, sweep
+from robrst.cli import check, convert, design, diagnose, export, identify, simulate, sweep
 from robrst.errors import RobrstError
 
 __all__ = ["main", "build_parser"]
 
-COMMANDS = (design, simulate, diagnose, export, check, sweep)
+COMMANDS = (design, simulate, diagnose, identify, convert, export, check, sweep)
 
 
 class _Parser(argparse.ArgumentParser):

@@ -1,6 +1,7 @@
-"""Sim-to-real gap diagnosis: where the gap lies, which effect causes it, how far it shrinks."""
+"""Sim-to-real gap diagnosis: where the gap lies, which effects cause it, how far it shrinks."""
 
-from robrst.diagnose.core import Diagnosis, EffectScore, diagnose
+from robrst.diagnose.core import diagnose
 from robrst.diagnose.effects import EFFECTS
+from robrst.diagnose.result import Diagnosis, EffectScore
 
 __all__ = ["Diagnosis", "EffectScore", "diagnose", "EFFECTS"]

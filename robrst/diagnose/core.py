@@ -2,272 +2,259 @@
 
 Pipeline (:func:`diagnose`)::
 
-    train + test records --check--> base simulation (the model under diagnosis)
-      -> gap on test (NRMSE) and its noise floor
+    train + test records --check--> base simulation (the model under diagnosis;
+        periodic records in steady state, others from rest)
+      -> gap on test (NRMSE), noise floor (period differences or residual spectrum),
+         gap per record and per excitation level
       -> where: time windows, frequency band, FRF departure, regime, residual tests
-      -> each library effect fitted on train, scored on test; the linear re-fit too
-      -> verdict: none | <effect> | linear | cannot_tell
+      -> candidates fitted on train, scored on test: the linear re-fit, each excited
+         effect alone, then forward selection of effects fitted jointly with the
+         linear corrections (:mod:`robrst.diagnose.select`)
+      -> findings (amplitude_dependent, unmodelled_dynamics, train_only) and verdict:
+         none | <effect> | linear | cannot_tell
 
-Decision rules (constants below): the gap is at the noise floor (``none``) when the
-test NRMSE is within ``NONE_RATIO`` of the floor; an effect is named only if it
-shrinks the held-out gap by at least ``MIN_SHRINK`` and beats both the linear re-fit
-and the runner-up by ``MARGIN`` in held-out gap; otherwise the answer is the linear
-model (a re-fit does as well) or ``cannot_tell`` with the reason.
+Verdict rules (constants in :mod:`robrst.diagnose.select` and below): ``none`` when the
+held-out gap is within ``NONE_RATIO`` of the floor.  An answer (the selected effects, or
+``linear`` when no effect adds to the linear re-fit) must remove ``MIN_SHRINK`` of the
+excess gap (the same 30 % bar for ``linear`` as for effects) *and* bring the gap near
+the floor: within ``NEAR_RATIO`` x the floor, or ``NEAR_EXCESS`` of the excess left.
+Otherwise ``cannot_tell``, with the best partial explanation.  The JSON contract
+(:meth:`Diagnosis.as_dict`) only ever gains fields.
 """
 
-import math
 import time
-from dataclasses import dataclass, field
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from robrst.diagnose import signals
-from robrst.diagnose.effects import EFFECTS, fit_effect, fit_linear
-from robrst.diagnose.linear import LinearSim
+from robrst.diagnose.effects import EFFECTS, THERMAL, Chain, summary
+from robrst.diagnose.findings import (amplitude_finding, comparable, floor_of, noise_levels,
+                                      unmodelled_finding)
+from robrst.diagnose.fit import fit_model, prepare
+from robrst.diagnose.linear import LinearPart, as_modal
+from robrst.diagnose.result import Diagnosis, EffectScore
+from robrst.diagnose.select import Setup, candidates, forward
+from robrst.diagnose.thermal import search_delay, search_saturation
+from robrst.diagnose.verdict import build, decide, unmodelled
 from robrst.errors import DataError
 from robrst.plant import paper_plant
 
-__all__ = ["Diagnosis", "EffectScore", "diagnose", "check_records", "MIN_SAMPLES"]
+__all__ = ["Diagnosis", "EffectScore", "diagnose", "check_records", "decompose", "MIN_SAMPLES",
+           "NONE_RATIO"]
 
 MIN_SAMPLES = 500        # per record
 NONE_RATIO = 1.25        # gap <= 1.25 x noise floor: nothing to explain
-MIN_SHRINK = 0.3         # an explanation must remove >= 30 % of the held-out gap
-MARGIN = 1.1             # winner's held-out gap must be 10 % below the alternatives'
+TEMP_EXCITED_K = 0.05    # a temperature range below this does not excite thermal effects
 
 
-@dataclass(frozen=True)
-class EffectScore:
-    """One candidate's held-out result (gap on the test records)."""
-
-    name: str
-    gap_before: float
-    gap_after: float
-    shrink: float
-    train_gap: float
-    params: dict
-    params_std: dict
-    n_eval: int
-    fit_s: float
-
-    def as_dict(self):
-        return {"name": self.name, "gap_before": self.gap_before, "gap_after": self.gap_after,
-                "shrink": self.shrink, "train_gap": self.train_gap, "params": self.params,
-                "params_std": self.params_std, "n_eval": self.n_eval, "fit_s": self.fit_s}
-
-
-@dataclass(frozen=True, eq=False)
-class Diagnosis:
-    """Result of :func:`diagnose`; :meth:`as_dict` is the public JSON contract."""
-
-    cause: str
-    reason: str
-    gap_before: float
-    noise_floor: float
-    gap_train: float
-    effects: tuple            # EffectScore, best first
-    linear_refit: EffectScore
-    where: dict
-    tests: dict
-    decomposition: dict
-    data: dict
-    model: dict
-    traces: dict = field(default_factory=dict, repr=False)   # arrays for reports
-
-    @property
-    def winner(self):
-        return next((e for e in self.effects if e.name == self.cause), None)
-
-    def as_dict(self):
-        d = {"cause": self.cause, "reason": self.reason,
-             "gap": {"metric": "nrmse", "before": self.gap_before, "noise_floor": self.noise_floor,
-                     "after": self._after(), "before_train": self.gap_train},
-             "effects": [e.as_dict() for e in self.effects],
-             "linear_refit": self.linear_refit.as_dict() if self.linear_refit else None,
-             "where": self.where, "tests": self.tests, "decomposition": self.decomposition,
-             "data": self.data, "model": self.model}
-        return _finite(d)
-
-    def _after(self):
-        if self.cause == "linear":
-            return self.linear_refit.gap_after
-        w = self.winner
-        return w.gap_after if w else None
-
-
-def _finite(x):
-    """Non-finite floats become None (JSON has no inf/nan)."""
-    if isinstance(x, dict):
-        return {k: _finite(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_finite(v) for v in x]
-    if isinstance(x, (float, np.floating)):
-        return float(x) if math.isfinite(x) else None
-    if isinstance(x, np.integer):
-        return int(x)
-    return x
-
-
-def check_records(train, test):
+def check_records(train, test, n_in=None, n_out=None):
     """Validate record sets; return the common sampling rate [Hz].
 
     Raises :class:`DataError` naming the file for empty sets, records shorter than
-    ``MIN_SAMPLES`` and sampling rates that differ (relative 1e-6).
+    ``MIN_SAMPLES``, a constant output while the input varies, sampling rates that differ (relative 1e-6) and channel counts that
+    differ from each other or from the model's.
     """
     if not train or not test:
         raise DataError("diagnosis needs at least one training and one test record")
     recs = list(train) + list(test)
+    first = recs[0].source or "the first record"
+    k, m = (recs[0].n_in, recs[0].n_out) if n_in is None else (n_in, n_out)
     for d in recs:
+        name = d.source or "record"
         if d.n < MIN_SAMPLES:
-            raise DataError(f"{d.source or 'record'}: too short ({d.n} samples); a diagnosis"
+            raise DataError(f"{name}: too short ({d.n} samples); a diagnosis"
                             f" needs at least {MIN_SAMPLES} samples per record")
-        if np.ptp(d.y) == 0.0 and np.ptp(d.u) > 0.0:   # both constant: no excitation
-            raise DataError(f"{d.source or 'record'}: column y is constant ({d.y[0]:g} µm)"
+        if (d.n_in, d.n_out) != (k, m):
+            raise DataError(f"{name}: {d.n_in} input(s) and {d.n_out} output(s), but the model"
+                            f" has {k} and {m}")
+        flat = [j for j in range(d.n_out) if np.ptp(d.Y[:, j]) == 0.0]
+        if flat and np.ptp(d.U, axis=0).max() > 0.0:   # u varies, a sensor column does not
+            col = "y" if d.n_out == 1 else f"y{flat[0] + 1}"
+            raise DataError(f"{name}: column {col} is constant ({d.Y[0, flat[0]]:g} µm)"
                             " while u varies: no sensor signal to compare the model with")
     fs0 = recs[0].fs
     for d in recs[1:]:
         if abs(d.fs - fs0) > 1e-6 * fs0:
-            raise DataError(f"{d.source or 'record'}: sampled at {d.fs:.6g} Hz but"
-                            f" {recs[0].source or 'the first record'} at {fs0:.6g} Hz;"
-                            " resample to one rate")
+            raise DataError(f"{d.source or 'record'}: sampled at {d.fs:.6g} Hz but {first} at"
+                            f" {fs0:.6g} Hz; resample to one rate")
     return fs0
 
 
 def _excited(records):
-    return any(np.ptp(d.u) > 1e-6 or np.ptp(d.temp) > 1e-6 for d in records)
+    return any(np.ptp(d.U, axis=0).max() > 1e-6 or (d.temp is not None and np.ptp(d.temp) > 1e-6)
+               for d in records)
 
 
 def _name(d, i):
     return d.source or f"record{i}"
 
 
-def _score(fit, test, gap_before, train, fit_s):
-    res_te = [d.y - fit.predict(d) for d in test]
-    res_tr = [d.y - fit.predict(d) for d in train]
-    after = signals.nrmse(test, res_te)
-    return EffectScore(name=fit.name, gap_before=gap_before, gap_after=after,
-                       shrink=1.0 - after / gap_before if gap_before > 0 else 0.0,
-                       train_gap=signals.nrmse(train, res_tr), params=fit.params,
-                       params_std=fit.std, n_eval=fit.n_eval, fit_s=fit_s), res_te
+def _skipped(train, effects, model):
+    """Effects not tried, with the reason (inputs never excited, SISO-only)."""
+    out = {}
+    temps = [d.temp for d in train if d.temp is not None]
+    t_range = max((float(np.ptp(t)) for t in temps), default=0.0)
+    for e in effects:
+        if e in THERMAL and t_range < TEMP_EXCITED_K:
+            out[e] = (f"temperature constant within {t_range:.3g} K on the training records"
+                      if temps else "no temperature measured")
+        elif e == "thermal_dynamics" and (model.n_in, model.n_out) != (1, 1):
+            out[e] = "one input and one output only"
+    return out
 
 
-def diagnose(train, test, plant=None, reference_C=None, effects=EFFECTS, progress=None):
+def _levels_ok(train, test):
+    """The dynamic form of hysteresis needs periodic records at >= 2 training levels."""
+    recs = list(train) + list(test)
+    if not all(d.period and d.periods >= 1 for d in recs):
+        return False
+    lv = sorted(d.level for d in train)
+    return len(lv) >= 2 and lv[-1] > 1.3 * lv[0]
+
+
+def diagnose(train, test, plant=None, reference_C=None, effects=EFFECTS, progress=None,
+             workers=2):
     """Diagnose the gap between a simulation model and measured records.
 
     Parameters
     ----------
     train, test : list of Dataset
-        Training records (effects are fitted on them) and held-out test records
-        (every reported gap is measured on them).  Same sampling rate; each record
-        starts at rest; ``u`` is the commanded voltage (open or closed loop).
-    plant : Plant, optional
-        The simulation model's linear dynamics (default: the paper's D(s), eq. 4).
+        Training records (candidates are fitted on them) and held-out test records
+        (every reported gap is measured on them).  Same sampling rate and channels;
+        ``u`` is the commanded input (open or closed loop).  Periodic records are
+        simulated in steady state, the others from rest.
+    plant : Plant or ModalModel, optional
+        The simulation model's linear dynamics (default: the paper's D(s), eq. 4);
+        a :class:`~robrst.identify.modal.ModalModel` may have several inputs/outputs.
     reference_C : float, optional
-        Temperature [°C] at which ``plant`` holds (default ``plant.temperature_C``
-        or 28 °C).
+        Temperature [°C] at which the model holds (default its ``temperature_C`` or
+        28 °C); also the temperature of records without one.
     effects : sequence of str
         Effects to try (default all of :data:`EFFECTS`).
     progress : callable, optional
         Called with one line of text per stage.
+    workers : int
+        Candidate fits run in this many threads.
 
     Returns
     -------
     Diagnosis
+
+    Raises
+    ------
+    DataError
+        Bad record sets (named); unknown effects.
     """
+    t_start = time.perf_counter()
     say = progress or (lambda m: None)
-    fs = check_records(train, test)
     plant = plant or paper_plant()
-    ref = reference_C if reference_C is not None else (plant.temperature_C or 28.0)
+    model = as_modal(plant)
+    fs = check_records(train, test, model.n_in, model.n_out)
+    ref = reference_C if reference_C is not None else (model.temperature_C or 28.0)
     unknown = [e for e in effects if e not in EFFECTS]
     if unknown:
         raise DataError(f"unknown effect(s) {unknown}; expected {list(EFFECTS)}")
-    lin = LinearSim.of(plant, fs)
-    all_recs = list(train) + list(test)
+    with threadpool_limits(1, "blas"):
+        return _diagnose(list(train), list(test), plant, model, fs, float(ref), tuple(effects),
+                         say, workers, t_start)
+
+
+def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start):
+    lin = LinearPart(model, fs)
+    th0 = np.zeros(lin.size)
+    all_recs = train + test
+    n_tr = len(train)
     names = [_name(d, i) for i, d in enumerate(all_recs)]
-    base_res = [d.y - lin(d.u) for d in all_recs]
-    res_te = base_res[len(train):]
-    before = signals.nrmse(test, res_te)
-    before_train = signals.nrmse(train, base_res[:len(train)])
-    var = np.array([signals.noise_sigma(r, fs) ** 2 for r in base_res])  # once per record
-    sig_te = np.sqrt(np.mean(var[len(train):]))
-    floor = signals.nrmse(test, [np.full(d.n, sig_te) for d in test])
-    sigma = np.sqrt(np.mean(var))
+    preps = [prepare(d, ref, for_fit=False) for d in all_recs]
+    base_res = [p.Y - lin.simulate(th0, p.U, p.periodic) for p in preps]
+    before = signals.nrmse(test, base_res[n_tr:])
+    before_train = signals.nrmse(train, base_res[:n_tr])
+    sig, method = noise_levels(all_recs, base_res, fs)
+    floor = floor_of(test, sig[n_tr:])
+    floor_train = floor_of(train, sig[:n_tr])
+    sigma = float(np.sqrt(np.mean(sig ** 2)))
     say(f"gap of the simulation model on {len(test)} test record(s): NRMSE {before:.4g}"
-        f" (noise floor {floor:.3g})")
+        f" (noise floor {floor:.3g}, from {method.replace('_', ' ')})")
     windows, frac = signals.time_windows(all_recs, base_res, sigma, names)
     band, f, P, level = signals.frequency_band(base_res, fs, sigma)
+    dmodel = model.discretise(fs)
     where = {"time_windows": windows, "time_windows_energy_fraction": frac,
-             "frequency_band_hz": band, "frf": signals.frf_departure(all_recs, plant, fs),
+             "frequency_band_hz": band, "frf": signals.frf_departure(all_recs, dmodel, fs),
              "regime": signals.regime(all_recs, base_res, ref)}
     tests = {"whiteness": signals.whiteness(base_res),
              "cross_correlation": signals.cross_correlation(all_recs, base_res)}
-    data = {"fs_hz": fs, "train": names[:len(train)], "test": names[len(train):],
-            "samples": int(sum(d.n for d in all_recs)), "noise_sigma_um": float(sigma)}
-    model = {"B": [float(v) for v in plant.B], "A": [float(v) for v in plant.A],
-             "label": plant.label, "reference_C": float(ref)}
+    per_record = [{"file": n, "split": "train" if i < n_tr else "test",
+                   "level_V": d.level, "periodic": bool(d.period),
+                   "gap": signals.nrmse([d], [r]), "noise_floor": floor_of([d], [s])}
+                  for i, (n, d, r, s) in enumerate(zip(names, all_recs, base_res, sig))]
+    info = {"fs": fs, "ref": ref, "names": names, "n_train": n_tr, "before": before,
+            "before_train": before_train, "floor": floor, "floor_train": floor_train, "sigma": sigma, "method": method,
+            "per_record": per_record, "model": model, "plant": plant, "t_start": t_start}
     traces = {"names": names, "records": all_recs, "base_residuals": base_res,
               "psd_f": f, "psd": P, "noise_psd": level}
-
-    def verdict(cause, reason, scores=(), linear=None, decomposition=None):
-        return Diagnosis(cause=cause, reason=reason, gap_before=before, noise_floor=floor,
-                         gap_train=before_train,
-                         effects=tuple(scores), linear_refit=linear, where=where, tests=tests,
-                         decomposition=decomposition or {}, data=data, model=model,
-                         traces=traces)
-
+    skipped = _skipped(train, effects, model)
+    tried = tuple(e for e in effects if e not in skipped)
     if not _excited(train) or not _excited(test):
         which = "training" if not _excited(train) else "test"
-        return verdict("cannot_tell", f"the {which} records have no excitation (u and temp"
-                       " constant): nothing distinguishes one effect from another")
-    scores, fits = [], {}
-    for k, name in enumerate(list(effects) + ["linear"], start=1):
-        t0 = time.perf_counter()
-        fit = (fit_linear(train, plant, fs) if name == "linear"
-               else fit_effect(name, train, plant, fs, ref))
-        sc, r = _score(fit, test, before, train, time.perf_counter() - t0)
-        fits[name] = r
-        scores.append(sc)
-        say(f"[{k}/{len(effects) + 1}] {name:<17} held-out gap {before:.4g} -> {sc.gap_after:.4g}"
-            f" (shrink {100 * sc.shrink:.1f} %, {sc.n_eval} evaluations, {sc.fit_s:.1f} s)")
-    linear = scores.pop()
-    scores.sort(key=lambda s: s.gap_after)
-    traces["fit_residuals"] = fits
-    decomposition = _decompose(res_te, before, floor, linear)
-    cause, reason = _decide(before, floor, scores, linear)
-    if cause == "none" and before_train > 2 * NONE_RATIO * floor:
-        reason += (f"; the training records do show a gap ({before_train:.3g}) that the test"
-                   " records do not excite")
+        return build(info, where, tests, traces, "cannot_tell",
+                     f"the {which} records have no excitation (u and temp constant):"
+                     " nothing distinguishes one effect from another", skipped=skipped)
+    if before <= NONE_RATIO * floor:
+        amp, info["per_level"] = amplitude_finding(all_recs, base_res, None, sig, n_tr)
+        return build(info, where, tests, traces, "none",
+                     f"held-out gap {before:.3g} is within {NONE_RATIO}x the noise floor"
+                     f" {floor:.3g}", skipped=skipped, findings=[amp])
+    train_p = [prepare(d, ref) for d in train]
+    max_delay = int(max(1, min(round(5e-3 * fs), 200)))
+    setup = Setup(fs=fs, ref=ref, train=train_p, train_full=preps[:n_tr], test=preps[n_tr:],
+                  test_records=test, train_records=train, lin=lin,
+                  lin_modal=LinearPart(model, fs, modal_gains=True), stats=summary(train),
+                  noise_sigma=sigma, plant=plant if (model.n_in, model.n_out) == (1, 1) else None,
+                  effects=tried, dynamic=_levels_ok(train, test) and "hysteresis" in tried,
+                  delays=(search_delay(train_p, lin, max_delay) if "delay" in tried
+                          else (0,) * model.n_in),
+                  saturation=search_saturation(train_p, lin, None) if "saturation" in tried
+                  else [], floor=floor, workers=workers)
+    linear, singles = candidates(setup, say)
+    amp, info["per_level"] = amplitude_finding(all_recs, base_res, _low_level_refit(
+        setup, train, train_p, preps), sig, n_tr)
+    steps, tie = forward(setup, linear, singles, say)
+    cause, reason, causes, best, _ = decide(info, linear, steps, tie)
+    findings = [amp]
+    if cause == "cannot_tell":
+        hi = unmodelled(setup, linear, info)
+        un = unmodelled_finding(hi[0], hi[2], fs, hi[1], linear.gap, before, floor) if hi else None
+        if un:
+            findings.append(un)
+            reason += f"; {un['message']}"
     say(f"cause: {cause} ({reason})")
-    return verdict(cause, reason, scores, linear, decomposition)
+    return build(info, where, tests, traces, cause, reason, skipped=skipped, findings=findings,
+                 linear=linear, singles=singles, steps=steps, causes=causes, best_partial=best,
+                 decomposition=decompose(base_res[n_tr:], before, floor, linear.gap))
 
 
-def _decompose(res, before, floor, linear):
+def _low_level_refit(setup, train, train_p, preps):
+    """Residuals (all records) of a linear re-fit on the lowest training level, or None."""
+    recs = list(setup.train_records) + list(setup.test_records)
+    low_rec = min(recs, key=lambda d: d.level)
+    if not any(d.level > 1.3 * low_rec.level and comparable(d, low_rec) for d in recs):
+        return None
+    lowest = min(d.level for d in train)
+    low = [p for p, d in zip(train_p, train) if d.level <= lowest * 1.1]
+    ch = Chain((), setup.lin.model.n_in, setup.fs, setup.ref, setup.stats)
+    fit = fit_model("linear@low", (), low, setup.lin, ch, setup.noise_sigma, joint=True,
+                    max_nfev=30, ftol=1e-8)
+    return [p.Y - fit.predict_prepared(p) for p in preps]
+
+
+def decompose(res, before, floor, linear_gap):
     """Shares of the held-out residual's mean square: offset, noise, linear, rest."""
-    ms = float(np.mean(np.concatenate(res) ** 2))
-    offset = float(np.mean(np.concatenate(res)) ** 2) / ms if ms > 0 else 0.0
+    allr = np.concatenate([np.asarray(r).ravel() for r in res])
+    ms = float(np.mean(allr ** 2))
+    offset = float(np.mean(allr)) ** 2 / ms if ms > 0 else 0.0
     noise = min(1.0, (floor / before) ** 2) if before > 0 else 1.0
-    lin = max(0.0, 1.0 - (linear.gap_after / before) ** 2) if before > 0 else 0.0
+    lin = max(0.0, 1.0 - (linear_gap / before) ** 2) if before > 0 else 0.0
     lin = min(lin, 1.0 - noise)
     return {"offset": offset, "noise": noise, "linear_model_error": lin,
             "unexplained_by_linear": max(0.0, 1.0 - noise - lin)}
-
-
-def _decide(before, floor, scores, linear):
-    if before <= NONE_RATIO * floor:
-        return "none", (f"held-out gap {before:.3g} is within {NONE_RATIO}x the noise floor"
-                        f" {floor:.3g}")
-    best = scores[0]
-    if best.shrink < MIN_SHRINK and linear.shrink < MIN_SHRINK:
-        return "cannot_tell", (f"no effect in the library nor a linear re-fit removes"
-                               f" {100 * MIN_SHRINK:.0f} % of the held-out gap (best:"
-                               f" {best.name}, {100 * best.shrink:.0f} %)")
-    if linear.gap_after <= best.gap_after * MARGIN:
-        return "linear", (f"a re-fit of the linear model does as well (held-out gap"
-                          f" {linear.gap_after:.3g} vs {best.gap_after:.3g} with {best.name})")
-    if best.shrink < MIN_SHRINK:
-        return "cannot_tell", f"best effect {best.name} removes only {100 * best.shrink:.0f} %"
-    runner = scores[1] if len(scores) > 1 else None
-    if runner is not None and runner.gap_after <= best.gap_after * MARGIN and runner.shrink >= MIN_SHRINK:
-        return "cannot_tell", (f"{best.name} and {runner.name} explain the held-out gap equally"
-                               f" well ({best.gap_after:.3g} vs {runner.gap_after:.3g})")
-    return best.name, (f"adding {best.name} shrinks the held-out gap by {100 * best.shrink:.0f} %"
-                       f" ({before:.3g} -> {best.gap_after:.3g}; noise floor {floor:.3g})")

@@ -1,282 +1,281 @@
-"""The effect library: augment the simulation model with one effect, fit only that effect.
+"""The effect library: the twin's effects as fittable, chainable stages on the input side.
 
-Every candidate keeps the simulation model's linear dynamics and adds exactly one
-effect, with the twin's parametrisation (:mod:`robrst.twin.model`) so a diagnosis and
-the twin speak the same language:
+The fittable set is derived from the twin's own list (:data:`robrst.twin.config.EFFECTS`
+minus the sensor effects): ``thermal_dynamics`` (gain, resonance and damping per K),
+``hysteresis`` (Bouc–Wen), ``creep`` (cell bank, log law, growing per K),
+``thermal_drift`` (lagged, hysteretic input-referred drift), ``delay``, ``saturation``,
+``slew``.  Every effect but ``thermal_dynamics`` acts on the input side (per input),
+in the twin's order::
 
-``hysteresis``        Bouc–Wen on the drive voltage (A, B, Gamma, gain)
-``creep``             first-order cell bank, log law in time, growing per K
-``thermal_drift``     lagged, hysteretic input-referred drift in temperature
-``thermal_dynamics``  gain, resonance and damping linear in temperature
-``delay``             whole-sample transport delay
-``saturation``        amplifier limits
+    u -> delay -> saturation -> slew -> hysteresis -> creep (+) -> + thermal drift -> v
 
-The four dynamic effects run on the compiled twin step (parameters are a runtime
-vector, so one compiled loop serves the whole fit; for the input-referred ones the
-step stops at the effective input and the linear part is the exact ZOH filter) and
-are fitted by bounded nonlinear least squares; delay and saturation are fitted by exact search on the
-linear simulation.  Each fit reports its parameters with 1-sigma uncertainties from
-the Gauss–Newton covariance (``inf`` when the data do not determine a parameter).
+and the linear part maps the effective input ``v`` to the output.  :class:`Chain` runs a
+set of effects on a record and returns ``v`` with its Jacobian with respect to the
+internal parameters ``z`` (exact: compiled twin steps with sensitivities, and closed
+forms for creep, saturation and delay; forward differences only for a parameter
+upstream of slew or hysteresis).  ``thermal_dynamics`` changes the linear part with
+temperature and is handled by :mod:`robrst.diagnose.thermal`.
 """
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass
 
 import numpy as np
-from scipy import optimize
+from scipy import signal
 
-from robrst.diagnose.linear import LinearSim, levenberg_marquardt, param_std, refit_linear
+from robrst.diagnose.stages import stage
+from robrst.twin.config import EFFECTS as TWIN_EFFECTS
 from robrst.twin.config import default_twin
-from robrst.twin.model import build_model
-from robrst.twin.simulate import Simulator, rest_state
+from robrst.twin.model import creep_taus
 
-__all__ = ["EFFECTS", "EffectFit", "fit_effect", "fit_linear"]
+__all__ = ["EFFECTS", "SENSOR_EFFECTS", "INPUT_EFFECTS", "Chain", "SPECS", "summary"]
 
-EFFECTS = ("hysteresis", "creep", "thermal_drift", "thermal_dynamics", "delay", "saturation")
-
-
-@dataclass(frozen=True, eq=False)
-class EffectFit:
-    """One fitted candidate: parameters, their 1-sigma, and a predictor for new records."""
-
-    name: str
-    params: dict
-    std: dict
-    n_eval: int
-    predict: object = field(repr=False)   # Dataset -> simulated y [µm]
+SENSOR_EFFECTS = ("noise", "quantization")      # properties of the measurement, not causes
+EFFECTS = tuple(e for e in TWIN_EFFECTS if e not in SENSOR_EFFECTS)
+ORDER = ("delay", "saturation", "slew", "hysteresis", "creep", "thermal_drift")
+INPUT_EFFECTS = tuple(e for e in ORDER if e in EFFECTS)
+THERMAL = ("thermal_drift", "thermal_dynamics")  # need a varying temperature
+LN10 = np.log(10.0)
 
 
 @dataclass(frozen=True)
-class _Dyn:
-    """A dynamic effect: free parameters z (bounds, initial guess) and z -> theta."""
+class Spec:
+    """Internal parameters z of one effect (per input): bounds, start, twin values, report."""
 
-    names: tuple          # reported parameter names
-    lower: tuple
-    upper: tuple
-    init: object          # (data summary dict) -> z0
-    theta: object         # z -> {theta name: value}
-    phys: object          # z -> reported values (same order as names)
+    names: tuple
+    bounds: object      # summary -> (lower, upper)
+    init: object        # summary -> z0
+    twin: object        # z -> values of the stage's free twin parameters
+    dtwin: object       # z -> d twin / d z (n_free x n_z)
+    report: object      # z -> reported values (same order as names)
 
 
-def _hyst_theta(z):
+def _hyst_twin(z):
     A, lb, r, g = z
-    return {"bw_A": A, "bw_B": 10 ** lb, "bw_Gamma": r * 10 ** lb, "bw_gain": g}
+    return np.array([A, 10 ** lb, r * 10 ** lb, g])
 
 
-def _drift_theta(z):
+def _hyst_d(z):
+    A, lb, r, g = z
+    b = 10 ** lb
+    return np.array([[1, 0, 0, 0], [0, LN10 * b, 0, 0], [0, r * LN10 * b, b, 0], [0, 0, 0, 1.0]])
+
+
+def _drift_twin(z):
     ll, lb, r, g = z
-    return {"drift_lag_s": 10 ** ll, "drift_A": 1.0, "drift_B": 10 ** lb,
-            "drift_Gamma": r * 10 ** lb, "drift_V_per_K": g}
+    return np.array([10 ** ll, 10 ** lb, r * 10 ** lb, g])
 
 
-_DYNAMIC = {
-    "hysteresis": _Dyn(
+def _drift_d(z):
+    ll, lb, r, g = z
+    b = 10 ** lb
+    return np.array([[LN10 * 10 ** ll, 0, 0, 0], [0, LN10 * b, 0, 0], [0, r * LN10 * b, b, 0],
+                     [0, 0, 0, 1.0]])
+
+
+SPECS = {
+    "hysteresis": Spec(
         names=("A", "B_per_V", "Gamma_per_V", "gain"),
-        lower=(0.0, -5.0, -1.0, 0.2), upper=(0.95, 0.0, 1.0, 5.0),
-        init=lambda s: (0.3, np.log10(1.0 / max(s["u_ptp"], 1e-3)), 1.0, 1.2),
-        theta=_hyst_theta,
-        phys=lambda z: (z[0], 10 ** z[1], z[2] * 10 ** z[1], z[3])),
-    "creep": _Dyn(
-        names=("per_decade", "per_K"), lower=(-0.3, -1.0), upper=(0.3, 2.0),
-        init=lambda s: (0.0, 0.0),
-        theta=lambda z: {"creep_per_decade": z[0], "creep_per_K": z[1]},
-        phys=lambda z: (z[0], z[1])),
-    "thermal_drift": _Dyn(
+        bounds=lambda s: ((0.0, np.log10(1e-4 / s["u_ptp"]), -1.0, 0.2),
+                          (0.95, np.log10(30.0 / s["u_ptp"]), 1.0, 5.0)),
+        init=lambda s: (0.3, np.log10(1.0 / s["u_ptp"]), 1.0, 1.2),
+        twin=_hyst_twin, dtwin=_hyst_d,
+        report=lambda z: (z[0], 10 ** z[1], z[2] * 10 ** z[1], z[3])),
+    "thermal_drift": Spec(
         names=("lag_s", "B_per_K", "Gamma_per_K", "gain_V_per_K"),
-        lower=(-1.0, -3.0, -1.0, -20.0), upper=(3.0, 1.0, 1.0, 20.0),
+        bounds=lambda s: ((-1.0, -3.0, -1.0, -20.0 * s["u_scale"]),
+                          (3.0, 1.0, 1.0, 20.0 * s["u_scale"])),
         init=lambda s: (np.log10(np.clip(s["duration_s"] / 10, 0.2, 100.0)), -1.0, 1.0, 0.0),
-        theta=_drift_theta,
-        phys=lambda z: (10 ** z[0], 10 ** z[1], z[2] * 10 ** z[1], z[3])),
-    "thermal_dynamics": _Dyn(
-        names=("gain_per_K", "resonance_per_K", "damping_per_K"),
-        lower=(-0.05, -0.01, -0.2), upper=(0.05, 0.01, 0.2),
-        init=lambda s: (0.0, 0.0, 0.0),
-        theta=lambda z: {"gain_per_K": z[0], "resonance_per_K": z[1], "damping_per_K": z[2]},
-        phys=lambda z: tuple(z)),
+        twin=_drift_twin, dtwin=_drift_d,
+        report=lambda z: (10 ** z[0], 10 ** z[1], z[2] * 10 ** z[1], z[3])),
+    "slew": Spec(
+        names=("V_per_s",),
+        bounds=lambda s: ((np.log10(s["u_ptp"] * 0.1),), (np.log10(s["rate_max"] * 10),)),
+        init=lambda s: (np.log10(0.5 * s["rate_max"]),),
+        twin=lambda z: np.array([10 ** z[0]]), dtwin=lambda z: np.array([[LN10 * 10 ** z[0]]]),
+        report=lambda z: (10 ** z[0],)),
+    "creep": Spec(
+        names=("per_decade", "per_K"),
+        bounds=lambda s: ((-0.3, -1.0), (0.3, 2.0)), init=lambda s: (0.0, 0.0),
+        twin=lambda z: np.asarray(z, float), dtwin=lambda z: np.eye(2),
+        report=lambda z: (z[0], z[1])),
+    "saturation": Spec(
+        names=("u_min_V", "u_max_V"),
+        bounds=lambda s: ((s["u_min"] - s["u_ptp"], s["u_max"] - 0.5 * s["u_ptp"]),
+                          (s["u_min"] + 0.5 * s["u_ptp"], s["u_max"] + s["u_ptp"])),
+        init=lambda s: (s["u_min"], s["u_max"]),
+        twin=lambda z: np.asarray(z, float), dtwin=lambda z: np.eye(2),
+        report=lambda z: (z[0], z[1])),
 }
 
 
 def summary(records):
-    """Scales of the training data used for initial guesses."""
-    u = np.concatenate([d.u for d in records])
-    return {"u_ptp": float(np.ptp(u)), "u_min": float(np.min(u)), "u_max": float(np.max(u)),
-            "duration_s": float(max(d.t[-1] - d.t[0] for d in records))}
+    """Scales of the training data (per all inputs) for bounds and starting values."""
+    U = np.concatenate([d.U for d in records])
+    ptp = float(max(np.ptp(U), 1e-9))
+    rate = max(float(np.max(np.abs(np.diff(d.U, axis=0)))) * d.fs if d.n > 1 else 0.0
+               for d in records)
+    return {"u_ptp": ptp, "u_min": float(U.min()), "u_max": float(U.max()),
+            "u_scale": max(float(np.max(np.abs(U))), ptp) / 150.0,
+            "rate_max": max(rate, ptp), "duration_s": float(max(d.t[-1] - d.t[0] for d in records))}
 
 
-def _scale(records):
-    return float(np.sqrt(sum(np.sum((d.y - d.y.mean()) ** 2) for d in records))) or 1.0
+def _creep_cells(fs):
+    c = default_twin().effects["creep"]
+    taus = creep_taus(c)
+    return np.exp(-1.0 / (fs * taus)), float(c["cells_per_decade"])
 
 
-def _phys_std(dyn, z, zstd):
-    """Delta-method 1-sigma of the reported parameters."""
-    z = np.asarray(z, float)
-    p0 = np.asarray(dyn.phys(z), float)
-    G = np.zeros((len(p0), len(z)))
-    for j in range(len(z)):
-        h = 1e-6 * max(1.0, abs(z[j]))
-        zj = z.copy()
-        zj[j] += h
-        G[:, j] = (np.asarray(dyn.phys(zj), float) - p0) / h
-    with np.errstate(invalid="ignore"):
-        out = np.sqrt(np.nansum((G * np.where(np.isfinite(zstd), zstd, 0.0)) ** 2, axis=1))
-    inf = ~np.isfinite(zstd)
-    out[(np.abs(G[:, inf]) > 0).any(axis=1)] = np.inf
-    return out
-
-
-def _central_jac(fun, z, lo, hi, rel=1e-5):
-    """Central-difference Jacobian (one-sided at a bound): accurate enough to tell an
-    undetermined direction (collinear columns) from a merely weak one."""
-    cols = []
-    for j in range(len(z)):
-        h = rel * max(1.0, abs(z[j]))
-        a, b = z.copy(), z.copy()
-        a[j], b[j] = max(z[j] - h, lo[j]), min(z[j] + h, hi[j])
-        cols.append((fun(b) - fun(a)) / (b[j] - a[j]))
-    return np.column_stack(cols)
-
-
-def _fit_dynamic(name, records, plant, fs, reference_C, max_nfev):
-    dyn = _DYNAMIC[name]
-    cfg = replace(default_twin().with_effects(only=[name]), sample_rate_hz=float(fs),
-                  reference_C=float(reference_C), name=f"diagnose_{name}")
-    input_referred = name != "thermal_dynamics"
-    model = build_model(cfg, plant=plant, linear=not input_referred)
-    sim = Simulator(model)
-    lin = LinearSim.of(plant, fs) if input_referred else None
-    index = {k: i for i, k in enumerate(model.theta_names)}
-
-    def theta_of(z):
-        th = model.theta0.copy()
-        for k, v in dyn.theta(z).items():
-            th[index[k]] = v
-        return th
-
-    def run(ds, z):
-        P = np.vstack([ds.u, ds.temp, np.zeros(ds.n)])
-        Y, _ = sim.run(P, rest_state(model, ds.u[0], ds.temp[0]), theta_of(z))
-        return lin(Y[1]) if input_referred else Y[1]
-
-    scale = _scale(records)
-
-    def resid(z):
-        r = np.concatenate([run(d, z) - d.y for d in records]) / scale
-        return np.where(np.isfinite(r), r, 1e3)
-
-    lo, hi = np.array(dyn.lower), np.array(dyn.upper)
-    z0 = np.clip(np.array(dyn.init(summary(records)), float), lo, hi)
-    res = levenberg_marquardt(resid, z0, lo, hi, max_iter=max(2, max_nfev // (len(z0) + 1)))
-    zstd = param_std(optimize.OptimizeResult(jac=_central_jac(resid, res.x, lo, hi), cost=res.cost),
-                rtol=1e-6)
-    phys = dyn.phys(res.x)
-    pstd = _phys_std(dyn, res.x, zstd)
-    z = res.x.copy()
-    return EffectFit(name=name, params=dict(zip(dyn.names, map(float, phys))),
-                     std=dict(zip(dyn.names, map(float, pstd))), n_eval=int(res.nfev),
-                     predict=lambda ds: run(ds, z))
-
-
-def _shift(yb, u0, step, d):
-    """Exact linear response to ``u`` delayed by ``d`` samples (delay line holding ``u0``).
-
-    ``yb`` and ``step`` are the undelayed responses to ``u`` and to ones, from rest.
-    """
+def _shift(x, d, x0):
     if d == 0:
-        return yb
-    out = np.empty_like(yb)
-    out[d:] = yb[:-d] + u0 * (step[d:] - step[:-d])
-    out[:d] = u0 * step[:d]
-    return out
+        return x
+    return np.concatenate([np.full((d,) + x.shape[1:], x0), x[:-d]])
 
 
-def _fit_delay(records, lin, fs):
-    dmax = int(max(1, min(round(5e-3 * fs), 200)))
-    pre = [(lin(d.u), lin(np.ones(d.n))) for d in records]
-    costs = [sum(float(np.sum((_shift(yb, d.u[0], st, k) - d.y) ** 2))
-                 for d, (yb, st) in zip(records, pre)) for k in range(dmax + 1)]
-    k = int(np.argmin(costs))
-    return EffectFit(name="delay", params={"seconds": k / fs, "samples": float(k)},
-                     std={"seconds": 0.5 / fs, "samples": 0.5}, n_eval=dmax + 1,
-                     predict=lambda ds: _shift(lin(ds.u), ds.u[0], lin(np.ones(ds.n)), k))
+class Chain:
+    """A set of input-side effects with per-input parameters ``z`` (see the module doc).
 
-
-def _fit_saturation(records, lin):
-    u_all = np.concatenate([d.u for d in records])
-    lo_u, hi_u = float(np.min(u_all)), float(np.max(u_all))
-    span = max(hi_u - lo_u, 1e-9)
-
-    def cost(lo, hi):
-        return sum(float(np.sum((lin(np.clip(d.u, lo, hi)) - d.y) ** 2)) for d in records)
-
-    n = 0
-    best_lo, best_hi = lo_u - 1e-6 * span, hi_u + 1e-6 * span
-    for which in ("hi", "lo"):
-        qs = np.linspace(0.5, 1.0, 17) if which == "hi" else np.linspace(0.5, 0.0, 17)
-        cands = np.quantile(u_all, qs)
-        vals = []
-        for c in cands:
-            vals.append(cost(best_lo, c) if which == "hi" else cost(c, best_hi))
-            n += 1
-        j = int(np.argmin(vals))
-        a, b = cands[max(j - 1, 0)], cands[min(j + 1, len(cands) - 1)]
-        f = (lambda c: cost(best_lo, c)) if which == "hi" else (lambda c: cost(c, best_hi))
-        r = optimize.minimize_scalar(f, bounds=(min(a, b), max(a, b)), method="bounded",
-                                     options={"xatol": 1e-4 * span})
-        n += int(r.nfev)
-        pick = float(r.x) if r.fun <= vals[j] else float(cands[j])
-        if which == "hi":
-            best_hi = pick if pick < hi_u else hi_u
-        else:
-            best_lo = pick if pick > lo_u else lo_u
-    # 1-sigma from a central-difference Jacobian of the residual in the two limits
-    h = 5e-3 * span
-
-    def res(lo, hi):
-        return np.concatenate([lin(np.clip(d.u, lo, hi)) - d.y for d in records])
-
-    r0 = res(best_lo, best_hi)
-    J = np.column_stack([(res(best_lo + h, best_hi) - res(best_lo - h, best_hi)) / (2 * h),
-                         (res(best_lo, best_hi + h) - res(best_lo, best_hi - h)) / (2 * h)])
-    ls = optimize.OptimizeResult(jac=J, cost=0.5 * float(r0 @ r0))
-    std = param_std(ls)
-    std = np.where(np.linalg.norm(J, axis=0) == 0, np.inf, std)
-    lo_f, hi_f = best_lo, best_hi
-    return EffectFit(name="saturation", params={"u_min_V": lo_f, "u_max_V": hi_f},
-                     std={"u_min_V": float(std[0]), "u_max_V": float(std[1])}, n_eval=n + 4,
-                     predict=lambda ds: lin(np.clip(ds.u, lo_f, hi_f)))
-
-
-def fit_effect(name, records, plant, fs, reference_C=28.0, max_nfev=120):
-    """Fit the simulation model ``plant`` augmented with effect ``name`` on ``records``.
-
-    Parameters
-    ----------
-    name : str
-        One of :data:`EFFECTS`.
-    records : list of Dataset
-        Training records (same sampling rate ``fs``), each simulated from rest.
-    plant : Plant
-        The simulation model's linear dynamics (kept fixed).
-    reference_C : float
-        Temperature [°C] at which ``plant`` holds.
-
-    Returns
-    -------
-    EffectFit
+    ``delays`` holds the whole-sample delay per input (fitted by search, not in ``z``).
     """
-    if name in _DYNAMIC:
-        return _fit_dynamic(name, records, plant, fs, reference_C, max_nfev)
-    lin = LinearSim.of(plant, fs)
-    if name == "delay":
-        return _fit_delay(records, lin, fs)
-    if name == "saturation":
-        return _fit_saturation(records, lin)
-    raise ValueError(f"unknown effect {name!r}; expected one of {EFFECTS}")
 
+    def __init__(self, effects, n_in, fs, reference_C, stats, delays=None):
+        self.effects = tuple(e for e in ORDER if e in effects)
+        self.n_in, self.fs, self.ref = n_in, float(fs), float(reference_C)
+        self.stats = stats
+        self.delays = (tuple(delays) if delays is not None and "delay" in self.effects
+                       else (0,) * n_in)
+        self.blocks, lo, hi, z0, names = [], [], [], [], []
+        for e in self.effects:
+            if e == "delay":
+                continue
+            sp = SPECS[e]
+            b_lo, b_hi = sp.bounds(stats)
+            for j in range(n_in):
+                start = len(lo)
+                lo += list(b_lo)
+                hi += list(b_hi)
+                z0 += list(np.clip(sp.init(stats), b_lo, b_hi))
+                suffix = f"_u{j + 1}" if n_in > 1 else ""
+                names += [f"{n}{suffix}" for n in sp.names]
+                self.blocks.append((e, j, slice(start, len(lo))))
+        self.lower, self.upper = np.array(lo, float), np.array(hi, float)
+        self.z0 = np.array(z0, float)
+        self.names = tuple(names)
+        self.stages = {e: stage(e, fs, reference_C) for e in self.effects
+                       if e in ("slew", "hysteresis", "thermal_drift")}
+        self.cells = _creep_cells(fs) if "creep" in self.effects else None
 
-def fit_linear(records, plant, fs):
-    """The plain linear re-fit (same degrees) as an :class:`EffectFit` named ``linear``."""
-    fit = refit_linear(plant, [(d.u, d.y) for d in records], fs)
-    lin = LinearSim.of(fit.plant, fs)
-    return EffectFit(name="linear", params={f"rel_{k}": v for k, v in fit.rel_change.items()},
-                     std={f"rel_{k}": v for k, v in fit.std.items()}, n_eval=fit.n_eval,
-                     predict=lambda ds: lin(ds.u))
+    @property
+    def size(self):
+        return self.z0.size
+
+    def _block(self, e, j):
+        return next(s for (name, jj, s) in self.blocks if name == e and jj == j)
+
+    def _input(self, z, u, temp, j, jac):
+        """Effective input of channel j and d/dz of its own parameters (N, n_z)."""
+        n = u.size
+        x = _shift(u, self.delays[j], u[0])
+        dx = np.zeros((n, self.size)) if jac else None
+        fd_cols = []                                   # upstream of a sequential stage
+        for e in self.effects:
+            if e == "delay":
+                continue
+            sl = self._block(e, j)
+            zz = z[sl]
+            if e == "saturation":
+                lo, hi = zz
+                inside = (x >= lo) & (x <= hi)
+                if jac:
+                    dx *= inside[:, None]
+                    dx[:, sl.start] = x < lo
+                    dx[:, sl.start + 1] = x > hi
+                x = np.clip(x, lo, hi)
+            elif e in ("slew", "hysteresis"):
+                st = self.stages[e]
+                out, dout = st.run(x, temp, SPECS[e].twin(zz))
+                if jac:
+                    if np.any(dx):
+                        fd_cols += [c for c in range(self.size) if np.any(dx[:, c])]
+                    dx[:] = 0.0
+                    dx[:, sl] = dout @ SPECS[e].dtwin(zz)
+                x = out
+            elif e == "creep":
+                a, per = self.cells
+                Ts = self._stack_temp(z, temp, j)
+                kappa_unit = (1.0 + zz[1] * np.maximum(Ts - self.ref, 0.0)) / per
+                X = np.column_stack([x, dx]) if jac else x[:, None]
+                acc = np.zeros_like(X)
+                for ai in a:
+                    acc += signal.lfilter([1 - ai], [1.0, -ai], X, axis=0)
+                creep = zz[0] * kappa_unit[:, None] * acc
+                if jac:
+                    dx = dx + creep[:, 1:]
+                    dx[:, sl.start] = kappa_unit * acc[:, 0]
+                    dx[:, sl.start + 1] = zz[0] * np.maximum(Ts - self.ref, 0.0) / per * acc[:, 0]
+                x = x + creep[:, 0]
+            elif e == "thermal_drift":
+                st = self.stages[e]
+                out, dout = st.run(np.zeros(n), temp, SPECS[e].twin(zz))
+                if jac:
+                    dx[:, sl] = dout @ SPECS[e].dtwin(zz)
+                x = x + out
+        return x, dx, sorted(set(fd_cols))
+
+    def _stack_temp(self, z, temp, j):
+        if "thermal_drift" not in self.effects:
+            return temp
+        lag = 10 ** z[self._block("thermal_drift", j)][0]
+        a = np.exp(-1.0 / (self.fs * lag))
+        return signal.lfilter([1 - a], [1.0, -a], temp, zi=[a * temp[0]])[0]
+
+    def run(self, z, U, temp, jac=True, warm=0):
+        """Effective inputs ``(N, k)`` and their Jacobians (list per input of (N, n_z)).
+
+        ``warm`` samples at the start are a warm-up (dropped from the outputs).
+        """
+        z = np.asarray(z, float)
+        V, dV = [], []
+        for j in range(U.shape[1]):
+            x, dx, fd = self._input(z, U[:, j], temp, j, jac)
+            if jac:
+                for c in fd:
+                    h = 1e-6 * max(1.0, abs(z[c]))
+                    zc = z.copy()
+                    zc[c] += h
+                    dx[:, c] = (self._input(zc, U[:, j], temp, j, False)[0] - x) / h
+                dV.append(dx[warm:])
+            V.append(x[warm:])
+        return np.column_stack(V), (dV if jac else None)
+
+    def report(self, z, std=None):
+        """Reported parameter values and 1-sigma (delta method) by effect, then name.
+
+        Returns ``{effect: (values, sigmas)}`` with dicts keyed by parameter name.
+        """
+        out = {e: ({}, {}) for e in self.effects}
+        for (e, j, sl) in self.blocks:
+            vals, sds = out[e]
+            sp = SPECS[e]
+            zz = np.asarray(z[sl], float)
+            rep = np.asarray(sp.report(zz), float)
+            suffix = f"_u{j + 1}" if self.n_in > 1 else ""
+            G = np.zeros((rep.size, zz.size))
+            for c in range(zz.size):
+                h = 1e-7 * max(1.0, abs(zz[c]))
+                zc = zz.copy()
+                zc[c] += h
+                G[:, c] = (np.asarray(sp.report(zc), float) - rep) / h
+            s = np.zeros(rep.size) if std is None else np.asarray(std[sl], float)
+            with np.errstate(invalid="ignore"):
+                sd = np.sqrt(np.nansum((G * np.where(np.isfinite(s), s, 0.0)) ** 2, axis=1))
+            sd[(np.abs(G[:, ~np.isfinite(s)]) > 0).any(axis=1)] = np.inf
+            for name, v, d in zip(sp.names, rep, sd):
+                vals[f"{name}{suffix}"] = float(v)
+                sds[f"{name}{suffix}"] = float(d)
+        if "delay" in self.effects:
+            vals, sds = out["delay"]
+            for j, d in enumerate(self.delays):
+                suffix = f"_u{j + 1}" if self.n_in > 1 else ""
+                vals[f"seconds{suffix}"], sds[f"seconds{suffix}"] = d / self.fs, 0.5 / self.fs
+                vals[f"samples{suffix}"], sds[f"samples{suffix}"] = float(d), 0.5
+        return out

@@ -1,230 +1,362 @@
-"""Fast exact simulation of a linear plant on sampled data, and its plain re-fit.
+"""The linear part of a diagnosis model: the user's model, its bounded corrections, exact simulation.
 
-A plant ``B(s)/A(s)`` driven through a zero-order hold is discretised exactly
-(matrix exponential of the realisation in the scaled time ``p = s / w0``, so the
-paper's 1..1e10 coefficients become O(1)), converted to second-order sections and
-run with :func:`scipy.signal.sosfilt` from rest.  The same code re-fits the linear
-model (relative changes of every scaled coefficient, output error on the training
-records): the baseline a gap must beat before it is blamed on a nonlinear effect.
+The simulation model is a modal model (:class:`~robrst.identify.modal.ModalModel`; a
+SISO :class:`~robrst.plant.Plant` is converted).  Its corrections ``theta`` are
+
+* per mode: the natural frequency (``dlog_freq``, log ratio) and, for a complex pair,
+  the damping (``dlog_damping``);
+* a gain: one overall ``gain`` (one input) or one ``input_gain`` per input;
+* optionally (``modal_gains``, used by the dynamic form of hysteresis) a relative gain
+  per mode (``mode_gain``: the mode's participation).
+
+The *zeros* of every channel stay the user's: when poles move, the residues are those
+of the same numerators over the new denominator,
+``R'_p = prod_{l != p} (p' - p_l)/(p' - p'_l) [R_p + sum_{q != p} R_q (p' - p_p)/(p' - p_q)]`` (all poles,
+conjugates included; no polynomial is expanded).  A re-fit therefore corrects gains,
+resonances and damping (the usual model errors) but cannot imitate a delay or an
+effect by rotating phases.  ``theta = 0`` is the user's model; corrections are bounded
+(:data:`BOUNDS`) and carry Gaussian priors (:data:`PRIOR_SD`): a re-fit is regularised
+toward the user's model.  Records are simulated exactly (ZOH,
+:func:`~robrst.lti.zoh_modal`) from rest by first-order recursions, or in periodic
+steady state on the DFT grid.  :class:`LinearPart` returns outputs and their Jacobian
+(gains analytically, frequencies and damping by forward differences).
 """
 
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import linalg, optimize, signal
+from scipy import optimize, signal
 
-from robrst import poly
-from robrst.errors import SpecError
+from robrst.identify.modal import ModalModel, pair_weight
+from robrst.lti import zoh_modal
 from robrst.plant import Plant
 
-__all__ = ["LinearSim", "zoh_sos", "refit_linear", "LinearFit", "levenberg_marquardt", "param_std"]
+__all__ = ["coefficient_changes", "LinearPart", "LinearSim", "as_modal", "refit_linear", "LinearFit", "PRIOR_SD",
+           "BOUNDS", "parameter_std"]
+
+PRIOR_SD = {"dlog_freq": 0.1, "dlog_damping": 1.0, "gain": 0.2, "input_gain": 0.2,
+            "mode_gain": 0.2}
+BOUNDS = {"dlog_freq": (-0.5, 0.5), "dlog_damping": (-3.0, 3.0), "gain": (-0.9, 2.0),
+          "input_gain": (-0.9, 2.0), "mode_gain": (-0.9, 2.0)}
+FD_STEP = 1e-6
 
 
-def _scaled_ss(b, a):
-    """Controllable canonical realisation of scaled monic ``b/a`` (deg b < deg a)."""
-    n = len(a) - 1
-    A = np.zeros((n, n))
-    A[0, :] = -a[1:]
-    if n > 1:
-        A[1:, :-1] = np.eye(n - 1)
-    B = np.zeros((n, 1))
-    B[0, 0] = 1.0
-    bb = np.concatenate([np.zeros(n + 1 - len(b)), b])
-    D = bb[0]
-    C = (bb[1:] - D * a[1:]).reshape(1, n)
-    return A, B, C, D
+def as_modal(model):
+    """A :class:`ModalModel` from a ModalModel or a SISO Plant."""
+    return model if isinstance(model, ModalModel) else ModalModel.from_plant(model)
 
 
-def zoh_sos(B, A, fs):
-    """Second-order sections of the ZOH discretisation of ``B(s)/A(s)`` at ``fs`` [Hz].
+class LinearPart:
+    """Corrections ``theta`` of a modal model and the sampled simulation at ``fs`` [Hz]."""
 
-    Returns ``(sos, poles, lag)``: ``zpk2sos`` pads missing zeros at the origin, so
-    the sections realise ``z**lag H(z)``; the output is delayed by ``lag`` samples
-    afterwards.  ``poles`` are the discrete poles (for a stability check).  Raises
-    :class:`SpecError` for an improper model.
-    """
-    A = poly.trim(A)
-    B = poly.trim(B)
-    if len(B) > len(A):
-        raise SpecError("linear model is improper (deg B > deg A)")
-    w0 = poly.natural_scale(A)
-    a_s = poly.to_scaled(A, w0)
-    b_s = poly.to_scaled(B, w0) / a_s[0]
-    a_s = a_s / a_s[0]
-    Ac, Bc, Cc, Dc = _scaled_ss(b_s, a_s)
-    n = Ac.shape[0]
-    h = w0 / fs
-    M = np.zeros((n + 1, n + 1))
-    M[:n, :n], M[:n, n:] = Ac * h, Bc * h
-    E = linalg.expm(M)
-    Ad, Bd = E[:n, :n], E[:n, n:]
-    with warnings.catch_warnings():  # leading zero numerator terms are expected
-        warnings.simplefilter("ignore", signal.BadCoefficients)
-        z, p, k = signal.ss2zpk(Ad, Bd, Cc, np.array([[Dc]]))
-    z = np.atleast_1d(z).ravel()
-    z = z[np.isfinite(z)]
-    return signal.zpk2sos(z, p, k), p, len(p) - len(z)
+    def __init__(self, model, fs, modal_gains=False):
+        self.model = as_modal(model)
+        self.modal_gains = bool(modal_gains)
+        self.fs = float(fs)
+        m = self.model
+        self.weight = pair_weight(m.poles)
+        names, kinds = [], []
+        for p, pole in enumerate(m.poles):
+            if pole != 0:
+                names.append(f"mode{p + 1}_dlog_freq")
+                kinds.append(("dlog_freq", p))
+            if pole.imag > 0:
+                names.append(f"mode{p + 1}_dlog_damping")
+                kinds.append(("dlog_damping", p))
+            if modal_gains:
+                names.append(f"mode{p + 1}_gain")
+                kinds.append(("mode_gain", p))
+        if m.n_in > 1:
+            for j in range(m.n_in):
+                names.append(f"u{j + 1}_input_gain")
+                kinds.append(("input_gain", j))
+        else:
+            names.append("gain")
+            kinds.append(("gain", 0))
+        self.names = tuple(names)
+        self.kinds = tuple(kinds)
+        self.lower = np.array([BOUNDS[k][0] for k, _ in kinds])
+        self.upper = np.array([BOUNDS[k][1] for k, _ in kinds])
+        self.prior_sd = np.array([PRIOR_SD[k] for k, _ in kinds])
+        self.moves = tuple(i for i, (k, _) in enumerate(kinds)
+                           if k in ("dlog_freq", "dlog_damping", "mode_gain"))
+        self._cache = {}          # sampled transfers by (theta, N): records share DFT grids
 
+    @property
+    def size(self):
+        return len(self.names)
 
-def _run(sos, lag, u):
-    y = signal.sosfilt(sos, u)
-    if lag:
-        y = np.concatenate([np.zeros(lag), y[:-lag]])
-    return y
+    def _gains(self, theta):
+        """Relative gain per input (the overall gain for one input)."""
+        gains = np.ones(self.model.n_in)
+        for t, (kind, j) in zip(theta, self.kinds):
+            if kind in ("input_gain", "gain"):
+                gains[j] += t
+        return gains
+
+    def _poles(self, theta):
+        p = self.model.poles.copy()
+        dw = np.zeros(p.size)
+        dz = np.zeros(p.size)
+        for t, (kind, q) in zip(theta, self.kinds):
+            if kind == "dlog_freq":
+                dw[q] = t
+            elif kind == "dlog_damping":
+                dz[q] = t
+        for q, pole in enumerate(p):
+            if pole.imag > 0:
+                wn, zeta = abs(pole), -pole.real / abs(pole)
+                wn, zeta = wn * np.exp(dw[q]), min(zeta * np.exp(dz[q]), 0.999)
+                p[q] = complex(-zeta * wn, wn * np.sqrt(1 - zeta * zeta))
+            else:
+                p[q] = pole * np.exp(dw[q])
+        return p
+
+    def _modes(self, theta):
+        """New poles and residues (same numerators), input gains applied: ``(n,), (n, m, k)``."""
+        m = self.model
+        new = self._poles(theta)
+        if np.array_equal(new, m.poles):
+            R = m.residues.copy()
+        else:
+            cj = np.imag(m.poles) > 0
+            P0 = np.concatenate([m.poles, np.conj(m.poles[cj])])
+            P1 = np.concatenate([new, np.conj(new[cj])])
+            R0 = np.concatenate([m.residues, np.conj(m.residues[cj])])
+            R = np.empty_like(m.residues)
+            for p in range(new.size):
+                x = P1[p]
+                others = np.arange(P0.size) != p
+                ratio = np.prod((x - P0[others]) / (x - P1[others]))
+                rest = np.tensordot((x - P0[p]) / (x - P0[others]), R0[others], axes=1)
+                R[p] = ratio * (R0[p] + rest)
+        for t, (kind, q) in zip(theta, self.kinds):
+            if kind == "mode_gain":
+                R[q] = R[q] * (1.0 + t)
+        return new, R * self._gains(theta)[None, None, :]
+
+    def continuous(self, theta):
+        """The corrected model as a :class:`ModalModel`."""
+        new, R = self._modes(theta)
+        D = self.model.D * self._gains(theta)[None, :]
+        return ModalModel(new, R, D, label=f"{self.model.label}_refit",
+                          temperature_C=self.model.temperature_C)
+
+    def _H(self, theta, N):
+        """Sampled transfer ``(N//2 + 1, m, k)`` on the DFT grid of length N (cached)."""
+        key = (np.asarray(theta, float).tobytes(), int(N))
+        H = self._cache.get(key)
+        if H is None:
+            new, R = self._modes(theta)
+            zp, Rd = zoh_modal(new, R, self.fs)
+            z = np.exp(2j * np.pi * np.arange(N // 2 + 1) / N)
+            H = self._transfer(zp, Rd, z) + (self.model.D * self._gains(theta)[None, :])[None]
+            if len(self._cache) > 256:
+                self._cache.clear()
+            self._cache[key] = H
+        return H
+
+    def _parts(self, theta, V, periodic):
+        """Per-input output contributions ``(N or F, m, k)`` (spectra when periodic)."""
+        N = V.shape[0]
+        if periodic:
+            return self._H(theta, N) * np.fft.rfft(V, axis=0)[:, None, :]
+        new, R = self._modes(theta)
+        zp, Rd = zoh_modal(new, R, self.fs)
+        D = self.model.D * self._gains(theta)[None, :]
+        out = V[:, None, :] * D[None]
+        for p in range(zp.size):
+            self._add_mode(out, zp[p], Rd[p], V, p)
+        return out
+
+    def _add_mode(self, out, zp, Rd, X, p, inputs=None):
+        """Add mode ``p``'s response to columns ``X`` (N, c) into ``out`` (N, m, c), from rest.
+
+        Real arithmetic: a pair is the section ``(b1 q^-1 + b2 q^-2) / (1 - 2 Re z q^-1 +
+        |z|^2 q^-2)`` with ``b1 = 2 Re R``, ``b2 = -2 Re(R conj z)``; its two numerator
+        terms share one filtered signal (the second is the first delayed by a sample).
+        """
+        R = Rd if inputs is None else Rd[:, inputs]
+        if self.weight[p] == 2.0:
+            s1 = signal.lfilter([0.0, 1.0], [1.0, -2 * zp.real, abs(zp) ** 2], X, axis=0)
+            s2 = np.zeros_like(s1)
+            s2[1:] = s1[:-1]
+            out += s1[:, None, :] * (2 * R.real)[None] - s2[:, None, :] * (
+                2 * (R * np.conj(zp)).real)[None]
+        else:
+            s1 = signal.lfilter([0.0, 1.0], [1.0, -zp.real], X, axis=0)
+            out += s1[:, None, :] * R.real[None]
+
+    def _transfer(self, zp, Rd, z):
+        H = np.zeros((z.size,) + Rd.shape[1:], complex)
+        for p in range(zp.size):
+            H += Rd[p][None] / (z - zp[p])[:, None, None]
+            if self.weight[p] == 2.0:
+                H += np.conj(Rd[p])[None] / (z - np.conj(zp[p]))[:, None, None]
+        return H
+
+    def simulate_inputs(self, theta, X, inputs, periodic=False):
+        """Outputs ``(N, m, c)`` for columns ``X[:, c]`` each applied alone on ``inputs[c]``."""
+        X = np.asarray(X, float).reshape(len(X), -1)
+        inputs = np.asarray(inputs, int)
+        N = X.shape[0]
+        if periodic:
+            H = self._H(theta, N)[:, :, inputs]
+            return np.fft.irfft(H * np.fft.rfft(X, axis=0)[:, None, :], n=N, axis=0)
+        new, R = self._modes(theta)
+        zp, Rd = zoh_modal(new, R, self.fs)
+        D = (self.model.D * self._gains(theta)[None, :])[:, inputs]
+        Y = X[:, None, :] * D[None]
+        for p in range(zp.size):
+            self._add_mode(Y, zp[p], Rd[p], X, p, inputs)
+        return Y
+
+    def simulate_input(self, theta, x, j, periodic=False):
+        """Output ``(N, m)`` for the signal ``x`` on input ``j`` alone (others zero)."""
+        return self.simulate_inputs(theta, np.asarray(x, float)[:, None], [j], periodic)[:, :, 0]
+
+    def simulate(self, theta, V, periodic=False):
+        """Outputs ``(N, m)`` for effective inputs ``V`` (N x k)."""
+        return self.simulate_jac(theta, V, periodic, jac=False)[0]
+
+    def simulate_jac(self, theta, V, periodic=False, jac=True):
+        """Outputs ``(N, m)`` and, if ``jac``, ``d outputs / d theta`` ``(N, m, size)``."""
+        theta = np.asarray(theta, float)
+        V = np.asarray(V, float).reshape(len(V), -1)
+        N = V.shape[0]
+        parts = self._parts(theta, V, periodic)
+        total = parts.sum(axis=2)
+        back = (lambda A: np.fft.irfft(A, n=N, axis=0)) if periodic else (lambda A: A)  # noqa
+        Y = back(total)
+        if not jac:
+            return Y, None
+        cols = np.zeros(total.shape + (self.size,), total.dtype)
+        gains = self._gains(theta)
+        for i, (kind, q) in enumerate(self.kinds):
+            if kind in ("gain", "input_gain"):
+                cols[..., i] = parts[:, :, q] / gains[q]
+        for i in self.moves:
+            th = theta.copy()
+            th[i] += FD_STEP
+            cols[..., i] = (self._parts(th, V, periodic).sum(axis=2) - total) / FD_STEP
+        return Y, back(cols)
 
 
 @dataclass(frozen=True, eq=False)
 class LinearSim:
-    """Exact ZOH simulation of ``B/A`` from rest at ``fs`` [Hz].
+    """Exact ZOH simulation of a linear model from rest: ``LinearSim.of(plant, fs)(u)``.
 
-    ``y[k]`` is sampled at the instant ``u[k]`` is applied, as in the twin: a
-    strictly proper plant's ``y[k]`` depends on ``u`` up to ``k-1`` only.
+    ``y[k]`` is sampled at the instant ``u[k]`` is applied, as in the twin.  For one
+    input and output ``u`` and the result are 1-D; else ``(N, k)`` and ``(N, m)``.
     """
 
-    B: np.ndarray
-    A: np.ndarray
+    model: ModalModel
     fs: float
 
     def __post_init__(self):
-        sos, p, lag = zoh_sos(self.B, self.A, self.fs)
-        object.__setattr__(self, "sos", sos)
-        object.__setattr__(self, "lag", lag)
-        object.__setattr__(self, "stable", bool(np.all(np.abs(p) < 1.0)))
+        object.__setattr__(self, "discrete", self.model.discretise(self.fs))
 
     @classmethod
     def of(cls, plant, fs):
-        return cls(np.asarray(plant.B, float), np.asarray(plant.A, float), float(fs))
+        return cls(as_modal(plant), float(fs))
 
-    def __call__(self, u):
-        return _run(self.sos, self.lag, np.asarray(u, float))
+    @property
+    def stable(self):
+        return self.discrete.stable
+
+    def __call__(self, u, periodic=False):
+        u = np.asarray(u, float)
+        Y = self.discrete.response(u, periodic=periodic)
+        return Y[:, 0] if u.ndim == 1 and Y.shape[1] == 1 else Y
 
 
 @dataclass(frozen=True)
 class LinearFit:
-    """A re-fitted linear model and its training gap."""
+    """A re-fitted linear model: the model, its corrections with 1-sigma, evaluations."""
 
-    plant: Plant
-    rel_change: dict      # coefficient name -> relative change of the scaled coefficient
-    std: dict             # 1-sigma of the relative changes (Gauss–Newton)
+    plant: object          # Plant (SISO input) or ModalModel
+    rel_change: dict       # correction name -> value (theta)
+    std: dict
     n_eval: int
 
 
-def refit_linear(plant, records, fs, max_nfev=200):
-    """Re-fit every coefficient of ``plant`` (same degrees) on ``records`` (output error).
+def refit_linear(plant, records, fs, max_nfev=60):
+    """Re-fit the corrections of ``plant`` on ``records`` (output error, from rest).
 
     Parameters
     ----------
-    plant : Plant
-        Starting model (the simulation model under diagnosis).
+    plant : Plant or ModalModel
+        The simulation model under diagnosis.
     records : list of (u, y)
-        Training inputs [V] and measured outputs [µm], each simulated from rest.
+        Training inputs [V] and measured outputs [µm].
+    fs : float
+        Sampling rate [Hz].
 
     Returns
     -------
     LinearFit
+        For a :class:`Plant` the fitted model is a Plant (same degrees).
     """
-    w0 = poly.natural_scale(plant.A)
-    a0 = poly.to_scaled(plant.A, w0)
-    b0 = poly.to_scaled(plant.B, w0)
-    free_a = np.flatnonzero(a0[1:] != 0)
-    free_b = np.flatnonzero(b0 != 0)
-    idx = [("a", i) for i in free_a] + [("b", i) for i in free_b]
-    scale = np.sqrt(sum(float(np.sum(y ** 2)) for _, y in records)) or 1.0
+    lp = LinearPart(plant, fs)
+    pairs = [(np.asarray(u, float).reshape(len(u), -1), np.asarray(y, float).reshape(len(y), -1))
+             for u, y in records]
+    scale = np.sqrt(sum(float(np.sum((y - y.mean(0)) ** 2)) for _, y in pairs)) or 1.0
 
-    def model(z):
-        a, b = a0.copy(), b0.copy()
-        for (kind, i), d in zip(idx, z):
-            if kind == "a":
-                a[1 + i] *= 1 + d
-            else:
-                b[i] *= 1 + d
-        return a, b
+    def fun(th):
+        return np.concatenate([(lp.simulate(th, u) - y).ravel() for u, y in pairs]) / scale
 
-    def resid(z):
-        a, b = model(z)
-        sos, p, lag = zoh_sos(poly.from_scaled(b, w0), poly.from_scaled(a, w0), fs)
-        if np.any(np.abs(p) >= 1.0):
-            return np.concatenate([np.ones_like(y) for _, y in records]) * 1e3
-        return np.concatenate([_run(sos, lag, u) - y for u, y in records]) / scale
+    def jac(th):
+        return np.vstack([lp.simulate_jac(th, u)[1].reshape(-1, lp.size) for u, _ in pairs]) / scale
 
-    z0 = np.zeros(len(idx))
-    n = len(z0)
-    res = levenberg_marquardt(resid, z0, np.full(n, -0.9), np.full(n, 3.0),
-                              max_iter=max(2, max_nfev // (n + 1)))
-    a, b = model(res.x)
-    std = param_std(res)
-    keys = [f"a{i + 1}" if kind == "a" else f"b{i}" for kind, i in idx]
-    fitted = Plant(poly.from_scaled(b, w0), poly.from_scaled(a, w0), label=f"{plant.label}_refit",
-                   temperature_C=plant.temperature_C)
-    return LinearFit(plant=fitted, rel_change=dict(zip(keys, map(float, res.x))),
-                     std=dict(zip(keys, map(float, std))), n_eval=int(res.nfev))
+    res = optimize.least_squares(fun, np.zeros(lp.size), jac=jac, bounds=(lp.lower, lp.upper),
+                                 method="trf", x_scale="jac", ftol=1e-12, xtol=1e-12, gtol=1e-12,
+                                 max_nfev=max_nfev)
+    std = parameter_std(res.jac, res.cost, len(res.fun))
+    fitted = lp.continuous(res.x)
+    rel = dict(zip(lp.names, map(float, res.x)))
+    sd = dict(zip(lp.names, map(float, std)))
+    if isinstance(plant, Plant):
+        fitted = fitted.channel(0, 0, label=f"{plant.label}_refit")
+        coef = coefficient_changes(plant, fitted)
+        rel.update(coef)                       # the JSON contract's keys b0.., a1.. (kept)
+        sd.update({k: float("nan") for k in coef})
+    return LinearFit(plant=fitted, rel_change=rel, std=sd, n_eval=int(res.nfev))
 
 
-def param_std(res, rtol=1e-7):
-    """1-sigma of least-squares parameters from the final Jacobian.
+def coefficient_changes(plant, fitted):
+    """Relative change of every non-zero coefficient, ``b{i}`` of B and ``a{i}`` of monic A
+    (highest power first, ``a0`` = 1 omitted): the keys earlier versions reported."""
+    out = {}
+    if len(fitted.A) != len(plant.A) or len(fitted.B) != len(plant.B):
+        return out
+    for i in range(1, len(plant.A)):
+        if plant.A[i] != 0:
+            out[f"a{i}"] = float(fitted.A[i] / plant.A[i] - 1.0)
+    for i, b in enumerate(plant.B):
+        if b != 0:
+            out[f"b{i}"] = float(fitted.B[i] / b - 1.0)
+    return out
 
-    ``cov = s^2 (J^T J)^-1`` through the SVD of ``J``; a parameter taking part in a
-    direction the data do not determine (singular value below ``rtol`` x the largest)
-    gets ``inf``, never a misleadingly small number.
+
+def parameter_std(J, cost, m, rtol=1e-7):
+    """1-sigma of least-squares parameters from the Jacobian ``J`` at the optimum.
+
+    ``cov = s^2 (J^T J)^-1`` through the SVD of ``J`` (``s^2 = 2 cost / (m - n)``); a
+    parameter taking part in a direction the data do not determine (singular value
+    below ``rtol`` x the largest) gets ``inf``, never a misleadingly small number.
     """
-    J = np.asarray(res.jac, float)
-    m, n = J.shape
+    J = np.asarray(J, float)
+    n = J.shape[1]
     if n == 0:
         return np.zeros(0)
-    s2 = 2 * res.cost / max(m - n, 1)
-    _, sv, Vt = np.linalg.svd(J, full_matrices=False)
+    s2 = 2 * cost / max(m - n, 1)
+    _, sv, Vt = np.linalg.svd(J.T @ J)
+    sv = np.sqrt(np.maximum(sv, 0.0))
     if sv[0] == 0:
         return np.full(n, np.inf)
     good = sv > rtol * sv[0]
-    var = (Vt[good].T ** 2) @ (1.0 / sv[good] ** 2) * s2
-    d = np.sqrt(var)
+    d = np.sqrt((Vt[good].T ** 2) @ (1.0 / sv[good] ** 2) * s2)
     if not good.all():
         weak = (np.abs(Vt[~good]) > 1e-3).any(axis=0)
         d[weak] = np.inf
     return d
-
-
-def levenberg_marquardt(fun, z0, lo, hi, max_iter=30, diff_step=1e-4, ftol=1e-10):
-    """Bounded Levenberg–Marquardt on ``||fun(z)||^2`` with a forward-difference Jacobian.
-
-    Works on the normal equations (``n x n``, ``n`` = a handful of parameters), so a
-    residual of a million samples costs ``n + 1`` simulations per iteration and no
-    factorisation of the tall Jacobian.  Steps are projected onto the bounds.
-    Returns a :class:`scipy.optimize.OptimizeResult` with ``x``, ``fun``, ``jac``,
-    ``cost`` (half the squared norm) and ``nfev``.
-    """
-    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
-    z = np.clip(np.asarray(z0, float), lo, hi)
-    r = fun(z)
-    cost, nfev, lam = float(r @ r), 1, 1e-3
-    J = None
-    for _ in range(max_iter):
-        cols = []
-        for j in range(z.size):
-            h = diff_step * max(1.0, abs(z[j]))
-            if z[j] + h > hi[j]:
-                h = -h
-            zj = z.copy()
-            zj[j] += h
-            cols.append((fun(zj) - r) / h)
-        nfev += z.size
-        J = np.column_stack(cols)
-        H, g = J.T @ J, J.T @ r
-        d = np.maximum(np.diag(H), 1e-12 * max(np.max(np.diag(H)), 1e-300))
-        improved = False
-        while lam < 1e10:
-            step = np.linalg.solve(H + lam * np.diag(d), -g)
-            zn = np.clip(z + step, lo, hi)
-            rn = fun(zn)
-            nfev += 1
-            cn = float(rn @ rn)
-            if np.isfinite(cn) and cn < cost:
-                improved = True
-                done = cost - cn <= ftol * cost
-                z, r, cost, lam = zn, rn, cn, max(lam / 5, 1e-12)
-                break
-            lam *= 4
-        if not improved or done:
-            break
-    return optimize.OptimizeResult(x=z, fun=r, jac=J, cost=0.5 * cost, nfev=nfev)

@@ -23,26 +23,42 @@ MAX_LAG = 25
 
 
 def nrmse(records, residuals):
-    """Pooled normalised RMS error ``sqrt(sum r^2) / sqrt(sum (y - mean y)^2)``."""
-    num = sum(float(np.sum(r ** 2)) for r in residuals)
-    den = sum(float(np.sum((d.y - d.y.mean()) ** 2)) for d in records)
+    """Pooled normalised RMS error ``sqrt(sum r^2) / sqrt(sum (y - mean y)^2)``.
+
+    Pooled over records and outputs (each output about its own mean).
+    """
+    num = sum(float(np.sum(np.asarray(r) ** 2)) for r in residuals)
+    den = sum(float(np.sum((d.Y - d.Y.mean(axis=0)) ** 2)) for d in records)
     return float(np.sqrt(num / den)) if den > 0 else float("inf")
+
+
+def _cols(r):
+    """A residual as (N, m)."""
+    r = np.asarray(r, float)
+    return r.reshape(r.shape[0], -1)
 
 
 def _nperseg(n, cap):
     return int(max(16, min(cap, 2 ** int(np.floor(np.log2(max(n // 8, 16)))))))
 
 
-def noise_sigma(r, fs):
-    """Noise std [µm] of a residual from its spectrum above 60 % of Nyquist.
+NOISE_BANDS = ((0.3, 0.45), (0.45, 0.6), (0.6, 0.75), (0.75, 0.95))   # fractions of Nyquist
 
-    The one-sided PSD of white noise of std sigma is ``2 sigma^2 / fs``; the level is
-    the median over the upper band of a median-averaged Welch estimate.
+
+def noise_sigma(r, fs):
+    """Noise std [µm] of a 1-D residual from its spectrum in the upper 70 % of the band.
+
+    The one-sided PSD of white noise of std sigma is ``2 sigma^2 / fs``.  The level is
+    the smallest of the median levels of four sub-bands (30–45, 45–60, 60–75, 75–95 %
+    of Nyquist) of a median-averaged Welch estimate: a plant mode or model error in one
+    sub-band does not raise the floor.  For periodic records the period-to-period
+    differences are better (:func:`robrst.diagnose.findings.noise_levels`).
     """
     r = np.asarray(r, float)
     f, P = signal.welch(r - r.mean(), fs=fs, nperseg=_nperseg(r.size, 1024), average="median")
-    band = (f >= 0.6 * fs / 2) & (f <= 0.95 * fs / 2)
-    level = float(np.median(P[band])) if np.any(band) else float(np.var(r) * 2 / fs)
+    levels = [float(np.median(P[(f >= a * fs / 2) & (f <= b * fs / 2)]))
+              for a, b in NOISE_BANDS if np.any((f >= a * fs / 2) & (f <= b * fs / 2))]
+    level = min(levels) if levels else float(np.var(r) * 2 / fs)
     return float(np.sqrt(level * fs / 2))
 
 
@@ -54,6 +70,8 @@ def time_windows(records, residuals, sigma, names, max_windows=12, factor=3.0):
     """
     out, held, total = [], 0.0, 0.0
     for d, r, name in zip(records, residuals, names):
+        R = _cols(r)
+        r = np.sqrt(np.mean(R ** 2, axis=1))
         n = r.size
         w = max(16, n // 200)
         c = np.concatenate([[0.0], np.cumsum(r ** 2)])
@@ -87,12 +105,13 @@ def time_windows(records, residuals, sigma, names, max_windows=12, factor=3.0):
 
 def residual_psd(residuals, fs):
     """Pooled Welch PSD [µm²/Hz] of the residuals (mean averaging); returns (f, P)."""
-    n = min(r.size for r in residuals)
+    n = min(len(r) for r in residuals)
     nper = _nperseg(n, 8192)
     acc, wsum, f = 0.0, 0.0, None
     for r in residuals:
-        f, P = signal.welch(r - r.mean(), fs=fs, nperseg=nper)
-        acc, wsum = acc + P * r.size, wsum + r.size
+        R = _cols(r)
+        f, P = signal.welch(R - R.mean(axis=0), fs=fs, nperseg=nper, axis=0)
+        acc, wsum = acc + P.mean(axis=1) * R.shape[0], wsum + R.shape[0]
     return f, acc / wsum
 
 
@@ -113,37 +132,53 @@ def frequency_band(residuals, fs, sigma, factor=4.0):
     return [float(lo), float(hi)], f, P, level
 
 
-def frf_departure(records, lin_model, fs, max_coh=0.999):
+def frf_departure(records, dmodel, fs, max_coh=0.999):
     """Where the nonparametric FRF (H1, with coherence) departs from the model's.
 
-    The relative error ``|H1 - Hm| / |Hm|`` is compared, bin by bin, with 3x its
-    standard error ``sqrt((1 - g2) / (2 n_avg g2))`` on bins with coherence > 0.5.
-    Returns ``{"band_hz": [lo, hi] or None, "max_rel_error": x, "bins": n}``.
+    ``dmodel`` is the sampled model (:class:`~robrst.identify.modal.DiscreteModel`),
+    compared at ``z = exp(j 2 pi f / fs)``.  With several inputs H1 is the matrix
+    ``S_yu S_uu^-1`` and the coherence the multiple coherence of each output.  The
+    relative error ``|H1 - Hm| / max(|Hm|)`` of each channel is compared, bin by bin,
+    with 3x its standard error ``sqrt((1 - g2) / (2 n_avg g2))`` on bins with
+    coherence > 0.5.  Returns ``{"band_hz": [lo, hi] or None, "max_rel_error": x,
+    "bins": n}``.
     """
     n = min(d.n for d in records)
     nper = _nperseg(n, 4096)
-    Puu = Puy = Pyy = 0.0
+    Suu = Suy = Syy = 0.0
     for d in records:
-        f, a = signal.csd(d.u - d.u.mean(), d.u - d.u.mean(), fs=fs, nperseg=nper)
-        _, b = signal.csd(d.u - d.u.mean(), d.y - d.y.mean(), fs=fs, nperseg=nper)
-        _, c = signal.csd(d.y - d.y.mean(), d.y - d.y.mean(), fs=fs, nperseg=nper)
-        Puu, Puy, Pyy = Puu + a.real, Puy + b, Pyy + c.real
+        U, Y = d.U - d.U.mean(axis=0), d.Y - d.Y.mean(axis=0)
+        f, a = signal.csd(U[:, :, None], U[:, None, :], fs=fs, nperseg=nper, axis=0)
+        _, b = signal.csd(U[:, :, None], Y[:, None, :], fs=fs, nperseg=nper, axis=0)
+        _, c = signal.csd(Y, Y, fs=fs, nperseg=nper, axis=0)
+        Suu, Suy, Syy = Suu + a, Suy + b, Syy + c.real      # (F, k, k), (F, k, m), (F, m)
     n_avg = sum(max(1, 2 * d.n // nper - 1) for d in records)
-    ok = Puu > 1e-12 * np.max(Puu)
-    H1 = np.where(ok, Puy / np.where(ok, Puu, 1.0), 0)
-    g2 = np.where(ok, np.abs(Puy) ** 2 / np.where(ok, Puu * Pyy, 1.0), 0)
+    tr = np.real(np.trace(Suu, axis1=1, axis2=2))
+    ok = tr > 1e-12 * np.max(tr)
+    H1 = np.zeros((f.size,) + Suy.shape[2:] + Suy.shape[1:2], complex)   # (F, m, k)
+    g2 = np.zeros((f.size, Suy.shape[2]))
+    for i in np.flatnonzero(ok):
+        try:
+            X = np.linalg.solve(Suu[i].T, Suy[i]).T        # S_yu S_uu^-1 (m x k)
+        except np.linalg.LinAlgError:
+            ok[i] = False
+            continue
+        H1[i] = X
+        g2[i] = np.real(np.einsum("mk,km->m", X, Suy[i])) / np.maximum(Syy[i], 1e-300)
     g2 = np.clip(g2, 0, max_coh)
-    Hm = lin_model.freqresp(f)
-    rel = np.abs(H1 - Hm) / np.maximum(np.abs(Hm), 1e-300)
-    se = np.sqrt((1 - g2) / (2 * n_avg * np.maximum(g2, 1e-12)))
-    use = ok & (g2 > 0.5) & (f > 0)
+    Hm = dmodel.transfer(np.exp(2j * np.pi * f / fs))
+    peak = np.maximum(np.max(np.abs(Hm), axis=0), 1e-300)          # (m, k)
+    rel = np.abs(H1 - Hm) / peak[None]
+    se = np.sqrt((1 - g2) / (2 * n_avg * np.maximum(g2, 1e-12)))[:, :, None] * (
+        np.abs(Hm) / peak[None] + 1e-3)
+    use = (ok & (f > 0))[:, None, None] & (g2 > 0.5)[:, :, None]
     bad = use & (rel > 3 * se + 1e-3)
     if not bad.any():
         return {"band_hz": None, "max_rel_error": float(np.max(rel[use])) if use.any() else None,
                 "bins": 0}
-    fb = f[bad]
+    fb = f[np.any(bad, axis=(1, 2))]
     return {"band_hz": [float(fb.min()), float(fb.max())], "max_rel_error": float(np.max(rel[bad])),
-            "bins": int(bad.sum())}
+            "bins": int(np.any(bad, axis=(1, 2)).sum())}
 
 
 def eta2(r, x, bins=10):
@@ -177,8 +212,8 @@ def regime(records, residuals, reference_C):
     cols = {k: [] for k in ("temperature", "temperature_x_amplitude", "amplitude", "direction",
                             "time_since_step")}
     for d in records:
-        dT = d.temp - reference_C
-        u = d.u
+        dT = d.temp_or(reference_C) - reference_C
+        u = d.U.sum(axis=1)
         k = max(1, int(round(d.fs * 1e-3)))
         du = np.convolve(np.diff(u, prepend=u[0]), np.ones(k) / k, mode="same")
         moving = np.abs(du) > 1e-3 * max(np.ptp(u), 1e-12) / k
@@ -191,11 +226,11 @@ def regime(records, residuals, reference_C):
         cols["amplitude"].append(u)
         cols["direction"].append(np.where(moving, np.sign(du), 0.0))
         cols["time_since_step"].append(np.where(jump.any(), sgn * since, 0.0))
-    r = np.concatenate(residuals)
+    R = np.concatenate([_cols(r) for r in residuals])
     out = {}
     for k, v in cols.items():
         x = np.concatenate(v)
-        out[k] = eta2(r, x) if np.ptp(x) > 1e-9 else None
+        out[k] = float(np.mean([eta2(r, x) for r in R.T])) if np.ptp(x) > 1e-9 else None
     valid = {k: v for k, v in out.items() if v is not None}
     out["dominant"] = max(valid, key=valid.get) if valid else None
     out["measure"] = "eta2"
@@ -209,7 +244,7 @@ def _bound(n, m):
 def whiteness(residuals, max_lag=MAX_LAG):
     """Autocorrelation test of the residual at lags 1..max_lag (99 %, Bonferroni)."""
     acc, n = np.zeros(max_lag + 1), 0
-    for r in residuals:
+    for r in (c for res in residuals for c in _cols(res).T):
         r = r - r.mean()
         acc += np.array([np.dot(r[:r.size - k], r[k:]) for k in range(max_lag + 1)])
         n += r.size
@@ -220,10 +255,14 @@ def whiteness(residuals, max_lag=MAX_LAG):
 
 
 def cross_correlation(records, residuals, max_lag=MAX_LAG):
-    """Residual-input cross-correlation test at lags 0..max_lag (input leading)."""
+    """Residual-input cross-correlation test at lags 0..max_lag (input leading).
+
+    Pooled over every (input, output) pair of every record.
+    """
     num, ruu, rrr, n = np.zeros(max_lag + 1), 0.0, 0.0, 0
-    for d, r in zip(records, residuals):
-        u, r = d.u - d.u.mean(), r - r.mean()
+    pairs = [(u, r) for d, res in zip(records, residuals) for u in d.U.T for r in _cols(res).T]
+    for u, r in pairs:
+        u, r = u - u.mean(), r - r.mean()
         num += np.array([np.dot(u[:u.size - k], r[k:]) for k in range(max_lag + 1)])
         ruu, rrr, n = ruu + float(u @ u), rrr + float(r @ r), n + r.size
     rho = num / np.sqrt(ruu * rrr) if ruu > 0 and rrr > 0 else np.zeros(max_lag + 1)

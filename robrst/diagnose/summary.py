@@ -1,4 +1,4 @@
-"""Short human-readable summary of a :class:`~robrst.diagnose.core.Diagnosis`."""
+"""Short human-readable summary of a :class:`~robrst.diagnose.result.Diagnosis`."""
 
 import math
 
@@ -16,25 +16,41 @@ def _g(v, fmt):
 
 
 def summary_text(diag):
-    """A dozen lines: gap, verdict, ranked effects, winner's parameters, where."""
+    """A dozen lines: gap, verdict, findings, candidates, the selected effects, where."""
     d = diag.as_dict()
     g = d["gap"]
     out = [f"gap of the simulation model (held-out NRMSE): {_g(g['before'], '.4g')}"
            f"   noise floor {_g(g['noise_floor'], '.3g')}"
+           f" ({(g['noise_floor_method'] or 'n/a').replace('_', ' ')})"
            f"   training records {_g(g['before_train'], '.4g')}",
            f"cause: {d['cause']} — {d['reason']}"]
+    for f in d["findings"] or []:
+        out.append(f"finding {f['kind']}: {f['message']}")
+    if d["skipped"]:
+        out.append("not tried: " + "; ".join(f"{k} ({v})" for k, v in d["skipped"].items()))
     if d["effects"]:
-        out.append(f"  {'candidate':<18}{'gap before':>11}{'gap after':>11}{'shrink':>9}")
-        rows = d["effects"] + ([dict(d["linear_refit"], name="(linear re-fit)")]
+        out.append(f"  {'candidate (alone)':<22}{'gap before':>11}{'gap after':>11}{'shrink':>9}")
+        rows = d["effects"] + ([dict(d["linear_refit"], name="(linear re-fit)", form="input")]
                                if d["linear_refit"] else [])
         for e in rows:
-            out.append(f"  {e['name']:<18}{e['gap_before']:>11.4g}{e['gap_after']:>11.4g}"
-                       f"{100 * e['shrink']:>8.1f}%")
-        for label, e in (("winner", diag.winner), ("runner-up", _runner(diag))):
-            if e is None:
-                continue
-            ps = ", ".join(f"{k} = {_pm(v, e.params_std.get(k))}" for k, v in e.params.items())
-            out.append(f"  {label} {e.name}: {ps}")
+            name = e["name"] + (" (dynamic)" if e.get("form") == "dynamic" else "")
+            flag = "  overfit" if e.get("overfit") else ""
+            out.append(f"  {name:<22}{e['gap_before']:>11.4g}{e['gap_after']:>11.4g}"
+                       f"{100 * e['shrink']:>8.1f}%{flag}")
+    for s in d["selected"] or []:
+        ps = ", ".join(f"{k} = {_pm(v, s['params_std'].get(k))}" for k, v in list(
+            s["params"].items())[:6])
+        out.append(f"selected {s['name']} ({s['form']}): gap {s['gap_before']:.4g} ->"
+                   f" {s['gap_after']:.4g}; {ps}")
+    fin = d["final"]
+    if fin:
+        out.append(f"final model ({' + '.join(fin['effects'])} + linear corrections): held-out gap"
+                   f" {fin['gap_after']:.4g}; the linear part moved by at most"
+                   f" {100 * fin['linear_moved']:.1f} % (log ratio / relative gain)")
+    if d["best_partial"]:
+        b = d["best_partial"]
+        out.append(f"best partial explanation: {' + '.join(b['effects'])} (held-out gap"
+                   f" {b['gap_after']:.4g}, {100 * b['shrink']:.0f} %)")
     w = d["where"]
     tw = w["time_windows"]
     if tw:
@@ -54,8 +70,3 @@ def summary_text(diag):
     out.append(f"residual tests: whiteness {'passed' if t['whiteness']['passed'] else 'failed'},"
                f" input cross-correlation {'passed' if t['cross_correlation']['passed'] else 'failed'}")
     return "\n".join(out)
-
-
-def _runner(diag):
-    rest = [e for e in diag.effects if e.name != diag.cause]
-    return rest[0] if rest and diag.winner else None

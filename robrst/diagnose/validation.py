@@ -68,6 +68,8 @@ def truth_params(effect, rng):
         return {"seconds": float(rng.integers(2, 7)) / 5000.0}
     if effect == "saturation":
         return {"u_min": float(rng.uniform(0, 15)), "u_max": float(rng.uniform(105, 130))}
+    if effect == "slew":
+        return {"V_per_s": float(rng.uniform(1.0e4, 3.0e4))}
     return {}
 
 
@@ -99,6 +101,8 @@ def make_case(effect, seed, fs=5000.0, duration_s=8.0):
                   name=f"withheld_{effect}_{seed}")
     n = int(duration_s * fs)
     kinds = list(rng.permutation(KINDS))
+    if effect == "slew":  # steps (fast edges) in one training and one test record
+        kinds = ["steps", "multisine", "steps", "triangle"]
     records, meta = [], []
     for i in range(4):
         kind = kinds[i]

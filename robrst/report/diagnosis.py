@@ -1,10 +1,13 @@
 """``robrst diagnose ... --report DIR``: the gap-diagnosis report folder.
 
-Figures: measured vs simulated output (model under diagnosis and model + winning
-effect) on a test record, the residual with the localised time windows shaded, the
-residual spectrum against the noise floor with the gap band, and the held-out gap
-before/after for every candidate.  ``diagnosis.json`` is the ``--json`` result.
+Figures (``matplotlib.figure.Figure`` objects, no global matplotlib state): measured vs
+simulated output (model under diagnosis and the final model) on the test record with
+the largest gap, the residual with the localised time windows shaded, the residual
+spectrum against the noise floor with the gap band, the held-out gap of every
+candidate, and the gap per record against its excitation level (model and final
+model, with the noise floor).  ``diagnosis.json`` is the ``--json`` result.
 """
+
 
 import numpy as np
 
@@ -13,9 +16,9 @@ from robrst.fileio import json_text
 from robrst.report.doc import Doc, write_folder
 from robrst.report.figure import drawing
 
-__all__ = ["diagnosis_doc", "write_diagnosis_report", "FIGURES"]
+__all__ = ["diagnosis_doc", "write_diagnosis_report", "FIGURES", "levels_figure"]
 
-FIGURES = ("output.png", "residual.png", "spectrum.png", "effects.png")
+FIGURES = ("output.png", "residual.png", "spectrum.png", "effects.png", "levels.png")
 
 
 def _focus(diag):
@@ -23,33 +26,43 @@ def _focus(diag):
     tr = diag.traces
     n_train = len(diag.data["train"])
     res = tr["base_residuals"][n_train:]
-    return n_train + int(np.argmax([np.sum(r ** 2) for r in res]))
+    return n_train + int(np.argmax([np.sum(np.asarray(r) ** 2) for r in res]))
+
+
+def _first(a):
+    a = np.asarray(a)
+    return a if a.ndim == 1 else a[:, 0]
 
 
 def _output_fig(diag, path):
     tr = diag.traces
     k = _focus(diag)
     d = tr["records"][k]
-    r = tr["base_residuals"][k]
+    y, r = _first(d.Y), _first(tr["base_residuals"][k])
+    n = min(d.n, d.period if d.period else d.n)
     with drawing(path, (10, 4)) as (fig, ax):
-        ax.plot(d.t, d.y, color="k", lw=1, label="measured")
-        ax.plot(d.t, d.y - r, color="tab:blue", lw=1, label="simulation model")
-        name = diag.cause if diag.cause in tr.get("fit_residuals", {}) else None
-        if name:
-            rr = tr["fit_residuals"][name][k - len(diag.data["train"])]
-            ax.plot(d.t, d.y - rr, color="tab:orange", lw=1, ls="--", label=f"model + {name}")
+        ax.plot(d.t[:n], y[:n], color="k", lw=1, label="measured")
+        ax.plot(d.t[:n], (y - r)[:n], color="tab:blue", lw=1, label="model under diagnosis")
+        fit = tr.get("fit_residuals", {})
+        key = "final" if "final" in fit else (diag.cause if diag.cause in fit else None)
+        if key:
+            rr = _first(fit[key][k - len(diag.data["train"])])
+            ax.plot(d.t[:n], (y - rr)[:n], color="tab:orange", lw=1, ls="--",
+                    label=f"final model ({' + '.join(diag.causes) or diag.cause})")
         ax.set_xlabel("time t [s]")
-        ax.set_ylabel("displacement y [µm]")
-        ax.set_title(f"measured vs simulated: {tr['names'][k]}")
+        ax.set_ylabel("displacement y [µm]" + (" (output 1)" if d.n_out > 1 else ""))
+        ax.set_title(f"measured vs simulated: {tr['names'][k]}" + (" (one period)" if d.period else ""))
         ax.legend(fontsize=8)
 
 
 def _residual_fig(diag, path):
     tr = diag.traces
     k = _focus(diag)
-    d, r, name = tr["records"][k], tr["base_residuals"][k], tr["names"][k]
+    d, r, name = tr["records"][k], np.asarray(tr["base_residuals"][k]), tr["names"][k]
+    r = r if r.ndim == 1 else np.sqrt(np.mean(r ** 2, axis=1))
     with drawing(path, (10, 3.6)) as (fig, ax):
-        ax.plot(d.t, r, color="tab:blue", lw=0.8, label="residual y - y_model")
+        ax.plot(d.t, r, color="tab:blue", lw=0.8,
+                label="residual y - y_model" + (" (rms over outputs)" if d.n_out > 1 else ""))
         first = True
         for w in diag.where["time_windows"]:
             if w["file"] == name:
@@ -75,6 +88,11 @@ def _spectrum_fig(diag, path):
         if band:
             ax.axvspan(max(band[0], f[1]), max(band[1], f[1]), color="tab:red", alpha=0.15,
                        label=f"gap band {band[0]:.3g}–{band[1]:.3g} Hz")
+        for fd in diag.findings:
+            if fd["kind"] == "unmodelled_dynamics":
+                lo, hi = fd["band_hz"]
+                ax.axvspan(lo, hi, color="tab:green", alpha=0.15,
+                           label=f"unmodelled dynamics {lo:.3g}–{hi:.3g} Hz")
         ax.set_xlabel("frequency f [Hz] (log)")
         ax.set_ylabel("PSD [µm²/Hz]")
         ax.set_title("residual spectrum against the noise floor (all records)")
@@ -82,32 +100,67 @@ def _spectrum_fig(diag, path):
 
 
 def _effects_fig(diag, path):
-    rows = list(diag.effects) + ([diag.linear_refit] if diag.linear_refit else [])
-    with drawing(path, (8, 4)) as (fig, ax):
+    rows = [(e.name + (" (dyn.)" if e.form == "dynamic" else ""), e.gap_before, e.gap_after)
+            for e in diag.effects]
+    if diag.linear_refit:
+        rows.append(("linear re-fit", diag.linear_refit.gap_before, diag.linear_refit.gap_after))
+    if diag.final:
+        rows.append(("final: " + " + ".join(diag.final["effects"]), diag.gap_before,
+                     diag.final["gap_after"]))
+    with drawing(path, (9, 4)) as (fig, ax):
         if rows:
             x = np.arange(len(rows))
-            ax.bar(x - 0.2, [e.gap_before for e in rows], 0.4, color="tab:gray", label="before")
-            ax.bar(x + 0.2, [e.gap_after for e in rows], 0.4, color="tab:orange", label="after")
-            ax.set_xticks(x, [e.name if e is not diag.linear_refit else "linear re-fit" for e in rows],
-                          rotation=20)
+            ax.bar(x - 0.2, [r[1] for r in rows], 0.4, color="tab:gray", label="before")
+            ax.bar(x + 0.2, [r[2] for r in rows], 0.4, color="tab:orange", label="after")
+            ax.set_xticks(x, [r[0] for r in rows], rotation=20, fontsize=8)
             ax.set_yscale("log")
         ax.axhline(diag.noise_floor, color="k", ls="--", lw=1, label="noise floor")
         ax.set_ylabel("held-out NRMSE [-] (log)")
-        ax.set_title(f"held-out gap before/after each candidate (cause: {diag.cause})")
+        ax.set_title(f"held-out gap per candidate (cause: {diag.cause})")
         ax.legend(fontsize=8)
+
+
+def levels_figure(path, per_record, final_per_record=None,
+                  title="gap per record against its level"):
+    """Draw the gap (NRMSE) per record against its excitation level into the PNG ``path``."""
+    with drawing(path, (8, 4)) as (fig, ax):
+        for split, marker in (("train", "o"), ("test", "s")):
+            rows = [r for r in per_record if r["split"] == split]
+            if rows:
+                ax.scatter([r["level_V"] for r in rows], [r["gap"] for r in rows], marker=marker,
+                           color="tab:blue", label=f"model under diagnosis ({split})")
+                ax.scatter([r["level_V"] for r in rows], [r["noise_floor"] for r in rows],
+                           marker="_", color="k", s=200,
+                           label="noise floor" if split == "train" else None)
+        if final_per_record:
+            lv = {r["file"]: r["level_V"] for r in per_record}
+            ax.scatter([lv[r["file"]] for r in final_per_record], [r["gap"] for r in final_per_record],
+                       marker="s", color="tab:orange", label="final model (test)")
+        ax.set_yscale("log")
+        ax.set_xlabel("excitation level: input rms [V]")
+        ax.set_ylabel("NRMSE [-] (log)")
+        ax.set_title(title)
+        ax.legend(fontsize=8)
+
+
+def _levels_fig(diag, path):
+    g = diag.as_dict()["gap"]
+    final = diag.final["gap_per_record"] if diag.final else None
+    levels_figure(path, g["per_record"], final)
 
 
 def diagnosis_doc(diag):
     """The report document of a diagnosis (no I/O)."""
     d = diag.as_dict()
-    rows = tuple((e["name"], f"{e['gap_before']:.4g}", f"{e['gap_after']:.4g}",
-                  f"{100 * e['shrink']:.1f} %",
-                  ", ".join(f"{k}={v:.4g}" for k, v in e["params"].items()))
+    rows = tuple((e["name"] + (" (dynamic)" if e["form"] == "dynamic" else ""),
+                  f"{e['gap_before']:.4g}", f"{e['gap_after']:.4g}", f"{100 * e['shrink']:.1f} %",
+                  ", ".join(f"{k}={v:.4g}" for k, v in list(e["params"].items())[:8]
+                            if v is not None))
                  for e in d["effects"] + ([dict(d["linear_refit"], name="linear re-fit")]
                                           if d["linear_refit"] else []))
     blocks = [("p", f"Cause: **{d['cause']}** — {d['reason']}."),
               ("pre", summary_text(diag)),
-              ("h2", "Held-out gap per candidate"),
+              ("h2", "Held-out gap per candidate (each alone)"),
               ("table", ("candidate", "gap before", "gap after", "shrink", "fitted parameters"),
                rows),
               ("h2", "Figures"),
@@ -117,8 +170,9 @@ def diagnosis_doc(diag):
                                       " windows shaded"),
               ("img", "spectrum.png", "Residual spectrum (Welch) against the white-noise floor;"
                                       " shaded: the band holding 95 % of the excess"),
-              ("img", "effects.png", "Held-out NRMSE before and after adding each effect, and"
-                                     " for a plain linear re-fit")]
+              ("img", "effects.png", "Held-out NRMSE before and after each candidate alone, the"
+                                     " linear re-fit and the final model"),
+              ("img", "levels.png", "Gap per record against its excitation level (input rms)")]
     return Doc(title="robrst gap diagnosis", blocks=tuple(blocks))
 
 
@@ -127,9 +181,11 @@ def write_diagnosis_report(diag, out_dir, progress=None, force=False):
     say = progress or (lambda m: None)
 
     def draw(tmp):
-        for name, fn in zip(FIGURES, (_output_fig, _residual_fig, _spectrum_fig, _effects_fig)):
+        for name, fn in zip(FIGURES, (_output_fig, _residual_fig, _spectrum_fig, _effects_fig,
+                                      _levels_fig)):
             say(f"drawing {name}")
             fn(diag, tmp / name)
 
     text = json_text(diag.as_dict(), indent=1) + "\n"
-    return write_folder(out_dir, diagnosis_doc(diag), {"diagnosis.json": text}, draw, force=force)
+    return write_folder(out_dir, diagnosis_doc(diag), {"diagnosis.json": text}, draw,
+                        force=force)

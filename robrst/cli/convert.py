@@ -1,0 +1,56 @@
+"""``robrst convert``: arrays as labs store them -> robrst record files (``.npz`` or CSV).
+
+Handler pair for the CLI: :func:`add_parsers` registers the sub-command,
+:func:`run_convert` executes it (prints one line per file written).
+"""
+
+from pathlib import Path
+
+from robrst.errors import DataError
+
+__all__ = ["add_parsers", "run_convert"]
+
+
+def add_parsers(sub):
+    """Register ``convert`` on an argparse sub-parser collection."""
+    c = sub.add_parser(
+        "convert", help="convert .npy arrays (e.g. time x channel x realization x period) to"
+                        " robrst records")
+    c.add_argument("u", metavar="U.npy", help="input array [V unless --u-unit]")
+    c.add_argument("y", metavar="Y.npy", help="output array [m unless --y-unit]")
+    c.add_argument("--fs", type=float, required=True, help="sampling rate [Hz]")
+    c.add_argument("--layout", default="time,channel,realization,period",
+                   help="axis names of both arrays, in order (default:"
+                        " time,channel,realization,period)")
+    c.add_argument("--y-unit", default="m", help="unit of Y: m, mm, um, nm (default m)")
+    c.add_argument("--u-unit", default="V", help="unit of U: V, mV, kV (default V)")
+    c.add_argument("--temp", type=float, metavar="C", help="add a constant temperature [°C]")
+    c.add_argument("--out", required=True, metavar="DIR", help="folder for the records")
+    c.add_argument("--name", help="record name prefix (default: Y file stem without 'y_')")
+    c.add_argument("--csv", action="store_true", help="write CSV instead of .npz")
+    c.add_argument("--overwrite", action="store_true",
+                   help="replace existing files of the same names")
+    c.set_defaults(func=run_convert)
+
+
+def run_convert(args):
+    """Convert; returns the exit code (0)."""
+    from robrst.convert import load_array, records_from_arrays
+    from robrst.dataset import save_dataset
+
+    name = args.name or Path(args.y).stem.removeprefix("y_")
+    recs = records_from_arrays(load_array(args.u), load_array(args.y), args.fs,
+                               layout=args.layout, y_unit=args.y_unit, u_unit=args.u_unit,
+                               source=name, temp_C=args.temp)
+    out = Path(args.out)
+    ext = ".csv" if args.csv else ".npz"
+    paths = [out / f"{d.source}{ext}" for d in recs]
+    if not args.overwrite:
+        for p in paths:
+            if p.exists():
+                raise DataError(f"{p}: exists; use --overwrite to replace it")
+    for d, p in zip(recs, paths):
+        save_dataset(d, p)
+        print(f"wrote {p} ({d.n} samples, {d.n_in} input(s), {d.n_out} output(s)"
+              + (f", {d.periods} periods of {d.period}" if d.period else "") + ")")
+    return 0

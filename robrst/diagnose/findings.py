@@ -1,0 +1,168 @@
+"""Noise floor, excitation levels and the diagnosis's findings.
+
+* :func:`noise_levels` — sensor-noise std per record and output: from period-to-period
+  differences of periodic records (``var(y_{p+1} - y_p) / 2``, the true floor even
+  where the plant still has modes), else from the residual spectrum
+  (:func:`robrst.diagnose.signals.noise_sigma`).
+* :func:`level_groups` — records grouped by excitation level (input RMS within
+  ``LEVEL_TOL``), and which of them share an excitation shape (input spectrum), so a
+  gap can be compared across amplitudes without comparing steps with sines.
+* :func:`amplitude_finding` — ``amplitude_dependent``: a linear model is fitted on the
+  lowest level and its gap compared across levels (a linear plant gives the same
+  relative gap at every level).
+* :func:`unmodelled_finding` — ``unmodelled_dynamics``: a linear model of higher order
+  (vector fitting on the training records) explains the gap that neither the library
+  nor a re-fit of the model's own order explains; the band where it departs from the
+  re-fitted model.
+"""
+
+import math
+
+import numpy as np
+from scipy import signal
+
+from robrst.diagnose import signals
+
+__all__ = ["noise_levels", "level_groups", "comparable", "amplitude_finding",
+           "unmodelled_finding", "LEVEL_TOL", "AMPLITUDE_RATIO"]
+
+LEVEL_TOL = 0.1          # records within 10 % input RMS share a level
+AMPLITUDE_RATIO = 1.5    # gap ratio across levels that flags amplitude dependence
+SHAPE_TOL = 0.3          # max |log10| difference of band shares for "same excitation shape"
+
+
+def noise_levels(records, residuals, fs):
+    """Noise std per record and output ``(records, m)`` [µm] and the method used."""
+    out, methods = [], set()
+    for d, r in zip(records, residuals):
+        if d.period and d.periods >= 2:
+            Yp = d.Y.reshape(d.periods, d.period, -1)
+            diff = np.diff(Yp, axis=0)
+            out.append(np.sqrt(np.mean(diff ** 2, axis=(0, 1)) / 2))
+            methods.add("period_differences")
+        else:
+            R = np.asarray(r, float).reshape(d.n, -1)
+            out.append(np.array([signals.noise_sigma(c, fs) for c in R.T]))
+            methods.add("spectrum")
+    return np.array(out), "+".join(sorted(methods))
+
+
+def floor_of(records, sigmas):
+    """Noise floor in NRMSE units of a set of records given their noise std per output."""
+    num = sum(d.n * float(np.sum(s ** 2)) for d, s in zip(records, sigmas))
+    den = sum(float(np.sum((d.Y - d.Y.mean(axis=0)) ** 2)) for d in records)
+    return math.sqrt(num / den) if den > 0 else math.inf
+
+
+def _signature(d, bands=24):
+    """Band shares of the input spectrum, holding fraction and crest factor."""
+    U = d.U - d.U.mean(axis=0)
+    f, P = signal.welch(U, fs=d.fs, nperseg=min(4096, max(64, d.n // 4)), axis=0)
+    P = P.sum(axis=1)
+    edges = np.geomspace(max(f[1], d.fs / d.n), d.fs / 2, bands + 1)
+    share = np.array([P[(f >= a) & (f < b)].sum() for a, b in zip(edges[:-1], edges[1:])])
+    dU = np.abs(np.diff(d.U, axis=0)).max(axis=1)
+    hold = float(np.mean(dU <= 1e-9 * max(float(np.ptp(d.U)), 1e-300)))
+    rms = float(np.sqrt(np.mean(U ** 2)))
+    crest = float(np.max(np.abs(U)) / rms) if rms > 0 else 0.0
+    return share / max(share.sum(), 1e-300), hold, crest
+
+
+def comparable(a, b):
+    """Do two records share an excitation shape (input spectrum, holding, crest factor)?
+
+    Band shares within a factor 2 where either holds more than 1 % of the power, the
+    fraction of samples holding the input within 0.1, crest factors within 35 %.
+    """
+    (sa, ha, ca), (sb, hb, cb) = _signature(a), _signature(b)
+    big = (sa > 0.01) | (sb > 0.01)
+    spectrum = np.all(np.abs(np.log10((sa[big] + 1e-4) / (sb[big] + 1e-4))) < SHAPE_TOL)
+    return bool(spectrum and abs(ha - hb) < 0.1 and abs(ca - cb) <= 0.35 * max(ca, cb))
+
+
+def level_groups(records):
+    """Indices of records grouped by level (increasing); list of (level, [indices])."""
+    order = np.argsort([d.level for d in records])
+    groups = []
+    for i in order:
+        lv = records[i].level
+        if groups and lv <= groups[-1][0] * (1 + LEVEL_TOL):
+            groups[-1][1].append(int(i))
+        else:
+            groups.append([lv, [int(i)]])
+    return [(float(np.mean([records[i].level for i in g])), g) for _, g in groups]
+
+
+def gaps_per_level(records, residuals, groups):
+    return [signals.nrmse([records[i] for i in g], [residuals[i] for i in g]) for _, g in groups]
+
+
+def amplitude_finding(records, base_res, refit_res, sigmas, n_train):
+    """``amplitude_dependent`` finding (or None) and the per-level table.
+
+    ``refit_res`` are the residuals of a linear model fitted on the lowest training
+    level (None when no level has training records).  Only records sharing the
+    excitation shape of the lowest level are compared.
+    """
+    groups = level_groups(records)
+    table = [{"level_V": lv, "records": [records[i].source or f"record{i}" for i in g],
+              "split": ["train" if i < n_train else "test" for i in g],
+              "gap": signals.nrmse([records[i] for i in g], [base_res[i] for i in g]),
+              "noise_floor": floor_of([records[i] for i in g], [sigmas[i] for i in g])}
+             for lv, g in groups]
+    if len(groups) < 2 or groups[-1][0] < 1.3 * groups[0][0]:
+        return None, table
+    ref = records[groups[0][1][0]]
+    same = [(lv, [i for i in g if comparable(records[i], ref)]) for lv, g in groups]
+    same = [(lv, g) for lv, g in same if g]
+    if len(same) < 2 or same[-1][0] < 1.3 * same[0][0]:
+        return None, table
+    res = refit_res if refit_res is not None else base_res
+    gaps = gaps_per_level(records, res, same)
+    floors = [floor_of([records[i] for i in g], [sigmas[i] for i in g]) for _, g in same]
+    base = gaps_per_level(records, base_res, same)
+    ratio = gaps[-1] / gaps[0] if gaps[0] > 0 else math.inf
+    big = max(gaps[-1], gaps[0])
+    if not (ratio >= AMPLITUDE_RATIO or ratio <= 1 / AMPLITUDE_RATIO) or big < 2 * max(floors):
+        return None, table
+    lo, hi = same[0][0], same[-1][0]
+    return {"kind": "amplitude_dependent",
+            "message": (f"the gap changes with the excitation level: {gaps[0]:.3g} at"
+                        f" {lo:.3g} V rms, {gaps[-1]:.3g} at {hi:.3g} V rms ({ratio:.2f}x for"
+                        f" {hi / lo:.2f}x the level) with a linear model fitted on the lowest"
+                        " level: the plant is not linear"),
+            "levels_V": [lv for lv, _ in same], "level_ratio": hi / lo,
+            "gap_per_level": gaps, "gap_ratio": ratio, "model_gap_per_level": base,
+            "model_gap_ratio": base[-1] / base[0] if base[0] > 0 else None,
+            "noise_floor_per_level": floors,
+            "linear_fitted_on": "lowest training level" if refit_res is not None
+            else "(the model under diagnosis)"}, table
+
+
+def unmodelled_finding(high, refit, fs, gap_high, gap_refit, gap_before, floor):
+    """``unmodelled_dynamics`` finding from a higher-order linear fit, or None.
+
+    ``high`` and ``refit`` are continuous-time modal models (higher order; the user's
+    order re-fitted).  The finding needs the higher order to remove at least half of
+    the excess gap the re-fit leaves; its band is where the two responses differ by
+    more than a fifth of their largest difference.
+    """
+    ex = lambda g: math.sqrt(max(g * g - floor * floor, 0.0))  # noqa: E731
+    if not ex(gap_high) <= 0.5 * ex(gap_refit):
+        return None
+    f = np.geomspace(fs / 1e5, 0.49 * fs, 800)
+    w = 2 * np.pi * f
+    d = np.abs(high.freqresp(w) - refit.freqresp(w)).max(axis=(1, 2))
+    sel = f[d >= 0.2 * d.max()]
+    extra = []
+    for p in high.poles:
+        if p.imag > 0 and np.min(np.abs(refit.poles - p) / abs(p)) > 0.05:
+            extra.append(float(abs(p) / (2 * np.pi)))
+    return {"kind": "unmodelled_dynamics",
+            "message": (f"a linear model of order {high.order} (the model has {refit.order})"
+                        f" brings the held-out gap from {gap_refit:.3g} to {gap_high:.3g}:"
+                        f" linear dynamics missing from the model around"
+                        f" {sel.min():.3g}–{sel.max():.3g} Hz"),
+            "band_hz": [float(sel.min()), float(sel.max())], "order": int(high.order),
+            "model_order": int(refit.order), "extra_modes_hz": sorted(extra),
+            "gap_after": gap_high, "gap_refit": gap_refit, "gap_before": gap_before}

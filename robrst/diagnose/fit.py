@@ -1,0 +1,220 @@
+"""Joint fits: effects and the linear part's corrections, by bounded least squares.
+
+A candidate model is ``y = L_theta(v)``, ``v = Chain_z(u)``: effect parameters ``z``
+(:mod:`robrst.diagnose.effects`) and linear corrections ``theta``
+(:mod:`robrst.diagnose.linear`), fitted together on the training records by
+``scipy.optimize.least_squares`` (trust-region reflective, bounds) with the exact
+Jacobian.  ``theta`` carries Gaussian priors, so it moves only as far as the data
+demand (regularised toward the user's model).  The *dynamic* form of hysteresis lets
+the linear corrections vary linearly with the record's excitation level (the
+describing function of a hysteretic stiffness: resonances soften and gains change with
+amplitude); it needs periodic records at two or more levels.
+
+Periodic records are fitted in steady state on their period average (weight: the
+number of periods), the effects warmed up on one extra period.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import optimize
+
+from robrst.diagnose.effects import Chain
+from robrst.diagnose.linear import parameter_std
+
+__all__ = ["Prepared", "prepare", "Fitted", "fit_model", "level_factor"]
+
+SLOPE_KINDS = ("dlog_freq", "dlog_damping", "input_gain", "gain", "mode_gain")
+
+
+@dataclass(frozen=True, eq=False)
+class Prepared:
+    """A record ready for fitting or scoring (arrays in samples x channels)."""
+
+    name: str
+    U: np.ndarray
+    Y: np.ndarray
+    temp: np.ndarray
+    periodic: bool
+    warm: int             # warm-up samples prepended for the effects (periodic)
+    weight: float
+    level: float          # excitation level [V rms]
+
+
+def prepare(d, reference_C, for_fit=True):
+    """Prepared record of ``d``; a periodic record is period-averaged when ``for_fit``."""
+    temp = d.temp_or(reference_C)
+    if d.period and d.periods >= 1:
+        P, k = d.period, d.periods
+        if for_fit:
+            U, Y = d.U[:P], d.Y.reshape(k, P, -1).mean(axis=0)
+            T, w = temp.reshape(k, P).mean(axis=0), float(np.sqrt(k))
+        else:
+            U, Y, T, w = d.U, d.Y, temp, 1.0
+        return Prepared(d.source, U, Y, T, True, P, w, d.level)
+    return Prepared(d.source, d.U, d.Y, temp, False, 0, 1.0, d.level)
+
+
+def level_factor(level, reference):
+    """Excitation-level coordinate of the dynamic form: ``(a - a_ref) / a_ref``."""
+    return (level - reference) / reference if reference > 0 else 0.0
+
+
+@dataclass(frozen=True, eq=False)
+class Fitted:
+    """A fitted candidate: effects, linear corrections (and level slopes), predictor."""
+
+    name: str
+    effects: tuple
+    form: str
+    chain: Chain
+    lin: object
+    x: np.ndarray
+    std: np.ndarray
+    joint: bool
+    slopes: tuple          # indices into theta that vary with level (dynamic form)
+    level_ref: float
+    n_eval: int
+    train_cost: float
+    theta_fixed: np.ndarray = None
+
+    def parts(self, x=None):
+        x = self.x if x is None else x
+        nz, nt = self.chain.size, self.lin.size if self.joint else 0
+        fixed = self.theta_fixed if self.theta_fixed is not None else np.zeros(self.lin.size)
+        return x[:nz], (x[nz:nz + nt] if self.joint else fixed), x[nz + nt:]
+
+    def theta_at(self, level, x=None):
+        _, th, s = self.parts(x)
+        th = th.copy()
+        if self.slopes:
+            th[list(self.slopes)] += s * level_factor(level, self.level_ref)
+        return th
+
+    def predict_prepared(self, p, x=None):
+        z, _, _ = self.parts(x)
+        U, T = p.U, p.temp
+        if p.warm:
+            U, T = np.vstack([U[-p.warm:], U]), np.concatenate([T[-p.warm:], T])
+        V, _ = self.chain.run(z, U, T, jac=False, warm=p.warm)
+        return self.lin.simulate(self.theta_at(p.level, x), V, p.periodic)
+
+    def predict(self, d, reference_C):
+        """Simulated outputs ``(N, m)`` of record ``d`` (steady state when periodic)."""
+        return self.predict_prepared(prepare(d, reference_C, for_fit=False))
+
+    def params(self):
+        """Reported effect parameters and 1-sigma (delta method): ``{effect: (values, sds)}``."""
+        z = self.parts()[0]
+        return self.chain.report(z, self.std[:self.chain.size])
+
+    def linear_change(self):
+        """Linear corrections (and level slopes) by name, with 1-sigma."""
+        nz = self.chain.size
+        out, sd = {}, {}
+        if self.joint:
+            for i, n in enumerate(self.lin.names):
+                out[n], sd[n] = float(self.x[nz + i]), float(self.std[nz + i])
+        elif np.any(self.parts()[1]):
+            for n, v in zip(self.lin.names, self.parts()[1]):
+                out[n], sd[n] = float(v), float("nan")
+        for k, i in enumerate(self.slopes):
+            n = f"{self.lin.names[i]}_per_level"
+            j = nz + (self.lin.size if self.joint else 0) + k
+            out[n], sd[n] = float(self.x[j]), float(self.std[j])
+        return out, sd
+
+
+def fit_model(name, effects, train, lin, chain, noise_sigma, joint=True, dynamic=False,
+              start=None, theta=None, max_nfev=40, ftol=1e-10):
+    """Fit ``effects`` (+ linear corrections if ``joint``) on prepared training records.
+
+    Parameters
+    ----------
+    name : str
+        Candidate name (reports).
+    effects : tuple of str
+        Input-side effects (the ``chain`` holds them).
+    train : list of Prepared
+    lin : LinearPart
+    chain : Chain
+    noise_sigma : float
+        Noise std per sample [µm] (weight of the priors on the linear corrections).
+    joint : bool
+        Fit the linear corrections too (else they stay at ``theta``, default 0).
+    dynamic : bool
+        Let the linear corrections vary with the excitation level (dynamic hysteresis).
+    start : dict, optional
+        Starting values by parameter name (from an earlier fit).
+    theta : array, optional
+        Fixed linear corrections when not ``joint``.
+    max_nfev, ftol : int, float
+        Stopping rules of the least-squares solver.
+
+    Returns
+    -------
+    Fitted
+    """
+    slopes = tuple(i for i, (k, _) in enumerate(lin.kinds) if k in SLOPE_KINDS) if dynamic else ()
+    level_ref = min(p.level for p in train)
+    nz, nt, ns = chain.size, lin.size if joint else 0, len(slopes)
+    lo = np.concatenate([chain.lower, lin.lower if joint else [], np.full(ns, -5.0)])
+    hi = np.concatenate([chain.upper, lin.upper if joint else [], np.full(ns, 5.0)])
+    if joint and "hysteresis" in chain.effects:      # its gain is the linear gain: pin that
+        for i, (kind, _) in enumerate(lin.kinds):
+            if kind in ("gain", "input_gain"):
+                lo[nz + i], hi[nz + i] = -1e-12, 1e-12
+    sd = np.concatenate([lin.prior_sd if joint else [], lin.prior_sd[list(slopes)]])
+    x0 = np.concatenate([chain.z0, np.zeros(nt + ns)])
+    names = list(chain.names) + (list(lin.names) if joint else []) + [f"slope{i}" for i in slopes]
+    for i, n in enumerate(names):
+        if start and n in start:
+            x0[i] = np.clip(start[n], lo[i], hi[i])
+    scale = np.sqrt(sum(p.weight ** 2 * float(np.sum((p.Y - p.Y.mean(0)) ** 2)) for p in train))
+    scale = scale or 1.0
+    prior_w = noise_sigma / scale / sd
+    fixed = np.zeros(lin.size) if theta is None else np.asarray(theta, float)
+    proto = Fitted(name, tuple(effects), "dynamic" if dynamic else "input", chain, lin, x0,
+                   np.zeros_like(x0), joint, slopes, level_ref, 0, 0.0, fixed)
+
+    def fun(x):
+        r = [(proto.predict_prepared(p, x) - p.Y).ravel() * (p.weight / scale) for p in train]
+        r.append(prior_w * x[nz:])
+        out = np.concatenate(r)
+        return np.where(np.isfinite(out), out, 1e3)
+
+    def jac(x):
+        z = x[:nz]
+        rows = []
+        for p in train:
+            U, T = p.U, p.temp
+            if p.warm:
+                U, T = np.vstack([U[-p.warm:], U]), np.concatenate([T[-p.warm:], T])
+            V, dV = chain.run(z, U, T, jac=True, warm=p.warm)
+            th = proto.theta_at(p.level, x)
+            _, JL = lin.simulate_jac(th, V, p.periodic)
+            N, m = p.Y.shape
+            J = np.zeros((N, m, x.size))
+            for j, dv in enumerate(dV):
+                for c in np.flatnonzero(np.any(dv != 0, axis=0)):
+                    J[:, :, c] += lin.simulate_input(th, dv[:, c], j, p.periodic)
+            if joint:
+                J[:, :, nz:nz + nt] = JL
+            if slopes:
+                J[:, :, nz + nt:] = JL[:, :, list(slopes)] * level_factor(p.level, level_ref)
+            rows.append(J.reshape(N * m, -1) * (p.weight / scale))
+        prior = np.zeros((nt + ns, x.size))
+        prior[:, nz:] = np.diag(prior_w)
+        rows.append(prior)
+        return np.vstack(rows)
+
+    if x0.size == 0:
+        res = optimize.OptimizeResult(x=x0, cost=0.5 * float(np.sum(fun(x0) ** 2)), nfev=1,
+                                      jac=np.zeros((1, 0)), fun=fun(x0))
+    else:
+        res = optimize.least_squares(fun, x0, jac=jac, bounds=(lo, hi), method="trf",
+                                     x_scale="jac", ftol=ftol, xtol=1e-10, gtol=1e-10,
+                                     max_nfev=max_nfev)
+    std = parameter_std(res.jac, res.cost, res.fun.size) if x0.size else np.zeros(0)
+    return Fitted(name, tuple(effects), proto.form, chain, lin, res.x, std, joint, slopes,
+                  level_ref, int(res.nfev), 2 * float(res.cost), fixed)

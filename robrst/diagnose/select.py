@@ -1,0 +1,229 @@
+"""Candidates and forward selection: which effects, together, explain the held-out gap.
+
+1. ``linear``: the linear corrections alone (the user's model re-fitted, regularised).
+2. Every excited effect alone on the user's model (linear part as given), and the
+   dynamic form of hysteresis when the records allow it.  These are screening fits
+   (early stopping, at most ``SCREEN_SAMPLES`` samples per training record); every
+   candidate is scored on the whole test records.
+3. Forward selection from the linear re-fit: the best remaining candidate is re-fitted
+   *jointly* with the effects already selected and the linear corrections; it is kept
+   if it removes at least ``MIN_SHRINK`` of the excess held-out gap (gap above the
+   noise floor) left so far and beats the current state by ``MARGIN``; repeat.
+
+Every gap is measured on the test records, every fit uses the training records only.
+"""
+
+import math
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from robrst.diagnose import signals
+from robrst.diagnose.effects import INPUT_EFFECTS, Chain
+from robrst.diagnose.fit import fit_model
+from robrst.diagnose.thermal import fit_thermal_dynamics
+
+__all__ = ["Setup", "Scored", "candidates", "forward", "excess", "significant",
+           "MIN_SHRINK", "MARGIN", "MAX_EFFECTS"]
+
+MIN_SHRINK = 0.3         # an explanation must remove >= 30 % of the excess gap it faces
+MARGIN = 1.1             # ... and beat the alternative by 10 % in held-out gap
+MAX_EFFECTS = 3
+PROMISING = 0.97         # an effect alone must improve on the linear re-fit by 3 %
+SCREEN_NFEV = 25         # single candidates are screening fits: early stopping
+SCREEN_FTOL = 1e-6
+SCREEN_SAMPLES = 100_000  # ... on at most the first 100 000 samples of each training record
+
+
+@dataclass(frozen=True, eq=False)
+class Setup:
+    """Everything the candidate fits share (built once per diagnosis)."""
+
+    fs: float
+    ref: float
+    train: list            # Prepared, period-averaged (fitting)
+    train_full: list       # Prepared, full records (training gap)
+    test: list             # Prepared, full records (held-out gap)
+    test_records: list     # Dataset (held-out gap normalisation)
+    train_records: list
+    lin: object            # LinearPart
+    lin_modal: object      # LinearPart with per-mode gains (dynamic form of hysteresis)
+    stats: dict
+    noise_sigma: float
+    plant: object          # SISO Plant of the user's model (thermal_dynamics) or None
+    effects: tuple         # excited effects to try
+    dynamic: bool          # the dynamic form of hysteresis is possible
+    delays: tuple
+    saturation: list       # starting limits per input
+    floor: float
+    workers: int = 2
+
+
+@dataclass(frozen=True, eq=False)
+class Scored:
+    """A fitted candidate and its gaps (held-out and training)."""
+
+    name: str
+    fit: object
+    gap: float
+    train_gap: float
+    residuals: list        # held-out residuals per test record
+    fit_s: float
+
+    @property
+    def effects(self):
+        return tuple(self.fit.effects) + (("hysteresis",) if self.fit.form == "dynamic" else ())
+
+
+def excess(g, floor):
+    """Gap above the noise floor: ``sqrt(max(g^2 - floor^2, 0))``."""
+    return math.sqrt(max(g * g - floor * floor, 0.0))
+
+
+def significant(new, old, floor):
+    """Does a gap ``new`` explain enough of ``old`` (the 30 % bar and the margin)?"""
+    return excess(new, floor) <= (1 - MIN_SHRINK) * excess(old, floor) and new * MARGIN <= old
+
+
+def score(setup, fit, t0):
+    res_te = [p.Y - fit.predict_prepared(p) for p in setup.test]
+    res_tr = [p.Y - fit.predict_prepared(p) for p in setup.train_full]
+    return Scored(name=fit.name, fit=fit, gap=signals.nrmse(setup.test_records, res_te),
+                  train_gap=signals.nrmse(setup.train_records, res_tr), residuals=res_te,
+                  fit_s=time.perf_counter() - t0)
+
+
+def _chain(setup, effects):
+    ch = Chain(effects, setup.lin.model.n_in, setup.fs, setup.ref, setup.stats, setup.delays)
+    if "saturation" in ch.effects:
+        for j, (lo, hi) in enumerate(setup.saturation):
+            sl = ch._block("saturation", j)
+            ch.z0[sl] = np.clip([lo, hi], ch.lower[sl], ch.upper[sl])
+    return ch
+
+
+def _screen(records, n):
+    """The first ``n`` samples of each from-rest record (periodic ones are one period)."""
+    return [p if p.periodic or len(p.U) <= n else replace(
+        p, U=p.U[:n], Y=p.Y[:n], temp=p.temp[:n]) for p in records]
+
+
+def _fit(setup, name, effects, joint, dynamic=False, start=None, theta=None, max_nfev=40,
+         ftol=1e-8, screen=False):
+    t0 = time.perf_counter()
+    train = _screen(setup.train, SCREEN_SAMPLES) if screen else setup.train
+    lin = setup.lin_modal if dynamic else setup.lin
+    fit = fit_model(name, effects, train, lin, _chain(setup, effects),
+                    setup.noise_sigma, joint=joint, dynamic=dynamic, start=start, theta=theta,
+                    max_nfev=max_nfev, ftol=ftol)
+    return score(setup, fit, t0)
+
+
+def _start(scored):
+    """Parameter values of a fit by name (chain, linear corrections, slopes)."""
+    if scored is None or not hasattr(scored.fit, "chain"):
+        return {}
+    f = scored.fit
+    z, th, s = f.parts()
+    out = dict(zip(f.chain.names, z))
+    out.update(zip(f.lin.names, th))
+    out.update({f"slope{i}": v for i, v in zip(f.slopes, s)})
+    return out
+
+
+def candidates(setup, say):
+    """The linear re-fit and every single candidate; returns (linear, {name: Scored})."""
+    lin = _fit(setup, "linear", (), joint=True)
+    say(f"linear re-fit: held-out gap {lin.gap:.4g} ({lin.fit.n_eval} evaluations,"
+        f" {lin.fit_s:.1f} s)")
+    for e in setup.effects:          # build (and compile) every stage before any thread runs
+        if e in INPUT_EFFECTS:
+            _chain(setup, (e,))
+    jobs = {e: (lambda e=e: _fit(setup, e, (e,), joint=False, max_nfev=SCREEN_NFEV,
+                                 ftol=SCREEN_FTOL, screen=True))
+            for e in setup.effects if e in INPUT_EFFECTS}
+    if "thermal_dynamics" in setup.effects:
+        def thermal():
+            t0 = time.perf_counter()
+            return score(setup, fit_thermal_dynamics(_screen(setup.train, SCREEN_SAMPLES),
+                                                     setup.plant, setup.fs,
+                                                     setup.ref), t0)
+        jobs["thermal_dynamics"] = thermal
+    if setup.dynamic:
+        jobs["hysteresis:dynamic"] = lambda: _fit(setup, "hysteresis", (), joint=True,
+                                                  dynamic=True, start=_start(lin))
+    if setup.workers <= 1:
+        out = {k: f() for k, f in jobs.items()}
+    else:
+        with ThreadPoolExecutor(max_workers=setup.workers) as pool:
+            futures = {k: pool.submit(f) for k, f in jobs.items()}
+            out = {k: fut.result() for k, fut in futures.items()}
+    for k, sc in sorted(out.items(), key=lambda kv: kv[1].gap):
+        say(f"  {k:<20} alone: held-out gap {sc.gap:.4g} (training {sc.train_gap:.4g};"
+            f" {sc.fit.n_eval} evaluations, {sc.fit_s:.1f} s)")
+    return lin, out
+
+
+def _combine(setup, state, key, single):
+    """``state`` (Scored) plus candidate ``key`` (its single fit ``single``), jointly.
+
+    A single candidate that already brings the held-out gap to the noise level needs no
+    joint re-fit (the linear part stays the user's).
+    """
+    if key == "thermal_dynamics" or (state.name == "linear"
+                                     and single.gap <= 1.25 * setup.floor):
+        return single
+    effects = tuple(e for e in (state.fit.effects if state.name != "linear" else ())) + (
+        () if key == "hysteresis:dynamic" else (key,))
+    dynamic = key == "hysteresis:dynamic" or getattr(state.fit, "form", "") == "dynamic"
+    start = {**_start(single), **(_start(state) if state.name != "linear" else {})}
+    name = "+".join(sorted(set(effects) | ({"hysteresis"} if dynamic else set())))
+    return _fit(setup, name, effects, joint=True, dynamic=dynamic, start=start)
+
+
+def forward(setup, lin, singles, say):
+    """Forward selection; returns (steps, tie) with steps = [(key, before, Scored)]."""
+    state, steps, tie = lin, [], None
+    pool = {k: s for k, s in singles.items() if s.gap <= PROMISING * lin.gap}
+    while pool and len(steps) < MAX_EFFECTS and state.name != "thermal_dynamics":
+        order = sorted(pool, key=lambda k: pool[k].gap)
+        if state.gap <= 1.25 * setup.floor:
+            break
+        two = not steps and len(order) > 1 and pool[order[1]].gap <= 2 * pool[order[0]].gap
+        tried = [(k, _combine(setup, state, k, pool[k])) for k in order[:2 if two else 1]
+                 if not steps or k != "thermal_dynamics"]
+        tried.sort(key=lambda kv: kv[1].gap)
+        for k, sc in tried:
+            how = "joint fit, " if getattr(sc.fit, "joint", False) else ""
+            say(f"  + {k:<18} held-out gap {state.gap:.4g} -> {sc.gap:.4g} ({how}"
+                f"{sc.fit.n_eval} evaluations, {sc.fit_s:.1f} s)")
+        if not tried or not significant(tried[0][1].gap, state.gap, setup.floor):
+            break
+        k, best = tried[0]
+        if not steps and len(tried) > 1:
+            k2, other = tried[1]
+            if significant(other.gap, state.gap, setup.floor) and best.gap * MARGIN >= other.gap:
+                both = _combine(setup, best, k2, pool[k2])
+                if significant(both.gap, best.gap, setup.floor):
+                    steps += [(k, state.gap, best), (k2, best.gap, both)]
+                    state = both
+                    for kk in (k, k2):
+                        pool.pop(kk)
+                    _drop_forms(pool, state)
+                    continue
+                tie = (k, k2, best.gap, other.gap)
+                break
+        steps.append((k, state.gap, best))
+        state = best
+        pool.pop(k)
+        _drop_forms(pool, state)
+    return steps, tie
+
+
+def _drop_forms(pool, state):
+    """Once hysteresis is in, its other form is no longer a candidate."""
+    if "hysteresis" in state.effects:
+        pool.pop("hysteresis", None)
+        pool.pop("hysteresis:dynamic", None)

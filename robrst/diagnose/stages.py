@@ -1,0 +1,99 @@
+"""The twin's own effect steps with exact parameter sensitivities, compiled once.
+
+A diagnosis fits the twin's parametrisation (:mod:`robrst.twin.model`), so an effect
+found in data can be put straight back into the twin.  For the sequential effects
+(``slew``, ``hysteresis``, ``thermal_drift``; and ``thermal_dynamics``, which changes
+the linear part itself) the twin's symbolic step is augmented with its forward
+sensitivities ``S = dx/dtheta`` (``S+ = f_x S + f_theta``): one compiled pass returns
+the output and its exact derivative with respect to every free parameter, instead of
+one simulation per parameter and iteration.
+"""
+
+from dataclasses import dataclass, replace
+
+import casadi as ca
+import numpy as np
+
+from robrst.twin.config import default_twin
+from robrst.twin.model import build_model
+from robrst.twin.simulate import Simulator, rest_state
+
+__all__ = ["SensitivityStage", "stage", "FREE"]
+
+# free twin parameters (theta names) per effect
+FREE = {
+    "slew": ("slew_V_per_s",),
+    "hysteresis": ("bw_A", "bw_B", "bw_Gamma", "bw_gain"),
+    "thermal_drift": ("drift_lag_s", "drift_B", "drift_Gamma", "drift_V_per_K"),
+    "thermal_dynamics": ("gain_per_K", "resonance_per_K", "damping_per_K"),
+}
+
+
+def _augmented(model, free):
+    """``(x; vec S), p, theta -> (x+; vec S+), (y; dy/dtheta_free)`` for ``out[1]``."""
+    nx, nt, nf = model.n_state, len(model.theta0), len(free)
+    x = ca.SX.sym("x", nx)
+    S = ca.SX.sym("S", nx, nf)
+    p = ca.SX.sym("p", 3)
+    th = ca.SX.sym("theta", nt)
+    xn, out = model.step(x, p, th)
+    y = out[1]
+    Jx = ca.jacobian(xn, x)
+    Jt = ca.horzcat(*[ca.jacobian(xn, th[i]) for i in free]) if nf else ca.SX(nx, 0)
+    Sn = ca.mtimes(Jx, S) + Jt
+    gy = ca.jacobian(y, x)
+    dy = ca.mtimes(gy, S) + (ca.horzcat(*[ca.jacobian(y, th[i]) for i in free]) if nf
+                             else ca.SX(1, 0))
+    xa = ca.vertcat(x, ca.vec(S))
+    xan = ca.vertcat(xn, ca.vec(Sn))
+    # dense outputs: the compiled driver copies whole vectors (structural zeros included)
+    return ca.Function(f"{model.config.name}_sens", [xa, p, th],
+                       [ca.densify(xan), ca.densify(ca.vertcat(y, dy.T))],
+                       ["x", "p", "theta"], ["x_next", "y"])
+
+
+@dataclass(frozen=True, eq=False)
+class SensitivityStage:
+    """One effect's compiled twin step with sensitivities (``run``: output, d output)."""
+
+    name: str
+    model: object
+    sim: Simulator
+    free: tuple          # indices into theta
+
+    def theta(self, values):
+        """The twin's theta vector with the free parameters set to ``values``."""
+        th = self.model.theta0.copy()
+        th[list(self.free)] = values
+        return th
+
+    def run(self, u, temp, values, u0_rest=None):
+        """Output ``(N,)`` and its derivative ``(N, n_free)`` on input ``u`` and ``temp``.
+
+        Starts at the twin's rest state (hysteresis memory at 0 V; stack at ``temp[0]``).
+        """
+        n = u.size
+        P = np.vstack([u, temp, np.zeros(n)])
+        x0 = rest_state(self.model, u[0] if u0_rest is None else u0_rest, temp[0])
+        nf = len(self.free)
+        xa = np.concatenate([x0, np.zeros(self.model.n_state * nf)])
+        Y, _ = self.sim.loop(P, xa, self.theta(values))
+        return Y[0], Y[1:1 + nf].T
+
+
+def stage(name, fs, reference_C=28.0, plant=None):
+    """The :class:`SensitivityStage` of effect ``name`` at ``fs`` [Hz].
+
+    ``plant`` (a SISO Plant) is needed only for ``thermal_dynamics``, whose step
+    contains the linear dynamics; the other effects stop at the effective input.
+    The compiled library is cached on disk (:mod:`robrst.twin.compiled`).
+    """
+    cfg = replace(default_twin().with_effects(only=[name]), sample_rate_hz=float(fs),
+                  reference_C=float(reference_C), name=f"diagnose_{name}")
+    model = build_model(cfg, plant=plant, linear=name == "thermal_dynamics")
+    index = {k: i for i, k in enumerate(model.theta_names)}
+    free = tuple(index[k] for k in FREE[name])
+    return SensitivityStage(name=name, model=model,
+                            sim=Simulator(replace(model, step=_augmented(model, free),
+                                                  n_state=model.n_state * (1 + len(free)))),
+                            free=free)

@@ -1,0 +1,38 @@
+"""The linear model of a model file (``robrst identify``) or of a problem file's family.
+
+Problem files are parsed by :mod:`robrst.spec` (problem layer) and model files by
+:mod:`robrst.identify.modelfile` (modelling side); this module, above both, picks one.
+"""
+
+from pathlib import Path
+
+from robrst.identify.modal import ModalModel
+from robrst.identify.modelfile import modal_models, read_model_data
+from robrst.spec import parse_problem
+
+__all__ = ["load_linear_model"]
+
+
+def load_linear_model(path):
+    """Models of a model file or of a problem file's family, lowest temperature first.
+
+    Parameters
+    ----------
+    path : str or Path
+        A model file written by ``robrst identify`` or a problem file.
+
+    Returns
+    -------
+    tuple
+        ``(models, reference_C)``: a tuple of :class:`~robrst.identify.modal.ModalModel`
+        and the reference temperature (None when the file states none).
+    """
+    path = Path(path)
+    data = read_model_data(path)
+    if "model" in data:
+        return modal_models(path, data)
+    # only [plant] and [family] matter here: a file straight from `robrst identify` has no
+    # [poles] yet, so a placeholder stands in for that (unused) table
+    fam = parse_problem({"poles": {"wn": 1.0, "zeta": 1.0}, **data}, path).family
+    models = tuple(ModalModel.from_plant(p) for p in fam.models)
+    return models, fam.reference_model.temperature_C

@@ -1,0 +1,257 @@
+"""Identification of a continuous-time linear model from records, with order selection.
+
+Pipeline (:func:`identify`)::
+
+    records --group by temperature--> per group: fit records + held-out records
+      -> for each candidate order: vector fitting (z-domain) -> output-error residues
+         -> held-out NRMSE (simulated: steady state for periodic records, from rest else)
+      -> order = the smallest within ORDER_TOL (relative, + 1e-9) of the best held-out NRMSE
+      -> final fit on every training record at that order -> continuous time (exact ZOH inverse)
+
+Held-out records: ``validate`` if given; else the last third of the training records
+(at least one) when there are several; else, for a single record, its last period
+(periodic) or its last 30 % (the model is simulated over the whole record and scored on
+that part only).  Records at several temperatures (mean temperature differing by more
+than ``TEMP_TOL_K``) give one model per temperature: a temperature family.
+"""
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+from robrst.errors import DataError, SpecError
+from robrst.identify.vf import (fit_data, fit_residues, initial_poles, to_continuous,
+                                vector_fit)
+
+__all__ = ["identify", "Identified", "OrderScore", "ORDER_TOL", "TEMP_TOL_K", "nrmse_of",
+           "simulate_record"]
+
+ORDER_TOL = 0.05        # choose the smallest order within 5 % of the best held-out NRMSE
+TEMP_TOL_K = 1.0        # records whose mean temperatures differ less share a model
+VF_ITER = 12
+MIN_SAMPLES = 50
+
+
+@dataclass(frozen=True)
+class OrderScore:
+    """Held-out result of one candidate order."""
+
+    order: int
+    train_nrmse: float
+    heldout_nrmse: float
+    note: str = ""
+
+
+@dataclass(frozen=True, eq=False)
+class Identified:
+    """Result of :func:`identify`: one model per temperature (increasing) and the scores."""
+
+    models: tuple            # ModalModel per temperature group
+    order: int
+    feedthrough: bool
+    fs: float
+    scores: tuple            # OrderScore per candidate (order selection group)
+    heldout: tuple           # names of the held-out records (or parts)
+    train: tuple             # names of the fit records
+    heldout_nrmse: float     # of the chosen order (selection group)
+
+    @property
+    def model(self):
+        """The model of the first (lowest) temperature, or the only one."""
+        return self.models[0]
+
+    def as_dict(self):
+        return {"order": self.order, "feedthrough": self.feedthrough, "fs_hz": self.fs,
+                "inputs": self.model.n_in, "outputs": self.model.n_out,
+                "temperatures_C": [m.temperature_C for m in self.models],
+                "heldout_nrmse": self.heldout_nrmse, "train": list(self.train),
+                "heldout": list(self.heldout),
+                "orders": [{"order": s.order, "train_nrmse": _num(s.train_nrmse),
+                            "heldout_nrmse": _num(s.heldout_nrmse), "note": s.note}
+                           for s in self.scores]}
+
+
+def _num(x):
+    return float(x) if math.isfinite(x) else None
+
+
+def simulate_record(dmodel, d):
+    """Simulated outputs ``(N, m)`` of a sampled model on record ``d``."""
+    periodic = bool(d.period) and d.periods >= 1
+    return dmodel.response(d.U, periodic=periodic)
+
+
+def nrmse_of(dmodel, records, parts=None):
+    """Pooled NRMSE ``||Y - Yhat|| / ||Y - mean Y||`` over records and outputs.
+
+    ``parts`` optionally gives, per record, a slice of samples to score.
+    """
+    num = den = 0.0
+    for k, d in enumerate(records):
+        sl = parts[k] if parts is not None else slice(None)
+        Y = d.Y[sl]
+        E = Y - simulate_record(dmodel, d)[sl]
+        num += float(np.sum(E ** 2))
+        den += float(np.sum((Y - Y.mean(axis=0)) ** 2))
+    return math.sqrt(num / den) if den > 0 else math.inf
+
+
+def _check(records, what):
+    if not records:
+        raise DataError(f"identification needs at least one {what} record")
+    fs0, k0, m0 = records[0].fs, records[0].n_in, records[0].n_out
+    first = records[0].source or "the first record"
+    for d in records:
+        name = d.source or "record"
+        if d.n < MIN_SAMPLES:
+            raise DataError(f"{name}: too short ({d.n} samples) for identification")
+        if abs(d.fs - fs0) > 1e-6 * fs0:
+            raise DataError(f"{name}: sampled at {d.fs:.6g} Hz but {first} at {fs0:.6g} Hz;"
+                            " resample to one rate")
+        if (d.n_in, d.n_out) != (k0, m0):
+            raise DataError(f"{name}: {d.n_in} input(s) and {d.n_out} output(s), but {first}"
+                            f" has {k0} and {m0}")
+        if np.ptp(d.U, axis=0).max() <= 0:
+            raise DataError(f"{name}: the input never changes; nothing to identify from")
+    return fs0
+
+
+def _groups(records):
+    """Records grouped by mean temperature (None: not measured), increasing."""
+    groups = []
+    for d in records:
+        T = None if d.temp is None else float(np.mean(d.temp))
+        for g in groups:
+            if (g[0] is None) == (T is None) and (T is None or abs(g[0] - T) < TEMP_TOL_K):
+                g[1].append(d)
+                break
+        else:
+            groups.append([T, [d]])
+    groups.sort(key=lambda g: -np.inf if g[0] is None else g[0])
+    for g in groups:
+        if g[0] is not None:
+            g[0] = float(np.mean([np.mean(d.temp) for d in g[1]]))
+    return groups
+
+
+def _split(records):
+    """(fit records, held-out records, score slices, held-out names) for order selection."""
+    if len(records) >= 2:
+        h = max(1, len(records) // 3)
+        held = records[-h:]
+        return records[:-h], held, None, tuple(d.source or "record" for d in held)
+    d = records[0]
+    name = d.source or "record"
+    if d.period and d.periods >= 2:
+        cut = (d.periods - 1) * d.period
+        fit = replace(d, t=d.t[:cut], u=d.u[:cut], y=d.y[:cut],
+                      temp=None if d.temp is None else d.temp[:cut])
+        return [fit], [d], [slice(cut, None)], (f"{name} (last period)",)
+    cut = int(0.7 * d.n)
+    fit = replace(d, t=d.t[:cut], u=d.u[:cut], y=d.y[:cut],
+                  temp=None if d.temp is None else d.temp[:cut], period=0)
+    return [fit], [replace(d, period=0)], [slice(cut, None)], (f"{name} (last 30 %)",)
+
+
+def _fit_order(data, n, feedthrough):
+    """Vector fitting at order n; keeps the iterate of lowest output-error cost."""
+    poles = initial_poles(n, data.fs, *data.band)
+    best, stale = None, 0
+    for _ in range(VF_ITER):
+        poles = vector_fit(data, poles, n_iter=1, feedthrough=feedthrough)
+        dm, cost = fit_residues(data, poles, feedthrough)
+        if best is None or cost < best[1] * (1 - 1e-6):
+            stale = 0 if best is None or cost < best[1] * (1 - 1e-3) else stale + 1
+            best = (dm, cost)
+        else:
+            stale += 1
+        if stale >= 2:      # converged: no real progress for two iterations
+            break
+    return best[0]
+
+
+def _candidates(order, max_order, n_lines):
+    if order != "auto":
+        return [int(order)]
+    top = max_order or (40 if n_lines >= 400 else 12)
+    return list(range(1, min(top, 12) + 1)) + list(range(14, top + 1, 2))
+
+
+def identify(train, validate=None, order="auto", max_order=None, feedthrough=False,
+             progress=None):
+    """Fit a continuous-time linear model (every output from every input) to records.
+
+    Parameters
+    ----------
+    train : list of Dataset
+        Records to fit (steps, multisines, any input; periodic records are used in
+        steady state).  Same sampling rate and channel counts.
+    validate : list of Dataset, optional
+        Held-out records for the order selection (default: see the module docstring).
+    order : "auto" or int
+        Number of poles (a complex pair counts two), or ``"auto"``: every order up to
+        ``max_order`` scored on held-out records.
+    max_order : int, optional
+        Largest order tried by ``"auto"`` (default 12; 40 for periodic records with at
+        least 400 excited lines).
+    feedthrough : bool
+        Allow a direct term ``D`` (default False: strictly proper, ``y[k]`` depends on
+        ``u`` up to ``k - 1``).
+    progress : callable, optional
+        Called with one line of text per candidate order.
+
+    Returns
+    -------
+    Identified
+
+    Raises
+    ------
+    DataError
+        For inconsistent or unexcited records; SpecError for a bad order.
+    """
+    say = progress or (lambda m: None)
+    fs = _check(list(train), "training")
+    if validate:
+        _check(list(train) + list(validate), "validation")
+    if order != "auto" and (isinstance(order, bool) or not isinstance(order, int) or order < 1):
+        raise SpecError(f"order must be 'auto' or an integer >= 1, got {order!r}")
+    groups = _groups(list(train))
+    main = max(groups, key=lambda g: sum(d.n for d in g[1]))
+    with threadpool_limits(1, "blas"):
+        if validate:
+            fit_recs, held, parts = main[1], list(validate), None
+            held_names = tuple(d.source or "record" for d in held)
+        else:
+            fit_recs, held, parts, held_names = _split(main[1])
+        data = fit_data(fit_recs)
+        n_lines = max([z.size for z, *_ in data.freq], default=0)
+        scores, models = [], {}
+        for n in _candidates(order, max_order, n_lines):
+            try:
+                dm = _fit_order(data, n, feedthrough)
+                to_continuous(dm)
+                tr, ho, note = nrmse_of(dm, fit_recs), nrmse_of(dm, held, parts), ""
+            except SpecError as exc:
+                tr = ho = math.inf
+                note = str(exc)
+            scores.append(OrderScore(n, tr, ho, note))
+            say(f"order {n:>3}: training NRMSE {tr:.4g}, held-out NRMSE {ho:.4g}"
+                + (f" ({note})" if note else ""))
+        finite = [s for s in scores if math.isfinite(s.heldout_nrmse)]
+        if not finite:
+            raise SpecError("no candidate order gives a usable model: "
+                            + "; ".join(s.note for s in scores[:3]))
+        best = min(s.heldout_nrmse for s in finite)
+        chosen = next(s for s in finite if s.heldout_nrmse <= best * (1 + ORDER_TOL) + 1e-9)
+        out = []
+        for T, recs in groups:
+            dm = _fit_order(fit_data(recs), chosen.order, feedthrough)
+            label = "identified" if T is None else f"identified_T{T:g}C"
+            out.append(to_continuous(dm, label=label, temperature_C=T))
+    say(f"chosen order {chosen.order} (held-out NRMSE {chosen.heldout_nrmse:.4g})")
+    return Identified(models=tuple(out), order=chosen.order, feedthrough=feedthrough, fs=fs,
+                      scores=tuple(scores), heldout=held_names,
+                      train=tuple(d.source or "record" for d in train),
+                      heldout_nrmse=chosen.heldout_nrmse)

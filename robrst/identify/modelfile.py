@@ -1,0 +1,216 @@
+"""Files written by ``robrst identify``: a problem file (one input and output) or a model file.
+
+* **Problem file** (SISO, or one channel of a MIMO fit with ``--channel``): ``[problem]``,
+  ``[plant]`` with ``B``/``A`` (highest power first, s in rad/s) and, from records at
+  several temperatures, ``[family]`` with one ``[[family.models]]`` per temperature.
+  ``robrst design`` reads it once ``[poles]`` (and ``[specs]``, ``[solver]``) are added;
+  a commented template is included.
+* **Model file** (several inputs or outputs): the modal form, one ``[[model.at]]`` per
+  temperature::
+
+      [model]
+      format = "robrst-modal-1"
+      inputs = 3
+      outputs = 3
+      [[model.at]]
+      temperature_C = 28.0               # optional
+      poles_re = [...]                   # rad/s; pole p_i = poles_re[i] + j poles_im[i]
+      poles_im = [...]                   # >= 0; > 0 stands for the conjugate pair
+      residues_re = [[[...]]]            # per pole an outputs x inputs matrix
+      residues_im = [[[...]]]
+      D = [[...]]                        # outputs x inputs
+
+  ``G(s) = sum_i R_i/(s - p_i) (+ conjugate terms) + D``, inputs V, outputs µm.
+
+:func:`modal_models` reads a model file; :func:`robrst.experiments.linear_model.load_linear_model`
+reads either kind (problem files through :mod:`robrst.spec`, a layer above this one).
+"""
+
+import tomllib
+from pathlib import Path
+
+import numpy as np
+
+from robrst.errors import SpecError
+from robrst.fileio import atomic_write_text
+from robrst.identify.modal import ModalModel
+
+__all__ = ["problem_text", "model_text", "write_identified", "read_model_data", "modal_models",
+           "MARKER", "FORMAT"]
+
+MARKER = "# written by robrst identify"
+FORMAT = "robrst-modal-1"
+
+
+def _num(x):
+    return repr(float(x))
+
+
+def _list(v):
+    return "[" + ", ".join(_num(x) for x in np.ravel(v)) + "]"
+
+
+def _matrix(M):
+    return "[" + ", ".join(_list(row) for row in np.atleast_2d(M)) + "]"
+
+
+def _header(ident, sources, what):
+    lines = [f"{MARKER} ({what})",
+             f"# from {len(sources)} record(s): " + ", ".join(str(s) for s in sources[:6])
+             + (" ..." if len(sources) > 6 else ""),
+             f"# order {ident.order} (poles), sampled at {ident.fs:g} Hz, held-out NRMSE"
+             f" {ident.heldout_nrmse:.4g} on " + ", ".join(ident.heldout[:4])]
+    return lines
+
+
+def problem_text(ident, sources, name, channel=(0, 0)):
+    """The problem-file text of output ``channel[0]`` from input ``channel[1]``."""
+    i, j = channel
+    plants = [m.channel(i, j) for m in ident.models]
+    lines = _header(ident, sources, "problem file")
+    lines += ["", "[problem]", f'name = "{name}"',
+              f'description = "identified by robrst identify (output y{i + 1} from input u{j + 1})"',
+              "", "[plant]", f"B = {_list(plants[0].B)}", f"A = {_list(plants[0].A)}"]
+    T0 = ident.models[0].temperature_C
+    if T0 is not None:
+        lines.append(f"temperature_C = {_num(T0)}")
+    lines.append('source = "robrst identify"')
+    if len(plants) > 1:
+        lines += ["", "[family]", f"reference_C = {_num(T0)}",
+                  'source = "robrst identify: one model per record temperature"']
+        for p in plants:
+            lines += ["", "[[family.models]]", f"temperature_C = {_num(p.temperature_C)}",
+                      f"B = {_list(p.B)}", f"A = {_list(p.A)}"]
+    lines += ["", "# To design a controller, add the closed-loop poles (and specs), e.g.:",
+              "# [poles]", "# wn = 600.0      # dominant natural frequency [rad/s]",
+              "# zeta = 1.0", "# [specs]", "# Ms_max = 2.0", ""]
+    return "\n".join(lines)
+
+
+def model_text(ident, sources):
+    """The model-file text (modal form, every channel)."""
+    m0 = ident.models[0]
+    lines = _header(ident, sources, "model file")
+    lines += ["", "[model]", f'format = "{FORMAT}"', f"inputs = {m0.n_in}",
+              f"outputs = {m0.n_out}", f"order = {ident.order}",
+              f"fs_hz = {_num(ident.fs)}", 'source = "robrst identify"']
+    for m in ident.models:
+        lines += ["", "[[model.at]]"]
+        if m.temperature_C is not None:
+            lines.append(f"temperature_C = {_num(m.temperature_C)}")
+        lines += [f"poles_re = {_list(m.poles.real)}", f"poles_im = {_list(m.poles.imag)}",
+                  "residues_re = [" + ", ".join(_matrix(R.real) for R in m.residues) + "]",
+                  "residues_im = [" + ", ".join(_matrix(R.imag) for R in m.residues) + "]",
+                  f"D = {_matrix(m.D)}"]
+    return "\n".join(lines) + "\n"
+
+
+def write_identified(ident, path, sources, channel=None, name=None):
+    """Write a problem file (SISO or ``channel``) or a model file; atomically.
+
+    Refuses to replace an existing file that robrst identify did not write.
+    """
+    path = Path(path)
+    if path.exists():
+        try:
+            first = path.read_text(encoding="utf-8").splitlines()[:1]
+        except (OSError, UnicodeDecodeError):
+            first = []
+        if not first or not first[0].startswith(MARKER):
+            raise SpecError(f"{path}: exists and was not written by robrst identify; not"
+                            " overwriting it (choose another --out)")
+    m = ident.models[0]
+    if channel is None and (m.n_in, m.n_out) == (1, 1):
+        channel = (0, 0)
+    if channel is not None:
+        i, j = channel
+        if not (0 <= i < m.n_out and 0 <= j < m.n_in):
+            raise SpecError(f"channel y{i + 1} from u{j + 1} does not exist: the model has"
+                            f" {m.n_out} output(s) and {m.n_in} input(s)")
+        text = problem_text(ident, sources, name or path.stem, channel)
+    else:
+        text = model_text(ident, sources)
+    atomic_write_text(path, text)
+    return path
+
+
+def _err(path, key, msg):
+    return SpecError(f"{path}: [{key}] {msg}")
+
+
+def _array(path, key, value, shape):
+    try:
+        a = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        raise _err(path, key, f"expected numbers of shape {shape}") from None
+    if a.shape != shape or not np.all(np.isfinite(a)):
+        raise _err(path, key, f"expected finite numbers of shape {shape}, got shape {a.shape}")
+    return a
+
+
+def _modal_models(path, data):
+    allowed = {"format", "inputs", "outputs", "order", "fs_hz", "source", "at"}
+    model = data["model"]
+    if not isinstance(model, dict):
+        raise _err(path, "model", "expected a table")
+    unknown = sorted(set(model) - allowed)
+    if unknown or set(data) - {"model"}:
+        raise _err(path, "model", f"unknown key(s) {unknown or sorted(set(data) - {'model'})};"
+                   f" valid: {', '.join(sorted(allowed))}")
+    if model.get("format") != FORMAT:
+        raise _err(path, "model.format", f"expected {FORMAT!r}, got {model.get('format')!r}")
+    k, m = model.get("inputs"), model.get("outputs")
+    if not (isinstance(k, int) and isinstance(m, int) and k >= 1 and m >= 1):
+        raise _err(path, "model", "inputs and outputs must be integers >= 1")
+    ats = model.get("at")
+    if not isinstance(ats, list) or not ats:
+        raise _err(path, "model.at", "expected at least one [[model.at]] table")
+    out = []
+    for n, at in enumerate(ats):
+        key = f"model.at.{n}"
+        extra = sorted(set(at) - {"temperature_C", "poles_re", "poles_im", "residues_re",
+                                  "residues_im", "D"})
+        if extra:
+            raise _err(path, key, f"unknown key(s) {extra}")
+        missing = [x for x in ("poles_re", "poles_im", "residues_re", "residues_im", "D")
+                   if x not in at]
+        if missing:
+            raise _err(path, key, f"missing key(s) {missing}")
+        pr = _array(path, f"{key}.poles_re", at["poles_re"], (len(at["poles_re"]),))
+        pi = _array(path, f"{key}.poles_im", at["poles_im"], pr.shape)
+        Rr = _array(path, f"{key}.residues_re", at["residues_re"], (pr.size, m, k))
+        Ri = _array(path, f"{key}.residues_im", at["residues_im"], (pr.size, m, k))
+        D = _array(path, f"{key}.D", at["D"], (m, k))
+        T = at.get("temperature_C")
+        if T is not None and (isinstance(T, bool) or not isinstance(T, (int, float))):
+            raise _err(path, f"{key}.temperature_C", f"expected a number, got {T!r}")
+        try:
+            out.append(ModalModel(pr + 1j * pi, Rr + 1j * Ri, D, label=f"{Path(path).stem}",
+                                  temperature_C=None if T is None else float(T)))
+        except SpecError as exc:
+            raise _err(path, key, str(exc)) from None
+    temps = [mm.temperature_C for mm in out]
+    if len(out) > 1 and (None in temps or np.any(np.diff(temps) <= 0)):
+        raise _err(path, "model.at", "several models need increasing temperature_C values")
+    return tuple(out)
+
+
+def read_model_data(path):
+    """The TOML table of a model or problem file (robrst's errors name the file)."""
+    path = Path(path)
+    try:
+        return tomllib.loads(path.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise SpecError(f"{path}: cannot read model file ({exc.strerror})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise SpecError(f"{path}: invalid TOML ({exc})") from None
+
+
+def modal_models(path, data):
+    """Models of a model file's ``[model]`` table (``data`` as read from ``path``).
+
+    Returns ``(models, reference_C)``: a tuple of :class:`ModalModel`, lowest
+    temperature first, and the reference temperature (None when the file states none).
+    """
+    models = _modal_models(path, data)
+    return models, models[0].temperature_C

@@ -1,0 +1,122 @@
+"""``robrst identify ... --report DIR``: the identification report folder.
+
+Figures (``matplotlib.figure.Figure`` objects): the identified model's frequency
+response per channel over a nonparametric estimate from the records (H1, Welch), the
+held-out NRMSE of every candidate order, and measured vs simulated output on a record.
+``identified.json`` is the ``--json`` result.
+"""
+
+
+import numpy as np
+from scipy import signal
+
+from robrst.fileio import json_text
+from robrst.identify.core import simulate_record
+from robrst.report.doc import Doc, write_folder
+from robrst.report.figure import drawing
+
+__all__ = ["write_identification_report", "identification_doc", "FIGURES"]
+
+FIGURES = ("frf.png", "orders.png", "output.png")
+
+
+def _h1(records, fs):
+    n = min(d.n for d in records)
+    nper = int(min(4096, 2 ** int(np.log2(max(n // 4, 64)))))
+    Suu = Suy = 0.0
+    for d in records:
+        U, Y = d.U - d.U.mean(axis=0), d.Y - d.Y.mean(axis=0)
+        f, a = signal.csd(U[:, :, None], U[:, None, :], fs=fs, nperseg=nper, axis=0)
+        _, b = signal.csd(U[:, :, None], Y[:, None, :], fs=fs, nperseg=nper, axis=0)
+        Suu, Suy = Suu + a, Suy + b
+    H = np.full((f.size, Suy.shape[2], Suy.shape[1]), np.nan, complex)
+    for i in range(1, f.size):
+        try:
+            H[i] = np.linalg.solve(Suu[i].T, Suy[i]).T
+        except np.linalg.LinAlgError:
+            pass
+    return f, H
+
+
+def _frf_fig(ident, records, path):
+    m = ident.models[0]
+    f, H = _h1(records, ident.fs)
+    fm = np.geomspace(max(f[1], 1e-3), ident.fs / 2, 600)
+    G = m.freqresp(2 * np.pi * fm)
+    size = (3.2 * m.n_in + 1, 2.4 * m.n_out + 1)
+    with drawing(path, size, m.n_out, m.n_in, squeeze=False) as (fig, axes):
+        for i in range(m.n_out):
+            for j in range(m.n_in):
+                ax = axes[i, j]
+                ax.loglog(f[1:], np.abs(H[1:, i, j]), color="0.6", lw=0.8, label="H1 (records)")
+                ax.loglog(fm, np.abs(G[:, i, j]), color="tab:blue", lw=1.2,
+                          label=f"identified, order {ident.order}")
+                ax.set_title(f"y{i + 1} from u{j + 1}", fontsize=9)
+                if i == m.n_out - 1:
+                    ax.set_xlabel("f [Hz]")
+                if j == 0:
+                    ax.set_ylabel("|G| [µm/V]")
+        axes[0, 0].legend(fontsize=7)
+
+
+def _orders_fig(ident, path):
+    s = [x for x in ident.scores if np.isfinite(x.heldout_nrmse)]
+    with drawing(path, (8, 3.8)) as (fig, ax):
+        if s:
+            ax.semilogy([x.order for x in s], [x.heldout_nrmse for x in s], "o-", color="tab:blue",
+                        label="held-out")
+            ax.semilogy([x.order for x in s], [x.train_nrmse for x in s], ".--", color="tab:gray",
+                        label="fit records")
+        ax.axvline(ident.order, color="tab:orange", ls=":", label=f"chosen: {ident.order}")
+        ax.set_xlabel("order (number of poles)")
+        ax.set_ylabel("NRMSE [-] (log)")
+        ax.set_title("order selection on held-out records")
+        ax.legend(fontsize=8)
+
+
+def _output_fig(ident, records, path):
+    d = records[-1]
+    dm = ident.models[0].discretise(ident.fs)
+    Yh = simulate_record(dm, d)
+    n = d.period or min(d.n, 4000)
+    with drawing(path, (10, 3.8)) as (fig, ax):
+        ax.plot(d.t[:n], d.Y[:n, 0], color="k", lw=1, label="measured (output 1)")
+        ax.plot(d.t[:n], Yh[:n, 0], color="tab:blue", lw=1, ls="--", label="identified model")
+        ax.set_xlabel("time t [s]")
+        ax.set_ylabel("y [µm]")
+        ax.set_title(f"measured vs simulated: {d.source or 'record'}")
+        ax.legend(fontsize=8)
+
+
+def identification_doc(ident):
+    """The report document of an identification (no I/O)."""
+    d = ident.as_dict()
+    rows = tuple((o["order"], f"{o['train_nrmse']:.4g}" if o["train_nrmse"] is not None else "",
+                  f"{o['heldout_nrmse']:.4g}" if o["heldout_nrmse"] is not None else "", o["note"])
+                 for o in d["orders"])
+    m = ident.models[0]
+    poles = ", ".join(f"{abs(p) / (2 * np.pi):.4g} Hz" for p in sorted(m.poles, key=abs))
+    blocks = [("p", f"Order **{ident.order}** ({m.n_out} output(s) x {m.n_in} input(s),"
+                    f" {len(ident.models)} temperature(s)); held-out NRMSE"
+                    f" {ident.heldout_nrmse:.4g} on {', '.join(ident.heldout)}."),
+              ("p", f"Pole magnitudes: {poles}."),
+              ("table", ("order", "fit NRMSE", "held-out NRMSE", "note"), rows),
+              ("img", "frf.png", "Frequency response of the identified model over the H1"
+                                 " estimate of the records"),
+              ("img", "orders.png", "Held-out NRMSE per candidate order"),
+              ("img", "output.png", "Measured and simulated output (last record)")]
+    return Doc(title="robrst identification", blocks=tuple(blocks))
+
+
+def write_identification_report(ident, records, out_dir, progress=None):
+    """Write the identification report folder; returns its path."""
+    say = progress or (lambda m: None)
+
+    def draw(tmp):
+        say("drawing the identification figures")
+        _frf_fig(ident, records, tmp / "frf.png")
+        _orders_fig(ident, tmp / "orders.png")
+        _output_fig(ident, records, tmp / "output.png")
+
+    text = json_text(ident.as_dict(), indent=1) + "\n"
+    return write_folder(out_dir, identification_doc(ident), {"identified.json": text}, draw)
