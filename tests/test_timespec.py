@@ -74,19 +74,25 @@ def test_continuous_loop_against_python_control(designs, T):
     assert rec["step_u_peak_V"] == pytest.approx(mu.max_abs * res.problem.specs.step_um, rel=1e-9)
 
 
-@pytest.mark.parametrize("T", [28.0, 45.0])
-def test_sampled_loop_against_python_control(designs, T):
-    """ZOH plant, Tustin controller (reference and feedback paths), at the samples."""
-    res = designs("paper_robust")
-    plant, ctrl = res.problem.family.at(T), res.controller
+def _sampled_steps(plant, ctrl, n):
+    """python-control's sampled loop (ZOH plant, Tustin controller): y and u of a unit step."""
     w0 = poly.natural_scale(plant.A)
     h = w0 / FS
     Pd = control.c2d(control.ss(_scaled(plant.B, plant.A, w0)), h, "zoh")
     Kd = control.c2d(control.ss(_scaled(ctrl.R, ctrl.S, w0)), h, "tustin")
     Fd = control.c2d(control.ss(_scaled(ctrl.T, ctrl.S, w0)), h, "tustin")
-    n = 4000                                          # 0.2 s
     _, y = control.step_response(Fd * control.feedback(Pd, Kd), T=np.arange(n) * h)
     _, u = control.step_response(Fd * control.feedback(1, Pd * Kd), T=np.arange(n) * h)
+    return np.ravel(y), np.ravel(u)
+
+
+@pytest.mark.parametrize("T", [28.0, 45.0])
+def test_sampled_loop_against_python_control(designs, T):
+    """ZOH plant, Tustin controller (reference and feedback paths), at the samples."""
+    res = designs("paper_robust")
+    plant, ctrl = res.problem.family.at(T), res.controller
+    n = 4000                                          # 0.2 s
+    y, u = _sampled_steps(plant, ctrl, n)
     pw = sampled_plant(plant, FS)
     cl = closed_loop(pw, ctrl)
     my = step_metrics(cl.nums["Tr"], cl.Delta, FS)
@@ -125,13 +131,8 @@ def test_relaxing_the_band_bound_keeps_the_time_domain_specs():
     sp = res.problem.specs
     for T in (28.0, 45.0):
         plant, ctrl = res.problem.family.at(T), res.controller
-        w0 = poly.natural_scale(plant.A)
-        h = w0 / FS
-        Pd = control.c2d(control.ss(_scaled(plant.B, plant.A, w0)), h, "zoh")
-        Kd = control.c2d(control.ss(_scaled(ctrl.R, ctrl.S, w0)), h, "tustin")
-        Fd = control.c2d(control.ss(_scaled(ctrl.T, ctrl.S, w0)), h, "tustin")
         n = 4000
-        _, y = control.step_response(Fd * control.feedback(Pd, Kd), T=np.arange(n) * h)
+        y, _ = _sampled_steps(plant, ctrl, n)
         over, ts = _metrics(np.arange(n) / FS, np.ravel(y))
         assert over <= sp.overshoot_max_pct * (1 + 1e-3)
         assert ts <= sp.settling_time_max_s * (1 + 1e-3)
