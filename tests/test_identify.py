@@ -3,6 +3,8 @@ zeros and frequency response with stated tolerances.  The data are simulated by
 python-control (``control.c2d`` + ``forced_response``), independently of robrst's own
 modal simulator, and the identified model is checked back through python-control."""
 
+import json
+
 import control
 import numpy as np
 import pytest
@@ -151,3 +153,59 @@ def test_identify_errors_name_the_problem(tmp_path, capsys):
     assert foreign.read_text() == "# my notes\n"
     assert main(["identify", "--train", str(f), "--out", str(tmp_path / "x.toml"),
                  "--order", "two"]) == 2
+
+
+def test_orders_beyond_the_truth_stay_usable():
+    """Orders far above the truth on noisy periodic records: vector fitting places spare
+    poles anywhere, also on the negative real z axis (no continuous-time counterpart under
+    ZOH).  Such poles are mirrored to the positive axis during relocation, so every
+    candidate order gives a usable continuous-time model and a finite held-out NRMSE."""
+    fs, P = 6400.0, 2048
+    rng = np.random.default_rng(11)
+    truth = ModalModel(np.array([-20 + 2 * np.pi * 500j]), np.array([[[400.0 + 100j]]]),
+                       np.zeros((1, 1)))
+    recs = []
+    for r in range(3):
+        u = rng.normal(size=P)
+        y = _pc_response(truth.to_control(), np.tile(u, 4)[:, None], fs)[-2 * P:, 0]
+        y = y + 0.3 * np.std(y) * rng.standard_normal(y.size)
+        recs.append(Dataset(t=np.arange(2 * P) / fs, u=np.tile(u, 2), y=y, period=P,
+                            source=f"n{r}"))
+    res = identify(recs[:2], validate=recs[2:], max_order=24)
+    assert all(np.isfinite(s.heldout_nrmse) for s in res.scores), [
+        (s.order, s.note) for s in res.scores if s.note]
+    z = res.model.discretise(fs).zpoles
+    assert not np.any((np.abs(z.imag) == 0) & (z.real <= 0))
+    assert res.heldout_nrmse < 0.35          # noise is 0.3 of the signal
+
+
+def test_diagnose_takes_an_identified_model_file(tmp_path, capsys):
+    """identify -> model file (2 outputs x 2 inputs) -> diagnose --model: the records of
+    the same linear system come back ``none`` and the JSON names the model's channels;
+    a problem file still gives its nominal plant (SISO)."""
+    fs, P = 6400.0, 1024
+    rng = np.random.default_rng(5)
+    poles = np.array([-200.0 + 0j, -30 + 2 * np.pi * 700j])
+    truth = ModalModel(poles, rng.normal(size=(2, 2, 2)) * 200 + 0j, np.zeros((2, 2)))
+    files = []
+    for r in range(4):
+        U = rng.normal(size=(P, 2)) * 0.3
+        Y = _pc_response(truth.to_control(), np.tile(U, (4, 1)), fs)[-2 * P:]
+        Y = Y + 1e-3 * rng.standard_normal(Y.shape)
+        rec = Dataset(t=np.arange(2 * P) / fs, u=np.tile(U, (2, 1)), y=Y, period=P,
+                      source=f"r{r}")
+        files.append(str(save_dataset(rec, tmp_path / f"r{r}.npz")))
+    model = tmp_path / "model.toml"
+    assert main(["identify", "--train", *files[:2], "--validate", files[2], "--out",
+                 str(model), "--max-order", "4", "--quiet"]) == 0
+    out = tmp_path / "diag.json"
+    assert main(["diagnose", "--train", *files[:3], "--test", files[3], "--model", str(model),
+                 "--json", str(out), "--quiet"]) == 0
+    d = json.loads(out.read_text())
+    assert d["cause"] == "none" and (d["model"]["inputs"], d["model"]["outputs"]) == (2, 2)
+    assert d["model"]["order"] == 3 and d["gap"]["before"] < 0.02
+    capsys.readouterr()
+    assert main(["diagnose", "--train", *files[:3], "--test", files[3], "--model",
+                 "paper_robust", "--quiet"]) == 2          # SISO problem vs 2x2 records
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "2 input(s) and 2 output(s), but the model has 1 and 1" in err[0]

@@ -13,9 +13,9 @@ def add_parsers(sub):
                    help="training records (CSV: t,u,y,temp[,yr]); effects are fitted on them")
     g.add_argument("--test", nargs="+", required=True, metavar="FILE",
                    help="held-out records; every reported gap is measured on them")
-    g.add_argument("--model", metavar="PROBLEM.toml",
-                   help="problem file whose nominal plant is the simulation model"
-                        " (default: the paper's D(s))")
+    g.add_argument("--model", metavar="MODEL.toml",
+                   help="the simulation model: a problem file (its nominal plant) or a model"
+                        " file from `robrst identify` (default: the paper's D(s))")
     g.add_argument("--json", metavar="OUT.json", help="write the result as JSON ('-' = stdout)")
     g.add_argument("--report", metavar="DIR", help="write a report folder (md, html, figures)")
     g.add_argument("--force", action="store_true",
@@ -29,7 +29,6 @@ def run_diagnose(args):
     from robrst.dataset import load_dataset
     from robrst.diagnose import diagnose
     from robrst.diagnose.summary import summary_text
-    from robrst.spec import load_problem
 
     to_stdout = args.json == "-"
     say = progress_printer(args.quiet or to_stdout)
@@ -37,8 +36,7 @@ def run_diagnose(args):
     test = [load_dataset(f) for f in args.test]
     plant, ref = None, None
     if args.model:
-        fam = load_problem(args.model).family
-        plant, ref = fam.reference_model, fam.reference_model.temperature_C
+        plant, ref = _model(args.model)
     diag = diagnose(train, test, plant=plant, reference_C=ref, progress=say)
     text = json_text(diag.as_dict(), indent=1)
     if args.report:
@@ -54,3 +52,25 @@ def run_diagnose(args):
             say(f"wrote {args.json}")
         print(summary_text(diag))
     return 0
+
+
+def _model(path):
+    """(plant, reference °C): a problem file's nominal plant, or a model file's model.
+
+    A problem file (or a built-in problem's name) keeps its :class:`~robrst.plant.Plant` (so the JSON reports the changes
+    of its coefficients); a model file from ``robrst identify`` gives the modal model at its
+    reference temperature (the first one when it states none).
+    """
+    from robrst.experiments.linear_model import load_linear_model
+    from robrst.identify.modelfile import read_model_data
+    from robrst.spec import load_problem
+
+    from pathlib import Path
+
+    if not Path(path).is_file() or "model" not in read_model_data(path):
+        fam = load_problem(path).family
+        return fam.reference_model, fam.reference_model.temperature_C
+    models, ref = load_linear_model(path)
+    if ref is None:
+        return models[0], None
+    return min(models, key=lambda m: abs((m.temperature_C or ref) - ref)), ref

@@ -186,11 +186,17 @@ def _realisation(poles):
 
 
 def _canonical(p):
-    """Keep one member per conjugate pair (Im > 0) and real poles; reflect unstable ones."""
+    """Keep one member per conjugate pair (Im > 0) and real poles; reflect unstable ones.
+
+    A real pole on the negative real axis (or at 0) has no continuous-time counterpart
+    under ZOH; it is mirrored to the positive real axis (same modulus, at least 1e-6) and
+    the next relocation moves it on.
+    """
     p = np.where(np.abs(p) > 1.0, p / np.abs(p) ** 2, p)
     p = np.where(np.abs(p) > 1 - 1e-9, p / np.abs(p) * (1 - 1e-9), p)
     real = np.abs(p.imag) <= 1e-12 * np.maximum(np.abs(p), 1e-300)
-    out = list(p[real].real + 0j) + list(p[(~real) & (p.imag > 0)])
+    reals = np.maximum(np.abs(p[real].real), 1e-6)
+    out = list(reals + 0j) + list(p[(~real) & (p.imag > 0)])
     return np.array(sorted(out, key=lambda z: (abs(np.angle(z)), -abs(z))), complex)
 
 
