@@ -65,16 +65,33 @@ def save_dataset(ds, path, comments=()):
     return Path(path)
 
 
+def _read_lines(path):
+    """The lines of a UTF-8 text file; :class:`DataError` for anything else."""
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        raise DataError(f"{path}: data file not found") from None
+    except IsADirectoryError:
+        raise DataError(f"{path}: is a folder, expected a data file (CSV)") from None
+    except OSError as exc:
+        raise DataError(f"{path}: cannot read the data file ({exc.strerror})") from None
+    if raw[:2] in (b"\xff\xfe", b"\xfe\xff"):
+        raise DataError(f"{path}: data file is UTF-16; save it as UTF-8")
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw[:exc.start].count(b"\n") + 1
+        raise DataError(f"{path}: line {line}: not valid UTF-8 (byte 0x{raw[exc.start]:02x});"
+                        " save the data file as UTF-8") from None
+    if "\x00" in text:
+        raise DataError(f"{path}: contains NUL bytes; expected a CSV text file (UTF-8)")
+    return text.removeprefix("\ufeff").splitlines()
+
+
 def load_dataset(path):
     """Read and validate a dataset CSV; raise :class:`DataError` naming file and line."""
     path = Path(path)
-    try:
-        text = path.read_text()
-    except (FileNotFoundError, IsADirectoryError):
-        raise DataError(f"{path}: data file not found") from None
-    except UnicodeDecodeError:
-        raise DataError(f"{path}: not a text (UTF-8) file") from None
-    lines = text.splitlines()
+    lines = _read_lines(path)
     comments, i = [], 0
     while i < len(lines) and (lines[i].startswith("#") or not lines[i].strip()):
         if lines[i].startswith("#"):
@@ -136,6 +153,9 @@ def load_dataset(path):
             hint = " (kelvin? expected °C)" if name == "temp" and v[j] > 200 else ""
             raise DataError(f"{path}: line {line_of[j]}: column {name} = {v[j]:.6g} outside the"
                             f" plausible range [{lo:g}, {hi:g}] {unit}{hint}")
+    if not np.any(col["y"]):
+        raise DataError(f"{path}: column y is identically 0 over {len(t)} rows: no measured"
+                        " displacement (expected y in µm from the sensor)")
     if np.max(np.abs(col["y"])) < 1e-3 and np.max(np.abs(col["y"])) > 0 and np.ptp(col["u"]) > 0.1:
         raise DataError(f"{path}: column y never exceeds 1e-3 µm while u varies: displacement"
                         " looks like metres; the format expects µm")
