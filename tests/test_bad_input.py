@@ -307,7 +307,7 @@ VARIANTS = [
     design("dominant_roots_unstable", problem(poles__wn=None, poles__zeta=None,
                                               poles__dominant_roots_re=[1.0, 1.0],
                                               poles__dominant_roots_im=[1.0, -1.0]),
-           ("[poles",)),
+           ("[poles]", "left half-plane")),
     design("S_fixed_no_integrator", problem(controller__S_fixed=[1.0, 1.0]),
            ("[controller.S_fixed]", "integrator")),
     design("S_fixed_empty", problem(controller__S_fixed=[]), ("[controller.S_fixed]",)),
