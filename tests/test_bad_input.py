@@ -340,6 +340,8 @@ VARIANTS = [
       ("report", "p.toml", "--quiet", "--out", "afile"), ("afile",)),
     V("report_out_user_folder", {"p.toml": GOOD, "proj/keep.txt": "mine"},
       ("report", "p.toml", "--quiet", "--out", "proj"), ("proj", "--force")),
+    V("report_out_parent", {"sub/p.toml": GOOD},
+      ("report", "sub/p.toml", "--quiet", "--out", ".."), ("--out",)),
     V("diagnose_json_folder", {"a.csv": GOOD_CSV, "jdir": DIR},
       ("diagnose", "--train", "a.csv", "--test", "a.csv", "--quiet", "--json", "jdir"),
       ("jdir", "folder")),
@@ -394,6 +396,13 @@ VARIANTS = [
     twin("twin_invalid_toml", "[twin\n", ("invalid TOML",)),
     twin("twin_hysteresis_range", "[hysteresis]\nslope_range_V = [150.0, 0.0]\n",
          ("[hysteresis.slope_range_V]",)),
+    twin("twin_binary", np.random.default_rng(5).integers(0, 256, 256, dtype=np.uint8).tobytes(),
+         ("UTF-8",)),
+    twin("twin_nan", "[creep]\nper_decade = nan\n", ("[creep.per_decade]", "finite")),
+    twin("twin_duplicate_key", "[twin]\nname = 'a'\nname = 'b'\n", ("invalid TOML",)),
+    twin("twin_rate_and_fs", "[twin]\nsample_rate_hz = 1e4\nfs_hz = 1e4\n", ("[twin.fs_hz]",)),
+    twin("twin_saturation_reversed", "[saturation]\nu_min = 150.0\nu_max = 0.0\n",
+         ("[saturation.u_max]",)),
     # ------------------------------------------------------------ data files
     diag("csv_missing_column", csv(header="t,u,y", rows=["0,1,2", "0.001,1,2"]),
          ("temp", "missing column")),
@@ -429,6 +438,13 @@ VARIANTS = [
     diag("csv_non_uniform", csv(rows=csv_rows(lambda i, r: [f"{i * 1e-3 + (2e-4 if i == 20 else 0):.12g}"]
                                               + r[1:])), ("non-uniform",)),
     diag("csv_semicolons", GOOD_CSV.replace(",", ";"), ("missing column",)),
+    diag("csv_comments_only", "# a\n# b\n", ("header",)),
+    diag("csv_repeated_time", csv(rows=csv_rows(lambda i, r: [f"{(i - (i == 30)) / 1000:.12g}"]
+                                                + r[1:])), ("line", "time")),
+    diag("csv_yr_nan", csv(header="t,u,y,temp,yr", rows=[r + ",nan" for r in csv_rows(
+        lambda i, r: None)]), ("column(s) yr",)),
+    diag("csv_metres", csv(rows=csv_rows(lambda i, r: r[:2] + [f"{float(r[2]) * 1e-6:.9g}"]
+                                         + r[3:])), ("column y", "metres")),
     V("csv_is_folder", {"good.csv": GOOD_CSV, "ddir": DIR},
       ("diagnose", "--train", "ddir", "--test", "good.csv", "--quiet"), ("ddir", "folder")),
     V("csv_not_found", {"good.csv": GOOD_CSV},
@@ -457,6 +473,20 @@ VARIANTS = [
       ("sweep", "s.toml", "--quiet", "--out", "sw", "--min-yield", "2"), ("--min-yield",)),
     V("sweep_workers_negative", {"s.toml": sweep_text(params=[GAIN]), "p.toml": GOOD},
       ("sweep", "s.toml", "--quiet", "--out", "sw", "--workers", "-1"), ("workers",)),
+    sweepf("sweep_utf16", sweep_text(params=[GAIN]).encode("utf-16"), ("UTF-16",)),
+    sweepf("sweep_invalid_toml", "[sweep\n", ("invalid TOML",)),
+    sweepf("sweep_n_huge", sweep_text({"n": 10**12}, [GAIN]), ("[sweep.n]", "<=")),
+    sweepf("sweep_std_negative", sweep_text(params=[{**GAIN, "std": -0.1}]),
+           ("[param.0.std]", "> 0")),
+    sweepf("sweep_fleet_folder_missing", sweep_text({"kind": "fleet", "n": None}) + "[fleet]\n"
+           "folder = \"nowhere\"\n", ("nowhere",)),
+    sweepf("sweep_controller_missing", sweep_text(params=[GAIN]) + "[analysis]\n"
+           "controller = \"gone.json\"\n", ("[analysis.controller]", "gone.json", "not found")),
+    V("sweep_is_folder", {"sdir": DIR}, ("sweep", "sdir", "--workers", "0", "--quiet",
+                                         "--out", "sw"), ("sdir", "folder")),
+    V("sweep_out_under_file", {"s.toml": sweep_text(params=[GAIN]), "p.toml": GOOD,
+                               "afile": "mine"},
+      ("sweep", "s.toml", "--workers", "0", "--quiet", "--out", "afile/sw"), ("afile",)),
     # ------------------------------------------------------------ golden files
     V("golden_not_found", {"p.toml": GOOD}, ("check", "p.toml", "--golden", "nope.toml",
                                              "--quiet"), ("nope.toml", "not found")),
