@@ -190,14 +190,31 @@ def _slow_parse(path, body, first_line, n_fields):
     raise DataError(f"{path}: unreadable data rows")
 
 
-def _read_csv(path):
+def _read_lines(path):
+    """The lines of a UTF-8 text file; :class:`DataError` for anything else."""
     try:
-        text = path.read_text()
-    except (FileNotFoundError, IsADirectoryError):
+        raw = path.read_bytes()
+    except FileNotFoundError:
         raise DataError(f"{path}: data file not found") from None
-    except UnicodeDecodeError:
-        raise DataError(f"{path}: not a text (UTF-8) file") from None
-    lines = text.splitlines()
+    except IsADirectoryError:
+        raise DataError(f"{path}: is a folder, expected a data file (CSV)") from None
+    except OSError as exc:
+        raise DataError(f"{path}: cannot read the data file ({exc.strerror})") from None
+    if raw[:2] in (b"\xff\xfe", b"\xfe\xff"):
+        raise DataError(f"{path}: data file is UTF-16; save it as UTF-8")
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw[:exc.start].count(b"\n") + 1
+        raise DataError(f"{path}: line {line}: not valid UTF-8 (byte 0x{raw[exc.start]:02x});"
+                        " save the data file as UTF-8") from None
+    if "\x00" in text:
+        raise DataError(f"{path}: contains NUL bytes; expected a CSV text file (UTF-8)")
+    return text.removeprefix("\ufeff").splitlines()
+
+
+def _read_csv(path):
+    lines = _read_lines(path)
     comments, i = [], 0
     while i < len(lines) and (lines[i].startswith("#") or not lines[i].strip()):
         if lines[i].startswith("#"):
@@ -331,6 +348,10 @@ def load_dataset(path):
                             f" plausible range [{lo:g}, {hi:g}] {unit}{hint}")
     ins = [h for h in header if _kind(h) == "u"]
     outs = [h for h in header if _kind(h) == "y"]
+    for name in outs:
+        if not np.any(col[name]):
+            raise DataError(f"{path}: column {name} is identically 0 over {len(t)} rows: no"
+                            " measured displacement (expected y in µm from the sensor)")
     u_moves = max(np.ptp(col[c]) for c in ins) > 1e-3
     for name in outs:
         peak = np.max(np.abs(col[name]))

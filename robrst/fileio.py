@@ -16,7 +16,8 @@ import numpy as np
 
 from robrst.errors import OutputError
 
-__all__ = ["atomic_write_bytes", "atomic_write_text", "json_text", "jsonable", "umask_mode"]
+__all__ = ["atomic_write_bytes", "atomic_write_text", "json_text", "jsonable", "umask_mode",
+           "check_file_target", "check_folder_target"]
 
 
 def umask_mode(mode=0o666):
@@ -26,14 +27,55 @@ def umask_mode(mode=0o666):
     return mode & ~mask
 
 
-def atomic_write_bytes(path, data):
-    """Write ``data`` to ``path`` atomically; create the parent folder if needed."""
-    path = Path(path)
-    if path.is_dir():
-        raise OutputError(f"{path}: is a folder; expected a file name")
+def _check_parents(path):
     for parent in path.parents:
         if parent.exists() and not parent.is_dir():
             raise OutputError(f"{path}: {parent} is a file, not a folder")
+
+
+def check_file_target(path):
+    """Refuse an output file name that cannot be written: a folder, or a path under a file.
+
+    Commands call it before any work, so a mistyped output fails at once.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Raises
+    ------
+    OutputError
+        Naming the path and what was expected.
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise OutputError(f"{path}: is a folder; expected a file name")
+    _check_parents(path)
+    return path
+
+
+def check_folder_target(path):
+    """Refuse an output folder that cannot be created: an existing file, or a path under a file.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Raises
+    ------
+    OutputError
+        Naming the path and what was expected.
+    """
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise OutputError(f"{path}: is a file; expected a folder")
+    _check_parents(path)
+    return path
+
+
+def atomic_write_bytes(path, data):
+    """Write ``data`` to ``path`` atomically; create the parent folder if needed."""
+    path = check_file_target(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:

@@ -97,13 +97,13 @@ def _is_number(v):
 
 
 def _check_range(path, key, field, v):
-    if v != 0 and not 1.0 / MAX_MAGNITUDE <= abs(v) <= MAX_MAGNITUDE:
-        raise key_error(path, key, f"expected 0 or a magnitude between {1 / MAX_MAGNITUDE:g}"
-                        f" and {MAX_MAGNITUDE:g}, got {v!r}")
     bad = ((field.positive and not v > 0) or (field.lo is not None and v < field.lo)
            or (field.hi is not None and v > field.hi))
     if bad:
         raise key_error(path, key, f"expected {field.describe()}, got {v!r}")
+    if v != 0 and not 1.0 / MAX_MAGNITUDE <= abs(v) <= MAX_MAGNITUDE:
+        raise key_error(path, key, f"expected 0 or {1 / MAX_MAGNITUDE:g} <= |value| <="
+                        f" {MAX_MAGNITUDE:g}, got {v!r}")
 
 
 def _check_value(path, key, field, value):

@@ -11,6 +11,8 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+import numpy as np
+
 from robrst import resources
 from robrst.errors import SpecError
 from robrst.family import PlantFamily, ThermalCoefficients, explicit_family, parametric_family
@@ -23,6 +25,10 @@ __all__ = ["load_problem", "parse_problem", "resolve_problem_path", "SCHEMA", "s
 
 TEMP = dict(lo=-100.0, hi=500.0)      # plausible temperatures [°C]
 BAND = dict(positive=True, length=2)  # [lo, hi] pairs
+# size limits: beyond them the float64 maths overflows (root products, Sylvester matrices)
+MAX_RATE = 1e9                        # any pole, zero or frequency [rad/s] (160 MHz)
+RATE = dict(lo=-MAX_RATE, hi=MAX_RATE)
+COEF = dict(lo=-1e100, hi=1e100)      # polynomial coefficients and gains
 
 SCHEMA = {
     "problem": {
@@ -31,11 +37,13 @@ SCHEMA = {
     },
     "plant": {
         "name": Field("str", None, "built-in model: 'paper' = D(s) of eq. (4)"),
-        "B": Field("numbers", None, "numerator coefficients [µm/V], highest power first"),
-        "A": Field("numbers", None, "denominator coefficients, highest power first"),
-        "zeros": Field("numbers", None, "real zeros [rad/s] (with 'poles', 'gain')"),
-        "poles": Field("numbers", None, "real poles [rad/s]"),
-        "gain": Field("number", None, "leading gain k of k*prod(s-z)/prod(s-p)"),
+        "B": Field("numbers", None, "numerator coefficients [µm/V], highest power first",
+                   **COEF),
+        "A": Field("numbers", None, "denominator coefficients, highest power first",
+                   **COEF),
+        "zeros": Field("numbers", None, "real zeros [rad/s] (with 'poles', 'gain')", **RATE),
+        "poles": Field("numbers", None, "real poles [rad/s]", **RATE),
+        "gain": Field("number", None, "leading gain k of k*prod(s-z)/prod(s-p)", **COEF),
         "temperature_C": Field("number", 28.0, "temperature of the nominal model [°C]", **TEMP),
         "source": Field("str", "", "where the model comes from"),
     },
@@ -54,8 +62,8 @@ SCHEMA = {
         },
         "models": ArrayOf({
             "temperature_C": Field("number", None, "temperature [°C]", required=True, **TEMP),
-            "B": Field("numbers", None, "numerator coefficients", required=True),
-            "A": Field("numbers", None, "denominator coefficients", required=True),
+            "B": Field("numbers", None, "numerator coefficients", required=True, **COEF),
+            "A": Field("numbers", None, "denominator coefficients", required=True, **COEF),
         }),
     },
     "controller": {
@@ -64,28 +72,31 @@ SCHEMA = {
         "extra_degree": Field("int", 0, "degrees of S above the paper's minimum", lo=0, hi=20),
         "T_mode": Field("str", "paper", "paper | static | cancel_aux | reference_model",
                         choices=T_MODES),
-        "T_zeros": Field("numbers", (), "zeros of T = Bm_aux [rad/s] (T_mode = paper)"),
+        "T_zeros": Field("numbers", (), "zeros of T = Bm_aux [rad/s] (T_mode = paper)", **RATE),
         "relative_degree": Field("int", 0, "deg R <= deg S - this (1: strictly proper controller)",
                                  lo=0, hi=10),
         "roll_off_order": Field("int", 0, "poles of a fixed roll-off factor (s/wc + 1)^order in S"
                                 " (adds to the relative degree)", lo=0, hi=10),
         "roll_off_hz": Field("number", None, "corner wc/2pi of the roll-off factor [Hz]",
-                             positive=True),
+                             positive=True, hi=1.5e8),
         "reference_wn": Field("number", None, "reference model bandwidth [rad/s]"
-                              " (T_mode = reference_model)", positive=True),
+                              " (T_mode = reference_model)", positive=True, hi=MAX_RATE),
         "reference_zeta": Field("number", 1.0, "reference model damping", positive=True),
         "T_cancel_damping": Field("number", 0.5, "T cancels nominal closed-loop factors at least"
                                   " this damped (T_mode = reference_model)", lo=0.0, hi=1.0),
     },
     "poles": {
-        "wn": Field("number", None, "dominant natural frequency [rad/s]", positive=True),
+        "wn": Field("number", None, "dominant natural frequency [rad/s]", positive=True,
+                    hi=MAX_RATE),
         "zeta": Field("number", None, "dominant damping", positive=True),
-        "dominant_real": Field("numbers", (), "extra dominant real poles [rad/s, < 0]"),
-        "dominant_roots_re": Field("numbers", None, "explicit dominant roots, real parts"),
-        "dominant_roots_im": Field("numbers", None, "explicit dominant roots, imaginary parts"),
+        "dominant_real": Field("numbers", (), "extra dominant real poles [rad/s, < 0]", **RATE),
+        "dominant_roots_re": Field("numbers", None, "explicit dominant roots, real parts",
+                                   **RATE),
+        "dominant_roots_im": Field("numbers", None, "explicit dominant roots, imaginary parts",
+                                   **RATE),
         "aux_factor": Field("number", 10.0, "auxiliary poles at -aux_factor*|fastest dominant|",
-                            positive=True),
-        "aux_roots": Field("numbers", None, "explicit real auxiliary roots [rad/s]"),
+                            positive=True, hi=1e4),
+        "aux_roots": Field("numbers", None, "explicit real auxiliary roots [rad/s]", **RATE),
     },
     "specs": {
         "Ms_max": Field("number", None, "bound on |S| (modulus margin >= 1/Ms_max)", lo=1.0),
@@ -148,6 +159,17 @@ def schema_markdown():
     return markdown_rows(SCHEMA)
 
 
+def _check_rates(path, key, plant):
+    """Refuse poles or zeros faster than :data:`MAX_RATE` (float64 overflows beyond)."""
+    with np.errstate(all="ignore"):
+        roots = np.concatenate([np.roots(plant.A), np.roots(plant.B)])
+    if roots.size and not np.all(np.abs(roots) <= MAX_RATE):
+        worst = np.max(np.abs(roots)) if np.all(np.isfinite(roots)) else np.inf
+        raise key_error(path, key, f"a pole or zero at {worst:.3g} rad/s; expected every pole"
+                        f" and zero within {MAX_RATE:g} rad/s (rescale time or units)")
+    return plant
+
+
 def _plant(path, p):
     if p is None:
         raise key_error(path, ("plant",), "missing required table [plant]")
@@ -172,7 +194,8 @@ def _plant(path, p):
         if str(exc).startswith(str(path)):
             raise
         raise key_error(path, ("plant",), str(exc)) from None
-    return Plant(pl.B, pl.A, label=f"T{T:g}C", temperature_C=T, meta=pl.meta)
+    return _check_rates(path, ("plant",),
+                        Plant(pl.B, pl.A, label=f"T{T:g}C", temperature_C=T, meta=pl.meta))
 
 
 def _family(path, f, nominal):
@@ -191,6 +214,7 @@ def _family(path, f, nominal):
                                     temperature_C=m["temperature_C"]))
             except SpecError as exc:
                 raise key_error(path, ("family", "models", str(i)), str(exc)) from None
+            _check_rates(path, ("family", "models", str(i)), models[-1])
         try:
             return explicit_family(models, ref)
         except SpecError as exc:
@@ -250,6 +274,17 @@ def _check_new_keys(path, ctrl, specs):
                         " 'reference_model'")
 
 
+def _check_compare_with(path, solver):
+    other = solver.compare_with
+    if other is None or str(path).startswith("<"):
+        return
+    target = Path(str(path)).parent / other
+    if not target.is_file():
+        what = "is a folder" if target.is_dir() else "not found"
+        raise key_error(path, ("solver", "compare_with"), f"{target}: {what}; expected a problem"
+                        " file (a path relative to this file)")
+
+
 def parse_problem(data, path="<problem>"):
     """Validate a parsed TOML document and build the :class:`~robrst.problem.Problem`.
 
@@ -294,11 +329,7 @@ def parse_problem(data, path="<problem>"):
                         " the SOCP is posed at fixed closed-loop poles")
     if solver.free_poles and (solver.wn_bounds is None or solver.zeta_bounds is None):
         raise key_error(path, ("solver", "free_poles"), "needs 'wn_bounds' and 'zeta_bounds'")
-    if solver.compare_with and not str(path).startswith("<"):
-        other = Path(str(path)).parent / solver.compare_with
-        if not other.is_file():
-            raise key_error(path, ("solver", "compare_with"),
-                            f"expected a problem file beside this one, {other} does not exist")
+    _check_compare_with(path, solver)
     meta = v["problem"] or {}
     name = meta.get("name") or Path(str(path)).stem
     return Problem(name=name, family=family, poles=poles, controller=ctrl, specs=specs,

@@ -29,13 +29,13 @@ from __future__ import annotations
 import json
 import math
 import re
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
 from robrst import __version__
 from robrst.errors import OutputError, SpecError
-from robrst.fileio import atomic_write_text
+from robrst.fileio import atomic_write_text, check_file_target
+from robrst.schema import load_toml
 
 __all__ = ["Worse", "golden_figures", "write_golden", "read_golden", "compare_golden",
            "assert_margins", "MARKER", "DEFAULT_TOL"]
@@ -142,7 +142,7 @@ def write_golden(result, path, rtol=DEFAULT_TOL["rtol"],
     OutputError
         ``path`` exists and is not a robrst golden (nothing is overwritten).
     """
-    path = Path(path)
+    path = check_file_target(path)
     if path.exists() and (path.is_dir() or not path.read_text(errors="replace").startswith(MARKER)):
         raise OutputError(f"{path}: exists and is not a robrst golden (it does not start with"
                           f" {MARKER!r}); refusing to overwrite it")
@@ -202,14 +202,9 @@ def read_golden(path):
         "models": {label: {figure: (value, rtol, atol)}}}``.
     """
     path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise SpecError(f"{path}: golden file not found (write one with --update)") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SpecError(f"{path}: cannot read the golden file ({exc})") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise SpecError(f"{path}: not valid TOML ({exc})") from None
+    if not path.exists():
+        raise SpecError(f"{path}: golden file not found (write one with --update)")
+    data = load_toml(path, "golden file")
     unknown = set(data) - {"golden", "design", "models"}
     if unknown:
         raise _bad(path, sorted(unknown)[0], "unknown table; expected golden, design, models")

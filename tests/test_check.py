@@ -83,7 +83,7 @@ def test_objective_and_certificate_regressions(golden, designs, capsys):
 
 
 @pytest.mark.parametrize("text,msg", [
-    ("this is [not toml", "not valid TOML"),
+    ("this is [not toml", "invalid TOML"),
     ('[design]\ncertified = true\n', "[golden]"),
     ('[golden]\nformat = 1\nproblem = "paper"\n[models.T28C]\nMs = { value = "big" }\n',
      "models.T28C.Ms] value must be a number"),

@@ -189,7 +189,7 @@ def test_cli_rate_override_redesigns_a_sampled_problem(tmp_path, capsys):
 @pytest.mark.parametrize("args,msg", [
     (["export", "paper"], "names no sampling rate"),
     (["export", "paper", "--fs", "-5"], "sampling rate"),
-    (["export", "paper", "--fs", "20000", "--delay-samples", "-1"], "delay_samples"),
+    (["export", "paper", "--fs", "20000", "--delay-samples", "-1"], "--delay-samples"),
     (["export", "paper", "--fs", "20000", "--u-range", "150", "0"], "amplifier range"),
     (["export", "paper", "--fs", "20000", "--format", "c", "--prefix", "1bad"], "C prefix"),
 ])

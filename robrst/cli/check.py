@@ -3,6 +3,7 @@
 from robrst.cli.common import progress_printer
 from robrst.design import run_problem
 from robrst.errors import SpecError
+from robrst.fileio import check_file_target
 from robrst.spec import load_problem
 from robrst.testing import compare_golden, golden_figures, read_golden, write_golden
 
@@ -25,6 +26,8 @@ def run_check(args):
     """Design, then write the golden (``--update``) or print every figure that got worse."""
     say = progress_printer(args.quiet)
     golden = None if args.update else read_golden(args.golden)   # a bad golden fails first
+    if args.update:
+        check_file_target(args.golden)
     problem = load_problem(args.problem)
     if golden is not None and golden["problem"] != problem.name:
         raise SpecError(f"{args.golden}: golden is for problem {golden['problem']!r},"

@@ -1,7 +1,7 @@
 """``robrst diagnose``: where a simulation model misses measured data, and why."""
 
 from robrst.cli.common import progress_printer
-from robrst.fileio import atomic_write_text, json_text
+from robrst.fileio import atomic_write_text, check_file_target, check_folder_target, json_text
 
 __all__ = ["add_parsers", "run_diagnose"]
 
@@ -31,6 +31,10 @@ def run_diagnose(args):
     from robrst.diagnose.summary import summary_text
 
     to_stdout = args.json == "-"
+    if args.json and not to_stdout:
+        check_file_target(args.json)              # bad targets fail before the work
+    if args.report:
+        check_folder_target(args.report)
     say = progress_printer(args.quiet or to_stdout)
     train = [load_dataset(f) for f in args.train]
     test = [load_dataset(f) for f in args.test]

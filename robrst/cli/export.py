@@ -1,16 +1,17 @@
 """``robrst export``: the digital controller (JSON, C or Python) and its sampled-loop certificate."""
 
+import math
 import sys
 from dataclasses import replace
 from pathlib import Path
 
 from robrst.cli.common import progress_printer
 from robrst.design import run_problem
-from robrst.errors import OutputError
+from robrst.errors import OutputError, SpecError
 from robrst.export import c_files, export_controller, python_module
 from robrst.export.c_code import check_prefix
 from robrst.export.core import check_u_range, sampling
-from robrst.fileio import atomic_write_text, json_text
+from robrst.fileio import atomic_write_text, check_file_target, json_text
 from robrst.spec import load_problem
 
 __all__ = ["add_parsers", "run_export"]
@@ -52,8 +53,7 @@ def _targets(args):
 def _check_targets(paths):
     """Refuse, before any work, to overwrite a file robrst export did not write."""
     for path in paths:
-        if path.is_dir():
-            raise OutputError(f"{path}: is a folder; expected a file name")
+        check_file_target(path)
         if path.is_file():
             head = path.read_text(errors="replace")[:400]
             if GENERATED not in head and '"robrst_version"' not in head:
@@ -61,11 +61,26 @@ def _check_targets(paths):
                                   " refusing to overwrite it (remove it or choose another --out)")
 
 
+def _check_arguments(args):
+    """``--fs``, ``--delay-samples`` and ``--u-range`` in range (named in the message)."""
+    if args.fs is not None and not (math.isfinite(args.fs) and 0 < args.fs <= 1e9):
+        raise SpecError(f"--fs: expected a sampling rate in (0, 1e9] Hz, got {args.fs}")
+    if args.delay_samples is not None and not 0 <= args.delay_samples <= 1000:
+        raise SpecError(f"--delay-samples: expected a whole number in 0..1000,"
+                        f" got {args.delay_samples}")
+    if args.u_range is not None and not all(math.isfinite(u) for u in args.u_range):
+        raise SpecError(f"--u-range: expected two finite voltages LO < HI, got {args.u_range}")
+
+
 def run_export(args):
     """Design, discretise, certify the sampled loop, write; exit 0 certified, 1 not certified."""
     say = progress_printer(args.quiet or args.out is None)
     check_prefix(args.prefix)                     # bad arguments fail before the design
-    u_range = check_u_range(args.u_range)
+    _check_arguments(args)
+    try:
+        u_range = check_u_range(args.u_range)
+    except SpecError as exc:
+        raise SpecError(f"--u-range: {exc}") from None
     targets = _targets(args)
     _check_targets(targets)
     problem = load_problem(args.problem)

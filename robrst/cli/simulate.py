@@ -2,7 +2,7 @@
 
 from robrst.cli.common import print_json, progress_printer
 from robrst.errors import SpecError
-from robrst.fileio import json_text
+from robrst.fileio import check_folder_target, json_text
 
 __all__ = ["add_parsers", "run_simulate"]
 
@@ -32,6 +32,7 @@ def run_simulate(args):
     say = progress_printer(args.quiet or args.json)
     cfg = load_twin(args.twin) if args.twin else default_twin()
     out = args.out or f"reports/simulate/{args.scenario}"
+    check_folder_target(out)                      # a bad target fails before the simulation
     say(f"simulating {args.scenario} on twin {cfg.name} ({cfg.sample_rate_hz:g} Hz) -> {out}")
     res = run_scenario(args.scenario, cfg, fast=args.fast)
     write_scenario(res, out)

@@ -84,7 +84,10 @@ def _controller(sweep, original):
         except RobrstError as exc:
             raise SolverError(f"{sweep.path}: the design of the base problem failed, so there"
                               f" is no controller to analyse: {exc}") from None
-    return read_controller(Path(sweep.path).parent / sweep.controller)
+    try:
+        return read_controller(Path(sweep.path).parent / sweep.controller)
+    except SpecError as exc:
+        raise key_error(sweep.path, ("analysis", "controller"), str(exc)) from None
 
 
 def _fleet(sweep):
