@@ -23,6 +23,7 @@ import numpy as np
 from robrst.diagnose import signals
 from robrst.diagnose.effects import INPUT_EFFECTS, Chain
 from robrst.diagnose.fit import fit_model
+from robrst.diagnose.polish import polish_residues
 from robrst.diagnose.thermal import fit_thermal_dynamics
 
 __all__ = ["Setup", "Scored", "candidates", "forward", "excess", "significant",
@@ -118,6 +119,8 @@ def _fit(setup, name, effects, joint, dynamic=False, start=None, theta=None, max
     fit = fit_model(name, effects, train, lin, _chain(setup, effects),
                     setup.noise_sigma, joint=joint, dynamic=dynamic, start=start, theta=theta,
                     max_nfev=max_nfev, ftol=ftol)
+    if dynamic:
+        fit = polish_residues(fit, train, setup.noise_sigma)
     return score(setup, fit, t0)
 
 
