@@ -33,9 +33,10 @@ class Polished(Fitted):
 
     dR: np.ndarray = None          # (n, m, k) complex, per unit of level factor
 
-    def model_at(self, level):
-        """The continuous-time :class:`ModalModel` at excitation level ``level`` [V rms]."""
-        cm = self.lin.continuous(self.theta_at(level))
+    def model_at(self, level, x=None):
+        """The continuous-time :class:`ModalModel` at excitation level ``level`` [V rms]
+        (parameters ``x``, default the fitted ones; ``dR`` stays the fitted one)."""
+        cm = self.lin.continuous(self.theta_at(level, x))
         f = level_factor(level, self.level_ref)
         return ModalModel(cm.poles, cm.residues + f * self.dR, cm.D, label=cm.label,
                           temperature_C=cm.temperature_C)
@@ -51,13 +52,13 @@ class Polished(Fitted):
         return out, sd
 
     def predict_prepared(self, p, x=None):
-        V = _effective(self, p)
-        return self.model_at(p.level).discretise(self.lin.fs).response(V, periodic=p.periodic)
+        V = _effective(self, p, x)
+        return self.model_at(p.level, x).discretise(self.lin.fs).response(V, periodic=p.periodic)
 
 
-def _effective(fit, p):
+def _effective(fit, p, x=None):
     """Effective inputs of a prepared record through the fit's effect chain."""
-    z = fit.parts()[0]
+    z = fit.parts(x)[0]
     U, T = p.U, p.temp
     if p.warm:
         U, T = np.vstack([U[-p.warm:], U]), np.concatenate([T[-p.warm:], T])
@@ -70,7 +71,8 @@ def _mode_signal(zq, x, periodic):
         N = x.size
         z = np.exp(2j * np.pi * np.arange(N) / N)
         return np.fft.ifft(np.fft.fft(x) / (z - zq))
-    return signal.lfilter([0.0, 1.0], [1.0, -zq], x.astype(complex))   # x_q[k+1] = zq x_q[k] + x[k]
+    # from rest: x_q[k+1] = zq x_q[k] + x[k]
+    return signal.lfilter([0.0, 1.0], [1.0, -zq], x.astype(complex))
 
 
 def _columns(model, fs, V, periodic):
