@@ -83,9 +83,11 @@ def _table(s):
         "|---|---|---|",
         f"| linear, identified on 100 mV (`robrst identify`, order 28) |"
         f" {_pct(s['linear_100mV_at_300mV'])} | {_pct(p['linear_100mV_at_300mV'])} |",
-        f"| linear re-fitted on 100 + 200 mV | {_pct(s['linear_refit_100_200mV_at_300mV'])} | — |",
+        f"| linear re-fitted on 100 + 200 mV |"
+        f" {_pct(s['linear_refit_100_200mV_at_300mV'])} | — |",
         f"| + {' + '.join(s['effects']) or 'nothing'} (fitted on 100 + 200 mV) |"
-        f" {_pct(s['with_effect_at_300mV'])} | LFR on all levels {_pct(p['lfr_all_levels_at_300mV'])} |",
+        f" {_pct(s['with_effect_at_300mV'])} |"
+        f" LFR on all levels {_pct(p['lfr_all_levels_at_300mV'])} |",
         f"| noise floor (period differences) | {_pct(s['noise_floor'])} | — |",
     ]
     return (f"cause: **{s['cause']}** — {s['reason']}\n\n" + "\n".join(rows) + "\n\n"

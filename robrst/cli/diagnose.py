@@ -61,9 +61,10 @@ def run_diagnose(args):
 def _model(path):
     """(plant, reference °C): a problem file's nominal plant, or a model file's model.
 
-    A problem file (or a built-in problem's name) keeps its :class:`~robrst.plant.Plant` (so the JSON reports the changes
-    of its coefficients); a model file from ``robrst identify`` gives the modal model at its
-    reference temperature (the first one when it states none).
+    A problem file (or a built-in problem's name) keeps its :class:`~robrst.plant.Plant`
+    (so the JSON reports the changes of its coefficients); a model file from
+    ``robrst identify`` gives the modal model at its reference temperature (the first one
+    when it states none).
     """
     from robrst.experiments.linear_model import load_linear_model
     from robrst.identify.modelfile import read_model_data
