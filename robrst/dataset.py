@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from robrst.errors import DataError
-from robrst.fileio import atomic_write_bytes, atomic_write_text
+from robrst.fileio import atomic_write_bytes, atomic_write_text, read_utf8
 
 __all__ = ["Dataset", "load_dataset", "save_dataset", "COLUMNS", "PLAUSIBLE"]
 
@@ -192,25 +192,10 @@ def _slow_parse(path, body, first_line, n_fields):
 
 def _read_lines(path):
     """The lines of a UTF-8 text file; :class:`DataError` for anything else."""
-    try:
-        raw = path.read_bytes()
-    except FileNotFoundError:
-        raise DataError(f"{path}: data file not found") from None
-    except IsADirectoryError:
-        raise DataError(f"{path}: is a folder, expected a data file (CSV)") from None
-    except OSError as exc:
-        raise DataError(f"{path}: cannot read the data file ({exc.strerror})") from None
-    if raw[:2] in (b"\xff\xfe", b"\xfe\xff"):
-        raise DataError(f"{path}: data file is UTF-16; save it as UTF-8")
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        line = raw[:exc.start].count(b"\n") + 1
-        raise DataError(f"{path}: line {line}: not valid UTF-8 (byte 0x{raw[exc.start]:02x});"
-                        " save the data file as UTF-8") from None
+    text = read_utf8(path, "data file", "CSV", DataError)
     if "\x00" in text:
         raise DataError(f"{path}: contains NUL bytes; expected a CSV text file (UTF-8)")
-    return text.removeprefix("\ufeff").splitlines()
+    return text.splitlines()
 
 
 def _read_csv(path):

@@ -17,7 +17,7 @@ import numpy as np
 from robrst.errors import OutputError
 
 __all__ = ["atomic_write_bytes", "atomic_write_text", "json_text", "jsonable", "umask_mode",
-           "check_file_target", "check_folder_target"]
+           "check_file_target", "check_folder_target", "read_utf8"]
 
 
 def umask_mode(mode=0o666):
@@ -25,6 +25,38 @@ def umask_mode(mode=0o666):
     mask = os.umask(0)
     os.umask(mask)
     return mode & ~mask
+
+
+def read_utf8(path, what, kind, error):
+    """The text of a UTF-8 file (BOM dropped); every failure is one ``error`` naming ``path``.
+
+    Parameters
+    ----------
+    path : Path
+    what : str
+        What the file is, for messages ("problem file", "data file").
+    kind : str
+        Its format, for the folder message ("TOML", "CSV").
+    error : type
+        The robrst exception to raise (``SpecError``, ``DataError``).
+    """
+    try:
+        raw = path.read_bytes()
+    except IsADirectoryError:
+        raise error(f"{path}: is a folder, expected a {what} ({kind})") from None
+    except FileNotFoundError:
+        raise error(f"{path}: {what} not found") from None
+    except OSError as exc:
+        raise error(f"{path}: cannot read the {what} ({exc.strerror})") from None
+    if raw[:2] in (b"\xff\xfe", b"\xfe\xff"):
+        raise error(f"{path}: {what} is UTF-16; save it as UTF-8")
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw[:exc.start].count(b"\n") + 1
+        raise error(f"{path}: line {line}: not valid UTF-8 (byte 0x{raw[exc.start]:02x});"
+                    f" save the {what} as UTF-8") from None
+    return text.removeprefix("\ufeff")
 
 
 def _check_parents(path):

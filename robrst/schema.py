@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from robrst.errors import SpecError
+from robrst.fileio import read_utf8
 
 __all__ = ["Field", "ArrayOf", "validate", "key_error", "load_toml", "markdown_rows",
            "MAX_LIST", "MAX_MAGNITUDE"]
@@ -219,24 +220,9 @@ def load_toml(path, what="file"):
     dict
     """
     path = Path(path)
+    text = read_utf8(path, what, "TOML", SpecError)
     try:
-        raw = path.read_bytes()
-    except IsADirectoryError:
-        raise SpecError(f"{path}: is a folder, expected a {what} (TOML)") from None
-    except FileNotFoundError:
-        raise SpecError(f"{path}: {what} not found") from None
-    except OSError as exc:
-        raise SpecError(f"{path}: cannot read {what} ({exc.strerror})") from None
-    if raw[:2] in (b"\xff\xfe", b"\xfe\xff"):
-        raise SpecError(f"{path}: {what} is UTF-16; save it as UTF-8")
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        line = raw[:exc.start].count(b"\n") + 1
-        raise SpecError(f"{path}: line {line}: not valid UTF-8 (byte 0x{raw[exc.start]:02x});"
-                        f" save the {what} as UTF-8") from None
-    try:
-        doc = tomllib.loads(text.removeprefix("\ufeff"))
+        doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SpecError(f"{path}: invalid TOML ({exc})") from None
     if not doc:
