@@ -11,6 +11,7 @@ from robrst.cli import main
 from robrst.dataset import Dataset, save_dataset
 from robrst.diagnose import diagnose
 from robrst.diagnose import signals
+from robrst.diagnose.estimate import fit_effects
 from robrst.diagnose.linear import LinearSim, refit_linear
 from robrst.errors import DataError
 from robrst.plant import Plant, paper_plant
@@ -18,17 +19,6 @@ from robrst.twin.config import default_twin
 from robrst.twin.simulate import simulate
 
 FS = 5000.0
-
-FIT_EFFECT_GONE = pytest.mark.xfail(
-    reason="work in progress: written for the former per-effect fit_effect API; the rebuilt"
-           " diagnosis fits effects through diagnose.fit.fit_model / diagnose.thermal and these"
-           " round trips are not yet ported to it", strict=False)
-
-
-def fit_effect(*args, **kwargs):
-    """Stand-in for the removed per-effect API (the tests using it are xfail)."""
-    raise NotImplementedError("fit_effect was replaced by robrst.diagnose.fit.fit_model")
-
 
 def _ds(u, y, temp=None, fs=FS, name=""):
     n = len(u)
@@ -138,7 +128,6 @@ def _twin_records(effect, over, seeds=(5, 6), temps=((28, 44), (40, 30))):
     return out
 
 
-@FIT_EFFECT_GONE
 @pytest.mark.parametrize("effect,over,tol", [
     ("hysteresis", {"A": 0.35, "B": 0.004, "Gamma": 0.003}, 1e-4),
     ("creep", {"per_decade": 0.015, "per_K": 0.08}, 1e-4),
@@ -149,7 +138,7 @@ def _twin_records(effect, over, seeds=(5, 6), temps=((28, 44), (40, 30))):
 def test_effect_fit_round_trip(effect, over, tol):
     """Noise-free twin data with known parameters: the fit recovers them."""
     recs = _twin_records(effect, over)
-    fit = fit_effect(effect, recs, paper_plant(), FS, 28.0, max_nfev=80)
+    fit = fit_effects(recs, [effect], paper_plant(), 28.0, max_nfev=80)
     names = {"hysteresis": {"A": "A", "B": "B_per_V", "Gamma": "Gamma_per_V"},
              "creep": {"per_decade": "per_decade", "per_K": "per_K"},
              "thermal_drift": {"lag_s": "lag_s", "B": "B_per_K", "Gamma": "Gamma_per_K",
@@ -159,7 +148,6 @@ def test_effect_fit_round_trip(effect, over, tol):
         assert fit.params[names[k]] == pytest.approx(v, rel=tol), k
 
 
-@FIT_EFFECT_GONE
 def test_undetermined_parameters_get_infinite_uncertainty():
     """One-way temperature ramps only determine B + Gamma of the drift: say so."""
     over = {"lag_s": 2.0, "B": 0.15, "Gamma": 0.1, "gain_V_per_K": 0.7}
@@ -167,23 +155,22 @@ def test_undetermined_parameters_get_infinite_uncertainty():
     u = _steps(30000, 5, lo=5.0, hi=145.0)
     temp = np.linspace(28.0, 44.0, u.size)
     rec = _ds(u, simulate(cfg, temp, u=u).y_true, temp)
-    fit = fit_effect("thermal_drift", [rec], paper_plant(), FS, 28.0)
+    fit = fit_effects([rec], ["thermal_drift"], paper_plant(), 28.0)
     s = fit.params["B_per_K"] + fit.params["Gamma_per_K"]
     assert s == pytest.approx(0.25, rel=1e-3)
     assert fit.std["B_per_K"] == np.inf and fit.std["Gamma_per_K"] == np.inf
     assert fit.params["lag_s"] == pytest.approx(2.0, rel=1e-3) and np.isfinite(fit.std["lag_s"])
 
 
-@FIT_EFFECT_GONE
 def test_delay_and_saturation_fits_are_exact():
     plant = paper_plant()
     lin = LinearSim.of(plant, FS)
     u = _steps(30000, 7, lo=-20.0, hi=170.0)
     d = 3
     ud = np.concatenate([np.full(d, u[0]), u[:-d]])
-    fit = fit_effect("delay", [_ds(u, lin(ud))], plant, FS)
+    fit = fit_effects([_ds(u, lin(ud))], ["delay"], plant)
     assert fit.params["samples"] == d and fit.params["seconds"] == pytest.approx(d / FS, rel=1e-12)
-    sat = fit_effect("saturation", [_ds(u, lin(np.clip(u, 0.0, 150.0)))], plant, FS)
+    sat = fit_effects([_ds(u, lin(np.clip(u, 0.0, 150.0)))], ["saturation"], plant)
     assert sat.params["u_min_V"] == pytest.approx(0.0, abs=0.05)
     assert sat.params["u_max_V"] == pytest.approx(150.0, abs=0.05)
 
@@ -225,3 +212,32 @@ def test_cli_diagnose_json_and_errors(tmp_path, capsys):
     assert main(["diagnose", "--train", str(bad), "--test", str(files[2])]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "bad.csv: line 1: missing column(s) y" in err[0]
+
+
+def test_fit_effects_names_bad_requests():
+    u = _steps(4000, 8)
+    rec = _ds(u, LinearSim.of(paper_plant(), FS)(u), name="a.csv")
+    with pytest.raises(DataError, match="unknown effect.*'backlash'"):
+        fit_effects([rec], ["backlash"])
+    with pytest.raises(DataError, match="thermal_dynamics is fitted alone"):
+        fit_effects([rec], ["thermal_dynamics", "creep"])
+    with pytest.raises(DataError, match="a.csv: too short"):
+        fit_effects([_ds(u[:100], u[:100], name="a.csv")], ["creep"])
+
+
+def test_fit_effects_joint_recovers_effect_and_model_error():
+    """Creep on a plant whose gain is 6 % above the user's model: fitted jointly, both found."""
+    plant = paper_plant()
+    true = Plant(np.asarray(plant.B) * 1.06, plant.A)
+    cfg = replace(default_twin().with_effects(only=["creep"], creep={"per_decade": 0.02}),
+                  sample_rate_hz=FS)
+    recs = []
+    for s in (11, 12):
+        u = _steps(30000, s, lo=5.0, hi=145.0)
+        y = simulate(cfg, np.full(u.size, 28.0), u=u).y_true * 1.06
+        recs.append(_ds(u, y))
+    alone = fit_effects(recs, ["creep"], plant)
+    joint = fit_effects(recs, ["creep"], plant, joint=True)
+    assert joint.params["per_decade"] == pytest.approx(0.02, rel=2e-3)
+    assert joint.linear_change["gain"] == pytest.approx(0.06, rel=2e-2)
+    assert joint.gap < 0.05 * alone.gap and joint.gap < 1e-3
