@@ -36,7 +36,7 @@ from robrst.diagnose.linear import LinearPart, as_modal
 from robrst.diagnose.result import Diagnosis, EffectScore
 from robrst.diagnose.select import Setup, candidates, forward
 from robrst.diagnose.thermal import search_delay, search_saturation
-from robrst.diagnose.verdict import build, decide, unmodelled
+from robrst.diagnose.verdict import NEAR_RATIO, build, decide, unmodelled
 from robrst.errors import DataError
 from robrst.plant import paper_plant
 
@@ -215,15 +215,19 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
                   delays=(search_delay(train_p, lin, max_delay) if "delay" in tried
                           else (0,) * model.n_in),
                   saturation=search_saturation(train_p, lin, None) if "saturation" in tried
-                  else [], floor=floor, workers=workers)
+                  else [], floor=floor, gap_before=before, workers=workers)
     linear, singles = candidates(setup, say)
     amp, info["per_level"] = amplitude_finding(all_recs, base_res, _low_level_refit(
         setup, train, train_p, preps), sig, n_tr)
     steps, tie = forward(setup, linear, singles, say)
-    cause, reason, causes, best, _ = decide(info, linear, steps, tie)
+    cause, reason, causes, best, gap = decide(info, linear, steps, tie)
     findings = [amp]
-    if cause == "cannot_tell":
+    if cause == "cannot_tell" or (gap is not None and gap > NEAR_RATIO * floor):
+        # what is left may be linear dynamics the model lacks (an effect's answer must
+        # leave more than a higher-order linear model does for that to be said)
         hi = unmodelled(setup, linear, info)
+        if hi and steps and hi[1] >= gap:
+            hi = None
         un = unmodelled_finding(hi[0], hi[2], fs, hi[1], linear.gap, before, floor) if hi else None
         if un:
             findings.append(un)

@@ -5,10 +5,14 @@
    dynamic form of hysteresis when the records allow it.  These are screening fits
    (early stopping, at most ``SCREEN_SAMPLES`` samples per training record); every
    candidate is scored on the whole test records.
-3. Forward selection from the linear re-fit: the best remaining candidate is re-fitted
-   *jointly* with the effects already selected and the linear corrections; it is kept
-   if it removes at least ``MIN_SHRINK`` of the excess held-out gap (gap above the
-   noise floor) left so far and beats the current state by ``MARGIN``; repeat.
+3. Forward selection from the linear re-fit: the best remaining candidates (the two
+   best from the second step on) are re-fitted *jointly* with the effects already
+   selected and the linear corrections; the better is kept if it removes at least
+   ``MIN_SHRINK`` of the excess held-out gap (gap above the noise floor) left so far
+   and beats the current state by ``MARGIN``; repeat.  A candidate qualifies when its
+   screening fit improves on the model *as given* by ``PROMISING`` — not on the linear
+   re-fit: an effect masked by another effect or by a wrong linear model looks poor
+   alone and only shows once fitted together with them.
 
 Every gap is measured on the test records, every fit uses the training records only.
 """
@@ -32,6 +36,7 @@ __all__ = ["Setup", "Scored", "candidates", "forward", "excess", "significant",
 MIN_SHRINK = 0.3         # an explanation must remove >= 30 % of the excess gap it faces
 MARGIN = 1.1             # ... and beat the alternative by 10 % in held-out gap
 MAX_EFFECTS = 3
+FINAL_NFEV = 150         # a selected set of several effects is fitted to convergence
 PROMISING = 0.97         # an effect alone must improve on the linear re-fit by 3 %
 SCREEN_NFEV = 25         # single candidates are screening fits: early stopping
 SCREEN_FTOL = 1e-6
@@ -59,6 +64,7 @@ class Setup:
     delays: tuple
     saturation: list       # starting limits per input
     floor: float
+    gap_before: float      # held-out gap of the model as given
     workers: int = 2
 
 
@@ -130,8 +136,8 @@ def _start(scored):
         return {}
     f = scored.fit
     z, th, s = f.parts()
-    out = dict(zip(f.chain.names, z))
-    out.update(zip(f.lin.names, th))
+    out = dict(zip(f.lin.names, th))
+    out.update(zip(f.chain.names, z))   # hysteresis "gain" is the chain's (the linear one is pinned)
     out.update({f"slope{i}": v for i, v in zip(f.slopes, s)})
     return out
 
@@ -157,12 +163,7 @@ def candidates(setup, say):
     if setup.dynamic:
         jobs["hysteresis:dynamic"] = lambda: _fit(setup, "hysteresis", (), joint=True,
                                                   dynamic=True, start=_start(lin))
-    if setup.workers <= 1:
-        out = {k: f() for k, f in jobs.items()}
-    else:
-        with ThreadPoolExecutor(max_workers=setup.workers) as pool:
-            futures = {k: pool.submit(f) for k, f in jobs.items()}
-            out = {k: fut.result() for k, fut in futures.items()}
+    out = dict(zip(jobs, _run(list(jobs.values()), setup.workers)))
     for k, sc in sorted(out.items(), key=lambda kv: kv[1].gap):
         say(f"  {k:<20} alone: held-out gap {sc.gap:.4g} (training {sc.train_gap:.4g};"
             f" {sc.fit.n_eval} evaluations, {sc.fit_s:.1f} s)")
@@ -181,22 +182,37 @@ def _combine(setup, state, key, single):
     effects = tuple(e for e in (state.fit.effects if state.name != "linear" else ())) + (
         () if key == "hysteresis:dynamic" else (key,))
     dynamic = key == "hysteresis:dynamic" or getattr(state.fit, "form", "") == "dynamic"
-    start = {**_start(single), **(_start(state) if state.name != "linear" else {})}
+    kept = _start(state) if state.name != "linear" else {}
     name = "+".join(sorted(set(effects) | ({"hysteresis"} if dynamic else set())))
-    return _fit(setup, name, effects, joint=True, dynamic=dynamic, start=start)
+    starts = [{**_start(single), **kept}]
+    if state.name != "linear":
+        # the fits so far may have absorbed the new effect (each effect alone mimics
+        # the others): also start every effect from its default, keep the better fit
+        starts.append({k: v for k, v in kept.items() if k in setup.lin.names})
+    jobs = [lambda st=st: _fit(setup, name, effects, joint=True, dynamic=dynamic, start=st)
+            for st in starts]
+    return min(_run(jobs, setup.workers), key=lambda sc: sc.train_gap)
+
+
+def _run(jobs, workers):
+    """Results of the callables ``jobs`` (in order), in ``workers`` threads."""
+    if workers <= 1 or len(jobs) == 1:
+        return [f() for f in jobs]
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        return [fut.result() for fut in [pool.submit(f) for f in jobs]]
 
 
 def forward(setup, lin, singles, say):
     """Forward selection; returns (steps, tie) with steps = [(key, before, Scored)]."""
     state, steps, tie = lin, [], None
-    pool = {k: s for k, s in singles.items() if s.gap <= PROMISING * lin.gap}
+    pool = {k: s for k, s in singles.items() if s.gap <= PROMISING * setup.gap_before}
     while pool and len(steps) < MAX_EFFECTS and state.name != "thermal_dynamics":
-        order = sorted(pool, key=lambda k: pool[k].gap)
-        if state.gap <= 1.25 * setup.floor:
-            break
-        two = not steps and len(order) > 1 and pool[order[1]].gap <= 2 * pool[order[0]].gap
-        tried = [(k, _combine(setup, state, k, pool[k])) for k in order[:2 if two else 1]
+        order = [k for k in sorted(pool, key=lambda k: pool[k].gap)
                  if not steps or k != "thermal_dynamics"]
+        if state.gap <= 1.25 * setup.floor or not order:
+            break
+        two = len(order) > 1 and (steps or pool[order[1]].gap <= 2 * pool[order[0]].gap)
+        tried = [(k, _combine(setup, state, k, pool[k])) for k in order[:2 if two else 1]]
         tried.sort(key=lambda kv: kv[1].gap)
         for k, sc in tried:
             how = "joint fit, " if getattr(sc.fit, "joint", False) else ""
@@ -222,7 +238,27 @@ def forward(setup, lin, singles, say):
         state = best
         pool.pop(k)
         _drop_forms(pool, state)
+    if len(steps) > 1:
+        k, gap0, last = steps[-1]
+        steps[-1] = (k, gap0, _converge(setup, last, say))
     return steps, tie
+
+
+def _converge(setup, sc, say):
+    """The selected set re-fitted to convergence (up to ``FINAL_NFEV`` evaluations).
+
+    Joint fits of several effects stop early during the selection; the model that is
+    reported is run on until the solver converges.  Kept if it fits the training
+    records at least as well (the held-out gap is only measured, never used).
+    """
+    f = sc.fit
+    if f.n_eval < 40 or not hasattr(f, "chain"):
+        return sc
+    more = _fit(setup, sc.name, f.effects, joint=f.joint, dynamic=f.form == "dynamic",
+                start=_start(sc), max_nfev=FINAL_NFEV)
+    say(f"  converged {sc.name}: held-out gap {sc.gap:.4g} -> {more.gap:.4g}"
+        f" ({more.fit.n_eval} evaluations, {more.fit_s:.1f} s)")
+    return more if more.train_gap <= sc.train_gap else sc
 
 
 def _drop_forms(pool, state):

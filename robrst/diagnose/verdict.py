@@ -68,6 +68,9 @@ def decide(info, linear, steps, tie):
                                f" re-fit {linear.gap:.3g} vs {before:.3g})"), (), None, None
     near = gap <= NEAR_RATIO * floor or excess(gap, floor) <= NEAR_EXCESS * excess(before, floor)
     if near:
+        if gap > NEAR_RATIO * floor:
+            reason += (f"; what is left ({gap:.3g}) is {gap / floor:.3g}x the noise floor:"
+                       " part of the gap is still unexplained")
         return answer, reason, causes, None, gap
     best = {"effects": list(causes) or ["linear"], "gap_after": gap, "shrink": 1 - gap / before}
     return "cannot_tell", (f"nothing brings the held-out gap near the noise floor {floor:.3g};"

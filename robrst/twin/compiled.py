@@ -98,13 +98,8 @@ def compile_loop(step, flags=("-O2",)):
     with tempfile.TemporaryDirectory() as tmp:
         cg = ca.CodeGenerator(f"{name}.c", {"with_header": False})
         cg.add(step)
-        cwd = os.getcwd()
-        os.chdir(tmp)
-        try:
-            cg.generate()
-            src = Path(tmp, f"{name}.c").read_text()
-        finally:
-            os.chdir(cwd)
+        cg.generate(tmp + os.sep)      # a prefix, not chdir: threads may compile at once
+        src = Path(tmp, f"{name}.c").read_text()
     driver = (_DRIVER.replace("FNAME", name).replace("NX", str(step.size1_in(0)))
               .replace("NP", str(step.size1_in(1))).replace("NY", str(step.size1_out(1))))
     src = src + driver

@@ -1,0 +1,41 @@
+"""Harder withheld cases (tests/diagnosis_cases.py): several effects at once, closed-loop
+records, a wrong linear model, other sampling rates, short and noisy records, effects
+outside the library.  The expected answers are stated in the cases, before the run."""
+
+import pytest
+
+from diagnosis_cases import CASES, make
+from robrst.diagnose import diagnose
+
+# parameters the answer must recover when several effects are on (truth in the cases)
+RECOVERED = {"hysteresis+creep": ("creep", "per_decade", 0.02, 0.1),
+             "creep+thermal_drift": ("thermal_drift", "lag_s", 3.0, 0.3)}
+
+
+@pytest.fixture(scope="module")
+def results():
+    return {}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", list(CASES))
+def test_hard_case_gets_its_stated_answer(name):
+    train, test, model, case = make(name, seed=0)
+    d = diagnose(train, test, plant=model)
+    assert d.cause in case.accept, (name, d.reason)
+    assert set(case.must_name) <= set(d.extra["causes"]), (name, d.reason)
+    if d.cause not in ("none", "cannot_tell"):
+        assert d.extra["final"] is not None or d.cause == "linear"
+    if case.finding:
+        found = [f for f in d.extra["findings"] if f.get("kind") == case.finding]
+        assert found, (name, d.reason)
+        if case.band_hz:
+            lo, hi = found[0]["band_hz"]
+            assert lo <= case.band_hz <= hi
+            assert min(abs(f - case.band_hz) for f in found[0]["extra_modes_hz"]) < 0.05 * case.band_hz
+    if name in RECOVERED:
+        effect, key, true, rel = RECOVERED[name]
+        got = next(s["params"][key] for s in d.extra["selected"] if s["name"] == effect)
+        assert got == pytest.approx(true, rel=rel), d.extra["selected"]
+    if d.cause == "cannot_tell" and d.extra["best_partial"]:
+        assert d.extra["best_partial"]["gap_after"] < d.gap_before
