@@ -54,6 +54,8 @@ CASES = {c.name: c for c in (
          note="user's model: gain -8 %, resonance +3 %"),
     Case("mismatch_creep", ("creep",), ("creep",), note="user's model: gain -8 %, resonance +3 %"),
     Case("mismatch_only", ("linear",), note="no effect: only the linear model is wrong"),
+    Case("small_to_large_hysteresis", ("hysteresis",),
+         note="trained on 0-40 V, tested on 0-150 V: the loop widens with amplitude"),
     Case("hysteresis_2kHz", ("hysteresis",), note="sampled at 2 kHz"),
     Case("creep_20kHz", ("creep",), note="sampled at 20 kHz"),
     Case("short_hysteresis", ("hysteresis",), note="records of 0.6 s"),
@@ -144,6 +146,8 @@ def make(name, seed=0, fs=5000.0, duration_s=6.0):
     records = []
     for i, kind in enumerate(kinds):
         lo, hi = float(rng.uniform(0, 15)), float(rng.uniform(100, 150))
+        if name == "small_to_large_hysteresis" and i < 2:
+            hi = lo + 40.0
         if bipolar:
             lo, hi = -hi / 2, hi / 2
         u = excitation(kind, n, fs, lo, hi, rng)

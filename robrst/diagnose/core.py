@@ -215,7 +215,8 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
                   delays=(search_delay(train_p, lin, max_delay) if "delay" in tried
                           else (0,) * model.n_in),
                   saturation=search_saturation(train_p, lin, None) if "saturation" in tried
-                  else [], floor=floor, gap_before=before, workers=workers)
+                  else [], floor=floor, gap_before=before,
+                  gap_before_train=before_train, workers=workers)
     linear, singles = candidates(setup, say)
     amp, info["per_level"] = amplitude_finding(all_recs, base_res, _low_level_refit(
         setup, train, train_p, preps), sig, n_tr)

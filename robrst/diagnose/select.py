@@ -9,10 +9,11 @@
    best from the second step on) are re-fitted *jointly* with the effects already
    selected and the linear corrections; the better is kept if it removes at least
    ``MIN_SHRINK`` of the excess held-out gap (gap above the noise floor) left so far
-   and beats the current state by ``MARGIN``; repeat.  A candidate qualifies when its
-   screening fit improves on the model *as given* by ``PROMISING`` — not on the linear
-   re-fit: an effect masked by another effect or by a wrong linear model looks poor
-   alone and only shows once fitted together with them.
+   and beats the current state by ``MARGIN``; the next candidates (``MAX_TRIES`` in
+   all) are tried when none is; repeat.  A candidate qualifies when its screening fit
+   improves on the model *as given* by ``PROMISING``, on the training or the held-out
+   records — not on the linear re-fit: an effect masked by another effect or by a
+   wrong linear model looks poor alone and only shows once fitted with them.
 
 Every gap is measured on the test records, every fit uses the training records only.
 """
@@ -36,7 +37,8 @@ __all__ = ["Setup", "Scored", "candidates", "forward", "excess", "significant",
 MIN_SHRINK = 0.3         # an explanation must remove >= 30 % of the excess gap it faces
 MARGIN = 1.1             # ... and beat the alternative by 10 % in held-out gap
 MAX_EFFECTS = 3
-FINAL_NFEV = 150         # a selected set of several effects is fitted to convergence
+MAX_TRIES = 3            # joint fits tried per step until one is significant
+FINAL_NFEV = 150         # an unconverged joint fit is run on up to this many evaluations
 PROMISING = 0.97         # an effect alone must improve on the linear re-fit by 3 %
 SCREEN_NFEV = 25         # single candidates are screening fits: early stopping
 SCREEN_FTOL = 1e-6
@@ -65,6 +67,7 @@ class Setup:
     saturation: list       # starting limits per input
     floor: float
     gap_before: float      # held-out gap of the model as given
+    gap_before_train: float  # ... and its training gap
     workers: int = 2
 
 
@@ -78,6 +81,7 @@ class Scored:
     train_gap: float
     residuals: list        # held-out residuals per test record
     fit_s: float
+    converged: bool = True  # the solver stopped before its evaluation limit
 
     @property
     def effects(self):
@@ -127,7 +131,7 @@ def _fit(setup, name, effects, joint, dynamic=False, start=None, theta=None, max
                     max_nfev=max_nfev, ftol=ftol)
     if dynamic:
         fit = polish_residues(fit, train, setup.noise_sigma)
-    return score(setup, fit, t0)
+    return replace(score(setup, fit, t0), converged=fit.n_eval < max_nfev)
 
 
 def _start(scored):
@@ -191,7 +195,7 @@ def _combine(setup, state, key, single):
         starts.append({k: v for k, v in kept.items() if k in setup.lin.names})
     jobs = [lambda st=st: _fit(setup, name, effects, joint=True, dynamic=dynamic, start=st)
             for st in starts]
-    return min(_run(jobs, setup.workers), key=lambda sc: sc.train_gap)
+    return _converge(setup, min(_run(jobs, setup.workers), key=lambda sc: sc.train_gap))
 
 
 def _run(jobs, workers):
@@ -205,14 +209,21 @@ def _run(jobs, workers):
 def forward(setup, lin, singles, say):
     """Forward selection; returns (steps, tie) with steps = [(key, before, Scored)]."""
     state, steps, tie = lin, [], None
-    pool = {k: s for k, s in singles.items() if s.gap <= PROMISING * setup.gap_before}
+    g0, t0 = setup.gap_before, setup.gap_before_train
+    pool = {k: s for k, s in singles.items()
+            if s.gap <= PROMISING * g0 or s.train_gap <= PROMISING * t0}
+    rank = lambda k: pool[k].gap / g0 + pool[k].train_gap / t0  # noqa: E731
     while pool and len(steps) < MAX_EFFECTS and state.name != "thermal_dynamics":
-        order = [k for k in sorted(pool, key=lambda k: pool[k].gap)
-                 if not steps or k != "thermal_dynamics"]
+        order = [k for k in sorted(pool, key=rank) if not steps or k != "thermal_dynamics"]
         if state.gap <= 1.25 * setup.floor or not order:
             break
         two = len(order) > 1 and (steps or pool[order[1]].gap <= 2 * pool[order[0]].gap)
-        tried = [(k, _combine(setup, state, k, pool[k])) for k in order[:2 if two else 1]]
+        tried = []
+        for k in order[:MAX_TRIES]:
+            tried.append((k, _combine(setup, state, k, pool[k])))
+            if len(tried) >= (2 if two else 1) and any(
+                    significant(sc.gap, state.gap, setup.floor) for _, sc in tried):
+                break
         tried.sort(key=lambda kv: kv[1].gap)
         for k, sc in tried:
             how = "joint fit, " if getattr(sc.fit, "joint", False) else ""
@@ -238,26 +249,21 @@ def forward(setup, lin, singles, say):
         state = best
         pool.pop(k)
         _drop_forms(pool, state)
-    if len(steps) > 1:
-        k, gap0, last = steps[-1]
-        steps[-1] = (k, gap0, _converge(setup, last, say))
     return steps, tie
 
 
-def _converge(setup, sc, say):
-    """The selected set re-fitted to convergence (up to ``FINAL_NFEV`` evaluations).
+def _converge(setup, sc):
+    """``sc`` re-fitted to convergence (up to ``FINAL_NFEV`` evaluations) if it stopped early.
 
-    Joint fits of several effects stop early during the selection; the model that is
-    reported is run on until the solver converges.  Kept if it fits the training
-    records at least as well (the held-out gap is only measured, never used).
+    A joint fit of several effects that used all its evaluations is inconclusive: it
+    is run on from where it stopped.  Kept if it fits the training records at least
+    as well (the held-out gap is only measured, never used).
     """
     f = sc.fit
-    if f.n_eval < 40 or not hasattr(f, "chain"):
+    if sc.converged or not hasattr(f, "chain"):
         return sc
     more = _fit(setup, sc.name, f.effects, joint=f.joint, dynamic=f.form == "dynamic",
                 start=_start(sc), max_nfev=FINAL_NFEV)
-    say(f"  converged {sc.name}: held-out gap {sc.gap:.4g} -> {more.gap:.4g}"
-        f" ({more.fit.n_eval} evaluations, {more.fit_s:.1f} s)")
     return more if more.train_gap <= sc.train_gap else sc
 
 
