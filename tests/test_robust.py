@@ -2,6 +2,7 @@
 
 from dataclasses import replace
 
+import control
 import numpy as np
 import pytest
 
@@ -192,3 +193,31 @@ def test_convex_initializer_reaches_the_same_optimum(tmp_path, problems_dir):
     ki = {k: r.integral_gain for k, r in res.items()}
     assert ki["convex"] == pytest.approx(ki["analytic"], rel=1e-6)
     assert poly.rel_coef_error(res["convex"].controller.R, res["analytic"].controller.R) <= 1e-5
+
+
+def test_convex_answers_when_the_specs_cannot_be_met(tmp_path):
+    """Ms, Mt <= 1 and Mu <= 50 cannot be met with this Am: the convex method answers with
+    the controller of least worst peak/bound ratio, certified for what it achieves."""
+    f = tmp_path / "tight.toml"
+    f.write_text(SHAPING.format(method="convex").replace("Mu_max = 150.0", "Mu_max = 50.0")
+                 .replace("Mt_max = 1.3", "Ms_max = 1.0\nMt_max = 1.0"))
+    res = run_problem(load_problem(f))
+    assert res.status == "not_certified" and not res.certified
+    assert res.synthesis.notes and "minimised instead" in res.synthesis.notes[0]
+    assert res.best_achievable.startswith("best achievable: ")
+    m = res.problem.family.reference_model
+    P = control.tf(list(m.B), list(m.A))
+    w = np.geomspace(1.0, 1e6, 40000)
+
+    def worst_ratio(ctrl):           # independent: python-control's nominal loop
+        C = control.tf(list(ctrl.R), list(ctrl.S))
+        mag = lambda sys: np.abs(sys(1j * w))  # noqa: E731
+        S, T, U = (mag(control.feedback(1, P * C)), mag(control.feedback(P * C, 1)),
+                   mag(control.feedback(C, P)))
+        return max(S.max() / 1.0, T.max() / 1.0, U.max() / 50.0)
+
+    ratio = worst_ratio(res.controller)
+    assert ratio > 1.0                                    # the specs are indeed not met ...
+    cert_ratio = max(v.value / v.bound for v in res.certificate.violations)
+    assert ratio == pytest.approx(cert_ratio, rel=2e-3)   # ... by what the certificate says
+    assert ratio < worst_ratio(analytic_design(res.problem).controller)  # better than the start

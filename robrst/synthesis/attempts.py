@@ -14,7 +14,7 @@ import numpy as np
 from robrst.certificate import certify
 from robrst.synthesis.exchange import Phase, solve_exchange
 from robrst.synthesis.nlp import grid_blocks
-from robrst.synthesis.outcome import Round
+from robrst.synthesis.outcome import Round, worst_violation
 from robrst.synthesis.parametrize import integral_gain
 from robrst.synthesis.starts import candidates
 
@@ -28,13 +28,6 @@ FREE_EXCHANGE_ROUNDS, FREE_ITER_BUDGET = 10, 800
 RUN_ITER_BUDGET = 2500    # IPOPT iterations per synthesis: then the best certified point found
 FAR_START = 5.0           # a start missing the specs 5x: no objective phase from it
 WARM_MU = 1e-4           # IPOPT's initial barrier from a previous design of a nearby variant
-
-
-def worst_violation(cert):
-    """The certificate's violation with the largest ratio to its bound (``None``: none)."""
-    if not cert.violations:
-        return None
-    return max(cert.violations, key=lambda v: np.inf if v.bound == 0 else v.value / v.bound)
 
 
 @dataclass(frozen=True, eq=False)

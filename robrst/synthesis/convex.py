@@ -14,13 +14,18 @@ from robrst.certificate import certify_problem
 from robrst.errors import SolverError, SpecError
 from robrst.synthesis.nlp import conv_matrix, jw_matrices, scale_plant
 from robrst.synthesis.parametrize import Parametrization, TrackingRule, frequency_grid
-from robrst.synthesis.outcome import SynthesisResult
+from robrst.synthesis.outcome import SynthesisResult, best_achievable
 
 __all__ = ["convex_synthesis", "solve_convex"]
 
 
-def solve_convex(problem, Am, param, nu, objective=None):
+def solve_convex(problem, Am, param, nu, objective=None, soft=False):
     """Solve the SOCP; return the scaled decision vector ``[S' (non-leading), R']`` and g.
+
+    With ``soft`` the spec bounds are scaled by a variable ``t`` that is minimised (the
+    worst normalised spec violation on the nominal grid, systune's soft goals): always
+    feasible when the Diophantine equation is, so an answer exists when the hard specs
+    cannot be met.
 
     Parameters
     ----------
@@ -33,6 +38,8 @@ def solve_convex(problem, Am, param, nu, objective=None):
         Scaled frequency grid.
     objective : str, optional
         Overrides ``problem.solver.objective`` (the NLP initialiser uses ``"feasibility"``).
+    soft : bool
+        Minimise the worst ratio of peak to bound instead (objective ignored).
     """
     Sf_s, Rf_s, ks, kr = param.Sf, param.Rf, param.ks, param.kr
     ref = problem.family.reference_model
@@ -57,6 +64,7 @@ def solve_convex(problem, Am, param, nu, objective=None):
     Vr, Vi = jw_matrices(nu, deg)
     amag = np.abs(np.polyval(Am_s, 1j * nu))
     sp = problem.specs
+    t = cp.Variable(nonneg=True) if soft else 1.0
     Vr, Vi = Vr / amag[:, None], Vi / amag[:, None]  # each cone divided by |Am(j nu)|
     for M, vec, bound in ((AS_M, S, None), (BR_M, R, sp.Mt_max), (AR_M, R, sp.Mu_max)):
         if M is AS_M:
@@ -64,16 +72,17 @@ def solve_convex(problem, Am, param, nu, objective=None):
         elif bound is None:
             continue
         else:
-            lim = bound
+            lim = bound * t
         re, im = Vr @ (M @ vec), Vi @ (M @ vec)
         cons.append(cp.norm(cp.vstack([re, im]), 2, axis=0) <= lim)
     if sp.Ms_max is not None:
-        cons.append(g <= sp.Ms_max)
+        cons.append(g <= sp.Ms_max * t)
     objective = objective or problem.solver.objective
     if objective not in ("min_Ms", "feasibility"):
         raise SpecError(f"{problem.path}: [solver.objective] the convex method supports min_Ms"
                         f" or feasibility, got {objective!r}")
-    prob = cp.Problem(cp.Minimize(g if objective == "min_Ms" else 0), cons)
+    goal = t if soft else (g if objective == "min_Ms" else 0)
+    prob = cp.Problem(cp.Minimize(goal), cons)
     try:
         prob.solve(solver=cp.CLARABEL)
     except cp.error.SolverError as exc:
@@ -105,12 +114,20 @@ def convex_synthesis(problem, start, progress=None):
     sc = poly.Scaling.natural(Am)
     param = Parametrization.of(problem.controller, problem.family.reference_model, sc)
     nu = sc.freq(frequency_grid(problem.family, Am, problem.solver.n_freq))
-    x, g = solve_convex(problem, Am, param, nu)
-    say(f"convex (SOCP, CLARABEL): grid min |S| peak bound {g:.6g}")
+    notes = ()
+    try:
+        x, g = solve_convex(problem, Am, param, nu)
+        say(f"convex (SOCP, CLARABEL): grid min |S| peak bound {g:.6g}")
+    except SolverError as exc:      # the hard specs cannot be met: the best that can
+        x, g = solve_convex(problem, Am, param, nu, soft=True)
+        notes = (f"{exc}; the worst ratio of peak to bound was minimised instead",)
+        say(f"convex: {notes[0]}")
     tracking = TrackingRule(problem.controller.T_mode, problem.controller.T_zeros,
                             problem.family.reference_model.B)
     ctrl = param.controller(x, tracking)
     cert = certify_problem(problem, ctrl)
     return SynthesisResult(controller=ctrl, Am=Am, certificate=cert,
-                           status="certified" if cert.certified else "not_certified", objective=problem.solver.objective, w0=sc.w0,
-                           name="cvxpy-clarabel", grid_peak_S=g)
+                           status="certified" if cert.certified else "not_certified",
+                           objective=problem.solver.objective, w0=sc.w0,
+                           name="cvxpy-clarabel", grid_peak_S=g,
+                           best_achievable=best_achievable(cert), notes=notes)

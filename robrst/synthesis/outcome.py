@@ -8,7 +8,8 @@ import numpy as np
 from robrst.sampled import unwarp
 from robrst.synthesis.parametrize import integral_gain
 
-__all__ = ["OK_STATUS", "Binding", "SolveResult", "Round", "SynthesisResult"]
+__all__ = ["OK_STATUS", "Binding", "SolveResult", "Round", "SynthesisResult", "worst_violation",
+           "best_achievable"]
 
 OK_STATUS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 
@@ -195,3 +196,21 @@ class SynthesisResult:
         if self.wn_rad_s is not None:
             d["wn_rad_s"], d["zeta"] = self.wn_rad_s, self.zeta
         return d
+
+
+def worst_violation(cert):
+    """The certificate's violation with the largest ratio to its bound (``None``: none)."""
+    if not cert.violations:
+        return None
+    return max(cert.violations, key=lambda v: np.inf if v.bound == 0 else v.value / v.bound)
+
+
+def best_achievable(cert):
+    """One line on what an uncertified controller achieves (``None`` when certified)."""
+    v = worst_violation(cert)
+    if v is None:
+        return None
+    if v.quantity == "spectral_abscissa":
+        return (f"best achievable: unstable on model {v.label} ({v.temperature_C:g} °C),"
+                f" spectral abscissa {v.value:.4g} rad/s")
+    return "best achievable: " + v.describe()

@@ -36,9 +36,9 @@ import numpy as np
 
 from robrst import poly
 from robrst.errors import RobrstError
-from robrst.synthesis.attempts import Outcome, Run, objective_value, worst_violation
+from robrst.synthesis.attempts import Outcome, Run, objective_value
 from robrst.synthesis.context import BOUND_MARGIN, Context
-from robrst.synthesis.outcome import SynthesisResult
+from robrst.synthesis.outcome import SynthesisResult, best_achievable, worst_violation
 
 __all__ = ["robust_synthesis", "a_priori_note", "BOUND_MARGIN", "worst_violation",
            "best_achievable"]
@@ -60,17 +60,6 @@ def a_priori_note(problem):
                         f" {m.label} ({m.temperature_C:g} °C) with any controller that has an"
                         " integrator")
     return None
-
-
-def best_achievable(cert):
-    """One line on what an uncertified controller achieves (``None`` when certified)."""
-    v = worst_violation(cert)
-    if v is None:
-        return None
-    if v.quantity == "spectral_abscissa":
-        return (f"best achievable: unstable on model {v.label} ({v.temperature_C:g} °C),"
-                f" spectral abscissa {v.value:.4g} rad/s")
-    return "best achievable: " + v.describe()
 
 
 def _embedded(ctx, lower):
