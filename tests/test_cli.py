@@ -59,3 +59,14 @@ def test_design_json_stdout_is_only_json_from_a_real_process(name, shared_dir):
     assert r.returncode in (0, 1), r.stderr
     d = json.loads(r.stdout)                      # the whole of stdout is one JSON object
     assert d["solver"]["name"] == "ipopt" and r.returncode == (0 if d["certified"] else 1)
+
+
+def test_closed_output_pipe_is_one_line_not_a_traceback():
+    """`robrst design ... --json | head`: the reader leaves early; one line, exit 2."""
+    p = subprocess.Popen([sys.executable, "-m", "robrst", "design", "paper", "--json"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    p.stdout.close()
+    err = p.stderr.read().decode()
+    assert p.wait() == 2
+    assert err.strip().splitlines() == [
+        "robrst: error: the output was closed before robrst finished writing it"]

@@ -56,6 +56,12 @@ def main(argv=None):
     except KeyboardInterrupt:
         print("robrst: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:    # the reader left (`robrst ... --json - | head`)
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())     # no second error when Python flushes
+        print("robrst: error: the output was closed before robrst finished writing it",
+              file=sys.stderr)
+        return 2
     except Exception as exc:   # noqa: BLE001 — the CLI never ends in a traceback
         if os.environ.get("ROBRST_DEBUG"):
             raise
