@@ -20,12 +20,22 @@ def margins_table(d):
     for m in d["models"]:
         dm = None if m["delay_margin_s"] is None else m["delay_margin_s"] * 1e6
         lines.append(
-            f"{m['label']:<8}{m['temperature_C']:>7.1f}{str(m['stable']):>8}{m['Ms']:>8.3f}"
-            f"{m['Mt']:>8.3f}{m['Mu']:>10.2f}{fmt(m['gain_margin'], '.2f'):>8}"
-            f"{fmt(m['phase_margin_deg'], '.1f'):>8}{m['modulus_margin']:>7.3f}"
-            f"{fmt(dm, '.1f'):>9}"
+            f"{m['label']:<8}{m['temperature_C']:>7.1f}{str(m['stable']):>8}"
+            f"{_cell(m['Ms'], '.3f', 8)}{_cell(m['Mt'], '.3f', 8)}{_cell(m['Mu'], '.2f', 10)}"
+            f"{_cell(m['gain_margin'], '.2f', 8)}{_cell(m['phase_margin_deg'], '.1f', 8)}"
+            f"{_cell(m['modulus_margin'], '.3f', 7)}{_cell(dm, '.1f', 9)}"
         )
     return "\n".join(lines)
+
+
+def _cell(x, spec, width):
+    """``x`` right-aligned in ``width`` with a space before it (fewer digits if too wide)."""
+    s = fmt(x, spec)
+    for digits in (3, 2, 1):
+        if len(s) < width:
+            break
+        s = fmt(x, f".{digits}g")
+    return f"{s:>{width}}"
 
 
 def sampled_summary(d):
