@@ -154,3 +154,5 @@ def test_arrays_to_records_and_convert_cli(tmp_path, capsys):
     assert main(args) == 2                                     # never overwrites silently
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "x_r1.npz: exists; use --overwrite" in err[0]
+    assert main(args + ["--overwrite", "--quiet"]) == 0        # --quiet: nothing on stdout
+    assert capsys.readouterr().out == ""

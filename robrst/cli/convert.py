@@ -30,6 +30,7 @@ def add_parsers(sub):
     c.add_argument("--csv", action="store_true", help="write CSV instead of .npz")
     c.add_argument("--overwrite", action="store_true",
                    help="replace existing files of the same names")
+    c.add_argument("--quiet", action="store_true", help="no line per record written")
     c.set_defaults(func=run_convert)
 
 
@@ -51,6 +52,7 @@ def run_convert(args):
                 raise DataError(f"{p}: exists; use --overwrite to replace it")
     for d, p in zip(recs, paths):
         save_dataset(d, p)
-        print(f"wrote {p} ({d.n} samples, {d.n_in} input(s), {d.n_out} output(s)"
-              + (f", {d.periods} periods of {d.period}" if d.period else "") + ")")
+        if not args.quiet:
+            print(f"wrote {p} ({d.n} samples, {d.n_in} input(s), {d.n_out} output(s)"
+                  + (f", {d.periods} periods of {d.period}" if d.period else "") + ")")
     return 0
