@@ -8,7 +8,7 @@ from importlib import resources
 from pathlib import Path
 
 __all__ = ["problems_dir", "builtin_problem", "problem_names", "builtin_twin", "sweeps_dir",
-           "sweep_names", "builtin_sweep"]
+           "sweep_names", "builtin_sweep", "find_file"]
 
 
 def problems_dir():
@@ -22,11 +22,12 @@ def problem_names():
 
 
 def builtin_problem(name):
-    """Path of the built-in problem ``name`` (with or without ``.toml``), or ``None``."""
-    stem = Path(name).name.removesuffix(".toml")
-    if Path(name).parent != Path(".") or stem not in problem_names():
-        return None
-    return problems_dir() / f"{stem}.toml"
+    """Path of the built-in problem ``name`` (with or without ``.toml``), or ``None``.
+
+    ``problems/NAME.toml`` (the package folder's name, as the issues and README spell
+    the shipped files) names the built-in too.
+    """
+    return _builtin(name, problems_dir(), problem_names(), ("problems",))
 
 
 def builtin_twin(name="twin_paper"):
@@ -46,7 +47,24 @@ def sweep_names():
 
 def builtin_sweep(name):
     """Path of the built-in sweep ``name`` (with or without ``.toml``), or ``None``."""
-    stem = Path(name).name.removesuffix(".toml")
-    if Path(name).parent != Path(".") or stem not in sweep_names():
+    return _builtin(name, sweeps_dir(), sweep_names(), ("sweeps", "problems/sweeps"))
+
+
+def _builtin(name, folder, names, aliases):
+    p = Path(name)
+    stem = p.name.removesuffix(".toml")
+    parent = p.parent.as_posix()
+    if stem not in names or parent not in (".", *aliases, *(f"robrst/{a}" for a in aliases)):
         return None
-    return sweeps_dir() / f"{stem}.toml"
+    return folder / f"{stem}.toml"
+
+
+def find_file(name_or_path, kind):
+    """``name_or_path`` if it exists, else the built-in ``kind`` of that name, else ``None``.
+
+    ``kind`` is ``"problem"`` or ``"sweep"``.
+    """
+    p = Path(name_or_path)
+    if p.exists():
+        return p
+    return (builtin_problem if kind == "problem" else builtin_sweep)(str(name_or_path))

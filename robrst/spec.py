@@ -348,13 +348,10 @@ def resolve_problem_path(name_or_path):
     SpecError
         Neither a file nor a built-in problem (the message lists the built-ins).
     """
-    p = Path(name_or_path)
-    if p.exists():
-        return p
-    builtin = resources.builtin_problem(str(name_or_path))
-    if builtin is not None:
-        return builtin
-    raise SpecError(f"{p}: problem file not found (built-in problems:"
+    found = resources.find_file(name_or_path, "problem")
+    if found is not None:
+        return found
+    raise SpecError(f"{name_or_path}: problem file not found (built-in problems:"
                     f" {', '.join(resources.problem_names())})")
 
 

@@ -121,3 +121,21 @@ A = [1.0, 2.2, 1.1]
     np.testing.assert_allclose(mid.B, [1.1], rtol=1e-15)
     with pytest.raises(SpecError, match="outside the range"):
         pr.family.at(50.0)
+
+
+def test_problems_folder_spelling_names_the_builtin(tmp_path, monkeypatch):
+    """`problems/paper_robust.toml` (as the issues and README spell the shipped files) works
+    from any folder when no such file exists; a user's own file of that path wins."""
+    from robrst.spec import resolve_problem_path
+    from robrst.sweep.spec import resolve_sweep_path
+
+    monkeypatch.chdir(tmp_path)
+    assert resolve_problem_path("problems/paper_robust.toml").name == "paper_robust.toml"
+    assert resolve_problem_path("problems/paper_robust.toml").parent.name == "problems"
+    assert resolve_sweep_path("problems/sweeps/paper_montecarlo.toml").is_file()
+    own = tmp_path / "problems" / "paper_robust.toml"
+    own.parent.mkdir()
+    own.write_text("[plant]\nname = 'paper'\n")
+    assert resolve_problem_path("problems/paper_robust.toml") == own.relative_to(tmp_path)
+    with pytest.raises(SpecError, match="elsewhere/paper.toml: problem file not found"):
+        resolve_problem_path("elsewhere/paper.toml")

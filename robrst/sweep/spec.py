@@ -344,13 +344,10 @@ def resolve_sweep_path(name_or_path):
     SpecError
         Neither a file nor a built-in sweep (the message lists the built-ins).
     """
-    p = Path(name_or_path)
-    if p.exists():
-        return p
-    builtin = resources.builtin_sweep(str(name_or_path))
-    if builtin is not None:
-        return builtin
-    raise SpecError(f"{p}: sweep file not found (built-in sweeps:"
+    found = resources.find_file(name_or_path, "sweep")
+    if found is not None:
+        return found
+    raise SpecError(f"{name_or_path}: sweep file not found (built-in sweeps:"
                     f" {', '.join(resources.sweep_names())})")
 
 
