@@ -255,8 +255,8 @@ def forward(setup, lin, singles, say):
 def _converge(setup, sc):
     """``sc`` re-fitted to convergence (up to ``FINAL_NFEV`` evaluations) if it stopped early.
 
-    A joint fit of several effects that used all its evaluations is inconclusive: it
-    is run on from where it stopped.  Kept if it fits the training records at least
+    A joint fit that used all its evaluations is inconclusive (several effects fitted
+    together converge slowly): it is run on from where it stopped.  Kept if it fits the training records at least
     as well (the held-out gap is only measured, never used).
     """
     f = sc.fit
