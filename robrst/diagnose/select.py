@@ -3,7 +3,8 @@
 1. ``linear``: the linear corrections alone (the user's model re-fitted, regularised).
 2. Every excited effect alone on the user's model (linear part as given), and the
    dynamic form of hysteresis when the records allow it.  These are screening fits
-   (early stopping, at most ``SCREEN_SAMPLES`` samples per training record); every
+   (early stopping, at most ``SCREEN_SAMPLES`` samples per training record — whole
+   records for the thermal effects, which follow the whole temperature history); every
    candidate is scored on the whole test records.
 3. Forward selection from the linear re-fit: the best remaining candidates (the two
    best from the second step on) are re-fitted *jointly* with the effects already
@@ -26,7 +27,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from robrst.diagnose import signals
-from robrst.diagnose.effects import INPUT_EFFECTS, Chain
+from robrst.diagnose.effects import INPUT_EFFECTS, THERMAL, Chain
 from robrst.diagnose.fit import fit_model
 from robrst.diagnose.polish import polish_residues
 from robrst.diagnose.thermal import fit_thermal_dynamics
@@ -147,27 +148,38 @@ def _start(scored):
 
 
 def candidates(setup, say):
-    """The linear re-fit and every single candidate; returns (linear, {name: Scored})."""
-    lin = _fit(setup, "linear", (), joint=True)
-    say(f"linear re-fit: held-out gap {lin.gap:.4g} ({lin.fit.n_eval} evaluations,"
-        f" {lin.fit_s:.1f} s)")
+    """The linear re-fit and every single candidate; returns (linear, {name: Scored}).
+
+    All fits run in ``setup.workers`` threads, the longest first; the linear re-fit
+    runs first on its own only when the dynamic form of hysteresis starts from it.
+    """
+    def linear():
+        return _fit(setup, "linear", (), joint=True)
+
+    lin = linear() if setup.dynamic else None
     for e in setup.effects:          # build (and compile) every stage before any thread runs
         if e in INPUT_EFFECTS:
             _chain(setup, (e,))
+    # thermal effects follow the whole temperature history: screened on whole records
     jobs = {e: (lambda e=e: _fit(setup, e, (e,), joint=False, max_nfev=SCREEN_NFEV,
-                                 ftol=SCREEN_FTOL, screen=True))
+                                 ftol=SCREEN_FTOL, screen=e not in THERMAL))
             for e in setup.effects if e in INPUT_EFFECTS}
     if "thermal_dynamics" in setup.effects:
         def thermal():
             t0 = time.perf_counter()
-            return score(setup, fit_thermal_dynamics(_screen(setup.train, SCREEN_SAMPLES),
-                                                     setup.plant, setup.fs,
+            return score(setup, fit_thermal_dynamics(setup.train, setup.plant, setup.fs,
                                                      setup.ref), t0)
         jobs["thermal_dynamics"] = thermal
     if setup.dynamic:
         jobs["hysteresis:dynamic"] = lambda: _fit(setup, "hysteresis", (), joint=True,
                                                   dynamic=True, start=_start(lin))
-    out = dict(zip(jobs, _run(list(jobs.values()), setup.workers)))
+    else:
+        jobs["linear"] = linear
+    keys = sorted(jobs, key=lambda k: k not in THERMAL)   # the longest fits start first
+    out = dict(zip(keys, _run([jobs[k] for k in keys], setup.workers)))
+    lin = out.pop("linear", lin)
+    say(f"linear re-fit: held-out gap {lin.gap:.4g} ({lin.fit.n_eval} evaluations,"
+        f" {lin.fit_s:.1f} s)")
     for k, sc in sorted(out.items(), key=lambda kv: kv[1].gap):
         say(f"  {k:<20} alone: held-out gap {sc.gap:.4g} (training {sc.train_gap:.4g};"
             f" {sc.fit.n_eval} evaluations, {sc.fit_s:.1f} s)")
@@ -195,7 +207,9 @@ def _combine(setup, state, key, single):
         starts.append({k: v for k, v in kept.items() if k in setup.lin.names})
     jobs = [lambda st=st: _fit(setup, name, effects, joint=True, dynamic=dynamic, start=st)
             for st in starts]
-    return _converge(setup, min(_run(jobs, setup.workers), key=lambda sc: sc.train_gap))
+    best = min(_run(jobs, setup.workers), key=lambda sc: sc.train_gap)
+    # run on only a fit that is getting somewhere (fits the training records better)
+    return _converge(setup, best) if best.train_gap < state.train_gap else best
 
 
 def _run(jobs, workers):
