@@ -192,3 +192,22 @@ def test_lower_gain_margin_of_a_conditionally_stable_loop(k):
     assert a.margins.phase_margin_deg == pytest.approx(pm, rel=1e-9)
     m = margins(p, ctrl, a.peaks["S"].value)
     assert m == a.margins
+
+
+def test_bracketed_root_matches_brentq():
+    """The crossover polish's root finder against scipy's brentq (an independent code)."""
+    from scipy.optimize import brentq
+
+    from robrst.analysis import bracketed_root
+
+    rng = np.random.default_rng(5)
+    funcs = [lambda x: np.log(x) - 1.0, lambda x: x ** 3 - 2.0, lambda x: np.tan(x) - x,
+             lambda x: np.exp(-x) - 1e-3 * x, lambda x: (x - 1.7) ** 3,   # triple root
+             lambda x: np.sign(x - 2.5) * np.sqrt(abs(x - 2.5))]
+    brackets = [(1.0, 5.0), (0.5, 3.0), (4.0, 4.6), (0.0, 10.0), (0.0, 3.0), (0.0, 7.0)]
+    for f, (a, b) in zip(funcs, brackets):
+        for _ in range(5):
+            lo, hi = a + rng.uniform(0, 0.05) * (b - a), b - rng.uniform(0, 0.05) * (b - a)
+            ref = brentq(f, lo, hi, xtol=1e-14, maxiter=1000)
+            got = bracketed_root(f, lo, hi, f(lo), f(hi), xtol=1e-14)
+            assert got == pytest.approx(ref, abs=1e-12), (lo, hi)
