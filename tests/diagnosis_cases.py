@@ -108,7 +108,7 @@ def _bouc_wen(u, A=0.45, B=0.0045, G=0.0045):
     return out
 
 
-def _operator(name, u, fs, t):
+def _operator(name, u, fs):
     if name == "dead_zone":
         return np.sign(u) * np.maximum(np.abs(u) - 8.0, 0.0)
     if name == "backlash":
@@ -128,7 +128,7 @@ def make(name, seed=0, fs=5000.0, duration_s=6.0):
     duration_s = 0.6 if name == "short_hysteresis" else duration_s
     sigma = 0.06 if name == "noisy_creep" else float(rng.uniform(0.005, 0.015))
     effects, over = [], {}
-    if "hysteresis" in name and name not in ("rate_dependent_hysteresis",):
+    if "hysteresis" in name and name != "rate_dependent_hysteresis":
         effects.append("hysteresis")
     if "creep" in name:
         effects.append("creep")
@@ -162,7 +162,7 @@ def make(name, seed=0, fs=5000.0, duration_s=6.0):
             r = simulate(cfg, temp, yr=yr, dctrl=dctrl, seed=s)
             d = r.to_dataset()
         else:
-            r = simulate(cfg, temp, u=_operator(name, u, fs, t), seed=s)
+            r = simulate(cfg, temp, u=_operator(name, u, fs), seed=s)
             d = replace(r.to_dataset(), u=u)
         if name == "sensor_drift":
             w = rng.uniform(0.05, 0.15)
