@@ -133,6 +133,16 @@ def bracketed_root(f, a, b, fa, fb, xtol, max_iter=200):
         return a
     if fb == 0:
         return b
+
+    def keep(c, fc):
+        """Replace the end whose value has the sign of ``fc``; -1: b replaced, 1: a."""
+        nonlocal a, b, fa, fb
+        if np.sign(fc) == np.sign(fb):
+            b, fb = c, fc
+            return -1
+        a, fa = c, fc
+        return 1
+
     side = 0
     for _ in range(max_iter):
         width = abs(b - a)
@@ -142,25 +152,19 @@ def bracketed_root(f, a, b, fa, fb, xtol, max_iter=200):
         fc = f(c)
         if fc == 0:
             return c
-        if np.sign(fc) == np.sign(fb):
-            b, fb = c, fc
-            if side == -1:
+        new = keep(c, fc)
+        if new == side:                     # the same end twice: halve the other's value
+            if new == -1:
                 fa *= 0.5
-            side = -1
-        else:
-            a, fa = c, fc
-            if side == 1:
+            else:
                 fb *= 0.5
-            side = 1
+        side = new
         if abs(b - a) > 0.5 * width:        # slow side: bisect once
             m = 0.5 * (a + b)
             fm = f(m)
             if fm == 0:
                 return m
-            if np.sign(fm) == np.sign(fb):
-                b, fb = m, fm
-            else:
-                a, fa = m, fm
+            keep(m, fm)
             side = 0
         if abs(b - a) <= xtol:
             break

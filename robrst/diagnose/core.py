@@ -35,7 +35,7 @@ from robrst.diagnose.fit import fit_model, prepare
 from robrst.diagnose.linear import LinearPart, as_modal
 from robrst.diagnose.result import Diagnosis, EffectScore
 from robrst.diagnose.select import Setup, candidates, forward
-from robrst.diagnose.thermal import search_delay, search_saturation
+from robrst.diagnose.thermal import max_delay, search_delay, search_saturation
 from robrst.diagnose.verdict import NEAR_RATIO, build, decide, unmodelled
 from robrst.errors import DataError
 from robrst.plant import paper_plant
@@ -206,13 +206,12 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
                      f"held-out gap {before:.3g} is within {NONE_RATIO}x the noise floor"
                      f" {floor:.3g}", skipped=skipped, findings=[amp])
     train_p = [prepare(d, ref) for d in train]
-    max_delay = int(max(1, min(round(5e-3 * fs), 200)))
     setup = Setup(fs=fs, ref=ref, train=train_p, train_full=preps[:n_tr], test=preps[n_tr:],
                   test_records=test, train_records=train, lin=lin,
                   lin_modal=LinearPart(model, fs, modal_gains=True), stats=summary(train),
                   noise_sigma=sigma, plant=plant if (model.n_in, model.n_out) == (1, 1) else None,
                   effects=tried, dynamic=_levels_ok(train, test) and "hysteresis" in tried,
-                  delays=(search_delay(train_p, lin, max_delay) if "delay" in tried
+                  delays=(search_delay(train_p, lin, max_delay(fs)) if "delay" in tried
                           else (0,) * model.n_in),
                   saturation=search_saturation(train_p, lin, None) if "saturation" in tried
                   else [], floor=floor, gap_before=before,

@@ -171,6 +171,13 @@ class Chain:
     def _block(self, e, j):
         return next(s for (name, jj, s) in self.blocks if name == e and jj == j)
 
+    def start_saturation(self, limits):
+        """Start the saturation limits at ``limits`` (one ``(lo, hi)`` per input), in bounds."""
+        if "saturation" in self.effects:
+            for j, (lo, hi) in enumerate(limits):
+                sl = self._block("saturation", j)
+                self.z0[sl] = np.clip([lo, hi], self.lower[sl], self.upper[sl])
+
     def _input(self, z, u, temp, j, jac):
         """Effective input of channel j and d/dz of its own parameters (N, n_z)."""
         n = u.size

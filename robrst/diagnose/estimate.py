@@ -21,13 +21,12 @@ from robrst.diagnose.effects import EFFECTS, INPUT_EFFECTS, Chain, summary
 from robrst.diagnose.findings import noise_levels
 from robrst.diagnose.fit import fit_model, prepare
 from robrst.diagnose.linear import LinearPart, as_modal
-from robrst.diagnose.thermal import fit_thermal_dynamics, search_delay, search_saturation
+from robrst.diagnose.thermal import (fit_thermal_dynamics, max_delay, search_delay,
+                                     search_saturation)
 from robrst.errors import DataError
 from robrst.plant import paper_plant
 
-__all__ = ["EffectEstimate", "fit_effects", "MAX_DELAY_S"]
-
-MAX_DELAY_S = 5e-3       # whole-sample delay searched up to 5 ms (at most 200 samples)
+__all__ = ["EffectEstimate", "fit_effects"]
 
 
 @dataclass(frozen=True)
@@ -139,12 +138,10 @@ def _fit_input_effects(effects, records, train, base, lin, fs, ref, joint, max_n
     sigma = float(np.sqrt(np.mean(np.asarray(sig) ** 2))) or 1e-9
     delays = None
     if "delay" in effects:
-        delays = search_delay(train, lin, int(max(1, min(round(MAX_DELAY_S * fs), 200))))
+        delays = search_delay(train, lin, max_delay(fs))
     chain = Chain(tuple(e for e in effects if e in INPUT_EFFECTS), lin.model.n_in, fs, ref,
                   stats, delays)
     if "saturation" in chain.effects:
-        for j, (lo, hi) in enumerate(search_saturation(train, lin, stats)):
-            sl = next(s for (e, jj, s) in chain.blocks if e == "saturation" and jj == j)
-            chain.z0[sl] = np.clip([lo, hi], chain.lower[sl], chain.upper[sl])
+        chain.start_saturation(search_saturation(train, lin, stats))
     return fit_model("+".join(chain.effects), chain.effects, train, lin, chain, sigma,
                      joint=joint, max_nfev=max_nfev)

@@ -24,8 +24,6 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
 
-import numpy as np
-
 from robrst.diagnose import signals
 from robrst.diagnose.effects import INPUT_EFFECTS, THERMAL, Chain
 from robrst.diagnose.fit import fit_model
@@ -40,7 +38,7 @@ MARGIN = 1.1             # ... and beat the alternative by 10 % in held-out gap
 MAX_EFFECTS = 3
 MAX_TRIES = 3            # joint fits tried per step until one is significant
 FINAL_NFEV = 150         # an unconverged joint fit is run on up to this many evaluations
-PROMISING = 0.97         # an effect alone must improve on the linear re-fit by 3 %
+PROMISING = 0.97         # an effect alone must improve on the model as given by 3 %
 SCREEN_NFEV = 25         # single candidates are screening fits: early stopping
 SCREEN_FTOL = 1e-6
 SCREEN_SAMPLES = 100_000  # ... on at most the first 100 000 samples of each training record
@@ -109,10 +107,7 @@ def score(setup, fit, t0):
 
 def _chain(setup, effects):
     ch = Chain(effects, setup.lin.model.n_in, setup.fs, setup.ref, setup.stats, setup.delays)
-    if "saturation" in ch.effects:
-        for j, (lo, hi) in enumerate(setup.saturation):
-            sl = ch._block("saturation", j)
-            ch.z0[sl] = np.clip([lo, hi], ch.lower[sl], ch.upper[sl])
+    ch.start_saturation(setup.saturation)
     return ch
 
 
@@ -142,7 +137,7 @@ def _start(scored):
     f = scored.fit
     z, th, s = f.parts()
     out = dict(zip(f.lin.names, th))
-    out.update(zip(f.chain.names, z))   # hysteresis "gain" is the chain's (the linear one is pinned)
+    out.update(zip(f.chain.names, z))   # "gain" of hysteresis wins: the linear one is pinned
     out.update({f"slope{i}": v for i, v in zip(f.slopes, s)})
     return out
 
@@ -270,8 +265,8 @@ def _converge(setup, sc):
     """``sc`` re-fitted to convergence (up to ``FINAL_NFEV`` evaluations) if it stopped early.
 
     A joint fit that used all its evaluations is inconclusive (several effects fitted
-    together converge slowly): it is run on from where it stopped.  Kept if it fits the training records at least
-    as well (the held-out gap is only measured, never used).
+    together converge slowly): it is run on from where it stopped.  Kept if it fits the
+    training records at least as well (the held-out gap is only measured, never used).
     """
     f = sc.fit
     if sc.converged or not hasattr(f, "chain"):

@@ -14,7 +14,8 @@ from scipy import optimize
 from robrst.diagnose.linear import parameter_std
 from robrst.diagnose.stages import stage
 
-__all__ = ["ThermalFit", "fit_thermal_dynamics", "search_delay", "search_saturation"]
+__all__ = ["ThermalFit", "fit_thermal_dynamics", "search_delay", "search_saturation",
+           "max_delay", "MAX_DELAY_S"]
 
 BOUNDS = (np.array([-0.05, -0.01, -0.2]), np.array([0.05, 0.01, 0.2]))
 NAMES = ("gain_per_K", "resonance_per_K", "damping_per_K")
@@ -75,6 +76,15 @@ def fit_thermal_dynamics(train, plant, fs, reference_C, max_nfev=25):
                                  max_nfev=max_nfev)
     std = parameter_std(res.jac, res.cost, res.fun.size, rtol=1e-6)
     return ThermalFit("thermal_dynamics", st, res.x, std, int(res.nfev), 2 * float(res.cost))
+
+
+MAX_DELAY_S = 5e-3       # whole-sample delays are searched up to 5 ms ...
+MAX_DELAY_SAMPLES = 200  # ... and at most 200 samples
+
+
+def max_delay(fs):
+    """Largest whole-sample delay searched at ``fs`` [Hz] (at least one sample)."""
+    return int(max(1, min(round(MAX_DELAY_S * fs), MAX_DELAY_SAMPLES)))
 
 
 def search_delay(train, lin, max_delay):
