@@ -18,7 +18,7 @@ import scipy.linalg as sla
 
 from robrst import poly
 
-__all__ = ["companion_parts", "companion", "DiscreteSS", "zoh", "zoh_modal", "d2c_modal",
+__all__ = ["companion_parts", "companion", "DiscreteSS", "zoh", "zoh_matrices", "zoh_modal", "d2c_modal",
            "transmission_zeros", "ss_to_poly", "d2c"]
 
 
@@ -118,15 +118,22 @@ def zoh(N, D, sample_rate_hz, scaling=None):
     """
     sc = scaling or poly.Scaling.natural(D)
     A, B, C, d = companion(N, D, sc)
-    n = A.shape[0]
     h = sc.w0 / float(sample_rate_hz)
+    Ad, Gamma, Bd = zoh_matrices(A, B, h)
+    return DiscreteSS(Ad=Ad, Bd=Bd, C=C, d=d, A=A, Gamma=Gamma, h=h, scaling=sc)
+
+
+def zoh_matrices(A, B, h):
+    """``(Ad, Gamma, Bd)`` of ``x' = A x + B u`` held over a step ``h`` (same time unit):
+    ``Ad = exp(A h)``, ``Gamma = int_0^h exp(A t) dt``, ``Bd = Gamma B``, from one matrix
+    exponential of ``[[A h, I h, B h], [0, 0, 0]]``."""
+    n = A.shape[0]
     M = np.zeros((2 * n + 1, 2 * n + 1))
     M[:n, :n] = A * h
     M[:n, n:2 * n] = np.eye(n) * h
     M[:n, 2 * n:] = B * h
     E = sla.expm(M)
-    return DiscreteSS(Ad=E[:n, :n], Bd=E[:n, 2 * n:], C=C, d=d, A=A, Gamma=E[:n, n:2 * n],
-                      h=h, scaling=sc)
+    return E[:n, :n], E[:n, n:2 * n], E[:n, 2 * n:]
 
 
 def zoh_modal(poles, residues, sample_rate_hz):

@@ -26,7 +26,7 @@ import numpy as np
 
 from robrst import lti, poly
 
-__all__ = ["StepMetrics", "step_metrics", "check", "KEYS", "SETTLING_BAND"]
+__all__ = ["StepMetrics", "step_metrics", "step_metrics_many", "check", "KEYS", "SETTLING_BAND"]
 
 SETTLING_BAND = 0.02
 POINTS_PER_RAD = 4.0       # grid points per radian of the fastest live mode
@@ -49,13 +49,14 @@ class StepMetrics:
 
 
 def _bilinear(A, B, C, d, h):
-    """Discrete ``(Ad, Bd, Cd, dd)`` with ``G_d(z) = G(2/h (z - 1)/(z + 1))`` (scaled)."""
+    """Discrete ``(Ad, Bd, Cd, dd)`` with ``G_d(z) = G(2/h (z - 1)/(z + 1))`` (scaled;
+    one row of ``C`` and one ``d`` per output)."""
     n = A.shape[0]
     M = np.eye(n) - A * (h / 2)
     Ad = np.linalg.solve(M, np.eye(n) + A * (h / 2))
     Bd = np.linalg.solve(M, B) * h
     Cd = np.linalg.solve(M.T, C.T).T
-    return Ad, Bd, Cd, float(d + (C @ Bd).item() / 2)
+    return Ad, Bd, Cd, d + (C @ Bd).ravel() / 2
 
 
 def _propagate(Phi, G, x0, n):
@@ -123,9 +124,12 @@ class _Response:
     samples.
     """
 
-    def __init__(self, N, D, sc, fs=None):
-        self.N, self.D, self.sc, self.cache = N, D, sc, {}
-        A, B, C, d = lti.companion(N, D, sc)
+    def __init__(self, Ns, D, sc, fs=None):
+        self.cache = {}
+        parts = [lti.companion(N, D, sc) for N in Ns]   # A, B depend on D only
+        A, B = parts[0][:2]
+        C = np.vstack([p[2] for p in parts])
+        d = np.array([p[3] for p in parts])
         self.discrete = fs is not None
         if self.discrete:
             A, B, C, d = _bilinear(A, B, C, d, sc.w0 / fs)
@@ -133,10 +137,12 @@ class _Response:
             segs = _segments(-logz.real, np.abs(logz), unit=1)
             self.Ad, self.Bd = A, B.ravel()
         else:
+            self.A, self.B = A, B
             lam = np.linalg.eigvals(A)
             segs = _segments(-lam.real, np.abs(lam))
-        self.C, self.d = C.ravel(), float(d)
-        ts, Xs, x, t0 = [np.zeros(1)], [np.zeros((len(self.C), 1))], np.zeros(len(self.C)), 0.0
+        self.C, self.d = C, d
+        n = A.shape[0]
+        ts, Xs, x, t0 = [np.zeros(1)], [np.zeros((n, 1))], np.zeros(n), 0.0
         for t1, h in segs:
             n = max(1, int(np.ceil((t1 - t0) / h)))
             if not self.discrete:
@@ -146,7 +152,7 @@ class _Response:
             Xs.append(X[:, 1:])
             x, t0 = X[:, -1], t0 + n * h
         self.t, self.X = np.concatenate(ts), np.hstack(Xs)
-        self.y = self.C @ self.X + self.d
+        self.Y = self.C @ self.X + self.d[:, None]   # one row per numerator
 
     def _step(self, h):
         """``(Phi, G)`` of one step ``h`` (scaled time, or whole samples), cached."""
@@ -154,27 +160,30 @@ class _Response:
             if self.discrete:
                 self.cache[h] = _power(self.Ad, self.Bd, int(h))
             else:
-                z = lti.zoh(self.N, self.D, self.sc.w0 / h, self.sc)
-                self.cache[h] = (z.Ad, z.Bd.ravel())
+                Ad, _, Bd = lti.zoh_matrices(self.A, self.B, h)
+                self.cache[h] = (Ad, Bd.ravel())
         return self.cache[h]
 
-    def _fine(self, i, n_sub=256):
-        """Times and outputs on ``[t[i], t[i+1]]`` at up to ``n_sub`` times the resolution."""
+    def _fine(self, row, i, n_sub=256):
+        """Times and outputs ``row`` on ``[t[i], t[i+1]]`` at up to ``n_sub`` times the
+        resolution."""
         h = self.t[i + 1] - self.t[i]
         if self.discrete:
             n_sub = int(round(h))
             if n_sub <= 1:
-                return self.t[i:i + 2], self.y[i:i + 2]
+                return self.t[i:i + 2], self.Y[row, i:i + 2]
         X = _propagate(*self._step(h / n_sub if not self.discrete else 1.0), self.X[:, i], n_sub)
-        return self.t[i] + (h / n_sub) * np.arange(n_sub + 1), self.C @ X + self.d
+        return (self.t[i] + (h / n_sub) * np.arange(n_sub + 1),
+                self.C[row] @ X + self.d[row])
 
-    def extreme(self, sign=1.0):
-        """Largest ``sign * y`` and its time (refined between the grid points)."""
-        i = int(np.argmax(sign * self.y))
-        best, tbest = float(sign * self.y[i]), float(self.t[i])
+    def extreme(self, row, sign=1.0):
+        """Largest ``sign * y`` of output ``row`` and its time (refined between the grid
+        points)."""
+        i = int(np.argmax(sign * self.Y[row]))
+        best, tbest = float(sign * self.Y[row, i]), float(self.t[i])
         for j in (i - 1, i):
             if 0 <= j < len(self.t) - 1:
-                t, y = self._fine(j, 64)
+                t, y = self._fine(row, j, 64)
                 k = int(np.argmax(sign * y))
                 v, tk = float(sign * y[k]), float(t[k])
                 if not self.discrete and 0 < k < len(t) - 1:   # vertex of the parabola
@@ -187,16 +196,17 @@ class _Response:
                     best, tbest = v, tk
         return best, tbest
 
-    def settling(self, final):
-        """Last time ``|y - final| > 2 % |final|`` (0 if never; the first time back in)."""
+    def settling(self, row, final):
+        """Last time ``|y - final| > 2 % |final|`` of output ``row`` (0 if never; the first
+        time back in)."""
         tol = SETTLING_BAND * abs(final)
-        out = np.flatnonzero(np.abs(self.y - final) > tol)
+        out = np.flatnonzero(np.abs(self.Y[row] - final) > tol)
         if out.size == 0:
             return 0.0
         i = int(out[-1])
         if i + 1 >= len(self.t):
             return float(self.t[-1])
-        t, y = self._fine(i)
+        t, y = self._fine(row, i)
         k = int(np.flatnonzero(np.abs(y - final) > tol)[-1])
         return float(t[min(k + 1, len(t) - 1)])
 
@@ -223,18 +233,32 @@ def step_metrics(N, D, fs=None):
     >>> round(m.overshoot_pct, 3), round(m.peak_time_s, 3)
     (16.303, 3.628)
     """
-    N, D = poly.trim(N), poly.trim(D)
+    return step_metrics_many([N], D, fs)[0]
+
+
+def step_metrics_many(Ns, D, fs=None):
+    """:func:`step_metrics` of several numerators over one denominator, sharing one
+    realisation and one propagation of its states.
+
+    Returns
+    -------
+    list of StepMetrics
+    """
+    Ns, D = [poly.trim(N) for N in Ns], poly.trim(D)
     sc = poly.Scaling.natural(D)
-    r = _Response(N, D, sc, fs)
+    r = _Response(Ns, D, sc, fs)
     to_s = 1.0 / sc.w0 if fs is None else 1.0 / fs
-    final = float(N[-1] / D[-1])
-    sgn = 1.0 if final >= 0 else -1.0
-    peak, tp = r.extreme(sgn)
-    low, _ = r.extreme(-sgn)
-    over = 100.0 * max(0.0, (peak - abs(final)) / abs(final)) if final != 0 else np.inf
-    return StepMetrics(final=final, peak=sgn * peak, peak_time_s=tp * to_s, overshoot_pct=over,
-                       settling_time_s=r.settling(final) * to_s,
-                       max_abs=max(abs(peak), abs(low)))
+    out = []
+    for row, N in enumerate(Ns):
+        final = float(N[-1] / D[-1])
+        sgn = 1.0 if final >= 0 else -1.0
+        peak, tp = r.extreme(row, sgn)
+        low, _ = r.extreme(row, -sgn)
+        over = 100.0 * max(0.0, (peak - abs(final)) / abs(final)) if final != 0 else np.inf
+        out.append(StepMetrics(final=final, peak=sgn * peak, peak_time_s=tp * to_s,
+                               overshoot_pct=over, settling_time_s=r.settling(row, final) * to_s,
+                               max_abs=max(abs(peak), abs(low))))
+    return out
 
 
 def check(plant, ctrl, cl, specs, rtol, fs=None):
@@ -259,10 +283,17 @@ def check(plant, ctrl, cl, specs, rtol, fs=None):
         ``|u|`` for a reference step of ``specs.step_um``).
     failed : list of (quantity, value, bound)
     """
-    y = step_metrics(cl.nums["Tr"], cl.Delta, fs)
-    u = step_metrics(poly.pmul(plant.A, ctrl.T), cl.Delta, fs)
-    rec = {"overshoot_pct": y.overshoot_pct, "settling_time_s": y.settling_time_s,
-           "step_u_peak_V": u.max_abs * specs.step_um}
+    Ny, Nu, D = poly.trim(cl.nums["Tr"]), poly.trim(poly.pmul(plant.A, ctrl.T)), poly.trim(cl.Delta)
+    sc = poly.Scaling.natural(D)
+    r = _Response([Ny, Nu], D, sc, fs)   # one realisation, both outputs
+    to_s = 1.0 / sc.w0 if fs is None else 1.0 / fs
+    final = float(Ny[-1] / D[-1])
+    sgn = 1.0 if final >= 0 else -1.0
+    peak = r.extreme(0, sgn)[0]           # only the figures checked: the output's peak and
+    over = 100.0 * max(0.0, (peak - abs(final)) / abs(final)) if final != 0 else np.inf
+    u_max = max(abs(r.extreme(1, 1.0)[0]), abs(r.extreme(1, -1.0)[0]))   # settling, |u|
+    rec = {"overshoot_pct": over, "settling_time_s": r.settling(0, final) * to_s,
+           "step_u_peak_V": u_max * specs.step_um}
     failed = []
     for key, bound, atol in (("overshoot_pct", specs.overshoot_max_pct, 1e-6),
                              ("settling_time_s", specs.settling_time_max_s, 0.0),

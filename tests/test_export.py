@@ -32,7 +32,8 @@ def _check_against_python_control(exp, problem):
     The sections' state space must reproduce the certificate to 1e-6 (peaks) and 1e-8
     (radius); the direct form ``R_z/S_z`` within the error its own coefficients imply
     (its ``mu`` of ``implementation["direct_form_float64"]``, the bound of
-    ``robrst.implement``): near-clustered poles by ``z = 1`` make it the weaker one.
+    ``robrst.implement``; its spectral radius within ``1e-6 + mu``): near-clustered poles by
+    ``z = 1`` make it the weaker one.
     """
     d = exp.as_dict()
     fs, k = d["sample_rate_hz"], d["delay_samples"]
@@ -56,7 +57,10 @@ def _check_against_python_control(exp, problem):
     for m in list(problem.family.models) + [worst]:
         P = zoh_plant(m, fs, k)
         mine = radii[[x.temperature_C for x in models].index(m.temperature_C)]
-        for form, tol in (("sections", 1e-8), ("direct", 1e-6)):
+        # the direct form's own coefficient rounding moves its loop by mu (small-gain
+        # figure of robrst.implement): its poles are compared within that, the sections'
+        # to 1e-8
+        for form, tol in (("sections", 1e-8), ("direct", 1e-6 + mu)):
             poles = control.feedback(P, feedback_law(exp, P.dt, form)).poles()
             assert np.max(np.abs(poles)) == pytest.approx(mine, abs=tol), (m.label, form)
 

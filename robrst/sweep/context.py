@@ -107,12 +107,25 @@ def _fleet(sweep):
     return tuple(out), files
 
 
+def _stable(x):
+    """``x`` with every float rounded to 12 significant digits: derived values (a grid's
+    geometric points) may differ in the last bits between numpy versions."""
+    if isinstance(x, float):
+        return float(f"{x:.12g}")
+    if isinstance(x, dict):
+        return {k: _stable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_stable(v) for v in x]
+    return x
+
+
 def fingerprint(sweep, files):
-    """SHA-256 of the validated sweep, the input files' bytes and the robrst version."""
+    """SHA-256 of the validated sweep (floats to 12 digits), the input files' bytes and
+    the robrst version."""
     d = asdict(sweep)
     for k in ("path", "description", "problem", "worst"):
         d.pop(k)
-    h = hashlib.sha256(json.dumps(d, sort_keys=True, default=str).encode())
+    h = hashlib.sha256(json.dumps(_stable(d), sort_keys=True, default=str).encode())
     for f in files:
         h.update(Path(f).read_bytes())
     h.update(__version__.encode())
