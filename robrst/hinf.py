@@ -24,7 +24,9 @@ On return the supremum lies in ``[value, value (1 + 2 rtol)]``: no frequency has
 gain (the verification found none at that level), and ``value`` is attained at
 ``freq_rad_s``.  The peak frequency is polished by Newton steps on the stationarity
 polynomial.  An ``n``-th order ``D`` costs one eigenvalue problem of size ``2n - 1`` and
-usually one of size ``n`` (half the size of the Hamiltonian, an eighth of its cost).
+usually one Hamiltonian of size ``2n``.  :func:`peak_gains` computes the peaks of several
+numerators over one denominator (the certificate's S, T and U) with the same arithmetic,
+their eigenvalue problems batched.
 """
 
 from dataclasses import dataclass
@@ -33,7 +35,7 @@ import numpy as np
 
 from robrst import lti, poly
 
-__all__ = ["Peak", "peak_gain", "mag2_poly"]
+__all__ = ["Peak", "peak_gain", "peak_gains", "mag2_poly"]
 
 LOOSE = 0.05   # roots with |Im x| <= LOOSE |x| are treated as real (candidates only)
 MAX_SPREAD = 1e12   # pole-magnitude ratio beyond which float64 eigenvalues cannot verify
@@ -62,19 +64,40 @@ def mag2_poly(c):
     return e[::2] * sign                  # s^(2k) = (-x)^k
 
 
-def _roots(c):
-    """Roots of ``c`` (leading zeros dropped) from its companion matrix."""
+def _companion_matrix(c):
+    """Companion matrix of ``c`` (leading zeros dropped; ``None`` below degree 1)."""
     nz = np.flatnonzero(c)
     if nz.size == 0:
-        return np.zeros(0, complex)
+        return None
     c = c[nz[0]:]
     n = len(c) - 1
     if n < 1:
-        return np.zeros(0, complex)
+        return None
     M = np.zeros((n, n))
     M[0, :] = -c[1:] / c[0]
     M.flat[n::n + 1] = 1.0
-    return np.linalg.eigvals(M)
+    return M
+
+
+def _roots(c):
+    """Roots of ``c`` (leading zeros dropped) from its companion matrix."""
+    M = _companion_matrix(c)
+    return np.zeros(0, complex) if M is None else np.linalg.eigvals(M)
+
+
+def _eigvals_many(mats):
+    """Eigenvalues of each matrix (``None``: none), equal shapes in one batched call
+    (the same LAPACK routine per matrix as one call each: identical values)."""
+    out = [np.zeros(0, complex)] * len(mats)
+    groups = {}
+    for i, M in enumerate(mats):
+        if M is not None:
+            groups.setdefault(M.shape, []).append(i)
+    for idx in groups.values():
+        ev = np.linalg.eigvals(np.stack([mats[i] for i in idx]))
+        for i, e in zip(idx, ev):
+            out[i] = e
+    return out
 
 
 def _positive_real(r):
@@ -134,13 +157,6 @@ def _hamiltonian(A, B, C, d, g):
     H[n:, :n] = (g / R) * (C.T @ C)
     H[n:, n:] = -H[:n, :n].T
     return H
-
-
-def _crossings(A, B, C, d, g):
-    """Frequencies ``nu > 0`` where |G| may equal ``g``: near-imaginary Hamiltonian eigenvalues."""
-    ev = np.linalg.eigvals(_hamiltonian(A, B, C, d, g))
-    keep = (np.abs(ev.real) <= LOOSE * np.abs(ev)) & (ev.imag > 0)
-    return ev.imag[keep]
 
 
 def _polish(P, NDs, nu, g):
@@ -218,61 +234,137 @@ def peak_gain(N, D, rtol=1e-10, scaling=None, max_iter=60, band=None):
 def _peak(N, D, rtol, scaling, max_iter, band):
     if not np.any(N):
         return Peak(0.0, 0.0 if band is None else float(band[0]))
-    sc = scaling or poly.Scaling.natural(D)
-    w0 = sc.w0
-    A, B, C, d = lti.companion(N, D, sc, balance=False)   # LAPACK balances H itself
-    Ns, Ds = sc.apply(N), sc.apply(D)
-    Ds0 = Ds[0]
-    n = len(Ds) - 1
-    NDs = np.zeros((2, n + 1))
-    NDs[0, n + 1 - len(Ns):] = Ns / Ds0
-    NDs[1] = Ds / Ds0
-    if band is None:
-        lo, hi = 0.0, np.inf
-        edges = np.array([0.0])
-    else:
-        lo, hi = (float(b) / w0 for b in band)
-        if not 0 <= lo <= hi:
-            raise ValueError(f"peak_gain: band must satisfy 0 <= lo <= hi, got {band}")
-        edges = np.array([lo, hi]) if np.isfinite(hi) else np.array([lo])
-    if n == 0:
-        return Peak(float(_gain(NDs, edges[:1])[0]), float(edges[0] * w0))
-    qN, qD = mag2_poly(NDs[0]), mag2_poly(NDs[1])
-    P = np.convolve(np.polyder(qN), qD) - np.convolve(qN, np.polyder(qD))
-    spread = _spread(NDs[1])
-    nu = np.concatenate([edges, _positive_real(_roots(P))])
-    nu = nu[(nu >= lo) & (nu <= hi)]
-    vals = _gain(NDs, nu)
-    i = int(np.argmax(vals))
-    g, w_pk = float(vals[i]), float(nu[i])
-    if hi == np.inf and abs(d) >= g:
-        g, w_pk = abs(d), np.inf
-    if 0 < w_pk < np.inf:
-        g2, w2 = _polish(P, NDs, w_pk, g)
-        if lo <= w2 <= hi:
-            g, w_pk = g2, w2
-    verified = spread <= MAX_SPREAD
-    for _ in range(max_iter):
-        if not np.isfinite(g) or g == 0.0:
-            break
-        ws = _crossings(A, B, C, d, g * (1 + 2 * rtol))
-        ws = np.sort(np.concatenate([edges, ws[(ws > lo) & (ws < hi)]]))
+    return _run([_Level(N, D, scaling or poly.Scaling.natural(D), band)], rtol, max_iter)[0]
+
+
+class _Level:
+    """One peak computation in the scaled variable (module docstring): candidates from
+    the stationarity polynomial, then level-set verifications until none lies above."""
+
+    def __init__(self, N, D, sc, band):
+        self.w0 = sc.w0
+        self.A, self.B, self.C, self.d = lti.companion(N, D, sc, balance=False)  # LAPACK
+        Ns, Ds = sc.apply(N), sc.apply(D)                                      # balances H
+        n = len(Ds) - 1
+        self.NDs = NDs = np.zeros((2, n + 1))
+        NDs[0, n + 1 - len(Ns):] = Ns / Ds[0]
+        NDs[1] = Ds / Ds[0]
+        if band is None:
+            self.lo, self.hi, self.edges = 0.0, np.inf, np.array([0.0])
+        else:
+            lo, hi = (float(b) / sc.w0 for b in band)
+            if not 0 <= lo <= hi:
+                raise ValueError(f"peak_gain: band must satisfy 0 <= lo <= hi, got {band}")
+            self.lo, self.hi = lo, hi
+            self.edges = np.array([lo, hi]) if np.isfinite(hi) else np.array([lo])
+        self.n, self.done = n, False
+        if n:
+            qN, qD = mag2_poly(NDs[0]), mag2_poly(NDs[1])
+            self.P = np.convolve(np.polyder(qN), qD) - np.convolve(qN, np.polyder(qD))
+            self.verified = _spread(NDs[1]) <= MAX_SPREAD
+
+    def stationary(self):
+        """Companion matrix whose eigenvalues are the stationary points (x = nu**2)."""
+        return _companion_matrix(self.P) if self.n else None
+
+    def start(self, roots):
+        """The best candidate among the stationary points, edges and the limit at inf."""
+        if self.n == 0:
+            self.g, self.w_pk, self.done = float(_gain(self.NDs, self.edges[:1])[0]), \
+                float(self.edges[0]), True
+            return
+        lo, hi = self.lo, self.hi
+        nu = np.concatenate([self.edges, _positive_real(roots)])
+        nu = nu[(nu >= lo) & (nu <= hi)]
+        vals = _gain(self.NDs, nu)
+        i = int(np.argmax(vals))
+        self.g, self.w_pk = float(vals[i]), float(nu[i])
+        if hi == np.inf and abs(self.d) >= self.g:
+            self.g, self.w_pk = abs(self.d), np.inf
+        self._polish()
+
+    def _polish(self):
+        if 0 < self.w_pk < np.inf:
+            g2, w2 = _polish(self.P, self.NDs, self.w_pk, self.g)
+            if self.lo <= w2 <= self.hi:
+                self.g, self.w_pk = g2, w2
+
+    def level(self, rtol):
+        """The Hamiltonian of the next verification (``None``: nothing left to verify)."""
+        if self.done or not np.isfinite(self.g) or self.g == 0.0:
+            self.done = True
+            return None
+        return _hamiltonian(self.A, self.B, self.C, self.d, self.g * (1 + 2 * rtol))
+
+    def step(self, ev, rtol):
+        """Evaluate between the level's crossings (eigenvalues ``ev``); done when none is
+        above the level, else the value is raised to the best point found."""
+        lo, hi = self.lo, self.hi
+        keep = (np.abs(ev.real) <= LOOSE * np.abs(ev)) & (ev.imag > 0)
+        ws = ev.imag[keep]
+        ws = np.sort(np.concatenate([self.edges, ws[(ws > lo) & (ws < hi)]]))
         mids = np.where(ws[:-1] > 0, np.sqrt(ws[:-1] * ws[1:]), 0.5 * (ws[:-1] + ws[1:]))
         cand = np.concatenate([mids, ws, [2.0 * ws[-1] + 1.0] if hi == np.inf else []])
-        v = _gain(NDs, cand)
+        v = _gain(self.NDs, cand)
         j = int(np.argmax(v))
-        if not v[j] > g * (1 + rtol):
+        if not v[j] > self.g * (1 + rtol):
+            self.done = True
+            return
+        self.g, self.w_pk = float(v[j]), float(cand[j])
+        self._polish()
+
+    def result(self):
+        g, w_pk = self.g, self.w_pk
+        if self.n and not self.verified:   # beyond what the eigenvalues resolve: a scan too
+            g, w_pk = _scan(self.NDs, np.abs(_roots(self.NDs[1])), self.lo, self.hi, g, w_pk)
+        return Peak(g, w_pk * self.w0 if np.isfinite(w_pk) else np.inf, bool(self.verified)
+                    if self.n else True)
+
+
+def _run(levels, rtol, max_iter):
+    """Drive the peak computations ``levels`` together, their eigenvalue problems batched."""
+    for lv, roots in zip(levels, _eigvals_many([lv.stationary() for lv in levels])):
+        lv.start(roots)
+    for _ in range(max_iter):
+        live = [(lv, lv.level(rtol)) for lv in levels]
+        live = [(lv, H) for lv, H in live if H is not None]
+        if not live:
             break
-        g, w_pk = float(v[j]), float(cand[j])
-        if 0 < w_pk < np.inf:
-            g2, w2 = _polish(P, NDs, w_pk, g)
-            if lo <= w2 <= hi:
-                g, w_pk = g2, w2
-    else:
-        verified = False
-    if not verified:    # beyond what the eigenvalues resolve: a dense scan as well
-        g, w_pk = _scan(NDs, np.abs(_roots(NDs[1])), lo, hi, g, w_pk)
-    return Peak(g, w_pk * w0 if np.isfinite(w_pk) else np.inf, verified)
+        for (lv, _), ev in zip(live, _eigvals_many([H for _, H in live])):
+            lv.step(ev, rtol)
+    for lv in levels:
+        if not lv.done:
+            lv.verified = False      # max_iter verifications did not settle it
+    return [lv.result() for lv in levels]
+
+
+def peak_gains(Ns, D, rtol=1e-10, max_iter=60):
+    """Global peaks of ``|N/D|`` for each numerator of ``Ns`` over the one denominator ``D``.
+
+    The same figures as :func:`peak_gain` of each (same arithmetic), with the scaling of
+    ``D`` shared and the eigenvalue problems of all numerators solved in batched calls.
+
+    Returns
+    -------
+    list of Peak
+    """
+    D0 = poly.trim(D)
+    if not np.any(D0):
+        raise ValueError("peak_gain: the denominator is identically zero")
+    sc, out, levels = poly.Scaling.natural(D0), {}, {}
+    for i, N in enumerate(Ns):
+        Ni, Di = _prepare(N, D0)
+        if len(Ni) > len(Di):
+            out[i] = Peak(np.inf, np.inf)
+        elif not np.any(Ni):
+            out[i] = Peak(0.0, 0.0)
+        elif len(Di) != len(D0):      # a common factor s**k cancelled: its own scaling
+            out[i] = peak_gain(Ni, Di, rtol=rtol, max_iter=max_iter)
+        else:
+            levels[i] = _Level(Ni, Di, sc, None)
+    with np.errstate(all="ignore"):
+        out.update(zip(levels, _run(list(levels.values()), rtol, max_iter)))
+    return [out[i] for i in range(len(Ns))]
 
 
 def _scan(NDs, mags, lo, hi, g, w_pk, per_decade=50):

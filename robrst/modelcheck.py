@@ -18,7 +18,7 @@ import numpy as np
 
 from robrst import poly, timespec
 from robrst.analysis import spectral_abscissa
-from robrst.hinf import peak_gain
+from robrst.hinf import peak_gain, peak_gains
 from robrst.interval import distance_to_instability
 from robrst.problem import PEAK_SPECS
 from robrst.rst import closed_loop
@@ -106,9 +106,9 @@ def check_model(plant, ctrl, specs, rtol, fs=None):
         add(f"stability not resolved in double precision: A S + B R is within {rho:.2g}"
             " (relative) of a polynomial with a root on the imaginary axis (cancellation in"
             " the closed-loop coefficients)", rho, RESOLVE_FACTOR, kind="unresolved")
-    glob = {}
+    glob = dict(zip(PEAK_SPECS, peak_gains([cl.nums[k] for k in PEAK_SPECS], cl.Delta)))
     for name in PEAK_SPECS:
-        pk = glob[name] = peak_gain(cl.nums[name], cl.Delta)
+        pk = glob[name]
         # a sampled peak at nu = inf is at Nyquist (unwarp(inf) = pi fs)
         freq = phys(float(pk.freq_rad_s)) if fs is not None or np.isfinite(pk.freq_rad_s) else None
         rec[f"M{name.lower()}"] = pk.value

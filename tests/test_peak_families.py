@@ -116,3 +116,30 @@ def test_band_to_infinity_includes_the_limit():
     assert pk.value == pytest.approx(2.0, rel=1e-12) and pk.freq_rad_s == np.inf
     ref, _ = rp.dense_peak(N, D, band=(3.0, 1e9))
     assert pk.value >= ref * (1 - SLACK)
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_peak_gains_of_one_denominator_match_the_dense_grid(seed):
+    """``peak_gains`` (several numerators over one denominator, as the certificate asks for
+    S, T and U) against the dense unscaled grid, and the very same figures as
+    ``peak_gain`` one numerator at a time; numerators of several degrees (batched by
+    size), a zero one and one with a common factor ``s`` (cancelled: its own path)."""
+    from robrst.hinf import peak_gains
+
+    rng = np.random.default_rng([29, seed])
+    N0, D = (multi_peak, high_order, near_flat)[seed % 3](rng)
+    D = np.polymul(D, [1.0, 0.0]) if seed % 4 == 0 else D
+    Ns = [N0, _stable_poly(rng, len(D) - 2, 1e-1, 1e4), _stable_poly(rng, 1, 1e-1, 1e4),
+          np.zeros(2), np.polymul(N0, [1.0, 0.0])[-len(D):]]
+    for N, pk in zip(Ns, peak_gains(Ns, D, rtol=RTOL)):
+        one = peak_gain(N, D, rtol=RTOL)
+        assert (pk.value, pk.freq_rad_s, pk.verified) == (one.value, one.freq_rad_s,
+                                                          one.verified)
+        if not np.any(N):
+            assert pk.value == 0.0
+            continue
+        Nr, Dr = rp._strip(N), D
+        while Nr[-1] == 0 and Dr[-1] == 0:      # the grid helper takes D(0) = 0 as a pole
+            Nr, Dr = Nr[:-1], Dr[:-1]
+        ref, _ = rp.dense_peak(Nr, Dr, n_grid=20000)
+        assert ref * (1 - SLACK) <= pk.value <= ref * (1 + SLACK + 2 * RTOL), (pk, ref)
