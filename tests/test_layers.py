@@ -3,8 +3,8 @@
 Layers, bottom to top (README "Architecture")::
 
     base          errors, schema, fileio, resources
-    maths core    poly, lti, plant, thermal, family, rst, hinf, analysis, sampled, digital,
-                  implement, interval
+    maths core    poly, lti, plant, thermal, family, rst, hinf, levelset, analysis, sampled,
+                  digital, implement, interval
     problem       problem (typed records), spec (problem files)
     certificate   certificate, modelcheck, timespec
     synthesis     synthesis.*
@@ -26,7 +26,7 @@ PKG = Path(__file__).resolve().parents[1] / "robrst"
 LAYERS = {
     "base": ("robrst.errors", "robrst.schema", "robrst.fileio", "robrst.resources"),
     "maths": ("robrst.poly", "robrst.lti", "robrst.plant", "robrst.thermal", "robrst.family",
-              "robrst.rst", "robrst.hinf", "robrst.analysis", "robrst.sampled",
+              "robrst.rst", "robrst.hinf", "robrst.levelset", "robrst.analysis", "robrst.sampled",
               "robrst.digital", "robrst.implement", "robrst.interval"),
     "problem": ("robrst.problem", "robrst.spec"),
     "certificate": ("robrst.certificate", "robrst.modelcheck", "robrst.timespec"),
