@@ -18,10 +18,10 @@ Nothing from the optimiser is trusted: every figure is recomputed from the polyn
     checked temperatures is halved while any figure (spectral abscissa, every bounded
     peak, continuous and sampled) changes across it by more than half its margin to the
     bound at either end (the continuous spectral abscissa only when no interval proof
-    covers stability: the proofs below run first); an interval still unresolved at the resolution floor is a
-    violation (``kind: "unresolved"``).  Parametric families get their stability from this
-    refinement; it is a sweep with a stated resolution, not a proof for excursions
-    narrower than it.
+    covers stability: the proofs below run first); an interval still unresolved at the
+    resolution floor is a violation (``kind: "unresolved"``).  Where no interval proof
+    holds, stability too comes from this refinement: a sweep with a stated resolution,
+    not a proof for excursions narrower than it.
 
 A controller is certified when no checked figure exceeds its bound (relative tolerance
 ``rtol``), every verdict is resolved in double precision, and the interval checks pass.
@@ -218,11 +218,13 @@ def _refine(family, ctrl, specs, rtol, checks, recs, viols, budget, orders, igno
 
 
 def _split(a, b, recs, floor, walked):
-    """Where to check next on ``[a, b]`` and the lower-order end probed (or ``None``): the
-    midpoint, or, when the closed-loop degree
-    differs at the ends, a point ``floor / 2`` from the lower-order end (a degree drops
-    at a single temperature, such as a creep pair cancelling at the reference: one check
-    there isolates it, where halving would need ``log2(width / floor)`` checks)."""
+    """Where to check next on ``[a, b]`` and the lower-order end probed (or ``None``).
+
+    The midpoint; or, when the closed-loop degree differs at the ends, a point
+    ``floor / 2`` from the lower-order end: a degree drops at a single temperature (a
+    creep pair cancelling at the reference), and one check there isolates it where
+    halving would need ``log2(width / floor)`` checks.
+    """
     da, db = (recs[t].get("closed_loop_degree") for t in (a, b))
     if da is None or db is None or da == db or b - a <= floor:
         return 0.5 * (a + b), None

@@ -67,6 +67,8 @@ def _roots(c):
 def _eigvals_many(mats):
     """Eigenvalues of each matrix (``None``: none), equal shapes in one batched call
     (the same LAPACK routine per matrix as one call each: identical values)."""
+    if len(mats) == 1:               # one problem (a single peak): no batching to do
+        return [np.zeros(0, complex) if mats[0] is None else np.linalg.eigvals(mats[0])]
     out = [np.zeros(0, complex)] * len(mats)
     groups = {}
     for i, M in enumerate(mats):

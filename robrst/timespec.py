@@ -211,6 +211,12 @@ class _Response:
         return float(t[min(k + 1, len(t) - 1)])
 
 
+def _overshoot_pct(peak, final):
+    """Overshoot [%] of a response whose largest value in the direction of ``final`` is
+    ``peak`` (``inf`` for a zero final value)."""
+    return 100.0 * max(0.0, (peak - abs(final)) / abs(final)) if final != 0 else np.inf
+
+
 def step_metrics(N, D, fs=None):
     """Exact step response figures of ``N(s)/D(s)`` (``D`` Hurwitz).
 
@@ -254,9 +260,9 @@ def step_metrics_many(Ns, D, fs=None):
         sgn = 1.0 if final >= 0 else -1.0
         peak, tp = r.extreme(row, sgn)
         low, _ = r.extreme(row, -sgn)
-        over = 100.0 * max(0.0, (peak - abs(final)) / abs(final)) if final != 0 else np.inf
         out.append(StepMetrics(final=final, peak=sgn * peak, peak_time_s=tp * to_s,
-                               overshoot_pct=over, settling_time_s=r.settling(row, final) * to_s,
+                               overshoot_pct=_overshoot_pct(peak, final),
+                               settling_time_s=r.settling(row, final) * to_s,
                                max_abs=max(abs(peak), abs(low))))
     return out
 
@@ -283,16 +289,18 @@ def check(plant, ctrl, cl, specs, rtol, fs=None):
         ``|u|`` for a reference step of ``specs.step_um``).
     failed : list of (quantity, value, bound)
     """
-    Ny, Nu, D = poly.trim(cl.nums["Tr"]), poly.trim(poly.pmul(plant.A, ctrl.T)), poly.trim(cl.Delta)
+    Ny, Nu = poly.trim(cl.nums["Tr"]), poly.trim(poly.pmul(plant.A, ctrl.T))
+    D = poly.trim(cl.Delta)
     sc = poly.Scaling.natural(D)
-    r = _Response([Ny, Nu], D, sc, fs)   # one realisation, both outputs
+    # one realisation for y and u; only the figures checked: y's peak and settling time,
+    # the largest |u|
+    r = _Response([Ny, Nu], D, sc, fs)
     to_s = 1.0 / sc.w0 if fs is None else 1.0 / fs
     final = float(Ny[-1] / D[-1])
-    sgn = 1.0 if final >= 0 else -1.0
-    peak = r.extreme(0, sgn)[0]           # only the figures checked: the output's peak and
-    over = 100.0 * max(0.0, (peak - abs(final)) / abs(final)) if final != 0 else np.inf
-    u_max = max(abs(r.extreme(1, 1.0)[0]), abs(r.extreme(1, -1.0)[0]))   # settling, |u|
-    rec = {"overshoot_pct": over, "settling_time_s": r.settling(0, final) * to_s,
+    peak = r.extreme(0, 1.0 if final >= 0 else -1.0)[0]
+    u_max = max(abs(r.extreme(1, 1.0)[0]), abs(r.extreme(1, -1.0)[0]))
+    rec = {"overshoot_pct": _overshoot_pct(peak, final),
+           "settling_time_s": r.settling(0, final) * to_s,
            "step_u_peak_V": u_max * specs.step_um}
     failed = []
     for key, bound, atol in (("overshoot_pct", specs.overshoot_max_pct, 1e-6),
