@@ -169,12 +169,13 @@ class Level:
 
     def __init__(self, N, D, sc, band):
         self.w0 = sc.w0
-        self.A, self.B, self.C, self.d = lti.companion(N, D, sc, balance=False)  # LAPACK
-        Ns, Ds = sc.apply(N), sc.apply(D)                                      # balances H
+        Ns, Ds = sc.apply(N), sc.apply(D)
         n = len(Ds) - 1
         self.NDs = NDs = np.zeros((2, n + 1))
         NDs[0, n + 1 - len(Ns):] = Ns / Ds[0]
         NDs[1] = Ds / Ds[0]
+        # unbalanced: LAPACK balances the Hamiltonian itself
+        self.A, self.B, self.C, self.d = lti.companion_monic(NDs[0], NDs[1], balance=False)
         self._set_band(band)
         self.n, self.roots = n, None
         if n:

@@ -18,8 +18,8 @@ import scipy.linalg as sla
 
 from robrst import poly
 
-__all__ = ["companion_parts", "companion", "DiscreteSS", "zoh", "zoh_matrices", "zoh_modal", "d2c_modal",
-           "transmission_zeros", "ss_to_poly", "d2c"]
+__all__ = ["companion_parts", "companion", "companion_monic", "DiscreteSS", "zoh",
+           "zoh_matrices", "zoh_modal", "d2c_modal", "transmission_zeros", "ss_to_poly", "d2c"]
 
 
 def companion_parts(a, b):
@@ -62,11 +62,20 @@ def companion(N, D, scaling=None, balance=True):
     N, D = poly.trim(N), poly.trim(D)
     sc = scaling or poly.Scaling.natural(D)
     Ns, Ds = sc.apply(N), sc.apply(D)
-    Ns, Ds = Ns / Ds[0], Ds / Ds[0]
-    n = len(Ds) - 1
-    if len(Ns) > n + 1:
+    return companion_monic(Ns / Ds[0], Ds / Ds[0], balance)
+
+
+def companion_monic(ns, ds, balance=True):
+    """:func:`companion` of ``ns/ds`` given in the scaled variable with ``ds`` monic.
+
+    Returns
+    -------
+    A, B, C, d
+    """
+    n = len(ds) - 1
+    if len(ns) > n + 1:
         raise ValueError("improper transfer function: deg N > deg D")
-    row, c, d = companion_parts(Ds, Ns)
+    row, c, d = companion_parts(ds, ns)
     A = np.zeros((n, n))
     if n:
         A[0, :] = row
