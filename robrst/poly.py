@@ -175,7 +175,16 @@ def monic(c):
 
 
 def eval_jw(c, w):
-    """Evaluate a polynomial at ``s = j*w`` (vectorised in ``w``)."""
+    """Evaluate a polynomial at ``s = j*w`` (vectorised in ``w``).
+
+    One frequency (a root polish calls this many times): Horner's rule in Python complex
+    arithmetic, the same operations as ``numpy.polyval`` without its array overhead.
+    """
+    if np.ndim(w) == 0:
+        s, out = 1j * float(w), 0j
+        for a in np.asarray(c, float).tolist():
+            out = out * s + a
+        return np.complex128(out)
     return np.polyval(np.asarray(c, float), 1j * np.asarray(w, float))
 
 
