@@ -18,8 +18,9 @@ import scipy.linalg as sla
 
 from robrst import poly
 
-__all__ = ["companion_parts", "companion", "companion_monic", "DiscreteSS", "zoh",
-           "zoh_matrices", "zoh_modal", "d2c_modal", "transmission_zeros", "ss_to_poly", "d2c"]
+__all__ = ["companion_parts", "companion", "companion_monic", "companion_outputs", "DiscreteSS",
+           "zoh", "zoh_matrices", "zoh_modal", "d2c_modal", "transmission_zeros", "ss_to_poly",
+           "d2c"]
 
 
 def companion_parts(a, b):
@@ -90,6 +91,30 @@ def companion_monic(ns, ds, balance=True):
         B = B / sc_vec[:, None]
         C = C * sc_vec[None, :]
     return A, B, C, float(d)
+
+
+def companion_outputs(Ns, D, scaling):
+    """:func:`companion` of several numerators over one ``D``: one ``A, B``, one balancing,
+    a row of ``C`` and an entry of ``d`` per numerator (the same matrices as one call each).
+
+    Returns
+    -------
+    A, B, C, d
+        ``C`` of shape ``(len(Ns), n)``, ``d`` of length ``len(Ns)``.
+    """
+    D = poly.trim(D)
+    Ds = scaling.apply(D)
+    parts = [companion_monic(scaling.apply(poly.trim(N)) / Ds[0], Ds / Ds[0], balance=False)
+             for N in Ns]
+    A, B = parts[0][:2]
+    C = np.vstack([p[2] for p in parts])
+    d = np.array([p[3] for p in parts])
+    if A.shape[0]:
+        _, (sc_vec, _) = sla.matrix_balance(A, permute=False, separate=True)
+        A = A * (1 / sc_vec)[:, None] * sc_vec[None, :]
+        B = B / sc_vec[:, None]
+        C = C * sc_vec[None, :]
+    return A, B, C, d
 
 
 @dataclass(frozen=True, eq=False)

@@ -126,10 +126,7 @@ class _Response:
 
     def __init__(self, Ns, D, sc, fs=None):
         self.cache = {}
-        parts = [lti.companion(N, D, sc) for N in Ns]   # A, B depend on D only
-        A, B = parts[0][:2]
-        C = np.vstack([p[2] for p in parts])
-        d = np.array([p[3] for p in parts])
+        A, B, C, d = lti.companion_outputs(Ns, D, sc)   # A, B depend on D only
         self.discrete = fs is not None
         if self.discrete:
             A, B, C, d = _bilinear(A, B, C, d, sc.w0 / fs)
