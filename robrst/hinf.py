@@ -11,9 +11,10 @@ polynomials of ``x = nu**2``::
    the stationarity polynomial ``qN' qD - qN qD'``; ``|G|`` is evaluated (complex Horner,
    not through ``qN/qD``) at all of them, at ``w = 0`` and ``w = inf`` (``|N/D|`` limits)
    or at the band edges.  The largest value is a guaranteed lower bound ``g``.
-2. **Level-set verification** (Bruinsma–Steinbuch, on the polynomial of the Hamiltonian's
-   imaginary eigenvalues): the frequencies where ``|G| = g (1 + 2 rtol)`` are the positive
-   real roots of ``qN - g^2 (1 + 2 rtol)^2 qD``.  Between two consecutive crossings (or a
+2. **Level-set verification** (Bruinsma–Steinbuch): the frequencies where
+   ``|G| = g (1 + 2 rtol)`` (the positive real roots of ``qN - g^2 (1 + 2 rtol)^2 qD``)
+   are the imaginary eigenvalues of the realisation's Hamiltonian at that level
+   (:mod:`robrst.levelset`).  Between two consecutive crossings (or a
    crossing and a band edge) ``|G|`` is on one side of the level; ``|G|`` is evaluated at
    every geometric midpoint and crossing, and ``g`` raised to the best value, until no
    interval lies above the level.  Roots are accepted as real loosely (imaginary part up to
