@@ -52,5 +52,5 @@ def run(tiny=False, repeats=5):
         name="exact peak certification", robrst_path="Hamiltonian bisection (scaled)",
         baseline=f"dense log grid, {n_grid} points", goal="as accurate, ≥ 10× faster",
         headline=head, met=bool(ratio >= 10 and over <= 1e-9),
-        figures={"ratio_median": ratio, "ratio_batched": ratio_b, "max_under_estimate": under, "max_over_exact": over,
-                 "systems": len(systems), "grid_points": n_grid})
+        figures={"ratio_median": ratio, "ratio_batched": ratio_b, "max_under_estimate": under,
+                 "max_over_exact": over, "systems": len(systems), "grid_points": n_grid})

@@ -266,12 +266,12 @@ class Level:
 def run_levels(levels, rtol, max_iter):
     """Drive the peak computations ``levels`` together, their eigenvalue problems batched
     (stationary points computed unless a level has them from the level it was banded from)."""
+    banded = [lv for lv in levels if lv.roots is not None]
     new = [lv for lv in levels if lv.roots is None]
     for lv, roots in zip(new, _eigvals_many([lv.stationary() for lv in new])):
         lv.start(roots)
-    for lv in levels:
-        if lv not in new:
-            lv.start(lv.roots)
+    for lv in banded:
+        lv.start(lv.roots)
     for _ in range(max_iter):
         live = [(lv, lv.level(rtol)) for lv in levels]
         live = [(lv, H) for lv, H in live if H is not None]

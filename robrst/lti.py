@@ -86,11 +86,15 @@ def companion_monic(ns, ds, balance=True):
         B[0, 0] = 1.0
     C = np.asarray(c, float).reshape(1, n)
     if n and balance:
-        _, (sc_vec, _) = sla.matrix_balance(A, permute=False, separate=True)
-        A = A * (1 / sc_vec)[:, None] * sc_vec[None, :]
-        B = B / sc_vec[:, None]
-        C = C * sc_vec[None, :]
+        A, B, C = _balanced(A, B, C)
     return A, B, C, float(d)
+
+
+def _balanced(A, B, C):
+    """``A, B, C`` under the diagonal similarity (LAPACK ``gebal``) that balances ``A``."""
+    _, (sc_vec, _) = sla.matrix_balance(A, permute=False, separate=True)
+    return (A * (1 / sc_vec)[:, None] * sc_vec[None, :], B / sc_vec[:, None],
+            C * sc_vec[None, :])
 
 
 def companion_outputs(Ns, D, scaling):
@@ -110,10 +114,7 @@ def companion_outputs(Ns, D, scaling):
     C = np.vstack([p[2] for p in parts])
     d = np.array([p[3] for p in parts])
     if A.shape[0]:
-        _, (sc_vec, _) = sla.matrix_balance(A, permute=False, separate=True)
-        A = A * (1 / sc_vec)[:, None] * sc_vec[None, :]
-        B = B / sc_vec[:, None]
-        C = C * sc_vec[None, :]
+        A, B, C = _balanced(A, B, C)
     return A, B, C, d
 
 
