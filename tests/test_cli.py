@@ -70,3 +70,17 @@ def test_closed_output_pipe_is_one_line_not_a_traceback():
     assert p.wait() == 2
     assert err.strip().splitlines() == [
         "robrst: error: the output was closed before robrst finished writing it"]
+
+
+def test_a_continuous_design_does_not_import_scipy():
+    """scipy.linalg costs about 0.3 s CPU to import (it pulls numpy's lazy submodules in);
+    a design without a sampled loop or time-domain specs never needs it, so the command
+    must not pay for it (the import is deferred to the kernels that use it)."""
+    code = ("import sys\nfrom robrst.cli import main\n"
+            "rc = main(['design', 'paper_robust_continuous', '--json'])\n"
+            "print([m for m in sys.modules if m.split('.')[0] == 'scipy'], file=sys.stderr)\n"
+            "sys.exit(rc)")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["certified"] is True
+    assert r.stderr.strip().splitlines()[-1] == "[]"
