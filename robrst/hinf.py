@@ -127,7 +127,7 @@ def peak_gains(Ns, D, rtol=1e-10, max_iter=60, bands=()):
         elif len(Di) != len(D0):      # a common factor s**k cancelled: its own scaling
             out[i] = peak_gain(Ni, Di, rtol=rtol, max_iter=max_iter)
         else:
-            levels[i] = Level(Ni, Di, sc, None)
+            levels[i] = Level(Ni, Di, sc, None, like=next(iter(levels.values()), None))
     with np.errstate(all="ignore"):
         out.update(zip(levels, run_levels(list(levels.values()), rtol, max_iter)))
         glob = [out[i] for i in range(len(Ns))]

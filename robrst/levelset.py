@@ -167,21 +167,32 @@ class Level:
     """One peak computation in the scaled variable (module docstring): candidates from
     the stationarity polynomial, then level-set verifications until none lies above."""
 
-    def __init__(self, N, D, sc, band):
+    def __init__(self, N, D, sc, band, like=None):
+        """``like``: a level of the same ``D`` and scaling whose denominator parts (scaled
+        ``D``, ``|D|^2`` and its derivative, the spread test) are reused."""
         self.w0 = sc.w0
-        Ns, Ds = sc.apply(N), sc.apply(D)
-        n = len(Ds) - 1
+        if like is None:
+            Ds = sc.apply(D)
+            self.lead, ds, n = Ds[0], Ds / Ds[0], len(Ds) - 1
+        else:
+            self.lead, ds, n = like.lead, like.NDs[1], like.n
+        Ns = sc.apply(N)
         self.NDs = NDs = np.zeros((2, n + 1))
-        NDs[0, n + 1 - len(Ns):] = Ns / Ds[0]
-        NDs[1] = Ds / Ds[0]
+        NDs[0, n + 1 - len(Ns):] = Ns / self.lead
+        NDs[1] = ds
         # unbalanced: LAPACK balances the Hamiltonian itself
         self.A, self.B, self.C, self.d = lti.companion_monic(NDs[0], NDs[1], balance=False)
         self._set_band(band)
         self.n, self.roots = n, None
         if n:
-            qN, qD = mag2_poly(NDs[0]), mag2_poly(NDs[1])
-            self.P = np.convolve(np.polyder(qN), qD) - np.convolve(qN, np.polyder(qD))
-            self.resolvable = _spread(NDs[1]) <= MAX_SPREAD
+            qN = mag2_poly(NDs[0])
+            if like is None:
+                self.qD = mag2_poly(NDs[1])
+                self.dqD = np.polyder(self.qD)
+                self.resolvable = _spread(NDs[1]) <= MAX_SPREAD
+            else:
+                self.qD, self.dqD, self.resolvable = like.qD, like.dqD, like.resolvable
+            self.P = np.convolve(np.polyder(qN), self.qD) - np.convolve(qN, self.dqD)
             self.verified = self.resolvable
 
     def _set_band(self, band):

@@ -159,19 +159,22 @@ def zoh(N, D, sample_rate_hz, scaling=None):
     return DiscreteSS(Ad=Ad, Bd=Bd, C=C, d=d, A=A, Gamma=Gamma, h=h, scaling=sc)
 
 
-def zoh_matrices(A, B, h):
+def zoh_matrices(A, B, h, gamma=True):
     """``(Ad, Gamma, Bd)`` of ``x' = A x + B u`` held over a step ``h`` (same time unit):
     ``Ad = exp(A h)``, ``Gamma = int_0^h exp(A t) dt``, ``Bd = Gamma B``, from one matrix
-    exponential of ``[[A h, I h, B h], [0, 0, 0]]``."""
-    n = A.shape[0]
-    M = np.zeros((2 * n + 1, 2 * n + 1))
-    M[:n, :n] = A * h
-    M[:n, n:2 * n] = np.eye(n) * h
-    M[:n, 2 * n:] = B * h
-    from scipy.linalg import expm
+    exponential of ``[[A h, I h, B h], [0, 0, 0]]``; with ``gamma=False`` ``Gamma`` is
+    ``None`` and the exponential is the smaller ``[[A h, B h], [0, 0]]``."""
+    from scipy.linalg import expm   # scipy.linalg only where used: 0.3 s to import
 
+    n = A.shape[0]
+    k = 2 * n + 1 if gamma else n + 1
+    M = np.zeros((k, k))
+    M[:n, :n] = A * h
+    if gamma:
+        M[:n, n:2 * n] = np.eye(n) * h
+    M[:n, k - 1:] = B * h
     E = expm(M)
-    return E[:n, :n], E[:n, n:2 * n], E[:n, 2 * n:]
+    return E[:n, :n], (E[:n, n:2 * n] if gamma else None), E[:n, k - 1:]
 
 
 def zoh_modal(poles, residues, sample_rate_hz):

@@ -157,7 +157,7 @@ class _Response:
             if self.discrete:
                 self.cache[h] = _power(self.Ad, self.Bd, int(h))
             else:
-                Ad, _, Bd = lti.zoh_matrices(self.A, self.B, h)
+                Ad, _, Bd = lti.zoh_matrices(self.A, self.B, h, gamma=False)
                 self.cache[h] = (Ad, Bd.ravel())
         return self.cache[h]
 
