@@ -221,3 +221,50 @@ def test_convex_answers_when_the_specs_cannot_be_met(tmp_path):
     cert_ratio = max(v.value / v.bound for v in res.certificate.violations)
     assert ratio == pytest.approx(cert_ratio, rel=2e-3)   # ... by what the certificate says
     assert ratio < worst_ratio(analytic_design(res.problem).controller)  # better than the start
+
+
+def test_convex_answers_when_the_solver_has_no_solution(tmp_path, monkeypatch):
+    """CLARABEL stops without a solution (numerical trouble) in both the hard and the soft
+    program: the answer is the analytic design (the start), certified for what it achieves,
+    with the solver's status in the notes, never a raw solver error."""
+    import cvxpy as cp
+
+    def stalls(self, *args, **kwargs):
+        self._status = cp.SOLVER_ERROR if hasattr(cp, "SOLVER_ERROR") else "solver_error"
+
+    monkeypatch.setattr(cp.Problem, "solve", stalls)
+    monkeypatch.setattr(cp.Problem, "status", property(lambda self: self._status))
+    f = tmp_path / "stall.toml"
+    f.write_text(SHAPING.format(method="convex"))
+    res = run_problem(load_problem(f))
+    start = analytic_design(res.problem).controller
+    for k in "RST":
+        assert np.array_equal(getattr(res.controller, k), getattr(start, k))
+    assert "soft program failed too" in res.synthesis.notes[0]
+    assert "without a solution" in res.synthesis.notes[0]
+    assert res.status in ("certified", "not_certified")
+
+
+def test_convex_uses_an_inaccurate_optimum_and_certifies_it(tmp_path, monkeypatch):
+    """``optimal_inaccurate`` still carries a solution: it is used (no cvxpy warning
+    reaches the user) and the independent certificate judges it."""
+    import warnings
+
+    import cvxpy as cp
+
+    real = cp.Problem.solve
+
+    def inaccurate(self, *args, **kwargs):
+        out = real(self, *args, **kwargs)
+        warnings.warn("Solution may be inaccurate.", UserWarning)
+        self._status = cp.OPTIMAL_INACCURATE
+        return out
+
+    monkeypatch.setattr(cp.Problem, "solve", inaccurate)
+    f = tmp_path / "inaccurate.toml"
+    f.write_text(SHAPING.format(method="convex"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        res = run_problem(load_problem(f))
+    assert not res.synthesis.notes                    # the hard program's answer was used
+    assert res.certified and res.analytic_check.passed

@@ -6,6 +6,8 @@ nominal closed-loop denominator is the constant ``Am``, so ``|A0 S(jw)| <= g |Am
 shapes the nominal sensitivity; the result also initialises the NLP.
 """
 
+import warnings
+
 import cvxpy as cp
 import numpy as np
 
@@ -83,14 +85,23 @@ def solve_convex(problem, Am, param, nu, objective=None, soft=False):
                         f" or feasibility, got {objective!r}")
     goal = t if soft else (g if objective == "min_Ms" else 0)
     prob = cp.Problem(cp.Minimize(goal), cons)
-    try:
-        prob.solve(solver=cp.CLARABEL)
-    except cp.error.SolverError as exc:
-        raise SolverError(f"{problem.path}: convex solver failed ({exc})") from None
-    if prob.status != cp.OPTIMAL:
+    with warnings.catch_warnings():
+        # cvxpy warns "Solution may be inaccurate": the status is judged below, and every
+        # controller is certified independently of the solver
+        warnings.simplefilter("ignore", UserWarning)
+        try:
+            prob.solve(solver=cp.CLARABEL)
+        except cp.error.SolverError as exc:
+            raise SolverError(f"{problem.path}: convex solver failed ({exc})") from None
+    found = prob.status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) and g.value is not None and \
+        xr.value is not None and (ks == 0 or xs.value is not None)
+    if not found and prob.status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
         raise SolverError(f"{problem.path}: convex program {prob.status}; specs cannot be met"
                           " on the nominal model with this Am")
-    return np.concatenate([xs.value, xr.value]), float(g.value)
+    if not found:
+        raise SolverError(f"{problem.path}: convex program ended {prob.status} without a"
+                          " solution")
+    return np.concatenate([np.zeros(0) if ks == 0 else xs.value, xr.value]), float(g.value)
 
 
 def convex_synthesis(problem, start, progress=None):
@@ -115,16 +126,21 @@ def convex_synthesis(problem, start, progress=None):
     param = Parametrization.of(problem.controller, problem.family.reference_model, sc)
     nu = sc.freq(frequency_grid(problem.family, Am, problem.solver.n_freq))
     notes = ()
+    tracking = TrackingRule(problem.controller.T_mode, problem.controller.T_zeros,
+                            problem.family.reference_model.B)
     try:
         x, g = solve_convex(problem, Am, param, nu)
         say(f"convex (SOCP, CLARABEL): grid min |S| peak bound {g:.6g}")
     except SolverError as exc:      # the hard specs cannot be met: the best that can
-        x, g = solve_convex(problem, Am, param, nu, soft=True)
-        notes = (f"{exc}; the worst ratio of peak to bound was minimised instead",)
+        try:
+            x, g = solve_convex(problem, Am, param, nu, soft=True)
+            notes = (f"{exc}; the worst ratio of peak to bound was minimised instead",)
+        except SolverError as soft_exc:   # no convex answer at all: the analytic design
+            x, g = None, None
+            notes = (f"{exc}; the soft program failed too ({soft_exc}): the analytic design"
+                     " (the start) is returned",)
         say(f"convex: {notes[0]}")
-    tracking = TrackingRule(problem.controller.T_mode, problem.controller.T_zeros,
-                            problem.family.reference_model.B)
-    ctrl = param.controller(x, tracking)
+    ctrl = start.controller if x is None else param.controller(x, tracking)
     cert = certify_problem(problem, ctrl)
     return SynthesisResult(controller=ctrl, Am=Am, certificate=cert,
                            status="certified" if cert.certified else "not_certified",
