@@ -90,3 +90,33 @@ def test_every_grid_point_holds_recomputed_from_the_controller(full_and_exchange
             worst = max(worst, float(np.max(mag / (bound * BOUND_MARGIN))))
     assert worst <= 1.0 + 1e-6
     assert worst == pytest.approx(exch[2].exchange.max_grid_ratio, rel=1e-6)
+
+
+def test_a_repeated_program_is_solved_once(monkeypatch):
+    """The homotopy can pose the very same program twice (same data, start, options): the
+    synthesis reuses the first result, and any change of data or start is a new solve."""
+    import robrst.synthesis.attempts as attempts
+    from robrst.synthesis.exchange import Phase
+
+    problem, ctx, setup, x0 = _setup(30)
+    calls = []
+    real = attempts.solve_exchange
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(attempts, "solve_exchange", counted)
+    run = attempts.Run(problem, lambda m: None, {})
+    first = run.solve(ctx, setup, x0.copy(), Phase("hard"), "analytic")
+    n = len(calls)
+    again = run.solve(ctx, ctx.setup(list(problem.family.models), ctx.nu, "dominant"),
+                      x0.copy(), Phase("hard"), "analytic")       # rebuilt, equal data
+    assert len(calls) == n and again is first and len(run.rounds) == 2
+    x1 = x0.copy()
+    x1[0] = np.nextafter(x1[0], np.inf)                               # one ulp: a new start
+    run.solve(ctx, setup, x1, Phase("hard"), "analytic")
+    assert len(calls) > n
+    m = len(calls)
+    run.solve(ctx, setup, x0.copy(), Phase("soft", 0.97), "analytic")  # another program
+    assert len(calls) > m

@@ -102,6 +102,23 @@ def objective_value(problem, out):
     return 0.0
 
 
+def _key(obj):
+    """A hashable key of nested program data (arrays by shape and bytes, dataclasses and
+    dicts by their fields)."""
+    if isinstance(obj, np.ndarray):
+        return ("array", obj.shape, obj.dtype.str, obj.tobytes())
+    if isinstance(obj, (list, tuple)):
+        return (type(obj).__name__, *(_key(v) for v in obj))
+    if isinstance(obj, dict):
+        return ("dict", *sorted((k, _key(v)) for k, v in obj.items()))
+    if hasattr(obj, "__dataclass_fields__"):
+        return (type(obj).__name__, *(_key(getattr(obj, f)) for f in obj.__dataclass_fields__))
+    if isinstance(obj, float):
+        return ("float", obj.hex())   # exact: -0.0 and 0.0 differ
+    hash(obj)   # a plain value (number, string, None): hashable, or a clear TypeError
+    return obj
+
+
 class Run:
     """One synthesis: what its attempts share (built solvers, progress, rounds, notes)."""
 
@@ -109,6 +126,7 @@ class Run:
         self.problem, self.say, self.templates, self.warm = problem, say, templates, warm
         self.rounds, self.notes = [], []
         self.hopeless = False     # set when the specs are provably infeasible
+        self.solved = {}          # program key -> result: a repeated program is not re-solved
 
     @property
     def spent(self):
@@ -120,13 +138,18 @@ class Run:
         ipopt = ctx.ipopt
         if start == "previous design":   # a near-optimal start: a small barrier keeps it near
             ipopt = {**ipopt, "mu_init": WARM_MU}
-        if setup.placement == "free" and phase.kind == "hard":
+        # the homotopy may pose the very same program again (same data, start and options):
+        # the solves are deterministic, so its result is reused
+        key = _key((setup, np.asarray(x0, float), ipopt, phase, exact))
+        res = self.solved.get(key)
+        if res is None and setup.placement == "free" and phase.kind == "hard":
             res = self.boxed(ctx, setup, x0, phase, exact)
-        else:
+        elif res is None:
             res = solve_exchange(setup, x0, ipopt, phase, self.templates, exact=exact)
             if not res.success:   # second chance: IPOPT's adaptive barrier update
                 res = solve_exchange(setup, x0, {**ctx.ipopt, "mu_strategy": "adaptive"}, phase,
                                      self.templates, exact=exact)
+        self.solved[key] = res
         ex = res.exchange
         gamma = float(res.x[-1]) if phase.kind == "soft" else None
         self.rounds.append(Round(
