@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from robrst import lti, poly
-from robrst.hinf import Peak, mag2_poly, peak_gain
+from robrst.hinf import Peak, mag2_poly, peak_gains
 from robrst.plant import Plant
 from robrst.rst import RSTController, closed_loop
 
@@ -245,7 +245,9 @@ def analyze(plant: Plant, ctrl: RSTController, rtol: float = 1e-10) -> Analysis:
     """
     cl = closed_loop(plant, ctrl)
     sa, roots = spectral_abscissa(cl.Delta)
-    peaks = {k: peak_gain(cl.nums[k], cl.Delta, rtol=rtol) for k in SENSITIVITIES}
+    # the four peaks of one loop together: the same figures as peak_gain of each
+    peaks = dict(zip(SENSITIVITIES, peak_gains([cl.nums[k] for k in SENSITIVITIES], cl.Delta,
+                                               rtol=rtol)))
     m = margins(plant, ctrl, peaks["S"].value)
     return Analysis(label=plant.label, temperature_C=plant.temperature_C, stable=sa < 0,
                     poles=roots, spectral_abscissa=sa, peaks=peaks, margins=m)
