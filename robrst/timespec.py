@@ -214,6 +214,13 @@ def _overshoot_pct(peak, final):
     return 100.0 * max(0.0, (peak - abs(final)) / abs(final)) if final != 0 else np.inf
 
 
+def _responses(Ns, D, fs):
+    """The step responses of the trimmed ``Ns`` over the trimmed ``D`` (one realisation)
+    and the factor from their time unit to seconds."""
+    sc = poly.Scaling.natural(D)
+    return _Response(Ns, D, sc, fs), (1.0 / sc.w0 if fs is None else 1.0 / fs)
+
+
 def step_metrics(N, D, fs=None):
     """Exact step response figures of ``N(s)/D(s)`` (``D`` Hurwitz).
 
@@ -248,9 +255,7 @@ def step_metrics_many(Ns, D, fs=None):
     list of StepMetrics
     """
     Ns, D = [poly.trim(N) for N in Ns], poly.trim(D)
-    sc = poly.Scaling.natural(D)
-    r = _Response(Ns, D, sc, fs)
-    to_s = 1.0 / sc.w0 if fs is None else 1.0 / fs
+    r, to_s = _responses(Ns, D, fs)
     out = []
     for row, N in enumerate(Ns):
         final = float(N[-1] / D[-1])
@@ -288,11 +293,9 @@ def check(plant, ctrl, cl, specs, rtol, fs=None):
     """
     Ny, Nu = poly.trim(cl.nums["Tr"]), poly.trim(poly.pmul(plant.A, ctrl.T))
     D = poly.trim(cl.Delta)
-    sc = poly.Scaling.natural(D)
     # one realisation for y and u; only the figures checked: y's peak and settling time,
     # the largest |u|
-    r = _Response([Ny, Nu], D, sc, fs)
-    to_s = 1.0 / sc.w0 if fs is None else 1.0 / fs
+    r, to_s = _responses([Ny, Nu], D, fs)
     final = float(Ny[-1] / D[-1])
     peak = r.extreme(0, 1.0 if final >= 0 else -1.0)[0]
     u_max = max(abs(r.extreme(1, 1.0)[0]), abs(r.extreme(1, -1.0)[0]))
