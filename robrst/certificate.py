@@ -45,6 +45,7 @@ from robrst.modelcheck import (BOUNDED, FIGURE_OF, JUMPS, RESOLVE_FACTOR, Violat
 from robrst.problem import Problem
 from robrst.rst import RSTController, closed_loop
 from robrst.thermal import modal_form
+from robrst.threads import one_blas_thread
 
 __all__ = ["Violation", "Certificate", "certify", "certify_problem", "check_model", "band_peak",
            "REFINE_RATIO", "RESOLVE_FACTOR"]
@@ -344,5 +345,6 @@ def certify_problem(problem: Problem, ctrl: RSTController) -> Certificate:
     True
     """
     so = problem.solver
-    return certify(problem.family, ctrl, problem.specs, n_sweep=so.cert_temperatures,
-                   rtol=so.cert_tol)
+    with one_blas_thread(problem.needs_scipy):
+        return certify(problem.family, ctrl, problem.specs, n_sweep=so.cert_temperatures,
+                       rtol=so.cert_tol)

@@ -25,6 +25,7 @@ from robrst.sampled import sampled_plant
 from robrst.synthesis import analytic
 from robrst.synthesis.parametrize import integral_gain
 from robrst.synthesis.robust import best_achievable
+from robrst.threads import one_blas_thread
 
 __all__ = ["DesignResult", "AnalyticCheck", "Comparison", "run_problem", "analytic_design",
            "analytic_check", "comparison", "with_time_domain"]
@@ -315,6 +316,12 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
     >>> result.certified, result.status
     (True, 'certified')
     """
+    with one_blas_thread(problem.needs_scipy):
+        return _design(problem, progress, templates)
+
+
+def _design(problem, progress, templates):
+    """:func:`run_problem` (its BLAS limited by the caller)."""
     from robrst.synthesis.robust import robust_synthesis
 
     say = progress or (lambda msg: None)

@@ -248,3 +248,11 @@ class Problem:
     path: str = "<python>"
     description: str = ""
     plant_name: str = None
+
+    @property
+    def needs_scipy(self):
+        """True when designing or certifying this problem uses SciPy's linear algebra: the
+        sampled loop (exact ZOH), step responses (time-domain specs, a designed reference
+        path) and the balanced realisations they are computed from."""
+        return (self.specs.sampled or self.specs.time_domain
+                or self.controller.T_mode == "reference_model")

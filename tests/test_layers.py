@@ -2,7 +2,7 @@
 
 Layers, bottom to top (README "Architecture")::
 
-    base          errors, schema, fileio, resources
+    base          errors, schema, fileio, resources, threads
     maths core    poly, lti, plant, thermal, family, rst, hinf, levelset, analysis, sampled,
                   digital, implement, interval
     problem       problem (typed records), spec (problem files)
@@ -24,7 +24,8 @@ import pytest
 PKG = Path(__file__).resolve().parents[1] / "robrst"
 
 LAYERS = {
-    "base": ("robrst.errors", "robrst.schema", "robrst.fileio", "robrst.resources"),
+    "base": ("robrst.errors", "robrst.schema", "robrst.fileio", "robrst.resources",
+             "robrst.threads"),
     "maths": ("robrst.poly", "robrst.lti", "robrst.plant", "robrst.thermal", "robrst.family",
               "robrst.rst", "robrst.hinf", "robrst.levelset", "robrst.analysis", "robrst.sampled",
               "robrst.digital", "robrst.implement", "robrst.interval"),

@@ -25,7 +25,6 @@ Otherwise ``cannot_tell``, with the best partial explanation.  The JSON contract
 import time
 
 import numpy as np
-from threadpoolctl import threadpool_limits
 
 from robrst.diagnose import signals
 from robrst.diagnose.effects import EFFECTS, THERMAL, Chain, summary
@@ -39,6 +38,7 @@ from robrst.diagnose.thermal import max_delay, search_delay, search_saturation
 from robrst.diagnose.verdict import NEAR_RATIO, build, decide, unmodelled
 from robrst.errors import DataError
 from robrst.plant import paper_plant
+from robrst.threads import one_blas_thread
 
 __all__ = ["Diagnosis", "EffectScore", "diagnose", "check_records", "decompose", "MIN_SAMPLES",
            "NONE_RATIO"]
@@ -155,7 +155,7 @@ def diagnose(train, test, plant=None, reference_C=None, effects=EFFECTS, progres
     unknown = [e for e in effects if e not in EFFECTS]
     if unknown:
         raise DataError(f"unknown effect(s) {unknown}; expected {list(EFFECTS)}")
-    with threadpool_limits(1, "blas"):
+    with one_blas_thread():
         return _diagnose(list(train), list(test), plant, model, fs, float(ref), tuple(effects),
                          say, workers, t_start)
 

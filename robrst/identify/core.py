@@ -19,11 +19,11 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
-from threadpoolctl import threadpool_limits
 
 from robrst.errors import DataError, SpecError
 from robrst.identify.vf import (fit_data, fit_residues, initial_poles, to_continuous,
                                 vector_fit)
+from robrst.threads import one_blas_thread
 
 __all__ = ["identify", "Identified", "OrderScore", "ORDER_TOL", "TEMP_TOL_K", "nrmse_of",
            "simulate_record"]
@@ -219,7 +219,7 @@ def identify(train, validate=None, order="auto", max_order=None, feedthrough=Fal
         raise SpecError(f"order must be 'auto' or an integer >= 1, got {order!r}")
     groups = _groups(list(train))
     main = max(groups, key=lambda g: sum(d.n for d in g[1]))
-    with threadpool_limits(1, "blas"):
+    with one_blas_thread():
         if validate:
             fit_recs, held, parts = main[1], list(validate), None
             held_names = tuple(d.source or "record" for d in held)

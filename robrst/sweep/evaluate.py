@@ -22,7 +22,6 @@ import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from threadpoolctl import threadpool_limits
 
 from robrst.analysis import margins as loop_margins
 from robrst.certificate import certify_problem
@@ -30,6 +29,7 @@ from robrst.errors import InfeasibleError, RobrstError, SolverError, SpecError
 from robrst.spec import parse_problem
 from robrst.sweep.model import merge_documents, variant_problem
 from robrst.synthesis.parametrize import integral_gain
+from robrst.threads import one_blas_thread
 
 __all__ = ["SweepContext", "WorkerState", "build_state", "evaluate_chunk", "evaluate_variant",
            "problem_of", "fleet_problem", "FIGURE_COLUMNS", "CONTROLLER_COLUMNS", "status_of",
@@ -229,7 +229,7 @@ def evaluate_chunk(state, indices, values):
     rows = []
     # one BLAS thread: the matrices are small, extra threads only spin (measured: same
     # wall time, twice the CPU) and take the core another worker needs
-    with threadpool_limits(1, "blas"):
+    with one_blas_thread():
         for i, vals in zip(indices, values):
             row = evaluate_variant(state, int(i), dict(zip(names, (float(v) for v in vals))))
             row["index"] = int(i)

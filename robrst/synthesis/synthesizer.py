@@ -16,6 +16,7 @@ from robrst.problem import Problem
 from robrst.synthesis.analytic import pole_placement
 from robrst.synthesis.outcome import SynthesisResult
 from robrst.synthesis.robust import robust_synthesis
+from robrst.threads import one_blas_thread
 
 __all__ = ["Synthesizer"]
 
@@ -75,7 +76,8 @@ class Synthesizer:
             ``status`` is ``"certified"`` or ``"not_certified"`` (with
             ``best_achievable``); never a bare solver status.
         """
-        start = pole_placement(problem.family.reference_model, problem.poles,
-                               problem.controller)
-        return robust_synthesis(problem, start, progress or self.progress, self.templates,
-                                warm)
+        with one_blas_thread(problem.needs_scipy):
+            start = pole_placement(problem.family.reference_model, problem.poles,
+                                   problem.controller)
+            return robust_synthesis(problem, start, progress or self.progress, self.templates,
+                                    warm)
