@@ -166,7 +166,7 @@ def _guardian(family, ctrl, specs, rtol, checks, recs, viols):
             for T in (pr.candidate_T, pr.candidate_T - 1e-6 * (b - a),
                       pr.candidate_T + 1e-6 * (b - a)):
                 if a <= T <= b and T not in recs:
-                    recs[T], v = check_all(family.at(T), ctrl, specs, rtol, checks)
+                    recs[T], v = check_all(family.at(T), ctrl, specs, rtol, checks, family)
                     recs[T]["family_member"] = False
                     viols.extend(v)
     return {"proved": all(p["proved"] for p in out), "parts": out}
@@ -207,7 +207,7 @@ def _refine(family, ctrl, specs, rtol, checks, recs, viols, budget, orders, igno
                                  f" {floor:.3g} °C)", 0.0, 0.0, None, kind="unresolved"))
             continue
         m, low = _split(a, b, recs, floor, walked)
-        recs[m], v = check_all(family.at(m), ctrl, specs, rtol, checks)
+        recs[m], v = check_all(family.at(m), ctrl, specs, rtol, checks, family)
         recs[m]["family_member"] = False
         viols.extend(v)
         budget -= 1
@@ -262,7 +262,7 @@ def certify(family, ctrl, specs, n_sweep=35, rtol=1e-3, checks=(), max_refine=No
         models += [m for m in family.sweep(n_sweep) if m.temperature_C not in known]
     recs, viols = {}, []
     for m in models:
-        recs[m.temperature_C], v = check_all(m, ctrl, specs, rtol, checks)
+        recs[m.temperature_C], v = check_all(m, ctrl, specs, rtol, checks, family)
         recs[m.temperature_C]["family_member"] = m.temperature_C in known
         viols.extend(v)
     lo, hi = family.range_C

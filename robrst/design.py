@@ -21,7 +21,6 @@ from robrst.errors import CoprimeError, DegreeError
 from robrst.modelcheck import BOUNDED
 from robrst.problem import Problem
 from robrst.rst import closed_loop
-from robrst.sampled import sampled_plant
 from robrst.synthesis import analytic
 from robrst.synthesis.parametrize import integral_gain
 from robrst.synthesis.robust import best_achievable
@@ -186,7 +185,7 @@ def with_time_domain(problem, cert, ctrl):
         m = problem.family.at(rec["temperature_C"])
         loops = [(m, None, "")]
         if sp.sampled:
-            loops.append((sampled_plant(m, sp.sample_rate_hz, sp.delay_samples),
+            loops.append((problem.family.sampled(m, sp.sample_rate_hz, sp.delay_samples),
                           sp.sample_rate_hz, "_sampled"))
         for plant, fs, suffix in loops:
             cl = closed_loop(plant, ctrl)

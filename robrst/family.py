@@ -12,13 +12,15 @@ the model at any temperature in range:
   coefficient by coefficient between neighbours (A stays monic).
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from numbers import Real
 
 import numpy as np
 
 from robrst import poly
 from robrst.errors import SpecError
 from robrst.plant import Plant
+from robrst.sampled import sampled_plant
 from robrst.thermal import ThermalCoefficients, modal_form, thermal_polynomials
 
 __all__ = ["ThermalCoefficients", "PlantFamily", "parametric_family", "explicit_family"]
@@ -51,13 +53,16 @@ class PlantFamily:
     """Plants indexed by temperature; ``models[i].temperature_C`` increasing.
 
     ``reference`` is the index of the nominal model (where the Diophantine
-    equation is imposed).  Use :meth:`at` for any temperature in range.
+    equation is imposed).  Use :meth:`at` for any temperature in range (computed once
+    per temperature: a design certifies the same temperatures several times) and
+    :meth:`sampled` for a model's sampled-loop plant (once per model).
     """
 
     models: tuple
     reference: int = 0
     thermal: ThermalCoefficients = None
     nominal: Plant = None
+    memo: dict = field(default_factory=dict, repr=False, compare=False)
 
     def __post_init__(self):
         temps = [m.temperature_C for m in self.models]
@@ -80,6 +85,26 @@ class PlantFamily:
 
     def at(self, T):
         """The model at temperature ``T`` [°C] (within the family's range)."""
+        if not isinstance(T, Real):
+            return self._at(T)
+        key = ("at", T)
+        if key not in self.memo:
+            self.memo[key] = self._at(T)
+        return self.memo[key]
+
+    def sampled(self, plant, sample_rate_hz, delay_samples=0):
+        """:func:`robrst.sampled.sampled_plant` of ``plant`` (a model of this family: a member
+        or one from :meth:`at`), computed once per plant object."""
+        key = ("sampled", id(plant), sample_rate_hz, delay_samples)
+        try:
+            hit = self.memo.get(key)
+        except TypeError:          # unhashable arguments: sampled_plant judges them
+            return sampled_plant(plant, sample_rate_hz, delay_samples)
+        if hit is None or hit[0] is not plant:
+            hit = self.memo[key] = (plant, sampled_plant(plant, sample_rate_hz, delay_samples))
+        return hit[1]
+
+    def _at(self, T):
         lo, hi = self.range_C
         if not lo - 1e-9 <= T <= hi + 1e-9:
             raise SpecError(f"family: temperature {T} °C outside the range [{lo}, {hi}] °C")

@@ -158,15 +158,19 @@ FIGURE_OF = {"|S| peak": "Ms", "|T| peak": "Mt", "|U| peak": "Mu",   # violation
 JUMPS = ("settling_time_s", "settling_time_s_sampled")   # piecewise continuous figures
 
 
-def check_sampled(plant, ctrl, specs, rtol):
+def check_sampled(plant, ctrl, specs, rtol, family=None):
+    """:func:`check_model` of the sampled loop of ``plant`` (its sampled plant from
+    ``family``'s memo when given); figures suffixed ``_sampled``."""
     fs, k = specs.sample_rate_hz, specs.delay_samples
-    rec, viol = check_model(sampled_plant(plant, fs, k), ctrl, specs, rtol, fs=fs)
+    ps = sampled_plant(plant, fs, k) if family is None else family.sampled(plant, fs, k)
+    rec, viol = check_model(ps, ctrl, specs, rtol, fs=fs)
     viol = [replace(v, label=plant.label) for v in viol]   # name the continuous model
     return {f"{key}_sampled": rec[key] for key in SAMPLED_KEYS if key in rec}, viol
 
 
-def check_all(m, ctrl, specs, rtol, checks):
-    """Every per-model check on model ``m``: continuous, sampled, then the hooks.
+def check_all(m, ctrl, specs, rtol, checks, family=None):
+    """Every per-model check on model ``m`` (of ``family``, whose memo then holds its
+    sampled plant): continuous, sampled, then the hooks.
 
     Returns
     -------
@@ -175,7 +179,7 @@ def check_all(m, ctrl, specs, rtol, checks):
     """
     rec, v = check_model(m, ctrl, specs, rtol)
     if specs.sampled:
-        rec_s, v_s = check_sampled(m, ctrl, specs, rtol)
+        rec_s, v_s = check_sampled(m, ctrl, specs, rtol, family)
         rec.update(rec_s)
         v = v + v_s
     for check in checks:

@@ -7,12 +7,12 @@ decision-vector parametrisation, the frequency grid, the sampled-loop plants, an
 :class:`~robrst.synthesis.nlp.NLPSetup` of one program.
 """
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from robrst import poly
-from robrst.sampled import sampled_plant, warp
+from robrst.sampled import warp
 from robrst.synthesis.nlp import NLPSetup, scale_plant
 from robrst.synthesis.parametrize import (Parametrization, TrackingRule, frequency_grid,
                                           integral_gain)
@@ -45,7 +45,6 @@ class Context:
     ctrl_max: float            # scaled: controller poles no faster than this (free placement)
     ipopt: dict
     extra_degree: int = 0
-    sampled_cache: dict = field(default_factory=dict)
 
     @classmethod
     def of(cls, problem, start, extra_degree=None):
@@ -81,12 +80,9 @@ class Context:
         return self.param.scaling.w0
 
     def sampled(self, model):
-        """The sampled-loop plant of ``model`` (cached)."""
+        """The sampled-loop plant of ``model`` (the family's memo)."""
         sp = self.problem.specs
-        key = model.temperature_C
-        if key not in self.sampled_cache:
-            self.sampled_cache[key] = sampled_plant(model, sp.sample_rate_hz, sp.delay_samples)
-        return self.sampled_cache[key]
+        return self.problem.family.sampled(model, sp.sample_rate_hz, sp.delay_samples)
 
     def default_placement(self):
         """``"dominant"`` with free poles, else ``"fixed"``."""

@@ -35,7 +35,6 @@ import numpy as np
 from robrst import poly
 from robrst.analysis import spectral_abscissa
 from robrst.rst import RSTController, closed_loop
-from robrst.sampled import sampled_plant
 from robrst.timespec import check as time_check
 
 __all__ = ["Tracking", "two_dof", "design_tracking", "reference_model", "cancel_thresholds",
@@ -121,7 +120,7 @@ def _meets(problem, ctrl):
     for m in problem.family.models:
         plants = [(m, None)]
         if sp.sampled:
-            plants.append((sampled_plant(m, sp.sample_rate_hz, sp.delay_samples),
+            plants.append((problem.family.sampled(m, sp.sample_rate_hz, sp.delay_samples),
                            sp.sample_rate_hz))
         for pl, fs in plants:
             cl = closed_loop(pl, ctrl)
@@ -143,7 +142,7 @@ def design_tracking(problem, ctrl):
     sp = problem.specs
     ref = problem.family.reference_model
     if sp.sampled:   # the loop that runs: cancel the sampled loop's closed-loop factors
-        ref = sampled_plant(ref, sp.sample_rate_hz, sp.delay_samples)
+        ref = problem.family.sampled(ref, sp.sample_rate_hz, sp.delay_samples)
     first = None
     for damping in cancel_thresholds(ref, ctrl, c.T_cancel_damping):
         for f in SLOWER:
