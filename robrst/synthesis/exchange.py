@@ -4,9 +4,12 @@ A peak bound ``|N(j nu)| <= M |Delta(j nu)|`` on a frequency grid of every model
 is a large set of constraints of which only a few are active at the optimum: the
 points next to each peak.  The exchange method solves the program on an *active
 subset* of grid points, evaluates every grid point numerically at the solution
-(a matrix-vector product per block), adds the local maxima that violate — or nearly
-reach — their bound, and solves again from the previous solution, until no grid point
-is violated.  The active set only grows, so the loop ends; the final point satisfies
+(a matrix-vector product per block) and, while any violates its bound (beyond
+``VIOLATED``, far below the bound margins and the certificate's tolerance), adds the local
+maxima that violate — or nearly reach — their bound and solves again from the previous
+solution.  Once no grid point is violated the point is final: the constraints left out
+hold there and have zero multipliers, so a KKT point of the subset is one of the whole
+grid (no further round for a near-active point that does not bind).  The active set only grows, so the loop ends; the final point satisfies
 every grid constraint and is a (local) optimum of the full-grid program.
 
 The program itself is one parametric solver per structure
@@ -28,6 +31,7 @@ from robrst.synthesis.template import Structure, Template
 __all__ = ["ExchangeInfo", "Phase", "solve_exchange", "solve_program", "local_maxima",
            "effective_ratios"]
 NEAR_ACTIVE = 0.02      # local maxima within 2 % below the bound join the active set
+VIOLATED = 1e-6         # a grid point is violated beyond this (relative; IPOPT's own is 1e-9)
 COARSE_POINTS = 3       # evenly spaced starting points per block (plus local maxima)
 ROUTH_MIN = 1e-9
 
@@ -348,11 +352,12 @@ def solve_exchange(setup, x0, ipopt, phase=Phase(), templates=None, max_rounds=5
         if not res.success:
             break
         added = 0
-        for k, r in enumerate(ratios):
-            peaks = local_maxima(r)
-            new = np.setdiff1d(peaks[r[peaks] > 1.0 - NEAR_ACTIVE], active[k])
-            added += new.size
-            active[k] = np.union1d(active[k], new)
+        if worst > 1.0 + VIOLATED:      # else every grid point holds: the point is final
+            for k, r in enumerate(ratios):
+                peaks = local_maxima(r)
+                new = np.setdiff1d(peaks[r[peaks] > 1.0 - NEAR_ACTIVE], active[k])
+                added += new.size
+                active[k] = np.union1d(active[k], new)
         if added == 0 and exact:
             added = _exact_growth(blocks, limits, active, x, x[-1])
         if added == 0:
