@@ -7,9 +7,11 @@ import numpy as np
 import pytest
 
 from robrst import poly
+from robrst.certificate import certify_problem
 from robrst.design import analytic_design, run_problem
 from robrst.rst import closed_loop
 from robrst.spec import load_problem
+from robrst.synthesis.outcome import worst_violation
 
 NOMINAL_NLP = """
 [plant]
@@ -121,7 +123,14 @@ def test_a_priori_infeasible_specs_still_give_the_best_controller(tmp_path, prob
     assert any("specs infeasible: |T(0)| = 1 > 0.5 for model T28C" in n
                for n in res.synthesis.notes)
     assert res.best_achievable.startswith("best achievable: model ")
-    assert "|T| peak" in res.best_achievable
+    # named from the controller's own certificate; which spec binds depends on how far the
+    # soft phase gets in max_iter = 100 (|T|, from the start's 3.26, or |U|), but the answer
+    # is never farther from the specs than the analytic start (itself a candidate answer)
+    worst = worst_violation(res.certificate)
+    assert res.best_achievable == "best achievable: " + worst.describe()
+    start = worst_violation(certify_problem(pr, analytic_design(pr).controller))
+    assert worst.value / worst.bound <= start.value / start.bound * (1 + 1e-12)
+    assert start.quantity == "|T| peak" and start.value / start.bound > 3.2
     d = res.as_dict()
     assert d["status"] == "not_certified" and d["best_achievable"] == res.best_achievable
     assert d["solver"]["binding"]            # named from the multipliers

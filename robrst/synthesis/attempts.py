@@ -282,9 +282,14 @@ class Run:
                 return out
             outs += [out, soft]
         outs = [o for o in outs if o is not None]
-        if not outs:   # nothing solved: the preferred start, certified for what it achieves
-            outs.append(self.outcome(ctx, setup, None, "start",
-                                     x=ctx.full(first.xc, setup, first.wn, first.zeta)))
+        if not feasible and not any(o.certified for o in outs):
+            # nothing certified: the preferred start, certified for what it achieves, answers
+            # when nothing was solved or when it is clearly better (a soft phase cut short
+            # may end farther from the specs); a solved point keeps its multipliers
+            start = self.outcome(ctx, setup, None, "start",
+                                 x=ctx.full(first.xc, setup, first.wn, first.zeta))
+            if not outs or start.badness < (1 - 1e-6) * min(o.badness for o in outs):
+                outs.append(start)
         certified = [o for o in outs if o.certified]
         if certified:
             self.notes.append("the objective could not be improved under the specs; returning"
