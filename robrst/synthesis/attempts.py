@@ -16,7 +16,7 @@ from robrst.synthesis.exchange import Phase, solve_exchange
 from robrst.synthesis.nlp import grid_blocks
 from robrst.synthesis.outcome import Round, worst_violation
 from robrst.synthesis.parametrize import integral_gain
-from robrst.synthesis.starts import candidates
+from robrst.synthesis.starts import candidates, score
 
 __all__ = ["Outcome", "Run", "worst_violation", "frequency_certificate", "refine",
            "objective_value", "GAMMA_FLOOR"]
@@ -28,6 +28,8 @@ FREE_EXCHANGE_ROUNDS, FREE_ITER_BUDGET = 10, 800
 RUN_ITER_BUDGET = 2500    # IPOPT iterations per synthesis: then the best certified point found
 FAR_START = 5.0           # a start missing the specs 5x: no objective phase from it
 WARM_MU = 1e-4           # IPOPT's initial barrier from a previous design of a nearby variant
+WARM_NEAR = 1.05         # ... solved from at once when within 5 % of the specs on the grid
+WARM_START = "previous design"   # the name of that start (robrst.synthesis.robust hands it down)
 
 
 @dataclass(frozen=True, eq=False)
@@ -136,7 +138,7 @@ class Run:
     def solve(self, ctx, setup, x0, phase, start, exact=False):
         """One program by constraint exchange (trust regions with freely placed poles)."""
         ipopt = ctx.ipopt
-        if start == "previous design":   # a near-optimal start: a small barrier keeps it near
+        if start == WARM_START:   # a near-optimal start: a small barrier keeps it near
             ipopt = {**ipopt, "mu_init": WARM_MU}
         # the homotopy may pose the very same program again (same data, start and options):
         # the solves are deterministic, so its result is reused
@@ -233,11 +235,23 @@ class Run:
     def attempt(self, ctx, placement, seeds):
         """Hard phase from the preferred start; if that fails, soft phase then hard phase.
 
-        The preferred start is the best one when it already meets the specs on the grid,
-        else a seed handed down, else the analytic design at the problem's poles.
+        A previous design of a nearby variant (``warm``) within ``WARM_NEAR`` of the specs
+        on the grid is solved from first, before the other starts are scored; when that
+        does not certify, or otherwise, the preferred start is the best one when it already
+        meets the specs on the grid, else a seed handed down, else the analytic design at
+        the problem's poles.
         """
         setup = ctx.setup(list(ctx.problem.family.models), ctx.nu, placement)
         blocks = grid_blocks(setup, np.ones(ctx.param.n_x))   # weights unused by the scores
+        warm = next((sd for sd in seeds if sd[0] == WARM_START and sd[1] is not None), None)
+        if warm is not None and not self.spent:
+            # a previous design of a nearby variant near the specs on the grid is the
+            # preferred start: solved from at once, the other starts scored only if it fails
+            s = score(setup, blocks, *warm)
+            if s.stable and s.worst <= WARM_NEAR:
+                out = self.hard(ctx, placement, ctx.full(s.xc, setup, s.wn, s.zeta), s.name)
+                if out is not None and out.certified:
+                    return out
         convex = ctx.problem.solver.init == "convex" and placement == "fixed"
         starts = candidates(ctx, setup, blocks, seeds, convex=convex)
         if not starts:

@@ -36,7 +36,7 @@ import numpy as np
 
 from robrst import poly
 from robrst.errors import RobrstError
-from robrst.synthesis.attempts import Outcome, Run, objective_value
+from robrst.synthesis.attempts import WARM_START, Outcome, Run, objective_value
 from robrst.synthesis.context import BOUND_MARGIN, Context
 from robrst.synthesis.outcome import SynthesisResult, best_achievable, worst_violation
 
@@ -125,7 +125,7 @@ def _warm_seed(ctx, warm):
     except RobrstError:
         return None
     wn = None if warm.wn_rad_s is None else warm.wn_rad_s / ctx.w0
-    return warm.placement or "fixed", ("previous design", xc, wn, warm.zeta)
+    return warm.placement or "fixed", (WARM_START, xc, wn, warm.zeta)
 
 
 def _at_degree(problem, extra):
