@@ -6,7 +6,10 @@ extrapolation to 10,000 and 1,000,000 variants.
   2-process local cluster alternate; the speed-up is the median of the per-repeat ratios of
   the *compute* time (wall time after the context and the cluster are ready).  The
   end-to-end time with a fresh local cluster (``workers=2``: start-up included) is reported
-  once.  CPU per variant is the median over variants of the process time each took.
+  once.  CPU per variant (process time of each variant, mean and median over variants) is
+  measured alone first, in this process before any cluster exists (the variant's own
+  cost), then in the 2 busy workers (on a 2-core machine whose cores share caches, ~10 %
+  more) and in this process next to an idle cluster (its scheduler runs here).
 * **Design** (a grid of ``specs.Mu_max`` on paper_robust, one robust NLP design each):
   the CPU per design, in process.
 * **Extrapolation**: ``start-up + n * cpu / (N * efficiency)`` with the measured CPU per
@@ -83,6 +86,7 @@ def run(tiny=False, repeats=5):
     n = 10 if tiny else 200
     sweep = parse_sweep(TINY_ANALYSIS) if tiny else replace(load_sweep("paper_montecarlo"), n=n)
     tmp = Path(tempfile.mkdtemp(prefix="bench_sweep_"))
+    alone = run_sweep(sweep, tmp / "alone", workers=0)     # before any cluster exists
     cluster = _cluster(tiny)
     seq, par = [], []
     try:
@@ -94,7 +98,9 @@ def run(tiny=False, repeats=5):
     ratios = [_compute_s(a) / _compute_s(b) for a, b in zip(seq, par)]
     speedup = float(np.median(ratios))
     fresh = par[-1] if tiny else run_sweep(sweep, tmp / "fresh", workers=2)
-    cpu_med, cpu_mean = _cpu(seq[-1])
+    cpu_med, cpu_mean = _cpu(alone)
+    cpu_med_busy, cpu_mean_busy = _cpu(seq[-1])
+    cpu_workers = float(np.median([b.summary["cpu_s_per_variant"] for b in par]))
     rate_seq = n / float(np.median([_compute_s(a) for a in seq]))
     rate_par = n / float(np.median([_compute_s(b) for b in par]))
     design = run_sweep(parse_sweep(TINY_DESIGN if tiny else DESIGN), tmp / "design", workers=0)
@@ -105,16 +111,21 @@ def run(tiny=False, repeats=5):
     what = ("paper (tiny)", "paper, analytic (tiny)") if tiny else (
         "paper_montecarlo: certificate on 7 family models + 12-point sweep, margins",
         "paper_robust NLP")
-    table = [f"Analysis ({what[0]}): {cpu_mean:.3f} s CPU per variant; design ({what[1]}):"
+    table = [f"Analysis ({what[0]}): {cpu_mean:.3f} s CPU per variant alone (median"
+             f" {cpu_med:.3f} s), {cpu_workers:.3f} s in each of 2 busy workers,"
+             f" {cpu_mean_busy:.3f} s in process next to an idle cluster; design ({what[1]}):"
              f" {dcpu_mean:.2f} s CPU per design; engine efficiency {eng:.2f} (share of the"
              " workers' time inside variants); time = start-up + n × CPU / (workers ×"
-             " efficiency), each worker on its own core;"
+             " efficiency) with the CPU per variant of a busy worker, each worker on its own"
+             " core;"
              f" start-up {startup:.1f} s (context + local cluster).", "",
              "| variants | kind | 2 workers | 8 workers | 32 workers | 128 workers |",
              "|---|---|---|---|---|---|"]
-    for kind, cpu in (("analysis", cpu_mean), ("design", dcpu_mean)):
+    for kind, cpu in (("analysis", cpu_workers), ("design", dcpu_mean)):   # busy workers
         table += _extrapolate(kind, cpu, startup, eng)
-    head = (f"analysis: {cpu_mean * 1e3:.0f} ms CPU/variant, {rate_seq:.1f} variants/s on 1"
+    head = (f"analysis: {cpu_mean * 1e3:.0f} ms CPU/variant alone (median {cpu_med * 1e3:.0f}"
+            f" ms; {cpu_workers * 1e3:.0f} ms in each of 2 busy workers),"
+            f" {rate_seq:.1f} variants/s on 1"
             f" worker, {rate_par / 2:.1f}/s per worker on 2; speed-up {speedup:.2f}× on {n}"
             f" variants (workers inside variants {eng:.0%} of the time)"
             f"; end-to-end with cluster start {fresh.summary['wall_s']:.1f} s;"
@@ -129,6 +140,9 @@ def run(tiny=False, repeats=5):
                  "compute_s_2_workers": [_compute_s(b) for b in par],
                  "variants_per_s_1_worker": rate_seq, "variants_per_s_per_worker_2": rate_par / 2,
                  "cpu_s_per_variant_median": cpu_med, "cpu_s_per_variant_mean": cpu_mean,
+                 "cpu_s_per_variant_median_next_to_cluster": cpu_med_busy,
+                 "cpu_s_per_variant_mean_next_to_cluster": cpu_mean_busy,
+                 "cpu_s_per_variant_workers_median": cpu_workers,
                  "cpu_s_per_variant_2_workers": [b.summary["cpu_s_per_variant"] for b in par],
                  "engine_efficiency_2_workers": [_engine_efficiency(b) for b in par],
                  "cpu_share_2_workers": [_cpu_share(b) for b in par],
