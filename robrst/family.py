@@ -62,7 +62,13 @@ class PlantFamily:
     reference: int = 0
     thermal: ThermalCoefficients = None
     nominal: Plant = None
-    memo: dict = field(default_factory=dict, repr=False, compare=False)
+    memo: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+
+    def __getstate__(self):          # a pickled family (a sweep's context) leaves its memo
+        return {k: v for k, v in self.__dict__.items() if k != "memo"}
+
+    def __setstate__(self, state):
+        self.__dict__.update(state, memo={})
 
     def __post_init__(self):
         temps = [m.temperature_C for m in self.models]

@@ -138,3 +138,23 @@ def test_sampled_plant_rejects_bad_arguments():
         sampled_plant(paper_plant(), 0.0)
     with pytest.raises(SpecError, match="delay_samples"):
         sampled_plant(paper_plant(), FS, -1)
+
+
+def test_family_memo_is_per_family_and_matches_the_plain_computation():
+    """``PlantFamily.at`` and ``.sampled`` compute once per temperature / model; a family
+    made by ``dataclasses.replace`` or unpickled starts with its own, empty memo."""
+    import dataclasses
+    import pickle
+
+    fam = load_problem("paper_robust").family
+    m = fam.at(31.5)
+    assert fam.at(31.5) is m
+    ps = fam.sampled(m, FS, 1)
+    assert fam.sampled(m, FS, 1) is ps
+    ref = sampled_plant(m, FS, 1)            # the plain computation, bit for bit
+    assert np.array_equal(ps.B, ref.B) and np.array_equal(ps.A, ref.A)
+    assert fam.sampled(m, FS, 0) is not ps   # another delay: another plant
+    other = dataclasses.replace(fam, thermal=dataclasses.replace(fam.thermal, gain_per_K=0.01))
+    assert other.memo == {} and other.at(31.5) is not m
+    assert not np.allclose(other.at(31.5).B, m.B)
+    assert pickle.loads(pickle.dumps(fam)).memo == {}
