@@ -244,14 +244,16 @@ class Run:
         setup = ctx.setup(list(ctx.problem.family.models), ctx.nu, placement)
         blocks = grid_blocks(setup, np.ones(ctx.param.n_x))   # weights unused by the scores
         warm = next((sd for sd in seeds if sd[0] == WARM_START and sd[1] is not None), None)
+        from_warm = None     # the hard phase from the warm start, once run
         if warm is not None and not self.spent:
             # a previous design of a nearby variant near the specs on the grid is the
             # preferred start: solved from at once, the other starts scored only if it fails
             s = score(setup, blocks, *warm)
             if s.stable and s.worst <= WARM_NEAR:
-                out = self.hard(ctx, placement, ctx.full(s.xc, setup, s.wn, s.zeta), s.name)
-                if out is not None and out.certified:
-                    return out
+                from_warm = self.hard(ctx, placement, ctx.full(s.xc, setup, s.wn, s.zeta),
+                                      s.name)
+                if from_warm is not None and from_warm.certified:
+                    return from_warm
         convex = ctx.problem.solver.init == "convex" and placement == "fixed"
         starts = candidates(ctx, setup, blocks, seeds, convex=convex)
         if not starts:
@@ -270,8 +272,9 @@ class Run:
             outs.append(self.outcome(ctx, setup, None, "start",
                                      x=ctx.full(first.xc, setup, first.wn, first.zeta)))
         if first.worst <= FAR_START and not self.spent and not self.hopeless:
-            out = self.hard(ctx, placement, ctx.full(first.xc, setup, first.wn, first.zeta),
-                            first.name)
+            out = from_warm if from_warm is not None and first.name == WARM_START else \
+                self.hard(ctx, placement, ctx.full(first.xc, setup, first.wn, first.zeta),
+                          first.name)
             if out is not None and out.certified:
                 return out
             outs.append(out)
