@@ -61,19 +61,19 @@ def run_diagnose(args):
 def _model(path):
     """(plant, reference °C): a problem file's nominal plant, or a model file's model.
 
-    A problem file (or a built-in problem's name) keeps its :class:`~robrst.plant.Plant`
+    A problem file (a built-in problem's name, or one from ``robrst identify`` with no
+    ``[poles]`` yet) keeps its :class:`~robrst.plant.Plant`
     (so the JSON reports the changes of its coefficients); a model file from
     ``robrst identify`` gives the modal model at its reference temperature (the first one
     when it states none).
     """
-    from robrst.experiments.linear_model import load_linear_model
-    from robrst.identify.modelfile import read_model_data
-    from robrst.spec import load_problem
-
     from pathlib import Path
 
+    from robrst.experiments.linear_model import load_linear_model, problem_family
+    from robrst.identify.modelfile import read_model_data
+
     if not Path(path).is_file() or "model" not in read_model_data(path):
-        fam = load_problem(path).family
+        fam = problem_family(path)
         return fam.reference_model, fam.reference_model.temperature_C
     models, ref = load_linear_model(path)
     if ref is None:

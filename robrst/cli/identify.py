@@ -6,7 +6,7 @@ Handler pair for the CLI: :func:`add_parsers` registers the sub-command,
 
 from robrst.cli.common import progress_printer
 from robrst.errors import SpecError
-from robrst.fileio import atomic_write_text, json_text
+from robrst.fileio import atomic_write_text, check_file_target, check_folder_target, json_text
 
 __all__ = ["add_parsers", "run_identify"]
 
@@ -25,6 +25,9 @@ def add_parsers(sub):
     g.add_argument("--feedthrough", action="store_true", help="allow a direct term D")
     g.add_argument("--channel", metavar="I,J",
                    help="write a problem file for output I from input J (1-based)")
+    g.add_argument("--modal", action="store_true",
+                   help="write the model file (modal form, any order) also for one input and"
+                        " output")
     g.add_argument("--name", help="problem name (default: the output file stem)")
     g.add_argument("--report", metavar="DIR", help="write a report folder (md, html, figures)")
     g.add_argument("--json", metavar="OUT.json", help="write the result as JSON ('-' = stdout)")
@@ -60,18 +63,25 @@ def run_identify(args):
     """Identify and write; returns the exit code (0)."""
     from robrst.dataset import load_dataset
     from robrst.identify.core import identify
-    from robrst.identify.modelfile import write_identified
+    from robrst.identify.modelfile import check_target, write_identified
 
     to_stdout = args.json == "-"
     quiet = args.quiet or to_stdout
     say = progress_printer(quiet)
     order, channel = _order(args.order), _channel(args.channel)
+    if args.max_order is not None and args.max_order < 1:
+        raise SpecError(f"--max-order: expected an integer >= 1, got {args.max_order}")
+    check_target(args.out)                        # bad targets fail before any work or write
+    if args.json and not to_stdout:
+        check_file_target(args.json)
+    if args.report:
+        check_folder_target(args.report)
     train = [load_dataset(f) for f in args.train]
     val = [load_dataset(f) for f in args.validate] if args.validate else None
     ident = identify(train, validate=val, order=order, max_order=args.max_order,
                      feedthrough=args.feedthrough, progress=say)
     path = write_identified(ident, args.out, [d.source for d in train], channel=channel,
-                            name=args.name)
+                            name=args.name, modal=args.modal)
     d = dict(ident.as_dict(), out=str(path))
     if args.report:
         from robrst.report.identification import write_identification_report
@@ -85,7 +95,9 @@ def run_identify(args):
         if args.json:
             atomic_write_text(args.json, text + "\n")
         m = ident.models[0]
+        score = ("held-out NRMSE" if not ident.heldout[0].startswith("none") else
+                 "whole-record NRMSE (no excited held-out part)")
         print(f"identified order {ident.order} ({m.n_out} output(s) x {m.n_in} input(s),"
-              f" {len(ident.models)} temperature(s)); held-out NRMSE {ident.heldout_nrmse:.4g};"
+              f" {len(ident.models)} temperature(s)); {score} {ident.heldout_nrmse:.4g};"
               f" wrote {path}")
     return 0

@@ -8,9 +8,25 @@ from pathlib import Path
 
 from robrst.identify.modal import ModalModel
 from robrst.identify.modelfile import modal_models, read_model_data
-from robrst.spec import parse_problem
+from robrst.spec import load_problem, parse_problem
 
-__all__ = ["load_linear_model"]
+__all__ = ["load_linear_model", "problem_family"]
+
+
+def problem_family(path):
+    """The plant family of a problem file, a built-in problem's name, or a problem file
+    straight from ``robrst identify`` (no ``[poles]`` yet: only the plant matters here).
+
+    Returns
+    -------
+    PlantFamily
+    """
+    path = Path(path)
+    if not path.is_file():
+        return load_problem(path).family    # a built-in name (or a clear error)
+    data = read_model_data(path)
+    # a placeholder stands in for the (unused) [poles] table a file may not have yet
+    return parse_problem({"poles": {"wn": 1.0, "zeta": 1.0}, **data}, path).family
 
 
 def load_linear_model(path):
@@ -31,8 +47,6 @@ def load_linear_model(path):
     data = read_model_data(path)
     if "model" in data:
         return modal_models(path, data)
-    # only [plant] and [family] matter here: a file straight from `robrst identify` has no
-    # [poles] yet, so a placeholder stands in for that (unused) table
-    fam = parse_problem({"poles": {"wn": 1.0, "zeta": 1.0}, **data}, path).family
+    fam = problem_family(path)
     models = tuple(ModalModel.from_plant(p) for p in fam.models)
     return models, fam.reference_model.temperature_C

@@ -8,10 +8,13 @@ Pipeline (:func:`identify`)::
       -> order = the smallest within ORDER_TOL (relative, + 1e-9) of the best held-out NRMSE
       -> final fit on every training record at that order -> continuous time (exact ZOH inverse)
 
-Held-out records: ``validate`` if given; else the last third of the training records
-(at least one) when there are several; else, for a single record, its last period
-(periodic) or its last 30 % (the model is simulated over the whole record and scored on
-that part only).  Records at several temperatures (mean temperature differing by more
+Held-out records: ``validate`` if given (each scored by the model of the training
+temperature nearest its own); else the last third of the training records (at least one)
+when there are several; else, for a single record, its last period (periodic) or its last
+30 % (the model is simulated over the whole record and scored on that part only) — unless
+that part has settled (its output varies by less than ``QUIET`` of the record's, e.g. a
+single step), when it cannot tell orders apart and the order is chosen on the
+whole-record fit.  Records at several temperatures (mean temperature differing by more
 than ``TEMP_TOL_K``) give one model per temperature: a temperature family.
 """
 
@@ -29,6 +32,7 @@ __all__ = ["identify", "Identified", "OrderScore", "ORDER_TOL", "TEMP_TOL_K", "n
            "simulate_record"]
 
 ORDER_TOL = 0.05        # choose the smallest order within 5 % of the best held-out NRMSE
+QUIET = 0.05            # a held-out part whose output varies < 5 % of the record's: settled
 TEMP_TOL_K = 1.0        # records whose mean temperatures differ less share a model
 VF_ITER = 12
 MIN_SAMPLES = 50
@@ -83,11 +87,8 @@ def simulate_record(dmodel, d):
     return dmodel.response(d.U, periodic=periodic)
 
 
-def nrmse_of(dmodel, records, parts=None):
-    """Pooled NRMSE ``||Y - Yhat|| / ||Y - mean Y||`` over records and outputs.
-
-    ``parts`` optionally gives, per record, a slice of samples to score.
-    """
+def _energies(dmodel, records, parts=None):
+    """``(sum ||Y - Yhat||^2, sum ||Y - mean Y||^2)`` over records (``parts``: slices)."""
     num = den = 0.0
     for k, d in enumerate(records):
         sl = parts[k] if parts is not None else slice(None)
@@ -95,6 +96,15 @@ def nrmse_of(dmodel, records, parts=None):
         E = Y - simulate_record(dmodel, d)[sl]
         num += float(np.sum(E ** 2))
         den += float(np.sum((Y - Y.mean(axis=0)) ** 2))
+    return num, den
+
+
+def nrmse_of(dmodel, records, parts=None):
+    """Pooled NRMSE ``||Y - Yhat|| / ||Y - mean Y||`` over records and outputs.
+
+    ``parts`` optionally gives, per record, a slice of samples to score.
+    """
+    num, den = _energies(dmodel, records, parts)
     return math.sqrt(num / den) if den > 0 else math.inf
 
 
@@ -150,9 +160,27 @@ def _split(records):
                       temp=None if d.temp is None else d.temp[:cut])
         return [fit], [d], [slice(cut, None)], (f"{name} (last period)",)
     cut = int(0.7 * d.n)
+    whole = replace(d, period=0)
+    if np.std(d.Y[cut:], axis=0).max() < QUIET * np.std(d.Y, axis=0).max():
+        # the last 30 % has settled (e.g. one step): it cannot tell orders apart, so every
+        # order would score ~1 there; the order is chosen on the whole record instead
+        return [whole], [whole], None, (f"none: the last 30 % of {name} carries no"
+                                        " excitation; order chosen on the whole-record fit",)
     fit = replace(d, t=d.t[:cut], u=d.u[:cut], y=d.y[:cut],
                   temp=None if d.temp is None else d.temp[:cut], period=0)
-    return [fit], [replace(d, period=0)], [slice(cut, None)], (f"{name} (last 30 %)",)
+    return [fit], [whole], [slice(cut, None)], (f"{name} (last 30 %)",)
+
+
+def _held_groups(groups, validate, main):
+    """``[(group index, records, None)]``: each validation record scored by the model of the
+    training group nearest its mean temperature (the main group when either is unknown)."""
+    out = {}
+    for d in validate:
+        T = None if d.temp is None else float(np.mean(d.temp))
+        known = [i for i, g in enumerate(groups) if g[0] is not None]
+        i = main if T is None or not known else min(known, key=lambda k: abs(groups[k][0] - T))
+        out.setdefault(i, []).append(d)
+    return [(i, recs, None) for i, recs in sorted(out.items())]
 
 
 def _fit_order(data, n, feedthrough):
@@ -218,21 +246,26 @@ def identify(train, validate=None, order="auto", max_order=None, feedthrough=Fal
     if order != "auto" and (isinstance(order, bool) or not isinstance(order, int) or order < 1):
         raise SpecError(f"order must be 'auto' or an integer >= 1, got {order!r}")
     groups = _groups(list(train))
-    main = max(groups, key=lambda g: sum(d.n for d in g[1]))
+    main = max(range(len(groups)), key=lambda i: sum(d.n for d in groups[i][1]))
     with one_blas_thread():
         if validate:
-            fit_recs, held, parts = main[1], list(validate), None
-            held_names = tuple(d.source or "record" for d in held)
+            fit_recs = groups[main][1]
+            held = _held_groups(groups, list(validate), main)   # each at its own temperature
+            held_names = tuple(d.source or "record" for d in validate)
         else:
-            fit_recs, held, parts, held_names = _split(main[1])
-        data = fit_data(fit_recs)
-        n_lines = max([z.size for z, *_ in data.freq], default=0)
-        scores, models = [], {}
+            fit_recs, recs, parts, held_names = _split(groups[main][1])
+            held = [(main, recs, parts)]
+        data = {i: fit_data(fit_recs if i == main else groups[i][1]) for i, _, _ in held}
+        n_lines = max([z.size for z, *_ in data[main].freq], default=0)
+        scores = []
         for n in _candidates(order, max_order, n_lines):
             try:
-                dm = _fit_order(data, n, feedthrough)
-                to_continuous(dm)
-                tr, ho, note = nrmse_of(dm, fit_recs), nrmse_of(dm, held, parts), ""
+                dms = {i: _fit_order(data[i], n, feedthrough) for i in data}
+                for dm in dms.values():
+                    to_continuous(dm)
+                tr, note = nrmse_of(dms[main], fit_recs), ""
+                num, den = np.sum([_energies(dms[i], r, sl) for i, r, sl in held], axis=0)
+                ho = math.sqrt(num / den) if den > 0 else math.inf
             except SpecError as exc:
                 tr = ho = math.inf
                 note = str(exc)

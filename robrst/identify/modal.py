@@ -114,10 +114,13 @@ class ModalModel:
         for k, (pk, rk) in enumerate(zip(ps, res)):
             B += rk * np.poly(np.delete(ps, k))
         B = np.concatenate([[0.0], B.real]) + self.D[i, j] * A
+        # rounding residue of the partial-fraction sum (leading terms of a strictly proper
+        # channel) is dropped where the coefficients are O(1), before unscaling: after it
+        # they span w0**n and a relative threshold would drop terms that matter
+        B = np.trim_zeros(np.where(np.abs(B) > 1e-13 * np.max(np.abs(B)), B, 0.0), "f")
         n = len(A) - 1
         A = A * w0 ** np.arange(0, n + 1)
-        B = B * w0 ** np.arange(0, n + 1)
-        B = np.trim_zeros(np.where(np.abs(B) > 1e-13 * np.max(np.abs(B)), B, 0.0), "f")
+        B = B * w0 ** np.arange(n + 1 - len(B), n + 1)
         return Plant(B if B.size else [0.0], A, label=label or f"{self.label}_y{i + 1}u{j + 1}",
                      temperature_C=self.temperature_C)
 

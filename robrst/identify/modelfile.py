@@ -32,11 +32,12 @@ from pathlib import Path
 import numpy as np
 
 from robrst.errors import SpecError
-from robrst.fileio import atomic_write_text
+from robrst.fileio import atomic_write_text, check_file_target
 from robrst.identify.modal import ModalModel
+from robrst.schema import MAX_MAGNITUDE
 
-__all__ = ["problem_text", "model_text", "write_identified", "read_model_data", "modal_models",
-           "MARKER", "FORMAT"]
+__all__ = ["problem_text", "model_text", "write_identified", "check_target", "read_model_data",
+           "modal_models", "MARKER", "FORMAT"]
 
 MARKER = "# written by robrst identify"
 FORMAT = "robrst-modal-1"
@@ -63,10 +64,32 @@ def _header(ident, sources, what):
     return lines
 
 
+def _readable(plants, order):
+    """Refuse polynomials a problem file cannot hold (expanded, a high order's coefficients
+    leave the range every robrst file accepts) before anything is written."""
+    c = np.concatenate([np.concatenate([p.B, p.A]) for p in plants])
+    nz = np.abs(c[c != 0])
+    if not np.all(np.isfinite(c)) or (nz.size and not (
+            nz.min() >= 1 / MAX_MAGNITUDE and nz.max() <= MAX_MAGNITUDE)):
+        big = float(np.max(np.abs(c))) if np.all(np.isfinite(c)) else np.inf
+        raise SpecError(f"order {order}: the problem file's expanded polynomials B, A would"
+                        f" need coefficients up to {big:.3g} (a robrst file holds 0 or"
+                        f" {1 / MAX_MAGNITUDE:g} <= |x| <= {MAX_MAGNITUDE:g}); write the modal"
+                        " model file instead (--modal; read by diagnose and simulate) or choose"
+                        " a lower --order / --max-order")
+
+
 def problem_text(ident, sources, name, channel=(0, 0)):
-    """The problem-file text of output ``channel[0]`` from input ``channel[1]``."""
+    """The problem-file text of output ``channel[0]`` from input ``channel[1]``.
+
+    Raises
+    ------
+    SpecError
+        When the expanded polynomials do not fit in a robrst file (see :func:`_readable`).
+    """
     i, j = channel
     plants = [m.channel(i, j) for m in ident.models]
+    _readable(plants, ident.order)
     lines = _header(ident, sources, "problem file")
     lines += ["", "[problem]", f'name = "{name}"',
               f'description = "identified by robrst identify (output y{i + 1} from input u{j + 1})"',
@@ -105,12 +128,19 @@ def model_text(ident, sources):
     return "\n".join(lines) + "\n"
 
 
-def write_identified(ident, path, sources, channel=None, name=None):
-    """Write a problem file (SISO or ``channel``) or a model file; atomically.
+def check_target(path):
+    """The output path, refused when it is a folder or a file robrst identify did not write
+    (called before any work, and again when writing).
 
-    Refuses to replace an existing file that robrst identify did not write.
+    Returns
+    -------
+    Path
     """
     path = Path(path)
+    if path.is_dir():
+        raise SpecError(f"{path}: is a folder; --out needs a file name (e.g."
+                        f" {path / 'model.toml'})")
+    check_file_target(path)
     if path.exists():
         try:
             first = path.read_text(encoding="utf-8").splitlines()[:1]
@@ -119,8 +149,21 @@ def write_identified(ident, path, sources, channel=None, name=None):
         if not first or not first[0].startswith(MARKER):
             raise SpecError(f"{path}: exists and was not written by robrst identify; not"
                             " overwriting it (choose another --out)")
+    return path
+
+
+def write_identified(ident, path, sources, channel=None, name=None, modal=False):
+    """Write a problem file (SISO or ``channel``) or a model file; atomically.
+
+    ``modal`` writes the model file (modal form, any order) for one input and output too.
+    Refuses to replace an existing file that robrst identify did not write.
+    """
+    path = check_target(path)
+    if modal and channel is not None:
+        raise SpecError("--modal and --channel exclude each other: the model file holds every"
+                        " channel, a problem file one")
     m = ident.models[0]
-    if channel is None and (m.n_in, m.n_out) == (1, 1):
+    if channel is None and (m.n_in, m.n_out) == (1, 1) and not modal:
         channel = (0, 0)
     if channel is not None:
         i, j = channel

@@ -33,7 +33,8 @@ from robrst.lti import d2c_modal
 __all__ = ["FitData", "fit_data", "initial_poles", "vector_fit", "fit_residues",
            "to_continuous", "EXCITED_DB"]
 
-EXCITED_DB = 40.0   # a DFT line is excited if its input power is within 40 dB of the peak
+EXCITED_DB = 40.0   # a DFT line is excited if its input power is within 40 dB of the
+                    # strongest line above DC (DC: a bias, not an excitation of the dynamics)
 
 
 @dataclass(frozen=True, eq=False)
@@ -59,7 +60,10 @@ def fit_data(records):
             Uf = np.fft.rfft(U.reshape(d.periods, P, -1), axis=1).mean(axis=0)
             Yf = np.fft.rfft(Y.reshape(d.periods, P, -1), axis=1).mean(axis=0)
             power = np.sum(np.abs(Uf) ** 2, axis=1)
-            lines = np.flatnonzero(power > power.max() * 10 ** (-EXCITED_DB / 10))
+            # relative to the strongest line above DC: a bias (a unipolar piezo drive) is
+            # no excitation of the dynamics, and would otherwise hide every line below it
+            ref = power[1:].max() if power[1:].max() > 0 else power[0]
+            lines = np.flatnonzero(power > ref * 10 ** (-EXCITED_DB / 10))
             z = np.exp(2j * np.pi * lines / P)
             w = np.where((lines == 0) | (2 * lines == P), 1.0, 2.0) * d.periods / P
             freq.append((z, Uf[lines], Yf[lines], np.sqrt(w)))
@@ -208,6 +212,7 @@ def vector_fit(data, poles, n_iter=12, feedthrough=False, tol=1e-7):
         R22, rhs = [], []
         for i in range(data.n_out):
             A, b = _blocks(data, poles, i, True, feedthrough)
+            _enough(A, nb)
             R, scale = tall_r(np.column_stack([A, b]))
             R[:, -1] *= scale[-1]
             R22.append(R[n_priv:n_priv + nb, n_priv:n_priv + nb] * scale[None, n_priv:n_priv + nb])
@@ -228,6 +233,14 @@ def vector_fit(data, poles, n_iter=12, feedthrough=False, tol=1e-7):
     return poles
 
 
+def _enough(A, order):
+    """Refuse a least-squares system with no more equations than unknowns (a periodic
+    record with too few excited lines for this order)."""
+    if A.shape[0] <= A.shape[1]:
+        raise SpecError(f"order {order}: {A.shape[0]} equations for {A.shape[1]} unknowns"
+                        " (too few excited lines or samples for this order)")
+
+
 def fit_residues(data, poles, feedthrough=False):
     """Output-error least squares of residues (and D) with the poles fixed.
 
@@ -240,6 +253,7 @@ def fit_residues(data, poles, feedthrough=False):
     cost = 0.0
     for i in range(m):
         A, b = _blocks(data, poles, i, False, feedthrough)
+        _enough(A, nb)
         R, scale = tall_r(np.column_stack([A, b]))
         q = A.shape[1]
         x = linalg.lstsq(R[:q, :q], R[:q, q])[0] * scale[-1] / scale[:q]
