@@ -14,11 +14,13 @@ Pipeline (:func:`diagnose`)::
          none | <effect> | linear | cannot_tell
 
 Verdict rules (constants in :mod:`robrst.diagnose.select` and below): ``none`` when the
-held-out gap is within ``NONE_RATIO`` of the floor.  An answer (the selected effects, or
-``linear`` when no effect adds to the linear re-fit) must remove ``MIN_SHRINK`` of the
-excess gap (the same 30 % bar for ``linear`` as for effects) *and* bring the gap near
-the floor: within ``NEAR_RATIO`` x the floor, or ``NEAR_EXCESS`` of the excess left.
-Otherwise ``cannot_tell``, with the best partial explanation.  The JSON contract
+held-out gap is within ``NONE_RATIO`` of the floor (or below ``RESOLVED_GAP``).  An answer
+(the selected effects, or ``linear`` when no effect adds to the linear re-fit) must remove
+``MIN_SHRINK`` of the excess gap (the same 30 % bar for ``linear`` as for effects) *and*
+bring the gap near the floor: within ``NEAR_RATIO`` x the floor, or ``NEAR_EXCESS`` of the
+excess left.  Otherwise ``cannot_tell``, with the best partial explanation; when the held-out
+residual is then mostly a constant offset (``OFFSET_SHARE``) that is named (finding
+``output_offset``) instead of searching for missing linear dynamics.  The JSON contract
 (:meth:`Diagnosis.as_dict`) only ever gains fields.
 """
 
@@ -40,11 +42,13 @@ from robrst.errors import DataError
 from robrst.plant import paper_plant
 from robrst.threads import one_blas_thread
 
-__all__ = ["Diagnosis", "EffectScore", "diagnose", "check_records", "decompose", "MIN_SAMPLES",
-           "NONE_RATIO"]
+__all__ = ["Diagnosis", "EffectScore", "diagnose", "check_records", "decompose",
+           "offset_finding", "MIN_SAMPLES", "NONE_RATIO"]
 
 MIN_SAMPLES = 500        # per record
 NONE_RATIO = 1.25        # gap <= 1.25 x noise floor: nothing to explain
+RESOLVED_GAP = 1e-6      # ... or NRMSE below 1e-6 (noise-free records, a floor of rounding)
+OFFSET_SHARE = 0.5       # a constant offset this share of the residual: finding output_offset
 TEMP_EXCITED_K = 0.05    # a temperature range below this does not excite thermal effects
 
 
@@ -94,7 +98,8 @@ def _skipped(train, effects, model):
     """Effects not tried, with the reason (inputs never excited, SISO-only)."""
     out = {}
     temps = [d.temp for d in train if d.temp is not None]
-    t_range = max((float(np.ptp(t)) for t in temps), default=0.0)
+    # within a record or across records (each at its own constant temperature)
+    t_range = float(np.ptp(np.concatenate(temps))) if temps else 0.0
     for e in effects:
         if e in THERMAL and t_range < TEMP_EXCITED_K:
             out[e] = (f"temperature constant within {t_range:.3g} K on the training records"
@@ -200,11 +205,13 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
         return build(info, where, tests, traces, "cannot_tell",
                      f"the {which} records have no excitation (u and temp constant):"
                      " nothing distinguishes one effect from another", skipped=skipped)
-    if before <= NONE_RATIO * floor:
+    if before <= NONE_RATIO * floor or before <= RESOLVED_GAP:
         amp, info["per_level"] = amplitude_finding(all_recs, base_res, None, sig, n_tr)
-        return build(info, where, tests, traces, "none",
-                     f"held-out gap {before:.3g} is within {NONE_RATIO}x the noise floor"
-                     f" {floor:.3g}", skipped=skipped, findings=[amp])
+        why = (f"within {NONE_RATIO}x the noise floor {floor:.3g}" if before <= NONE_RATIO * floor
+               else f"below {RESOLVED_GAP:g}: the model reproduces the records to six digits"
+                    f" (noise floor {floor:.3g}, the records' own rounding)")
+        return build(info, where, tests, traces, "none", f"held-out gap {before:.3g} is {why}",
+                     skipped=skipped, findings=[amp])
     train_p = [prepare(d, ref) for d in train]
     setup = Setup(fs=fs, ref=ref, train=train_p, train_full=preps[:n_tr], test=preps[n_tr:],
                   test_records=test, train_records=train, lin=lin,
@@ -222,13 +229,20 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
     steps, tie = forward(setup, linear, singles, say)
     cause, reason, causes, best, gap = decide(info, linear, steps, tie)
     findings = [amp]
-    if cause == "cannot_tell" or (gap is not None and gap > NEAR_RATIO * floor):
+    # nothing explains the gap and it is mostly a constant: say so (a sensor offset), and
+    # do not search for missing dynamics (a higher order imitates a constant badly)
+    off = offset_finding(base_res[n_tr:]) if cause == "cannot_tell" else None
+    if off:
+        findings.append(off)
+        reason += f"; {off['message']}"
+    elif cause == "cannot_tell" or (gap is not None and gap > NEAR_RATIO * floor):
         # what is left may be linear dynamics the model lacks (an effect's answer must
         # leave more than a higher-order linear model does for that to be said)
         hi = unmodelled(setup, linear, info)
         if hi and steps and hi[1] >= gap:
             hi = None
-        un = unmodelled_finding(hi[0], hi[2], fs, hi[1], linear.gap, before, floor) if hi else None
+        un = unmodelled_finding(hi[0], hi[2], fs, hi[1], linear.gap, before, floor,
+                                [d.U for d in train]) if hi else None
         if un:
             findings.append(un)
             reason += f"; {un['message']}"
@@ -253,12 +267,30 @@ def _low_level_refit(setup, train, train_p, preps):
 
 
 def decompose(res, before, floor, linear_gap):
-    """Shares of the held-out residual's mean square: offset, noise, linear, rest."""
+    """Shares of the held-out residual's mean square, a partition (they add up to 1): its
+    constant offset first, then of the rest the noise, what a linear re-fit explains, and
+    what it leaves."""
     allr = np.concatenate([np.asarray(r).ravel() for r in res])
     ms = float(np.mean(allr ** 2))
     offset = float(np.mean(allr)) ** 2 / ms if ms > 0 else 0.0
-    noise = min(1.0, (floor / before) ** 2) if before > 0 else 1.0
+    noise = min(1.0 - offset, (floor / before) ** 2) if before > 0 else 1.0 - offset
     lin = max(0.0, 1.0 - (linear_gap / before) ** 2) if before > 0 else 0.0
-    lin = min(lin, 1.0 - noise)
+    lin = min(lin, 1.0 - offset - noise)
     return {"offset": offset, "noise": noise, "linear_model_error": lin,
-            "unexplained_by_linear": max(0.0, 1.0 - noise - lin)}
+            "unexplained_by_linear": max(0.0, 1.0 - offset - noise - lin)}
+
+
+def offset_finding(res):
+    """``output_offset`` when a constant offset is most of the held-out residual (the
+    dynamic effects and a linear re-fit cannot stand for it), or None."""
+    allr = np.concatenate([np.asarray(r).ravel() for r in res])
+    ms = float(np.mean(allr ** 2))
+    mean = float(np.mean(allr))
+    share = mean ** 2 / ms if ms > 0 else 0.0
+    if share < OFFSET_SHARE:
+        return None
+    return {"kind": "output_offset", "offset_um": mean, "share": share,
+            "message": (f"the held-out residual is mostly a constant offset ({mean:.4g} µm,"
+                        f" {100 * share:.1f} % of its mean square): a sensor zero or bias the"
+                        " model lacks, not a dynamic effect; remove it from the records (or"
+                        " add it to the model) and diagnose again")}

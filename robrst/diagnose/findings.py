@@ -139,13 +139,16 @@ def amplitude_finding(records, base_res, refit_res, sigmas, n_train):
             else "(the model under diagnosis)"}, table
 
 
-def unmodelled_finding(high, refit, fs, gap_high, gap_refit, gap_before, floor):
+def unmodelled_finding(high, refit, fs, gap_high, gap_refit, gap_before, floor, inputs=()):
     """``unmodelled_dynamics`` finding from a higher-order linear fit, or None.
 
     ``high`` and ``refit`` are continuous-time modal models (higher order; the user's
     order re-fitted).  The finding needs the higher order to remove at least half of
-    the excess gap the re-fit leaves; its band is where the two responses differ by
-    more than a fifth of their largest difference.
+    the excess gap the re-fit leaves; its band is where the two models' outputs differ on
+    the training ``inputs`` (the response difference times the inputs' amplitude spectrum)
+    by more than a fifth of their largest difference — where the data see the missing
+    dynamics, not where the response is largest; its extra modes are the higher order's
+    poles (pairs and real ones) 5 % away from every re-fitted pole.
     """
     ex = lambda g: math.sqrt(max(g * g - floor * floor, 0.0))  # noqa: E731
     if not ex(gap_high) <= 0.5 * ex(gap_refit):
@@ -153,10 +156,13 @@ def unmodelled_finding(high, refit, fs, gap_high, gap_refit, gap_before, floor):
     f = np.geomspace(fs / 1e5, 0.49 * fs, 800)
     w = 2 * np.pi * f
     d = np.abs(high.freqresp(w) - refit.freqresp(w)).max(axis=(1, 2))
+    if len(inputs):
+        fu, pu = signals.residual_psd(list(inputs), fs)         # the inputs' spectrum
+        d = d * np.sqrt(np.interp(f, fu[1:], pu[1:]))
     sel = f[d >= 0.2 * d.max()]
     extra = []
     for p in high.poles:
-        if p.imag > 0 and np.min(np.abs(refit.poles - p) / abs(p)) > 0.05:
+        if p != 0 and np.min(np.abs(refit.poles - p) / abs(p)) > 0.05:   # pairs and reals
             extra.append(float(abs(p) / (2 * np.pi)))
     return {"kind": "unmodelled_dynamics",
             "message": (f"a linear model of order {high.order} (the model has {refit.order})"

@@ -212,9 +212,12 @@ def fit_model(name, effects, train, lin, chain, noise_sigma, joint=True, dynamic
         res = optimize.OptimizeResult(x=x0, cost=0.5 * float(np.sum(fun(x0) ** 2)), nfev=1,
                                       jac=np.zeros((1, 0)), fun=fun(x0))
     else:
-        res = optimize.least_squares(fun, x0, jac=jac, bounds=(lo, hi), method="trf",
-                                     x_scale="jac", ftol=ftol, xtol=1e-10, gtol=1e-10,
-                                     max_nfev=max_nfev)
+        # trial points may overflow (an effect driven far out): the optimiser
+        # rejects them; their floating-point warnings only reach the user
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            res = optimize.least_squares(fun, x0, jac=jac, bounds=(lo, hi), method="trf",
+                                         x_scale="jac", ftol=ftol, xtol=1e-10, gtol=1e-10,
+                                         max_nfev=max_nfev)
     std = parameter_std(res.jac, res.cost, res.fun.size) if x0.size else np.zeros(0)
     return Fitted(name, tuple(effects), proto.form, chain, lin, res.x, std, joint, slopes,
                   level_ref, int(res.nfev), 2 * float(res.cost), fixed)

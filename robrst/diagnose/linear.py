@@ -308,9 +308,12 @@ def refit_linear(plant, records, fs, max_nfev=60):
     def jac(th):
         return np.vstack([lp.simulate_jac(th, u)[1].reshape(-1, lp.size) for u, _ in pairs]) / scale
 
-    res = optimize.least_squares(fun, np.zeros(lp.size), jac=jac, bounds=(lp.lower, lp.upper),
-                                 method="trf", x_scale="jac", ftol=1e-12, xtol=1e-12, gtol=1e-12,
-                                 max_nfev=max_nfev)
+    # trial points may overflow (an effect driven far out): the optimiser
+    # rejects them; their floating-point warnings only reach the user
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        res = optimize.least_squares(fun, np.zeros(lp.size), jac=jac,
+                                     bounds=(lp.lower, lp.upper), method="trf", x_scale="jac",
+                                     ftol=1e-12, xtol=1e-12, gtol=1e-12, max_nfev=max_nfev)
     std = parameter_std(res.jac, res.cost, len(res.fun))
     fitted = lp.continuous(res.x)
     rel = dict(zip(lp.names, map(float, res.x)))

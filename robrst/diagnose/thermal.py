@@ -71,15 +71,19 @@ def fit_thermal_dynamics(train, plant, fs, reference_C, max_nfev=25):
     def jac(x):
         return np.vstack([dy * (p.weight / scale) for p, _, dy in runs(x)])
 
-    res = optimize.least_squares(fun, np.zeros(3), jac=jac, bounds=BOUNDS, method="trf",
-                                 x_scale="jac", ftol=1e-8, xtol=1e-10, gtol=1e-10,
-                                 max_nfev=max_nfev)
+    # trial points may overflow (an effect driven far out): the optimiser
+    # rejects them; their floating-point warnings only reach the user
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        res = optimize.least_squares(fun, np.zeros(3), jac=jac, bounds=BOUNDS, method="trf",
+                                     x_scale="jac", ftol=1e-8, xtol=1e-10, gtol=1e-10,
+                                     max_nfev=max_nfev)
     std = parameter_std(res.jac, res.cost, res.fun.size, rtol=1e-6)
     return ThermalFit("thermal_dynamics", st, res.x, std, int(res.nfev), 2 * float(res.cost))
 
 
 MAX_DELAY_S = 5e-3       # whole-sample delays are searched up to 5 ms ...
 MAX_DELAY_SAMPLES = 200  # ... and at most 200 samples
+REFINE_EVALS = 8         # golden-section evaluations refining a saturation limit
 
 
 def max_delay(fs):
@@ -141,11 +145,34 @@ def search_saturation(train, lin, stats):
         for which in ("hi", "lo"):
             qs = np.linspace(0.5, 1.0, 17) if which == "hi" else np.linspace(0.5, 0.0, 17)
             cands = np.quantile(u_all, qs)
-            vals = [cost(best_lo, c) if which == "hi" else cost(c, best_hi) for c in cands]
-            pick = float(cands[int(np.argmin(vals))])
+            f = (lambda c: cost(best_lo, c)) if which == "hi" else (lambda c: cost(c, best_hi))
+            vals = [f(c) for c in cands]
+            i = int(np.argmin(vals))
+            # refined between the neighbouring quantiles: a limit that clips only the last
+            # few % of the samples lies between the extreme and the next quantile
+            a, b = cands[max(i - 1, 0)], cands[min(i + 1, len(cands) - 1)]
+            pick, val = _golden(f, min(a, b), max(a, b), REFINE_EVALS)
+            pick = pick if val < vals[i] else float(cands[i])
             if which == "hi":
                 best_hi = pick if pick < hi else best_hi
             else:
                 best_lo = pick if pick > lo else best_lo
         out.append((best_lo, best_hi))
     return out
+
+
+def _golden(f, a, b, n):
+    """Golden-section search of ``f`` on ``[a, b]`` with ``n`` evaluations: ``(x, f(x))``."""
+    r = (np.sqrt(5.0) - 1.0) / 2.0
+    x1, x2 = b - r * (b - a), a + r * (b - a)
+    f1, f2 = f(x1), f(x2)
+    for _ in range(max(n - 2, 0)):
+        if f1 <= f2:
+            b, x2, f2 = x2, x1, f1
+            x1 = b - r * (b - a)
+            f1 = f(x1)
+        else:
+            a, x1, f1 = x1, x2, f2
+            x2 = a + r * (b - a)
+            f2 = f(x2)
+    return (float(x1), f1) if f1 <= f2 else (float(x2), f2)

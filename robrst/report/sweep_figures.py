@@ -6,11 +6,12 @@ evaluated without error (status ``ok``) are drawn; infinite margins are counted 
 """
 
 import numpy as np
+import pyarrow as pa
 
 from robrst.analysis import sensitivity
 from robrst.report.figure import colors, drawing
 from robrst.sweep.evaluate import problem_of
-from robrst.sweep.summary import pareto_front, worst_rows
+from robrst.sweep.summary import front_values, pareto_front, worst_rows
 from robrst.rst import RSTController
 
 __all__ = ["histograms_figure", "sensitivity_figure", "front_figure", "fleet_figure",
@@ -30,7 +31,7 @@ _F = np.logspace(0, 4.7, 1200)   # 1 Hz .. 50 kHz
 
 def _ok(table):
     keep = [i for i, s in enumerate(table.column("status").to_pylist()) if s == "ok"]
-    return table.take(keep)
+    return table.take(pa.array(keep, type=pa.int64()))   # typed: an empty list has no type
 
 
 def _values(table, name, scale=1.0):
@@ -109,7 +110,9 @@ def front_figure(result, path):
     x_name, y_name = result.sweep.front
     names = list(result.context.names)
     cert = np.array(t.column("certified").to_pylist(), bool)
-    y = _values(t, y_name)
+    y = front_values(y_name, _values(t, y_name))
+    if y_name == "integral_gain":
+        y_name = "|integral_gain|"
     with drawing(path, (12, 4.8), 1, 2) as (fig, (a1, a2)):
         if names:
             p0 = _values(t, names[0])

@@ -11,8 +11,8 @@ import math
 
 import numpy as np
 
-__all__ = ["wilson_interval", "pareto_front", "figure_stats", "worst_rows", "summarise",
-           "STAT_FIGURES"]
+__all__ = ["wilson_interval", "pareto_front", "front_values", "figure_stats", "worst_rows",
+           "summarise", "STAT_FIGURES"]
 
 STAT_FIGURES = ("Ms", "Mt", "Mu", "Mt_band", "modulus_margin", "gain_margin",
                 "phase_margin_deg", "delay_margin_s", "spectral_abscissa", "integral_gain",
@@ -27,7 +27,8 @@ def wilson_interval(k, n, z=1.959963984540054):
     d = 1 + z * z / n
     c = (p + z * z / (2 * n)) / d
     h = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / d
-    return max(0.0, c - h), min(1.0, c + h)
+    # exact ends for none or all (c - h is 0 or c + h is 1 only up to rounding)
+    return (0.0 if k == 0 else max(0.0, c - h)), (1.0 if k == n else min(1.0, c + h))
 
 
 def pareto_front(x, y):
@@ -44,6 +45,14 @@ def pareto_front(x, y):
             front.append(int(i))
             best = y[i]
     return front
+
+
+def front_values(name, values):
+    """Figure ``name`` as the trade-off front ranks it: the integral gain by its magnitude
+    (robrst maximises ``|ki|``: a plant of negative static gain has a negative one), any
+    other figure as it is."""
+    v = np.asarray(values, float)
+    return np.abs(v) if name == "integral_gain" else v
 
 
 def _col(table, name):
@@ -141,8 +150,9 @@ def summarise(context, table, n, workers, wall_s, complete):
         x, y = sw.front
         ok = [i for i, r in enumerate(rows) if r["certified"]]
         xs = [_finite(rows[i][x]) for i in ok]
-        ys = [_finite(rows[i][y]) for i in ok]
-        out["front"] = {"x": x, "y": y, "points": [
+        ys = front_values(y, [_finite(rows[i][y]) for i in ok])
+        out["front"] = {"x": x, "y": y, "y_ranked": "magnitude" if y == "integral_gain"
+                        else "value", "points": [
             _record(rows[ok[j]], context.names, (x, y, "Ms", "Mt", "Mu", "integral_gain"))
             for j in pareto_front(xs, ys)]}
     return out
