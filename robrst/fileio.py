@@ -63,6 +63,10 @@ def _check_parents(path):
     for parent in path.parents:
         if parent.exists() and not parent.is_dir():
             raise OutputError(f"{path}: {parent} is a file, not a folder")
+    # the nearest existing folder must take new entries (the file or its missing folders)
+    near = next((p for p in (path.parent, *path.parent.parents) if p.is_dir()), None)
+    if near is not None and not os.access(near, os.W_OK | os.X_OK):
+        raise OutputError(f"{path}: the folder {near} is not writable")
 
 
 def check_file_target(path):
@@ -106,10 +110,19 @@ def check_folder_target(path):
 
 
 def atomic_write_bytes(path, data):
-    """Write ``data`` to ``path`` atomically; create the parent folder if needed."""
+    """Write ``data`` to ``path`` atomically; create the parent folder if needed.
+
+    Raises
+    ------
+    OutputError
+        Naming ``path`` when the system refuses the folder or the file.
+    """
     path = check_file_target(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    except OSError as exc:
+        raise OutputError(f"{path}: cannot write here ({exc.strerror or exc})") from None
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
@@ -117,6 +130,9 @@ def atomic_write_bytes(path, data):
             os.fsync(fh.fileno())
         os.chmod(tmp, umask_mode())
         os.replace(tmp, path)
+    except OSError as exc:
+        Path(tmp).unlink(missing_ok=True)
+        raise OutputError(f"{path}: cannot write here ({exc.strerror or exc})") from None
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise

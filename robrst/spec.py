@@ -198,6 +198,19 @@ def _plant(path, p):
                         Plant(pl.B, pl.A, label=f"T{T:g}C", temperature_C=T, meta=pl.meta))
 
 
+def _same_degrees(path, models):
+    """An explicit family interpolates coefficient by coefficient: one degree of A and of B."""
+    order = sorted(range(len(models)), key=lambda i: models[i].temperature_C)
+    for i, j in zip(order[:-1], order[1:]):
+        a, b = models[i], models[j]
+        if (a.n, a.m) != (b.n, b.m):
+            raise key_error(path, ("family", "models", str(j)),
+                            f"degrees (A {b.n}, B {b.m}) differ from those at"
+                            f" {a.temperature_C:g} °C (A {a.n}, B {a.m}): an explicit family"
+                            " interpolates coefficient by coefficient between neighbours, so"
+                            " every model needs the same degrees")
+
+
 def _family(path, f, nominal):
     if f is None:
         return PlantFamily(models=(nominal,), reference=0)
@@ -215,6 +228,7 @@ def _family(path, f, nominal):
             except SpecError as exc:
                 raise key_error(path, ("family", "models", str(i)), str(exc)) from None
             _check_rates(path, ("family", "models", str(i)), models[-1])
+        _same_degrees(path, models)
         try:
             return explicit_family(models, ref)
         except SpecError as exc:

@@ -1,6 +1,7 @@
 """``robrst design`` and ``robrst report``."""
 
 import sys
+from pathlib import Path
 
 from robrst.cli.common import print_json, progress_printer
 from robrst.design import run_problem
@@ -47,9 +48,12 @@ def run_report(args):
     """Design, certify and write the report folder."""
     from robrst.report.design import write_design_report
 
+    from robrst.report.doc import check_report_target
+
     say = progress_printer(args.quiet)
     problem = load_problem(args.problem)
     out = args.out or f"reports/{problem.name}"
+    check_report_target(Path(out), args.force)     # a bad target fails before the design
     say(f"designing {problem.name} ({problem.solver.method})")
     result = run_problem(problem, progress=say)
     path = write_design_report(result, out, progress=say, force=args.force)

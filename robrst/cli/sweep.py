@@ -2,6 +2,7 @@
 
 import sys
 import time
+from pathlib import Path
 
 from robrst.cli.common import print_json
 from robrst.errors import SpecError
@@ -25,6 +26,9 @@ def add_parsers(sub):
     s.add_argument("--min-yield", type=float, default=1.0,
                    help="exit 0 when at least this share of the variants is certified"
                         " (default 1.0: all)")
+    s.add_argument("--force", action="store_true",
+                   help="write the report into an existing OUT/report folder that robrst did"
+                        " not write (only the report's own files; nothing is deleted)")
     s.add_argument("--json", action="store_true", help="print summary.json on stdout")
     s.add_argument("--quiet", action="store_true", help="no progress bar (it is drawn only on"
                                                          " a terminal)")
@@ -55,6 +59,7 @@ def progress_bar(name, stream=sys.stderr, width=30):
 
 def run_sweep_command(args):
     """Run the sweep, write the report; exit 0 when the yield reaches --min-yield, else 1."""
+    from robrst.report.doc import check_report_target
     from robrst.report.sweep import sweep_text, write_sweep_report
     from robrst.sweep import load_sweep, run_sweep
 
@@ -63,10 +68,11 @@ def run_sweep_command(args):
     quiet = args.quiet or args.json
     sweep = load_sweep(args.sweep)
     out = args.out or f"sweeps/{sweep.name}"
+    check_report_target(Path(out) / "report", args.force)   # before any work or write
     bar = progress_bar(sweep.name) if not quiet and sys.stderr.isatty() else None
     result = run_sweep(sweep, out, workers=args.workers, scheduler=args.scheduler,
                        progress=bar, restart=args.restart)
-    write_sweep_report(result)
+    write_sweep_report(result, force=args.force)
     s = result.summary
     if args.json:
         print_json(s)

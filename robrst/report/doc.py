@@ -15,9 +15,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from robrst.errors import OutputError
-from robrst.fileio import atomic_write_bytes, umask_mode
+from robrst.fileio import atomic_write_bytes, check_folder_target, umask_mode
 
-__all__ = ["Doc", "to_markdown", "to_html", "write_folder", "MARKER"]
+__all__ = ["Doc", "to_markdown", "to_html", "write_folder", "check_report_target", "MARKER"]
 
 _CSS = ("body{font-family:system-ui,sans-serif;max-width:60em;margin:2em auto;padding:0 1em;"
         "color:#222}table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #bbb;"
@@ -92,8 +92,12 @@ def to_html(doc):
 MARKER = ".robrst-report"
 
 
-def _check_target(out, force):
-    """Refuse targets whose replacement could lose what robrst did not write."""
+def check_report_target(out, force=False):
+    """Refuse report folders whose replacement could lose what robrst did not write (called
+    before any work by the commands, and again when writing); returns how the folder will be
+    written: ``"new"``, ``"replace"`` (an earlier robrst report) or ``"merge"`` (``force``).
+    """
+    out = check_folder_target(out)       # not a file, no file above it, a writable folder
     resolved = out.resolve()
     cwd = Path.cwd().resolve()
     if resolved == cwd or resolved in cwd.parents:
@@ -138,9 +142,12 @@ def write_folder(out_dir, doc, extra_files, render_figures, force=False):
     nothing else.
     """
     out = Path(out_dir)
-    mode = _check_target(out, force)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    mode = check_report_target(out, force)
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    except OSError as exc:
+        raise OutputError(f"{out}: cannot write here ({exc.strerror or exc})") from None
     tmp.chmod(umask_mode(0o777))
     try:
         render_figures(tmp)

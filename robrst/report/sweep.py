@@ -105,7 +105,8 @@ def sweep_doc(result):
 
 
 def write_sweep_report(result: SweepResult, out_dir: str | os.PathLike | None = None,
-                       progress: Callable[[str], None] | None = None) -> Path:
+                       progress: Callable[[str], None] | None = None,
+                       force: bool = False) -> Path:
     """Write the report folder of a sweep (default ``result.out / "report"``).
 
     The folder holds ``report.md``, ``report.html``, the figures and a copy of
@@ -116,6 +117,8 @@ def write_sweep_report(result: SweepResult, out_dir: str | os.PathLike | None = 
     result : SweepResult
     out_dir : str or Path, optional
     progress : callable, optional
+    force : bool
+        Write into an existing folder robrst did not write (only the report's files).
 
     Returns
     -------
@@ -145,7 +148,7 @@ def write_sweep_report(result: SweepResult, out_dir: str | os.PathLike | None = 
             draw_fn[name](result, tmp / name)
 
     extra = {"summary.json": json_text(result.summary, indent=1) + "\n"}
-    return write_folder(out_dir or Path(result.out) / "report", doc, extra, draw)
+    return write_folder(out_dir or Path(result.out) / "report", doc, extra, draw, force=force)
 
 
 def sweep_text(summary):
@@ -161,8 +164,9 @@ def sweep_text(summary):
     for k in ("Ms", "Mt", "Mu", "Mt_band", "integral_gain"):
         if k in s["figures"]:
             v = s["figures"][k]
-            lines.append(f"  {k:<14} median {_f(v['median'])}, 95 % {_f(v['p95'])},"
-                         f" worst {_f(v['max'])}")
+            tail = (f"range {_f(v['min'])}..{_f(v['max'])}" if k == "integral_gain"
+                    else f"95 % {_f(v['p95'])}, worst {_f(v['max'])}")   # the gain: no worst
+            lines.append(f"  {k:<14} median {_f(v['median'])}, {tail}")
     for w in s["worst"][:5]:
         who = w.get("file", f"#{w['index']}")
         lines.append(f"  worst {who}: {w['status']}, figure/bound {_f(w['worst_ratio'])}:"

@@ -211,6 +211,8 @@ def best_achievable(cert):
     if v is None:
         return None
     if v.quantity == "spectral_abscissa":
-        return (f"best achievable: unstable on model {v.label} ({v.temperature_C:g} °C),"
-                f" spectral abscissa {v.value:.4g} rad/s")
+        loop = " in the sampled loop" if v.loop == "sampled" else ""
+        return (f"best achievable: unstable{loop} on model {v.label} ({v.temperature_C:g} °C),"
+                f" spectral abscissa {v.value:.4g} rad/s"
+                + (" (of the loop in the bilinear variable)" if loop else ""))
     return "best achievable: " + v.describe()
