@@ -130,10 +130,14 @@ class Run:
         self.hopeless = False     # set when the specs are provably infeasible
         self.solved = {}          # program key -> result: a repeated program is not re-solved
 
-    @property
-    def spent(self):
-        """True once the synthesis has used its IPOPT iteration budget."""
-        return sum(r.iterations for r in self.rounds) > RUN_ITER_BUDGET
+    def spent(self, placement=None):
+        """True once the synthesis has used its IPOPT iteration budget: ``RUN_ITER_BUDGET``
+        for the rounds of ``placement`` (the fixed poles' rounds do not take the budget of
+        the free search that follows them), twice that over all rounds."""
+        total = sum(r.iterations for r in self.rounds)
+        if placement is None or total > 2 * RUN_ITER_BUDGET:
+            return total > RUN_ITER_BUDGET
+        return sum(r.iterations for r in self.rounds if r.placement == placement) > RUN_ITER_BUDGET
 
     def solve(self, ctx, setup, x0, phase, start, exact=False):
         """One program by constraint exchange (trust regions with freely placed poles)."""
@@ -209,7 +213,7 @@ class Run:
         models, nu, last = list(p.family.models), ctx.nu, None
         x = np.concatenate([x[:-1], [1.0]])
         for rnd in range(p.solver.max_rounds):
-            if rnd and self.spent:
+            if rnd and self.spent(placement):
                 self.notes.append(f"iteration budget ({RUN_ITER_BUDGET}) spent: refinement stopped")
                 break
             setup = ctx.setup(models, nu, placement)
@@ -245,7 +249,7 @@ class Run:
         blocks = grid_blocks(setup, np.ones(ctx.param.n_x))   # weights unused by the scores
         warm = next((sd for sd in seeds if sd[0] == WARM_START and sd[1] is not None), None)
         from_warm = None     # the hard phase from the warm start, once run
-        if warm is not None and not self.spent:
+        if warm is not None and not self.spent(placement):
             # a previous design of a nearby variant near the specs on the grid is the
             # preferred start: solved from at once, the other starts scored only if it fails
             s = score(setup, blocks, *warm)
@@ -271,7 +275,7 @@ class Run:
         if feasible:   # a start that meets the specs on the grid: certified, it is the fallback
             outs.append(self.outcome(ctx, setup, None, "start",
                                      x=ctx.full(first.xc, setup, first.wn, first.zeta)))
-        if first.worst <= FAR_START and not self.spent and not self.hopeless:
+        if first.worst <= FAR_START and not self.spent(placement) and not self.hopeless:
             out = from_warm if from_warm is not None and first.name == WARM_START else \
                 self.hard(ctx, placement, ctx.full(first.xc, setup, first.wn, first.zeta),
                           first.name)
@@ -280,7 +284,7 @@ class Run:
             outs.append(out)
         n_soft = 1 if self.hopeless else SOFT_STARTS   # the best violation is all there is
         for s in [s for s in starts if not (s is first and feasible)][:n_soft]:
-            if self.spent and any(o is not None and o.certified for o in outs):
+            if self.spent(placement) and any(o is not None and o.certified for o in outs):
                 break
             x0 = ctx.full(s.xc, setup, s.wn, s.zeta, gamma=max(s.worst * 1.02, GAMMA_FLOOR))
             if s.stable and s.worst <= GAMMA_FLOOR:     # meets the specs already: no soft phase

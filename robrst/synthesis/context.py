@@ -17,7 +17,8 @@ from robrst.synthesis.nlp import NLPSetup, scale_plant
 from robrst.synthesis.parametrize import (Parametrization, TrackingRule, frequency_grid,
                                           integral_gain)
 
-__all__ = ["Context", "BOUND_MARGIN", "FREE_MARGIN", "ipopt_options", "CTRL_POLE_RATIO"]
+__all__ = ["Context", "BOUND_MARGIN", "FREE_MARGIN", "ipopt_options", "CTRL_POLE_RATIO",
+           "low_frequency_coefficient"]
 
 BOUND_MARGIN = 0.9995   # grid constraints just inside the specs (half the certificate tolerance)
 FREE_MARGIN = 0.98      # freely placed poles: sharp resonances move between the models
@@ -29,6 +30,13 @@ def ipopt_options(so):
     """IPOPT options of the problem's solver settings."""
     return {"max_iter": so.max_iter, "tol": so.ipopt_tol, "print_level": 0,
             "sb": "yes", "mu_strategy": "monotone", "nlp_scaling_method": "none"}
+
+
+def low_frequency_coefficient(a):
+    """The lowest nonzero coefficient of ``a`` (``a(0)``, or that of ``a / s^k`` for a
+    polynomial with ``k`` roots at the origin); 0 for the zero polynomial."""
+    nz = np.flatnonzero(np.asarray(a, float))
+    return float(a[nz[-1]]) if nz.size else 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -54,10 +62,12 @@ class Context:
         ref = problem.family.reference_model
         param = Parametrization.of(problem.controller, ref, sc, extra_degree)
         tracking = TrackingRule(problem.controller.T_mode, problem.controller.T_zeros, ref.B)
-        # the integral gain of a stabilising low-gain integral action has the sign of D(0)
+        # the integral gain of a stabilising low-gain integral action has the sign of D(0),
+        # for a plant with integrators the sign of (s^k D)(0)
         ki = integral_gain(start.controller)
-        if ref.A[-1] != 0 and ref.B[-1] != 0:
-            sign = float(np.sign(ref.B[-1] / ref.A[-1]))
+        a0 = low_frequency_coefficient(ref.A)
+        if a0 != 0 and ref.B[-1] != 0:
+            sign = float(np.sign(ref.B[-1] / a0))
         else:
             sign = float(np.sign(ki)) if np.isfinite(ki) and ki != 0 else 1.0
         dom = np.abs(problem.poles.dominant())

@@ -16,8 +16,10 @@ runs one placement):
    the best starts; from a point that meets the specs, the hard phase again.
 4. **Placement**: with ``solver.placement = "auto"`` the nominal closed-loop poles are
    those of the [poles] table (or ``(wn, zeta)`` within bounds with ``free_poles``);
-   when that cannot meet the specs every controller coefficient is freed (trust-region
-   solves) and 1–3 run again, seeded with the best point found.
+   when that cannot meet the specs, or meets them only at a start or soft-goal point
+   whose objective could not be optimised, every controller coefficient is freed
+   (trust-region solves) and 1–3 run again, seeded with the best point found; the better
+   certified objective is returned.
 5. **Homotopy**: when a degree does not certify (or its objective could not be
    optimised), ``extra_degree - 1`` is solved first and its controller, raised by a
    common factor (the same controller), seeds the program; ``homotopy = "always"``
@@ -102,9 +104,16 @@ def _synthesize(problem, start, run, extra, lower=None):
         if out is None:
             continue
         if out.certified:
-            best = out
-            break
-        if best is None or out.badness < best.badness:
+            if best is None or not best.certified or (
+                    objective_value(problem, out) > objective_value(problem, best)):
+                best = out
+            if out.phase == "hard" or so.objective == "feasibility":
+                break          # optimised under the specs (or nothing to optimise)
+            seeds = [("best point so far", best.x[:ctx.param.n_x])]
+            run.notes.append(f"the objective could not be optimised with {placement} nominal"
+                             " poles (a certified start or soft-goal point)")
+            continue
+        if best is None or (not best.certified and out.badness < best.badness):
             best = out
         seeds = [("best point so far", best.x[:ctx.param.n_x])]
         run.notes.append(f"specs not met with {placement} nominal poles"
@@ -147,7 +156,7 @@ def _homotopy(problem, start, run):
         return out
     out = _synthesize(problem, start, run, extra)
     optimised = out.certified and out.phase == "hard"
-    if optimised or extra == 0 or out.badness > NEAR_MISS or a_priori_note(problem) or run.spent:
+    if optimised or extra == 0 or out.badness > NEAR_MISS or a_priori_note(problem) or run.spent():
         return out      # done, or far from the specs: fewer degrees will not meet them either
     run.say(f"extra_degree {extra}: {'objective not optimised' if out.certified else 'not certified'}"
             f"; solving with {extra - 1} first")

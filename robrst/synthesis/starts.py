@@ -23,6 +23,7 @@ from robrst import poly
 from robrst.analysis import spectral_abscissa
 from robrst.errors import RobrstError
 from robrst.synthesis import analytic
+from robrst.synthesis.context import low_frequency_coefficient
 from robrst.synthesis.nlp import closed_loop_maps
 
 __all__ = ["Start", "score", "candidates", "abscissa"]
@@ -102,9 +103,10 @@ def _integral(ctx, setup, blocks):
     if par.integrators != 1:
         return []
     ref = ctx.problem.family.reference_model
-    if ref.A[-1] == 0:
+    plant_int = len(ref.A) - 1 - int(np.flatnonzero(ref.A)[-1])   # integrators of the plant
+    if plant_int > 1 or ref.B[-1] == 0:
         return []
-    dc = ref.B[-1] / ref.A[-1]
+    dc = ref.B[-1] / low_frequency_coefficient(ref.A)   # D(0), or (s D)(0) if integrating
     c = 3.0
     sp = np.poly(-c * np.ones(par.ks)) if par.ks else np.ones(1)
     sfr = par.Sf[:-1]                                  # Sf / p (scaled)
@@ -112,13 +114,22 @@ def _integral(ctx, setup, blocks):
     for wc in KI_GRID:
         for zf in (None, 1.0, 0.3):                    # integral; PI zeros at wc, 0.3 wc
             if zf is None or par.kr < 1:
+                if plant_int:                          # I on an integrator: no phase margin
+                    continue
                 rp = np.poly(-c * np.ones(par.kr)) if par.kr else np.ones(1)
                 name = f"integral (crossover {wc * ctx.w0:.3g} rad/s)"
             else:
                 rp = np.convolve([1.0, zf * wc], np.poly(-c * np.ones(par.kr - 1)))
                 name = f"PI (crossover {wc * ctx.w0:.3g} rad/s, zero at {zf:g} of it)"
             gain0 = rp[-1] * par.Rf[-1] / (sp[-1] * sfr[-1])   # low-frequency K(w0 p) p / kappa
-            kappa = wc / (dc * gain0)
+            if plant_int:   # |K P| = 1 at the crossover, K P ~ kappa gain0 dc / (w0 p^2) below
+                s = 1j * wc
+                k1 = (np.polyval(rp, s) * np.polyval(par.Rf, s)
+                      / (np.polyval(sp, s) * np.polyval(par.Sf, s)))
+                p1 = np.polyval(ref.B, s * ctx.w0) / np.polyval(ref.A, s * ctx.w0)
+                kappa = np.sign(dc * gain0) / abs(k1 * p1)
+            else:
+                kappa = wc / (dc * gain0)
             st = score(setup, blocks, name, np.concatenate([sp[1:], kappa * rp]))
             out.append(replace(st, gain=float(wc)))
     return out
