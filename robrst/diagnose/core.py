@@ -270,9 +270,7 @@ def decompose(res, before, floor, linear_gap):
     """Shares of the held-out residual's mean square, a partition (they add up to 1): its
     constant offset first, then of the rest the noise, what a linear re-fit explains, and
     what it leaves."""
-    allr = np.concatenate([np.asarray(r).ravel() for r in res])
-    ms = float(np.mean(allr ** 2))
-    offset = float(np.mean(allr)) ** 2 / ms if ms > 0 else 0.0
+    _, offset = _offset(res)
     noise = min(1.0 - offset, (floor / before) ** 2) if before > 0 else 1.0 - offset
     lin = max(0.0, 1.0 - (linear_gap / before) ** 2) if before > 0 else 0.0
     lin = min(lin, 1.0 - offset - noise)
@@ -280,13 +278,18 @@ def decompose(res, before, floor, linear_gap):
             "unexplained_by_linear": max(0.0, 1.0 - offset - noise - lin)}
 
 
-def offset_finding(res):
-    """``output_offset`` when a constant offset is most of the held-out residual (the
-    dynamic effects and a linear re-fit cannot stand for it), or None."""
+def _offset(res):
+    """The residuals' mean and its share of their mean square."""
     allr = np.concatenate([np.asarray(r).ravel() for r in res])
     ms = float(np.mean(allr ** 2))
     mean = float(np.mean(allr))
-    share = mean ** 2 / ms if ms > 0 else 0.0
+    return mean, (mean ** 2 / ms if ms > 0 else 0.0)
+
+
+def offset_finding(res):
+    """``output_offset`` when a constant offset is most of the held-out residual (the
+    dynamic effects and a linear re-fit cannot stand for it), or None."""
+    mean, share = _offset(res)
     if share < OFFSET_SHARE:
         return None
     return {"kind": "output_offset", "offset_um": mean, "share": share,

@@ -9,8 +9,9 @@ subset* of grid points, evaluates every grid point numerically at the solution
 maxima that violate — or nearly reach — their bound and solves again from the previous
 solution.  Once no grid point is violated the point is final: the constraints left out
 hold there and have zero multipliers, so a KKT point of the subset is one of the whole
-grid (no further round for a near-active point that does not bind).  The active set only grows, so the loop ends; the final point satisfies
-every grid constraint and is a (local) optimum of the full-grid program.
+grid (no further round for a near-active point that does not bind).  The active set only
+grows, so the loop ends; the final point satisfies every grid constraint and is a (local)
+optimum of the full-grid program.
 
 The program itself is one parametric solver per structure
 (:class:`~robrst.synthesis.template.Template`, cached in ``templates``): an exchange
