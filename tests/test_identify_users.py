@@ -114,6 +114,9 @@ def test_validation_records_are_scored_at_their_own_temperature():
     assert res.heldout_nrmse < 0.05
     for m in res.models:
         assert _frf_error(m, truth[m.temperature_C], 10.0, 2000.0) < 1e-2
+    # validation only at a temperature other than the largest group's: still scored there
+    res = identify(train + [train[0]], validate=val[2:], max_order=4)
+    assert res.order == 2 and res.heldout_nrmse < 0.05
 
 
 def test_problem_file_reproduces_the_identified_model_at_high_order(tmp_path):

@@ -255,7 +255,8 @@ def identify(train, validate=None, order="auto", max_order=None, feedthrough=Fal
         else:
             fit_recs, recs, parts, held_names = _split(groups[main][1])
             held = [(main, recs, parts)]
-        data = {i: fit_data(fit_recs if i == main else groups[i][1]) for i, _, _ in held}
+        data = {i: fit_data(fit_recs if i == main else groups[i][1])
+                for i in {main} | {i for i, _, _ in held}}
         n_lines = max([z.size for z, *_ in data[main].freq], default=0)
         scores = []
         for n in _candidates(order, max_order, n_lines):
