@@ -140,6 +140,7 @@ class _Response:
         self.C, self.d = C, d
         n = A.shape[0]
         ts, Xs, x, t0 = [np.zeros(1)], [np.zeros((n, 1))], np.zeros(n), 0.0
+        steps = []
         for t1, h in segs:
             n = max(1, int(np.ceil((t1 - t0) / h)))
             if not self.discrete:
@@ -147,8 +148,10 @@ class _Response:
             X = _propagate(*self._step(h), x, n)
             ts.append(t0 + h * np.arange(1, n + 1))
             Xs.append(X[:, 1:])
+            steps.append(np.full(n, h))
             x, t0 = X[:, -1], t0 + n * h
         self.t, self.X = np.concatenate(ts), np.hstack(Xs)
+        self.h = np.concatenate(steps)     # the exact step of each interval (t[i], t[i+1])
         self.Y = self.C @ self.X + self.d[:, None]   # one row per numerator
 
     def _step(self, h):
@@ -163,8 +166,9 @@ class _Response:
 
     def _fine(self, row, i, n_sub=256):
         """Times and outputs ``row`` on ``[t[i], t[i+1]]`` at up to ``n_sub`` times the
-        resolution."""
-        h = self.t[i + 1] - self.t[i]
+        resolution (the sub-step from the interval's exact step: intervals of one segment
+        share one cached step matrix)."""
+        h = float(self.h[i])
         if self.discrete:
             n_sub = int(round(h))
             if n_sub <= 1:
