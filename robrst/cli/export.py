@@ -77,10 +77,7 @@ def run_export(args):
     say = progress_printer(args.quiet or args.out is None)
     check_prefix(args.prefix)                     # bad arguments fail before the design
     _check_arguments(args)
-    try:
-        u_range = check_u_range(args.u_range)
-    except SpecError as exc:
-        raise SpecError(f"--u-range: {exc}") from None
+    u_range = check_u_range(args.u_range)       # its message names --u-range
     targets = _targets(args)
     _check_targets(targets)
     problem = load_problem(args.problem)
