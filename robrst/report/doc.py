@@ -97,17 +97,15 @@ def check_report_target(out, force=False):
     before any work by the commands, and again when writing); returns how the folder will be
     written: ``"new"``, ``"replace"`` (an earlier robrst report) or ``"merge"`` (``force``).
     """
-    out = check_folder_target(out)       # not a file, no file above it, a writable folder
+    out = Path(out)
     resolved = out.resolve()
     cwd = Path.cwd().resolve()
     if resolved == cwd or resolved in cwd.parents:
         raise OutputError(f"{out}: refusing to write a report over the current folder or one"
                           " of its parents; give a new folder name with --out")
-    for parent in resolved.parents:
-        if parent.exists() and not parent.is_dir():
-            raise OutputError(f"{out}: {parent} is a file, not a folder")
     if resolved.exists() and not resolved.is_dir():
         raise OutputError(f"{out}: is a file; expected a report folder")
+    check_folder_target(out)             # no file above it, a writable folder
     if not resolved.is_dir() or not any(resolved.iterdir()):
         return "new"
     marker = resolved / MARKER
