@@ -2,7 +2,7 @@
 
 robrst's matrices are small (tens of states): a second OpenBLAS thread does not make
 them faster, it spins between the calls and doubles the CPU time (paper_robust's design,
-in process on a 2-core machine: 0.72 s CPU with two threads, 0.41 s with one, the same
+in process on a 2-core machine: 0.72 s CPU with two threads, 0.42 s with one, the same
 wall time).  :func:`one_blas_thread` limits every BLAS library loaded in the process
 (numpy's and SciPy's each carry one) for the duration of a ``with`` block and restores
 the caller's settings afterwards.  A library is only limited once loaded, so SciPy's is

@@ -47,7 +47,6 @@ def run_design(args):
 def run_report(args):
     """Design, certify and write the report folder."""
     from robrst.report.design import write_design_report
-
     from robrst.report.doc import check_report_target
 
     say = progress_printer(args.quiet)

@@ -175,9 +175,9 @@ def _held_groups(groups, validate, main):
     """``[(group index, records, None)]``: each validation record scored by the model of the
     training group nearest its mean temperature (the main group when either is unknown)."""
     out = {}
+    known = [i for i, g in enumerate(groups) if g[0] is not None]
     for d in validate:
         T = None if d.temp is None else float(np.mean(d.temp))
-        known = [i for i, g in enumerate(groups) if g[0] is not None]
         i = main if T is None or not known else min(known, key=lambda k: abs(groups[k][0] - T))
         out.setdefault(i, []).append(d)
     return [(i, recs, None) for i, recs in sorted(out.items())]
