@@ -10,8 +10,10 @@ extrapolation to 10,000 and 1,000,000 variants.
   measured alone first, in this process before any cluster exists (the variant's own
   cost), then in the 2 busy workers (on a 2-core machine whose cores share caches, ~10 %
   more) and in this process next to an idle cluster (its scheduler runs here).
-* **Design** (a grid of ``specs.Mu_max`` on paper_robust, one robust NLP design each):
-  the CPU per design, in process.
+* **Design** (a grid of ``specs.Mu_max``, one robust NLP design each, in process): the CPU
+  per design of paper_robust (the sampled 2-DOF design: synthesis, certificate of both
+  loops, tracking and the step responses of every model) and of paper_robust_continuous
+  (the problem of the shipped trade-off sweep ``paper_tradeoff``).
 * **Extrapolation**: ``start-up + n * cpu / (N * efficiency)`` with the measured CPU per
   variant, start-up and engine efficiency (the share of the workers' wall time spent inside
   variants: what the engine loses to scheduling, transfer, writing and the tail), i.e. for
@@ -33,6 +35,8 @@ from robrst.sweep import load_sweep, parse_sweep, run_sweep
 DESIGN = {"sweep": {"name": "bench_design", "kind": "design", "problem": "paper_robust"},
           "param": [{"name": "specs.Mu_max", "dist": "grid", "lo": 120.0, "hi": 200.0,
                      "steps": 6}]}
+DESIGN_CONTINUOUS = {"sweep": {**DESIGN["sweep"], "problem": "paper_robust_continuous"},
+                     "param": DESIGN["param"]}
 TINY_ANALYSIS = {"sweep": {"name": "bench_analysis_tiny", "kind": "analysis", "problem": "paper",
                            "n": 10, "chunk_size": 5},
                  "param": [{"name": "gain", "dist": "normal", "mean": 1.0, "std": 0.05}]}
@@ -106,6 +110,9 @@ def run(tiny=False, repeats=5):
     design = run_sweep(parse_sweep(TINY_DESIGN if tiny else DESIGN), tmp / "design", workers=0)
     dcpu_med, dcpu_mean = _cpu(design)
     dcert = design.summary["certified"]
+    cont = None if tiny else run_sweep(parse_sweep(DESIGN_CONTINUOUS), tmp / "design_c",
+                                       workers=0)
+    ccpu_med, ccpu_mean = (dcpu_med, dcpu_mean) if tiny else _cpu(cont)
     eng = float(np.median([_engine_efficiency(b) for b in par]))
     startup = fresh.summary["startup_s"]
     what = ("paper (tiny)", "paper, analytic (tiny)") if tiny else (
@@ -114,7 +121,8 @@ def run(tiny=False, repeats=5):
     table = [f"Analysis ({what[0]}): {cpu_mean:.3f} s CPU per variant alone (median"
              f" {cpu_med:.3f} s), {cpu_workers:.3f} s in each of 2 busy workers,"
              f" {cpu_mean_busy:.3f} s in process next to an idle cluster; design ({what[1]}):"
-             f" {dcpu_mean:.2f} s CPU per design; engine efficiency {eng:.2f} (share of the"
+             f" {dcpu_mean:.2f} s CPU per design (paper_robust_continuous, the trade-off"
+             f" sweep's problem: {ccpu_mean:.2f} s); engine efficiency {eng:.2f} (share of the"
              " workers' time inside variants); time = start-up + n × CPU / (workers ×"
              " efficiency) with the CPU per variant of a busy worker, each worker on its own"
              " core;"
@@ -129,7 +137,8 @@ def run(tiny=False, repeats=5):
             f" worker, {rate_par / 2:.1f}/s per worker on 2; speed-up {speedup:.2f}× on {n}"
             f" variants (workers inside variants {eng:.0%} of the time)"
             f"; end-to-end with cluster start {fresh.summary['wall_s']:.1f} s;"
-            f" design: {dcpu_mean:.2f} s CPU/design")
+            f" design: {dcpu_mean:.2f} s CPU/design (sampled 2-DOF paper_robust),"
+            f" {ccpu_mean:.2f} s (paper_robust_continuous)")
     return BenchResult(
         name="sweeps on Dask", robrst_path="run_sweep: chunks on a 2-process local cluster",
         baseline="the same sweep in one process (workers=0)",
@@ -150,5 +159,8 @@ def run(tiny=False, repeats=5):
                  "load_average_1min_end": os.getloadavg()[0],
                  "end_to_end_s_fresh_cluster": fresh.summary["wall_s"], "startup_s": startup,
                  "design_cpu_s_median": dcpu_med, "design_cpu_s_mean": dcpu_mean,
-                 "designs_certified": dcert, "designs": design.summary["done"]},
+                 "designs_certified": dcert, "designs": design.summary["done"],
+                 "design_continuous_cpu_s_median": ccpu_med,
+                 "design_continuous_cpu_s_mean": ccpu_mean,
+                 "designs_continuous_certified": None if tiny else cont.summary["certified"]},
         table=tuple(table))
