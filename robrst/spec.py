@@ -54,8 +54,10 @@ SCHEMA = {
         "source": Field("str", "", "where the coefficients come from"),
         "parametric": {
             "gain_per_K": Field("number", 0.0, "relative static-gain change per K"),
-            "resonance_per_K": Field("number", 0.0, "relative natural-frequency change per K"),
-            "damping_per_K": Field("number", 0.0, "relative damping change per K"),
+            "resonance_per_K": Field("number", 0.0, "relative natural-frequency change per K of"
+                                     " every complex pole pair of A (none: no effect)"),
+            "damping_per_K": Field("number", 0.0, "relative damping change per K of every"
+                                   " complex pole pair of A"),
             "creep_per_K": Field("number", 0.0, "creep strength gained per K above reference"),
             "creep_at_ref": Field("number", 0.0, "creep strength at the reference temperature"),
             "creep_tau_s": Field("number", 1.0, "creep time constant [s]", positive=True),
