@@ -6,8 +6,6 @@ closest valid key.  The README's "Problem-file reference" is generated from the 
 schema.  Built-in problem files ship with the package (:mod:`robrst.resources`).
 """
 
-from __future__ import annotations
-
 import os
 from pathlib import Path
 
@@ -49,7 +47,8 @@ SCHEMA = {
     },
     "family": {
         "reference_C": Field("number", None, "temperature of the nominal model (default"
-                             " plant.temperature_C)", **TEMP),
+                             " plant.temperature_C; with [[family.models]] and no [plant], the"
+                             " first model's)", **TEMP),
         "temperatures_C": Field("numbers", None, "temperatures of a parametric family [°C]", **TEMP),
         "source": Field("str", "", "where the coefficients come from"),
         "parametric": {
@@ -214,9 +213,11 @@ def _same_degrees(path, models):
 
 
 def _family(path, f, nominal):
+    """The family; no ``[plant]``: reference at ``reference_C``, default the first model."""
     if f is None:
         return PlantFamily(models=(nominal,), reference=0)
-    ref = f["reference_C"] if f["reference_C"] is not None else nominal.temperature_C
+    ref = f["reference_C"] if f["reference_C"] is not None else (
+        nominal.temperature_C if nominal else min(m["temperature_C"] for m in f["models"]))
     if f["models"] is not None:
         if f["temperatures_C"] is not None or f["parametric"] is not None:
             raise key_error(path, ("family",), "give either 'models' or 'temperatures_C'+'parametric'")
@@ -235,10 +236,9 @@ def _family(path, f, nominal):
             return explicit_family(models, ref)
         except SpecError as exc:
             raise key_error(path, ("family", "models"), str(exc)) from None
-    if f["temperatures_C"] is None:
-        raise key_error(path, ("family", "temperatures_C"), "missing required key")
     if not f["temperatures_C"]:
-        raise key_error(path, ("family", "temperatures_C"), "expected at least one temperature")
+        raise key_error(path, ("family", "temperatures_C"), "missing required key" if
+                        f["temperatures_C"] is None else "expected at least one temperature")
     par = f["parametric"] or validate(path, {}, SCHEMA["family"]["parametric"])
     coeffs = ThermalCoefficients(reference_C=ref, **par)
     try:
@@ -321,7 +321,8 @@ def parse_problem(data, path="<problem>"):
         Naming the file and the key path of the first problem found.
     """
     v = validate(path, data, SCHEMA)
-    nominal = _plant(path, v["plant"])
+    explicit = v["plant"] is None and v["family"] is not None and v["family"]["models"]
+    nominal = None if explicit else _plant(path, v["plant"])
     family = _family(path, v["family"], nominal)
     poles = _poles(path, v["poles"])
     ctrl = ControllerStructure(**_table(path, v, "controller"))
@@ -350,7 +351,7 @@ def parse_problem(data, path="<problem>"):
     name = meta.get("name") or Path(str(path)).stem
     return Problem(name=name, family=family, poles=poles, controller=ctrl, specs=specs,
                    solver=solver, path=str(path), description=meta.get("description", ""),
-                   plant_name=v["plant"]["name"])
+                   plant_name=(v["plant"] or {}).get("name"))
 
 
 def resolve_problem_path(name_or_path):

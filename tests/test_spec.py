@@ -123,6 +123,25 @@ A = [1.0, 2.2, 1.1]
         pr.family.at(50.0)
 
 
+def test_explicit_family_needs_no_plant_table(tmp_path):
+    """[[family.models]] alone is a problem: its reference is the model at reference_C
+    (default the first), and the design equals the one of the same file with that [plant]."""
+    models = ("[[family.models]]\ntemperature_C = 40.0\nB = [1.2e6]\nA = [1.0, 2.2e3, 1.1e6]\n"
+              "[[family.models]]\ntemperature_C = 30.0\nB = [1.0e6]\nA = [1.0, 2.0e3, 1.0e6]\n")
+    rest = "[poles]\nwn = 800.0\nzeta = 0.9\n[controller]\nextra_degree = 1\n"
+    alone = load_problem(write(tmp_path, models + rest))
+    assert alone.family.reference_model.temperature_C == 30.0
+    assert list(alone.family.temperatures) == [30.0, 40.0]
+    hot = load_problem(write(tmp_path, "[family]\nreference_C = 40.0\n" + models + rest))
+    np.testing.assert_array_equal(hot.family.reference_model.A, [1.0, 2.2e3, 1.1e6])
+    both = load_problem(write(tmp_path, "[plant]\nB = [1.0e6]\nA = [1.0, 2.0e3, 1.0e6]\n"
+                              "temperature_C = 30.0\n" + models + rest))
+    a, b = run_problem(alone), run_problem(both)
+    for k in "RST":
+        np.testing.assert_array_equal(getattr(a.controller, k), getattr(b.controller, k))
+    assert a.certified == b.certified
+
+
 def test_problems_folder_spelling_names_the_builtin(tmp_path, monkeypatch):
     """`problems/paper_robust.toml` (as the issues and README spell the shipped files) works
     from any folder when no such file exists; a user's own file of that path wins."""
