@@ -17,7 +17,10 @@ import numpy as np
 from robrst.errors import OutputError
 
 __all__ = ["atomic_write_bytes", "atomic_write_text", "json_text", "jsonable", "umask_mode",
-           "check_file_target", "check_folder_target", "read_utf8"]
+           "check_file_target", "check_folder_target", "check_json_target", "read_utf8",
+           "WRITTEN_BY"]
+
+WRITTEN_BY = "written_by"   # the key of a JSON file robrst wrote: "robrst <command>"
 
 
 def umask_mode(mode=0o666):
@@ -87,6 +90,38 @@ def check_file_target(path):
     if path.is_dir():
         raise OutputError(f"{path}: is a folder; expected a file name")
     _check_parents(path)
+    return path
+
+
+def check_json_target(path, other_outputs=()):
+    """Refuse a ``--json`` output file robrst may not write: what :func:`check_file_target`
+    refuses, one of ``other_outputs`` (the command's other output files), and an existing
+    file that is not a JSON object robrst wrote (its ``"written_by"`` starts ``robrst``).
+
+    Parameters
+    ----------
+    path : str or Path
+    other_outputs : iterable of str or Path
+        The other files the same command writes.
+
+    Raises
+    ------
+    OutputError
+        Naming the path and what was expected.
+    """
+    path = check_file_target(path)
+    for other in other_outputs:
+        if other is not None and Path(other).resolve() == path.resolve():
+            raise OutputError(f"{path}: the command writes another output there ({other});"
+                              " expected a separate --json file")
+    if path.exists() or path.is_symlink():
+        try:
+            doc = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, ValueError):
+            doc = None
+        if not (isinstance(doc, dict) and str(doc.get(WRITTEN_BY, "")).startswith("robrst")):
+            raise OutputError(f"{path}: exists and was not written by robrst; not overwriting"
+                              " it (choose another --json file)")
     return path
 
 

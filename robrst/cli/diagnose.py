@@ -1,7 +1,8 @@
 """``robrst diagnose``: where a simulation model misses measured data, and why."""
 
 from robrst.cli.common import progress_printer
-from robrst.fileio import atomic_write_text, check_file_target, check_folder_target, json_text
+from robrst.fileio import (WRITTEN_BY, atomic_write_text, check_folder_target,
+                           check_json_target, json_text)
 
 __all__ = ["add_parsers", "run_diagnose"]
 
@@ -32,7 +33,7 @@ def run_diagnose(args):
 
     to_stdout = args.json == "-"
     if args.json and not to_stdout:
-        check_file_target(args.json)              # bad targets fail before the work
+        check_json_target(args.json)              # bad targets fail before the work
     if args.report:
         check_folder_target(args.report)
     say = progress_printer(args.quiet or to_stdout)
@@ -42,7 +43,7 @@ def run_diagnose(args):
     if args.model:
         plant, ref = _model(args.model)
     diag = diagnose(train, test, plant=plant, reference_C=ref, progress=say)
-    text = json_text(diag.as_dict(), indent=1)
+    text = json_text({**diag.as_dict(), WRITTEN_BY: "robrst diagnose"}, indent=1)
     if args.report:
         from robrst.report.diagnosis import write_diagnosis_report
 

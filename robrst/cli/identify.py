@@ -6,7 +6,8 @@ Handler pair for the CLI: :func:`add_parsers` registers the sub-command,
 
 from robrst.cli.common import progress_printer
 from robrst.errors import SpecError
-from robrst.fileio import atomic_write_text, check_file_target, check_folder_target, json_text
+from robrst.fileio import (WRITTEN_BY, atomic_write_text, check_folder_target,
+                           check_json_target, json_text)
 
 __all__ = ["add_parsers", "run_identify"]
 
@@ -73,7 +74,7 @@ def run_identify(args):
         raise SpecError(f"--max-order: expected an integer >= 1, got {args.max_order}")
     check_target(args.out)                        # bad targets fail before any work or write
     if args.json and not to_stdout:
-        check_file_target(args.json)
+        check_json_target(args.json, [args.out])
     if args.report:
         check_folder_target(args.report)
     train = [load_dataset(f) for f in args.train]
@@ -82,7 +83,7 @@ def run_identify(args):
                      feedthrough=args.feedthrough, progress=say)
     path = write_identified(ident, args.out, [d.source for d in train], channel=channel,
                             name=args.name, modal=args.modal)
-    d = dict(ident.as_dict(), out=str(path))
+    d = {**ident.as_dict(), "out": str(path), WRITTEN_BY: "robrst identify"}
     if args.report:
         from robrst.report.identification import write_identification_report
 
