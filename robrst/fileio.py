@@ -145,7 +145,8 @@ def check_folder_target(path):
 
 
 def atomic_write_bytes(path, data):
-    """Write ``data`` to ``path`` atomically; create the parent folder if needed.
+    """Write ``data`` to ``path`` atomically; create the parent folder if needed (a
+    symbolic link is kept: the file it names is replaced).
 
     Raises
     ------
@@ -153,6 +154,8 @@ def atomic_write_bytes(path, data):
         Naming ``path`` when the system refuses the folder or the file.
     """
     path = check_file_target(path)
+    if path.is_symlink():           # a link stays a link: the file it names is replaced
+        path = Path(os.path.realpath(path))
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")

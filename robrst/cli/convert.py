@@ -40,6 +40,9 @@ def run_convert(args):
     from robrst.dataset import save_dataset
 
     name = args.name or Path(args.y).stem.removeprefix("y_")
+    if not name or Path(name).name != name or name in (".", ".."):
+        raise DataError(f"--name {name!r}: expected a file-name prefix (no folder part);"
+                        " the records go into --out")
     recs = records_from_arrays(load_array(args.u), load_array(args.y), args.fs,
                                layout=args.layout, y_unit=args.y_unit, u_unit=args.u_unit,
                                source=name, temp_C=args.temp)

@@ -1,5 +1,6 @@
 """``robrst design`` and ``robrst report``."""
 
+import re
 import sys
 from pathlib import Path
 
@@ -51,7 +52,8 @@ def run_report(args):
 
     say = progress_printer(args.quiet)
     problem = load_problem(args.problem)
-    out = args.out or f"reports/{problem.name}"
+    # the default folder is one component under reports/, whatever the problem's name holds
+    out = args.out or "reports/" + (re.sub(r"[^\w.-]+", "_", problem.name).lstrip(".") or "problem")
     check_report_target(Path(out), args.force)     # a bad target fails before the design
     say(f"designing {problem.name} ({problem.solver.method})")
     result = run_problem(problem, progress=say)

@@ -1,8 +1,7 @@
 """``robrst diagnose``: where a simulation model misses measured data, and why."""
 
 from robrst.cli.common import progress_printer
-from robrst.fileio import (WRITTEN_BY, atomic_write_text, check_folder_target,
-                           check_json_target, json_text)
+from robrst.fileio import WRITTEN_BY, atomic_write_text, check_json_target, json_text
 
 __all__ = ["add_parsers", "run_diagnose"]
 
@@ -30,12 +29,13 @@ def run_diagnose(args):
     from robrst.dataset import load_dataset
     from robrst.diagnose import diagnose
     from robrst.diagnose.summary import summary_text
+    from robrst.report.doc import check_report_target
 
     to_stdout = args.json == "-"
     if args.json and not to_stdout:
         check_json_target(args.json)              # bad targets fail before the work
     if args.report:
-        check_folder_target(args.report)
+        check_report_target(args.report, args.force, option="--report")
     say = progress_printer(args.quiet or to_stdout)
     train = [load_dataset(f) for f in args.train]
     test = [load_dataset(f) for f in args.test]

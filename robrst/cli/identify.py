@@ -6,8 +6,7 @@ Handler pair for the CLI: :func:`add_parsers` registers the sub-command,
 
 from robrst.cli.common import progress_printer
 from robrst.errors import SpecError
-from robrst.fileio import (WRITTEN_BY, atomic_write_text, check_folder_target,
-                           check_json_target, json_text)
+from robrst.fileio import WRITTEN_BY, atomic_write_text, check_json_target, json_text
 
 __all__ = ["add_parsers", "run_identify"]
 
@@ -65,6 +64,7 @@ def run_identify(args):
     from robrst.dataset import load_dataset
     from robrst.identify.core import identify
     from robrst.identify.modelfile import check_target, write_identified
+    from robrst.report.doc import check_report_target
 
     to_stdout = args.json == "-"
     quiet = args.quiet or to_stdout
@@ -76,7 +76,7 @@ def run_identify(args):
     if args.json and not to_stdout:
         check_json_target(args.json, [args.out])
     if args.report:
-        check_folder_target(args.report)
+        check_report_target(args.report, option="--report", can_force=False)
     train = [load_dataset(f) for f in args.train]
     val = [load_dataset(f) for f in args.validate] if args.validate else None
     ident = identify(train, validate=val, order=order, max_order=args.max_order,

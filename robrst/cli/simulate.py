@@ -2,7 +2,7 @@
 
 from robrst.cli.common import print_json, progress_printer
 from robrst.errors import SpecError
-from robrst.fileio import check_folder_target, json_text
+from robrst.fileio import json_text
 
 __all__ = ["add_parsers", "run_simulate"]
 
@@ -15,6 +15,9 @@ def add_parsers(sub):
     s.add_argument("--out", help="output folder (default reports/simulate/SCENARIO)")
     s.add_argument("--fast", action="store_true", help="shorter thermal ramps and sweeps")
     s.add_argument("--json", action="store_true", help="print exactly one JSON object")
+    s.add_argument("--force", action="store_true",
+                   help="write into an existing folder robrst did not write (nothing else in"
+                        " it is touched)")
     s.add_argument("--quiet", action="store_true", help="no progress lines")
     s.set_defaults(func=run_simulate)
 
@@ -22,6 +25,7 @@ def add_parsers(sub):
 def run_simulate(args):
     """Run the scenario, write its datasets and figure, print its metrics."""
     from robrst.experiments.scenarios import SCENARIOS, run_scenario
+    from robrst.report.doc import check_report_target
     from robrst.report.scenario import write_scenario
 
     if args.scenario not in SCENARIOS:    # before any progress line: one line, exit 2
@@ -32,10 +36,10 @@ def run_simulate(args):
     say = progress_printer(args.quiet or args.json)
     cfg = load_twin(args.twin) if args.twin else default_twin()
     out = args.out or f"reports/simulate/{args.scenario}"
-    check_folder_target(out)                      # a bad target fails before the simulation
+    check_report_target(out, args.force)          # a bad target fails before the simulation
     say(f"simulating {args.scenario} on twin {cfg.name} ({cfg.sample_rate_hz:g} Hz) -> {out}")
     res = run_scenario(args.scenario, cfg, fast=args.fast)
-    write_scenario(res, out)
+    write_scenario(res, out, force=args.force)
     d = {"scenario": res.name, "claim": res.claim, "metrics": res.metrics, "out": str(out),
          "datasets": sorted(f"{k}.csv" for k in res.datasets), "figure": f"{res.name}.png"}
     if args.json:

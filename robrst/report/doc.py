@@ -92,17 +92,21 @@ def to_html(doc):
 MARKER = ".robrst-report"
 
 
-def check_report_target(out, force=False):
+def check_report_target(out, force=False, option="--out", can_force=True):
     """Refuse report folders whose replacement could lose what robrst did not write (called
     before any work by the commands, and again when writing); returns how the folder will be
     written: ``"new"``, ``"replace"`` (an earlier robrst report) or ``"merge"`` (``force``).
+    ``option`` names the command's flag for the folder in the messages, ``can_force``
+    whether it offers ``--force``.
     """
+    hint = f"choose another {option}" + (", or --force to write the report files into it"
+                                         " (nothing else is touched)" if can_force else "")
     out = Path(out)
     resolved = out.resolve()
     cwd = Path.cwd().resolve()
     if resolved == cwd or resolved in cwd.parents:
         raise OutputError(f"{out}: refusing to write a report over the current folder or one"
-                          " of its parents; give a new folder name with --out")
+                          f" of its parents; give a new folder name with {option}")
     if resolved.exists() and not resolved.is_dir():
         raise OutputError(f"{out}: is a file; expected a report folder")
     check_folder_target(out)             # no file above it, a writable folder
@@ -113,16 +117,14 @@ def check_report_target(out, force=False):
         if force:
             return "merge"
         raise OutputError(f"{out}: folder exists and is not a robrst report (no {MARKER});"
-                          " refusing to replace it; choose another --out, or --force to write"
-                          " the report files into it (nothing else is touched)")
+                          f" refusing to replace it; {hint}")
     ours = set(marker.read_text(encoding="utf-8", errors="replace").split()) | {MARKER}
     extra = sorted(p.name for p in resolved.iterdir() if p.name not in ours)
     if extra:
         if force:
             return "merge"
         raise OutputError(f"{out}: the report folder holds files robrst did not write"
-                          f" ({', '.join(extra[:5])}); refusing to replace it; choose another"
-                          " --out, or --force to update the report files only")
+                          f" ({', '.join(extra[:5])}); refusing to replace it; {hint}")
     return "replace"
 
 
@@ -137,10 +139,12 @@ def write_folder(out_dir, doc, extra_files, render_figures, force=False):
     in a temporary sibling and swapped in, so a failure never leaves half a report.  A
     folder robrst did not write is refused (:class:`~robrst.errors.OutputError`) unless
     ``force``, which writes the report files into it one by one, atomically, and touches
-    nothing else.
+    nothing else.  A symbolic link to a folder stays a link: the folder it names is written.
     """
-    out = Path(out_dir)
+    given = out = Path(out_dir)
     mode = check_report_target(out, force)
+    if out.is_symlink():              # a link to a report folder: the folder it names is written
+        out = Path(os.path.realpath(out))
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
         tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
@@ -164,7 +168,7 @@ def write_folder(out_dir, doc, extra_files, render_figures, force=False):
             for p in sorted(tmp.iterdir()):
                 atomic_write_bytes(out / p.name, p.read_bytes())
             shutil.rmtree(tmp)
-            return out
+            return given
         old = None
         if mode == "replace":
             old = out.with_name(f".{out.name}.old.{os.getpid()}")
@@ -175,4 +179,4 @@ def write_folder(out_dir, doc, extra_files, render_figures, force=False):
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
-    return out
+    return given

@@ -1,29 +1,49 @@
-"""``robrst simulate``: a scenario's datasets (CSV) and figure (PNG) in one folder."""
+"""``robrst simulate``: a scenario's datasets (CSV), figure (PNG) and a short report in one
+folder, written like every robrst report folder (:func:`robrst.report.doc.write_folder`:
+atomically, never over a folder robrst did not write unless ``force``)."""
 
-from pathlib import Path
+import json
 
 from robrst.dataset import save_dataset
+from robrst.fileio import jsonable
+from robrst.report.doc import Doc, write_folder
 from robrst.report.figure import drawing
 
 __all__ = ["write_scenario"]
 
 
-def write_scenario(res, out_dir):
-    """Write every dataset of ``res`` (a ScenarioResult) and ``<name>.png`` into ``out_dir``.
+def write_scenario(res, out_dir, force=False):
+    """Write every dataset of ``res`` (a ScenarioResult), ``<name>.png`` and
+    ``report.md``/``report.html`` (the claim and the metrics) into ``out_dir``.
+
+    Parameters
+    ----------
+    res : ScenarioResult
+    out_dir : str or Path
+    force : bool
+        Write the files into a folder robrst did not write (touching nothing else).
 
     Returns
     -------
     Path
         The folder.
     """
-    out = Path(out_dir)
-    for k, d in res.datasets.items():
-        save_dataset(d, out / f"{k}.csv")
-    with drawing(out / f"{res.name}.png", (8, 5), dpi=110, tight=False) as (fig, ax):
-        for label, (x, y, xl, yl) in res.curves.items():
-            ax.plot(x, y, label=label, lw=1)
-            ax.set_xlabel(xl)
-            ax.set_ylabel(yl)
-        ax.set_title(f"{res.name}: {res.claim}", fontsize=10)
-        ax.legend(fontsize=8)
-    return out
+    figure = f"{res.name}.png"
+    metrics = json.dumps(jsonable(res.metrics), indent=2, allow_nan=False)
+    doc = Doc(title=f"Simulation {res.name}", blocks=(
+        ("p", res.claim), ("img", figure, f"{res.name}: {res.claim}"),
+        ("h2", "Metrics"), ("pre", metrics),
+        ("p", "Datasets: " + ", ".join(sorted(f"{k}.csv" for k in res.datasets)) + ".")))
+
+    def render(tmp):
+        for k, d in res.datasets.items():
+            save_dataset(d, tmp / f"{k}.csv")
+        with drawing(tmp / figure, (8, 5), dpi=110, tight=False) as (fig, ax):
+            for label, (x, y, xl, yl) in res.curves.items():
+                ax.plot(x, y, label=label, lw=1)
+                ax.set_xlabel(xl)
+                ax.set_ylabel(yl)
+            ax.set_title(f"{res.name}: {res.claim}", fontsize=10)
+            ax.legend(fontsize=8)
+
+    return write_folder(out_dir, doc, {}, render, force=force)
