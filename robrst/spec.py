@@ -52,11 +52,11 @@ SCHEMA = {
         "temperatures_C": Field("numbers", None, "temperatures of a parametric family [°C]", **TEMP),
         "source": Field("str", "", "where the coefficients come from"),
         "parametric": {
-            "gain_per_K": Field("number", 0.0, "relative static-gain change per K"),
+            "gain_per_K": Field("number", 0.0, "relative change per K of B (the static gain also moves as 1/wn^2 of each resonance)"),
             "resonance_per_K": Field("number", 0.0, "relative natural-frequency change per K of"
-                                     " every complex pole pair of A (none: no effect)"),
+                                     " every resonant pole pair of A (damping < 0.999)"),
             "damping_per_K": Field("number", 0.0, "relative damping change per K of every"
-                                   " complex pole pair of A"),
+                                   " resonant pole pair of A; real poles stay"),
             "creep_per_K": Field("number", 0.0, "creep strength gained per K above reference"),
             "creep_at_ref": Field("number", 0.0, "creep strength at the reference temperature"),
             "creep_tau_s": Field("number", 1.0, "creep time constant [s]", positive=True),

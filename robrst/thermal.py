@@ -14,7 +14,8 @@ import numpy as np
 
 from robrst import poly
 
-__all__ = ["ThermalCoefficients", "ModalForm", "modal_form", "thermal_polynomials"]
+__all__ = ["ThermalCoefficients", "ModalForm", "modal_form", "thermal_polynomials",
+           "ZETA_NOT_RESONANT"]
 
 
 @dataclass(frozen=True)
@@ -35,22 +36,31 @@ class ThermalCoefficients:
     creep_tau_s: float = 1.0
 
 
+#: a complex pair damped at least this much is no resonance (e.g. a repeated real pole,
+#: which ``np.roots`` returns as a pair split by rounding): the thermal law leaves it as it is
+ZETA_NOT_RESONANT = 0.999
+
+
 @dataclass(frozen=True, eq=False)
 class ModalForm:
     """A nominal plant ``B/A`` with ``A`` split into real poles and complex pairs.
 
-    ``pairs`` holds ``(wn, zeta)`` of every complex pair: ``s^2 + 2 zeta wn s + wn^2``.
+    ``pairs`` holds ``(wn, zeta)`` of every resonant pair: ``s^2 + 2 zeta wn s + wn^2``;
+    ``fixed`` those of pairs damped ``>= ZETA_NOT_RESONANT`` (kept unchanged, like the
+    real poles).
     """
 
     B: np.ndarray
     real_poles: tuple
     pairs: tuple
+    fixed: tuple = ()
 
 
 def modal_form(plant):
-    """Factor the denominator of ``plant`` into real poles and ``(wn, zeta)`` pairs."""
+    """Factor the denominator of ``plant`` into real poles, resonant ``(wn, zeta)`` pairs
+    and (near-)critically damped pairs (see :class:`ModalForm`)."""
     roots = np.roots(plant.A)
-    real, pairs, used = [], [], set()
+    real, pairs, fixed, used = [], [], [], set()
     for i, z in enumerate(roots):
         if i in used:
             continue
@@ -62,15 +72,20 @@ def modal_form(plant):
         dist[list(used | {i})] = np.inf
         j = int(np.argmin(dist))
         used.update((i, j))
-        pairs.append((float(abs(z)), float(-z.real / abs(z))))
-    return ModalForm(B=np.asarray(plant.B, float), real_poles=tuple(real), pairs=tuple(pairs))
+        wn, zeta = float(abs(z)), float(-z.real / abs(z))
+        (fixed if zeta >= ZETA_NOT_RESONANT else pairs).append((wn, zeta))
+    return ModalForm(B=np.asarray(plant.B, float), real_poles=tuple(real), pairs=tuple(pairs),
+                     fixed=tuple(fixed))
 
 
 def thermal_polynomials(form, dT, gain_per_K, resonance_per_K, damping_per_K):
     """Numerator and monic denominator ``dT`` kelvin away from the reference.
 
-    Static gain scales by ``1 + gain_per_K dT``; every pair's natural frequency by
-    ``1 + resonance_per_K dT`` and its damping by ``1 + damping_per_K dT``.  The
+    The numerator scales by ``1 + gain_per_K dT``; every resonant pair's natural frequency
+    by ``1 + resonance_per_K dT`` and its damping by ``1 + damping_per_K dT`` (real poles
+    and pairs damped ``>= ZETA_NOT_RESONANT`` stay).  A pair's static gain ``1/wn^2``
+    moves with its frequency: the static gain changes by ``1 + gain_per_K dT`` times
+    ``(1 + resonance_per_K dT)^-2`` per resonant pair.  The
     arguments may be floats or CasADi symbols.
 
     Returns
@@ -81,6 +96,8 @@ def thermal_polynomials(form, dT, gain_per_K, resonance_per_K, damping_per_K):
     A = [1.0]
     for p in form.real_poles:
         A = poly.conv_generic(A, [1.0, -p])
+    for wn, zeta in form.fixed:
+        A = poly.conv_generic(A, [1.0, 2 * zeta * wn, wn * wn])
     for wn, zeta in form.pairs:
         w = wn * (1 + resonance_per_K * dT)
         z = zeta * (1 + damping_per_K * dT)
