@@ -91,6 +91,14 @@ def refine(problem, cert, models, nu, max_new=2):
     return models, nu
 
 
+def _better(problem, out, others):
+    """``out`` (certified), or a certified outcome of ``others`` with a larger objective (a
+    hard phase from another start may end at a worse local optimum than a start that
+    already met the specs)."""
+    return max([out, *(o for o in others if o is not None and o.certified)],
+               key=lambda o: objective_value(problem, o))
+
+
 def objective_value(problem, out):
     """The objective of a certified outcome (larger is better; ``-inf`` if uncertified)."""
     if out is None or not out.certified:
@@ -280,7 +288,7 @@ class Run:
                 self.hard(ctx, placement, ctx.full(first.xc, setup, first.wn, first.zeta),
                           first.name)
             if out is not None and out.certified:
-                return out
+                return _better(ctx.problem, out, outs)
             outs.append(out)
         n_soft = 1 if self.hopeless else SOFT_STARTS   # the best violation is all there is
         for s in [s for s in starts if not (s is first and feasible)][:n_soft]:
@@ -300,7 +308,7 @@ class Run:
                     continue
             out = self.hard(ctx, placement, soft.x, name)
             if out is not None and out.certified:
-                return out
+                return _better(ctx.problem, out, outs)
             outs += [out, soft]
         outs = [o for o in outs if o is not None]
         if not feasible and not any(o.certified for o in outs):
