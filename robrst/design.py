@@ -114,7 +114,8 @@ class DesignResult:
         p = self.problem
         sp = p.specs
         models = [a.as_dict(m) for a, m in zip(self.analyses, p.family.models)]
-        specs = {"Ms_max": sp.Ms_max, "Mt_max": sp.Mt_max, "Mu_max": sp.Mu_max}
+        specs = {"Ms_max": sp.Ms_max, "Mt_max": sp.Mt_max, "Mu_max": sp.Mu_max,
+                 "stable_controller": bool(sp.stable_controller)}
         if sp.sampled:
             specs.update(sample_rate_hz=sp.sample_rate_hz, delay_samples=sp.delay_samples)
         out = {
@@ -133,6 +134,9 @@ class DesignResult:
             "integral_gain": self.integral_gain,
             "best_achievable": self.best_achievable,
         }
+        if sp.T_resonance_max is not None:
+            specs.update(T_resonance_max=sp.T_resonance_max,
+                         resonance_band_hz=list(sp.resonance_band_hz))
         if sp.Mu_hf_max is not None:
             specs.update(Mu_hf_max=sp.Mu_hf_max, Mu_hf_above_hz=sp.Mu_hf_above_hz)
         if sp.time_domain:

@@ -21,7 +21,10 @@ def test_design_json_contract(problems_dir, capsys):
     assert {"problem", "method", "controller", "target_char_poly", "specs", "models",
             "certified", "solver"} <= set(d)
     assert set(d["controller"]) == {"R", "S", "T"}
-    assert set(d["specs"]) >= {"Ms_max", "Mt_max", "Mu_max"}
+    assert set(d["specs"]) >= {"Ms_max", "Mt_max", "Mu_max", "stable_controller"}
+    # every certified spec is in the contract (the band bound was missing)
+    assert d["specs"]["T_resonance_max"] == 1.0 and d["specs"]["resonance_band_hz"] == [560.0, 680.0]
+    assert d["specs"]["stable_controller"] is False
     assert d["certified"] is True
     for m in d["models"]:
         assert MODEL_KEYS <= set(m)
