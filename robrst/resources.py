@@ -62,9 +62,12 @@ def _builtin(name, folder, names, aliases):
 def find_file(name_or_path, kind):
     """``name_or_path`` if it exists, else the built-in ``kind`` of that name, else ``None``.
 
-    ``kind`` is ``"problem"`` or ``"sweep"``.
+    ``kind`` is ``"problem"`` or ``"sweep"``.  A folder of that name (``./paper/``) does not
+    hide the built-in; with no built-in of that name the folder is returned (and refused by
+    the reader, naming it).
     """
     p = Path(name_or_path)
-    if p.exists():
+    if p.exists() and not p.is_dir():
         return p
-    return (builtin_problem if kind == "problem" else builtin_sweep)(str(name_or_path))
+    builtin = (builtin_problem if kind == "problem" else builtin_sweep)(str(name_or_path))
+    return builtin if builtin is not None or not p.exists() else p

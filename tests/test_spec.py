@@ -158,3 +158,14 @@ def test_problems_folder_spelling_names_the_builtin(tmp_path, monkeypatch):
     assert resolve_problem_path("problems/paper_robust.toml") == own.relative_to(tmp_path)
     with pytest.raises(SpecError, match="elsewhere/paper.toml: problem file not found"):
         resolve_problem_path("elsewhere/paper.toml")
+
+
+def test_a_folder_named_like_a_builtin_does_not_hide_it(tmp_path, monkeypatch):
+    """`robrst design paper` from a folder holding a sub-folder `paper/` (it failed: "is a
+    folder"); a folder with no built-in of its name is still refused, naming it."""
+    (tmp_path / "paper").mkdir()
+    (tmp_path / "mine").mkdir()
+    monkeypatch.chdir(tmp_path)
+    assert load_problem("paper").name == "paper"
+    with pytest.raises(SpecError, match="mine: is a folder"):
+        load_problem("mine")
