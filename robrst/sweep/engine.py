@@ -49,7 +49,11 @@ class Task:
 
 @dataclass(frozen=True)
 class Progress:
-    """Where a sweep stands: variants finished (of ``total``), certified, failed."""
+    """Where a sweep stands: variants finished (of ``total``), certified, failed.
+
+    ``recomputed``: the chunks whose part file in the output folder did not hold their own
+    variants (e.g. a part copied over another), computed again by this run.
+    """
 
     done: int
     total: int
@@ -57,6 +61,7 @@ class Progress:
     failed: int
     elapsed_s: float
     workers: int
+    recomputed: tuple = ()
 
 
 @dataclass(frozen=True, eq=False)
@@ -219,8 +224,8 @@ def run_sweep(sweep: Sweep | str | os.PathLike, out: str | os.PathLike,
             "chunk_size": sweep.chunk_size, "fingerprint": context.fingerprint}
     resumed = store.prepare_folder(out, meta, restart)
     runs = store.previous_runs(out) if resumed else []
-    done = store.done_chunks(out, plan)
     schema = store.arrow_schema(context)
+    done, foreign = store.checked_chunks(out, plan, schema)
     prior = store.read_results(out, [c for c in plan if c.index in done], schema)
     count = {"done": prior.num_rows, "cert": sum(bool(c) for c in prior.column("certified")
                                                   .to_pylist()),
@@ -232,7 +237,7 @@ def run_sweep(sweep: Sweep | str | os.PathLike, out: str | os.PathLike,
     def report():
         if progress is not None:
             progress(Progress(count["done"], table.n, count["cert"], count["failed"],
-                              time.perf_counter() - t0, n_workers))
+                              time.perf_counter() - t0, n_workers, tuple(sorted(foreign))))
 
     def on_rows(chunk, rows):
         store.write_part(out, chunk.index, store.rows_table(rows, chunk.index, context, table))
@@ -261,6 +266,6 @@ def run_sweep(sweep: Sweep | str | os.PathLike, out: str | os.PathLike,
         summary = summarise(context, results, table.n, busy[-1]["workers"],
                             sum(r["wall_s"] for r in busy), complete=len(done) == len(plan))
         summary.update(startup_s=busy[-1]["startup_s"], resumed_chunks=len(plan) - len(pending),
-                       runs=runs)
+                       runs=runs, recomputed_chunks=sorted(foreign))
         store.write_summary(out, summary)
     return SweepResult(sweep=sweep, out=out, context=context, table=results, summary=summary)
