@@ -30,3 +30,57 @@ def test_a_part_copied_over_another_chunk_is_computed_again(tmp_path, capsys):
     assert s["complete"] and s["recomputed_chunks"] == [2, 3] and s["resumed_chunks"] == 2
     assert np.array_equal(pq.read_table(chunks / "part-000002.parquet").column("index"),
                           [6, 7, 8])
+
+
+CTRL_C = """
+[sweep]
+kind = "analysis"
+problem = "paper"
+n = 100000
+chunk_size = 20
+
+[[param]]
+name = "gain"
+dist = "normal"
+mean = 1.0
+std = 0.05
+"""
+
+
+def test_ctrl_c_on_a_local_cluster_is_one_line_and_exit_130(tmp_path):
+    """Ctrl-C reaches the whole process group (driver and worker processes): the workers
+    must not print tracebacks; the driver closes the cluster and says one line."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    import pytest
+
+    path = tmp_path / "ctrl_c.toml"
+    path.write_text(CTRL_C, encoding="utf-8")
+    out = tmp_path / "o"
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "robrst", "sweep", str(path), "--out", str(out), "--workers",
+         "2", "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env,
+        start_new_session=True,     # its own process group, as a terminal's foreground job
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    try:
+        t0 = time.monotonic()
+        while time.monotonic() - t0 < 60 and proc.poll() is None:
+            if (out / "chunks").is_dir() and len(list((out / "chunks").iterdir())) >= 2:
+                break                            # the workers are computing
+            time.sleep(0.2)
+        if proc.poll() is not None:
+            pytest.skip("the sweep ended before it could be interrupted")
+        os.killpg(proc.pid, signal.SIGINT)       # what Ctrl-C in a terminal does
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.communicate()
+    lines = err.decode().strip().splitlines()
+    assert proc.returncode == 130 and lines == ["robrst: interrupted"], lines[:20]
+    assert not load_json(out / "summary.json")["complete"]
