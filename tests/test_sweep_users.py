@@ -84,3 +84,57 @@ def test_ctrl_c_on_a_local_cluster_is_one_line_and_exit_130(tmp_path):
     lines = err.decode().strip().splitlines()
     assert proc.returncode == 130 and lines == ["robrst: interrupted"], lines[:20]
     assert not load_json(out / "summary.json")["complete"]
+
+
+def _modal_text(model, inputs=1, outputs=1):
+    """A model file as ``robrst identify --modal`` writes it (one temperature)."""
+    def mat(a):
+        return repr(np.asarray(a, float).tolist())
+
+    R = np.tile(model.residues, (1, outputs, inputs))
+    D = np.tile(model.D, (outputs, inputs))
+    return ('[model]\nformat = "robrst-modal-1"\n'
+            f"inputs = {inputs}\noutputs = {outputs}\norder = 3\nfs_hz = 20000.0\n"
+            'source = "robrst identify"\n\n[[model.at]]\ntemperature_C = 28.0\n'
+            f"poles_re = {mat(model.poles.real)}\npoles_im = {mat(model.poles.imag)}\n"
+            f"residues_re = {mat(R.real)}\nresidues_im = {mat(R.imag)}\nD = {mat(D)}\n")
+
+
+def test_fleet_members_of_every_kind(tmp_path):
+    """A model file of identify --modal is designed like the problem file of the same plant;
+    a member's compare_with is dropped like the base problem's; a folder or a broken link
+    named like a member is an invalid row naming it; a MIMO model file says what is taken."""
+    from robrst.identify.modal import ModalModel
+    from robrst.plant import Plant
+
+    plant = Plant([107.0, 1.4e6, 6.527e9], [1.0, 693.0, 15027342.0, 9765000000.0],
+                  temperature_C=28.0)
+    modal = ModalModel.from_plant(plant)
+    expanded = modal.channel(0, 0)
+    fleet = tmp_path / "fleet"
+    fleet.mkdir()
+    (fleet / "a_plant.toml").write_text(f"[plant]\nB = {expanded.B.tolist()!r}\n"
+                                        f"A = {expanded.A.tolist()!r}\ntemperature_C = 28.0\n")
+    (fleet / "b_modal.toml").write_text(_modal_text(modal))
+    (fleet / "c_compare.toml").write_text('[plant]\nname = "paper"\n'
+                                          '[solver]\ncompare_with = "elsewhere.toml"\n')
+    (fleet / "d_folder.toml").mkdir()
+    (fleet / "e_link.toml").symlink_to(tmp_path / "gone.toml")
+    (fleet / "f_mimo.toml").write_text(_modal_text(modal, inputs=2, outputs=2))
+    path = tmp_path / "f.toml"
+    path.write_text('[sweep]\nkind = "fleet"\nproblem = "paper"\n[fleet]\nfolder = "fleet"\n')
+    res = run_sweep(path, tmp_path / "o", workers=0)
+    rows = {r["file"]: r for r in res.table.to_pylist()}
+    assert list(rows) == ["a_plant.toml", "b_modal.toml", "c_compare.toml", "d_folder.toml",
+                          "e_link.toml", "f_mimo.toml"]
+    for name in ("a_plant.toml", "b_modal.toml", "c_compare.toml"):
+        assert rows[name]["status"] == "ok" and rows[name]["certified"], rows[name]
+    for k in "RST":
+        np.testing.assert_allclose(rows["b_modal.toml"][k], rows["a_plant.toml"][k],
+                                   rtol=1e-9)
+    for name, expected in (("d_folder.toml", "is a folder"),
+                           ("e_link.toml", "broken symbolic link"),
+                           ("f_mimo.toml", "2 inputs and 2 outputs; a fleet member needs one"
+                                           " input and one output")):
+        assert rows[name]["status"] == "invalid" and name in rows[name]["message"]
+        assert expected in rows[name]["message"], rows[name]["message"]
