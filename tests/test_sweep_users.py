@@ -138,3 +138,20 @@ def test_fleet_members_of_every_kind(tmp_path):
                                            " input and one output")):
         assert rows[name]["status"] == "invalid" and name in rows[name]["message"]
         assert expected in rows[name]["message"], rows[name]["message"]
+
+
+def test_pareto_front_keeps_tied_points():
+    """Non-dominated: no other point at least as good in both figures and strictly better in
+    one. Identical points, and points tied in one figure only where the other also ties,
+    are all on the front."""
+    from robrst.sweep.summary import pareto_front
+
+    assert pareto_front([1.0, 1.0, 1.0], [5.0, 5.0, 5.0]) == [0, 1, 2]
+    x = [2.0, 1.0, 1.0, 2.0, 3.0, 1.0, 2.0, np.inf]
+    y = [7.0, 5.0, 5.0, 7.0, 7.0, 4.0, 6.0, 9.0]
+    assert pareto_front(x, y) == [1, 2, 0, 3]
+    rng = np.random.default_rng(1)      # brute force on a grid with many ties
+    x, y = rng.integers(0, 4, 60).astype(float), rng.integers(0, 4, 60).astype(float)
+    brute = [i for i in range(60) if not any(
+        x[j] <= x[i] and y[j] >= y[i] and (x[j] < x[i] or y[j] > y[i]) for j in range(60))]
+    assert sorted(pareto_front(x, y)) == brute
