@@ -134,8 +134,8 @@ def test_fleet_members_of_every_kind(tmp_path):
                                    rtol=1e-9)
     for name, expected in (("d_folder.toml", "is a folder"),
                            ("e_link.toml", "broken symbolic link"),
-                           ("f_mimo.toml", "2 inputs and 2 outputs; a fleet member needs one"
-                                           " input and one output")):
+                           ("f_mimo.toml", ("2 inputs and 2 outputs; a fleet member needs"
+                                            " one input and one output"))):
         assert rows[name]["status"] == "invalid" and name in rows[name]["message"]
         assert expected in rows[name]["message"], rows[name]["message"]
 
@@ -155,3 +155,32 @@ def test_pareto_front_keeps_tied_points():
     brute = [i for i in range(60) if not any(
         x[j] <= x[i] and y[j] >= y[i] and (x[j] < x[i] or y[j] > y[i]) for j in range(60))]
     assert sorted(pareto_front(x, y)) == brute
+
+
+GAIN = '[[param]]\nname = "gain"\ndist = "normal"\nmean = 1.0\nstd = 0.05\n'
+BAD = [
+    ('[sweep]\nkind = "analysis"\nproblem = "paper"\nn = 2\n' + GAIN, ["--scheduler", "notaurl"],
+     "--scheduler: expected the address of a running Dask scheduler, e.g. tcp://host:8786"),
+    ('[sweep]\nkind = "fleet"\nproblem = "paper"\n', [],
+     "bad.toml: [fleet] missing: a fleet sweep needs a [fleet] table"),
+    ('[sweep]\nkind = "analysis"\nproblem = "paper"\nn = 2\n[analysis]\n'
+     'controller = "empty_s.json"\n' + GAIN, [],
+     "empty_s.json: [controller.S] expected at least one coefficient"),
+    (('[sweep]\nkind = "analysis"\nproblem = "paper"\nn = 2\n[[param]]\nname = "age_years"\n'
+      'dist = "uniform"\nlo = 0.0\nhi = 5.0\n'), [],
+     "[param.0.name] age_years acts through the [ageing] rates"),
+]
+
+
+def test_bad_sweep_inputs_are_one_line_naming_what_was_expected(tmp_path, capsys):
+    (tmp_path / "empty_s.json").write_text('{"controller": {"R": [1.0, 2.0], "S": [],'
+                                           ' "T": [3.0]}}')
+    for i, (text, args, expected) in enumerate(BAD):
+        path = tmp_path / "bad.toml"
+        path.write_text(text)
+        out = tmp_path / f"o{i}"
+        assert main(["sweep", str(path), "--out", str(out), "--quiet", *args]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith("robrst: error: ") and expected in err[0], err
+        assert "computation failed" not in err[0] and not out.exists()
+

@@ -82,9 +82,12 @@ def run_sweep_command(args):
     from robrst.report.doc import check_report_target
     from robrst.report.sweep import sweep_text, write_sweep_report
     from robrst.sweep import load_sweep, run_sweep
+    from robrst.sweep.engine import check_scheduler
 
     if not 0.0 <= args.min_yield <= 1.0:
         raise SpecError(f"--min-yield: expected a share between 0 and 1, got {args.min_yield}")
+    if args.scheduler is not None:
+        check_scheduler(args.scheduler, "--scheduler")
     quiet = args.quiet or args.json
     sweep = load_sweep(args.sweep)
     out = args.out or f"sweeps/{sweep.name}"

@@ -50,9 +50,13 @@ def read_controller(path):
         raise key_error(path, ("controller",), "missing: expected the JSON of robrst design"
                         " --json with controller{R, S, T}")
     c = validate(path, d["controller"], _RST, ("controller",))
+    for k in "RST":
+        if not c[k]:
+            raise key_error(path, ("controller", k), "expected at least one coefficient"
+                            " (highest power first), got []")
     try:
         return RSTController(*(c[k] for k in "RST"))
-    except SpecError as exc:
+    except (SpecError, ValueError) as exc:
         raise key_error(path, ("controller",), str(exc)) from None
 
 

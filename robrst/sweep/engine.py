@@ -14,6 +14,7 @@ stop (done, error, Ctrl-C) the finished rows are gathered into ``results.parquet
 from __future__ import annotations
 
 import os
+import re
 import time
 from collections import deque
 from collections.abc import Callable
@@ -30,7 +31,8 @@ from robrst.sweep.spec import Sweep, load_sweep
 from robrst.sweep.summary import summarise
 from robrst.sweep.variants import chunks
 
-__all__ = ["Task", "Progress", "SweepResult", "SequentialExecutor", "execute", "run_sweep"]
+__all__ = ["Task", "Progress", "SweepResult", "SequentialExecutor", "execute", "run_sweep",
+           "check_scheduler", "ADDRESS"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -155,6 +157,27 @@ def execute(tasks, executor, on_rows, window):
         refill()
 
 
+ADDRESS = re.compile(r"((tcp|tls|ws|wss|ucx)://)?(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9._-]+)"
+                     r":(\d{1,5})/?|inproc://\S+")
+
+
+def check_scheduler(address, name="scheduler"):
+    """``address`` if it is a Dask scheduler address (``tcp://host:8786``, ``host:8786``,
+    ``tls://``, ``ws://``, ``wss://``, ``ucx://``, ``inproc://``).
+
+    Raises
+    ------
+    SpecError
+        Naming ``name`` (``--scheduler`` on the command line) and what is expected.
+    """
+    m = ADDRESS.fullmatch(address.strip())
+    if m is None or (m.group(4) is not None and not 0 < int(m.group(4)) < 65536):
+        raise SpecError(f"{name}: expected the address of a running Dask scheduler, e.g."
+                        f" tcp://host:8786 (protocol tcp, tls, ws, wss or ucx; a port in"
+                        f" 1..65535), got {address!r}")
+    return address.strip()
+
+
 def _executor(context, workers, scheduler, pending):
     if workers == 0:
         return SequentialExecutor(context)
@@ -217,6 +240,8 @@ def run_sweep(sweep: Sweep | str | os.PathLike, out: str | os.PathLike,
         raise SpecError(f"workers: expected an integer >= 0, got {workers!r}")
     if workers is not None and scheduler is not None:
         raise SpecError("give either workers (a local cluster) or scheduler, not both")
+    if isinstance(scheduler, (str, os.PathLike)):
+        scheduler = check_scheduler(os.fspath(scheduler))
     context, table = prepare(sweep)
     out = Path(out)
     plan = chunks(table.n, sweep.chunk_size)

@@ -12,7 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["VariantTable", "Chunk", "variant_table", "chunks", "draw"]
+from robrst.schema import key_error
+
+__all__ = ["VariantTable", "Chunk", "variant_table", "chunks", "draw", "grid_values"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -106,3 +108,22 @@ def variant_table(sweep, labels=()):
 def chunks(n, size):
     """The chunks of ``n`` variants, ``size`` per chunk (the last one shorter)."""
     return [Chunk(k, s, min(s + size, n)) for k, s in enumerate(range(0, n, size))]
+
+
+def grid_values(path, key, p):
+    """The values of a grid ``[[param]]`` table ``p`` (validated keys; errors name
+    ``path`` and the key path ``key``)."""
+    if p["values"] is not None:
+        if any(p[k] is not None for k in ("lo", "hi", "steps")) or p["log"]:
+            raise key_error(path, key + ("values",), "give either 'values' or lo, hi and steps")
+        if not p["values"]:
+            raise key_error(path, key + ("values",), "expected at least one value")
+        return tuple(p["values"])
+    for k in ("lo", "hi", "steps"):
+        if p[k] is None:
+            raise key_error(path, key + (k,), "missing: dist = 'grid' needs 'values', or lo,"
+                            " hi and steps")
+    if p["log"] and not p["lo"] > 0:
+        raise key_error(path, key + ("lo",), "a log grid needs lo > 0")
+    space = np.geomspace if p["log"] else np.linspace
+    return tuple(float(v) for v in space(p["lo"], p["hi"], p["steps"]))
