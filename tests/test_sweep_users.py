@@ -184,3 +184,21 @@ def test_bad_sweep_inputs_are_one_line_naming_what_was_expected(tmp_path, capsys
         assert len(err) == 1 and err[0].startswith("robrst: error: ") and expected in err[0], err
         assert "computation failed" not in err[0] and not out.exists()
 
+
+def test_variants_far_outside_leak_no_numpy_warnings(tmp_path, capsys):
+    """Poles at 1e-90 rad/s divide by zero on the way to their (failed) rows: the rows say
+    so, and `sweep --json` prints its JSON and nothing on stderr."""
+    import json
+    import warnings
+
+    path = tmp_path / "far.toml"
+    path.write_text('[sweep]\nkind = "design"\nproblem = "paper"\n[[param]]\n'
+                    'name = "poles.wn"\ndist = "grid"\nvalues = [600.0, 1e-90]\n'
+                    '[[param]]\nname = "poles.zeta"\ndist = "grid"\nvalues = [1.0, 1e-90]\n')
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        rc = main(["sweep", str(path), "--out", str(tmp_path / "o"), "--workers", "0",
+                   "--json"])
+    s = json.loads(capsys.readouterr().out)
+    assert rc == 1 and s["done"] == 4 and s["failed"] >= 1
+    assert [str(w.message) for w in caught] == []
