@@ -121,17 +121,21 @@ def _lost(task, exc):
 
 
 def execute(tasks, executor, on_rows, window):
-    """Run ``tasks`` on ``executor``, ``window`` at a time; ``on_rows(chunk, rows)`` per chunk.
+    """Run ``tasks`` (any iterable, consumed as the window frees) on ``executor``, ``window``
+    at a time; ``on_rows(chunk, rows)`` per chunk.
 
     A task that fails as a whole is split into single variants; a single variant that fails
     becomes a row with its status (``worker_lost`` when its worker died).
     """
-    queue = deque(tasks)
+    queue, source = deque(), iter(tasks)     # queue: the singles of split chunks, first
     split = {}
 
     def refill():
-        while queue and executor.pending < window:
-            executor.submit(queue.popleft())
+        while executor.pending < window:
+            task = queue.popleft() if queue else next(source, None)
+            if task is None:
+                return
+            executor.submit(task)
 
     refill()
     while executor.pending:
@@ -277,8 +281,8 @@ def run_sweep(sweep: Sweep | str | os.PathLike, out: str | os.PathLike,
             executor = _executor(context, workers, scheduler, len(pending))
             n_workers, t_ready = executor.workers, time.perf_counter()
             report()
-            tasks = [Task(c, np.arange(c.start, c.stop), table.values[c.start:c.stop])
-                     for c in pending]
+            tasks = (Task(c, np.arange(c.start, c.stop), table.values[c.start:c.stop])
+                     for c in pending)      # made as they are submitted
             execute(tasks, executor, on_rows, window=2 * n_workers + 1)
     finally:
         if executor is not None:
