@@ -7,7 +7,7 @@ from pathlib import Path
 from robrst.cli.common import print_json
 from robrst.errors import SpecError
 
-__all__ = ["add_parsers", "run_sweep_command", "progress_bar"]
+__all__ = ["add_parsers", "run_sweep_command", "progress_bar", "with_notes"]
 
 
 def add_parsers(sub):
@@ -57,21 +57,44 @@ def progress_bar(name, stream=sys.stderr, width=30):
     return draw
 
 
+def with_notes(bar, out, stream=None):
+    """A progress callback that first notes, once, the chunks computed again because their
+    part file in ``out`` did not hold their variants, then draws ``bar`` (if any)."""
+    state = {"noted": False}
+
+    def progress(p):
+        if p.recomputed and not state["noted"]:
+            state["noted"] = True
+            names = ", ".join(f"part-{c:06d}.parquet" for c in p.recomputed[:5])
+            more = f" and {len(p.recomputed) - 5} more" if len(p.recomputed) > 5 else ""
+            err = stream or sys.stderr
+            err.write(f"robrst: note: {out}/chunks: {names}{more} did not hold their own"
+                      " variants (a copied or damaged part); computing them again\n")
+            err.flush()
+        if bar is not None:
+            bar(p)
+
+    return progress
+
+
 def run_sweep_command(args):
     """Run the sweep, write the report; exit 0 when the yield reaches --min-yield, else 1."""
     from robrst.report.doc import check_report_target
     from robrst.report.sweep import sweep_text, write_sweep_report
     from robrst.sweep import load_sweep, run_sweep
+    from robrst.sweep.engine import check_scheduler
 
     if not 0.0 <= args.min_yield <= 1.0:
         raise SpecError(f"--min-yield: expected a share between 0 and 1, got {args.min_yield}")
+    if args.scheduler is not None:
+        check_scheduler(args.scheduler, "--scheduler")
     quiet = args.quiet or args.json
     sweep = load_sweep(args.sweep)
     out = args.out or f"sweeps/{sweep.name}"
     check_report_target(Path(out) / "report", args.force)   # before any work or write
     bar = progress_bar(sweep.name) if not quiet and sys.stderr.isatty() else None
     result = run_sweep(sweep, out, workers=args.workers, scheduler=args.scheduler,
-                       progress=bar, restart=args.restart)
+                       progress=None if quiet else with_notes(bar, out), restart=args.restart)
     write_sweep_report(result, force=args.force)
     s = result.summary
     if args.json:

@@ -8,8 +8,11 @@ chunk again elsewhere (up to ``distributed.scheduler.allowed-failures`` times, t
 engine splits the chunk into single variants).
 """
 
+import contextlib
 import logging
 import os
+import signal
+import threading
 
 from distributed import Client, LocalCluster, as_completed, get_worker
 from distributed.diagnostics.plugin import WorkerPlugin
@@ -28,15 +31,45 @@ def default_workers():
         return os.cpu_count() or 1
 
 
-class SweepPlugin(WorkerPlugin):
-    """Builds a worker's state once from the sweep's context."""
+def _main_thread():
+    return threading.current_thread() is threading.main_thread()
 
-    def __init__(self, name, context):
+
+@contextlib.contextmanager
+def sigint_ignored():
+    """Ignore SIGINT (Ctrl-C) in this block, when this is the main thread.
+
+    Processes started meanwhile (a local cluster's workers) inherit the ignored signal, so
+    Python installs no KeyboardInterrupt handler in them: a Ctrl-C in the terminal reaches
+    only the driver, which closes the cluster; the workers print no traceback.
+    """
+    if not _main_thread():
+        yield
+        return
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
+class SweepPlugin(WorkerPlugin):
+    """Builds a worker's state once from the sweep's context.
+
+    ``local``: the worker belongs to the driver's own local cluster, so it ignores Ctrl-C
+    (the driver stops it; a restarted worker too).  Workers of a running scheduler keep
+    their signal handling.
+    """
+
+    def __init__(self, name, context, local=False):
         self.name = name
         self.context = context
+        self.local = local
         self.state = None
 
     def setup(self, worker):
+        if self.local and _main_thread():
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
         self.state = build_state(self.context)
 
 
@@ -69,11 +102,12 @@ class DaskExecutor:
             elif scheduler is not None:
                 self.client = Client(scheduler, timeout="20s")
             else:
-                self.cluster = LocalCluster(n_workers=workers or default_workers(),
-                                            threads_per_worker=1, processes=True,
-                                            dashboard_address=None,
-                                            silence_logs=logging.ERROR)
-                self.client = Client(self.cluster)
+                with sigint_ignored():     # the workers start with Ctrl-C ignored
+                    self.cluster = LocalCluster(n_workers=workers or default_workers(),
+                                                threads_per_worker=1, processes=True,
+                                                dashboard_address=None,
+                                                silence_logs=logging.ERROR)
+                    self.client = Client(self.cluster)
         except (OSError, TimeoutError) as exc:
             self.close()
             raise RobrstError(f"cannot reach the Dask scheduler {scheduler}: {exc}") from None
@@ -84,7 +118,8 @@ class DaskExecutor:
             raise RobrstError(f"no Dask worker joined the scheduler {scheduler} within 60 s;"
                               " start workers with: dask worker ADDRESS --nthreads 1") from None
         self.name = f"robrst-sweep-{context.fingerprint[:16]}"
-        self.client.register_plugin(SweepPlugin(self.name, context), name=self.name)
+        self.client.register_plugin(SweepPlugin(self.name, context, self.cluster is not None),
+                                    name=self.name)
         self.futures = {}
         self.done = as_completed(loop=self.client.loop)   # this client's loop, not the default's
 

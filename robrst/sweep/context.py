@@ -11,6 +11,7 @@ file and the robrst version.
 import copy
 import hashlib
 import json
+import os
 from dataclasses import asdict, replace
 from pathlib import Path
 
@@ -23,7 +24,7 @@ from robrst.sweep.evaluate import SweepContext
 from robrst.sweep.model import apply_overrides, check_plant_params
 from robrst.sweep.variants import variant_table
 
-__all__ = ["prepare", "read_controller", "fingerprint"]
+__all__ = ["prepare", "read_controller", "fingerprint", "member_document"]
 
 _RST = {k: Field("numbers", None, f"{k} coefficients, highest power first", required=True)
         for k in "RST"}
@@ -49,9 +50,13 @@ def read_controller(path):
         raise key_error(path, ("controller",), "missing: expected the JSON of robrst design"
                         " --json with controller{R, S, T}")
     c = validate(path, d["controller"], _RST, ("controller",))
+    for k in "RST":
+        if not c[k]:
+            raise key_error(path, ("controller", k), "expected at least one coefficient"
+                            " (highest power first), got []")
     try:
         return RSTController(*(c[k] for k in "RST"))
-    except SpecError as exc:
+    except (SpecError, ValueError) as exc:
         raise key_error(path, ("controller",), str(exc)) from None
 
 
@@ -91,20 +96,68 @@ def _controller(sweep, original):
 
 
 def _fleet(sweep):
+    """``(members, files, broken)``: per name matching the pattern ``(path, document or
+    None, error or None)``; the readable files (fingerprinted); the names that are no file
+    (a folder, a broken link), each an ``invalid`` row naming it."""
     folder = Path(sweep.path).parent / sweep.folder
     if not folder.is_dir():
         raise key_error(sweep.path, ("fleet", "folder"), f"{folder} is not a folder")
-    files = sorted(p for p in folder.glob(sweep.pattern) if p.is_file())
-    if not files:
+    names = sorted(folder.glob(sweep.pattern))
+    if not names:
         raise key_error(sweep.path, ("fleet", "folder"),
                         f"no file matching {sweep.pattern!r} in {folder}")
     out = []
-    for p in files:
+    for p in names:
         try:
-            out.append((str(p), load_toml(p, "problem file"), None))
+            out.append((str(p), member_document(p), None))
         except SpecError as exc:     # recorded as that member's row
             out.append((str(p), None, str(exc)))
-    return tuple(out), files
+    files = [p for p in names if p.is_file()]
+    return tuple(out), files, [p.name for p in names if not p.is_file()]
+
+
+def member_document(path):
+    """The problem document of a fleet member: a problem file, or a model file of
+    ``robrst identify --modal`` with one input and one output (its ``[[model.at]]`` become
+    ``[plant]`` and, for several temperatures, an explicit ``[family]``, as ``robrst
+    identify`` writes a problem file).  ``[solver] compare_with`` is dropped.
+
+    Raises
+    ------
+    SpecError
+        Naming the file: not a file, a broken link, bad TOML, a model file of several
+        inputs or outputs.
+    """
+    path = Path(path)
+    if path.is_symlink() and not path.exists():
+        raise SpecError(f"{path}: broken symbolic link (to {os.readlink(path)}); expected a"
+                        " problem or model file")
+    doc = load_toml(path, "problem or model file")
+    if "model" in doc:
+        doc = _modal_document(path, doc)
+    return _no_compare(doc)
+
+
+def _modal_document(path, data):
+    from robrst.identify.modelfile import modal_models
+
+    models, ref = modal_models(path, data)
+    m0 = models[0]
+    if (m0.n_in, m0.n_out) != (1, 1):
+        raise SpecError(f"{path}: [model] a model file of {m0.n_in} inputs and {m0.n_out}"
+                        " outputs; a fleet member needs one input and one output (robrst"
+                        " identify --channel I,J writes the problem file of one channel)")
+    plants = [m.channel(0, 0) for m in models]
+    plant = {"B": plants[0].B.tolist(), "A": plants[0].A.tolist(),
+             "source": "robrst identify model file"}
+    if ref is not None:
+        plant["temperature_C"] = float(ref)
+    doc = {"plant": plant}
+    if len(plants) > 1:
+        doc["family"] = {"reference_C": float(ref), "models": [
+            {"temperature_C": float(p.temperature_C), "B": p.B.tolist(), "A": p.A.tolist()}
+            for p in plants]}
+    return doc
 
 
 def _stable(x):
@@ -119,15 +172,17 @@ def _stable(x):
     return x
 
 
-def fingerprint(sweep, files):
-    """SHA-256 of the validated sweep (floats to 12 digits), the input files' bytes and
-    the robrst version."""
+def fingerprint(sweep, files, names=()):
+    """SHA-256 of the validated sweep (floats to 12 digits), the input files' bytes,
+    ``names`` (a fleet's members that are no file) and the robrst version."""
     d = asdict(sweep)
     for k in ("path", "description", "problem", "worst"):
         d.pop(k)
     h = hashlib.sha256(json.dumps(_stable(d), sort_keys=True, default=str).encode())
     for f in files:
         h.update(Path(f).read_bytes())
+    for name in names:
+        h.update(name.encode())
     h.update(__version__.encode())
     return h.hexdigest()
 
@@ -146,7 +201,7 @@ def prepare(sweep):
     """
     files = [f for f in (sweep.path, sweep.problem) if f and Path(f).is_file()]
     original = doc = base = controller = None
-    fleet, labels = (), ()
+    fleet, labels, broken = (), (), ()
     if sweep.problem:
         original, doc, base = _base(sweep)
         check_plant_params(sweep.params, base.family, sweep.path)
@@ -155,10 +210,10 @@ def prepare(sweep):
             files.append(Path(sweep.path).parent / sweep.controller)
         controller = _controller(sweep, original)
     if sweep.kind == "fleet":
-        fleet, paths = _fleet(sweep)
+        fleet, paths, broken = _fleet(sweep)
         files += paths
         labels = tuple(Path(label).name for label, _, _ in fleet)
     table = variant_table(sweep, labels)
     ctx = SweepContext(sweep=sweep, names=table.names, base=base, doc=doc,
                        controller=controller, fleet=fleet)
-    return replace(ctx, fingerprint=fingerprint(sweep, files)), table
+    return replace(ctx, fingerprint=fingerprint(sweep, files, broken)), table

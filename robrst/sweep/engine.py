@@ -14,6 +14,7 @@ stop (done, error, Ctrl-C) the finished rows are gathered into ``results.parquet
 from __future__ import annotations
 
 import os
+import re
 import time
 from collections import deque
 from collections.abc import Callable
@@ -30,7 +31,8 @@ from robrst.sweep.spec import Sweep, load_sweep
 from robrst.sweep.summary import summarise
 from robrst.sweep.variants import chunks
 
-__all__ = ["Task", "Progress", "SweepResult", "SequentialExecutor", "execute", "run_sweep"]
+__all__ = ["Task", "Progress", "SweepResult", "SequentialExecutor", "execute", "run_sweep",
+           "check_scheduler", "ADDRESS"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -49,7 +51,11 @@ class Task:
 
 @dataclass(frozen=True)
 class Progress:
-    """Where a sweep stands: variants finished (of ``total``), certified, failed."""
+    """Where a sweep stands: variants finished (of ``total``), certified, failed.
+
+    ``recomputed``: the chunks whose part file in the output folder did not hold their own
+    variants (e.g. a part copied over another), computed again by this run.
+    """
 
     done: int
     total: int
@@ -57,6 +63,7 @@ class Progress:
     failed: int
     elapsed_s: float
     workers: int
+    recomputed: tuple = ()
 
 
 @dataclass(frozen=True, eq=False)
@@ -114,17 +121,21 @@ def _lost(task, exc):
 
 
 def execute(tasks, executor, on_rows, window):
-    """Run ``tasks`` on ``executor``, ``window`` at a time; ``on_rows(chunk, rows)`` per chunk.
+    """Run ``tasks`` (any iterable, consumed as the window frees) on ``executor``, ``window``
+    at a time; ``on_rows(chunk, rows)`` per chunk.
 
     A task that fails as a whole is split into single variants; a single variant that fails
     becomes a row with its status (``worker_lost`` when its worker died).
     """
-    queue = deque(tasks)
+    queue, source = deque(), iter(tasks)     # queue: the singles of split chunks, first
     split = {}
 
     def refill():
-        while queue and executor.pending < window:
-            executor.submit(queue.popleft())
+        while executor.pending < window:
+            task = queue.popleft() if queue else next(source, None)
+            if task is None:
+                return
+            executor.submit(task)
 
     refill()
     while executor.pending:
@@ -148,6 +159,27 @@ def execute(tasks, executor, on_rows, window):
             res = sorted(split.pop(task.chunk.index)["rows"], key=lambda r: r["index"])
         on_rows(task.chunk, res)
         refill()
+
+
+ADDRESS = re.compile(r"((tcp|tls|ws|wss|ucx)://)?(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9._-]+)"
+                     r":(\d{1,5})/?|inproc://\S+")
+
+
+def check_scheduler(address, name="scheduler"):
+    """``address`` if it is a Dask scheduler address (``tcp://host:8786``, ``host:8786``,
+    ``tls://``, ``ws://``, ``wss://``, ``ucx://``, ``inproc://``).
+
+    Raises
+    ------
+    SpecError
+        Naming ``name`` (``--scheduler`` on the command line) and what is expected.
+    """
+    m = ADDRESS.fullmatch(address.strip())
+    if m is None or (m.group(4) is not None and not 0 < int(m.group(4)) < 65536):
+        raise SpecError(f"{name}: expected the address of a running Dask scheduler, e.g."
+                        f" tcp://host:8786 (protocol tcp, tls, ws, wss or ucx; a port in"
+                        f" 1..65535), got {address!r}")
+    return address.strip()
 
 
 def _executor(context, workers, scheduler, pending):
@@ -212,6 +244,8 @@ def run_sweep(sweep: Sweep | str | os.PathLike, out: str | os.PathLike,
         raise SpecError(f"workers: expected an integer >= 0, got {workers!r}")
     if workers is not None and scheduler is not None:
         raise SpecError("give either workers (a local cluster) or scheduler, not both")
+    if isinstance(scheduler, (str, os.PathLike)):
+        scheduler = check_scheduler(os.fspath(scheduler))
     context, table = prepare(sweep)
     out = Path(out)
     plan = chunks(table.n, sweep.chunk_size)
@@ -219,8 +253,8 @@ def run_sweep(sweep: Sweep | str | os.PathLike, out: str | os.PathLike,
             "chunk_size": sweep.chunk_size, "fingerprint": context.fingerprint}
     resumed = store.prepare_folder(out, meta, restart)
     runs = store.previous_runs(out) if resumed else []
-    done = store.done_chunks(out, plan)
     schema = store.arrow_schema(context)
+    done, foreign = store.checked_chunks(out, plan, schema)
     prior = store.read_results(out, [c for c in plan if c.index in done], schema)
     count = {"done": prior.num_rows, "cert": sum(bool(c) for c in prior.column("certified")
                                                   .to_pylist()),
@@ -232,7 +266,7 @@ def run_sweep(sweep: Sweep | str | os.PathLike, out: str | os.PathLike,
     def report():
         if progress is not None:
             progress(Progress(count["done"], table.n, count["cert"], count["failed"],
-                              time.perf_counter() - t0, n_workers))
+                              time.perf_counter() - t0, n_workers, tuple(sorted(foreign))))
 
     def on_rows(chunk, rows):
         store.write_part(out, chunk.index, store.rows_table(rows, chunk.index, context, table))
@@ -247,8 +281,8 @@ def run_sweep(sweep: Sweep | str | os.PathLike, out: str | os.PathLike,
             executor = _executor(context, workers, scheduler, len(pending))
             n_workers, t_ready = executor.workers, time.perf_counter()
             report()
-            tasks = [Task(c, np.arange(c.start, c.stop), table.values[c.start:c.stop])
-                     for c in pending]
+            tasks = (Task(c, np.arange(c.start, c.stop), table.values[c.start:c.stop])
+                     for c in pending)      # made as they are submitted
             execute(tasks, executor, on_rows, window=2 * n_workers + 1)
     finally:
         if executor is not None:
@@ -261,6 +295,6 @@ def run_sweep(sweep: Sweep | str | os.PathLike, out: str | os.PathLike,
         summary = summarise(context, results, table.n, busy[-1]["workers"],
                             sum(r["wall_s"] for r in busy), complete=len(done) == len(plan))
         summary.update(startup_s=busy[-1]["startup_s"], resumed_chunks=len(plan) - len(pending),
-                       runs=runs)
+                       runs=runs, recomputed_chunks=sorted(foreign))
         store.write_summary(out, summary)
     return SweepResult(sweep=sweep, out=out, context=context, table=results, summary=summary)

@@ -22,12 +22,11 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-
 from robrst import resources
 from robrst.errors import SpecError
 from robrst.schema import ArrayOf, Field, key_error, load_toml, markdown_rows, validate
 from robrst.spec import SCHEMA as PROBLEM_SCHEMA
+from robrst.sweep.variants import grid_values
 
 __all__ = ["Param", "Ageing", "Sweep", "SWEEP_SCHEMA", "PLANT_PARAMS", "KINDS", "DISTS",
            "FIGURES", "problem_field", "load_sweep", "parse_sweep", "resolve_sweep_path",
@@ -219,7 +218,7 @@ def _param(path, i, p):
         raise key_error(path, key, f"expected lo < hi, got lo = {lo:g}, hi = {hi:g}")
     values = None
     if dist == "grid":
-        values = _grid_values(path, key, p)
+        values = grid_values(path, key, p)
         if field is not None and field.type == "int" and any(v != round(v) for v in values):
             raise key_error(path, key + ("values",), f"{name} takes integers")
         if field is not None:   # every grid value must be valid in the problem file
@@ -232,23 +231,6 @@ def _param(path, i, p):
         raise key_error(path, key + ("lo",), "lognormal truncation needs lo > 0")
     return Param(name=name, dist=dist, mean=p["mean"], std=p["std"], median=p["median"],
                  sigma=p["sigma"], lo=lo, hi=hi, values=values, note=p["note"])
-
-
-def _grid_values(path, key, p):
-    if p["values"] is not None:
-        if any(p[k] is not None for k in ("lo", "hi", "steps")) or p["log"]:
-            raise key_error(path, key + ("values",), "give either 'values' or lo, hi and steps")
-        if not p["values"]:
-            raise key_error(path, key + ("values",), "expected at least one value")
-        return tuple(p["values"])
-    for k in ("lo", "hi", "steps"):
-        if p[k] is None:
-            raise key_error(path, key + (k,), "missing: dist = 'grid' needs 'values', or lo,"
-                            " hi and steps")
-    if p["log"] and not p["lo"] > 0:
-        raise key_error(path, key + ("lo",), "a log grid needs lo > 0")
-    space = np.geomspace if p["log"] else np.linspace
-    return tuple(float(v) for v in space(p["lo"], p["hi"], p["steps"]))
 
 
 def _overrides(path, data, schema, key=("set",)):
@@ -307,6 +289,14 @@ def parse_sweep(data, path="<sweep>"):
     for i, n in enumerate(names):
         if n in names[:i]:
             raise key_error(path, ("param", str(i), "name"), f"parameter {n!r} given twice")
+    ageing = Ageing(**(v["ageing"] or {}))
+    if "age_years" in names and ageing == Ageing():
+        raise key_error(path, ("param", str(names.index("age_years")), "name"), "age_years acts"
+                        " through the [ageing] rates per year (gain_per_year, resonance_per_year,"
+                        " damping_per_year): give them, else it changes nothing")
+    if kind == "fleet" and v["fleet"] is None:
+        raise key_error(path, ("fleet",), "missing: a fleet sweep needs a [fleet] table with"
+                        " folder = the folder of its problem or model files")
     if kind == "fleet" and params:
         raise key_error(path, ("param",), "a fleet sweep varies files, not parameters")
     if kind != "fleet" and sw["problem"] is None:
@@ -330,7 +320,7 @@ def parse_sweep(data, path="<sweep>"):
         problem=base,
         description=sw["description"], seed=sw["seed"], n=sw["n"], chunk_size=chunk,
         worst=sw["worst"], params=params, overrides=tuple(overrides),
-        ageing=Ageing(**(v["ageing"] or {})), controller=an.get("controller", "design"),
+        ageing=ageing, controller=an.get("controller", "design"),
         margins=an.get("margins", True),
         front=(de.get("front_x", "Mu"), de.get("front_y", "integral_gain")),
         folder=fl.get("folder"), pattern=fl.get("pattern", "*.toml"))

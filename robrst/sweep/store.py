@@ -24,8 +24,8 @@ from robrst.fileio import atomic_write_bytes, atomic_write_text, json_text
 from robrst.sweep.evaluate import CONTROLLER_COLUMNS, FIGURE_COLUMNS
 
 __all__ = ["MARKER", "arrow_schema", "rows_table", "prepare_folder", "write_part",
-           "done_chunks", "read_results", "write_results", "previous_runs", "write_summary",
-           "PART"]
+           "done_chunks", "checked_chunks", "read_results", "write_results", "previous_runs",
+           "write_summary", "PART"]
 
 MARKER = ".robrst-sweep"
 PART = re.compile(r"^part-(\d{6,})\.parquet$")
@@ -142,21 +142,52 @@ def write_part(out, chunk, table):
     atomic_write_bytes(Path(out) / "chunks" / f"part-{chunk:06d}.parquet", buf.getvalue())
 
 
-def done_chunks(out, chunk_list):
-    """Indices of the chunks whose part file holds the expected number of rows."""
+def done_chunks(out, chunk_list, schema=None):
+    """Indices of the chunks whose part file holds exactly that chunk's variants.
+
+    A part file counts only when its ``index`` column is the chunk's indices, in order (and
+    its ``chunk`` column the chunk's number): a part copied over from another chunk, or
+    from another sweep, is computed again (see :func:`checked_chunks`).
+    """
+    return checked_chunks(out, chunk_list, schema)[0]
+
+
+def checked_chunks(out, chunk_list, schema=None):
+    """``(done, foreign)``: sets of chunk indices.
+
+    ``done``: the part file holds exactly the chunk's variants (see :func:`done_chunks`) and,
+    when ``schema`` is given, has these columns; ``foreign``: a part file exists but holds
+    other variants or columns, or cannot be read — the chunk is computed again and its part
+    file replaced.
+    """
     import pyarrow.parquet as pq
 
-    done = set()
+    done, foreign = set(), set()
     folder = Path(out) / "chunks"
     for c in chunk_list:
         p = folder / f"part-{c.index:06d}.parquet"
-        if p.is_file():
-            try:
-                if pq.read_metadata(p).num_rows == len(c):
-                    done.add(c.index)
-            except (OSError, ValueError):
-                pass   # a damaged part of ours: computed again
-    return done
+        if not p.is_file():
+            continue
+        try:
+            found = pq.read_schema(p)
+            cols = [k for k in ("index", "chunk") if k in found.names]
+            same = schema is None or found.remove_metadata().equals(schema)
+            t = pq.read_table(p, columns=cols) if "index" in cols and same else None
+        except (OSError, ValueError):
+            t = None            # a damaged part: computed again
+        if t is not None and _holds(t, c):
+            done.add(c.index)
+        else:
+            foreign.add(c.index)
+    return done, foreign
+
+
+def _holds(table, c):
+    """Whether ``table`` (columns ``index`` and maybe ``chunk``) holds exactly chunk ``c``."""
+    if table.column("index").to_pylist() != list(range(c.start, c.stop)):
+        return False
+    return ("chunk" not in table.column_names
+            or all(k == c.index for k in table.column("chunk").to_pylist()))
 
 
 def read_results(out, chunk_list, schema):

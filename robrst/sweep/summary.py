@@ -34,16 +34,25 @@ def wilson_interval(k, n, z=1.959963984540054):
 def pareto_front(x, y):
     """Indices of the points not dominated when minimising ``x`` and maximising ``y``.
 
-    Points with a non-finite coordinate are left out.  Ordered by increasing ``x``.
+    A point is dominated when another is at least as good in both figures and strictly
+    better in one; equal points do not dominate each other, so ties are all on the front.
+    Points with a non-finite coordinate are left out.  Ordered by increasing ``x`` (then
+    by index).
     """
     x, y = np.asarray(x, float), np.asarray(y, float)
     ok = np.flatnonzero(np.isfinite(x) & np.isfinite(y))
-    order = ok[np.lexsort((-y[ok], x[ok]))]
-    front, best = [], -np.inf
-    for i in order:
-        if y[i] > best:
-            front.append(int(i))
-            best = y[i]
+    order = ok[np.lexsort((ok, -y[ok], x[ok]))]      # x up, y down, index up
+    front, best = [], -np.inf       # best: the largest y at a strictly smaller x
+    start = 0
+    while start < order.size:
+        stop = start
+        while stop < order.size and x[order[stop]] == x[order[start]]:
+            stop += 1
+        top = y[order[start]]        # the largest y at this x
+        if top > best:
+            front += [int(i) for i in order[start:stop] if y[i] == top]
+            best = top
+        start = stop
     return front
 
 

@@ -12,7 +12,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["VariantTable", "Chunk", "variant_table", "chunks", "draw"]
+from robrst.schema import key_error
+
+__all__ = ["VariantTable", "Chunk", "variant_table", "chunks", "draw", "grid_values",
+           "DRAW_BLOCK"]
+
+DRAW_BLOCK = 1 << 18     # rows of random numbers drawn at a time
 
 
 @dataclass(frozen=True, eq=False)
@@ -80,29 +85,50 @@ def variant_table(sweep, labels=()):
         return VariantTable(names=(), values=np.zeros((len(labels), 0)), labels=tuple(labels))
     rand = [p for p in sweep.params if p.random]
     grid = sweep.grid
-    u = np.random.default_rng(sweep.seed).random((sweep.draws, len(rand)))
-    drawn = np.column_stack([draw(p, u[:, j]) for j, p in enumerate(rand)]) if rand \
-        else np.zeros((sweep.draws, 0))
     if grid:
         mesh = np.meshgrid(*[np.asarray(p.values) for p in grid], indexing="ij")
         points = np.column_stack([m.ravel() for m in mesh])
     else:
         points = np.zeros((1, 0))
-    g, r = points.shape[0], drawn.shape[0]
-    gv = np.repeat(points, r, axis=0)
-    rv = np.tile(drawn, (g, 1))
-    cols, gi, ri = [], 0, 0
-    for p in sweep.params:
-        if p.random:
-            cols.append(rv[:, ri])
-            ri += 1
-        else:
-            cols.append(gv[:, gi])
-            gi += 1
-    values = np.column_stack(cols) if cols else np.zeros((g * r, 0))
+    g, r = points.shape[0], sweep.draws
+    values = np.empty((g * r, len(names)))
+    cube = values.reshape(g, r, len(names))     # a view: grid point, draw, parameter
+    cols = [j for j, p in enumerate(sweep.params) if p.random]
+    rng = np.random.default_rng(sweep.seed)
+    # the draws in blocks of rows, written in place: the same numbers as one
+    # rng.random((r, k)) call (the generator's stream is consumed in the same order), with
+    # no n x k temporaries beside the table (10 million variants: 160 MB, not 700)
+    for start in range(0, r if rand else 0, DRAW_BLOCK):
+        stop = min(start + DRAW_BLOCK, r)
+        u = rng.random((stop - start, len(rand)))
+        for j, (col, p) in enumerate(zip(cols, rand)):
+            cube[0, start:stop, col] = draw(p, u[:, j])
+    for col in cols:            # the same draws at every grid point
+        cube[1:, :, col] = cube[0, :, col]
+    for gi, col in enumerate(j for j, p in enumerate(sweep.params) if not p.random):
+        cube[:, :, col] = points[:, gi][:, None]
     return VariantTable(names=names, values=values)
 
 
 def chunks(n, size):
     """The chunks of ``n`` variants, ``size`` per chunk (the last one shorter)."""
     return [Chunk(k, s, min(s + size, n)) for k, s in enumerate(range(0, n, size))]
+
+
+def grid_values(path, key, p):
+    """The values of a grid ``[[param]]`` table ``p`` (validated keys; errors name
+    ``path`` and the key path ``key``)."""
+    if p["values"] is not None:
+        if any(p[k] is not None for k in ("lo", "hi", "steps")) or p["log"]:
+            raise key_error(path, key + ("values",), "give either 'values' or lo, hi and steps")
+        if not p["values"]:
+            raise key_error(path, key + ("values",), "expected at least one value")
+        return tuple(p["values"])
+    for k in ("lo", "hi", "steps"):
+        if p[k] is None:
+            raise key_error(path, key + (k,), "missing: dist = 'grid' needs 'values', or lo,"
+                            " hi and steps")
+    if p["log"] and not p["lo"] > 0:
+        raise key_error(path, key + ("lo",), "a log grid needs lo > 0")
+    space = np.geomspace if p["log"] else np.linspace
+    return tuple(float(v) for v in space(p["lo"], p["hi"], p["steps"]))
