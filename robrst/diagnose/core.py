@@ -210,8 +210,13 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
         why = (f"within {NONE_RATIO}x the noise floor {floor:.3g}" if before <= NONE_RATIO * floor
                else f"below {RESOLVED_GAP:g}: the model reproduces the records to six digits"
                     f" (noise floor {floor:.3g}, the records' own rounding)")
-        return build(info, where, tests, traces, "none", f"held-out gap {before:.3g} is {why}",
-                     skipped=skipped, findings=[amp])
+        why = f"held-out gap {before:.3g} is {why}"
+        if before_train > NEAR_RATIO * max(floor_train, RESOLVED_GAP):
+            why += (f"; but the training records show a gap ({before_train:.3g},"
+                    f" {before_train / floor_train:.3g}x their noise floor) the test records do"
+                    " not: the test records do not excite what causes it (add test records"
+                    " like the training ones to diagnose it)")
+        return build(info, where, tests, traces, "none", why, skipped=skipped, findings=[amp])
     train_p = [prepare(d, ref) for d in train]
     setup = Setup(fs=fs, ref=ref, train=train_p, train_full=preps[:n_tr], test=preps[n_tr:],
                   test_records=test, train_records=train, lin=lin,
