@@ -10,17 +10,20 @@ Pipeline (:func:`diagnose`)::
       -> candidates fitted on train, scored on test: the linear re-fit, each excited
          effect alone, then forward selection of effects fitted jointly with the
          linear corrections (:mod:`robrst.diagnose.select`)
-      -> findings (amplitude_dependent, unmodelled_dynamics, train_only) and verdict:
-         none | <effect> | linear | cannot_tell
+      -> findings (amplitude_dependent, unmodelled_dynamics, output_offset, train_only)
+         and verdict: none | <effect> | output_offset | linear | cannot_tell
 
 Verdict rules (constants in :mod:`robrst.diagnose.select` and below): ``none`` when the
 held-out gap is within ``NONE_RATIO`` of the floor (or below ``RESOLVED_GAP``).  An answer
 (the selected effects, or ``linear`` when no effect adds to the linear re-fit) must remove
 ``MIN_SHRINK`` of the excess gap (the same 30 % bar for ``linear`` as for effects) *and*
 bring the gap near the floor: within ``NEAR_RATIO`` x the floor, or ``NEAR_EXCESS`` of the
-excess left.  Otherwise ``cannot_tell``, with the best partial explanation; when the held-out
-residual is then mostly a constant offset (``OFFSET_SHARE``) that is named (finding
-``output_offset``) instead of searching for missing linear dynamics.  The JSON contract
+excess left.  Otherwise ``cannot_tell``, with the best partial explanation.  A constant
+output offset is a candidate like the effects (:data:`robrst.diagnose.select.OFFSET`):
+when the answer includes it, it is named (``causes``, finding ``output_offset`` with the
+fitted offset); a ``cannot_tell`` whose held-out residual is mostly a constant
+(``OFFSET_SHARE``) names it too instead of searching for missing linear dynamics.  A
+``none`` whose training records show a gap says so.  The JSON contract
 (:meth:`Diagnosis.as_dict`) only ever gains fields.
 """
 
@@ -35,7 +38,7 @@ from robrst.diagnose.findings import (amplitude_finding, comparable, floor_of, n
 from robrst.diagnose.fit import fit_model, prepare
 from robrst.diagnose.linear import LinearPart, as_modal
 from robrst.diagnose.result import Diagnosis, EffectScore
-from robrst.diagnose.select import Setup, candidates, forward
+from robrst.diagnose.select import OFFSET, Setup, candidates, forward, linear_with_offset
 from robrst.diagnose.thermal import max_delay, search_delay, search_saturation
 from robrst.diagnose.verdict import NEAR_RATIO, build, decide, unmodelled
 from robrst.errors import DataError
@@ -210,8 +213,13 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
         why = (f"within {NONE_RATIO}x the noise floor {floor:.3g}" if before <= NONE_RATIO * floor
                else f"below {RESOLVED_GAP:g}: the model reproduces the records to six digits"
                     f" (noise floor {floor:.3g}, the records' own rounding)")
-        return build(info, where, tests, traces, "none", f"held-out gap {before:.3g} is {why}",
-                     skipped=skipped, findings=[amp])
+        why = f"held-out gap {before:.3g} is {why}"
+        if before_train > NEAR_RATIO * max(floor_train, RESOLVED_GAP):
+            why += (f"; but the training records show a gap ({before_train:.3g},"
+                    f" {before_train / floor_train:.3g}x their noise floor) the test records do"
+                    " not: the test records do not excite what causes it (add test records"
+                    " like the training ones to diagnose it)")
+        return build(info, where, tests, traces, "none", why, skipped=skipped, findings=[amp])
     train_p = [prepare(d, ref) for d in train]
     setup = Setup(fs=fs, ref=ref, train=train_p, train_full=preps[:n_tr], test=preps[n_tr:],
                   test_records=test, train_records=train, lin=lin,
@@ -229,13 +237,17 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
     steps, tie = forward(setup, linear, singles, say)
     cause, reason, causes, best, gap = decide(info, linear, steps, tie)
     findings = [amp]
-    # nothing explains the gap and it is mostly a constant: say so (a sensor offset), and
-    # do not search for missing dynamics (a higher order imitates a constant badly)
-    off = offset_finding(base_res[n_tr:]) if cause == "cannot_tell" else None
+    off = None
+    if OFFSET in causes:            # selected on the same footing as the effects
+        off = offset_finding(base_res[n_tr:], fitted=steps[-1][2].fit)
+    elif cause == "cannot_tell":
+        # nothing explains the gap and it is mostly a constant: say so (a sensor offset), and
+        # do not search for missing dynamics (a higher order imitates a constant badly)
+        off = offset_finding(base_res[n_tr:])
     if off:
         findings.append(off)
         reason += f"; {off['message']}"
-    elif cause == "cannot_tell" or (gap is not None and gap > NEAR_RATIO * floor):
+    if not off and (cause == "cannot_tell" or (gap is not None and gap > NEAR_RATIO * floor)):
         # what is left may be linear dynamics the model lacks (an effect's answer must
         # leave more than a higher-order linear model does for that to be said)
         hi = unmodelled(setup, linear, info)
@@ -247,9 +259,14 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
             findings.append(un)
             reason += f"; {un['message']}"
     say(f"cause: {cause} ({reason})")
+    if OFFSET in causes:
+        shares = decompose(base_res[n_tr:], before, floor, linear.residuals,
+                           steps[-1][2].fit.output_offset(), linear_with_offset(setup).residuals)
+    else:
+        shares = decompose(base_res[n_tr:], before, floor, linear.residuals)
     return build(info, where, tests, traces, cause, reason, skipped=skipped, findings=findings,
                  linear=linear, singles=singles, steps=steps, causes=causes, best_partial=best,
-                 decomposition=decompose(base_res[n_tr:], before, floor, linear.gap))
+                 decomposition=shares)
 
 
 def _low_level_refit(setup, train, train_p, preps):
@@ -266,16 +283,62 @@ def _low_level_refit(setup, train, train_p, preps):
     return [p.Y - fit.predict_prepared(p) for p in preps]
 
 
-def decompose(res, before, floor, linear_gap):
-    """Shares of the held-out residual's mean square, a partition (they add up to 1): its
-    constant offset first, then of the rest the noise, what a linear re-fit explains, and
-    what it leaves."""
-    _, offset = _offset(res)
-    noise = min(1.0 - offset, (floor / before) ** 2) if before > 0 else 1.0 - offset
-    lin = max(0.0, 1.0 - (linear_gap / before) ** 2) if before > 0 else 0.0
-    lin = min(lin, 1.0 - offset - noise)
+def decompose(res, before, floor, linear_res, offset=None, offset_linear_res=None):
+    """Shares of the held-out residual's mean square by nested models: a partition.
+
+    Parameters
+    ----------
+    res : list of array
+        Held-out residuals of the model under diagnosis (per test record).
+    before, floor : float
+        Their NRMSE and the noise floor (same units).
+    linear_res : list of array
+        Held-out residuals of the linear re-fit.
+    offset : array, optional
+        The constant output offset per output of the answer, when it includes
+        ``output_offset``.
+    offset_linear_res : list of array, optional
+        With ``offset``: held-out residuals of the linear re-fit with a constant output
+        offset fitted jointly.
+
+    Returns
+    -------
+    dict
+        ``offset``, ``linear_model_error``, ``noise``, ``unexplained_by_linear``: each a
+        share of the residual's sum of squares, removed in this order.  When the answer
+        includes ``output_offset`` the constant comes first (what subtracting the answer's
+        fitted offset removes from ``res``), then the linear re-fit (what the joint re-fit
+        with an offset removes on top); otherwise the linear re-fit first (``1 - (gap_refit /
+        gap)^2``), then what a constant removes from the re-fit's residual — so an offset
+        an effect causes is not counted as one.  Then the noise floor, and what is left.
+        Shares are clamped at 0 (a re-fit worse on the held-out records removes nothing).
+    """
+    total = _ss(res)
+    if total <= 0:
+        return {"offset": 0.0, "noise": 1.0, "linear_model_error": 0.0,
+                "unexplained_by_linear": 0.0}
+    if offset is not None:
+        c = np.ravel(offset)
+        shifted = [np.asarray(r, float).reshape(len(r), -1) - c[None, :] for r in res]
+        off = min(1.0, max(0.0, 1.0 - _ss(shifted) / total))
+        lin = max(0.0, 1.0 - off - _ss(offset_linear_res) / total)
+    else:
+        lin = max(0.0, 1.0 - _ss(linear_res) / total)
+        off = min(1.0 - lin, _constant_ss(linear_res) / total)
+    offset = off
+    noise = min(1.0 - offset - lin, (floor / before) ** 2) if before > 0 else 1.0 - offset - lin
     return {"offset": offset, "noise": noise, "linear_model_error": lin,
             "unexplained_by_linear": max(0.0, 1.0 - offset - noise - lin)}
+
+
+def _ss(res):
+    return float(sum(np.sum(np.asarray(r, float) ** 2) for r in res))
+
+
+def _constant_ss(res):
+    """What a constant per output removes from the residuals' sum of squares."""
+    R = np.concatenate([np.asarray(r, float).reshape(len(r), -1) for r in res])
+    return float(R.shape[0] * np.sum(R.mean(axis=0) ** 2))
 
 
 def _offset(res):
@@ -286,9 +349,26 @@ def _offset(res):
     return mean, (mean ** 2 / ms if ms > 0 else 0.0)
 
 
-def offset_finding(res):
-    """``output_offset`` when a constant offset is most of the held-out residual (the
-    dynamic effects and a linear re-fit cannot stand for it), or None."""
+def offset_finding(res, fitted=None):
+    """``output_offset`` finding, or None.
+
+    With ``fitted`` (the answer's fit, which includes a constant output offset) the
+    offset is the fitted one and the finding is always made; its ``share`` is what that
+    constant alone is of the held-out residual's mean square.  Without, the finding is
+    made when a constant is most (``OFFSET_SHARE``) of the held-out residual ``res`` (the
+    dynamic effects and a linear re-fit cannot stand for it).
+    """
+    if fitted is not None:
+        vals = list(fitted.params()["output_offset"][0].values())
+        allr = np.concatenate([np.asarray(r).ravel() for r in res])
+        ms = float(np.mean(allr ** 2))
+        mean = vals[0] if len(vals) == 1 else vals
+        share = float(np.mean(np.square(vals)) / ms) if ms > 0 else 0.0
+        txt = ", ".join(f"{v:.4g}" for v in vals)
+        return {"kind": "output_offset", "offset_um": mean, "share": min(share, 1.0),
+                "message": (f"a constant output offset of {txt} µm (fitted with the other"
+                            " corrections): a sensor zero or bias the model lacks, not a"
+                            " dynamic effect")}
     mean, share = _offset(res)
     if share < OFFSET_SHARE:
         return None

@@ -10,6 +10,9 @@ the linear corrections vary linearly with the record's excitation level (the
 describing function of a hysteretic stiffness: resonances soften and gains change with
 amplitude); it needs periodic records at two or more levels.
 
+A constant output offset per output (``offset``: a sensor zero or bias, in µm) can be
+fitted with any candidate; it enters the output linearly, without a prior.
+
 Periodic records are fitted in steady state on their period average (weight: the
 number of periods), the effects warmed up on one extra period.
 """
@@ -77,12 +80,22 @@ class Fitted:
     n_eval: int
     train_cost: float
     theta_fixed: np.ndarray = None
+    n_offset: int = 0      # constant output offsets fitted (one per output, or none)
 
     def parts(self, x=None):
+        """Effect parameters, linear corrections and level slopes (not the offsets)."""
         x = self.x if x is None else x
         nz, nt = self.chain.size, self.lin.size if self.joint else 0
         fixed = self.theta_fixed if self.theta_fixed is not None else np.zeros(self.lin.size)
-        return x[:nz], (x[nz:nz + nt] if self.joint else fixed), x[nz + nt:]
+        return (x[:nz], (x[nz:nz + nt] if self.joint else fixed),
+                x[nz + nt:nz + nt + len(self.slopes)])
+
+    def output_offset(self, x=None):
+        """The fitted constant output offsets ``(m,)`` [µm] (zeros when not fitted)."""
+        x = self.x if x is None else x
+        if not self.n_offset:
+            return np.zeros(1)
+        return x[x.size - self.n_offset:]
 
     def theta_at(self, level, x=None):
         _, th, s = self.parts(x)
@@ -97,7 +110,8 @@ class Fitted:
         if p.warm:
             U, T = np.vstack([U[-p.warm:], U]), np.concatenate([T[-p.warm:], T])
         V, _ = self.chain.run(z, U, T, jac=False, warm=p.warm)
-        return self.lin.simulate(self.theta_at(p.level, x), V, p.periodic)
+        Y = self.lin.simulate(self.theta_at(p.level, x), V, p.periodic)
+        return Y + self.output_offset(x)[None, :] if self.n_offset else Y
 
     def predict(self, d, reference_C):
         """Simulated outputs ``(N, m)`` of record ``d`` (steady state when periodic)."""
@@ -106,7 +120,13 @@ class Fitted:
     def params(self):
         """Reported effect parameters and 1-sigma (delta method): ``{effect: (values, sds)}``."""
         z = self.parts()[0]
-        return self.chain.report(z, self.std[:self.chain.size])
+        out = self.chain.report(z, self.std[:self.chain.size])
+        if self.n_offset:
+            sfx = (lambda j: f"_y{j + 1}") if self.n_offset > 1 else (lambda j: "")
+            off, sd = self.output_offset(), self.std[self.x.size - self.n_offset:]
+            out["output_offset"] = ({f"offset_um{sfx(j)}": float(v) for j, v in enumerate(off)},
+                                    {f"offset_um{sfx(j)}": float(d) for j, d in enumerate(sd)})
+        return out
 
     def linear_change(self):
         """Linear corrections (and level slopes) by name, with 1-sigma."""
@@ -126,7 +146,7 @@ class Fitted:
 
 
 def fit_model(name, effects, train, lin, chain, noise_sigma, joint=True, dynamic=False,
-              start=None, theta=None, max_nfev=40, ftol=1e-10):
+              start=None, theta=None, max_nfev=40, ftol=1e-10, offset=False):
     """Fit ``effects`` (+ linear corrections if ``joint``) on prepared training records.
 
     Parameters
@@ -150,6 +170,8 @@ def fit_model(name, effects, train, lin, chain, noise_sigma, joint=True, dynamic
         Fixed linear corrections when not ``joint``.
     max_nfev, ftol : int, float
         Stopping rules of the least-squares solver.
+    offset : bool
+        Fit a constant output offset per output too (parameters ``offset_um``, ...).
 
     Returns
     -------
@@ -158,15 +180,19 @@ def fit_model(name, effects, train, lin, chain, noise_sigma, joint=True, dynamic
     slopes = tuple(i for i, (k, _) in enumerate(lin.kinds) if k in SLOPE_KINDS) if dynamic else ()
     level_ref = min(p.level for p in train)
     nz, nt, ns = chain.size, lin.size if joint else 0, len(slopes)
-    lo = np.concatenate([chain.lower, lin.lower if joint else [], np.full(ns, -5.0)])
-    hi = np.concatenate([chain.upper, lin.upper if joint else [], np.full(ns, 5.0)])
+    no = train[0].Y.shape[1] if offset else 0
+    lo = np.concatenate([chain.lower, lin.lower if joint else [], np.full(ns, -5.0),
+                         np.full(no, -np.inf)])
+    hi = np.concatenate([chain.upper, lin.upper if joint else [], np.full(ns, 5.0),
+                         np.full(no, np.inf)])
     if joint and "hysteresis" in chain.effects:      # its gain is the linear gain: pin that
         for i, (kind, _) in enumerate(lin.kinds):
             if kind in ("gain", "input_gain"):
                 lo[nz + i], hi[nz + i] = -1e-12, 1e-12
     sd = np.concatenate([lin.prior_sd if joint else [], lin.prior_sd[list(slopes)]])
-    x0 = np.concatenate([chain.z0, np.zeros(nt + ns)])
-    names = list(chain.names) + (list(lin.names) if joint else []) + [f"slope{i}" for i in slopes]
+    x0 = np.concatenate([chain.z0, np.zeros(nt + ns + no)])
+    names = (list(chain.names) + (list(lin.names) if joint else []) + [f"slope{i}" for i in slopes]
+             + [f"offset{j}" for j in range(no)])
     for i, n in enumerate(names):
         if start and n in start:
             x0[i] = np.clip(start[n], lo[i], hi[i])
@@ -175,11 +201,11 @@ def fit_model(name, effects, train, lin, chain, noise_sigma, joint=True, dynamic
     prior_w = noise_sigma / scale / sd
     fixed = np.zeros(lin.size) if theta is None else np.asarray(theta, float)
     proto = Fitted(name, tuple(effects), "dynamic" if dynamic else "input", chain, lin, x0,
-                   np.zeros_like(x0), joint, slopes, level_ref, 0, 0.0, fixed)
+                   np.zeros_like(x0), joint, slopes, level_ref, 0, 0.0, fixed, no)
 
     def fun(x):
         r = [(proto.predict_prepared(p, x) - p.Y).ravel() * (p.weight / scale) for p in train]
-        r.append(prior_w * x[nz:])
+        r.append(prior_w * x[nz:nz + nt + ns])
         out = np.concatenate(r)
         return np.where(np.isfinite(out), out, 1e3)
 
@@ -201,10 +227,13 @@ def fit_model(name, effects, train, lin, chain, noise_sigma, joint=True, dynamic
             if joint:
                 J[:, :, nz:nz + nt] = JL
             if slopes:
-                J[:, :, nz + nt:] = JL[:, :, list(slopes)] * level_factor(p.level, level_ref)
+                J[:, :, nz + nt:nz + nt + ns] = (JL[:, :, list(slopes)]
+                                                 * level_factor(p.level, level_ref))
+            for j in range(no):
+                J[:, j, nz + nt + ns + j] = 1.0
             rows.append(J.reshape(N * m, -1) * (p.weight / scale))
         prior = np.zeros((nt + ns, x.size))
-        prior[:, nz:] = np.diag(prior_w)
+        prior[:, nz:nz + nt + ns] = np.diag(prior_w)
         rows.append(prior)
         return np.vstack(rows)
 
@@ -220,4 +249,4 @@ def fit_model(name, effects, train, lin, chain, noise_sigma, joint=True, dynamic
                                          max_nfev=max_nfev)
     std = parameter_std(res.jac, res.cost, res.fun.size) if x0.size else np.zeros(0)
     return Fitted(name, tuple(effects), proto.form, chain, lin, res.x, std, joint, slopes,
-                  level_ref, int(res.nfev), 2 * float(res.cost), fixed)
+                  level_ref, int(res.nfev), 2 * float(res.cost), fixed, no)

@@ -53,7 +53,8 @@ class Polished(Fitted):
 
     def predict_prepared(self, p, x=None):
         V = _effective(self, p, x)
-        return self.model_at(p.level, x).discretise(self.lin.fs).response(V, periodic=p.periodic)
+        Y = self.model_at(p.level, x).discretise(self.lin.fs).response(V, periodic=p.periodic)
+        return Y + self.output_offset(x)[None, :] if self.n_offset else Y
 
 
 def _effective(fit, p, x=None):
@@ -122,7 +123,8 @@ def polish_residues(fit, train, noise_sigma):
         C, index = _columns(model, fs, V, p.periodic)
         base = model.discretise(fs).response(V, periodic=p.periodic)
         rows.append(C * (f * p.weight))
-        rhs.append((p.Y - base) * p.weight)
+        rhs.append((p.Y - base - (fit.output_offset()[None, :] if fit.n_offset else 0.0))
+                   * p.weight)
     if not rows:
         return fit
     ref = fit.lin.continuous(fit.theta_at(fit.level_ref))

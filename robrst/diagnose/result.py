@@ -6,7 +6,9 @@ per_record[], per_level[]}``, ``effects[]`` (each candidate alone, best first:
 ``name, gap_before, gap_after, shrink, train_gap, params, params_std, n_eval, fit_s,
 form, overfit``), ``linear_refit{...}``, ``where{...}``, ``tests{...}``,
 ``decomposition``, ``data``, ``model``, and (added) ``causes[]``, ``selected[]``,
-``final{}``, ``findings[]``, ``best_partial``, ``skipped{}``, ``seconds``.
+``final{}``, ``findings[]``, ``best_partial``, ``skipped{}``, ``seconds``,
+``output_offset{}`` (the constant output offset screened alone, same fields as an
+effect's; it is a candidate but not an effect, so not in ``effects[]``).
 """
 
 import math
@@ -93,7 +95,7 @@ class Diagnosis:
              "where": self.where, "tests": self.tests, "decomposition": self.decomposition,
              "data": self.data, "model": self.model}
         for k in ("causes", "selected", "final", "findings", "best_partial", "skipped",
-                  "seconds"):
+                  "seconds", "output_offset"):
             d[k] = self.extra.get(k)
         return finite(d)
 

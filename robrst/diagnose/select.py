@@ -16,6 +16,17 @@
    records — not on the linear re-fit: an effect masked by another effect or by a
    wrong linear model looks poor alone and only shows once fitted with them.
 
+4. After every selection the remaining candidates are *re-screened* on top of the model
+   selected so far (its effects and linear corrections held as the start, each candidate's
+   parameters added; a screening fit): an effect hidden behind a larger one (creep behind
+   saturation) only improves once that one is in.  A re-screened candidate qualifies when
+   it improves on the current model by ``PROMISING``; it joins the candidates still
+   waiting, and all are ranked by their re-screened gaps.
+
+A constant output offset (``output_offset``: a sensor zero, one constant per output) is a
+candidate like the effects: screened alone on the model as given, fitted jointly with the
+others, selected only when it passes the same bars.
+
 Every gap is measured on the test records, every fit uses the training records only.
 """
 
@@ -31,7 +42,9 @@ from robrst.diagnose.polish import polish_residues
 from robrst.diagnose.thermal import fit_thermal_dynamics
 
 __all__ = ["Setup", "Scored", "candidates", "forward", "excess", "significant",
-           "MIN_SHRINK", "MARGIN", "MAX_EFFECTS"]
+           "linear_with_offset", "MIN_SHRINK", "MARGIN", "MAX_EFFECTS", "OFFSET"]
+
+OFFSET = "output_offset"  # the constant output offset's candidate name
 
 MIN_SHRINK = 0.3         # an explanation must remove >= 30 % of the excess gap it faces
 MARGIN = 1.1             # ... and beat the alternative by 10 % in held-out gap
@@ -118,13 +131,13 @@ def _screen(records, n):
 
 
 def _fit(setup, name, effects, joint, dynamic=False, start=None, theta=None, max_nfev=40,
-         ftol=1e-8, screen=False):
+         ftol=1e-8, screen=False, offset=False):
     t0 = time.perf_counter()
     train = _screen(setup.train, SCREEN_SAMPLES) if screen else setup.train
     lin = setup.lin_modal if dynamic else setup.lin
     fit = fit_model(name, effects, train, lin, _chain(setup, effects),
                     setup.noise_sigma, joint=joint, dynamic=dynamic, start=start, theta=theta,
-                    max_nfev=max_nfev, ftol=ftol)
+                    max_nfev=max_nfev, ftol=ftol, offset=offset)
     if dynamic:
         fit = polish_residues(fit, train, setup.noise_sigma)
     return replace(score(setup, fit, t0), converged=fit.n_eval < max_nfev)
@@ -139,6 +152,8 @@ def _start(scored):
     out = dict(zip(f.lin.names, th))
     out.update(zip(f.chain.names, z))   # "gain" of hysteresis wins: the linear one is pinned
     out.update({f"slope{i}": v for i, v in zip(f.slopes, s)})
+    if f.n_offset:
+        out.update({f"offset{j}": v for j, v in enumerate(f.output_offset())})
     return out
 
 
@@ -165,6 +180,8 @@ def candidates(setup, say):
             return score(setup, fit_thermal_dynamics(setup.train, setup.plant, setup.fs,
                                                      setup.ref), t0)
         jobs["thermal_dynamics"] = thermal
+    jobs[OFFSET] = lambda: _fit(setup, OFFSET, (), joint=False, offset=True,
+                                max_nfev=SCREEN_NFEV, ftol=SCREEN_FTOL)
     if setup.dynamic:
         jobs["hysteresis:dynamic"] = lambda: _fit(setup, "hysteresis", (), joint=True,
                                                   dynamic=True, start=_start(lin))
@@ -181,26 +198,46 @@ def candidates(setup, say):
     return lin, out
 
 
-def _combine(setup, state, key, single):
+def _offset_of(state):
+    """Does the fit ``state`` (Scored) carry an output offset?"""
+    return state.name != "linear" and getattr(state.fit, "n_offset", 0) > 0
+
+
+def _grown(state, key):
+    """Effects, dynamic form, offset and name of ``state`` plus candidate ``key``."""
+    effects = tuple(e for e in (state.fit.effects if state.name != "linear" else ())) + (
+        () if key in ("hysteresis:dynamic", OFFSET) else (key,))
+    dynamic = key == "hysteresis:dynamic" or getattr(state.fit, "form", "") == "dynamic"
+    offset = key == OFFSET or _offset_of(state)
+    name = "+".join(sorted(set(effects) | ({"hysteresis"} if dynamic else set())
+                           | ({OFFSET} if offset else set())))
+    return effects, dynamic, offset, name
+
+
+def linear_with_offset(setup):
+    """The linear re-fit with a constant output offset, fitted jointly (Scored)."""
+    return _fit(setup, f"linear+{OFFSET}", (), joint=True, offset=True)
+
+
+def _combine(setup, state, key, single, on_top=False):
     """``state`` (Scored) plus candidate ``key`` (its single fit ``single``), jointly.
 
     A single candidate that already brings the held-out gap to the noise level needs no
-    joint re-fit (the linear part stays the user's).
+    joint re-fit (the linear part stays the user's).  ``on_top``: ``single`` was
+    re-screened on top of ``state`` (its values start the joint fit).
     """
     if key == "thermal_dynamics" or (state.name == "linear"
                                      and single.gap <= 1.25 * setup.floor):
         return single
-    effects = tuple(e for e in (state.fit.effects if state.name != "linear" else ())) + (
-        () if key == "hysteresis:dynamic" else (key,))
-    dynamic = key == "hysteresis:dynamic" or getattr(state.fit, "form", "") == "dynamic"
+    effects, dynamic, offset, name = _grown(state, key)
     kept = _start(state) if state.name != "linear" else {}
-    name = "+".join(sorted(set(effects) | ({"hysteresis"} if dynamic else set())))
-    starts = [{**_start(single), **kept}]
+    starts = [{**kept, **_start(single)} if on_top else {**_start(single), **kept}]
     if state.name != "linear":
         # the fits so far may have absorbed the new effect (each effect alone mimics
         # the others): also start every effect from its default, keep the better fit
         starts.append({k: v for k, v in kept.items() if k in setup.lin.names})
-    jobs = [lambda st=st: _fit(setup, name, effects, joint=True, dynamic=dynamic, start=st)
+    jobs = [lambda st=st: _fit(setup, name, effects, joint=True, dynamic=dynamic, start=st,
+                               offset=offset)
             for st in starts]
     best = min(_run(jobs, setup.workers), key=lambda sc: sc.train_gap)
     # run on only a fit that is getting somewhere (fits the training records better)
@@ -221,15 +258,21 @@ def forward(setup, lin, singles, say):
     g0, t0 = setup.gap_before, setup.gap_before_train
     pool = {k: s for k, s in singles.items()
             if s.gap <= PROMISING * g0 or s.train_gap <= PROMISING * t0}
-    rank = lambda k: pool[k].gap / g0 + pool[k].train_gap / t0  # noqa: E731
-    while pool and len(steps) < MAX_EFFECTS and state.name != "thermal_dynamics":
+    ref = (g0, t0)
+    rank = lambda k: pool[k].gap / ref[0] + pool[k].train_gap / ref[1]  # noqa: E731
+    while len(steps) < MAX_EFFECTS and state.name != "thermal_dynamics":
+        if state.gap <= 1.25 * setup.floor:
+            break
+        if steps:          # re-screen what is left on top of the model selected so far
+            pool, ref = _rescreen(setup, state, singles, pool, steps, say), (
+                state.gap, state.train_gap)
         order = [k for k in sorted(pool, key=rank) if not steps or k != "thermal_dynamics"]
-        if state.gap <= 1.25 * setup.floor or not order:
+        if not order:
             break
         two = len(order) > 1 and (steps or pool[order[1]].gap <= 2 * pool[order[0]].gap)
         tried = []
         for k in order[:MAX_TRIES]:
-            tried.append((k, _combine(setup, state, k, pool[k])))
+            tried.append((k, _combine(setup, state, k, pool[k], on_top=bool(steps))))
             if len(tried) >= (2 if two else 1) and any(
                     significant(sc.gap, state.gap, setup.floor) for _, sc in tried):
                 break
@@ -248,17 +291,45 @@ def forward(setup, lin, singles, say):
                 if significant(both.gap, best.gap, setup.floor):
                     steps += [(k, state.gap, best), (k2, best.gap, both)]
                     state = both
-                    for kk in (k, k2):
-                        pool.pop(kk)
-                    _drop_forms(pool, state)
                     continue
                 tie = (k, k2, best.gap, other.gap)
                 break
         steps.append((k, state.gap, best))
         state = best
-        pool.pop(k)
-        _drop_forms(pool, state)
     return steps, tie
+
+
+def _rescreen(setup, state, singles, pool, steps, say):
+    """The candidates not yet selected, each screened on top of ``state``: ``{key: Scored}``.
+
+    Every excited candidate is re-fitted with the selected model's effects (started at
+    their values) and its linear corrections held; it qualifies when it improves on
+    ``state`` by ``PROMISING`` (held-out or training gap).  The candidates that were
+    already waiting stay (with their re-screened scores) even when they do not.
+    """
+    chosen = {k for k, _, _ in steps}
+    keys = [k for k in singles if k not in chosen and k not in (
+        "thermal_dynamics", "hysteresis:dynamic") and not (k == OFFSET and _offset_of(state))
+        and not (k == "hysteresis" and "hysteresis" in state.effects)]
+    theta = state.fit.parts()[1]
+
+    def job(k):
+        effects, dynamic, offset, name = _grown(state, k)
+        return _fit(setup, name, effects, joint=False, dynamic=dynamic, theta=theta,
+                    start={**_start(singles[k]), **_start(state)}, max_nfev=SCREEN_NFEV,
+                    ftol=SCREEN_FTOL, screen=k not in THERMAL, offset=offset)
+
+    out = {}
+    for k, sc in zip(keys, _run([lambda k=k: job(k) for k in keys], setup.workers)):
+        good = sc.gap <= PROMISING * state.gap or sc.train_gap <= PROMISING * state.train_gap
+        say(f"  {k:<20} on top of {state.name}: held-out gap {state.gap:.4g} -> {sc.gap:.4g}"
+            f" (training {state.train_gap:.4g} -> {sc.train_gap:.4g}; {sc.fit.n_eval}"
+            f" evaluations, {sc.fit_s:.1f} s){'' if good else ', no improvement'}")
+        if good or k in pool:
+            out[k] = sc
+    if "hysteresis:dynamic" in pool and "hysteresis" not in state.effects:
+        out["hysteresis:dynamic"] = pool["hysteresis:dynamic"]
+    return out
 
 
 def _converge(setup, sc):
@@ -272,12 +343,5 @@ def _converge(setup, sc):
     if sc.converged or not hasattr(f, "chain"):
         return sc
     more = _fit(setup, sc.name, f.effects, joint=f.joint, dynamic=f.form == "dynamic",
-                start=_start(sc), max_nfev=FINAL_NFEV)
+                start=_start(sc), max_nfev=FINAL_NFEV, offset=f.n_offset > 0)
     return more if more.train_gap <= sc.train_gap else sc
-
-
-def _drop_forms(pool, state):
-    """Once hysteresis is in, its other form is no longer a candidate."""
-    if "hysteresis" in state.effects:
-        pool.pop("hysteresis", None)
-        pool.pop("hysteresis:dynamic", None)

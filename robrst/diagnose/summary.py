@@ -31,7 +31,9 @@ def summary_text(diag):
     if d["effects"]:
         out.append(f"  {'candidate (alone)':<22}{'gap before':>11}{'gap after':>11}{'shrink':>9}")
         rows = d["effects"] + ([dict(d["linear_refit"], name="(linear re-fit)", form="input")]
-                               if d["linear_refit"] else [])
+                               if d["linear_refit"] else []) + (
+            [dict(d["output_offset"], name="(output offset)", form="output")]
+            if d.get("output_offset") else [])
         for e in rows:
             name = e["name"] + (" (dynamic)" if e.get("form") == "dynamic" else "")
             flag = "  overfit" if e.get("overfit") else ""

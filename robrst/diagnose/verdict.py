@@ -16,7 +16,7 @@ import numpy as np
 
 from robrst.diagnose.findings import unmodelled_finding
 from robrst.diagnose.result import Diagnosis, EffectScore
-from robrst.diagnose.select import MIN_SHRINK, excess, significant
+from robrst.diagnose.select import MIN_SHRINK, OFFSET, excess, significant
 from robrst.identify.vf import fit_data, fit_residues, initial_poles, to_continuous, vector_fit
 from robrst.plant import Plant
 
@@ -28,6 +28,8 @@ HELD_OUT_MIN = 0.05
 
 
 def _key_name(key):
+    if key == OFFSET:
+        return key, "output"
     return ("hysteresis", "dynamic") if key == "hysteresis:dynamic" else (key, "input")
 
 
@@ -142,8 +144,12 @@ def build(info, where, tests, traces, cause, reason, skipped=None, findings=(), 
     before, model, plant = info["before"], info["model"], info["plant"]
     n_tr, names = info["n_train"], info["names"]
     scores, fit_res = [], {}
+    offset_alone = None
     for key, sc in (singles or {}).items():
         es = _score(key, sc, before, info["before_train"])
+        if key == OFFSET:           # not an effect: reported beside them, like the re-fit
+            offset_alone = es
+            continue
         prev = next((s for s in scores if s.name == es.name), None)
         if prev is None or es.gap_after < prev.gap_after:
             scores = [s for s in scores if s.name != es.name] + [es]
@@ -161,7 +167,7 @@ def build(info, where, tests, traces, cause, reason, skipped=None, findings=(), 
     selected, final = [], None
     for key, gap0, sc in steps:
         name, form = _key_name(key)
-        p = sc.fit.params().get(name, ({}, {})) if form == "input" else sc.fit.linear_change()
+        p = sc.fit.params().get(name, ({}, {})) if form != "dynamic" else sc.fit.linear_change()
         selected.append({"name": name, "form": form, "gap_before": gap0, "gap_after": sc.gap,
                          "shrink": 1 - sc.gap / gap0 if gap0 > 0 else 0.0,
                          "params": p[0], "params_std": p[1]})
@@ -194,7 +200,8 @@ def build(info, where, tests, traces, cause, reason, skipped=None, findings=(), 
                  "per_level": info.get("per_level", [])}
     extra = {"causes": list(causes), "selected": selected, "final": final,
              "findings": findings, "best_partial": best_partial, "skipped": skipped or {},
-             "seconds": time.perf_counter() - info["t_start"], "gap": gap_extra}
+             "seconds": time.perf_counter() - info["t_start"], "gap": gap_extra,
+             "output_offset": offset_alone.as_dict() if offset_alone else None}
     return Diagnosis(cause=cause, reason=reason, gap_before=before, noise_floor=info["floor"],
                      gap_train=info["before_train"], effects=tuple(scores),
                      linear_refit=lin_score, where=where, tests=tests,
