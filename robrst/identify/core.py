@@ -22,7 +22,9 @@ free response of its initial state are estimated with the model (nuisance terms,
 :mod:`robrst.identify.free`), in the fit and in every score (on the fit part of a split
 record, on the whole of a held-out one).  The estimates are reported per training record
 (:attr:`Identified.starts`) and noted when above ``START_NOTE`` of the output's RMS
-variation.
+variation.  A record on which they are not significant (they lower its residual by no
+more than noise would, see :func:`robrst.identify.free.record_starts`) is taken to start
+at rest with no offset in the final fit: no information is spent on them.
 """
 
 import math
@@ -31,13 +33,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from robrst.errors import DataError, SpecError
-from robrst.identify.free import RecordStart, fit_free
+from robrst.identify.free import fit_free, record_starts
 from robrst.identify.vf import (fit_data, fit_residues, initial_poles, to_continuous,
                                 vector_fit)
 from robrst.threads import one_blas_thread
 
 __all__ = ["identify", "Identified", "OrderScore", "ORDER_TOL", "TEMP_TOL_K", "START_NOTE",
-           "nrmse_of", "simulate_record", "record_start"]
+           "nrmse_of", "simulate_record"]
 
 ORDER_TOL = 0.05        # choose the smallest order within 5 % of the best held-out NRMSE
 QUIET = 0.05            # a held-out part whose output varies < 5 % of the record's: settled
@@ -114,15 +116,6 @@ def simulate_record(dmodel, d, free=False, fit=None):
     return Y
 
 
-def record_start(dmodel, d):
-    """:class:`~robrst.identify.free.RecordStart` of a non-periodic record under ``dmodel``."""
-    Y = dmodel.response(d.U)
-    c, f = fit_free(d.Y - Y, dmodel.zpoles)
-    return RecordStart(d.source or "record", tuple(c.tolist()),
-                       tuple(np.max(np.abs(f), axis=0).tolist()),
-                       tuple(np.std(d.Y, axis=0).tolist()))
-
-
 def _energies(dmodel, records, parts=None, free=False):
     """``(sum ||Y - Yhat||^2, sum ||Y - mean Y||^2)`` over records (``parts``: slices)."""
     num = den = 0.0
@@ -164,6 +157,7 @@ def _check(records, what):
         if np.ptp(d.U, axis=0).max() <= 0:
             raise DataError(f"{name}: the input never changes; nothing to identify from")
     return fs0
+
 
 
 def _groups(records):
@@ -320,9 +314,19 @@ def identify(train, validate=None, order="auto", max_order=None, feedthrough=Fal
         out, starts = [], []
         for T, recs in groups:
             dm = _fit_order(fit_data(recs, free=True), chosen.order, feedthrough)
+            rs = []
+            if any(not (d.period and d.periods >= 1) for d in recs):
+                rest = _fit_order(fit_data(recs), chosen.order, feedthrough)
+                rs = record_starts(dm, recs, rest)
+                flags = iter([r.significant for r in rs])
+                flags = [False if d.period and d.periods >= 1 else next(flags) for d in recs]
+                if not any(flags):
+                    dm = rest
+                elif not all(flags):     # refit: the others start at rest
+                    dm = _fit_order(fit_data(recs, free=flags), chosen.order, feedthrough)
             label = "identified" if T is None else f"identified_T{T:g}C"
             out.append(to_continuous(dm, label=label, temperature_C=T))
-            starts += [record_start(dm, d) for d in recs if not (d.period and d.periods >= 1)]
+            starts += rs
     notes = tuple(line for r in starts for line in r.notes(START_NOTE))
     for line in notes:
         say(line)

@@ -15,8 +15,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["free_columns", "fit_free", "RecordStart"]
+__all__ = ["free_columns", "fit_free", "record_starts", "RecordStart", "SIGNIFICANT_SIGMAS"]
 
+SIGNIFICANT_SIGMAS = 5.0   # terms lowering the residual by more than 5 sigma of chi-square
 
 def free_columns(zpoles, n):
     """Regressors ``(n, 1 + n_basis)``: a constant, then ``a^k`` per sampled pole.
@@ -77,17 +78,22 @@ class RecordStart:
     ``offset_um`` and ``initial_um`` hold one value per output [µm]; ``initial_um`` is
     ``max_k |f[k]|``, the size of the transient of the state the record started in (0
     for a record starting at rest).  ``scale_um`` is the output's RMS variation, the
-    yardstick of :attr:`notes`.
+    yardstick of :meth:`notes`.  ``significant``: the terms reduce the record's residual
+    beyond what noise explains (:func:`record_starts`); otherwise the record is taken
+    to start at rest with no offset.
     """
 
     name: str
     offset_um: tuple
     initial_um: tuple
     scale_um: tuple
+    significant: bool = True
 
     def notes(self, share):
-        """Lines for an offset or a start away from rest above ``share`` of the output's
-        RMS variation."""
+        """Lines for a significant offset or start away from rest above ``share`` of the
+        output's RMS variation."""
+        if not self.significant:
+            return []
         out = []
         for j, (c, f, s) in enumerate(zip(self.offset_um, self.initial_um, self.scale_um)):
             col = "y" if len(self.scale_um) == 1 else f"y{j + 1}"
@@ -102,4 +108,48 @@ class RecordStart:
 
     def as_dict(self):
         return {"record": self.name, "offset_um": [float(x) for x in self.offset_um],
-                "initial_um": [float(x) for x in self.initial_um]}
+                "initial_um": [float(x) for x in self.initial_um],
+                "from_rest": not self.significant}
+
+
+def record_starts(dmodel, records, rest_model, sigmas=SIGNIFICANT_SIGMAS):
+    """:class:`RecordStart` of each non-periodic record.
+
+    Parameters
+    ----------
+    dmodel : DiscreteModel
+        The sampled model fitted with the nuisance terms; they are estimated under it on
+        each whole record.
+    records : list of Dataset
+        The records it was fitted on (periodic ones are skipped).
+    rest_model : DiscreteModel
+        The model of the same order fitted with every record starting at rest.
+    sigmas : float
+        The terms are ``significant`` when, on some output, the residual energy of
+        ``rest_model`` from rest exceeds that of ``dmodel`` with them by more than
+        ``q + sigmas sqrt(2 q)`` noise variances (``q`` terms: chi-square's mean plus
+        ``sigmas`` standard deviations, if the record did start at rest with no offset);
+        the noise variance is the residual per sample left with them, pooled.
+
+    Returns
+    -------
+    list of RecordStart
+    """
+    rows = []
+    for d in records:
+        if d.period and d.periods >= 1:
+            continue
+        E = d.Y - dmodel.response(d.U)
+        c, f = fit_free(E, dmodel.zpoles)
+        e_rest = np.sum((d.Y - rest_model.response(d.U)) ** 2, axis=0)
+        rows.append((d, c, f, e_rest, np.sum((E - c - f) ** 2, axis=0)))
+    if not rows:
+        return []
+    q = free_columns(dmodel.zpoles, 1).shape[1]
+    dof = sum(max(d.n - q, 1) for d, *_ in rows)
+    var = np.sum([r[4] for r in rows], axis=0) / dof
+    limit = (q + sigmas * np.sqrt(2.0 * q)) * var
+    return [RecordStart(d.source or "record", tuple(c.tolist()),
+                        tuple(np.max(np.abs(f), axis=0).tolist()),
+                        tuple(np.std(d.Y, axis=0).tolist()), bool(np.any(e0 - e1 > limit)))
+            for d, c, f, e0, e1 in rows]

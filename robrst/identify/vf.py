@@ -50,21 +50,21 @@ class FitData:
     n_in: int
     n_out: int
     freq: tuple     # (z (L,), U (L, k), Y (L, m), weight) per periodic record
-    time: tuple     # (U (N, k), Y (N, m)) per non-periodic record
+    time: tuple     # (U (N, k), Y (N, m), free) per non-periodic record
     band: tuple     # (f_lo, f_hi) [Hz]: excited lines, or record length to Nyquist
-    free: bool = False  # time records: estimate an output offset and initial state
 
 
 def fit_data(records, free=False):
     """Split records into periodic spectra (excited lines) and time signals.
 
-    ``free``: the time records need not start at rest; each one's constant output offset
-    and initial-state free response are estimated with the model (nuisance terms).
-    Default False: they start at rest, with no offset.
+    ``free`` (one bool, or one per record): a time record need not start at rest; its
+    constant output offset and initial-state free response are estimated with the model
+    (nuisance terms).  Default False: records start at rest, with no offset.
     """
     fs = records[0].fs
+    flags = [bool(free)] * len(records) if np.ndim(free) == 0 else [bool(f) for f in free]
     freq, time, lo, hi = [], [], [], []
-    for d in records:
+    for d, flag in zip(records, flags):
         U, Y = d.U - 0.0, d.Y - 0.0
         if d.period and d.periods >= 1:
             P = d.period
@@ -82,11 +82,11 @@ def fit_data(records, free=False):
             lo.append(pos.min() if pos.size else fs / P)
             hi.append(pos.max() if pos.size else 0.48 * fs)
         else:
-            time.append((U, Y))
+            time.append((U, Y, flag))
             lo.append(fs / d.n)
             hi.append(0.48 * fs)
     return FitData(fs=fs, n_in=records[0].n_in, n_out=records[0].n_out, freq=tuple(freq),
-                   time=tuple(time), band=(min(lo), max(hi)), free=bool(free))
+                   time=tuple(time), band=(min(lo), max(hi)))
 
 
 def initial_poles(n, fs, f_lo, f_hi):
@@ -145,7 +145,7 @@ def _eliminate(N, A, b):
 def _blocks(data, poles, i, with_y, feedthrough):
     """Real design blocks (rows) for output ``i``: [Phi_U | U | -Phi_Y], rhs Y_i.
 
-    Returns ``(A, b, equations)``: with nuisance terms (``data.free``) a time record's
+    Returns ``(A, b, equations)``: with nuisance terms (``free`` records) a time record's
     rows are already reduced, and ``equations`` counts what is left to fit the columns.
     """
     rows_A, rows_b, n_eq = [], [], 0
@@ -161,14 +161,14 @@ def _blocks(data, poles, i, with_y, feedthrough):
         rows_A += [A.real, A.imag]
         rows_b += [b.real, b.imag]
         n_eq += 2 * A.shape[0]
-    for U, Y in data.time:
+    for U, Y, free in data.time:
         cols = [_basis_time(U[:, j], poles) for j in range(U.shape[1])]
         if feedthrough:
             cols.append(U)
         if with_y:
             cols.append(-_basis_time(Y[:, i], poles))
         A, b = np.hstack(cols), Y[:, i]
-        if data.free:
+        if free:
             A, b, n = _eliminate(free_columns(poles, len(b)), A, b)
         else:
             n = A.shape[0]
