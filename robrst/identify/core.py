@@ -159,6 +159,17 @@ def _check(records, what):
     return fs0
 
 
+def _same_temperature_columns(records):
+    """Refuse training records of which some measured the temperature and some did not:
+    the ones without could belong to any model of the family."""
+    with_t = [d for d in records if d.temp is not None]
+    if with_t and len(with_t) < len(records):
+        d = next(d for d in records if d.temp is None)
+        raise DataError(f"{d.source or 'record'}: no temp column, but"
+                        f" {with_t[0].source or 'another training record'} has one; every"
+                        " training record needs a temp column (records at several"
+                        " temperatures give a family) or none does")
+
 
 def _groups(records):
     """Records grouped by mean temperature (None: not measured), increasing."""
@@ -269,10 +280,12 @@ def identify(train, validate=None, order="auto", max_order=None, feedthrough=Fal
     Raises
     ------
     DataError
-        For inconsistent or unexcited records; SpecError for a bad order.
+        For inconsistent or unexcited records (also: training records of which only some
+        have a temperature column); SpecError for a bad order.
     """
     say = progress or (lambda m: None)
     fs = _check(list(train), "training")
+    _same_temperature_columns(list(train))
     if validate:
         _check(list(train) + list(validate), "validation")
     if order != "auto" and (isinstance(order, bool) or not isinstance(order, int) or order < 1):
