@@ -32,6 +32,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from robrst.dataset import check_sensor
 from robrst.errors import DataError, SpecError
 from robrst.identify.free import fit_free, record_starts
 from robrst.identify.vf import (fit_data, fit_residues, initial_poles, to_continuous,
@@ -156,6 +157,7 @@ def _check(records, what):
                             f" has {k0} and {m0}")
         if np.ptp(d.U, axis=0).max() <= 0:
             raise DataError(f"{name}: the input never changes; nothing to identify from")
+        check_sensor(d)
     return fs0
 
 
