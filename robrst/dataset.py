@@ -124,6 +124,11 @@ def check_sensor(d):
     A valid file (a sensor that was off or saturated still writes numbers), but nothing
     to fit or compare a model with: identification and diagnosis both call this.
 
+    Parameters
+    ----------
+    d : Dataset
+        The record (its ``source`` is named).
+
     Raises
     ------
     DataError

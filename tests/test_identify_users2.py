@@ -104,3 +104,137 @@ def test_records_starting_at_rest_keep_the_from_rest_fit(tmp_path):
     assert abs(r["offset_um"][0]) < 1e-3 and r["initial_um"][0] < 1e-2     # within the noise
     (m,), _ = load_linear_model(tmp_path / "m.toml")
     assert _frf_error(m, 1.0, 3000.0) < 2e-3
+
+
+# ---- the command line on bad or awkward input: one line, exit 2, nothing written, no
+# warning (the pattern of tests/test_bad_input_more.py)
+
+def _csv(rec, temp=None):
+    cols = ["t", "u", "y"] + (["temp"] if temp is not None else [])
+    arr = [rec.t, rec.u, rec.y] + ([np.full(rec.n, temp)] if temp is not None else [])
+    body = "".join(",".join(f"{v:.12g}" for v in row) + "\n" for row in np.column_stack(arr))
+    return ",".join(cols) + "\n" + body
+
+
+def _multisine(P=1000, periods=4):
+    """A periodic record (steady state) of the true plant: every line up to Nyquist."""
+    k = np.arange(1, P // 2)
+    X = np.zeros(P // 2 + 1, complex)
+    X[k] = np.exp(2j * np.pi * np.random.default_rng(1).random(k.size))
+    x = np.fft.irfft(X, P)
+    u = np.tile(5.0 * x / np.std(x), periods + 2)
+    y = _zoh(u)[2 * P:]
+    return Dataset(t=np.arange(periods * P) / FS, u=u[2 * P:], y=y, period=P, source="ms")
+
+
+def _npz(**arrays):
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    return buf.getvalue()
+
+
+_REC = _record(1, n=2000)
+_T = np.arange(2000) / FS
+CLI_CASES = [
+    # (name, files, argv after "identify", named in the one line)
+    ("temp_in_one_file_only", {"a.csv": _csv(_REC, 28.0), "b.csv": _csv(_record(2, n=2000))},
+     ["--train", "a.csv", "b.csv", "--out", "m.toml"], "b.csv: no temp column, but a.csv"),
+    ("sampled_at_20_THz", {"fh.csv": _csv(_REC).replace("t,u,y", "t,u,y", 1)},
+     ["--train", "fh.csv", "--out", "m.toml", "--order", "2"], "is the time column in seconds"),
+    ("order_90_overflows", {"ms.csv": None}, ["--train", "ms.csv", "--out", "m.toml",
+                                             "--order", "90"], "--order"),
+    ("constant_y", {"c.csv": "t,u,y\n" + "".join(f"{k / FS},{np.sin(k / 9)},3\n"
+                                                  for k in range(2000))},
+     ["--train", "c.csv", "--out", "m.toml"], "c.csv: column y is constant (3 µm) while u varies"),
+    ("header_only", {"h.csv": "t,u,y\n"}, ["--train", "h.csv", "--out", "m.toml"],
+     "h.csv: fewer than 2 data rows"),
+    ("complex_u", {"z.npz": _npz(t=_T, u=_REC.u + 1j, y=_REC.y)},
+     ["--train", "z.npz", "--out", "m.toml"], "z.npz: array u must hold real numbers"),
+    ("complex_t", {"z.npz": _npz(t=_T + 0j, u=_REC.u, y=_REC.y)},
+     ["--train", "z.npz", "--out", "m.toml"], "z.npz: array t must hold real numbers"),
+]
+
+
+def _files(tmp_path, files):
+    for fn, data in files.items():
+        if fn == "ms.csv":
+            from robrst.dataset import save_dataset as save
+            save(_multisine(), tmp_path / fn)
+        elif fn == "fh.csv":        # the same samples 5e-14 s apart (time in units of 1e9 s?)
+            text = _csv(_REC)
+            lines = text.splitlines()
+            rows = [f"{k * 5e-14:.12g}," + ",".join(r.split(",")[1:])
+                    for k, r in enumerate(lines[1:])]
+            (tmp_path / fn).write_text("\n".join([lines[0]] + rows) + "\n")
+        else:
+            (tmp_path / fn).write_bytes(data if isinstance(data, bytes) else data.encode())
+
+
+def _run_cli(tmp_path, argv):
+    import os
+    out, err = io.StringIO(), io.StringIO()
+    cwd = os.getcwd()
+    os.chdir(tmp_path)
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+                rc = main(argv)
+    finally:
+        os.chdir(cwd)
+    return rc, out.getvalue(), err.getvalue(), [str(w.message) for w in caught]
+
+
+@pytest.mark.parametrize("name,files,argv,named", CLI_CASES, ids=[c[0] for c in CLI_CASES])
+def test_bad_identify_input_is_one_short_line_exit_2_nothing_written(tmp_path, name, files,
+                                                                       argv, named):
+    _files(tmp_path, files)
+    before = {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
+    rc, out, err, caught = _run_cli(tmp_path, ["identify", *argv, "--quiet"])
+    lines = err.strip().splitlines()
+    assert rc == 2 and out == "", (rc, out, err)
+    assert len(lines) == 1 and lines[0].startswith("robrst: error:"), err
+    assert named in lines[0] and len(lines[0]) < 500, lines[0]
+    assert caught == [], caught                              # no warning leaks
+    assert {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()} == before
+
+
+def test_order_90_names_both_remedies(tmp_path):
+    _files(tmp_path, {"ms.csv": None})
+    rc, _, err, caught = _run_cli(tmp_path, ["identify", "--train", "ms.csv", "--out", "m.toml",
+                                             "--order", "90", "--quiet"])
+    assert rc == 2 and "--modal" in err and "--order" in err and caught == []
+    # and the modal model file does hold it
+    rc, _, err, caught = _run_cli(tmp_path, ["identify", "--train", "ms.csv", "--out", "m.toml",
+                                             "--order", "90", "--modal", "--quiet"])
+    assert rc == 0 and caught == [], err
+
+
+@pytest.mark.parametrize("out,name", [("q\\x.toml", None), ("m.toml", 'a"b'),
+                                      ("m.toml", "tab\there\nnewline \\ back\x7f"),
+                                      ("m.toml", "é µm °C")])
+def test_written_strings_are_toml_escaped_and_read_back(tmp_path, out, name):
+    """The problem name (default: the file stem) and every other string written to TOML
+    is escaped; the file reads back with the exact name."""
+    (tmp_path / "r.csv").write_text(_csv(_REC))
+    argv = ["identify", "--train", "r.csv", "--out", out, "--order", "2", "--quiet"]
+    rc, _, err, caught = _run_cli(tmp_path, argv + (["--name", name] if name else []))
+    assert rc == 0 and caught == [], err
+    d = tomllib.loads((tmp_path / out).read_text(encoding="utf-8"))
+    assert d["problem"]["name"] == (name or "q\\x")
+    (models, _), = [load_linear_model(tmp_path / out)]
+    assert _frf_error(models[0], 1.0, 3000.0) < 1e-6
+
+
+def test_problem_file_drops_a_rounding_zero_beyond_nyquist(tmp_path):
+    """Noise-free data written with 12 digits: the fitted numerator's leading term is a
+    rounding residue (a zero near 2e16 rad/s that no robrst file holds).  It changes the
+    response below Nyquist by < 1e-9 and is dropped: B = [b0] as the truth, 1e-8 close."""
+    (tmp_path / "r.csv").write_text(_csv(_REC))
+    rc, _, err, _ = _run_cli(tmp_path, ["identify", "--train", "r.csv", "--out", "m.toml",
+                                        "--order", "2", "--quiet"])
+    assert rc == 0, err
+    plant = tomllib.loads((tmp_path / "m.toml").read_text())["plant"]
+    assert len(plant["B"]) == 1 and len(plant["A"]) == 3
+    assert np.allclose(plant["B"], B_TRUE, rtol=1e-8, atol=0)
+    assert np.allclose(plant["A"], A_TRUE, rtol=1e-8, atol=0)

@@ -31,6 +31,13 @@ def family_of_data(data, path):
     """The plant family of a parsed problem document, as :func:`problem_family` reads it
     (``robrst identify`` checks the text it would write with this).
 
+    Parameters
+    ----------
+    data : dict
+        The parsed TOML document (``[poles]`` may be missing).
+    path : str or Path
+        Named in every error.
+
     Returns
     -------
     PlantFamily

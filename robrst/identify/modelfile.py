@@ -58,6 +58,16 @@ def toml_string(text):
 
     Every character TOML requires escaped is: quote, backslash, control characters and
     DEL; an undecodable byte of a file name (a lone surrogate) becomes U+FFFD.
+
+    Parameters
+    ----------
+    text : str
+        Any text (a problem name, a file stem).
+
+    Returns
+    -------
+    str
+        The TOML literal, e.g. ``"a\\"b"`` for ``a"b``.
     """
     out = []
     for ch in str(text):
