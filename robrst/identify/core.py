@@ -322,8 +322,10 @@ def identify(train, validate=None, order="auto", max_order=None, feedthrough=Fal
                 + (f" ({note})" if note else ""))
         finite = [s for s in scores if math.isfinite(s.heldout_nrmse)]
         if not finite:
+            hint = ("; choose a lower --order" if order != "auto" else
+                    "; choose a lower --max-order")
             raise SpecError("no candidate order gives a usable model: "
-                            + "; ".join(s.note for s in scores[:3]))
+                            + "; ".join(s.note for s in scores[:3]) + hint)
         best = min(s.heldout_nrmse for s in finite)
         chosen = next(s for s in finite if s.heldout_nrmse <= best * (1 + ORDER_TOL) + 1e-9)
         out, starts = [], []
