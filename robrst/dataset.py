@@ -28,7 +28,7 @@ import numpy as np
 from robrst.errors import DataError
 from robrst.fileio import atomic_write_bytes, atomic_write_text, read_utf8
 
-__all__ = ["Dataset", "load_dataset", "save_dataset", "COLUMNS", "PLAUSIBLE"]
+__all__ = ["Dataset", "load_dataset", "save_dataset", "check_sensor", "COLUMNS", "PLAUSIBLE"]
 
 COLUMNS = ("t", "u", "y")          # required (u/y or u1..uk/y1..ym)
 OPTIONAL = ("temp", "yr")
@@ -116,6 +116,30 @@ class Dataset:
         arrays += [self.temp] if self.temp is not None else []
         arrays += [self.yr] if self.yr is not None else []
         return dict(zip(self.column_names(), arrays))
+
+
+def check_sensor(d):
+    """Refuse a record whose output column is constant while an input varies.
+
+    A valid file (a sensor that was off or saturated still writes numbers), but nothing
+    to fit or compare a model with: identification and diagnosis both call this.
+
+    Parameters
+    ----------
+    d : Dataset
+        The record (its ``source`` is named).
+
+    Raises
+    ------
+    DataError
+        Naming the record's file and the column, e.g. ``column y is constant (3 µm)``.
+    """
+    flat = [j for j in range(d.n_out) if np.ptp(d.Y[:, j]) == 0.0]
+    if flat and np.ptp(d.U, axis=0).max() > 0.0:
+        col = "y" if d.n_out == 1 else f"y{flat[0] + 1}"
+        raise DataError(f"{d.source or 'record'}: column {col} is constant"
+                        f" ({d.Y[0, flat[0]]:g} µm) while u varies: no sensor signal to fit"
+                        " or compare a model with")
 
 
 def save_dataset(ds, path, comments=()):
@@ -211,12 +235,14 @@ def _read_csv(path):
     hline = i + 1
     _check_header(path, header, hline)
     body = lines[i + 1:]
-    try:
-        arr = np.loadtxt(io.StringIO("\n".join(body)), delimiter=",", comments=None, ndmin=2)
-    except ValueError:
-        _slow_parse(path, body, hline + 1, len(header))
-    if arr.size == 0:
-        arr = np.zeros((0, len(header)))
+    if not any(line.strip() for line in body):
+        arr = np.zeros((0, len(header)))     # header only: "fewer than 2 data rows" below
+    else:
+        try:
+            arr = np.loadtxt(io.StringIO("\n".join(body)), delimiter=",", comments=None,
+                             ndmin=2)
+        except ValueError:
+            _slow_parse(path, body, hline + 1, len(header))
     if arr.shape[1] != len(header):
         _slow_parse(path, body, hline + 1, len(header))
 
@@ -253,13 +279,16 @@ def _read_npz(path):
     t = data["t"]
     if t.ndim != 1:
         raise DataError(f"{path}: array t must be 1-D, got shape {t.shape}")
+    for k in ("t", "u", "y", "temp", "yr"):
+        # integers and floats only: a complex array would lose its imaginary part
+        if k in data and data[k].dtype.kind not in "iuf":
+            raise DataError(f"{path}: array {k} must hold real numbers (integer or float),"
+                            f" got dtype {data[k].dtype}")
     cols, header = {"t": t.astype(float)}, ["t"]
     for k in ("u", "y", "temp", "yr"):
         if k not in data:
             continue
         a = data[k]
-        if not np.issubdtype(a.dtype, np.number):
-            raise DataError(f"{path}: array {k} must be numeric, got {a.dtype}")
         if a.shape[:1] != t.shape or a.ndim > (2 if k in ("u", "y") else 1):
             raise DataError(f"{path}: array {k} has shape {a.shape}; expected ({t.size},"
                             + (f" or ({t.size}, channels)" if k in ("u", "y") else "") + ")")

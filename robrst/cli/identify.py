@@ -59,6 +59,29 @@ def _channel(text):
     return i - 1, j - 1
 
 
+def _problem_readable(ident):
+    """``check`` for :func:`write_identified`: the problem file's text must be one
+    ``robrst.spec`` accepts, as ``diagnose --model`` reads it (and ``design`` once
+    ``[poles]`` is added)."""
+    fastest = max(float(abs(m.all_poles()).max(initial=0.0)) for m in ident.models)
+
+    def check(text, path):
+        import tomllib
+
+        from robrst.experiments.linear_model import family_of_data
+        from robrst.spec import MAX_RATE
+
+        try:
+            family_of_data(tomllib.loads(text), path)
+        except SpecError as exc:
+            hint = (f"; poles up to {fastest:.3g} rad/s from records sampled at"
+                    f" {ident.fs:.6g} Hz: is the time column in seconds?"
+                    if fastest > MAX_RATE else "")
+            raise SpecError(f"order {ident.order}: the problem file would not be readable,"
+                            f" nothing written: {exc}{hint}") from None
+    return check
+
+
 def run_identify(args):
     """Identify and write; returns the exit code (0)."""
     from robrst.dataset import load_dataset
@@ -82,7 +105,8 @@ def run_identify(args):
     ident = identify(train, validate=val, order=order, max_order=args.max_order,
                      feedthrough=args.feedthrough, progress=say)
     path = write_identified(ident, args.out, [d.source for d in train], channel=channel,
-                            name=args.name, modal=args.modal)
+                            name=args.name, modal=args.modal,
+                            check=_problem_readable(ident))
     d = {**ident.as_dict(), "out": str(path), WRITTEN_BY: "robrst identify"}
     if args.report:
         from robrst.report.identification import write_identification_report

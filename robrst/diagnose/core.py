@@ -31,6 +31,7 @@ import time
 
 import numpy as np
 
+from robrst.dataset import check_sensor
 from robrst.diagnose import signals
 from robrst.diagnose.effects import EFFECTS, THERMAL, Chain, summary
 from robrst.diagnose.findings import (amplitude_finding, comparable, floor_of, noise_levels,
@@ -75,11 +76,7 @@ def check_records(train, test, n_in=None, n_out=None):
         if (d.n_in, d.n_out) != (k, m):
             raise DataError(f"{name}: {d.n_in} input(s) and {d.n_out} output(s), but the model"
                             f" has {k} and {m}")
-        flat = [j for j in range(d.n_out) if np.ptp(d.Y[:, j]) == 0.0]
-        if flat and np.ptp(d.U, axis=0).max() > 0.0:   # u varies, a sensor column does not
-            col = "y" if d.n_out == 1 else f"y{flat[0] + 1}"
-            raise DataError(f"{name}: column {col} is constant ({d.Y[0, flat[0]]:g} µm)"
-                            " while u varies: no sensor signal to compare the model with")
+        check_sensor(d)                  # u varies, a sensor column does not
     fs0 = recs[0].fs
     for d in recs[1:]:
         if abs(d.fs - fs0) > 1e-6 * fs0:

@@ -10,7 +10,7 @@ from robrst.identify.modal import ModalModel
 from robrst.identify.modelfile import modal_models, read_model_data
 from robrst.spec import load_problem, parse_problem
 
-__all__ = ["load_linear_model", "problem_family"]
+__all__ = ["load_linear_model", "problem_family", "family_of_data"]
 
 
 def problem_family(path):
@@ -24,7 +24,29 @@ def problem_family(path):
     path = Path(path)
     if not path.is_file():
         return load_problem(path).family    # a built-in name (or a clear error)
-    data = read_model_data(path)
+    return family_of_data(read_model_data(path), path)
+
+
+def family_of_data(data, path):
+    """The plant family of a parsed problem document, as :func:`problem_family` reads it
+    (``robrst identify`` checks the text it would write with this).
+
+    Parameters
+    ----------
+    data : dict
+        The parsed TOML document (``[poles]`` may be missing).
+    path : str or Path
+        Named in every error.
+
+    Returns
+    -------
+    PlantFamily
+
+    Raises
+    ------
+    SpecError
+        Naming ``path`` and the key of the first problem.
+    """
     # a placeholder stands in for the (unused) [poles] table a file may not have yet
     return parse_problem({"poles": {"wn": 1.0, "zeta": 1.0}, **data}, path).family
 

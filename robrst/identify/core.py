@@ -16,6 +16,15 @@ that part has settled (its output varies by less than ``QUIET`` of the record's,
 single step), when it cannot tell orders apart and the order is chosen on the
 whole-record fit.  Records at several temperatures (mean temperature differing by more
 than ``TEMP_TOL_K``) give one model per temperature: a temperature family.
+
+Non-periodic records need not start at rest: each one's constant output offset and the
+free response of its initial state are estimated with the model (nuisance terms, see
+:mod:`robrst.identify.free`), in the fit and in every score (on the fit part of a split
+record, on the whole of a held-out one).  The estimates are reported per training record
+(:attr:`Identified.starts`) and noted when above ``START_NOTE`` of the output's RMS
+variation.  A record on which they are not significant (they lower its residual by no
+more than noise would, see :func:`robrst.identify.free.record_starts`) is taken to start
+at rest with no offset in the final fit: no information is spent on them.
 """
 
 import math
@@ -23,19 +32,22 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from robrst.dataset import check_sensor
 from robrst.errors import DataError, SpecError
+from robrst.identify.free import fit_free, record_starts
 from robrst.identify.vf import (fit_data, fit_residues, initial_poles, to_continuous,
                                 vector_fit)
 from robrst.threads import one_blas_thread
 
-__all__ = ["identify", "Identified", "OrderScore", "ORDER_TOL", "TEMP_TOL_K", "nrmse_of",
-           "simulate_record"]
+__all__ = ["identify", "Identified", "OrderScore", "ORDER_TOL", "TEMP_TOL_K", "START_NOTE",
+           "nrmse_of", "simulate_record"]
 
 ORDER_TOL = 0.05        # choose the smallest order within 5 % of the best held-out NRMSE
 QUIET = 0.05            # a held-out part whose output varies < 5 % of the record's: settled
 TEMP_TOL_K = 1.0        # records whose mean temperatures differ less share a model
 VF_ITER = 12
 MIN_SAMPLES = 50
+START_NOTE = 0.01       # offsets / initial transients above 1 % of the output's RMS: noted
 
 
 @dataclass(frozen=True)
@@ -60,6 +72,8 @@ class Identified:
     heldout: tuple           # names of the held-out records (or parts)
     train: tuple             # names of the fit records
     heldout_nrmse: float     # of the chosen order (selection group)
+    starts: tuple = ()       # RecordStart per non-periodic training record
+    notes: tuple = ()        # significant offsets and starts away from rest
 
     @property
     def model(self):
@@ -72,6 +86,7 @@ class Identified:
                 "temperatures_C": [m.temperature_C for m in self.models],
                 "heldout_nrmse": self.heldout_nrmse, "train": list(self.train),
                 "heldout": list(self.heldout),
+                "records": [r.as_dict() for r in self.starts], "notes": list(self.notes),
                 "orders": [{"order": s.order, "train_nrmse": _num(s.train_nrmse),
                             "heldout_nrmse": _num(s.heldout_nrmse), "note": s.note}
                            for s in self.scores]}
@@ -81,30 +96,47 @@ def _num(x):
     return float(x) if math.isfinite(x) else None
 
 
-def simulate_record(dmodel, d):
-    """Simulated outputs ``(N, m)`` of a sampled model on record ``d``."""
+def _fit_part(sl):
+    """Samples the nuisance terms are estimated on when ``sl`` is scored: those before it
+    (a split record's fit part), else the whole record (a held-out record)."""
+    start = sl.start or 0
+    return slice(0, start) if start > 0 else None
+
+
+def simulate_record(dmodel, d, free=False, fit=None):
+    """Simulated outputs ``(N, m)`` of a sampled model on record ``d``.
+
+    ``free``: a non-periodic record's output offset and initial-state free response are
+    estimated by least squares on the samples ``fit`` (default: all) and included.
+    """
     periodic = bool(d.period) and d.periods >= 1
-    return dmodel.response(d.U, periodic=periodic)
+    Y = dmodel.response(d.U, periodic=periodic)
+    if free and not periodic:
+        c, f = fit_free(d.Y - Y, dmodel.zpoles, fit)
+        Y = Y + c + f
+    return Y
 
 
-def _energies(dmodel, records, parts=None):
+def _energies(dmodel, records, parts=None, free=False):
     """``(sum ||Y - Yhat||^2, sum ||Y - mean Y||^2)`` over records (``parts``: slices)."""
     num = den = 0.0
     for k, d in enumerate(records):
         sl = parts[k] if parts is not None else slice(None)
         Y = d.Y[sl]
-        E = Y - simulate_record(dmodel, d)[sl]
+        E = Y - simulate_record(dmodel, d, free, _fit_part(sl))[sl]
         num += float(np.sum(E ** 2))
         den += float(np.sum((Y - Y.mean(axis=0)) ** 2))
     return num, den
 
 
-def nrmse_of(dmodel, records, parts=None):
+def nrmse_of(dmodel, records, parts=None, free=False):
     """Pooled NRMSE ``||Y - Yhat|| / ||Y - mean Y||`` over records and outputs.
 
-    ``parts`` optionally gives, per record, a slice of samples to score.
+    ``parts`` optionally gives, per record, a slice of samples to score; ``free``
+    includes each non-periodic record's estimated offset and initial-state response
+    (estimated on the samples before the slice, or on the whole record).
     """
-    num, den = _energies(dmodel, records, parts)
+    num, den = _energies(dmodel, records, parts, free)
     return math.sqrt(num / den) if den > 0 else math.inf
 
 
@@ -125,7 +157,20 @@ def _check(records, what):
                             f" has {k0} and {m0}")
         if np.ptp(d.U, axis=0).max() <= 0:
             raise DataError(f"{name}: the input never changes; nothing to identify from")
+        check_sensor(d)
     return fs0
+
+
+def _same_temperature_columns(records):
+    """Refuse training records of which some measured the temperature and some did not:
+    the ones without could belong to any model of the family."""
+    with_t = [d for d in records if d.temp is not None]
+    if with_t and len(with_t) < len(records):
+        d = next(d for d in records if d.temp is None)
+        raise DataError(f"{d.source or 'record'}: no temp column, but"
+                        f" {with_t[0].source or 'another training record'} has one; every"
+                        " training record needs a temp column (records at several"
+                        " temperatures give a family) or none does")
 
 
 def _groups(records):
@@ -237,10 +282,12 @@ def identify(train, validate=None, order="auto", max_order=None, feedthrough=Fal
     Raises
     ------
     DataError
-        For inconsistent or unexcited records; SpecError for a bad order.
+        For inconsistent or unexcited records (also: training records of which only some
+        have a temperature column); SpecError for a bad order.
     """
     say = progress or (lambda m: None)
     fs = _check(list(train), "training")
+    _same_temperature_columns(list(train))
     if validate:
         _check(list(train) + list(validate), "validation")
     if order != "auto" and (isinstance(order, bool) or not isinstance(order, int) or order < 1):
@@ -255,7 +302,7 @@ def identify(train, validate=None, order="auto", max_order=None, feedthrough=Fal
         else:
             fit_recs, recs, parts, held_names = _split(groups[main][1])
             held = [(main, recs, parts)]
-        data = {i: fit_data(fit_recs if i == main else groups[i][1])
+        data = {i: fit_data(fit_recs if i == main else groups[i][1], free=True)
                 for i in {main} | {i for i, _, _ in held}}
         n_lines = max([z.size for z, *_ in data[main].freq], default=0)
         scores = []
@@ -264,8 +311,8 @@ def identify(train, validate=None, order="auto", max_order=None, feedthrough=Fal
                 dms = {i: _fit_order(data[i], n, feedthrough) for i in data}
                 for dm in dms.values():
                     to_continuous(dm)
-                tr, note = nrmse_of(dms[main], fit_recs), ""
-                num, den = np.sum([_energies(dms[i], r, sl) for i, r, sl in held], axis=0)
+                tr, note = nrmse_of(dms[main], fit_recs, free=True), ""
+                num, den = np.sum([_energies(dms[i], r, sl, True) for i, r, sl in held], axis=0)
                 ho = math.sqrt(num / den) if den > 0 else math.inf
             except SpecError as exc:
                 tr = ho = math.inf
@@ -275,17 +322,33 @@ def identify(train, validate=None, order="auto", max_order=None, feedthrough=Fal
                 + (f" ({note})" if note else ""))
         finite = [s for s in scores if math.isfinite(s.heldout_nrmse)]
         if not finite:
+            hint = ("; choose a lower --order" if order != "auto" else
+                    "; choose a lower --max-order")
             raise SpecError("no candidate order gives a usable model: "
-                            + "; ".join(s.note for s in scores[:3]))
+                            + "; ".join(s.note for s in scores[:3]) + hint)
         best = min(s.heldout_nrmse for s in finite)
         chosen = next(s for s in finite if s.heldout_nrmse <= best * (1 + ORDER_TOL) + 1e-9)
-        out = []
+        out, starts = [], []
         for T, recs in groups:
-            dm = _fit_order(fit_data(recs), chosen.order, feedthrough)
+            dm = _fit_order(fit_data(recs, free=True), chosen.order, feedthrough)
+            rs = []
+            if any(not (d.period and d.periods >= 1) for d in recs):
+                rest = _fit_order(fit_data(recs), chosen.order, feedthrough)
+                rs = record_starts(dm, recs, rest)
+                flags = iter([r.significant for r in rs])
+                flags = [False if d.period and d.periods >= 1 else next(flags) for d in recs]
+                if not any(flags):
+                    dm = rest
+                elif not all(flags):     # refit: the others start at rest
+                    dm = _fit_order(fit_data(recs, free=flags), chosen.order, feedthrough)
             label = "identified" if T is None else f"identified_T{T:g}C"
             out.append(to_continuous(dm, label=label, temperature_C=T))
+            starts += rs
+    notes = tuple(line for r in starts for line in r.notes(START_NOTE))
+    for line in notes:
+        say(line)
     say(f"chosen order {chosen.order} (held-out NRMSE {chosen.heldout_nrmse:.4g})")
     return Identified(models=tuple(out), order=chosen.order, feedthrough=feedthrough, fs=fs,
                       scores=tuple(scores), heldout=held_names,
                       train=tuple(d.source or "record" for d in train),
-                      heldout_nrmse=chosen.heldout_nrmse)
+                      heldout_nrmse=chosen.heldout_nrmse, starts=tuple(starts), notes=notes)

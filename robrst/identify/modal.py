@@ -102,6 +102,7 @@ class ModalModel:
 
         Expanded in the scaled variable ``s / w0`` (``w0`` the geometric mean of the
         pole magnitudes) so the coefficients keep their precision, then unscaled.
+        Raises :class:`SpecError` when the unscaled coefficients overflow float64.
         """
         allp = self.all_poles()
         mags = np.abs(allp[np.abs(allp) > 0])
@@ -119,8 +120,13 @@ class ModalModel:
         # they span w0**n and a relative threshold would drop terms that matter
         B = np.trim_zeros(np.where(np.abs(B) > 1e-13 * np.max(np.abs(B)), B, 0.0), "f")
         n = len(A) - 1
-        A = A * w0 ** np.arange(0, n + 1)
-        B = B * w0 ** np.arange(n + 1 - len(B), n + 1)
+        with np.errstate(over="ignore", invalid="ignore"):
+            A = A * w0 ** np.arange(0, n + 1)
+            B = B * w0 ** np.arange(n + 1 - len(B), n + 1)
+        if not (np.all(np.isfinite(A)) and np.all(np.isfinite(B))):
+            raise SpecError(f"model {self.label!r}: the expanded polynomials B(s), A(s) of"
+                            f" order {n} overflow float64 (pole magnitudes around {w0:.3g}"
+                            f" rad/s, w0^{n}); use the modal form")
         return Plant(B if B.size else [0.0], A, label=label or f"{self.label}_y{i + 1}u{j + 1}",
                      temperature_C=self.temperature_C)
 

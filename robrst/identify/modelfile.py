@@ -27,6 +27,7 @@ reads either kind (problem files through :mod:`robrst.spec`, a layer above this 
 """
 
 import tomllib
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -36,15 +37,57 @@ from robrst.fileio import atomic_write_text, check_file_target
 from robrst.identify.modal import ModalModel
 from robrst.schema import MAX_MAGNITUDE
 
-__all__ = ["problem_text", "model_text", "write_identified", "check_target", "read_model_data",
+__all__ = ["problem_text", "model_text", "toml_string", "write_identified", "check_target", "read_model_data",
            "modal_models", "MARKER", "FORMAT"]
 
 MARKER = "# written by robrst identify"
+NEGLIGIBLE_LEAD = 1e-9   # a leading numerator term below this share of B up to Nyquist
 FORMAT = "robrst-modal-1"
 
 
 def _num(x):
     return repr(float(x))
+
+
+_ESCAPES = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n",
+            "\f": "\\f", "\r": "\\r"}
+
+
+def toml_string(text):
+    """``text`` as a TOML basic string, quotes included.
+
+    Every character TOML requires escaped is: quote, backslash, control characters and
+    DEL; an undecodable byte of a file name (a lone surrogate) becomes U+FFFD.
+
+    Parameters
+    ----------
+    text : str
+        Any text (a problem name, a file stem).
+
+    Returns
+    -------
+    str
+        The TOML literal, e.g. ``"a\\"b"`` for ``a"b``.
+    """
+    out = []
+    for ch in str(text):
+        if ch in _ESCAPES:
+            out.append(_ESCAPES[ch])
+        elif ord(ch) < 0x20 or ord(ch) == 0x7F:
+            out.append(f"\\u{ord(ch):04X}")
+        elif 0xD800 <= ord(ch) <= 0xDFFF:     # an undecodable byte of a file name
+            out.append("\uFFFD")
+        else:
+            out.append(ch)
+    return '"' + "".join(out) + '"'
+
+
+def _comment(text):
+    """``text`` safe inside a ``#`` comment line (control characters shown escaped,
+    undecodable bytes of a file name as U+FFFD)."""
+    return "".join("\uFFFD" if 0xD800 <= ord(ch) <= 0xDFFF else
+                   ch if ord(ch) >= 0x20 and ord(ch) != 0x7F else repr(ch)[1:-1]
+                   for ch in str(text))
 
 
 def _list(v):
@@ -57,17 +100,18 @@ def _matrix(M):
 
 def _header(ident, sources, what):
     lines = [f"{MARKER} ({what})",
-             f"# from {len(sources)} record(s): " + ", ".join(str(s) for s in sources[:6])
+             f"# from {len(sources)} record(s): " + ", ".join(_comment(s) for s in sources[:6])
              + (" ..." if len(sources) > 6 else ""),
              f"# order {ident.order} (poles), sampled at {ident.fs:g} Hz, held-out NRMSE"
-             f" {ident.heldout_nrmse:.4g} on " + ", ".join(ident.heldout[:4])]
+             f" {ident.heldout_nrmse:.4g} on " + ", ".join(_comment(h) for h in ident.heldout[:4])]
     return lines
 
 
 def _readable(plants, order):
     """Refuse polynomials a problem file cannot hold (expanded, a high order's coefficients
     leave the range every robrst file accepts) before anything is written."""
-    c = np.concatenate([np.concatenate([p.B, p.A]) for p in plants])
+    c = (np.concatenate([np.concatenate([p.B, p.A]) for p in plants]) if plants is not None
+         else np.array([np.inf]))      # None: the expansion overflowed float64
     nz = np.abs(c[c != 0])
     if not np.all(np.isfinite(c)) or (nz.size and not (
             nz.min() >= 1 / MAX_MAGNITUDE and nz.max() <= MAX_MAGNITUDE)):
@@ -79,6 +123,22 @@ def _readable(plants, order):
                         " a lower --order / --max-order")
 
 
+def _drop_negligible_lead(plants, fs, rtol=NEGLIGIBLE_LEAD):
+    """Drop leading numerator coefficients that change no model's response from 0 to
+    Nyquist by more than ``rtol`` relative (the expansion's rounding residue of a
+    relative degree above one: a zero far beyond Nyquist, e.g. at 2e16 rad/s, that a
+    problem file cannot hold).  Every model keeps the same degrees."""
+    w = np.pi * fs * np.linspace(0.0, 1.0, 1025)[1:]
+    s = 1j * w
+    while all(p.B.size > 1 for p in plants):
+        lead = [np.abs(p.B[0] * s ** (p.B.size - 1)) / np.maximum(np.abs(np.polyval(p.B, s)),
+                                                                    1e-300) for p in plants]
+        if max(float(r.max()) for r in lead) > rtol:
+            break
+        plants = [replace(p, B=p.B[1:]) for p in plants]
+    return plants
+
+
 def problem_text(ident, sources, name, channel=(0, 0)):
     """The problem-file text of output ``channel[0]`` from input ``channel[1]``.
 
@@ -88,19 +148,23 @@ def problem_text(ident, sources, name, channel=(0, 0)):
         When the expanded polynomials do not fit in a robrst file (see :func:`_readable`).
     """
     i, j = channel
-    plants = [m.channel(i, j) for m in ident.models]
+    try:
+        plants = _drop_negligible_lead([m.channel(i, j) for m in ident.models], ident.fs)
+    except SpecError:      # the expanded coefficients overflow float64
+        plants = None
     _readable(plants, ident.order)
     lines = _header(ident, sources, "problem file")
-    lines += ["", "[problem]", f'name = "{name}"',
-              f'description = "identified by robrst identify (output y{i + 1} from input u{j + 1})"',
+    desc = f"identified by robrst identify (output y{i + 1} from input u{j + 1})"
+    lines += ["", "[problem]", f"name = {toml_string(name)}",
+              f"description = {toml_string(desc)}",
               "", "[plant]", f"B = {_list(plants[0].B)}", f"A = {_list(plants[0].A)}"]
     T0 = ident.models[0].temperature_C
     if T0 is not None:
         lines.append(f"temperature_C = {_num(T0)}")
-    lines.append('source = "robrst identify"')
+    lines.append(f"source = {toml_string('robrst identify')}")
     if len(plants) > 1:
         lines += ["", "[family]", f"reference_C = {_num(T0)}",
-                  'source = "robrst identify: one model per record temperature"']
+                  "source = " + toml_string("robrst identify: one model per record temperature")]
         for p in plants:
             lines += ["", "[[family.models]]", f"temperature_C = {_num(p.temperature_C)}",
                       f"B = {_list(p.B)}", f"A = {_list(p.A)}"]
@@ -114,9 +178,9 @@ def model_text(ident, sources):
     """The model-file text (modal form, every channel)."""
     m0 = ident.models[0]
     lines = _header(ident, sources, "model file")
-    lines += ["", "[model]", f'format = "{FORMAT}"', f"inputs = {m0.n_in}",
+    lines += ["", "[model]", f"format = {toml_string(FORMAT)}", f"inputs = {m0.n_in}",
               f"outputs = {m0.n_out}", f"order = {ident.order}",
-              f"fs_hz = {_num(ident.fs)}", 'source = "robrst identify"']
+              f"fs_hz = {_num(ident.fs)}", f"source = {toml_string('robrst identify')}"]
     for m in ident.models:
         lines += ["", "[[model.at]]"]
         if m.temperature_C is not None:
@@ -152,11 +216,31 @@ def check_target(path):
     return path
 
 
-def write_identified(ident, path, sources, channel=None, name=None, modal=False):
+def write_identified(ident, path, sources, channel=None, name=None, modal=False, check=None):
     """Write a problem file (SISO or ``channel``) or a model file; atomically.
 
-    ``modal`` writes the model file (modal form, any order) for one input and output too.
-    Refuses to replace an existing file that robrst identify did not write.
+    Parameters
+    ----------
+    ident : Identified
+        The identification result.
+    path : str or Path
+        The output file; an existing file robrst identify did not write is refused.
+    sources : list of str
+        Names of the training records (named in the file's header comment).
+    channel : (int, int), optional
+        Output and input (0-based) of the problem file of a MIMO model.
+    name : str, optional
+        The problem name (default: the file stem).
+    modal : bool
+        Write the model file (modal form, any order) for one input and output too.
+    check : callable, optional
+        Called as ``check(text, path)`` with a problem file's text before anything is
+        written; it raises :class:`SpecError` to refuse a file robrst could not read back
+        (the CLI parses it as ``robrst.spec`` does, a layer above this one).
+
+    Returns
+    -------
+    Path
     """
     path = check_target(path)
     if modal and channel is not None:
@@ -171,6 +255,8 @@ def write_identified(ident, path, sources, channel=None, name=None, modal=False)
             raise SpecError(f"channel y{i + 1} from u{j + 1} does not exist: the model has"
                             f" {m.n_out} output(s) and {m.n_in} input(s)")
         text = problem_text(ident, sources, name or path.stem, channel)
+        if check is not None:
+            check(text, path)
     else:
         text = model_text(ident, sources)
     atomic_write_text(path, text)

@@ -12,8 +12,12 @@ the z-domain, on input-output data rather than on a measured FRF) alternates
    ``Lambda - b d^T``), unstable ones reflected into the unit circle.
 
 Data are either spectra at excited DFT lines of periodic records (averaged over
-periods; exact steady state) or time signals of records starting at rest (the basis
-is then applied by filtering).  Both are weighted so a residual's squared norm is the
+periods; exact steady state) or time signals (the basis is then applied by filtering
+from rest).  A time record need not start at rest (``fit_data(..., free=True)``): its
+constant output offset and the free response of its initial state, in the current
+poles (:mod:`robrst.identify.free`), are then nuisance terms of every least-squares
+problem, eliminated record by record (each record's equations projected onto the
+orthogonal complement of its nuisance columns).  Both are weighted so a residual's squared norm is the
 time-domain output-error energy (Parseval), and they may be mixed.  Finally the
 residues are fitted by output-error least squares with the poles fixed.
 
@@ -27,6 +31,7 @@ import numpy as np
 from scipy import linalg, signal
 
 from robrst.errors import SpecError
+from robrst.identify.free import free_columns
 from robrst.identify.modal import DiscreteModel, ModalModel, pair_weight
 from robrst.lti import d2c_modal
 
@@ -45,15 +50,21 @@ class FitData:
     n_in: int
     n_out: int
     freq: tuple     # (z (L,), U (L, k), Y (L, m), weight) per periodic record
-    time: tuple     # (U (N, k), Y (N, m)) per record starting at rest
+    time: tuple     # (U (N, k), Y (N, m), free) per non-periodic record
     band: tuple     # (f_lo, f_hi) [Hz]: excited lines, or record length to Nyquist
 
 
-def fit_data(records):
-    """Split records into periodic spectra (excited lines) and from-rest time signals."""
+def fit_data(records, free=False):
+    """Split records into periodic spectra (excited lines) and time signals.
+
+    ``free`` (one bool, or one per record): a time record need not start at rest; its
+    constant output offset and initial-state free response are estimated with the model
+    (nuisance terms).  Default False: records start at rest, with no offset.
+    """
     fs = records[0].fs
+    flags = [bool(free)] * len(records) if np.ndim(free) == 0 else [bool(f) for f in free]
     freq, time, lo, hi = [], [], [], []
-    for d in records:
+    for d, flag in zip(records, flags):
         U, Y = d.U - 0.0, d.Y - 0.0
         if d.period and d.periods >= 1:
             P = d.period
@@ -71,7 +82,7 @@ def fit_data(records):
             lo.append(pos.min() if pos.size else fs / P)
             hi.append(pos.max() if pos.size else 0.48 * fs)
         else:
-            time.append((U, Y))
+            time.append((U, Y, flag))
             lo.append(fs / d.n)
             hi.append(0.48 * fs)
     return FitData(fs=fs, n_in=records[0].n_in, n_out=records[0].n_out, freq=tuple(freq),
@@ -120,9 +131,24 @@ def _basis_time(x, poles):
     return np.column_stack(cols)
 
 
+def _eliminate(N, A, b):
+    """``[A | b]`` once the nuisance columns ``N`` are solved for: projected onto the
+    orthogonal complement of ``N``'s columns (same least-squares residual for every
+    value of ``A``'s unknowns).  Returns ``(A', b', equations left)``."""
+    R, scale = tall_r(N)
+    Q = linalg.solve_triangular(R, (N / scale).T, trans="T").T     # N = Q R diag(scale)
+    M = np.column_stack([A, b])
+    M = M - Q @ (Q.T @ M)
+    return M[:, :-1], M[:, -1], A.shape[0] - N.shape[1]
+
+
 def _blocks(data, poles, i, with_y, feedthrough):
-    """Real design blocks (rows) for output ``i``: [Phi_U | U | -Phi_Y], rhs Y_i."""
-    rows_A, rows_b = [], []
+    """Real design blocks (rows) for output ``i``: [Phi_U | U | -Phi_Y], rhs Y_i.
+
+    Returns ``(A, b, equations)``: with nuisance terms (``free`` records) a time record's
+    rows are already reduced, and ``equations`` counts what is left to fit the columns.
+    """
+    rows_A, rows_b, n_eq = [], [], 0
     for z, U, Y, w in data.freq:
         Phi = _basis_freq(z, poles)
         cols = [Phi * U[:, [j]] for j in range(U.shape[1])]
@@ -134,15 +160,22 @@ def _blocks(data, poles, i, with_y, feedthrough):
         b = Y[:, i] * w
         rows_A += [A.real, A.imag]
         rows_b += [b.real, b.imag]
-    for U, Y in data.time:
+        n_eq += 2 * A.shape[0]
+    for U, Y, free in data.time:
         cols = [_basis_time(U[:, j], poles) for j in range(U.shape[1])]
         if feedthrough:
             cols.append(U)
         if with_y:
             cols.append(-_basis_time(Y[:, i], poles))
-        rows_A.append(np.hstack(cols))
-        rows_b.append(Y[:, i])
-    return np.vstack(rows_A), np.concatenate(rows_b)
+        A, b = np.hstack(cols), Y[:, i]
+        if free:
+            A, b, n = _eliminate(free_columns(poles, len(b)), A, b)
+        else:
+            n = A.shape[0]
+        rows_A.append(A)
+        rows_b.append(b)
+        n_eq += n
+    return np.vstack(rows_A), np.concatenate(rows_b), n_eq
 
 
 def tall_r(M, chunk=8192):
@@ -211,8 +244,8 @@ def vector_fit(data, poles, n_iter=12, feedthrough=False, tol=1e-7):
         n_priv = nb * data.n_in + (data.n_in if feedthrough else 0)
         R22, rhs = [], []
         for i in range(data.n_out):
-            A, b = _blocks(data, poles, i, True, feedthrough)
-            _enough(A, nb)
+            A, b, n_eq = _blocks(data, poles, i, True, feedthrough)
+            _enough(n_eq, A.shape[1], nb)
             R, scale = tall_r(np.column_stack([A, b]))
             R[:, -1] *= scale[-1]
             R22.append(R[n_priv:n_priv + nb, n_priv:n_priv + nb] * scale[None, n_priv:n_priv + nb])
@@ -233,11 +266,11 @@ def vector_fit(data, poles, n_iter=12, feedthrough=False, tol=1e-7):
     return poles
 
 
-def _enough(A, order):
+def _enough(n_eq, n_unknown, order):
     """Refuse a least-squares system with no more equations than unknowns (a periodic
     record with too few excited lines for this order)."""
-    if A.shape[0] <= A.shape[1]:
-        raise SpecError(f"order {order}: {A.shape[0]} equations for {A.shape[1]} unknowns"
+    if n_eq <= n_unknown:
+        raise SpecError(f"order {order}: {n_eq} equations for {n_unknown} unknowns"
                         " (too few excited lines or samples for this order)")
 
 
@@ -252,8 +285,8 @@ def fit_residues(data, poles, feedthrough=False):
     D = np.zeros((m, k))
     cost = 0.0
     for i in range(m):
-        A, b = _blocks(data, poles, i, False, feedthrough)
-        _enough(A, nb)
+        A, b, n_eq = _blocks(data, poles, i, False, feedthrough)
+        _enough(n_eq, A.shape[1], nb)
         R, scale = tall_r(np.column_stack([A, b]))
         q = A.shape[1]
         x = linalg.lstsq(R[:q, :q], R[:q, q])[0] * scale[-1] / scale[:q]

@@ -77,7 +77,7 @@ def _orders_fig(ident, path):
 def _output_fig(ident, records, path):
     d = records[-1]
     dm = ident.models[0].discretise(ident.fs)
-    Yh = simulate_record(dm, d)
+    Yh = simulate_record(dm, d, free=True)     # with the record's offset and initial state
     n = d.period or min(d.n, 4000)
     with drawing(path, (10, 3.8)) as (fig, ax):
         ax.plot(d.t[:n], d.Y[:n, 0], color="k", lw=1, label="measured (output 1)")
@@ -100,6 +100,7 @@ def identification_doc(ident):
                     f" {len(ident.models)} temperature(s)); held-out NRMSE"
                     f" {ident.heldout_nrmse:.4g} on {', '.join(ident.heldout)}."),
               ("p", f"Pole magnitudes: {poles}."),
+              *([("p", "Records: " + "; ".join(ident.notes) + ".")] if ident.notes else []),
               ("table", ("order", "fit NRMSE", "held-out NRMSE", "note"), rows),
               ("img", "frf.png", "Frequency response of the identified model over the H1"
                                  " estimate of the records"),

@@ -1,0 +1,155 @@
+"""The nuisance terms of a record that does not start at rest: offset and free response.
+
+A measured record is a window on an actuator that was running before it: its output is
+``y[k] = (G u)[k] + c + f[k]`` with ``(G u)`` the response from rest to the record's own
+input, ``c`` a constant output offset (a sensor zero, a bias the input does not explain)
+and ``f`` the free response of the state the record starts in — a sum of the model's own
+modes, ``f[k] = sum_p Re(beta_p a_p^k)`` for sampled poles ``a_p``.  Both are per record
+and per output, and both enter linearly: :func:`free_columns` builds their regressors,
+:func:`fit_free` estimates them from a residual by least squares.  Vector fitting
+eliminates them from its equations (``robrst.identify.vf``), and the identification scores
+and reports its models with them (``robrst.identify.core``).
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["free_columns", "fit_free", "record_starts", "RecordStart", "SIGNIFICANT_SIGMAS"]
+
+SIGNIFICANT_SIGMAS = 5.0   # terms lowering the residual by more than 5 sigma of chi-square
+
+def free_columns(zpoles, n):
+    """Regressors ``(n, 1 + n_basis)``: a constant, then ``a^k`` per sampled pole.
+
+    A complex pole (stored member, ``Im a > 0``) gives two real columns, ``Re a^k`` and
+    ``Im a^k``; a real pole one.  ``k = 0 .. n - 1``.
+    """
+    a = np.atleast_1d(np.asarray(zpoles, complex))
+    k = np.arange(n, dtype=float)[:, None]
+    pair = a.imag > 0
+    # a^k = |a|^k e^{j k arg a}; a pole at the origin gives 1, 0, 0, ...
+    P = np.exp(k * np.log(np.maximum(np.abs(a), 1e-300))) * np.exp(1j * k * np.angle(a))
+    out = np.empty((n, 1 + a.size + int(pair.sum())))
+    out[:, 0] = 1.0
+    c = 1
+    for p, is_pair in enumerate(pair):
+        out[:, c] = P[:, p].real
+        if is_pair:
+            out[:, c + 1] = P[:, p].imag
+        c += 1 + int(is_pair)
+    return out
+
+
+def fit_free(E, zpoles, fit=None):
+    """Least-squares offset and free response of a residual ``E`` (N or N x m).
+
+    Parameters
+    ----------
+    E : ndarray
+        Measured minus simulated-from-rest output, one column per output.
+    zpoles : array_like
+        The sampled model's poles (stored members: ``Im >= 0``).
+    fit : slice, optional
+        Samples the terms are estimated on (default: all); they are then extended over
+        the whole record.
+
+    Returns
+    -------
+    offset : ndarray (m,)
+        The constant output offset ``c`` [µm].
+    free : ndarray (N, m)
+        The free response ``f`` over the record [µm] (offset not included).
+    """
+    E = np.asarray(E, float).reshape(len(E), -1)
+    C = free_columns(zpoles, E.shape[0])
+    rows = slice(None) if fit is None else fit
+    Cf = C[rows]
+    scale = np.linalg.norm(Cf, axis=0)
+    scale[scale == 0] = 1.0
+    theta = np.linalg.lstsq(Cf / scale, E[rows], rcond=None)[0] / scale[:, None]
+    return theta[0].copy(), C[:, 1:] @ theta[1:]
+
+
+@dataclass(frozen=True)
+class RecordStart:
+    """Per record: the estimated output offset and the largest free-response magnitude.
+
+    ``offset_um`` and ``initial_um`` hold one value per output [µm]; ``initial_um`` is
+    ``max_k |f[k]|``, the size of the transient of the state the record started in (0
+    for a record starting at rest).  ``scale_um`` is the output's RMS variation, the
+    yardstick of :meth:`notes`.  ``significant``: the terms reduce the record's residual
+    beyond what noise explains (:func:`record_starts`); otherwise the record is taken
+    to start at rest with no offset.
+    """
+
+    name: str
+    offset_um: tuple
+    initial_um: tuple
+    scale_um: tuple
+    significant: bool = True
+
+    def notes(self, share):
+        """Lines for a significant offset or start away from rest above ``share`` of the
+        output's RMS variation."""
+        if not self.significant:
+            return []
+        out = []
+        for j, (c, f, s) in enumerate(zip(self.offset_um, self.initial_um, self.scale_um)):
+            col = "y" if len(self.scale_um) == 1 else f"y{j + 1}"
+            if abs(c) > share * s:
+                out.append(f"{self.name}: column {col} has a constant offset of {c:.4g} µm the"
+                           " input does not explain (estimated and removed)")
+            if f > share * s:
+                out.append(f"{self.name}: does not start at rest: the initial state's free"
+                           f" response reaches {f:.4g} µm in column {col} (estimated and"
+                           " removed)")
+        return out
+
+    def as_dict(self):
+        return {"record": self.name, "offset_um": [float(x) for x in self.offset_um],
+                "initial_um": [float(x) for x in self.initial_um],
+                "from_rest": not self.significant}
+
+
+def record_starts(dmodel, records, rest_model, sigmas=SIGNIFICANT_SIGMAS):
+    """:class:`RecordStart` of each non-periodic record.
+
+    Parameters
+    ----------
+    dmodel : DiscreteModel
+        The sampled model fitted with the nuisance terms; they are estimated under it on
+        each whole record.
+    records : list of Dataset
+        The records it was fitted on (periodic ones are skipped).
+    rest_model : DiscreteModel
+        The model of the same order fitted with every record starting at rest.
+    sigmas : float
+        The terms are ``significant`` when, on some output, the residual energy of
+        ``rest_model`` from rest exceeds that of ``dmodel`` with them by more than
+        ``q + sigmas sqrt(2 q)`` noise variances (``q`` terms: chi-square's mean plus
+        ``sigmas`` standard deviations, if the record did start at rest with no offset);
+        the noise variance is the residual per sample left with them, pooled.
+
+    Returns
+    -------
+    list of RecordStart
+    """
+    rows = []
+    for d in records:
+        if d.period and d.periods >= 1:
+            continue
+        E = d.Y - dmodel.response(d.U)
+        c, f = fit_free(E, dmodel.zpoles)
+        e_rest = np.sum((d.Y - rest_model.response(d.U)) ** 2, axis=0)
+        rows.append((d, c, f, e_rest, np.sum((E - c - f) ** 2, axis=0)))
+    if not rows:
+        return []
+    q = free_columns(dmodel.zpoles, 1).shape[1]
+    dof = sum(max(d.n - q, 1) for d, *_ in rows)
+    var = np.sum([r[4] for r in rows], axis=0) / dof
+    limit = (q + sigmas * np.sqrt(2.0 * q)) * var
+    return [RecordStart(d.source or "record", tuple(c.tolist()),
+                        tuple(np.max(np.abs(f), axis=0).tolist()),
+                        tuple(np.std(d.Y, axis=0).tolist()), bool(np.any(e0 - e1 > limit)))
+            for d, c, f, e0, e1 in rows]
