@@ -16,7 +16,7 @@ from robrst.plant import Plant, named_plant
 from robrst.problem import (AUX_MIN_FACTOR, HOMOTOPIES, INITS, METHODS, OBJECTIVES,
                             PLACEMENTS, T_MODES, ControllerStructure, PoleSpec, Problem, SolverOptions, Specs)
 from robrst.schema import ArrayOf, Field, key_error, load_toml, markdown_rows, validate
-from robrst.speccheck import (MAX_RATE, MIN_RATE, check_combinations, check_generated,
+from robrst.speccheck import (MAX_RATE, MIN_RATE, MIN_RATE_HZ, check_combinations, check_generated,
                               check_pairs, check_rates, pole_spec)
 
 __all__ = ["load_problem", "parse_problem", "resolve_problem_path", "SCHEMA", "schema_markdown"]
@@ -80,7 +80,7 @@ SCHEMA = {
         "roll_off_order": Field("int", 0, "poles of a fixed roll-off factor (s/wc + 1)^order in S"
                                 " (adds to the relative degree)", lo=0, hi=10),
         "roll_off_hz": Field("number", None, "corner wc/2pi of the roll-off factor [Hz]",
-                             lo=1.6e-7, hi=1.5e8),
+                             lo=MIN_RATE_HZ, hi=1.5e8),
         "reference_wn": Field("number", None, "reference model bandwidth [rad/s]"
                               " (T_mode = reference_model)", lo=MIN_RATE, hi=MAX_RATE),
         "reference_zeta": Field("number", 1.0, "reference model damping (its poles within"
@@ -113,9 +113,9 @@ SCHEMA = {
         "stable_controller": Field("bool", False, "require S/s Hurwitz"),
         "sample_rate_hz": Field("number", None, "also certify (nlp: also design) the sampled loop:"
                                 " ZOH plant, Tustin controller at this rate [Hz]",
-                                positive=True, hi=1e9),
-        "delay_samples": Field("int", 0, "computation delay of the sampled loop [samples]",
-                               lo=0, hi=1000),
+                                lo=MIN_RATE_HZ, hi=1e9),
+        "delay_samples": Field("int", 0, "computation delay of the sampled loop [samples]; plant"
+                               " order + delay <= 30", lo=0, hi=1000),
         "Mu_hf_max": Field("number", None, "bound on |U| above Mu_hf_above_hz [V/µm]",
                            positive=True),
         "Mu_hf_above_hz": Field("number", None, "where the Mu_hf_max bound starts [Hz]",

@@ -18,11 +18,12 @@ from robrst.errors import SpecError
 from robrst.problem import AUX_MIN_FACTOR, PoleSpec
 from robrst.schema import MAX_MAGNITUDE, key_error
 
-__all__ = ["MAX_RATE", "MIN_RATE", "MAX_ORDER", "check_rates", "pole_spec", "check_pairs",
+__all__ = ["MAX_RATE", "MIN_RATE", "MIN_RATE_HZ", "MAX_ORDER", "check_delay_order", "check_rates", "pole_spec", "check_pairs",
            "check_combinations", "check_generated", "pair_rates"]
 
 MAX_RATE = 1e9      # fastest pole, zero or frequency [rad/s] (160 MHz)
 MIN_RATE = 1e-6     # slowest pole a design places [rad/s] (a period of 72 days)
+MIN_RATE_HZ = 1.6e-7   # MIN_RATE / 2 pi, rounded up: slowest corner or sampling rate [Hz]
 MAX_ORDER = 30      # degree of a plant model's denominator (Sylvester matrices < 100 x 100)
 
 
@@ -179,6 +180,7 @@ def check_generated(path, problem):
     if ctrl.reference_wn is not None:
         _in_rates(path, ("controller", "reference_zeta"), "a reference-model pole",
                   pair_rates(ctrl.reference_wn, ctrl.reference_zeta))
+    check_delay_order(path, ("specs", "delay_samples"), problem)
     if problem.family.thermal is not None:      # [plant] and explicit models: checked as read
         for m in problem.family.models:
             check_rates(path, ("family", "parametric"), m)
@@ -187,3 +189,14 @@ def check_generated(path, problem):
         _in_rates(path, ("solver", "wn_bounds"), "auxiliary poles (aux_factor x the fastest"
                   f" dominant pole wn_bounds and zeta_bounds allow, {fastest:.3g} rad/s)",
                   [poles.aux_factor * fastest])
+
+
+def check_delay_order(path, key, problem, delay_samples=None):
+    """The sampled loop's plant (order + ``delay_samples``, default the problem's) within
+    :data:`MAX_ORDER`: its delay polynomial ``(1 + s/2fs)^k`` overflows float64 beyond."""
+    k = problem.specs.delay_samples if delay_samples is None else delay_samples
+    n = max(m.n for m in problem.family.models)
+    if k and n + k > MAX_ORDER:
+        msg = (f"a delay of {k} samples on a plant of order {n}: expected order + delay <="
+               f" {MAX_ORDER} (model a long delay by a lower sampling rate)")
+        raise key_error(path, key, msg) if key else SpecError(f"{path}: {msg}")

@@ -223,9 +223,7 @@ def read_golden(path):
     if not isinstance(head, dict) or head.get("format") != FORMAT \
             or not isinstance(head.get("problem"), str):
         raise _bad(path, "golden", f"expected format = {FORMAT} and problem = \"NAME\"")
-    _known(path, "golden", head, ("format", "problem", "robrst_version"))
-    if not isinstance(head.get("robrst_version", ""), str):
-        raise _bad(path, "golden.robrst_version", "expected a string")
+    _known(path, "golden", head, ("format", "problem", "robrst_version"))   # version: a note
     design = data.get("design", {})
     if not isinstance(design, dict):
         raise _bad(path, "design", "expected a table with certified and objective")
@@ -277,14 +275,8 @@ def count_figures(golden):
 
 
 def check_golden_fits(golden, problem):
-    """Refuse, before any design, a golden that cannot be compared with ``problem``.
-
-    Raises
-    ------
-    SpecError
-        Naming the golden file and the key: another problem, another objective, or
-        sampled figures for a problem without ``sample_rate_hz``.
-    """
+    """Refuse (:class:`SpecError` naming the file and key), before any design, a golden of
+    another problem or objective, or with sampled figures for a continuous problem."""
     path = golden.get("path", "golden")
     if golden["problem"] != problem.name:
         raise SpecError(f"{path}: [golden.problem] golden is for problem {golden['problem']!r},"

@@ -120,6 +120,8 @@ V["family_resonance_1e12"] = BASE + FAM + "resonance_per_K = 1e12\n"
 V["compare_broken_toml"] = sub(ROB, 'compare_with = "paper.toml"', 'compare_with = "broken.toml"')
 
 
+V["delay_over_order"] = sub(BASE, "[specs]\n", "[specs]\nsample_rate_hz = 20000.0\ndelay_samples = 1000\n")
+V["fs_1e-300"] = sub(BASE, "[specs]\n", "[specs]\nsample_rate_hz = 1e-300\n")
 EXTRA_FILES = {"compare_broken_toml": {"broken.toml": "[plant\n"}}
 DESIGN_CASES = [(name, {f"{name}.toml": data, **EXTRA_FILES.get(name, {})},
                  (lambda n: lambda t: ["design", str(t / f"{n}.toml"), "--json", "--quiet"])(name),
@@ -192,6 +194,8 @@ add("check_update_user_file", {"g.toml": "my = 1\n"}, lambda t: ["check", "paper
 add("export_fs_neg", {}, lambda t: ["export", "paper", "--fs", "-5", "--quiet"], "--fs")
 add("export_fs_zero", {}, lambda t: ["export", "paper", "--fs", "0", "--quiet"], "--fs")
 add("export_fs_nan", {}, lambda t: ["export", "paper", "--fs", "nan", "--quiet"], "--fs")
+add("export_fs_1e-300", {}, lambda t: ["export", "paper", "--fs", "1e-300", "--quiet"], "--fs")
+add("export_delay_over_order", {}, lambda t: ["export", "paper", "--fs", "20000", "--delay-samples", "500", "--quiet"], "--delay-samples")
 add("export_delay_neg", {}, lambda t: ["export", "paper", "--fs", "20000", "--delay-samples", "-1", "--quiet"], "--delay-samples")
 add("export_urange_rev", {}, lambda t: ["export", "paper", "--fs", "20000", "--u-range", "150", "0", "--quiet"], "--u-range")
 add("export_out_dir", {"o/x": ""}, lambda t: ["export", "paper", "--fs", "20000", "--out", str(t / "o"), "--quiet"], "o")
