@@ -17,7 +17,7 @@ import numpy as np
 from robrst import poly, timespec
 from robrst.analysis import analyze, spectral_abscissa
 from robrst.certificate import Violation, certify, certify_problem
-from robrst.errors import CoprimeError, DegreeError
+from robrst.errors import CoprimeError, SpecError
 from robrst.modelcheck import BOUNDED
 from robrst.problem import Problem
 from robrst.rst import closed_loop
@@ -161,13 +161,13 @@ def analytic_design(problem, poles=None):
 
     Raises
     ------
-    DegreeError, CoprimeError
+    SpecError, CoprimeError
         The message starts with the problem file's path (when it has one).
     """
     try:
         return analytic.pole_placement(problem.family.reference_model, poles or problem.poles,
                                        problem.controller)
-    except (DegreeError, CoprimeError) as exc:
+    except (SpecError, CoprimeError) as exc:     # DegreeError is a SpecError
         if problem.path and not str(problem.path).startswith("<") and str(problem.path) not in str(exc):
             exc.args = (f"{problem.path}: {exc}",) + exc.args[1:]
         raise

@@ -23,7 +23,10 @@ from robrst.plant import Plant
 from robrst.sampled import sampled_plant
 from robrst.thermal import ThermalCoefficients, modal_form, thermal_polynomials
 
-__all__ = ["ThermalCoefficients", "PlantFamily", "parametric_family", "explicit_family"]
+__all__ = ["ThermalCoefficients", "PlantFamily", "parametric_family", "explicit_family",
+           "GAIN_SPAN"]
+
+GAIN_SPAN = (1e-6, 1e6)   # static-gain factor of a parametric family over its temperatures
 
 
 def _thermal_model(nominal, c, T):
@@ -31,8 +34,9 @@ def _thermal_model(nominal, c, T):
     dT = float(T) - c.reference_C
     if dT == 0.0 and c.creep_at_ref == 0.0:
         return nominal.with_label(f"T{T:g}C", float(T))
-    if not 1.0 + c.gain_per_K * dT > 0:
-        raise SpecError(f"family: gain factor {1.0 + c.gain_per_K * dT:.3g} <= 0 at {T} °C")
+    if not GAIN_SPAN[0] <= 1.0 + c.gain_per_K * dT <= GAIN_SPAN[1]:
+        raise SpecError(f"family: gain factor 1 + gain_per_K dT = {1.0 + c.gain_per_K * dT:.3g}"
+                        f" at {T} °C; expected within [{GAIN_SPAN[0]:g}, {GAIN_SPAN[1]:g}]")
     form = modal_form(nominal)
     if form.pairs and not (1 + c.resonance_per_K * dT > 0 and 1 + c.damping_per_K * dT > 0):
         raise SpecError(f"family: resonance or damping <= 0 at {T} °C")

@@ -212,7 +212,7 @@ def natural_scale(*polys):
 
 def from_roots(roots):
     """Real monic polynomial with the given roots (conjugates must be listed)."""
-    c = np.poly(np.asarray(roots, dtype=complex))
+    c = np.atleast_1d(np.poly(np.asarray(roots, dtype=complex)))   # no roots: [1.0]
     if np.max(np.abs(c.imag)) > 1e-9 * max(1.0, np.max(np.abs(c.real))):
         raise ValueError("roots do not form conjugate pairs; polynomial is not real")
     return c.real.copy()

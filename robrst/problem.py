@@ -15,7 +15,7 @@ from robrst.errors import SpecError
 
 __all__ = ["PoleSpec", "ControllerStructure", "Specs", "SolverOptions", "Problem",
            "PEAK_SPECS", "METHODS", "OBJECTIVES", "T_MODES", "INITS", "PLACEMENTS",
-           "HOMOTOPIES"]
+           "HOMOTOPIES", "AUX_MIN_FACTOR"]
 
 METHODS = ("analytic", "nlp", "convex")
 OBJECTIVES = ("max_integral_gain", "min_Ms", "feasibility")
@@ -23,6 +23,7 @@ T_MODES = ("paper", "static", "cancel_aux", "reference_model")
 INITS = ("analytic", "convex")
 PLACEMENTS = ("auto", "fixed", "free")
 HOMOTOPIES = ("on_failure", "always")
+AUX_MIN_FACTOR = 10.0   # auxiliary poles at least this many times faster than the dominant
 PEAK_SPECS = {"S": "Ms_max", "T": "Mt_max", "U": "Mu_max"}   # sensitivity -> bound attribute
 
 

@@ -9,22 +9,22 @@ schema.  Built-in problem files ship with the package (:mod:`robrst.resources`).
 import os
 from pathlib import Path
 
-import numpy as np
-
 from robrst import resources
 from robrst.errors import SpecError
 from robrst.family import PlantFamily, ThermalCoefficients, explicit_family, parametric_family
 from robrst.plant import Plant, named_plant
-from robrst.problem import (HOMOTOPIES, INITS, METHODS, OBJECTIVES, PLACEMENTS, T_MODES,
-                            ControllerStructure, PoleSpec, Problem, SolverOptions, Specs)
+from robrst.problem import (AUX_MIN_FACTOR, HOMOTOPIES, INITS, METHODS, OBJECTIVES,
+                            PLACEMENTS, T_MODES, ControllerStructure, PoleSpec, Problem, SolverOptions, Specs)
 from robrst.schema import ArrayOf, Field, key_error, load_toml, markdown_rows, validate
+from robrst.speccheck import (MAX_RATE, MIN_RATE, MIN_RATE_HZ, check_combinations, check_generated,
+                              check_pairs, check_rates, pole_spec)
 
 __all__ = ["load_problem", "parse_problem", "resolve_problem_path", "SCHEMA", "schema_markdown"]
 
 TEMP = dict(lo=-100.0, hi=500.0)      # plausible temperatures [°C]
 BAND = dict(positive=True, length=2)  # [lo, hi] pairs
-# size limits: beyond them the float64 maths overflows (root products, Sylvester matrices)
-MAX_RATE = 1e9                        # any pole, zero or frequency [rad/s] (160 MHz)
+# size limits: beyond them the float64 maths overflows (root products, Sylvester matrices);
+# poles robrst generates from several keys are checked by robrst.speccheck
 RATE = dict(lo=-MAX_RATE, hi=MAX_RATE)
 COEF = dict(lo=-1e100, hi=1e100)      # polynomial coefficients and gains
 
@@ -59,7 +59,8 @@ SCHEMA = {
                                    " resonant pole pair of A; real poles stay"),
             "creep_per_K": Field("number", 0.0, "creep strength gained per K above reference"),
             "creep_at_ref": Field("number", 0.0, "creep strength at the reference temperature"),
-            "creep_tau_s": Field("number", 1.0, "creep time constant [s]", positive=True),
+            "creep_tau_s": Field("number", 1.0, "creep time constant [s]",
+                                 lo=1 / MAX_RATE, hi=1 / MIN_RATE),
         },
         "models": ArrayOf({
             "temperature_C": Field("number", None, "temperature [°C]", required=True, **TEMP),
@@ -79,24 +80,26 @@ SCHEMA = {
         "roll_off_order": Field("int", 0, "poles of a fixed roll-off factor (s/wc + 1)^order in S"
                                 " (adds to the relative degree)", lo=0, hi=10),
         "roll_off_hz": Field("number", None, "corner wc/2pi of the roll-off factor [Hz]",
-                             positive=True, hi=1.5e8),
+                             lo=MIN_RATE_HZ, hi=1.5e8),
         "reference_wn": Field("number", None, "reference model bandwidth [rad/s]"
-                              " (T_mode = reference_model)", positive=True, hi=MAX_RATE),
-        "reference_zeta": Field("number", 1.0, "reference model damping", positive=True),
+                              " (T_mode = reference_model)", lo=MIN_RATE, hi=MAX_RATE),
+        "reference_zeta": Field("number", 1.0, "reference model damping (its poles within"
+                                " [1e-6, 1e9] rad/s)", positive=True),
         "T_cancel_damping": Field("number", 0.5, "T cancels nominal closed-loop factors at least"
                                   " this damped (T_mode = reference_model)", lo=0.0, hi=1.0),
     },
     "poles": {
-        "wn": Field("number", None, "dominant natural frequency [rad/s]", positive=True,
+        "wn": Field("number", None, "dominant natural frequency [rad/s]", lo=MIN_RATE,
                     hi=MAX_RATE),
-        "zeta": Field("number", None, "dominant damping", positive=True),
+        "zeta": Field("number", None, "dominant damping (the pair's poles within [1e-6, 1e9]"
+                      " rad/s)", positive=True),
         "dominant_real": Field("numbers", (), "extra dominant real poles [rad/s, < 0]", **RATE),
         "dominant_roots_re": Field("numbers", None, "explicit dominant roots, real parts",
                                    **RATE),
-        "dominant_roots_im": Field("numbers", None, "explicit dominant roots, imaginary parts",
-                                   **RATE),
-        "aux_factor": Field("number", 10.0, "auxiliary poles at -aux_factor*|fastest dominant|",
-                            positive=True, hi=1e4),
+        "dominant_roots_im": Field("numbers", None, "explicit dominant roots, imaginary parts"
+                                   " (with dominant_roots_re)", **RATE),
+        "aux_factor": Field("number", 10.0, "auxiliary poles at -aux_factor*|fastest dominant|"
+                            " (within 1e9 rad/s)", lo=AUX_MIN_FACTOR, hi=1e4),
         "aux_roots": Field("numbers", None, "explicit real auxiliary roots [rad/s]", **RATE),
     },
     "specs": {
@@ -110,9 +113,9 @@ SCHEMA = {
         "stable_controller": Field("bool", False, "require S/s Hurwitz"),
         "sample_rate_hz": Field("number", None, "also certify (nlp: also design) the sampled loop:"
                                 " ZOH plant, Tustin controller at this rate [Hz]",
-                                positive=True, hi=1e9),
-        "delay_samples": Field("int", 0, "computation delay of the sampled loop [samples]",
-                               lo=0, hi=1000),
+                                lo=MIN_RATE_HZ, hi=1e9),
+        "delay_samples": Field("int", 0, "computation delay of the sampled loop [samples]; plant"
+                               " order + delay <= 30", lo=0, hi=1000),
         "Mu_hf_max": Field("number", None, "bound on |U| above Mu_hf_above_hz [V/µm]",
                            positive=True),
         "Mu_hf_above_hz": Field("number", None, "where the Mu_hf_max bound starts [Hz]",
@@ -129,7 +132,8 @@ SCHEMA = {
         "objective": Field("str", "max_integral_gain", "max_integral_gain | min_Ms | feasibility",
                            choices=OBJECTIVES),
         "free_poles": Field("bool", False, "let wn and zeta vary within the bounds"),
-        "wn_bounds": Field("numbers", None, "[lo, hi] rad/s", **BAND),
+        "wn_bounds": Field("numbers", None, "[lo, hi] rad/s", lo=MIN_RATE, hi=MAX_RATE,
+                           length=2),
         "zeta_bounds": Field("numbers", None, "[lo, hi]", **BAND),
         "n_freq": Field("int", 120, "frequency-grid points per model", lo=2, hi=20000),
         "max_rounds": Field("int", 6, "certification rounds", lo=1, hi=100),
@@ -160,17 +164,6 @@ def schema_markdown():
     return markdown_rows(SCHEMA)
 
 
-def _check_rates(path, key, plant):
-    """Refuse poles or zeros faster than :data:`MAX_RATE` (float64 overflows beyond)."""
-    with np.errstate(all="ignore"):
-        roots = np.concatenate([np.roots(plant.A), np.roots(plant.B)])
-    if roots.size and not np.all(np.abs(roots) <= MAX_RATE):
-        worst = np.max(np.abs(roots)) if np.all(np.isfinite(roots)) else np.inf
-        raise key_error(path, key, f"a pole or zero at {worst:.3g} rad/s; expected every pole"
-                        f" and zero within {MAX_RATE:g} rad/s (rescale time or units)")
-    return plant
-
-
 def _plant(path, p):
     if p is None:
         raise key_error(path, ("plant",), "missing required table [plant]")
@@ -195,7 +188,7 @@ def _plant(path, p):
         if str(exc).startswith(str(path)):
             raise
         raise key_error(path, ("plant",), str(exc)) from None
-    return _check_rates(path, ("plant",),
+    return check_rates(path, ("plant",),
                         Plant(pl.B, pl.A, label=f"T{T:g}C", temperature_C=T, meta=pl.meta))
 
 
@@ -230,7 +223,7 @@ def _family(path, f, nominal):
                                     temperature_C=m["temperature_C"]))
             except SpecError as exc:
                 raise key_error(path, ("family", "models", str(i)), str(exc)) from None
-            _check_rates(path, ("family", "models", str(i)), models[-1])
+            check_rates(path, ("family", "models", str(i)), models[-1])
         _same_degrees(path, models)
         try:
             return explicit_family(models, ref)
@@ -247,50 +240,13 @@ def _family(path, f, nominal):
         raise key_error(path, ("family",), str(exc)) from None
 
 
-def _poles(path, p):
-    if p is None:
-        raise key_error(path, ("poles",), "missing required table [poles]")
-    dom = None
-    if p["dominant_roots_re"] is not None:
-        im = p["dominant_roots_im"] or (0.0,) * len(p["dominant_roots_re"])
-        if len(im) != len(p["dominant_roots_re"]):
-            raise key_error(path, ("poles", "dominant_roots_im"),
-                            "must match dominant_roots_re in length")
-        dom = tuple(complex(a, b) for a, b in zip(p["dominant_roots_re"], im))
-    elif p["wn"] is None or p["zeta"] is None:
-        raise key_error(path, ("poles",), "give 'wn' and 'zeta' (or 'dominant_roots_re')")
-    spec = PoleSpec(wn=p["wn"], zeta=p["zeta"], dominant_real=p["dominant_real"],
-                    dominant_roots=dom, aux_factor=p["aux_factor"], aux_roots=p["aux_roots"])
-    try:
-        spec.dominant()
-    except SpecError as exc:
-        raise key_error(path, ("poles",), str(exc).removeprefix("poles: ")) from None
-    return spec
-
-
 def _table(path, v, name):
     return v[name] or validate(path, {}, SCHEMA[name], (name,))
 
 
-def _check_pairs(path, specs, solver):
-    for tab, rec, k in (("specs", specs, "resonance_band_hz"), ("solver", solver, "wn_bounds"),
-                        ("solver", solver, "zeta_bounds")):
-        b = getattr(rec, k)
-        if b is not None and not b[0] < b[1]:
-            raise key_error(path, (tab, k), f"expected [lo, hi] with 0 < lo < hi, got {list(b)}")
-
-
-def _check_new_keys(path, ctrl, specs):
-    if (specs.Mu_hf_max is None) != (specs.Mu_hf_above_hz is None):
-        raise key_error(path, ("specs",), "'Mu_hf_max' and 'Mu_hf_above_hz' go together")
-    if ctrl.roll_off_order and ctrl.roll_off_hz is None:
-        raise key_error(path, ("controller", "roll_off_hz"), "needed with roll_off_order > 0")
-    if ctrl.T_mode == "reference_model" and ctrl.reference_wn is None:
-        raise key_error(path, ("controller", "reference_wn"), "needed with T_mode ="
-                        " 'reference_model'")
-
-
 def _check_compare_with(path, solver):
+    """The compared problem file exists and is a valid problem (its own compare_with is
+    checked when it is designed)."""
     other = solver.compare_with
     if other is None or str(path).startswith("<"):
         return
@@ -299,9 +255,14 @@ def _check_compare_with(path, solver):
         what = "is a folder" if target.is_dir() else "not found"
         raise key_error(path, ("solver", "compare_with"), f"{target}: {what}; expected a problem"
                         " file (a path relative to this file)")
+    try:
+        parse_problem(load_toml(target, "problem file"), target, compare=False)
+    except SpecError as exc:
+        raise key_error(path, ("solver", "compare_with"), f"not a valid problem file: {exc}"
+                        ) from None
 
 
-def parse_problem(data, path="<problem>"):
+def parse_problem(data, path="<problem>", compare=True):
     """Validate a parsed TOML document and build the :class:`~robrst.problem.Problem`.
 
     Parameters
@@ -310,6 +271,8 @@ def parse_problem(data, path="<problem>"):
         The parsed TOML document.
     path : str or Path
         Where it came from (named in every error).
+    compare : bool
+        Also validate the ``[solver] compare_with`` problem file.
 
     Returns
     -------
@@ -324,7 +287,7 @@ def parse_problem(data, path="<problem>"):
     explicit = v["plant"] is None and v["family"] is not None and v["family"]["models"]
     nominal = None if explicit else _plant(path, v["plant"])
     family = _family(path, v["family"], nominal)
-    poles = _poles(path, v["poles"])
+    poles = pole_spec(path, v["poles"])
     ctrl = ControllerStructure(**_table(path, v, "controller"))
     specs = Specs(**_table(path, v, "specs"))
     solver = SolverOptions(**_table(path, v, "solver"))
@@ -339,19 +302,22 @@ def parse_problem(data, path="<problem>"):
         raise key_error(path, ("specs", "delay_samples"), "needs 'sample_rate_hz'")
     if (specs.T_resonance_max is None) != (specs.resonance_band_hz is None):
         raise key_error(path, ("specs",), "'T_resonance_max' and 'resonance_band_hz' go together")
-    _check_new_keys(path, ctrl, specs)
-    _check_pairs(path, specs, solver)
+    check_combinations(path, ctrl, specs)
+    check_pairs(path, specs, solver)
     if solver.init == "convex" and solver.free_poles:
         raise key_error(path, ("solver", "init"), "'convex' needs a fixed Am (free_poles = false):"
                         " the SOCP is posed at fixed closed-loop poles")
     if solver.free_poles and (solver.wn_bounds is None or solver.zeta_bounds is None):
         raise key_error(path, ("solver", "free_poles"), "needs 'wn_bounds' and 'zeta_bounds'")
-    _check_compare_with(path, solver)
     meta = v["problem"] or {}
     name = meta.get("name") or Path(str(path)).stem
-    return Problem(name=name, family=family, poles=poles, controller=ctrl, specs=specs,
-                   solver=solver, path=str(path), description=meta.get("description", ""),
-                   plant_name=(v["plant"] or {}).get("name"))
+    problem = Problem(name=name, family=family, poles=poles, controller=ctrl, specs=specs,
+                      solver=solver, path=str(path), description=meta.get("description", ""),
+                      plant_name=(v["plant"] or {}).get("name"))
+    check_generated(path, problem)
+    if compare:
+        _check_compare_with(path, solver)
+    return problem
 
 
 def resolve_problem_path(name_or_path):

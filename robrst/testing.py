@@ -38,7 +38,7 @@ from robrst.fileio import atomic_write_text, check_file_target
 from robrst.schema import load_toml
 
 __all__ = ["Worse", "golden_figures", "write_golden", "read_golden", "compare_golden",
-           "assert_margins", "MARKER", "DEFAULT_TOL"]
+           "assert_margins", "check_golden_fits", "count_figures", "MARKER", "DEFAULT_TOL"]
 
 MARKER = "# robrst margins golden"
 FORMAT = 1
@@ -183,6 +183,11 @@ def _figure(path, where, v):
     val = v["value"]
     if isinstance(val, bool) or not isinstance(val, (int, float)) or math.isnan(val):
         raise _bad(path, where, f"value must be a number (inf allowed), got {val!r}")
+    way = direction(where.rsplit(".", 1)[-1]) if where.startswith("models.") else None
+    if way == "log" and not val > 0:
+        raise _bad(path, where, f"a gain margin is a factor > 0 (inf allowed), got {val!r}")
+    if way in ("larger", "smaller") and not val >= 0:
+        raise _bad(path, where, f"a peak or margin is >= 0 (inf allowed), got {val!r}")
     tol = {}
     for k in ("rtol", "atol"):
         t = v.get(k, 0.0)
@@ -199,7 +204,13 @@ def read_golden(path):
     -------
     dict
         ``{"problem", "certified", "objective": (name, value, rtol, atol) or None,
-        "models": {label: {figure: (value, rtol, atol)}}}``.
+        "models": {label: {figure: (value, rtol, atol)}}, "path"}``.
+
+    Raises
+    ------
+    SpecError
+        Naming the file and the key: unknown keys and tables, wrong types, a gain
+        margin <= 0 or a negative peak or margin, a golden that checks nothing.
     """
     path = Path(path)
     if not path.exists():
@@ -212,8 +223,12 @@ def read_golden(path):
     if not isinstance(head, dict) or head.get("format") != FORMAT \
             or not isinstance(head.get("problem"), str):
         raise _bad(path, "golden", f"expected format = {FORMAT} and problem = \"NAME\"")
+    _known(path, "golden", head, ("format", "problem", "robrst_version"))   # version: a note
     design = data.get("design", {})
-    if not isinstance(design, dict) or not isinstance(design.get("certified", False), bool):
+    if not isinstance(design, dict):
+        raise _bad(path, "design", "expected a table with certified and objective")
+    _known(path, "design", design, ("certified", "objective"))
+    if not isinstance(design.get("certified", False), bool):
         raise _bad(path, "design.certified", "expected true or false")
     obj = design.get("objective")
     if obj is not None:
@@ -232,12 +247,51 @@ def read_golden(path):
         out[label] = {}
         for k, v in figs.items():
             if k == "temperature_C":
+                if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                    raise _bad(path, f"models.{label}.{k}", f"expected a number, got {v!r}")
                 continue
             if direction(k) is None:
                 raise _bad(path, f"models.{label}.{k}", "not a margin figure robrst checks")
             out[label][k] = _figure(path, f"models.{label}.{k}", v)
-    return {"problem": head["problem"], "certified": design.get("certified", False),
-            "objective": obj, "models": out}
+    g = {"problem": head["problem"], "certified": design.get("certified", False),
+         "objective": obj, "models": out, "path": str(path)}
+    if not count_figures(g):
+        raise SpecError(f"{path}: the golden checks nothing (no model figure, no objective and"
+                        " certified = false); write one with --update")
+    return g
+
+
+def _known(path, table, d, keys):
+    unknown = sorted(set(d) - set(keys))
+    if unknown:
+        raise _bad(path, f"{table}.{unknown[0]}", f"unknown key; expected {', '.join(keys)}")
+
+
+def count_figures(golden):
+    """How many figures :func:`compare_golden` checks (``certified = true`` and the
+    objective count as one each)."""
+    return (sum(len(m) for m in golden["models"].values()) + bool(golden["certified"])
+            + (golden["objective"] is not None))
+
+
+def check_golden_fits(golden, problem):
+    """Refuse (:class:`SpecError` naming the file and key), before any design, a golden of
+    another problem or objective, or with sampled figures for a continuous problem."""
+    path = golden.get("path", "golden")
+    if golden["problem"] != problem.name:
+        raise SpecError(f"{path}: [golden.problem] golden is for problem {golden['problem']!r},"
+                        f" not {problem.name!r}")
+    kind = problem.solver.objective
+    want = {"min_Ms": "worst_Ms", "feasibility": None}.get(kind, "integral_gain")
+    if golden["objective"] is not None and golden["objective"][0] != want:
+        raise _bad(path, "design.objective", f"golden objective {golden['objective'][0]!r}, the"
+                   f" problem's objective is {kind!r} ({'no figure' if want is None else want})")
+    if problem.specs.sample_rate_hz is None:
+        for label, figs in golden["models"].items():
+            for k in figs:
+                if k in SAMPLED:
+                    raise _bad(path, f"models.{label}.{k}", "a sampled-loop figure, but the"
+                               " problem has no [specs] sample_rate_hz")
 
 
 def _worse(name, cur, val, rtol, atol):
@@ -269,10 +323,11 @@ def compare_golden(result, golden):
         one entry (figure ``model``).
     """
     g = read_golden(golden) if isinstance(golden, (str, Path)) else golden
+    path = g.get("path", "golden")
     cur = golden_figures(result)
     if g["problem"] != cur["problem"]:
-        raise SpecError(f"golden is for problem {g['problem']!r}, the design is"
-                        f" {cur['problem']!r}")
+        raise SpecError(f"{path}: [golden.problem] golden is for problem {g['problem']!r},"
+                        f" the design is {cur['problem']!r}")
     out = []
     if g["certified"] and not cur["certified"]:
         out.append(Worse("", "certified", True, False, "must stay certified"))
@@ -280,7 +335,8 @@ def compare_golden(result, golden):
         name, val, rtol, atol = g["objective"]
         cname, cval = cur["objective"]
         if cname != name:
-            raise SpecError(f"golden objective {name!r}, the design optimises {cname!r}")
+            raise _bad(path, "design.objective", f"golden objective {name!r}, the design"
+                       f" optimises {cname!r}")
         if _worse(name, cval, val, rtol, atol):
             out.append(Worse("", name, val, _num(cval), _tol_text(rtol, atol)))
     for label, figs in g["models"].items():
@@ -290,7 +346,7 @@ def compare_golden(result, golden):
             continue
         for k, (val, rtol, atol) in figs.items():
             if k not in have:
-                raise SpecError(f"golden figure {label}.{k} is not a figure of this design")
+                raise _bad(path, f"models.{label}.{k}", "not a figure of this design")
             if _worse(k, have[k], val, rtol, atol):
                 out.append(Worse(label, k, val, _num(have[k]), _tol_text(rtol, atol)))
     return out

@@ -97,9 +97,33 @@ V["plant_B_nan"] = sub(BASE, 'name = "paper"            #', 'B = [nan]\nA = [1.0
 V["plant_improper"] = sub(BASE, 'name = "paper"            #', 'B = [1.0, 1.0, 1.0]\nA = [1.0, 1.0]\n#')
 V["plant_zero_B"] = sub(BASE, 'name = "paper"            #', 'B = [0.0]\nA = [1.0, 1.0]\n#')
 V["plant_huge"] = sub(BASE, 'name = "paper"            #', 'B = [1e300]\nA = [1.0, 1e-300]\n#')
+# inputs that passed validation and ended in "computation failed" (or with numpy warnings):
+# now refused when the file is read; every pole robrst generates lies within [1e-6, 1e9] rad/s
+V["plant_zpk_no_poles"] = sub(BASE, 'name = "paper"            #', 'zeros = []\npoles = []\ngain = 1.0\n#')
+V["plant_60_poles"] = sub(BASE, 'name = "paper"            #', 'zeros = []\npoles = ['
+                          + ", ".join(f"{-10.0 * k}" for k in range(1, 61)) + ']\ngain = 1.0\n#')
+V["dominant_roots_empty"] = sub(BASE, "[poles]\nwn = 600.0", "[poles]\ndominant_roots_re = []\nwn = 600.0")
+V["dominant_im_only"] = sub(BASE, "[poles]\nwn = 600.0", "[poles]\ndominant_roots_im = [50.0, -50.0]\nwn = 600.0")
+V["wn_1e-90"] = sub(BASE, "wn = 600.0", "wn = 1e-90")
+V["wn_1e9_aux_beyond"] = sub(BASE, "wn = 600.0", "wn = 1e9")
+V["zeta_1e90"] = sub(BASE, "zeta = 1.0 ", "zeta = 1e90 ")
+V["aux_factor_tiny"] = sub(BASE, "aux_factor = 10.0", "aux_factor = 1e-6")
+V["aux_roots_unstable"] = sub(BASE, "aux_factor = 10.0", "aux_roots = [1000.0]")
+V["ref_zeta_1e90"] = sub(BASE, 'T_mode = "paper"', 'T_mode = "reference_model"\nreference_wn = 1000.0\nreference_zeta = 1e90')
+V["ref_wn_1e-90"] = sub(BASE, 'T_mode = "paper"', 'T_mode = "reference_model"\nreference_wn = 1e-90')
+V["roll_off_1e-90"] = sub(BASE, "[controller]\n", "[controller]\nroll_off_order = 10\nroll_off_hz = 1e-90\n")
+V["S_fixed_root_1e200"] = sub(BASE, "S_fixed = [1.0, 0.0]", "S_fixed = [1e-100, 1e100, 0.0]")
+FAM = "\n[family]\ntemperatures_C = [28.0, 45.0]\n[family.parametric]\n"
+V["family_gain_1e90"] = BASE + FAM + "gain_per_K = 1e90\n"
+V["family_creep_tau_tiny"] = BASE + FAM + "creep_tau_s = 1e-90\ncreep_at_ref = 0.1\n"
+V["family_resonance_1e12"] = BASE + FAM + "resonance_per_K = 1e12\n"
+V["compare_broken_toml"] = sub(ROB, 'compare_with = "paper.toml"', 'compare_with = "broken.toml"')
 
 
-DESIGN_CASES = [(name, {f"{name}.toml": data},
+V["delay_over_order"] = sub(BASE, "[specs]\n", "[specs]\nsample_rate_hz = 20000.0\ndelay_samples = 1000\n")
+V["fs_1e-300"] = sub(BASE, "[specs]\n", "[specs]\nsample_rate_hz = 1e-300\n")
+EXTRA_FILES = {"compare_broken_toml": {"broken.toml": "[plant\n"}}
+DESIGN_CASES = [(name, {f"{name}.toml": data, **EXTRA_FILES.get(name, {})},
                  (lambda n: lambda t: ["design", str(t / f"{n}.toml"), "--json", "--quiet"])(name),
                  f"{name}.toml") for name, data in V.items()]
 
@@ -170,6 +194,8 @@ add("check_update_user_file", {"g.toml": "my = 1\n"}, lambda t: ["check", "paper
 add("export_fs_neg", {}, lambda t: ["export", "paper", "--fs", "-5", "--quiet"], "--fs")
 add("export_fs_zero", {}, lambda t: ["export", "paper", "--fs", "0", "--quiet"], "--fs")
 add("export_fs_nan", {}, lambda t: ["export", "paper", "--fs", "nan", "--quiet"], "--fs")
+add("export_fs_1e-300", {}, lambda t: ["export", "paper", "--fs", "1e-300", "--quiet"], "--fs")
+add("export_delay_over_order", {}, lambda t: ["export", "paper", "--fs", "20000", "--delay-samples", "500", "--quiet"], "--delay-samples")
 add("export_delay_neg", {}, lambda t: ["export", "paper", "--fs", "20000", "--delay-samples", "-1", "--quiet"], "--delay-samples")
 add("export_urange_rev", {}, lambda t: ["export", "paper", "--fs", "20000", "--u-range", "150", "0", "--quiet"], "--u-range")
 add("export_out_dir", {"o/x": ""}, lambda t: ["export", "paper", "--fs", "20000", "--out", str(t / "o"), "--quiet"], "o")

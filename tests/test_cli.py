@@ -7,6 +7,7 @@ import sys
 import pytest
 
 from robrst.cli import main
+from robrst.errors import SpecError
 
 MODEL_KEYS = {"label", "temperature_C", "A", "B", "stable", "closed_loop_poles", "Ms",
               "Ms_freq_rad_s", "Mt", "Mu", "gain_margin", "phase_margin_deg",
@@ -87,3 +88,28 @@ def test_a_continuous_design_does_not_import_scipy():
     assert r.returncode == 0, r.stderr
     assert json.loads(r.stdout)["certified"] is True
     assert r.stderr.strip().splitlines()[-1] == "[]"
+
+
+def test_numpy_warnings_never_print_raw(monkeypatch, capsys):
+    """An overflow inside a command that answers (exit 0/1) is one ``robrst: note:`` line,
+    not numpy's two-line warning; a command that fails prints only its error line."""
+    import numpy as np
+
+    import robrst.cli.check
+
+    def overflowing(args, code=1):
+        np.float64(1e308) * np.float64(10.0)    # RuntimeWarning: overflow
+        return code
+
+    monkeypatch.setattr(robrst.cli.check, "run_check", overflowing)
+    assert main(["check", "paper", "--golden", "g.toml"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("robrst: note: 1 floating-point warning"), err
+
+    def failing(args):
+        overflowing(args)
+        raise SpecError("x.toml: [a] bad")
+
+    monkeypatch.setattr(robrst.cli.check, "run_check", failing)
+    assert main(["check", "paper", "--golden", "g.toml"]) == 2
+    assert capsys.readouterr().err.strip().splitlines() == ["robrst: error: x.toml: [a] bad"]

@@ -29,7 +29,7 @@ LAYERS = {
     "maths": ("robrst.poly", "robrst.lti", "robrst.plant", "robrst.thermal", "robrst.family",
               "robrst.rst", "robrst.hinf", "robrst.levelset", "robrst.analysis", "robrst.sampled",
               "robrst.digital", "robrst.implement", "robrst.interval"),
-    "problem": ("robrst.problem", "robrst.spec"),
+    "problem": ("robrst.problem", "robrst.spec", "robrst.speccheck"),
     "certificate": ("robrst.certificate", "robrst.modelcheck", "robrst.timespec"),
     "synthesis": ("robrst.synthesis",),
     "design": ("robrst.design",),

@@ -1,5 +1,7 @@
 """Problem-file validation: each kind of bad input names the file and key."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -62,7 +64,7 @@ def test_robust_family_has_seven_temperatures_and_nominal_is_paper_model(problem
     (GOOD.replace('[plant]\nname = "paper"', '[plant]'), r"\[plant\] give exactly one of"),
     (GOOD.replace('name = "paper"', 'name = "papr"'), r"unknown plant name 'papr'"),
     (GOOD.replace('name = "paper"', 'B = [1.0, 2.0, 3.0]\nA = [1.0, 2.0]'), r"\[plant\].*improper"),
-    (GOOD.replace('wn = 600.0', 'wn = -600.0'), r"\[poles.wn\] expected number > 0 and <= 1e\+09, got -600.0"),
+    (GOOD.replace('wn = 600.0', 'wn = -600.0'), r"\[poles.wn\] expected number >= 1e-06 and <= 1e\+09, got -600.0"),
     (GOOD.replace('extra_degree = 1', 'extra_degree = 1.5'), r"\[controller.extra_degree\] expected an integer"),
     (GOOD.replace('extra_degree = 1', 'S_fixed = [1.0, 1.0]'), r"\[controller.S_fixed\] must contain the integrator"),
     (GOOD + "\n[solver]\nmethod = \"magic\"\n", r"\[solver.method\] expected one of analytic, nlp, convex"),
@@ -83,10 +85,19 @@ def test_missing_file_is_a_spec_error(tmp_path):
 
 
 def test_unstable_aux_and_slow_aux_rejected(tmp_path):
+    """Refused when the file is read (before any work), naming the file and the key."""
     bad = GOOD.replace("zeta = 1.0", "zeta = 1.0\naux_factor = 4.0")
-    pr = load_problem(write(tmp_path, bad))
-    with pytest.raises(SpecError, match="at least 10x faster"):
-        run_problem(pr)
+    with pytest.raises(SpecError, match=r"p.toml: \[poles.aux_factor\] expected number >= 10"):
+        load_problem(write(tmp_path, bad))
+    bad = GOOD.replace("zeta = 1.0", "zeta = 1.0\naux_roots = [1e4, -1e4, -1e4, -1e4, -1e4]")
+    with pytest.raises(SpecError, match=r"p.toml: \[poles.aux_roots\] auxiliary roots must be"):
+        load_problem(write(tmp_path, bad))
+    bad = GOOD.replace("zeta = 1.0", "zeta = 1.0\naux_roots = [-1e3, -1e4, -1e4, -1e4, -1e4]")
+    with pytest.raises(SpecError, match=r"p.toml: \[poles.aux_roots\] auxiliary poles must be >= 10x"):
+        load_problem(write(tmp_path, bad))
+    pr = load_problem(write(tmp_path, GOOD))     # a problem built in Python: the design refuses
+    with pytest.raises(SpecError, match=r"p.toml: poles.aux_factor = 4.0: .* at least 10x faster"):
+        run_problem(dataclasses.replace(pr, poles=dataclasses.replace(pr.poles, aux_factor=4.0)))
 
 
 def test_improper_degree_request(tmp_path):

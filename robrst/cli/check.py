@@ -2,10 +2,10 @@
 
 from robrst.cli.common import progress_printer
 from robrst.design import run_problem
-from robrst.errors import SpecError
 from robrst.fileio import check_file_target
 from robrst.spec import load_problem
-from robrst.testing import compare_golden, golden_figures, read_golden, write_golden
+from robrst.testing import (check_golden_fits, compare_golden, count_figures, golden_figures,
+                            read_golden, write_golden)
 
 __all__ = ["add_parsers", "run_check"]
 
@@ -17,7 +17,8 @@ def add_parsers(sub):
     c.add_argument("problem", help="problem file (TOML), or a built-in problem by name")
     c.add_argument("--golden", required=True, metavar="FILE", help="golden margins (TOML)")
     c.add_argument("--update", action="store_true",
-                   help="write the golden from this design instead of comparing")
+                   help="write the golden from this design instead of comparing (exit 0"
+                        " certified, 1 not certified)")
     c.add_argument("--quiet", action="store_true", help="no progress lines")
     c.set_defaults(func=run_check)
 
@@ -29,22 +30,21 @@ def run_check(args):
     if args.update:
         check_file_target(args.golden)
     problem = load_problem(args.problem)
-    if golden is not None and golden["problem"] != problem.name:
-        raise SpecError(f"{args.golden}: golden is for problem {golden['problem']!r},"
-                        f" not {problem.name!r}")
+    if golden is not None:
+        check_golden_fits(golden, problem)          # before the design
     say(f"designing {problem.name} ({problem.solver.method})")
     result = run_problem(problem, progress=say)
-    if args.update:
+    if args.update:                                 # exit code as `design`: 1 not certified
         write_golden(result, args.golden)
         g = golden_figures(result)
         n = sum(len(m) - 1 for m in g["models"].values())
         print(f"wrote {args.golden}: {n} figures over {len(g['models'])} models"
               f" (certified: {g['certified']})")
-        return 0
+        return 0 if g["certified"] else 1
     worse = compare_golden(result, golden)
     for w in worse:
         print(w.describe())
-    n = sum(len(m) for m in golden["models"].values())
+    n = count_figures(golden)
     print(f"robrst check: {len(worse)} of {n} figures worse than {args.golden}"
           if worse else f"robrst check: no figure worse than {args.golden} ({n} figures)")
     return 1 if worse else 0

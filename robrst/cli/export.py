@@ -15,6 +15,7 @@ from robrst.export.c_code import check_prefix
 from robrst.export.core import check_u_range, sampling
 from robrst.fileio import atomic_write_text, check_file_target, json_text
 from robrst.spec import load_problem
+from robrst.speccheck import MIN_RATE_HZ, check_delay_order
 
 __all__ = ["add_parsers", "run_export"]
 
@@ -81,8 +82,9 @@ def _check_targets(paths):
 
 def _check_arguments(args):
     """``--fs``, ``--delay-samples`` and ``--u-range`` in range (named in the message)."""
-    if args.fs is not None and not (math.isfinite(args.fs) and 0 < args.fs <= 1e9):
-        raise SpecError(f"--fs: expected a sampling rate in (0, 1e9] Hz, got {args.fs}")
+    if args.fs is not None and not (math.isfinite(args.fs) and MIN_RATE_HZ <= args.fs <= 1e9):
+        raise SpecError(f"--fs: expected a sampling rate in [{MIN_RATE_HZ:g}, 1e9] Hz,"
+                        f" got {args.fs}")
     if args.delay_samples is not None and not 0 <= args.delay_samples <= 1000:
         raise SpecError(f"--delay-samples: expected a whole number in 0..1000,"
                         f" got {args.delay_samples}")
@@ -100,6 +102,8 @@ def run_export(args):
     _check_targets(targets)
     problem = load_problem(args.problem)
     fs, k = sampling(problem, args.fs, args.delay_samples)
+    if args.delay_samples is not None:
+        check_delay_order("--delay-samples", (), problem, k)
     sp = problem.specs
     if sp.sampled and (sp.sample_rate_hz, sp.delay_samples) != (fs, k):
         say(f"re-designing {problem.name} for the sampled loop at {fs:g} Hz, delay {k}")

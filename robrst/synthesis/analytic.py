@@ -15,7 +15,7 @@ import numpy as np
 from robrst import poly
 from robrst.errors import CoprimeError, DegreeError, SpecError
 from robrst.plant import Plant
-from robrst.problem import ControllerStructure, PoleSpec
+from robrst.problem import AUX_MIN_FACTOR, ControllerStructure, PoleSpec
 from robrst.rst import RSTController
 
 __all__ = [
@@ -30,7 +30,6 @@ __all__ = [
 ]
 
 COPRIME_RTOL = 1e-6
-AUX_MIN_FACTOR = 10.0
 
 
 def characteristic_polynomial(spec, degree):
