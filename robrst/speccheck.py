@@ -146,6 +146,10 @@ def check_combinations(path, ctrl, specs):
         raise key_error(path, ("specs",), "'Mu_hf_max' and 'Mu_hf_above_hz' go together")
     if ctrl.roll_off_order and ctrl.roll_off_hz is None:
         raise key_error(path, ("controller", "roll_off_hz"), "needed with roll_off_order > 0")
+    if ctrl.roll_off_hz is not None and not ctrl.roll_off_order:
+        raise key_error(path, ("controller", "roll_off_order"), "expected >= 1 with roll_off_hz"
+                        " (the corner of a roll-off factor of that order; without it"
+                        " roll_off_hz has no effect)")
     if ctrl.T_mode == "reference_model" and ctrl.reference_wn is None:
         raise key_error(path, ("controller", "reference_wn"), "needed with T_mode ="
                         " 'reference_model'")

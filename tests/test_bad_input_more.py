@@ -97,6 +97,7 @@ V["plant_B_nan"] = sub(BASE, 'name = "paper"            #', 'B = [nan]\nA = [1.0
 V["plant_improper"] = sub(BASE, 'name = "paper"            #', 'B = [1.0, 1.0, 1.0]\nA = [1.0, 1.0]\n#')
 V["plant_zero_B"] = sub(BASE, 'name = "paper"            #', 'B = [0.0]\nA = [1.0, 1.0]\n#')
 V["plant_huge"] = sub(BASE, 'name = "paper"            #', 'B = [1e300]\nA = [1.0, 1e-300]\n#')
+V["roll_off_hz_alone"] = sub(BASE, "[controller]\n", "[controller]\nroll_off_hz = 3000.0\n")
 # inputs that passed validation and ended in "computation failed" (or with numpy warnings):
 # now refused when the file is read; every pole robrst generates lies within [1e-6, 1e9] rad/s
 V["plant_zpk_no_poles"] = sub(BASE, 'name = "paper"            #', 'zeros = []\npoles = []\ngain = 1.0\n#')
