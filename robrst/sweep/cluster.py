@@ -13,6 +13,7 @@ import logging
 import os
 import signal
 import threading
+import warnings
 
 from distributed import Client, LocalCluster, as_completed, get_worker
 from distributed.diagnostics.plugin import WorkerPlugin
@@ -102,7 +103,11 @@ class DaskExecutor:
             elif scheduler is not None:
                 self.client = Client(scheduler, timeout="20s")
             else:
-                with sigint_ignored():     # the workers start with Ctrl-C ignored
+                with sigint_ignored(), warnings.catch_warnings():
+                    # the workers start with Ctrl-C ignored; the scheduler's HTTP server moves
+                    # to a free port when 8787 is taken (another cluster): no warning for that
+                    warnings.filterwarnings("ignore", message="Port .* is already in use",
+                                            category=UserWarning)
                     self.cluster = LocalCluster(n_workers=workers or default_workers(),
                                                 threads_per_worker=1, processes=True,
                                                 dashboard_address=None,
