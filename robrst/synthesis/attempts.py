@@ -272,7 +272,10 @@ class Run:
             return None
         named = {s.name: s for s in starts}
         ok = [s for s in starts if s.stable and s.worst <= GAMMA_FLOOR]
-        first = max(ok, key=lambda s: s.gain) if ok else starts[0]   # boldest feasible start
+        if ctx.problem.solver.objective == "min_Ms":   # the most robust feasible start
+            first = min(ok, key=lambda s: s.worst) if ok else starts[0]
+        else:                                           # the boldest feasible start
+            first = max(ok, key=lambda s: s.gain) if ok else starts[0]
         feasible = first.stable and first.worst <= GAMMA_FLOOR
         if not feasible or convex:
             prefer = "convex (nominal SOCP)" if convex else "analytic"

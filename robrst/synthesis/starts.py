@@ -110,9 +110,13 @@ def _integral(ctx, setup, blocks):
     c = 3.0
     sp = np.poly(-c * np.ones(par.ks)) if par.ks else np.ones(1)
     sfr = par.Sf[:-1]                                  # Sf / p (scaled)
+    # the slowest stable real pole of the plant: a PI zero on it leaves K P ~ wc / jw above it
+    reals = [-r.real / ctx.w0 for r in np.roots(ref.A) if r.imag == 0 and r.real < 0]
+    slow = min(reals) if reals and not plant_int else None
     out = []
     for wc in KI_GRID:
-        for zf in (None, 1.0, 0.3):                    # integral; PI zeros at wc, 0.3 wc
+        zeros = (None, 1.0, 0.3) + ((slow / wc,) if slow is not None and slow < 0.3 * wc else ())
+        for zf in zeros:                               # integral; PI zeros at wc, 0.3 wc, pole
             if zf is None or par.kr < 1:
                 if plant_int:                          # I on an integrator: no phase margin
                     continue
@@ -120,7 +124,8 @@ def _integral(ctx, setup, blocks):
                 name = f"integral (crossover {wc * ctx.w0:.3g} rad/s)"
             else:
                 rp = np.convolve([1.0, zf * wc], np.poly(-c * np.ones(par.kr - 1)))
-                name = f"PI (crossover {wc * ctx.w0:.3g} rad/s, zero at {zf:g} of it)"
+                name = (f"PI (crossover {wc * ctx.w0:.3g} rad/s, zero at {zf:.3g} of it"
+                        + (", on the plant's slowest pole)" if zf not in (1.0, 0.3) else ")"))
             gain0 = rp[-1] * par.Rf[-1] / (sp[-1] * sfr[-1])   # low-frequency K(w0 p) p / kappa
             if plant_int:   # |K P| = 1 at the crossover, K P ~ kappa gain0 dc / (w0 p^2) below
                 s = 1j * wc
