@@ -113,3 +113,14 @@ def test_numpy_warnings_never_print_raw(monkeypatch, capsys):
     monkeypatch.setattr(robrst.cli.check, "run_check", failing)
     assert main(["check", "paper", "--golden", "g.toml"]) == 2
     assert capsys.readouterr().err.strip().splitlines() == ["robrst: error: x.toml: [a] bad"]
+
+
+def test_negative_numbers_in_exponent_form_are_values(tmp_path, capsys):
+    """`export --u-range -1e9 1e9`: argparse took -1e9 for an option ("expected 2
+    arguments"); -1000000000 worked."""
+    out = tmp_path / "c.json"
+    assert main(["export", "paper", "--fs", "20000", "--u-range", "-1e9", "1e9", "--out",
+                 str(out), "--quiet"]) == 0
+    aw = json.loads(out.read_text())["anti_windup"]
+    assert (aw["u_min"], aw["u_max"]) == (-1e9, 1e9)
+    capsys.readouterr()

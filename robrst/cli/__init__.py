@@ -45,6 +45,23 @@ def build_parser():
     return p
 
 
+def _negative_numbers(argv):
+    """``argv`` with every negative number in exponent form (``-1e9``, ``-2E-3``) given a
+    leading space: argparse reads only ``-1``, ``-1.5`` as numbers and would take ``-1e9``
+    for an option (``export --u-range -1e9 1e9``); ``float`` ignores the space."""
+    out = []
+    for a in argv:
+        a = str(a)
+        if a.startswith("-") and not a.startswith("--") and any(c in a for c in "eE"):
+            try:
+                float(a)
+                a = " " + a
+            except ValueError:
+                pass
+        out.append(a)
+    return out
+
+
 def main(argv=None):
     """Run the command line ``argv`` (default ``sys.argv[1:]``); return the exit code.
 
@@ -55,7 +72,7 @@ def main(argv=None):
     (``ROBRST_DEBUG=1`` prints them as Python does).
     """
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(_negative_numbers(sys.argv[1:] if argv is None else argv))
     if os.environ.get("ROBRST_DEBUG"):
         return _run(args)
     with warnings.catch_warnings(record=True) as seen:
