@@ -20,7 +20,7 @@ than ``TEMP_TOL_K``) give one model per temperature: a temperature family.
 Non-periodic records need not start at rest: each one's constant output offset and the
 free response of its initial state are estimated with the model (nuisance terms, see
 :mod:`robrst.identify.free`), in the fit and in every score (on the fit part of a split
-record, on the whole of a held-out one).  The estimates are reported per training record
+record, on the first ``HELD_HEAD`` of a held-out one).  The estimates are reported per training record
 (:attr:`Identified.starts`) and noted when above ``START_NOTE`` of the output's RMS
 variation.  A record on which they are not significant (they lower its residual by no
 more than noise would, see :func:`robrst.identify.free.record_starts`) is taken to start
@@ -48,6 +48,7 @@ TEMP_TOL_K = 1.0        # records whose mean temperatures differ less share a mo
 VF_ITER = 12
 MIN_SAMPLES = 50
 START_NOTE = 0.01       # offsets / initial transients above 1 % of the output's RMS: noted
+HELD_HEAD = 0.2         # a whole held-out record's offset and initial state: from its first 20 %
 
 
 @dataclass(frozen=True)
@@ -96,11 +97,17 @@ def _num(x):
     return float(x) if math.isfinite(x) else None
 
 
-def _fit_part(sl):
+def _fit_part(sl, n=None):
     """Samples the nuisance terms are estimated on when ``sl`` is scored: those before it
-    (a split record's fit part), else the whole record (a held-out record)."""
+    (a split record's fit part); for a whole held-out record of ``n`` samples its first
+    ``HELD_HEAD`` (the initial transient and the offset; estimated on the whole record,
+    the free response of a high order's slow poles would absorb what the model misses
+    later, e.g. a thermal drift, and make the held-out score favour high orders); else
+    the whole record (training)."""
     start = sl.start or 0
-    return slice(0, start) if start > 0 else None
+    if start > 0:
+        return slice(0, start)
+    return None if n is None else slice(0, max(int(math.ceil(HELD_HEAD * n)), 1))
 
 
 def simulate_record(dmodel, d, free=False, fit=None):
@@ -117,13 +124,14 @@ def simulate_record(dmodel, d, free=False, fit=None):
     return Y
 
 
-def _energies(dmodel, records, parts=None, free=False):
-    """``(sum ||Y - Yhat||^2, sum ||Y - mean Y||^2)`` over records (``parts``: slices)."""
+def _energies(dmodel, records, parts=None, free=False, held=False):
+    """``(sum ||Y - Yhat||^2, sum ||Y - mean Y||^2)`` over records (``parts``: slices;
+    ``held``: held-out records, their nuisance terms from their head, see ``_fit_part``)."""
     num = den = 0.0
     for k, d in enumerate(records):
         sl = parts[k] if parts is not None else slice(None)
         Y = d.Y[sl]
-        E = Y - simulate_record(dmodel, d, free, _fit_part(sl))[sl]
+        E = Y - simulate_record(dmodel, d, free, _fit_part(sl, d.n if held else None))[sl]
         num += float(np.sum(E ** 2))
         den += float(np.sum((Y - Y.mean(axis=0)) ** 2))
     return num, den
@@ -312,7 +320,8 @@ def identify(train, validate=None, order="auto", max_order=None, feedthrough=Fal
                 for dm in dms.values():
                     to_continuous(dm)
                 tr, note = nrmse_of(dms[main], fit_recs, free=True), ""
-                num, den = np.sum([_energies(dms[i], r, sl, True) for i, r, sl in held], axis=0)
+                num, den = np.sum([_energies(dms[i], r, sl, True, held=True)
+                                   for i, r, sl in held], axis=0)
                 ho = math.sqrt(num / den) if den > 0 else math.inf
             except SpecError as exc:
                 tr = ho = math.inf
