@@ -48,7 +48,7 @@ SCHEMA = {
     "family": {
         "reference_C": Field("number", None, "temperature of the nominal model (default"
                              " plant.temperature_C; with [[family.models]] and no [plant], the"
-                             " first model's)", **TEMP),
+                             " coldest model's)", **TEMP),
         "temperatures_C": Field("numbers", None, "temperatures of a parametric family [°C]", **TEMP),
         "source": Field("str", "", "where the coefficients come from"),
         "parametric": {
@@ -132,8 +132,7 @@ SCHEMA = {
         "objective": Field("str", "max_integral_gain", "max_integral_gain | min_Ms | feasibility",
                            choices=OBJECTIVES),
         "free_poles": Field("bool", False, "let wn and zeta vary within the bounds"),
-        "wn_bounds": Field("numbers", None, "[lo, hi] rad/s", lo=MIN_RATE, hi=MAX_RATE,
-                           length=2),
+        "wn_bounds": Field("numbers", None, "[lo, hi] rad/s", **BAND),
         "zeta_bounds": Field("numbers", None, "[lo, hi]", **BAND),
         "n_freq": Field("int", 120, "frequency-grid points per model", lo=2, hi=20000),
         "max_rounds": Field("int", 6, "certification rounds", lo=1, hi=100),
@@ -206,7 +205,7 @@ def _same_degrees(path, models):
 
 
 def _family(path, f, nominal):
-    """The family; no ``[plant]``: reference at ``reference_C``, default the first model."""
+    """The family; no ``[plant]``: reference at ``reference_C``, default the coldest model."""
     if f is None:
         return PlantFamily(models=(nominal,), reference=0)
     ref = f["reference_C"] if f["reference_C"] is not None else (

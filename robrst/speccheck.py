@@ -175,7 +175,7 @@ def check_generated(path, problem):
     SpecError
         Naming the file and the key.
     """
-    ctrl, solver, poles = problem.controller, problem.solver, problem.poles
+    ctrl = problem.controller
     for k in ("S_fixed", "R_fixed"):
         _factor_rates(path, ("controller", k), getattr(ctrl, k))
     if ctrl.roll_off_order:
@@ -188,11 +188,6 @@ def check_generated(path, problem):
     if problem.family.thermal is not None:      # [plant] and explicit models: checked as read
         for m in problem.family.models:
             check_rates(path, ("family", "parametric"), m)
-    if solver.free_poles and poles.aux_roots is None:
-        fastest = max(pair_rates(solver.wn_bounds[1], z)[1] for z in solver.zeta_bounds)
-        _in_rates(path, ("solver", "wn_bounds"), "auxiliary poles (aux_factor x the fastest"
-                  f" dominant pole wn_bounds and zeta_bounds allow, {fastest:.3g} rad/s)",
-                  [poles.aux_factor * fastest])
 
 
 def check_delay_order(path, key, problem, delay_samples=None):

@@ -180,3 +180,14 @@ def test_a_folder_named_like_a_builtin_does_not_hide_it(tmp_path, monkeypatch):
     assert load_problem("paper").name == "paper"
     with pytest.raises(SpecError, match="mine: is a folder"):
         load_problem("mine")
+
+
+@pytest.mark.parametrize("free,bounds", [("false", "[1e-9, 3000.0]"), ("true", "[1e-7, 5000.0]"),
+                                         ("true", "[100.0, 1e9]")])
+def test_wide_wn_bounds_are_accepted(tmp_path, free, bounds):
+    """Bounds wider than the poles any design places (or unused, free_poles = false) were
+    refused at load by this round's pole limits; the files designed and certified before."""
+    text = GOOD + (f'\n[solver]\nmethod = "nlp"\nfree_poles = {free}\nwn_bounds = {bounds}\n'
+                   "zeta_bounds = [0.5, 1.0]\n")
+    pr = load_problem(write(tmp_path, text))
+    assert pr.solver.wn_bounds == tuple(eval(bounds))
