@@ -16,7 +16,7 @@ from robrst.synthesis.exchange import Phase, solve_exchange
 from robrst.synthesis.nlp import grid_blocks
 from robrst.synthesis.outcome import Round, worst_violation
 from robrst.synthesis.parametrize import integral_gain
-from robrst.synthesis.starts import candidates, score
+from robrst.synthesis.starts import ON_SLOW_POLE, candidates, score
 
 __all__ = ["Outcome", "Run", "worst_violation", "frequency_certificate", "refine",
            "objective_value", "GAMMA_FLOOR"]
@@ -291,6 +291,13 @@ class Run:
                 self.hard(ctx, placement, ctx.full(first.xc, setup, first.wn, first.zeta),
                           first.name)
             if out is not None and out.certified:
+                # a PI zero on the slowest plant pole may be the boldest start and still end
+                # at a worse local optimum: the boldest start of the other kinds is solved too
+                other = [s for s in ok if ON_SLOW_POLE not in s.name]
+                if ON_SLOW_POLE in first.name and other:
+                    alt = max(other, key=lambda s: s.gain)
+                    outs.append(self.hard(ctx, placement,
+                                          ctx.full(alt.xc, setup, alt.wn, alt.zeta), alt.name))
                 return _better(ctx.problem, out, outs)
             outs.append(out)
         n_soft = 1 if self.hopeless else SOFT_STARTS   # the best violation is all there is

@@ -26,7 +26,9 @@ from robrst.synthesis import analytic
 from robrst.synthesis.context import low_frequency_coefficient
 from robrst.synthesis.nlp import closed_loop_maps
 
-__all__ = ["Start", "score", "candidates", "abscissa"]
+__all__ = ["Start", "score", "candidates", "abscissa", "ON_SLOW_POLE"]
+
+ON_SLOW_POLE = "on the plant's slowest pole"   # the name of a PI start with that zero
 
 WN_FACTORS = (1.0, 0.5, 2.0, 0.25)
 ZETAS = (1.0, 0.7)
@@ -125,7 +127,7 @@ def _integral(ctx, setup, blocks):
             else:
                 rp = np.convolve([1.0, zf * wc], np.poly(-c * np.ones(par.kr - 1)))
                 name = (f"PI (crossover {wc * ctx.w0:.3g} rad/s, zero at {zf:.3g} of it"
-                        + (", on the plant's slowest pole)" if zf not in (1.0, 0.3) else ")"))
+                        + (f", {ON_SLOW_POLE})" if zf not in (1.0, 0.3) else ")"))
             gain0 = rp[-1] * par.Rf[-1] / (sp[-1] * sfr[-1])   # low-frequency K(w0 p) p / kappa
             if plant_int:   # |K P| = 1 at the crossover, K P ~ kappa gain0 dc / (w0 p^2) below
                 s = 1j * wc
@@ -179,9 +181,10 @@ def candidates(ctx, setup, blocks, seeds=(), convex=False):
         if ints:
             best = min(ints, key=Start.key)
             out.append(best)
-            bold = _boldest(ints)
-            if bold is not best:
-                out.append(bold)
+            classic = [s for s in ints if ON_SLOW_POLE not in s.name]
+            for bold in (_boldest(ints), _boldest(classic) if classic else None):
+                if bold is not None and all(bold is not s for s in out):
+                    out.append(bold)     # the boldest, and the boldest without the pole zero
     if convex and setup.placement == "fixed":
         out.extend(_convex(ctx, setup, blocks))
     return sorted(out, key=Start.key)
