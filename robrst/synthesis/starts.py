@@ -179,9 +179,9 @@ def candidates(ctx, setup, blocks, seeds=(), convex=False):
     if setup.placement == "free":
         ints = _integral(ctx, setup, blocks)
         if ints:
-            best = min(ints, key=Start.key)
-            out.append(best)
             classic = [s for s in ints if ON_SLOW_POLE not in s.name]
+            best = min(classic or ints, key=Start.key)
+            out.append(best)
             for bold in (_boldest(ints), _boldest(classic) if classic else None):
                 if bold is not None and all(bold is not s for s in out):
                     out.append(bold)     # the boldest, and the boldest without the pole zero
