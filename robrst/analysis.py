@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from robrst import lti, poly
-from robrst.hinf import Peak, mag2_poly, peak_gains
+from robrst.hinf import mag2_poly, peak_gains
 from robrst.plant import Plant
 from robrst.rst import RSTController, closed_loop
 

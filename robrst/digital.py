@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from robrst import poly
-from robrst.errors import SolverError, SpecError
+from robrst.errors import SpecError
 from robrst.rst import RSTController, tustin_polynomials
 
 __all__ = ["Section", "DigitalController", "digital_controller", "aw_poles", "exact_response",

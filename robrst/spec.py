@@ -14,7 +14,7 @@ from robrst.errors import SpecError
 from robrst.family import PlantFamily, ThermalCoefficients, explicit_family, parametric_family
 from robrst.plant import Plant, named_plant
 from robrst.problem import (AUX_MIN_FACTOR, HOMOTOPIES, INITS, METHODS, OBJECTIVES,
-                            PLACEMENTS, T_MODES, ControllerStructure, PoleSpec, Problem, SolverOptions, Specs)
+                            PLACEMENTS, T_MODES, ControllerStructure, Problem, SolverOptions, Specs)
 from robrst.schema import ArrayOf, Field, key_error, load_toml, markdown_rows, validate
 from robrst.speccheck import (MAX_RATE, MIN_RATE, MIN_RATE_HZ, check_combinations, check_generated,
                               check_pairs, check_rates, pole_spec)

@@ -14,7 +14,6 @@ import time
 
 import numpy as np
 
-from robrst.diagnose.findings import unmodelled_finding
 from robrst.diagnose.result import Diagnosis, EffectScore
 from robrst.diagnose.select import MIN_SHRINK, OFFSET, excess, significant
 from robrst.identify.vf import fit_data, fit_residues, initial_poles, to_continuous, vector_fit
@@ -86,7 +85,6 @@ def unmodelled(setup, linear, info, order_extra=(2, 4)):
     data = fit_data(setup.train_records)
     best = None
     for extra in order_extra:
-        n = base.order + extra
         poles0 = np.concatenate([base.discretise(setup.fs).zpoles,
                                  initial_poles(extra, setup.fs, *data.band)])
         try:

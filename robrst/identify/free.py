@@ -19,6 +19,7 @@ __all__ = ["free_columns", "fit_free", "record_starts", "RecordStart", "SIGNIFIC
 
 SIGNIFICANT_SIGMAS = 5.0   # terms lowering the residual by more than 5 sigma of chi-square
 
+
 def free_columns(zpoles, n):
     """Regressors ``(n, 1 + n_basis)``: a constant, then ``a^k`` per sampled pole.
 
