@@ -19,8 +19,7 @@ from robrst.plant import Plant
 from robrst.rst import RSTController, closed_loop
 
 __all__ = ["Margins", "Analysis", "analyze", "sensitivity", "crossovers", "bracketed_root",
-           "step_response",
-           "spectral_abscissa"]
+           "step_response", "spectral_abscissa", "spectral_abscissa_many"]
 
 SENSITIVITIES = ("S", "T", "U", "Sd")
 
@@ -97,9 +96,25 @@ def sensitivity(plant, ctrl, name, w):
 
 def spectral_abscissa(Delta):
     """Largest real part of the roots of ``Delta`` (computed in scaled form)."""
-    sc = poly.Scaling.natural(Delta)
-    r = sc.unfreq(np.roots(sc.apply(poly.trim(Delta))))
-    return float(np.max(r.real)), r
+    return spectral_abscissa_many([Delta])[0]
+
+
+def spectral_abscissa_many(Deltas):
+    """:func:`spectral_abscissa` of each polynomial, the root computations batched
+    (:func:`robrst.poly.roots_many`: identical roots).
+
+    Returns
+    -------
+    list of (float, ndarray)
+        Spectral abscissa and roots [rad/s] of each.
+    """
+    scs = [poly.Scaling.natural(D) for D in Deltas]
+    rts = poly.roots_many([sc.apply(poly.trim(D)) for sc, D in zip(scs, Deltas)])
+    out = []
+    for sc, r in zip(scs, rts):
+        r = sc.unfreq(r)
+        out.append((float(np.max(r.real)), r))
+    return out
 
 
 def _positive_roots_x(q, w0):

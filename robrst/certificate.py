@@ -41,7 +41,7 @@ import numpy as np
 
 from robrst.interval import parameter_crossing, segment_crossing
 from robrst.modelcheck import (BOUNDED, FIGURE_OF, JUMPS, RESOLVE_FACTOR, Violation,
-                               band_peak, check_all, check_model, margins)
+                               band_peak, check_all, check_all_many, check_model, margins)
 from robrst.problem import Problem
 from robrst.rst import RSTController, closed_loop
 from robrst.thermal import modal_form
@@ -261,9 +261,9 @@ def certify(family, ctrl, specs, n_sweep=35, rtol=1e-3, checks=(), max_refine=No
     if len(models) > 1 and n_sweep > 0:
         models += [m for m in family.sweep(n_sweep) if m.temperature_C not in known]
     recs, viols = {}, []
-    for m in models:
-        recs[m.temperature_C], v = check_all(m, ctrl, specs, rtol, checks, family)
-        recs[m.temperature_C]["family_member"] = m.temperature_C in known
+    for m, (rec, v) in zip(models, check_all_many(models, ctrl, specs, rtol, checks, family)):
+        recs[m.temperature_C] = rec
+        rec["family_member"] = m.temperature_C in known
         viols.extend(v)
     lo, hi = family.range_C
     interval = {"range_C": [lo, hi], "stability": "single_model", "peaks": "single_model"}

@@ -35,7 +35,7 @@ import numpy as np
 from robrst import poly
 from robrst.levelset import Level, Peak, mag2_poly, run_levels
 
-__all__ = ["Peak", "peak_gain", "peak_gains", "mag2_poly"]
+__all__ = ["Peak", "peak_gain", "peak_gains", "peak_gains_many", "mag2_poly"]
 
 
 def _prepare(N, D):
@@ -114,31 +114,76 @@ def peak_gains(Ns, D, rtol=1e-10, max_iter=60, bands=()):
     list of Peak
         ``len(Ns)`` global peaks, then one per band.
     """
-    D0 = poly.trim(D)
-    if not np.any(D0):
-        raise ValueError("peak_gain: the denominator is identically zero")
-    sc, out, levels = poly.Scaling.natural(D0), {}, {}
-    for i, N in enumerate(Ns):
-        Ni, Di = _prepare(N, D0)
-        if len(Ni) > len(Di):
-            out[i] = Peak(np.inf, np.inf)
-        elif not np.any(Ni):
-            out[i] = Peak(0.0, 0.0)
-        elif len(Di) != len(D0):      # a common factor s**k cancelled: its own scaling
-            out[i] = peak_gain(Ni, Di, rtol=rtol, max_iter=max_iter)
-        else:
-            levels[i] = Level(Ni, Di, sc, None, like=next(iter(levels.values()), None))
+    return peak_gains_many([(Ns, D, bands)], rtol, max_iter)[0]
+
+
+def peak_gains_many(jobs, rtol=1e-10, max_iter=60):
+    """:func:`peak_gains` of several ``(Ns, D, bands)`` jobs (e.g. the closed loops of a
+    family's models), the eigenvalue problems of all of them batched.
+
+    Every job's figures are those :func:`peak_gains` gives it alone: each peak computation
+    runs its own iteration, only the LAPACK calls on equal-sized matrices are stacked.
+
+    Parameters
+    ----------
+    jobs : sequence of (Ns, D, bands)
+        As the arguments of :func:`peak_gains`.
+    rtol, max_iter
+        As :func:`peak_gain`.
+
+    Returns
+    -------
+    list of list of Peak
+        One list per job, as :func:`peak_gains` returns it.
+    """
+    plans = [_Plan(Ns, D, bands, rtol, max_iter) for Ns, D, bands in jobs]
     with np.errstate(all="ignore"):
-        out.update(zip(levels, run_levels(list(levels.values()), rtol, max_iter)))
-        glob = [out[i] for i in range(len(Ns))]
-        res, todo = [None] * len(bands), {}
-        for k, (i, band) in enumerate(bands):
-            if band[0] <= glob[i].freq_rad_s <= band[1]:
-                res[k] = glob[i]
-            elif i in levels:
-                todo[k] = levels[i].banded(band)
+        levels = [lv for pl in plans for lv in pl.levels.values()]
+        done = iter(run_levels(levels, rtol, max_iter))
+        for pl in plans:
+            pl.out.update((i, next(done)) for i in pl.levels)
+        todo = [pl.band_levels() for pl in plans]
+        done = iter(run_levels([lv for t in todo for lv in t.values()], rtol, max_iter))
+        return [pl.result({k: next(done) for k in t}) for pl, t in zip(plans, todo)]
+
+
+class _Plan:
+    """One :func:`peak_gains` job: its levels, the peaks found without them, its bands."""
+
+    def __init__(self, Ns, D, bands, rtol, max_iter):
+        D0 = poly.trim(D)
+        if not np.any(D0):
+            raise ValueError("peak_gain: the denominator is identically zero")
+        self.Ns, self.D0, self.bands = Ns, D0, list(bands)
+        self.rtol, self.max_iter = rtol, max_iter
+        sc, self.out, self.levels = poly.Scaling.natural(D0), {}, {}
+        for i, N in enumerate(Ns):
+            Ni, Di = _prepare(N, D0)
+            if len(Ni) > len(Di):
+                self.out[i] = Peak(np.inf, np.inf)
+            elif not np.any(Ni):
+                self.out[i] = Peak(0.0, 0.0)
+            elif len(Di) != len(D0):      # a common factor s**k cancelled: its own scaling
+                self.out[i] = peak_gain(Ni, Di, rtol=rtol, max_iter=max_iter)
             else:
-                res[k] = peak_gain(Ns[i], D0, rtol=rtol, max_iter=max_iter, band=band)
-        for k, pk in zip(todo, run_levels(list(todo.values()), rtol, max_iter)):
-            res[k] = pk
-    return glob + res
+                self.levels[i] = Level(Ni, Di, sc, None,
+                                       like=next(iter(self.levels.values()), None))
+
+    def band_levels(self):
+        """The band peaks not settled by the global ones: ``{k: Level}`` (band ``k``)."""
+        glob, self.res, todo = self.out, [None] * len(self.bands), {}
+        for k, (i, band) in enumerate(self.bands):
+            if band[0] <= glob[i].freq_rad_s <= band[1]:
+                self.res[k] = glob[i]
+            elif i in self.levels:
+                todo[k] = self.levels[i].banded(band)
+            else:
+                self.res[k] = peak_gain(self.Ns[i], self.D0, rtol=self.rtol,
+                                        max_iter=self.max_iter, band=band)
+        return todo
+
+    def result(self, band_peaks):
+        """Global peaks, then band peaks (``band_peaks``: those of :meth:`band_levels`)."""
+        for k, pk in band_peaks.items():
+            self.res[k] = pk
+        return [self.out[i] for i in range(len(self.Ns))] + self.res

@@ -21,8 +21,9 @@ import numpy as np
 
 from robrst import poly
 
-__all__ = ["SegmentCrossing", "segment_crossing", "distance_to_instability", "hurwitz_guardian",
-           "ParameterProof", "parameter_crossing"]
+__all__ = ["SegmentCrossing", "segment_crossing", "distance_to_instability",
+           "distance_to_instability_many", "hurwitz_guardian", "ParameterProof",
+           "parameter_crossing"]
 
 EPS = np.finfo(float).eps
 
@@ -121,28 +122,67 @@ def distance_to_instability(parts, Delta, roots, n_grid=400):
     -------
     float
     """
-    prods = [np.convolve(np.abs(poly.trim(a)), np.abs(poly.trim(b))) for a, b in parts]
-    Delta = poly.trim(Delta)
-    n = max([len(Delta)] + [len(c) for c in prods])
-    size = np.zeros(n)
-    for c in prods:
-        size[n - len(c):] += c
-    sc = poly.Scaling.natural(Delta)
-    ds, ss = sc.apply(_pad(Delta, n)), sc.apply(size)
-    mags = np.abs(np.asarray(roots, complex)) / sc.w0
-    mags = mags[mags > 0]
-    lo, hi = (mags.min() / 100, mags.max() * 100) if mags.size else (1e-3, 1e3)
-    w = np.concatenate([[0.0], np.geomspace(lo, hi, n_grid),
-                        np.abs(np.asarray(roots, complex).imag) / sc.w0])
+    return distance_to_instability_many([(parts, Delta, roots)], n_grid)[0]
+
+
+def distance_to_instability_many(jobs, n_grid=400):
+    """:func:`distance_to_instability` of each ``(parts, Delta, roots)``, the polynomial
+    evaluations of jobs of equal size vectorised (the same Horner steps per point:
+    identical values).
+
+    Returns
+    -------
+    list of float
+    """
+    out, groups = [None] * len(jobs), {}
+    for i, (parts, Delta, roots) in enumerate(jobs):
+        prods = [np.convolve(np.abs(poly.trim(a)), np.abs(poly.trim(b))) for a, b in parts]
+        Delta = poly.trim(Delta)
+        n = max([len(Delta)] + [len(c) for c in prods])
+        size = np.zeros(n)
+        for c in prods:
+            size[n - len(c):] += c
+        sc = poly.Scaling.natural(Delta)
+        ds, ss = sc.apply(_pad(Delta, n)), sc.apply(size)
+        roots = np.asarray(roots, complex)
+        mags = np.abs(roots) / sc.w0
+        mags = mags[mags > 0]
+        lo, hi = (mags.min() / 100, mags.max() * 100) if mags.size else (1e-3, 1e3)
+        groups.setdefault((n, len(roots)), []).append((i, ds, ss, lo, hi,
+                                                       np.abs(roots.imag) / sc.w0))
     with np.errstate(all="ignore"):
-        def rho(x):
-            return np.abs(np.polyval(ds, 1j * x)) / np.polyval(ss, x)
-        r = rho(w)
-        j = int(np.nanargmin(r))
-        if 0 < j and w[j] > 0:
-            t = np.geomspace(w[j] / 1.05, w[j] * 1.05, 201)
-            r = np.concatenate([r, rho(t)])
-        return float(np.nanmin(r))
+        for items in groups.values():
+            ds, ss = (np.array([it[k] for it in items]) for k in (1, 2))
+            grid = np.geomspace([it[3] for it in items], [it[4] for it in items], n_grid,
+                                axis=1)
+            w = np.hstack([np.zeros((len(items), 1)), grid, [it[5] for it in items]])
+            r = _rho(ds, ss, w)
+            best, j = _nanmin(r)
+            wj = w[np.arange(len(items)), j]
+            fine = np.flatnonzero((j > 0) & (wj > 0))
+            if fine.size:
+                t = np.geomspace(wj[fine] / 1.05, wj[fine] * 1.05, 201, axis=1)
+                best[fine] = np.fmin(best[fine], _nanmin(_rho(ds[fine], ss[fine], t))[0])
+            for (i, *_), v in zip(items, best):
+                out[i] = float(v)
+    return out
+
+
+def _nanmin(r):
+    """Row minima of ``r`` ignoring NaN (NaN for an all-NaN row) and their indices."""
+    ok = ~np.isnan(r)
+    j = np.argmin(np.where(ok, r, np.inf), axis=1)
+    v = r[np.arange(len(r)), j]
+    return np.where(ok.any(axis=1), v, np.nan), j
+
+
+def _rho(ds, ss, x):
+    """``|ds(j x)| / ss(x)`` row by row (Horner, as ``numpy.polyval``)."""
+    y, z = np.zeros(x.shape, complex), np.zeros(x.shape)
+    for k in range(ds.shape[1]):
+        y = y * (1j * x) + ds[:, k:k + 1]
+        z = z * x + ss[:, k:k + 1]
+    return np.abs(y) / z
 
 
 def hurwitz_guardian(c):

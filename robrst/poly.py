@@ -25,6 +25,7 @@ __all__ = [
     "eval_jw",
     "natural_scale",
     "from_roots",
+    "roots_many",
     "rel_coef_error",
 ]
 
@@ -216,6 +217,40 @@ def from_roots(roots):
     if np.max(np.abs(c.imag)) > 1e-9 * max(1.0, np.max(np.abs(c.real))):
         raise ValueError("roots do not form conjugate pairs; polynomial is not real")
     return c.real.copy()
+
+
+def roots_many(polys):
+    """``numpy.roots`` of each polynomial, the eigenvalue problems of equal degree in one
+    batched LAPACK call (the same companion matrix and routine per polynomial as
+    ``numpy.roots``: identical roots).
+
+    Parameters
+    ----------
+    polys : sequence of array_like
+
+    Returns
+    -------
+    list of ndarray
+    """
+    out, groups = [None] * len(polys), {}
+    for i, c in enumerate(polys):
+        c = np.atleast_1d(np.asarray(c))
+        nz = np.flatnonzero(c)
+        if nz.size == 0:
+            out[i] = np.array([])
+            continue
+        c, zeros = c[nz[0]:nz[-1] + 1], len(c) - nz[-1] - 1
+        if len(c) < 2:
+            out[i] = np.zeros(zeros)
+            continue
+        M = np.diag(np.ones(len(c) - 2, c.dtype), -1)
+        M[0, :] = -c[1:] / c[0]
+        groups.setdefault(M.shape, []).append((i, M, zeros))
+    for items in groups.values():
+        ev = np.linalg.eigvals(np.stack([M for _, M, _ in items]))
+        for (i, _, zeros), r in zip(items, ev):
+            out[i] = np.hstack((r, np.zeros(zeros, r.dtype)))
+    return out
 
 
 def rel_coef_error(a, b):
