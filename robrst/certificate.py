@@ -13,7 +13,8 @@ Nothing from the optimiser is trusted: every figure is recomputed from the polyn
 
   - explicit families: between neighbouring members the closed-loop polynomial is a
     segment; :func:`robrst.interval.segment_crossing` proves that no closed-loop root
-    crosses the imaginary axis anywhere on it (``stability: "segment_crossing"``, exact);
+    crosses the imaginary axis anywhere on it (``stability: "segment_crossing"``, exact;
+    ``"refined_sweep"`` when a segment cannot be tested: an unstable member);
   - every family: adaptive refinement (``"refined_sweep"``): an interval between two
     checked temperatures is halved while any figure (spectral abscissa, every bounded
     peak, continuous and sampled) changes across it by more than half its margin to the
@@ -126,15 +127,15 @@ def _unresolved(ra, rb, specs, rtol, ignore=()):
 def _segments(family, ctrl, recs):
     """Exact crossing test between neighbouring members of an explicit family.
 
-    Returns the crossings found (violations) and whether continuous stability is proved
-    over the whole interval (every segment tested, none crossing).
+    Returns the crossings found (violations) and whether every segment was tested
+    (continuous stability is proved over the whole interval when, besides, none crosses).
     """
-    viols, proved = [], True
+    viols, tested = [], True
     ms = family.models
     for a, b in zip(ms[:-1], ms[1:]):
         ra, rb = recs[a.temperature_C], recs[b.temperature_C]
         if not (ra["stable"] and rb["stable"]) or a.n != b.n or a.m != b.m:
-            proved = False
+            tested = False
             continue   # an unstable end is already a violation; degrees differ: no segment
         cr = segment_crossing(closed_loop(a, ctrl).Delta, closed_loop(b, ctrl).Delta)
         if cr.crossing:
@@ -144,7 +145,7 @@ def _segments(family, ctrl, recs):
                                    f" {b.temperature_C:g} °C (at {T:.6g} °C)", 0.0, 0.0,
                                    None if cr.kind == "infinity" else cr.freq_rad_s,
                                    kind="crossing"))
-    return viols, proved and not viols
+    return viols, tested
 
 
 def _guardian(family, ctrl, specs, rtol, checks, recs, viols):
@@ -182,40 +183,89 @@ def _refine(family, ctrl, specs, rtol, checks, recs, viols, budget, orders, igno
     family's order drops at one temperature, e.g. a creep pair that cancels exactly at the
     reference) is not a violation: its figures jump by construction.  It is appended to
     ``orders`` and reported in the certificate's ``interval`` record.
+
+    The points are checked generation by generation (the midpoints of every interval to
+    halve in one batch, :func:`robrst.modelcheck.check_all_many`), then the halving is
+    replayed depth first: violations, unresolved intervals and ``orders`` come in the
+    order of checking one point at a time.
     """
     lo, hi = family.range_C
     floor = MIN_WIDTH * (hi - lo)
     temps = sorted(recs)
-    stack = list(zip(temps[:-1], temps[1:]))
-    out, walked = [], set()
+    found, walked, level, left = {}, set(), list(zip(temps[:-1], temps[1:])), budget
+    while level and left > 0:
+        todo = []
+        for a, b in level:
+            if _decide(recs, a, b, specs, rtol, ignore, floor)[0] == "split":
+                todo.append((a, b, *_split(a, b, recs, floor, walked)))
+        todo, level = todo[:left], []
+        done = check_all_many([family.at(m) for _, _, m, _ in todo], ctrl, specs, rtol,
+                              checks, family)
+        for (a, b, m, low), (rec, v) in zip(todo, done):
+            rec["family_member"] = False
+            recs[m], found[m] = rec, v
+            if low is not None and rec.get("closed_loop_degree") == recs[low].get(
+                    "closed_loop_degree"):
+                walked.add(m)   # the lower order persists beyond the probe: halve from here on
+            level += [(a, m), (m, b)]
+        left -= len(todo)
+    stack, out, walked, seen = list(zip(temps[:-1], temps[1:])), [], set(), set()
     while stack:
         a, b = stack.pop()
-        key = _unresolved(recs[a], recs[b], specs, rtol, ignore)
-        if key is None:
-            continue
-        if b - a <= floor and recs[a].get("closed_loop_degree") != recs[b].get(
-                "closed_loop_degree"):
+        what, key = _decide(recs, a, b, specs, rtol, ignore, floor)
+        if what == "order":
             orders.append([a, b])   # the model order changes (e.g. a cancelled creep pair)
             continue
-        if b - a <= floor:   # a settling time jumps (a ripple leaves the band): both sides hold
-            key = _unresolved(recs[a], recs[b], specs, rtol, (*ignore, *JUMPS))
-            if key is None:
-                continue
-        if b - a <= floor or budget <= 0:
-            out.append(Violation(f"T{a:g}C", a, f"{key} changes too fast between {a:g} and"
-                                 f" {b:g} °C to be resolved by the sweep (resolution"
-                                 f" {floor:.3g} °C)", 0.0, 0.0, None, kind="unresolved"))
+        m, low = _split(a, b, recs, floor, walked) if what == "split" else (None, None)
+        if what == "unresolved" or budget <= 0 or m not in found:
+            if what != "resolved":
+                out.append(Violation(f"T{a:g}C", a, f"{key} changes too fast between {a:g}"
+                                     f" and {b:g} °C to be resolved by the sweep (resolution"
+                                     f" {floor:.3g} °C)", 0.0, 0.0, None, kind="unresolved"))
             continue
-        m, low = _split(a, b, recs, floor, walked)
-        recs[m], v = check_all(family.at(m), ctrl, specs, rtol, checks, family)
-        recs[m]["family_member"] = False
-        viols.extend(v)
+        viols.extend(found[m])
+        seen.add(m)
         budget -= 1
         if low is not None and (recs[m].get("closed_loop_degree")
                                 == recs[low].get("closed_loop_degree")):
-            walked.add(m)   # the lower order persists beyond the probe: halve from here on
+            walked.add(m)
         stack += [(a, m), (m, b)]
+    for m in sorted(found.keys() - seen):   # checked in a batch, not reached depth first
+        viols.extend(found[m])
     return out
+
+
+def _decide(recs, a, b, specs, rtol, ignore, floor):
+    """What to do with ``[a, b]``: ``("resolved", None)``, ``("order", key)`` (the model
+    order changes at the floor), ``("unresolved", key)`` (at the floor) or ``("split",
+    key)``."""
+    key = _unresolved(recs[a], recs[b], specs, rtol, ignore)
+    if key is None:
+        return "resolved", None
+    if b - a <= floor and recs[a].get("closed_loop_degree") != recs[b].get(
+            "closed_loop_degree"):
+        return "order", key
+    if b - a <= floor:   # a settling time jumps (a ripple leaves the band): both sides hold
+        key = _unresolved(recs[a], recs[b], specs, rtol, (*ignore, *JUMPS))
+        return ("resolved", None) if key is None else ("unresolved", key)
+    return "split", key
+
+
+def _statement(explicit, tested, proved):
+    """What the interval checks established, in words."""
+    if explicit and tested:
+        head = ("closed-loop stability proved for every temperature of the interval (exact"
+                " zero-crossing test of the interpolated closed-loop polynomial); " if proved
+                else "closed-loop stability decided by the exact zero-crossing test of the"
+                " interpolated closed-loop polynomial: a root reaches the imaginary axis"
+                " between members (see the violations); ")
+    elif proved:
+        head = ("continuous closed-loop stability proved for every temperature of the interval"
+                " (no zero of the Hurwitz guardian a_n H_(n-1) along the thermal law); ")
+    else:
+        head = "closed-loop stability and "
+    return head + ("peaks checked on a sweep refined until no figure changes by more than"
+                   f" {REFINE_RATIO:g} x its margin between neighbouring points")
 
 
 def _split(a, b, recs, floor, walked):
@@ -269,10 +319,11 @@ def certify(family, ctrl, specs, n_sweep=35, rtol=1e-3, checks=(), max_refine=No
     interval = {"range_C": [lo, hi], "stability": "single_model", "peaks": "single_model"}
     if len(family.models) > 1:
         explicit = family.thermal is None
-        proof = None
+        proof, tested = None, False
         if explicit:
-            crossings, proved = _segments(family, ctrl, recs)
+            crossings, tested = _segments(family, ctrl, recs)
             viols += crossings
+            proved = tested and not crossings
         else:
             proof = _guardian(family, ctrl, specs, rtol, checks, recs, viols)
             proved = proof["proved"]
@@ -286,8 +337,8 @@ def certify(family, ctrl, specs, n_sweep=35, rtol=1e-3, checks=(), max_refine=No
         temps = np.array(sorted(recs))
         interval = {
             "range_C": [lo, hi],
-            "stability": ("segment_crossing" if explicit else
-                          "guardian_map" if proof["proved"] else "refined_sweep"),
+            "stability": ("segment_crossing" if explicit and tested else
+                          "guardian_map" if proved else "refined_sweep"),
             "peaks": "refined_sweep",
             "points": int(len(temps)),
             "max_spacing_C": float(np.max(np.diff(temps))),
@@ -296,16 +347,7 @@ def certify(family, ctrl, specs, n_sweep=35, rtol=1e-3, checks=(), max_refine=No
             "sampled": "refined_sweep" if specs.sampled else None,
             "order_change_C": sorted(orders),
             **({} if proof is None else {"guardian": proof}),
-            "statement": (
-                ("closed-loop stability proved for every temperature of the interval (exact"
-                 " zero-crossing test of the interpolated closed-loop polynomial); "
-                 if explicit else
-                 "continuous closed-loop stability proved for every temperature of the interval"
-                 " (no zero of the Hurwitz guardian a_n H_(n-1) along the thermal law); "
-                 if proof["proved"] else
-                 "closed-loop stability and ") +
-                "peaks checked on a sweep refined until no figure changes by more than"
-                f" {REFINE_RATIO:g} x its margin between neighbouring points"),
+            "statement": _statement(explicit, tested, proved),
         }
     recs_sorted = tuple(recs[T] for T in sorted(recs))
     bounds = {key: getattr(specs, attr) for key, attr in BOUNDED

@@ -142,3 +142,79 @@ def test_check_all_many_is_one_model_at_a_time(name):
             assert rec[k] == rec1[k] or (rec[k] != rec[k] and rec1[k] != rec1[k]), k
     cert = certify_problem(p, ctrl)
     assert len(cert.models) >= len(p.family.models) + 9
+
+
+def _sequential_refine(family, ctrl, specs, rtol, recs, budget, ignore):
+    """The interval halving one point at a time, depth first (as documented in
+    :mod:`robrst.certificate`): the checked temperatures and the violations in order."""
+    from robrst.certificate import MIN_WIDTH, REFINE_RATIO
+    from robrst.modelcheck import JUMPS, margins
+
+    def unresolved(ra, rb, ignore=()):
+        ma, mb = margins(ra, specs, rtol), margins(rb, specs, rtol)
+        for k in sorted(ma.keys() & mb.keys() - set(ignore)):
+            (va, lim), (vb, _) = ma[k], mb[k]
+            room = min(lim - va, lim - vb)
+            if room > 0 and abs(va - vb) > REFINE_RATIO * room:
+                return k
+        return None
+
+    lo, hi = family.range_C
+    floor = MIN_WIDTH * (hi - lo)
+    temps = sorted(recs)
+    stack, viols, n_unresolved, walked = list(zip(temps[:-1], temps[1:])), [], 0, set()
+    while stack:
+        a, b = stack.pop()
+        if unresolved(recs[a], recs[b], ignore) is None:
+            continue
+        deg = [recs[t].get("closed_loop_degree") for t in (a, b)]
+        if b - a <= floor and (deg[0] != deg[1] or
+                               unresolved(recs[a], recs[b], (*ignore, *JUMPS)) is None):
+            continue
+        if b - a <= floor or budget <= 0:
+            n_unresolved += 1
+            continue
+        m, low = 0.5 * (a + b), None
+        if deg[0] != deg[1]:   # a degree drops at one temperature: probe next to that end
+            low = a if deg[0] < deg[1] else b
+            if low in walked:
+                low = None
+            else:
+                m = a + 0.5 * floor if low == a else b - 0.5 * floor
+        recs[m], v = check_all(family.at(m), ctrl, specs, rtol, (), family)
+        viols += v
+        if low is not None and recs[m]["closed_loop_degree"] == recs[low]["closed_loop_degree"]:
+            walked.add(m)
+        budget -= 1
+        stack += [(a, m), (m, b)]
+    return sorted(recs), viols, n_unresolved
+
+
+@pytest.mark.parametrize("seed", [42, 116, 127])
+def test_refinement_in_batches_is_the_depth_first_halving(seed):
+    import random_problems as rp
+    from robrst.certificate import certify
+
+    p = rp.random_case(seed).problem()
+    ctrl = pole_placement(p.family.reference_model, p.poles, p.controller).controller
+    n_sweep = 35
+    cert = certify(p.family, ctrl, p.specs, n_sweep=n_sweep, rtol=1e-3)
+    assert not cert.interval.get("guardian", {}).get("parts") or all(
+        q["candidate_C"] is None for q in cert.interval["guardian"]["parts"])
+    # a stability proof over the interval: the continuous spectral abscissa is not watched
+    proved = cert.interval["stability"] in ("segment_crossing", "guardian_map")
+    models = list(p.family.models)
+    known = {m.temperature_C for m in models}
+    models += [m for m in p.family.sweep(n_sweep) if m.temperature_C not in known]
+    recs, viols = {}, []
+    for m in models:
+        recs[m.temperature_C], v = check_all(m, ctrl, p.specs, 1e-3, (), p.family)
+        viols += v
+    temps, v_ref, n_unres = _sequential_refine(
+        p.family, ctrl, p.specs, 1e-3, recs, max(4 * n_sweep, 64),
+        ("spectral_abscissa",) if proved else ())
+    assert [r["temperature_C"] for r in cert.models] == temps
+    assert len(temps) > len(models)                      # the refinement did add points
+    got = [v for v in cert.violations if "changes too fast" not in v.quantity]
+    assert got == viols + v_ref
+    assert len(cert.violations) - len(got) == n_unres
