@@ -153,3 +153,27 @@ def test_refinement_isolates_the_order_change_and_stays_sound(designs):
             bound = pr.specs.peak_bound(name)
             if bound is not None:
                 assert rp.dense_peak(N, Delta, n_grid=4000)[0] <= bound * (1 + cert.rtol), (T, name)
+
+
+@pytest.mark.parametrize("seed", [0, 4, 14])
+def test_interval_record_claims_no_proof_it_did_not_make(seed):
+    """An explicit family with an unstable member: that segment cannot be tested, so the
+    record must not say the zero-crossing test proved stability over the interval (it did
+    until 2026-11-25)."""
+    from robrst.certificate import certify
+    from robrst.synthesis.analytic import pole_placement
+
+    data = rp.random_case(seed).data
+    p = rp.random_case(seed).problem()
+    assert p.family.thermal is None and len(p.family.models) > 1
+    ctrl = pole_placement(p.family.reference_model, p.poles, p.controller).controller
+    cert = certify(p.family, ctrl, p.specs)
+    members = [r for r in cert.models if r["family_member"]]
+    unstable = [r["temperature_C"] for r in members if not r["stable"]]
+    # the independent checker agrees that a member is unstable
+    assert unstable and all(
+        not rp.stability(rp._strip(rp._add(rp._mul(A, ctrl.S), rp._mul(B, ctrl.R))))[0]
+        for B, A in (rp.model_at(data, T) for T in unstable))
+    assert not cert.certified
+    assert cert.interval["stability"] == "refined_sweep"
+    assert "proved" not in cert.interval["statement"]
