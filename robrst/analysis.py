@@ -14,12 +14,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from robrst import lti, poly
-from robrst.hinf import mag2_poly, peak_gains
+from robrst.hinf import mag2_poly, peak_gains_many
 from robrst.plant import Plant
 from robrst.rst import RSTController, closed_loop
 
 __all__ = ["Margins", "Analysis", "analyze", "sensitivity", "crossovers", "bracketed_root",
-           "step_response", "spectral_abscissa", "spectral_abscissa_many"]
+           "step_response", "spectral_abscissa", "spectral_abscissa_many", "analyze_many"]
 
 SENSITIVITIES = ("S", "T", "U", "Sd")
 
@@ -258,14 +258,29 @@ def analyze(plant: Plant, ctrl: RSTController, rtol: float = 1e-10) -> Analysis:
     >>> bool(a.stable), round(float(a.margins.phase_margin_deg), 1)
     (True, 86.7)
     """
-    cl = closed_loop(plant, ctrl)
-    sa, roots = spectral_abscissa(cl.Delta)
-    # the four peaks of one loop together: the same figures as peak_gain of each
-    peaks = dict(zip(SENSITIVITIES, peak_gains([cl.nums[k] for k in SENSITIVITIES], cl.Delta,
-                                               rtol=rtol)))
-    m = margins(plant, ctrl, peaks["S"].value)
-    return Analysis(label=plant.label, temperature_C=plant.temperature_C, stable=sa < 0,
-                    poles=roots, spectral_abscissa=sa, peaks=peaks, margins=m)
+    return analyze_many([plant], ctrl, rtol)[0]
+
+
+def analyze_many(plants, ctrl, rtol=1e-10):
+    """:func:`analyze` of each plant under ``ctrl``, the roots and the peak computations of
+    all loops batched (the same figures as one plant at a time).
+
+    Returns
+    -------
+    tuple of Analysis
+    """
+    cls = [closed_loop(plant, ctrl) for plant in plants]
+    stab = spectral_abscissa_many([cl.Delta for cl in cls])
+    # the four peaks of a loop together: the same figures as peak_gain of each
+    pks = peak_gains_many([([cl.nums[k] for k in SENSITIVITIES], cl.Delta, ()) for cl in cls],
+                          rtol=rtol)
+    out = []
+    for plant, (sa, roots), pk in zip(plants, stab, pks):
+        peaks = dict(zip(SENSITIVITIES, pk))
+        out.append(Analysis(label=plant.label, temperature_C=plant.temperature_C,
+                            stable=sa < 0, poles=roots, spectral_abscissa=sa, peaks=peaks,
+                            margins=margins(plant, ctrl, peaks["S"].value)))
+    return tuple(out)
 
 
 def step_response(N, D, t):

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from robrst import poly, timespec
-from robrst.analysis import analyze, spectral_abscissa
+from robrst.analysis import analyze_many, spectral_abscissa
 from robrst.certificate import Violation, certify, certify_problem
 from robrst.errors import CoprimeError, SpecError
 from robrst.modelcheck import BOUNDED
@@ -350,7 +350,7 @@ def _design(problem, progress, templates):
         if two_dof or problem.specs.time_domain:
             cert = with_time_domain(problem, cert, ctrl)
     comp = None if method == "analytic" else comparison(problem, ctrl, cert)
-    analyses = tuple(analyze(m, ctrl) for m in problem.family.models)
+    analyses = analyze_many(problem.family.models, ctrl)
     return DesignResult(problem=problem, method=method, controller=ctrl,
                         target_char_poly=stage.Am, analyses=analyses, certificate=cert,
                         synthesis=stage, analytic_check=check, comparison=comp, tracking=trk)
