@@ -20,7 +20,7 @@ from robrst.rst import RSTController, closed_loop
 
 __all__ = ["Margins", "Analysis", "analyze", "sensitivity", "crossovers", "bracketed_root",
            "step_response",
-           "spectral_abscissa"]
+           "spectral_abscissa", "spectral_abscissae"]
 
 SENSITIVITIES = ("S", "T", "U", "Sd")
 
@@ -96,10 +96,51 @@ def sensitivity(plant, ctrl, name, w):
 
 
 def spectral_abscissa(Delta):
-    """Largest real part of the roots of ``Delta`` (computed in scaled form)."""
-    sc = poly.Scaling.natural(Delta)
-    r = sc.unfreq(np.roots(sc.apply(poly.trim(Delta))))
-    return float(np.max(r.real)), r
+    """Largest real part of the roots of ``Delta`` (computed in scaled form): ``(value,
+    roots)``."""
+    return spectral_abscissae([Delta])[0]
+
+
+def spectral_abscissae(Deltas):
+    """:func:`spectral_abscissa` of several polynomials, one stacked eigenvalue problem per
+    degree.
+
+    The roots of each polynomial, scaled by :meth:`robrst.poly.Scaling.natural`, are those
+    of ``numpy.roots`` (the eigenvalues of the same companion matrix; roots at zero
+    appended).
+
+    Parameters
+    ----------
+    Deltas : sequence of array_like
+        Polynomials in s, highest power first, each of degree at least one.
+
+    Returns
+    -------
+    list of (float, ndarray)
+        Per polynomial, the largest real part of its roots and the roots [rad/s].
+    """
+    scaled, w0 = [], []
+    for D in Deltas:
+        sc = poly.Scaling.natural(D)
+        p = sc.apply(poly.trim(D))
+        nz = np.flatnonzero(p)
+        scaled.append((p[:nz[-1] + 1], len(p) - 1 - nz[-1]))   # roots at zero apart
+        w0.append(sc.w0)
+    groups = {}
+    for k, (p, _) in enumerate(scaled):
+        groups.setdefault(len(p), []).append(k)
+    out = [None] * len(scaled)
+    for N, ks in groups.items():
+        comp = np.zeros((len(ks), N - 1, N - 1))
+        comp[:, 1:, :-1] = np.eye(N - 2) if N > 2 else 0.0
+        for i, k in enumerate(ks):
+            p = scaled[k][0]
+            comp[i, 0, :] = -p[1:] / p[0]
+        lam = np.linalg.eigvals(comp)
+        for i, k in enumerate(ks):
+            r = np.hstack((lam[i], np.zeros(scaled[k][1], lam.dtype))) * w0[k]
+            out[k] = float(np.max(r.real)), r
+    return out
 
 
 def _positive_roots_x(q, w0):
