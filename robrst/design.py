@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from robrst import poly, timespec
-from robrst.analysis import analyze_many, spectral_abscissa
+from robrst.analysis import analyze_many, spectral_abscissa_many
 from robrst.certificate import Violation, certify, certify_problem
 from robrst.errors import CoprimeError, SpecError
 from robrst.modelcheck import BOUNDED
@@ -183,25 +183,28 @@ def with_time_domain(problem, cert, ctrl):
     Spectral abscissae include the roots the new controller adds (its reference filter).
     """
     sp = problem.specs
-    recs, viols = [], list(cert.violations)
-    for rec in cert.models:
-        rec = dict(rec)
-        m = problem.family.at(rec["temperature_C"])
-        loops = [(m, None, "")]
-        if sp.sampled:
-            loops.append((problem.family.sampled(m, sp.sample_rate_hz, sp.delay_samples),
-                          sp.sample_rate_hz, "_sampled"))
-        for plant, fs, suffix in loops:
-            cl = closed_loop(plant, ctrl)
-            sa, _ = spectral_abscissa(cl.Delta)
-            rec[f"spectral_abscissa{suffix}"] = max(rec[f"spectral_abscissa{suffix}"], sa)
-            if not sp.time_domain or not rec[f"stable{suffix}"]:
-                continue
-            t_rec, failed = timespec.check(plant, ctrl, cl, sp, cert.rtol, fs)
-            rec.update({k + suffix: v for k, v in t_rec.items()})
-            viols += [Violation(m.label, m.temperature_C, q, v, b, None,
-                                "sampled" if fs else "continuous") for q, v, b in failed]
-        recs.append(rec)
+    recs = [dict(rec) for rec in cert.models]
+    models = [problem.family.at(rec["temperature_C"]) for rec in recs]
+    kinds = [(models, None, "")]
+    if sp.sampled:
+        kinds.append(([problem.family.sampled(m, sp.sample_rate_hz, sp.delay_samples)
+                       for m in models], sp.sample_rate_hz, "_sampled"))
+    found = [[] for _ in recs]            # per model, the failed specs of each loop
+    for plants, fs, suffix in kinds:      # every model's loop of one kind at once
+        cls = [closed_loop(plant, ctrl) for plant in plants]
+        sa_key = f"spectral_abscissa{suffix}"
+        for rec, (sa, _) in zip(recs, spectral_abscissa_many([cl.Delta for cl in cls])):
+            rec[sa_key] = max(rec[sa_key], sa)
+        if not sp.time_domain:
+            continue
+        ks = [k for k, rec in enumerate(recs) if rec[f"stable{suffix}"]]
+        checked = timespec.check_many([plants[k] for k in ks], ctrl, [cls[k] for k in ks],
+                                      sp, cert.rtol, fs)
+        for k, (t_rec, failed) in zip(ks, checked):
+            recs[k].update({q + suffix: v for q, v in t_rec.items()})
+            found[k] += [Violation(models[k].label, models[k].temperature_C, q, v, b, None,
+                                   "sampled" if fs else "continuous") for q, v, b in failed]
+    viols = list(cert.violations) + [v for f in found for v in f]
     bounds = {**cert.bounds, **{key: getattr(sp, attr) for key, attr in BOUNDED
                                 if getattr(sp, attr) is not None}}
     return replace(cert, certified=not viols, models=tuple(recs), violations=tuple(viols),

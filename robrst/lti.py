@@ -17,7 +17,8 @@ import numpy as np
 
 from robrst import poly
 
-__all__ = ["companion_parts", "companion", "companion_monic", "companion_outputs", "DiscreteSS",
+__all__ = ["companion_parts", "companion", "companion_monic", "companion_outputs",
+           "companion_outputs_many", "DiscreteSS",
            "zoh", "zoh_matrices", "zoh_modal", "d2c_modal", "transmission_zeros", "ss_to_poly",
            "d2c"]
 
@@ -90,12 +91,15 @@ def companion_monic(ns, ds, balance=True):
 
 
 def _balanced(A, B, C):
-    """``A, B, C`` under the diagonal similarity (LAPACK ``gebal``) that balances ``A``."""
-    from scipy.linalg import matrix_balance   # scipy.linalg only where used: 0.3 s to import
+    """``A, B, C`` under the diagonal similarity (LAPACK ``gebal``, no permutation) that
+    balances ``A``; stacks ``(..., n, n)``, ``(..., n, 1)``, ``(..., r, n)`` slice by slice."""
+    from scipy.linalg.lapack import dgebal   # scipy.linalg only where used: 0.3 s to import
 
-    _, (sc_vec, _) = matrix_balance(A, permute=False, separate=True)
-    return (A * (1 / sc_vec)[:, None] * sc_vec[None, :], B / sc_vec[:, None],
-            C * sc_vec[None, :])
+    sc = np.empty(A.shape[:-1])
+    for i in np.ndindex(A.shape[:-2]):
+        sc[i] = dgebal(A[i], scale=1, permute=0)[3]
+    return (A * (1 / sc)[..., :, None] * sc[..., None, :], B / sc[..., :, None],
+            C * sc[..., None, :])
 
 
 def companion_outputs(Ns, D, scaling):
@@ -107,14 +111,46 @@ def companion_outputs(Ns, D, scaling):
     A, B, C, d
         ``C`` of shape ``(len(Ns), n)``, ``d`` of length ``len(Ns)``.
     """
-    D = poly.trim(D)
-    Ds = scaling.apply(D)
-    parts = [companion_monic(scaling.apply(poly.trim(N)) / Ds[0], Ds / Ds[0], balance=False)
-             for N in Ns]
-    A, B = parts[0][:2]
-    C = np.vstack([p[2] for p in parts])
-    d = np.array([p[3] for p in parts])
-    if A.shape[0]:
+    return tuple(x[0] for x in companion_outputs_many([Ns], [D], [scaling]))
+
+
+def companion_outputs_many(Ns, Ds, scalings):
+    """:func:`companion_outputs` of several loops of one degree, stacked.
+
+    Parameters
+    ----------
+    Ns : sequence of sequences of array_like
+        Per loop, its numerators in s (the same number for every loop).
+    Ds : sequence of array_like
+        Per loop, its denominator in s; all of one degree ``n`` once trimmed.
+    scalings : sequence of Scaling
+        Per loop, its scaling.
+
+    Returns
+    -------
+    A, B, C, d
+        Shapes ``(K, n, n)``, ``(K, n, 1)``, ``(K, r, n)``, ``(K, r)`` for ``K`` loops of
+        ``r`` numerators; slice ``k`` is :func:`companion_outputs` of loop ``k``.
+    """
+    den = np.stack([sc.apply(poly.trim(D)) for D, sc in zip(Ds, scalings)])
+    K, n = den.shape[0], den.shape[1] - 1
+    r = len(Ns[0])
+    num = np.zeros((K, r, n + 1))
+    for k, (loop, sc) in enumerate(zip(Ns, scalings)):
+        for i, N in enumerate(loop):
+            b = sc.apply(poly.trim(N)) / den[k, 0]
+            if len(b) > n + 1:
+                raise ValueError("improper transfer function: deg N > deg D")
+            num[k, i, n + 1 - len(b):] = b
+    a = den / den[:, :1]                        # monic (what companion_parts reads)
+    A = np.zeros((K, n, n))
+    A[:, 0, :] = -a[:, 1:]
+    A[:, 1:, :-1] = np.eye(n - 1) if n else 0.0
+    B = np.zeros((K, n, 1))
+    B[:, :1, 0] = 1.0
+    d = num[:, :, 0].copy()
+    C = num[:, :, 1:] - d[:, :, None] * a[:, None, 1:]
+    if n:
         A, B, C = _balanced(A, B, C)
     return A, B, C, d
 
@@ -163,18 +199,22 @@ def zoh_matrices(A, B, h, gamma=True):
     """``(Ad, Gamma, Bd)`` of ``x' = A x + B u`` held over a step ``h`` (same time unit):
     ``Ad = exp(A h)``, ``Gamma = int_0^h exp(A t) dt``, ``Bd = Gamma B``, from one matrix
     exponential of ``[[A h, I h, B h], [0, 0, 0]]``; with ``gamma=False`` ``Gamma`` is
-    ``None`` and the exponential is the smaller ``[[A h, B h], [0, 0]]``."""
+    ``None`` and the exponential is the smaller ``[[A h, B h], [0, 0]]``.
+
+    Stacks too: ``A`` of shape ``(..., n, n)``, ``B`` ``(..., n, 1)`` and ``h`` a scalar or
+    of shape ``(...)`` give stacked results, slice by slice the same as one call each."""
     from scipy.linalg import expm   # scipy.linalg only where used: 0.3 s to import
 
-    n = A.shape[0]
+    n = A.shape[-1]
     k = 2 * n + 1 if gamma else n + 1
-    M = np.zeros((k, k))
-    M[:n, :n] = A * h
+    h = np.asarray(h, float)[..., None, None]
+    M = np.zeros(A.shape[:-2] + (k, k))
+    M[..., :n, :n] = A * h
     if gamma:
-        M[:n, n:2 * n] = np.eye(n) * h
-    M[:n, k - 1:] = B * h
+        M[..., :n, n:2 * n] = np.eye(n) * h
+    M[..., :n, k - 1:] = B * h
     E = expm(M)
-    return E[:n, :n], (E[:n, n:2 * n] if gamma else None), E[:n, k - 1:]
+    return E[..., :n, :n], (E[..., :n, n:2 * n] if gamma else None), E[..., :n, k - 1:]
 
 
 def zoh_modal(poles, residues, sample_rate_hz):
