@@ -95,12 +95,30 @@ def _check_loops(loops, ctrl, specs, rtol):
     for lp, (sa, rho) in zip(loops, _stability(loops)):
         lp.sa, lp.rho = sa, rho
     pks = peak_gains_many([(lp.nums, lp.cl.Delta, lp.bands) for lp in loops])
-    return [lp.finish(pk, specs, rtol) for lp, pk in zip(loops, pks)]
+    steps = _steps(loops, ctrl, specs, rtol)
+    return [lp.finish(pk, specs, rtol, st) for lp, pk, st in zip(loops, pks, steps)]
+
+
+def _steps(loops, ctrl, specs, rtol):
+    """Reference-step figures ``(record, failed)`` of every stable loop when the specs
+    have time-domain bounds (:func:`robrst.timespec.check_many`, one call per sample
+    rate), else ``None``."""
+    out, groups = [None] * len(loops), {}
+    if specs.time_domain:
+        for k, lp in enumerate(loops):
+            if lp.sa < 0:
+                groups.setdefault(lp.fs, []).append(k)
+    for fs, ks in groups.items():
+        done = timespec.check_many([loops[k].plant for k in ks], ctrl,
+                                   [loops[k].cl for k in ks], specs, rtol, fs)
+        for k, step in zip(ks, done):
+            out[k] = step
+    return out
 
 
 class _Loop:
-    """One model's closed loop in :func:`check_models`: stability first, then its peak
-    job (``nums``, ``bands``), then :meth:`finish` with the peaks."""
+    """One model's closed loop in :func:`_check_loops`: stability first, then its peak
+    job (``nums``, ``bands``), then :meth:`finish` with the peaks and step figures."""
 
     def __init__(self, plant, ctrl, specs, fs):
         self.plant, self.ctrl, self.fs = plant, ctrl, fs
@@ -123,8 +141,9 @@ class _Loop:
         """Physical frequency [rad/s] of a loop frequency (unwarped for a sampled loop)."""
         return w if self.fs is None else float(unwarp(w, self.fs))
 
-    def finish(self, pks, specs, rtol):
-        """The record and violations from the peaks ``pks`` (globals, then bands)."""
+    def finish(self, pks, specs, rtol, step=None):
+        """The record and violations from the peaks ``pks`` (globals, then bands) and the
+        reference-step figures ``step`` (``(record, failed)`` or ``None``)."""
         plant, cl, sa, rho, fs = self.plant, self.cl, self.sa, self.rho, self.fs
         loop = "continuous" if fs is None else "sampled"
         rec = {"label": plant.label, "temperature_C": plant.temperature_C,
@@ -173,8 +192,8 @@ class _Loop:
             elif not pk.verified:
                 add("|U| above corner not verified: the closed-loop poles span more than 12"
                     " decades", pk.value, specs.Mu_hf_max, kind="unresolved")
-        if specs.time_domain and sa < 0:   # reference-step specs (robrst.timespec)
-            t_rec, failed = timespec.check(plant, self.ctrl, cl, specs, rtol, fs)
+        if step is not None:   # reference-step specs (robrst.timespec)
+            t_rec, failed = step
             rec.update(t_rec)
             for q, v, b in failed:
                 add(q, v, b)
