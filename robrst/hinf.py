@@ -157,6 +157,7 @@ class _Plan:
         self.Ns, self.D0, self.bands = Ns, D0, list(bands)
         self.rtol, self.max_iter = rtol, max_iter
         sc, self.out, self.levels = poly.Scaling.natural(D0), {}, {}
+        self.res = [None] * len(self.bands)     # band peaks, filled by band_levels/result
         for i, N in enumerate(Ns):
             Ni, Di = _prepare(N, D0)
             if len(Ni) > len(Di):
@@ -171,7 +172,7 @@ class _Plan:
 
     def band_levels(self):
         """The band peaks not settled by the global ones: ``{k: Level}`` (band ``k``)."""
-        glob, self.res, todo = self.out, [None] * len(self.bands), {}
+        glob, todo = self.out, {}
         for k, (i, band) in enumerate(self.bands):
             if band[0] <= glob[i].freq_rad_s <= band[1]:
                 self.res[k] = glob[i]
