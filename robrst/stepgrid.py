@@ -5,8 +5,8 @@
 :func:`robrst.lti.companion_outputs_many`) and computes their step responses on grids
 that follow each loop's own modes (:func:`segments`).  The numerical stages are stacked
 numpy or LAPACK calls for the ``K`` loops: eigenvalues, zero-order-hold steps
-(:func:`robrst.lti.zoh_matrices`; the sampled loop's strides by :func:`power`),
-propagation by repeated doubling (:func:`propagate`: ``x[k + m] = Phi**m x[k] + S_m``),
+(:func:`robrst.lti.zoh_matrices`; the sampled loop's strides by powers), propagation by
+repeated doubling (:mod:`robrst.doubling`: ``x[k + m] = Phi**m x[k] + S_m``),
 and the refinements of the extremes and of the settling time between grid points; a
 single loop is the case ``K = 1``.  Each loop's grid, steps and refinements are those it
 would have alone, and so are its figures (to the rounding of a matrix product).
@@ -21,9 +21,10 @@ import math
 import numpy as np
 
 from robrst import lti
+from robrst.doubling import power, propagate
 
-__all__ = ["StepResponses", "segments", "propagate", "power", "bilinear",
-           "SETTLING_BAND", "POINTS_PER_RAD", "DECAY", "MAX_POINTS"]
+__all__ = ["StepResponses", "segments", "bilinear", "SETTLING_BAND", "POINTS_PER_RAD",
+           "DECAY", "MAX_POINTS"]
 
 SETTLING_BAND = 0.02
 POINTS_PER_RAD = 4.0       # grid points per radian of the fastest live mode
@@ -56,75 +57,6 @@ def bilinear(A, B, C, d, h):
     Bd = np.linalg.solve(M, B) * h
     Cd = np.swapaxes(np.linalg.solve(np.swapaxes(M, 1, 2), np.swapaxes(C, 1, 2)), 1, 2)
     return Ad, Bd, Cd, d + (C @ Bd)[..., 0] / 2
-
-
-def propagate(Phi, G, x0, n):
-    """States ``x[0..n]`` of ``x[k+1] = Phi x[k] + G`` by doubling, stacked.
-
-    Parameters
-    ----------
-    Phi, G, x0 : ndarray
-        Shapes ``(J, m, m)``, ``(J, m)``, ``(J, m)``.
-    n : int
-        Number of steps.
-
-    Returns
-    -------
-    ndarray
-        Shape ``(J, m, n + 1)``: the states as columns.
-    """
-    X = np.empty(x0.shape + (n + 1,))
-    X[..., 0] = x0
-    P, S, m = Phi, G[..., None], 1     # P = Phi**m, S = sum_{i<m} Phi**i G
-    while m <= n:
-        k = min(m, n + 1 - m)
-        X[..., m:m + k] = P @ X[..., :k] + S
-        S = P @ S + S
-        P = P @ P
-        m *= 2
-    return X
-
-
-def power(Phi, G, m, of):
-    """``(Phi**m, sum_{i<m} Phi**i G)`` by binary powering, for several powers of each of
-    stacked ``Phi``.
-
-    The powers ``Phi**(2**b)`` are computed once per slice of ``Phi`` (stacked); each
-    requested power is then the product of those of its bits, lowest first.
-
-    Parameters
-    ----------
-    Phi, G : ndarray
-        Shapes ``(K, n, n)`` and ``(K, n)``.
-    m : sequence of int
-        The requested powers (``>= 1``).
-    of : sequence of int
-        For each, its slice of ``Phi`` and ``G``.
-
-    Returns
-    -------
-    P, S : ndarray
-        Shapes ``(J, n, n)`` and ``(J, n)``, one per requested power.
-    """
-    m, of = [int(v) for v in m], [int(k) for k in of]
-    table = [(Phi, G[..., None])]      # Phi**(2**b), sum_{i<2**b} Phi**i G
-    for _ in range(max(m).bit_length() - 1):
-        Pk, Sk = table[-1]
-        table.append((Pk @ Pk, Pk @ Sk + Sk))
-    P, S = [], []
-    for mj, k in zip(m, of):
-        b = (mj & -mj).bit_length() - 1          # the lowest bit: Pk @ I, Pk @ 0 + Sk
-        Pj, Sj = table[b][0][k], table[b][1][k]
-        mj >>= b + 1
-        while mj:
-            b += 1
-            if mj & 1:
-                Pk, Sk = table[b][0][k], table[b][1][k]
-                Pj, Sj = Pk @ Pj, Pk @ Sj + Sk
-            mj >>= 1
-        P.append(Pj)
-        S.append(Sj[:, 0])
-    return np.stack(P), np.stack(S)
 
 
 def segments(decay, speed, unit=None):

@@ -301,8 +301,20 @@ def test_stacked_realisations_are_each_realisation_alone():
             assert np.array_equal(a[k], b)
 
 
+def test_one_power_of_every_slice():
+    from robrst.doubling import power, power_all
+
+    rng = np.random.default_rng(4)
+    Phi, G = rng.standard_normal((3, 4, 4)) / 4, rng.standard_normal((3, 4))
+    for m in (1, 2, 7, 64, 1001):
+        P, S = power_all(Phi, G, m)
+        Pr, Sr = power(Phi, G, [m] * 3, range(3))
+        assert np.allclose(P, Pr, rtol=1e-12, atol=1e-15)
+        assert np.allclose(S, Sr, rtol=1e-12, atol=1e-12)
+
+
 def test_powers_by_shared_doubling():
-    from robrst.stepgrid import power
+    from robrst.doubling import power
 
     rng = np.random.default_rng(3)
     Phi, G = rng.standard_normal((2, 4, 4)) / 4, rng.standard_normal((2, 4))
