@@ -5,11 +5,12 @@
 :func:`robrst.lti.companion_outputs_many`) and computes their step responses on grids
 that follow each loop's own modes (:func:`segments`).  The numerical stages are stacked
 numpy or LAPACK calls for the ``K`` loops: eigenvalues, zero-order-hold steps
-(:func:`robrst.lti.zoh_matrices`; the sampled loop's strides by powers), propagation by
-repeated doubling (:mod:`robrst.doubling`: ``x[k + m] = Phi**m x[k] + S_m``),
-and the refinements of the extremes and of the settling time between grid points; a
-single loop is the case ``K = 1``.  Each loop's grid, steps and refinements are those it
-would have alone, and so are its figures (to the rounding of a matrix product).
+(:func:`robrst.lti.zoh_matrices`; the sampled loop's strides by powers) and propagation
+by repeated doubling (:mod:`robrst.doubling`: ``x[k + m] = Phi**m x[k] + S_m``);
+a single loop is the case ``K = 1``.  :meth:`StepResponses.subdivide` gives the exact
+states inside any set of grid intervals (or of their sub-intervals): what
+:mod:`robrst.stepbound` refines wherever its bounds cannot exclude an extreme or an exit
+from the settling band.  Each loop's grid and steps are those it would have alone.
 
 The grids of the loops differ in length; the stacked arrays are padded by repeating
 each loop's last point (a repeated last point changes neither a first ``argmax`` nor a
@@ -17,21 +18,19 @@ last exit from a band, which is all that is read from them).
 """
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from robrst import lti
-from robrst.doubling import power, propagate
+from robrst.doubling import power, power_all, propagate, propagate_shared
 
-__all__ = ["StepResponses", "segments", "bilinear", "SETTLING_BAND", "POINTS_PER_RAD",
-           "DECAY", "MAX_POINTS"]
+__all__ = ["StepResponses", "Intervals", "segments", "bilinear", "POINTS_PER_RAD", "DECAY",
+           "MAX_POINTS"]
 
-SETTLING_BAND = 0.02
 POINTS_PER_RAD = 4.0       # grid points per radian of the fastest live mode
 DECAY = 16.0               # a mode is dead after exp(-16) of its initial size
 MAX_POINTS = 400_000
-EXTREME_SUB = 64           # sub-steps of an interval around a largest sample
-SETTLING_SUB = 256         # sub-steps of the interval of the last exit from the band
 
 
 def bilinear(A, B, C, d, h):
@@ -99,13 +98,34 @@ def segments(decay, speed, unit=None):
     return out
 
 
+@dataclass(frozen=True)
+class Intervals:
+    """Intervals ``[t0, t0 + h]`` of loops ``k`` with the states at both ends.
+
+    ``seg`` is each interval's segment of the grid and ``div`` how many times finer than
+    the segment's step it is (continuous loops: the sub-steps that cut it in ``n`` are
+    ``seg_h / (div n)``).
+    """
+
+    k: np.ndarray
+    seg: np.ndarray
+    t0: np.ndarray
+    h: np.ndarray
+    xa: np.ndarray
+    xb: np.ndarray
+    div: np.ndarray
+
+
 class StepResponses:
     """Exact step responses of ``K`` loops on mode-adapted grids, refinable between points.
 
     Continuous: scaled time, steps by the exact ZOH of :mod:`robrst.lti`; discrete
     (``h_sample``): samples of the bilinear map of the same realisation, strides of whole
-    samples.  After construction ``t`` ``(K, L)`` holds the grids and ``Y`` ``(K, r, L)``
-    the outputs (padded, see the module doc), ``length`` ``(K,)`` the true lengths.
+    samples.  After construction ``t`` ``(K, L)`` holds the grids, ``X`` ``(K, n, L)`` the
+    states and ``Y`` ``(K, r, L)`` the outputs (padded, see the module doc), ``length``
+    ``(K,)`` the true lengths.  ``generator`` is the continuous matrix (the loop's ``A``;
+    for a sampled loop the one in the bilinear variable, whose map the samples follow) and
+    ``rates`` the moduli of its eigenvalues.
 
     Parameters
     ----------
@@ -118,13 +138,18 @@ class StepResponses:
 
     def __init__(self, A, B, C, d, h_sample=None):
         self.discrete = h_sample is not None
+        self.generator = A
         if self.discrete:
-            A, B, C, d = bilinear(A, B, C, d, h_sample)
-            logz = np.log(np.linalg.eigvals(A).astype(complex))
+            self.h_sample = np.asarray(h_sample, float)
+            A, B, C, d = bilinear(A, B, C, d, self.h_sample)
+            z = np.linalg.eigvals(A).astype(complex)
+            logz = np.log(z)
             segs = [segments(-lz.real, np.abs(lz), unit=1) for lz in logz]
+            self.rates = np.abs(2 / self.h_sample[:, None] * (z - 1) / (z + 1))
         else:
             lam = np.linalg.eigvals(A)
             segs = [segments(-lm.real, np.abs(lm)) for lm in lam]
+            self.rates = np.abs(lam)
         self.A, self.B, self.C, self.d = A, B, C, d
         K, n = A.shape[0], A.shape[-1]
         # the segments of all loops in one table: loop, steps, step, start time, first
@@ -162,7 +187,11 @@ class StepResponses:
         s = self.seg_of[np.arange(K)[:, None], np.maximum(col - 1, 0)]
         self.t = seg_t0[s] + self.seg_h[s] * (col - self.seg_p[s])
         self.X, self.Y = X, C @ X + d[:, :, None]     # one row of Y per numerator
-        self.sub = {}    # per number of sub-steps: each segment's sub-step matrices, if known
+        # y' = C x' (continuous) or y[k+1] - y[k] (discrete) = CV x + CV0
+        D = A - np.eye(n) if self.discrete else A
+        self.CV, self.CV0 = C @ D, (C @ B)[..., 0]
+        self.sub = {}    # per subdivision of the segments: their sub-step matrices, if known
+        self.strides = {}    # per stride (discrete): its matrices for every loop
 
     def _steps(self, ks, hs):
         """Stacked ``(Phi, G)`` of one step ``hs[i]`` of loop ``ks[i]`` (scaled time, or
@@ -172,118 +201,124 @@ class StepResponses:
         P, _, S = lti.zoh_matrices(self.A[ks], self.B[ks], hs, gamma=False)
         return P, S[..., 0]
 
-    def _fine(self, ks, idx, rows, n_sub):
-        """Times and outputs ``rows`` of loops ``ks`` on their intervals ``[t[i], t[i+1]]``
-        (``i`` from ``idx``) at ``n_sub`` times the resolution (discrete: every sample; a
-        one-sample interval is its two grid points), padded by repeating the last point:
-        arrays ``(J, N + 1)`` and the number of points of each interval.  The sub-steps
-        of a segment are computed once."""
-        s = self.seg_of[ks, idx]
-        h = self.seg_h[s]
-        x0 = self.X[ks, :, idx]
-        if self.discrete:
-            n = np.maximum(np.rint(h).astype(int), 1)
-            N = int(n.max())
-            cols = np.minimum(np.arange(N + 1)[None, :], n[:, None])
-            y = np.empty(cols.shape)
-            if N > 1:
-                X = propagate(self.A[ks], self.B[ks, :, 0], x0, N)
-                y = np.take_along_axis(self._output(ks, rows, X), cols, axis=1)
-            one = n == 1
-            if one.any():
-                y[one] = self.Y[ks[one], rows if np.ndim(rows) == 0 else rows[one]][
-                    np.arange(one.sum())[:, None], idx[one][:, None] + cols[one]]
-            return self.t[ks, idx][:, None] + cols, y, n + 1
-        if n_sub not in self.sub:
+    def _sub_steps(self, seg, div):
+        """``(Phi, G)`` of the steps ``seg_h / div`` of segments ``seg`` (continuous),
+        computed once per segment and subdivision."""
+        if div not in self.sub:
             S = len(self.seg_h)
-            self.sub[n_sub] = (np.empty((S,) + self.A.shape[1:]), np.empty((S, self.A.shape[-1])),
-                               np.zeros(S, dtype=bool))
-        Phi, G, known = self.sub[n_sub]
-        todo = sorted({v for v in s.tolist() if not known[v]})
-        if todo:                           # the sub-steps of the segments not met yet
-            Phi[todo], G[todo] = self._steps(self.seg_k[todo], self.seg_h[todo] / n_sub)
+            self.sub[div] = (np.empty((S,) + self.A.shape[1:]), np.empty((S, self.A.shape[-1])),
+                             np.zeros(S, dtype=bool))
+        Phi, G, known = self.sub[div]
+        todo = np.unique(seg[~known[seg]])
+        if len(todo):                      # the sub-steps of the segments not met yet
+            Phi[todo], G[todo] = self._steps(self.seg_k[todo], self.seg_h[todo] / div)
             known[todo] = True
-        t = self.t[ks, idx][:, None] + (h / n_sub)[:, None] * np.arange(n_sub + 1)
-        y = self._output(ks, rows, propagate(Phi[s], G[s], x0, n_sub))
-        return t, y, np.full(len(ks), n_sub + 1)
+        return Phi[seg], G[seg]
 
-    def _output(self, ks, rows, X):
-        """Outputs ``rows`` of loops ``ks`` along their states ``X`` ``(J, n, N)``."""
+    def intervals(self, ks, idx):
+        """The grid intervals ``[t[k, i], t[k, i + 1]]`` of loops ``ks`` (``i`` from ``idx``).
+
+        Returns
+        -------
+        Intervals
+        """
+        return Intervals(ks, self.seg_of[ks, idx], self.t[ks, idx],
+                         self.t[ks, idx + 1] - self.t[ks, idx], self.X[ks, :, idx],
+                         self.X[ks, :, idx + 1], np.ones(len(ks), dtype=np.int64))
+
+    def subdivide(self, iv, n):
+        """Exact states at the points that cut each of the intervals ``iv`` in ``n[j]``
+        pieces (continuous: equal sub-steps; discrete: strides of ``ceil(h / n)`` samples,
+        the last one shorter).  The intervals cut alike share the matrix products of their
+        loop.
+
+        Parameters
+        ----------
+        iv : Intervals
+        n : ndarray
+            Shape ``(J,)``: the pieces of each interval (continuous: powers of 2).
+
+        Returns
+        -------
+        t, X : ndarray
+            Shapes ``(J, N + 1)`` and ``(J, n_x, N + 1)``: the points of each interval, its
+            ends included, padded by repeating its end.
+        count : ndarray
+            Shape ``(J,)``: the pieces of each interval (``n``, or fewer sampled).
+        """
+        J = len(iv.k)
+        if self.discrete:                      # one matrix per loop and stride
+            m = np.rint(iv.h).astype(np.int64)
+            step = -(-m // n)
+            count = -(-m // step)
+            key = step * len(self.A) + iv.k
+        else:                                  # one per segment and sub-step
+            count = np.asarray(n, dtype=np.int64)
+            key = iv.div * count * len(self.seg_h) + iv.seg
+        N = int(count.max())
+        pos = np.minimum(np.arange(N + 1)[None, :], count[:, None])
+        t = iv.t0[:, None] + (np.minimum(pos * step[:, None], m[:, None]) if self.discrete
+                              else (iv.h / count)[:, None] * pos)
+        X = np.empty((J, iv.xa.shape[1], N + 1))
+        size = np.ceil(np.log2(count) / 2)       # propagations by size (within 4 times)
+        for c in np.unique(size).tolist():
+            j = np.flatnonzero(size == c)
+            Nc = int(count[j].max())
+            keys, grp = np.unique(key[j], return_inverse=True)
+            P, S = self._matrices(keys)
+            X[j, :, :Nc + 1] = propagate_shared(P, S, grp.ravel(), iv.xa[j], Nc)
+        if self.discrete:                      # the end exact (a stride may pass it)
+            X[np.arange(J), :, count] = iv.xb
+        end = np.arange(N + 1)[None, :] > count[:, None]
+        if end.any():                          # padding
+            X = np.where(end[:, None, :], X[np.arange(J), :, count][:, :, None], X)
+        return t, X, count
+
+    def _matrices(self, keys):
+        """``(Phi, G)`` of the sub-steps ``keys`` of :meth:`subdivide`."""
+        if self.discrete:
+            K = len(self.A)
+            P, S = zip(*(self._stride(int(v)) for v in (keys // K).tolist()))
+            return np.stack(P)[np.arange(len(keys)), keys % K], \
+                np.stack(S)[np.arange(len(keys)), keys % K]
+        nseg = len(self.seg_h)
+        div, seg = keys // nseg, keys % nseg     # (keys sorted: by subdivision first)
+        P, S = zip(*(self._sub_steps(seg[div == v], int(v)) for v in np.unique(div).tolist()))
+        return np.concatenate(P), np.concatenate(S)
+
+    def _stride(self, s):
+        """``(Ad**s, sum_{i<s} Ad**i Bd)`` of every loop (discrete), computed once."""
+        if s not in self.strides:
+            self.strides[s] = power_all(self.A, self.B[:, :, 0], s)
+        return self.strides[s]
+
+    def pieces(self, iv, n, t, X, j, p):
+        """The pieces ``p`` of intervals ``j`` of ``iv`` cut in ``n`` by :meth:`subdivide`
+        (its ``t`` and ``X``).
+
+        Returns
+        -------
+        Intervals
+        """
+        return Intervals(iv.k[j], iv.seg[j], t[j, p], t[j, p + 1] - t[j, p], X[j, :, p],
+                         X[j, :, p + 1], iv.div[j] * np.asarray(n)[j])
+
+    def outputs(self, ks, X, rows=None):
+        """Outputs of loops ``ks`` at their states ``X`` ``(J, n, N)``: every row
+        ``(J, r, N)``, or row ``rows[j]`` of loop ``ks[j]`` ``(J, N)``."""
+        if rows is None:
+            return self.C[ks] @ X + self.d[ks][:, :, None]
         return (self.C[ks, rows][:, None, :] @ X)[:, 0, :] + self.d[ks, rows][:, None]
 
-    def extremes(self, requests):
-        """Largest ``sign * y`` of output ``row`` of each loop and its time (refined
-        between the grid points), for several ``(row, sign)`` at once.
+    def slopes(self, ks, X, rows=None):
+        """``y'`` (continuous) or ``y[k + 1] - y[k]`` (discrete) of loops ``ks`` at their
+        states ``X`` ``(J, n, N)``, rows as in :meth:`outputs`."""
+        if rows is None:
+            return self.CV[ks] @ X + self.CV0[ks][:, :, None]
+        return (self.CV[ks, rows][:, None, :] @ X)[:, 0, :] + self.CV0[ks, rows][:, None]
 
-        Parameters
-        ----------
-        requests : sequence of (int, array_like)
-            ``(row, sign)``: ``sign`` is ``+1`` or ``-1``, one per loop (or one for all).
-
-        Returns
-        -------
-        list of (ndarray, ndarray)
-            Per request, ``sign * y`` at its largest and when (scaled time or samples),
-            each of shape ``(K,)``.
-        """
-        K = self.Y.shape[0]
-        rows = np.array([row for row, _ in requests])
-        signs = np.empty((len(requests), K))
-        for q, (_, sg) in enumerate(requests):
-            signs[q] = sg
-        sY = signs[:, :, None] * self.Y[:, rows].transpose(1, 0, 2)      # (Q, K, L)
-        i = np.argmax(sY, axis=2)
-        qq, kk = np.arange(len(requests))[:, None], np.arange(K)[None, :]
-        best, tbest = sY[qq, kk, i], self.t[kk, i]
-        j = np.array([i - 1, i])                                      # (2, Q, K): both sides
-        jp, jq, jk = np.nonzero((j >= 0) & (j < self.length - 1))
-        if len(jk):
-            t, y, npts = self._fine(jk, j[jp, jq, jk], rows[jq], EXTREME_SUB)
-            sy = signs[jq, jk][:, None] * y
-            J = np.arange(len(jk))
-            k = np.argmax(sy, axis=1)
-            v, tk = sy[J, k], t[J, k]
-            if not self.discrete:          # vertex of the parabola
-                km, kp = np.maximum(k - 1, 0), np.minimum(k + 1, npts - 1)
-                a, b, c = sy[J, km], v, sy[J, kp]
-                den = a - 2 * b + c
-                vert = (k > 0) & (k < npts - 1) & (den < 0)
-                sden = np.where(vert, den, -1.0)
-                v = np.where(vert, np.maximum(v, b - (a - c) ** 2 / (8 * sden)), v)
-                tk = np.where(vert, tk + 0.5 * (a - c) / sden * (t[J, kp] - t[J, k]), tk)
-            for p in (0, 1):               # the left interval first, as one loop alone
-                sel = np.flatnonzero(jp == p)
-                better = sel[v[sel] > best[jq[sel], jk[sel]]]
-                best[jq[better], jk[better]] = v[better]
-                tbest[jq[better], jk[better]] = tk[better]
-        return list(zip(best, tbest))
-
-    def settling(self, row, final):
-        """Last time ``|y - final| > 2 % |final|`` of output ``row`` of each loop (0 if
-        never; the first time back in).
-
-        Parameters
-        ----------
-        row : int
-        final : array_like
-            Shape ``(K,)``: the final values.
-
-        Returns
-        -------
-        ndarray
-            Shape ``(K,)`` (scaled time or samples).
-        """
-        final = np.asarray(final, float)
-        tol = SETTLING_BAND * np.abs(final)
-        out = np.abs(self.Y[:, row] - final[:, None]) > tol[:, None]
-        last = out.shape[1] - 1 - np.argmax(out[:, ::-1], axis=1)   # (the padding repeats
-        ar = np.arange(len(last))                                  # the last point)
-        some = out[ar, last]
-        res = np.where(some, self.t[ar, last], 0.0)     # out at the end: the end
-        ks = np.flatnonzero(some & (last < self.length - 1))
-        if len(ks):
-            t, y, npts = self._fine(ks, last[ks], row, SETTLING_SUB)
-            o = np.abs(y - final[ks, None]) > tol[ks, None]
-            k = y.shape[1] - 1 - np.argmax(o[:, ::-1], axis=1)
-            res[ks] = t[np.arange(len(ks)), np.minimum(k + 1, npts - 1)]
-        return res
+    def velocity(self, ks, X):
+        """``x' = A x + B`` (continuous) or ``x[k + 1] - x[k]`` (discrete) of loops ``ks`` at
+        their states ``X`` ``(J, n, N)``."""
+        V = self.A[ks] @ X + self.B[ks]
+        return V - X if self.discrete else V
