@@ -25,7 +25,7 @@ import numpy as np
 from robrst import lti
 from robrst.doubling import power, power_all, propagate, propagate_shared
 
-__all__ = ["StepResponses", "Intervals", "segments", "bilinear", "POINTS_PER_RAD", "DECAY",
+__all__ = ["StepResponses", "Intervals", "Points", "segments", "bilinear", "POINTS_PER_RAD", "DECAY",
            "MAX_POINTS"]
 
 POINTS_PER_RAD = 4.0       # grid points per radian of the fastest live mode
@@ -100,12 +100,8 @@ def segments(decay, speed, unit=None):
 
 @dataclass(frozen=True)
 class Intervals:
-    """Intervals ``[t0, t0 + h]`` of loops ``k`` with the states at both ends.
-
-    ``seg`` is each interval's segment of the grid and ``div`` how many times finer than
-    the segment's step it is (continuous loops: the sub-steps that cut it in ``n`` are
-    ``seg_h / (div n)``).
-    """
+    """Intervals ``[t0, t0 + h]`` of loops ``k`` (in segments ``seg`` of their grids) with
+    the states at both ends."""
 
     k: np.ndarray
     seg: np.ndarray
@@ -113,7 +109,25 @@ class Intervals:
     h: np.ndarray
     xa: np.ndarray
     xb: np.ndarray
-    div: np.ndarray
+
+
+class Points:
+    """The points that cut intervals (:meth:`StepResponses.subdivide`): ``t``, ``y``, ``dy``
+    of every interval in turn (shape ``(P,)``), ``first`` (shape ``(J + 1,)``) where each
+    interval's points begin; their states are kept by propagation (:meth:`x`)."""
+
+    def __init__(self, t, y, dy, first, parts, where):
+        self.t, self.y, self.dy, self.first = t, y, dy, first
+        self.parts, self.where = parts, where
+
+    def x(self, a, j):
+        """The states at points ``a`` of intervals ``j``: shape ``(len(a), n)``."""
+        out = np.empty((len(a), self.parts[0].shape[1]))
+        c, row = self.where[:, j]
+        for i, Xc in enumerate(self.parts):
+            sel = np.flatnonzero(c == i)
+            out[sel] = Xc[row[sel], :, a[sel] - self.first[j[sel]]]
+        return out
 
 
 class StepResponses:
@@ -224,55 +238,58 @@ class StepResponses:
         """
         return Intervals(ks, self.seg_of[ks, idx], self.t[ks, idx],
                          self.t[ks, idx + 1] - self.t[ks, idx], self.X[ks, :, idx],
-                         self.X[ks, :, idx + 1], np.ones(len(ks), dtype=np.int64))
+                         self.X[ks, :, idx + 1])
 
-    def subdivide(self, iv, n):
-        """Exact states at the points that cut each of the intervals ``iv`` in ``n[j]``
-        pieces (continuous: equal sub-steps; discrete: strides of ``ceil(h / n)`` samples,
-        the last one shorter).  The intervals cut alike share the matrix products of their
-        loop.
+    def subdivide(self, iv, cut, rows):
+        """Exact states, outputs and slopes at the points that cut each of the intervals
+        ``iv``: continuous, in ``cut[j]`` equal pieces (a power of 2 of its segment's step);
+        discrete, in strides of ``cut[j]`` samples (a power of 2; the last piece shorter).
+        The intervals cut alike share the matrix products of their loop.
 
         Parameters
         ----------
         iv : Intervals
-        n : ndarray
-            Shape ``(J,)``: the pieces of each interval (continuous: powers of 2).
+        cut, rows : ndarray
+            Shape ``(J,)``: how to cut each interval, and its output row.
 
         Returns
         -------
-        t, X : ndarray
-            Shapes ``(J, N + 1)`` and ``(J, n_x, N + 1)``: the points of each interval, its
-            ends included, padded by repeating its end.
-        count : ndarray
-            Shape ``(J,)``: the pieces of each interval (``n``, or fewer sampled).
+        Points
         """
         J = len(iv.k)
+        cut = np.asarray(cut, dtype=np.int64)
         if self.discrete:                      # one matrix per loop and stride
             m = np.rint(iv.h).astype(np.int64)
-            step = -(-m // n)
-            count = -(-m // step)
-            key = step * len(self.A) + iv.k
+            count = -(-m // cut)
+            key = cut * len(self.A) + iv.k
         else:                                  # one per segment and sub-step
-            count = np.asarray(n, dtype=np.int64)
-            key = iv.div * count * len(self.seg_h) + iv.seg
-        N = int(count.max())
-        pos = np.minimum(np.arange(N + 1)[None, :], count[:, None])
-        t = iv.t0[:, None] + (np.minimum(pos * step[:, None], m[:, None]) if self.discrete
-                              else (iv.h / count)[:, None] * pos)
-        X = np.empty((J, iv.xa.shape[1], N + 1))
+            count = cut
+            div = np.rint(self.seg_h[iv.seg] / iv.h * cut).astype(np.int64)
+            key = div * len(self.seg_h) + iv.seg
+        first = np.concatenate([[0], np.cumsum(count + 1)])
+        own = np.repeat(np.arange(J), count + 1)
+        pos = np.arange(first[-1]) - first[own]
+        t = iv.t0[own] + (np.minimum(pos * cut[own], m[own]) if self.discrete
+                          else (iv.h / count)[own] * pos)
+        y, dy = np.empty(first[-1]), np.empty(first[-1])
         size = np.ceil(np.log2(count) / 2)       # propagations by size (within 4 times)
+        parts, where = [], np.empty((2, J), dtype=np.int64)
         for c in np.unique(size).tolist():
             j = np.flatnonzero(size == c)
             Nc = int(count[j].max())
             keys, grp = np.unique(key[j], return_inverse=True)
             P, S = self._matrices(keys)
-            X[j, :, :Nc + 1] = propagate_shared(P, S, grp.ravel(), iv.xa[j], Nc)
-        if self.discrete:                      # the end exact (a stride may pass it)
-            X[np.arange(J), :, count] = iv.xb
-        end = np.arange(N + 1)[None, :] > count[:, None]
-        if end.any():                          # padding
-            X = np.where(end[:, None, :], X[np.arange(J), :, count][:, :, None], X)
-        return t, X, count
+            Xc = propagate_shared(P, S, grp.ravel(), iv.xa[j], Nc)
+            if self.discrete:                  # the end exact (a stride may pass it)
+                Xc[np.arange(len(j)), :, count[j]] = iv.xb[j]
+            valid = np.arange(Nc + 1)[None, :] <= count[j][:, None]
+            dest = (first[j][:, None] + np.arange(Nc + 1)[None, :])[valid]
+            kr = (iv.k[j], rows[j])
+            y[dest] = ((self.C[kr][:, None, :] @ Xc)[:, 0] + self.d[kr][:, None])[valid]
+            dy[dest] = ((self.CV[kr][:, None, :] @ Xc)[:, 0] + self.CV0[kr][:, None])[valid]
+            where[0, j], where[1, j] = len(parts), np.arange(len(j))
+            parts.append(Xc)
+        return Points(t, y, dy, first, parts, where)
 
     def _matrices(self, keys):
         """``(Phi, G)`` of the sub-steps ``keys`` of :meth:`subdivide`."""
@@ -287,35 +304,41 @@ class StepResponses:
         return np.concatenate(P), np.concatenate(S)
 
     def _stride(self, s):
-        """``(Ad**s, sum_{i<s} Ad**i Bd)`` of every loop (discrete), computed once."""
+        """``(Ad**s, sum_{i<s} Ad**i Bd)`` of every loop (discrete), computed once; a power
+        of 2 by squaring the half."""
         if s not in self.strides:
-            self.strides[s] = power_all(self.A, self.B[:, :, 0], s)
+            if s > 1 and s & (s - 1) == 0:
+                P, S = self._stride(s // 2)
+                self.strides[s] = (P @ P, (P @ S[..., None])[..., 0] + S)
+            else:
+                self.strides[s] = power_all(self.A, self.B[:, :, 0], s)
         return self.strides[s]
 
-    def pieces(self, iv, n, t, X, j, p):
-        """The pieces ``p`` of intervals ``j`` of ``iv`` cut in ``n`` by :meth:`subdivide`
-        (its ``t`` and ``X``).
+    @staticmethod
+    def pieces(iv, pts, a, j):
+        """The pieces from points ``a`` of ``pts`` (:meth:`subdivide`) to the next ones, of
+        intervals ``j`` of ``iv``.
 
         Returns
         -------
         Intervals
         """
-        return Intervals(iv.k[j], iv.seg[j], t[j, p], t[j, p + 1] - t[j, p], X[j, :, p],
-                         X[j, :, p + 1], iv.div[j] * np.asarray(n)[j])
+        t = pts.t
+        return Intervals(iv.k[j], iv.seg[j], t[a], t[a + 1] - t[a], pts.x(a, j), pts.x(a + 1, j))
 
     def outputs(self, ks, X, rows=None):
-        """Outputs of loops ``ks`` at their states ``X`` ``(J, n, N)``: every row
-        ``(J, r, N)``, or row ``rows[j]`` of loop ``ks[j]`` ``(J, N)``."""
+        """Outputs of loops ``ks`` at their states: every row at ``X`` ``(J, n, N)``,
+        ``(J, r, N)``; or row ``rows[p]`` of loop ``ks[p]`` at ``X[p]`` ``(P, n)``, ``(P,)``."""
         if rows is None:
             return self.C[ks] @ X + self.d[ks][:, :, None]
-        return (self.C[ks, rows][:, None, :] @ X)[:, 0, :] + self.d[ks, rows][:, None]
+        return (self.C[ks, rows] * X).sum(axis=1) + self.d[ks, rows]
 
     def slopes(self, ks, X, rows=None):
         """``y'`` (continuous) or ``y[k + 1] - y[k]`` (discrete) of loops ``ks`` at their
-        states ``X`` ``(J, n, N)``, rows as in :meth:`outputs`."""
+        states, as :meth:`outputs`."""
         if rows is None:
             return self.CV[ks] @ X + self.CV0[ks][:, :, None]
-        return (self.CV[ks, rows][:, None, :] @ X)[:, 0, :] + self.CV0[ks, rows][:, None]
+        return (self.CV[ks, rows] * X).sum(axis=1) + self.CV0[ks, rows]
 
     def velocity(self, ks, X):
         """``x' = A x + B`` (continuous) or ``x[k + 1] - x[k]`` (discrete) of loops ``ks`` at
