@@ -31,7 +31,7 @@ SETTLING_SUB = 256     # first cut of an interval that may hold the last exit fr
 REFINE_SUB = 16        # further cuts
 LEVELS = 6             # levels of cuts before a figure is left unresolved
 MAX_PIECES = 100_000   # pieces of one level beyond which the cuts stop (unresolved)
-RESOLUTION = 1e-8      # an extreme is proved to this fraction of the response's largest |y|
+RESOLUTION = 5e-9      # an extreme is proved to this fraction of the response's largest |y|
 _CHECK = 8             # grid points between two evaluations of the curvature bound
 
 
@@ -126,10 +126,12 @@ class StepBounds:
         iv, Uo, m = r.intervals(k, idx), U[o], m[o]
         hi = np.maximum(sY[q, k, idx], sY[q, k, idx + 1])
         for level in range(LEVELS):
-            if not len(q) or len(q) * EXTREME_SUB > MAX_PIECES:
+            if not len(q):
                 break
             cut = self._cuts(iv, EXTREME_SUB if level == 0 else REFINE_SUB,
                              best[q, k] + tol[q, k] - hi, m)
+            if self._pieces(iv, cut) > MAX_PIECES:
+                break
             pts = r.subdivide(iv, cut, rows[q])
             t, first = pts.t, pts.first
             own = np.repeat(np.arange(len(q)), np.diff(first))     # the interval of each point
@@ -228,11 +230,13 @@ class StepBounds:
         iv, crossing = r.intervals(k, idx), np.arange(len(k)) < len(kc)
         gap = tol[k] - np.maximum(np.abs(e[k, idx]), np.abs(e[k, idx + 1]))
         for _ in range(LEVELS):
-            if not len(k) or len(k) * SETTLING_SUB > MAX_PIECES:
+            if not len(k):
                 break
             # the piece of the last exit to 1/SETTLING_SUB of its segment's step (sampled:
             # to the sample), the others to decide
             cut = np.where(crossing, self._exit_cuts(iv), self._cuts(iv, REFINE_SUB, gap, m))
+            if self._pieces(iv, cut) > MAX_PIECES:
+                break
             pts = r.subdivide(iv, cut, np.full(len(k), row))
             t, first, d = pts.t, pts.first, pts.dy
             own = np.repeat(np.arange(len(k)), np.diff(first))
@@ -271,6 +275,10 @@ class StepBounds:
             s = np.sqrt(8 * np.maximum(gap, 0) / M)
         s = np.clip(np.where(np.isnan(s), 1.0, s), 1.0, iv.h / 2)
         return (2 ** np.floor(np.log2(s))).astype(np.int64)
+
+    def _pieces(self, iv, cut):
+        """How many pieces the cuts ``cut`` of intervals ``iv`` make."""
+        return int(np.ceil(iv.h / cut).sum()) if self.r.discrete else int(np.sum(cut))
 
     def _exit_cuts(self, iv):
         """The cuts of an interval from the last point found outside the band: continuous,
