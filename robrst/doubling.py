@@ -3,78 +3,40 @@
 
 ``x[k + 1] = Phi x[k] + G`` is advanced by doubling (``x[k + m] = Phi**m x[k] + S_m``,
 ``S_m = sum_{i<m} Phi**i G``): a handful of matrix products for many steps, stacked over
-many ``Phi`` (:func:`propagate`, :func:`propagate_shared`); whole powers by binary
-powering (:func:`power`, :func:`power_all`).
+many ``Phi`` (:func:`propagate`); whole powers by binary powering (:func:`power`,
+:func:`power_all`).
 """
 
 import numpy as np
 
-__all__ = ["propagate", "propagate_shared", "power", "power_all"]
+__all__ = ["propagate", "power", "power_all"]
 
 
 def propagate(Phi, G, x0, n):
-    """States ``x[0..n]`` of ``x[k+1] = Phi x[k] + G`` by doubling, stacked; several
-    starting states per ``Phi`` go through the same matrix products.
+    """States ``x[0..n]`` of ``x[k+1] = Phi x[k] + G`` by doubling, stacked.
 
     Parameters
     ----------
-    Phi, G : ndarray
-        Shapes ``(J, m, m)``, ``(J, m)``.
-    x0 : ndarray
-        Shape ``(J, m)``, or ``(J, m, c)`` for ``c`` starting states per ``Phi``.
+    Phi, G, x0 : ndarray
+        Shapes ``(J, m, m)``, ``(J, m)``, ``(J, m)``.
     n : int
         Number of steps.
 
     Returns
     -------
     ndarray
-        Shape ``(J, m, n + 1)`` (or ``(J, m, n + 1, c)``): the states as columns.
+        Shape ``(J, m, n + 1)``: the states as columns.
     """
-    c = 1 if x0.ndim == 2 else x0.shape[2]
-    X = np.empty(x0.shape[:2] + ((n + 1) * c,))
-    X[..., :c] = x0.reshape(x0.shape[:2] + (c,))
+    X = np.empty(x0.shape + (n + 1,))
+    X[..., 0] = x0
     P, S, m = Phi, G[..., None], 1     # P = Phi**m, S = sum_{i<m} Phi**i G
     while m <= n:
         k = min(m, n + 1 - m)
-        X[..., m * c:(m + k) * c] = P @ X[..., :k * c] + S
+        X[..., m:m + k] = P @ X[..., :k] + S
         S = P @ S + S
         P = P @ P
         m *= 2
-    X = X.reshape(x0.shape[:2] + (n + 1, c))
-    return X[..., 0] if x0.ndim == 2 else X
-
-
-def propagate_shared(Phi, G, grp, x0, n):
-    """:func:`propagate` of the states ``x0[j]`` by ``Phi[grp[j]], G[grp[j]]``: the states
-    of one ``Phi`` go through the same products, in blocks of about ``J / len(Phi)``.
-
-    Parameters
-    ----------
-    Phi, G : ndarray
-        Shapes ``(P, m, m)``, ``(P, m)``.
-    grp : ndarray
-        Shape ``(J,)``: the ``Phi`` of each starting state.
-    x0 : ndarray
-        Shape ``(J, m)``.
-    n : int
-        Number of steps.
-
-    Returns
-    -------
-    ndarray
-        Shape ``(J, m, n + 1)``.
-    """
-    J = len(grp)
-    size = np.bincount(grp)
-    width = -(-J // len(size))         # columns per product: no more than on average
-    order = np.argsort(grp, kind="stable")
-    slot = np.empty(J, dtype=np.int64)
-    slot[order] = np.arange(J) - np.repeat(np.cumsum(size) - size, size)
-    block, col = np.unique(grp * J + slot // width, return_inverse=True)
-    col, at = col.ravel(), slot % width
-    X0 = np.zeros((len(block), x0.shape[1], width))
-    X0[col, :, at] = x0
-    return propagate(Phi[block // J], G[block // J], X0, n)[col, :, :, at]
+    return X
 
 
 def power(Phi, G, m, of):

@@ -88,7 +88,8 @@ class StepBounds:
         Parameters
         ----------
         requests : sequence of (int, array_like)
-            ``(row, sign)``: ``sign`` is ``+1`` or ``-1``, one per loop (or one for all).
+            ``(row, sign)``: ``sign`` is ``+1`` or ``-1`` (or ``0``: the largest ``|y|``),
+            one per loop (or one for all).
 
         Returns
         -------
@@ -104,8 +105,11 @@ class StepBounds:
         signs = np.empty((Q, K))
         for q, (_, sg) in enumerate(requests):
             signs[q] = sg
-        sY = signs[:, :, None] * r.Y[:, rows].transpose(1, 0, 2)      # (Q, K, L)
-        sD = signs[:, :, None] * self.dY[:, rows].transpose(1, 0, 2)
+        absolute = signs == 0
+        sgn = np.where(absolute, 1.0, signs)[:, :, None]
+        sV = sgn * r.Y[:, rows].transpose(1, 0, 2)                    # (Q, K, L), signed
+        sD = sgn * self.dY[:, rows].transpose(1, 0, 2)
+        sY = np.where(absolute[:, :, None], np.abs(sV), sV)          # what is maximised
         i = np.argmax(sY, axis=2)
         qq, kk = np.arange(Q)[:, None], self.all[None, :]
         best, when = sY[qq, kk, i], r.t[kk, i]
@@ -118,8 +122,8 @@ class StepBounds:
         upper = np.maximum(best, np.where(cand, -np.inf, chord).max(axis=2))
         q, k, idx = np.nonzero(cand)
         m = self._curvature_at(k, idx, rows[q])
-        U = interval_max(sY[q, k, idx], sY[q, k, idx + 1], sD[q, k, idx], sD[q, k, idx + 1], m,
-                         self.h[k, idx], r.discrete)
+        U = self._upper(sV[q, k, idx], sV[q, k, idx + 1], sD[q, k, idx], sD[q, k, idx + 1], m,
+                        self.h[k, idx], absolute[q, k])
         o = U > (best + tol)[q, k]
         np.maximum.at(upper, (q[~o], k[~o]), U[~o])
         q, k, idx = q[o], k[o], idx[o]
@@ -135,13 +139,15 @@ class StepBounds:
             pts = r.subdivide(iv, cut, rows[q])
             t, first = pts.t, pts.first
             own = np.repeat(np.arange(len(q)), np.diff(first))     # the interval of each point
-            sg = signs[q, k][own]
-            y, d = sg * pts.y, sg * pts.dy
+            ab = absolute[q, k]
+            sg = np.where(ab, 1.0, signs[q, k])[own]
+            v, d = sg * pts.y, sg * pts.dy
+            y = np.where(ab[own], np.abs(v), v)
             self._improve(best, when, q, k, t, y, first)
             a = _starts(first)                   # the pieces: from each point but the last
             j = own[a]
             # (a curvature bound from a point holds after it)
-            Us = interval_max(y[a], y[a + 1], d[a], d[a + 1], m[j], t[a + 1] - t[a], r.discrete)
+            Us = self._upper(v[a], v[a + 1], d[a], d[a + 1], m[j], t[a + 1] - t[a], ab[j])
             o = Us > (best + tol)[q[j], k[j]]
             np.maximum.at(upper, (q[j[~o]], k[j[~o]]), Us[~o])
             a, j = a[o], j[o]
@@ -152,6 +158,15 @@ class StepBounds:
         resolved[q, k] = False
         upper[:, self.bad], resolved[:, self.bad] = np.inf, False
         return list(zip(upper, when, best, resolved))
+
+    def _upper(self, ya, yb, da, db, M, h, absolute):
+        """:func:`robrst.stepcurvature.interval_max` of ``y``, or of ``|y|`` where
+        ``absolute``."""
+        U = interval_max(ya, yb, da, db, M, h, self.r.discrete)
+        if absolute.any():
+            low = interval_max(-ya, -yb, -da, -db, M, h, self.r.discrete)
+            U = np.where(absolute, np.maximum(U, low), U)
+        return U
 
     def _improve(self, best, when, q, k, t, y, first):
         """Raise ``best`` (and ``when``) of requests ``q`` of loops ``k`` by the largest of

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from robrst import lti
-from robrst.doubling import power, power_all, propagate, propagate_shared
+from robrst.doubling import power, power_all, propagate
 
 __all__ = ["StepResponses", "Intervals", "Points", "segments", "bilinear", "POINTS_PER_RAD", "DECAY",
            "MAX_POINTS"]
@@ -244,7 +244,7 @@ class StepResponses:
         """Exact states, outputs and slopes at the points that cut each of the intervals
         ``iv``: continuous, in ``cut[j]`` equal pieces (a power of 2 of its segment's step);
         discrete, in strides of ``cut[j]`` samples (a power of 2; the last piece shorter).
-        The intervals cut alike share the matrix products of their loop.
+        The intervals cut alike share their step matrices.
 
         Parameters
         ----------
@@ -279,7 +279,8 @@ class StepResponses:
             Nc = int(count[j].max())
             keys, grp = np.unique(key[j], return_inverse=True)
             P, S = self._matrices(keys)
-            Xc = propagate_shared(P, S, grp.ravel(), iv.xa[j], Nc)
+            grp = grp.ravel()
+            Xc = propagate(P[grp], S[grp], iv.xa[j], Nc)
             if self.discrete:                  # the end exact (a stride may pass it)
                 Xc[np.arange(len(j)), :, count[j]] = iv.xb[j]
             valid = np.arange(Nc + 1)[None, :] <= count[j][:, None]
@@ -295,9 +296,13 @@ class StepResponses:
         """``(Phi, G)`` of the sub-steps ``keys`` of :meth:`subdivide`."""
         if self.discrete:
             K = len(self.A)
-            P, S = zip(*(self._stride(int(v)) for v in (keys // K).tolist()))
-            return np.stack(P)[np.arange(len(keys)), keys % K], \
-                np.stack(S)[np.arange(len(keys)), keys % K]
+            stride, k = keys // K, keys % K
+            P, S = np.empty((len(keys),) + self.A.shape[1:]), np.empty((len(keys), self.A.shape[1]))
+            for v in np.unique(stride).tolist():
+                sel = np.flatnonzero(stride == v)
+                Pv, Sv = self._stride(v)
+                P[sel], S[sel] = Pv[k[sel]], Sv[k[sel]]
+            return P, S
         nseg = len(self.seg_h)
         div, seg = keys // nseg, keys % nseg     # (keys sorted: by subdivision first)
         P, S = zip(*(self._sub_steps(seg[div == v], int(v)) for v in np.unique(div).tolist()))
