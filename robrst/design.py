@@ -203,7 +203,8 @@ def with_time_domain(problem, cert, ctrl):
         for k, (t_rec, failed) in zip(ks, checked):
             recs[k].update({q + suffix: v for q, v in t_rec.items()})
             found[k] += [Violation(models[k].label, models[k].temperature_C, q, v, b, None,
-                                   "sampled" if fs else "continuous") for q, v, b in failed]
+                                   "sampled" if fs else "continuous", kind)
+                         for q, v, b, kind in failed]
     viols = list(cert.violations) + [v for f in found for v in f]
     bounds = {**cert.bounds, **{key: getattr(sp, attr) for key, attr in BOUNDED
                                 if getattr(sp, attr) is not None}}

@@ -195,8 +195,8 @@ class _Loop:
         if step is not None:   # reference-step specs (robrst.timespec)
             t_rec, failed = step
             rec.update(t_rec)
-            for q, v, b in failed:
-                add(q, v, b)
+            for q, v, b, kind in failed:
+                add(q, v, b, kind=kind)
         return rec, viol
 
 

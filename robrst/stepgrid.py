@@ -5,11 +5,12 @@
 :func:`robrst.lti.companion_outputs_many`) and computes their step responses on grids
 that follow each loop's own modes (:func:`segments`).  The numerical stages are stacked
 numpy or LAPACK calls for the ``K`` loops: eigenvalues, zero-order-hold steps
-(:func:`robrst.lti.zoh_matrices`; the sampled loop's strides by :func:`power`),
-propagation by repeated doubling (:func:`propagate`: ``x[k + m] = Phi**m x[k] + S_m``),
-and the refinements of the extremes and of the settling time between grid points; a
-single loop is the case ``K = 1``.  Each loop's grid, steps and refinements are those it
-would have alone, and so are its figures (to the rounding of a matrix product).
+(:func:`robrst.lti.zoh_matrices`; the sampled loop's strides by powers) and propagation
+by repeated doubling (:mod:`robrst.doubling`: ``x[k + m] = Phi**m x[k] + S_m``);
+a single loop is the case ``K = 1``.  :meth:`StepResponses.subdivide` gives the exact
+states inside any set of grid intervals (or of their sub-intervals): what
+:mod:`robrst.stepbound` refines wherever its bounds cannot exclude an extreme or an exit
+from the settling band.  Each loop's grid and steps are those it would have alone.
 
 The grids of the loops differ in length; the stacked arrays are padded by repeating
 each loop's last point (a repeated last point changes neither a first ``argmax`` nor a
@@ -17,20 +18,19 @@ last exit from a band, which is all that is read from them).
 """
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from robrst import lti
+from robrst.doubling import power, power_all, propagate
 
-__all__ = ["StepResponses", "segments", "propagate", "power", "bilinear",
-           "SETTLING_BAND", "POINTS_PER_RAD", "DECAY", "MAX_POINTS"]
+__all__ = ["StepResponses", "Intervals", "Points", "segments", "bilinear", "POINTS_PER_RAD", "DECAY",
+           "MAX_POINTS"]
 
-SETTLING_BAND = 0.02
 POINTS_PER_RAD = 4.0       # grid points per radian of the fastest live mode
 DECAY = 16.0               # a mode is dead after exp(-16) of its initial size
 MAX_POINTS = 400_000
-EXTREME_SUB = 64           # sub-steps of an interval around a largest sample
-SETTLING_SUB = 256         # sub-steps of the interval of the last exit from the band
 
 
 def bilinear(A, B, C, d, h):
@@ -56,75 +56,6 @@ def bilinear(A, B, C, d, h):
     Bd = np.linalg.solve(M, B) * h
     Cd = np.swapaxes(np.linalg.solve(np.swapaxes(M, 1, 2), np.swapaxes(C, 1, 2)), 1, 2)
     return Ad, Bd, Cd, d + (C @ Bd)[..., 0] / 2
-
-
-def propagate(Phi, G, x0, n):
-    """States ``x[0..n]`` of ``x[k+1] = Phi x[k] + G`` by doubling, stacked.
-
-    Parameters
-    ----------
-    Phi, G, x0 : ndarray
-        Shapes ``(J, m, m)``, ``(J, m)``, ``(J, m)``.
-    n : int
-        Number of steps.
-
-    Returns
-    -------
-    ndarray
-        Shape ``(J, m, n + 1)``: the states as columns.
-    """
-    X = np.empty(x0.shape + (n + 1,))
-    X[..., 0] = x0
-    P, S, m = Phi, G[..., None], 1     # P = Phi**m, S = sum_{i<m} Phi**i G
-    while m <= n:
-        k = min(m, n + 1 - m)
-        X[..., m:m + k] = P @ X[..., :k] + S
-        S = P @ S + S
-        P = P @ P
-        m *= 2
-    return X
-
-
-def power(Phi, G, m, of):
-    """``(Phi**m, sum_{i<m} Phi**i G)`` by binary powering, for several powers of each of
-    stacked ``Phi``.
-
-    The powers ``Phi**(2**b)`` are computed once per slice of ``Phi`` (stacked); each
-    requested power is then the product of those of its bits, lowest first.
-
-    Parameters
-    ----------
-    Phi, G : ndarray
-        Shapes ``(K, n, n)`` and ``(K, n)``.
-    m : sequence of int
-        The requested powers (``>= 1``).
-    of : sequence of int
-        For each, its slice of ``Phi`` and ``G``.
-
-    Returns
-    -------
-    P, S : ndarray
-        Shapes ``(J, n, n)`` and ``(J, n)``, one per requested power.
-    """
-    m, of = [int(v) for v in m], [int(k) for k in of]
-    table = [(Phi, G[..., None])]      # Phi**(2**b), sum_{i<2**b} Phi**i G
-    for _ in range(max(m).bit_length() - 1):
-        Pk, Sk = table[-1]
-        table.append((Pk @ Pk, Pk @ Sk + Sk))
-    P, S = [], []
-    for mj, k in zip(m, of):
-        b = (mj & -mj).bit_length() - 1          # the lowest bit: Pk @ I, Pk @ 0 + Sk
-        Pj, Sj = table[b][0][k], table[b][1][k]
-        mj >>= b + 1
-        while mj:
-            b += 1
-            if mj & 1:
-                Pk, Sk = table[b][0][k], table[b][1][k]
-                Pj, Sj = Pk @ Pj, Pk @ Sj + Sk
-            mj >>= 1
-        P.append(Pj)
-        S.append(Sj[:, 0])
-    return np.stack(P), np.stack(S)
 
 
 def segments(decay, speed, unit=None):
@@ -167,13 +98,48 @@ def segments(decay, speed, unit=None):
     return out
 
 
+@dataclass(frozen=True)
+class Intervals:
+    """Intervals ``[t0, t0 + h]`` of loops ``k`` (in segments ``seg`` of their grids) with
+    the states at both ends."""
+
+    k: np.ndarray
+    seg: np.ndarray
+    t0: np.ndarray
+    h: np.ndarray
+    xa: np.ndarray
+    xb: np.ndarray
+
+
+class Points:
+    """The points that cut intervals (:meth:`StepResponses.subdivide`): ``t``, ``y``, ``dy``
+    of every interval in turn (shape ``(P,)``), ``first`` (shape ``(J + 1,)``) where each
+    interval's points begin; their states are kept by propagation (:meth:`x`)."""
+
+    def __init__(self, t, y, dy, first, parts, where):
+        self.t, self.y, self.dy, self.first = t, y, dy, first
+        self.parts, self.where = parts, where
+
+    def x(self, a, j):
+        """The states at points ``a`` of intervals ``j``: shape ``(len(a), n)``."""
+        out = np.empty((len(a), self.parts[0].shape[1]))
+        c, row = self.where[:, j]
+        for i, Xc in enumerate(self.parts):
+            sel = np.flatnonzero(c == i)
+            out[sel] = Xc[row[sel], :, a[sel] - self.first[j[sel]]]
+        return out
+
+
 class StepResponses:
     """Exact step responses of ``K`` loops on mode-adapted grids, refinable between points.
 
     Continuous: scaled time, steps by the exact ZOH of :mod:`robrst.lti`; discrete
     (``h_sample``): samples of the bilinear map of the same realisation, strides of whole
-    samples.  After construction ``t`` ``(K, L)`` holds the grids and ``Y`` ``(K, r, L)``
-    the outputs (padded, see the module doc), ``length`` ``(K,)`` the true lengths.
+    samples.  After construction ``t`` ``(K, L)`` holds the grids, ``X`` ``(K, n, L)`` the
+    states and ``Y`` ``(K, r, L)`` the outputs (padded, see the module doc), ``length``
+    ``(K,)`` the true lengths.  ``generator`` is the continuous matrix (the loop's ``A``;
+    for a sampled loop the one in the bilinear variable, whose map the samples follow) and
+    ``rates`` the moduli of its eigenvalues.
 
     Parameters
     ----------
@@ -186,13 +152,18 @@ class StepResponses:
 
     def __init__(self, A, B, C, d, h_sample=None):
         self.discrete = h_sample is not None
+        self.generator = A
         if self.discrete:
-            A, B, C, d = bilinear(A, B, C, d, h_sample)
-            logz = np.log(np.linalg.eigvals(A).astype(complex))
+            self.h_sample = np.asarray(h_sample, float)
+            A, B, C, d = bilinear(A, B, C, d, self.h_sample)
+            z = np.linalg.eigvals(A).astype(complex)
+            logz = np.log(z)
             segs = [segments(-lz.real, np.abs(lz), unit=1) for lz in logz]
+            self.rates = np.abs(2 / self.h_sample[:, None] * (z - 1) / (z + 1))
         else:
             lam = np.linalg.eigvals(A)
             segs = [segments(-lm.real, np.abs(lm)) for lm in lam]
+            self.rates = np.abs(lam)
         self.A, self.B, self.C, self.d = A, B, C, d
         K, n = A.shape[0], A.shape[-1]
         # the segments of all loops in one table: loop, steps, step, start time, first
@@ -230,7 +201,11 @@ class StepResponses:
         s = self.seg_of[np.arange(K)[:, None], np.maximum(col - 1, 0)]
         self.t = seg_t0[s] + self.seg_h[s] * (col - self.seg_p[s])
         self.X, self.Y = X, C @ X + d[:, :, None]     # one row of Y per numerator
-        self.sub = {}    # per number of sub-steps: each segment's sub-step matrices, if known
+        # y' = C x' (continuous) or y[k+1] - y[k] (discrete) = CV x + CV0
+        D = A - np.eye(n) if self.discrete else A
+        self.CV, self.CV0 = C @ D, (C @ B)[..., 0]
+        self.sub = {}    # per subdivision of the segments: their sub-step matrices, if known
+        self.strides = {}    # per stride (discrete): its matrices for every loop
 
     def _steps(self, ks, hs):
         """Stacked ``(Phi, G)`` of one step ``hs[i]`` of loop ``ks[i]`` (scaled time, or
@@ -240,118 +215,138 @@ class StepResponses:
         P, _, S = lti.zoh_matrices(self.A[ks], self.B[ks], hs, gamma=False)
         return P, S[..., 0]
 
-    def _fine(self, ks, idx, rows, n_sub):
-        """Times and outputs ``rows`` of loops ``ks`` on their intervals ``[t[i], t[i+1]]``
-        (``i`` from ``idx``) at ``n_sub`` times the resolution (discrete: every sample; a
-        one-sample interval is its two grid points), padded by repeating the last point:
-        arrays ``(J, N + 1)`` and the number of points of each interval.  The sub-steps
-        of a segment are computed once."""
-        s = self.seg_of[ks, idx]
-        h = self.seg_h[s]
-        x0 = self.X[ks, :, idx]
-        if self.discrete:
-            n = np.maximum(np.rint(h).astype(int), 1)
-            N = int(n.max())
-            cols = np.minimum(np.arange(N + 1)[None, :], n[:, None])
-            y = np.empty(cols.shape)
-            if N > 1:
-                X = propagate(self.A[ks], self.B[ks, :, 0], x0, N)
-                y = np.take_along_axis(self._output(ks, rows, X), cols, axis=1)
-            one = n == 1
-            if one.any():
-                y[one] = self.Y[ks[one], rows if np.ndim(rows) == 0 else rows[one]][
-                    np.arange(one.sum())[:, None], idx[one][:, None] + cols[one]]
-            return self.t[ks, idx][:, None] + cols, y, n + 1
-        if n_sub not in self.sub:
+    def _sub_steps(self, seg, div):
+        """``(Phi, G)`` of the steps ``seg_h / div`` of segments ``seg`` (continuous),
+        computed once per segment and subdivision."""
+        if div not in self.sub:
             S = len(self.seg_h)
-            self.sub[n_sub] = (np.empty((S,) + self.A.shape[1:]), np.empty((S, self.A.shape[-1])),
-                               np.zeros(S, dtype=bool))
-        Phi, G, known = self.sub[n_sub]
-        todo = sorted({v for v in s.tolist() if not known[v]})
-        if todo:                           # the sub-steps of the segments not met yet
-            Phi[todo], G[todo] = self._steps(self.seg_k[todo], self.seg_h[todo] / n_sub)
+            self.sub[div] = (np.empty((S,) + self.A.shape[1:]), np.empty((S, self.A.shape[-1])),
+                             np.zeros(S, dtype=bool))
+        Phi, G, known = self.sub[div]
+        todo = np.unique(seg[~known[seg]])
+        if len(todo):                      # the sub-steps of the segments not met yet
+            Phi[todo], G[todo] = self._steps(self.seg_k[todo], self.seg_h[todo] / div)
             known[todo] = True
-        t = self.t[ks, idx][:, None] + (h / n_sub)[:, None] * np.arange(n_sub + 1)
-        y = self._output(ks, rows, propagate(Phi[s], G[s], x0, n_sub))
-        return t, y, np.full(len(ks), n_sub + 1)
+        return Phi[seg], G[seg]
 
-    def _output(self, ks, rows, X):
-        """Outputs ``rows`` of loops ``ks`` along their states ``X`` ``(J, n, N)``."""
-        return (self.C[ks, rows][:, None, :] @ X)[:, 0, :] + self.d[ks, rows][:, None]
-
-    def extremes(self, requests):
-        """Largest ``sign * y`` of output ``row`` of each loop and its time (refined
-        between the grid points), for several ``(row, sign)`` at once.
-
-        Parameters
-        ----------
-        requests : sequence of (int, array_like)
-            ``(row, sign)``: ``sign`` is ``+1`` or ``-1``, one per loop (or one for all).
+    def intervals(self, ks, idx):
+        """The grid intervals ``[t[k, i], t[k, i + 1]]`` of loops ``ks`` (``i`` from ``idx``).
 
         Returns
         -------
-        list of (ndarray, ndarray)
-            Per request, ``sign * y`` at its largest and when (scaled time or samples),
-            each of shape ``(K,)``.
+        Intervals
         """
-        K = self.Y.shape[0]
-        rows = np.array([row for row, _ in requests])
-        signs = np.empty((len(requests), K))
-        for q, (_, sg) in enumerate(requests):
-            signs[q] = sg
-        sY = signs[:, :, None] * self.Y[:, rows].transpose(1, 0, 2)      # (Q, K, L)
-        i = np.argmax(sY, axis=2)
-        qq, kk = np.arange(len(requests))[:, None], np.arange(K)[None, :]
-        best, tbest = sY[qq, kk, i], self.t[kk, i]
-        j = np.array([i - 1, i])                                      # (2, Q, K): both sides
-        jp, jq, jk = np.nonzero((j >= 0) & (j < self.length - 1))
-        if len(jk):
-            t, y, npts = self._fine(jk, j[jp, jq, jk], rows[jq], EXTREME_SUB)
-            sy = signs[jq, jk][:, None] * y
-            J = np.arange(len(jk))
-            k = np.argmax(sy, axis=1)
-            v, tk = sy[J, k], t[J, k]
-            if not self.discrete:          # vertex of the parabola
-                km, kp = np.maximum(k - 1, 0), np.minimum(k + 1, npts - 1)
-                a, b, c = sy[J, km], v, sy[J, kp]
-                den = a - 2 * b + c
-                vert = (k > 0) & (k < npts - 1) & (den < 0)
-                sden = np.where(vert, den, -1.0)
-                v = np.where(vert, np.maximum(v, b - (a - c) ** 2 / (8 * sden)), v)
-                tk = np.where(vert, tk + 0.5 * (a - c) / sden * (t[J, kp] - t[J, k]), tk)
-            for p in (0, 1):               # the left interval first, as one loop alone
-                sel = np.flatnonzero(jp == p)
-                better = sel[v[sel] > best[jq[sel], jk[sel]]]
-                best[jq[better], jk[better]] = v[better]
-                tbest[jq[better], jk[better]] = tk[better]
-        return list(zip(best, tbest))
+        return Intervals(ks, self.seg_of[ks, idx], self.t[ks, idx],
+                         self.t[ks, idx + 1] - self.t[ks, idx], self.X[ks, :, idx],
+                         self.X[ks, :, idx + 1])
 
-    def settling(self, row, final):
-        """Last time ``|y - final| > 2 % |final|`` of output ``row`` of each loop (0 if
-        never; the first time back in).
+    def subdivide(self, iv, cut, rows):
+        """Exact states, outputs and slopes at the points that cut each of the intervals
+        ``iv``: continuous, in ``cut[j]`` equal pieces (a power of 2 of its segment's step);
+        discrete, in strides of ``cut[j]`` samples (a power of 2; the last piece shorter).
+        The intervals cut alike share their step matrices.
 
         Parameters
         ----------
-        row : int
-        final : array_like
-            Shape ``(K,)``: the final values.
+        iv : Intervals
+        cut, rows : ndarray
+            Shape ``(J,)``: how to cut each interval, and its output row.
 
         Returns
         -------
-        ndarray
-            Shape ``(K,)`` (scaled time or samples).
+        Points
         """
-        final = np.asarray(final, float)
-        tol = SETTLING_BAND * np.abs(final)
-        out = np.abs(self.Y[:, row] - final[:, None]) > tol[:, None]
-        last = out.shape[1] - 1 - np.argmax(out[:, ::-1], axis=1)   # (the padding repeats
-        ar = np.arange(len(last))                                  # the last point)
-        some = out[ar, last]
-        res = np.where(some, self.t[ar, last], 0.0)     # out at the end: the end
-        ks = np.flatnonzero(some & (last < self.length - 1))
-        if len(ks):
-            t, y, npts = self._fine(ks, last[ks], row, SETTLING_SUB)
-            o = np.abs(y - final[ks, None]) > tol[ks, None]
-            k = y.shape[1] - 1 - np.argmax(o[:, ::-1], axis=1)
-            res[ks] = t[np.arange(len(ks)), np.minimum(k + 1, npts - 1)]
-        return res
+        J = len(iv.k)
+        cut = np.asarray(cut, dtype=np.int64)
+        if self.discrete:                      # one matrix per loop and stride
+            m = np.rint(iv.h).astype(np.int64)
+            count = -(-m // cut)
+            key = cut * len(self.A) + iv.k
+        else:                                  # one per segment and sub-step
+            count = cut
+            div = np.rint(self.seg_h[iv.seg] / iv.h * cut).astype(np.int64)
+            key = div * len(self.seg_h) + iv.seg
+        first = np.concatenate([[0], np.cumsum(count + 1)])
+        own = np.repeat(np.arange(J), count + 1)
+        pos = np.arange(first[-1]) - first[own]
+        t = iv.t0[own] + (np.minimum(pos * cut[own], m[own]) if self.discrete
+                          else (iv.h / count)[own] * pos)
+        y, dy = np.empty(first[-1]), np.empty(first[-1])
+        size = np.ceil(np.log2(count) / 2)       # propagations by size (within 4 times)
+        parts, where = [], np.empty((2, J), dtype=np.int64)
+        for c in np.unique(size).tolist():
+            j = np.flatnonzero(size == c)
+            Nc = int(count[j].max())
+            keys, grp = np.unique(key[j], return_inverse=True)
+            P, S = self._matrices(keys)
+            grp = grp.ravel()
+            Xc = propagate(P[grp], S[grp], iv.xa[j], Nc)
+            if self.discrete:                  # the end exact (a stride may pass it)
+                Xc[np.arange(len(j)), :, count[j]] = iv.xb[j]
+            valid = np.arange(Nc + 1)[None, :] <= count[j][:, None]
+            dest = (first[j][:, None] + np.arange(Nc + 1)[None, :])[valid]
+            kr = (iv.k[j], rows[j])
+            y[dest] = ((self.C[kr][:, None, :] @ Xc)[:, 0] + self.d[kr][:, None])[valid]
+            dy[dest] = ((self.CV[kr][:, None, :] @ Xc)[:, 0] + self.CV0[kr][:, None])[valid]
+            where[0, j], where[1, j] = len(parts), np.arange(len(j))
+            parts.append(Xc)
+        return Points(t, y, dy, first, parts, where)
+
+    def _matrices(self, keys):
+        """``(Phi, G)`` of the sub-steps ``keys`` of :meth:`subdivide`."""
+        if self.discrete:
+            K = len(self.A)
+            stride, k = keys // K, keys % K
+            P, S = np.empty((len(keys),) + self.A.shape[1:]), np.empty((len(keys), self.A.shape[1]))
+            for v in np.unique(stride).tolist():
+                sel = np.flatnonzero(stride == v)
+                Pv, Sv = self._stride(v)
+                P[sel], S[sel] = Pv[k[sel]], Sv[k[sel]]
+            return P, S
+        nseg = len(self.seg_h)
+        div, seg = keys // nseg, keys % nseg     # (keys sorted: by subdivision first)
+        P, S = zip(*(self._sub_steps(seg[div == v], int(v)) for v in np.unique(div).tolist()))
+        return np.concatenate(P), np.concatenate(S)
+
+    def _stride(self, s):
+        """``(Ad**s, sum_{i<s} Ad**i Bd)`` of every loop (discrete), computed once; a power
+        of 2 by squaring the half."""
+        if s not in self.strides:
+            if s > 1 and s & (s - 1) == 0:
+                P, S = self._stride(s // 2)
+                self.strides[s] = (P @ P, (P @ S[..., None])[..., 0] + S)
+            else:
+                self.strides[s] = power_all(self.A, self.B[:, :, 0], s)
+        return self.strides[s]
+
+    @staticmethod
+    def pieces(iv, pts, a, j):
+        """The pieces from points ``a`` of ``pts`` (:meth:`subdivide`) to the next ones, of
+        intervals ``j`` of ``iv``.
+
+        Returns
+        -------
+        Intervals
+        """
+        t = pts.t
+        return Intervals(iv.k[j], iv.seg[j], t[a], t[a + 1] - t[a], pts.x(a, j), pts.x(a + 1, j))
+
+    def outputs(self, ks, X, rows=None):
+        """Outputs of loops ``ks`` at their states: every row at ``X`` ``(J, n, N)``,
+        ``(J, r, N)``; or row ``rows[p]`` of loop ``ks[p]`` at ``X[p]`` ``(P, n)``, ``(P,)``."""
+        if rows is None:
+            return self.C[ks] @ X + self.d[ks][:, :, None]
+        return (self.C[ks, rows] * X).sum(axis=1) + self.d[ks, rows]
+
+    def slopes(self, ks, X, rows=None):
+        """``y'`` (continuous) or ``y[k + 1] - y[k]`` (discrete) of loops ``ks`` at their
+        states, as :meth:`outputs`."""
+        if rows is None:
+            return self.CV[ks] @ X + self.CV0[ks][:, :, None]
+        return (self.CV[ks, rows] * X).sum(axis=1) + self.CV0[ks, rows]
+
+    def velocity(self, ks, X):
+        """``x' = A x + B`` (continuous) or ``x[k + 1] - x[k]`` (discrete) of loops ``ks`` at
+        their states ``X`` ``(J, n, N)``."""
+        V = self.A[ks] @ X + self.B[ks]
+        return V - X if self.discrete else V

@@ -8,8 +8,12 @@ The time grid follows the closed-loop modes: it runs until every mode has decaye
 ``e**-16`` and, in each stretch of time, holds at least ``POINTS_PER_RAD`` points per
 radian of the fastest mode still alive, so every oscillation is resolved; states are
 propagated by repeated doubling (``x[k + m] = Phi**m x[k] + S_m``), a handful of
-matrix products for tens of thousands of points.  The largest sample and the last
-exit from the 2 % band are then refined by exact evaluation between grid points.
+matrix products for tens of thousands of points.  Between grid points the figures are
+proved, not sampled (:mod:`robrst.stepbound`): a bound of ``|y''|`` from output energies
+(observability Gramians) bounds the response on every interval, and every interval
+that could hold a larger value or a later exit from the 2 % band is cut and evaluated
+exactly until decided; the figures are upper bounds (never early, never low), and one
+that could not be decided is flagged (a failed spec of kind ``"unresolved"``).
 The loops of a certificate are computed together (:func:`check_many`), each stage one
 stacked computation for all the loops of one degree (:mod:`robrst.stepgrid`, the kernel).
 
@@ -28,7 +32,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from robrst import lti, poly
-from robrst.stepgrid import SETTLING_BAND, StepResponses
+from robrst.stepbound import SETTLING_BAND, StepBounds
+from robrst.stepgrid import StepResponses
 
 __all__ = ["StepMetrics", "step_metrics", "step_metrics_many", "check", "check_many", "KEYS",
            "SETTLING_BAND"]
@@ -39,7 +44,11 @@ KEYS = ("overshoot_pct", "settling_time_s", "step_u_peak_V")
 @dataclass(frozen=True)
 class StepMetrics:
     """Step response of ``N/D``: final value, peak (value, time), overshoot [%],
-    2 % settling time [s], and the largest ``|y|`` (for the control voltage)."""
+    2 % settling time [s], and the largest ``|y|`` (for the control voltage).
+
+    Peak, overshoot, settling time and largest ``|y|`` are proved upper bounds
+    (:mod:`robrst.stepbound`); ``resolved`` is false when one of them could not be
+    decided between grid points and is only the conservative bound."""
 
     final: float
     peak: float
@@ -47,6 +56,7 @@ class StepMetrics:
     overshoot_pct: float
     settling_time_s: float
     max_abs: float
+    resolved: bool = True
 
 
 def _overshoot_pct(peak, final):
@@ -63,8 +73,8 @@ def _responses(Ns, Ds, fs):
     w0 = np.array([sc.w0 for sc in scs])
     A, B, C, d = lti.companion_outputs_many(Ns, Ds, scs)
     if fs is None:
-        return StepResponses(A, B, C, d), 1.0 / w0
-    return StepResponses(A, B, C, d, w0 / fs), np.full(len(Ds), 1.0 / fs)
+        return StepBounds(StepResponses(A, B, C, d)), 1.0 / w0
+    return StepBounds(StepResponses(A, B, C, d, w0 / fs)), np.full(len(Ds), 1.0 / fs)
 
 
 def _by_degree(Ds):
@@ -109,18 +119,20 @@ def step_metrics_many(Ns, D, fs=None):
     list of StepMetrics
     """
     Ns, D = [poly.trim(N) for N in Ns], poly.trim(D)
-    r, to_s = _responses([Ns], [D], fs)
+    b, to_s = _responses([Ns], [D], fs)
     to_s = float(to_s[0])
     out = []
     for row, N in enumerate(Ns):
         final = float(N[-1] / D[-1])
         sgn = 1.0 if final >= 0 else -1.0
-        (peak, tp), (low, _) = ((float(v[0]), float(t[0]))
-                                for v, t in r.extremes([(row, sgn), (row, -sgn)]))
-        out.append(StepMetrics(final=final, peak=sgn * peak, peak_time_s=tp * to_s,
+        (peak, tp, _, ok_hi), (low, _, _, ok_lo) = b.extremes([(row, sgn), (row, -sgn)])
+        settle, _, ok_s = b.settling(row, [final])
+        peak, low = float(peak[0]), float(low[0])
+        out.append(StepMetrics(final=final, peak=sgn * peak, peak_time_s=float(tp[0]) * to_s,
                                overshoot_pct=_overshoot_pct(peak, final),
-                               settling_time_s=float(r.settling(row, [final])[0]) * to_s,
-                               max_abs=max(abs(peak), abs(low))))
+                               settling_time_s=float(settle[0]) * to_s,
+                               max_abs=max(abs(peak), abs(low)),
+                               resolved=bool(ok_hi[0] and ok_lo[0] and ok_s[0])))
     return out
 
 
@@ -143,8 +155,11 @@ def check(plant, ctrl, cl, specs, rtol, fs=None):
     -------
     record : dict
         ``overshoot_pct``, ``settling_time_s`` and ``step_u_peak_V`` (the largest
-        ``|u|`` for a reference step of ``specs.step_um``).
-    failed : list of (quantity, value, bound)
+        ``|u|`` for a reference step of ``specs.step_um``), proved upper bounds.
+    failed : list of (quantity, value, bound, kind)
+        ``kind`` is ``"exceeds"``, or ``"unresolved"`` when the figure could not be
+        decided between grid points and the bound lies between what was found and the
+        conservative value (``quantity`` then says so).
     """
     return check_many([plant], ctrl, [cl], specs, rtol, fs)[0]
 
@@ -180,26 +195,38 @@ def check_many(plants, ctrl, cls, specs, rtol, fs=None):
     for ks in _by_degree(Ds):
         # one realisation for y and u; only the figures checked: y's peak and settling
         # time, the largest |u|
-        r, to_s = _responses([Ns[k] for k in ks], [Ds[k] for k in ks], fs)
+        b, to_s = _responses([Ns[k] for k in ks], [Ds[k] for k in ks], fs)
         final = np.array([Ns[k][0][-1] / Ds[k][-1] for k in ks])
-        (peak, _), (u_hi, _), (u_lo, _) = r.extremes(
-            [(0, np.where(final >= 0, 1.0, -1.0)), (1, 1.0), (1, -1.0)])
-        u_max = np.maximum(np.abs(u_hi), np.abs(u_lo))
-        settle = r.settling(0, final) * to_s
+        (peak, _, peak_lo, ok_p), (u_max, _, u_found, ok_u) = b.extremes(
+            [(0, np.where(final >= 0, 1.0, -1.0)), (1, 0.0)])
+        settle, settle_lo, ok_s = b.settling(0, final)
         for i, k in enumerate(ks):
             rec = {"overshoot_pct": _overshoot_pct(float(peak[i]), float(final[i])),
-                   "settling_time_s": float(settle[i]),
+                   "settling_time_s": float(settle[i] * to_s[i]),
                    "step_u_peak_V": float(u_max[i]) * specs.step_um}
-            out[k] = rec, _failed(rec, specs, rtol)
+            found = {"overshoot_pct": (_overshoot_pct(float(peak_lo[i]), float(final[i])),
+                                       ok_p[i]),
+                     "settling_time_s": (float(settle_lo[i] * to_s[i]), ok_s[i]),
+                     "step_u_peak_V": (float(u_found[i]) * specs.step_um, ok_u[i])}
+            out[k] = rec, _failed(rec, found, specs, rtol)
     return out
 
 
-def _failed(rec, specs, rtol):
-    """The time-domain specs that ``rec`` fails: ``[(quantity, value, bound), ...]``."""
+def _failed(rec, found, specs, rtol):
+    """The time-domain specs that ``rec`` fails: ``[(quantity, value, bound, kind), ...]``;
+    ``found`` holds per figure the value found (a lower bound) and whether it was
+    resolved."""
     failed = []
     for key, bound, atol in (("overshoot_pct", specs.overshoot_max_pct, 1e-6),
                              ("settling_time_s", specs.settling_time_max_s, 0.0),
                              ("step_u_peak_V", specs.step_u_max_V, 0.0)):
-        if bound is not None and rec[key] > bound * (1 + rtol) + atol:
-            failed.append((key, rec[key], bound))
+        if bound is None or not rec[key] > bound * (1 + rtol) + atol:
+            continue
+        low, resolved = found[key]
+        if resolved or low > bound * (1 + rtol) + atol:
+            failed.append((key, rec[key], bound, "exceeds"))
+        else:
+            why = (f"{key} not resolved between grid points (found {low:.6g}, proved"
+                   f" <= {rec[key]:.6g})")
+            failed.append((why, rec[key], bound, "unresolved"))
     return failed

@@ -482,13 +482,20 @@ def stability(Delta):
     return _routh_stable(Delta), sa
 
 
+def _mp_horner(c, s, mpmath):
+    """``c`` (highest power first) at ``s`` in mpmath, by Horner's scheme."""
+    acc = mpmath.mpc(0)
+    for x in c:
+        acc = acc * s + mpmath.mpf(float(x))
+    return acc
+
+
 def _mp_abs_ratio(N, D, w):
     import mpmath
 
     with mpmath.workdps(_MP_DPS):
         s = mpmath.mpc(0, mpmath.mpf(float(w)))
-        num = mpmath.polyval([mpmath.mpf(float(x)) for x in N], s)
-        den = mpmath.polyval([mpmath.mpf(float(x)) for x in D], s)
+        num, den = (_mp_horner(c, s, mpmath) for c in (N, D))
         if den == 0:
             return math.inf
         return float(abs(num / den))

@@ -6,7 +6,8 @@ Layers, bottom to top (README "Architecture")::
     maths core    poly, lti, plant, thermal, family, rst, hinf, levelset, analysis, sampled,
                   digital, implement, interval
     problem       problem (typed records), spec (problem files)
-    certificate   certificate, modelcheck, timespec (+ stepgrid, its kernel)
+    certificate   certificate, modelcheck, timespec (+ stepgrid, stepbound, stepcurvature,
+                  doubling: its kernel)
     synthesis     synthesis.*
     design        design
     modelling     twin.*, dataset, diagnose.*, identify.*   (on base + maths core only)
@@ -31,7 +32,8 @@ LAYERS = {
               "robrst.digital", "robrst.implement", "robrst.interval"),
     "problem": ("robrst.problem", "robrst.spec", "robrst.speccheck"),
     "certificate": ("robrst.certificate", "robrst.modelcheck", "robrst.timespec",
-                    "robrst.stepgrid"),
+                    "robrst.stepgrid", "robrst.stepbound", "robrst.stepcurvature",
+                    "robrst.doubling"),
     "synthesis": ("robrst.synthesis",),
     "design": ("robrst.design",),
     "modelling": ("robrst.twin", "robrst.dataset", "robrst.diagnose", "robrst.identify",
