@@ -349,9 +349,10 @@ def _design(problem, progress, templates):
 
             stage = convex_synthesis(problem, start, say)
         check = analytic_check(problem, stage.controller, stage.Am)
-        ctrl, trk = _tracking(problem, stage.controller) if two_dof else (stage.controller, None)
-        cert = stage.certificate
-        if two_dof or problem.specs.time_domain:
+        ctrl, trk, cert = stage.controller, None, stage.certificate
+        if two_dof:
+            ctrl, trk, cert = _tracked(problem, ctrl, cert)
+        elif problem.specs.time_domain:
             cert = with_time_domain(problem, cert, ctrl)
     comp = None if method == "analytic" else comparison(problem, ctrl, cert)
     analyses = analyze_many(problem.family.models, ctrl)
@@ -364,3 +365,26 @@ def _tracking(problem, ctrl):
     from robrst.synthesis.tracking import design_tracking
 
     return design_tracking(problem, ctrl)
+
+
+def _tracked(problem, ctrl, cert):
+    """The 2-DOF controller of the feedback ``ctrl`` with ``cert`` completed by its
+    time-domain figures: the first reference path
+    (:func:`robrst.synthesis.tracking.tracking_candidates`) whose loops on every model of
+    the certificate are stable and meet the time-domain specs, else the first one.
+
+    Returns
+    -------
+    (RSTController, Tracking, Certificate)
+    """
+    from robrst.synthesis.tracking import tracking_candidates
+
+    first = None
+    for out, trk in tracking_candidates(problem, ctrl):
+        done = with_time_domain(problem, cert, out)
+        first = first or (out, trk, done)
+        stable = all(r["stable"] and r.get("stable_sampled", True) for r in done.models)
+        if not problem.specs.time_domain or (
+                stable and len(done.violations) == len(cert.violations)):
+            return out, trk, done
+    return first

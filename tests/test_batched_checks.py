@@ -218,3 +218,31 @@ def test_refinement_in_batches_is_the_depth_first_halving(seed):
     got = [v for v in cert.violations if "changes too fast" not in v.quantity]
     assert got == viols + v_ref
     assert len(cert.violations) - len(got) == n_unres
+
+
+@pytest.mark.parametrize("name", ["paper_robust", "paper_robust_continuous"])
+def test_start_scores_together_are_one_at_a_time(name):
+    """The synthesis scores its start points together (:func:`score_many`): each start's
+    worst grid ratio and spectral abscissa are those of :func:`score` alone, bit for bit,
+    and the abscissa is the largest real part of numpy.roots of every model's scaled
+    closed-loop polynomial."""
+    from robrst.design import analytic_design
+    from robrst.synthesis.context import Context
+    from robrst.synthesis.nlp import closed_loop_maps, grid_blocks
+    from robrst.synthesis.starts import candidates, score, score_many
+
+    p = load_problem(name)
+    start = analytic_design(p)
+    ctx = Context.of(p, start)
+    setup = ctx.setup(list(p.family.models), ctx.nu, "dominant")
+    blocks = grid_blocks(setup, np.ones(ctx.param.n_x))
+    starts = candidates(ctx, setup, blocks)
+    assert len(starts) >= 5
+    items = [(s.name, s.xc, s.wn, s.zeta) for s in starts]
+    cl = closed_loop_maps(setup)
+    for got, item in zip(score_many(setup, blocks, items), items):
+        one = score(setup, blocks, *item)
+        assert (got.worst, got.abscissa) == (one.worst, one.abscissa)
+        D = [cl(a, b)[0] for _, _, a, b in setup.models]
+        sa = max(np.max(np.roots(Dm @ got.xc + Dc).real) for Dm, Dc in D)
+        assert got.abscissa == pytest.approx(sa, rel=1e-9, abs=1e-12)

@@ -170,6 +170,7 @@ class Run:
             round=len(self.rounds) + 1, status=res.status, iterations=res.iterations,
             models=len(setup.models), frequencies=int(len(setup.nu)), violations=-1,
             exchange_rounds=ex.rounds, active_points=ex.active_points,
+            stability_models=ex.stability_models,
             grid_points=ex.grid_points, phase=phase.kind, placement=setup.placement,
             start=start, gamma=gamma))
         self.say(f"{phase.kind} phase ({setup.placement} poles, from {start}): IPOPT"

@@ -18,14 +18,15 @@ The program itself is one parametric solver per structure
 round only changes the parameters, it never rebuilds the CasADi graph.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from robrst.certificate import band_peak
 from robrst.hinf import peak_gain
-from robrst.synthesis.nlp import (closed_loop_maps, controller_conditions, grid_blocks,
-                                  objective_rows)
+from robrst.synthesis.nlp import controller_conditions, grid_blocks, objective_rows
+from robrst.synthesis.stability import (ROUTH_MIN, initial_stability, routh_margins,
+                                        stability_rows)
 from robrst.synthesis.outcome import SolveResult
 from robrst.synthesis.template import Structure, Template
 
@@ -34,7 +35,6 @@ __all__ = ["ExchangeInfo", "Phase", "solve_exchange", "solve_program", "local_ma
 NEAR_ACTIVE = 0.02      # local maxima within 2 % below the bound join the active set
 VIOLATED = 1e-6         # a grid point is violated beyond this (relative; IPOPT's own is 1e-9)
 COARSE_POINTS = 3       # evenly spaced starting points per block (plus local maxima)
-ROUTH_MIN = 1e-9
 
 
 @dataclass(frozen=True)
@@ -56,6 +56,7 @@ class ExchangeInfo:
     active_points: int
     grid_points: int
     max_grid_ratio: float   # max over every grid point of |N| / (limit |Delta|) at the result
+    stability_models: int = -1   # models whose closed-loop stability rows were imposed
 
 
 def local_maxima(r):
@@ -96,12 +97,13 @@ def _capacity(n, lo=32):
     return c
 
 
-def _structure(setup, phase, n_slots, ipopt, groups):
+def _structure(setup, phase, n_slots, ipopt, rows, routh):
     ctrl = _ctrl(setup, phase)
     deg_eq = len(setup.Am_fixed) - 1 if setup.placement == "fixed" else (
-        0 if setup.placement == "free" else groups[setup.ref][0])
+        0 if setup.placement == "free" else rows[setup.ref][0])
     return Structure(nx=setup.n_x, placement=setup.placement, deg_eq=deg_eq,
-                     n_dom_real=len(setup.n_dom_real), groups=_group_caps(groups),
+                     n_dom_real=len(setup.n_dom_real),
+                     groups=_group_caps([rows[j] for j in routh]),
                      slots=_capacity(n_slots), ipopt=tuple(sorted(ipopt.items())),
                      ctrl_deg=-1 if ctrl is None else ctrl[2] - 1,
                      ctrl_count=1 if ctrl is None else ctrl[3])
@@ -127,17 +129,7 @@ def _group_caps(groups):
     return tuple((d, -(-n // 4) * 4) for d, n in sorted(degs.items()))
 
 
-def _routh_rows(setup):
-    """Per model ``(deg, Dm, Dc)`` of its closed-loop polynomial."""
-    cl = closed_loop_maps(setup)
-    out = []
-    for label, T, a, b in setup.models:
-        (Dm, Dc), _ = cl(a, b)
-        out.append((Dm.shape[0] - 1, Dm, Dc))
-    return out
-
-
-def _values(setup, st, blocks, limits, active, rows, phase, x_ref):
+def _values(setup, st, blocks, limits, active, rows, routh, phase, x_ref):
     """Parameters, constraint bounds and labels of one solve."""
     nx, K = st.nx, st.slots
     v = {k: np.zeros((K, nx)) for k in ("NR", "NI", "DR", "DI")}
@@ -168,7 +160,7 @@ def _values(setup, st, blocks, limits, active, rows, phase, x_ref):
     ubg += [0.0] * i + [np.inf] * (K - i)
     labels += [("unused", None, None, None)] * (K - i)
     for gi, (deg, cap) in enumerate(st.groups):
-        mine = [(j, r) for j, r in enumerate(rows) if r[0] == deg]
+        mine = [(j, rows[j]) for j in routh if rows[j][0] == deg]
         Dm = np.zeros((cap * (deg + 1), nx))
         Dc = np.tile(np.poly(-np.ones(deg)), cap)          # (p + 1)^deg: unused, Hurwitz
         for k, (j, (_, m_, c_)) in enumerate(mine):
@@ -226,12 +218,14 @@ def _var_bounds(setup, st, phase, box=None):
 
 
 def solve_program(setup, x0, ipopt, phase=Phase(), blocks=None, active=None, templates=None,
-                  x_ref=None, box=None):
+                  x_ref=None, box=None, routh=None):
     """Solve the program on the ``active`` grid points of ``blocks`` (default: all).
 
     ``x0`` is the full variable vector ``[xc, (wn, zeta), gamma]``.  ``templates``
     caches built solvers by structure (a dict; default: a fresh one); ``box`` =
-    ``(center, radius)`` bounds the controller coefficients (a trust region).
+    ``(center, radius)`` bounds the controller coefficients (a trust region); ``routh``
+    the indices of the models whose closed-loop stability rows are imposed (default:
+    every model).
 
     Returns
     -------
@@ -242,13 +236,14 @@ def solve_program(setup, x0, ipopt, phase=Phase(), blocks=None, active=None, tem
     if active is None:
         active = [np.arange(len(b.nu)) for b in blocks]
     limits = _limits(setup, blocks, phase)
-    rows = _routh_rows(setup)
-    st = _structure(setup, phase, sum(len(a) for a in active), ipopt, rows)
+    rows = stability_rows(setup)
+    routh = tuple(range(len(rows))) if routh is None else tuple(routh)
+    st = _structure(setup, phase, sum(len(a) for a in active), ipopt, rows, routh)
     cache = {} if templates is None else templates
     if st not in cache:
         cache[st] = Template(st)
     tpl = cache[st]
-    v, lbg, ubg, labels = _values(setup, st, blocks, limits, active, rows, phase,
+    v, lbg, ubg, labels = _values(setup, st, blocks, limits, active, rows, routh, phase,
                                   x0 if x_ref is None else x_ref)
     lbx, ubx = _var_bounds(setup, st, phase, box)
     x0 = np.clip(x0, lbx, ubx)
@@ -299,7 +294,7 @@ def _exact_growth(blocks, limits, active, x, gamma):
 
 
 def solve_exchange(setup, x0, ipopt, phase=Phase(), templates=None, max_rounds=50,
-                   coarse_points=COARSE_POINTS, exact=False, box=None):
+                   coarse_points=COARSE_POINTS, exact=False, box=None, stability=None):
     """Solve the program of ``setup`` on its whole grid by constraint exchange.
 
     Parameters
@@ -325,16 +320,39 @@ def solve_exchange(setup, x0, ipopt, phase=Phase(), templates=None, max_rounds=5
         exchange, for loops whose resonances fall between grid points.
     box : (ndarray, ndarray), optional
         Trust region ``|xc - center| <= radius`` on the controller coefficients.
+    stability : sequence of int, optional
+        The models whose closed-loop stability rows the first round carries
+        (:mod:`robrst.synthesis.stability`; others join when a round's result violates
+        them).  Default: every model for freely placed poles (they move far), else
+        :func:`~robrst.synthesis.stability.initial_stability`.
 
     Returns
     -------
     SolveResult
         The last subproblem's result with ``iterations`` summed over the rounds and
         ``exchange`` an :class:`ExchangeInfo`.  A subproblem that fails is returned at
-        once (it is a relaxation of the full-grid program).
+        once (it is a relaxation of the full-grid program) unless it left stability rows
+        out: the program is then solved again with every row from the first round.
     """
-    from dataclasses import replace
+    rows = stability_rows(setup)
+    if stability is not None:
+        first = tuple(sorted(set(int(j) for j in stability)))
+    elif setup.placement == "free":
+        first = tuple(range(len(rows)))
+    else:
+        first = initial_stability(rows, x0)
+    res = _exchange(setup, x0, ipopt, phase, templates, max_rounds, coarse_points, exact, box,
+                    rows, first)
+    if not res.success and len(first) < len(rows):   # as before the stability exchange
+        again = _exchange(setup, x0, ipopt, phase, templates, max_rounds, coarse_points, exact,
+                          box, rows, tuple(range(len(rows))))
+        res = replace(again, iterations=again.iterations + res.iterations)
+    return res
 
+
+def _exchange(setup, x0, ipopt, phase, templates, max_rounds, coarse_points, exact, box, rows,
+              routh):
+    """The rounds of :func:`solve_exchange` from the stability rows of models ``routh``."""
     x0 = np.asarray(x0, float)
     blocks = list(grid_blocks(setup, x0))
     limits = _limits(setup, blocks, phase)
@@ -345,10 +363,11 @@ def solve_exchange(setup, x0, ipopt, phase=Phase(), templates=None, max_rounds=5
     for rnd in range(1, max_rounds + 1):
         # later rounds start at the previous optimum: a small initial barrier keeps them there
         opts = ipopt if rnd == 1 else {**ipopt, "mu_init": min(ipopt.get("mu_init", 0.1), 1e-4)}
-        res = solve_program(setup, x, opts, phase, blocks, active, templates, x_ref=x0, box=box)
+        res = solve_program(setup, x, opts, phase, blocks, active, templates, x_ref=x0, box=box,
+                            routh=routh)
         if not res.success and rnd > 1:      # the warm barrier failed: the default one
             res = solve_program(setup, x, ipopt, phase, blocks, active, templates, x_ref=x0,
-                                box=box)
+                                box=box, routh=routh)
         x = res.x
         iters += res.iterations
         ratios = effective_ratios(blocks, limits, x, x[-1])
@@ -362,6 +381,11 @@ def solve_exchange(setup, x0, ipopt, phase=Phase(), templates=None, max_rounds=5
                 new = np.setdiff1d(peaks[r[peaks] > 1.0 - NEAR_ACTIVE], active[k])
                 added += new.size
                 active[k] = np.union1d(active[k], new)
+        if len(routh) < len(rows):      # the stability rows left out that x violates
+            margin = routh_margins(rows, x)
+            new = [j for j in range(len(rows)) if j not in routh and not margin[j] >= ROUTH_MIN]
+            added += len(new)
+            routh = tuple(sorted(set(routh) | set(new)))
         if added == 0 and exact:
             added = _exact_growth(blocks, limits, active, x, x[-1])
         if added == 0:
@@ -369,5 +393,5 @@ def solve_exchange(setup, x0, ipopt, phase=Phase(), templates=None, max_rounds=5
     info = ExchangeInfo(rounds=rnd, iterations=iters,
                         active_points=int(sum(a.size for a in active)),
                         grid_points=max(total, sum(len(b.nu) for b in blocks)),
-                        max_grid_ratio=worst)
+                        max_grid_ratio=worst, stability_models=len(routh))
     return replace(res, iterations=iters, exchange=info)

@@ -44,11 +44,13 @@ def jw_matrices(nu, deg):
 
 
 def routh_column(c):
-    """First column of the Routh array of a polynomial with symbolic coefficients.
+    """First column of the Routh array of a polynomial with symbolic (CasADi) or numeric
+    (1-D numpy) coefficients.
 
     All entries > 0 (with ``c[0] > 0``) is the Hurwitz condition.
     """
-    n = c.numel() - 1
+    numeric = isinstance(c, np.ndarray)
+    n = (c.size if numeric else c.numel()) - 1
     r0 = [c[i] for i in range(0, n + 1, 2)]
     r1 = [c[i] for i in range(1, n + 1, 2)]
     col = [r0[0]]
@@ -59,7 +61,7 @@ def routh_column(c):
             b = r1[i + 1] if i + 1 < len(r1) else 0
             nxt.append((r1[0] * r0[i + 1] - r0[0] * b) / r1[0])
         r0, r1 = r1, nxt
-    return ca.vertcat(*col)
+    return np.array(col, dtype=float) if numeric else ca.vertcat(*col)
 
 
 def shift_matrix(deg, a):

@@ -126,6 +126,7 @@ class Round:
     placement: str = None      # "fixed", "dominant" or "free"
     start: str = None          # the start point's name
     gamma: float = None        # soft phase: worst normalised spec ratio reached on the grid
+    stability_models: int = None   # models whose closed-loop stability rows were imposed
 
     def as_dict(self):
         d = {k: getattr(self, k) for k in ("round", "status", "iterations", "models",
@@ -133,7 +134,7 @@ class Round:
                                            "start", "gamma")}
         if self.exchange_rounds is not None:
             d.update(exchange_rounds=self.exchange_rounds, active_points=self.active_points,
-                     grid_points=self.grid_points)
+                     grid_points=self.grid_points, stability_models=self.stability_models)
         return d
 
 

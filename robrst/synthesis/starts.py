@@ -26,7 +26,7 @@ from robrst.synthesis import analytic
 from robrst.synthesis.context import low_frequency_coefficient
 from robrst.synthesis.nlp import closed_loop_maps
 
-__all__ = ["Start", "score", "candidates", "abscissa", "ON_SLOW_POLE"]
+__all__ = ["Start", "score", "score_many", "candidates", "abscissa", "ON_SLOW_POLE"]
 
 ON_SLOW_POLE = "on the plant's slowest pole"   # the name of a PI start with that zero
 
@@ -62,26 +62,52 @@ def abscissa(setup, xc):
     A sampled-loop model whose closed-loop polynomial lost its leading coefficient
     (a pole at ``z = -1``) counts as unstable (``inf``).
     """
+    return _abscissae(setup, [xc])[0]
+
+
+def _abscissae(setup, xcs):
+    """:func:`abscissa` of each of the controller vectors ``xcs`` (roots of every model
+    and vector computed together)."""
     cl = closed_loop_maps(setup)
-    xc = np.asarray(xc, float)[:setup.n_x]
-    Ds = []
-    for label, T, a, b in setup.models:
-        (Dm, Dc), _ = cl(a, b)
-        D = Dm @ xc + Dc
-        if not np.all(np.isfinite(D)) or D[0] == 0:
-            return np.inf
-        scaled = poly.Scaling.natural(D).apply(D)     # its own scale: O(1) coefficients
-        if abs(scaled[0]) <= 1e-12 * np.max(np.abs(scaled)):
-            return np.inf
-        Ds.append(D)
-    return max((sa for sa, _ in spectral_abscissa_many(Ds)), default=-np.inf)
+    maps = [cl(a, b)[0] for _, _, a, b in setup.models]
+    out, Ds, owner = np.full(len(xcs), -np.inf), [], []
+    for i, xc in enumerate(xcs):
+        xc = np.asarray(xc, float)[:setup.n_x]
+        mine = []
+        for Dm, Dc in maps:
+            D = Dm @ xc + Dc
+            if not np.all(np.isfinite(D)) or D[0] == 0:
+                break
+            scaled = poly.Scaling.natural(D).apply(D)     # its own scale: O(1) coefficients
+            if abs(scaled[0]) <= 1e-12 * np.max(np.abs(scaled)):
+                break
+            mine.append(D)
+        else:
+            Ds += mine
+            owner += [i] * len(mine)
+            continue
+        out[i] = np.inf
+    for i, (sa, _) in zip(owner, spectral_abscissa_many(Ds) if Ds else []):
+        out[i] = max(out[i], sa)
+    return [float(v) for v in out]
 
 
 def score(setup, blocks, name, xc, wn=None, zeta=None):
     """A :class:`Start` for ``xc``: worst ``|N|/(M |Delta|)`` over ``blocks`` and stability."""
-    worst = max((float(b.ratio(xc).max()) for b in blocks), default=0.0)
-    return Start(name=name, xc=np.asarray(xc, float)[:setup.n_x], worst=worst,
-                 abscissa=abscissa(setup, xc), wn=wn, zeta=zeta)
+    return score_many(setup, blocks, [(name, xc, wn, zeta)])[0]
+
+
+def score_many(setup, blocks, items):
+    """:func:`score` of each ``(name, xc, wn, zeta)`` of ``items``, computed together."""
+    if not items:
+        return []
+    X = np.stack([np.asarray(xc, float)[:setup.n_x] for _, xc, _, _ in items], axis=1)
+    # each start's ratios alone (a matrix-vector product each: the same figures as one
+    # score at a time, to the last bit), their closed-loop roots together
+    worst = [max((float(b.ratio(x).max()) for b in blocks), default=0.0) for x in X.T]
+    sa = _abscissae(setup, list(X.T))
+    return [Start(name=name, xc=X[:, i].copy(), worst=worst[i], abscissa=sa[i], wn=wn,
+                  zeta=zeta) for i, (name, _, wn, zeta) in enumerate(items)]
 
 
 def _analytic(ctx, spec):
@@ -115,7 +141,7 @@ def _integral(ctx, setup, blocks):
     # the slowest stable real pole of the plant: a PI zero on it leaves K P ~ wc / jw above it
     reals = [-r.real / ctx.w0 for r in np.roots(ref.A) if r.imag == 0 and r.real < 0]
     slow = min(reals) if reals and not plant_int else None
-    out = []
+    items, gains = [], []
     for wc in KI_GRID:
         zeros = (None, 1.0, 0.3) + ((slow / wc,) if slow is not None and slow < 0.3 * wc else ())
         for zf in zeros:                               # integral; PI zeros at wc, 0.3 wc, pole
@@ -137,9 +163,9 @@ def _integral(ctx, setup, blocks):
                 kappa = np.sign(dc * gain0) / abs(k1 * p1)
             else:
                 kappa = wc / (dc * gain0)
-            st = score(setup, blocks, name, np.concatenate([sp[1:], kappa * rp]))
-            out.append(replace(st, gain=float(wc)))
-    return out
+            items.append((name, np.concatenate([sp[1:], kappa * rp]), None, None))
+            gains.append(float(wc))
+    return [replace(st, gain=g) for st, g in zip(score_many(setup, blocks, items), gains)]
 
 
 def _boldest(starts):
@@ -156,11 +182,11 @@ def candidates(ctx, setup, blocks, seeds=(), convex=False):
     context's parametrisation.
     """
     p = ctx.problem
-    out = [score(setup, blocks, sd[0], sd[1], *sd[2:4]) for sd in seeds if sd[1] is not None]
+    items = [(*sd, None, None)[:4] for sd in seeds if sd[1] is not None]
     x = _analytic(ctx, p.poles)
     if x is not None:
         wn = None if p.poles.wn is None else p.poles.wn / ctx.w0
-        out.append(score(setup, blocks, "analytic", x, wn=wn, zeta=p.poles.zeta))
+        items.append(("analytic", x, wn, p.poles.zeta))
     if setup.placement != "fixed" and p.poles.dominant_roots is None:
         lo, hi = (p.solver.wn_bounds or (0.0, np.inf)) if setup.placement == "dominant" \
             else (0.0, np.inf)
@@ -174,8 +200,8 @@ def candidates(ctx, setup, blocks, seeds=(), convex=False):
                     continue
                 x = _analytic(ctx, replace(p.poles, wn=wn, zeta=z))
                 if x is not None:
-                    out.append(score(setup, blocks, f"analytic wn={wn:.4g} zeta={z:g}", x,
-                                     wn=wn / ctx.w0, zeta=z))
+                    items.append((f"analytic wn={wn:.4g} zeta={z:g}", x, wn / ctx.w0, z))
+    out = score_many(setup, blocks, items)
     if setup.placement == "free":
         ints = _integral(ctx, setup, blocks)
         if ints:

@@ -26,6 +26,9 @@ Am_ref)`` carries the plant's resonances as zeros: the reference never excites t
 of ``0.7, 0.5, 0.35, 0.25`` times it that does; when none does, it cancels one more
 nominal closed-loop pair (the best damped of those kept, never one damped below
 ``CANCEL_FLOOR``) and tries again (the time-domain certificate has the last word).
+:func:`tracking_candidates` yields these reference paths in that order, for a caller
+that checks them on more models (:func:`robrst.design.run_problem`: every model of the
+certificate, whose step figures it keeps).
 """
 
 from dataclasses import dataclass
@@ -37,8 +40,8 @@ from robrst.analysis import spectral_abscissa_many
 from robrst.rst import RSTController, closed_loop
 from robrst.timespec import check_many
 
-__all__ = ["Tracking", "two_dof", "design_tracking", "reference_model", "cancel_thresholds",
-           "CANCEL_FLOOR"]
+__all__ = ["Tracking", "two_dof", "design_tracking", "tracking_candidates", "reference_model",
+           "cancel_thresholds", "CANCEL_FLOOR"]
 
 SLOWER = (1.0, 0.7, 0.5, 0.35, 0.25)
 CANCEL_FLOOR = 0.2   # never cancel a closed-loop factor less damped than this (resonances)
@@ -134,10 +137,28 @@ def _meets(problem, ctrl):
 
 
 def design_tracking(problem, ctrl):
-    """The problem's 2-DOF controller (``T_mode = "reference_model"``), see the module doc.
+    """The problem's 2-DOF controller (``T_mode = "reference_model"``), see the module doc:
+    the first of :func:`tracking_candidates` whose loops on every family model meet the
+    time-domain specs, else the first.
 
     Returns
     -------
+    (RSTController, Tracking)
+    """
+    first = None
+    for out in tracking_candidates(problem, ctrl):
+        first = first or out
+        if not problem.specs.time_domain or _meets(problem, out[0]):
+            return out
+    return first
+
+
+def tracking_candidates(problem, ctrl):
+    """The 2-DOF controllers of the feedback ``ctrl`` to try, in order (module doc): each
+    cancellation threshold, each reference bandwidth from the stated one down.
+
+    Yields
+    ------
     (RSTController, Tracking)
     """
     c = problem.controller
@@ -145,14 +166,9 @@ def design_tracking(problem, ctrl):
     ref = problem.family.reference_model
     if sp.sampled:   # the loop that runs: cancel the sampled loop's closed-loop factors
         ref = problem.family.sampled(ref, sp.sample_rate_hz, sp.delay_samples)
-    first = None
     for damping in cancel_thresholds(ref, ctrl, c.T_cancel_damping):
         for f in SLOWER:
-            out = two_dof(ref, ctrl, c.reference_wn * f, c.reference_zeta, damping)
-            first = first or out
-            if not problem.specs.time_domain or _meets(problem, out[0]):
-                return out
-    return first
+            yield two_dof(ref, ctrl, c.reference_wn * f, c.reference_zeta, damping)
 
 
 def cancel_thresholds(plant, ctrl, preferred):

@@ -1,0 +1,61 @@
+"""The closed-loop stability rows of the robust program (:mod:`robrst.synthesis.exchange`).
+
+Every model's closed-loop polynomial ``Delta = Dm xc + Dc`` must be Hurwitz: the program
+imposes the first column of its Routh array (normalised by its leading coefficient,
+:func:`robrst.synthesis.nlp.routh_column`) ``>= ROUTH_MIN``.  Like the grid points, these
+rows are exchanged: the first round carries those of the models nearest to instability at
+the start (:func:`initial_stability`), and a model whose rows a round's result violates
+(:func:`routh_margins`) joins before the next.  A row left out holds strictly at the
+final point, so its multiplier is zero there: the point is a KKT point of the program
+with every row.  Most rows never bind (the peak bounds keep the loops well inside
+stability), and each costs every IPOPT iteration of the round.
+"""
+
+import numpy as np
+
+from robrst.synthesis.nlp import closed_loop_maps, routh_column
+
+__all__ = ["ROUTH_MIN", "ROUTH_FIRST", "stability_rows", "routh_margins", "initial_stability"]
+
+ROUTH_MIN = 1e-9
+ROUTH_FIRST = 4         # stability rows of the first round: models per closed-loop degree
+
+
+def stability_rows(setup):
+    """Per model ``(deg, Dm, Dc)`` of its closed-loop polynomial."""
+    cl = closed_loop_maps(setup)
+    out = []
+    for label, T, a, b in setup.models:
+        (Dm, Dc), _ = cl(a, b)
+        out.append((Dm.shape[0] - 1, Dm, Dc))
+    return out
+
+
+def routh_margins(rows, x):
+    """Per model, the least entry of the Routh column of its closed-loop polynomial at
+    ``x`` (normalised as the program's rows, :func:`robrst.synthesis.nlp.routh_column`);
+    ``-inf`` where it is undefined."""
+    out = np.empty(len(rows))
+    xc = np.asarray(x, float)[:rows[0][1].shape[1]] if rows else None
+    with np.errstate(all="ignore"):
+        for j, (_, Dm, Dc) in enumerate(rows):
+            c = Dm @ xc + Dc
+            col = routh_column(c / c[0])
+            out[j] = col.min() if np.all(np.isfinite(col)) else -np.inf
+    return out
+
+
+def initial_stability(rows, x0):
+    """The models whose stability rows the first round carries: per closed-loop degree,
+    every model if there are at most ``2 ROUTH_FIRST`` (a smaller group would save few
+    rows and cost a build of its own), else the ``ROUTH_FIRST`` with the least Routh
+    margin at ``x0`` (every one whose rows ``x0`` violates, in steps of ``ROUTH_FIRST``)."""
+    margin = routh_margins(rows, x0)
+    keep = []
+    for deg in sorted({r[0] for r in rows}):
+        mine = [j for j, r in enumerate(rows) if r[0] == deg]
+        low = int(np.sum(~(margin[mine] >= ROUTH_MIN)))
+        n = max(ROUTH_FIRST, -(-low // ROUTH_FIRST) * ROUTH_FIRST)
+        keep += mine if len(mine) <= 2 * ROUTH_FIRST else \
+            sorted(mine, key=lambda j: (margin[j], j))[:n]
+    return tuple(sorted(keep))
