@@ -3,8 +3,9 @@
 :class:`Level` holds one numerator over a denominator (realisation, stationarity polynomial
 of ``|G|^2``, band); :func:`run_levels` drives several together: the stationary points as
 candidates, then level-set verifications (the Hamiltonian's imaginary eigenvalues at the
-current value ``(1 + 2 rtol)``) until no interval lies above, the eigenvalue problems of all
-levels batched by size.  :mod:`robrst.hinf` is the public entry (module docstring there).
+current value ``(1 + 2 rtol)``) until no interval lies above, the levels of one state
+dimension advanced together (:mod:`robrst.levelbatch`, each stage one stacked
+computation).  :mod:`robrst.hinf` is the public entry (module docstring there).
 """
 
 import copy
@@ -13,10 +14,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from robrst import lti
+from robrst.levelbatch import LOOSE, Batch, gain
 
 __all__ = ["Peak", "Level", "run_levels", "mag2_poly", "LOOSE", "MAX_SPREAD"]
 
-LOOSE = 0.05   # roots with |Im x| <= LOOSE |x| are treated as real (candidates only)
 MAX_SPREAD = 1e12   # pole-magnitude ratio beyond which float64 eigenvalues cannot verify
 
 
@@ -81,32 +82,6 @@ def _eigvals_many(mats):
     return out
 
 
-def _positive_real(r):
-    keep = (np.abs(r.imag) <= LOOSE * np.abs(r)) & (r.real > 0)
-    return np.sqrt(r.real[keep])
-
-
-def _gain(NDs, nu):
-    """``|N/D|(j nu)`` for the stacked scaled pair ``NDs = [Ns; Ds]`` (rows of powers).
-
-    Powers of ``j nu`` times the coefficients (one matrix product); Horner's rule where
-    the powers would overflow.
-    """
-    nu = np.asarray(nu, float)
-    n = NDs.shape[1] - 1
-    if nu.size and np.max(nu) < 1e300 ** (1.0 / max(n, 1)):
-        y = ((1j * nu)[:, None] ** np.arange(n, -1, -1)) @ NDs.T
-        g = np.abs(y[:, 0] / y[:, 1])
-    else:
-        s = 1j * nu
-        y = np.zeros((2, s.size), complex)
-        for k in range(n + 1):
-            y = y * s + NDs[:, k:k + 1]
-        g = np.abs(y[0] / y[1])
-    g[np.isnan(g)] = 0.0
-    return g
-
-
 def _spread(c):
     """Ratio of the largest to the smallest non-zero root modulus of ``c``, estimated
     from its Newton polygon (within a factor of about ``4 deg c``)."""
@@ -119,48 +94,6 @@ def _spread(c):
     k = 1.0 / np.arange(1, n + 1)
     big = np.max((a[1:] / a[0]) ** k)
     return float(big * np.max((a[-2::-1] / a[-1]) ** k))
-
-
-def _horner(c, x):
-    out = 0.0
-    for a in c:
-        out = out * x + a
-    return out
-
-
-def _hamiltonian(A, B, C, d, g):
-    """Hamiltonian whose imaginary eigenvalues ``j nu`` are the frequencies where |G| = g."""
-    n = A.shape[0]
-    R = d * d - g * g
-    H = np.empty((2 * n, 2 * n))
-    H[:n, :n] = A - (d / R) * (B @ C)
-    H[:n, n:] = (-g / R) * (B @ B.T)
-    H[n:, :n] = (g / R) * (C.T @ C)
-    H[n:, n:] = -H[:n, :n].T
-    return H
-
-
-def _polish(P, NDs, nu, g):
-    """Newton on the stationarity polynomial ``P`` in ``x = nu^2`` near ``nu``.
-
-    Returns the polished point unless it is lower than the start (beyond rounding).
-    """
-    P = P.tolist()
-    dP = [a * k for a, k in zip(P, range(len(P) - 1, 0, -1))]
-    x0 = x = nu * nu
-    for _ in range(12):
-        den = _horner(dP, x)
-        if den == 0:
-            return g, nu
-        step = _horner(P, x) / den
-        x = x - step
-        if not (x0 / 1.2 < x < x0 * 1.2):
-            return g, nu
-        if abs(step) <= 1e-15 * x:
-            break
-    nup = float(np.sqrt(x))
-    gp = float(_gain(NDs, [nup])[0])
-    return (gp, nup) if gp >= g * (1 - 1e-13) else (g, nu)
 
 
 class Level:
@@ -219,52 +152,10 @@ class Level:
         """Companion matrix whose eigenvalues are the stationary points (x = nu**2)."""
         return _companion_matrix(self.P) if self.n else None
 
-    def start(self, roots):
-        """The best candidate among the stationary points, edges and the limit at inf."""
-        if self.n == 0:
-            self.g, self.w_pk, self.done = float(_gain(self.NDs, self.edges[:1])[0]), \
-                float(self.edges[0]), True
-            return
-        lo, hi = self.lo, self.hi
-        self.roots = roots
-        nu = np.concatenate([self.edges, _positive_real(roots)])
-        nu = nu[(nu >= lo) & (nu <= hi)]
-        vals = _gain(self.NDs, nu)
-        i = int(np.argmax(vals))
-        self.g, self.w_pk = float(vals[i]), float(nu[i])
-        if hi == np.inf and abs(self.d) >= self.g:
-            self.g, self.w_pk = abs(self.d), np.inf
-        self._polish()
-
-    def _polish(self):
-        if 0 < self.w_pk < np.inf:
-            g2, w2 = _polish(self.P, self.NDs, self.w_pk, self.g)
-            if self.lo <= w2 <= self.hi:
-                self.g, self.w_pk = g2, w2
-
-    def level(self, rtol):
-        """The Hamiltonian of the next verification (``None``: nothing left to verify)."""
-        if self.done or not np.isfinite(self.g) or self.g == 0.0:
-            self.done = True
-            return None
-        return _hamiltonian(self.A, self.B, self.C, self.d, self.g * (1 + 2 * rtol))
-
-    def step(self, ev, rtol):
-        """Evaluate between the level's crossings (eigenvalues ``ev``); done when none is
-        above the level, else the value is raised to the best point found."""
-        lo, hi = self.lo, self.hi
-        keep = (np.abs(ev.real) <= LOOSE * np.abs(ev)) & (ev.imag > 0)
-        ws = ev.imag[keep]
-        ws = np.sort(np.concatenate([self.edges, ws[(ws > lo) & (ws < hi)]]))
-        mids = np.where(ws[:-1] > 0, np.sqrt(ws[:-1] * ws[1:]), 0.5 * (ws[:-1] + ws[1:]))
-        cand = np.concatenate([mids, ws, [2.0 * ws[-1] + 1.0] if hi == np.inf else []])
-        v = _gain(self.NDs, cand)
-        j = int(np.argmax(v))
-        if not v[j] > self.g * (1 + rtol):
-            self.done = True
-            return
-        self.g, self.w_pk = float(v[j]), float(cand[j])
-        self._polish()
+    def start_constant(self):
+        """A constant ``N/D`` (``n = 0``): its value, at the band's lower edge."""
+        self.g, self.w_pk, self.done = float(gain(self.NDs, self.edges[:1])[0]), \
+            float(self.edges[0]), True
 
     def result(self):
         g, w_pk = self.g, self.w_pk
@@ -275,24 +166,30 @@ class Level:
 
 
 def run_levels(levels, rtol, max_iter):
-    """Drive the peak computations ``levels`` together, their eigenvalue problems batched
-    (stationary points computed unless a level has them from the level it was banded from)."""
-    banded = [lv for lv in levels if lv.roots is not None]
-    new = [lv for lv in levels if lv.roots is None]
+    """Drive the peak computations ``levels`` together (stationary points computed unless
+    a level has them from the level it was banded from), those of one state dimension
+    as one :class:`robrst.levelbatch.Batch`."""
+    new = [lv for lv in levels if lv.n and lv.roots is None]
     for lv, roots in zip(new, _eigvals_many([lv.stationary() for lv in new])):
-        lv.start(roots)
-    for lv in banded:
-        lv.start(lv.roots)
-    for _ in range(max_iter):
-        live = [(lv, lv.level(rtol)) for lv in levels]
-        live = [(lv, H) for lv, H in live if H is not None]
-        if not live:
-            break
-        for (lv, _), ev in zip(live, _eigvals_many([H for _, H in live])):
-            lv.step(ev, rtol)
+        lv.roots = roots
+    groups = {}
     for lv in levels:
-        if not lv.done:
-            lv.verified = False      # max_iter verifications did not settle it
+        if lv.n == 0:
+            lv.start_constant()
+        else:
+            groups.setdefault(lv.n, []).append(lv)
+    for group in groups.values():
+        b = Batch(group)
+        b.start()
+        for _ in range(max_iter):
+            rows = b.live()
+            if not rows.size:
+                break
+            b.step(rows, np.linalg.eigvals(b.levels(rows, rtol)), rtol)
+        for lv, g, w, done in zip(group, b.g.tolist(), b.w.tolist(), b.done.tolist()):
+            lv.g, lv.w_pk, lv.done = g, w, done
+            if not done:
+                lv.verified = False      # max_iter verifications did not settle it
     return [lv.result() for lv in levels]
 
 
@@ -304,12 +201,12 @@ def _scan(NDs, mags, lo, hi, g, w_pk, per_decade=50):
     if not b > a > 0:
         return g, w_pk
     t = np.linspace(np.log(a), np.log(b), int(per_decade * np.log10(b / a)) + 2)
-    v = _gain(NDs, np.exp(t))
+    v = gain(NDs, np.exp(t))
     for j in np.argsort(v)[::-1][:4]:
         ta, tb = t[max(j - 1, 0)], t[min(j + 1, len(t) - 1)]
         for _ in range(6):
             tt = np.linspace(ta, tb, 33)
-            vv = _gain(NDs, np.exp(tt))
+            vv = gain(NDs, np.exp(tt))
             k = int(np.argmax(vv))
             if vv[k] > g:
                 g, w_pk = float(vv[k]), float(np.exp(tt[k]))

@@ -246,3 +246,40 @@ def test_start_scores_together_are_one_at_a_time(name):
         D = [cl(a, b)[0] for _, _, a, b in setup.models]
         sa = max(np.max(np.roots(Dm @ got.xc + Dc).real) for Dm, Dc in D)
         assert got.abscissa == pytest.approx(sa, rel=1e-9, abs=1e-12)
+
+
+def test_level_set_batch_gains_and_hamiltonians():
+    """The batched level-set kernel (robrst.levelbatch): stacked gains are each row's
+    gain() bit for bit, whatever the number of candidates per row (one, several, padded,
+    beyond the overflow limit of the powers); the stacked Hamiltonians' imaginary
+    eigenvalues j nu are where |N/D| (numpy.polyval) equals the level."""
+    from robrst.levelbatch import gain, gains, hamiltonians
+    from robrst.lti import companion_monic
+
+    rng = np.random.default_rng(8)
+    n, K, M = 5, 40, 7
+    NDs = rng.normal(size=(K, 2, n + 1))
+    NDs[:, 1, 0] = 1.0
+    nu = 10 ** rng.uniform(-2, 2, (K, M))
+    nu[3, :] = 10 ** rng.uniform(59, 61, M)                 # powers would overflow
+    valid = rng.uniform(size=(K, M)) < 0.5
+    valid[np.arange(K) % 4 == 0] = False
+    valid[np.arange(K) % 4 == 0, 2] = True                  # rows with one candidate
+    got = gains(NDs, nu, valid)
+    for k in range(K):
+        assert np.all(got[k, ~valid[k]] == -np.inf)
+        if valid[k].any():
+            assert np.array_equal(got[k, valid[k]], gain(NDs[k], nu[k, valid[k]]))
+    parts = [companion_monic(N, D, balance=False) for N, D in NDs]
+    A, B, C = (np.stack([p[i] for p in parts]) for i in range(3))
+    d = np.array([p[3] for p in parts])
+    g = 1.5 * np.abs(d) + 1.0
+    crossings = 0
+    for k, ev in enumerate(np.linalg.eigvals(hamiltonians(A, B, C, d, g))):
+        nus = ev.imag[(np.abs(ev.real) < 1e-9 * np.abs(ev)) & (ev.imag > 0)]
+        N, D = NDs[k]
+        crossings += len(nus)
+        for w in nus:
+            assert abs(np.polyval(N, 1j * w) / np.polyval(D, 1j * w)) == pytest.approx(
+                g[k], rel=1e-7)
+    assert crossings >= 20

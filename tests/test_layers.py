@@ -3,8 +3,8 @@
 Layers, bottom to top (README "Architecture")::
 
     base          errors, schema, fileio, resources, threads
-    maths core    poly, lti, plant, thermal, family, rst, hinf, levelset, analysis, sampled,
-                  digital, implement, interval
+    maths core    poly, lti, plant, thermal, family, rst, hinf, levelset, levelbatch,
+                  analysis, sampled, digital, implement, interval
     problem       problem (typed records), spec (problem files)
     certificate   certificate, modelcheck, timespec (+ stepgrid, stepbound, stepcurvature,
                   doubling: its kernel)
@@ -28,8 +28,9 @@ LAYERS = {
     "base": ("robrst.errors", "robrst.schema", "robrst.fileio", "robrst.resources",
              "robrst.threads"),
     "maths": ("robrst.poly", "robrst.lti", "robrst.plant", "robrst.thermal", "robrst.family",
-              "robrst.rst", "robrst.hinf", "robrst.levelset", "robrst.analysis", "robrst.sampled",
-              "robrst.digital", "robrst.implement", "robrst.interval"),
+              "robrst.rst", "robrst.hinf", "robrst.levelset", "robrst.levelbatch",
+              "robrst.analysis", "robrst.sampled", "robrst.digital", "robrst.implement",
+              "robrst.interval"),
     "problem": ("robrst.problem", "robrst.spec", "robrst.speccheck"),
     "certificate": ("robrst.certificate", "robrst.modelcheck", "robrst.timespec",
                     "robrst.stepgrid", "robrst.stepbound", "robrst.stepcurvature",
