@@ -119,7 +119,7 @@ def test_a_model_whose_rows_a_round_violates_joins(solved, monkeypatch):
             out[5] = -1.0               # as if the first round had left model 5 unstable
         return out
 
-    monkeypatch.setattr(exchange, "routh_margins", margins)   # as the exchange sees it
+    monkeypatch.setattr(stability, "routh_margins", margins)   # as joined() sees it
     res = exchange.solve_exchange(setup, x0, IPOPT, templates={}, stability=(0,))
     assert res.success and res.exchange.rounds >= 2
     assert res.exchange.stability_models >= 2 and len(calls) >= 2

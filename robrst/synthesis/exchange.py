@@ -25,7 +25,7 @@ import numpy as np
 from robrst.certificate import band_peak
 from robrst.hinf import peak_gain
 from robrst.synthesis.nlp import controller_conditions, grid_blocks, objective_rows
-from robrst.synthesis.stability import (ROUTH_MIN, initial_stability, routh_margins,
+from robrst.synthesis.stability import (ROUTH_MIN, initial_stability, joined, routh_margins,
                                         stability_rows)
 from robrst.synthesis.outcome import SolveResult
 from robrst.synthesis.template import Structure, Template
@@ -331,8 +331,9 @@ def solve_exchange(setup, x0, ipopt, phase=Phase(), templates=None, max_rounds=5
     SolveResult
         The last subproblem's result with ``iterations`` summed over the rounds and
         ``exchange`` an :class:`ExchangeInfo`.  A subproblem that fails is returned at
-        once (it is a relaxation of the full-grid program) unless it left stability rows
-        out: the program is then solved again with every row from the first round.
+        once (it is a relaxation of the full-grid program) unless it ends where a
+        stability row it left out does not hold: the program is then solved again with
+        every row from the first round.
     """
     rows = stability_rows(setup)
     if stability is not None:
@@ -343,7 +344,9 @@ def solve_exchange(setup, x0, ipopt, phase=Phase(), templates=None, max_rounds=5
         first = initial_stability(rows, x0)
     res = _exchange(setup, x0, ipopt, phase, templates, max_rounds, coarse_points, exact, box,
                     rows, first)
-    if not res.success and len(first) < len(rows):   # as before the stability exchange
+    partial = res.exchange.stability_models < len(rows)
+    if not res.success and partial and np.any(~(routh_margins(rows, res.x) >= ROUTH_MIN)):
+        # it failed where a row left out does not hold: every row from the first round
         again = _exchange(setup, x0, ipopt, phase, templates, max_rounds, coarse_points, exact,
                           box, rows, tuple(range(len(rows))))
         res = replace(again, iterations=again.iterations + res.iterations)
@@ -381,11 +384,8 @@ def _exchange(setup, x0, ipopt, phase, templates, max_rounds, coarse_points, exa
                 new = np.setdiff1d(peaks[r[peaks] > 1.0 - NEAR_ACTIVE], active[k])
                 added += new.size
                 active[k] = np.union1d(active[k], new)
-        if len(routh) < len(rows):      # the stability rows left out that x violates
-            margin = routh_margins(rows, x)
-            new = [j for j in range(len(rows)) if j not in routh and not margin[j] >= ROUTH_MIN]
-            added += len(new)
-            routh = tuple(sorted(set(routh) | set(new)))
+        grown = joined(rows, routh, x)          # the stability rows left out that x violates
+        added, routh = added + len(grown) - len(routh), grown
         if added == 0 and exact:
             added = _exact_growth(blocks, limits, active, x, x[-1])
         if added == 0:

@@ -251,6 +251,7 @@ def grid_blocks(setup, x_ref, min_ms_unbounded=True):
     for j, (label, T, a, b) in enumerate(setup.models):
         (Dm, Dc), nums = closed_loop(a, b)
         D_ref = Dm @ x_ref + Dc
+        rows = {}       # per grid: the closed-loop rows and weights, the same for every key
         for key in PEAK_KEYS:
             nu = {"Tband": setup.bands[j] if setup.bands else (),
                   "Uhf": setup.hf[j] if setup.hf else ()}.get(
@@ -260,18 +261,28 @@ def grid_blocks(setup, x_ref, min_ms_unbounded=True):
                 bound = 1.0
             if bound is None or len(nu) == 0:
                 continue
-            blocks.append(_block(key, j, label, T, np.asarray(nu, float),
-                                 (*nums[key], Dm, Dc), D_ref, float(bound)))
+            nu = np.asarray(nu, float)
+            if id(nu) not in rows:
+                rows[id(nu)] = _grid_rows(nu, Dm, Dc, D_ref)
+            blocks.append(_block(key, j, label, T, nu, (*nums[key], Dm, Dc), D_ref,
+                                 float(bound), rows[id(nu)]))
     return tuple(blocks)
 
 
-def _block(key, model, label, T, nu, maps, D_ref, bound):
-    Nm, Nc, Dm, Dc = maps
+def _grid_rows(nu, Dm, Dc, D_ref):
+    """What the blocks of one model and grid share: the powers of ``j nu``, the
+    closed-loop rows and the weights ``|Delta_ref|^2``."""
     Vr, Vi = jw_matrices(nu, Dm.shape[0] - 1)
+    return ((Vr, Vi), (Vr @ Dm, Vr @ Dc, Vi @ Dm, Vi @ Dc),
+            np.maximum(np.abs(np.polyval(D_ref, 1j * nu)) ** 2, 1e-300))
+
+
+def _block(key, model, label, T, nu, maps, D_ref, bound, rows=None):
+    Nm, Nc, Dm, Dc = maps
+    (Vr, Vi), D, w = _grid_rows(nu, Dm, Dc, D_ref) if rows is None else rows
     return GridBlock(key=key, model=model, label=label, temperature_C=T, nu=nu,
-                     N=(Vr @ Nm, Vr @ Nc, Vi @ Nm, Vi @ Nc), D=(Vr @ Dm, Vr @ Dc, Vi @ Dm, Vi @ Dc),
-                     w=np.maximum(np.abs(np.polyval(D_ref, 1j * nu)) ** 2, 1e-300), bound=bound,
-                     maps=maps, D_ref=D_ref)
+                     N=(Vr @ Nm, Vr @ Nc, Vi @ Nm, Vi @ Nc), D=D, w=w, bound=bound, maps=maps,
+                     D_ref=D_ref)
 
 
 def scale_plant(plant, scaling):

@@ -15,7 +15,8 @@ import numpy as np
 
 from robrst.synthesis.nlp import closed_loop_maps, routh_column
 
-__all__ = ["ROUTH_MIN", "ROUTH_FIRST", "stability_rows", "routh_margins", "initial_stability"]
+__all__ = ["ROUTH_MIN", "ROUTH_FIRST", "stability_rows", "routh_margins", "initial_stability",
+           "joined"]
 
 ROUTH_MIN = 1e-9
 ROUTH_FIRST = 4         # stability rows of the first round: models per closed-loop degree
@@ -59,3 +60,12 @@ def initial_stability(rows, x0):
         keep += mine if len(mine) <= 2 * ROUTH_FIRST else \
             sorted(mine, key=lambda j: (margin[j], j))[:n]
     return tuple(sorted(keep))
+
+
+def joined(rows, routh, x):
+    """``routh`` (model indices) and every model left out whose rows ``x`` violates."""
+    if len(routh) == len(rows):
+        return tuple(routh)
+    margin = routh_margins(rows, x)
+    new = [j for j in range(len(rows)) if j not in routh and not margin[j] >= ROUTH_MIN]
+    return tuple(sorted(set(routh) | set(new)))
