@@ -334,3 +334,25 @@ def test_committed_sweep_examples_are_not_stale(root, name):
     md = (folder / "report.md").read_text()
     for png in re.findall(r"\]\(([\w.]+\.png)\)", md):
         assert (folder / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_a_worker_loads_scipy_linear_algebra_once_with_its_state():
+    """A design sweep of the sampled paper_robust needs SciPy's linear algebra (exact ZOH,
+    step responses): the worker's state loads it (0.15-0.3 s), not its first variant."""
+    import subprocess
+    import sys
+
+    code = ("import sys\n"
+            "from robrst.sweep import parse_sweep\n"
+            "from robrst.sweep.context import prepare\n"
+            "from robrst.sweep.evaluate import build_state\n"
+            "doc = {'sweep': {'name': 's', 'kind': 'design', 'problem': '%s'},\n"
+            "       'param': [{'name': 'specs.Mu_max', 'dist': 'grid', 'values': [150.0]}]}\n"
+            "ctx, _ = prepare(parse_sweep(doc))\n"
+            "before = 'scipy.linalg' in sys.modules\n"
+            "build_state(ctx)\n"
+            "print(before, 'scipy.linalg' in sys.modules)\n")
+    for name, loaded in (("paper_robust", "True"), ("paper", "False")):
+        out = subprocess.run([sys.executable, "-c", code % name], capture_output=True,
+                             text=True, check=True).stdout.split()
+        assert out == ["False", loaded], (name, out)

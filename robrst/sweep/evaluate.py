@@ -87,6 +87,9 @@ def build_state(context):
         from robrst.design import run_problem
 
         designer = run_problem
+    base = context.base
+    if base is None or base.needs_scipy:   # the variants will load it: once, here
+        import scipy.linalg  # noqa: F401
     return WorkerState(context=context, designer=designer)
 
 
