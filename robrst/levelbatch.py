@@ -12,10 +12,11 @@ products.
 
 import numpy as np
 
-__all__ = ["LOOSE", "gain", "gains", "hamiltonians", "Batch"]
+__all__ = ["LOOSE", "gain", "gains", "hamiltonians", "newton", "Batch", "One"]
 
 LOOSE = 0.05   # roots with |Im x| <= LOOSE |x| are treated as real (candidates only)
 _NEWTON = 12   # Newton steps of the polish
+_SCALAR_ROWS = 4   # up to this many rows, the polish steps in Python floats (fewer calls)
 
 
 def gain(NDs, nu):
@@ -57,6 +58,10 @@ def gains(NDs, nu, valid):
     K, M = nu.shape
     n = NDs.shape[2] - 1
     out = np.full((K, M), -np.inf)
+    if K == 1:                                        # one row: gain() itself
+        if valid[0].any():
+            out[0, valid[0]] = gain(NDs[0], nu[0, valid[0]])
+        return out
     x = np.where(valid, nu, 1.0)
     count = valid.sum(axis=1)
     big = ~(np.max(np.where(valid, x, 0.0), axis=1) < 1e300 ** (1.0 / max(n, 1)))
@@ -92,6 +97,61 @@ def _horner(c, x):
     for k in range(c.shape[1]):
         out = out * x + c[:, k]
     return out
+
+
+def newton(P, dP, x0):
+    """Newton steps (at most ``_NEWTON``) on each row of ``P`` (derivative ``dP``) from
+    ``x0``; a row fails on a zero derivative or a step leaving ``(x0 / 1.2, 1.2 x0)``.
+
+    Returns
+    -------
+    x : ndarray
+    fail : ndarray of bool
+    """
+    if len(x0) <= _SCALAR_ROWS:      # a few rows: the same steps in Python floats
+        out = [_newton_one(p, d, a) for p, d, a in zip(P.tolist(), dP.tolist(), x0.tolist())]
+        return np.array([x for x, _ in out]), np.array([f for _, f in out], dtype=bool)
+    x = x0.copy()
+    going = np.ones(x0.size, dtype=bool)
+    fail = np.zeros(x0.size, dtype=bool)
+    for _ in range(_NEWTON):
+        i = np.flatnonzero(going)
+        if not i.size:
+            break
+        den = _horner(dP[i], x[i])
+        zero = den == 0
+        fail[i[zero]], going[i[zero]] = True, False
+        i, den = i[~zero], den[~zero]
+        with np.errstate(all="ignore"):
+            step = _horner(P[i], x[i]) / den
+        xn = x[i] - step
+        x[i] = xn
+        out = ~((x0[i] / 1.2 < xn) & (xn < x0[i] * 1.2))
+        fail[i[out]], going[i[out]] = True, False
+        small = ~out & (np.abs(step) <= 1e-15 * xn)
+        going[i[small]] = False
+    return x, fail
+
+
+def _newton_one(P, dP, x0):
+    """:func:`newton` of one row (lists of floats)."""
+    x = x0
+    for _ in range(_NEWTON):
+        den = 0.0
+        for a in dP:
+            den = den * x + a
+        if den == 0:
+            return x, True
+        num = 0.0
+        for a in P:
+            num = num * x + a
+        step = num / den
+        x = x - step
+        if not (x0 / 1.2 < x < x0 * 1.2):
+            return x, True
+        if abs(step) <= 1e-15 * x:
+            break
+    return x, False
 
 
 class Batch:
@@ -190,27 +250,7 @@ class Batch:
         idx = np.flatnonzero(run)
         if not idx.size:
             return
-        P, dP = self.P[idx], self.dP[idx]
-        x0 = self.w[idx] * self.w[idx]
-        x = x0.copy()
-        going = np.ones(idx.size, dtype=bool)
-        fail = np.zeros(idx.size, dtype=bool)
-        for _ in range(_NEWTON):
-            i = np.flatnonzero(going)
-            if not i.size:
-                break
-            den = _horner(dP[i], x[i])
-            zero = den == 0
-            fail[i[zero]], going[i[zero]] = True, False
-            i, den = i[~zero], den[~zero]
-            with np.errstate(all="ignore"):
-                step = _horner(P[i], x[i]) / den
-            xn = x[i] - step
-            x[i] = xn
-            out = ~((x0[i] / 1.2 < xn) & (xn < x0[i] * 1.2))
-            fail[i[out]], going[i[out]] = True, False
-            small = ~out & (np.abs(step) <= 1e-15 * xn)
-            going[i[small]] = False
+        x, fail = newton(self.P[idx], self.dP[idx], self.w[idx] * self.w[idx])
         i = np.flatnonzero(~fail)
         if not i.size:
             return
@@ -219,3 +259,76 @@ class Batch:
         k = idx[i]
         take = (gp >= self.g[k] * (1 - 1e-13)) & (self.lo[k] <= nup) & (nup <= self.hi[k])
         self.g[k[take]], self.w[k[take]] = gp[take], nup[take]
+
+    def results(self):
+        """Per level ``(g, w, done)``."""
+        return list(zip(self.g.tolist(), self.w.tolist(), self.done.tolist()))
+
+
+class One:
+    """One level alone, with :class:`Batch`'s interface and steps (bit for bit), in
+    scalars: a fraction of the calls of a stack of one (a single peak, or a lone level of
+    its dimension)."""
+
+    def __init__(self, lv):
+        self.lv = lv
+        self.P = lv.P.tolist()
+        self.dP = [a * k for a, k in zip(self.P, range(len(self.P) - 1, 0, -1))]
+        self.g, self.w, self.done = 0.0, 0.0, False
+
+    def start(self):
+        """As :meth:`Batch.start`."""
+        lv = self.lv
+        r = lv.roots
+        keep = (np.abs(r.imag) <= LOOSE * np.abs(r)) & (r.real > 0)
+        nu = np.concatenate([lv.edges, np.sqrt(r.real[keep])])
+        nu = nu[(nu >= lv.lo) & (nu <= lv.hi)]
+        vals = gain(lv.NDs, nu)
+        i = int(np.argmax(vals))
+        self.g, self.w = float(vals[i]), float(nu[i])
+        if lv.hi == np.inf and abs(lv.d) >= self.g:
+            self.g, self.w = abs(lv.d), np.inf
+        self._polish()
+
+    def live(self):
+        """As :meth:`Batch.live`."""
+        self.done = self.done or not np.isfinite(self.g) or self.g == 0.0
+        return np.zeros(0 if self.done else 1, dtype=int)
+
+    def levels(self, rows, rtol):
+        """As :meth:`Batch.levels`."""
+        lv = self.lv
+        return hamiltonians(lv.A[None], lv.B[None], lv.C[None], np.array([lv.d]),
+                            np.array([self.g * (1 + 2 * rtol)]))
+
+    def step(self, rows, ev, rtol):
+        """As :meth:`Batch.step`."""
+        lv, ev = self.lv, ev[0]
+        keep = (np.abs(ev.real) <= LOOSE * np.abs(ev)) & (ev.imag > 0)
+        ws = ev.imag[keep]
+        ws = np.sort(np.concatenate([lv.edges, ws[(ws > lv.lo) & (ws < lv.hi)]]))
+        mids = np.where(ws[:-1] > 0, np.sqrt(ws[:-1] * ws[1:]), 0.5 * (ws[:-1] + ws[1:]))
+        cand = np.concatenate([mids, ws, [2.0 * ws[-1] + 1.0] if lv.hi == np.inf else []])
+        v = gain(lv.NDs, cand)
+        j = int(np.argmax(v))
+        if not v[j] > self.g * (1 + rtol):
+            self.done = True
+            return
+        self.g, self.w = float(v[j]), float(cand[j])
+        self._polish()
+
+    def _polish(self):
+        lv = self.lv
+        if not 0 < self.w < np.inf:
+            return
+        x, fail = _newton_one(self.P, self.dP, self.w * self.w)
+        if fail:
+            return
+        nup = float(np.sqrt(x))
+        gp = float(gain(lv.NDs, [nup])[0])
+        if gp >= self.g * (1 - 1e-13) and lv.lo <= nup <= lv.hi:
+            self.g, self.w = gp, nup
+
+    def results(self):
+        """As :meth:`Batch.results`."""
+        return [(self.g, self.w, self.done)]

@@ -5,7 +5,7 @@ of ``|G|^2``, band); :func:`run_levels` drives several together: the stationary 
 candidates, then level-set verifications (the Hamiltonian's imaginary eigenvalues at the
 current value ``(1 + 2 rtol)``) until no interval lies above, the levels of one state
 dimension advanced together (:mod:`robrst.levelbatch`, each stage one stacked
-computation).  :mod:`robrst.hinf` is the public entry (module docstring there).
+computation; a lone level in scalars, the same steps).  :mod:`robrst.hinf` is the public entry (module docstring there).
 """
 
 import copy
@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from robrst import lti
-from robrst.levelbatch import LOOSE, Batch, gain
+from robrst.levelbatch import LOOSE, Batch, One, gain
 
 __all__ = ["Peak", "Level", "run_levels", "mag2_poly", "LOOSE", "MAX_SPREAD"]
 
@@ -179,14 +179,14 @@ def run_levels(levels, rtol, max_iter):
         else:
             groups.setdefault(lv.n, []).append(lv)
     for group in groups.values():
-        b = Batch(group)
+        b = Batch(group) if len(group) > 1 else One(group[0])
         b.start()
         for _ in range(max_iter):
             rows = b.live()
             if not rows.size:
                 break
             b.step(rows, np.linalg.eigvals(b.levels(rows, rtol)), rtol)
-        for lv, g, w, done in zip(group, b.g.tolist(), b.w.tolist(), b.done.tolist()):
+        for lv, (g, w, done) in zip(group, b.results()):
             lv.g, lv.w_pk, lv.done = g, w, done
             if not done:
                 lv.verified = False      # max_iter verifications did not settle it

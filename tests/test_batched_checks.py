@@ -15,7 +15,7 @@ import pytest
 
 from robrst.analysis import spectral_abscissa_many
 from robrst.certificate import certify_problem
-from robrst.hinf import peak_gains, peak_gains_many
+from robrst.hinf import peak_gain, peak_gains, peak_gains_many
 from robrst.interval import distance_to_instability_many
 from robrst.modelcheck import check_all, check_all_many
 from robrst.poly import roots_many
@@ -121,6 +121,8 @@ def test_peak_gains_many_is_peak_gains_and_dense_grid():
     w = np.geomspace(1e-3, 1e6, 200_001)
     for (Ns, D, bands), pks in zip(jobs, got):
         assert pks == peak_gains(Ns, D, bands=bands)          # bit for bit, one job alone
+        # a lone level (robrst.levelbatch.One, scalars) as in a stack (Batch)
+        assert pks[:len(Ns)] == [peak_gain(N, D) for N in Ns]
         for N, pk in zip(Ns, pks):
             grid = _dense_peak(N, D, w)
             assert grid <= pk.value * (1 + 1e-9)               # never below the grid
