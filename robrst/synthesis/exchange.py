@@ -11,7 +11,8 @@ solution.  Once no grid point is violated the point is final: the constraints le
 hold there and have zero multipliers, so a KKT point of the subset is one of the whole
 grid (no further round for a near-active point that does not bind).  The active set only
 grows, so the loop ends; the final point satisfies every grid constraint and is a (local)
-optimum of the full-grid program.
+optimum of the full-grid program.  The closed-loop stability rows are exchanged the same
+way (:mod:`robrst.synthesis.stability`).
 
 The program itself is one parametric solver per structure
 (:class:`~robrst.synthesis.template.Template`, cached in ``templates``): an exchange
@@ -25,9 +26,9 @@ import numpy as np
 from robrst.certificate import band_peak
 from robrst.hinf import peak_gain
 from robrst.synthesis.nlp import controller_conditions, grid_blocks, objective_rows
+from robrst.synthesis.outcome import SolveResult
 from robrst.synthesis.stability import (ROUTH_MIN, initial_stability, joined, routh_margins,
                                         stability_rows)
-from robrst.synthesis.outcome import SolveResult
 from robrst.synthesis.template import Structure, Template
 
 __all__ = ["ExchangeInfo", "Phase", "solve_exchange", "solve_program", "local_maxima",
