@@ -72,24 +72,30 @@ def _abscissae(setup, xcs):
     maps = [cl(a, b)[0] for _, _, a, b in setup.models]
     out, Ds, owner = np.full(len(xcs), -np.inf), [], []
     for i, xc in enumerate(xcs):
-        xc = np.asarray(xc, float)[:setup.n_x]
-        mine = []
-        for Dm, Dc in maps:
-            D = Dm @ xc + Dc
-            if not np.all(np.isfinite(D)) or D[0] == 0:
-                break
-            scaled = poly.Scaling.natural(D).apply(D)     # its own scale: O(1) coefficients
-            if abs(scaled[0]) <= 1e-12 * np.max(np.abs(scaled)):
-                break
-            mine.append(D)
+        mine = _closed_loops(maps, np.asarray(xc, float)[:setup.n_x])
+        if mine is None:
+            out[i] = np.inf
         else:
             Ds += mine
             owner += [i] * len(mine)
-            continue
-        out[i] = np.inf
     for i, (sa, _) in zip(owner, spectral_abscissa_many(Ds) if Ds else []):
         out[i] = max(out[i], sa)
     return [float(v) for v in out]
+
+
+def _closed_loops(maps, xc):
+    """The closed-loop polynomials ``Dm xc + Dc`` of every model; ``None`` if one is not
+    finite or lost its leading coefficient."""
+    out = []
+    for Dm, Dc in maps:
+        D = Dm @ xc + Dc
+        if not np.all(np.isfinite(D)) or D[0] == 0:
+            return None
+        scaled = poly.Scaling.natural(D).apply(D)     # its own scale: O(1) coefficients
+        if abs(scaled[0]) <= 1e-12 * np.max(np.abs(scaled)):
+            return None
+        out.append(D)
+    return out
 
 
 def score(setup, blocks, name, xc, wn=None, zeta=None):
