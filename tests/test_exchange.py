@@ -120,3 +120,17 @@ def test_a_repeated_program_is_solved_once(monkeypatch):
     m = len(calls)
     run.solve(ctx, setup, x0.copy(), Phase("soft", 0.97), "analytic")  # another program
     assert len(calls) > m
+
+
+def test_peaks_near_their_bound_start_with_their_neighbours():
+    """The first active set: coarse points, every local maximum, and the two neighbours of
+    a maximum above NEIGHBOURS_NEAR of its bound (one that binds moves by a grid point or
+    so on the way to the optimum), not of one below; none with freely placed poles."""
+    from robrst.synthesis.exchange import NEIGHBOURS_NEAR, _initial_active
+
+    r = 0.1 + 0.001 * np.arange(41.0)             # rising: the last point a maximum
+    r[10], r[30] = NEIGHBOURS_NEAR + 0.05, NEIGHBOURS_NEAR - 0.05
+    active = _initial_active([r], 3)[0]
+    assert set(active) == {0, 20, 40, 9, 10, 11, 30}
+    # freely placed poles (the trust-region search): the maxima alone
+    assert set(_initial_active([r], 3, neighbours=False)[0]) == {0, 20, 40, 10, 30}

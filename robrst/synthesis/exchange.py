@@ -25,7 +25,8 @@ import numpy as np
 
 from robrst.certificate import band_peak
 from robrst.hinf import peak_gain
-from robrst.synthesis.nlp import controller_conditions, grid_blocks, objective_rows
+from robrst.synthesis.nlp import (controller_conditions, grid_blocks, local_maxima,
+                                  objective_rows)
 from robrst.synthesis.outcome import SolveResult
 from robrst.synthesis.stability import (ROUTH_MIN, initial_stability, joined, routh_margins,
                                         stability_rows)
@@ -36,6 +37,7 @@ __all__ = ["ExchangeInfo", "Phase", "solve_exchange", "solve_program", "local_ma
 NEAR_ACTIVE = 0.02      # local maxima within 2 % below the bound join the active set
 VIOLATED = 1e-6         # a grid point is violated beyond this (relative; IPOPT's own is 1e-9)
 COARSE_POINTS = 3       # evenly spaced starting points per block (plus local maxima)
+NEIGHBOURS_NEAR = 0.8   # local maxima above this share of their bound start with neighbours
 
 
 @dataclass(frozen=True)
@@ -58,16 +60,6 @@ class ExchangeInfo:
     grid_points: int
     max_grid_ratio: float   # max over every grid point of |N| / (limit |Delta|) at the result
     stability_models: int = -1   # models whose closed-loop stability rows were imposed
-
-
-def local_maxima(r):
-    """Indices of the local maxima of ``r`` (end points included, plateaus once)."""
-    r = np.asarray(r, float)
-    if r.size <= 2:
-        return np.arange(r.size)
-    left = np.r_[True, r[1:] > r[:-1]]
-    right = np.r_[r[:-1] >= r[1:], True]
-    return np.flatnonzero(left & right)
 
 
 def _limits(setup, blocks, phase):
@@ -254,12 +246,18 @@ def solve_program(setup, x0, ipopt, phase=Phase(), blocks=None, active=None, tem
                        lam_g=out["lam_g"], labels=labels, w0=setup.w0, rates=dict(setup.rates))
 
 
-def _initial_active(ratios, coarse_points):
+def _initial_active(ratios, coarse_points, neighbours=True):
+    """Per block: ``coarse_points`` evenly spaced points, the local maxima at the start and
+    (placed poles: ``neighbours``) the neighbours of those above ``NEIGHBOURS_NEAR`` (a
+    binding peak moves by a grid point or so on the way to the optimum)."""
     active = []
     for r in ratios:
         n = len(r)
         coarse = np.unique(np.linspace(0, n - 1, min(n, coarse_points)).round().astype(int))
-        active.append(np.union1d(coarse, local_maxima(r)))
+        peaks = local_maxima(r)
+        hot = peaks[r[peaks] > (NEIGHBOURS_NEAR if neighbours else np.inf)]
+        near = np.clip(np.concatenate([hot - 1, hot + 1]), 0, max(n - 1, 0))
+        active.append(np.union1d(np.union1d(coarse, peaks), near))
     return active
 
 
@@ -322,10 +320,9 @@ def solve_exchange(setup, x0, ipopt, phase=Phase(), templates=None, max_rounds=5
     box : (ndarray, ndarray), optional
         Trust region ``|xc - center| <= radius`` on the controller coefficients.
     stability : sequence of int, optional
-        The models whose closed-loop stability rows the first round carries
-        (:mod:`robrst.synthesis.stability`; others join when a round's result violates
-        them).  Default: every model for freely placed poles (they move far), else
-        :func:`~robrst.synthesis.stability.initial_stability`.
+        The models whose stability rows the first round carries (others join when a
+        round's result violates them; :mod:`robrst.synthesis.stability`).  Default: every
+        model for freely placed poles, else ``initial_stability``.
 
     Returns
     -------
@@ -361,7 +358,8 @@ def _exchange(setup, x0, ipopt, phase, templates, max_rounds, coarse_points, exa
     blocks = list(grid_blocks(setup, x0))
     limits = _limits(setup, blocks, phase)
     total = sum(len(b.nu) for b in blocks)
-    active = _initial_active(effective_ratios(blocks, limits, x0, x0[-1]), coarse_points)
+    active = _initial_active(effective_ratios(blocks, limits, x0, x0[-1]), coarse_points,
+                             setup.placement != "free")
     templates = {} if templates is None else templates
     x, iters, worst = x0, 0, np.inf
     for rnd in range(1, max_rounds + 1):

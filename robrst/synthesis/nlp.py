@@ -22,7 +22,8 @@ import numpy as np
 
 __all__ = ["GridBlock", "NLPSetup", "grid_blocks", "conv_matrix", "jw_matrices",
            "routh_column", "scale_plant", "closed_loop_maps", "affine_controller",
-           "objective_rows", "shift_matrix", "controller_conditions", "PEAK_KEYS"]
+           "objective_rows", "shift_matrix", "controller_conditions", "local_maxima",
+           "PEAK_KEYS"]
 
 PEAK_KEYS = ("S", "T", "U", "Tband", "Uhf")
 
@@ -289,3 +290,13 @@ def scale_plant(plant, scaling):
     """Scaled ``(a, b)``: ``A(w0 p) / w0**n`` (monic) and ``B(w0 p) / w0**n``."""
     n = plant.n
     return scaling.normalize(plant.A, n), scaling.normalize(plant.B, n)
+
+
+def local_maxima(r):
+    """Indices of the local maxima of ``r`` (end points included, plateaus once)."""
+    r = np.asarray(r, float)
+    if r.size <= 2:
+        return np.arange(r.size)
+    left = np.r_[True, r[1:] > r[:-1]]
+    right = np.r_[r[:-1] >= r[1:], True]
+    return np.flatnonzero(left & right)
