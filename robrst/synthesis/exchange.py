@@ -211,14 +211,15 @@ def _var_bounds(setup, st, phase, box=None):
 
 
 def solve_program(setup, x0, ipopt, phase=Phase(), blocks=None, active=None, templates=None,
-                  x_ref=None, box=None, routh=None):
+                  x_ref=None, box=None, routh=None, rows=None):
     """Solve the program on the ``active`` grid points of ``blocks`` (default: all).
 
     ``x0`` is the full variable vector ``[xc, (wn, zeta), gamma]``.  ``templates``
     caches built solvers by structure (a dict; default: a fresh one); ``box`` =
     ``(center, radius)`` bounds the controller coefficients (a trust region); ``routh``
     the indices of the models whose closed-loop stability rows are imposed (default:
-    every model).
+    every model); ``rows`` those rows, if the caller has them
+    (:func:`~robrst.synthesis.stability.stability_rows`).
 
     Returns
     -------
@@ -229,7 +230,7 @@ def solve_program(setup, x0, ipopt, phase=Phase(), blocks=None, active=None, tem
     if active is None:
         active = [np.arange(len(b.nu)) for b in blocks]
     limits = _limits(setup, blocks, phase)
-    rows = stability_rows(setup)
+    rows = stability_rows(setup) if rows is None else rows
     routh = tuple(range(len(rows))) if routh is None else tuple(routh)
     st = _structure(setup, phase, sum(len(a) for a in active), ipopt, rows, routh)
     cache = {} if templates is None else templates
@@ -366,10 +367,10 @@ def _exchange(setup, x0, ipopt, phase, templates, max_rounds, coarse_points, exa
         # later rounds start at the previous optimum: a small initial barrier keeps them there
         opts = ipopt if rnd == 1 else {**ipopt, "mu_init": min(ipopt.get("mu_init", 0.1), 1e-4)}
         res = solve_program(setup, x, opts, phase, blocks, active, templates, x_ref=x0, box=box,
-                            routh=routh)
+                            routh=routh, rows=rows)
         if not res.success and rnd > 1:      # the warm barrier failed: the default one
             res = solve_program(setup, x, ipopt, phase, blocks, active, templates, x_ref=x0,
-                                box=box, routh=routh)
+                                box=box, routh=routh, rows=rows)
         x = res.x
         iters += res.iterations
         ratios = effective_ratios(blocks, limits, x, x[-1])
