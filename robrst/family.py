@@ -27,6 +27,7 @@ __all__ = ["ThermalCoefficients", "PlantFamily", "parametric_family", "explicit_
            "GAIN_SPAN"]
 
 GAIN_SPAN = (1e-6, 1e6)   # static-gain factor of a parametric family over its temperatures
+MEMO_MAX = 4096           # models kept by a family's memo; beyond, it starts again (memory)
 
 
 def _thermal_model(nominal, c, T):
@@ -99,6 +100,7 @@ class PlantFamily:
             return self._at(T)
         key = ("at", T)
         if key not in self.memo:
+            self._room()
             self.memo[key] = self._at(T)
         return self.memo[key]
 
@@ -111,8 +113,14 @@ class PlantFamily:
         except TypeError:          # unhashable arguments: sampled_plant judges them
             return sampled_plant(plant, sample_rate_hz, delay_samples)
         if hit is None or hit[0] is not plant:
+            self._room()
             hit = self.memo[key] = (plant, sampled_plant(plant, sample_rate_hz, delay_samples))
         return hit[1]
+
+    def _room(self):
+        """Make room for one more memo entry (empty the memo when it is full)."""
+        if len(self.memo) >= MEMO_MAX:
+            self.memo.clear()
 
     def _at(self, T):
         lo, hi = self.range_C

@@ -19,7 +19,8 @@ from robrst.schema import ArrayOf, Field, key_error, load_toml, markdown_rows, v
 from robrst.speccheck import (MAX_RATE, MIN_RATE, MIN_RATE_HZ, check_combinations, check_generated,
                               check_pairs, check_rates, pole_spec)
 
-__all__ = ["load_problem", "parse_problem", "resolve_problem_path", "SCHEMA", "schema_markdown"]
+__all__ = ["load_problem", "parse_problem", "resolve_problem_path", "SCHEMA", "schema_markdown",
+           "FAMILY_TABLES"]
 
 TEMP = dict(lo=-100.0, hi=500.0)      # plausible temperatures [°C]
 BAND = dict(positive=True, length=2)  # [lo, hi] pairs
@@ -27,6 +28,7 @@ BAND = dict(positive=True, length=2)  # [lo, hi] pairs
 # poles robrst generates from several keys are checked by robrst.speccheck
 RATE = dict(lo=-MAX_RATE, hi=MAX_RATE)
 COEF = dict(lo=-1e100, hi=1e100)      # polynomial coefficients and gains
+FAMILY_TABLES = ("plant", "family")   # the tables the plant family is built from (alone)
 
 SCHEMA = {
     "problem": {

@@ -2,6 +2,7 @@
 
 import json
 import re
+from dataclasses import replace
 
 import numpy as np
 import pyarrow.parquet as pq
@@ -356,3 +357,37 @@ def test_a_worker_loads_scipy_linear_algebra_once_with_its_state():
         out = subprocess.run([sys.executable, "-c", code % name], capture_output=True,
                              text=True, check=True).stdout.split()
         assert out == ["False", loaded], (name, out)
+
+
+def test_a_variant_keeps_the_base_family_unless_a_family_key_changes(monkeypatch):
+    """Spec and solver keys leave the family: a variant shares the base's object (and its
+    memo: models at the certificate's temperatures, their sampled plants) with the same
+    rows as a fresh parse; a family key builds its own.  The memo stays bounded."""
+    import robrst.family as fam
+    from robrst.design import run_problem
+    from robrst.sweep import parse_sweep
+    from robrst.sweep.evaluate import build_state, evaluate_variant, problem_of
+
+    doc = {"sweep": {"name": "s", "kind": "design", "problem": "paper_robust"},
+           "param": [{"name": "specs.Mu_max", "dist": "grid", "values": [150.0]}]}
+    ctx, _ = prepare(parse_sweep(doc))
+    state = build_state(ctx)
+    for mu in (140.0, 160.0):      # the second design reuses the first one's memo
+        q = problem_of(ctx, 0, {"specs.Mu_max": mu})
+        assert q.family is ctx.base.family and q.specs.Mu_max == mu
+        row = evaluate_variant(state, 0, {"specs.Mu_max": mu})
+        fresh = replace(load_problem("paper_robust"), specs=q.specs, solver=q.solver)
+        alone = run_problem(fresh)
+        assert fresh.family is not ctx.base.family
+        assert row["certified"] is alone.certified is True
+        assert row["R"] == alone.controller.R.tolist() and row["S"] == alone.controller.S.tolist()
+        assert row["Ms_sampled"] == alone.certificate.worst("Ms_sampled")
+    assert len(ctx.base.family.memo) > 30
+    other = problem_of(ctx, 0, {"family.parametric.creep_per_K": 0.006})
+    assert other.family is not ctx.base.family
+    assert not np.array_equal(other.family.at(45.0).B, ctx.base.family.at(45.0).B)
+    monkeypatch.setattr(fam, "MEMO_MAX", 3)
+    f = load_problem("paper_robust").family
+    for T in np.linspace(28.0, 45.0, 10):
+        assert np.array_equal(f.at(T).A, load_problem("paper_robust").family.at(T).A)
+        assert len(f.memo) <= 3

@@ -18,7 +18,7 @@ import numpy as np
 from robrst.errors import SpecError
 from robrst.family import PlantFamily, explicit_family, parametric_family
 from robrst.plant import Plant
-from robrst.spec import parse_problem
+from robrst.spec import FAMILY_TABLES, parse_problem
 from robrst.sweep.spec import COEF, PLANT_PARAMS, problem_field
 from robrst.thermal import modal_form, thermal_polynomials
 
@@ -154,6 +154,10 @@ def variant_problem(base, doc, path, values, ageing):
             field = problem_field(name)
             set_key(d, tuple(name.split(".")), int(v) if field.type == "int" else float(v))
         problem = parse_problem(d, path)
+        if not any(name.split(".")[0] in FAMILY_TABLES for name in keys):
+            # the base's family, unchanged: its memo (the models at the certificate's
+            # temperatures, their sampled plants) serves every variant of a worker
+            problem = replace(problem, family=base.family)
     if plant:
         problem = replace(problem, family=transform_family(problem.family, plant, ageing))
     return problem
