@@ -41,7 +41,7 @@ __all__ = ["Peak", "peak_gain", "peak_gains", "peak_gains_many", "mag2_poly"]
 def _prepare(N, D):
     """Trimmed ``N, D`` with common factors ``s^k`` cancelled."""
     N, D = poly.trim(N), poly.trim(D)
-    if not np.any(D):
+    if not D.any():
         raise ValueError("peak_gain: the denominator is identically zero")
     while len(N) > 1 and len(D) > 1 and N[-1] == 0.0 and D[-1] == 0.0:
         N, D = N[:-1], D[:-1]
@@ -152,7 +152,7 @@ class _Plan:
 
     def __init__(self, Ns, D, bands, rtol, max_iter):
         D0 = poly.trim(D)
-        if not np.any(D0):
+        if not D0.any():
             raise ValueError("peak_gain: the denominator is identically zero")
         self.Ns, self.D0, self.bands = Ns, D0, list(bands)
         self.rtol, self.max_iter = rtol, max_iter
@@ -162,7 +162,7 @@ class _Plan:
             Ni, Di = _prepare(N, D0)
             if len(Ni) > len(Di):
                 self.out[i] = Peak(np.inf, np.inf)
-            elif not np.any(Ni):
+            elif not Ni.any():
                 self.out[i] = Peak(0.0, 0.0)
             elif len(Di) != len(D0):      # a common factor s**k cancelled: its own scaling
                 self.out[i] = peak_gain(Ni, Di, rtol=rtol, max_iter=max_iter)

@@ -44,6 +44,11 @@ def mag2_poly(c):
     return e[::2] * sign                  # s^(2k) = (-x)^k
 
 
+def _derivative(q):
+    """``numpy.polyder(q)`` (the same product), without its dispatch."""
+    return q[:-1] * np.arange(len(q) - 1, 0, -1)
+
+
 def _companion_matrix(c):
     """Companion matrix of ``c`` (leading zeros dropped; ``None`` below degree 1)."""
     nz = np.flatnonzero(c)
@@ -113,19 +118,24 @@ class Level:
         self.NDs = NDs = np.zeros((2, n + 1))
         NDs[0, n + 1 - len(Ns):] = Ns / self.lead
         NDs[1] = ds
-        # unbalanced: LAPACK balances the Hamiltonian itself
-        self.A, self.B, self.C, self.d = lti.companion_monic(NDs[0], NDs[1], balance=False)
+        # unbalanced: LAPACK balances the Hamiltonian itself.  ``A, B`` depend on the
+        # denominator alone: ``like``'s (never written to), ``C = ns[1:] - d ds[1:]``
+        if like is None:
+            self.A, self.B, self.C, self.d = lti.companion_monic(NDs[0], NDs[1], balance=False)
+        else:
+            self.A, self.B, self.d = like.A, like.B, float(NDs[0, 0])
+            self.C = (NDs[0, 1:] - self.d * ds[1:]).reshape(1, n)
         self._set_band(band)
         self.n, self.roots = n, None
         if n:
             qN = mag2_poly(NDs[0])
             if like is None:
                 self.qD = mag2_poly(NDs[1])
-                self.dqD = np.polyder(self.qD)
+                self.dqD = _derivative(self.qD)
                 self.resolvable = _spread(NDs[1]) <= MAX_SPREAD
             else:
                 self.qD, self.dqD, self.resolvable = like.qD, like.dqD, like.resolvable
-            self.P = np.convolve(np.polyder(qN), self.qD) - np.convolve(qN, self.dqD)
+            self.P = np.convolve(_derivative(qN), self.qD) - np.convolve(qN, self.dqD)
             self.verified = self.resolvable
 
     def _set_band(self, band):
