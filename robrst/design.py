@@ -173,14 +173,17 @@ def analytic_design(problem, poles=None):
         raise
 
 
-def with_time_domain(problem, cert, ctrl):
+def with_time_domain(problem, cert, ctrl, factor=None):
     """``cert`` (of the feedback ``R/S``) completed by the time-domain specs of ``ctrl``.
 
     The frequency-domain records of a certificate depend on ``R/S`` only, so a
     controller whose reference path changed (:mod:`robrst.synthesis.tracking`) keeps
     them; the reference-step figures (:mod:`robrst.timespec`) are computed on every
     model of the certificate (family and sweep, and the sampled loop) and added.
-    Spectral abscissae include the roots the new controller adds (its reference filter).
+    Spectral abscissae include the roots the new controller adds (its reference filter):
+    those of ``factor`` when given (a polynomial that ``ctrl``'s ``R`` and ``S`` have
+    beyond the certificate's controller, so every closed-loop polynomial gained exactly
+    it), else those of each new closed-loop polynomial.
     """
     sp = problem.specs
     recs = [dict(rec) for rec in cert.models]
@@ -190,10 +193,13 @@ def with_time_domain(problem, cert, ctrl):
         kinds.append(([problem.family.sampled(m, sp.sample_rate_hz, sp.delay_samples)
                        for m in models], sp.sample_rate_hz, "_sampled"))
     found = [[] for _ in recs]            # per model, the failed specs of each loop
+    added = None if factor is None else spectral_abscissa_many([factor])[0][0]
     for plants, fs, suffix in kinds:      # every model's loop of one kind at once
         cls = [closed_loop(plant, ctrl) for plant in plants]
         sa_key = f"spectral_abscissa{suffix}"
-        for rec, (sa, _) in zip(recs, spectral_abscissa_many([cl.Delta for cl in cls])):
+        sas = [added] * len(recs) if factor is not None else \
+            [sa for sa, _ in spectral_abscissa_many([cl.Delta for cl in cls])]
+        for rec, sa in zip(recs, sas):
             rec[sa_key] = max(rec[sa_key], sa)
         if not sp.time_domain:
             continue
@@ -381,7 +387,7 @@ def _tracked(problem, ctrl, cert):
 
     first = None
     for out, trk in tracking_candidates(problem, ctrl):
-        done = with_time_domain(problem, cert, out)
+        done = with_time_domain(problem, cert, out, factor=trk.Am_ref)
         first = first or (out, trk, done)
         stable = all(r["stable"] and r.get("stable_sampled", True) for r in done.models)
         if not problem.specs.time_domain or (

@@ -8,8 +8,8 @@ import pytest
 
 from robrst import poly
 from robrst.certificate import certify_problem
-from robrst.design import analytic_design, run_problem
-from robrst.rst import closed_loop
+from robrst.design import analytic_design, run_problem, with_time_domain
+from robrst.rst import RSTController, closed_loop
 from robrst.spec import load_problem
 from robrst.synthesis.outcome import worst_violation
 
@@ -93,6 +93,38 @@ def test_certificate_independent_recomputation(robust_result):
         C[0, :] = -(Ds / Ds[0])[1:]
         assert np.max(np.linalg.eigvals(C).real) * w0 == pytest.approx(rec["spectral_abscissa"],
                                                                        rel=1e-6, abs=1e-9)
+
+
+def test_two_dof_spectral_abscissae_are_those_of_the_whole_loops(robust_result):
+    """The 2-DOF controller's R and S carry the reference model: every closed-loop
+    polynomial gained its roots.  The certificate's abscissae (the feedback's, joined by
+    the reference model's) are those of the whole loops, continuous and sampled, from
+    companion eigenvalues of the 2-DOF controller's closed-loop polynomial."""
+    r = robust_result
+    fam, sp = r.problem.family, r.problem.specs
+    assert r.tracking is not None and len(r.tracking.Am_ref) >= 3
+    for rec in r.certificate.models[::3]:
+        plant = fam.at(rec["temperature_C"])
+        for pl, sfx in ((plant, ""), (fam.sampled(plant, sp.sample_rate_hz, sp.delay_samples),
+                                      "_sampled")):
+            Dn = closed_loop(pl, r.controller).Delta
+            Dn = Dn / Dn[0]
+            w0 = poly.natural_scale(Dn)
+            Ds = poly.to_scaled(Dn, w0)
+            C = np.diag(np.ones(len(Dn) - 2), -1)
+            C[0, :] = -(Ds / Ds[0])[1:]
+            assert np.max(np.linalg.eigvals(C).real) * w0 == pytest.approx(
+                rec["spectral_abscissa" + sfx], rel=1e-6, abs=1e-9), (rec["temperature_C"], sfx)
+    # a factor slower than every loop pole (-0.5 rad/s): each abscissa becomes its root,
+    # given as the factor or found in each closed-loop polynomial
+    f = np.array([1.0, 0.5])
+    c = r.controller
+    slow = RSTController(R=poly.pmul(c.R, f), S=poly.pmul(c.S, f), T=poly.pmul(c.T, f))
+    for cert in (with_time_domain(r.problem, r.certificate, slow, factor=f),
+                 with_time_domain(r.problem, r.certificate, slow)):
+        for rec in cert.models:
+            for sfx in ("", "_sampled"):
+                assert rec["spectral_abscissa" + sfx] == pytest.approx(-0.5, rel=1e-9)
 
 
 def test_robust_beats_analytic_on_integral_gain(robust_result):
