@@ -63,7 +63,8 @@ class Comparison:
 class DesignResult:
     """A certified (or explicitly uncertified) design and everything reported about it.
 
-    ``synthesis`` is the stage's own record: an
+    ``analyses`` holds one :class:`~robrst.analysis.Analysis` per family model (none when
+    :func:`run_problem` was asked for none).  ``synthesis`` is the stage's own record: an
     :class:`~robrst.synthesis.analytic.AnalyticDesign` or a
     :class:`~robrst.synthesis.outcome.SynthesisResult`; ``tracking`` the 2-DOF reference
     path (:class:`~robrst.synthesis.tracking.Tracking`) with ``T_mode = "reference_model"``
@@ -297,7 +298,7 @@ def comparison(problem, ctrl, cert):
 
 
 def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
-                templates: dict | None = None) -> DesignResult:
+                templates: dict | None = None, analyses: bool = True) -> DesignResult:
     """Run the design the problem asks for, certify it, analyse every family model.
 
     A synthesis always ends with a controller: when the specs cannot be met the result
@@ -312,6 +313,10 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
     templates : dict, optional
         Built NLP solvers by structure, shared between designs of the same structure
         (see :class:`robrst.synthesis.synthesizer.Synthesizer`).
+    analyses : bool
+        Analyse every family model (:attr:`DesignResult.analyses`: exact peaks to 1e-10
+        and margins).  Off, the result has none (a sweep reads the certificate's figures
+        and computes only the margins).
 
     Returns
     -------
@@ -330,10 +335,10 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
     (True, 'certified')
     """
     with one_blas_thread(problem.needs_scipy):
-        return _design(problem, progress, templates)
+        return _design(problem, progress, templates, analyses)
 
 
-def _design(problem, progress, templates):
+def _design(problem, progress, templates, analyse):
     """:func:`run_problem` (its BLAS limited by the caller)."""
     from robrst.synthesis.robust import robust_synthesis
 
@@ -361,7 +366,7 @@ def _design(problem, progress, templates):
         elif problem.specs.time_domain:
             cert = with_time_domain(problem, cert, ctrl)
     comp = None if method == "analytic" else comparison(problem, ctrl, cert)
-    analyses = analyze_many(problem.family.models, ctrl)
+    analyses = analyze_many(problem.family.models, ctrl) if analyse else ()
     return DesignResult(problem=problem, method=method, controller=ctrl,
                         target_char_poly=stage.Am, analyses=analyses, certificate=cert,
                         synthesis=stage, analytic_check=check, comparison=comp, tracking=trk)

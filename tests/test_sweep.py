@@ -382,6 +382,13 @@ def test_a_variant_keeps_the_base_family_unless_a_family_key_changes(monkeypatch
         assert row["certified"] is alone.certified is True
         assert row["R"] == alone.controller.R.tolist() and row["S"] == alone.controller.S.tolist()
         assert row["Ms_sampled"] == alone.certificate.worst("Ms_sampled")
+        lean = run_problem(fresh, analyses=False)
+        assert lean.analyses == () and lean.controller.R.tolist() == row["R"]
+        # the row's margins (the design ran without analyses) are those of the analyses
+        assert row["gain_margin"] == min(a.margins.gain_margin for a in alone.analyses)
+        assert row["delay_margin_s"] == min(a.margins.delay_margin_s for a in alone.analyses)
+        assert row["phase_margin_deg"] == min((a.margins.phase_margin_deg
+                                               for a in alone.analyses), key=abs)
     assert len(ctx.base.family.memo) > 30
     other = problem_of(ctx, 0, {"family.parametric.creep_per_K": 0.006})
     assert other.family is not ctx.base.family

@@ -142,24 +142,28 @@ def _smallest(ms):
             min(_inf(m.delay_margin_s) for m in ms))
 
 
+def _member_margins(problem, ctrl, cert):
+    """Margins of every family model's loop (``Ms`` from ``cert``'s record of the model)."""
+    ms = {r["temperature_C"]: r["Ms"] for r in cert.models}
+    return [loop_margins(m, ctrl, ms.get(m.temperature_C, cert.worst("Ms")))
+            for m in problem.family.models]
+
+
 def _analysis_row(state, values):
     ctx = state.context
-    sw = ctx.sweep
     problem = problem_of(ctx, None, values)
     cert = certify_problem(problem, ctx.controller)
-    mm = ()
-    if sw.margins:
-        ms = {r["temperature_C"]: r["Ms"] for r in cert.models}
-        mm = [loop_margins(m, ctx.controller, ms.get(m.temperature_C, cert.worst("Ms")))
-              for m in problem.family.models]
+    mm = _member_margins(problem, ctx.controller, cert) if ctx.sweep.margins else ()
     return _figures(problem, ctx.controller, cert, _smallest(mm))
 
 
 def _design_row(state, problem):
     with state.lock:   # a cached solver is not re-entrant: one design at a time per worker
-        result = state.designer(problem, templates=state.templates)
-    row = _figures(problem, result.controller, result.certificate,
-                   _smallest([a.margins for a in result.analyses]))
+        # no analyses (exact peaks to 1e-10): the row's figures are the certificate's
+        result = state.designer(problem, templates=state.templates, analyses=False)
+    cert = result.certificate
+    row = _figures(problem, result.controller, cert,
+                   _smallest(_member_margins(problem, result.controller, cert)))
     row.update({k: getattr(result.controller, k).tolist() for k in CONTROLLER_COLUMNS})
     if not result.certified:
         row["message"] = design_cause(result)
