@@ -197,11 +197,10 @@ def with_time_domain(problem, cert, ctrl, factor=None):
     added = None if factor is None else spectral_abscissa_many([factor])[0][0]
     for plants, fs, suffix in kinds:      # every model's loop of one kind at once
         cls = [closed_loop(plant, ctrl) for plant in plants]
-        sa_key = f"spectral_abscissa{suffix}"
-        sas = [added] * len(recs) if factor is not None else \
-            [sa for sa, _ in spectral_abscissa_many([cl.Delta for cl in cls])]
+        sas = [added] * len(recs) if factor is not None else [
+            sa for sa, _ in spectral_abscissa_many([cl.Delta for cl in cls])]
         for rec, sa in zip(recs, sas):
-            rec[sa_key] = max(rec[sa_key], sa)
+            rec["spectral_abscissa" + suffix] = max(rec["spectral_abscissa" + suffix], sa)
         if not sp.time_domain:
             continue
         ks = [k for k, rec in enumerate(recs) if rec[f"stable{suffix}"]]
@@ -314,9 +313,8 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
         Built NLP solvers by structure, shared between designs of the same structure
         (see :class:`robrst.synthesis.synthesizer.Synthesizer`).
     analyses : bool
-        Analyse every family model (:attr:`DesignResult.analyses`: exact peaks to 1e-10
-        and margins).  Off, the result has none (a sweep reads the certificate's figures
-        and computes only the margins).
+        Analyse every family model (exact peaks to 1e-10, margins); off: none (a sweep
+        reads the certificate's figures and computes only the margins).
 
     Returns
     -------
