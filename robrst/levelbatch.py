@@ -12,7 +12,8 @@ products.
 
 import numpy as np
 
-__all__ = ["LOOSE", "gain", "gains", "hamiltonians", "newton", "Batch", "One"]
+__all__ = ["LOOSE", "gain", "gains", "hamiltonians", "newton", "derivative", "Batch",
+           "One"]
 
 LOOSE = 0.05   # roots with |Im x| <= LOOSE |x| are treated as real (candidates only)
 _NEWTON = 12   # Newton steps of the polish
@@ -38,6 +39,12 @@ def gain(NDs, nu):
         g = np.abs(y[0] / y[1])
     g[np.isnan(g)] = 0.0
     return g
+
+
+def derivative(P):
+    """Coefficients of the derivative of each polynomial (the last axis), as
+    ``numpy.polyder`` forms them (the same products), without its dispatch."""
+    return P[..., :-1] * np.arange(P.shape[-1] - 1, 0, -1)
 
 
 def _powers(NDs, x):
@@ -172,8 +179,7 @@ class Batch:
         self.C = np.stack([lv.C for lv in levels])
         self.d = np.array([lv.d for lv in levels])
         self.P = np.stack([lv.P for lv in levels])
-        L = self.P.shape[1]
-        self.dP = self.P[:, :-1] * np.arange(L - 1, 0, -1)
+        self.dP = derivative(self.P)
         self.lo = np.array([lv.lo for lv in levels])
         self.hi = np.array([lv.hi for lv in levels])
         K = len(levels)
@@ -272,8 +278,7 @@ class One:
 
     def __init__(self, lv):
         self.lv = lv
-        self.P = lv.P.tolist()
-        self.dP = [a * k for a, k in zip(self.P, range(len(self.P) - 1, 0, -1))]
+        self.P, self.dP = lv.P.tolist(), derivative(lv.P).tolist()
         self.g, self.w, self.done = 0.0, 0.0, False
 
     def start(self):

@@ -5,7 +5,8 @@ of ``|G|^2``, band); :func:`run_levels` drives several together: the stationary 
 candidates, then level-set verifications (the Hamiltonian's imaginary eigenvalues at the
 current value ``(1 + 2 rtol)``) until no interval lies above, the levels of one state
 dimension advanced together (:mod:`robrst.levelbatch`, each stage one stacked
-computation; a lone level in scalars, the same steps).  :mod:`robrst.hinf` is the public entry (module docstring there).
+computation; a lone level in scalars, the same steps).  :mod:`robrst.hinf` is the public
+entry (module docstring there).
 """
 
 import copy
@@ -14,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from robrst import lti
-from robrst.levelbatch import LOOSE, Batch, One, gain
+from robrst.levelbatch import LOOSE, Batch, One, derivative, gain
 
 __all__ = ["Peak", "Level", "run_levels", "mag2_poly", "LOOSE", "MAX_SPREAD"]
 
@@ -42,11 +43,6 @@ def mag2_poly(c):
     sign = (-1.0) ** np.arange(d, -1, -1)
     e = np.convolve(c, c * sign)          # c(s) c(-s), even, degree 2d
     return e[::2] * sign                  # s^(2k) = (-x)^k
-
-
-def _derivative(q):
-    """``numpy.polyder(q)`` (the same product), without its dispatch."""
-    return q[:-1] * np.arange(len(q) - 1, 0, -1)
 
 
 def _companion_matrix(c):
@@ -131,11 +127,11 @@ class Level:
             qN = mag2_poly(NDs[0])
             if like is None:
                 self.qD = mag2_poly(NDs[1])
-                self.dqD = _derivative(self.qD)
+                self.dqD = derivative(self.qD)
                 self.resolvable = _spread(NDs[1]) <= MAX_SPREAD
             else:
                 self.qD, self.dqD, self.resolvable = like.qD, like.dqD, like.resolvable
-            self.P = np.convolve(_derivative(qN), self.qD) - np.convolve(qN, self.dqD)
+            self.P = np.convolve(derivative(qN), self.qD) - np.convolve(qN, self.dqD)
             self.verified = self.resolvable
 
     def _set_band(self, band):
