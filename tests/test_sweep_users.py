@@ -238,3 +238,21 @@ def test_variant_table_is_drawn_in_blocks_without_copies(monkeypatch):
     finally:
         tracemalloc.stop()
     assert peak < 1.6 * table.values.nbytes, peak / table.values.nbytes
+
+
+def test_a_one_parameter_design_sweep_prints_no_warning(tmp_path, capsys):
+    """One parameter, every design made: the front figure has no labelled curve, and
+    `sweep --json` prints its JSON and no matplotlib warning about an empty legend."""
+    import json
+    import warnings
+
+    path = tmp_path / "one.toml"
+    path.write_text('[sweep]\nkind = "design"\nproblem = "paper"\n[[param]]\n'
+                    'name = "poles.wn"\ndist = "grid"\nvalues = [500.0, 700.0]\n')
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        rc = main(["sweep", str(path), "--out", str(tmp_path / "o"), "--workers", "0",
+                   "--json"])
+    assert rc in (0, 1) and json.loads(capsys.readouterr().out)["done"] == 2
+    assert [str(w.message) for w in caught] == []
+    assert (tmp_path / "o" / "report" / "front.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

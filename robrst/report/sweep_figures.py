@@ -131,7 +131,8 @@ def front_figure(result, path):
                 a1.plot(failed, [np.nanmin(y) if np.isfinite(y).any() else 0.0] * len(failed),
                         "x", color="tab:red", ms=8, label=f"failed ({len(failed)})")
             a1.set_xlabel(names[0])
-            a1.legend(fontsize=8)
+            if a1.get_legend_handles_labels()[1]:   # one parameter, no failure: no labels
+                a1.legend(fontsize=8)
         a1.set_ylabel(y_name)
         a1.set_title("filled: certified; hollow: not certified; ×: no design (see the table)",
                      fontsize=9)
