@@ -5,8 +5,8 @@ from fractions import Fraction
 import numpy as np
 
 from benchmarks.harness import BenchResult, alternate, median_ratio
-from robrst import poly
-from robrst.plant import paper_plant
+from robrst.core import poly
+from robrst.core.plant import paper_plant
 from robrst.synthesis import analytic
 
 

@@ -4,9 +4,9 @@ import numpy as np
 
 from benchmarks.harness import BenchResult, alternate, median_ratio
 from robrst.design import run_problem
-from robrst.hinf import peak_gain, peak_gains
-from robrst.rst import closed_loop
-from robrst.spec import load_problem
+from robrst.core.peaks import peak_gain, peak_gains
+from robrst.core.rst import closed_loop
+from robrst.problem.files import load_problem
 from benchmarks.bench_synthesis import PROBLEM
 
 

@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.harness import BenchResult
-from robrst.sweep import load_sweep, parse_sweep, run_sweep
+from robrst.studies.sweep import load_sweep, parse_sweep, run_sweep
 
 DESIGN = {"sweep": {"name": "bench_design", "kind": "design", "problem": "paper_robust"},
           "param": [{"name": "specs.Mu_max", "dist": "grid", "lo": 120.0, "hi": 200.0,

@@ -19,12 +19,12 @@ import numpy as np
 from scipy.optimize import minimize
 
 from benchmarks.harness import BenchResult, alternate, median_ratio
-from robrst import poly
-from robrst.certificate import certify_problem
+from robrst.core import poly
+from robrst.certificate.proof import certify_problem
 from robrst.design import analytic_design
-from robrst.problem import PoleSpec
-from robrst.resources import builtin_problem
-from robrst.spec import parse_problem
+from robrst.problem.records import PoleSpec
+from robrst.base.resources import builtin_problem
+from robrst.problem.files import parse_problem
 from robrst.synthesis import robust
 from robrst.synthesis.analytic import characteristic_polynomial
 from robrst.synthesis.context import BOUND_MARGIN, Context

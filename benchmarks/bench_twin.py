@@ -18,7 +18,7 @@ from robrst.twin.simulate import Simulator
 
 def _baseline(model, u, fs):
     """solve_ivp over each sample of the linear part (a lower bound on the full chain's cost)."""
-    from robrst.plant import named_plant
+    from robrst.core.plant import named_plant
 
     D = named_plant(model.config.plant)
     n = D.n

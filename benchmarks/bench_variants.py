@@ -16,9 +16,9 @@ from dataclasses import replace
 import numpy as np
 
 from benchmarks.harness import BenchResult
-from robrst.certificate import certify_problem
-from robrst.family import parametric_family
-from robrst.spec import load_problem
+from robrst.certificate.proof import certify_problem
+from robrst.core.family import parametric_family
+from robrst.problem.files import load_problem
 from robrst.synthesis.synthesizer import Synthesizer
 
 GOAL_S = 0.15

@@ -7,7 +7,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from robrst.fileio import atomic_write_text
+from robrst.base.fileio import atomic_write_text
 
 __all__ = ["BenchResult", "alternate", "median_ratio", "render_markdown", "write_reports"]
 

@@ -2,7 +2,7 @@
 
 :func:`run_problem` runs the method the problem asks for (analytic pole placement, the
 robust NLP or the convex program), certifies the controller on the whole family
-(:mod:`robrst.certificate`), analyses every family model, checks a synthesised controller
+(:mod:`robrst.certificate.proof`), analyses every family model, checks a synthesised controller
 against the closed-form Diophantine solution and compares it with an analytic design.
 """
 
@@ -14,17 +14,18 @@ from pathlib import Path
 
 import numpy as np
 
-from robrst import poly, timespec
-from robrst.analysis import analyze_many, spectral_abscissa_many
-from robrst.certificate import Violation, certify, certify_problem
-from robrst.errors import CoprimeError, SpecError
-from robrst.modelcheck import BOUNDED
-from robrst.problem import Problem
-from robrst.rst import closed_loop
+from robrst.core import poly
+from robrst.certificate import steps as timespec
+from robrst.core.analysis import analyze_many, spectral_abscissa_many
+from robrst.certificate.proof import Violation, certify, certify_problem
+from robrst.base.errors import CoprimeError, SpecError
+from robrst.certificate.models import BOUNDED
+from robrst.problem.records import Problem
+from robrst.core.rst import closed_loop
 from robrst.synthesis import analytic
 from robrst.synthesis.parametrize import integral_gain
 from robrst.synthesis.robust import best_achievable
-from robrst.threads import one_blas_thread
+from robrst.base.threads import one_blas_thread
 
 __all__ = ["DesignResult", "AnalyticCheck", "Comparison", "run_problem", "analytic_design",
            "analytic_check", "comparison", "with_time_domain"]
@@ -63,7 +64,7 @@ class Comparison:
 class DesignResult:
     """A certified (or explicitly uncertified) design and everything reported about it.
 
-    ``analyses`` holds one :class:`~robrst.analysis.Analysis` per family model (none when
+    ``analyses`` holds one :class:`~robrst.core.analysis.Analysis` per family model (none when
     :func:`run_problem` was asked for none).  ``synthesis`` is the stage's own record: an
     :class:`~robrst.synthesis.analytic.AnalyticDesign` or a
     :class:`~robrst.synthesis.outcome.SynthesisResult`; ``tracking`` the 2-DOF reference
@@ -179,7 +180,7 @@ def with_time_domain(problem, cert, ctrl, factor=None):
 
     The frequency-domain records of a certificate depend on ``R/S`` only, so a
     controller whose reference path changed (:mod:`robrst.synthesis.tracking`) keeps
-    them; the reference-step figures (:mod:`robrst.timespec`) are computed on every
+    them; the reference-step figures (:mod:`robrst.certificate.steps`) are computed on every
     model of the certificate (family and sweep, and the sampled loop) and added.
     Spectral abscissae include the roots the new controller adds (its reference filter):
     those of ``factor`` when given (a polynomial that ``ctrl``'s ``R`` and ``S`` have
@@ -270,7 +271,7 @@ def comparison(problem, ctrl, cert):
     Comparison or None
         ``None`` when the problem names no ``compare_with`` file.
     """
-    from robrst.spec import load_problem
+    from robrst.problem.files import load_problem
 
     other = problem.solver.compare_with
     if not other:

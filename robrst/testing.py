@@ -33,9 +33,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from robrst import __version__
-from robrst.errors import OutputError, SpecError
-from robrst.fileio import atomic_write_text, check_file_target
-from robrst.schema import load_toml
+from robrst.base.errors import OutputError, SpecError
+from robrst.base.fileio import atomic_write_text, check_file_target
+from robrst.base.schema import load_toml
 
 __all__ = ["Worse", "golden_figures", "write_golden", "read_golden", "compare_golden",
            "assert_margins", "check_golden_fits", "count_figures", "MARKER", "DEFAULT_TOL"]

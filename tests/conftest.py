@@ -5,8 +5,8 @@ import pathlib
 import pytest
 
 from robrst.design import run_problem
-from robrst.resources import problems_dir as _problems_dir
-from robrst.spec import load_problem
+from robrst.base.resources import problems_dir as _problems_dir
+from robrst.problem.files import load_problem
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 SHARED = ROOT.parent / "shared"
@@ -50,7 +50,7 @@ def robust_result(designs):
 @pytest.fixture(scope="session")
 def exports(designs):
     """Exported digital controllers of the shipped problems (20 kHz where none is named)."""
-    from robrst.export import export_controller
+    from robrst.controller.export import export_controller
 
     cache = {}
 

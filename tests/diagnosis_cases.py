@@ -28,7 +28,7 @@ import numpy as np
 from scipy import signal
 
 from robrst.diagnose.validation import excitation
-from robrst.plant import Plant, paper_plant
+from robrst.core.plant import Plant, paper_plant
 from robrst.twin.config import default_twin
 from robrst.twin.simulate import simulate
 
@@ -186,7 +186,7 @@ def _second_mode(u, fs, f0=1400.0, zeta=0.02, share=0.15):
 
 def _controller(fs):
     from robrst.design import analytic_design
-    from robrst.rst import discretize
-    from robrst.spec import load_problem
+    from robrst.core.rst import discretize
+    from robrst.problem.files import load_problem
 
     return discretize(analytic_design(load_problem("paper")).controller, fs)

@@ -7,7 +7,7 @@ Generator
 ---------
 :func:`random_case` (seeded, ``numpy.random.default_rng(seed)``) and
 :func:`draw_case` (any :class:`Chooser`, e.g. one backed by hypothesis) build a problem
-document (a dict that is valid TOML and valid input of :func:`robrst.spec.parse_problem`):
+document (a dict that is valid TOML and valid input of :func:`robrst.problem.files.parse_problem`):
 plant orders 1–6, lightly damped resonances, right-half-plane zeros, integrating plants,
 negative gains, single models, explicit and parametric temperature families, sampled loops
 from 1 to 100 kHz with 0 or 1 sample of delay, every method, objective and ``T_mode``,
@@ -18,8 +18,8 @@ meets them when ``RandomCase.baseline_ok`` is true.
 Checker
 -------
 :func:`check` re-derives every figure a certificate claims without robrst's numerical
-code (no ``robrst.hinf``, ``robrst.poly``, ``robrst.sampled``, ``robrst.certificate``,
-``robrst.family``):
+code (no ``robrst.core.peaks``, ``robrst.core.poly``, ``robrst.core.sampled``, ``robrst.certificate.proof``,
+``robrst.core.family``):
 
 * models at any temperature from the problem document itself (explicit families:
   coefficient-wise linear interpolation; parametric: the documented thermal law, from the
@@ -104,7 +104,7 @@ class RandomCase:
     baseline_ok: bool = False
 
     def problem(self):
-        from robrst.spec import parse_problem
+        from robrst.problem.files import parse_problem
 
         return parse_problem(self.data, f"<random {self.seed}>")
 
@@ -289,8 +289,8 @@ def random_case(seed, method=None):
 
 def _baseline(data):
     """Checker figures of the analytic design at the document's poles (None on failure)."""
-    from robrst.errors import RobrstError
-    from robrst.spec import parse_problem
+    from robrst.base.errors import RobrstError
+    from robrst.problem.files import parse_problem
     from robrst.synthesis.analytic import pole_placement
 
     try:

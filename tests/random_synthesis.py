@@ -15,14 +15,14 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from robrst.certificate import certify_problem
+from robrst.certificate.proof import certify_problem
 from robrst.design import analytic_design, run_problem
-from robrst.errors import RobrstError
-from robrst.family import parametric_family
-from robrst.plant import Plant
-from robrst.problem import ControllerStructure, PoleSpec, Problem, SolverOptions, Specs
-from robrst.rst import RSTController
-from robrst.thermal import ThermalCoefficients
+from robrst.base.errors import RobrstError
+from robrst.core.family import parametric_family
+from robrst.core.plant import Plant
+from robrst.problem.records import ControllerStructure, PoleSpec, Problem, SolverOptions, Specs
+from robrst.core.rst import RSTController
+from robrst.core.thermal import ThermalCoefficients
 
 __all__ = ["Case", "evaluate", "local_problem", "known_controller", "table"]
 

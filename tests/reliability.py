@@ -8,7 +8,7 @@ and classifies the outcome with the independent checker (:func:`random_problems.
 * ``wrong``: ``certified: true`` and the checker refutes it (unstable somewhere on the
   temperature interval, or a peak above its bound) — a wrong certificate;
 * ``refused``: an answer that is not a certificate (``not_certified`` with the best
-  controller and what it achieves) or a clear robrst error (``robrst.errors``);
+  controller and what it achieves) or a clear robrst error (``robrst.base.errors``);
 * ``failed``: anything else (a Python exception that is not robrst's, no answer);
 * ``hung``: no answer within the time limit (:func:`run_many` only).
 
@@ -58,7 +58,7 @@ def run_seed(seed, n_temps=33, n_grid=20000, method=None):
     """Design random problem ``seed`` (``method`` forces ``solver.method``) and classify
     the outcome (module docstring)."""
     from robrst.design import run_problem
-    from robrst.errors import RobrstError
+    from robrst.base.errors import RobrstError
 
     t0 = time.perf_counter()
     case = random_case(seed, method=method)

@@ -3,7 +3,7 @@
 import json
 from pathlib import Path
 
-from robrst.fileio import json_text
+from robrst.base.fileio import json_text
 
 MC = """
 [sweep]

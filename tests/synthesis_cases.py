@@ -9,7 +9,7 @@ import tomllib
 
 import numpy as np
 
-from robrst.spec import parse_problem
+from robrst.problem.files import parse_problem
 
 SPECS = "[specs]\nMs_max = 2.0\nMt_max = 1.3\nMu_max = 100.0\n"
 

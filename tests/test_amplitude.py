@@ -12,7 +12,7 @@ jointly), so the third level is predicted to 2 % of its signal, not to the noise
 import control
 import numpy as np
 
-from robrst.dataset import Dataset
+from robrst.data.dataset import Dataset
 from robrst.diagnose import diagnose
 from robrst.identify.modal import ModalModel
 

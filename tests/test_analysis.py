@@ -4,12 +4,12 @@ import control
 import numpy as np
 import pytest
 
-from robrst import poly
-from robrst.analysis import analyze, crossovers, sensitivity, step_response
-from robrst.hinf import peak_gain
-from robrst.plant import Plant, paper_plant
-from robrst.rst import RSTController, closed_loop
-from robrst.problem import ControllerStructure, PoleSpec
+from robrst.core import poly
+from robrst.core.analysis import analyze, crossovers, sensitivity, step_response
+from robrst.core.peaks import peak_gain
+from robrst.core.plant import Plant, paper_plant
+from robrst.core.rst import RSTController, closed_loop
+from robrst.problem.records import ControllerStructure, PoleSpec
 from robrst.synthesis.analytic import pole_placement
 
 
@@ -179,7 +179,7 @@ def test_lower_gain_margin_of_a_conditionally_stable_loop(k):
     """L = k (s+1)^2 / s^3 is stable exactly for k > 1/2 (Routh on s^3 + k s^2 + 2k s + k):
     the loop tolerates no gain reduction below 1/(2k) and any increase.  At k = 0.5/0.997 it
     goes unstable at 0.997x gain: robrst must not report only an upward margin."""
-    from robrst.analysis import margins
+    from robrst.core.analysis import margins
 
     p = Plant([1.0, 2.0, 1.0], [1.0, 0.0, 0.0, 0.0])
     ctrl = RSTController(R=[k], S=[1.0], T=[k])
@@ -198,7 +198,7 @@ def test_bracketed_root_matches_brentq():
     """The crossover polish's root finder against scipy's brentq (an independent code)."""
     from scipy.optimize import brentq
 
-    from robrst.analysis import bracketed_root
+    from robrst.core.analysis import bracketed_root
 
     rng = np.random.default_rng(5)
     funcs = [lambda x: np.log(x) - 1.0, lambda x: x ** 3 - 2.0, lambda x: np.tan(x) - x,

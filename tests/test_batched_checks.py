@@ -1,9 +1,9 @@
 """The certificate's batched kernels give what one computation at a time gives.
 
-:func:`robrst.certificate.certify` checks its family members and sweep temperatures in
-one batch (:func:`robrst.modelcheck.check_all_many`): peaks of every loop through
-:func:`robrst.hinf.peak_gains_many`, roots through :func:`robrst.poly.roots_many`, the
-resolution test through :func:`robrst.interval.distance_to_instability_many`.  Each is
+:func:`robrst.certificate.proof.certify` checks its family members and sweep temperatures in
+one batch (:func:`robrst.certificate.models.check_all_many`): peaks of every loop through
+:func:`robrst.core.peaks.peak_gains_many`, roots through :func:`robrst.core.poly.roots_many`, the
+resolution test through :func:`robrst.core.interval.distance_to_instability_many`.  Each is
 compared here with an independent computation (``numpy.roots``, a dense grid of the
 unscaled polynomials, the distance formula evaluated directly with ``numpy.polyval``) and
 with the one-at-a-time path, which must agree bit for bit: the batch only stacks LAPACK
@@ -13,13 +13,13 @@ calls on matrices of equal size.
 import numpy as np
 import pytest
 
-from robrst.analysis import spectral_abscissa_many
-from robrst.certificate import certify_problem
-from robrst.hinf import peak_gain, peak_gains, peak_gains_many
-from robrst.interval import distance_to_instability_many
-from robrst.modelcheck import check_all, check_all_many
-from robrst.poly import roots_many
-from robrst.spec import load_problem
+from robrst.core.analysis import spectral_abscissa_many
+from robrst.certificate.proof import certify_problem
+from robrst.core.peaks import peak_gain, peak_gains, peak_gains_many
+from robrst.core.interval import distance_to_instability_many
+from robrst.certificate.models import check_all, check_all_many
+from robrst.core.poly import roots_many
+from robrst.problem.files import load_problem
 from robrst.synthesis.analytic import pole_placement
 
 
@@ -121,7 +121,7 @@ def test_peak_gains_many_is_peak_gains_and_dense_grid():
     w = np.geomspace(1e-3, 1e6, 200_001)
     for (Ns, D, bands), pks in zip(jobs, got):
         assert pks == peak_gains(Ns, D, bands=bands)          # bit for bit, one job alone
-        # a lone level (robrst.levelbatch.One, scalars) as in a stack (Batch)
+        # a lone level (robrst.core._levelbatch.One, scalars) as in a stack (Batch)
         assert pks[:len(Ns)] == [peak_gain(N, D) for N in Ns]
         for N, pk in zip(Ns, pks):
             grid = _dense_peak(N, D, w)
@@ -148,9 +148,9 @@ def test_check_all_many_is_one_model_at_a_time(name):
 
 def _sequential_refine(family, ctrl, specs, rtol, recs, budget, ignore):
     """The interval halving one point at a time, depth first (as documented in
-    :mod:`robrst.certificate`): the checked temperatures and the violations in order."""
-    from robrst.certificate import MIN_WIDTH, REFINE_RATIO
-    from robrst.modelcheck import JUMPS, margins
+    :mod:`robrst.certificate.proof`): the checked temperatures and the violations in order."""
+    from robrst.certificate.proof import MIN_WIDTH, REFINE_RATIO
+    from robrst.certificate.models import JUMPS, margins
 
     def unresolved(ra, rb, ignore=()):
         ma, mb = margins(ra, specs, rtol), margins(rb, specs, rtol)
@@ -195,7 +195,7 @@ def _sequential_refine(family, ctrl, specs, rtol, recs, budget, ignore):
 @pytest.mark.parametrize("seed", [42, 116, 127])
 def test_refinement_in_batches_is_the_depth_first_halving(seed):
     import random_problems as rp
-    from robrst.certificate import certify
+    from robrst.certificate.proof import certify
 
     p = rp.random_case(seed).problem()
     ctrl = pole_placement(p.family.reference_model, p.poles, p.controller).controller
@@ -251,12 +251,12 @@ def test_start_scores_together_are_one_at_a_time(name):
 
 
 def test_level_set_batch_gains_and_hamiltonians():
-    """The batched level-set kernel (robrst.levelbatch): stacked gains are each row's
+    """The batched level-set kernel (robrst.core._levelbatch): stacked gains are each row's
     gain() bit for bit, whatever the number of candidates per row (one, several, padded,
     beyond the overflow limit of the powers); the stacked Hamiltonians' imaginary
     eigenvalues j nu are where |N/D| (numpy.polyval) equals the level."""
-    from robrst.levelbatch import gain, gains, hamiltonians
-    from robrst.lti import companion_monic
+    from robrst.core._levelbatch import gain, gains, hamiltonians
+    from robrst.core.lti import companion_monic
 
     rng = np.random.default_rng(8)
     n, K, M = 5, 40, 7

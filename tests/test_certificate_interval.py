@@ -9,7 +9,7 @@ import pytest
 
 import random_problems as rp
 from robrst.cli import main
-from robrst.interval import segment_crossing
+from robrst.core.interval import segment_crossing
 
 
 def _hurwitz(rng, n, lo=0.1, hi=1e3):
@@ -84,7 +84,7 @@ def test_design_json_carries_interval_and_ratios(capsys):
 
 def _parametric_cases(n):
     from robrst.design import analytic_design
-    from robrst.errors import RobrstError
+    from robrst.base.errors import RobrstError
 
     seed = 0
     while n:
@@ -107,7 +107,7 @@ def test_parametric_guardian_proof_agrees_with_the_independent_family_law():
     case of the sample is proved."""
     from dataclasses import replace
 
-    from robrst.certificate import certify
+    from robrst.certificate.proof import certify
 
     seen = {"proved": 0, "unstable": 0}
     for case, pr, ctrl in _parametric_cases(4):
@@ -160,7 +160,7 @@ def test_interval_record_claims_no_proof_it_did_not_make(seed):
     """An explicit family with an unstable member: that segment cannot be tested, so the
     record must not say the zero-crossing test proved stability over the interval (it did
     until 2026-11-25)."""
-    from robrst.certificate import certify
+    from robrst.certificate.proof import certify
     from robrst.synthesis.analytic import pole_placement
 
     data = rp.random_case(seed).data

@@ -8,7 +8,7 @@ import tomllib
 import pytest
 
 from robrst.cli import main
-from robrst.errors import OutputError, SpecError
+from robrst.base.errors import OutputError, SpecError
 from robrst.testing import MARKER, assert_margins, compare_golden, read_golden, write_golden
 
 

@@ -7,7 +7,7 @@ import sys
 import pytest
 
 from robrst.cli import main
-from robrst.errors import SpecError
+from robrst.base.errors import SpecError
 
 MODEL_KEYS = {"label", "temperature_C", "A", "B", "stable", "closed_loop_poles", "Ms",
               "Ms_freq_rad_s", "Mt", "Mu", "gain_margin", "phase_margin_deg",

@@ -12,15 +12,15 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize_scalar
 
-from robrst import poly
-from robrst.analysis import analyze, step_response
+from robrst.core import poly
+from robrst.core.analysis import analyze, step_response
 from robrst.design import run_problem
-from robrst.errors import SpecError
-from robrst.family import PlantFamily
-from robrst.implement import run_loop
-from robrst.plant import Plant, paper_plant
-from robrst.problem import ControllerStructure, PoleSpec, Problem, Specs
-from robrst.rst import closed_loop, closed_loop_control
+from robrst.base.errors import SpecError
+from robrst.core.family import PlantFamily
+from robrst.controller.implementation import run_loop
+from robrst.core.plant import Plant, paper_plant
+from robrst.problem.records import ControllerStructure, PoleSpec, Problem, Specs
+from robrst.core.rst import closed_loop, closed_loop_control
 
 FS = 20000.0
 
@@ -73,7 +73,7 @@ def test_a_problem_built_from_a_discrete_plant_certifies_that_plant(designs):
     with the *given* discrete model and the exported sections: the certificate's Ms."""
     from pcloop import unit_circle_max
 
-    from robrst.export import export_controller
+    from robrst.controller.export import export_controller
 
     Pd = control.c2d(control.ss(paper_plant().to_tf()), 1 / FS, "zoh") \
         * control.tf([1.0], [1.0, 0.0], 1 / FS)
@@ -137,7 +137,7 @@ def test_python_control_feedback_and_step_on_the_returned_objects(loops, name):
     # discrete: the sampled loop's step (sections on the exact ZOH model) and its peak
     n = 400
     y_d = np.ravel(control.step_response(cld["Tr"], T=np.arange(n) / FS).outputs)
-    from robrst.digital import digital_controller
+    from robrst.controller.digital import digital_controller
 
     y_sec, _ = run_loop(digital_controller(ctrl, FS), m, np.ones(n))
     assert np.max(np.abs(y_d - y_sec)) < 1e-9 * np.max(np.abs(y_sec))
@@ -154,8 +154,8 @@ def test_python_control_feedback_and_step_on_the_returned_objects(loops, name):
 
 
 def analyze_sampled_ms(plant, ctrl):
-    from robrst.hinf import peak_gain
-    from robrst.sampled import sampled_plant
+    from robrst.core.peaks import peak_gain
+    from robrst.core.sampled import sampled_plant
 
     c = closed_loop(sampled_plant(plant, FS), ctrl)
     return peak_gain(c.nums["S"], c.Delta).value

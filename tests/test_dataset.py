@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from robrst.cli import main
-from robrst.convert import records_from_arrays
-from robrst.dataset import Dataset, load_dataset, save_dataset
-from robrst.errors import DataError
+from robrst.data.convert import records_from_arrays
+from robrst.data.dataset import Dataset, load_dataset, save_dataset
+from robrst.base.errors import DataError
 
 GOOD = "# measured\nt,u,y,temp\n0.0,0,0,28\n0.001,1,0.5,28\n0.002,2,1.1,28.1\n"
 MIMO = "t,u1,u2,y1,y2,y3\n0,0,1,0,0,0\n0.5,1,1,0.5,1,2\n1.0,2,0,1.1,2,3\n"

@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 
 from robrst.cli import main
-from robrst.dataset import Dataset, save_dataset
+from robrst.data.dataset import Dataset, save_dataset
 from robrst.diagnose import diagnose
 from robrst.diagnose import signals
 from robrst.diagnose.estimate import fit_effects
 from robrst.diagnose.linear import LinearSim, refit_linear
-from robrst.errors import DataError
-from robrst.plant import Plant, paper_plant
+from robrst.base.errors import DataError
+from robrst.core.plant import Plant, paper_plant
 from robrst.twin.config import default_twin
 from robrst.twin.simulate import simulate
 

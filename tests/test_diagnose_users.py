@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from robrst.cli import main
-from robrst.dataset import Dataset, load_dataset, save_dataset
+from robrst.data.dataset import Dataset, load_dataset, save_dataset
 from robrst.diagnose import diagnose
-from robrst.plant import Plant
+from robrst.core.plant import Plant
 
 FS = 20000.0
 F0, ZETA, GAIN, T_REF = 800.0, 0.02, 0.1, 28.0

@@ -9,10 +9,10 @@ import control
 import numpy as np
 import pytest
 
-from robrst.digital import aw_poles, digital_controller, exact_response
-from robrst.errors import SpecError
-from robrst.implement import frequency_grid
-from robrst.rst import RSTController, tustin_polynomials
+from robrst.controller.digital import aw_poles, digital_controller, exact_response
+from robrst.base.errors import SpecError
+from robrst.controller.implementation import frequency_grid
+from robrst.core.rst import RSTController, tustin_polynomials
 
 FS = 20000.0
 

@@ -5,10 +5,10 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from robrst import poly
-from robrst.errors import CoprimeError, DegreeError, SpecError
-from robrst.plant import Plant, paper_plant
-from robrst.problem import ControllerStructure, PoleSpec
+from robrst.core import poly
+from robrst.base.errors import CoprimeError, DegreeError, SpecError
+from robrst.core.plant import Plant, paper_plant
+from robrst.problem.records import ControllerStructure, PoleSpec
 from robrst.synthesis.analytic import (characteristic_polynomial, pole_placement,
                                        solve_diophantine)
 

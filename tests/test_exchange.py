@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from robrst.design import analytic_design
-from robrst.resources import problems_dir
-from robrst.rst import closed_loop
-from robrst.spec import parse_problem
+from robrst.base.resources import problems_dir
+from robrst.core.rst import closed_loop
+from robrst.problem.files import parse_problem
 from robrst.synthesis.context import BOUND_MARGIN, Context
 from robrst.synthesis.exchange import local_maxima, solve_exchange, solve_program
 from robrst.synthesis.parametrize import integral_gain

@@ -16,11 +16,12 @@ from pcloop import feedback_law, loop_figures, zoh_plant
 
 from robrst.cli import main
 from robrst.design import run_problem
-from robrst.export import export_controller, python_module
-from robrst.family import PlantFamily
-from robrst.implement import run_loop, sampled_loop
-from robrst.plant import Plant
-from robrst.problem import ControllerStructure, PoleSpec, Problem, Specs
+from robrst.controller.export import export_controller
+from robrst.controller.python_code import python_module
+from robrst.core.family import PlantFamily
+from robrst.controller.implementation import run_loop, sampled_loop
+from robrst.core.plant import Plant
+from robrst.problem.records import ControllerStructure, PoleSpec, Problem, Specs
 
 FS = 20000.0
 SHIPPED = {"paper": FS, "paper_robust": None}   # a rate where the problem names none
@@ -32,7 +33,7 @@ def _check_against_python_control(exp, problem):
     The sections' state space must reproduce the certificate to 1e-6 (peaks) and 1e-8
     (radius); the direct form ``R_z/S_z`` within the error its own coefficients imply
     (its ``mu`` of ``implementation["direct_form_float64"]``, the bound of
-    ``robrst.implement``; its spectral radius within ``1e-6 + mu``): near-clustered poles by
+    ``robrst.controller.implementation``; its spectral radius within ``1e-6 + mu``): near-clustered poles by
     ``z = 1`` make it the weaker one.
     """
     d = exp.as_dict()
@@ -58,7 +59,7 @@ def _check_against_python_control(exp, problem):
         P = zoh_plant(m, fs, k)
         mine = radii[[x.temperature_C for x in models].index(m.temperature_C)]
         # the direct form's own coefficient rounding moves its loop by mu (small-gain
-        # figure of robrst.implement): its poles are compared within that, the sections'
+        # figure of robrst.controller.implementation): its poles are compared within that, the sections'
         # to 1e-8
         for form, tol in (("sections", 1e-8), ("direct", 1e-6 + mu)):
             poles = control.feedback(P, feedback_law(exp, P.dt, form)).poles()

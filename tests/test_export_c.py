@@ -17,10 +17,10 @@ import numpy as np
 import pytest
 from pcloop import zoh_plant
 
-from robrst import lti
-from robrst.export import c_files
-from robrst.implement import controller_step, run_loop
-from robrst.plant import named_plant
+from robrst.core import lti
+from robrst.controller.c_code import c_files
+from robrst.controller.implementation import controller_step, run_loop
+from robrst.core.plant import named_plant
 from robrst.twin import build_model, default_twin
 from robrst.twin.simulate import rest_state
 

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from robrst.resources import problem_names
+from robrst.base.resources import problem_names
 
 GOLDEN = Path(__file__).parent / "golden" / "margins.toml"
 # worse-is-larger quantities and worse-is-smaller quantities

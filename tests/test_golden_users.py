@@ -7,7 +7,7 @@ import pytest
 
 import robrst.cli.check
 from robrst.cli import main
-from robrst.errors import SpecError
+from robrst.base.errors import SpecError
 from robrst.testing import compare_golden, read_golden
 
 HEAD = '[golden]\nformat = 1\nproblem = "paper"\nrobrst_version = "0.1.0"\n'

@@ -10,13 +10,13 @@ import numpy as np
 import pytest
 
 from robrst.cli import main
-from robrst.dataset import Dataset, save_dataset
-from robrst.errors import DataError, SpecError
-from robrst.identify.core import identify
+from robrst.data.dataset import Dataset, save_dataset
+from robrst.base.errors import DataError, SpecError
+from robrst.identify.identification import identify
 from robrst.identify.modal import ModalModel
-from robrst.experiments.linear_model import load_linear_model
-from robrst.plant import Plant, paper_plant
-from robrst.spec import load_problem
+from robrst.studies.linear_model import load_linear_model
+from robrst.core.plant import Plant, paper_plant
+from robrst.problem.files import load_problem
 
 FS = 20000.0
 

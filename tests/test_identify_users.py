@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 from robrst.cli import main
-from robrst.dataset import Dataset, save_dataset
-from robrst.experiments.linear_model import load_linear_model
-from robrst.identify.core import identify
+from robrst.data.dataset import Dataset, save_dataset
+from robrst.studies.linear_model import load_linear_model
+from robrst.identify.identification import identify
 
 FS = 20000.0
 

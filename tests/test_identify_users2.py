@@ -17,9 +17,9 @@ import pytest
 from scipy import signal
 
 from robrst.cli import main
-from robrst.dataset import Dataset, save_dataset
-from robrst.experiments.linear_model import load_linear_model
-from robrst.identify.core import identify
+from robrst.data.dataset import Dataset, save_dataset
+from robrst.studies.linear_model import load_linear_model
+from robrst.identify.identification import identify
 
 FS = 20000.0
 WN = 2 * np.pi * 600.0
@@ -160,7 +160,7 @@ CLI_CASES = [
 def _files(tmp_path, files):
     for fn, data in files.items():
         if fn == "ms.csv":
-            from robrst.dataset import save_dataset as save
+            from robrst.data.dataset import save_dataset as save
             save(_multisine(), tmp_path / fn)
         elif fn == "fh.csv":        # the same samples 5e-14 s apart (time in units of 1e9 s?)
             text = _csv(_REC)

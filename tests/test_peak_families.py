@@ -3,7 +3,7 @@
 Near-flat gains (``|G| = 1 + O(1e-5)`` with the global maximum decades away from a local
 one), many lightly damped peaks of nearly equal height, high orders (up to 14) with poles
 over 6 decades, near-flat gains with poles over 12 decades, and frequency-limited (band) peaks with random bands.  Every value of
-:func:`robrst.hinf.peak_gain` is compared with :func:`random_problems.dense_peak` (a dense
+:func:`robrst.core.peaks.peak_gain` is compared with :func:`random_problems.dense_peak` (a dense
 log grid of the *unscaled* polynomials, every leading local maximum refined, mpmath where
 float64 loses digits), which is a lower bound converging to the supremum: robrst's value
 must not be below it (a missed peak) nor above it beyond the stated accuracy (a value that
@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import random_problems as rp
-from robrst.hinf import peak_gain
+from robrst.core.peaks import peak_gain
 
 RTOL = 1e-10          # peak_gain's accuracy: the supremum is in [value, value (1 + 2 RTOL)]
 SLACK = 2e-9          # the dense grid's own refinement accuracy (relative)
@@ -124,7 +124,7 @@ def test_peak_gains_of_one_denominator_match_the_dense_grid(seed):
     S, T and U) against the dense unscaled grid, and the very same figures as
     ``peak_gain`` one numerator at a time; numerators of several degrees (batched by
     size), a zero one and one with a common factor ``s`` (cancelled: its own path)."""
-    from robrst.hinf import peak_gains
+    from robrst.core.peaks import peak_gains
 
     rng = np.random.default_rng([29, seed])
     N0, D = (multi_peak, high_order, near_flat)[seed % 3](rng)

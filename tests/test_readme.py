@@ -37,7 +37,7 @@ def test_quick_start_has_exactly_two_commands():
 
 
 def test_readme_problem_file_reference_matches_schema():
-    from robrst.spec import schema_markdown
+    from robrst.problem.files import schema_markdown
 
     lines = (Path(__file__).parents[1] / "README.md").read_text().splitlines()
     hdr = lines.index("| table | key | type | required | default | meaning |")

@@ -12,11 +12,11 @@ import numpy as np
 import pytest
 
 import random_problems as rp
-from robrst.certificate import certify_problem
+from robrst.certificate.proof import certify_problem
 from robrst.cli import main
 from robrst.design import run_problem
-from robrst.rst import RSTController
-from robrst.spec import load_problem
+from robrst.core.rst import RSTController
+from robrst.problem.files import load_problem
 
 
 def _repro(shared_dir, name):

@@ -6,8 +6,8 @@ import pytest
 
 from robrst.cli import main
 from robrst.design import analytic_design, run_problem
-from robrst.errors import SpecError
-from robrst.spec import load_problem, parse_problem
+from robrst.base.errors import SpecError
+from robrst.problem.files import load_problem, parse_problem
 
 
 def _repro(shared_dir, name):

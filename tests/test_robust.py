@@ -6,11 +6,11 @@ import control
 import numpy as np
 import pytest
 
-from robrst import poly
-from robrst.certificate import certify_problem
+from robrst.core import poly
+from robrst.certificate.proof import certify_problem
 from robrst.design import analytic_design, run_problem, with_time_domain
-from robrst.rst import RSTController, closed_loop
-from robrst.spec import load_problem
+from robrst.core.rst import RSTController, closed_loop
+from robrst.problem.files import load_problem
 from robrst.synthesis.outcome import worst_violation
 
 NOMINAL_NLP = """
@@ -216,7 +216,7 @@ def test_convex_and_nlp_agree_on_nominal_shaping(tmp_path):
     assert ms["nlp"] == pytest.approx(ms["convex"], rel=2e-3)
     # both improve on the analytic design with the same Am
     ref = analytic_design(res["nlp"].problem).controller
-    from robrst.analysis import analyze
+    from robrst.core.analysis import analyze
     assert ms["nlp"] < analyze(res["nlp"].problem.family.reference_model, ref).peaks["S"].value
 
 

@@ -11,12 +11,12 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize_scalar
 
-from robrst.errors import SpecError
-from robrst.hinf import peak_gain
-from robrst.plant import paper_plant
-from robrst.rst import closed_loop
-from robrst.sampled import sampled_plant, unwarp, warp
-from robrst.spec import load_problem
+from robrst.base.errors import SpecError
+from robrst.core.peaks import peak_gain
+from robrst.core.plant import paper_plant
+from robrst.core.rst import closed_loop
+from robrst.core.sampled import sampled_plant, unwarp, warp
+from robrst.problem.files import load_problem
 
 FS = 20000.0
 

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from robrst.cli import main
-from robrst.dataset import load_dataset
+from robrst.data.dataset import load_dataset
 from robrst.twin import default_twin
-from robrst.experiments.scenarios import controllers, run_scenario
+from robrst.studies.scenarios import controllers, run_scenario
 
 
 @pytest.fixture(scope="module")

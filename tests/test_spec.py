@@ -5,9 +5,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from robrst.errors import CoprimeError, DegreeError, SpecError
+from robrst.base.errors import CoprimeError, DegreeError, SpecError
 from robrst.design import run_problem
-from robrst.spec import load_problem
+from robrst.problem.files import load_problem
 
 GOOD = """
 [plant]
@@ -156,8 +156,8 @@ def test_explicit_family_needs_no_plant_table(tmp_path):
 def test_problems_folder_spelling_names_the_builtin(tmp_path, monkeypatch):
     """`problems/paper_robust.toml` (as the issues and README spell the shipped files) works
     from any folder when no such file exists; a user's own file of that path wins."""
-    from robrst.spec import resolve_problem_path
-    from robrst.sweep.spec import resolve_sweep_path
+    from robrst.problem.files import resolve_problem_path
+    from robrst.studies.sweep.files import resolve_sweep_path
 
     monkeypatch.chdir(tmp_path)
     assert resolve_problem_path("problems/paper_robust.toml").name == "paper_robust.toml"

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from robrst.design import analytic_design
-from robrst.resources import problems_dir
-from robrst.spec import parse_problem
+from robrst.base.resources import problems_dir
+from robrst.problem.files import parse_problem
 from robrst.synthesis import exchange, stability
 from robrst.synthesis.context import Context
 from robrst.synthesis.nlp import routh_column

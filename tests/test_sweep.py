@@ -11,14 +11,14 @@ from scipy.optimize import minimize_scalar
 from sweep_files import columns_equal, fast_file, load_json, mc_file, write
 
 from robrst.cli import main
-from robrst.errors import OutputError
-from robrst.sweep import load_sweep, run_sweep
-from robrst.spec import load_problem
-from robrst.sweep.context import prepare
-from robrst.sweep.engine import SequentialExecutor, Task, execute
-from robrst.sweep.summary import pareto_front, wilson_interval
-from robrst.sweep.spec import Param
-from robrst.sweep.variants import chunks, draw, variant_table
+from robrst.base.errors import OutputError
+from robrst.studies.sweep import load_sweep, run_sweep
+from robrst.problem.files import load_problem
+from robrst.studies.sweep.prepare import prepare
+from robrst.studies.sweep.engine import SequentialExecutor, Task, execute
+from robrst.studies.sweep.summary import pareto_front, wilson_interval
+from robrst.studies.sweep.files import Param
+from robrst.studies.sweep.variants import chunks, draw, variant_table
 
 
 def dense_peak(N, D, lo=1.0, hi=1e7, n=200_001):
@@ -312,7 +312,7 @@ def test_bad_arguments_are_one_line(tmp_path, capsys):
 
 
 def test_readme_sweep_file_reference_matches_schema(root):
-    from robrst.sweep.spec import sweep_schema_markdown
+    from robrst.studies.sweep.files import sweep_schema_markdown
 
     lines = (root / "README.md").read_text().splitlines()
     hdr = lines.index("| table | key | type | required | default | meaning |",
@@ -325,7 +325,7 @@ def test_readme_sweep_file_reference_matches_schema(root):
 def test_committed_sweep_examples_are_not_stale(root, name):
     """The committed report was made from the shipped sweep and base problem as they are now
     (regenerate with python -m robrst.report.sweep_examples)."""
-    from robrst.sweep.context import fingerprint
+    from robrst.studies.sweep.prepare import fingerprint
 
     sweep = load_sweep(name)
     folder = root / "reports" / name
@@ -344,9 +344,9 @@ def test_a_worker_loads_scipy_linear_algebra_once_with_its_state():
     import sys
 
     code = ("import sys\n"
-            "from robrst.sweep import parse_sweep\n"
-            "from robrst.sweep.context import prepare\n"
-            "from robrst.sweep.evaluate import build_state\n"
+            "from robrst.studies.sweep import parse_sweep\n"
+            "from robrst.studies.sweep.prepare import prepare\n"
+            "from robrst.studies.sweep.evaluate import build_state\n"
             "doc = {'sweep': {'name': 's', 'kind': 'design', 'problem': '%s'},\n"
             "       'param': [{'name': 'specs.Mu_max', 'dist': 'grid', 'values': [150.0]}]}\n"
             "ctx, _ = prepare(parse_sweep(doc))\n"
@@ -363,10 +363,10 @@ def test_a_variant_keeps_the_base_family_unless_a_family_key_changes(monkeypatch
     """Spec and solver keys leave the family: a variant shares the base's object (and its
     memo: models at the certificate's temperatures, their sampled plants) with the same
     rows as a fresh parse; a family key builds its own.  The memo stays bounded."""
-    import robrst.family as fam
+    import robrst.core.family as fam
     from robrst.design import run_problem
-    from robrst.sweep import parse_sweep
-    from robrst.sweep.evaluate import build_state, evaluate_variant, problem_of
+    from robrst.studies.sweep import parse_sweep
+    from robrst.studies.sweep.evaluate import build_state, evaluate_variant, problem_of
 
     doc = {"sweep": {"name": "s", "kind": "design", "problem": "paper_robust"},
            "param": [{"name": "specs.Mu_max", "dist": "grid", "values": [150.0]}]}

@@ -8,7 +8,7 @@ import signal
 import pytest
 from sweep_files import columns_equal, mc_file
 
-from robrst.sweep import run_sweep
+from robrst.studies.sweep import run_sweep
 
 
 @pytest.fixture(scope="session")

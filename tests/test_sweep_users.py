@@ -8,7 +8,7 @@ import pyarrow.parquet as pq
 from sweep_files import columns_equal, fast_file, load_json
 
 from robrst.cli import main
-from robrst.sweep import run_sweep
+from robrst.studies.sweep import run_sweep
 
 
 def test_a_part_copied_over_another_chunk_is_computed_again(tmp_path, capsys):
@@ -105,7 +105,7 @@ def test_fleet_members_of_every_kind(tmp_path):
     a member's compare_with is dropped like the base problem's; a folder or a broken link
     named like a member is an invalid row naming it; a MIMO model file says what is taken."""
     from robrst.identify.modal import ModalModel
-    from robrst.plant import Plant
+    from robrst.core.plant import Plant
 
     plant = Plant([107.0, 1.4e6, 6.527e9], [1.0, 693.0, 15027342.0, 9765000000.0],
                   temperature_C=28.0)
@@ -144,7 +144,7 @@ def test_pareto_front_keeps_tied_points():
     """Non-dominated: no other point at least as good in both figures and strictly better in
     one. Identical points, and points tied in one figure only where the other also ties,
     are all on the front."""
-    from robrst.sweep.summary import pareto_front
+    from robrst.studies.sweep.summary import pareto_front
 
     assert pareto_front([1.0, 1.0, 1.0], [5.0, 5.0, 5.0]) == [0, 1, 2]
     x = [2.0, 1.0, 1.0, 2.0, 3.0, 1.0, 2.0, np.inf]
@@ -211,8 +211,8 @@ def test_variant_table_is_drawn_in_blocks_without_copies(monkeypatch):
     itself (10 million variants used ~700 MB for a 160 MB table)."""
     import tracemalloc
 
-    import robrst.sweep.variants as variants
-    from robrst.sweep.spec import parse_sweep
+    import robrst.studies.sweep.variants as variants
+    from robrst.studies.sweep.files import parse_sweep
 
     sweep = parse_sweep({"sweep": {"kind": "analysis", "problem": "paper", "seed": 5, "n": 50},
                          "param": [{"name": "specs.Mu_max", "dist": "grid",

@@ -12,8 +12,8 @@ from pcloop import feedback_law, loop_figures, zoh_plant
 from scipy.optimize import minimize_scalar
 
 from robrst.design import run_problem
-from robrst.export import export_controller
-from robrst.spec import parse_problem
+from robrst.controller.export import export_controller
+from robrst.problem.files import parse_problem
 
 
 def _integrator(f_hz, zeta, b, sampled=False):

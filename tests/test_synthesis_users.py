@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from robrst.design import run_problem
-from robrst.rst import closed_loop
-from robrst.spec import load_problem
+from robrst.core.rst import closed_loop
+from robrst.problem.files import load_problem
 from robrst.synthesis.synthesizer import Synthesizer
 from synthesis_cases import piezo_stage, two_resonance_stage
 
@@ -144,7 +144,7 @@ def test_a_certified_answer_is_never_worse_than_a_certified_start(tmp_path):
     import control
     from pcloop import loop_figures, zoh_plant
 
-    from robrst.export import export_controller
+    from robrst.controller.export import export_controller
 
     f = tmp_path / "slow.toml"
     f.write_text(SLOW_POLES)
@@ -192,7 +192,7 @@ def test_a_pi_zero_on_the_slowest_plant_pole_is_a_start(tmp_path):
     f = tmp_path / "spread.toml"
     f.write_text(SPREAD_POLES)
     problem = load_problem(f)
-    from robrst.rst import RSTController
+    from robrst.core.rst import RSTController
 
     independent_check(problem, RSTController(R=[0.04, 0.4], S=[1.0, 0.0], T=[0.4]))
     res = run_problem(problem)

@@ -5,9 +5,9 @@ the law is checked against the family built by hand with numpy."""
 import numpy as np
 import pytest
 
-from robrst.family import parametric_family
-from robrst.plant import Plant
-from robrst.thermal import ThermalCoefficients
+from robrst.core.family import parametric_family
+from robrst.core.plant import Plant
+from robrst.core.thermal import ThermalCoefficients
 
 
 @pytest.mark.parametrize("mult", [2, 3, 4])

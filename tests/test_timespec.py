@@ -12,10 +12,11 @@ import control
 import numpy as np
 import pytest
 
-from robrst import poly, timespec
-from robrst.rst import RSTController, closed_loop, discretize
-from robrst.sampled import sampled_plant
-from robrst.timespec import step_metrics
+from robrst.core import poly
+from robrst.certificate import steps as timespec
+from robrst.core.rst import RSTController, closed_loop, discretize
+from robrst.core.sampled import sampled_plant
+from robrst.certificate.steps import step_metrics
 
 FS = 20000.0
 
@@ -125,7 +126,7 @@ def test_relaxing_the_band_bound_keeps_the_time_domain_specs():
     from dataclasses import replace
 
     from robrst.design import run_problem
-    from robrst.spec import load_problem
+    from robrst.problem.files import load_problem
 
     base = load_problem("paper_robust")
     res = run_problem(replace(base, specs=replace(base.specs, T_resonance_max=1.2)))
@@ -146,7 +147,7 @@ def _random_loops(seed, n_models=5):
     """A random stable plant, perturbed into ``n_models`` models (one with an extra fast
     pole: another closed-loop degree), and a pole-placement RST controller with an
     integrator and unit static gain (``T = R(0)``)."""
-    from robrst.plant import Plant
+    from robrst.core.plant import Plant
     from robrst.synthesis.analytic import solve_diophantine
 
     rng = np.random.default_rng(seed)
@@ -172,7 +173,7 @@ def _random_loops(seed, n_models=5):
 
 
 def _stable_loops(models, ctrl, fs=None):
-    from robrst.analysis import spectral_abscissa
+    from robrst.core.analysis import spectral_abscissa
 
     plants = models if fs is None else [sampled_plant(m, fs) for m in models]
     pairs = [(p, closed_loop(p, ctrl)) for p in plants]
@@ -205,7 +206,7 @@ def test_many_loops_at_once_are_each_loop_alone(seed, sampled):
 
 def _horizon(cl):
     """A time [s] by which every mode of the closed loop has decayed by e**-20."""
-    from robrst.analysis import spectral_abscissa
+    from robrst.core.analysis import spectral_abscissa
 
     return 20.0 / -spectral_abscissa(cl.Delta)[0]
 
@@ -257,7 +258,7 @@ def test_a_brief_exit_from_the_band_between_grid_points():
 # ------------------------------------------------- hard cases, against exact figures
 
 FS_HARD = 1000.0
-PROVED = 6e-9      # an extreme is proved to robrst.stepbound.RESOLUTION (5e-9) of the largest |y|
+PROVED = 6e-9      # an extreme is proved to robrst.certificate._stepbound.RESOLUTION (5e-9) of the largest |y|
 
 
 def _late(D):
@@ -342,9 +343,9 @@ def test_hard_loops_computed_together(sampled):
     cuts in the same arrays): each loop's figures against its exact ones."""
     from hardsteps import Exact, twin
 
-    from robrst import lti
-    from robrst.stepbound import RESOLUTION, StepBounds
-    from robrst.stepgrid import StepResponses
+    from robrst.core import lti
+    from robrst.certificate._stepbound import RESOLUTION, StepBounds
+    from robrst.certificate._stepgrid import StepResponses
 
     assert PROVED >= RESOLUTION
     fs = FS_HARD if sampled else None
@@ -392,7 +393,7 @@ def test_many_sampled_loops_against_python_control(seed):
 def test_spectral_abscissa_many_are_those_of_numpy_roots():
     """The stacked eigenvalue problems give numpy.roots' roots bit for bit (mixed degrees,
     roots at zero)."""
-    from robrst.analysis import spectral_abscissa_many
+    from robrst.core.analysis import spectral_abscissa_many
 
     rng = np.random.default_rng(1)
     polys = [np.poly(-np.abs(rng.standard_normal(n)) * 10 ** rng.uniform(0, 6, n))
@@ -404,7 +405,7 @@ def test_spectral_abscissa_many_are_those_of_numpy_roots():
 
 
 def test_stacked_realisations_are_each_realisation_alone():
-    from robrst import lti
+    from robrst.core import lti
 
     rng = np.random.default_rng(2)
     Ds = [np.poly(-np.abs(rng.standard_normal(4)) * 100) for _ in range(3)]
@@ -421,7 +422,7 @@ def test_an_undecided_figure_is_conservative_and_unresolved(monkeypatch):
     settling time is the end of the latest undecided interval (never early), flagged; a
     bound between what was found and that conservative value is an "unresolved" failure,
     one below what was found an "exceeds" failure, one above it none."""
-    from robrst import stepbound
+    from robrst.certificate import _stepbound as stepbound
 
     models, ctrl = _random_loops(2)
     plant, cl = _stable_loops(models, ctrl)[3]
@@ -438,7 +439,7 @@ def test_an_undecided_figure_is_conservative_and_unresolved(monkeypatch):
 
 
 def test_one_power_of_every_slice():
-    from robrst.doubling import power, power_all
+    from robrst.certificate._doubling import power, power_all
 
     rng = np.random.default_rng(4)
     Phi, G = rng.standard_normal((3, 4, 4)) / 4, rng.standard_normal((3, 4))
@@ -450,7 +451,7 @@ def test_one_power_of_every_slice():
 
 
 def test_powers_by_shared_doubling():
-    from robrst.doubling import power
+    from robrst.certificate._doubling import power
 
     rng = np.random.default_rng(3)
     Phi, G = rng.standard_normal((2, 4, 4)) / 4, rng.standard_normal((2, 4))

@@ -4,12 +4,12 @@ import control
 import numpy as np
 import pytest
 
-from robrst.analysis import step_response
-from robrst.family import ThermalCoefficients, parametric_family
-from robrst.plant import paper_plant
-from robrst.rst import closed_loop
-from robrst.experiments.scenarios import loop_width
-from robrst.rst import discretize
+from robrst.core.analysis import step_response
+from robrst.core.family import ThermalCoefficients, parametric_family
+from robrst.core.plant import paper_plant
+from robrst.core.rst import closed_loop
+from robrst.studies.scenarios import loop_width
+from robrst.core.rst import discretize
 from robrst.twin import default_twin, simulate
 
 FS = 20000.0
@@ -132,7 +132,7 @@ def test_noise_is_seeded_and_quantised():
 
 def test_discrete_rst_loop_matches_continuous_design():
     from robrst.design import analytic_design
-    from robrst.spec import load_problem
+    from robrst.problem.files import load_problem
 
     ctrl = analytic_design(load_problem("paper")).controller
     cfg = default_twin().with_effects(only=[])

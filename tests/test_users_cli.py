@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from robrst.cli import main
-from robrst.sweep.summary import front_values, pareto_front
+from robrst.studies.sweep.summary import front_values, pareto_front
 
 FIRST_ORDER = """[problem]
 name = "p1_first_order"

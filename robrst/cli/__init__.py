@@ -20,7 +20,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 
 from robrst import __version__
 from robrst.cli import check, convert, design, diagnose, export, identify, simulate, sweep
-from robrst.errors import RobrstError
+from robrst.base.errors import RobrstError
 
 __all__ = ["main", "build_parser"]
 

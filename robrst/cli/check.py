@@ -2,8 +2,8 @@
 
 from robrst.cli.common import progress_printer
 from robrst.design import run_problem
-from robrst.fileio import check_file_target
-from robrst.spec import load_problem
+from robrst.base.fileio import check_file_target
+from robrst.problem.files import load_problem
 from robrst.testing import (check_golden_fits, compare_golden, count_figures, golden_figures,
                             read_golden, write_golden)
 

@@ -2,7 +2,7 @@
 
 import sys
 
-from robrst.fileio import json_text
+from robrst.base.fileio import json_text
 
 __all__ = ["progress_printer", "print_json"]
 

@@ -6,7 +6,7 @@ Handler pair for the CLI: :func:`add_parsers` registers the sub-command,
 
 from pathlib import Path
 
-from robrst.errors import DataError
+from robrst.base.errors import DataError
 
 __all__ = ["add_parsers", "run_convert"]
 
@@ -36,8 +36,8 @@ def add_parsers(sub):
 
 def run_convert(args):
     """Convert; returns the exit code (0)."""
-    from robrst.convert import load_array, records_from_arrays
-    from robrst.dataset import save_dataset
+    from robrst.data.convert import load_array, records_from_arrays
+    from robrst.data.dataset import save_dataset
 
     name = args.name or Path(args.y).stem.removeprefix("y_")
     if not name or Path(name).name != name or name in (".", ".."):

@@ -7,7 +7,7 @@ from pathlib import Path
 from robrst.cli.common import print_json, progress_printer
 from robrst.design import run_problem
 from robrst.report.text import design_summary
-from robrst.spec import load_problem
+from robrst.problem.files import load_problem
 
 __all__ = ["add_parsers", "run_design", "run_report"]
 

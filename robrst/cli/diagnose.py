@@ -1,7 +1,7 @@
 """``robrst diagnose``: where a simulation model misses measured data, and why."""
 
 from robrst.cli.common import progress_printer
-from robrst.fileio import WRITTEN_BY, atomic_write_text, check_json_target, json_text
+from robrst.base.fileio import WRITTEN_BY, atomic_write_text, check_json_target, json_text
 
 __all__ = ["add_parsers", "run_diagnose"]
 
@@ -26,7 +26,7 @@ def add_parsers(sub):
 
 def run_diagnose(args):
     """Load the records, diagnose, write JSON/report, print the summary."""
-    from robrst.dataset import load_dataset
+    from robrst.data.dataset import load_dataset
     from robrst.diagnose import diagnose
     from robrst.diagnose.summary import summary_text
     from robrst.report.doc import check_report_target
@@ -63,14 +63,14 @@ def _model(path):
     """(plant, reference °C): a problem file's nominal plant, or a model file's model.
 
     A problem file (a built-in problem's name, or one from ``robrst identify`` with no
-    ``[poles]`` yet) keeps its :class:`~robrst.plant.Plant`
+    ``[poles]`` yet) keeps its :class:`~robrst.core.plant.Plant`
     (so the JSON reports the changes of its coefficients); a model file from
     ``robrst identify`` gives the modal model at its reference temperature (the first one
     when it states none).
     """
     from pathlib import Path
 
-    from robrst.experiments.linear_model import load_linear_model, problem_family
+    from robrst.studies.linear_model import load_linear_model, problem_family
     from robrst.identify.modelfile import read_model_data
 
     if not Path(path).is_file() or "model" not in read_model_data(path):

@@ -9,13 +9,15 @@ from pathlib import Path
 
 from robrst.cli.common import progress_printer
 from robrst.design import run_problem
-from robrst.errors import OutputError, SpecError
-from robrst.export import c_files, export_controller, python_module
-from robrst.export.c_code import check_prefix
-from robrst.export.core import check_u_range, sampling
-from robrst.fileio import atomic_write_text, check_file_target, json_text
-from robrst.spec import load_problem
-from robrst.speccheck import MIN_RATE_HZ, check_delay_order
+from robrst.base.errors import OutputError, SpecError
+from robrst.controller.c_code import c_files
+from robrst.controller.export import export_controller
+from robrst.controller.python_code import python_module
+from robrst.controller.c_code import check_prefix
+from robrst.controller.export import check_u_range, sampling
+from robrst.base.fileio import atomic_write_text, check_file_target, json_text
+from robrst.problem.files import load_problem
+from robrst.problem.checks import MIN_RATE_HZ, check_delay_order
 
 __all__ = ["add_parsers", "run_export"]
 

@@ -5,8 +5,8 @@ Handler pair for the CLI: :func:`add_parsers` registers the sub-command,
 """
 
 from robrst.cli.common import progress_printer
-from robrst.errors import SpecError
-from robrst.fileio import WRITTEN_BY, atomic_write_text, check_json_target, json_text
+from robrst.base.errors import SpecError
+from robrst.base.fileio import WRITTEN_BY, atomic_write_text, check_json_target, json_text
 
 __all__ = ["add_parsers", "run_identify"]
 
@@ -61,15 +61,15 @@ def _channel(text):
 
 def _problem_readable(ident):
     """``check`` for :func:`write_identified`: the problem file's text must be one
-    ``robrst.spec`` accepts, as ``diagnose --model`` reads it (and ``design`` once
+    ``robrst.problem.files`` accepts, as ``diagnose --model`` reads it (and ``design`` once
     ``[poles]`` is added)."""
     fastest = max(float(abs(m.all_poles()).max(initial=0.0)) for m in ident.models)
 
     def check(text, path):
         import tomllib
 
-        from robrst.experiments.linear_model import family_of_data
-        from robrst.spec import MAX_RATE
+        from robrst.studies.linear_model import family_of_data
+        from robrst.problem.files import MAX_RATE
 
         try:
             family_of_data(tomllib.loads(text), path)
@@ -84,8 +84,8 @@ def _problem_readable(ident):
 
 def run_identify(args):
     """Identify and write; returns the exit code (0)."""
-    from robrst.dataset import load_dataset
-    from robrst.identify.core import identify
+    from robrst.data.dataset import load_dataset
+    from robrst.identify.identification import identify
     from robrst.identify.modelfile import check_target, write_identified
     from robrst.report.doc import check_report_target
 

@@ -1,8 +1,8 @@
 """``robrst simulate``: the paper's experiments on the digital twin."""
 
 from robrst.cli.common import print_json, progress_printer
-from robrst.errors import SpecError
-from robrst.fileio import json_text
+from robrst.base.errors import SpecError
+from robrst.base.fileio import json_text
 
 __all__ = ["add_parsers", "run_simulate"]
 
@@ -24,7 +24,7 @@ def add_parsers(sub):
 
 def run_simulate(args):
     """Run the scenario, write its datasets and figure, print its metrics."""
-    from robrst.experiments.scenarios import SCENARIOS, run_scenario
+    from robrst.studies.scenarios import SCENARIOS, run_scenario
     from robrst.report.doc import check_report_target
     from robrst.report.scenario import write_scenario
 

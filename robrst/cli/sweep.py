@@ -5,7 +5,7 @@ import time
 from pathlib import Path
 
 from robrst.cli.common import print_json
-from robrst.errors import SpecError
+from robrst.base.errors import SpecError
 
 __all__ = ["add_parsers", "run_sweep_command", "progress_bar", "with_notes"]
 
@@ -81,8 +81,8 @@ def run_sweep_command(args):
     """Run the sweep, write the report; exit 0 when the yield reaches --min-yield, else 1."""
     from robrst.report.doc import check_report_target
     from robrst.report.sweep import sweep_text, write_sweep_report
-    from robrst.sweep import load_sweep, run_sweep
-    from robrst.sweep.engine import check_scheduler
+    from robrst.studies.sweep import load_sweep, run_sweep
+    from robrst.studies.sweep.engine import check_scheduler
 
     if not 0.0 <= args.min_yield <= 1.0:
         raise SpecError(f"--min-yield: expected a share between 0 and 1, got {args.min_yield}")

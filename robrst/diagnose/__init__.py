@@ -1,6 +1,6 @@
 """Sim-to-real gap diagnosis: where the gap lies, which effects cause it, how far it shrinks."""
 
-from robrst.diagnose.core import diagnose
+from robrst.diagnose.diagnosis import diagnose
 from robrst.diagnose.effects import EFFECTS
 from robrst.diagnose.result import Diagnosis, EffectScore
 

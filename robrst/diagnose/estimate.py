@@ -16,15 +16,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from robrst.diagnose import signals
-from robrst.diagnose.core import check_records
+from robrst.diagnose.diagnosis import check_records
 from robrst.diagnose.effects import EFFECTS, INPUT_EFFECTS, Chain, summary
 from robrst.diagnose.findings import noise_levels
 from robrst.diagnose.fit import fit_model, prepare
 from robrst.diagnose.linear import LinearPart, as_modal
 from robrst.diagnose.thermal import (fit_thermal_dynamics, max_delay, search_delay,
                                      search_saturation)
-from robrst.errors import DataError
-from robrst.plant import paper_plant
+from robrst.base.errors import DataError
+from robrst.core.plant import paper_plant
 
 __all__ = ["EffectEstimate", "fit_effects"]
 

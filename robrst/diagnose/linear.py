@@ -1,7 +1,7 @@
 """The linear part of a diagnosis model: the user's model, its bounded corrections, exact simulation.
 
 The simulation model is a modal model (:class:`~robrst.identify.modal.ModalModel`; a
-SISO :class:`~robrst.plant.Plant` is converted).  Its corrections ``theta`` are
+SISO :class:`~robrst.core.plant.Plant` is converted).  Its corrections ``theta`` are
 
 * per mode: the natural frequency (``dlog_freq``, log ratio) and, for a complex pair,
   the damping (``dlog_damping``);
@@ -17,7 +17,7 @@ resonances and damping (the usual model errors) but cannot imitate a delay or an
 effect by rotating phases.  ``theta = 0`` is the user's model; corrections are bounded
 (:data:`BOUNDS`) and carry Gaussian priors (:data:`PRIOR_SD`): a re-fit is regularised
 toward the user's model.  Records are simulated exactly (ZOH,
-:func:`~robrst.lti.zoh_modal`) from rest by first-order recursions, or in periodic
+:func:`~robrst.core.lti.zoh_modal`) from rest by first-order recursions, or in periodic
 steady state on the DFT grid.  :class:`LinearPart` returns outputs and their Jacobian
 (gains analytically, frequencies and damping by forward differences).
 """
@@ -28,8 +28,8 @@ import numpy as np
 from scipy import optimize, signal
 
 from robrst.identify.modal import ModalModel, pair_weight
-from robrst.lti import zoh_modal
-from robrst.plant import Plant
+from robrst.core.lti import zoh_modal
+from robrst.core.plant import Plant
 
 __all__ = ["coefficient_changes", "LinearPart", "LinearSim", "as_modal", "refit_linear", "LinearFit", "PRIOR_SD",
            "BOUNDS", "parameter_std"]

@@ -44,7 +44,7 @@ class EffectScore:
 
 @dataclass(frozen=True, eq=False)
 class Diagnosis:
-    """Result of :func:`~robrst.diagnose.core.diagnose`; :meth:`as_dict` is the contract."""
+    """Result of :func:`~robrst.diagnose.diagnosis.diagnose`; :meth:`as_dict` is the contract."""
 
     cause: str
     reason: str

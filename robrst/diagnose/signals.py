@@ -1,6 +1,6 @@
 """Gap measurement and localisation: the classical system-identification checks.
 
-All functions take a list of records (:class:`~robrst.dataset.Dataset`) and, where
+All functions take a list of records (:class:`~robrst.data.dataset.Dataset`) and, where
 needed, the matching list of residuals ``r = y - y_model`` [µm].
 
 * :func:`nrmse` — ``||r|| / ||y - mean(y)||`` pooled over the records.

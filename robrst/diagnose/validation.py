@@ -132,7 +132,7 @@ def confusion(pairs, labels=CASES + ("linear", "cannot_tell")):
 
 def run_suite(seeds, cases=CASES, progress=None):
     """Diagnose every (case, seed); return rows ``{case, seed, cause, shrink, ...}``."""
-    from robrst.diagnose.core import diagnose
+    from robrst.diagnose.diagnosis import diagnose
 
     rows = []
     for case in cases:

@@ -1,6 +1,6 @@
 """From scored candidates to the verdict, the findings and the :class:`Diagnosis` record.
 
-Rules (see :mod:`robrst.diagnose.core`): the answer is the forward-selected set of
+Rules (see :mod:`robrst.diagnose.diagnosis`): the answer is the forward-selected set of
 effects, else ``linear`` if the linear re-fit passes the same 30 % bar; it must also
 bring the held-out gap near the floor (``NEAR_RATIO`` x floor, or at most
 ``NEAR_EXCESS`` of the excess gap left), else ``cannot_tell`` with the best partial
@@ -17,7 +17,7 @@ import numpy as np
 from robrst.diagnose.result import Diagnosis, EffectScore
 from robrst.diagnose.select import MIN_SHRINK, OFFSET, excess, significant
 from robrst.identify.vf import fit_data, fit_residues, initial_poles, to_continuous, vector_fit
-from robrst.plant import Plant
+from robrst.core.plant import Plant
 
 __all__ = ["decide", "build", "unmodelled", "NEAR_RATIO", "NEAR_EXCESS"]
 

@@ -8,7 +8,7 @@ modes, ``f[k] = sum_p Re(beta_p a_p^k)`` for sampled poles ``a_p``.  Both are pe
 and per output, and both enter linearly: :func:`free_columns` builds their regressors,
 :func:`fit_free` estimates them from a residual by least squares.  Vector fitting
 eliminates them from its equations (``robrst.identify.vf``), and the identification scores
-and reports its models with them (``robrst.identify.core``).
+and reports its models with them (``robrst.identify.identification``).
 """
 
 from dataclasses import dataclass

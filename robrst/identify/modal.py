@@ -7,7 +7,7 @@ its conjugate term is implied, so every model is real.  This form needs no expan
 polynomial (coefficients of a 28th-order denominator would span hundreds of decades)
 and makes the zero-order-hold discretisation exact mode by mode.
 
-:func:`robrst.lti.zoh_modal` is the ZOH discretisation of the modal form; :class:`DiscreteModel`
+:func:`robrst.core.lti.zoh_modal` is the ZOH discretisation of the modal form; :class:`DiscreteModel`
 simulates the sampled model from rest (parallel first-order recursions) or in
 periodic steady state (exact, through the DFT).
 """
@@ -17,9 +17,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import signal
 
-from robrst.errors import SpecError
-from robrst.lti import zoh_modal
-from robrst.plant import Plant
+from robrst.base.errors import SpecError
+from robrst.core.lti import zoh_modal
+from robrst.core.plant import Plant
 
 __all__ = ["ModalModel", "DiscreteModel", "pair_weight"]
 
@@ -98,7 +98,7 @@ class ModalModel:
         return DiscreteModel(zp, dres, self.D, float(fs), pair_weight(self.poles))
 
     def channel(self, i=0, j=0, label=None):
-        """Output ``i`` from input ``j`` as a :class:`~robrst.plant.Plant` ``B(s)/A(s)``.
+        """Output ``i`` from input ``j`` as a :class:`~robrst.core.plant.Plant` ``B(s)/A(s)``.
 
         Expanded in the scaled variable ``s / w0`` (``w0`` the geometric mean of the
         pole magnitudes) so the coefficients keep their precision, then unscaled.
@@ -132,7 +132,7 @@ class ModalModel:
 
     @classmethod
     def from_plant(cls, plant, label=None):
-        """Partial-fraction form of a SISO :class:`~robrst.plant.Plant` (distinct poles).
+        """Partial-fraction form of a SISO :class:`~robrst.core.plant.Plant` (distinct poles).
 
         Raises :class:`SpecError` for repeated poles (no modal form).
         """

@@ -22,8 +22,8 @@
 
   ``G(s) = sum_i R_i/(s - p_i) (+ conjugate terms) + D``, inputs V, outputs µm.
 
-:func:`modal_models` reads a model file; :func:`robrst.experiments.linear_model.load_linear_model`
-reads either kind (problem files through :mod:`robrst.spec`, a layer above this one).
+:func:`modal_models` reads a model file; :func:`robrst.studies.linear_model.load_linear_model`
+reads either kind (problem files through :mod:`robrst.problem.files`, a layer above this one).
 """
 
 import tomllib
@@ -32,10 +32,10 @@ from pathlib import Path
 
 import numpy as np
 
-from robrst.errors import SpecError
-from robrst.fileio import atomic_write_text, check_file_target
+from robrst.base.errors import SpecError
+from robrst.base.fileio import atomic_write_text, check_file_target
 from robrst.identify.modal import ModalModel
-from robrst.schema import MAX_MAGNITUDE
+from robrst.base.schema import MAX_MAGNITUDE
 
 __all__ = ["problem_text", "model_text", "toml_string", "write_identified", "check_target", "read_model_data",
            "modal_models", "MARKER", "FORMAT"]
@@ -236,7 +236,7 @@ def write_identified(ident, path, sources, channel=None, name=None, modal=False,
     check : callable, optional
         Called as ``check(text, path)`` with a problem file's text before anything is
         written; it raises :class:`SpecError` to refuse a file robrst could not read back
-        (the CLI parses it as ``robrst.spec`` does, a layer above this one).
+        (the CLI parses it as ``robrst.problem.files`` does, a layer above this one).
 
     Returns
     -------

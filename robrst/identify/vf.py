@@ -30,10 +30,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import linalg, signal
 
-from robrst.errors import SpecError
+from robrst.base.errors import SpecError
 from robrst.identify.free import free_columns
 from robrst.identify.modal import DiscreteModel, ModalModel, pair_weight
-from robrst.lti import d2c_modal
+from robrst.core.lti import d2c_modal
 
 __all__ = ["FitData", "fit_data", "initial_poles", "vector_fit", "fit_residues",
            "to_continuous", "EXCITED_DB"]

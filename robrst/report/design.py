@@ -16,8 +16,8 @@ from collections.abc import Callable
 from pathlib import Path
 
 from robrst.design import DesignResult
-from robrst.experiments.scenarios import twin_step_responses
-from robrst.fileio import json_text
+from robrst.studies.scenarios import twin_step_responses
+from robrst.base.fileio import json_text
 from robrst.report import design_figures as figs
 from robrst.report.doc import Doc, write_folder
 from robrst.report.text import sampled_summary

@@ -7,11 +7,11 @@ Frequencies are in Hz on log axes, magnitudes in dB, time in ms, displacement in
 
 import numpy as np
 
-from robrst import poly
-from robrst.analysis import sensitivity, step_response
+from robrst.core import poly
+from robrst.core.analysis import sensitivity, step_response
 from robrst.report.figure import colors as _colors
 from robrst.report.figure import drawing
-from robrst.rst import closed_loop
+from robrst.core.rst import closed_loop
 
 __all__ = ["bode_figure", "nyquist_figure", "step_figure", "step_horizon"]
 

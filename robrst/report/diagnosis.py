@@ -12,7 +12,7 @@ model, with the noise floor).  ``diagnosis.json`` is the ``--json`` result.
 import numpy as np
 
 from robrst.diagnose.summary import summary_text
-from robrst.fileio import json_text
+from robrst.base.fileio import json_text
 from robrst.report.doc import Doc, write_folder
 from robrst.report.figure import drawing
 

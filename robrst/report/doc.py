@@ -14,8 +14,8 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
-from robrst.errors import OutputError
-from robrst.fileio import atomic_write_bytes, check_folder_target, umask_mode
+from robrst.base.errors import OutputError
+from robrst.base.fileio import atomic_write_bytes, check_folder_target, umask_mode
 
 __all__ = ["Doc", "to_markdown", "to_html", "write_folder", "check_report_target", "MARKER"]
 
@@ -137,7 +137,7 @@ def write_folder(out_dir, doc, extra_files, render_figures, force=False):
     A new folder, or an earlier robrst report (recognised by its ``.robrst-report``
     marker, listing the files robrst wrote), is replaced atomically: the report is built
     in a temporary sibling and swapped in, so a failure never leaves half a report.  A
-    folder robrst did not write is refused (:class:`~robrst.errors.OutputError`) unless
+    folder robrst did not write is refused (:class:`~robrst.base.errors.OutputError`) unless
     ``force``, which writes the report files into it one by one, atomically, and touches
     nothing else.  A symbolic link to a folder stays a link: the folder it names is written.
     """

@@ -14,7 +14,7 @@ from robrst.diagnose import diagnose
 from robrst.diagnose.validation import make_case
 from robrst.report.design import write_design_report
 from robrst.report.diagnosis import write_diagnosis_report
-from robrst.spec import load_problem
+from robrst.problem.files import load_problem
 
 __all__ = ["write_examples", "DIAGNOSIS_CASE"]
 

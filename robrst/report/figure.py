@@ -10,7 +10,7 @@ from contextlib import contextmanager
 import matplotlib
 from matplotlib.figure import Figure
 
-from robrst.fileio import atomic_write_bytes
+from robrst.base.fileio import atomic_write_bytes
 
 __all__ = ["drawing", "STYLE", "colors"]
 

@@ -10,8 +10,8 @@ held-out NRMSE of every candidate order, and measured vs simulated output on a r
 import numpy as np
 from scipy import signal
 
-from robrst.fileio import json_text
-from robrst.identify.core import simulate_record
+from robrst.base.fileio import json_text
+from robrst.identify.identification import simulate_record
 from robrst.report.doc import Doc, write_folder
 from robrst.report.figure import drawing
 

@@ -4,8 +4,8 @@ atomically, never over a folder robrst did not write unless ``force``)."""
 
 import json
 
-from robrst.dataset import save_dataset
-from robrst.fileio import jsonable
+from robrst.data.dataset import save_dataset
+from robrst.base.fileio import jsonable
 from robrst.report.doc import Doc, write_folder
 from robrst.report.figure import drawing
 

@@ -15,10 +15,10 @@ import os
 from collections.abc import Callable
 from pathlib import Path
 
-from robrst.fileio import json_text
+from robrst.base.fileio import json_text
 from robrst.report import sweep_figures as figs
 from robrst.report.doc import Doc, write_folder
-from robrst.sweep.engine import SweepResult
+from robrst.studies.sweep.engine import SweepResult
 
 __all__ = ["sweep_doc", "write_sweep_report", "sweep_text", "figure_files"]
 
@@ -128,7 +128,7 @@ def write_sweep_report(result: SweepResult, out_dir: str | os.PathLike | None = 
     --------
     >>> import tempfile
     >>> from robrst import run_sweep, write_sweep_report
-    >>> from robrst.sweep import parse_sweep
+    >>> from robrst.studies.sweep import parse_sweep
     >>> sweep = parse_sweep({"sweep": {"kind": "analysis", "problem": "paper", "n": 8},
     ...                      "param": [{"name": "gain", "dist": "normal", "mean": 1.0,
     ...                                 "std": 0.1}]})

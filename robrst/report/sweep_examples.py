@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 
 from robrst.report.sweep import write_sweep_report
-from robrst.sweep import run_sweep
+from robrst.studies.sweep import run_sweep
 
 __all__ = ["write_sweep_examples", "SWEEP_EXAMPLES"]
 

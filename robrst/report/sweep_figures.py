@@ -1,6 +1,6 @@
 """Figures of a sweep report: histograms, sensitivity, trade-off front, fleet, worst-case Bode.
 
-Every function takes a :class:`~robrst.sweep.engine.SweepResult` and a file path and writes
+Every function takes a :class:`~robrst.studies.sweep.engine.SweepResult` and a file path and writes
 one PNG (:func:`robrst.report.figure.drawing`: no global matplotlib state).  Only variants
 evaluated without error (status ``ok``) are drawn; infinite margins are counted in the titles.
 """
@@ -8,11 +8,11 @@ evaluated without error (status ``ok``) are drawn; infinite margins are counted 
 import numpy as np
 import pyarrow as pa
 
-from robrst.analysis import sensitivity
+from robrst.core.analysis import sensitivity
 from robrst.report.figure import colors, drawing
-from robrst.sweep.evaluate import problem_of
-from robrst.sweep.summary import front_values, pareto_front, worst_rows
-from robrst.rst import RSTController
+from robrst.studies.sweep.evaluate import problem_of
+from robrst.studies.sweep.summary import front_values, pareto_front, worst_rows
+from robrst.core.rst import RSTController
 
 __all__ = ["histograms_figure", "sensitivity_figure", "front_figure", "fleet_figure",
            "worst_bode_figure", "worst_ok_row", "HIST"]

@@ -12,11 +12,11 @@ from functools import cached_property
 
 import numpy as np
 
-from robrst import poly
-from robrst.errors import CoprimeError, DegreeError, SpecError
-from robrst.plant import Plant
-from robrst.problem import AUX_MIN_FACTOR, ControllerStructure, PoleSpec
-from robrst.rst import RSTController
+from robrst.core import poly
+from robrst.base.errors import CoprimeError, DegreeError, SpecError
+from robrst.core.plant import Plant
+from robrst.problem.records import AUX_MIN_FACTOR, ControllerStructure, PoleSpec
+from robrst.core.rst import RSTController
 
 __all__ = [
     "characteristic_polynomial",
@@ -74,7 +74,7 @@ class DiophantineSolution:
     ``cond`` is the 2-norm condition number of the scaled, column-equilibrated
     Sylvester matrix actually solved; ``cond_unscaled`` that of the same system
     written in s (what a naive solve would face); ``residual`` the relative
-    coefficient error of ``A S + B R - Am`` (see :func:`robrst.poly.rel_coef_error`).
+    coefficient error of ``A S + B R - Am`` (see :func:`robrst.core.poly.rel_coef_error`).
     """
 
     R: np.ndarray

@@ -11,8 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robrst import poly
-from robrst.sampled import warp
+from robrst.core import poly
+from robrst.core.sampled import warp
 from robrst.synthesis.nlp import NLPSetup, scale_plant
 from robrst.synthesis.parametrize import (Parametrization, TrackingRule, frequency_grid,
                                           integral_gain)

@@ -23,8 +23,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from robrst.certificate import band_peak
-from robrst.hinf import peak_gain
+from robrst.certificate.proof import band_peak
+from robrst.core.peaks import peak_gain
 from robrst.synthesis.nlp import (controller_conditions, grid_blocks, local_maxima,
                                   objective_rows)
 from robrst.synthesis.outcome import SolveResult
@@ -315,7 +315,7 @@ def solve_exchange(setup, x0, ipopt, phase=Phase(), templates=None, max_rounds=5
         local maxima of each constraint at ``x0``.
     exact : bool
         Once the grid holds, also add each block's *exact* peak frequency
-        (:func:`robrst.hinf.peak_gain`, the certificate's band peak) when it is near
+        (:func:`robrst.core.peaks.peak_gain`, the certificate's band peak) when it is near
         or above its bound, and solve again: the semi-infinite program's own
         exchange, for loops whose resonances fall between grid points.
     box : (ndarray, ndarray), optional

@@ -5,7 +5,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robrst.sampled import unwarp
+from robrst.core.sampled import unwarp
 from robrst.synthesis.parametrize import integral_gain
 
 __all__ = ["OK_STATUS", "Binding", "SolveResult", "Round", "SynthesisResult", "worst_violation",

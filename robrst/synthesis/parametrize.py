@@ -1,7 +1,7 @@
 """The decision vector of the synthesis and the controller it stands for.
 
 ``S = Sf S'`` (``S'`` monic of degree ``ks``) and ``R = Rf R'`` (degree ``kr``), written
-in the scaled variable ``p = s / w0`` and normalised (:meth:`robrst.poly.Scaling.normalize`)
+in the scaled variable ``p = s / w0`` and normalised (:meth:`robrst.core.poly.Scaling.normalize`)
 so every coefficient is O(1).  The decision vector is ``x = [S' (non-leading), R']``.
 :class:`Parametrization` maps a controller to ``x`` and back; the NLP, the convex
 program and the robust driver share it.
@@ -11,9 +11,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robrst import poly
-from robrst.errors import SolverError
-from robrst.rst import RSTController
+from robrst.core import poly
+from robrst.base.errors import SolverError
+from robrst.core.rst import RSTController
 from robrst.synthesis import analytic
 
 __all__ = ["Parametrization", "TrackingRule", "integral_gain", "frequency_grid"]

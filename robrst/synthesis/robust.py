@@ -9,7 +9,7 @@ runs one placement):
    every coefficient is free; each rated on the grid before anything is solved.
 2. **Hard phase**: from the preferred start (the boldest one meeting the specs on the
    grid, else a seed, else the analytic design) the objective with the specs as
-   constraints; every result is certified exactly (:mod:`robrst.certificate`), offending
+   constraints; every result is certified exactly (:mod:`robrst.certificate.proof`), offending
    frequencies and temperatures join the program and it is solved again.
 3. **Soft phase** (systune's soft goals): when that fails, minimise ``gamma``, the worst
    normalised spec ratio ``|N|/(M |Delta|)`` over every model, grid point and spec, from
@@ -36,8 +36,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from robrst import poly
-from robrst.errors import RobrstError
+from robrst.core import poly
+from robrst.base.errors import RobrstError
 from robrst.synthesis.attempts import WARM_START, Outcome, Run, objective_value
 from robrst.synthesis.context import BOUND_MARGIN, Context
 from robrst.synthesis.outcome import SynthesisResult, best_achievable, worst_violation

@@ -19,9 +19,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from robrst import poly
-from robrst.analysis import spectral_abscissa_many
-from robrst.errors import RobrstError
+from robrst.core import poly
+from robrst.core.analysis import spectral_abscissa_many
+from robrst.base.errors import RobrstError
 from robrst.synthesis import analytic
 from robrst.synthesis.context import low_frequency_coefficient
 from robrst.synthesis.nlp import closed_loop_maps

@@ -12,11 +12,11 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from robrst.problem import Problem
+from robrst.problem.records import Problem
 from robrst.synthesis.analytic import pole_placement
 from robrst.synthesis.outcome import SynthesisResult
 from robrst.synthesis.robust import robust_synthesis
-from robrst.threads import one_blas_thread
+from robrst.base.threads import one_blas_thread
 
 __all__ = ["Synthesizer"]
 

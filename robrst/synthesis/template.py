@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from robrst import poly
+from robrst.core import poly
 from robrst.synthesis.nlp import routh_column
 
 __all__ = ["Structure", "Template", "TINY"]

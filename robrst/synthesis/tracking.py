@@ -35,10 +35,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robrst import poly
-from robrst.analysis import spectral_abscissa_many
-from robrst.rst import RSTController, closed_loop
-from robrst.timespec import check_many
+from robrst.core import poly
+from robrst.core.analysis import spectral_abscissa_many
+from robrst.core.rst import RSTController, closed_loop
+from robrst.certificate.steps import check_many
 
 __all__ = ["Tracking", "two_dof", "design_tracking", "tracking_candidates", "reference_model",
            "cancel_thresholds", "CANCEL_FLOOR"]

@@ -11,10 +11,10 @@ temperature), ``thermal_drift`` (lagged, saturating, hysteretic in temperature),
 
 from dataclasses import dataclass, field, replace
 
-from robrst import resources
-from robrst.errors import SpecError
-from robrst.plant import named_plant
-from robrst.schema import Field, key_error, load_toml, validate
+from robrst.base import resources
+from robrst.base.errors import SpecError
+from robrst.core.plant import named_plant
+from robrst.base.schema import Field, key_error, load_toml, validate
 
 __all__ = ["EFFECTS", "TWIN_SCHEMA", "TwinConfig", "load_twin", "parse_twin", "default_twin"]
 

@@ -18,9 +18,9 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from robrst import lti, poly
-from robrst.plant import named_plant
-from robrst.thermal import modal_form, thermal_polynomials
+from robrst.core import lti, poly
+from robrst.core.plant import named_plant
+from robrst.core.thermal import modal_form, thermal_polynomials
 
 __all__ = ["TwinModel", "build_model", "hysteresis_gain", "creep_taus", "substeps"]
 
@@ -83,8 +83,8 @@ def hysteresis_gain(A, B, G, lo, hi, n=4000):
 def _linear_step(plant, w0, dt, xl, wtot, dT_lin, P):
     """RK4 step of ``D_T`` in scaled time; returns (next state, output at this sample).
 
-    ``D_T`` comes from the thermal law of :mod:`robrst.thermal` with symbolic
-    coefficients, realised in controllable form (:func:`robrst.lti.companion_parts`)
+    ``D_T`` comes from the thermal law of :mod:`robrst.core.thermal` with symbolic
+    coefficients, realised in controllable form (:func:`robrst.core.lti.companion_parts`)
     in the scaled time ``p = w0 t``.
     """
     n = plant.n
@@ -117,7 +117,7 @@ def _linear_step(plant, w0, dt, xl, wtot, dT_lin, P):
 def build_model(config, plant=None, linear=True):
     """Build the symbolic step of the twin described by ``config`` (a TwinConfig).
 
-    ``plant`` (a :class:`~robrst.plant.Plant`) replaces the config's named nominal
+    ``plant`` (a :class:`~robrst.core.plant.Plant`) replaces the config's named nominal
     model, e.g. the nominal plant of a problem file in a gap diagnosis.  With
     ``linear=False`` the step stops before ``D_T(s)``: its outputs are the effective
     input ``v + u_c + u_T`` [V] instead of displacements (for input-referred effects

@@ -15,8 +15,8 @@ import numpy as np
 
 from numpy.typing import ArrayLike
 
-from robrst.errors import DataError, SpecError
-from robrst.rst import DiscreteController
+from robrst.base.errors import DataError, SpecError
+from robrst.core.rst import DiscreteController
 from robrst.twin.config import TwinConfig
 from robrst.twin.compiled import compile_loop
 from robrst.twin.model import build_model
@@ -37,7 +37,7 @@ class SimResult:
     meta: dict = field(default_factory=dict)
 
     def to_dataset(self, comments=()):
-        from robrst.dataset import Dataset
+        from robrst.data.dataset import Dataset
 
         return Dataset(t=self.t, u=self.u_cmd, y=self.y, temp=self.temp, yr=self.yr,
                        comments=tuple(comments), source="twin")

@@ -1,0 +1,41 @@
+"""One BLAS thread for robrst's own computations.
+
+robrst's matrices are small (tens of states): a second OpenBLAS thread does not make
+them faster, it spins between the calls and doubles the CPU time (paper_robust's design,
+in process on a 2-core machine: 0.72 s CPU with two threads, 0.42 s with one, the same
+wall time).  :func:`one_blas_thread` limits every BLAS library loaded in the process
+(numpy's and SciPy's each carry one) for the duration of a ``with`` block and restores
+the caller's settings afterwards.  A library is only limited once loaded, so SciPy's is
+loaded first when the computation will use it (``scipy=True``).
+"""
+
+from contextlib import contextmanager
+
+from threadpoolctl import threadpool_limits
+
+__all__ = ["one_blas_thread"]
+
+
+@contextmanager
+def one_blas_thread(scipy=True):
+    """Run the ``with`` block with one BLAS thread in every BLAS library.
+
+    Parameters
+    ----------
+    scipy : bool
+        Load ``scipy.linalg`` first (the sampled loop, step responses and balancing use
+        it), so that its BLAS is limited as well; ``False`` for computations that never
+        load SciPy (importing it costs 0.15-0.3 s).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from robrst.base.threads import one_blas_thread
+    >>> with one_blas_thread(scipy=False):
+    ...     float(np.linalg.norm(np.eye(3)))
+    1.7320508075688772
+    """
+    if scipy:
+        import scipy.linalg  # noqa: F401 — its OpenBLAS must be loaded to be limited
+    with threadpool_limits(1, "blas"):
+        yield

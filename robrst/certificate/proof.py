@@ -1,0 +1,392 @@
+"""Independent certificate of a controller on a plant family, over the whole temperature interval.
+
+Nothing from the optimiser is trusted: every figure is recomputed from the polynomials.
+
+* **Per model** (:func:`check_model`): exact global peaks of ``|S|, |T|, |U|`` and the exact
+  frequency-limited peak of ``|T|`` over the resonance band (:func:`robrst.core.peaks.peak_gain`),
+  the closed-loop spectral abscissa, and whether double precision resolves that stability
+  verdict at all (:func:`robrst.core.interval.distance_to_instability`).  With a sampling rate
+  the same on the exact sampled loop (:mod:`robrst.core.sampled`; figures suffixed ``_sampled``,
+  physical frequencies up to Nyquist, the band warped).
+* **Over the interval** (:func:`certify`): the family members and ``n_sweep`` evenly
+  spaced temperatures, then
+
+  - explicit families: between neighbouring members the closed-loop polynomial is a
+    segment; :func:`robrst.core.interval.segment_crossing` proves that no closed-loop root
+    crosses the imaginary axis anywhere on it (``stability: "segment_crossing"``, exact;
+    ``"refined_sweep"`` when a segment cannot be tested: an unstable member);
+  - every family: adaptive refinement (``"refined_sweep"``): an interval between two
+    checked temperatures is halved while any figure (spectral abscissa, every bounded
+    peak, continuous and sampled) changes across it by more than half its margin to the
+    bound at either end (the continuous spectral abscissa only when no interval proof
+    covers stability: the proofs below run first); an interval still unresolved at the
+    resolution floor is a violation (``kind: "unresolved"``).  Where no interval proof
+    holds, stability too comes from this refinement: a sweep with a stated resolution,
+    not a proof for excursions narrower than it.
+
+A controller is certified when no checked figure exceeds its bound (relative tolerance
+``rtol``), every verdict is resolved in double precision, and the interval checks pass.
+The record ``interval`` says what was proved and at what resolution.
+
+Further per-model checks (e.g. time-domain specs) plug in through ``checks``: callables
+``check(plant, ctrl, specs, rtol) -> (record, violations)`` run on every model checked
+(family members, sweep and refinement points).  A check may put ``{name: (value,
+limit)}`` pairs in ``record["margins"]`` to have its figures refined like the others.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from robrst.core.interval import parameter_crossing, segment_crossing
+from robrst.certificate.models import (BOUNDED, FIGURE_OF, JUMPS, RESOLVE_FACTOR, Violation,
+                               band_peak, check_all, check_all_many, check_model, margins)
+from robrst.problem.records import Problem
+from robrst.core.rst import RSTController, closed_loop
+from robrst.core.thermal import modal_form
+from robrst.base.threads import one_blas_thread
+
+__all__ = ["Violation", "Certificate", "certify", "certify_problem", "check_model", "band_peak",
+           "REFINE_RATIO", "RESOLVE_FACTOR"]
+
+REFINE_RATIO = 0.5     # halve an interval when a figure moves by more than this x its margin
+MIN_WIDTH = 1.0 / 4096  # resolution floor, as a fraction of the temperature range
+
+
+@dataclass(frozen=True, eq=False)
+class Certificate:
+    """Per-model exact figures, every violation found, and what the interval checks proved."""
+
+    certified: bool
+    models: tuple
+    violations: tuple
+    rtol: float
+    interval: dict = field(default_factory=dict)
+    bounds: dict = field(default_factory=dict)   # {figure: bound} of every bound checked
+
+    def worst(self, key):
+        """Largest ``key`` over the models (``None`` if no record has it)."""
+        vals = [m[key] for m in self.models if key in m and m[key] is not None]
+        return max(vals) if vals else None
+
+    def ratios(self):
+        """Worst ``value / bound`` over the checked models, for every bound checked.
+
+        Keys are the record figures (``"Ms"``, ``"Mt_resonance_band"``, ``"Ms_sampled"``,
+        ``"overshoot_pct"``, ...; a check hook's ``margins`` by their names), plus the
+        quantity of any other violated bound.  A bound of 0 gives 0 when met, ``inf``
+        when not.  Above 1 means violated (beyond ``rtol``).
+
+        Returns
+        -------
+        dict
+            ``{figure: worst ratio}``.
+        """
+        def ratio(v, b):
+            return v / b if b > 0 else (0.0 if v <= 0 else np.inf)
+
+        out = {}
+        for key, b in self.bounds.items():
+            for k in (key, key + "_sampled"):
+                vals = [m[k] for m in self.models if m.get(k) is not None]
+                if vals:
+                    out[k] = max(ratio(float(v), b) for v in vals)
+        for m in self.models:
+            for k, (v, lim) in m.get("margins", {}).items():
+                out[k] = max(out.get(k, -np.inf), ratio(v, lim))
+        for v in self.violations:
+            if v.kind == "exceeds" and v.bound and v.bound > 0 and np.isfinite(v.value):
+                k = FIGURE_OF.get(v.quantity, v.quantity) + ("_sampled" if v.loop == "sampled"
+                                                              else "")
+                if k not in out:
+                    out[k] = max(out.get(k, -np.inf), v.value / v.bound)
+        return out
+
+    def as_dict(self):
+        return {"ratios": self.ratios(), "certified": self.certified, "rtol": self.rtol, "models": list(self.models),
+                "violations": [v.__dict__ for v in self.violations],
+                "interval": self.interval,
+                "interval_proof": self.interval.get("stability"),
+                "interval_resolution_C": self.interval.get("max_spacing_C")}
+
+
+
+def _unresolved(ra, rb, specs, rtol, ignore=()):
+    """The first figure that moves by more than REFINE_RATIO x its margin across [a, b]."""
+    ma, mb = margins(ra, specs, rtol), margins(rb, specs, rtol)
+    for k in sorted(ma.keys() & mb.keys() - set(ignore)):
+        (va, lim), (vb, _) = ma[k], mb[k]
+        room = min(lim - va, lim - vb)
+        if room > 0 and abs(va - vb) > REFINE_RATIO * room:
+            return k
+    return None
+
+
+def _segments(family, ctrl, recs):
+    """Exact crossing test between neighbouring members of an explicit family.
+
+    Returns the crossings found (violations) and whether every segment was tested
+    (continuous stability is proved over the whole interval when, besides, none crosses).
+    """
+    viols, tested = [], True
+    ms = family.models
+    for a, b in zip(ms[:-1], ms[1:]):
+        ra, rb = recs[a.temperature_C], recs[b.temperature_C]
+        if not (ra["stable"] and rb["stable"]) or a.n != b.n or a.m != b.m:
+            tested = False
+            continue   # an unstable end is already a violation; degrees differ: no segment
+        cr = segment_crossing(closed_loop(a, ctrl).Delta, closed_loop(b, ctrl).Delta)
+        if cr.crossing:
+            T = a.temperature_C + cr.lam * (b.temperature_C - a.temperature_C)
+            viols.append(Violation(f"T{T:.6g}C", T, f"closed-loop root crosses the imaginary"
+                                   f" axis ({cr.kind}) between {a.temperature_C:g} and"
+                                   f" {b.temperature_C:g} °C (at {T:.6g} °C)", 0.0, 0.0,
+                                   None if cr.kind == "infinity" else cr.freq_rad_s,
+                                   kind="crossing"))
+    return viols, tested
+
+
+def _guardian(family, ctrl, specs, rtol, checks, recs, viols):
+    """Parametric families: the guardian-map proof on each side of the reference (where
+    the creep law has its kink); a candidate crossing is checked and refined around."""
+    if not all(r["stable"] for r in recs.values()):
+        return {"proved": False, "parts": [], "skipped": "a checked model is unstable"}
+    lo, hi = family.range_C
+    ref = family.thermal.reference_C
+    c = family.thermal
+    k = len(modal_form(family.reference_model).pairs)
+    deg_T = max(2 * k, 2 if (c.creep_per_K or c.creep_at_ref) else 1)
+    parts, out = [p for p in ((lo, min(ref, hi)), (max(ref, lo), hi)) if p[1] > p[0]], []
+    for a, b in parts:
+        pr = parameter_crossing(lambda T: closed_loop(family.at(T), ctrl).Delta, a, b, deg_T)
+        out.append({"range_C": [a, b], "proved": pr.proved, "nodes": pr.nodes,
+                    "candidate_C": pr.candidate_T})
+        if pr.candidate_T is not None:   # check the candidate and its neighbours
+            for T in (pr.candidate_T, pr.candidate_T - 1e-6 * (b - a),
+                      pr.candidate_T + 1e-6 * (b - a)):
+                if a <= T <= b and T not in recs:
+                    recs[T], v = check_all(family.at(T), ctrl, specs, rtol, checks, family)
+                    recs[T]["family_member"] = False
+                    viols.extend(v)
+    return {"proved": all(p["proved"] for p in out), "parts": out}
+
+
+def _refine(family, ctrl, specs, rtol, checks, recs, viols, budget, orders, ignore=()):
+    """Halve unresolved intervals (see the module docstring); returns unresolved violations.
+
+    Figures in ``ignore`` are not watched (the continuous spectral abscissa once an
+    interval proof has established stability everywhere).
+
+    An interval at the resolution floor across which the closed-loop degree changes (the
+    family's order drops at one temperature, e.g. a creep pair that cancels exactly at the
+    reference) is not a violation: its figures jump by construction.  It is appended to
+    ``orders`` and reported in the certificate's ``interval`` record.
+
+    The points are checked generation by generation (the midpoints of every interval to
+    halve in one batch, :func:`robrst.certificate.models.check_all_many`), then the halving is
+    replayed depth first: violations, unresolved intervals and ``orders`` come in the
+    order of checking one point at a time.
+    """
+    lo, hi = family.range_C
+    floor = MIN_WIDTH * (hi - lo)
+    temps = sorted(recs)
+    found, walked, level, left = {}, set(), list(zip(temps[:-1], temps[1:])), budget
+    while level and left > 0:
+        todo = []
+        for a, b in level:
+            if _decide(recs, a, b, specs, rtol, ignore, floor)[0] == "split":
+                todo.append((a, b, *_split(a, b, recs, floor, walked)))
+        todo, level = todo[:left], []
+        done = check_all_many([family.at(m) for _, _, m, _ in todo], ctrl, specs, rtol,
+                              checks, family)
+        for (a, b, m, low), (rec, v) in zip(todo, done):
+            rec["family_member"] = False
+            recs[m], found[m] = rec, v
+            if low is not None and rec.get("closed_loop_degree") == recs[low].get(
+                    "closed_loop_degree"):
+                walked.add(m)   # the lower order persists beyond the probe: halve from here on
+            level += [(a, m), (m, b)]
+        left -= len(todo)
+    stack, out, walked, seen = list(zip(temps[:-1], temps[1:])), [], set(), set()
+    while stack:
+        a, b = stack.pop()
+        what, key = _decide(recs, a, b, specs, rtol, ignore, floor)
+        if what == "order":
+            orders.append([a, b])   # the model order changes (e.g. a cancelled creep pair)
+            continue
+        m, low = _split(a, b, recs, floor, walked) if what == "split" else (None, None)
+        if what == "unresolved" or budget <= 0 or m not in found:
+            if what != "resolved":
+                out.append(Violation(f"T{a:g}C", a, f"{key} changes too fast between {a:g}"
+                                     f" and {b:g} °C to be resolved by the sweep (resolution"
+                                     f" {floor:.3g} °C)", 0.0, 0.0, None, kind="unresolved"))
+            continue
+        viols.extend(found[m])
+        seen.add(m)
+        budget -= 1
+        if low is not None and (recs[m].get("closed_loop_degree")
+                                == recs[low].get("closed_loop_degree")):
+            walked.add(m)
+        stack += [(a, m), (m, b)]
+    for m in sorted(found.keys() - seen):   # checked in a batch, not reached depth first
+        viols.extend(found[m])
+    return out
+
+
+def _decide(recs, a, b, specs, rtol, ignore, floor):
+    """What to do with ``[a, b]``: ``("resolved", None)``, ``("order", key)`` (the model
+    order changes at the floor), ``("unresolved", key)`` (at the floor) or ``("split",
+    key)``."""
+    key = _unresolved(recs[a], recs[b], specs, rtol, ignore)
+    if key is None:
+        return "resolved", None
+    if b - a <= floor and recs[a].get("closed_loop_degree") != recs[b].get(
+            "closed_loop_degree"):
+        return "order", key
+    if b - a <= floor:   # a settling time jumps (a ripple leaves the band): both sides hold
+        key = _unresolved(recs[a], recs[b], specs, rtol, (*ignore, *JUMPS))
+        return ("resolved", None) if key is None else ("unresolved", key)
+    return "split", key
+
+
+def _statement(explicit, tested, proved):
+    """What the interval checks established, in words."""
+    if explicit and tested:
+        head = ("closed-loop stability proved for every temperature of the interval (exact"
+                " zero-crossing test of the interpolated closed-loop polynomial); " if proved
+                else "closed-loop stability decided by the exact zero-crossing test of the"
+                " interpolated closed-loop polynomial: a root reaches the imaginary axis"
+                " between members (see the violations); ")
+    elif proved:
+        head = ("continuous closed-loop stability proved for every temperature of the interval"
+                " (no zero of the Hurwitz guardian a_n H_(n-1) along the thermal law); ")
+    else:
+        head = "closed-loop stability and "
+    return head + ("peaks checked on a sweep refined until no figure changes by more than"
+                   f" {REFINE_RATIO:g} x its margin between neighbouring points")
+
+
+def _split(a, b, recs, floor, walked):
+    """Where to check next on ``[a, b]`` and the lower-order end probed (or ``None``).
+
+    The midpoint; or, when the closed-loop degree differs at the ends, a point
+    ``floor / 2`` from the lower-order end: a degree drops at a single temperature (a
+    creep pair cancelling at the reference), and one check there isolates it where
+    halving would need ``log2(width / floor)`` checks.
+    """
+    da, db = (recs[t].get("closed_loop_degree") for t in (a, b))
+    if da is None or db is None or da == db or b - a <= floor:
+        return 0.5 * (a + b), None
+    low = a if da < db else b
+    if low in walked:
+        return 0.5 * (a + b), None
+    return (a + 0.5 * floor if low == a else b - 0.5 * floor), low
+
+
+def certify(family, ctrl, specs, n_sweep=35, rtol=1e-3, checks=(), max_refine=None):
+    """Certify ``ctrl`` on ``family`` over its whole temperature interval (module docstring).
+
+    Parameters
+    ----------
+    family : PlantFamily
+    ctrl : RSTController
+    specs : Specs
+    n_sweep : int
+        Evenly spaced temperatures checked besides the family members.
+    rtol : float
+        Relative tolerance on the peak bounds.
+    checks : sequence of callables
+        Extra per-model checks ``check(plant, ctrl, specs, rtol) -> (record, violations)``.
+    max_refine : int, optional
+        Cap on refinement points (default ``max(4 n_sweep, 64)``).
+
+    Returns
+    -------
+    Certificate
+    """
+    known = {m.temperature_C for m in family.models}
+    models = list(family.models)
+    if len(models) > 1 and n_sweep > 0:
+        models += [m for m in family.sweep(n_sweep) if m.temperature_C not in known]
+    recs, viols = {}, []
+    for m, (rec, v) in zip(models, check_all_many(models, ctrl, specs, rtol, checks, family)):
+        recs[m.temperature_C] = rec
+        rec["family_member"] = m.temperature_C in known
+        viols.extend(v)
+    lo, hi = family.range_C
+    interval = {"range_C": [lo, hi], "stability": "single_model", "peaks": "single_model"}
+    if len(family.models) > 1:
+        explicit = family.thermal is None
+        proof, tested = None, False
+        if explicit:
+            crossings, tested = _segments(family, ctrl, recs)
+            viols += crossings
+            proved = tested and not crossings
+        else:
+            proof = _guardian(family, ctrl, specs, rtol, checks, recs, viols)
+            proved = proof["proved"]
+        budget = max(4 * n_sweep, 64) if max_refine is None else max_refine
+        orders = []
+        # stability proved for every temperature: the refinement need not chase the
+        # continuous spectral abscissa (it still watches every bounded figure and the
+        # sampled loop, whose stability no proof covers)
+        viols += _refine(family, ctrl, specs, rtol, checks, recs, viols, budget, orders,
+                         ignore=("spectral_abscissa",) if proved else ())
+        temps = np.array(sorted(recs))
+        interval = {
+            "range_C": [lo, hi],
+            "stability": ("segment_crossing" if explicit and tested else
+                          "guardian_map" if proved else "refined_sweep"),
+            "peaks": "refined_sweep",
+            "points": int(len(temps)),
+            "max_spacing_C": float(np.max(np.diff(temps))),
+            "min_spacing_C": float(np.min(np.diff(temps))),
+            "refine_ratio": REFINE_RATIO,
+            "sampled": "refined_sweep" if specs.sampled else None,
+            "order_change_C": sorted(orders),
+            **({} if proof is None else {"guardian": proof}),
+            "statement": _statement(explicit, tested, proved),
+        }
+    recs_sorted = tuple(recs[T] for T in sorted(recs))
+    bounds = {key: getattr(specs, attr) for key, attr in BOUNDED
+              if getattr(specs, attr) is not None}
+    return Certificate(certified=not viols, models=recs_sorted, violations=tuple(viols),
+                       rtol=rtol, interval=interval, bounds=bounds)
+
+
+def certify_problem(problem: Problem, ctrl: RSTController) -> Certificate:
+    """Certify ``ctrl`` on ``problem``'s family and specs with its solver options.
+
+    The one entry point every stage uses (design, synthesis rounds, comparison): exact
+    peaks and closed-loop stability on every family model, on
+    ``problem.solver.cert_temperatures`` interpolated temperatures and on the refinement
+    points between them, the interval proofs, and the sampled loop when the specs name a
+    sampling rate.
+
+    Parameters
+    ----------
+    problem : Problem
+    ctrl : RSTController
+
+    Returns
+    -------
+    Certificate
+        ``certified`` is true when nothing is violated or unresolved (relative tolerance
+        ``problem.solver.cert_tol``); ``violations`` names every failed check and
+        ``interval`` what was proved over the temperature interval.
+
+    Examples
+    --------
+    >>> from robrst import certify_problem, load_problem, pole_placement
+    >>> problem = load_problem("paper")
+    >>> ctrl = pole_placement(problem.family.reference_model, problem.poles,
+    ...                       problem.controller).controller
+    >>> certify_problem(problem, ctrl).certified
+    True
+    """
+    so = problem.solver
+    with one_blas_thread(problem.needs_scipy):
+        return certify(problem.family, ctrl, problem.specs, n_sweep=so.cert_temperatures,
+                       rtol=so.cert_tol)

@@ -1,0 +1,162 @@
+"""Temperature-indexed plant families.
+
+A family is a tuple of plants at increasing temperatures [°C] plus a rule to build
+the model at any temperature in range:
+
+* **parametric** — from a nominal model and per-kelvin coefficients: static gain,
+  natural frequency and damping of every complex pole pair of A, and a creep
+  (low-frequency lag–lead) factor ``(tau s + 1 + kappa)/(tau s + 1)`` whose
+  strength ``kappa`` grows with temperature (the paper: fast dynamics barely change,
+  creep grows);
+* **explicit** — coefficients given per temperature, interpolated linearly
+  coefficient by coefficient between neighbours (A stays monic).
+"""
+
+from dataclasses import dataclass, field
+from numbers import Real
+
+import numpy as np
+
+from robrst.core import poly
+from robrst.base.errors import SpecError
+from robrst.core.plant import Plant
+from robrst.core.sampled import sampled_plant
+from robrst.core.thermal import ThermalCoefficients, modal_form, thermal_polynomials
+
+__all__ = ["ThermalCoefficients", "PlantFamily", "parametric_family", "explicit_family",
+           "GAIN_SPAN"]
+
+GAIN_SPAN = (1e-6, 1e6)   # static-gain factor of a parametric family over its temperatures
+MEMO_MAX = 4096           # models kept by a family's memo; beyond, it starts again (memory)
+
+
+def _thermal_model(nominal, c, T):
+    """The model at ``T`` [°C]: the thermal law of :mod:`robrst.core.thermal` plus creep."""
+    dT = float(T) - c.reference_C
+    if dT == 0.0 and c.creep_at_ref == 0.0:
+        return nominal.with_label(f"T{T:g}C", float(T))
+    if not GAIN_SPAN[0] <= 1.0 + c.gain_per_K * dT <= GAIN_SPAN[1]:
+        raise SpecError(f"family: gain factor 1 + gain_per_K dT = {1.0 + c.gain_per_K * dT:.3g}"
+                        f" at {T} °C; expected within [{GAIN_SPAN[0]:g}, {GAIN_SPAN[1]:g}]")
+    form = modal_form(nominal)
+    if form.pairs and not (1 + c.resonance_per_K * dT > 0 and 1 + c.damping_per_K * dT > 0):
+        raise SpecError(f"family: resonance or damping <= 0 at {T} °C")
+    B, A = (np.asarray(x, float) for x in
+            thermal_polynomials(form, dT, c.gain_per_K, c.resonance_per_K, c.damping_per_K))
+    kappa = c.creep_at_ref + c.creep_per_K * max(dT, 0.0)
+    if kappa < 0:
+        raise SpecError(f"family: creep strength {kappa:.3g} < 0 at {T} °C")
+    if kappa > 0:
+        tau = c.creep_tau_s
+        B = poly.pmul(B, [tau, 1.0 + kappa])
+        A = poly.pmul(A, [tau, 1.0])
+    return Plant(B, A, label=f"T{T:g}C", temperature_C=float(T))
+
+
+@dataclass(frozen=True, eq=False)
+class PlantFamily:
+    """Plants indexed by temperature; ``models[i].temperature_C`` increasing.
+
+    ``reference`` is the index of the nominal model (where the Diophantine
+    equation is imposed).  Use :meth:`at` for any temperature in range (computed once
+    per temperature: a design certifies the same temperatures several times) and
+    :meth:`sampled` for a model's sampled-loop plant (once per model).
+    """
+
+    models: tuple
+    reference: int = 0
+    thermal: ThermalCoefficients = None
+    nominal: Plant = None
+    memo: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+
+    def __getstate__(self):          # a pickled family (a sweep's context) leaves its memo
+        return {k: v for k, v in self.__dict__.items() if k != "memo"}
+
+    def __setstate__(self, state):
+        self.__dict__.update(state, memo={})
+
+    def __post_init__(self):
+        temps = [m.temperature_C for m in self.models]
+        if not self.models or any(t is None for t in temps):
+            raise SpecError("family: every model needs a temperature_C")
+        if np.any(np.diff(temps) <= 0):
+            raise SpecError(f"family: temperatures must increase strictly, got {temps}")
+
+    @property
+    def temperatures(self):
+        return np.array([m.temperature_C for m in self.models])
+
+    @property
+    def reference_model(self):
+        return self.models[self.reference]
+
+    @property
+    def range_C(self):
+        return float(self.temperatures[0]), float(self.temperatures[-1])
+
+    def at(self, T):
+        """The model at temperature ``T`` [°C] (within the family's range)."""
+        if not isinstance(T, Real):
+            return self._at(T)
+        key = ("at", T)
+        if key not in self.memo:
+            self._room()
+            self.memo[key] = self._at(T)
+        return self.memo[key]
+
+    def sampled(self, plant, sample_rate_hz, delay_samples=0):
+        """:func:`robrst.core.sampled.sampled_plant` of ``plant`` (a model of this family: a member
+        or one from :meth:`at`), computed once per plant object."""
+        key = ("sampled", id(plant), sample_rate_hz, delay_samples)
+        try:
+            hit = self.memo.get(key)
+        except TypeError:          # unhashable arguments: sampled_plant judges them
+            return sampled_plant(plant, sample_rate_hz, delay_samples)
+        if hit is None or hit[0] is not plant:
+            self._room()
+            hit = self.memo[key] = (plant, sampled_plant(plant, sample_rate_hz, delay_samples))
+        return hit[1]
+
+    def _room(self):
+        """Make room for one more memo entry (empty the memo when it is full)."""
+        if len(self.memo) >= MEMO_MAX:
+            self.memo.clear()
+
+    def _at(self, T):
+        lo, hi = self.range_C
+        if not lo - 1e-9 <= T <= hi + 1e-9:
+            raise SpecError(f"family: temperature {T} °C outside the range [{lo}, {hi}] °C")
+        if self.thermal is not None:
+            return _thermal_model(self.nominal, self.thermal, T)
+        temps = self.temperatures
+        i = int(np.clip(np.searchsorted(temps, T) - 1, 0, len(temps) - 2)) if len(temps) > 1 else 0
+        if len(temps) == 1 or T == temps[i]:
+            return self.models[i].with_label(f"T{T:g}C", float(T))
+        a, b = self.models[i], self.models[i + 1]
+        if a.n != b.n or a.m != b.m:
+            raise SpecError(
+                f"family: cannot interpolate between {a.temperature_C} and {b.temperature_C} °C:"
+                " models of different degrees"
+            )
+        lam = (T - temps[i]) / (temps[i + 1] - temps[i])
+        return Plant((1 - lam) * a.B + lam * b.B, (1 - lam) * a.A + lam * b.A,
+                     label=f"T{T:g}C", temperature_C=float(T))
+
+    def sweep(self, n):
+        """``n`` models evenly spaced in temperature over the whole range."""
+        return [self.at(T) for T in np.linspace(*self.range_C, n)]
+
+
+def parametric_family(nominal, temperatures, coeffs):
+    """Family generated from ``nominal`` (valid at ``coeffs.reference_C``)."""
+    temps = sorted(float(t) for t in temperatures)
+    models = tuple(_thermal_model(nominal, coeffs, T) for T in temps)
+    ref = int(np.argmin(np.abs(np.array(temps) - coeffs.reference_C)))
+    return PlantFamily(models=models, reference=ref, thermal=coeffs, nominal=nominal)
+
+
+def explicit_family(models, reference_C):
+    """Family from explicit models; the reference is the one closest to ``reference_C``."""
+    models = tuple(sorted(models, key=lambda m: m.temperature_C))
+    temps = np.array([m.temperature_C for m in models])
+    return PlantFamily(models=models, reference=int(np.argmin(np.abs(temps - reference_C))))

@@ -1,0 +1,318 @@
+"""State-space kernels of robrst: the one realisation and the one ZOH discretisation.
+
+The modal (partial-fraction) form of the identified models has its own exact ZOH,
+:func:`zoh_modal` (mode by mode, no realisation needed).
+
+Every part of robrst that needs a state-space form of ``N(s)/D(s)`` (exact peaks, the
+sampled loop, the twin, the diagnosis's linear simulation) takes it from here, in the
+scaled variable ``p = s / w0`` (:class:`robrst.core.poly.Scaling`) where the coefficients are
+O(1).  The zero-order-hold discretisation is exact (a matrix exponential), never an
+expansion of a polynomial in ``z``, whose roots cluster at ``z = 1`` and are lost to
+cancellation at high sampling rates.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from robrst.core import poly
+
+__all__ = ["companion_parts", "companion", "companion_monic", "companion_outputs",
+           "companion_outputs_many", "DiscreteSS",
+           "zoh", "zoh_matrices", "zoh_modal", "d2c_modal", "transmission_zeros", "ss_to_poly",
+           "d2c"]
+
+
+def companion_parts(a, b):
+    """The controllable canonical form of ``b/a`` as plain sequences.
+
+    For monic ``a`` (length ``n + 1``) and ``len(b) <= n + 1`` (highest power first),
+    ``b/a = C (pI - A)^-1 B + d`` with ``A``'s first row ``-a[1:]``, ones on the
+    subdiagonal, ``B = e1``.  Only ``+``, ``-`` and ``*`` are used, so the coefficients
+    may be floats or CasADi symbols.
+
+    Returns
+    -------
+    first_row, c_row, d
+        Lists of length ``n``, ``n`` and the feedthrough.
+    """
+    a, b = list(a), list(b)
+    n = len(a) - 1
+    b = [0.0] * (n + 1 - len(b)) + b
+    d = b[0]
+    return [-x for x in a[1:]], [b[k] - d * a[k] for k in range(1, n + 1)], d
+
+
+def companion(N, D, scaling=None, balance=True):
+    """Balanced controllable-form realisation of ``N/D`` in the scaled variable.
+
+    Parameters
+    ----------
+    N, D : array_like
+        Numerator and denominator in s, ``deg N <= deg D``.
+    scaling : Scaling, optional
+        Default: :meth:`robrst.core.poly.Scaling.natural` of ``D``.
+    balance : bool
+        Diagonal similarity (LAPACK ``gebal``) to equalise row and column norms.
+
+    Returns
+    -------
+    A, B, C, d
+        With ``N(w0 p)/D(w0 p) = C (pI - A)^-1 B + d``.
+    """
+    N, D = poly.trim(N), poly.trim(D)
+    sc = scaling or poly.Scaling.natural(D)
+    Ns, Ds = sc.apply(N), sc.apply(D)
+    return companion_monic(Ns / Ds[0], Ds / Ds[0], balance)
+
+
+def companion_monic(ns, ds, balance=True):
+    """:func:`companion` of ``ns/ds`` given in the scaled variable with ``ds`` monic.
+
+    Returns
+    -------
+    A, B, C, d
+    """
+    n = len(ds) - 1
+    if len(ns) > n + 1:
+        raise ValueError("improper transfer function: deg N > deg D")
+    row, c, d = companion_parts(ds, ns)
+    A = np.zeros((n, n))
+    if n:
+        A[0, :] = row
+        A[1:, :-1] = np.eye(n - 1)
+    B = np.zeros((n, 1))
+    if n:
+        B[0, 0] = 1.0
+    C = np.asarray(c, float).reshape(1, n)
+    if n and balance:
+        A, B, C = _balanced(A, B, C)
+    return A, B, C, float(d)
+
+
+def _balanced(A, B, C):
+    """``A, B, C`` under the diagonal similarity (LAPACK ``gebal``, no permutation) that
+    balances ``A``; stacks ``(..., n, n)``, ``(..., n, 1)``, ``(..., r, n)`` slice by slice."""
+    from scipy.linalg.lapack import dgebal   # scipy.linalg only where used: 0.3 s to import
+
+    sc = np.empty(A.shape[:-1])
+    for i in np.ndindex(A.shape[:-2]):
+        sc[i] = dgebal(A[i], scale=1, permute=0)[3]
+    return (A * (1 / sc)[..., :, None] * sc[..., None, :], B / sc[..., :, None],
+            C * sc[..., None, :])
+
+
+def companion_outputs(Ns, D, scaling):
+    """:func:`companion` of several numerators over one ``D``: one ``A, B``, one balancing,
+    a row of ``C`` and an entry of ``d`` per numerator (the same matrices as one call each).
+
+    Returns
+    -------
+    A, B, C, d
+        ``C`` of shape ``(len(Ns), n)``, ``d`` of length ``len(Ns)``.
+    """
+    return tuple(x[0] for x in companion_outputs_many([Ns], [D], [scaling]))
+
+
+def companion_outputs_many(Ns, Ds, scalings):
+    """:func:`companion_outputs` of several loops of one degree, stacked.
+
+    Parameters
+    ----------
+    Ns : sequence of sequences of array_like
+        Per loop, its numerators in s (the same number for every loop).
+    Ds : sequence of array_like
+        Per loop, its denominator in s; all of one degree ``n`` once trimmed.
+    scalings : sequence of Scaling
+        Per loop, its scaling.
+
+    Returns
+    -------
+    A, B, C, d
+        Shapes ``(K, n, n)``, ``(K, n, 1)``, ``(K, r, n)``, ``(K, r)`` for ``K`` loops of
+        ``r`` numerators; slice ``k`` is :func:`companion_outputs` of loop ``k``.
+    """
+    den = np.stack([sc.apply(poly.trim(D)) for D, sc in zip(Ds, scalings)])
+    K, n = den.shape[0], den.shape[1] - 1
+    r = len(Ns[0])
+    num = np.zeros((K, r, n + 1))
+    for k, (loop, sc) in enumerate(zip(Ns, scalings)):
+        for i, N in enumerate(loop):
+            b = sc.apply(poly.trim(N)) / den[k, 0]
+            if len(b) > n + 1:
+                raise ValueError("improper transfer function: deg N > deg D")
+            num[k, i, n + 1 - len(b):] = b
+    a = den / den[:, :1]                        # monic (what companion_parts reads)
+    A = np.zeros((K, n, n))
+    A[:, 0, :] = -a[:, 1:]
+    A[:, 1:, :-1] = np.eye(n - 1) if n else 0.0
+    B = np.zeros((K, n, 1))
+    B[:, :1, 0] = 1.0
+    d = num[:, :, 0].copy()
+    C = num[:, :, 1:] - d[:, :, None] * a[:, None, 1:]
+    if n:
+        A, B, C = _balanced(A, B, C)
+    return A, B, C, d
+
+
+@dataclass(frozen=True, eq=False)
+class DiscreteSS:
+    """Exact ZOH discretisation ``x+ = Ad x + Bd u``, ``y = C x + d u`` (scaled states).
+
+    ``A`` is the continuous scaled matrix, ``h = w0 / fs`` the scaled sampling period,
+    ``Gamma = int_0^h exp(A t) dt`` (so ``Ad - I = A Gamma`` without cancellation).
+    """
+
+    Ad: np.ndarray
+    Bd: np.ndarray
+    C: np.ndarray
+    d: float
+    A: np.ndarray
+    Gamma: np.ndarray
+    h: float
+    scaling: object
+
+    @property
+    def poles(self):
+        """Discrete poles (eigenvalues of ``Ad``)."""
+        return np.linalg.eigvals(self.Ad)
+
+
+def zoh(N, D, sample_rate_hz, scaling=None):
+    """Exact zero-order-hold discretisation of ``N(s)/D(s)`` at ``sample_rate_hz``.
+
+    One matrix exponential of the augmented matrix ``[[A h, I h, B h], [0, 0, 0]]`` in
+    scaled time gives ``Ad``, ``Gamma`` and ``Bd`` at once.
+
+    Returns
+    -------
+    DiscreteSS
+    """
+    sc = scaling or poly.Scaling.natural(D)
+    A, B, C, d = companion(N, D, sc)
+    h = sc.w0 / float(sample_rate_hz)
+    Ad, Gamma, Bd = zoh_matrices(A, B, h)
+    return DiscreteSS(Ad=Ad, Bd=Bd, C=C, d=d, A=A, Gamma=Gamma, h=h, scaling=sc)
+
+
+def zoh_matrices(A, B, h, gamma=True):
+    """``(Ad, Gamma, Bd)`` of ``x' = A x + B u`` held over a step ``h`` (same time unit):
+    ``Ad = exp(A h)``, ``Gamma = int_0^h exp(A t) dt``, ``Bd = Gamma B``, from one matrix
+    exponential of ``[[A h, I h, B h], [0, 0, 0]]``; with ``gamma=False`` ``Gamma`` is
+    ``None`` and the exponential is the smaller ``[[A h, B h], [0, 0]]``.
+
+    Stacks too: ``A`` of shape ``(..., n, n)``, ``B`` ``(..., n, 1)`` and ``h`` a scalar or
+    of shape ``(...)`` give stacked results, slice by slice the same as one call each."""
+    from scipy.linalg import expm   # scipy.linalg only where used: 0.3 s to import
+
+    n = A.shape[-1]
+    k = 2 * n + 1 if gamma else n + 1
+    h = np.asarray(h, float)[..., None, None]
+    M = np.zeros(A.shape[:-2] + (k, k))
+    M[..., :n, :n] = A * h
+    if gamma:
+        M[..., :n, n:2 * n] = np.eye(n) * h
+    M[..., :n, k - 1:] = B * h
+    E = expm(M)
+    return E[..., :n, :n], (E[..., :n, n:2 * n] if gamma else None), E[..., :n, k - 1:]
+
+
+def zoh_modal(poles, residues, sample_rate_hz):
+    """Exact zero-order-hold discretisation of a modal (partial-fraction) model at ``sample_rate_hz``.
+
+    A mode ``R / (s - p)`` becomes ``R (e^{pT} - 1) / p / (z - e^{pT})`` (``R T`` at
+    ``p = 0``).  Returns ``(z_poles, discrete residues)``; the feedthrough is unchanged.
+    """
+    T = 1.0 / float(sample_rate_hz)
+    p = np.asarray(poles, complex)
+    pt = p * T
+    small = np.abs(pt) < 1e-8
+    factor = np.where(small, T * (1 + pt / 2), np.expm1(pt) / np.where(small, 1.0, p))
+    return np.exp(pt), np.asarray(residues, complex) * factor[:, None, None]
+
+
+def d2c_modal(zpoles, residues, sample_rate_hz):
+    """Exact inverse of :func:`zoh_modal`: continuous poles and residues of a sampled modal model.
+
+    ``z = e^{pT}`` gives ``p = log(z) / T`` (real for a real positive ``z``) and the
+    residue ``R = Rd p / (z - 1)`` (``Rd / T`` at ``z = 1``).  The caller refuses poles on
+    the negative real axis (no real continuous counterpart).  Returns ``(poles, residues)``.
+    """
+    fs = float(sample_rate_hz)
+    z = np.asarray(zpoles, complex)
+    s = fs * np.log(z)
+    s = np.where(np.abs(z.imag) == 0, s.real + 0j, s)
+    at_one = np.abs(z - 1) < 1e-12
+    factor = np.where(at_one, fs, s / np.where(at_one, 1.0, z - 1))
+    return s, np.asarray(residues, complex) * factor[:, None, None]
+
+
+def transmission_zeros(A, B, C, d):
+    """Finite transmission zeros of a SISO state space (generalised eigenvalues)."""
+    n = A.shape[0]
+    M = np.block([[A, B], [C, np.array([[d]])]])
+    E = np.zeros_like(M)
+    E[:n, :n] = np.eye(n)
+    from scipy.linalg import eigvals
+
+    ab = eigvals(M, E, homogeneous_eigvals=True)
+    alpha, beta = ab
+    scale = np.maximum(np.abs(alpha), 1.0)
+    finite = np.abs(beta) > 1e-12 * scale
+    return alpha[finite] / beta[finite]
+
+
+# an irregular point of the scaled plane where the gain is matched
+_GAIN_POINT = 0.4127 + 0.9111j
+
+
+def ss_to_poly(A, B, C, d):
+    """``C (sI - A)^-1 B + d`` as polynomials ``(N, D)`` in s, highest power first.
+
+    Poles are the eigenvalues of ``A``, zeros its transmission zeros, both computed in
+    the scaled time of the natural scale of the poles (so entries spanning decades do not
+    matter); the gain is matched at one point of the scaled plane.  No polynomial is
+    expanded until the end.
+    """
+    A, B = np.atleast_2d(np.asarray(A, float)), np.asarray(B, float).reshape(-1, 1)
+    C, d = np.asarray(C, float).reshape(1, -1), float(np.asarray(d, float).ravel()[0])
+    n = A.shape[0]
+    if n == 0:
+        return np.array([d]), np.ones(1)
+    lam = np.linalg.eigvals(A)
+    nz = np.abs(lam[lam != 0])
+    w0 = float(np.exp(np.mean(np.log(nz)))) if nz.size else 1.0
+    As, Bs = A / w0, B / w0                     # C (pI - As)^-1 Bs + d with s = w0 p
+    poles = lam / w0
+    zeros = transmission_zeros(As, Bs, C, d)
+    p0 = _GAIN_POINT
+    val = (C @ np.linalg.solve(p0 * np.eye(n) - As, Bs)).item() + d
+    gain = (val * np.prod(p0 - poles) / np.prod(p0 - zeros)).real
+    N = gain * w0 ** (len(poles) - len(zeros)) * (poly.from_roots(w0 * zeros) if zeros.size
+                                                   else np.ones(1))
+    return poly.trim(N), poly.from_roots(w0 * poles)
+
+
+def d2c(Ad, Bd, dt):
+    """Continuous ``(A, B)`` whose zero-order hold at period ``dt`` is ``(Ad, Bd)``.
+
+    The inverse of :func:`zoh`: the principal matrix logarithm of ``[[Ad, Bd], [0, 1]]``.
+    Defined when no eigenvalue of ``Ad`` is zero or real negative (those have no real
+    continuous pre-image); otherwise ``ValueError`` naming the eigenvalue.
+    """
+    Ad, Bd = np.atleast_2d(np.asarray(Ad, float)), np.asarray(Bd, float).reshape(-1, 1)
+    n = Ad.shape[0]
+    for z in np.linalg.eigvals(Ad):
+        if abs(z) < 1e-12 or (abs(z.imag) <= 1e-12 * abs(z) and z.real < 0):
+            raise ValueError(f"discrete pole z = {complex(z):.6g} has no continuous"
+                             " zero-order-hold pre-image (zero or negative real)")
+    M = np.zeros((n + 1, n + 1))
+    M[:n, :n], M[:n, n:] = Ad, Bd
+    M[n, n] = 1.0
+    from scipy.linalg import logm
+
+    L = logm(M)
+    if np.max(np.abs(L.imag)) > 1e-9 * max(1.0, np.max(np.abs(L.real))):
+        raise ValueError("the discrete model has no real continuous zero-order-hold pre-image")
+    L = L.real / float(dt)
+    return L[:n, :n], L[:n, n:]

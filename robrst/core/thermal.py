@@ -1,0 +1,106 @@
+"""The one thermal law of the actuator's linear dynamics.
+
+The paper reports that temperature barely changes the fast dynamics; robrst models the
+change with three relative coefficients per kelvin around a reference temperature: the
+static gain, the natural frequency and the damping of every complex pole pair of the
+nominal model (real poles stay).  :func:`thermal_polynomials` states that law once,
+with plain arithmetic, so the numeric plant family (:mod:`robrst.core.family`) and the
+symbolic CasADi twin (:mod:`robrst.twin.model`) are generated from the same definition.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from robrst.core import poly
+
+__all__ = ["ThermalCoefficients", "ModalForm", "modal_form", "thermal_polynomials",
+           "ZETA_NOT_RESONANT"]
+
+
+@dataclass(frozen=True)
+class ThermalCoefficients:
+    """Relative change per kelvin of each part of the model, around ``reference_C``.
+
+    ``creep_per_K`` is the creep strength ``kappa`` (fractional extra static
+    displacement reached with time constant ``creep_tau_s``) gained per kelvin above
+    the reference; ``creep_at_ref`` its value at the reference.
+    """
+
+    reference_C: float
+    gain_per_K: float = 0.0
+    resonance_per_K: float = 0.0
+    damping_per_K: float = 0.0
+    creep_per_K: float = 0.0
+    creep_at_ref: float = 0.0
+    creep_tau_s: float = 1.0
+
+
+#: a complex pair damped at least this much is no resonance (e.g. a repeated real pole,
+#: which ``np.roots`` returns as a pair split by rounding): the thermal law leaves it as it is
+ZETA_NOT_RESONANT = 0.999
+
+
+@dataclass(frozen=True, eq=False)
+class ModalForm:
+    """A nominal plant ``B/A`` with ``A`` split into real poles and complex pairs.
+
+    ``pairs`` holds ``(wn, zeta)`` of every resonant pair: ``s^2 + 2 zeta wn s + wn^2``;
+    ``fixed`` those of pairs damped ``>= ZETA_NOT_RESONANT`` (kept unchanged, like the
+    real poles).
+    """
+
+    B: np.ndarray
+    real_poles: tuple
+    pairs: tuple
+    fixed: tuple = ()
+
+
+def modal_form(plant):
+    """Factor the denominator of ``plant`` into real poles, resonant ``(wn, zeta)`` pairs
+    and (near-)critically damped pairs (see :class:`ModalForm`)."""
+    roots = np.roots(plant.A)
+    real, pairs, fixed, used = [], [], [], set()
+    for i, z in enumerate(roots):
+        if i in used:
+            continue
+        if z.imag == 0:
+            used.add(i)
+            real.append(float(z.real))
+            continue
+        dist = np.abs(roots - np.conj(z))
+        dist[list(used | {i})] = np.inf
+        j = int(np.argmin(dist))
+        used.update((i, j))
+        wn, zeta = float(abs(z)), float(-z.real / abs(z))
+        (fixed if zeta >= ZETA_NOT_RESONANT else pairs).append((wn, zeta))
+    return ModalForm(B=np.asarray(plant.B, float), real_poles=tuple(real), pairs=tuple(pairs),
+                     fixed=tuple(fixed))
+
+
+def thermal_polynomials(form, dT, gain_per_K, resonance_per_K, damping_per_K):
+    """Numerator and monic denominator ``dT`` kelvin away from the reference.
+
+    The numerator scales by ``1 + gain_per_K dT``; every resonant pair's natural frequency
+    by ``1 + resonance_per_K dT`` and its damping by ``1 + damping_per_K dT`` (real poles
+    and pairs damped ``>= ZETA_NOT_RESONANT`` stay).  A pair's static gain ``1/wn^2``
+    moves with its frequency: the static gain changes by ``1 + gain_per_K dT`` times
+    ``(1 + resonance_per_K dT)^-2`` per resonant pair.  The
+    arguments may be floats or CasADi symbols.
+
+    Returns
+    -------
+    B, A : list
+        Coefficients, highest power first.
+    """
+    A = [1.0]
+    for p in form.real_poles:
+        A = poly.conv_generic(A, [1.0, -p])
+    for wn, zeta in form.fixed:
+        A = poly.conv_generic(A, [1.0, 2 * zeta * wn, wn * wn])
+    for wn, zeta in form.pairs:
+        w = wn * (1 + resonance_per_K * dT)
+        z = zeta * (1 + damping_per_K * dT)
+        A = poly.conv_generic(A, [1.0, 2 * z * w, w * w])
+    g = 1 + gain_per_K * dT
+    return [b * g for b in form.B], A

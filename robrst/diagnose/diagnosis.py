@@ -1,0 +1,376 @@
+"""The sim-to-real gap diagnosis: measure, localise, explain, quantify.
+
+Pipeline (:func:`diagnose`)::
+
+    train + test records --check--> base simulation (the model under diagnosis;
+        periodic records in steady state, others from rest)
+      -> gap on test (NRMSE), noise floor (period differences or residual spectrum),
+         gap per record and per excitation level
+      -> where: time windows, frequency band, FRF departure, regime, residual tests
+      -> candidates fitted on train, scored on test: the linear re-fit, each excited
+         effect alone, then forward selection of effects fitted jointly with the
+         linear corrections (:mod:`robrst.diagnose.select`)
+      -> findings (amplitude_dependent, unmodelled_dynamics, output_offset, train_only)
+         and verdict: none | <effect> | output_offset | linear | cannot_tell
+
+Verdict rules (constants in :mod:`robrst.diagnose.select` and below): ``none`` when the
+held-out gap is within ``NONE_RATIO`` of the floor (or below ``RESOLVED_GAP``).  An answer
+(the selected effects, or ``linear`` when no effect adds to the linear re-fit) must remove
+``MIN_SHRINK`` of the excess gap (the same 30 % bar for ``linear`` as for effects) *and*
+bring the gap near the floor: within ``NEAR_RATIO`` x the floor, or ``NEAR_EXCESS`` of the
+excess left.  Otherwise ``cannot_tell``, with the best partial explanation.  A constant
+output offset is a candidate like the effects (:data:`robrst.diagnose.select.OFFSET`):
+when the answer includes it, it is named (``causes``, finding ``output_offset`` with the
+fitted offset); a ``cannot_tell`` whose held-out residual is mostly a constant
+(``OFFSET_SHARE``) names it too instead of searching for missing linear dynamics.  A
+``none`` whose training records show a gap says so.  The JSON contract
+(:meth:`Diagnosis.as_dict`) only ever gains fields.
+"""
+
+import time
+
+import numpy as np
+
+from robrst.data.dataset import check_sensor
+from robrst.diagnose import signals
+from robrst.diagnose.effects import EFFECTS, THERMAL, Chain, summary
+from robrst.diagnose.findings import (amplitude_finding, comparable, floor_of, noise_levels,
+                                      unmodelled_finding)
+from robrst.diagnose.fit import fit_model, prepare
+from robrst.diagnose.linear import LinearPart, as_modal
+from robrst.diagnose.result import Diagnosis, EffectScore
+from robrst.diagnose.select import OFFSET, Setup, candidates, forward, linear_with_offset
+from robrst.diagnose.thermal import max_delay, search_delay, search_saturation
+from robrst.diagnose.verdict import NEAR_RATIO, build, decide, unmodelled
+from robrst.base.errors import DataError
+from robrst.core.plant import paper_plant
+from robrst.base.threads import one_blas_thread
+
+__all__ = ["Diagnosis", "EffectScore", "diagnose", "check_records", "decompose",
+           "offset_finding", "MIN_SAMPLES", "NONE_RATIO"]
+
+MIN_SAMPLES = 500        # per record
+NONE_RATIO = 1.25        # gap <= 1.25 x noise floor: nothing to explain
+RESOLVED_GAP = 1e-6      # ... or NRMSE below 1e-6 (noise-free records, a floor of rounding)
+OFFSET_SHARE = 0.5       # a constant offset this share of the residual: finding output_offset
+TEMP_EXCITED_K = 0.05    # a temperature range below this does not excite thermal effects
+
+
+def check_records(train, test, n_in=None, n_out=None):
+    """Validate record sets; return the common sampling rate [Hz].
+
+    Raises :class:`DataError` naming the file for empty sets, records shorter than
+    ``MIN_SAMPLES``, a constant output while the input varies, sampling rates that differ (relative 1e-6) and channel counts that
+    differ from each other or from the model's.
+    """
+    if not train or not test:
+        raise DataError("diagnosis needs at least one training and one test record")
+    recs = list(train) + list(test)
+    first = recs[0].source or "the first record"
+    k, m = (recs[0].n_in, recs[0].n_out) if n_in is None else (n_in, n_out)
+    for d in recs:
+        name = d.source or "record"
+        if d.n < MIN_SAMPLES:
+            raise DataError(f"{name}: too short ({d.n} samples); a diagnosis"
+                            f" needs at least {MIN_SAMPLES} samples per record")
+        if (d.n_in, d.n_out) != (k, m):
+            raise DataError(f"{name}: {d.n_in} input(s) and {d.n_out} output(s), but the model"
+                            f" has {k} and {m}")
+        check_sensor(d)                  # u varies, a sensor column does not
+    fs0 = recs[0].fs
+    for d in recs[1:]:
+        if abs(d.fs - fs0) > 1e-6 * fs0:
+            raise DataError(f"{d.source or 'record'}: sampled at {d.fs:.6g} Hz but {first} at"
+                            f" {fs0:.6g} Hz; resample to one rate")
+    return fs0
+
+
+def _excited(records):
+    return any(np.ptp(d.U, axis=0).max() > 1e-6 or (d.temp is not None and np.ptp(d.temp) > 1e-6)
+               for d in records)
+
+
+def _name(d, i):
+    return d.source or f"record{i}"
+
+
+def _skipped(train, effects, model):
+    """Effects not tried, with the reason (inputs never excited, SISO-only)."""
+    out = {}
+    temps = [d.temp for d in train if d.temp is not None]
+    # within a record or across records (each at its own constant temperature)
+    t_range = float(np.ptp(np.concatenate(temps))) if temps else 0.0
+    for e in effects:
+        if e in THERMAL and t_range < TEMP_EXCITED_K:
+            out[e] = (f"temperature constant within {t_range:.3g} K on the training records"
+                      if temps else "no temperature measured")
+        elif e == "thermal_dynamics" and (model.n_in, model.n_out) != (1, 1):
+            out[e] = "one input and one output only"
+    return out
+
+
+def _levels_ok(train, test):
+    """The dynamic form of hysteresis needs periodic records at >= 2 training levels."""
+    recs = list(train) + list(test)
+    if not all(d.period and d.periods >= 1 for d in recs):
+        return False
+    lv = sorted(d.level for d in train)
+    return len(lv) >= 2 and lv[-1] > 1.3 * lv[0]
+
+
+def diagnose(train, test, plant=None, reference_C=None, effects=EFFECTS, progress=None,
+             workers=2):
+    """Diagnose the gap between a simulation model and measured records.
+
+    Parameters
+    ----------
+    train, test : list of Dataset
+        Training records (candidates are fitted on them) and held-out test records
+        (every reported gap is measured on them).  Same sampling rate and channels;
+        ``u`` is the commanded input (open or closed loop).  Periodic records are
+        simulated in steady state, the others from rest.
+    plant : Plant or ModalModel, optional
+        The simulation model's linear dynamics (default: the paper's D(s), eq. 4);
+        a :class:`~robrst.identify.modal.ModalModel` may have several inputs/outputs.
+    reference_C : float, optional
+        Temperature [°C] at which the model holds (default its ``temperature_C`` or
+        28 °C); also the temperature of records without one.
+    effects : sequence of str
+        Effects to try (default all of :data:`EFFECTS`).
+    progress : callable, optional
+        Called with one line of text per stage.
+    workers : int
+        Candidate fits run in this many threads.
+
+    Returns
+    -------
+    Diagnosis
+
+    Raises
+    ------
+    DataError
+        Bad record sets (named); unknown effects.
+    """
+    t_start = time.perf_counter()
+    say = progress or (lambda m: None)
+    plant = plant or paper_plant()
+    model = as_modal(plant)
+    fs = check_records(train, test, model.n_in, model.n_out)
+    ref = reference_C if reference_C is not None else (model.temperature_C or 28.0)
+    unknown = [e for e in effects if e not in EFFECTS]
+    if unknown:
+        raise DataError(f"unknown effect(s) {unknown}; expected {list(EFFECTS)}")
+    with one_blas_thread():
+        return _diagnose(list(train), list(test), plant, model, fs, float(ref), tuple(effects),
+                         say, workers, t_start)
+
+
+def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start):
+    lin = LinearPart(model, fs)
+    th0 = np.zeros(lin.size)
+    all_recs = train + test
+    n_tr = len(train)
+    names = [_name(d, i) for i, d in enumerate(all_recs)]
+    preps = [prepare(d, ref, for_fit=False) for d in all_recs]
+    base_res = [p.Y - lin.simulate(th0, p.U, p.periodic) for p in preps]
+    before = signals.nrmse(test, base_res[n_tr:])
+    before_train = signals.nrmse(train, base_res[:n_tr])
+    sig, method = noise_levels(all_recs, base_res, fs)
+    floor = floor_of(test, sig[n_tr:])
+    floor_train = floor_of(train, sig[:n_tr])
+    sigma = float(np.sqrt(np.mean(sig ** 2)))
+    say(f"gap of the simulation model on {len(test)} test record(s): NRMSE {before:.4g}"
+        f" (noise floor {floor:.3g}, from {method.replace('_', ' ')})")
+    windows, frac = signals.time_windows(all_recs, base_res, sigma, names)
+    band, f, P, level = signals.frequency_band(base_res, fs, sigma)
+    dmodel = model.discretise(fs)
+    where = {"time_windows": windows, "time_windows_energy_fraction": frac,
+             "frequency_band_hz": band, "frf": signals.frf_departure(all_recs, dmodel, fs),
+             "regime": signals.regime(all_recs, base_res, ref)}
+    tests = {"whiteness": signals.whiteness(base_res),
+             "cross_correlation": signals.cross_correlation(all_recs, base_res)}
+    per_record = [{"file": n, "split": "train" if i < n_tr else "test",
+                   "level_V": d.level, "periodic": bool(d.period),
+                   "gap": signals.nrmse([d], [r]), "noise_floor": floor_of([d], [s])}
+                  for i, (n, d, r, s) in enumerate(zip(names, all_recs, base_res, sig))]
+    info = {"fs": fs, "ref": ref, "names": names, "n_train": n_tr, "before": before,
+            "before_train": before_train, "floor": floor, "floor_train": floor_train, "sigma": sigma, "method": method,
+            "per_record": per_record, "model": model, "plant": plant, "t_start": t_start}
+    traces = {"names": names, "records": all_recs, "base_residuals": base_res,
+              "psd_f": f, "psd": P, "noise_psd": level}
+    skipped = _skipped(train, effects, model)
+    tried = tuple(e for e in effects if e not in skipped)
+    if not _excited(train) or not _excited(test):
+        which = "training" if not _excited(train) else "test"
+        return build(info, where, tests, traces, "cannot_tell",
+                     f"the {which} records have no excitation (u and temp constant):"
+                     " nothing distinguishes one effect from another", skipped=skipped)
+    if before <= NONE_RATIO * floor or before <= RESOLVED_GAP:
+        amp, info["per_level"] = amplitude_finding(all_recs, base_res, None, sig, n_tr)
+        why = (f"within {NONE_RATIO}x the noise floor {floor:.3g}" if before <= NONE_RATIO * floor
+               else f"below {RESOLVED_GAP:g}: the model reproduces the records to six digits"
+                    f" (noise floor {floor:.3g}, the records' own rounding)")
+        why = f"held-out gap {before:.3g} is {why}"
+        if before_train > NEAR_RATIO * max(floor_train, RESOLVED_GAP):
+            why += (f"; but the training records show a gap ({before_train:.3g},"
+                    f" {before_train / floor_train:.3g}x their noise floor) the test records do"
+                    " not: the test records do not excite what causes it (add test records"
+                    " like the training ones to diagnose it)")
+        return build(info, where, tests, traces, "none", why, skipped=skipped, findings=[amp])
+    train_p = [prepare(d, ref) for d in train]
+    setup = Setup(fs=fs, ref=ref, train=train_p, train_full=preps[:n_tr], test=preps[n_tr:],
+                  test_records=test, train_records=train, lin=lin,
+                  lin_modal=LinearPart(model, fs, modal_gains=True), stats=summary(train),
+                  noise_sigma=sigma, plant=plant if (model.n_in, model.n_out) == (1, 1) else None,
+                  effects=tried, dynamic=_levels_ok(train, test) and "hysteresis" in tried,
+                  delays=(search_delay(train_p, lin, max_delay(fs)) if "delay" in tried
+                          else (0,) * model.n_in),
+                  saturation=search_saturation(train_p, lin, None) if "saturation" in tried
+                  else [], floor=floor, gap_before=before,
+                  gap_before_train=before_train, workers=workers)
+    linear, singles = candidates(setup, say)
+    amp, info["per_level"] = amplitude_finding(all_recs, base_res, _low_level_refit(
+        setup, train, train_p, preps), sig, n_tr)
+    steps, tie = forward(setup, linear, singles, say)
+    cause, reason, causes, best, gap = decide(info, linear, steps, tie)
+    findings = [amp]
+    off = None
+    if OFFSET in causes:            # selected on the same footing as the effects
+        off = offset_finding(base_res[n_tr:], fitted=steps[-1][2].fit)
+    elif cause == "cannot_tell":
+        # nothing explains the gap and it is mostly a constant: say so (a sensor offset), and
+        # do not search for missing dynamics (a higher order imitates a constant badly)
+        off = offset_finding(base_res[n_tr:])
+    if off:
+        findings.append(off)
+        reason += f"; {off['message']}"
+    if not off and (cause == "cannot_tell" or (gap is not None and gap > NEAR_RATIO * floor)):
+        # what is left may be linear dynamics the model lacks (an effect's answer must
+        # leave more than a higher-order linear model does for that to be said)
+        hi = unmodelled(setup, linear, info)
+        if hi and steps and hi[1] >= gap:
+            hi = None
+        un = unmodelled_finding(hi[0], hi[2], fs, hi[1], linear.gap, before, floor,
+                                [d.U for d in train]) if hi else None
+        if un:
+            findings.append(un)
+            reason += f"; {un['message']}"
+    say(f"cause: {cause} ({reason})")
+    if OFFSET in causes:
+        shares = decompose(base_res[n_tr:], before, floor, linear.residuals,
+                           steps[-1][2].fit.output_offset(), linear_with_offset(setup).residuals)
+    else:
+        shares = decompose(base_res[n_tr:], before, floor, linear.residuals)
+    return build(info, where, tests, traces, cause, reason, skipped=skipped, findings=findings,
+                 linear=linear, singles=singles, steps=steps, causes=causes, best_partial=best,
+                 decomposition=shares)
+
+
+def _low_level_refit(setup, train, train_p, preps):
+    """Residuals (all records) of a linear re-fit on the lowest training level, or None."""
+    recs = list(setup.train_records) + list(setup.test_records)
+    low_rec = min(recs, key=lambda d: d.level)
+    if not any(d.level > 1.3 * low_rec.level and comparable(d, low_rec) for d in recs):
+        return None
+    lowest = min(d.level for d in train)
+    low = [p for p, d in zip(train_p, train) if d.level <= lowest * 1.1]
+    ch = Chain((), setup.lin.model.n_in, setup.fs, setup.ref, setup.stats)
+    fit = fit_model("linear@low", (), low, setup.lin, ch, setup.noise_sigma, joint=True,
+                    max_nfev=30, ftol=1e-8)
+    return [p.Y - fit.predict_prepared(p) for p in preps]
+
+
+def decompose(res, before, floor, linear_res, offset=None, offset_linear_res=None):
+    """Shares of the held-out residual's mean square by nested models: a partition.
+
+    Parameters
+    ----------
+    res : list of array
+        Held-out residuals of the model under diagnosis (per test record).
+    before, floor : float
+        Their NRMSE and the noise floor (same units).
+    linear_res : list of array
+        Held-out residuals of the linear re-fit.
+    offset : array, optional
+        The constant output offset per output of the answer, when it includes
+        ``output_offset``.
+    offset_linear_res : list of array, optional
+        With ``offset``: held-out residuals of the linear re-fit with a constant output
+        offset fitted jointly.
+
+    Returns
+    -------
+    dict
+        ``offset``, ``linear_model_error``, ``noise``, ``unexplained_by_linear``: each a
+        share of the residual's sum of squares, removed in this order.  When the answer
+        includes ``output_offset`` the constant comes first (what subtracting the answer's
+        fitted offset removes from ``res``), then the linear re-fit (what the joint re-fit
+        with an offset removes on top); otherwise the linear re-fit first (``1 - (gap_refit /
+        gap)^2``), then what a constant removes from the re-fit's residual — so an offset
+        an effect causes is not counted as one.  Then the noise floor, and what is left.
+        Shares are clamped at 0 (a re-fit worse on the held-out records removes nothing).
+    """
+    total = _ss(res)
+    if total <= 0:
+        return {"offset": 0.0, "noise": 1.0, "linear_model_error": 0.0,
+                "unexplained_by_linear": 0.0}
+    if offset is not None:
+        c = np.ravel(offset)
+        shifted = [np.asarray(r, float).reshape(len(r), -1) - c[None, :] for r in res]
+        off = min(1.0, max(0.0, 1.0 - _ss(shifted) / total))
+        lin = max(0.0, 1.0 - off - _ss(offset_linear_res) / total)
+    else:
+        lin = max(0.0, 1.0 - _ss(linear_res) / total)
+        off = min(1.0 - lin, _constant_ss(linear_res) / total)
+    offset = off
+    noise = min(1.0 - offset - lin, (floor / before) ** 2) if before > 0 else 1.0 - offset - lin
+    return {"offset": offset, "noise": noise, "linear_model_error": lin,
+            "unexplained_by_linear": max(0.0, 1.0 - offset - noise - lin)}
+
+
+def _ss(res):
+    return float(sum(np.sum(np.asarray(r, float) ** 2) for r in res))
+
+
+def _constant_ss(res):
+    """What a constant per output removes from the residuals' sum of squares."""
+    R = np.concatenate([np.asarray(r, float).reshape(len(r), -1) for r in res])
+    return float(R.shape[0] * np.sum(R.mean(axis=0) ** 2))
+
+
+def _offset(res):
+    """The residuals' mean and its share of their mean square."""
+    allr = np.concatenate([np.asarray(r).ravel() for r in res])
+    ms = float(np.mean(allr ** 2))
+    mean = float(np.mean(allr))
+    return mean, (mean ** 2 / ms if ms > 0 else 0.0)
+
+
+def offset_finding(res, fitted=None):
+    """``output_offset`` finding, or None.
+
+    With ``fitted`` (the answer's fit, which includes a constant output offset) the
+    offset is the fitted one and the finding is always made; its ``share`` is what that
+    constant alone is of the held-out residual's mean square.  Without, the finding is
+    made when a constant is most (``OFFSET_SHARE``) of the held-out residual ``res`` (the
+    dynamic effects and a linear re-fit cannot stand for it).
+    """
+    if fitted is not None:
+        vals = list(fitted.params()["output_offset"][0].values())
+        allr = np.concatenate([np.asarray(r).ravel() for r in res])
+        ms = float(np.mean(allr ** 2))
+        mean = vals[0] if len(vals) == 1 else vals
+        share = float(np.mean(np.square(vals)) / ms) if ms > 0 else 0.0
+        txt = ", ".join(f"{v:.4g}" for v in vals)
+        return {"kind": "output_offset", "offset_um": mean, "share": min(share, 1.0),
+                "message": (f"a constant output offset of {txt} µm (fitted with the other"
+                            " corrections): a sensor zero or bias the model lacks, not a"
+                            " dynamic effect")}
+    mean, share = _offset(res)
+    if share < OFFSET_SHARE:
+        return None
+    return {"kind": "output_offset", "offset_um": mean, "share": share,
+            "message": (f"the held-out residual is mostly a constant offset ({mean:.4g} µm,"
+                        f" {100 * share:.1f} % of its mean square): a sensor zero or bias the"
+                        " model lacks, not a dynamic effect; remove it from the records (or"
+                        " add it to the model) and diagnose again")}

@@ -1,0 +1,366 @@
+"""Problem files (TOML) -> a validated :class:`~robrst.problem.records.Problem`.
+
+Every key is declared in :data:`SCHEMA` (validated by the neutral :mod:`robrst.base.schema`);
+unknown or misspelled keys are rejected with the file name, the key path and the
+closest valid key.  The README's "Problem-file reference" is generated from the same
+schema.  Built-in problem files ship with the package (:mod:`robrst.base.resources`).
+"""
+
+import os
+from pathlib import Path
+
+from robrst.base import resources
+from robrst.base.errors import SpecError
+from robrst.core.family import PlantFamily, ThermalCoefficients, explicit_family, parametric_family
+from robrst.core.plant import Plant, named_plant
+from robrst.problem.records import (AUX_MIN_FACTOR, HOMOTOPIES, INITS, METHODS, OBJECTIVES,
+                            PLACEMENTS, T_MODES, ControllerStructure, Problem, SolverOptions, Specs)
+from robrst.base.schema import ArrayOf, Field, key_error, load_toml, markdown_rows, validate
+from robrst.problem.checks import (MAX_RATE, MIN_RATE, MIN_RATE_HZ, check_combinations, check_generated,
+                              check_pairs, check_rates, pole_spec)
+
+__all__ = ["load_problem", "parse_problem", "resolve_problem_path", "SCHEMA", "schema_markdown",
+           "FAMILY_TABLES"]
+
+TEMP = dict(lo=-100.0, hi=500.0)      # plausible temperatures [°C]
+BAND = dict(positive=True, length=2)  # [lo, hi] pairs
+# size limits: beyond them the float64 maths overflows (root products, Sylvester matrices);
+# poles robrst generates from several keys are checked by robrst.problem.checks
+RATE = dict(lo=-MAX_RATE, hi=MAX_RATE)
+COEF = dict(lo=-1e100, hi=1e100)      # polynomial coefficients and gains
+FAMILY_TABLES = ("plant", "family")   # the tables the plant family is built from (alone)
+
+SCHEMA = {
+    "problem": {
+        "name": Field("str", None, "problem name (default: file stem)"),
+        "description": Field("str", "", "free text"),
+    },
+    "plant": {
+        "name": Field("str", None, "built-in model: 'paper' = D(s) of eq. (4)"),
+        "B": Field("numbers", None, "numerator coefficients [µm/V], highest power first",
+                   **COEF),
+        "A": Field("numbers", None, "denominator coefficients, highest power first",
+                   **COEF),
+        "zeros": Field("numbers", None, "real zeros [rad/s] (with 'poles', 'gain')", **RATE),
+        "poles": Field("numbers", None, "real poles [rad/s]", **RATE),
+        "gain": Field("number", None, "leading gain k of k*prod(s-z)/prod(s-p)", **COEF),
+        "temperature_C": Field("number", 28.0, "temperature of the nominal model [°C]", **TEMP),
+        "source": Field("str", "", "where the model comes from"),
+    },
+    "family": {
+        "reference_C": Field("number", None, "temperature of the nominal model (default"
+                             " plant.temperature_C; with [[family.models]] and no [plant], the"
+                             " coldest model's)", **TEMP),
+        "temperatures_C": Field("numbers", None, "temperatures of a parametric family [°C]", **TEMP),
+        "source": Field("str", "", "where the coefficients come from"),
+        "parametric": {
+            "gain_per_K": Field("number", 0.0, "relative change per K of B (the static gain also moves as 1/wn^2 of each resonance)"),
+            "resonance_per_K": Field("number", 0.0, "relative natural-frequency change per K of"
+                                     " every resonant pole pair of A (damping < 0.999)"),
+            "damping_per_K": Field("number", 0.0, "relative damping change per K of every"
+                                   " resonant pole pair of A; real poles stay"),
+            "creep_per_K": Field("number", 0.0, "creep strength gained per K above reference"),
+            "creep_at_ref": Field("number", 0.0, "creep strength at the reference temperature"),
+            "creep_tau_s": Field("number", 1.0, "creep time constant [s]",
+                                 lo=1 / MAX_RATE, hi=1 / MIN_RATE),
+        },
+        "models": ArrayOf({
+            "temperature_C": Field("number", None, "temperature [°C]", required=True, **TEMP),
+            "B": Field("numbers", None, "numerator coefficients", required=True, **COEF),
+            "A": Field("numbers", None, "denominator coefficients", required=True, **COEF),
+        }),
+    },
+    "controller": {
+        "S_fixed": Field("numbers", (1.0, 0.0), "fixed factor of S (must contain s)"),
+        "R_fixed": Field("numbers", (1.0,), "fixed factor of R (e.g. a roll-off)"),
+        "extra_degree": Field("int", 0, "degrees of S above the paper's minimum", lo=0, hi=20),
+        "T_mode": Field("str", "paper", "paper | static | cancel_aux | reference_model",
+                        choices=T_MODES),
+        "T_zeros": Field("numbers", (), "zeros of T = Bm_aux [rad/s] (T_mode = paper)", **RATE),
+        "relative_degree": Field("int", 0, "deg R <= deg S - this (1: strictly proper controller)",
+                                 lo=0, hi=10),
+        "roll_off_order": Field("int", 0, "poles of a fixed roll-off factor (s/wc + 1)^order in S"
+                                " (adds to the relative degree)", lo=0, hi=10),
+        "roll_off_hz": Field("number", None, "corner wc/2pi of the roll-off factor [Hz]",
+                             lo=MIN_RATE_HZ, hi=1.5e8),
+        "reference_wn": Field("number", None, "reference model bandwidth [rad/s]"
+                              " (T_mode = reference_model)", lo=MIN_RATE, hi=MAX_RATE),
+        "reference_zeta": Field("number", 1.0, "reference model damping (its poles within"
+                                " [1e-6, 1e9] rad/s)", positive=True),
+        "T_cancel_damping": Field("number", 0.5, "T cancels nominal closed-loop factors at least"
+                                  " this damped (T_mode = reference_model)", lo=0.0, hi=1.0),
+    },
+    "poles": {
+        "wn": Field("number", None, "dominant natural frequency [rad/s]", lo=MIN_RATE,
+                    hi=MAX_RATE),
+        "zeta": Field("number", None, "dominant damping (the pair's poles within [1e-6, 1e9]"
+                      " rad/s)", positive=True),
+        "dominant_real": Field("numbers", (), "extra dominant real poles [rad/s, < 0]", **RATE),
+        "dominant_roots_re": Field("numbers", None, "explicit dominant roots, real parts",
+                                   **RATE),
+        "dominant_roots_im": Field("numbers", None, "explicit dominant roots, imaginary parts"
+                                   " (with dominant_roots_re)", **RATE),
+        "aux_factor": Field("number", 10.0, "auxiliary poles at -aux_factor*|fastest dominant|"
+                            " (within 1e9 rad/s)", lo=AUX_MIN_FACTOR, hi=1e4),
+        "aux_roots": Field("numbers", None, "explicit real auxiliary roots [rad/s]", **RATE),
+    },
+    "specs": {
+        "Ms_max": Field("number", None, "bound on |S| (modulus margin >= 1/Ms_max)", lo=1.0),
+        "Mt_max": Field("number", None, "bound on |T|", positive=True),
+        "Mu_max": Field("number", None, "bound on |U| [V/µm]", positive=True),
+        "Mu_reason": Field("str", "", "why this Mu bound"),
+        "T_resonance_max": Field("number", None, "bound on |T| over the resonance band",
+                                 positive=True),
+        "resonance_band_hz": Field("numbers", None, "[f_lo, f_hi] band for T_resonance_max", **BAND),
+        "stable_controller": Field("bool", False, "require S/s Hurwitz"),
+        "sample_rate_hz": Field("number", None, "also certify (nlp: also design) the sampled loop:"
+                                " ZOH plant, Tustin controller at this rate [Hz]",
+                                lo=MIN_RATE_HZ, hi=1e9),
+        "delay_samples": Field("int", 0, "computation delay of the sampled loop [samples]; plant"
+                               " order + delay <= 30", lo=0, hi=1000),
+        "Mu_hf_max": Field("number", None, "bound on |U| above Mu_hf_above_hz [V/µm]",
+                           positive=True),
+        "Mu_hf_above_hz": Field("number", None, "where the Mu_hf_max bound starts [Hz]",
+                                positive=True),
+        "overshoot_max_pct": Field("number", None, "overshoot of a reference step [%]", lo=0.0),
+        "settling_time_max_s": Field("number", None, "2 % settling time of a reference step [s]",
+                                     positive=True),
+        "step_um": Field("number", 1.0, "reference step for step_u_max_V [µm]", positive=True),
+        "step_u_max_V": Field("number", None, "peak |u| for a reference step of step_um [V]",
+                              positive=True),
+    },
+    "solver": {
+        "method": Field("str", "analytic", "analytic | nlp | convex", choices=METHODS),
+        "objective": Field("str", "max_integral_gain", "max_integral_gain | min_Ms | feasibility",
+                           choices=OBJECTIVES),
+        "free_poles": Field("bool", False, "let wn and zeta vary within the bounds"),
+        "wn_bounds": Field("numbers", None, "[lo, hi] rad/s", **BAND),
+        "zeta_bounds": Field("numbers", None, "[lo, hi]", **BAND),
+        "n_freq": Field("int", 120, "frequency-grid points per model", lo=2, hi=20000),
+        "max_rounds": Field("int", 6, "certification rounds", lo=1, hi=100),
+        "exchange": Field("bool", True, "impose the grid by constraint exchange (active subset,"
+                          " grown until every grid point holds); false: every point in one NLP"),
+        "cert_temperatures": Field("int", 35, "temperatures in the certification sweep",
+                                   lo=1, hi=10000),
+        "cert_tol": Field("number", 1e-3, "relative tolerance on certified peaks",
+                          positive=True, hi=0.1),
+        "init": Field("str", "analytic", "NLP start: analytic (Sylvester) | convex (nominal SOCP;"
+                      " fixed poles only)", choices=INITS),
+        "max_iter": Field("int", 500, "IPOPT iterations", lo=1, hi=100000),
+        "ipopt_tol": Field("number", 1e-9, "IPOPT tolerance", positive=True, hi=1e-2),
+        "compare_with": Field("str", None, "problem file (relative) whose analytic design is"
+                              " compared"),
+        "placement": Field("str", "auto", "nominal closed-loop poles: fixed (as [poles] and"
+                           " free_poles ask) | free (every coefficient free) | auto (fixed, freed"
+                           " when the specs cannot be met)", choices=PLACEMENTS),
+        "homotopy": Field("str", "on_failure", "lower extra_degree solved first: on_failure |"
+                          " always (more degrees never certify a worse objective)",
+                          choices=HOMOTOPIES),
+    },
+}
+
+
+def schema_markdown():
+    """The problem-file reference as Markdown table rows (the README's table)."""
+    return markdown_rows(SCHEMA)
+
+
+def _plant(path, p):
+    if p is None:
+        raise key_error(path, ("plant",), "missing required table [plant]")
+    kinds = [k for k in ("name", "B", "zeros") if p[k] is not None]
+    if p["A"] is not None and p["B"] is None:
+        raise key_error(path, ("plant", "B"), "missing: 'A' is given without 'B'")
+    if len(kinds) != 1:
+        raise key_error(path, ("plant",), "give exactly one of: name | B and A | zeros, poles and gain")
+    T = p["temperature_C"]
+    try:
+        if p["name"] is not None:
+            pl = named_plant(p["name"])
+        elif p["B"] is not None:
+            if p["A"] is None:
+                raise key_error(path, ("plant", "A"), "missing required key (with 'B')")
+            pl = Plant(p["B"], p["A"], label="plant")
+        else:
+            if p["poles"] is None or p["gain"] is None:
+                raise key_error(path, ("plant",), "'zeros' needs 'poles' and 'gain'")
+            pl = Plant.from_zpk(p["zeros"], p["poles"], p["gain"])
+    except SpecError as exc:
+        if str(exc).startswith(str(path)):
+            raise
+        raise key_error(path, ("plant",), str(exc)) from None
+    return check_rates(path, ("plant",),
+                        Plant(pl.B, pl.A, label=f"T{T:g}C", temperature_C=T, meta=pl.meta))
+
+
+def _same_degrees(path, models):
+    """An explicit family interpolates coefficient by coefficient: one degree of A and of B."""
+    order = sorted(range(len(models)), key=lambda i: models[i].temperature_C)
+    for i, j in zip(order[:-1], order[1:]):
+        a, b = models[i], models[j]
+        if (a.n, a.m) != (b.n, b.m):
+            raise key_error(path, ("family", "models", str(j)),
+                            f"degrees (A {b.n}, B {b.m}) differ from those at"
+                            f" {a.temperature_C:g} °C (A {a.n}, B {a.m}): an explicit family"
+                            " interpolates coefficient by coefficient between neighbours, so"
+                            " every model needs the same degrees")
+
+
+def _family(path, f, nominal):
+    """The family; no ``[plant]``: reference at ``reference_C``, default the coldest model."""
+    if f is None:
+        return PlantFamily(models=(nominal,), reference=0)
+    ref = f["reference_C"] if f["reference_C"] is not None else (
+        nominal.temperature_C if nominal else min(m["temperature_C"] for m in f["models"]))
+    if f["models"] is not None:
+        if f["temperatures_C"] is not None or f["parametric"] is not None:
+            raise key_error(path, ("family",), "give either 'models' or 'temperatures_C'+'parametric'")
+        if not f["models"]:
+            raise key_error(path, ("family", "models"), "expected at least one [[family.models]]")
+        models = []
+        for i, m in enumerate(f["models"]):
+            try:
+                models.append(Plant(m["B"], m["A"], label=f"T{m['temperature_C']:g}C",
+                                    temperature_C=m["temperature_C"]))
+            except SpecError as exc:
+                raise key_error(path, ("family", "models", str(i)), str(exc)) from None
+            check_rates(path, ("family", "models", str(i)), models[-1])
+        _same_degrees(path, models)
+        try:
+            return explicit_family(models, ref)
+        except SpecError as exc:
+            raise key_error(path, ("family", "models"), str(exc)) from None
+    if not f["temperatures_C"]:
+        raise key_error(path, ("family", "temperatures_C"), "missing required key" if
+                        f["temperatures_C"] is None else "expected at least one temperature")
+    par = f["parametric"] or validate(path, {}, SCHEMA["family"]["parametric"])
+    coeffs = ThermalCoefficients(reference_C=ref, **par)
+    try:
+        return parametric_family(nominal, f["temperatures_C"], coeffs)
+    except SpecError as exc:
+        raise key_error(path, ("family",), str(exc)) from None
+
+
+def _table(path, v, name):
+    return v[name] or validate(path, {}, SCHEMA[name], (name,))
+
+
+def _check_compare_with(path, solver):
+    """The compared problem file exists and is a valid problem (its own compare_with is
+    checked when it is designed)."""
+    other = solver.compare_with
+    if other is None or str(path).startswith("<"):
+        return
+    target = Path(str(path)).parent / other
+    if not target.is_file():
+        what = "is a folder" if target.is_dir() else "not found"
+        raise key_error(path, ("solver", "compare_with"), f"{target}: {what}; expected a problem"
+                        " file (a path relative to this file)")
+    try:
+        parse_problem(load_toml(target, "problem file"), target, compare=False)
+    except SpecError as exc:
+        raise key_error(path, ("solver", "compare_with"), f"not a valid problem file: {exc}"
+                        ) from None
+
+
+def parse_problem(data, path="<problem>", compare=True):
+    """Validate a parsed TOML document and build the :class:`~robrst.problem.records.Problem`.
+
+    Parameters
+    ----------
+    data : dict
+        The parsed TOML document.
+    path : str or Path
+        Where it came from (named in every error).
+    compare : bool
+        Also validate the ``[solver] compare_with`` problem file.
+
+    Returns
+    -------
+    Problem
+
+    Raises
+    ------
+    SpecError
+        Naming the file and the key path of the first problem found.
+    """
+    v = validate(path, data, SCHEMA)
+    explicit = v["plant"] is None and v["family"] is not None and v["family"]["models"]
+    nominal = None if explicit else _plant(path, v["plant"])
+    family = _family(path, v["family"], nominal)
+    poles = pole_spec(path, v["poles"])
+    ctrl = ControllerStructure(**_table(path, v, "controller"))
+    specs = Specs(**_table(path, v, "specs"))
+    solver = SolverOptions(**_table(path, v, "solver"))
+    for k in ("S_fixed", "R_fixed"):
+        if not getattr(ctrl, k) or getattr(ctrl, k)[0] == 0.0:
+            raise key_error(path, ("controller", k), "expected polynomial coefficients, highest"
+                            f" power first, with a non-zero leading one, got {list(getattr(ctrl, k))}")
+    if len(ctrl.S_fixed) < 2 or ctrl.S_fixed[-1] != 0.0:
+        raise key_error(path, ("controller", "S_fixed"),
+                        "must contain the integrator s (last coefficient 0)")
+    if specs.delay_samples and specs.sample_rate_hz is None:
+        raise key_error(path, ("specs", "delay_samples"), "needs 'sample_rate_hz'")
+    if (specs.T_resonance_max is None) != (specs.resonance_band_hz is None):
+        raise key_error(path, ("specs",), "'T_resonance_max' and 'resonance_band_hz' go together")
+    check_combinations(path, ctrl, specs)
+    check_pairs(path, specs, solver)
+    if solver.init == "convex" and solver.free_poles:
+        raise key_error(path, ("solver", "init"), "'convex' needs a fixed Am (free_poles = false):"
+                        " the SOCP is posed at fixed closed-loop poles")
+    if solver.free_poles and (solver.wn_bounds is None or solver.zeta_bounds is None):
+        raise key_error(path, ("solver", "free_poles"), "needs 'wn_bounds' and 'zeta_bounds'")
+    meta = v["problem"] or {}
+    name = meta.get("name") or Path(str(path)).stem
+    problem = Problem(name=name, family=family, poles=poles, controller=ctrl, specs=specs,
+                      solver=solver, path=str(path), description=meta.get("description", ""),
+                      plant_name=(v["plant"] or {}).get("name"))
+    check_generated(path, problem)
+    if compare:
+        _check_compare_with(path, solver)
+    return problem
+
+
+def resolve_problem_path(name_or_path):
+    """A problem file's path: an existing file, or a built-in problem by name.
+
+    ``"paper_robust"`` and ``"paper_robust.toml"`` name the built-in problem when no
+    such file exists in the current folder.
+
+    Raises
+    ------
+    SpecError
+        Neither a file nor a built-in problem (the message lists the built-ins).
+    """
+    found = resources.find_file(name_or_path, "problem")
+    if found is not None:
+        return found
+    raise SpecError(f"{name_or_path}: problem file not found (built-in problems:"
+                    f" {', '.join(resources.problem_names())})")
+
+
+def load_problem(path: str | os.PathLike) -> Problem:
+    """Read and validate a TOML problem file (or a built-in problem by name).
+
+    Parameters
+    ----------
+    path : str or Path
+        A problem file, or the name of a built-in problem (``"paper_robust"``).
+
+    Returns
+    -------
+    Problem
+
+    Raises
+    ------
+    SpecError
+        Naming the file and the key path of the first problem found.
+
+    Examples
+    --------
+    >>> from robrst import load_problem
+    >>> load_problem("paper").specs.Ms_max
+    2.0
+    """
+    path = resolve_problem_path(path)
+    return parse_problem(load_toml(path, "problem file"), path)

@@ -1,0 +1,169 @@
+"""Running chunks on Dask: a local cluster of processes, or a running scheduler.
+
+:class:`DaskExecutor` registers a worker plugin carrying the sweep's context; each worker
+runs :func:`robrst.studies.sweep.evaluate.build_state` once when the plugin is set up (also on a
+worker that joins or is restarted later), and every task — one chunk of variants — uses that
+state.  A worker that dies takes only its running chunk with it: the scheduler runs the
+chunk again elsewhere (up to ``distributed.scheduler.allowed-failures`` times, then the
+engine splits the chunk into single variants).
+"""
+
+import contextlib
+import logging
+import os
+import signal
+import threading
+import warnings
+
+from distributed import Client, LocalCluster, as_completed, get_worker
+from distributed.diagnostics.plugin import WorkerPlugin
+
+from robrst.base.errors import RobrstError
+from robrst.studies.sweep.evaluate import build_state, evaluate_chunk
+
+__all__ = ["SweepPlugin", "run_task", "DaskExecutor", "default_workers"]
+
+
+def default_workers():
+    """The cores this process may use (the default size of the local cluster)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:   # not on Linux
+        return os.cpu_count() or 1
+
+
+def _main_thread():
+    return threading.current_thread() is threading.main_thread()
+
+
+@contextlib.contextmanager
+def sigint_ignored():
+    """Ignore SIGINT (Ctrl-C) in this block, when this is the main thread.
+
+    Processes started meanwhile (a local cluster's workers) inherit the ignored signal, so
+    Python installs no KeyboardInterrupt handler in them: a Ctrl-C in the terminal reaches
+    only the driver, which closes the cluster; the workers print no traceback.
+    """
+    if not _main_thread():
+        yield
+        return
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
+class SweepPlugin(WorkerPlugin):
+    """Builds a worker's state once from the sweep's context.
+
+    ``local``: the worker belongs to the driver's own local cluster, so it ignores Ctrl-C
+    (the driver stops it; a restarted worker too).  Workers of a running scheduler keep
+    their signal handling.
+    """
+
+    def __init__(self, name, context, local=False):
+        self.name = name
+        self.context = context
+        self.local = local
+        self.state = None
+
+    def setup(self, worker):
+        if self.local and _main_thread():
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+        self.state = build_state(self.context)
+
+
+def run_task(name, indices, values):
+    """The rows of one chunk, on a worker (its state comes from the plugin ``name``)."""
+    plugin = get_worker().plugins[name]
+    if plugin.state is None:     # defensive: a plugin whose setup has not run yet
+        plugin.setup(get_worker())
+    return evaluate_chunk(plugin.state, indices, values)
+
+
+class DaskExecutor:
+    """Chunks as Dask tasks; ``next()`` returns ``(task, rows or exception)`` as they finish.
+
+    Parameters
+    ----------
+    context : SweepContext
+    workers : int, optional
+        Size of the local cluster (processes, one thread each) when no scheduler is given.
+    scheduler : str or distributed.Client, optional
+        Address of a running scheduler (``tcp://host:8786``), or a connected client.
+    """
+
+    def __init__(self, context, workers=None, scheduler=None):
+        self.cluster = None
+        self.own_client = not isinstance(scheduler, Client)
+        try:
+            if isinstance(scheduler, Client):
+                self.client = scheduler
+            elif scheduler is not None:
+                self.client = Client(scheduler, timeout="20s")
+            else:
+                with sigint_ignored(), warnings.catch_warnings():
+                    # the workers start with Ctrl-C ignored; the scheduler's HTTP server moves
+                    # to a free port when 8787 is taken (another cluster): no warning for that
+                    warnings.filterwarnings("ignore", message="Port .* is already in use",
+                                            category=UserWarning)
+                    self.cluster = LocalCluster(n_workers=workers or default_workers(),
+                                                threads_per_worker=1, processes=True,
+                                                dashboard_address=None,
+                                                silence_logs=logging.ERROR)
+                    self.client = Client(self.cluster)
+        except (OSError, TimeoutError) as exc:
+            self.close()
+            raise RobrstError(f"cannot reach the Dask scheduler {scheduler}: {exc}") from None
+        try:
+            self.client.wait_for_workers(1, timeout=60)
+        except (OSError, TimeoutError):
+            self.close()
+            raise RobrstError(f"no Dask worker joined the scheduler {scheduler} within 60 s;"
+                              " start workers with: dask worker ADDRESS --nthreads 1") from None
+        self.name = f"robrst-sweep-{context.fingerprint[:16]}"
+        self.client.register_plugin(SweepPlugin(self.name, context, self.cluster is not None),
+                                    name=self.name)
+        self.futures = {}
+        self.done = as_completed(loop=self.client.loop)   # this client's loop, not the default's
+
+    @property
+    def workers(self):
+        """Threads available on the cluster's workers."""
+        info = self.client.scheduler_info(n_workers=-1)["workers"]
+        return sum(w.get("nthreads", 1) for w in info.values()) or 1
+
+    @property
+    def pending(self):
+        return len(self.futures)
+
+    def submit(self, task):
+        fut = self.client.submit(run_task, self.name, task.indices, task.values, pure=False,
+                                 key=f"robrst-chunk-{task.chunk.index}-{task.start}-"
+                                     f"{os.urandom(4).hex()}")
+        self.futures[fut] = task
+        self.done.add(fut)
+
+    def next(self):
+        fut = next(self.done)
+        task = self.futures.pop(fut)
+        try:
+            return task, fut.result()
+        except Exception as exc:   # noqa: BLE001 — the engine decides (split, or a lost row)
+            return task, exc
+        finally:
+            fut.release()
+
+    def close(self):
+        client = getattr(self, "client", None)
+        if client is not None:
+            try:
+                if getattr(self, "name", None):
+                    client.unregister_worker_plugin(self.name)
+            except Exception:   # noqa: BLE001 — closing: best effort
+                pass
+            if self.own_client:
+                client.close()
+        if self.cluster is not None:
+            self.cluster.close()

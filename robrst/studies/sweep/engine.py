@@ -1,0 +1,300 @@
+"""``run_sweep``: plan the chunks, run them (Dask or in process), write, summarise.
+
+The driver prepares the context (:mod:`robrst.studies.sweep.prepare`), opens the output folder
+(:mod:`robrst.studies.sweep.store`: a folder of the same sweep is resumed), and hands the chunks
+not yet finished to an executor — a Dask cluster (:mod:`robrst.studies.sweep.cluster`; local
+processes by default, or a running scheduler) or, with ``workers=0``, this process.  A
+bounded window of chunks is in flight; each finished chunk is written at once.  A chunk
+that fails as a whole (its worker died repeatedly) is split into single variants, so only
+the variant that kills its worker is lost — as a row with status ``worker_lost``.  On any
+stop (done, error, Ctrl-C) the finished rows are gathered into ``results.parquet`` and
+``summary.json``.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import time
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from robrst.base.errors import SpecError
+from robrst.studies.sweep import store
+from robrst.studies.sweep.prepare import prepare
+from robrst.studies.sweep.evaluate import build_state, evaluate_chunk, failed_row, status_of
+from robrst.studies.sweep.files import Sweep, load_sweep
+from robrst.studies.sweep.summary import summarise
+from robrst.studies.sweep.variants import chunks
+
+__all__ = ["Task", "Progress", "SweepResult", "SequentialExecutor", "execute", "run_sweep",
+           "check_scheduler", "ADDRESS"]
+
+
+@dataclass(frozen=True, eq=False)
+class Task:
+    """Variants ``indices`` (parameter ``values``) of ``chunk``; ``single``: split off it."""
+
+    chunk: object
+    indices: np.ndarray
+    values: np.ndarray
+    single: bool = False
+
+    @property
+    def start(self):
+        return int(self.indices[0])
+
+
+@dataclass(frozen=True)
+class Progress:
+    """Where a sweep stands: variants finished (of ``total``), certified, failed.
+
+    ``recomputed``: the chunks whose part file in the output folder did not hold their own
+    variants (e.g. a part copied over another), computed again by this run.
+    """
+
+    done: int
+    total: int
+    certified: int
+    failed: int
+    elapsed_s: float
+    workers: int
+    recomputed: tuple = ()
+
+
+@dataclass(frozen=True, eq=False)
+class SweepResult:
+    """A sweep's results: the Arrow ``table`` (one row per finished variant), the summary."""
+
+    sweep: Sweep
+    out: Path
+    context: object
+    table: object
+    summary: dict
+
+    @property
+    def complete(self):
+        return self.summary["complete"]
+
+    @property
+    def yield_(self):
+        """Share of the finished variants that are certified."""
+        return self.summary["yield"]
+
+
+class SequentialExecutor:
+    """Chunks run one after the other in this process (``workers=0``)."""
+
+    workers = 1
+
+    def __init__(self, context):
+        self.state = build_state(context)
+        self.queue = deque()
+
+    @property
+    def pending(self):
+        return len(self.queue)
+
+    def submit(self, task):
+        self.queue.append(task)
+
+    def next(self):
+        task = self.queue.popleft()
+        try:
+            return task, evaluate_chunk(self.state, task.indices, task.values)
+        except Exception as exc:   # noqa: BLE001 — the engine splits the chunk
+            return task, exc
+
+    def close(self):
+        pass
+
+
+def _lost(task, exc):
+    from_worker = type(exc).__name__ == "KilledWorker"
+    row = failed_row("worker_lost" if from_worker else status_of(exc), exc)
+    row.update(index=task.start, seconds=None, cpu_s=None)
+    return [row]
+
+
+def execute(tasks, executor, on_rows, window):
+    """Run ``tasks`` (any iterable, consumed as the window frees) on ``executor``, ``window``
+    at a time; ``on_rows(chunk, rows)`` per chunk.
+
+    A task that fails as a whole is split into single variants; a single variant that fails
+    becomes a row with its status (``worker_lost`` when its worker died).
+    """
+    queue, source = deque(), iter(tasks)     # queue: the singles of split chunks, first
+    split = {}
+
+    def refill():
+        while executor.pending < window:
+            task = queue.popleft() if queue else next(source, None)
+            if task is None:
+                return
+            executor.submit(task)
+
+    refill()
+    while executor.pending:
+        task, res = executor.next()
+        if isinstance(res, BaseException):
+            if len(task.indices) > 1:
+                singles = [Task(task.chunk, task.indices[i:i + 1], task.values[i:i + 1], True)
+                           for i in range(len(task.indices))]
+                split[task.chunk.index] = {"rows": [], "left": len(singles)}
+                queue.extendleft(reversed(singles))
+                refill()
+                continue
+            res = _lost(task, res)
+        if task.single:
+            part = split[task.chunk.index]
+            part["rows"] += res
+            part["left"] -= 1
+            if part["left"]:
+                refill()
+                continue
+            res = sorted(split.pop(task.chunk.index)["rows"], key=lambda r: r["index"])
+        on_rows(task.chunk, res)
+        refill()
+
+
+ADDRESS = re.compile(r"((tcp|tls|ws|wss|ucx)://)?(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9._-]+)"
+                     r":(\d{1,5})/?|inproc://\S+")
+
+
+def check_scheduler(address, name="scheduler"):
+    """``address`` if it is a Dask scheduler address (``tcp://host:8786``, ``host:8786``,
+    ``tls://``, ``ws://``, ``wss://``, ``ucx://``, ``inproc://``).
+
+    Raises
+    ------
+    SpecError
+        Naming ``name`` (``--scheduler`` on the command line) and what is expected.
+    """
+    m = ADDRESS.fullmatch(address.strip())
+    if m is None or (m.group(4) is not None and not 0 < int(m.group(4)) < 65536):
+        raise SpecError(f"{name}: expected the address of a running Dask scheduler, e.g."
+                        f" tcp://host:8786 (protocol tcp, tls, ws, wss or ucx; a port in"
+                        f" 1..65535), got {address!r}")
+    return address.strip()
+
+
+def _executor(context, workers, scheduler, pending):
+    if workers == 0:
+        return SequentialExecutor(context)
+    from robrst.studies.sweep.cluster import DaskExecutor, default_workers
+
+    if scheduler is None:
+        workers = min(workers or default_workers(), pending)
+    return DaskExecutor(context, workers=workers, scheduler=scheduler)
+
+
+def run_sweep(sweep: Sweep | str | os.PathLike, out: str | os.PathLike,
+              workers: int | None = None, scheduler: object = None,
+              progress: Callable[[Progress], None] | None = None,
+              restart: bool = False) -> SweepResult:
+    """Run a sweep (or resume it) and write its results to ``out``.
+
+    Parameters
+    ----------
+    sweep : Sweep, str or Path
+        A sweep record, a sweep file, or the name of a built-in sweep.
+    out : str or Path
+        Output folder: new, empty, or an earlier run of the same sweep (resumed).
+    workers : int, optional
+        Processes of the local Dask cluster (default: the cores available, at most one per
+        chunk); ``0`` runs every chunk in this process, without Dask.
+    scheduler : str or distributed.Client, optional
+        A running Dask scheduler (``"tcp://host:8786"``) or client, instead of a local cluster.
+    progress : callable, optional
+        Called with a :class:`Progress` after every finished chunk.
+    restart : bool
+        Discard earlier results in ``out`` (robrst's own files only).
+
+    Returns
+    -------
+    SweepResult
+
+    Raises
+    ------
+    SpecError, OutputError, SolverError
+        A bad sweep file or base problem, an output folder robrst must not write, a base
+        design that failed.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from robrst import run_sweep
+    >>> from robrst.studies.sweep import parse_sweep
+    >>> sweep = parse_sweep({"sweep": {"kind": "analysis", "problem": "paper", "n": 8},
+    ...                      "param": [{"name": "gain", "dist": "normal", "mean": 1.0,
+    ...                                 "std": 0.1}]})
+    >>> result = run_sweep(sweep, tempfile.mkdtemp() + "/mc", workers=0)
+    >>> result.summary["done"], result.complete, result.summary["certified"]
+    (8, True, 8)
+    """
+    t0 = time.perf_counter()
+    if not isinstance(sweep, Sweep):
+        sweep = load_sweep(sweep)
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
+                                or workers < 0):
+        raise SpecError(f"workers: expected an integer >= 0, got {workers!r}")
+    if workers is not None and scheduler is not None:
+        raise SpecError("give either workers (a local cluster) or scheduler, not both")
+    if isinstance(scheduler, (str, os.PathLike)):
+        scheduler = check_scheduler(os.fspath(scheduler))
+    context, table = prepare(sweep)
+    out = Path(out)
+    plan = chunks(table.n, sweep.chunk_size)
+    meta = {"sweep": sweep.name, "kind": sweep.kind, "n": table.n,
+            "chunk_size": sweep.chunk_size, "fingerprint": context.fingerprint}
+    resumed = store.prepare_folder(out, meta, restart)
+    runs = store.previous_runs(out) if resumed else []
+    schema = store.arrow_schema(context)
+    done, foreign = store.checked_chunks(out, plan, schema)
+    prior = store.read_results(out, [c for c in plan if c.index in done], schema)
+    count = {"done": prior.num_rows, "cert": sum(bool(c) for c in prior.column("certified")
+                                                  .to_pylist()),
+             "failed": sum(s != "ok" for s in prior.column("status").to_pylist())}
+    pending = [c for c in plan if c.index not in done]
+    executor, n_workers, t_ready = None, 0, time.perf_counter()
+    before = count["done"]
+
+    def report():
+        if progress is not None:
+            progress(Progress(count["done"], table.n, count["cert"], count["failed"],
+                              time.perf_counter() - t0, n_workers, tuple(sorted(foreign))))
+
+    def on_rows(chunk, rows):
+        store.write_part(out, chunk.index, store.rows_table(rows, chunk.index, context, table))
+        done.add(chunk.index)
+        count["done"] += len(rows)
+        count["cert"] += sum(bool(r.get("certified")) for r in rows)
+        count["failed"] += sum(r["status"] != "ok" for r in rows)
+        report()
+
+    try:
+        if pending:
+            executor = _executor(context, workers, scheduler, len(pending))
+            n_workers, t_ready = executor.workers, time.perf_counter()
+            report()
+            tasks = (Task(c, np.arange(c.start, c.stop), table.values[c.start:c.stop])
+                     for c in pending)      # made as they are submitted
+            execute(tasks, executor, on_rows, window=2 * n_workers + 1)
+    finally:
+        if executor is not None:
+            executor.close()
+        results = store.read_results(out, [c for c in plan if c.index in done], schema)
+        store.write_results(out, results)
+        runs = (runs + [{"workers": n_workers, "wall_s": time.perf_counter() - t0,
+                         "startup_s": t_ready - t0, "computed": count["done"] - before}])[-100:]
+        busy = [r for r in runs if r["computed"]] or runs[-1:]
+        summary = summarise(context, results, table.n, busy[-1]["workers"],
+                            sum(r["wall_s"] for r in busy), complete=len(done) == len(plan))
+        summary.update(startup_s=busy[-1]["startup_s"], resumed_chunks=len(plan) - len(pending),
+                       runs=runs, recomputed_chunks=sorted(foreign))
+        store.write_summary(out, summary)
+    return SweepResult(sweep=sweep, out=out, context=context, table=results, summary=summary)

@@ -1,0 +1,249 @@
+"""What a worker does: build its state once, then evaluate chunks of variants.
+
+:class:`SweepContext` is everything a worker needs (the sweep, the base problem and its
+document, the fixed controller of an analysis, a fleet's documents); it is built once by the
+driver and shipped once to every worker.  :func:`build_state` turns it into the worker's
+:class:`WorkerState` — the one place where per-worker set-up happens (today: the designer,
+``run_problem`` with one dict of built NLP solvers per worker, so every design variant of
+the same structure reuses the program compiled for the first).
+:func:`evaluate_chunk` then returns one row per variant; a variant that fails is a row with
+its status and message, never an exception.
+
+Row figures are worst cases over the variant's family and the certificate's temperature
+sweep (``Ms``, ``Mt``, ``Mu``, ``Mt_band``, ``spectral_abscissa``; ``modulus_margin = 1/Ms``),
+from :func:`robrst.certificate.proof.certify_problem`; gain, phase and delay margins are the smallest
+over the family's models (:func:`robrst.core.analysis.margins`).  ``worst_ratio`` is the largest
+figure/bound over the specs and every violation the certificate found (> 1 + cert_tol:
+violated; ``inf``: unstable).
+"""
+
+import threading
+import time
+import warnings
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from robrst.core.analysis import margins as loop_margins
+from robrst.certificate.proof import certify_problem
+from robrst.base.errors import InfeasibleError, RobrstError, SolverError, SpecError
+from robrst.problem.files import parse_problem
+from robrst.studies.sweep.model import merge_documents, variant_problem
+from robrst.synthesis.parametrize import integral_gain
+from robrst.base.threads import one_blas_thread
+
+__all__ = ["SweepContext", "WorkerState", "build_state", "evaluate_chunk", "evaluate_variant",
+           "problem_of", "fleet_problem", "FIGURE_COLUMNS", "CONTROLLER_COLUMNS", "status_of",
+           "failed_row", "design_cause"]
+
+# column -> arrow type name; the same columns for every kind
+FIGURE_COLUMNS = {
+    "status": "string", "message": "string", "certified": "bool_", "stable": "bool_",
+    "worst_ratio": "float64", "Ms": "float64", "Ms_temperature_C": "float64", "Mt": "float64",
+    "Mu": "float64", "Mt_band": "float64", "modulus_margin": "float64",
+    "gain_margin": "float64", "phase_margin_deg": "float64", "delay_margin_s": "float64",
+    "spectral_abscissa": "float64", "Ms_sampled": "float64", "Mt_sampled": "float64",
+    "Mu_sampled": "float64", "integral_gain": "float64", "violations": "int64",
+    "violation": "string", "seconds": "float64", "cpu_s": "float64",
+}
+CONTROLLER_COLUMNS = ("R", "S", "T")   # design and fleet rows: the variant's controller
+
+
+@dataclass(frozen=True, eq=False)
+class SweepContext:
+    """What every worker needs, built once by the driver (see the module docstring).
+
+    ``fleet`` holds ``(label, document or None, error or None)`` per file.
+    """
+
+    sweep: object
+    names: tuple = ()
+    base: object = None
+    doc: dict = None
+    controller: object = None
+    fleet: tuple = ()
+    fingerprint: str = ""
+
+
+@dataclass(frozen=True, eq=False)
+class WorkerState:
+    """A worker's state, built once by :func:`build_state`."""
+
+    context: SweepContext
+    designer: object = None
+    lock: object = field(default_factory=threading.Lock)
+    templates: dict = field(default_factory=dict)   # built NLP solvers, shared by the variants
+
+
+def build_state(context):
+    """The per-worker state of ``context`` (run once per worker process).
+
+    Returns
+    -------
+    WorkerState
+    """
+    designer = None
+    if context.sweep.kind in ("design", "fleet"):
+        from robrst.design import run_problem
+
+        designer = run_problem
+    base = context.base
+    if base is None or base.needs_scipy:   # the variants will load it: once, here
+        import scipy.linalg  # noqa: F401
+    return WorkerState(context=context, designer=designer)
+
+
+def status_of(exc):
+    """The row status of an exception: infeasible, solver_failed, invalid or error."""
+    if isinstance(exc, InfeasibleError):
+        return "infeasible"
+    if isinstance(exc, SolverError):
+        return "solver_failed"
+    if isinstance(exc, RobrstError):
+        return "invalid"
+    return "error"
+
+
+def _figures(problem, ctrl, cert, member_margins):
+    recs = cert.models
+    worst_ms = max(recs, key=lambda r: r["Ms"]) if recs else {}
+    stable = all(r["stable"] for r in recs) and all(r.get("stable_sampled", True) for r in recs)
+    # every bound the certificate checked (peaks, band peaks, sampled loop, time-domain specs,
+    # |U| above a corner, violated hook bounds): one source, Certificate.ratios()
+    ratios = cert.ratios()
+    worst = max(ratios.values()) if ratios else 0.0
+    viol = max(cert.violations, key=lambda v: v.value / max(abs(v.bound), 1e-300),
+               default=None)
+    gm, pm, dm = member_margins
+    ms = cert.worst("Ms")
+    return {"certified": bool(cert.certified), "stable": bool(stable),
+            "worst_ratio": worst if stable else np.inf, "Ms": ms,
+            "Ms_temperature_C": worst_ms.get("temperature_C"), "Mt": cert.worst("Mt"),
+            "Mu": cert.worst("Mu"), "Mt_band": cert.worst("Mt_resonance_band"),
+            "modulus_margin": None if not ms else 1.0 / ms, "gain_margin": gm,
+            "phase_margin_deg": pm, "delay_margin_s": dm,
+            "spectral_abscissa": cert.worst("spectral_abscissa"),
+            "Ms_sampled": cert.worst("Ms_sampled"), "Mt_sampled": cert.worst("Mt_sampled"),
+            "Mu_sampled": cert.worst("Mu_sampled"), "integral_gain": integral_gain(ctrl),
+            "violations": len(cert.violations),
+            "violation": None if viol is None else viol.describe()}
+
+
+def _inf(x):
+    return np.inf if x is None else float(x)
+
+
+def _smallest(ms):
+    """Smallest gain, phase and delay margins over the models (``inf``: none is finite)."""
+    if not ms:
+        return None, None, None
+    return (min(_inf(m.gain_margin) for m in ms),
+            min((_inf(m.phase_margin_deg) for m in ms), key=abs),   # signed, smallest |.|
+            min(_inf(m.delay_margin_s) for m in ms))
+
+
+def _member_margins(problem, ctrl, cert):
+    """Margins of every family model's loop (``Ms`` from ``cert``'s record of the model)."""
+    ms = {r["temperature_C"]: r["Ms"] for r in cert.models}
+    return [loop_margins(m, ctrl, ms.get(m.temperature_C, cert.worst("Ms")))
+            for m in problem.family.models]
+
+
+def _analysis_row(state, values):
+    ctx = state.context
+    problem = problem_of(ctx, None, values)
+    cert = certify_problem(problem, ctx.controller)
+    mm = _member_margins(problem, ctx.controller, cert) if ctx.sweep.margins else ()
+    return _figures(problem, ctx.controller, cert, _smallest(mm))
+
+
+def _design_row(state, problem):
+    with state.lock:   # a cached solver is not re-entrant: one design at a time per worker
+        # no analyses (exact peaks to 1e-10): the row's figures are the certificate's
+        result = state.designer(problem, templates=state.templates, analyses=False)
+    cert = result.certificate
+    row = _figures(problem, result.controller, cert,
+                   _smallest(_member_margins(problem, result.controller, cert)))
+    row.update({k: getattr(result.controller, k).tolist() for k in CONTROLLER_COLUMNS})
+    if not result.certified:
+        row["message"] = design_cause(result)
+    return row
+
+
+def design_cause(result):
+    """Why a design is not certified: the synthesis's proof of infeasibility if it found
+    one, else what the best controller achieves (its binding constraint)."""
+    syn = result.synthesis
+    notes = getattr(syn, "notes", ())
+    proof = [n for n in notes if "infeasible" in n]
+    if proof:
+        return proof[0]
+    return getattr(syn, "best_achievable", None) or result.best_achievable
+
+
+def problem_of(context, index, values):
+    """The problem of variant ``index`` (``values``: {name: value}; a fleet's file ``index``)."""
+    if context.sweep.kind == "fleet":
+        return fleet_problem(context, index)
+    return variant_problem(context.base, context.doc, context.base.path, values,
+                           context.sweep.ageing)
+
+
+def fleet_problem(ctx, index):
+    """The problem of fleet file ``index`` (its tables over the base problem's, if any)."""
+    label, doc, error = ctx.fleet[index]
+    if error is not None:
+        raise SpecError(error)
+    if ctx.doc is not None:
+        doc = merge_documents(ctx.doc, doc)
+    problem = parse_problem(doc, label)
+    return replace(problem, solver=replace(problem.solver, compare_with=None))
+
+
+def evaluate_variant(state, index, values):
+    """One row: ``values`` ({name: value}) of variant ``index`` evaluated, errors captured."""
+    ctx = state.context
+    t0, c0 = time.perf_counter(), time.process_time()
+    try:
+        kind = ctx.sweep.kind
+        if kind == "analysis":
+            row = _analysis_row(state, values)
+        else:
+            row = _design_row(state, problem_of(ctx, index, values))
+        row.setdefault("message", None)
+        row["status"] = "ok"
+    except Exception as exc:   # noqa: BLE001 — a failing variant is a row, never a lost sweep
+        row = failed_row(status_of(exc), exc)
+    row.update(seconds=time.perf_counter() - t0, cpu_s=time.process_time() - c0)
+    return row
+
+
+def failed_row(status, exc):
+    """The row of a variant that could not be evaluated (``certified`` false)."""
+    msg = str(exc) if isinstance(exc, RobrstError) else f"{type(exc).__name__}: {exc}"
+    return {"status": status, "message": msg, "certified": False, "stable": None,
+            "worst_ratio": np.inf}
+
+
+def evaluate_chunk(state, indices, values):
+    """Rows of the variants ``indices`` (``values``: one row of parameter values each).
+
+    Returns
+    -------
+    list of dict
+        One row per variant, in order, with its ``index``.
+    """
+    names = state.context.names
+    rows = []
+    # one BLAS thread: the matrices are small, extra threads only spin (measured: same
+    # wall time, twice the CPU) and take the core another worker needs.  A variant far
+    # outside the usual (poles at 1e-90 rad/s) overflows or divides by zero on the way to
+    # its row (a failed or uncertified one); numpy's RuntimeWarnings about it are not the
+    # user's business and would leak into the output of `robrst sweep --json`
+    with one_blas_thread(), np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        for i, vals in zip(indices, values):
+            row = evaluate_variant(state, int(i), dict(zip(names, (float(v) for v in vals))))
+            row["index"] = int(i)
+            rows.append(row)
+    return rows

@@ -1,0 +1,369 @@
+"""Sweep files (TOML) -> a validated, frozen :class:`Sweep`.
+
+A sweep file names a base problem file and one kind of sweep:
+
+* ``analysis`` — one fixed controller (the base problem's design, or a result file written
+  by ``robrst design --json``) certified on every plant variant;
+* ``design`` — one design per variant (e.g. a grid of spec bounds: the trade-off front);
+* ``fleet`` — one design per problem or model file in a folder.
+
+Variants are described by ``[[param]]`` tables: a distribution (``normal``, ``uniform``,
+``lognormal``, seeded) or a ``grid``.  A parameter is either a number of the problem file,
+named by its key path (``specs.Mu_max``, ``family.parametric.gain_per_K``), or one of the
+plant factors of :data:`PLANT_PARAMS` (manufacturing spread, ageing, temperature) and the
+coefficient factors ``A1``, ``B0``, ...  Every key is declared in :data:`SWEEP_SCHEMA`
+(validated by :mod:`robrst.base.schema`, like problem files): errors name the file and the key.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+from robrst.base import resources
+from robrst.base.errors import SpecError
+from robrst.base.schema import ArrayOf, Field, key_error, load_toml, markdown_rows, validate
+from robrst.problem.files import SCHEMA as PROBLEM_SCHEMA
+from robrst.studies.sweep.variants import grid_values
+
+__all__ = ["Param", "Ageing", "Sweep", "SWEEP_SCHEMA", "PLANT_PARAMS", "KINDS", "DISTS",
+           "FIGURES", "problem_field", "load_sweep", "parse_sweep", "resolve_sweep_path",
+           "sweep_schema_markdown"]
+
+KINDS = ("analysis", "design", "fleet")
+DISTS = ("normal", "uniform", "lognormal", "grid")
+FIGURES = ("Ms", "Mt", "Mu", "Mt_band", "modulus_margin", "gain_margin", "phase_margin_deg",
+           "delay_margin_s", "integral_gain", "worst_ratio")
+PLANT_PARAMS = {
+    "gain": "static-gain factor of the nominal model (1 = nominal)",
+    "resonance": "natural-frequency factor of every complex pole pair (1 = nominal)",
+    "damping": "damping factor of every complex pole pair (1 = nominal)",
+    "age_years": "age [years]: scales gain, resonance and damping by the [ageing] rates",
+    "temperature_C": "one temperature [°C]: the variant is the single model there",
+}
+COEF = re.compile(r"^([AB])(\d+)$")
+MAX_VARIANTS = 10_000_000
+
+SWEEP_SCHEMA = {
+    "sweep": {
+        "name": Field("str", None, "sweep name (default: file stem)"),
+        "description": Field("str", "", "free text"),
+        "kind": Field("str", None, "analysis | design | fleet", required=True, choices=KINDS),
+        "problem": Field("str", None, "base problem: a built-in name, or a path relative to"
+                         " the sweep file (fleet: optional)"),
+        "seed": Field("int", 0, "seed of the random draws (numpy.random.default_rng)", lo=0),
+        "n": Field("int", None, "random draws, repeated at every grid point (default 1)",
+                   lo=1, hi=MAX_VARIANTS),
+        "chunk_size": Field("int", None, "variants per task (default: analysis 10, design 2,"
+                            " fleet 1)", lo=1, hi=100_000),
+        "worst": Field("int", 10, "worst variants listed in summary.json", lo=0, hi=1000),
+    },
+    "analysis": {
+        "controller": Field("str", "design", "'design' (the base problem's design) or a result"
+                            " JSON file of robrst design --json, relative to the sweep file"),
+        "margins": Field("bool", True, "gain, phase and delay margins at the family's"
+                         " temperatures (about 3 ms each)"),
+    },
+    "design": {
+        "front_x": Field("str", "Mu", "figure minimised on the trade-off front", choices=FIGURES),
+        "front_y": Field("str", "integral_gain", "figure maximised on the trade-off front",
+                         choices=FIGURES),
+    },
+    "fleet": {
+        "folder": Field("str", None, "folder of problem or model files, relative to the sweep"
+                        " file; their tables replace the base problem's", required=True),
+        "pattern": Field("str", "*.toml", "file-name pattern"),
+    },
+    "ageing": {
+        "gain_per_year": Field("number", 0.0, "relative static-gain change per year of age"),
+        "resonance_per_year": Field("number", 0.0, "relative natural-frequency change per year"),
+        "damping_per_year": Field("number", 0.0, "relative damping change per year"),
+    },
+    "param": ArrayOf({
+        "name": Field("str", None, "a problem-file key path (specs.Mu_max) or a plant factor"
+                      " (gain, resonance, damping, age_years, temperature_C, A1, B0, ...)",
+                      required=True),
+        "dist": Field("str", None, "normal | uniform | lognormal | grid", required=True,
+                      choices=DISTS),
+        "mean": Field("number", None, "normal: mean"),
+        "std": Field("number", None, "normal: standard deviation", positive=True),
+        "median": Field("number", None, "lognormal: median", positive=True),
+        "sigma": Field("number", None, "lognormal: standard deviation of the logarithm",
+                       positive=True),
+        "lo": Field("number", None, "uniform, grid: lower end; normal, lognormal: truncation"),
+        "hi": Field("number", None, "uniform, grid: upper end; normal, lognormal: truncation"),
+        "steps": Field("int", None, "grid: this many values from lo to hi", lo=1, hi=100_000),
+        "log": Field("bool", False, "grid: logarithmic spacing"),
+        "values": Field("numbers", None, "grid: explicit values"),
+        "note": Field("str", "", "where the spread comes from"),
+    }, doc="one varied parameter", max_items=64),
+}
+# keys each distribution needs / accepts (besides name, dist, note)
+_DIST_KEYS = {"normal": ({"mean", "std"}, {"lo", "hi"}),
+              "uniform": ({"lo", "hi"}, set()),
+              "lognormal": ({"median", "sigma"}, {"lo", "hi"}),
+              "grid": (set(), {"lo", "hi", "steps", "log", "values"})}
+
+
+@dataclass(frozen=True)
+class Param:
+    """One varied parameter: a seeded distribution or a grid of values."""
+
+    name: str
+    dist: str
+    mean: float = None
+    std: float = None
+    median: float = None
+    sigma: float = None
+    lo: float = None
+    hi: float = None
+    values: tuple = None
+    note: str = ""
+
+    @property
+    def random(self):
+        """True for a distribution, False for a grid."""
+        return self.dist != "grid"
+
+
+@dataclass(frozen=True)
+class Ageing:
+    """Relative change per year of age of the static gain, natural frequency and damping."""
+
+    gain_per_year: float = 0.0
+    resonance_per_year: float = 0.0
+    damping_per_year: float = 0.0
+
+
+@dataclass(frozen=True, eq=False)
+class Sweep:
+    """A validated sweep file.
+
+    ``overrides`` are ``(key path, value)`` pairs of ``[set]``, applied to the base problem
+    document before the variants; ``problem`` is the resolved base problem file (or
+    ``None`` for a fleet of complete problem files).
+    """
+
+    name: str
+    kind: str
+    path: str
+    problem: str = None
+    description: str = ""
+    seed: int = 0
+    n: int = None
+    chunk_size: int = 25
+    worst: int = 10
+    params: tuple = ()
+    overrides: tuple = ()
+    ageing: Ageing = Ageing()
+    controller: str = "design"
+    margins: bool = True
+    front: tuple = ("Mu", "integral_gain")
+    folder: str = None
+    pattern: str = "*.toml"
+
+    @property
+    def grid(self):
+        """The grid parameters (cartesian product)."""
+        return tuple(p for p in self.params if not p.random)
+
+    @property
+    def draws(self):
+        """Random draws per grid point."""
+        return self.n or 1
+
+
+def sweep_schema_markdown():
+    """The sweep-file reference as Markdown table rows (the README's table)."""
+    return markdown_rows(SWEEP_SCHEMA) + [
+        "| `set.*` | any problem-file key | as in the problem file | no | – | set in the base"
+        " problem before the variants (`[set.solver] cert_temperatures = 12`); checked like a"
+        " problem file |"]
+
+
+def problem_field(name):
+    """The problem-file :class:`Field` a key path names, or ``None``."""
+    node = PROBLEM_SCHEMA
+    for part in name.split("."):
+        if not isinstance(node, dict) or part not in node:
+            return None
+        node = node[part]
+    return node if isinstance(node, Field) and node.type in ("number", "int") else None
+
+
+def _param(path, i, p):
+    key = ("param", str(i))
+    name, dist = p["name"], p["dist"]
+    field = problem_field(name)
+    m = COEF.match(name)
+    if field is None and name not in PLANT_PARAMS and not m:
+        raise key_error(path, key + ("name",), f"unknown parameter {name!r}: expected a number"
+                        " of the problem file by its key path (e.g. specs.Mu_max,"
+                        " family.parametric.gain_per_K) or one of "
+                        + ", ".join(PLANT_PARAMS) + ", A<i>, B<i>")
+    if m and m.group(1) == "A" and int(m.group(2)) == 0:
+        raise key_error(path, key + ("name",), "A0 is the leading coefficient of the monic A")
+    given = {k for k in ("mean", "std", "median", "sigma", "lo", "hi", "steps", "values")
+             if p[k] is not None} | ({"log"} if p["log"] else set())
+    need, allowed = _DIST_KEYS[dist]
+    for k in sorted(need - given):
+        raise key_error(path, key + (k,), f"missing: dist = '{dist}' needs "
+                        + " and ".join(sorted(need)))
+    for k in sorted(given - need - allowed):
+        raise key_error(path, key + (k,), f"not used by dist = '{dist}'")
+    lo, hi = p["lo"], p["hi"]
+    if lo is not None and hi is not None and not lo < hi:
+        raise key_error(path, key, f"expected lo < hi, got lo = {lo:g}, hi = {hi:g}")
+    values = None
+    if dist == "grid":
+        values = grid_values(path, key, p)
+        if field is not None and field.type == "int" and any(v != round(v) for v in values):
+            raise key_error(path, key + ("values",), f"{name} takes integers")
+        if field is not None:   # every grid value must be valid in the problem file
+            for v in values:
+                validate(path, {"values": v if field.type == "number" else int(v)},
+                         {"values": field}, key)
+    elif field is not None and field.type == "int":
+        raise key_error(path, key + ("dist",), f"{name} is an integer: use dist = 'grid'")
+    if dist == "lognormal" and lo is not None and not lo > 0:
+        raise key_error(path, key + ("lo",), "lognormal truncation needs lo > 0")
+    return Param(name=name, dist=dist, mean=p["mean"], std=p["std"], median=p["median"],
+                 sigma=p["sigma"], lo=lo, hi=hi, values=values, note=p["note"])
+
+
+def _overrides(path, data, schema, key=("set",)):
+    """Check a partial problem document (``[set]``) key by key; return (key path, value) pairs."""
+    if not isinstance(data, dict):
+        raise key_error(path, key, f"expected a table, got {data!r}")
+    out = []
+    for k, v in data.items():
+        if k not in schema:
+            validate(path, {k: v}, schema, key)   # raises "unknown key; did you mean ..."
+        spec = schema[k]
+        if isinstance(spec, dict):
+            out += _overrides(path, v, spec, key + (k,))
+        else:
+            value = validate(path, {k: v}, {k: spec}, key)[k]
+            if isinstance(spec, ArrayOf):
+                value = [dict(d) for d in v]   # the raw tables: parse_problem validates again
+            elif isinstance(value, tuple):
+                value = list(value)
+            out.append((key[1:] + (k,), value))
+    return out
+
+
+def _resolve_base(path, name, key=("sweep", "problem")):
+    from robrst.problem.files import resolve_problem_path
+
+    local = Path(path).parent / name
+    if local.is_file():
+        return str(local)
+    try:
+        return str(resolve_problem_path(name))
+    except SpecError as exc:
+        raise key_error(path, key, str(exc)) from None
+
+
+def parse_sweep(data, path="<sweep>"):
+    """Validate a parsed sweep document and build the :class:`Sweep`.
+
+    Raises
+    ------
+    SpecError
+        Naming the file and the key path of the first problem found.
+    """
+    data = dict(data)
+    overrides = _overrides(path, data.pop("set", {}), PROBLEM_SCHEMA)
+    v = validate(path, data, SWEEP_SCHEMA)
+    sw = v["sweep"]
+    if sw is None:
+        raise key_error(path, ("sweep",), "missing required table [sweep]")
+    kind = sw["kind"]
+    for tab in ("analysis", "design", "fleet"):
+        if v[tab] is not None and tab != kind:
+            raise key_error(path, (tab,), f"only for kind = '{tab}' (this sweep is '{kind}')")
+    params = tuple(_param(path, i, p) for i, p in enumerate(v["param"] or ()))
+    names = [p.name for p in params]
+    for i, n in enumerate(names):
+        if n in names[:i]:
+            raise key_error(path, ("param", str(i), "name"), f"parameter {n!r} given twice")
+    ageing = Ageing(**(v["ageing"] or {}))
+    if "age_years" in names and ageing == Ageing():
+        raise key_error(path, ("param", str(names.index("age_years")), "name"), "age_years acts"
+                        " through the [ageing] rates per year (gain_per_year, resonance_per_year,"
+                        " damping_per_year): give them, else it changes nothing")
+    if kind == "fleet" and v["fleet"] is None:
+        raise key_error(path, ("fleet",), "missing: a fleet sweep needs a [fleet] table with"
+                        " folder = the folder of its problem or model files")
+    if kind == "fleet" and params:
+        raise key_error(path, ("param",), "a fleet sweep varies files, not parameters")
+    if kind != "fleet" and sw["problem"] is None:
+        raise key_error(path, ("sweep", "problem"), f"missing: a {kind} sweep needs a base problem")
+    base = None if sw["problem"] is None else _resolve_base(path, sw["problem"])
+    if kind != "fleet" and not params:
+        raise key_error(path, ("param",), f"a {kind} sweep needs at least one [[param]] table"
+                        " (what varies between the variants)")
+    if sw["n"] is not None and not any(p.random for p in params) and sw["n"] > 1:
+        raise key_error(path, ("sweep", "n"), "only random parameters (normal, uniform,"
+                        " lognormal) are drawn n times; a grid needs no n")
+    total = sw["n"] or 1
+    for p in params:
+        total *= 1 if p.random else len(p.values)
+    if total > MAX_VARIANTS:
+        raise key_error(path, ("sweep",), f"{total} variants; at most {MAX_VARIANTS}")
+    an, de, fl = v["analysis"] or {}, v["design"] or {}, v["fleet"] or {}
+    chunk = sw["chunk_size"] or {"analysis": 10, "design": 2, "fleet": 1}[kind]
+    return Sweep(
+        name=sw["name"] or Path(str(path)).stem, kind=kind, path=str(path),
+        problem=base,
+        description=sw["description"], seed=sw["seed"], n=sw["n"], chunk_size=chunk,
+        worst=sw["worst"], params=params, overrides=tuple(overrides),
+        ageing=ageing, controller=an.get("controller", "design"),
+        margins=an.get("margins", True),
+        front=(de.get("front_x", "Mu"), de.get("front_y", "integral_gain")),
+        folder=fl.get("folder"), pattern=fl.get("pattern", "*.toml"))
+
+
+def resolve_sweep_path(name_or_path):
+    """A sweep file's path: an existing file, or a built-in sweep by name.
+
+    Raises
+    ------
+    SpecError
+        Neither a file nor a built-in sweep (the message lists the built-ins).
+    """
+    found = resources.find_file(name_or_path, "sweep")
+    if found is not None:
+        return found
+    raise SpecError(f"{name_or_path}: sweep file not found (built-in sweeps:"
+                    f" {', '.join(resources.sweep_names())})")
+
+
+def load_sweep(path: str | os.PathLike) -> Sweep:
+    """Read and validate a sweep file (or a built-in sweep by name).
+
+    Parameters
+    ----------
+    path : str or Path
+        A sweep file (TOML), or the name of a built-in sweep (``"paper_montecarlo"``).
+
+    Returns
+    -------
+    Sweep
+
+    Raises
+    ------
+    SpecError
+        Naming the file and the key path of the first problem found.
+
+    Examples
+    --------
+    >>> from robrst import load_sweep
+    >>> sweep = load_sweep("paper_montecarlo")
+    >>> sweep.kind, sweep.n
+    ('analysis', 1000)
+    """
+    path = resolve_sweep_path(path)
+    return parse_sweep(load_toml(path, "sweep file"), path)
