@@ -1,4 +1,4 @@
-"""The bad inputs of tests/test_bad_input.py: files to create, the command line, and what the
+"""The bad inputs of tests/cli/test_bad_input.py: files to create, the command line, and what the
 error line must name.
 
 Each :class:`V` names the files to write into an empty working folder (text, bytes or

@@ -1,6 +1,6 @@
 """Random design problems and an independent checker of robrst's certificates.
 
-Used by the reliability suite (``tests/reliability.py``, ``tests/test_random_synthesis.py``) and
+Used by the reliability suite (``tests/reliability.py``, ``tests/synthesis/test_random_problems.py``) and
 ``python -m tests.random_problems`` (a seeded batch with counts).
 
 Generator

@@ -1,7 +1,7 @@
 """Random problems of :mod:`random_problems` through robrst, every claim re-checked.
 
 :func:`generator` plugs :func:`random_problems.draw_case` into the ``gen(rng) -> Problem``
-hook of ``tests/test_random_synthesis.py``; :func:`run_seed` designs one seeded problem
+hook of ``tests/synthesis/test_random_problems.py``; :func:`run_seed` designs one seeded problem
 and classifies the outcome with the independent checker (:func:`random_problems.check`):
 
 * ``certified``: ``certified: true`` and the checker confirms every claim;

@@ -148,7 +148,7 @@ def test_c_saturation_and_anti_windup_against_the_twin(exp, twin_plant, tmp_path
 def test_the_readme_c_snippet_compiles(exp, tmp_path):
     from pathlib import Path
 
-    text = (Path(__file__).parents[1] / "README.md").read_text()
+    text = (Path(__file__).parents[2] / "README.md").read_text()
     snippet = text.split("```c\n", 1)[1].split("```", 1)[0]
     header, source = c_files(exp, "ctrl")
     for name, body in (("ctrl.h", header), ("ctrl.c", source), ("main.c", snippet)):

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import pytest
 
-PKG = Path(__file__).resolve().parents[1] / "robrst"
+PKG = Path(__file__).resolve().parents[2] / "robrst"
 
 LAYERS = {
     "base": ("robrst.base",),

@@ -107,7 +107,7 @@ def test_records_starting_at_rest_keep_the_from_rest_fit(tmp_path):
 
 
 # ---- the command line on bad or awkward input: one line, exit 2, nothing written, no
-# warning (the pattern of tests/test_bad_input_more.py)
+# warning (the pattern of tests/cli/test_bad_input_more.py)
 
 def _csv(rec, temp=None):
     cols = ["t", "u", "y"] + (["temp"] if temp is not None else [])

@@ -9,7 +9,7 @@ float64 loses digits), which is a lower bound converging to the supremum: robrst
 must not be below it (a missed peak) nor above it beyond the stated accuracy (a value that
 is not attained).  The concrete miss of the former kernel (a local maximum 1.0000772 at
 0.03 rad/s returned instead of 1.0000846 at 5828 rad/s) is
-``tests/test_repro_certificate.py::test_hinf_peak_missed``.
+``tests/certificate/test_certificate_reproducers.py::test_hinf_peak_missed``.
 """
 
 import numpy as np

@@ -140,7 +140,7 @@ def test_a_linked_report_folder_stays_a_link(tmp_path, capsys):
 def test_names_cannot_lead_outside_the_output_folder(tmp_path, capsys, monkeypatch):
     """A problem named '../../escaped' reports under reports/, a convert --name with a folder
     part is refused (both wrote outside the intended folder)."""
-    text = (Path(__file__).parents[1] / "robrst/problems/paper.toml").read_text()
+    text = (Path(__file__).parents[2] / "problems/paper.toml").read_text()
     f = tmp_path / "deep" / "p.toml"
     f.parent.mkdir()
     f.write_text(text.replace('[problem]\nname = "paper"', '[problem]\nname = "../../escaped"'))

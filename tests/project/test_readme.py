@@ -7,7 +7,7 @@ import pytest
 
 
 def test_readme_python_snippets_run(monkeypatch):
-    root = Path(__file__).parents[1]
+    root = Path(__file__).parents[2]
     monkeypatch.chdir(root)
     blocks = re.findall(r"```python\n(.*?)```", (root / "README.md").read_text(), re.S)
     assert blocks
@@ -30,7 +30,7 @@ def test_readme_python_snippets_run(monkeypatch):
 
 
 def test_quick_start_has_exactly_two_commands():
-    text = (Path(__file__).parents[1] / "README.md").read_text()
+    text = (Path(__file__).parents[2] / "README.md").read_text()
     qs = text.split("## Quick start", 1)[1].split("##", 1)[0]
     cmds = re.findall(r"```bash\n(.*?)```", qs, re.S)[0].strip().splitlines()
     assert len(cmds) == 2 and "robrst design" in cmds[0] and "pytest" in cmds[1]
@@ -39,7 +39,7 @@ def test_quick_start_has_exactly_two_commands():
 def test_readme_problem_file_reference_matches_schema():
     from robrst.problem.files import schema_markdown
 
-    lines = (Path(__file__).parents[1] / "README.md").read_text().splitlines()
+    lines = (Path(__file__).parents[2] / "README.md").read_text().splitlines()
     hdr = lines.index("| table | key | type | required | default | meaning |")
     table = []
     for line in lines[hdr + 2:]:

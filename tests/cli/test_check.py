@@ -156,7 +156,7 @@ def test_readme_py_snippets_run(tmp_path, monkeypatch, problems_dir):
     """The README's ``py`` blocks (python-control round trip, the CI recipe) run as written."""
     from pathlib import Path
 
-    text = (Path(__file__).parents[1] / "README.md").read_text()
+    text = (Path(__file__).parents[2] / "README.md").read_text()
     blocks = re.findall(r"```py\n(.*?)```", text, re.S)
     assert len(blocks) == 2
     monkeypatch.chdir(tmp_path)

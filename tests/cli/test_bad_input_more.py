@@ -20,10 +20,10 @@ import pytest
 
 from robrst.cli import main
 
-ROOT = Path(__file__).parents[1]
-BASE = (ROOT / "robrst/problems/paper.toml").read_text()
-ROB = (ROOT / "robrst/problems/paper_robust_continuous.toml").read_text()
-TW = (ROOT / "robrst/problems/twin_paper.toml").read_text()
+ROOT = Path(__file__).parents[2]
+BASE = (ROOT / "problems/paper.toml").read_text()
+ROB = (ROOT / "problems/paper_robust_continuous.toml").read_text()
+TW = (ROOT / "problems/twin_paper.toml").read_text()
 GOOD_CSV = "t,u,y,temp\n" + "".join(f"{k / 20000},{10.0 * np.sin(k / 50)},{6.68 * np.sin(k / 50)},28.0\n"
                                     for k in range(800))
 

@@ -1,7 +1,7 @@
 """Regression on margins: no shipped problem may get worse than tests/golden/margins.toml.
 
 Regenerate (after a deliberate improvement) with
-``ROBRST_REGEN_GOLDEN=1 python -m pytest tests/test_golden_margins.py``.
+``ROBRST_REGEN_GOLDEN=1 python -m pytest tests/project/test_golden_margins.py``.
 
 The objective (integral gain) is checked too, with a tolerance that survives IPOPT
 versions: the optimum may move in late digits, never by more than ``rtol_objective``.
@@ -15,7 +15,7 @@ import pytest
 
 from robrst.base.resources import problem_names
 
-GOLDEN = Path(__file__).parent / "golden" / "margins.toml"
+GOLDEN = Path(__file__).parents[1] / "golden" / "margins.toml"
 # worse-is-larger quantities and worse-is-smaller quantities
 UPPER = ("Ms", "Mt", "Mu")
 LOWER = ("modulus_margin", "phase_margin_deg", "delay_margin_s")
@@ -33,7 +33,7 @@ def _current(designs):
 
 
 def _write(cur):
-    lines = ["# Golden margins of every shipped problem (generated; see tests/test_golden_margins.py).",
+    lines = ["# Golden margins of every shipped problem (generated; see tests/project/test_golden_margins.py).",
              "# A margin may improve; getting worse than these by more than the tolerances fails.",
              "[tolerance]", "rtol = 1e-4      # Ms, Mt, Mu, modulus and delay margins (IPOPT results differ in late digits across versions)",
              "atol_deg = 1e-2  # phase margin",
