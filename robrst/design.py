@@ -19,6 +19,7 @@ from robrst.certificate import steps as timespec
 from robrst.core.analysis import analyze_many, spectral_abscissa_many
 from robrst.certificate.proof import Violation, certify, certify_problem
 from robrst.base.errors import CoprimeError, SpecError
+from robrst.certificate.figures import StepFigures
 from robrst.certificate.models import BOUNDED
 from robrst.problem.records import Problem
 from robrst.core.rst import closed_loop
@@ -188,30 +189,35 @@ def with_time_domain(problem, cert, ctrl, factor=None):
     it), else those of each new closed-loop polynomial.
     """
     sp = problem.specs
-    recs = [dict(rec) for rec in cert.models]
-    models = [problem.family.at(rec["temperature_C"]) for rec in recs]
-    kinds = [(models, None, "")]
+    recs = list(cert.models)
+    models = [problem.family.at(rec.temperature_C) for rec in recs]
+    kinds = [(models, None, "continuous")]
     if sp.sampled:
         kinds.append(([problem.family.sampled(m, sp.sample_rate_hz, sp.delay_samples)
-                       for m in models], sp.sample_rate_hz, "_sampled"))
+                       for m in models], sp.sample_rate_hz, "sampled"))
     found = [[] for _ in recs]            # per model, the failed specs of each loop
     added = None if factor is None else spectral_abscissa_many([factor])[0][0]
-    for plants, fs, suffix in kinds:      # every model's loop of one kind at once
+    for plants, fs, loop in kinds:        # every model's loop of one kind at once
         cls = [closed_loop(plant, ctrl) for plant in plants]
         sas = [added] * len(recs) if factor is not None else [
             sa for sa, _ in spectral_abscissa_many([cl.Delta for cl in cls])]
-        for rec, sa in zip(recs, sas):
-            rec["spectral_abscissa" + suffix] = max(rec["spectral_abscissa" + suffix], sa)
-        if not sp.time_domain:
-            continue
-        ks = [k for k, rec in enumerate(recs) if rec[f"stable{suffix}"]]
-        checked = timespec.check_many([plants[k] for k in ks], ctrl, [cls[k] for k in ks],
-                                      sp, cert.rtol, fs)
-        for k, (t_rec, failed) in zip(ks, checked):
-            recs[k].update({q + suffix: v for q, v in t_rec.items()})
-            found[k] += [Violation(models[k].label, models[k].temperature_C, q, v, b, None,
-                                   "sampled" if fs else "continuous", kind)
-                         for q, v, b, kind in failed]
+        figs = [rec.loop(loop) for rec in recs]
+        figs = [replace(f, spectral_abscissa=max(f.spectral_abscissa, sa))
+                for f, sa in zip(figs, sas)]
+        if sp.time_domain:
+            ks = [k for k, f in enumerate(figs) if f.stable]
+            checked = timespec.check_many([plants[k] for k in ks], ctrl, [cls[k] for k in ks],
+                                          sp, cert.rtol, fs)
+            for k, (t_rec, failed) in zip(ks, checked):
+                figs[k] = replace(figs[k], step=StepFigures(**t_rec))
+                found[k] += [Violation(models[k].label, models[k].temperature_C, q, v, b, None,
+                                       loop, kind) for q, v, b, kind in failed]
+        recs = [replace(rec, **{loop: f}) for rec, f in zip(recs, figs)]
+    if sp.time_domain:   # figures the certificate did not have are published after it
+        recs = [rec if rec.steps_checked_after or old.continuous.step is not None
+                or (old.sampled is not None and old.sampled.step is not None)
+                else replace(rec, steps_checked_after=True)
+                for rec, old in zip(recs, cert.models)]
     viols = list(cert.violations) + [v for f in found for v in f]
     bounds = {**cert.bounds, **{key: getattr(sp, attr) for key, attr in BOUNDED
                                 if getattr(sp, attr) is not None}}
@@ -248,7 +254,7 @@ def _worst(cert, ctrl, sampled):
            "max_spectral_abscissa": cert.worst("spectral_abscissa"),
            "integral_gain": integral_gain(ctrl), "certified": cert.certified}
     if sampled:
-        row.update({f"worst_{k}_sampled": cert.worst(f"{k}_sampled") for k in ("Ms", "Mt", "Mu")})
+        row.update({f"worst_{k}_sampled": cert.worst(k, loop="sampled") for k in ("Ms", "Mt", "Mu")})
     return row
 
 
@@ -393,7 +399,7 @@ def _tracked(problem, ctrl, cert):
     for out, trk in tracking_candidates(problem, ctrl):
         done = with_time_domain(problem, cert, out, factor=trk.Am_ref)
         first = first or (out, trk, done)
-        stable = all(r["stable"] and r.get("stable_sampled", True) for r in done.models)
+        stable = all(r.stable for r in done.models)
         if not problem.specs.time_domain or (
                 stable and len(done.violations) == len(cert.violations)):
             return out, trk, done

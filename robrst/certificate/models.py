@@ -5,9 +5,11 @@ exact global peaks of ``|S|, |T|, |U|`` (:func:`robrst.core.peaks.peak_gain`), t
 frequency-limited peaks (``|T|`` over the resonance band, ``|U|`` above a corner), the
 spectral abscissa and whether double precision resolves that verdict
 (:func:`robrst.core.interval.distance_to_instability`), and the reference-step figures
-(:mod:`robrst.certificate.steps`).  :func:`check_all` adds the exact sampled loop and the
-caller's extra checks; :func:`margins` lists the ``{figure: (value, limit)}`` pairs that
-:mod:`robrst.certificate.proof` refines over the temperature interval.
+(:mod:`robrst.certificate.steps`), as one :class:`~robrst.certificate.figures.LoopFigures`.
+:func:`check_all` adds the exact sampled loop and the caller's extra checks into one
+:class:`~robrst.certificate.figures.ModelRecord`; :func:`margins` lists the ``{figure:
+(value, limit)}`` pairs (by published name) that :mod:`robrst.certificate.proof` refines
+over the temperature interval.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import numpy as np
 
 from robrst.core import poly
 from robrst.certificate import steps as timespec
+from robrst.certificate.figures import LOOPS, LoopFigures, ModelRecord, StepFigures, figure_key
 from robrst.core.analysis import spectral_abscissa_many
 from robrst.core.peaks import peak_gain, peak_gains_many
 from robrst.core.interval import distance_to_instability_many
@@ -26,7 +29,7 @@ from robrst.core.rst import closed_loop
 from robrst.core.sampled import sampled_plant, unwarp, warp
 
 __all__ = ["Violation", "check_model", "check_all", "check_all_many", "margins", "band_peak",
-           "BOUNDED", "FIGURE_OF", "JUMPS", "SAMPLED_KEYS", "RESOLVE_FACTOR"]
+           "BOUNDED", "FIGURE_OF", "JUMPS", "RESOLVE_FACTOR"]
 
 RESOLVE_FACTOR = 64.0  # stability resolved when the distance to instability > this x n eps
 
@@ -79,12 +82,17 @@ def _stability(loops):
 
 
 def check_model(plant, ctrl, specs, rtol, fs=None):
-    """Exact peaks and stability of one model; returns (record, violations).
+    """Exact peaks and stability of one closed loop.
 
     With ``fs`` the plant is a sampled-loop plant (:func:`robrst.core.sampled.sampled_plant`):
     reported frequencies are mapped back to physical ones, the resonance band is
     warped, and a closed-loop polynomial that lost degree (a pole at ``z = -1``)
     counts as unstable.
+
+    Returns
+    -------
+    figures : LoopFigures
+    violations : list of Violation
     """
     return _check_loops([(plant, fs)], ctrl, specs, rtol)[0]
 
@@ -147,8 +155,7 @@ class _Loop:
         reference-step figures ``step`` (``(record, failed)`` or ``None``)."""
         plant, cl, sa, rho, fs = self.plant, self.cl, self.sa, self.rho, self.fs
         loop = "continuous" if fs is None else "sampled"
-        rec = {"label": plant.label, "temperature_C": plant.temperature_C,
-               "spectral_abscissa": sa, "stable": bool(sa < 0), "distance_to_instability": rho,
+        fig = {"spectral_abscissa": sa, "stable": bool(sa < 0), "distance_to_instability": rho,
                "closed_loop_degree": len(poly.trim(cl.Delta)) - 1}
         viol = []
 
@@ -167,8 +174,8 @@ class _Loop:
             # a sampled peak at nu = inf is at Nyquist (unwarp(inf) = pi fs)
             freq = (self.phys(float(pk.freq_rad_s))
                     if fs is not None or np.isfinite(pk.freq_rad_s) else None)
-            rec[f"M{name.lower()}"] = pk.value
-            rec[f"M{name.lower()}_freq_rad_s"] = freq
+            fig[f"M{name.lower()}"] = pk.value
+            fig[f"M{name.lower()}_freq_rad_s"] = freq
             bound = specs.peak_bound(name)
             if bound is not None and pk.value > bound * (1 + rtol):
                 add(f"|{name}| peak", pk.value, bound, freq)
@@ -177,8 +184,8 @@ class _Loop:
                     " decades", pk.value, bound, freq, kind="unresolved")
         if specs.T_resonance_max is not None:
             pk = next(band_pks)
-            rec["Mt_resonance_band"] = pk.value
-            rec["Mt_resonance_band_freq_rad_s"] = self.phys(pk.freq_rad_s)
+            fig["Mt_resonance_band"] = pk.value
+            fig["Mt_resonance_band_freq_rad_s"] = self.phys(pk.freq_rad_s)
             if pk.value > specs.T_resonance_max * (1 + rtol):
                 add("|T| in resonance band", pk.value, specs.T_resonance_max,
                     self.phys(pk.freq_rad_s))
@@ -187,7 +194,7 @@ class _Loop:
                     " decades", pk.value, specs.T_resonance_max, kind="unresolved")
         if specs.Mu_hf_max is not None:
             pk = next(band_pks)
-            rec["Mu_hf"] = pk.value
+            fig["Mu_hf"] = pk.value
             if pk.value > specs.Mu_hf_max * (1 + rtol):
                 add("|U| above corner", pk.value, specs.Mu_hf_max, self.phys(pk.freq_rad_s))
             elif not pk.verified:
@@ -195,22 +202,19 @@ class _Loop:
                     " decades", pk.value, specs.Mu_hf_max, kind="unresolved")
         if step is not None:   # reference-step specs (robrst.certificate.steps)
             t_rec, failed = step
-            rec.update(t_rec)
+            fig["step"] = StepFigures(**t_rec)
             for q, v, b, kind in failed:
                 add(q, v, b, kind=kind)
-        return rec, viol
+        return LoopFigures(**fig), viol
 
 
-SAMPLED_KEYS = ("spectral_abscissa", "stable", "Ms", "Ms_freq_rad_s", "Mt", "Mt_freq_rad_s",
-                "Mu", "Mu_freq_rad_s", "Mt_resonance_band", "distance_to_instability", "Mu_hf",
-                *timespec.KEYS)
 BOUNDED = (("Ms", "Ms_max"), ("Mt", "Mt_max"), ("Mu", "Mu_max"),
            ("Mt_resonance_band", "T_resonance_max"), ("Mu_hf", "Mu_hf_max"),
            ("overshoot_pct", "overshoot_max_pct"), ("settling_time_s", "settling_time_max_s"),
            ("step_u_peak_V", "step_u_max_V"))
 FIGURE_OF = {"|S| peak": "Ms", "|T| peak": "Mt", "|U| peak": "Mu",   # violation -> record
              "|T| in resonance band": "Mt_resonance_band", "|U| above corner": "Mu_hf"}
-JUMPS = ("settling_time_s", "settling_time_s_sampled")   # piecewise continuous figures
+JUMPS = tuple(figure_key("settling_time_s", loop) for loop in LOOPS)   # piecewise continuous
 
 
 def _sampled_loop(plant, specs, family):
@@ -219,18 +223,17 @@ def _sampled_loop(plant, specs, family):
     return (sampled_plant(plant, fs, k) if family is None else family.sampled(plant, fs, k)), fs
 
 
-def _suffixed(plant, rec, viol):
-    """A sampled loop's record (keys suffixed ``_sampled``) and violations (naming the
-    continuous model)."""
-    viol = [replace(v, label=plant.label) for v in viol]
-    return {f"{key}_sampled": rec[key] for key in SAMPLED_KEYS if key in rec}, viol
+def _named(plant, viol):
+    """A sampled loop's violations, naming the continuous model."""
+    return [replace(v, label=plant.label) for v in viol]
 
 
 def check_sampled(plant, ctrl, specs, rtol, family=None):
     """:func:`check_model` of the sampled loop of ``plant`` (its sampled plant from
-    ``family``'s memo when given); figures suffixed ``_sampled``."""
+    ``family``'s memo when given), violations naming ``plant``."""
     ps, fs = _sampled_loop(plant, specs, family)
-    return _suffixed(plant, *check_model(ps, ctrl, specs, rtol, fs=fs))
+    figs, viol = check_model(ps, ctrl, specs, rtol, fs=fs)
+    return figs, _named(plant, viol)
 
 
 def check_all(m, ctrl, specs, rtol, checks, family=None):
@@ -239,7 +242,7 @@ def check_all(m, ctrl, specs, rtol, checks, family=None):
 
     Returns
     -------
-    record : dict
+    record : ModelRecord
     violations : list of Violation
     """
     return check_all_many([m], ctrl, specs, rtol, checks, family)[0]
@@ -251,7 +254,7 @@ def check_all_many(models, ctrl, specs, rtol, checks, family=None):
 
     Returns
     -------
-    list of (record, violations)
+    list of (ModelRecord, list of Violation)
     """
     loops = [(m, None) for m in models]
     if specs.sampled:
@@ -259,37 +262,50 @@ def check_all_many(models, ctrl, specs, rtol, checks, family=None):
     done = _check_loops(loops, ctrl, specs, rtol)
     out = []
     for i, m in enumerate(models):
-        rec, v = done[i]
+        figs, v = done[i]
+        sampled = None
         if specs.sampled:
-            rec_s, v_s = _suffixed(m, *done[len(models) + i])
-            rec.update(rec_s)
-            v = v + v_s
+            sampled, v_s = done[len(models) + i]
+            v = v + _named(m, v_s)
+        extra, marg = {}, {}
         for check in checks:
             rec_x, v_x = check(m, ctrl, specs, rtol)
-            margins = {**rec.get("margins", {}), **rec_x.pop("margins", {})}
-            rec.update(rec_x)
-            if margins:
-                rec["margins"] = margins
+            rec_x = dict(rec_x)
+            marg.update(rec_x.pop("margins", {}))
+            extra.update(rec_x)
             v = v + list(v_x)
-        out.append((rec, v))
+        out.append((ModelRecord(label=m.label, temperature_C=m.temperature_C, continuous=figs,
+                                sampled=sampled, extra=extra, margins=marg), v))
     return out
 
 
 def margins(rec, specs, rtol):
     """``{figure: (value, limit)}`` of a record: what the refinement watches.
 
+    Figures by their published names (:func:`robrst.certificate.figures.figure_key`):
+    the spectral abscissa of every loop, every bounded figure, then the hooks' margins.
+
+    Parameters
+    ----------
+    rec : ModelRecord
+    specs : Specs
+    rtol : float
+
     Returns
     -------
     dict
     """
     out = {}
-    for suffix in ("", "_sampled"):
-        sa = rec.get("spectral_abscissa" + suffix)
+    for loop in LOOPS:
+        lf = rec.loop(loop)
+        if lf is None:
+            continue
+        sa = lf.spectral_abscissa
         if sa is not None and np.isfinite(sa):
-            out["spectral_abscissa" + suffix] = (sa, 0.0)
+            out[figure_key("spectral_abscissa", loop)] = (sa, 0.0)
         for key, attr in BOUNDED:
-            b, v = getattr(specs, attr), rec.get(key + suffix)
+            b, v = getattr(specs, attr), lf.value(key)
             if b is not None and v is not None and np.isfinite(v):
-                out[key + suffix] = (v, b * (1 + rtol))
-    out.update(rec.get("margins", {}))
+                out[figure_key(key, loop)] = (v, b * (1 + rtol))
+    out.update(rec.margins)
     return out

@@ -6,8 +6,9 @@ Nothing from the optimiser is trusted: every figure is recomputed from the polyn
   frequency-limited peak of ``|T|`` over the resonance band (:func:`robrst.core.peaks.peak_gain`),
   the closed-loop spectral abscissa, and whether double precision resolves that stability
   verdict at all (:func:`robrst.core.interval.distance_to_instability`).  With a sampling rate
-  the same on the exact sampled loop (:mod:`robrst.core.sampled`; figures suffixed ``_sampled``,
-  physical frequencies up to Nyquist, the band warped).
+  the same on the exact sampled loop (:mod:`robrst.core.sampled`; physical frequencies up to
+  Nyquist, the band warped).  One :class:`~robrst.certificate.figures.ModelRecord` per model
+  holds both loops' :class:`~robrst.certificate.figures.LoopFigures`.
 * **Over the interval** (:func:`certify`): the family members and ``n_sweep`` evenly
   spaced temperatures, then
 
@@ -30,17 +31,19 @@ The record ``interval`` says what was proved and at what resolution.
 
 Further per-model checks (e.g. time-domain specs) plug in through ``checks``: callables
 ``check(plant, ctrl, specs, rtol) -> (record, violations)`` run on every model checked
-(family members, sweep and refinement points).  A check may put ``{name: (value,
-limit)}`` pairs in ``record["margins"]`` to have its figures refined like the others.
+(family members, sweep and refinement points); its record's figures land in the model
+record's ``extra``.  A check may put ``{name: (value, limit)}`` pairs in
+``record["margins"]`` to have its figures refined like the others.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from robrst.core.interval import parameter_crossing, segment_crossing
+from robrst.certificate.figures import LOOPS, figure_key, parse_key
 from robrst.certificate.models import (BOUNDED, FIGURE_OF, JUMPS, RESOLVE_FACTOR, Violation,
                                band_peak, check_all, check_all_many, check_model, margins)
 from robrst.problem.records import Problem
@@ -57,7 +60,11 @@ MIN_WIDTH = 1.0 / 4096  # resolution floor, as a fraction of the temperature ran
 
 @dataclass(frozen=True, eq=False)
 class Certificate:
-    """Per-model exact figures, every violation found, and what the interval checks proved."""
+    """Per-model exact figures, every violation found, and what the interval checks proved.
+
+    ``models`` holds one :class:`~robrst.certificate.figures.ModelRecord` per checked
+    temperature (family members, sweep and refinement points), in increasing temperature.
+    """
 
     certified: bool
     models: tuple
@@ -66,10 +73,34 @@ class Certificate:
     interval: dict = field(default_factory=dict)
     bounds: dict = field(default_factory=dict)   # {figure: bound} of every bound checked
 
-    def worst(self, key):
-        """Largest ``key`` over the models (``None`` if no record has it)."""
-        vals = [m[key] for m in self.models if key in m and m[key] is not None]
+    def worst(self, key, loop=None):
+        """Largest figure ``key`` over the models (``None`` if no record has it).
+
+        Parameters
+        ----------
+        key : str
+            A figure (``"Ms"``, ``"spectral_abscissa"``, a hook's figure); a published
+            name (``"Ms_sampled"``) names its loop too.
+        loop : str, optional
+            ``"continuous"`` (default) or ``"sampled"``.
+
+        Returns
+        -------
+        float or None
+        """
+        name, where = parse_key(key) if loop is None else (key, loop)
+        vals = [v for m in self.models if (v := m.value(name, where)) is not None]
         return max(vals) if vals else None
+
+    def worst_model(self, key, loop="continuous"):
+        """The model record where figure ``key`` of ``loop`` is largest (``None``: none).
+
+        Returns
+        -------
+        ModelRecord or None
+        """
+        recs = [m for m in self.models if m.value(key, loop) is not None]
+        return max(recs, key=lambda m: m.value(key, loop)) if recs else None
 
     def ratios(self):
         """Worst ``value / bound`` over the checked models, for every bound checked.
@@ -89,23 +120,24 @@ class Certificate:
 
         out = {}
         for key, b in self.bounds.items():
-            for k in (key, key + "_sampled"):
-                vals = [m[k] for m in self.models if m.get(k) is not None]
+            for loop in LOOPS:
+                vals = [v for m in self.models if (v := m.value(key, loop)) is not None]
                 if vals:
-                    out[k] = max(ratio(float(v), b) for v in vals)
+                    out[figure_key(key, loop)] = max(ratio(float(v), b) for v in vals)
         for m in self.models:
-            for k, (v, lim) in m.get("margins", {}).items():
+            for k, (v, lim) in m.margins.items():
                 out[k] = max(out.get(k, -np.inf), ratio(v, lim))
         for v in self.violations:
             if v.kind == "exceeds" and v.bound and v.bound > 0 and np.isfinite(v.value):
-                k = FIGURE_OF.get(v.quantity, v.quantity) + ("_sampled" if v.loop == "sampled"
-                                                              else "")
+                k = figure_key(FIGURE_OF.get(v.quantity, v.quantity), v.loop)
                 if k not in out:
                     out[k] = max(out.get(k, -np.inf), v.value / v.bound)
         return out
 
     def as_dict(self):
-        return {"ratios": self.ratios(), "certified": self.certified, "rtol": self.rtol, "models": list(self.models),
+        """The ``certificate`` object of the JSON contract."""
+        return {"ratios": self.ratios(), "certified": self.certified, "rtol": self.rtol,
+                "models": [m.as_dict() for m in self.models],
                 "violations": [v.__dict__ for v in self.violations],
                 "interval": self.interval,
                 "interval_proof": self.interval.get("stability"),
@@ -134,7 +166,7 @@ def _segments(family, ctrl, recs):
     ms = family.models
     for a, b in zip(ms[:-1], ms[1:]):
         ra, rb = recs[a.temperature_C], recs[b.temperature_C]
-        if not (ra["stable"] and rb["stable"]) or a.n != b.n or a.m != b.m:
+        if not (ra.continuous.stable and rb.continuous.stable) or a.n != b.n or a.m != b.m:
             tested = False
             continue   # an unstable end is already a violation; degrees differ: no segment
         cr = segment_crossing(closed_loop(a, ctrl).Delta, closed_loop(b, ctrl).Delta)
@@ -151,7 +183,7 @@ def _segments(family, ctrl, recs):
 def _guardian(family, ctrl, specs, rtol, checks, recs, viols):
     """Parametric families: the guardian-map proof on each side of the reference (where
     the creep law has its kink); a candidate crossing is checked and refined around."""
-    if not all(r["stable"] for r in recs.values()):
+    if not all(r.continuous.stable for r in recs.values()):
         return {"proved": False, "parts": [], "skipped": "a checked model is unstable"}
     lo, hi = family.range_C
     ref = family.thermal.reference_C
@@ -167,8 +199,8 @@ def _guardian(family, ctrl, specs, rtol, checks, recs, viols):
             for T in (pr.candidate_T, pr.candidate_T - 1e-6 * (b - a),
                       pr.candidate_T + 1e-6 * (b - a)):
                 if a <= T <= b and T not in recs:
-                    recs[T], v = check_all(family.at(T), ctrl, specs, rtol, checks, family)
-                    recs[T]["family_member"] = False
+                    rec, v = check_all(family.at(T), ctrl, specs, rtol, checks, family)
+                    recs[T] = replace(rec, family_member=False)
                     viols.extend(v)
     return {"proved": all(p["proved"] for p in out), "parts": out}
 
@@ -202,10 +234,8 @@ def _refine(family, ctrl, specs, rtol, checks, recs, viols, budget, orders, igno
         done = check_all_many([family.at(m) for _, _, m, _ in todo], ctrl, specs, rtol,
                               checks, family)
         for (a, b, m, low), (rec, v) in zip(todo, done):
-            rec["family_member"] = False
-            recs[m], found[m] = rec, v
-            if low is not None and rec.get("closed_loop_degree") == recs[low].get(
-                    "closed_loop_degree"):
+            recs[m], found[m] = replace(rec, family_member=False), v
+            if low is not None and _degree(rec) == _degree(recs[low]):
                 walked.add(m)   # the lower order persists beyond the probe: halve from here on
             level += [(a, m), (m, b)]
         left -= len(todo)
@@ -226,13 +256,17 @@ def _refine(family, ctrl, specs, rtol, checks, recs, viols, budget, orders, igno
         viols.extend(found[m])
         seen.add(m)
         budget -= 1
-        if low is not None and (recs[m].get("closed_loop_degree")
-                                == recs[low].get("closed_loop_degree")):
+        if low is not None and _degree(recs[m]) == _degree(recs[low]):
             walked.add(m)
         stack += [(a, m), (m, b)]
     for m in sorted(found.keys() - seen):   # checked in a batch, not reached depth first
         viols.extend(found[m])
     return out
+
+
+def _degree(rec):
+    """The degree of a record's continuous closed-loop polynomial."""
+    return rec.continuous.closed_loop_degree
 
 
 def _decide(recs, a, b, specs, rtol, ignore, floor):
@@ -242,8 +276,7 @@ def _decide(recs, a, b, specs, rtol, ignore, floor):
     key = _unresolved(recs[a], recs[b], specs, rtol, ignore)
     if key is None:
         return "resolved", None
-    if b - a <= floor and recs[a].get("closed_loop_degree") != recs[b].get(
-            "closed_loop_degree"):
+    if b - a <= floor and _degree(recs[a]) != _degree(recs[b]):
         return "order", key
     if b - a <= floor:   # a settling time jumps (a ripple leaves the band): both sides hold
         key = _unresolved(recs[a], recs[b], specs, rtol, (*ignore, *JUMPS))
@@ -276,7 +309,7 @@ def _split(a, b, recs, floor, walked):
     creep pair cancelling at the reference), and one check there isolates it where
     halving would need ``log2(width / floor)`` checks.
     """
-    da, db = (recs[t].get("closed_loop_degree") for t in (a, b))
+    da, db = (_degree(recs[t]) for t in (a, b))
     if da is None or db is None or da == db or b - a <= floor:
         return 0.5 * (a + b), None
     low = a if da < db else b
@@ -312,8 +345,7 @@ def certify(family, ctrl, specs, n_sweep=35, rtol=1e-3, checks=(), max_refine=No
         models += [m for m in family.sweep(n_sweep) if m.temperature_C not in known]
     recs, viols = {}, []
     for m, (rec, v) in zip(models, check_all_many(models, ctrl, specs, rtol, checks, family)):
-        recs[m.temperature_C] = rec
-        rec["family_member"] = m.temperature_C in known
+        recs[m.temperature_C] = replace(rec, family_member=m.temperature_C in known)
         viols.extend(v)
     lo, hi = family.range_C
     interval = {"range_C": [lo, hi], "stability": "single_model", "peaks": "single_model"}

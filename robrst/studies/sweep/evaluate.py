@@ -106,8 +106,8 @@ def status_of(exc):
 
 def _figures(problem, ctrl, cert, member_margins):
     recs = cert.models
-    worst_ms = max(recs, key=lambda r: r["Ms"]) if recs else {}
-    stable = all(r["stable"] for r in recs) and all(r.get("stable_sampled", True) for r in recs)
+    worst_ms = max(recs, key=lambda r: r.continuous.Ms) if recs else None
+    stable = all(r.stable for r in recs)
     # every bound the certificate checked (peaks, band peaks, sampled loop, time-domain specs,
     # |U| above a corner, violated hook bounds): one source, Certificate.ratios()
     ratios = cert.ratios()
@@ -118,13 +118,14 @@ def _figures(problem, ctrl, cert, member_margins):
     ms = cert.worst("Ms")
     return {"certified": bool(cert.certified), "stable": bool(stable),
             "worst_ratio": worst if stable else np.inf, "Ms": ms,
-            "Ms_temperature_C": worst_ms.get("temperature_C"), "Mt": cert.worst("Mt"),
+            "Ms_temperature_C": None if worst_ms is None else worst_ms.temperature_C,
+            "Mt": cert.worst("Mt"),
             "Mu": cert.worst("Mu"), "Mt_band": cert.worst("Mt_resonance_band"),
             "modulus_margin": None if not ms else 1.0 / ms, "gain_margin": gm,
             "phase_margin_deg": pm, "delay_margin_s": dm,
             "spectral_abscissa": cert.worst("spectral_abscissa"),
-            "Ms_sampled": cert.worst("Ms_sampled"), "Mt_sampled": cert.worst("Mt_sampled"),
-            "Mu_sampled": cert.worst("Mu_sampled"), "integral_gain": integral_gain(ctrl),
+            "Ms_sampled": cert.worst("Ms", "sampled"), "Mt_sampled": cert.worst("Mt", "sampled"),
+            "Mu_sampled": cert.worst("Mu", "sampled"), "integral_gain": integral_gain(ctrl),
             "violations": len(cert.violations),
             "violation": None if viol is None else viol.describe()}
 
@@ -144,7 +145,7 @@ def _smallest(ms):
 
 def _member_margins(problem, ctrl, cert):
     """Margins of every family model's loop (``Ms`` from ``cert``'s record of the model)."""
-    ms = {r["temperature_C"]: r["Ms"] for r in cert.models}
+    ms = {r.temperature_C: r.continuous.Ms for r in cert.models}
     return [loop_margins(m, ctrl, ms.get(m.temperature_C, cert.worst("Ms")))
             for m in problem.family.models]
 
