@@ -49,6 +49,7 @@ def run_report(args):
     """Design, certify and write the report folder."""
     from robrst.report.design import write_design_report
     from robrst.report.doc import check_report_target
+    from robrst.studies.design_curves import design_curves
 
     say = progress_printer(args.quiet)
     problem = load_problem(args.problem)
@@ -57,7 +58,11 @@ def run_report(args):
     check_report_target(Path(out), args.force)     # a bad target fails before the design
     say(f"designing {problem.name} ({problem.solver.method})")
     result = run_problem(problem, progress=say)
-    path = write_design_report(result, out, progress=say, force=args.force)
+    twin = problem.plant_name == "paper"
+    if twin:
+        say("simulating the digital twin for step.png")
+    curves = design_curves(result, twin=twin)
+    path = write_design_report(result, out, progress=say, force=args.force, curves=curves)
     print(f"wrote {path}/report.md, report.html, result.json and figures"
           f" (certified: {result.certified})")
     return 0 if result.certified else 1
