@@ -96,6 +96,14 @@ class LoopFigures:
         The peak of ``|U|`` above the corner of ``Mu_hf_max`` (when bounded).
     step : StepFigures or None
         Reference-step figures (time-domain specs, stable loops).
+    Msd, Msd_freq_rad_s : float or None
+        Exact peak of the input-disturbance sensitivity ``|B S / Delta|`` [µm/V] (when
+        ``Msd_max`` bounds it).
+    Mry, Mry_freq_rad_s : float or None
+        Exact peak of the reference-to-output ``|B T / Delta|`` (when ``Mry_max`` bounds it).
+    damping, decay_rad_s : float or None
+        Least damping and least decay rate ``-Re p`` [rad/s] of the loop's poles (a sampled
+        loop's mapped to s by ``fs ln z``), when a pole region is checked.
     """
 
     spectral_abscissa: float
@@ -112,6 +120,12 @@ class LoopFigures:
     Mt_resonance_band_freq_rad_s: float | None = None
     Mu_hf: float | None = None
     step: StepFigures | None = None
+    Msd: float | None = None
+    Msd_freq_rad_s: float | None = None
+    Mry: float | None = None
+    Mry_freq_rad_s: float | None = None
+    damping: float | None = None
+    decay_rad_s: float | None = None
 
     def value(self, name: str):
         """Figure ``name`` (a field, or a step figure), ``None`` when not computed."""
@@ -141,6 +155,10 @@ class LoopFigures:
             names.append("distance_to_instability")
         if self.Mu_hf is not None:
             names.append("Mu_hf")
+        for k in ("Msd", "Mry"):         # figures of the newer specs, only when checked
+            if getattr(self, k) is not None:
+                names += [k, k + "_freq_rad_s"]
+        names += [k for k in ("damping", "decay_rad_s") if getattr(self, k) is not None]
         out = [(figure_key(k, loop), getattr(self, k)) for k in names]
         if steps and self.step is not None:
             out += [(figure_key(k, loop), v) for k, v in self.step.items()]

@@ -24,12 +24,13 @@ from robrst.certificate.figures import LOOPS, LoopFigures, ModelRecord, StepFigu
 from robrst.core.analysis import spectral_abscissa_many
 from robrst.core.peaks import peak_gain, peak_gains_many
 from robrst.core.interval import distance_to_instability_many
-from robrst.problem.records import PEAK_SPECS
+from robrst.core import region
+from robrst.problem.records import EXTRA_PEAK_SPECS, PEAK_SPECS
 from robrst.core.rst import closed_loop
 from robrst.core.sampled import sampled_plant, unwarp, warp
 
 __all__ = ["Violation", "check_model", "check_all", "check_all_many", "margins", "band_peak",
-           "BOUNDED", "FIGURE_OF", "JUMPS", "RESOLVE_FACTOR"]
+           "BOUNDED", "LOWER_BOUNDED", "FIGURE_OF", "JUMPS", "RESOLVE_FACTOR"]
 
 RESOLVE_FACTOR = 64.0  # stability resolved when the distance to instability > this x n eps
 
@@ -37,9 +38,11 @@ RESOLVE_FACTOR = 64.0  # stability resolved when the distance to instability > t
 class Violation:
     """One failed check: model, temperature, quantity, value, bound, frequency.
 
-    ``kind`` is ``"exceeds"`` (``value > bound``), ``"crossing"`` (a closed-loop root
-    reaches the imaginary axis between two checked temperatures) or ``"unresolved"`` (the
-    check could not be decided: ``quantity`` says why; nothing is certified then).
+    ``kind`` is ``"exceeds"`` (``value > bound``), ``"below"`` (``value < bound``, a
+    lower bound: the pole region's damping and decay), ``"crossing"`` (a closed-loop root
+    reaches the imaginary axis, or a pole-region boundary, between two checked
+    temperatures) or ``"unresolved"`` (the check could not be decided: ``quantity`` says
+    why; nothing is certified then).
     """
 
     label: str
@@ -51,13 +54,25 @@ class Violation:
     loop: str = "continuous"     # or "sampled"
     kind: str = "exceeds"
 
+    @property
+    def ratio(self):
+        """How far beyond its bound: ``value / bound`` (``bound / value`` for a lower bound,
+        ``> 1`` when violated); ``inf`` for a crossing, an unresolved check or a bound 0."""
+        if self.kind == "exceeds" and self.bound:
+            return self.value / self.bound
+        if self.kind == "below" and self.bound:
+            return self.bound / self.value if self.value > 0 else np.inf
+        return np.inf
+
     def describe(self):
+        """One line naming the model, the quantity, its value and bound."""
         at = "" if self.freq_rad_s is None else f" at {self.freq_rad_s / (2 * np.pi):.4g} Hz"
         loop = " in the sampled loop" if self.loop == "sampled" else ""
-        if self.kind != "exceeds":
+        if self.kind not in ("exceeds", "below"):
             return f"model {self.label} ({self.temperature_C:g} °C){loop}: {self.quantity}{at}"
+        rel = ">" if self.kind == "exceeds" else "<"
         return (f"model {self.label} ({self.temperature_C:g} °C): {self.quantity}{loop} ="
-                f" {self.value:.4g} > {self.bound:.4g}{at}")
+                f" {self.value:.4g} {rel} {self.bound:.4g}{at}")
 
 
 
@@ -68,8 +83,9 @@ def band_peak(N, D, w_lo, w_hi):
 
 
 def _stability(loops):
-    """Spectral abscissa and distance to instability of each loop (``(inf, None)`` for a
-    sampled loop that lost degree: a pole at ``z = -1``), batched."""
+    """Spectral abscissa, distance to instability and closed-loop roots of each loop
+    (``(inf, None, None)`` for a sampled loop that lost degree: a pole at ``z = -1``),
+    batched."""
     found = spectral_abscissa_many([lp.cl.Delta for lp in loops])
     jobs = {}
     for k, (lp, (sa, roots)) in enumerate(zip(loops, found)):
@@ -78,7 +94,7 @@ def _stability(loops):
         else:
             jobs[k] = ([(lp.plant.A, lp.ctrl.S), (lp.plant.B, lp.ctrl.R)], lp.cl.Delta, roots)
     rhos = dict(zip(jobs, distance_to_instability_many(list(jobs.values()))))
-    return [(sa, rhos.get(k)) for k, (sa, _) in enumerate(found)]
+    return [(sa, rhos.get(k), roots) for k, (sa, roots) in enumerate(found)]
 
 
 def check_model(plant, ctrl, specs, rtol, fs=None):
@@ -101,8 +117,8 @@ def _check_loops(loops, ctrl, specs, rtol):
     """:func:`check_model` of each ``(plant, fs)``, the peak computations of all batched
     (:func:`robrst.core.peaks.peak_gains_many`: the same figures as one loop at a time)."""
     loops = [_Loop(plant, ctrl, specs, fs) for plant, fs in loops]
-    for lp, (sa, rho) in zip(loops, _stability(loops)):
-        lp.sa, lp.rho = sa, rho
+    for lp, (sa, rho, roots) in zip(loops, _stability(loops)):
+        lp.sa, lp.rho, lp.roots = sa, rho, roots
     pks = peak_gains_many([(lp.nums, lp.cl.Delta, lp.bands) for lp in loops])
     steps = _steps(loops, ctrl, specs, rtol)
     return [lp.finish(pk, specs, rtol, st) for lp, pk, st in zip(loops, pks, steps)]
@@ -132,8 +148,9 @@ class _Loop:
     def __init__(self, plant, ctrl, specs, fs):
         self.plant, self.ctrl, self.fs = plant, ctrl, fs
         self.cl = cl = closed_loop(plant, ctrl)
-        self.sa = self.rho = None      # set by _stability
-        self.nums = [cl.nums[k] for k in PEAK_SPECS]
+        self.sa = self.rho = self.roots = None      # set by _stability
+        self.extra = [k for k in EXTRA_PEAK_SPECS if specs.extra_peak_bound(k) is not None]
+        self.nums = [cl.nums[k] for k in PEAK_SPECS] + [cl.nums[k] for k in self.extra]
         self.bands = bands = []        # frequency-limited peaks, computed with the global ones
         if specs.T_resonance_max is not None:
             lo, hi = (2 * np.pi * f for f in specs.resonance_band_hz)
@@ -169,7 +186,21 @@ class _Loop:
             add(f"stability not resolved in double precision: A S + B R is within {rho:.2g}"
                 " (relative) of a polynomial with a root on the imaginary axis (cancellation"
                 " in the closed-loop coefficients)", rho, RESOLVE_FACTOR, kind="unresolved")
-        band_pks = iter(pks[len(PEAK_SPECS):])
+        band_pks = iter(pks[len(PEAK_SPECS) + len(self.extra):])
+        for name, pk in zip(self.extra, pks[len(PEAK_SPECS):]):    # B S/Delta, B T/Delta
+            freq = (self.phys(float(pk.freq_rad_s))
+                    if fs is not None or np.isfinite(pk.freq_rad_s) else None)
+            key = _EXTRA_FIGURE[name]
+            fig[key], fig[key + "_freq_rad_s"] = pk.value, freq
+            bound = specs.extra_peak_bound(name)
+            what = _EXTRA_QUANTITY[name]
+            if pk.value > bound * (1 + rtol):
+                add(f"{what} peak", pk.value, bound, freq)
+            elif not pk.verified:
+                add(f"{what} peak not verified: the closed-loop poles span more than 12"
+                    " decades", pk.value, bound, freq, kind="unresolved")
+        if (specs.damping_min or specs.decay_min) and self.roots is not None:
+            fig.update(self.region(specs, rtol, add))
         for name, pk in zip(PEAK_SPECS, pks):
             # a sampled peak at nu = inf is at Nyquist (unwarp(inf) = pi fs)
             freq = (self.phys(float(pk.freq_rad_s))
@@ -207,13 +238,60 @@ class _Loop:
                 add(q, v, b, kind=kind)
         return LoopFigures(**fig), viol
 
+    def region(self, specs, rtol, add):
+        """The pole-region figures ``{"damping": .., "decay_rad_s": ..}`` of this loop (its
+        roots mapped to s), violations and unresolved verdicts through ``add``.
+
+        A verdict that the region holds is unresolved when double precision cannot tell:
+        the closed-loop polynomial lies within its rounding error (``RESOLVE_FACTOR n
+        eps``, relative to the products forming it) of one with a root on the region's
+        boundary (:func:`robrst.core.region.boundary_distance`).  The sampled loop's
+        region (its boundary has no polynomial form in the loop variable) is decided from
+        its mapped roots alone.
+        """
+        p, fs = self.plant, self.fs
+        roots = np.asarray(self.roots, complex)
+        s = region.s_poles(roots, fs)
+        out = {"damping": region.least_damping(s), "decay_rad_s": region.least_decay(s)}
+        floor, sigma = specs.damping_min, specs.decay_min
+        lows = []
+        for name, lim, what in (("damping", floor, "closed-loop damping"),
+                                ("decay_rad_s", sigma, "closed-loop decay rate [rad/s]")):
+            if not lim:
+                continue
+            vals = region.damping_of(s) if name == "damping" else -s.real
+            k = int(np.argmin(vals))
+            if vals[k] < lim * (1 - rtol):
+                add(what, float(vals[k]), lim, abs(float(s[k].imag)) or None, kind="below")
+                lows.append(name)
+        if len(lows) == sum(bool(b) for b in (floor, sigma)) or fs is not None:
+            return out
+        size = np.polyadd(np.convolve(np.abs(p.A), np.abs(self.ctrl.S)),
+                          np.convolve(np.abs(p.B), np.abs(self.ctrl.R)))
+        D = poly.trim(self.cl.Delta)
+        rho = region.boundary_distance(D, size, roots, None if "damping" in lows else
+                                       (floor or None), None if "decay_rad_s" in lows else
+                                       (sigma or None))
+        if not rho > RESOLVE_FACTOR * len(D) * np.finfo(float).eps:
+            add(f"pole region not resolved in double precision: A S + B R is within {rho:.2g}"
+                " (relative) of a polynomial with a root on the region's boundary", rho,
+                RESOLVE_FACTOR, kind="unresolved")
+        return out
+
+
+_EXTRA_FIGURE = {"Sd": "Msd", "Tr": "Mry"}
+_EXTRA_QUANTITY = {"Sd": "|B S/Delta|", "Tr": "|B T/Delta|"}
+
 
 BOUNDED = (("Ms", "Ms_max"), ("Mt", "Mt_max"), ("Mu", "Mu_max"),
            ("Mt_resonance_band", "T_resonance_max"), ("Mu_hf", "Mu_hf_max"),
            ("overshoot_pct", "overshoot_max_pct"), ("settling_time_s", "settling_time_max_s"),
-           ("step_u_peak_V", "step_u_max_V"))
+           ("step_u_peak_V", "step_u_max_V"), ("Msd", "Msd_max"), ("Mry", "Mry_max"))
+LOWER_BOUNDED = (("damping", "damping_min"), ("decay_rad_s", "decay_min"))   # figure >= bound
 FIGURE_OF = {"|S| peak": "Ms", "|T| peak": "Mt", "|U| peak": "Mu",   # violation -> record
-             "|T| in resonance band": "Mt_resonance_band", "|U| above corner": "Mu_hf"}
+             "|T| in resonance band": "Mt_resonance_band", "|U| above corner": "Mu_hf",
+             "|B S/Delta| peak": "Msd", "|B T/Delta| peak": "Mry",
+             "closed-loop damping": "damping", "closed-loop decay rate [rad/s]": "decay_rad_s"}
 JUMPS = tuple(figure_key("settling_time_s", loop) for loop in LOOPS)   # piecewise continuous
 
 
@@ -307,5 +385,9 @@ def margins(rec, specs, rtol):
             b, v = getattr(specs, attr), lf.value(key)
             if b is not None and v is not None and np.isfinite(v):
                 out[figure_key(key, loop)] = (v, b * (1 + rtol))
+        for key, attr in LOWER_BOUNDED:   # a lower bound: (-value, -limit), the same test
+            b, v = getattr(specs, attr), lf.value(key)
+            if b and v is not None and np.isfinite(v):
+                out[figure_key(key, loop)] = (-v, -b * (1 - rtol))
     out.update(rec.margins)
     return out

@@ -44,8 +44,10 @@ import numpy as np
 
 from robrst.core.interval import parameter_crossing, segment_crossing
 from robrst.certificate.figures import LOOPS, figure_key, parse_key
-from robrst.certificate.models import (BOUNDED, FIGURE_OF, JUMPS, RESOLVE_FACTOR, Violation,
-                               band_peak, check_all, check_all_many, check_model, margins)
+from robrst.certificate.models import (BOUNDED, FIGURE_OF, JUMPS, LOWER_BOUNDED, RESOLVE_FACTOR,
+                                       Violation, band_peak, check_all, check_all_many,
+                                       check_model, margins)
+from robrst.core import poly, region
 from robrst.problem.records import Problem
 from robrst.core.rst import RSTController, closed_loop
 from robrst.core.thermal import modal_form
@@ -72,6 +74,7 @@ class Certificate:
     rtol: float
     interval: dict = field(default_factory=dict)
     bounds: dict = field(default_factory=dict)   # {figure: bound} of every bound checked
+    controller: dict = None      # the controller's own poles (controller_damping_min)
 
     def worst(self, key, loop=None):
         """Largest figure ``key`` over the models (``None`` if no record has it).
@@ -118,26 +121,31 @@ class Certificate:
         def ratio(v, b):
             return v / b if b > 0 else (0.0 if v <= 0 else np.inf)
 
+        def lower(v, b):          # a lower bound: bound / value
+            return b / v if v > 0 else np.inf
+
         out = {}
         for key, b in self.bounds.items():
+            r = lower if key in _LOWER else ratio
             for loop in LOOPS:
                 vals = [v for m in self.models if (v := m.value(key, loop)) is not None]
                 if vals:
-                    out[figure_key(key, loop)] = max(ratio(float(v), b) for v in vals)
+                    out[figure_key(key, loop)] = max(r(float(v), b) for v in vals)
         for m in self.models:
             for k, (v, lim) in m.margins.items():
                 out[k] = max(out.get(k, -np.inf), ratio(v, lim))
         for v in self.violations:
-            if v.kind == "exceeds" and v.bound and v.bound > 0 and np.isfinite(v.value):
+            if v.kind in ("exceeds", "below") and v.bound and v.bound > 0 and np.isfinite(v.value):
                 k = figure_key(FIGURE_OF.get(v.quantity, v.quantity), v.loop)
                 if k not in out:
-                    out[k] = max(out.get(k, -np.inf), v.value / v.bound)
+                    out[k] = max(out.get(k, -np.inf), v.ratio)
         return out
 
     def as_dict(self):
         """The ``certificate`` object of the JSON contract."""
+        extra = {} if self.controller is None else {"controller": self.controller}
         return {"ratios": self.ratios(), "certified": self.certified, "rtol": self.rtol,
-                "models": [m.as_dict() for m in self.models],
+                **extra, "models": [m.as_dict() for m in self.models],
                 "violations": [v.__dict__ for v in self.violations],
                 "interval": self.interval,
                 "interval_proof": self.interval.get("stability"),
@@ -318,6 +326,115 @@ def _split(a, b, recs, floor, walked):
     return (a + 0.5 * floor if low == a else b - 0.5 * floor), low
 
 
+_LOWER = {key for key, _ in LOWER_BOUNDED}
+_REGION_FIGURES = ("damping", "decay_rad_s")     # the continuous loop's, by published name
+
+
+def resolved_specs(specs, family):
+    """``specs`` with the damping floor resolved on ``family`` (the default floor when
+    ``damping_min`` is not given, :meth:`robrst.problem.records.Specs.damping_floor`; 0:
+    none) and its source."""
+    floor, source = specs.damping_floor(family)
+    return replace(specs, damping_min=floor or 0.0), source
+
+
+def _region_polys(specs):
+    """The region tests of a continuous closed-loop polynomial ``D``: ``(name, f,
+    degree factor)`` with ``f(D)`` Hurwitz exactly when every root of ``D`` meets the
+    bound (:mod:`robrst.core.region`)."""
+    out = []
+    if specs.decay_min:
+        sigma = specs.decay_min
+
+        def shifted(D):
+            return region.shift_matrix(len(D) - 1, sigma) @ D
+        out.append(("decay", shifted, 1))
+    if specs.damping_min:
+        zeta = specs.damping_min * (1 - 1e-12)
+        out.append(("damping", lambda D: region.sector_polynomial(D, zeta), 2))
+    return out
+
+
+def _region_interval(family, ctrl, specs, rtol, checks, recs, viols):
+    """The pole region of the continuous loop between checked temperatures: no root of the
+    closed-loop polynomial crosses the region's boundary (guardian map of the shifted and
+    of the rotated polynomials, :func:`robrst.core.interval.parameter_crossing`) on each
+    side of a parametric family's reference, or along each segment between members of an
+    explicit family (linear interpolation of the closed-loop polynomial).  A candidate
+    crossing is checked (and refined around)."""
+    tests = _region_polys(specs)
+    if not tests or len(family.models) < 2:
+        return None
+    if not all(r.continuous.stable for r in recs.values()):
+        return {"proved": False, "skipped": "a checked model is unstable"}
+    explicit = family.thermal is None
+    if explicit:
+        ms = family.models
+        parts = [(a.temperature_C, b.temperature_C,
+                  (closed_loop(a, ctrl).Delta, closed_loop(b, ctrl).Delta)) for a, b in
+                 zip(ms[:-1], ms[1:])]
+        deg_T = 1
+    else:
+        lo, hi = family.range_C
+        ref = family.thermal.reference_C
+        c = family.thermal
+        k = len(modal_form(family.reference_model).pairs)
+        deg_T = max(2 * k, 2 if (c.creep_per_K or c.creep_at_ref) else 1)
+        parts = [(a, b, None) for a, b in ((lo, min(ref, hi)), (max(ref, lo), hi)) if b > a]
+    out = []
+    for a, b, ends in parts:
+        for name, f, factor in tests:
+            if ends is None:
+                def at(T, f=f):
+                    return _positive(f(poly.trim(closed_loop(family.at(T), ctrl).Delta)))
+                pr = parameter_crossing(at, a, b, factor * deg_T)
+            else:
+                Da, Db = (poly.trim(D) for D in ends)
+                if len(Da) != len(Db):
+                    out.append({"range_C": [a, b], "test": name, "proved": False})
+                    continue
+
+                def at(lam, f=f, Da=Da, Db=Db):
+                    return _positive(f((1 - lam) * Da + lam * Db))
+                pr = parameter_crossing(at, 0.0, 1.0, factor)
+            cand = pr.candidate_T
+            if cand is not None and ends is not None:
+                cand = a + cand * (b - a)
+            out.append({"range_C": [a, b], "test": name, "proved": pr.proved, "nodes": pr.nodes,
+                        "candidate_C": cand})
+            if cand is not None:   # check the candidate and its neighbours
+                for T in (cand, cand - 1e-6 * (b - a), cand + 1e-6 * (b - a)):
+                    if a <= T <= b and T not in recs:
+                        rec, v = check_all(family.at(T), ctrl, specs, rtol, checks, family)
+                        recs[T] = replace(rec, family_member=False)
+                        viols.extend(v)
+    return {"proved": all(p["proved"] for p in out), "parts": out}
+
+
+def _positive(c):
+    """``c`` with a positive leading coefficient."""
+    return c if c[0] > 0 else -c
+
+
+def _controller_poles(ctrl, specs, rtol):
+    """The controller's own poles (roots of ``S`` other than its integrators): least
+    damping, and the violation of ``controller_damping_min``."""
+    S = poly.trim(ctrl.S)
+    nz = np.flatnonzero(S)
+    Q = S[:nz[-1] + 1] if nz.size else S
+    roots = np.roots(Q) if len(Q) > 1 else np.zeros(0, complex)
+    zeta = region.least_damping(roots)
+    rec = {"damping": zeta, "damping_min": specs.controller_damping_min,
+           "poles_rad_s": [[float(r.real), float(r.imag)] for r in roots]}
+    viol = []
+    b = specs.controller_damping_min
+    if b and zeta < b * (1 - rtol):
+        k = int(np.argmin(region.damping_of(roots)))
+        viol.append(Violation("controller", float("nan"), "controller pole damping", zeta, b,
+                              abs(float(roots[k].imag)) or None, kind="below"))
+    return rec, viol
+
+
 def certify(family, ctrl, specs, n_sweep=35, rtol=1e-3, checks=(), max_refine=None):
     """Certify ``ctrl`` on ``family`` over its whole temperature interval (module docstring).
 
@@ -339,6 +456,7 @@ def certify(family, ctrl, specs, n_sweep=35, rtol=1e-3, checks=(), max_refine=No
     -------
     Certificate
     """
+    specs, damping_source = resolved_specs(specs, family)
     known = {m.temperature_C for m in family.models}
     models = list(family.models)
     if len(models) > 1 and n_sweep > 0:
@@ -359,13 +477,17 @@ def certify(family, ctrl, specs, n_sweep=35, rtol=1e-3, checks=(), max_refine=No
         else:
             proof = _guardian(family, ctrl, specs, rtol, checks, recs, viols)
             proved = proof["proved"]
+        region_proof = _region_interval(family, ctrl, specs, rtol, checks, recs, viols)
         budget = max(4 * n_sweep, 64) if max_refine is None else max_refine
         orders = []
         # stability proved for every temperature: the refinement need not chase the
         # continuous spectral abscissa (it still watches every bounded figure and the
-        # sampled loop, whose stability no proof covers)
+        # sampled loop, whose stability no proof covers); likewise the pole region
+        ignore = ("spectral_abscissa",) if proved else ()
+        if region_proof is not None and region_proof["proved"]:
+            ignore += _REGION_FIGURES
         viols += _refine(family, ctrl, specs, rtol, checks, recs, viols, budget, orders,
-                         ignore=("spectral_abscissa",) if proved else ())
+                         ignore=ignore)
         temps = np.array(sorted(recs))
         interval = {
             "range_C": [lo, hi],
@@ -381,11 +503,51 @@ def certify(family, ctrl, specs, n_sweep=35, rtol=1e-3, checks=(), max_refine=No
             **({} if proof is None else {"guardian": proof}),
             "statement": _statement(explicit, tested, proved),
         }
+        if region_proof is not None:
+            interval["pole_region_proof"] = region_proof
+    if specs.damping_min or specs.decay_min:
+        interval["pole_region"] = _region_statement(specs, damping_source, interval)
+    ctrl_rec = None
+    if specs.controller_damping_min is not None:
+        ctrl_rec, v = _controller_poles(ctrl, specs, rtol)
+        viols += v
     recs_sorted = tuple(recs[T] for T in sorted(recs))
     bounds = {key: getattr(specs, attr) for key, attr in BOUNDED
               if getattr(specs, attr) is not None}
+    bounds.update({key: getattr(specs, attr) for key, attr in LOWER_BOUNDED
+                   if getattr(specs, attr)})
     return Certificate(certified=not viols, models=recs_sorted, violations=tuple(viols),
-                       rtol=rtol, interval=interval, bounds=bounds)
+                       rtol=rtol, interval=interval, bounds=bounds, controller=ctrl_rec)
+
+
+def _region_statement(specs, source, interval):
+    """What the certificate established about the closed-loop pole region."""
+    proof = interval.get("pole_region_proof")
+    parts = []
+    if specs.damping_min:
+        parts.append(f"damping >= {specs.damping_min:.4g}"
+                     + (" (the default floor)" if source == "default" else ""))
+    if specs.decay_min:
+        parts.append(f"decay rate -Re(p) >= {specs.decay_min:.4g} rad/s")
+    what = " and ".join(parts)
+    pts = ("at every checked temperature (family members, sweep and refinement points),"
+           " from the roots of the closed-loop polynomial (a root within its rounding error"
+           " of the boundary is 'unresolved')")
+    if proof is None:
+        between = "a single model" if "points" not in interval else "no proof between points"
+    elif proof["proved"]:
+        between = ("proved between them for the continuous loop: no closed-loop root crosses"
+                   " the region's boundary (guardian map of the shifted and the rotated"
+                   " closed-loop polynomials along the thermal law or the interpolation)")
+    else:
+        between = ("between them a refined sweep (the guardian-map proof did not hold or"
+                   " could not be validated)")
+    samp = ("; the sampled loop's poles (mapped to s by fs ln z) on the refined sweep"
+            if specs.sampled else "")
+    return {"damping_min": specs.damping_min or None, "damping_source": source,
+            "decay_min": specs.decay_min, "proved_between_points": bool(proof and
+                                                                          proof["proved"]),
+            "statement": f"every closed-loop pole: {what}, {pts}; {between}{samp}"}
 
 
 def certify_problem(problem: Problem, ctrl: RSTController) -> Certificate:

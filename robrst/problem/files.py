@@ -128,9 +128,23 @@ SCHEMA = {
         "step_um": Field("number", 1.0, "reference step for step_u_max_V [µm]", positive=True),
         "step_u_max_V": Field("number", None, "peak |u| for a reference step of step_um [V]",
                               positive=True),
+        "Msd_max": Field("number", None, "bound on the input-disturbance sensitivity"
+                         " |B S/Delta| [µm/V]", positive=True),
+        "Mry_max": Field("number", None, "bound on the reference-to-output |B T/Delta|"
+                         " (Mt_max bounds |B R/Delta|)", positive=True),
+        "damping_min": Field("number", None, "least damping of every closed-loop pole of every"
+                             " model (sampled loop: poles mapped to s by fs ln z); default"
+                             " min(0.1, 0.9 x the plant's least damping), 0: none",
+                             lo=0.0, hi=0.99),
+        "decay_min": Field("number", None, "least decay rate -Re(p) of every closed-loop pole"
+                           " [rad/s]", positive=True, hi=MAX_RATE),
+        "controller_damping_min": Field("number", None, "least damping of the controller's own"
+                                        " poles", lo=0.0, hi=0.99),
     },
     "solver": {
-        "method": Field("str", "analytic", "analytic | nlp | convex", choices=METHODS),
+        "method": Field("str", None, "analytic | nlp | convex; default: nlp (the robust"
+                        " program) when [specs] bounds anything, else analytic",
+                        choices=METHODS),
         "objective": Field("str", "max_integral_gain", "max_integral_gain | min_Ms | feasibility",
                            choices=OBJECTIVES),
         "free_poles": Field("bool", False, "let wn and zeta vary within the bounds"),
@@ -156,6 +170,12 @@ SCHEMA = {
         "homotopy": Field("str", "on_failure", "lower extra_degree solved first: on_failure |"
                           " always (more degrees never certify a worse objective)",
                           choices=HOMOTOPIES),
+        "multistart": Field("bool", True, "nlp: also solve from diverse starts (analytic designs"
+                            " at other poles, free placement, PI/roll-off controllers, more"
+                            " degrees) on 2 processes and keep the best certified answer;"
+                            " off inside sweeps"),
+        "starts": Field("int", 6, "nlp multi-start: how many starts beyond the first",
+                        lo=0, hi=64),
     },
 }
 
@@ -241,6 +261,15 @@ def _family(path, f, nominal):
         raise key_error(path, ("family",), str(exc)) from None
 
 
+def _solver(t, specs):
+    """The solver options; no ``method``: the robust program when the specs bound anything
+    (``method_source`` says which rule chose it)."""
+    if t["method"] is None:
+        return SolverOptions(**{**t, "method": "nlp" if specs.bounded else "analytic",
+                                "method_source": "default"})
+    return SolverOptions(**t)
+
+
 def _table(path, v, name):
     return v[name] or validate(path, {}, SCHEMA[name], (name,))
 
@@ -291,7 +320,7 @@ def parse_problem(data, path="<problem>", compare=True):
     poles = pole_spec(path, v["poles"])
     ctrl = ControllerStructure(**_table(path, v, "controller"))
     specs = Specs(**_table(path, v, "specs"))
-    solver = SolverOptions(**_table(path, v, "solver"))
+    solver = _solver(_table(path, v, "solver"), specs)
     for k in ("S_fixed", "R_fixed"):
         if not getattr(ctrl, k) or getattr(ctrl, k)[0] == 0.0:
             raise key_error(path, ("controller", k), "expected polynomial coefficients, highest"

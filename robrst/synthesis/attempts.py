@@ -17,6 +17,8 @@ from robrst.synthesis.nlp import grid_blocks
 from robrst.synthesis.outcome import Round, worst_violation
 from robrst.synthesis.parametrize import integral_gain
 from robrst.synthesis.starts import ON_SLOW_POLE, candidates, score
+from robrst.synthesis.timesamples import (TIME_MARGIN, time_rows, time_specs,
+                                           worst_time_ratio)
 
 __all__ = ["Outcome", "Run", "worst_violation", "frequency_certificate", "refine",
            "objective_value", "GAMMA_FLOOR"]
@@ -30,6 +32,8 @@ FAR_START = 5.0           # a start missing the specs 5x: no objective phase fro
 WARM_MU = 1e-4           # IPOPT's initial barrier from a previous design of a nearby variant
 WARM_NEAR = 1.05         # ... solved from at once when within 5 % of the specs on the grid
 WARM_START = "previous design"   # the name of that start (robrst.synthesis.robust hands it down)
+TIME_ROUNDS = 8          # reference-step samples: linearise-and-solve rounds per solve
+TIME_BOX = 0.5           # their first trust region (relative to the coefficients)
 
 
 @dataclass(frozen=True, eq=False)
@@ -55,7 +59,7 @@ class Outcome:
             return 0.0
         if v.quantity == "spectral_abscissa" or not v.bound:   # crossing / unresolved: bound 0
             return np.inf
-        return v.value / v.bound
+        return v.ratio
 
 
 def frequency_certificate(problem, ctrl):
@@ -82,13 +86,31 @@ def refine(problem, cert, models, nu, max_new=2):
             nu = np.unique(np.concatenate([nu, [w * f for f in (0.98, 1.0, 1.02)]]))
         elif v.quantity.endswith("peak"):  # peak at infinity: push the grid further out
             nu = np.unique(np.concatenate([nu, [nu.max() * 100.0]]))
-        if v.temperature_C not in known:
-            r = v.value / v.bound if v.bound else np.inf
-            new_T[v.temperature_C] = max(new_T.get(v.temperature_C, 0.0), r)
+        if v.temperature_C not in known and np.isfinite(v.temperature_C):
+            new_T[v.temperature_C] = max(new_T.get(v.temperature_C, 0.0), v.ratio)
     for T in sorted(new_T, key=lambda t: -new_T[t])[:max_new]:
         models.append(problem.family.at(T))
     models.sort(key=lambda m: m.temperature_C)
     return models, nu
+
+
+class _Timed:
+    """A solve of :meth:`Run.timed` and whether it was the objective's (``phase_ok``)."""
+
+    def __init__(self, res, phase_ok):
+        self.res, self.phase_ok = res, phase_ok
+
+    def __getattr__(self, name):
+        return getattr(self.res, name)
+
+
+def sampled_shortfall(cert):
+    """How much the sampled models' damping floor in the program must rise: the largest
+    shortfall of a sampled loop's mapped poles below the floor, with a margin (their
+    sector is imposed in the loop variable, where the floor's image differs)."""
+    short = [v.bound - v.value for v in cert.violations
+             if v.kind == "below" and v.loop == "sampled" and v.quantity == "closed-loop damping"]
+    return 1.5 * max(short) + 2e-3 if short else 0.0
 
 
 def _better(problem, out, others):
@@ -136,6 +158,7 @@ class Run:
         self.problem, self.say, self.templates, self.warm = problem, say, templates, warm
         self.rounds, self.notes = [], []
         self.hopeless = False     # set when the specs are provably infeasible
+        self.tighten = 0.0        # extra damping floor of the sampled models' sector rows
         self.solved = {}          # program key -> result: a repeated program is not re-solved
 
     def spent(self, placement=None):
@@ -163,6 +186,9 @@ class Run:
             if not res.success:   # second chance: IPOPT's adaptive barrier update
                 res = solve_exchange(setup, x0, {**ctx.ipopt, "mu_strategy": "adaptive"}, phase,
                                      self.templates, exact=exact)
+        spec = time_specs(ctx.problem, setup.w0)
+        if spec is not None and res.success and key not in self.solved:
+            res = self.timed(ctx, setup, res, phase, exact, spec)
         self.solved[key] = res
         ex = res.exchange
         gamma = float(res.x[-1]) if phase.kind == "soft" else None
@@ -177,6 +203,55 @@ class Run:
                  f" {res.status} in {res.iterations} it, {len(setup.models)} models x"
                  f" {len(setup.nu)} freqs" + (f", worst spec ratio {gamma:.4g}" if gamma else ""))
         return res
+
+    def timed(self, ctx, setup, res, phase, exact, spec):
+        """The reference-step samples of :mod:`robrst.synthesis.timesamples`.
+
+        While a sample of a model's step response violates its spec, the violated and
+        near samples are linearised at the point and the program is solved again inside a
+        trust region: in the objective phase first a restoration solve (phase ``"time"``:
+        the worst normalised sample minimised, every other spec held), then the objective
+        with the samples as constraints; in the soft phase the samples scale with
+        ``gamma``.  A step is kept when the worst exact sample improved (the trust region
+        then grows; it is halved otherwise)."""
+        best, keys, f, iters = res, (), TIME_BOX, res.iterations
+        worst, found = worst_time_ratio(setup, best.x, spec)
+        restore = (phase.kind == "hard" and not (
+            setup.objective == "min_Ms" and setup.bounds.get("S") is None))
+        for _ in range(TIME_ROUNDS):
+            if self.spent():
+                break
+            kind = "time" if worst > 1.0 and restore else phase.kind
+            if worst <= 1.0 and (kind != "hard" or best is not res and best.phase_ok):
+                break
+            rows = time_rows(setup, best.x, spec, keys, found)
+            keys = rows.keys
+            c = best.x[:ctx.param.n_x]
+            r = f * (np.abs(c) + 0.05 * np.max(np.abs(c)))
+            x0 = best.x.copy()
+            if kind == "time":
+                x0[-1] = max(worst, 1.0) * 1.02
+            new = solve_exchange(setup, x0, ctx.ipopt, Phase(kind, TIME_MARGIN ** 2), self.templates,
+                                 exact=exact, box=(c, r), lin=rows)
+            iters += new.iterations
+            if not new.success:
+                f /= 2
+                continue
+            if np.allclose(new.x[:-1], best.x[:-1], rtol=1e-9, atol=1e-12):
+                break        # no freedom left (e.g. a unique Diophantine solution)
+            w_new, f_new = worst_time_ratio(setup, new.x, spec)
+            if kind == "time":
+                new = replace(new, x=np.concatenate([new.x[:-1], [res.x[-1]]]))
+            if w_new < worst or (w_new <= 1.0 and kind == "hard"):
+                best, worst, found, f = new, w_new, f_new, min(2 * f, 4 * TIME_BOX)
+                best = _Timed(best, kind == "hard")
+            else:
+                f /= 2
+        if worst > 1.0:
+            self.notes.append(f"reference-step samples: the worst sample is {worst:.3g} x its"
+                              " spec after the linearised rounds (the certificate decides)")
+        best = best.res if isinstance(best, _Timed) else best
+        return replace(best, iterations=iters)
 
     def boxed(self, ctx, setup, x0, phase, exact):
         """Trust-region solves for freely placed poles (free coefficients move resonances
@@ -225,7 +300,7 @@ class Run:
             if rnd and self.spent(placement):
                 self.notes.append(f"iteration budget ({RUN_ITER_BUDGET}) spent: refinement stopped")
                 break
-            setup = ctx.setup(models, nu, placement)
+            setup = ctx.setup(models, nu, placement, self.tighten)
             res = self.solve(ctx, setup, x, Phase("hard"), name if rnd == 0 else "previous round")
             if not res.success and rnd > 0:   # the refined program: back to the specs first
                 x0 = np.concatenate([x[:-1], [max(last.badness, 1.0) * 1.02]])
@@ -243,6 +318,7 @@ class Run:
                 break
             x = res.x
             models, nu = refine(p, last.cert, models, nu)
+            self.tighten = max(self.tighten, sampled_shortfall(last.cert))
         return last
 
     def attempt(self, ctx, placement, seeds):

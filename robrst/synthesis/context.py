@@ -13,7 +13,7 @@ import numpy as np
 
 from robrst.core import poly
 from robrst.core.sampled import warp
-from robrst.synthesis.nlp import NLPSetup, scale_plant
+from robrst.synthesis.nlp import NLPSetup, Region, scale_plant
 from robrst.synthesis.parametrize import (Parametrization, TrackingRule, frequency_grid,
                                           integral_gain)
 
@@ -24,6 +24,7 @@ BOUND_MARGIN = 0.9995   # grid constraints just inside the specs (half the certi
 FREE_MARGIN = 0.98      # freely placed poles: sharp resonances move between the models
 CTRL_POLE_RATIO = 0.1   # max_integral_gain: controller poles at Re s <= -0.1 |slowest dominant|
 CTRL_MAX = 30.0         # free placement: controller poles at Re s >= -30 |fastest start root|
+REGION_MARGIN = 1e-3    # the program's damping floor just inside the certificate's
 
 
 def ipopt_options(so):
@@ -98,13 +99,30 @@ class Context:
         """``"dominant"`` with free poles, else ``"fixed"``."""
         return "dominant" if self.problem.solver.free_poles else "fixed"
 
-    def setup(self, models, nu, placement):
-        """The numeric program data for ``models`` on the grid ``nu`` [rad/s]."""
+    def region(self, tighten=0.0):
+        """The pole region of the program (:class:`~robrst.synthesis.nlp.Region`), ``None``
+        when the specs impose none; ``tighten`` raises the sampled models' damping floor
+        (their sector is imposed in the loop variable, the certificate maps the poles)."""
+        p = self.problem
+        sp = p.specs
+        floor, _ = sp.damping_floor(p.family)
+        zeta = None if not floor else min(0.999, floor + REGION_MARGIN)
+        zs = None if zeta is None or not sp.sampled else min(0.999, zeta + tighten)
+        sigma = sp.decay_min / self.w0 if sp.decay_min else None
+        cz = sp.controller_damping_min
+        cz = min(0.999, cz + REGION_MARGIN) if cz else None
+        if zeta is None and sigma is None and cz is None:
+            return None
+        return Region(zeta=zeta, zeta_sampled=zs, sigma=sigma, ctrl_zeta=cz)
+
+    def setup(self, models, nu, placement, tighten=0.0):
+        """The numeric program data for ``models`` on the grid ``nu`` [rad/s] (``tighten``:
+        see :meth:`region`)."""
         p = self.problem
         sp, so = p.specs, p.solver
         sc, w0 = self.param.scaling, self.w0
         bounds = {"S": sp.Ms_max, "T": sp.Mt_max, "U": sp.Mu_max, "Tband": sp.T_resonance_max,
-                  "Uhf": sp.Mu_hf_max}
+                  "Uhf": sp.Mu_hf_max, "Sd": sp.Msd_max, "Ry": sp.Mry_max}
         margin = FREE_MARGIN if placement == "free" else BOUND_MARGIN
         bounds = {k: (None if v is None else v * margin) for k, v in bounds.items()}
         band = np.zeros(0)
@@ -132,6 +150,7 @@ class Context:
                 if hf.size else hf
             hfs += [warp(hf_s, fs) / w0] * len(sampled)
             models = list(models) + sampled
+        n_cont = len(models) - (len(rates) if sp.sampled else 0)
         ms = tuple((m.label, m.temperature_C, *scale_plant(m, sc)) for m in models)
         pb, domr = None, ()
         if placement == "dominant":
@@ -146,7 +165,17 @@ class Context:
                         rates=rates, placement=placement, hf=tuple(hfs),
                         integrators=self.param.integrators, sign=self.sign,
                         ctrl_shift=self.ctrl_shift, ctrl_max=self.ctrl_max,
-                        grids=tuple(grids))
+                        grids=tuple(grids), T_shape=self.T_shape(),
+                        fs_of=(None,) * n_cont + (sp.sample_rate_hz,) * (len(ms) - n_cont),
+                        region=self.region(tighten))
+
+    def T_shape(self):
+        """The scaled feed-forward shape ``T / R(0)`` (``T_shape(0) = 1``) of the structure."""
+        c = self.problem.controller
+        if c.T_mode == "static" or not c.T_zeros:
+            return np.ones(1)
+        Bm = poly.from_roots(c.T_zeros)
+        return self.param.scaling.apply(Bm) / Bm[-1]
 
     def full(self, xc, setup, wn=None, zeta=None, gamma=1.0):
         """The full variable vector ``[xc, (wn, zeta), gamma]`` for ``setup``."""

@@ -28,8 +28,9 @@ from robrst.core.peaks import peak_gain
 from robrst.synthesis.nlp import (controller_conditions, grid_blocks, local_maxima,
                                   objective_rows)
 from robrst.synthesis.outcome import SolveResult
-from robrst.synthesis.stability import (ROUTH_MIN, initial_stability, joined, routh_margins,
-                                        stability_rows)
+from robrst.synthesis.stability import (ROUTH_MIN, initial_sectors, initial_stability, joined,
+                                        routh_margins, sector_margins, sector_rows,
+                                        sectors_joined, stability_rows)
 from robrst.synthesis.template import Structure, Template
 
 __all__ = ["ExchangeInfo", "Phase", "solve_exchange", "solve_program", "local_maxima",
@@ -43,8 +44,10 @@ NEIGHBOURS_NEAR = 0.8   # local maxima above this share of their bound start wit
 @dataclass(frozen=True)
 class Phase:
     """What is solved: ``"soft"`` (minimise the worst normalised spec ratio ``gamma``,
-    systune's soft goals, down to ``gamma_floor``) or ``"hard"`` (the problem's objective
-    with every spec a constraint)."""
+    systune's soft goals, down to ``gamma_floor``), ``"hard"`` (the problem's objective
+    with every spec a constraint) or ``"time"`` (minimise the worst normalised ratio of
+    the reference-step samples alone, every other spec a constraint: the restoration step
+    of :mod:`robrst.synthesis.timesamples`)."""
 
     kind: str = "hard"
     gamma_floor: float = 0.0
@@ -60,6 +63,7 @@ class ExchangeInfo:
     grid_points: int
     max_grid_ratio: float   # max over every grid point of |N| / (limit |Delta|) at the result
     stability_models: int = -1   # models whose closed-loop stability rows were imposed
+    sector_rows: int = 0         # pole-region sector rows imposed (damping floors)
 
 
 def _limits(setup, blocks, phase):
@@ -68,6 +72,8 @@ def _limits(setup, blocks, phase):
     for b in blocks:
         if phase.kind == "soft":
             out.append((b.bound, True))
+        elif phase.kind == "time":
+            out.append((b.bound, False))
         elif setup.objective == "min_Ms" and b.key == "S":
             out.append((1.0, True))
         else:
@@ -90,7 +96,7 @@ def _capacity(n, lo=32):
     return c
 
 
-def _structure(setup, phase, n_slots, ipopt, rows, routh):
+def _structure(setup, phase, n_slots, ipopt, rows, routh, srows=(), sectors=(), lin=None):
     ctrl = _ctrl(setup, phase)
     deg_eq = len(setup.Am_fixed) - 1 if setup.placement == "fixed" else (
         0 if setup.placement == "free" else rows[setup.ref][0])
@@ -99,7 +105,9 @@ def _structure(setup, phase, n_slots, ipopt, rows, routh):
                      groups=_group_caps([rows[j] for j in routh]),
                      slots=_capacity(n_slots), ipopt=tuple(sorted(ipopt.items())),
                      ctrl_deg=-1 if ctrl is None else ctrl[2] - 1,
-                     ctrl_count=1 if ctrl is None else ctrl[3])
+                     ctrl_count=1 if ctrl is None else ctrl[3],
+                     sectors=_group_caps([(srows[i].deg,) for i in sectors]),
+                     lin=0 if lin is None or not len(lin.c) else _capacity(len(lin.c), 8))
 
 
 def _ctrl(setup, phase):
@@ -122,7 +130,8 @@ def _group_caps(groups):
     return tuple((d, -(-n // 4) * 4) for d, n in sorted(degs.items()))
 
 
-def _values(setup, st, blocks, limits, active, rows, routh, phase, x_ref):
+def _values(setup, st, blocks, limits, active, rows, routh, phase, x_ref, srows=(),
+            sectors=(), lin=None):
     """Parameters, constraint bounds and labels of one solve."""
     nx, K = st.nx, st.slots
     v = {k: np.zeros((K, nx)) for k in ("NR", "NI", "DR", "DI")}
@@ -170,6 +179,7 @@ def _values(setup, st, blocks, limits, active, rows, routh, phase, x_ref):
     v.update(r0=r0, q0=q0, q0c=[q0c], xref=np.asarray(x_ref, float)[:nx])
     hard_ki = phase.kind == "hard" and setup.objective == "max_integral_gain"
     lbg += [1e-12, 1e-12] if hard_ki else [-np.inf, -np.inf]
+    scaled = phase.kind in ("soft", "time")      # rows scale with gamma
     ubg += [np.inf, np.inf]
     labels += [("positivity", None, None, 0), ("positivity", None, None, 1)]
     if st.ctrl_deg >= 0:
@@ -178,14 +188,39 @@ def _values(setup, st, blocks, limits, active, rows, routh, phase, x_ref):
         lbg += [ROUTH_MIN] * len(m)
         ubg += [np.inf] * len(m)
         labels += [("controller_routh", None, None, r) for r in range(len(m))]
+    for gi, (deg, cap) in enumerate(st.sectors):
+        mine = [srows[i] for i in sectors if srows[i].deg == deg]
+        n = deg + 1
+        Pm, Pc = np.zeros((cap * n, nx)), np.tile(np.poly(-np.ones(deg)), cap)
+        cs, sn = np.ones(cap * n), np.zeros(cap * n)     # unused: (p + 1)^deg, no rotation
+        for k, r in enumerate(mine):
+            sl = slice(k * n, (k + 1) * n)
+            Pm[sl], Pc[sl] = r.Pm, r.Pc
+            cs[sl], sn[sl] = r.rotation()
+            label, T = (setup.models[r.model][:2] if r.model is not None else (None, None))
+            labels += [(r.kind, label, T, q) for q in range(2 * deg + 1)]
+        labels += [("unused", None, None, None)] * ((cap - len(mine)) * (2 * deg + 1))
+        v[f"Pm{gi}"], v[f"Pc{gi}"], v[f"Pcos{gi}"], v[f"Psin{gi}"] = Pm, Pc, cs, sn
+        used = len(mine) * (2 * deg + 1)
+        lbg += [ROUTH_MIN] * used + [-np.inf] * (cap * (2 * deg + 1) - used)
+        ubg += [np.inf] * (cap * (2 * deg + 1))
+    if st.lin:
+        n = len(lin.c)
+        Lm, Lg, Lc = np.zeros((st.lin, nx)), np.zeros(st.lin), np.zeros(st.lin)
+        Lm[:n], Lg[:n], Lc[:n] = lin.A, (lin.g if scaled else 0.0), (
+            lin.c if scaled else lin.c + lin.g)   # hard: gamma is 1
+        v["Lm"], v["Lg"], v["Lc"] = Lm, Lg, Lc
+        lbg += [-np.inf] * st.lin
+        ubg += [0.0] * n + [np.inf] * (st.lin - n)
+        labels += list(lin.labels) + [("unused", None, None, None)] * (st.lin - n)
     # a small proximal term fixes the directions the objective and the active
     # constraints leave free (the Youla parameter's null directions), relative to |x_ref|
     reg = {"soft": 1e-4, "max_integral_gain": 1e-10, "min_Ms": 1e-10, "feasibility": 1e-2}[
-        "soft" if phase.kind == "soft" else setup.objective]
+        "soft" if scaled else setup.objective]
     reg /= 1.0 + float(np.dot(v["xref"], v["xref"]))
     v["coef"] = {"soft": [1.0, 0.0, reg], "max_integral_gain": [0.0, 1.0, reg],
                  "min_Ms": [1.0, 0.0, reg], "feasibility": [0.0, 0.0, reg]}[
-        "soft" if phase.kind == "soft" else setup.objective]
+        "soft" if scaled else setup.objective]
     return v, np.array(lbg), np.array(ubg), tuple(labels)
 
 
@@ -199,7 +234,7 @@ def _var_bounds(setup, st, phase, box=None):
         (wl, wh), (zl, zh) = setup.pole_bounds
         lbx[st.nx:st.nx + 2] = [wl, zl]
         ubx[st.nx:st.nx + 2] = [wh, zh]
-    if phase.kind == "soft":
+    if phase.kind in ("soft", "time"):
         lbx[-1] = phase.gamma_floor
     elif setup.objective == "min_Ms":
         lbx[-1] = 0.0
@@ -211,7 +246,8 @@ def _var_bounds(setup, st, phase, box=None):
 
 
 def solve_program(setup, x0, ipopt, phase=Phase(), blocks=None, active=None, templates=None,
-                  x_ref=None, box=None, routh=None, rows=None):
+                  x_ref=None, box=None, routh=None, rows=None, sectors=None, srows=None,
+                  lin=None):
     """Solve the program on the ``active`` grid points of ``blocks`` (default: all).
 
     ``x0`` is the full variable vector ``[xc, (wn, zeta), gamma]``.  ``templates``
@@ -219,7 +255,10 @@ def solve_program(setup, x0, ipopt, phase=Phase(), blocks=None, active=None, tem
     ``(center, radius)`` bounds the controller coefficients (a trust region); ``routh``
     the indices of the models whose closed-loop stability rows are imposed (default:
     every model); ``rows`` those rows, if the caller has them
-    (:func:`~robrst.synthesis.stability.stability_rows`).
+    (:func:`~robrst.synthesis.stability.stability_rows`); ``sectors`` the indices of the
+    sector rows ``srows`` imposed (:func:`~robrst.synthesis.stability.sector_rows`;
+    default: every one); ``lin`` linear rows (:class:`~robrst.synthesis.timesamples.TimeRows`,
+    the reference-step samples).
 
     Returns
     -------
@@ -232,13 +271,16 @@ def solve_program(setup, x0, ipopt, phase=Phase(), blocks=None, active=None, tem
     limits = _limits(setup, blocks, phase)
     rows = stability_rows(setup) if rows is None else rows
     routh = tuple(range(len(rows))) if routh is None else tuple(routh)
-    st = _structure(setup, phase, sum(len(a) for a in active), ipopt, rows, routh)
+    srows = sector_rows(setup) if srows is None else srows
+    sectors = tuple(range(len(srows))) if sectors is None else tuple(sectors)
+    st = _structure(setup, phase, sum(len(a) for a in active), ipopt, rows, routh, srows,
+                    sectors, lin)
     cache = {} if templates is None else templates
     if st not in cache:
         cache[st] = Template(st)
     tpl = cache[st]
     v, lbg, ubg, labels = _values(setup, st, blocks, limits, active, rows, routh, phase,
-                                  x0 if x_ref is None else x_ref)
+                                  x0 if x_ref is None else x_ref, srows, sectors, lin)
     lbx, ubx = _var_bounds(setup, st, phase, box)
     x0 = np.clip(x0, lbx, ubx)
     out = tpl.solve(v, x0, lbx, ubx, lbg, ubg)
@@ -294,7 +336,8 @@ def _exact_growth(blocks, limits, active, x, gamma):
 
 
 def solve_exchange(setup, x0, ipopt, phase=Phase(), templates=None, max_rounds=50,
-                   coarse_points=COARSE_POINTS, exact=False, box=None, stability=None):
+                   coarse_points=COARSE_POINTS, exact=False, box=None, stability=None,
+                   lin=None):
     """Solve the program of ``setup`` on its whole grid by constraint exchange.
 
     Parameters
@@ -324,6 +367,8 @@ def solve_exchange(setup, x0, ipopt, phase=Phase(), templates=None, max_rounds=5
         The models whose stability rows the first round carries (others join when a
         round's result violates them; :mod:`robrst.synthesis.stability`).  Default: every
         model for freely placed poles, else ``initial_stability``.
+    lin : TimeRows, optional
+        Linear rows imposed in every round (the reference-step samples).
 
     Returns
     -------
@@ -335,25 +380,30 @@ def solve_exchange(setup, x0, ipopt, phase=Phase(), templates=None, max_rounds=5
         every row from the first round.
     """
     rows = stability_rows(setup)
+    srows = sector_rows(setup)
     if stability is not None:
         first = tuple(sorted(set(int(j) for j in stability)))
     elif setup.placement == "free":
         first = tuple(range(len(rows)))
     else:
         first = initial_stability(rows, x0)
+    sec = initial_sectors(srows, x0)
     res = _exchange(setup, x0, ipopt, phase, templates, max_rounds, coarse_points, exact, box,
-                    rows, first)
-    partial = res.exchange.stability_models < len(rows)
-    if not res.success and partial and np.any(~(routh_margins(rows, res.x) >= ROUTH_MIN)):
+                    rows, first, srows, sec, lin)
+    partial = (res.exchange.stability_models < len(rows)
+               or res.exchange.sector_rows < len(srows))
+    if not res.success and partial and (np.any(~(routh_margins(rows, res.x) >= ROUTH_MIN))
+                                        or np.any(~(sector_margins(srows, res.x) >= ROUTH_MIN))):
         # it failed where a row left out does not hold: every row from the first round
         again = _exchange(setup, x0, ipopt, phase, templates, max_rounds, coarse_points, exact,
-                          box, rows, tuple(range(len(rows))))
+                          box, rows, tuple(range(len(rows))), srows, tuple(range(len(srows))),
+                          lin)
         res = replace(again, iterations=again.iterations + res.iterations)
     return res
 
 
 def _exchange(setup, x0, ipopt, phase, templates, max_rounds, coarse_points, exact, box, rows,
-              routh):
+              routh, srows=(), sectors=(), lin=None):
     """The rounds of :func:`solve_exchange` from the stability rows of models ``routh``."""
     x0 = np.asarray(x0, float)
     blocks = list(grid_blocks(setup, x0))
@@ -367,10 +417,11 @@ def _exchange(setup, x0, ipopt, phase, templates, max_rounds, coarse_points, exa
         # later rounds start at the previous optimum: a small initial barrier keeps them there
         opts = ipopt if rnd == 1 else {**ipopt, "mu_init": min(ipopt.get("mu_init", 0.1), 1e-4)}
         res = solve_program(setup, x, opts, phase, blocks, active, templates, x_ref=x0, box=box,
-                            routh=routh, rows=rows)
+                            routh=routh, rows=rows, sectors=sectors, srows=srows, lin=lin)
         if not res.success and rnd > 1:      # the warm barrier failed: the default one
             res = solve_program(setup, x, ipopt, phase, blocks, active, templates, x_ref=x0,
-                                box=box, routh=routh, rows=rows)
+                                box=box, routh=routh, rows=rows, sectors=sectors, srows=srows,
+                                lin=lin)
         x = res.x
         iters += res.iterations
         ratios = effective_ratios(blocks, limits, x, x[-1])
@@ -386,6 +437,8 @@ def _exchange(setup, x0, ipopt, phase, templates, max_rounds, coarse_points, exa
                 active[k] = np.union1d(active[k], new)
         grown = joined(rows, routh, x)          # the stability rows left out that x violates
         added, routh = added + len(grown) - len(routh), grown
+        grown = sectors_joined(srows, sectors, x)   # likewise the sector rows
+        added, sectors = added + len(grown) - len(sectors), grown
         if added == 0 and exact:
             added = _exact_growth(blocks, limits, active, x, x[-1])
         if added == 0:
@@ -393,5 +446,6 @@ def _exchange(setup, x0, ipopt, phase, templates, max_rounds, coarse_points, exa
     info = ExchangeInfo(rounds=rnd, iterations=iters,
                         active_points=int(sum(a.size for a in active)),
                         grid_points=max(total, sum(len(b.nu) for b in blocks)),
-                        max_grid_ratio=worst, stability_models=len(routh))
+                        max_grid_ratio=worst, stability_models=len(routh),
+                        sector_rows=len(sectors))
     return replace(res, iterations=iters, exchange=info)

@@ -20,12 +20,12 @@ import casadi as ca
 import numpy as np
 
 
-__all__ = ["GridBlock", "NLPSetup", "grid_blocks", "conv_matrix", "jw_matrices",
+__all__ = ["GridBlock", "NLPSetup", "Region", "t_map", "grid_blocks", "conv_matrix", "jw_matrices",
            "routh_column", "scale_plant", "closed_loop_maps", "affine_controller",
            "objective_rows", "shift_matrix", "controller_conditions", "local_maxima",
            "PEAK_KEYS"]
 
-PEAK_KEYS = ("S", "T", "U", "Tband", "Uhf")
+PEAK_KEYS = ("S", "T", "U", "Tband", "Uhf", "Sd", "Ry")
 
 
 def conv_matrix(c, n):
@@ -89,6 +89,10 @@ class NLPSetup:
     else a second slow controller pole makes ``lim s K(s)`` unbounded;
     ``ctrl_max``: and at ``Re p >= -ctrl_max`` (with every coefficient free, a
     controller pole can otherwise run off to infinity chasing a PI/PID limit).
+    ``T_shape``: ``T = R(0) T_shape`` (scaled, ``T_shape(0) = 1``: the feed-forward of the
+    structure's ``T_mode``), for the ``|B T / Delta|`` bound ``"Ry"``.  ``fs_of``: per model
+    the sample rate of a sampled-loop model (``None``: continuous).  ``region``: the pole
+    region (:class:`Region`) or ``None``.
     """
 
     w0: float
@@ -115,6 +119,9 @@ class NLPSetup:
     ctrl_shift: float = None
     ctrl_max: float = None
     grids: tuple = ()      # per model, its scaled grid for S, T, U (default: nu)
+    T_shape: np.ndarray = None
+    fs_of: tuple = ()
+    region: object = None
 
     @property
     def n_x(self):
@@ -146,9 +153,33 @@ def _product(c, L, l0, n_out):
     return np.vstack([np.zeros((pad, M.shape[1])), M]), np.concatenate([np.zeros(pad), m0])
 
 
+@dataclass(frozen=True)
+class Region:
+    """The closed-loop pole region imposed in one program (scaled).
+
+    ``zeta``: damping floor of every closed-loop pole (continuous models), ``zeta_sampled``
+    of the sampled-loop models' poles in their loop variable (the floor, tightened when the
+    certificate finds the mapped poles short of it); ``sigma``: decay rate (scaled; sampled
+    models: ``|z| < exp(-sigma w0 / fs)``); ``ctrl_zeta``: damping floor of the
+    controller's own poles.  ``None``: not imposed.
+    """
+
+    zeta: float = None
+    zeta_sampled: float = None
+    sigma: float = None
+    ctrl_zeta: float = None
+
+
+def t_map(setup, Lr):
+    """``(Lt, t0)``: the feed-forward ``T = Lt x + t0`` (``T = R(0) T_shape``)."""
+    shape = np.ones(1) if setup.T_shape is None else np.asarray(setup.T_shape, float)
+    return np.outer(shape, Lr[-1]), np.zeros(len(shape))
+
+
 def closed_loop_maps(setup):
     """``closed_loop(a, b) -> ((Dm, Dc), {key: (Nm, Nc)})`` affine maps of ``xc``."""
     Ls, s0, Lr = affine_controller(setup)
+    Lt, t0 = t_map(setup, Lr)
     zero_r = np.zeros(Lr.shape[0])
 
     def closed_loop(a, b):
@@ -156,8 +187,10 @@ def closed_loop_maps(setup):
         AS = _product(a, Ls, s0, n_out)
         BR = _product(b, Lr, zero_r, n_out)
         AR = _product(a, Lr, zero_r, n_out)
+        BS = _product(b, Ls, s0, n_out)
+        BT = _product(b, Lt, t0, n_out)
         D = (AS[0] + BR[0], AS[1] + BR[1])
-        return D, {"S": AS, "T": BR, "U": AR, "Tband": BR, "Uhf": AR}
+        return D, {"S": AS, "T": BR, "U": AR, "Tband": BR, "Uhf": AR, "Sd": BS, "Ry": BT}
 
     return closed_loop
 

@@ -18,8 +18,10 @@ OK_STATUS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 class Binding:
     """A constraint of the NLP named for the user: kind, model, temperature, frequency.
 
-    ``kind`` is ``"S"``, ``"T"``, ``"U"``, ``"Tband"``, ``"Uhf"`` (a peak bound on the grid),
-    ``"routh"`` (stability), ``"positivity"``, ``"gamma"`` or ``"controller_routh"``;
+    ``kind`` is ``"S"``, ``"T"``, ``"U"``, ``"Tband"``, ``"Uhf"``, ``"Sd"``, ``"Ry"`` (a peak
+    bound on the grid), ``"routh"`` (stability, or decay with a pole region), ``"sector"``
+    (a damping floor), ``"controller_sector"``, ``"time"`` (a reference-step sample),
+    ``"positivity"``, ``"gamma"`` or ``"controller_routh"``;
     ``freq_rad_s`` is physical; ``multiplier`` IPOPT's ``lam_g`` (scaled by the
     constraint's size) and ``violation`` how far the constraint is from holding.
     """
@@ -30,15 +32,23 @@ class Binding:
     freq_rad_s: float
     multiplier: float
     violation: float
+    time_s: float = None     # a reference-step sample's time
 
     def describe(self):
         what = {"S": "|S| peak", "T": "|T| peak", "U": "|U| peak", "Tband": "|T| in the band",
                 "Uhf": "|U| above the high-frequency corner",
-                "routh": "closed-loop stability (Routh)",
+                "Sd": "|B S/Delta| peak (input disturbance)",
+                "Ry": "|B T/Delta| peak (reference to output)",
+                "routh": "closed-loop stability or decay (Routh)",
+                "sector": "closed-loop damping floor (pole sector)",
+                "controller_sector": "controller pole damping floor",
+                "time": "reference step (time samples)",
                 "controller_routh": "controller poles (stability / integral-gain shift)",
                 "positivity": "sign of the integral gain"}.get(self.kind, self.kind)
         who = "" if self.model is None else f" of model {self.model} ({self.temperature_C:g} °C)"
         at = "" if self.freq_rad_s is None else f" at {self.freq_rad_s / (2 * np.pi):.4g} Hz"
+        if self.time_s is not None:
+            at = f" at t = {self.time_s * 1e3:.4g} ms"
         return f"{what}{who}{at}"
 
 
@@ -74,6 +84,10 @@ class SolveResult:
 
     def _binding_at(self, i, v):
         kind, label, T, where = self.labels[i]
+        if kind == "time":       # a reference-step sample at scaled time ``where``
+            return Binding(kind=kind, model=label, temperature_C=T, freq_rad_s=None,
+                           multiplier=float(self.lam_g[i]), violation=float(v[i]),
+                           time_s=float(where) / self.w0)
         freq = float(where) * self.w0 if isinstance(where, float) else None
         fs = (self.rates or {}).get(label)
         if freq is not None and fs:      # the loop variable of a sampled model -> physical
@@ -203,7 +217,7 @@ def worst_violation(cert):
     """The certificate's violation with the largest ratio to its bound (``None``: none)."""
     if not cert.violations:
         return None
-    return max(cert.violations, key=lambda v: np.inf if v.bound == 0 else v.value / v.bound)
+    return max(cert.violations, key=lambda v: v.ratio)
 
 
 def best_achievable(cert):

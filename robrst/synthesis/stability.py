@@ -9,27 +9,124 @@ the start (:func:`initial_stability`), and a model whose rows a round's result v
 final point, so its multiplier is zero there: the point is a KKT point of the program
 with every row.  Most rows never bind (the peak bounds keep the loops well inside
 stability), and each costs every IPOPT iteration of the round.
+
+With a pole region (:class:`~robrst.synthesis.nlp.Region`, :mod:`robrst.core.region`)
+the stability rows are those of the decay-shifted polynomial (``Delta(p - sigma)``, or
+the disc map of a sampled model): decay implies stability.  The damping floor adds
+*sector rows* (:func:`sector_rows`): the Routh column of ``E = Re(P)^2 + Im(P)^2``,
+``P(p) = Delta(e^{j phi} p)``, a quadratic in the controller coefficients, exchanged the
+same way (a model joins when its sector margin is short at the start or at a round's
+result); the controller's own poles add one sector row of ``S / s^k``.
 """
 
 import numpy as np
 
-from robrst.synthesis.nlp import closed_loop_maps, routh_column
+from dataclasses import dataclass
 
-__all__ = ["ROUTH_MIN", "ROUTH_FIRST", "stability_rows", "routh_margins", "initial_stability",
-           "joined"]
+from robrst.core import region as pole_region
+from robrst.synthesis.nlp import affine_controller, closed_loop_maps, routh_column
+
+__all__ = ["ROUTH_MIN", "ROUTH_FIRST", "SECTOR_NEAR", "SectorRow", "stability_rows",
+           "routh_margins", "initial_stability", "joined", "sector_rows", "sector_margins",
+           "initial_sectors", "sectors_joined"]
 
 ROUTH_MIN = 1e-9
 ROUTH_FIRST = 4         # stability rows of the first round: models per closed-loop degree
 
 
+SECTOR_NEAR = 1e-3      # sector rows join when their Routh margin is below this
+
+
 def stability_rows(setup):
-    """Per model ``(deg, Dm, Dc)`` of its closed-loop polynomial."""
+    """Per model ``(deg, Dm, Dc)`` of its closed-loop polynomial (decay-shifted with a
+    region's ``sigma``: ``Delta(p - sigma)``, or for a sampled model the disc map,
+    :func:`robrst.core.region.disc_matrix`)."""
     cl = closed_loop_maps(setup)
+    reg = setup.region
     out = []
-    for label, T, a, b in setup.models:
+    for j, (label, T, a, b) in enumerate(setup.models):
         (Dm, Dc), _ = cl(a, b)
-        out.append((Dm.shape[0] - 1, Dm, Dc))
+        deg = Dm.shape[0] - 1
+        if reg is not None and reg.sigma:
+            fs = setup.fs_of[j] if setup.fs_of else None
+            M = (pole_region.shift_matrix(deg, reg.sigma) if fs is None else
+                 pole_region.disc_matrix(deg, reg.sigma * setup.w0, fs, setup.w0))
+            Dm, Dc = M @ Dm, M @ Dc
+        out.append((deg, Dm, Dc))
     return out
+
+
+@dataclass(frozen=True, eq=False)
+class SectorRow:
+    """One sector condition: the polynomial ``Pm x + Pc`` (degree ``deg``) has its roots
+    damped more than ``zeta``; ``kind`` is ``"sector"`` (a model's closed loop, index
+    ``model``) or ``"controller_sector"`` (the controller's own poles)."""
+
+    deg: int
+    Pm: np.ndarray
+    Pc: np.ndarray
+    zeta: float
+    kind: str
+    model: int = None
+
+    def rotation(self):
+        """``(cos, sin)`` of the rotation (:func:`robrst.core.region.rotation`)."""
+        return pole_region.rotation(self.deg, self.zeta)
+
+
+def sector_rows(setup):
+    """Every sector row of ``setup`` (empty without a damping floor): one per model, then
+    the controller's (:class:`SectorRow`)."""
+    reg = setup.region
+    out = []
+    if reg is None:
+        return out
+    if reg.zeta is not None:
+        cl = closed_loop_maps(setup)
+        for j, (label, T, a, b) in enumerate(setup.models):
+            fs = setup.fs_of[j] if setup.fs_of else None
+            zeta = reg.zeta if fs is None else reg.zeta_sampled
+            if zeta is None:
+                continue
+            (Dm, Dc), _ = cl(a, b)
+            out.append(SectorRow(Dm.shape[0] - 1, Dm, Dc, zeta, "sector", j))
+    if reg.ctrl_zeta is not None:
+        Ls, s0, _ = affine_controller(setup)
+        k = setup.integrators
+        Lq, q = Ls[:len(s0) - k], s0[:len(s0) - k]
+        if Lq.shape[0] >= 3:     # a complex pair needs degree 2
+            out.append(SectorRow(Lq.shape[0] - 1, Lq, q, reg.ctrl_zeta, "controller_sector"))
+    return out
+
+
+def sector_margins(rows, x):
+    """Per sector row, the least entry of the Routh column of ``E / E[0]`` at ``x``
+    (``-inf`` where undefined)."""
+    out = np.empty(len(rows))
+    with np.errstate(all="ignore"):
+        for i, r in enumerate(rows):
+            c = r.Pm @ np.asarray(x, float)[:r.Pm.shape[1]] + r.Pc
+            E = pole_region.sector_polynomial(c, r.zeta)
+            col = routh_column(E / E[0])
+            out[i] = col.min() if np.all(np.isfinite(col)) else -np.inf
+    return out
+
+
+def initial_sectors(rows, x0):
+    """The sector rows of the first round: those short of ``SECTOR_NEAR`` at ``x0``, and
+    the controller's."""
+    m = sector_margins(rows, x0)
+    return tuple(i for i, r in enumerate(rows)
+                 if r.kind == "controller_sector" or not m[i] >= SECTOR_NEAR)
+
+
+def sectors_joined(rows, chosen, x):
+    """``chosen`` and every sector row left out that ``x`` violates (or nearly)."""
+    if len(chosen) == len(rows):
+        return tuple(chosen)
+    m = sector_margins(rows, x)
+    new = [i for i in range(len(rows)) if i not in chosen and not m[i] >= ROUTH_MIN]
+    return tuple(sorted(set(chosen) | set(new)))
 
 
 def routh_margins(rows, x):
