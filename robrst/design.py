@@ -71,6 +71,9 @@ class DesignResult:
     :class:`~robrst.synthesis.outcome.SynthesisResult`; ``tracking`` the 2-DOF reference
     path (:class:`~robrst.synthesis.tracking.Tracking`) with ``T_mode = "reference_model"``
     (then ``controller`` is the 2-DOF controller and ``synthesis.controller`` the feedback).
+    ``assessment`` (:class:`~robrst.certificate.assessment.Assessment`) holds the warnings on
+    what the specs left unbounded; ``starts``
+    (:class:`~robrst.synthesis.multistart.MultiStart`) every start of a multi-start design.
     """
 
     problem: object
@@ -83,6 +86,8 @@ class DesignResult:
     analytic_check: AnalyticCheck = None
     comparison: Comparison = None
     tracking: object = None
+    assessment: object = None
+    starts: object = None
 
     @property
     def best_achievable(self):
@@ -136,6 +141,8 @@ class DesignResult:
             "solver": self.solver_dict(),
             "integral_gain": self.integral_gain,
             "best_achievable": self.best_achievable,
+            "specs_achieved": spec_rows(p, self.certificate),
+            "controller_factored": controller_factors(self.controller),
         }
         if sp.T_resonance_max is not None:
             specs.update(T_resonance_max=sp.T_resonance_max,
@@ -146,6 +153,14 @@ class DesignResult:
             specs.update(overshoot_max_pct=sp.overshoot_max_pct,
                          settling_time_max_s=sp.settling_time_max_s, step_um=sp.step_um,
                          step_u_max_V=sp.step_u_max_V)
+        for key in ("Msd_max", "Mry_max", "damping_min", "decay_min", "controller_damping_min"):
+            if getattr(sp, key) is not None:
+                specs[key] = getattr(sp, key)
+        out["method_reason"] = p.solver.method_reason
+        if self.assessment is not None:
+            out["assessment"] = self.assessment.as_dict()
+        if self.starts is not None:
+            out["starts"] = self.starts.as_dict()
         if self.tracking is not None:
             out["tracking"] = self.tracking.as_dict()
         if self.analytic_check is not None:
@@ -153,6 +168,87 @@ class DesignResult:
         if self.comparison is not None:
             out["comparison"] = self.comparison.as_dict()
         return out
+
+
+# spec key -> (certificate figure, is a lower bound)
+SPEC_FIGURES = (("Ms_max", "Ms", False), ("Mt_max", "Mt", False), ("Mu_max", "Mu", False),
+                ("T_resonance_max", "Mt_resonance_band", False), ("Mu_hf_max", "Mu_hf", False),
+                ("Msd_max", "Msd", False), ("Mry_max", "Mry", False),
+                ("overshoot_max_pct", "overshoot_pct", False),
+                ("settling_time_max_s", "settling_time_s", False),
+                ("step_u_max_V", "step_u_peak_V", False), ("damping_min", "damping", True),
+                ("decay_min", "decay_rad_s", True))
+BINDING_SLACK = 0.01     # a spec within 1 % of its bound is reported as binding
+
+
+def spec_rows(problem, cert):
+    """Each bounded spec with its worst achieved value over the certificate's models (both
+    loops), the slack ``1 - value/bound`` (``1 - bound/value`` for a lower bound), where it
+    is attained and whether it binds (slack below ``BINDING_SLACK``).
+
+    Returns
+    -------
+    list of dict
+    """
+    sp = problem.specs
+    floor, source = sp.damping_floor(problem.family)
+    out = []
+    for key, fig, lower in SPEC_FIGURES:
+        bound = floor if key == "damping_min" else getattr(sp, key)
+        if not bound:
+            continue
+        best = None
+        for loop in ("continuous", "sampled"):
+            recs = [(m.value(fig, loop), m) for m in cert.models if m.value(fig, loop) is not None]
+            if not recs:
+                continue
+            v, m = (min if lower else max)(recs, key=lambda r: r[0])
+            ratio = bound / v if lower else v / bound
+            if best is None or ratio > best[0]:
+                best = (ratio, v, m, loop)
+        if best is None:
+            continue
+        ratio, v, m, loop = best
+        out.append({"spec": key, "bound": bound, "achieved": float(v),
+                    "slack": float(1 - ratio), "model": m.label,
+                    "temperature_C": m.temperature_C, "loop": loop,
+                    "binding": bool(1 - ratio <= BINDING_SLACK),
+                    "source": source if key == "damping_min" else "specs"})
+    if cert.controller is not None and sp.controller_damping_min:
+        v, b = cert.controller["damping"], sp.controller_damping_min
+        out.append({"spec": "controller_damping_min", "bound": b, "achieved": v,
+                    "slack": 1 - b / v if v > 0 else -np.inf, "model": "controller",
+                    "temperature_C": None, "loop": None,
+                    "binding": bool(v > 0 and 1 - b / v <= BINDING_SLACK), "source": "specs"})
+    return out
+
+
+def controller_factors(ctrl):
+    """R, S and T as gain, real roots and damped pairs, and their coefficients in the
+    scaled variable ``x = s / w0`` (``w0`` the geometric mean of the root moduli of S and R):
+    ``{"w0_rad_s": w0, "R": {...}, "S": {...}, "T": {...}}`` with per polynomial ``gain``
+    (leading coefficient), ``real`` (roots [rad/s]), ``pairs`` (``[wn rad/s, zeta]``),
+    ``integrators`` (roots at 0) and ``scaled`` (coefficients of ``x``, highest first, all
+    divided by ``w0**deg S``: ``R/S`` unchanged, ``S`` monic with O(1) coefficients).
+
+    Returns
+    -------
+    dict
+    """
+    polys = {k: poly.trim(getattr(ctrl, k)) for k in "RST"}
+    sc = poly.Scaling.natural(polys["S"], polys["R"])
+    out = {"w0_rad_s": float(sc.w0)}
+    for k, c in polys.items():
+        nz = np.flatnonzero(c)
+        zeros_at_0 = len(c) - 1 - int(nz[-1]) if nz.size else 0
+        core = c[:len(c) - zeros_at_0] if zeros_at_0 else c
+        r = np.roots(core) if len(core) > 1 else np.zeros(0, complex)
+        real = sorted(float(x.real) for x in r if abs(x.imag) <= 1e-9 * max(abs(x), 1e-300))
+        pairs = sorted([float(abs(x)), float(-x.real / abs(x))] for x in r
+                       if x.imag > 1e-9 * max(abs(x), 1e-300))
+        out[k] = {"gain": float(c[0]), "integrators": int(zeros_at_0), "real": real,
+                  "pairs": pairs, "scaled": sc.normalize(c, len(polys["S"]) - 1).tolist()}
+    return out
 
 
 def analytic_design(problem, poles=None):
@@ -304,7 +400,8 @@ def comparison(problem, ctrl, cert):
 
 
 def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
-                templates: dict | None = None, analyses: bool = True) -> DesignResult:
+                templates: dict | None = None, analyses: bool = True,
+                multistart: bool | None = None) -> DesignResult:
     """Run the design the problem asks for, certify it, analyse every family model.
 
     A synthesis always ends with a controller: when the specs cannot be met the result
@@ -320,8 +417,14 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
         Built NLP solvers by structure, shared between designs of the same structure
         (see :class:`robrst.synthesis.synthesizer.Synthesizer`).
     analyses : bool
-        Analyse every family model (exact peaks to 1e-10, margins); off: none (a sweep
-        reads the certificate's figures and computes only the margins).
+        Analyse every family model (exact peaks to 1e-10, margins) and assess what the
+        specs left unbounded (:func:`robrst.certificate.assessment.assess`: damping,
+        overshoot, input disturbances); off: none (a sweep reads the certificate's figures
+        and computes only the margins).
+    multistart : bool, optional
+        The robust program (``method = "nlp"``) also runs from the diverse starts of
+        :mod:`robrst.synthesis.multistart` on 2 processes and keeps the best certified
+        answer (default: ``problem.solver.multistart``; sweeps pass ``False``).
 
     Returns
     -------
@@ -339,18 +442,20 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
     >>> result.certified, result.status
     (True, 'certified')
     """
+    if multistart is None:
+        multistart = problem.solver.multistart
     with one_blas_thread(problem.needs_scipy):
-        return _design(problem, progress, templates, analyses)
+        return _design(problem, progress, templates, analyses, multistart)
 
 
-def _design(problem, progress, templates, analyse):
+def _design(problem, progress, templates, analyse, multistart):
     """:func:`run_problem` (its BLAS limited by the caller)."""
-    from robrst.synthesis.robust import robust_synthesis
-
     say = progress or (lambda msg: None)
     method = problem.solver.method
+    say(f"method {problem.solver.method_reason}")
     start = analytic_design(problem)
     two_dof = problem.controller.T_mode == "reference_model"
+    starts = None
     if method == "analytic":
         say(f"analytic pole placement: cond(scaled Sylvester) = {start.cond:.3g}"
             f" (unscaled {start.cond_unscaled:.3g})")
@@ -358,23 +463,149 @@ def _design(problem, progress, templates, analyse):
         ctrl, trk = _tracking(problem, start.controller) if two_dof else (start.controller, None)
         cert = certify_problem(problem, ctrl)
     else:
-        if method == "nlp":
-            stage = robust_synthesis(problem, start, say, templates)
-        else:
-            from robrst.synthesis.convex import convex_synthesis   # cvxpy: only for this method
+        if method == "nlp" and multistart and problem.solver.starts > 0:
+            from robrst.synthesis.multistart import plans
 
-            stage = convex_synthesis(problem, start, say)
+            (stage, ctrl, trk, cert), starts = _multistart(
+                problem, plans(problem, problem.solver.starts), start, say, templates)
+        else:
+            stage, ctrl, trk, cert = _candidate(problem, problem, False, start, say, templates)
         check = analytic_check(problem, stage.controller, stage.Am)
-        ctrl, trk, cert = stage.controller, None, stage.certificate
-        if two_dof:
-            ctrl, trk, cert = _tracked(problem, ctrl, cert)
-        elif problem.specs.time_domain:
-            cert = with_time_domain(problem, cert, ctrl)
     comp = None if method == "analytic" else comparison(problem, ctrl, cert)
     analyses = analyze_many(problem.family.models, ctrl) if analyse else ()
+    assessment = None
+    if analyse:
+        from robrst.certificate.assessment import assess
+
+        assessment = assess(problem, ctrl)
     return DesignResult(problem=problem, method=method, controller=ctrl,
                         target_char_poly=stage.Am, analyses=analyses, certificate=cert,
-                        synthesis=stage, analytic_check=check, comparison=comp, tracking=trk)
+                        synthesis=stage, analytic_check=check, comparison=comp, tracking=trk,
+                        assessment=assessment, starts=starts)
+
+
+def _candidate(problem, original, recheck, start=None, say=None, templates=None, budget=None):
+    """One synthesis of ``problem`` judged on ``original`` (the same problem, or a
+    neighbouring one whose answer is certified on ``original`` when ``recheck``):
+    ``(stage, controller, tracking, certificate)`` with the reference path and the
+    time-domain figures completed."""
+    from robrst.synthesis.robust import robust_synthesis
+
+    start = start if start is not None else analytic_design(problem)
+    if problem.solver.method == "convex":
+        from robrst.synthesis.convex import convex_synthesis   # cvxpy: only for this method
+
+        stage = convex_synthesis(problem, start, say)
+    else:
+        stage = robust_synthesis(problem, start, say, templates, budget=budget)
+    ctrl, trk, cert = stage.controller, None, stage.certificate
+    if recheck:
+        from robrst.synthesis.attempts import frequency_certificate
+
+        cert = frequency_certificate(original, ctrl)
+    if original.controller.T_mode == "reference_model":
+        ctrl, trk, cert = _tracked(original, ctrl, cert)
+    elif original.specs.time_domain:
+        cert = with_time_domain(original, cert, ctrl)
+    return stage, ctrl, trk, cert
+
+
+def _objective(problem, ctrl, cert):
+    """The certified objective (larger is better; ``None`` when not certified)."""
+    if not cert.certified:
+        return None
+    obj = problem.solver.objective
+    if obj == "max_integral_gain":
+        ki = integral_gain(ctrl)
+        return abs(ki) if np.isfinite(ki) else None
+    if obj == "min_Ms":
+        return -cert.worst("Ms")
+    return 0.0
+
+
+def _worst_ratio(cert):
+    r = [v.ratio for v in cert.violations]
+    return max(r) if r else 0.0
+
+
+def _run_start(plan, original, budget=None):
+    """A multi-start run in a worker process: its candidate, or the error."""
+    import time
+
+    t0 = time.perf_counter()
+    problem = plan.problem
+    if budget is not None:    # every IPOPT call within the budget too
+        problem = replace(problem, solver=replace(problem.solver, max_iter=min(
+            problem.solver.max_iter, int(budget))))
+    try:
+        with one_blas_thread(problem.needs_scipy):
+            return _candidate(problem, original, plan.recheck, budget=budget), None, \
+                time.perf_counter() - t0
+    except Exception as exc:      # noqa: BLE001 — a failed start is an outcome, not a crash
+        return None, f"{type(exc).__name__}: {exc}", time.perf_counter() - t0
+
+
+MULTISTART_WORKERS = 2
+MIN_START_BUDGET = 150     # IPOPT iterations an extra start may spend at least
+
+
+def _multistart(problem, plans, start, say, templates):
+    """The design as asked, then the ``plans`` on ``MULTISTART_WORKERS`` processes, each
+    with the first run's IPOPT iterations as its budget (at least ``MIN_START_BUDGET``);
+    the best certified objective wins (else the smallest worst violation).
+
+    Returns
+    -------
+    ((stage, controller, tracking, certificate), MultiStart)
+    """
+    import time
+    from concurrent.futures import ProcessPoolExecutor
+    import multiprocessing
+
+    from robrst.synthesis.multistart import MultiStart, StartOutcome, StartPlan
+
+    t0 = time.perf_counter()
+    say(f"multi-start: the problem as asked and {len(plans)} other starts on"
+        f" {MULTISTART_WORKERS} processes")
+    runs = [StartPlan("as asked", problem)] + list(plans)
+    results = [None] * len(runs)
+    t1 = time.perf_counter()
+    results[0] = (_candidate(problem, problem, False, start, say, templates), None,
+                  time.perf_counter() - t1)
+    first = results[0][0][0]
+    budget = max(MIN_START_BUDGET, sum(r.iterations for r in getattr(first, "rounds", ())))
+    try:
+        ctx = multiprocessing.get_context("fork")
+        with ProcessPoolExecutor(MULTISTART_WORKERS, mp_context=ctx) as pool:
+            futs = [pool.submit(_run_start, p, problem, budget) for p in runs[1:]]
+            for k, f in enumerate(futs, 1):
+                results[k] = f.result()
+    except (OSError, ValueError, ImportError) as exc:   # no processes here: one at a time
+        say(f"multi-start: no worker processes ({exc}); running the starts in turn")
+        for k, p in enumerate(runs):
+            if results[k] is None:
+                results[k] = _run_start(p, problem, budget)
+    outcomes, best, best_key = [], None, None
+    for k, (p, (cand, err, wall)) in enumerate(zip(runs, results)):
+        if cand is None:
+            outcomes.append(StartOutcome(p.name, "failed", wall_time_s=wall, note=err))
+            continue
+        stage, ctrl, trk, cert = cand
+        obj = _objective(problem, ctrl, cert)
+        outcomes.append(StartOutcome(
+            p.name, "certified" if cert.certified else "not_certified", objective=obj,
+            integral_gain=integral_gain(ctrl), worst_ratio=_worst_ratio(cert),
+            placement=getattr(stage, "placement", None), wall_time_s=wall))
+        key = (1, obj, -k) if obj is not None else (0, -_worst_ratio(cert), -k)
+        if best_key is None or key > best_key:
+            best, best_key = (k, cand), key
+        say(f"multi-start: {p.name}: {outcomes[-1].status}"
+            + (f", objective {obj:.6g}" if obj is not None else ""))
+    k, cand = best
+    ms = MultiStart(outcomes=tuple(outcomes), winner=runs[k].name,
+                    objective=problem.solver.objective, workers=MULTISTART_WORKERS,
+                    wall_time_s=time.perf_counter() - t0)
+    return cand, ms
 
 
 def _tracking(problem, ctrl):

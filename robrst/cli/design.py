@@ -2,6 +2,7 @@
 
 import re
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 from robrst.cli.common import print_json, progress_printer
@@ -18,6 +19,7 @@ def add_parsers(sub):
     d.add_argument("problem", help="problem file (TOML), or a built-in problem by name")
     d.add_argument("--json", action="store_true", help="print exactly one JSON object")
     d.add_argument("--quiet", action="store_true", help="no progress lines")
+    _method_options(d)
     d.set_defaults(func=run_design)
     r = sub.add_parser("report", help="design, certify and write a report folder (md, html, PNG)")
     r.add_argument("problem", help="problem file (TOML), or a built-in problem by name")
@@ -26,13 +28,37 @@ def add_parsers(sub):
                    help="write into an existing folder that is not a robrst report"
                         " (only the report's own files are written; nothing is deleted)")
     r.add_argument("--quiet", action="store_true", help="no progress lines")
+    _method_options(r)
     r.set_defaults(func=run_report)
+
+
+def _method_options(p):
+    p.add_argument("--method", choices=("analytic", "nlp", "convex"),
+                   help="override [solver] method (default: the file's, else nlp when [specs]"
+                        " bounds anything)")
+    p.add_argument("--starts", type=int, metavar="N",
+                   help="nlp multi-start: N starts beyond the one asked for (0: single start)")
+
+
+def _problem(args):
+    """The problem file with the command line's overrides."""
+    problem = load_problem(args.problem)
+    so = problem.solver
+    if getattr(args, "method", None):
+        so = replace(so, method=args.method, method_source="command line")
+    if getattr(args, "starts", None) is not None:
+        if args.starts < 0:
+            from robrst.base.errors import SpecError
+
+            raise SpecError(f"--starts: expected a whole number >= 0, got {args.starts}")
+        so = replace(so, starts=args.starts, multistart=args.starts > 0)
+    return replace(problem, solver=so) if so is not problem.solver else problem
 
 
 def run_design(args):
     """Design, print the summary (or the JSON); exit 0 certified, 1 not certified."""
     say = progress_printer(args.quiet or args.json)
-    result = run_problem(load_problem(args.problem), progress=say)
+    result = run_problem(_problem(args), progress=say)
     d = result.as_dict()
     if args.json:
         print_json(d)
@@ -52,7 +78,7 @@ def run_report(args):
     from robrst.studies.design_curves import design_curves
 
     say = progress_printer(args.quiet)
-    problem = load_problem(args.problem)
+    problem = _problem(args)
     # the default folder is one component under reports/, whatever the problem's name holds
     out = args.out or "reports/" + (re.sub(r"[^\w.-]+", "_", problem.name).lstrip(".") or "problem")
     check_report_target(Path(out), args.force)     # a bad target fails before the design

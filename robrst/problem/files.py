@@ -174,7 +174,7 @@ SCHEMA = {
                             " at other poles, free placement, PI/roll-off controllers, more"
                             " degrees) on 2 processes and keep the best certified answer;"
                             " off inside sweeps"),
-        "starts": Field("int", 6, "nlp multi-start: how many starts beyond the first",
+        "starts": Field("int", 2, "nlp multi-start: how many starts beyond the first",
                         lo=0, hi=64),
     },
 }

@@ -288,8 +288,8 @@ class SolverOptions:
     below, so more degrees never give a worse certified objective.  ``multistart``: the
     robust program also runs from up to ``starts`` diverse starts
     (:mod:`robrst.synthesis.multistart`) and keeps the best certified answer.
-    ``method_source`` is ``"given"`` or ``"default"`` (chosen by the problem file's
-    rule, see :attr:`method_reason`).
+    ``method_source`` is ``"given"``, ``"default"`` (chosen by the problem file's rule) or
+    ``"command line"`` (see :attr:`method_reason`).
     """
 
     method: str = "analytic"
@@ -309,7 +309,7 @@ class SolverOptions:
     placement: str = "auto"
     homotopy: str = "on_failure"
     multistart: bool = True
-    starts: int = 6
+    starts: int = 2
     method_source: str = "given"
 
     @property
@@ -318,6 +318,8 @@ class SolverOptions:
         if self.method_source == "default":
             return (f"{self.method}: the default ([solver] method not given; the robust program"
                     " whenever [specs] bounds anything, the analytic design otherwise)")
+        if self.method_source == "command line":
+            return f"{self.method}: as the command line asks (--method)"
         return f"{self.method}: as the problem asks ([solver] method)"
 
 

@@ -154,8 +154,10 @@ def _key(obj):
 class Run:
     """One synthesis: what its attempts share (built solvers, progress, rounds, notes)."""
 
-    def __init__(self, problem, say, templates, warm=None):
+    def __init__(self, problem, say, templates, warm=None, budget=None):
         self.problem, self.say, self.templates, self.warm = problem, say, templates, warm
+        self.budget = RUN_ITER_BUDGET if budget is None else int(budget)
+        self.strict = budget is not None   # an extra start: its budget is a hard stop
         self.rounds, self.notes = [], []
         self.hopeless = False     # set when the specs are provably infeasible
         self.tighten = 0.0        # extra damping floor of the sampled models' sector rows
@@ -166,9 +168,11 @@ class Run:
         for the rounds of ``placement`` (the fixed poles' rounds do not take the budget of
         the free search that follows them), twice that over all rounds."""
         total = sum(r.iterations for r in self.rounds)
-        if placement is None or total > 2 * RUN_ITER_BUDGET:
-            return total > RUN_ITER_BUDGET
-        return sum(r.iterations for r in self.rounds if r.placement == placement) > RUN_ITER_BUDGET
+        if self.strict:
+            return total > self.budget
+        if placement is None or total > 2 * self.budget:
+            return total > self.budget
+        return sum(r.iterations for r in self.rounds if r.placement == placement) > self.budget
 
     def solve(self, ctx, setup, x0, phase, start, exact=False):
         """One program by constraint exchange (trust regions with freely placed poles)."""
@@ -265,15 +269,16 @@ class Run:
             res = solve_exchange(setup, x, ipopt, phase, self.templates, exact=exact, box=(c, r),
                                  max_rounds=FREE_EXCHANGE_ROUNDS)
             iters += res.iterations
+            cap = min(FREE_ITER_BUDGET, self.budget)
             if not res.success:
-                if f <= FREE_BOX / 4 or iters > FREE_ITER_BUDGET:
+                if f <= FREE_BOX / 4 or iters > cap:
                     break
                 f /= 4
                 continue
             gain = best is None or res.objective < best.objective - 1e-3 * abs(best.objective)
             best, x = res, res.x
             inside = np.all(np.abs(res.x[:ctx.param.n_x] - c) < 0.999 * r)
-            if inside or not gain or iters > FREE_ITER_BUDGET:
+            if inside or not gain or iters > cap:
                 break
             f = min(2 * f, 8 * FREE_BOX)
         return replace(best if best is not None else res, iterations=iters)
@@ -298,7 +303,7 @@ class Run:
         x = np.concatenate([x[:-1], [1.0]])
         for rnd in range(p.solver.max_rounds):
             if rnd and self.spent(placement):
-                self.notes.append(f"iteration budget ({RUN_ITER_BUDGET}) spent: refinement stopped")
+                self.notes.append(f"iteration budget ({self.budget}) spent: refinement stopped")
                 break
             setup = ctx.setup(models, nu, placement, self.tighten)
             res = self.solve(ctx, setup, x, Phase("hard"), name if rnd == 0 else "previous round")
@@ -379,7 +384,8 @@ class Run:
             outs.append(out)
         n_soft = 1 if self.hopeless else SOFT_STARTS   # the best violation is all there is
         for s in [s for s in starts if not (s is first and feasible)][:n_soft]:
-            if self.spent(placement) and any(o is not None and o.certified for o in outs):
+            if self.spent(placement) and (self.strict or any(o is not None and o.certified
+                                                             for o in outs)):
                 break
             x0 = ctx.full(s.xc, setup, s.wn, s.zeta, gamma=max(s.worst * 1.02, GAMMA_FLOOR))
             if s.stable and s.worst <= GAMMA_FLOOR:     # meets the specs already: no soft phase

@@ -28,13 +28,13 @@ from robrst.synthesis.nlp import affine_controller, closed_loop_maps, routh_colu
 
 __all__ = ["ROUTH_MIN", "ROUTH_FIRST", "SECTOR_NEAR", "SectorRow", "stability_rows",
            "routh_margins", "initial_stability", "joined", "sector_rows", "sector_margins",
-           "initial_sectors", "sectors_joined"]
+           "sector_dampings", "initial_sectors", "sectors_joined"]
 
 ROUTH_MIN = 1e-9
 ROUTH_FIRST = 4         # stability rows of the first round: models per closed-loop degree
 
 
-SECTOR_NEAR = 1e-3      # sector rows join when their Routh margin is below this
+SECTOR_NEAR = 0.01      # sector rows start imposed when the damping is this near the floor
 
 
 def stability_rows(setup):
@@ -112,20 +112,32 @@ def sector_margins(rows, x):
     return out
 
 
+def sector_dampings(rows, x):
+    """Per sector row, the least damping of its polynomial's roots at ``x`` (``-inf`` where
+    undefined)."""
+    out = np.empty(len(rows))
+    with np.errstate(all="ignore"):
+        for i, r in enumerate(rows):
+            c = r.Pm @ np.asarray(x, float)[:r.Pm.shape[1]] + r.Pc
+            ok = np.all(np.isfinite(c)) and c[0] != 0
+            out[i] = pole_region.least_damping(np.roots(c)) if ok else -np.inf
+    return out
+
+
 def initial_sectors(rows, x0):
-    """The sector rows of the first round: those short of ``SECTOR_NEAR`` at ``x0``, and
-    the controller's."""
-    m = sector_margins(rows, x0)
+    """The sector rows of the first round: those whose roots at ``x0`` are damped less than
+    ``SECTOR_NEAR`` above their floor, and the controller's."""
+    d = sector_dampings(rows, x0)
     return tuple(i for i, r in enumerate(rows)
-                 if r.kind == "controller_sector" or not m[i] >= SECTOR_NEAR)
+                 if r.kind == "controller_sector" or not d[i] >= r.zeta + SECTOR_NEAR)
 
 
 def sectors_joined(rows, chosen, x):
-    """``chosen`` and every sector row left out that ``x`` violates (or nearly)."""
+    """``chosen`` and every sector row left out whose roots ``x`` leaves below its floor."""
     if len(chosen) == len(rows):
         return tuple(chosen)
-    m = sector_margins(rows, x)
-    new = [i for i in range(len(rows)) if i not in chosen and not m[i] >= ROUTH_MIN]
+    d = sector_dampings(rows, x)
+    new = [i for i in range(len(rows)) if i not in chosen and not d[i] >= rows[i].zeta]
     return tuple(sorted(set(chosen) | set(new)))
 
 

@@ -30,7 +30,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg as sla
 
 from robrst.core import lti, poly
 from robrst.certificate.steps import SETTLING_BAND, step_metrics
@@ -114,6 +113,8 @@ class _Response:
     def grid(self, horizon):
         """``(tau, y, u)`` on a dense grid (all samples of a discrete loop) up to
         ``horizon`` (program time)."""
+        import scipy.linalg as sla   # only with time-domain specs (which need it anyway)
+
         n = self.A.shape[0]
         if self.fs is None:
             tau = np.linspace(0.0, horizon, GRID_POINTS)
@@ -133,6 +134,8 @@ class _Response:
 
     def at(self, taus):
         """``(y, u)`` at the program times ``taus`` (exact)."""
+        import scipy.linalg as sla
+
         n = self.A.shape[0]
         out = np.zeros((len(taus), 2))
         for i, t in enumerate(taus):

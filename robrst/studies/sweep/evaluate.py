@@ -161,7 +161,8 @@ def _analysis_row(state, values):
 def _design_row(state, problem):
     with state.lock:   # a cached solver is not re-entrant: one design at a time per worker
         # no analyses (exact peaks to 1e-10): the row's figures are the certificate's
-        result = state.designer(problem, templates=state.templates, analyses=False)
+        result = state.designer(problem, templates=state.templates, analyses=False,
+                                multistart=False)
     cert = result.certificate
     row = _figures(problem, result.controller, cert,
                    _smallest(_member_margins(problem, result.controller, cert)))
