@@ -9,8 +9,9 @@ back to ``s`` by ``s = fs ln z`` (``z`` from the bilinear loop variable ``w`` of
 
 Both conditions are Hurwitz conditions on polynomials built from the closed-loop
 polynomial ``D``, *linear* maps of its coefficients for the decay and a quadratic one for
-the damping, which the synthesis imposes (Routh) and the certificate proves between
-temperatures (guardian map, :func:`robrst.core.interval.parameter_crossing`):
+the damping, which the certificate proves between temperatures (guardian map,
+:func:`robrst.core.interval.parameter_crossing`) and the synthesis imposes for the decay
+(Routh rows of the shifted or disc-mapped polynomial):
 
 * decay, continuous loop: ``D(p - sigma)`` Hurwitz (:func:`shift_matrix`);
 * decay, sampled loop: every ``|z| < exp(-sigma / fs)``, i.e. ``D`` composed with the
@@ -22,9 +23,8 @@ temperatures (guardian map, :func:`robrst.core.interval.parameter_crossing`):
   when ``P`` is (:func:`sector_polynomial`, :func:`rotation`).
 
 The sector of the sampled loop has no polynomial test in ``w`` (its image is bounded by
-logarithmic spirals); the synthesis imposes the sector in ``w`` (the same near ``w = 0``,
-tightened when the certificate finds otherwise) and the certificate checks the mapped
-roots.
+logarithmic spirals): the certificate checks the mapped roots, and the synthesis
+linearises the roots near the floor (:mod:`robrst.synthesis.polerows`).
 """
 
 from __future__ import annotations

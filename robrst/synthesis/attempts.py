@@ -17,6 +17,7 @@ from robrst.synthesis.nlp import grid_blocks
 from robrst.synthesis.outcome import Round, worst_violation
 from robrst.synthesis.parametrize import integral_gain
 from robrst.synthesis.starts import ON_SLOW_POLE, candidates, score
+from robrst.synthesis.polerows import pole_rows, worst_damping_ratio
 from robrst.synthesis.timesamples import (TIME_MARGIN, time_rows, time_specs,
                                            worst_time_ratio)
 
@@ -29,6 +30,7 @@ FREE_BOX, FREE_BOXES, FREE_MAX_ITER = 1.0, 6, 300   # trust regions with freely 
 FREE_EXCHANGE_ROUNDS, FREE_ITER_BUDGET = 10, 800
 RUN_ITER_BUDGET = 2500    # IPOPT iterations per synthesis: then the best certified point found
 FAR_START = 5.0           # a start missing the specs 5x: no objective phase from it
+BOLD_FAR = 20.0           # a bolder start (Run.bolder) may miss them 20x
 WARM_MU = 1e-4           # IPOPT's initial barrier from a previous design of a nearby variant
 WARM_NEAR = 1.05         # ... solved from at once when within 5 % of the specs on the grid
 WARM_START = "previous design"   # the name of that start (robrst.synthesis.robust hands it down)
@@ -94,6 +96,15 @@ def refine(problem, cert, models, nu, max_new=2):
     return models, nu
 
 
+def _stacked(a, b):
+    """Two sets of linear rows as one (either may be ``None``)."""
+    if a is None or b is None:
+        return a if b is None else b
+    return type(a)(A=np.vstack([a.A, b.A]), g=np.concatenate([a.g, b.g]),
+                   c=np.concatenate([a.c, b.c]), keys=a.keys + b.keys,
+                   labels=a.labels + b.labels)
+
+
 class _Timed:
     """A solve of :meth:`Run.timed` and whether it was the objective's (``phase_ok``)."""
 
@@ -102,15 +113,6 @@ class _Timed:
 
     def __getattr__(self, name):
         return getattr(self.res, name)
-
-
-def sampled_shortfall(cert):
-    """How much the sampled models' damping floor in the program must rise: the largest
-    shortfall of a sampled loop's mapped poles below the floor, with a margin (their
-    sector is imposed in the loop variable, where the floor's image differs)."""
-    short = [v.bound - v.value for v in cert.violations
-             if v.kind == "below" and v.loop == "sampled" and v.quantity == "closed-loop damping"]
-    return 1.5 * max(short) + 2e-3 if short else 0.0
 
 
 def _better(problem, out, others):
@@ -160,7 +162,6 @@ class Run:
         self.strict = budget is not None   # an extra start: its budget is a hard stop
         self.rounds, self.notes = [], []
         self.hopeless = False     # set when the specs are provably infeasible
-        self.tighten = 0.0        # extra damping floor of the sampled models' sector rows
         self.solved = {}          # program key -> result: a repeated program is not re-solved
 
     def spent(self, placement=None):
@@ -191,8 +192,10 @@ class Run:
                 res = solve_exchange(setup, x0, {**ctx.ipopt, "mu_strategy": "adaptive"}, phase,
                                      self.templates, exact=exact)
         spec = time_specs(ctx.problem, setup.w0)
-        if spec is not None and res.success and key not in self.solved:
-            res = self.timed(ctx, setup, res, phase, exact, spec)
+        floored = setup.region is not None and (setup.region.zeta is not None
+                                                or setup.region.ctrl_zeta is not None)
+        if (spec is not None or floored) and res.success and key not in self.solved:
+            res = self.linearised(ctx, setup, res, phase, exact, spec)
         self.solved[key] = res
         ex = res.exchange
         gamma = float(res.x[-1]) if phase.kind == "soft" else None
@@ -208,33 +211,42 @@ class Run:
                  f" {len(setup.nu)} freqs" + (f", worst spec ratio {gamma:.4g}" if gamma else ""))
         return res
 
-    def timed(self, ctx, setup, res, phase, exact, spec):
-        """The reference-step samples of :mod:`robrst.synthesis.timesamples`.
+    def linearised(self, ctx, setup, res, phase, exact, spec):
+        """The linearised rows: reference-step samples (:mod:`robrst.synthesis.timesamples`,
+        ``spec``) and the roots near a damping floor (:mod:`robrst.synthesis.polerows`).
 
-        While a sample of a model's step response violates its spec, the violated and
-        near samples are linearised at the point and the program is solved again inside a
+        While a sample violates its spec or a root lies below its floor, the violated and
+        near ones are linearised at the point and the program is solved again inside a
         trust region: in the objective phase first a restoration solve (phase ``"time"``:
         the worst normalised sample minimised, every other spec held), then the objective
-        with the samples as constraints; in the soft phase the samples scale with
-        ``gamma``.  A step is kept when the worst exact sample improved (the trust region
-        then grows; it is halved otherwise)."""
+        with the rows as constraints; in the soft phase the samples scale with ``gamma``
+        (the roots' rows never do).  A step is kept when the worst exact ratio improved
+        (the trust region then grows; it is halved otherwise)."""
         best, keys, f, iters = res, (), TIME_BOX, res.iterations
-        worst, found = worst_time_ratio(setup, best.x, spec)
+
+        def ratios(x):
+            w_t, fnd = worst_time_ratio(setup, x, spec) if spec is not None else (0.0, {})
+            return max(w_t, worst_damping_ratio(setup, x)), w_t, fnd
+
+        worst, w_time, found = ratios(best.x)
         restore = (phase.kind == "hard" and not (
             setup.objective == "min_Ms" and setup.bounds.get("S") is None))
         for _ in range(TIME_ROUNDS):
             if self.spent():
                 break
-            kind = "time" if worst > 1.0 and restore else phase.kind
+            kind = "time" if w_time > 1.0 and restore else phase.kind
             if worst <= 1.0 and (kind != "hard" or best is not res and best.phase_ok):
                 break
-            rows = time_rows(setup, best.x, spec, keys, found)
-            keys = rows.keys
+            rows = time_rows(setup, best.x, spec, keys, found) if spec is not None else None
+            keys = rows.keys if rows is not None else keys
+            rows = _stacked(rows, pole_rows(setup, best.x))
+            if rows is None:
+                break
             c = best.x[:ctx.param.n_x]
             r = f * (np.abs(c) + 0.05 * np.max(np.abs(c)))
             x0 = best.x.copy()
             if kind == "time":
-                x0[-1] = max(worst, 1.0) * 1.02
+                x0[-1] = max(w_time, 1.0) * 1.02
             new = solve_exchange(setup, x0, ctx.ipopt, Phase(kind, TIME_MARGIN ** 2), self.templates,
                                  exact=exact, box=(c, r), lin=rows)
             iters += new.iterations
@@ -243,17 +255,19 @@ class Run:
                 continue
             if np.allclose(new.x[:-1], best.x[:-1], rtol=1e-9, atol=1e-12):
                 break        # no freedom left (e.g. a unique Diophantine solution)
-            w_new, f_new = worst_time_ratio(setup, new.x, spec)
+            w_new, wt_new, f_new = ratios(new.x)
             if kind == "time":
                 new = replace(new, x=np.concatenate([new.x[:-1], [res.x[-1]]]))
             if w_new < worst or (w_new <= 1.0 and kind == "hard"):
-                best, worst, found, f = new, w_new, f_new, min(2 * f, 4 * TIME_BOX)
+                best, worst, w_time, found = new, w_new, wt_new, f_new
+                f = min(2 * f, 4 * TIME_BOX)
                 best = _Timed(best, kind == "hard")
             else:
                 f /= 2
         if worst > 1.0:
-            self.notes.append(f"reference-step samples: the worst sample is {worst:.3g} x its"
-                              " spec after the linearised rounds (the certificate decides)")
+            self.notes.append(f"linearised rows (reference-step samples, damping floors): the"
+                              f" worst is {worst:.3g} x its bound after the rounds (the"
+                              " certificate decides)")
         best = best.res if isinstance(best, _Timed) else best
         return replace(best, iterations=iters)
 
@@ -305,7 +319,7 @@ class Run:
             if rnd and self.spent(placement):
                 self.notes.append(f"iteration budget ({self.budget}) spent: refinement stopped")
                 break
-            setup = ctx.setup(models, nu, placement, self.tighten)
+            setup = ctx.setup(models, nu, placement)
             res = self.solve(ctx, setup, x, Phase("hard"), name if rnd == 0 else "previous round")
             if not res.success and rnd > 0:   # the refined program: back to the specs first
                 x0 = np.concatenate([x[:-1], [max(last.badness, 1.0) * 1.02]])
@@ -323,8 +337,33 @@ class Run:
                 break
             x = res.x
             models, nu = refine(p, last.cert, models, nu)
-            self.tighten = max(self.tighten, sampled_shortfall(last.cert))
         return last
+
+    def bolder(self, ctx, setup, placement, starts, out):
+        """A start beyond the certified ``out`` (a larger integral gain, not meeting the
+        specs on the grid, the nearest to them): brought to the specs by the soft phase,
+        then the objective.  A higher-gain basin the boldest feasible start does not reach
+        (a loop that damps a resonance actively crosses over near it).  ``None`` when the
+        objective is not the integral gain, nothing is bolder or the budget is spent."""
+        if (ctx.problem.solver.objective != "max_integral_gain" or placement == "fixed"
+                or self.spent(placement) or self.hopeless):
+            return None
+        ki = objective_value(ctx.problem, out)
+        cands = []
+        for s in starts:
+            if not s.stable or s.worst <= GAMMA_FLOOR or s.worst > BOLD_FAR:
+                continue
+            k = abs(integral_gain(ctx.controller(ctx.full(s.xc, setup, s.wn, s.zeta))))
+            if np.isfinite(k) and k > ki * (1 + 1e-3):
+                cands.append((s.worst, s))
+        if not cands:
+            return None
+        s = min(cands, key=lambda c: c[0])[1]
+        x0 = ctx.full(s.xc, setup, s.wn, s.zeta, gamma=max(s.worst * 1.02, GAMMA_FLOOR))
+        res = self.solve(ctx, setup, x0, Phase("soft", GAMMA_FLOOR), s.name)
+        if not (res.success and res.x[-1] <= 1.0):
+            return None
+        return self.hard(ctx, placement, res.x, f"soft-goal point from {s.name}")
 
     def attempt(self, ctx, placement, seeds):
         """Hard phase from the preferred start; if that fails, soft phase then hard phase.
@@ -380,6 +419,7 @@ class Run:
                     alt = max(other, key=lambda s: s.gain)
                     outs.append(self.hard(ctx, placement,
                                           ctx.full(alt.xc, setup, alt.wn, alt.zeta), alt.name))
+                outs.append(self.bolder(ctx, setup, placement, starts, out))
                 return _better(ctx.problem, out, outs)
             outs.append(out)
         n_soft = 1 if self.hopeless else SOFT_STARTS   # the best violation is all there is

@@ -99,25 +99,22 @@ class Context:
         """``"dominant"`` with free poles, else ``"fixed"``."""
         return "dominant" if self.problem.solver.free_poles else "fixed"
 
-    def region(self, tighten=0.0):
+    def region(self):
         """The pole region of the program (:class:`~robrst.synthesis.nlp.Region`), ``None``
-        when the specs impose none; ``tighten`` raises the sampled models' damping floor
-        (their sector is imposed in the loop variable, the certificate maps the poles)."""
+        when the specs impose none."""
         p = self.problem
         sp = p.specs
         floor, _ = sp.damping_floor(p.family)
         zeta = None if not floor else min(0.999, floor + REGION_MARGIN)
-        zs = None if zeta is None or not sp.sampled else min(0.999, zeta + tighten)
         sigma = sp.decay_min / self.w0 if sp.decay_min else None
         cz = sp.controller_damping_min
         cz = min(0.999, cz + REGION_MARGIN) if cz else None
         if zeta is None and sigma is None and cz is None:
             return None
-        return Region(zeta=zeta, zeta_sampled=zs, sigma=sigma, ctrl_zeta=cz)
+        return Region(zeta=zeta, sigma=sigma, ctrl_zeta=cz)
 
-    def setup(self, models, nu, placement, tighten=0.0):
-        """The numeric program data for ``models`` on the grid ``nu`` [rad/s] (``tighten``:
-        see :meth:`region`)."""
+    def setup(self, models, nu, placement):
+        """The numeric program data for ``models`` on the grid ``nu`` [rad/s]."""
         p = self.problem
         sp, so = p.specs, p.solver
         sc, w0 = self.param.scaling, self.w0
@@ -167,7 +164,7 @@ class Context:
                         ctrl_shift=self.ctrl_shift, ctrl_max=self.ctrl_max,
                         grids=tuple(grids), T_shape=self.T_shape(),
                         fs_of=(None,) * n_cont + (sp.sample_rate_hz,) * (len(ms) - n_cont),
-                        region=self.region(tighten))
+                        region=self.region())
 
     def T_shape(self):
         """The scaled feed-forward shape ``T / R(0)`` (``T_shape(0) = 1``) of the structure."""

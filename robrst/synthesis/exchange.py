@@ -28,9 +28,8 @@ from robrst.core.peaks import peak_gain
 from robrst.synthesis.nlp import (controller_conditions, grid_blocks, local_maxima,
                                   objective_rows)
 from robrst.synthesis.outcome import SolveResult
-from robrst.synthesis.stability import (ROUTH_MIN, initial_sectors, initial_stability, joined,
-                                        routh_margins, sector_margins, sector_rows,
-                                        sectors_joined, stability_rows)
+from robrst.synthesis.stability import (ROUTH_MIN, initial_stability, joined, routh_margins,
+                                        stability_rows)
 from robrst.synthesis.template import Structure, Template
 
 __all__ = ["ExchangeInfo", "Phase", "solve_exchange", "solve_program", "local_maxima",
@@ -63,7 +62,6 @@ class ExchangeInfo:
     grid_points: int
     max_grid_ratio: float   # max over every grid point of |N| / (limit |Delta|) at the result
     stability_models: int = -1   # models whose closed-loop stability rows were imposed
-    sector_rows: int = 0         # pole-region sector rows imposed (damping floors)
 
 
 def _limits(setup, blocks, phase):
@@ -96,7 +94,7 @@ def _capacity(n, lo=32):
     return c
 
 
-def _structure(setup, phase, n_slots, ipopt, rows, routh, srows=(), sectors=(), lin=None):
+def _structure(setup, phase, n_slots, ipopt, rows, routh, lin=None):
     ctrl = _ctrl(setup, phase)
     deg_eq = len(setup.Am_fixed) - 1 if setup.placement == "fixed" else (
         0 if setup.placement == "free" else rows[setup.ref][0])
@@ -106,7 +104,6 @@ def _structure(setup, phase, n_slots, ipopt, rows, routh, srows=(), sectors=(), 
                      slots=_capacity(n_slots), ipopt=tuple(sorted(ipopt.items())),
                      ctrl_deg=-1 if ctrl is None else ctrl[2] - 1,
                      ctrl_count=1 if ctrl is None else ctrl[3],
-                     sectors=_group_caps([(srows[i].deg,) for i in sectors]),
                      lin=0 if lin is None or not len(lin.c) else _capacity(len(lin.c), 8))
 
 
@@ -130,8 +127,7 @@ def _group_caps(groups):
     return tuple((d, -(-n // 4) * 4) for d, n in sorted(degs.items()))
 
 
-def _values(setup, st, blocks, limits, active, rows, routh, phase, x_ref, srows=(),
-            sectors=(), lin=None):
+def _values(setup, st, blocks, limits, active, rows, routh, phase, x_ref, lin=None):
     """Parameters, constraint bounds and labels of one solve."""
     nx, K = st.nx, st.slots
     v = {k: np.zeros((K, nx)) for k in ("NR", "NI", "DR", "DI")}
@@ -188,22 +184,6 @@ def _values(setup, st, blocks, limits, active, rows, routh, phase, x_ref, srows=
         lbg += [ROUTH_MIN] * len(m)
         ubg += [np.inf] * len(m)
         labels += [("controller_routh", None, None, r) for r in range(len(m))]
-    for gi, (deg, cap) in enumerate(st.sectors):
-        mine = [srows[i] for i in sectors if srows[i].deg == deg]
-        n = deg + 1
-        Pm, Pc = np.zeros((cap * n, nx)), np.tile(np.poly(-np.ones(deg)), cap)
-        cs, sn = np.ones(cap * n), np.zeros(cap * n)     # unused: (p + 1)^deg, no rotation
-        for k, r in enumerate(mine):
-            sl = slice(k * n, (k + 1) * n)
-            Pm[sl], Pc[sl] = r.Pm, r.Pc
-            cs[sl], sn[sl] = r.rotation()
-            label, T = (setup.models[r.model][:2] if r.model is not None else (None, None))
-            labels += [(r.kind, label, T, q) for q in range(2 * deg + 1)]
-        labels += [("unused", None, None, None)] * ((cap - len(mine)) * (2 * deg + 1))
-        v[f"Pm{gi}"], v[f"Pc{gi}"], v[f"Pcos{gi}"], v[f"Psin{gi}"] = Pm, Pc, cs, sn
-        used = len(mine) * (2 * deg + 1)
-        lbg += [ROUTH_MIN] * used + [-np.inf] * (cap * (2 * deg + 1) - used)
-        ubg += [np.inf] * (cap * (2 * deg + 1))
     if st.lin:
         n = len(lin.c)
         Lm, Lg, Lc = np.zeros((st.lin, nx)), np.zeros(st.lin), np.zeros(st.lin)
@@ -246,8 +226,7 @@ def _var_bounds(setup, st, phase, box=None):
 
 
 def solve_program(setup, x0, ipopt, phase=Phase(), blocks=None, active=None, templates=None,
-                  x_ref=None, box=None, routh=None, rows=None, sectors=None, srows=None,
-                  lin=None):
+                  x_ref=None, box=None, routh=None, rows=None, lin=None):
     """Solve the program on the ``active`` grid points of ``blocks`` (default: all).
 
     ``x0`` is the full variable vector ``[xc, (wn, zeta), gamma]``.  ``templates``
@@ -255,10 +234,8 @@ def solve_program(setup, x0, ipopt, phase=Phase(), blocks=None, active=None, tem
     ``(center, radius)`` bounds the controller coefficients (a trust region); ``routh``
     the indices of the models whose closed-loop stability rows are imposed (default:
     every model); ``rows`` those rows, if the caller has them
-    (:func:`~robrst.synthesis.stability.stability_rows`); ``sectors`` the indices of the
-    sector rows ``srows`` imposed (:func:`~robrst.synthesis.stability.sector_rows`;
-    default: every one); ``lin`` linear rows (:class:`~robrst.synthesis.timesamples.TimeRows`,
-    the reference-step samples).
+    (:func:`~robrst.synthesis.stability.stability_rows`); ``lin`` linear rows (:class:`~robrst.synthesis.timesamples.TimeRows`,
+    the reference-step samples and the roots near a damping floor).
 
     Returns
     -------
@@ -271,16 +248,13 @@ def solve_program(setup, x0, ipopt, phase=Phase(), blocks=None, active=None, tem
     limits = _limits(setup, blocks, phase)
     rows = stability_rows(setup) if rows is None else rows
     routh = tuple(range(len(rows))) if routh is None else tuple(routh)
-    srows = sector_rows(setup) if srows is None else srows
-    sectors = tuple(range(len(srows))) if sectors is None else tuple(sectors)
-    st = _structure(setup, phase, sum(len(a) for a in active), ipopt, rows, routh, srows,
-                    sectors, lin)
+    st = _structure(setup, phase, sum(len(a) for a in active), ipopt, rows, routh, lin)
     cache = {} if templates is None else templates
     if st not in cache:
         cache[st] = Template(st)
     tpl = cache[st]
     v, lbg, ubg, labels = _values(setup, st, blocks, limits, active, rows, routh, phase,
-                                  x0 if x_ref is None else x_ref, srows, sectors, lin)
+                                  x0 if x_ref is None else x_ref, lin)
     lbx, ubx = _var_bounds(setup, st, phase, box)
     x0 = np.clip(x0, lbx, ubx)
     out = tpl.solve(v, x0, lbx, ubx, lbg, ubg)
@@ -380,30 +354,25 @@ def solve_exchange(setup, x0, ipopt, phase=Phase(), templates=None, max_rounds=5
         every row from the first round.
     """
     rows = stability_rows(setup)
-    srows = sector_rows(setup)
     if stability is not None:
         first = tuple(sorted(set(int(j) for j in stability)))
     elif setup.placement == "free":
         first = tuple(range(len(rows)))
     else:
         first = initial_stability(rows, x0)
-    sec = initial_sectors(srows, x0)
     res = _exchange(setup, x0, ipopt, phase, templates, max_rounds, coarse_points, exact, box,
-                    rows, first, srows, sec, lin)
-    partial = (res.exchange.stability_models < len(rows)
-               or res.exchange.sector_rows < len(srows))
-    if not res.success and partial and (np.any(~(routh_margins(rows, res.x) >= ROUTH_MIN))
-                                        or np.any(~(sector_margins(srows, res.x) >= ROUTH_MIN))):
+                    rows, first, lin)
+    partial = res.exchange.stability_models < len(rows)
+    if not res.success and partial and np.any(~(routh_margins(rows, res.x) >= ROUTH_MIN)):
         # it failed where a row left out does not hold: every row from the first round
         again = _exchange(setup, x0, ipopt, phase, templates, max_rounds, coarse_points, exact,
-                          box, rows, tuple(range(len(rows))), srows, tuple(range(len(srows))),
-                          lin)
+                          box, rows, tuple(range(len(rows))), lin)
         res = replace(again, iterations=again.iterations + res.iterations)
     return res
 
 
 def _exchange(setup, x0, ipopt, phase, templates, max_rounds, coarse_points, exact, box, rows,
-              routh, srows=(), sectors=(), lin=None):
+              routh, lin=None):
     """The rounds of :func:`solve_exchange` from the stability rows of models ``routh``."""
     x0 = np.asarray(x0, float)
     blocks = list(grid_blocks(setup, x0))
@@ -417,11 +386,10 @@ def _exchange(setup, x0, ipopt, phase, templates, max_rounds, coarse_points, exa
         # later rounds start at the previous optimum: a small initial barrier keeps them there
         opts = ipopt if rnd == 1 else {**ipopt, "mu_init": min(ipopt.get("mu_init", 0.1), 1e-4)}
         res = solve_program(setup, x, opts, phase, blocks, active, templates, x_ref=x0, box=box,
-                            routh=routh, rows=rows, sectors=sectors, srows=srows, lin=lin)
+                            routh=routh, rows=rows, lin=lin)
         if not res.success and rnd > 1:      # the warm barrier failed: the default one
             res = solve_program(setup, x, ipopt, phase, blocks, active, templates, x_ref=x0,
-                                box=box, routh=routh, rows=rows, sectors=sectors, srows=srows,
-                                lin=lin)
+                                box=box, routh=routh, rows=rows, lin=lin)
         x = res.x
         iters += res.iterations
         ratios = effective_ratios(blocks, limits, x, x[-1])
@@ -437,8 +405,6 @@ def _exchange(setup, x0, ipopt, phase, templates, max_rounds, coarse_points, exa
                 active[k] = np.union1d(active[k], new)
         grown = joined(rows, routh, x)          # the stability rows left out that x violates
         added, routh = added + len(grown) - len(routh), grown
-        grown = sectors_joined(srows, sectors, x)   # likewise the sector rows
-        added, sectors = added + len(grown) - len(sectors), grown
         if added == 0 and exact:
             added = _exact_growth(blocks, limits, active, x, x[-1])
         if added == 0:
@@ -446,6 +412,5 @@ def _exchange(setup, x0, ipopt, phase, templates, max_rounds, coarse_points, exa
     info = ExchangeInfo(rounds=rnd, iterations=iters,
                         active_points=int(sum(a.size for a in active)),
                         grid_points=max(total, sum(len(b.nu) for b in blocks)),
-                        max_grid_ratio=worst, stability_models=len(routh),
-                        sector_rows=len(sectors))
+                        max_grid_ratio=worst, stability_models=len(routh))
     return replace(res, iterations=iters, exchange=info)

@@ -157,15 +157,13 @@ def _product(c, L, l0, n_out):
 class Region:
     """The closed-loop pole region imposed in one program (scaled).
 
-    ``zeta``: damping floor of every closed-loop pole (continuous models), ``zeta_sampled``
-    of the sampled-loop models' poles in their loop variable (the floor, tightened when the
-    certificate finds the mapped poles short of it); ``sigma``: decay rate (scaled; sampled
-    models: ``|z| < exp(-sigma w0 / fs)``); ``ctrl_zeta``: damping floor of the
-    controller's own poles.  ``None``: not imposed.
+    ``zeta``: damping floor of every closed-loop pole (a sampled model's mapped to s by
+    ``fs ln z``; :mod:`robrst.synthesis.polerows`); ``sigma``: decay rate (scaled; sampled
+    models: ``|z| < exp(-sigma w0 / fs)``, :mod:`robrst.synthesis.stability`);
+    ``ctrl_zeta``: damping floor of the controller's own poles.  ``None``: not imposed.
     """
 
     zeta: float = None
-    zeta_sampled: float = None
     sigma: float = None
     ctrl_zeta: float = None
 

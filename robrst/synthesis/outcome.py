@@ -20,7 +20,8 @@ class Binding:
 
     ``kind`` is ``"S"``, ``"T"``, ``"U"``, ``"Tband"``, ``"Uhf"``, ``"Sd"``, ``"Ry"`` (a peak
     bound on the grid), ``"routh"`` (stability, or decay with a pole region), ``"sector"``
-    (a damping floor), ``"controller_sector"``, ``"time"`` (a reference-step sample),
+    (a root at a damping floor), ``"controller_sector"``, ``"time"`` (a reference-step
+    sample),
     ``"positivity"``, ``"gamma"`` or ``"controller_routh"``;
     ``freq_rad_s`` is physical; ``multiplier`` IPOPT's ``lam_g`` (scaled by the
     constraint's size) and ``violation`` how far the constraint is from holding.
@@ -40,7 +41,7 @@ class Binding:
                 "Sd": "|B S/Delta| peak (input disturbance)",
                 "Ry": "|B T/Delta| peak (reference to output)",
                 "routh": "closed-loop stability or decay (Routh)",
-                "sector": "closed-loop damping floor (pole sector)",
+                "sector": "closed-loop damping floor (a root at the floor)",
                 "controller_sector": "controller pole damping floor",
                 "time": "reference step (time samples)",
                 "controller_routh": "controller poles (stability / integral-gain shift)",

@@ -10,31 +10,22 @@ final point, so its multiplier is zero there: the point is a KKT point of the pr
 with every row.  Most rows never bind (the peak bounds keep the loops well inside
 stability), and each costs every IPOPT iteration of the round.
 
-With a pole region (:class:`~robrst.synthesis.nlp.Region`, :mod:`robrst.core.region`)
-the stability rows are those of the decay-shifted polynomial (``Delta(p - sigma)``, or
-the disc map of a sampled model): decay implies stability.  The damping floor adds
-*sector rows* (:func:`sector_rows`): the Routh column of ``E = Re(P)^2 + Im(P)^2``,
-``P(p) = Delta(e^{j phi} p)``, a quadratic in the controller coefficients, exchanged the
-same way (a model joins when its sector margin is short at the start or at a round's
-result); the controller's own poles add one sector row of ``S / s^k``.
+With a pole region's decay rate (:class:`~robrst.synthesis.nlp.Region`,
+:mod:`robrst.core.region`) the stability rows are those of the decay-shifted polynomial
+(``Delta(p - sigma)``, or the disc map of a sampled model): decay implies stability.
+Damping floors are linearised rows (:mod:`robrst.synthesis.polerows`).
 """
 
 import numpy as np
 
-from dataclasses import dataclass
-
 from robrst.core import region as pole_region
-from robrst.synthesis.nlp import affine_controller, closed_loop_maps, routh_column
+from robrst.synthesis.nlp import closed_loop_maps, routh_column
 
-__all__ = ["ROUTH_MIN", "ROUTH_FIRST", "SECTOR_NEAR", "SectorRow", "stability_rows",
-           "routh_margins", "initial_stability", "joined", "sector_rows", "sector_margins",
-           "sector_dampings", "initial_sectors", "sectors_joined"]
+__all__ = ["ROUTH_MIN", "ROUTH_FIRST", "stability_rows", "routh_margins", "initial_stability",
+           "joined"]
 
 ROUTH_MIN = 1e-9
 ROUTH_FIRST = 4         # stability rows of the first round: models per closed-loop degree
-
-
-SECTOR_NEAR = 0.01      # sector rows start imposed when the damping is this near the floor
 
 
 def stability_rows(setup):
@@ -54,91 +45,6 @@ def stability_rows(setup):
             Dm, Dc = M @ Dm, M @ Dc
         out.append((deg, Dm, Dc))
     return out
-
-
-@dataclass(frozen=True, eq=False)
-class SectorRow:
-    """One sector condition: the polynomial ``Pm x + Pc`` (degree ``deg``) has its roots
-    damped more than ``zeta``; ``kind`` is ``"sector"`` (a model's closed loop, index
-    ``model``) or ``"controller_sector"`` (the controller's own poles)."""
-
-    deg: int
-    Pm: np.ndarray
-    Pc: np.ndarray
-    zeta: float
-    kind: str
-    model: int = None
-
-    def rotation(self):
-        """``(cos, sin)`` of the rotation (:func:`robrst.core.region.rotation`)."""
-        return pole_region.rotation(self.deg, self.zeta)
-
-
-def sector_rows(setup):
-    """Every sector row of ``setup`` (empty without a damping floor): one per model, then
-    the controller's (:class:`SectorRow`)."""
-    reg = setup.region
-    out = []
-    if reg is None:
-        return out
-    if reg.zeta is not None:
-        cl = closed_loop_maps(setup)
-        for j, (label, T, a, b) in enumerate(setup.models):
-            fs = setup.fs_of[j] if setup.fs_of else None
-            zeta = reg.zeta if fs is None else reg.zeta_sampled
-            if zeta is None:
-                continue
-            (Dm, Dc), _ = cl(a, b)
-            out.append(SectorRow(Dm.shape[0] - 1, Dm, Dc, zeta, "sector", j))
-    if reg.ctrl_zeta is not None:
-        Ls, s0, _ = affine_controller(setup)
-        k = setup.integrators
-        Lq, q = Ls[:len(s0) - k], s0[:len(s0) - k]
-        if Lq.shape[0] >= 3:     # a complex pair needs degree 2
-            out.append(SectorRow(Lq.shape[0] - 1, Lq, q, reg.ctrl_zeta, "controller_sector"))
-    return out
-
-
-def sector_margins(rows, x):
-    """Per sector row, the least entry of the Routh column of ``E / E[0]`` at ``x``
-    (``-inf`` where undefined)."""
-    out = np.empty(len(rows))
-    with np.errstate(all="ignore"):
-        for i, r in enumerate(rows):
-            c = r.Pm @ np.asarray(x, float)[:r.Pm.shape[1]] + r.Pc
-            E = pole_region.sector_polynomial(c, r.zeta)
-            col = routh_column(E / E[0])
-            out[i] = col.min() if np.all(np.isfinite(col)) else -np.inf
-    return out
-
-
-def sector_dampings(rows, x):
-    """Per sector row, the least damping of its polynomial's roots at ``x`` (``-inf`` where
-    undefined)."""
-    out = np.empty(len(rows))
-    with np.errstate(all="ignore"):
-        for i, r in enumerate(rows):
-            c = r.Pm @ np.asarray(x, float)[:r.Pm.shape[1]] + r.Pc
-            ok = np.all(np.isfinite(c)) and c[0] != 0
-            out[i] = pole_region.least_damping(np.roots(c)) if ok else -np.inf
-    return out
-
-
-def initial_sectors(rows, x0):
-    """The sector rows of the first round: those whose roots at ``x0`` are damped less than
-    ``SECTOR_NEAR`` above their floor, and the controller's."""
-    d = sector_dampings(rows, x0)
-    return tuple(i for i, r in enumerate(rows)
-                 if r.kind == "controller_sector" or not d[i] >= r.zeta + SECTOR_NEAR)
-
-
-def sectors_joined(rows, chosen, x):
-    """``chosen`` and every sector row left out whose roots ``x`` leaves below its floor."""
-    if len(chosen) == len(rows):
-        return tuple(chosen)
-    d = sector_dampings(rows, x)
-    new = [i for i in range(len(rows)) if i not in chosen and not d[i] >= rows[i].zeta]
-    return tuple(sorted(set(chosen) | set(new)))
 
 
 def routh_margins(rows, x):

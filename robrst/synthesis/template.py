@@ -18,11 +18,9 @@ Variables ``X = [xc, (wn, zeta), gamma]``.  Constraints, in order:
 4. positivity of ``sign R(0)`` and ``(S/s^k)(0)`` (``max_integral_gain``);
 5. Routh columns of the controller polynomials ``(S/s^k)(p - shift)`` and
    ``(S/s^k)(-p - ctrl_max)`` (optional: the controller's poles in a strip);
-6. sector rows (optional, a pole region's damping floor): the Routh column of
-   ``E = Re(P)^2 + Im(P)^2`` with ``P`` the coefficients of an affine polynomial times the
-   rotation ``cos + j sin`` (:mod:`robrst.synthesis.stability`), by degree group;
-7. linear rows ``Lm xc + Lg gamma + Lc <= 0`` (optional: the reference-step samples of
-   :mod:`robrst.synthesis.timesamples`, linearised at the round's point).
+6. linear rows ``Lm xc + Lg gamma + Lc <= 0`` (optional: the reference-step samples of
+   :mod:`robrst.synthesis.timesamples` and the roots near a damping floor of
+   :mod:`robrst.synthesis.polerows`, linearised at the round's point).
 
 Objective ``c_gamma gamma + c_ki (-log(sign R(0)) + log((S/s^k)(0))) + c_reg |xc - xref|^2``.
 """
@@ -53,7 +51,6 @@ class Structure:
     ctrl_deg: int           # degree of the controller polynomial under Routh, -1: none
     ipopt: tuple            # IPOPT options as sorted (key, value) pairs
     ctrl_count: int = 1     # how many controller polynomials are under Routh
-    sectors: tuple = ()     # ((degree, capacity), ...) of the sector rows
     lin: int = 0            # slots of linear rows (reference-step samples)
 
     @property
@@ -85,10 +82,6 @@ class Template:
         if st.ctrl_deg >= 0:
             nc = st.ctrl_count * (st.ctrl_deg + 1)
             blocks += [("Cm", (nc, nx)), ("Cc", (nc,))]
-        for i, (deg, cap) in enumerate(st.sectors):
-            n = cap * (deg + 1)
-            blocks += [(f"Pm{i}", (n, nx)), (f"Pc{i}", (n,)), (f"Pcos{i}", (n,)),
-                       (f"Psin{i}", (n,))]
         if st.lin:
             blocks += [("Lm", (st.lin, nx)), ("Lg", (st.lin,)), ("Lc", (st.lin,))]
         self.layout, off = {}, 0
@@ -131,19 +124,6 @@ class Template:
             fn = ca.Function("routh_c", [c], [routh_column(c / c[0])]).map(st.ctrl_count)
             C = ca.mtimes(par("Cm"), xc) + par("Cc")
             g.append(ca.vec(fn(ca.reshape(C, st.ctrl_deg + 1, st.ctrl_count))))
-        for i, (deg, cap) in enumerate(st.sectors):
-            c, cv, sv = (ca.SX.sym(k, deg + 1) for k in ("c", "cv", "sv"))
-            re, im = c * cv, c * sv
-            E = ca.vertcat(*[a + b for a, b in zip(
-                poly.conv_generic([re[k] for k in range(deg + 1)],
-                                  [re[k] for k in range(deg + 1)]),
-                poly.conv_generic([im[k] for k in range(deg + 1)],
-                                  [im[k] for k in range(deg + 1)]))])
-            fn = ca.Function("sector", [c, cv, sv], [routh_column(E / E[0])]).map(cap)
-            Q = ca.mtimes(par(f"Pm{i}"), xc) + par(f"Pc{i}")
-            g.append(ca.vec(fn(ca.reshape(Q, deg + 1, cap),
-                               ca.reshape(par(f"Pcos{i}"), deg + 1, cap),
-                               ca.reshape(par(f"Psin{i}"), deg + 1, cap))))
         if st.lin:
             g.append(ca.mtimes(par("Lm"), xc) + par("Lg") * gamma + par("Lc"))
         coef = par("coef")
