@@ -7,17 +7,17 @@ sampled problem, the sampled peaks), the design's ``certified`` and its objectiv
 with its tolerance.  Checking compares a new design with it and lists every figure that
 got *worse* beyond its tolerance; improvements never fail.  Which way is worse:
 
-==========================================  ==============================================
-figure                                      worse when
-==========================================  ==============================================
+==============================================  ===============================================
+figure                                          worse when
+==============================================  ===============================================
 ``Ms``, ``Mt``, ``Mu``, ``Msd``, ``*_sampled``  ``current > value (1 + rtol) + atol``
-``modulus_margin``, ``delay_margin_s``      ``current < value (1 - rtol) - atol``
-``phase_margin_deg``                        ``|current| < |value| (1 - rtol) - atol``
-``gain_margin*`` (every gain margin)        ``|ln current| < |ln value| (1 - rtol) - atol``
-``certified``                               ``true`` became ``false``
-``integral_gain`` (objective)               ``current < value (1 - rtol) - atol``
-``worst_Ms`` (objective ``min_Ms``)         ``current > value (1 + rtol) + atol``
-==========================================  ==============================================
+``modulus_margin``, ``delay_margin_s``          ``current < value (1 - rtol) - atol``
+``phase_margin_deg``                            ``|current| < |value| (1 - rtol) - atol``
+``gain_margin*`` (every gain margin)            ``|ln current| < |ln value| (1 - rtol) - atol``
+``certified``                                   ``true`` became ``false``
+``integral_gain`` (objective)                   ``current < value (1 - rtol) - atol``
+``worst_Ms`` (objective ``min_Ms``)             ``current > value (1 + rtol) + atol``
+==============================================  ===============================================
 
 Figures are read by name from ``DesignResult.as_dict()["models"]`` (and the certificate's
 family-member records for ``*_sampled``); fields added later are ignored until a golden

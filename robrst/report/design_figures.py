@@ -23,7 +23,7 @@ def _db(x):
 
 
 def bode_figure(result, path):
-    """|S|, |T|, |U| for every family temperature, spec bounds dashed, peaks marked."""
+    """``|S|, |T|, |U|`` for every family temperature, spec bounds dashed, peaks marked."""
     fam = result.problem.family.models
     specs = result.problem.specs
     with drawing(path, (8, 9), 3, 1, sharex=True) as (fig, axes):

@@ -176,7 +176,7 @@ def worst_ok_row(result):
 
 
 def worst_bode_figure(result, path):
-    """|S|, |T|, |U| of the worst variant per temperature; thin grey: the base family."""
+    """``|S|, |T|, |U|`` of the worst variant per temperature; thin grey: the base family."""
     row = worst_ok_row(result)
     ctx = result.context
     values = {k: row[k] for k in ctx.names}

@@ -5,7 +5,7 @@ divided by ``w0**deg A`` and the controller by ``w0**deg S``, which keeps every
 closed-loop ratio unchanged while bringing coefficients to O(1).  Decision
 variables: the free coefficients of ``S'`` and ``R'`` (``S = Sf S'``, ``R = Rf R'``),
 optionally the dominant pole parameters ``(wn, zeta)``, and ``gamma`` (the worst
-normalised spec ratio of the soft-goal phase, or the |S| bound of ``min_Ms``).  Every
+normalised spec ratio of the soft-goal phase, or the ``|S|`` bound of ``min_Ms``).  Every
 closed-loop polynomial is *affine* in the controller coefficients, so on a frequency
 grid each peak constraint ``|N(jw)|^2 <= M^2 |Delta(jw)|^2`` (denominators cleared,
 divided by a fixed weight ``|Delta_0(jw)|^2``) is a quadratic in the variables: this
@@ -83,7 +83,7 @@ class NLPSetup:
     ``placement`` is ``"fixed"`` (nominal closed loop = ``Am_fixed``), ``"dominant"``
     (``(wn, zeta)`` free within ``pole_bounds``) or ``"free"`` (no Diophantine
     equality: stability of every model by Routh only).  ``bands`` and ``hf`` hold
-    per model the scaled grids of the resonance-band and high-frequency |U| bounds.
+    per model the scaled grids of the resonance-band and high-frequency ``|U|`` bounds.
     ``ctrl_shift``: the controller's poles other than its integrators are kept at
     ``Re p <= -ctrl_shift`` (``None``: not imposed) — ``max_integral_gain`` needs it,
     else a second slow controller pole makes ``lim s K(s)`` unbounded;
@@ -242,7 +242,7 @@ class GridBlock:
 def grid_blocks(setup, x_ref, min_ms_unbounded=True):
     """Every grid constraint of ``setup`` as :class:`GridBlock` (weights at ``x_ref``).
 
-    The |S| block of ``min_Ms`` without an ``Ms_max`` gets the bound 1 (its scale is
+    The ``|S|`` block of ``min_Ms`` without an ``Ms_max`` gets the bound 1 (its scale is
     ``gamma`` itself).
     """
     nx = setup.n_x

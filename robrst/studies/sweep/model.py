@@ -27,7 +27,7 @@ __all__ = ["set_key", "apply_overrides", "split_values", "variant_problem", "tra
 
 
 def set_key(doc, path, value):
-    """Set ``doc[a][b]... = value`` for the key path ``(a, b, ...)`` (tables created)."""
+    """Set ``doc[a][b][...] = value`` for the key path ``(a, b, ...)`` (tables created)."""
     node = doc
     for part in path[:-1]:
         node = node.setdefault(part, {})
