@@ -222,6 +222,8 @@ def check_class(name, cls):
     extra = [d for d in in_params if d not in params and f"*{d}" not in params
              and f"**{d}" not in params]
     known = set(params) | {k for k in dir(cls) if not k.startswith("_")}
+    if dataclasses.is_dataclass(cls):
+        known |= {f.name for f in dataclasses.fields(cls)}          # init=False fields too
     extra += [d for d in in_attrs if d not in known]
     if extra:
         problems.append(f"{name}: documents names that do not exist {extra}")
