@@ -247,6 +247,11 @@ def _figure(path, where, v):
 def read_golden(path: str | Path) -> dict:
     """Parse and validate a golden file; errors name the file and the key.
 
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The golden file.
+
     Returns
     -------
     dict
