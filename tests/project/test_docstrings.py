@@ -194,6 +194,19 @@ def check_callable(name, func, is_method):
     return problems
 
 
+def instance_attributes(cls):
+    """Names the class's own ``__init__`` assigns as ``self.name = ...``."""
+    init = cls.__dict__.get("__init__")
+    if not inspect.isfunction(init):
+        return set()
+    try:
+        tree = ast.parse(textwrap.dedent(inspect.getsource(init)))
+    except (OSError, TypeError):
+        return set()
+    return {n.attr for n in ast.walk(tree) if isinstance(n, ast.Attribute)
+            and isinstance(n.ctx, ast.Store) and getattr(n.value, "id", None) == "self"}
+
+
 def own_constructor(cls):
     """The constructor parameters a class must document ([] when it defines none)."""
     if dataclasses.is_dataclass(cls):
@@ -224,6 +237,7 @@ def check_class(name, cls):
     known = set(params) | {k for k in dir(cls) if not k.startswith("_")}
     if dataclasses.is_dataclass(cls):
         known |= {f.name for f in dataclasses.fields(cls)}          # init=False fields too
+    known |= instance_attributes(cls)
     extra += [d for d in in_attrs if d not in known]
     if extra:
         problems.append(f"{name}: documents names that do not exist {extra}")
