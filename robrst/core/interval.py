@@ -290,7 +290,7 @@ def parameter_crossing(delta_at: Callable[[float], ArrayLike], a: float, b: floa
     Parameters
     ----------
     delta_at : callable
-        ``T -> `` closed-loop polynomial coefficients in s, highest power first.
+        Maps a temperature ``T`` to the closed-loop polynomial (in s, highest power first).
     a, b : float
         The interval [°C].
     deg_T : int
