@@ -23,6 +23,7 @@ Each warning names the model, the figure, the comparison and the key to set.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -32,6 +33,10 @@ from robrst.core.rst import closed_loop
 from robrst.certificate.steps import check_many
 from robrst.problem.records import DEFAULT_OVERSHOOT_WARN_PCT, plant_damping
 
+if TYPE_CHECKING:
+    from robrst.core.rst import RSTController
+    from robrst.problem.records import Problem
+
 __all__ = ["Assessment", "ModelAssessment", "assess", "OVERSHOOT_GATE"]
 
 OVERSHOOT_GATE = 0.46   # a second-order mode damped 0.46 overshoots 19.8 %
@@ -39,12 +44,28 @@ OVERSHOOT_GATE = 0.46   # a second-order mode damped 0.46 overshoots 19.8 %
 
 @dataclass(frozen=True)
 class ModelAssessment:
-    """One family member's unbounded figures (continuous loop).
+    """One family member's unbounded figures.
 
-    ``damping`` and ``plant_damping``: least damping of the closed-loop and of the
-    plant's poles; ``overshoot_pct``: of a reference step; ``Msd`` and ``open_loop_Msd``:
-    peaks of ``|B S / Delta|`` and ``|B / A|`` [µm/V] (``inf`` for a plant with an
-    integrator); ``*_sampled`` the sampled loop's, when checked.
+    Parameters
+    ----------
+    label : str
+        The model.
+    temperature_C : float
+        Its temperature [°C].
+    damping : float
+        Least damping of the continuous closed-loop poles.
+    plant_damping : float
+        Least damping of the plant's complex poles (1: none).
+    overshoot_pct : float or None
+        Reference-step overshoot [%] (``None``: not stepped, see ``OVERSHOOT_GATE``).
+    Msd : float
+        Peak of ``|B S / Delta|`` [µm/V].
+    open_loop_Msd : float
+        Peak of ``|B / A|`` [µm/V] (``inf`` for a plant that is not stable).
+    damping_sampled : float, optional
+        The sampled loop's least damping (poles mapped to s by ``fs ln z``).
+    overshoot_pct_sampled : float, optional
+        The sampled loop's overshoot at the samples [%].
     """
 
     label: str
@@ -57,14 +78,35 @@ class ModelAssessment:
     damping_sampled: float = None
     overshoot_pct_sampled: float = None
 
-    def as_dict(self):
-        """The JSON form."""
+    def as_dict(self) -> dict:
+        """The JSON form.
+
+        Returns
+        -------
+        dict
+        """
         return dict(self.__dict__)
 
 
 @dataclass(frozen=True)
 class Assessment:
-    """The figures :func:`assess` computed and the warnings they earn."""
+    """The figures :func:`assess` computed and the warnings they earn.
+
+    Parameters
+    ----------
+    models : tuple of ModelAssessment
+        One per family member.
+    warnings : tuple of str
+        What the specs left unbounded and a careful engineer would want to know.
+    notes : tuple of str
+        The defaults applied (the damping floor).
+    damping_floor : float, optional
+        The damping floor the certificate checked.
+    damping_source : str, optional
+        ``"specs"`` or ``"default"``.
+    extra : dict
+        Room for further figures.
+    """
 
     models: tuple
     warnings: tuple = ()
@@ -73,8 +115,13 @@ class Assessment:
     damping_source: str = None
     extra: dict = field(default_factory=dict)
 
-    def as_dict(self):
-        """The JSON form (``design --json`` key ``assessment``)."""
+    def as_dict(self) -> dict:
+        """The JSON form (``design --json`` key ``assessment``).
+
+        Returns
+        -------
+        dict
+        """
         return {"warnings": list(self.warnings), "notes": list(self.notes),
                 "damping_floor": self.damping_floor, "damping_source": self.damping_source,
                 "models": [m.as_dict() for m in self.models]}
@@ -97,7 +144,7 @@ def _sampled(problem, m):
     return problem.family.sampled(m, sp.sample_rate_hz, sp.delay_samples)
 
 
-def assess(problem, ctrl) -> Assessment:
+def assess(problem: Problem, ctrl: RSTController) -> Assessment:
     """The warnings of ``ctrl`` on ``problem``'s family members (module docstring).
 
     Parameters

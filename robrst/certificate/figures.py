@@ -45,6 +45,15 @@ def figure_key(name: str, loop: str = "continuous") -> str:
 def parse_key(key: str) -> tuple[str, str]:
     """``(figure, loop)`` of a published name (the inverse of :func:`figure_key`).
 
+    Parameters
+    ----------
+    key : str
+        A published name (``"Ms_sampled"``).
+
+    Returns
+    -------
+    (str, str)
+
     Examples
     --------
     >>> parse_key("Ms_sampled"), parse_key("Ms")
@@ -58,8 +67,17 @@ def parse_key(key: str) -> tuple[str, str]:
 @dataclass(frozen=True)
 class StepFigures:
     """Reference-step figures of one loop (proved upper bounds,
-    :mod:`robrst.certificate.steps`): overshoot [%], 2 % settling time [s] and the
-    largest ``|u|`` [V] for a reference step of ``specs.step_um``."""
+    :mod:`robrst.certificate.steps`).
+
+    Parameters
+    ----------
+    overshoot_pct : float
+        Overshoot [%].
+    settling_time_s : float
+        2 % settling time [s].
+    step_u_peak_V : float
+        The largest ``|u|`` [V] for a reference step of ``specs.step_um``.
+    """
 
     overshoot_pct: float
     settling_time_s: float
@@ -67,8 +85,13 @@ class StepFigures:
 
     NAMES = ("overshoot_pct", "settling_time_s", "step_u_peak_V")
 
-    def items(self):
-        """``(name, value)`` pairs in the published order."""
+    def items(self) -> list[tuple[str, float]]:
+        """``(name, value)`` pairs in the published order.
+
+        Returns
+        -------
+        list of (str, float)
+        """
         return [(k, getattr(self, k)) for k in self.NAMES]
 
 
@@ -127,19 +150,41 @@ class LoopFigures:
     damping: float | None = None
     decay_rad_s: float | None = None
 
-    def value(self, name: str):
-        """Figure ``name`` (a field, or a step figure), ``None`` when not computed."""
+    def value(self, name: str) -> float | bool | None:
+        """Figure ``name`` (a field, or a step figure).
+
+        Parameters
+        ----------
+        name : str
+            The figure.
+
+        Returns
+        -------
+        float, bool or None
+            ``None`` when not computed.
+        """
         if name in StepFigures.NAMES:
             return None if self.step is None else getattr(self.step, name)
         return getattr(self, name, None)
 
-    def items(self, loop: str = "continuous", steps: bool = True):
+    def items(self, loop: str = "continuous", steps: bool = True) -> list[tuple[str, object]]:
         """``(published name, value)`` pairs of this loop in the published order.
 
         The continuous loop lists its stability first, then the peaks; the sampled loop
         its abscissa and peaks first (the order the JSON contract has always had), without
         the closed-loop degree and the band peak's frequency.  Band peaks and step
         figures only when computed; ``steps=False`` leaves the step figures out.
+
+        Parameters
+        ----------
+        loop : {"continuous", "sampled"}
+            Which loop this is (its names' suffix and order).
+        steps : bool
+            Include the step figures.
+
+        Returns
+        -------
+        list of (str, object)
         """
         if loop == "continuous":
             names = ["spectral_abscissa", "stable", "distance_to_instability",
@@ -164,8 +209,13 @@ class LoopFigures:
             out += [(figure_key(k, loop), v) for k, v in self.step.items()]
         return out
 
-    def as_dict(self):
-        """The published figures of a loop (unsuffixed names)."""
+    def as_dict(self) -> dict:
+        """The published figures of a loop (unsuffixed names).
+
+        Returns
+        -------
+        dict
+        """
         return dict(self.items())
 
 
@@ -203,11 +253,26 @@ class ModelRecord(Mapping):
     steps_checked_after: bool = False
 
     def loop(self, loop: str) -> LoopFigures | None:
-        """The figures of ``loop`` (``"continuous"`` or ``"sampled"``)."""
+        """The figures of ``loop``.
+
+        Parameters
+        ----------
+        loop : {"continuous", "sampled"}
+            Which loop.
+
+        Returns
+        -------
+        LoopFigures or None
+        """
         return self.continuous if loop == "continuous" else self.sampled
 
-    def loops(self):
-        """``(loop name, LoopFigures)`` of every loop checked."""
+    def loops(self) -> list[tuple[str, LoopFigures]]:
+        """``(loop name, LoopFigures)`` of every loop checked.
+
+        Returns
+        -------
+        list of (str, LoopFigures)
+        """
         return [(k, lf) for k, lf in (("continuous", self.continuous),
                                       ("sampled", self.sampled)) if lf is not None]
 
@@ -216,14 +281,32 @@ class ModelRecord(Mapping):
         """True when every loop checked is stable."""
         return all(lf.stable for _, lf in self.loops())
 
-    def value(self, name: str, loop: str = "continuous"):
-        """Figure ``name`` of ``loop`` (a hook's figure by its own name), or ``None``."""
+    def value(self, name: str, loop: str = "continuous") -> float | bool | None:
+        """Figure ``name`` of ``loop`` (a hook's figure by its own name).
+
+        Parameters
+        ----------
+        name : str
+            The figure.
+        loop : {"continuous", "sampled"}
+            Which loop.
+
+        Returns
+        -------
+        float, bool or None
+            ``None`` when not computed.
+        """
         lf = self.loop(loop)
         got = None if lf is None else lf.value(name)
         return self.extra.get(figure_key(name, loop)) if got is None else got
 
-    def as_dict(self):
-        """The published record (the JSON contract's ``certificate.models[i]``)."""
+    def as_dict(self) -> dict:
+        """The published record (the JSON contract's ``certificate.models[i]``).
+
+        Returns
+        -------
+        dict
+        """
         return dict(self._published)
 
     @cached_property

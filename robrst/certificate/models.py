@@ -14,7 +14,9 @@ over the temperature interval.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -29,6 +31,14 @@ from robrst.problem.records import EXTRA_PEAK_SPECS, PEAK_SPECS
 from robrst.core.rst import closed_loop
 from robrst.core.sampled import sampled_plant, unwarp, warp
 
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from robrst.core.family import PlantFamily
+    from robrst.core.plant import Plant
+    from robrst.core.rst import RSTController
+    from robrst.problem.records import Specs
+
 __all__ = ["Violation", "check_model", "check_all", "check_all_many", "margins", "band_peak",
            "BOUNDED", "LOWER_BOUNDED", "FIGURE_OF", "JUMPS", "RESOLVE_FACTOR"]
 
@@ -38,11 +48,28 @@ RESOLVE_FACTOR = 64.0  # stability resolved when the distance to instability > t
 class Violation:
     """One failed check: model, temperature, quantity, value, bound, frequency.
 
-    ``kind`` is ``"exceeds"`` (``value > bound``), ``"below"`` (``value < bound``, a
-    lower bound: the pole region's damping and decay), ``"crossing"`` (a closed-loop root
-    reaches the imaginary axis, or a pole-region boundary, between two checked
-    temperatures) or ``"unresolved"`` (the check could not be decided: ``quantity`` says
-    why; nothing is certified then).
+    Parameters
+    ----------
+    label : str
+        The model's label.
+    temperature_C : float
+        Its temperature [°C] (``nan`` for the controller's own poles).
+    quantity : str
+        What failed (``"|S| peak"``, ``"overshoot_pct"``, ``"spectral_abscissa"``,
+        ``"closed-loop damping"``, ...; for ``unresolved``, why it could not be decided).
+    value : float
+        The figure found.
+    bound : float
+        Its bound.
+    freq_rad_s : float or None
+        Where (physical frequency [rad/s]), when a frequency applies.
+    loop : {"continuous", "sampled"}
+        Which loop.
+    kind : {"exceeds", "below", "crossing", "unresolved"}
+        ``value > bound``; ``value < bound`` (a lower bound: the pole region's damping and
+        decay); a closed-loop root reaches the imaginary axis, or a pole-region boundary,
+        between two checked temperatures; or the check could not be decided (nothing is
+        certified then).
     """
 
     label: str
@@ -55,17 +82,28 @@ class Violation:
     kind: str = "exceeds"
 
     @property
-    def ratio(self):
+    def ratio(self) -> float:
         """How far beyond its bound: ``value / bound`` (``bound / value`` for a lower bound,
-        ``> 1`` when violated); ``inf`` for a crossing, an unresolved check or a bound 0."""
+        ``> 1`` when violated); ``inf`` for a crossing, an unresolved check or a bound 0.
+
+        Returns
+        -------
+        float
+        """
         if self.kind == "exceeds" and self.bound:
             return self.value / self.bound
         if self.kind == "below" and self.bound:
             return self.bound / self.value if self.value > 0 else np.inf
         return np.inf
 
-    def describe(self):
-        """One line naming the model, the quantity, its value and bound."""
+    def describe(self) -> str:
+        """One line: ``"model T45C (45 °C): |S| peak = 2.31 > 2 at 612 Hz"`` (``<`` for a
+        lower bound).
+
+        Returns
+        -------
+        str
+        """
         at = "" if self.freq_rad_s is None else f" at {self.freq_rad_s / (2 * np.pi):.4g} Hz"
         loop = " in the sampled loop" if self.loop == "sampled" else ""
         if self.kind not in ("exceeds", "below"):
@@ -76,8 +114,23 @@ class Violation:
 
 
 
-def band_peak(N, D, w_lo, w_hi):
-    """Exact peak of ``|N/D|`` over ``[w_lo, w_hi]`` rad/s: ``(value, frequency)``."""
+def band_peak(N: ArrayLike, D: ArrayLike, w_lo: float, w_hi: float) -> tuple[float, float]:
+    """Exact peak of ``|N/D|`` over ``[w_lo, w_hi]`` rad/s: ``(value, frequency)``.
+
+    Parameters
+    ----------
+    N, D : array_like
+        Numerator and denominator in s, highest power first.
+    w_lo, w_hi : float
+        The band [rad/s] (``w_hi`` may be ``inf``).
+
+    Returns
+    -------
+    value : float
+        The peak gain.
+    frequency : float
+        Where it is attained [rad/s].
+    """
     pk = peak_gain(N, D, band=(w_lo, w_hi))
     return pk.value, pk.freq_rad_s
 
@@ -97,7 +150,8 @@ def _stability(loops):
     return [(sa, rhos.get(k), roots) for k, (sa, roots) in enumerate(found)]
 
 
-def check_model(plant, ctrl, specs, rtol, fs=None):
+def check_model(plant: Plant, ctrl: RSTController, specs: Specs, rtol: float,
+                fs: float | None = None) -> tuple[LoopFigures, list[Violation]]:
     """Exact peaks and stability of one closed loop.
 
     With ``fs`` the plant is a sampled-loop plant (:func:`robrst.core.sampled.sampled_plant`):
@@ -105,9 +159,24 @@ def check_model(plant, ctrl, specs, rtol, fs=None):
     warped, and a closed-loop polynomial that lost degree (a pole at ``z = -1``)
     counts as unstable.
 
+    Parameters
+    ----------
+    plant : Plant
+        The model (or its sampled-loop plant).
+    ctrl : RSTController
+        The controller.
+    specs : Specs
+        The bounds checked.
+    rtol : float
+        Relative tolerance on the bounds.
+    fs : float, optional
+        The sampling rate when ``plant`` is a sampled-loop plant [Hz].
+
     Returns
     -------
     figures : LoopFigures
+        The loop's figures (peaks and frequencies, stability, band peaks, step figures,
+        the pole region's damping and decay when checked).
     violations : list of Violation
     """
     return _check_loops([(plant, fs)], ctrl, specs, rtol)[0]
@@ -314,25 +383,61 @@ def check_sampled(plant, ctrl, specs, rtol, family=None):
     return figs, _named(plant, viol)
 
 
-def check_all(m, ctrl, specs, rtol, checks, family=None):
+def check_all(m: Plant, ctrl: RSTController, specs: Specs, rtol: float,
+              checks: Sequence[Callable],
+              family: PlantFamily | None = None) -> tuple[ModelRecord, list[Violation]]:
     """Every per-model check on model ``m`` (of ``family``, whose memo then holds its
     sampled plant): continuous, sampled, then the hooks.
+
+    Parameters
+    ----------
+    m : Plant
+        The model.
+    ctrl : RSTController
+        The controller.
+    specs : Specs
+        The bounds checked.
+    rtol : float
+        Relative tolerance on the bounds.
+    checks : sequence of callable
+        Extra checks ``check(plant, ctrl, specs, rtol) -> (record, violations)``.
+    family : PlantFamily, optional
+        The family ``m`` belongs to.
 
     Returns
     -------
     record : ModelRecord
+        The continuous and sampled loops' figures and the hooks' figures.
     violations : list of Violation
     """
     return check_all_many([m], ctrl, specs, rtol, checks, family)[0]
 
 
-def check_all_many(models, ctrl, specs, rtol, checks, family=None):
+def check_all_many(models: Sequence[Plant], ctrl: RSTController, specs: Specs, rtol: float,
+                   checks: Sequence[Callable],
+                   family: PlantFamily | None = None) -> list[tuple[ModelRecord, list[Violation]]]:
     """:func:`check_all` of each model, the peak computations of all their loops
     (continuous and sampled) batched: the same records as one model at a time.
+
+    Parameters
+    ----------
+    models : sequence of Plant
+        The models.
+    ctrl : RSTController
+        The controller.
+    specs : Specs
+        The bounds checked.
+    rtol : float
+        Relative tolerance on the bounds.
+    checks : sequence of callable
+        Extra checks ``check(plant, ctrl, specs, rtol) -> (record, violations)``.
+    family : PlantFamily, optional
+        The family the models belong to.
 
     Returns
     -------
     list of (ModelRecord, list of Violation)
+        One per model, in order.
     """
     loops = [(m, None) for m in models]
     if specs.sampled:
@@ -357,7 +462,7 @@ def check_all_many(models, ctrl, specs, rtol, checks, family=None):
     return out
 
 
-def margins(rec, specs, rtol):
+def margins(rec: ModelRecord, specs: Specs, rtol: float) -> dict[str, tuple[float, float]]:
     """``{figure: (value, limit)}`` of a record: what the refinement watches.
 
     Figures by their published names (:func:`robrst.certificate.figures.figure_key`):
@@ -366,12 +471,17 @@ def margins(rec, specs, rtol):
     Parameters
     ----------
     rec : ModelRecord
+        A model's record.
     specs : Specs
+        The bounds.
     rtol : float
+        Relative tolerance on the bounds (the limits include it).
 
     Returns
     -------
     dict
+        The spectral abscissae (limit 0) and every bounded figure, continuous and sampled,
+        and the hooks' ``margins``.
     """
     out = {}
     for loop in LOOPS:

@@ -38,12 +38,14 @@ record's ``extra``.  A check may put ``{name: (value, limit)}`` pairs in
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from robrst.core.interval import parameter_crossing, segment_crossing
-from robrst.certificate.figures import LOOPS, figure_key, parse_key
+from robrst.certificate.figures import LOOPS, ModelRecord, figure_key, parse_key
 from robrst.certificate.models import (BOUNDED, FIGURE_OF, JUMPS, LOWER_BOUNDED, RESOLVE_FACTOR,
                                        Violation, band_peak, check_all, check_all_many,
                                        check_model, margins)
@@ -52,6 +54,10 @@ from robrst.problem.records import Problem
 from robrst.core.rst import RSTController, closed_loop
 from robrst.core.thermal import modal_form
 from robrst.base.threads import one_blas_thread
+
+if TYPE_CHECKING:
+    from robrst.core.family import PlantFamily
+    from robrst.problem.records import Specs
 
 __all__ = ["Violation", "Certificate", "certify", "certify_problem", "check_model", "band_peak",
            "REFINE_RATIO", "RESOLVE_FACTOR"]
@@ -64,8 +70,30 @@ MIN_WIDTH = 1.0 / 4096  # resolution floor, as a fraction of the temperature ran
 class Certificate:
     """Per-model exact figures, every violation found, and what the interval checks proved.
 
-    ``models`` holds one :class:`~robrst.certificate.figures.ModelRecord` per checked
-    temperature (family members, sweep and refinement points), in increasing temperature.
+    Parameters
+    ----------
+    certified : bool
+        No checked figure exceeds its bound beyond ``rtol`` (or falls below a lower bound),
+        every stability and pole-region verdict is resolved in double precision and the
+        interval checks pass.
+    models : tuple of ModelRecord
+        One typed record per checked model (family members, sweep and refinement points),
+        in temperature order: its continuous and sampled loops' figures
+        (:class:`~robrst.certificate.figures.ModelRecord`).
+    violations : tuple of Violation
+        Every violation found.
+    rtol : float
+        Relative tolerance on the bounds.
+    interval : dict
+        What was proved between the checked temperatures and at what resolution (fields
+        in the documentation's *What a certificate proves*; ``pole_region`` with a
+        damping or decay bound).
+    bounds : dict
+        ``{figure: bound}`` of every bound checked (lower bounds: ``damping``,
+        ``decay_rad_s``).
+    controller : dict or None
+        The controller's own poles and their least damping (with
+        ``controller_damping_min``).
     """
 
     certified: bool
@@ -76,14 +104,14 @@ class Certificate:
     bounds: dict = field(default_factory=dict)   # {figure: bound} of every bound checked
     controller: dict = None      # the controller's own poles (controller_damping_min)
 
-    def worst(self, key, loop=None):
+    def worst(self, key: str, loop: str | None = None) -> float | None:
         """Largest figure ``key`` over the models (``None`` if no record has it).
 
         Parameters
         ----------
         key : str
-            A figure (``"Ms"``, ``"spectral_abscissa"``, a hook's figure); a published
-            name (``"Ms_sampled"``) names its loop too.
+            A figure (``"Ms"``, ``"spectral_abscissa"``, ``"overshoot_pct"``, a hook's
+            figure); a published name (``"Ms_sampled"``) names its loop too.
         loop : str, optional
             ``"continuous"`` (default) or ``"sampled"``.
 
@@ -95,17 +123,25 @@ class Certificate:
         vals = [v for m in self.models if (v := m.value(name, where)) is not None]
         return max(vals) if vals else None
 
-    def worst_model(self, key, loop="continuous"):
-        """The model record where figure ``key`` of ``loop`` is largest (``None``: none).
+    def worst_model(self, key: str, loop: str = "continuous") -> ModelRecord | None:
+        """The model record where figure ``key`` of ``loop`` is largest.
+
+        Parameters
+        ----------
+        key : str
+            A figure (``"Ms"``, ...).
+        loop : str
+            ``"continuous"`` or ``"sampled"``.
 
         Returns
         -------
         ModelRecord or None
+            ``None`` when no record has the figure.
         """
         recs = [m for m in self.models if m.value(key, loop) is not None]
         return max(recs, key=lambda m: m.value(key, loop)) if recs else None
 
-    def ratios(self):
+    def ratios(self) -> dict[str, float]:
         """Worst ``value / bound`` over the checked models, for every bound checked.
 
         Keys are the record figures (``"Ms"``, ``"Mt_resonance_band"``, ``"Ms_sampled"``,
@@ -141,8 +177,16 @@ class Certificate:
                     out[k] = max(out.get(k, -np.inf), v.ratio)
         return out
 
-    def as_dict(self):
-        """The ``certificate`` object of the JSON contract."""
+    def as_dict(self) -> dict:
+        """The ``certificate`` object of the design JSON (fields are only added).
+
+        Returns
+        -------
+        dict
+            ``ratios, certified, rtol, (controller), models, violations, interval,
+            interval_proof, interval_resolution_C``; ``models`` in their published form
+            (:meth:`~robrst.certificate.figures.ModelRecord.as_dict`).
+        """
         extra = {} if self.controller is None else {"controller": self.controller}
         return {"ratios": self.ratios(), "certified": self.certified, "rtol": self.rtol,
                 **extra, "models": [m.as_dict() for m in self.models],
@@ -435,14 +479,19 @@ def _controller_poles(ctrl, specs, rtol):
     return rec, viol
 
 
-def certify(family, ctrl, specs, n_sweep=35, rtol=1e-3, checks=(), max_refine=None):
+def certify(family: PlantFamily, ctrl: RSTController, specs: Specs, n_sweep: int = 35,
+            rtol: float = 1e-3, checks: Sequence[Callable] = (),
+            max_refine: int | None = None) -> Certificate:
     """Certify ``ctrl`` on ``family`` over its whole temperature interval (module docstring).
 
     Parameters
     ----------
     family : PlantFamily
+        The models the controller must hold on.
     ctrl : RSTController
+        The controller.
     specs : Specs
+        The bounds checked.
     n_sweep : int
         Evenly spaced temperatures checked besides the family members.
     rtol : float
@@ -562,7 +611,9 @@ def certify_problem(problem: Problem, ctrl: RSTController) -> Certificate:
     Parameters
     ----------
     problem : Problem
+        The problem (its family, specs and ``solver.cert_temperatures``, ``cert_tol``).
     ctrl : RSTController
+        The controller.
 
     Returns
     -------

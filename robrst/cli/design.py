@@ -1,5 +1,9 @@
 """``robrst design`` and ``robrst report``."""
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 import re
 import sys
 from dataclasses import replace
@@ -10,11 +14,20 @@ from robrst.design import run_problem
 from robrst.report.text import design_summary
 from robrst.problem.files import load_problem
 
+if TYPE_CHECKING:
+    import argparse
+
 __all__ = ["add_parsers", "run_design", "run_report"]
 
 
-def add_parsers(sub):
-    """Register ``design`` and ``report``."""
+def add_parsers(sub: argparse._SubParsersAction) -> None:
+    """Register ``design`` and ``report``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The sub-parser collection of :func:`robrst.cli.build_parser`.
+    """
     d = sub.add_parser("design", help="design and certify an RST controller from a problem file")
     d.add_argument("problem", help="problem file (TOML), or a built-in problem by name")
     d.add_argument("--json", action="store_true", help="print exactly one JSON object")
@@ -32,7 +45,8 @@ def add_parsers(sub):
     r.set_defaults(func=run_report)
 
 
-def _method_options(p):
+def _method_options(p: argparse.ArgumentParser) -> None:
+    """Add ``--method`` and ``--starts`` to a command's parser."""
     p.add_argument("--method", choices=("analytic", "nlp", "convex"),
                    help="override [solver] method (default: the file's, else nlp when [specs]"
                         " bounds anything)")
@@ -40,8 +54,8 @@ def _method_options(p):
                    help="nlp multi-start: N starts beyond the one asked for (0: single start)")
 
 
-def _problem(args):
-    """The problem file with the command line's overrides."""
+def _problem(args: argparse.Namespace) -> Problem:
+    """The problem file with the command line's overrides (``--method``, ``--starts``)."""
     problem = load_problem(args.problem)
     so = problem.solver
     if getattr(args, "method", None):
@@ -55,8 +69,19 @@ def _problem(args):
     return replace(problem, solver=so) if so is not problem.solver else problem
 
 
-def run_design(args):
-    """Design, print the summary (or the JSON); exit 0 certified, 1 not certified."""
+def run_design(args: argparse.Namespace) -> int:
+    """Design, print the summary (or the JSON); exit 0 certified, 1 not certified.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        0 certified, 1 not certified.
+    """
     say = progress_printer(args.quiet or args.json)
     result = run_problem(_problem(args), progress=say)
     d = result.as_dict()
@@ -71,8 +96,19 @@ def run_design(args):
     return 0
 
 
-def run_report(args):
-    """Design, certify and write the report folder."""
+def run_report(args: argparse.Namespace) -> int:
+    """Design, certify and write the report folder.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        0 certified, 1 not certified.
+    """
     from robrst.report.design import write_design_report
     from robrst.report.doc import check_report_target
     from robrst.studies.design_curves import design_curves

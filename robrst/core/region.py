@@ -29,13 +29,18 @@ linearises the roots near the floor (:mod:`robrst.synthesis.polerows`).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 __all__ = ["s_poles", "damping_of", "least_damping", "least_decay", "shift_matrix",
            "disc_matrix", "rotation", "sector_polynomial", "boundary_distance"]
 
 
-def s_poles(roots, fs=None):
+def s_poles(roots: ArrayLike, fs: float | None = None) -> np.ndarray:
     """The poles in ``s`` [rad/s]: ``roots`` themselves, or for a sampled loop (``fs``) the
     loop-variable roots ``w`` mapped by ``s = fs ln z``, ``z = (1 + w/2fs)/(1 - w/2fs)``
     (a pole at ``z = 0`` is infinitely fast: ``-inf``).
@@ -60,8 +65,18 @@ def s_poles(roots, fs=None):
     return np.where(np.abs(z) == 0, -np.inf + 0j, out)
 
 
-def damping_of(p):
-    """``-Re p / |p|`` of each pole (1 for a pole at ``-inf`` or at the origin's left)."""
+def damping_of(p: ArrayLike) -> np.ndarray:
+    """``-Re p / |p|`` of each pole (1 for a pole at infinity or at the origin).
+
+    Parameters
+    ----------
+    p : array_like
+        Poles [rad/s].
+
+    Returns
+    -------
+    numpy.ndarray
+    """
     p = np.asarray(p, complex)
     w = np.abs(p)
     ok = (w > 0) & np.isfinite(w)
@@ -69,22 +84,54 @@ def damping_of(p):
         return np.where(ok, -p.real / np.where(ok, w, 1.0), 1.0)
 
 
-def least_damping(p):
-    """The least damping of the poles ``p`` (1.0 for none)."""
+def least_damping(p: ArrayLike) -> float:
+    """The least damping of the poles ``p`` (1.0 for none).
+
+    Parameters
+    ----------
+    p : array_like
+        Poles [rad/s].
+
+    Returns
+    -------
+    float
+    """
     d = damping_of(p)
     return float(np.min(d)) if d.size else 1.0
 
 
-def least_decay(p):
-    """The least decay rate ``-Re p`` of the poles ``p`` [rad/s] (``inf`` for none)."""
+def least_decay(p: ArrayLike) -> float:
+    """The least decay rate ``-Re p`` of the poles ``p`` [rad/s] (``inf`` for none).
+
+    Parameters
+    ----------
+    p : array_like
+        Poles [rad/s].
+
+    Returns
+    -------
+    float
+    """
     p = np.asarray(p, complex)
     return float(np.min(-p.real)) if p.size else np.inf
 
 
-def shift_matrix(deg, a):
+def shift_matrix(deg: int, a: float) -> np.ndarray:
     """Matrix ``M`` with ``M @ c`` the coefficients of ``c(p - a)`` (``len(c) == deg + 1``).
 
     ``c(p - a)`` Hurwitz is ``Re p < -a`` for every root of ``c`` (with ``a = sigma``).
+
+    Parameters
+    ----------
+    deg : int
+        Degree of ``c``.
+    a : float
+        The shift.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(deg + 1, deg + 1)``.
     """
     M = np.zeros((deg + 1, deg + 1))
     for j in range(deg + 1):          # column j: the monomial p**(deg - j)
@@ -95,7 +142,7 @@ def shift_matrix(deg, a):
     return M
 
 
-def disc_matrix(deg, sigma, fs, w0=1.0):
+def disc_matrix(deg: int, sigma: float, fs: float, w0: float = 1.0) -> np.ndarray:
     """Matrix ``M``: ``M @ c`` Hurwitz exactly when every root ``w`` of ``c`` (the loop
     variable of a sampled loop, scaled by ``w0``) has ``|z| < exp(-sigma/fs)``.
 
@@ -132,15 +179,27 @@ def disc_matrix(deg, sigma, fs, w0=1.0):
     return M / max(1.0, np.max(np.abs(M)))
 
 
-def rotation(deg, zeta):
+def rotation(deg: int, zeta: float) -> tuple[np.ndarray, np.ndarray]:
     """``(cos, sin)`` vectors: ``D(e^{j phi} p)`` has coefficients ``c * (cos + j sin)``
-    for ``D = c`` of degree ``deg`` and ``phi = asin(zeta)``."""
+    for ``D = c`` of degree ``deg`` and ``phi = asin(zeta)``.
+
+    Parameters
+    ----------
+    deg : int
+        Degree of ``D``.
+    zeta : float
+        The damping of the sector's edge.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+    """
     phi = float(np.arcsin(min(max(zeta, 0.0), 1.0)))
     k = np.arange(deg, -1, -1) * phi
     return np.cos(k), np.sin(k)
 
 
-def sector_polynomial(c, zeta):
+def sector_polynomial(c: ArrayLike, zeta: float) -> np.ndarray:
     """``E = Re(P)^2 + Im(P)^2`` with ``P(p) = c(e^{j phi} p)``, ``phi = asin(zeta)``:
     Hurwitz exactly when every root of ``c`` is damped more than ``zeta``.
 
@@ -161,7 +220,8 @@ def sector_polynomial(c, zeta):
     return np.convolve(re, re) + np.convolve(im, im)
 
 
-def boundary_distance(c, size, roots, zeta=None, sigma=None, n_grid=200):
+def boundary_distance(c: ArrayLike, size: ArrayLike, roots: ArrayLike, zeta: float | None = None,
+                      sigma: float | None = None, n_grid: int = 200) -> float:
     """Relative distance of ``c`` from a polynomial with a root on the region's boundary.
 
     ``min |c(b)| / sum_k size_k |b|^k`` over the boundary points ``b``: the ray of damping
@@ -180,6 +240,8 @@ def boundary_distance(c, size, roots, zeta=None, sigma=None, n_grid=200):
         Its roots (for the grid's span).
     zeta, sigma : float, optional
         The damping ray and the decay line (``None``: not part of the region).
+    n_grid : int
+        Points of the log grid.
 
     Returns
     -------

@@ -7,10 +7,20 @@ what the records carry: nothing is computed here.  Frequencies are in Hz on log 
 magnitudes in dB, time in ms, displacement in µm.
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from robrst.report.figure import colors as _colors
 from robrst.report.figure import drawing
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    from robrst.design import DesignResult
+    from robrst.studies.design_curves import DesignCurves
 
 __all__ = ["bode_figure", "nyquist_figure", "step_figure"]
 
@@ -19,8 +29,18 @@ def _db(x):
     return 20 * np.log10(np.maximum(np.abs(x), 1e-300))
 
 
-def bode_figure(result, curves, path):
-    """|S|, |T|, |U| for every family temperature, spec bounds dashed, peaks marked."""
+def bode_figure(result: DesignResult, curves: DesignCurves, path: str | Path) -> None:
+    """``|S|, |T|, |U|`` for every family temperature, spec bounds dashed, peaks marked.
+
+    Parameters
+    ----------
+    result : DesignResult
+        The design (its analyses' peaks and the specs are drawn).
+    curves : DesignCurves
+        The frequency responses (:func:`robrst.studies.design_curves.design_curves`).
+    path : str or pathlib.Path
+        The PNG file.
+    """
     with drawing(path, (8, 9), 3, 1, sharex=True) as (fig, axes):
         _bode(result, curves, axes)
 
@@ -46,8 +66,18 @@ def _bode(result, curves, axes):
     axes[-1].set_xlabel("frequency f [Hz] (log)")
 
 
-def nyquist_figure(result, curves, path):
-    """Loop L = BR/(AS) per temperature around -1 with the modulus-margin circles."""
+def nyquist_figure(result: DesignResult, curves: DesignCurves, path: str | Path) -> None:
+    """Loop L = BR/(AS) per temperature around -1 with the modulus-margin circles.
+
+    Parameters
+    ----------
+    result : DesignResult
+        The design.
+    curves : DesignCurves
+        The loops (:func:`robrst.studies.design_curves.design_curves`).
+    path : str or pathlib.Path
+        The PNG file.
+    """
     with drawing(path, (7, 6.5)) as (fig, ax):
         _nyquist(result, curves, ax)
 
@@ -77,10 +107,20 @@ def _nyquist(result, curves, ax):
     ax.legend(fontsize=8, loc="lower left")
 
 
-def step_figure(result, curves, path):
+def step_figure(result: DesignResult, curves: DesignCurves, path: str | Path) -> None:
     """Reference and input-disturbance steps at the extreme temperatures, with the
     digital twin's reference steps (``curves.twin``: sampled controller, every effect
-    on) drawn on the reference panel."""
+    on) drawn on the reference panel.
+
+    Parameters
+    ----------
+    result : DesignResult
+        The design.
+    curves : DesignCurves
+        The step responses (:func:`robrst.studies.design_curves.design_curves`).
+    path : str or pathlib.Path
+        The PNG file.
+    """
     with drawing(path, (11, 4.2), 1, 2) as (fig, (a1, a2)):
         _steps(curves, a1, a2)
 

@@ -1,20 +1,51 @@
 """Plain-text views of a design's JSON dict, shared by the CLI and the reports."""
 
+from __future__ import annotations
+
 import math
 
 __all__ = ["margins_table", "sampled_summary", "design_summary", "fmt", "spec_table",
            "controller_lines"]
 
 
-def fmt(x, spec):
-    """``format(x, spec)``; ``"inf"`` for ``None`` (an infinite margin) or a non-finite value."""
+def fmt(x: float | None, spec: str) -> str:
+    """``format(x, spec)``; ``"inf"`` for ``None`` (an infinite margin) or a non-finite value.
+
+    Parameters
+    ----------
+    x : float or None
+        The value.
+    spec : str
+        A format spec (``".3f"``).
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> from robrst.report.text import fmt
+    >>> fmt(1.23456, ".2f"), fmt(None, ".2f")
+    ('1.23', 'inf')
+    """
     if x is None or (isinstance(x, float) and not math.isfinite(x)):
         return "inf"
     return format(x, spec)
 
 
-def margins_table(d):
-    """Margins per model (label, temperature, stable, Ms, Mt, Mu, GM, PM, MM, DM)."""
+def margins_table(d: dict) -> str:
+    """Margins per model (label, temperature, stable, Ms, Mt, Mu, GM, PM, MM, DM).
+
+    Parameters
+    ----------
+    d : dict
+        The design JSON (``DesignResult.as_dict()``).
+
+    Returns
+    -------
+    str
+        A fixed-width table, one line per model.
+    """
     head = (f"{'model':<8}{'T[°C]':>7}{'stable':>8}{'Ms':>8}{'Mt':>8}{'Mu[V/µm]':>10}"
             f"{'GM':>8}{'PM[°]':>8}{'MM':>7}{'DM[µs]':>9}")
     lines = [head, "-" * len(head)]
@@ -39,8 +70,18 @@ def _cell(x, spec, width):
     return f"{s:>{width}}"
 
 
-def sampled_summary(d):
-    """One line on the sampled loop's certificate (``None`` when not asked for)."""
+def sampled_summary(d: dict) -> str | None:
+    """One line on the sampled loop's certificate (``None`` when not asked for).
+
+    Parameters
+    ----------
+    d : dict
+        The design JSON.
+
+    Returns
+    -------
+    str or None
+    """
     sp, models = d["specs"], d["certificate"]["models"]
     if not sp.get("sample_rate_hz") or not models or "Ms_sampled" not in models[0]:
         return None
@@ -74,9 +115,19 @@ def _poly_factors(f, var="s"):
     return " ".join(parts) or "1"
 
 
-def controller_lines(d):
+def controller_lines(d: dict) -> list[str]:
     """The controller as factored gain, roots and damped pairs, and its coefficients in the
-    scaled variable (``d["controller_factored"]``)."""
+    scaled variable (``d["controller_factored"]``).
+
+    Parameters
+    ----------
+    d : dict
+        The design JSON.
+
+    Returns
+    -------
+    list of str
+    """
     f = d.get("controller_factored")
     c = d["controller"]
     if f is None:
@@ -117,9 +168,19 @@ def _objective_line(d):
     return line
 
 
-def spec_table(d):
+def spec_table(d: dict) -> list[str]:
     """Each spec: bound, achieved (worst over the certificate's models), slack, where, and
-    whether it binds (``d["specs_achieved"]``)."""
+    whether it binds (``d["specs_achieved"]``).
+
+    Parameters
+    ----------
+    d : dict
+        The design JSON.
+
+    Returns
+    -------
+    list of str
+    """
     rows = d.get("specs_achieved") or []
     if not rows:
         return ["specs: none bounded"]
@@ -135,10 +196,20 @@ def spec_table(d):
     return out
 
 
-def design_summary(d):
+def design_summary(d: dict) -> str:
     """The text ``robrst design`` prints: what ran and why, the objective, every spec with
     its achieved value and slack, the binding constraints, notes and warnings, the
-    controller factored, margins, certificate and checks."""
+    controller factored, margins, certificate and checks.
+
+    Parameters
+    ----------
+    d : dict
+        The design JSON.
+
+    Returns
+    -------
+    str
+    """
     head = f"problem {d['problem']}  method {d['method']}  certified: {d['certified']}"
     out = [head]
     if d.get("method_reason"):

@@ -11,12 +11,16 @@ receives and computes nothing.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from robrst.core import poly
 from robrst.core.analysis import sensitivity, step_response
 from robrst.core.rst import closed_loop
+
+if TYPE_CHECKING:
+    from robrst.design import DesignResult
 
 __all__ = ["ModelCurves", "StepCurves", "DesignCurves", "design_curves", "step_horizon",
            "FREQ_HZ", "NYQUIST_RAD_S"]
@@ -27,8 +31,19 @@ NYQUIST_RAD_S = 2 * np.pi * np.logspace(-1, 5, 6000)  # the Nyquist grid
 
 @dataclass(frozen=True, eq=False)
 class ModelCurves:
-    """One family model's frequency responses: ``S``, ``T``, ``U`` on :data:`FREQ_HZ`
-    and the loop ``L`` on :data:`NYQUIST_RAD_S` (complex arrays)."""
+    """One family model's frequency responses.
+
+    Parameters
+    ----------
+    label : str
+        The model.
+    temperature_C : float
+        Its temperature [°C].
+    S, T, U : numpy.ndarray
+        Complex responses on :data:`FREQ_HZ`.
+    L : numpy.ndarray
+        The loop ``B R / (A S)`` on :data:`NYQUIST_RAD_S`.
+    """
 
     label: str
     temperature_C: float
@@ -40,7 +55,21 @@ class ModelCurves:
 
 @dataclass(frozen=True, eq=False)
 class StepCurves:
-    """Step responses of one model: a 1 µm reference and a 1 V input disturbance [µm]."""
+    """Step responses of one model.
+
+    Parameters
+    ----------
+    label : str
+        The model.
+    temperature_C : float
+        Its temperature [°C].
+    t_s : numpy.ndarray
+        Times [s].
+    reference_um : numpy.ndarray
+        Response to a 1 µm reference step [µm].
+    disturbance_um : numpy.ndarray
+        Response to a 1 V input-disturbance step [µm].
+    """
 
     label: str
     temperature_C: float
@@ -73,7 +102,7 @@ class DesignCurves:
     twin: dict = field(default_factory=dict)
 
 
-def step_horizon(result, t_max=1.0):
+def step_horizon(result: DesignResult, t_max: float = 1.0) -> float:
     """Three times the slowest 2 % settling time of the reference step [s], 5 ms..1 s.
 
     (The spectral abscissa would be misleading: a slow pole nearly cancelled by a
@@ -99,7 +128,7 @@ def step_horizon(result, t_max=1.0):
     return float(np.clip(3 * ts, 5e-3, t_max))
 
 
-def design_curves(result, twin: bool = False) -> DesignCurves:
+def design_curves(result: DesignResult, twin: bool = False) -> DesignCurves:
     """The curves of ``result``'s report.
 
     Parameters

@@ -18,7 +18,9 @@ figures for a handed-over controller).
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -26,14 +28,28 @@ from robrst.certificate.proof import certify_problem
 from robrst.design import DesignResult, run_problem, with_time_domain
 from robrst.synthesis.parametrize import integral_gain
 
+if TYPE_CHECKING:
+    from robrst.problem.records import Problem
+
 __all__ = ["ScanPoint", "bound_scan"]
 
 
 @dataclass(frozen=True, eq=False)
 class ScanPoint:
-    """One value of a scan: its design (``result``), the objective (``None`` when not
-    certified) and where the kept controller came from (``"designed"`` or the value of
-    the scan whose answer it is)."""
+    """One value of a scan.
+
+    Parameters
+    ----------
+    value : float
+        The bound.
+    result : DesignResult
+        The design kept (its certificate on this bound).
+    objective : float or None
+        Its certified objective (``None`` when not certified).
+    source : str
+        Where the kept controller came from: ``"designed"``, or the scan value whose
+        answer it is.
+    """
 
     value: float
     result: DesignResult
@@ -63,7 +79,9 @@ def _on(problem, result):
                    assessment=None, starts=None)
 
 
-def bound_scan(problem, key, values, progress=None, multistart=False):
+def bound_scan(problem: Problem, key: str, values: Sequence[float],
+               progress: Callable[[str], None] | None = None,
+               multistart: bool = False) -> list[ScanPoint]:
     """Designs of ``problem`` with ``specs.<key>`` at each of ``values`` (module docstring).
 
     Parameters

@@ -7,7 +7,11 @@ fails, the soft-goal phase from the best starts followed by the objective again,
 result certified and refined round by round (see :mod:`robrst.synthesis.robust`).
 """
 
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -20,6 +24,15 @@ from robrst.synthesis.starts import ON_SLOW_POLE, candidates, score
 from robrst.synthesis.polerows import pole_rows, worst_damping_ratio
 from robrst.synthesis.timesamples import (TIME_MARGIN, time_rows, time_specs,
                                            worst_time_ratio)
+
+if TYPE_CHECKING:
+    from robrst.certificate.proof import Certificate
+    from robrst.core.rst import RSTController
+    from robrst.problem.records import Problem
+    from robrst.synthesis.context import Context
+    from robrst.synthesis.nlp import NLPSetup
+    from robrst.synthesis.outcome import SolveResult, SynthesisResult
+    from robrst.synthesis.timesamples import TimeSpecs
 
 __all__ = ["Outcome", "Run", "worst_violation", "frequency_certificate", "refine",
            "objective_value", "GAMMA_FLOOR"]
@@ -40,7 +53,32 @@ TIME_BOX = 0.5           # their first trust region (relative to the coefficient
 
 @dataclass(frozen=True, eq=False)
 class Outcome:
-    """A point of an attempt: controller, certificate, solve, phase and placement."""
+    """A point of an attempt: controller, certificate, solve, phase and placement.
+
+    Parameters
+    ----------
+    ctrl : RSTController
+        The controller.
+    cert : Certificate
+        Its frequency-domain certificate.
+    res : SolveResult
+        The solve it came from.
+    phase : str
+        ``"hard"``, ``"soft"`` or ``"start"``.
+    placement : str
+        The nominal pole placement.
+    x : numpy.ndarray
+        The variable vector.
+    setup : NLPSetup
+        The program it was solved in.
+
+    Attributes
+    ----------
+    certified : bool
+        The certificate holds.
+    badness : float
+        The worst violation's ratio to its bound (0 when certified).
+    """
 
     ctrl: object
     cert: object
@@ -64,18 +102,51 @@ class Outcome:
         return v.ratio
 
 
-def frequency_certificate(problem, ctrl):
+def frequency_certificate(problem: Problem, ctrl: RSTController) -> Certificate:
+    """The certificate of ``ctrl`` for the frequency-domain specs (the time-domain ones
+    are checked once the reference path is designed).
+
+    Parameters
+    ----------
+    problem : Problem
+        The problem (its family, specs and certificate resolution).
+    ctrl : RSTController
+        The controller.
+
+    Returns
+    -------
+    Certificate
+    """
     so = problem.solver
     return certify(problem.family, ctrl, problem.specs.without_time_domain(),
                    n_sweep=so.cert_temperatures, rtol=so.cert_tol)
 
 
-def refine(problem, cert, models, nu, max_new=2):
+def refine(problem: Problem, cert: Certificate, models: list,
+           nu: np.ndarray, max_new: int = 2) -> tuple[list, np.ndarray]:
     """Add the certificate's offending frequencies, and its worst temperatures, to the program.
 
     Every offending frequency joins the grid (with its 2 % neighbours); of the offending
     temperatures not yet modelled only the ``max_new`` worst join (the family members
     already span the range: most violations between them are the same peak).
+
+    Parameters
+    ----------
+    problem : Problem
+        The problem.
+    cert : Certificate
+        The last round's certificate.
+    models : list of Plant
+        The program's models.
+    nu : numpy.ndarray
+        The program's grid [rad/s].
+    max_new : int
+        At most this many new temperatures.
+
+    Returns
+    -------
+    models : list of Plant
+    nu : numpy.ndarray
     """
     known = {m.temperature_C for m in models}
     fs = problem.specs.sample_rate_hz
@@ -123,8 +194,21 @@ def _better(problem, out, others):
                key=lambda o: objective_value(problem, o))
 
 
-def objective_value(problem, out):
-    """The objective of a certified outcome (larger is better; ``-inf`` if uncertified)."""
+def objective_value(problem: Problem, out: Outcome) -> float:
+    """The objective of a certified outcome (larger is better; ``-inf`` if uncertified).
+
+    Parameters
+    ----------
+    problem : Problem
+        The problem (its objective).
+    out : Outcome
+        The outcome.
+
+    Returns
+    -------
+    float
+        ``|integral gain|``, ``-worst Ms`` or 0 (feasibility).
+    """
     if out is None or not out.certified:
         return -np.inf
     obj = problem.solver.objective
@@ -154,9 +238,36 @@ def _key(obj):
 
 
 class Run:
-    """One synthesis: what its attempts share (built solvers, progress, rounds, notes)."""
+    """One synthesis: what its attempts share (built solvers, progress, rounds, notes).
 
-    def __init__(self, problem, say, templates, warm=None, budget=None):
+    Parameters
+    ----------
+    problem : Problem
+        The problem.
+    say : callable
+        Progress: called with one line of text.
+    templates : dict
+        Built solvers by structure.
+    warm : SynthesisResult, optional
+        A previous design of a nearby variant.
+    budget : int, optional
+        IPOPT iterations of the synthesis (default ``RUN_ITER_BUDGET``); given, a hard stop
+        (an extra start of a multi-start).
+
+    Attributes
+    ----------
+    rounds : list of Round
+        Every certification round so far.
+    notes : list of str
+        What the pipeline had to do.
+    hopeless : bool
+        Set when the specs are provably infeasible.
+    solved : dict
+        Program key -> result: a repeated program is not solved again.
+    """
+
+    def __init__(self, problem: Problem, say: Callable[[str], None], templates: dict,
+                 warm: SynthesisResult | None = None, budget: int | None = None) -> None:
         self.problem, self.say, self.templates, self.warm = problem, say, templates, warm
         self.budget = RUN_ITER_BUDGET if budget is None else int(budget)
         self.strict = budget is not None   # an extra start: its budget is a hard stop
@@ -164,10 +275,20 @@ class Run:
         self.hopeless = False     # set when the specs are provably infeasible
         self.solved = {}          # program key -> result: a repeated program is not re-solved
 
-    def spent(self, placement=None):
+    def spent(self, placement: str | None = None) -> bool:
         """True once the synthesis has used its IPOPT iteration budget: ``RUN_ITER_BUDGET``
         for the rounds of ``placement`` (the fixed poles' rounds do not take the budget of
-        the free search that follows them), twice that over all rounds."""
+        the free search that follows them), twice that over all rounds.
+
+        Parameters
+        ----------
+        placement : str, optional
+            The placement whose rounds count (``None``: every round, one budget).
+
+        Returns
+        -------
+        bool
+        """
         total = sum(r.iterations for r in self.rounds)
         if self.strict:
             return total > self.budget
@@ -175,8 +296,29 @@ class Run:
             return total > self.budget
         return sum(r.iterations for r in self.rounds if r.placement == placement) > self.budget
 
-    def solve(self, ctx, setup, x0, phase, start, exact=False):
-        """One program by constraint exchange (trust regions with freely placed poles)."""
+    def solve(self, ctx: Context, setup: NLPSetup, x0: np.ndarray, phase: Phase, start: str,
+              exact: bool = False) -> SolveResult:
+        """One program by constraint exchange (trust regions with freely placed poles).
+
+        Parameters
+        ----------
+        ctx : Context
+            The synthesis's context.
+        setup : NLPSetup
+            The program's data.
+        x0 : numpy.ndarray
+            The start.
+        phase : Phase
+            Soft goals or the objective.
+        start : str
+            The start's name (reported).
+        exact : bool
+            Also impose each block's exact peak frequency once the grid holds.
+
+        Returns
+        -------
+        SolveResult
+        """
         ipopt = ctx.ipopt
         if start == WARM_START:   # a near-optimal start: a small barrier keeps it near
             ipopt = {**ipopt, "mu_init": WARM_MU}
@@ -211,7 +353,8 @@ class Run:
                  f" {len(setup.nu)} freqs" + (f", worst spec ratio {gamma:.4g}" if gamma else ""))
         return res
 
-    def linearised(self, ctx, setup, res, phase, exact, spec):
+    def linearised(self, ctx: Context, setup: NLPSetup, res: SolveResult, phase: Phase,
+                   exact: bool, spec: TimeSpecs | None) -> SolveResult:
         """The linearised rows: reference-step samples (:mod:`robrst.synthesis.timesamples`,
         ``spec``) and the roots near a damping floor (:mod:`robrst.synthesis.polerows`).
 
@@ -221,7 +364,28 @@ class Run:
         the worst normalised sample minimised, every other spec held), then the objective
         with the rows as constraints; in the soft phase the samples scale with ``gamma``
         (the roots' rows never do).  A step is kept when the worst exact ratio improved
-        (the trust region then grows; it is halved otherwise)."""
+        (the trust region then grows; it is halved otherwise).
+
+        Parameters
+        ----------
+        ctx : Context
+            The problem's context.
+        setup : NLPSetup
+            The program.
+        res : SolveResult
+            The solve to start from.
+        phase : Phase
+            Its phase.
+        exact : bool
+            Exact peak exchange (as the solve).
+        spec : TimeSpecs or None
+            The reference-step specs (``None``: damping floors only).
+
+        Returns
+        -------
+        SolveResult
+            The last accepted solve, ``iterations`` summed.
+        """
         best, keys, f, iters = res, (), TIME_BOX, res.iterations
 
         def ratios(x):
@@ -271,10 +435,30 @@ class Run:
         best = best.res if isinstance(best, _Timed) else best
         return replace(best, iterations=iters)
 
-    def boxed(self, ctx, setup, x0, phase, exact):
+    def boxed(self, ctx: Context, setup: NLPSetup, x0: np.ndarray, phase: Phase,
+              exact: bool) -> SolveResult:
         """Trust-region solves for freely placed poles (free coefficients move resonances
         and slow poles far in one step; IPOPT alone wanders): a box around the point,
-        re-centred and doubled while the solution lands on it, halved after a failure."""
+        re-centred and doubled while the solution lands on it, halved after a failure.
+
+        Parameters
+        ----------
+        ctx : Context
+            The synthesis's context.
+        setup : NLPSetup
+            The program's data.
+        x0 : numpy.ndarray
+            The start.
+        phase : Phase
+            Soft goals or the objective.
+        exact : bool
+            Also impose each block's exact peak frequency once the grid holds.
+
+        Returns
+        -------
+        SolveResult
+            The best box's result, ``iterations`` summed.
+        """
         ipopt = {**ctx.ipopt, "max_iter": min(ctx.ipopt["max_iter"], FREE_MAX_ITER)}
         best, x, iters, res, f = None, np.asarray(x0, float), 0, None, FREE_BOX
         for _ in range(FREE_BOXES):
@@ -297,8 +481,27 @@ class Run:
             f = min(2 * f, 8 * FREE_BOX)
         return replace(best if best is not None else res, iterations=iters)
 
-    def outcome(self, ctx, setup, res, phase, x=None):
-        """Certify the point ``x`` (default: the solve's) for the frequency-domain specs."""
+    def outcome(self, ctx: Context, setup: NLPSetup, res: SolveResult, phase: str,
+                x: np.ndarray | None = None) -> Outcome:
+        """Certify the point ``x`` (default: the solve's) for the frequency-domain specs.
+
+        Parameters
+        ----------
+        ctx : Context
+            The synthesis's context.
+        setup : NLPSetup
+            The program's data.
+        res : SolveResult
+            The solve.
+        phase : str
+            ``"hard"``, ``"soft"`` or ``"start"``.
+        x : numpy.ndarray, optional
+            The point (default ``res.x``).
+
+        Returns
+        -------
+        Outcome
+        """
         x = res.x if x is None else x
         ctrl = ctx.controller(x)
         cert = frequency_certificate(ctx.problem, ctrl)
@@ -307,10 +510,24 @@ class Run:
         return Outcome(ctrl=ctrl, cert=cert, res=res, phase=phase, placement=setup.placement,
                        x=np.asarray(x, float), setup=setup)
 
-    def hard(self, ctx, placement, x, name):
+    def hard(self, ctx: Context, placement: str, x: np.ndarray, name: str) -> Outcome | None:
         """The objective under hard specs from ``x``, certified, refined round by round.
 
-        Returns the last outcome (``None`` if IPOPT failed in the first round).
+        Parameters
+        ----------
+        ctx : Context
+            The synthesis's context.
+        placement : str
+            The nominal pole placement.
+        x : numpy.ndarray
+            The start.
+        name : str
+            The start's name.
+
+        Returns
+        -------
+        Outcome or None
+            The last outcome (``None`` if IPOPT failed in the first round).
         """
         p = ctx.problem
         models, nu, last = list(p.family.models), ctx.nu, None
@@ -339,12 +556,31 @@ class Run:
             models, nu = refine(p, last.cert, models, nu)
         return last
 
-    def bolder(self, ctx, setup, placement, starts, out):
+    def bolder(self, ctx: Context, setup: NLPSetup, placement: str, starts: Sequence,
+               out: Outcome) -> Outcome | None:
         """A start beyond the certified ``out`` (a larger integral gain, not meeting the
         specs on the grid, the nearest to them): brought to the specs by the soft phase,
         then the objective.  A higher-gain basin the boldest feasible start does not reach
         (a loop that damps a resonance actively crosses over near it).  ``None`` when the
-        objective is not the integral gain, nothing is bolder or the budget is spent."""
+        objective is not the integral gain, nothing is bolder or the budget is spent.
+
+        Parameters
+        ----------
+        ctx : Context
+            The problem's context.
+        setup : NLPSetup
+            The program on the family's models.
+        placement : str
+            The placement.
+        starts : sequence of Start
+            The scored starts.
+        out : Outcome
+            The certified outcome to beat.
+
+        Returns
+        -------
+        Outcome or None
+        """
         if (ctx.problem.solver.objective != "max_integral_gain" or placement == "fixed"
                 or self.spent(placement) or self.hopeless):
             return None
@@ -365,7 +601,7 @@ class Run:
             return None
         return self.hard(ctx, placement, res.x, f"soft-goal point from {s.name}")
 
-    def attempt(self, ctx, placement, seeds):
+    def attempt(self, ctx: Context, placement: str, seeds: Sequence[tuple]) -> Outcome | None:
         """Hard phase from the preferred start; if that fails, soft phase then hard phase.
 
         A previous design of a nearby variant (``warm``) within ``WARM_NEAR`` of the specs
@@ -373,6 +609,21 @@ class Run:
         does not certify, or otherwise, the preferred start is the best one when it already
         meets the specs on the grid, else a seed handed down, else the analytic design at
         the problem's poles.
+
+        Parameters
+        ----------
+        ctx : Context
+            The synthesis's context.
+        placement : str
+            The nominal pole placement.
+        seeds : sequence of tuple
+            Starts handed down (the homotopy's lower degree, a fixed placement's result).
+
+        Returns
+        -------
+        Outcome or None
+            The best certified outcome, else the least violating one (``None``: nothing
+            solved).
         """
         setup = ctx.setup(list(ctx.problem.family.models), ctx.nu, placement)
         blocks = grid_blocks(setup, np.ones(ctx.param.n_x))   # weights unused by the scores

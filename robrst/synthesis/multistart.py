@@ -24,8 +24,12 @@ optima (how global the answer is).
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from robrst.problem.records import Problem
 
 __all__ = ["StartPlan", "StartOutcome", "MultiStart", "plans", "NEIGHBOUR_STEP",
            "PEAK_BOUNDS"]
@@ -37,8 +41,17 @@ PEAK_BOUNDS = ("Ms_max", "Mt_max", "Mu_max", "T_resonance_max", "Mu_hf_max", "Ms
 
 @dataclass(frozen=True, eq=False)
 class StartPlan:
-    """One run of a multi-start: its name, the problem it solves and whether its answer
-    must be certified on the original problem (a neighbouring problem's)."""
+    """One run of a multi-start.
+
+    Parameters
+    ----------
+    name : str
+        What the start is.
+    problem : Problem
+        The problem it solves.
+    recheck : bool
+        Its answer must be certified on the original problem (a neighbouring problem's).
+    """
 
     name: str
     problem: object
@@ -49,8 +62,24 @@ class StartPlan:
 class StartOutcome:
     """What one start ended with, judged on the original problem.
 
-    ``status``: ``"certified"``, ``"not_certified"`` or ``"failed"`` (an error, named in
-    ``note``); ``objective``: the certified objective (``None`` when not certified).
+    Parameters
+    ----------
+    name : str
+        The start.
+    status : {"certified", "not_certified", "failed"}
+        ``"failed"``: an error, named in ``note``.
+    objective : float, optional
+        The certified objective (``None`` when not certified).
+    integral_gain : float, optional
+        Its controller's integral gain [V/(µm s)].
+    worst_ratio : float, optional
+        Its worst violation ratio (0 when certified).
+    placement : str, optional
+        The nominal pole placement it ended with.
+    wall_time_s : float, optional
+        Its wall time [s].
+    note : str, optional
+        Why it failed.
     """
 
     name: str
@@ -62,14 +91,33 @@ class StartOutcome:
     wall_time_s: float = None
     note: str = None
 
-    def as_dict(self):
-        """The JSON form."""
+    def as_dict(self) -> dict:
+        """The JSON form.
+
+        Returns
+        -------
+        dict
+        """
         return dict(self.__dict__)
 
 
 @dataclass(frozen=True)
 class MultiStart:
-    """Every start of a design and which won (``design --json`` key ``starts``)."""
+    """Every start of a design and which won (``design --json`` key ``starts``).
+
+    Parameters
+    ----------
+    outcomes : tuple of StartOutcome
+        The problem as asked first, then the other starts.
+    winner : str
+        The start whose answer is returned.
+    objective : str
+        The objective compared.
+    workers : int
+        Processes used.
+    wall_time_s : float
+        Wall time of the multi-start [s].
+    """
 
     outcomes: tuple
     winner: str
@@ -77,8 +125,13 @@ class MultiStart:
     workers: int
     wall_time_s: float
 
-    def spread(self):
-        """The certified optima: best, median and worst, and ``(best - worst) / |best|``."""
+    def spread(self) -> dict:
+        """The certified optima: best, median and worst, and ``(best - worst) / |best|``.
+
+        Returns
+        -------
+        dict
+        """
         vals = [o.objective for o in self.outcomes if o.objective is not None]
         if not vals:
             return {"certified": 0}
@@ -87,8 +140,13 @@ class MultiStart:
                 "worst": worst,
                 "relative_spread": (best - worst) / abs(best) if best else 0.0}
 
-    def as_dict(self):
-        """The JSON form."""
+    def as_dict(self) -> dict:
+        """The JSON form.
+
+        Returns
+        -------
+        dict
+        """
         return {"winner": self.winner, "objective": self.objective, "workers": self.workers,
                 "wall_time_s": self.wall_time_s, "spread": self.spread(),
                 "starts": [o.as_dict() for o in self.outcomes]}
@@ -104,9 +162,16 @@ def _scaled_bounds(specs, factor):
     return replace(specs, **changes) if changes else None
 
 
-def plans(problem, count):
+def plans(problem: Problem, count: int) -> list[StartPlan]:
     """The other runs of a multi-start of ``problem``, most useful first (module
-    docstring), at most ``count``.
+    docstring).
+
+    Parameters
+    ----------
+    problem : Problem
+        The problem as asked.
+    count : int
+        At most this many.
 
     Returns
     -------

@@ -19,11 +19,16 @@ resonance: the linearised roots are well scaled there.)
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from robrst.core import region as pole_region
 from robrst.synthesis.nlp import affine_controller, closed_loop_maps
 from robrst.synthesis.timesamples import TimeRows
+
+if TYPE_CHECKING:
+    from robrst.synthesis.nlp import NLPSetup
 
 __all__ = ["pole_rows", "worst_damping_ratio", "NEAR", "FLOOR_MARGIN"]
 
@@ -71,8 +76,21 @@ def _dzeta(s):
     return -(s.imag ** 2) / r3, s.real * s.imag / r3
 
 
-def worst_damping_ratio(setup, x):
-    """``max floor / zeta`` over the floored roots at ``x`` (0 when nothing is floored)."""
+def worst_damping_ratio(setup: NLPSetup, x: np.ndarray) -> float:
+    """``max floor / zeta`` over the floored roots at ``x``.
+
+    Parameters
+    ----------
+    setup : NLPSetup
+        The program (its ``region``).
+    x : numpy.ndarray
+        The point.
+
+    Returns
+    -------
+    float
+        Above 1 where a root is below its floor; 0 when nothing is floored.
+    """
     worst = 0.0
     xc = np.asarray(x, float)
     for kind, j, Pm, Pc, floor, fs in _polys(setup):
@@ -85,9 +103,21 @@ def worst_damping_ratio(setup, x):
     return worst
 
 
-def pole_rows(setup, x):
-    """Linear rows ``A xc + c <= 0`` for the roots near their floor at ``x``
-    (:class:`~robrst.synthesis.timesamples.TimeRows`, ``g = 0``), or ``None``."""
+def pole_rows(setup: NLPSetup, x: np.ndarray) -> TimeRows | None:
+    """Linear rows ``A xc + c <= 0`` for the roots near their floor at ``x``.
+
+    Parameters
+    ----------
+    setup : NLPSetup
+        The program (its ``region``).
+    x : numpy.ndarray
+        The point linearised about.
+
+    Returns
+    -------
+    TimeRows or None
+        The rows (``g = 0``: never scaled by ``gamma``), ``None`` when no root is near.
+    """
     xc = np.asarray(x, float)[:setup.n_x]
     A, c0, labels, keys = [], [], [], []
     for kind, j, Pm, Pc, floor, fs in _polys(setup):

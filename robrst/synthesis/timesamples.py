@@ -27,13 +27,19 @@ With ``T_mode = "reference_model"`` the reference path is designed after the fee
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from robrst.core import lti, poly
 from robrst.certificate.steps import SETTLING_BAND, step_metrics
 from robrst.synthesis.nlp import closed_loop_maps
+
+if TYPE_CHECKING:
+    from robrst.problem.records import Problem
+    from robrst.synthesis.nlp import NLPSetup
 
 __all__ = ["TimeSpecs", "TimeRows", "time_specs", "time_rows", "worst_time_ratio",
            "TIME_MARGIN"]
@@ -47,7 +53,21 @@ NEAR = 0.8              # a local extremum above this share of its bound joins
 
 @dataclass(frozen=True)
 class TimeSpecs:
-    """The reference-step specs in the program's units (time scaled by ``w0``)."""
+    """The reference-step specs in the program's units (time scaled by ``w0``).
+
+    Parameters
+    ----------
+    overshoot : float, optional
+        ``overshoot_max_pct / 100``.
+    settling : float, optional
+        The settling time, scaled.
+    u_max : float, optional
+        Peak ``|u|`` [V].
+    step_um : float
+        The reference step [µm].
+    w0 : float
+        The time scale [rad/s].
+    """
 
     overshoot: float = None      # fraction (overshoot_max_pct / 100)
     settling: float = None       # scaled time
@@ -60,8 +80,19 @@ class TimeSpecs:
 class TimeRows:
     """Linear rows ``A xc + g gamma + c <= 0`` with their samples.
 
-    ``keys[i]`` is ``(model index, kind, scaled time, sign)`` with ``kind`` ``"overshoot"``,
-    ``"settling"`` or ``"u"``; ``labels[i]`` the program's constraint label.
+    Parameters
+    ----------
+    A : numpy.ndarray
+        ``(rows, nx)``.
+    g : numpy.ndarray
+        Coefficients of ``gamma`` (soft and restoration phases; 0: never scaled).
+    c : numpy.ndarray
+        Constants.
+    keys : tuple
+        Per row ``(model index, kind, scaled time, sign)`` with ``kind`` ``"overshoot"``,
+        ``"settling"`` or ``"u"`` (a root's row: ``(kind, model, root index)``).
+    labels : tuple
+        Per row the program's constraint label.
     """
 
     A: np.ndarray
@@ -71,9 +102,21 @@ class TimeRows:
     labels: tuple
 
 
-def time_specs(problem, w0):
-    """The problem's reference-step specs for the program, or ``None`` (none, or a 2-DOF
-    reference path designed afterwards)."""
+def time_specs(problem: Problem, w0: float) -> TimeSpecs | None:
+    """The problem's reference-step specs for the program.
+
+    Parameters
+    ----------
+    problem : Problem
+        The problem.
+    w0 : float
+        The program's frequency scale [rad/s].
+
+    Returns
+    -------
+    TimeSpecs or None
+        ``None``: no time-domain spec, or a 2-DOF reference path designed afterwards.
+    """
     sp = problem.specs
     if not sp.time_domain or problem.controller.T_mode == "reference_model":
         return None
@@ -210,10 +253,25 @@ def _row_of(kind, sign, spec, y, u):
     return sign * u * spec.step_um, spec.u_max * TIME_MARGIN
 
 
-def worst_time_ratio(setup, x, spec):
-    """The worst sample ratio (value over bound) on a dense grid of every model, and the
-    candidate samples per model: ``(ratio, {model: [(kind, tau, sign, ratio)]})``."""
-    cl = closed_loop_maps_t(setup)
+def worst_time_ratio(setup: NLPSetup, x: np.ndarray, spec: TimeSpecs) -> tuple[float, dict]:
+    """The worst sample ratio (value over bound) on a dense grid of every model.
+
+    Parameters
+    ----------
+    setup : NLPSetup
+        The program.
+    x : numpy.ndarray
+        The point.
+    spec : TimeSpecs
+        The specs.
+
+    Returns
+    -------
+    (float, dict)
+        The ratio and the candidate samples per model:
+        ``{model: [(kind, tau, sign, ratio)]}``.
+    """
+    cl = _closed_loop_maps_t(setup)
     worst, found = 0.0, {}
     for j, (_, _, a, b) in enumerate(setup.models):
         maps = cl(a, b)
@@ -231,7 +289,7 @@ def worst_time_ratio(setup, x, spec):
     return worst, found
 
 
-def closed_loop_maps_t(setup):
+def _closed_loop_maps_t(setup):
     """:func:`robrst.synthesis.nlp.closed_loop_maps` with the control voltage of a reference
     step, ``A T`` (key ``"AT"``)."""
     from robrst.synthesis.nlp import affine_controller, t_map
@@ -255,7 +313,9 @@ def closed_loop_maps_t(setup):
     return maps
 
 
-def time_rows(setup, x, spec, keys=(), found=None, step=1e-7, reach=1.0):
+def time_rows(setup: NLPSetup, x: np.ndarray, spec: TimeSpecs, keys: Sequence = (),
+              found: dict | None = None, step: float = 1e-7,
+              reach: float = 1.0) -> TimeRows | None:
     """The rows of the active samples ``keys`` and the new ``found`` ones at ``x``.
 
     A sample beyond its bound is asked to close ``reach`` of its excess this round (1: all
@@ -286,7 +346,7 @@ def time_rows(setup, x, spec, keys=(), found=None, step=1e-7, reach=1.0):
     if not allk:
         return None
     allk = sorted(allk)
-    cl = closed_loop_maps_t(setup)
+    cl = _closed_loop_maps_t(setup)
     xc = np.asarray(x, float)[:setup.n_x]
     rows_A, rows_g, rows_c, labels = [], [], [], []
     for j in sorted({k[0] for k in allk}):
