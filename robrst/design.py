@@ -676,7 +676,7 @@ def _run_start(plan, original, budget=None):
 
 
 MULTISTART_WORKERS = 2
-MIN_START_BUDGET = 150     # IPOPT iterations an extra start may spend at least
+MIN_START_BUDGET = 100     # IPOPT iterations an extra start may spend at least
 
 
 def _multistart(problem, plans, start, say, templates):
