@@ -44,7 +44,6 @@ FREE_EXCHANGE_ROUNDS, FREE_ITER_BUDGET = 10, 800
 RUN_ITER_BUDGET = 2500    # IPOPT iterations per synthesis: then the best certified point found
 FAR_START = 5.0           # a start missing the specs 5x: no objective phase from it
 BOLD_FAR = 20.0           # a bolder start (Run.bolder) may miss them 20x
-BOLD_ITER = 300           # ... and its soft phase is cut at this many IPOPT iterations
 WARM_MU = 1e-4           # IPOPT's initial barrier from a previous design of a nearby variant
 WARM_NEAR = 1.05         # ... solved from at once when within 5 % of the specs on the grid
 WARM_START = "previous design"   # the name of that start (robrst.synthesis.robust hands it down)
@@ -412,7 +411,9 @@ class Run:
             x0 = best.x.copy()
             if kind == "time":
                 x0[-1] = max(w_time, 1.0) * 1.02
-            new = solve_exchange(setup, x0, ctx.ipopt, Phase(kind, TIME_MARGIN ** 2), self.templates,
+            ipopt = ctx.ipopt if setup.placement != "free" else {   # as the boxed solves
+                **ctx.ipopt, "max_iter": min(ctx.ipopt["max_iter"], FREE_MAX_ITER)}
+            new = solve_exchange(setup, x0, ipopt, Phase(kind, TIME_MARGIN ** 2), self.templates,
                                  exact=exact, box=(c, r), lin=rows)
             iters += new.iterations
             if not new.success:
@@ -561,7 +562,7 @@ class Run:
                out: Outcome) -> Outcome | None:
         """A start beyond the certified ``out`` (a larger integral gain, not meeting the
         specs on the grid, the nearest to them): brought to the specs by the soft phase,
-        then the objective (free placement only; the soft phase cut at ``BOLD_ITER``).  A
+        then the objective (free placement only).  A
         higher-gain basin the boldest feasible start does not reach (a loop that damps a
         resonance actively crosses over near it).  ``None`` when the
         objective is not the integral gain, nothing is bolder or the budget is spent.
@@ -598,9 +599,7 @@ class Run:
             return None
         s = min(cands, key=lambda c: c[0])[1]
         x0 = ctx.full(s.xc, setup, s.wn, s.zeta, gamma=max(s.worst * 1.02, GAMMA_FLOOR))
-        short = replace(ctx, ipopt={**ctx.ipopt, "max_iter": min(ctx.ipopt["max_iter"],
-                                                                  BOLD_ITER)})
-        res = self.solve(short, setup, x0, Phase("soft", GAMMA_FLOOR), s.name)
+        res = self.solve(ctx, setup, x0, Phase("soft", GAMMA_FLOOR), s.name)
         if not (res.success and res.x[-1] <= 1.0):
             return None
         return self.hard(ctx, placement, res.x, f"soft-goal point from {s.name}")

@@ -153,7 +153,7 @@ def _structure(setup, phase, n_slots, ipopt, rows, routh, lin=None):
                      slots=_capacity(n_slots), ipopt=tuple(sorted(ipopt.items())),
                      ctrl_deg=-1 if ctrl is None else ctrl[2] - 1,
                      ctrl_count=1 if ctrl is None else ctrl[3],
-                     lin=0 if lin is None or not len(lin.c) else _capacity(len(lin.c), 8))
+                     lin=0 if lin is None or not len(lin.c) else _capacity(len(lin.c), 24))
 
 
 def _ctrl(setup, phase):
