@@ -31,12 +31,12 @@ import numpy as np
 from scipy import linalg, signal
 
 from robrst.base.errors import SpecError
-from robrst.identify.free import free_columns
+from robrst.identify.free import SIGNIFICANT_SIGMAS, free_columns
 from robrst.identify.modal import DiscreteModel, ModalModel, pair_weight
 from robrst.core.lti import d2c_modal
 
 __all__ = ["FitData", "fit_data", "initial_poles", "vector_fit", "fit_residues",
-           "to_continuous", "EXCITED_DB"]
+           "to_continuous", "EXCITED_DB", "markov_rows", "relative_degree"]
 
 EXCITED_DB = 40.0   # a DFT line is excited if its input power is within 40 dB of the
                     # strongest line above DC (DC: a bias, not an excitation of the dynamics)
@@ -274,23 +274,76 @@ def _enough(n_eq, n_unknown, order):
                         " (too few excited lines or samples for this order)")
 
 
-def fit_residues(data, poles, feedthrough=False):
+def markov_rows(poles, fs, n_in, count):
+    """Rows ``G`` with ``G x = 0`` for the first ``count`` continuous Markov parameters of
+    every input's channel, ``x`` the real residue unknowns of one output (as
+    :func:`fit_residues` orders them: per input, per pole, real and imaginary parts).
+
+    The continuous residue of a sampled one is ``R = Rd s/(z - 1)`` (:func:`d2c_modal`), and
+    ``h_k = sum R p^k`` over every pole (conjugates included) is the ``k``-th Markov
+    parameter ``C A^k B``: ``h_0 = ... = h_(r-1) = 0`` means a relative degree above ``r``.
+    Rows are scaled by ``w0^-k`` (``w0`` the geometric mean of the pole magnitudes).
+    """
+    s, f = d2c_modal(poles, np.ones((poles.size, 1, 1)), fs)
+    f = f[:, 0, 0]
+    mags = np.abs(s[np.abs(s) > 0])
+    w0 = float(np.exp(np.mean(np.log(mags)))) if mags.size else 1.0
+    nb = int(np.sum(pair_weight(poles)))
+    rows = []
+    for k in range(count):
+        g = f * (s / w0) ** k
+        block = []
+        for a, gp in zip(poles, g):
+            block += [2.0 * gp.real, -2.0 * gp.imag] if a.imag > 0 else [gp.real]
+        for j in range(n_in):
+            row = np.zeros(nb * n_in)
+            row[j * nb:(j + 1) * nb] = block
+            rows.append(row)
+    return np.array(rows).reshape(-1, nb * n_in)
+
+
+def fit_residues(data, poles, feedthrough=False, markov=0):
     """Output-error least squares of residues (and D) with the poles fixed.
+
+    ``markov`` > 0 (no feedthrough) constrains the first ``markov`` continuous Markov
+    parameters of every channel to zero (:func:`markov_rows`): a relative degree above
+    ``markov`` in continuous time.
 
     Returns ``(DiscreteModel, cost)`` with ``cost`` the summed squared residual.
     """
+    dm, cost, _ = _fit_residues(data, poles, feedthrough, markov)
+    return dm, cost
+
+
+def _fit_residues(data, poles, feedthrough=False, markov=0):
+    """:func:`fit_residues` plus the equations left over the unknowns (the residual's
+    degrees of freedom)."""
     nb = int(np.sum(pair_weight(poles)))
     k, m = data.n_in, data.n_out
     res = np.zeros((poles.size, m, k), complex)
     D = np.zeros((m, k))
-    cost = 0.0
+    cost, dof = 0.0, 0
+    G = markov_rows(poles, data.fs, k, markov) if markov and not feedthrough else None
     for i in range(m):
         A, b, n_eq = _blocks(data, poles, i, False, feedthrough)
         _enough(n_eq, A.shape[1], nb)
         R, scale = tall_r(np.column_stack([A, b]))
         q = A.shape[1]
-        x = linalg.lstsq(R[:q, :q], R[:q, q])[0] * scale[-1] / scale[:q]
-        cost += float((R[q, q] * scale[-1]) ** 2)
+        dof += n_eq - q
+        if G is None:
+            x = linalg.lstsq(R[:q, :q], R[:q, q])[0] * scale[-1] / scale[:q]
+            cost += float((R[q, q] * scale[-1]) ** 2)
+        else:
+            # x = N y with N spanning the null space of G (in the scaled unknowns)
+            Gs = G / scale[None, :q]
+            _, sv, Vt = np.linalg.svd(Gs)
+            rank = int(np.sum(sv > 1e-12 * sv[0])) if sv.size else 0
+            N = Vt[rank:].T
+            M = R[:q, :q] @ N
+            y = linalg.lstsq(M, R[:q, q])[0]
+            left = R[:q, q] - M @ y
+            x = (N @ y) * scale[-1] / scale[:q]
+            cost += float((float(left @ left) + R[q, q] ** 2) * scale[-1] ** 2)
         for j in range(k):
             c = x[j * nb:(j + 1) * nb]
             q = 0
@@ -303,7 +356,41 @@ def fit_residues(data, poles, feedthrough=False):
                     q += 1
         if feedthrough:
             D[i] = x[nb * k:nb * k + k]
-    return DiscreteModel(poles, res, D, data.fs, pair_weight(poles)), cost
+    return DiscreteModel(poles, res, D, data.fs, pair_weight(poles)), cost, dof
+
+
+def relative_degree(datas, poles, feedthrough=False, sigmas=SIGNIFICANT_SIGMAS):
+    """The continuous relative degree the data support, one for every model and channel.
+
+    Starting from 1 (what a sampled fit gives generically: a leading numerator
+    coefficient fitted to the noise puts a zero far beyond Nyquist, e.g. at 1e9 rad/s
+    for a second-order stage), the next Markov parameter of every channel is constrained
+    to zero while that raises the summed output-error energy over ``datas`` (one
+    :class:`FitData` per model, ``poles`` each) by no more than noise would: ``q + sigmas
+    sqrt(2 q)`` noise variances for ``q`` constraints (chi-square's mean plus ``sigmas``
+    standard deviations); the noise variance is the free fit's residual per degree of
+    freedom, pooled.  With ``feedthrough`` the relative degree is 0 (none tested).
+
+    Returns
+    -------
+    int
+        The number of leading Markov parameters set to zero (0: relative degree 1).
+    """
+    if feedthrough:
+        return 0
+    free = [_fit_residues(d, p) for d, p in zip(datas, poles)]
+    base = sum(c for _, c, _ in free)
+    var = base / max(sum(f for *_, f in free), 1)
+    order = min(int(np.sum(pair_weight(p))) for p in poles)
+    per = sum(d.n_in * d.n_out for d in datas)
+    r = 0
+    while r + 1 < order:
+        q = (r + 1) * per
+        cost = sum(_fit_residues(d, p, markov=r + 1)[1] for d, p in zip(datas, poles))
+        if not cost - base <= (q + sigmas * np.sqrt(2.0 * q)) * var:
+            break
+        r += 1
+    return r
 
 
 def to_continuous(dmodel, label="identified", temperature_C=None):
