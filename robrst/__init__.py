@@ -53,6 +53,8 @@ _EXPORTS = {
     "export_controller": "robrst.controller.export",
     "ExportedController": "robrst.controller.export",
     "assert_margins": "robrst.testing",
+    # saved designs: read back and certified again, never designed again
+    "load_design": "robrst.controller.artefact", "recertify": "robrst.controller.artefact",
     # sweeps
     "Sweep": "robrst.studies.sweep.files", "load_sweep": "robrst.studies.sweep.files",
     "run_sweep": "robrst.studies.sweep.engine", "SweepResult": "robrst.studies.sweep.engine",

@@ -28,7 +28,27 @@ from robrst.synthesis.robust import best_achievable
 from robrst.base.threads import one_blas_thread
 
 __all__ = ["DesignResult", "AnalyticCheck", "Comparison", "run_problem", "analytic_design",
-           "analytic_check", "comparison", "with_time_domain"]
+           "analytic_check", "comparison", "with_time_domain", "artefact_record",
+           "ARTEFACT_FORMAT"]
+
+ARTEFACT_FORMAT = "robrst-design-1"
+
+
+def artefact_record(problem):
+    """The ``artefact`` object of a design's JSON: its format, the problem document
+    (:func:`robrst.problem.documents.problem_document`) and the versions it was made with
+    (:func:`robrst.base.versions.versions`)."""
+    from robrst.base.versions import versions
+    from robrst.problem.documents import problem_document
+
+    try:
+        doc, note = problem_document(problem), None
+    except SpecError as exc:       # a problem built in code that no file can state
+        doc, note = None, str(exc)
+    out = {"format": ARTEFACT_FORMAT, "problem_document": doc, "versions": versions()}
+    if note:
+        out["note"] = note
+    return out
 
 
 @dataclass(frozen=True)
@@ -151,6 +171,7 @@ class DesignResult:
             out["analytic_check"] = self.analytic_check.as_dict()
         if self.comparison is not None:
             out["comparison"] = self.comparison.as_dict()
+        out["artefact"] = artefact_record(p)   # what robrst.load_design reads back
         return out
 
 

@@ -4,7 +4,7 @@ import sys
 
 from robrst.base.fileio import json_text
 
-__all__ = ["progress_printer", "print_json"]
+__all__ = ["progress_printer", "print_json", "is_saved_design", "design_result"]
 
 
 def progress_printer(quiet):
@@ -17,3 +17,28 @@ def progress_printer(quiet):
 def print_json(obj, indent=None):
     """Print exactly one JSON object on stdout (robrst's contract)."""
     print(json_text(obj, indent=indent))
+
+
+def is_saved_design(arg):
+    """True when the command-line argument names a saved design (a JSON file)."""
+    from robrst.controller.artefact import is_design_file
+
+    return is_design_file(arg)
+
+
+def design_result(arg, say, problem=None):
+    """The design result of a command's ``PROBLEM`` argument: a saved design read back
+    (its controller as saved, certified again; never designed) or a problem file (or
+    ``problem``, already loaded from it) designed now."""
+    if is_saved_design(arg):
+        from robrst.controller.artefact import design_from_dict, read_design
+
+        doc = read_design(arg)             # a bad file fails before any progress line
+        say(f"reading the saved design {arg} (its controller as saved; no design)")
+        return design_from_dict(doc, str(arg), progress=say)
+    from robrst.design import run_problem
+    from robrst.problem.files import load_problem
+
+    problem = problem or load_problem(arg)
+    say(f"designing {problem.name} ({problem.solver.method})")
+    return run_problem(problem, progress=say)
