@@ -45,7 +45,7 @@ _EXPORTS = {
     "run_problem": "robrst.design", "DesignResult": "robrst.design",
     "Synthesizer": "robrst.synthesis.synthesizer", "step_metrics": "robrst.certificate.steps",
     # twin, data, diagnosis
-    "default_twin": "robrst.twin.config", "load_twin": "robrst.twin.config",
+    "default_twin": "robrst.twin.config", "load_twin": "robrst.studies.twins",
     "simulate": "robrst.twin.simulate",
     "Dataset": "robrst.data.dataset", "load_dataset": "robrst.data.dataset",
     "save_dataset": "robrst.data.dataset",

@@ -123,6 +123,22 @@ class DesignResult:
         """``lim s R/S`` [V/(µm s)] of the controller."""
         return integral_gain(self.controller)
 
+    def loops(self, sampled=True):
+        """Every family model's closed loop as python-control systems, by model label.
+
+        ``{label: {"L", "S", "T", "U", "Sd", "Tr"}}`` of
+        :func:`robrst.core.rst.closed_loop_control`: the sampled loop (the problem's rate
+        and delay, ``dt = 1/fs``) when the problem names a rate and ``sampled``, else the
+        continuous one.  The controller itself: ``self.controller.to_control(fs)``.
+        """
+        from robrst.core.rst import closed_loop_control
+
+        sp = self.problem.specs
+        fs = sp.sample_rate_hz if sampled and sp.sampled else None
+        return {m.label: closed_loop_control(m, self.controller, fs,
+                                             sp.delay_samples if fs else 0)
+                for m in self.problem.family.models}
+
     def solver_dict(self):
         """The ``solver`` object of the JSON contract."""
         s = self.synthesis

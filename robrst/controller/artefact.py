@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import json
 import os
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -54,17 +55,20 @@ class StoredRecord:
 
 
 def is_design_file(path):
-    """True when ``path`` is a file whose first non-blank character is ``{`` (a JSON object:
-    a saved design); problem files are TOML."""
+    """True when ``path`` is a JSON object with a ``controller`` and a ``certificate``: a
+    saved design (maybe of an older robrst: :func:`read_design` says so).  Problem files
+    are TOML; any other JSON is left to the problem reader (an invalid TOML file)."""
     p = Path(path)
-    if not p.is_file():
-        return False
     try:
+        if not p.is_file() or p.stat().st_size > MAX_BYTES:
+            return False
         with open(p, "rb") as fh:
-            head = fh.read(4096).lstrip()
-    except OSError:
+            if not fh.read(4096).lstrip().startswith(b"{"):
+                return False
+        doc = json.loads(p.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
         return False
-    return head.startswith(b"{")
+    return isinstance(doc, dict) and {"controller", "certificate"} <= doc.keys()
 
 
 def read_design(path):
@@ -156,7 +160,8 @@ def design_from_dict(doc, path="<design>", problem=None, progress=None):
         tracking=None if doc.get("tracking") is None else StoredRecord(doc["tracking"]))
 
 
-def load_design(path: str | os.PathLike, progress=None) -> DesignResult:
+def load_design(path: str | os.PathLike,
+                progress: Callable[[str], None] | None = None) -> DesignResult:
     """Read a saved design (``robrst design PROBLEM --json > DESIGN.json``) without designing.
 
     Parameters
@@ -186,7 +191,7 @@ def load_design(path: str | os.PathLike, progress=None) -> DesignResult:
     >>> path = pathlib.Path(tempfile.mkdtemp()) / "design.json"
     >>> _ = path.write_text(json.dumps(result.as_dict()))
     >>> again = load_design(path)
-    >>> again.certified, (again.controller.R == result.controller.R).all()
+    >>> again.certified, bool((again.controller.R == result.controller.R).all())
     (True, True)
     """
     return design_from_dict(read_design(path), str(path), progress=progress)

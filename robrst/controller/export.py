@@ -127,11 +127,12 @@ class ExportedController:
 
 
 def check_u_range(u_range):
-    """``(u_min, u_max)`` [V]: ``u_range`` validated, or :func:`default_u_range`."""
+    """``(u_min, u_max)`` [V]: ``u_range`` validated (``(-inf, inf)``: no saturation), or
+    :func:`default_u_range`."""
     if u_range is None:
         return default_u_range()
     lo, hi = (float(u) for u in u_range)
-    if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
+    if np.isnan(lo) or np.isnan(hi) or not lo < hi or lo == np.inf or hi == -np.inf:
         raise SpecError(f"--u-range: amplifier range must be [u_min, u_max] with u_min < u_max,"
                         f" got [{lo}, {hi}]")
     return lo, hi

@@ -15,8 +15,8 @@ import numpy as np
 
 from robrst.core import lti, poly
 from robrst.core.peaks import mag2_poly, peak_gains_many
-from robrst.core.plant import Plant
-from robrst.core.rst import RSTController, closed_loop
+from robrst.core.plant import Plant, as_plant
+from robrst.core.rst import RSTController, as_controller, closed_loop
 
 __all__ = ["Margins", "Analysis", "analyze", "sensitivity", "crossovers", "bracketed_root",
            "step_response", "spectral_abscissa", "spectral_abscissa_many", "analyze_many"]
@@ -240,8 +240,10 @@ def analyze(plant: Plant, ctrl: RSTController, rtol: float = 1e-10) -> Analysis:
 
     Parameters
     ----------
-    plant : Plant
-    ctrl : RSTController
+    plant : Plant or control.TransferFunction or control.StateSpace
+    ctrl : RSTController or control.TransferFunction or control.StateSpace
+        (python-control systems: :func:`~robrst.core.plant.as_plant`,
+        :func:`~robrst.core.rst.as_controller`).
     rtol : float
         Relative accuracy of the exact peaks.
 
@@ -269,6 +271,7 @@ def analyze_many(plants, ctrl, rtol=1e-10):
     -------
     tuple of Analysis
     """
+    plants, ctrl = [as_plant(p) for p in plants], as_controller(ctrl)
     cls = [closed_loop(plant, ctrl) for plant in plants]
     stab = spectral_abscissa_many([cl.Delta for cl in cls])
     # the four peaks of a loop together: the same figures as peak_gain of each

@@ -19,7 +19,7 @@ import numpy as np
 
 from robrst.core import poly
 from robrst.base.errors import SpecError
-from robrst.core.plant import Plant
+from robrst.core.plant import Plant, as_plant
 from robrst.core.sampled import sampled_plant
 from robrst.core.thermal import ThermalCoefficients, modal_form, thermal_polynomials
 
@@ -76,6 +76,8 @@ class PlantFamily:
         self.__dict__.update(state, memo={})
 
     def __post_init__(self):
+        object.__setattr__(self, "models", tuple(as_plant(m, "family model")
+                                                 for m in self.models))
         temps = [m.temperature_C for m in self.models]
         if not self.models or any(t is None for t in temps):
             raise SpecError("family: every model needs a temperature_C")
@@ -150,6 +152,7 @@ class PlantFamily:
 def parametric_family(nominal, temperatures, coeffs):
     """Family generated from ``nominal`` (valid at ``coeffs.reference_C``)."""
     temps = sorted(float(t) for t in temperatures)
+    nominal = as_plant(nominal, "nominal")
     models = tuple(_thermal_model(nominal, coeffs, T) for T in temps)
     ref = int(np.argmin(np.abs(np.array(temps) - coeffs.reference_C)))
     return PlantFamily(models=models, reference=ref, thermal=coeffs, nominal=nominal)
@@ -157,6 +160,7 @@ def parametric_family(nominal, temperatures, coeffs):
 
 def explicit_family(models, reference_C):
     """Family from explicit models; the reference is the one closest to ``reference_C``."""
-    models = tuple(sorted(models, key=lambda m: m.temperature_C))
+    models = tuple(sorted((as_plant(m, "family model") for m in models),
+                          key=lambda m: m.temperature_C))
     temps = np.array([m.temperature_C for m in models])
     return PlantFamily(models=models, reference=int(np.argmin(np.abs(temps - reference_C))))

@@ -6,10 +6,12 @@ import numpy as np
 
 from robrst.core import lti, poly
 from robrst.base.errors import DegreeError, SpecError
+from robrst.core.plant import as_plant, is_control_system
 from robrst.core.sampled import sampled_plant
 
 __all__ = ["RSTController", "closed_loop", "ClosedLoop", "DiscreteController", "discretize",
-           "tustin_polynomials", "closed_loop_control", "CLOSED_LOOP_NAMES"]
+           "tustin_polynomials", "closed_loop_control", "CLOSED_LOOP_NAMES", "as_controller",
+           "inverse_tustin"]
 
 #: the closed-loop transfer functions of :func:`closed_loop_control` (``L`` = loop gain)
 CLOSED_LOOP_NAMES = ("L", "S", "T", "U", "Sd", "Tr")
@@ -45,6 +47,71 @@ class RSTController:
 
     def as_dict(self):
         return {k: getattr(self, k).tolist() for k in "RST"}
+
+    @classmethod
+    def from_control(cls, sys):
+        """The RST controller of a python-control ``TransferFunction`` or ``StateSpace``.
+
+        * one input and one output, ``K``: the one-degree-of-freedom law
+          ``u = K (yr - y)``, i.e. ``R = T = num K``, ``S = den K``;
+        * one output and two inputs ``[yr, y]`` (what :meth:`to_tf` and :meth:`to_ss`
+          return): ``u = [T/S, -R/S] [yr; y]``.
+
+        A discrete system (``dt > 0``) is read as the Tustin controller at ``fs = 1/dt``
+        and returned as the continuous controller whose Tustin image it is (exact inverse
+        of the bilinear map, :func:`inverse_tustin`); design and certify it with
+        ``specs.sample_rate_hz = 1/dt`` and :func:`discretize` gives the same law back.
+
+        Raises
+        ------
+        SpecError
+            Another shape (MIMO), ``dt = True``, an improper law, a discrete pole at
+            ``z = -1`` (no continuous pre-image).
+
+        Examples
+        --------
+        >>> import control
+        >>> K = RSTController.from_control(control.tf([2.0, 1.0], [1.0, 0.0]))   # PI
+        >>> K.R.tolist(), K.S.tolist(), K.T.tolist()
+        ([2.0, 1.0], [1.0, 0.0], [2.0, 1.0])
+        """
+        import control
+
+        if not is_control_system(sys):
+            raise SpecError(f"controller: expected an RSTController or a python-control"
+                            f" TransferFunction or StateSpace, got {type(sys).__name__}")
+        shape = (sys.noutputs, sys.ninputs)
+        if shape not in ((1, 1), (1, 2)):
+            raise SpecError(f"controller: a python-control system of {sys.ninputs} input(s)"
+                            f" and {sys.noutputs} output(s); expected K (1 x 1: u = K (yr - y))"
+                            " or [T/S, -R/S] (1 x 2, inputs yr, y)")
+        if sys.dt is True:
+            raise SpecError("controller: discrete system with an unspecified sampling period"
+                            " (dt = True); give dt in seconds")
+        if isinstance(sys, control.StateSpace):
+            A, B, C, D = (np.asarray(x, float) for x in (sys.A, sys.B, sys.C, sys.D))
+            pairs = [lti.ss_to_poly(A, B[:, [j]], C, float(D[0, j])) if A.size
+                     else (np.array([D[0, j]]), np.array([1.0])) for j in range(shape[1])]
+        else:
+            pairs = [(poly.trim(sys.num[0][j]), poly.trim(sys.den[0][j]))
+                     for j in range(shape[1])]
+        if shape == (1, 1):
+            (N, S), = pairs
+            T, R = N, N
+        else:
+            (NT, DT), (NR, DR) = pairs
+            if len(DT) == len(DR) and np.allclose(DT / DT[0], DR / DR[0], rtol=1e-12, atol=0):
+                S, T, R = DT, NT * DT[0] / DT[0], -NR * DT[0] / DR[0]
+            else:
+                S, T, R = poly.pmul(DT, DR), poly.pmul(NT, DR), -poly.pmul(NR, DT)
+        if sys.dt not in (0, None):
+            R, S, T = inverse_tustin((R, S, T), 1.0 / float(sys.dt))
+        return cls(R, S, T)
+
+    def to_control(self, sample_rate_hz=None):
+        """The law ``u = [T/S, -R/S] [yr; y]`` as a python-control ``StateSpace``
+        (:meth:`to_ss`: continuous, or the Tustin controller at ``sample_rate_hz``)."""
+        return self.to_ss(sample_rate_hz)
 
     def to_tf(self, sample_rate_hz=None):
         """The law ``u = [T/S, -R/S] [yr; y]`` as a 1x2 ``control.TransferFunction``.
@@ -99,7 +166,9 @@ class ClosedLoop:
 
 
 def closed_loop(plant, ctrl):
-    """Closed-loop polynomials of ``plant`` under ``ctrl``."""
+    """Closed-loop polynomials of ``plant`` under ``ctrl`` (each also a python-control
+    system: :func:`~robrst.core.plant.as_plant`, :func:`as_controller`)."""
+    plant, ctrl = as_plant(plant), as_controller(ctrl)
     A, B = plant.A, plant.B
     AS = poly.pmul(A, ctrl.S)
     BR = poly.pmul(B, ctrl.R)
@@ -142,11 +211,57 @@ def discretize(ctrl, sample_rate_hz, method="tustin"):
     if method != "tustin":
         raise SpecError(f"discretisation method {method!r}: only 'tustin' is provided")
     _check_rate(sample_rate_hz)
+    ctrl = as_controller(ctrl)
     (Ac, Bc, Cc, Dc), sc = _scaled_realisation(ctrl)
     Ad, Bd, Cd, Dd, _ = sig.cont2discrete((Ac, Bc, Cc, Dc), sc.w0 / sample_rate_hz,
                                           method="bilinear")
     return DiscreteController(A=Ad, B=Bd, C=Cd, D=Dd, sample_rate_hz=float(sample_rate_hz),
                               method=method)
+
+
+def as_controller(obj, what="controller"):
+    """``obj`` as an :class:`RSTController`: itself, or a python-control system through
+    :meth:`RSTController.from_control`; a clear :class:`SpecError` for anything else."""
+    if isinstance(obj, RSTController):
+        return obj
+    if is_control_system(obj):
+        return RSTController.from_control(obj)
+    raise SpecError(f"{what}: expected an RSTController or a python-control TransferFunction"
+                    f" or StateSpace, got {type(obj).__name__}")
+
+
+def inverse_tustin(polys, sample_rate_hz):
+    """Polynomials in z (highest power first) of a Tustin controller mapped back to s.
+
+    ``z = (1 + s/2fs)/(1 - s/2fs)``: each ``c(z)`` of a common degree ``n`` (the largest)
+    becomes ``(1 - p)^n c((1 + p)/(1 - p))`` with ``p = s/(2 fs)``, the same factor for
+    every polynomial, so ratios are exact; then ``p`` is unscaled.
+
+    Raises
+    ------
+    SpecError
+        The first polynomial (or the denominator, the second) loses its leading term: a
+        pole at ``z = -1``, which no continuous controller has.
+    """
+    from math import comb
+
+    _check_rate(sample_rate_hz)
+    cs = [np.asarray(poly.trim(c), float) for c in polys]
+    n = max(len(c) for c in cs) - 1
+    out = []
+    for c in cs:
+        a = np.concatenate([np.zeros(n + 1 - len(c)), c])[::-1]   # a[k] z^k
+        q = np.zeros(n + 1)                                     # ascending powers of p
+        for k, ak in enumerate(a):
+            plus = [float(comb(k, i)) for i in range(k + 1)]
+            minus = [comb(n - k, i) * (-1.0) ** i for i in range(n - k + 1)]
+            q += ak * np.convolve(plus, minus)
+        out.append((q / (2.0 * float(sample_rate_hz)) ** np.arange(n + 1))[::-1])
+    S = poly.trim(out[1])
+    if len(S) < n + 1 and n > 0:
+        raise SpecError("controller: a discrete pole at z = -1 (Nyquist) has no continuous"
+                        " pre-image under Tustin; it cannot be represented")
+    return tuple(poly.trim(c) if np.any(c) else np.zeros(1) for c in out)
 
 
 def _check_rate(sample_rate_hz):
@@ -201,6 +316,7 @@ def tustin_polynomials(ctrl, sample_rate_hz):
     from math import comb
 
     _check_rate(sample_rate_hz)
+    ctrl = as_controller(ctrl)
     sc = poly.Scaling.natural(ctrl.S, ctrl.R)
     n = len(ctrl.S) - 1
     c = 2.0 * float(sample_rate_hz) / sc.w0          # 2/h in the scaled variable
@@ -241,9 +357,11 @@ def closed_loop_control(plant: object, ctrl: RSTController, sample_rate_hz: floa
 
     Parameters
     ----------
-    plant : Plant
-        Continuous plant ``B/A``.
-    ctrl : RSTController
+    plant : Plant or control.TransferFunction or control.StateSpace
+        Continuous plant ``B/A`` (a discrete python-control plant: its continuous
+        pre-image, :meth:`~robrst.core.plant.Plant.from_control`, and by default its rate
+        and delay).
+    ctrl : RSTController or control.TransferFunction or control.StateSpace
     sample_rate_hz : float, optional
         Without it, the continuous loop.  With it, the sampled loop (ZOH plant, Tustin
         controller, ``delay_samples`` of computation delay) as discrete systems with
@@ -268,6 +386,10 @@ def closed_loop_control(plant: object, ctrl: RSTController, sample_rate_hz: floa
     >>> round(float(control.dcgain(cl["Tr"])), 9)
     1.0
     """
+    plant, ctrl = as_plant(plant), as_controller(ctrl)
+    if sample_rate_hz is None and "sample_rate_hz" in plant.meta:   # a discrete plant given
+        sample_rate_hz = plant.meta["sample_rate_hz"]
+        delay_samples = delay_samples or plant.meta.get("delay_samples", 0)
     fs = sample_rate_hz
     k = int(delay_samples)
     if fs is None:

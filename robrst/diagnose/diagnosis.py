@@ -43,7 +43,8 @@ from robrst.diagnose.select import OFFSET, Setup, candidates, forward, linear_wi
 from robrst.diagnose.thermal import max_delay, search_delay, search_saturation
 from robrst.diagnose.verdict import NEAR_RATIO, build, decide, unmodelled
 from robrst.base.errors import DataError, SpecError
-from robrst.core.plant import Plant, paper_plant
+from robrst.core.plant import Plant, as_plant, paper_plant
+from robrst.identify.modal import ModalModel
 from robrst.base.threads import one_blas_thread
 
 __all__ = ["Diagnosis", "EffectScore", "diagnose", "check_records", "decompose",
@@ -150,7 +151,7 @@ def diagnose(train, test, plant=None, reference_C=None, effects=EFFECTS, progres
         (every reported gap is measured on them).  Same sampling rate and channels;
         ``u`` is the commanded input (open or closed loop).  Periodic records are
         simulated in steady state, the others from rest.
-    plant : Plant or ModalModel, optional
+    plant : Plant, ModalModel or control.TransferFunction/StateSpace, optional
         The simulation model's linear dynamics (default: the paper's D(s), eq. 4);
         a :class:`~robrst.identify.modal.ModalModel` may have several inputs/outputs.
     reference_C : float, optional
@@ -174,7 +175,8 @@ def diagnose(train, test, plant=None, reference_C=None, effects=EFFECTS, progres
     """
     t_start = time.perf_counter()
     say = progress or (lambda m: None)
-    plant = plant or paper_plant()
+    plant = paper_plant() if plant is None else (
+        plant if isinstance(plant, ModalModel) else as_plant(plant))
     model = as_modal(plant)
     fs = check_records(train, test, model.n_in, model.n_out)
     ref = reference_C if reference_C is not None else (model.temperature_C or 28.0)

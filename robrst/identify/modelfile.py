@@ -162,13 +162,18 @@ def starting_wn(plants, fs):
 def starting_design(plants, fs):
     """The design tables ``robrst identify`` writes into a file of one input and one output,
     so that ``robrst design`` runs on it as it is: the robust NLP (integral gain, certified
-    modulus margin 0.5 and |T| <= 1.3 on the sampled loop at the records' rate), its
-    dominant poles from :func:`starting_wn`.  Lines of TOML, commented."""
+    modulus margin 0.5, |T| <= 1.3 and a reference step overshooting at most 2 %, on the
+    sampled loop at the records' rate), a two-degree-of-freedom reference path, the
+    dominant poles and the reference model's bandwidth from :func:`starting_wn`.  Lines of
+    TOML, commented."""
+    wn = _num(starting_wn(plants, fs))
     return ["", "# A starting design, chosen by robrst identify from the model (edit freely):",
             "# the robust NLP at the records' sampling rate (the controller runs at it),",
-            "# dominant poles a fifth of the lowest resonance, modulus margin >= 0.5.",
-            "[poles]", f"wn = {_num(starting_wn(plants, fs))}      # dominant natural"
-            " frequency [rad/s]", "zeta = 1.0", "", "[specs]", "Ms_max = 2.0", "Mt_max = 1.3",
+            "# dominant poles a fifth of the lowest resonance, modulus margin >= 0.5, and a",
+            "# reference path (2-DOF) whose step overshoots at most 2 %.",
+            "[poles]", f"wn = {wn}      # dominant natural frequency [rad/s]", "zeta = 1.0", "",
+            "[controller]", 'T_mode = "reference_model"', f"reference_wn = {wn}", "",
+            "[specs]", "Ms_max = 2.0", "Mt_max = 1.3", "overshoot_max_pct = 2.0",
             f"sample_rate_hz = {_num(fs)}", "", "[solver]", 'method = "nlp"']
 
 

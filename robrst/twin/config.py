@@ -10,10 +10,11 @@ temperature), ``thermal_drift`` (lagged, saturating, hysteretic in temperature),
 """
 
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 from robrst.base import resources
 from robrst.base.errors import SpecError
-from robrst.core.plant import named_plant
+from robrst.core.plant import NAMED_PLANTS, Plant, as_plant, named_plant
 from robrst.base.schema import Field, key_error, load_toml, validate
 
 __all__ = ["EFFECTS", "TWIN_SCHEMA", "TwinConfig", "load_twin", "parse_twin", "default_twin"]
@@ -26,7 +27,10 @@ _SRC = Field("str", "", "")
 TWIN_SCHEMA = {
     "twin": {
         "name": Field("str", "twin", "name"),
-        "plant": Field("str", "paper", "built-in nominal linear model (D(s) of eq. 4)"),
+        "plant": Field("str", "paper", "the linear plant: 'paper' (D(s) of eq. 4), or a problem"
+                       " file or model file of robrst identify (its reference model; a path"
+                       " relative to the twin file); with a file, the effects whose tables"
+                       " the twin file leaves out are off"),
         "sample_rate_hz": Field("number", None, "simulation and control sampling rate [Hz]"
                                 " (default 20000)", positive=True, hi=1e8),
         "fs_hz": Field("number", None, "older name of sample_rate_hz", positive=True, hi=1e8),
@@ -95,6 +99,43 @@ class TwinConfig:
     reference_C: float = 28.0
     effects: dict = field(default_factory=dict)
     path: str = "<default>"
+    plant_model: object = None
+
+    @property
+    def linear_plant(self):
+        """The nominal linear model ``D(s)`` (a :class:`~robrst.core.plant.Plant`): the
+        user's (:meth:`with_plant`, a plant file) or the built-in one named ``plant``."""
+        return self.plant_model if self.plant_model is not None else named_plant(self.plant)
+
+    def with_plant(self, plant, reference_C=None, name=None):
+        """Copy whose linear part is ``plant``: a :class:`~robrst.core.plant.Plant` or a SISO
+        continuous python-control ``TransferFunction``/``StateSpace`` (a discrete one is read
+        as :meth:`~robrst.core.plant.Plant.from_control` reads it: its continuous plant).
+
+        Parameters
+        ----------
+        plant : Plant or control.TransferFunction or control.StateSpace
+        reference_C : float, optional
+            Temperature [°C] at which ``plant`` holds (default its ``temperature_C``, else
+            this twin's).
+        name : str, optional
+            The ``plant`` label (default the plant's label).
+
+        Returns
+        -------
+        TwinConfig
+
+        Examples
+        --------
+        >>> import control
+        >>> twin = default_twin().with_effects(only=[]).with_plant(control.tf([2.0], [1e-3, 1.0]))
+        >>> round(float(twin.linear_plant.dc_gain), 12)
+        2.0
+        """
+        p = as_plant(plant, "plant")
+        ref = reference_C if reference_C is not None else (
+            p.temperature_C if p.temperature_C is not None else self.reference_C)
+        return replace(self, plant=name or p.label, plant_model=p, reference_C=float(ref))
 
     def enabled(self, name):
         return bool(self.effects[name]["enabled"])
@@ -127,18 +168,53 @@ class TwinConfig:
         return 1.0 / self.sample_rate_hz
 
 
-def parse_twin(data, path="<twin>"):
-    """Validate a parsed twin TOML document; see :func:`load_twin`."""
+def _plant_file(path, name, plant_loader):
+    """``(Plant, reference °C, per-kelvin law or None)`` of ``[twin] plant = name``, a file
+    (relative to the twin file) or what ``plant_loader`` knows by name."""
+    if plant_loader is None:
+        raise key_error(path, ("twin", "plant"), f"unknown plant name {name!r}; expected one of"
+                        f" {sorted(NAMED_PLANTS)}, or a problem or model file (read by"
+                        " robrst.load_twin)")
+    target = Path(name)
+    if not target.is_absolute() and not str(path).startswith("<"):
+        near = Path(str(path)).parent / target
+        target = near if near.exists() or not target.exists() else target
+    try:
+        return plant_loader(target)
+    except SpecError as exc:
+        raise key_error(path, ("twin", "plant"), str(exc)) from None
+
+
+def parse_twin(data, path="<twin>", plant_loader=None):
+    """Validate a parsed twin TOML document; see :func:`load_twin`.
+
+    ``plant_loader(path) -> (Plant, reference_C, law)`` reads a ``[twin] plant`` that is a
+    file (a problem file or a model file: :func:`robrst.studies.twins.load_twin` passes
+    one); ``law`` is the family's per-kelvin law (``gain_per_K``, ``resonance_per_K``,
+    ``damping_per_K``) or ``None``, the default of ``[thermal_dynamics]``.
+    """
     v = validate(path, data, TWIN_SCHEMA)
     tw = v["twin"] or validate(path, {}, TWIN_SCHEMA["twin"], ("twin",))
-    effects = {k: dict(v[k] or validate(path, {}, TWIN_SCHEMA[k], (k,))) for k in EFFECTS}
+    user = tw["plant"] not in NAMED_PLANTS
+    plant_model, law = None, None
+    if user:
+        plant_model, ref, law = _plant_file(path, tw["plant"], plant_loader)
+        if "reference_C" not in (data.get("twin") or {}):
+            tw = {**tw, "reference_C": float(ref if ref is not None else tw["reference_C"])}
+    effects = {}
+    for k in EFFECTS:
+        given = v[k] is not None
+        eff = dict(v[k] or validate(path, {}, TWIN_SCHEMA[k], (k,)))
+        if k == "thermal_dynamics" and user:
+            raw = data.get(k) or {}
+            eff.update({q: float((law or {}).get(q, 0.0)) for q in
+                        ("gain_per_K", "resonance_per_K", "damping_per_K") if q not in raw})
+        if user and not given:      # a user's plant: only the effects the file switches on
+            eff["enabled"] = False
+        effects[k] = eff
     if tw["fs_hz"] is not None and tw["sample_rate_hz"] is not None:
         raise key_error(path, ("twin", "fs_hz"), "give sample_rate_hz only (fs_hz is its older name)")
     rate = tw["sample_rate_hz"] or tw["fs_hz"] or DEFAULT_RATE_HZ
-    try:
-        named_plant(tw["plant"])
-    except SpecError as exc:
-        raise key_error(path, ("twin", "plant"), str(exc)) from None
     if effects["creep"]["tau_max_s"] <= effects["creep"]["tau_min_s"]:
         raise key_error(path, ("creep", "tau_max_s"), "must exceed tau_min_s")
     if effects["saturation"]["u_max"] <= effects["saturation"]["u_min"]:
@@ -152,22 +228,29 @@ def parse_twin(data, path="<twin>"):
     d = effects["thermal_drift"]
     if d["B"] + d["Gamma"] <= 0 or abs(d["Gamma"]) > d["B"] + 1e-15:
         raise key_error(path, ("thermal_drift",), "needs B + Gamma > 0 and |Gamma| <= B")
+    if user and not plant_model.m < plant_model.n:
+        raise key_error(path, ("twin", "plant"), "the twin needs a strictly proper plant (no"
+                        " feedthrough: y(k) must not depend on u(k))")
     return TwinConfig(name=tw["name"], plant=tw["plant"], sample_rate_hz=rate,
-                      reference_C=tw["reference_C"], effects=effects, path=str(path))
+                      reference_C=tw["reference_C"], effects=effects, path=str(path),
+                      plant_model=plant_model)
 
 
-def load_twin(path):
+def load_twin(path, plant_loader=None):
     """Load and validate a twin TOML file (errors name the file and the key).
 
     Parameters
     ----------
     path : str or Path
+    plant_loader : callable, optional
+        Reads a ``[twin] plant`` that is a file (see :func:`parse_twin`);
+        :func:`robrst.studies.twins.load_twin` (``robrst.load_twin``) passes one.
 
     Returns
     -------
     TwinConfig
     """
-    return parse_twin(load_toml(path, "twin file"), str(path))
+    return parse_twin(load_toml(path, "twin file"), str(path), plant_loader)
 
 
 def default_twin():
