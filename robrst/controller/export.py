@@ -82,6 +82,11 @@ class ExportedController:
         return {"certified": self.certified,
                 "Ms_sampled": worst["Ms"], "Mt_sampled": worst["Mt"], "Mu_sampled": worst["Mu"],
                 "spectral_radius": self.spectral_radius,
+                # the same loop's slowest decay as python-control's discrete poles give it
+                # (ln|z| / dt); the certificate's spectral_abscissa_sampled is its w-plane value
+                "spectral_abscissa_sampled_z": (
+                    float(self.digital.sample_rate_hz * np.log(self.spectral_radius))
+                    if self.spectral_radius > 0 else None),
                 "n_models": len(c.models),
                 "n_violations": len(c.violations),
                 "violations": [v.describe() for v in c.violations[:MAX_LISTED]],

@@ -11,7 +11,11 @@ from robrst.core.sampled import sampled_plant
 
 __all__ = ["RSTController", "closed_loop", "ClosedLoop", "DiscreteController", "discretize",
            "tustin_polynomials", "closed_loop_control", "CLOSED_LOOP_NAMES", "as_controller",
-           "inverse_tustin"]
+           "inverse_tustin", "feedback_part", "COMMON_ROOT_RTOL"]
+
+#: roots of R and S this close (relative) are one common factor of the law (a 2-DOF
+#: controller's reference model: R' = R Am_ref, S' = S Am_ref)
+COMMON_ROOT_RTOL = 1e-5
 
 #: the closed-loop transfer functions of :func:`closed_loop_control` (``L`` = loop gain)
 CLOSED_LOOP_NAMES = ("L", "S", "T", "U", "Sd", "Tr")
@@ -337,6 +341,55 @@ def tustin_polynomials(ctrl, sample_rate_hz):
     return R_z / lead, S_z / lead, T_z / lead
 
 
+def feedback_part(ctrl):
+    """The feedback law ``R/S`` of ``ctrl`` with the factors ``R`` and ``S`` share divided out.
+
+    A two-degree-of-freedom controller (``T_mode = "reference_model"``) carries its
+    reference model in both ``R`` and ``S`` (the law is ``[T/S, -R/S]``); the loop gain
+    ``P R/S`` does not depend on it.  Common roots (matched within
+    :data:`COMMON_ROOT_RTOL`, relative, in the scaled variable: a repeated root comes out of
+    ``numpy.roots`` perturbed by about ``sqrt(eps)``) are divided out of ``R`` and ``S``
+    when the division is exact to 1e-10 relative.
+
+    Returns
+    -------
+    RSTController
+        ``R0, S0`` (``S0`` with the leading coefficient of ``S``) and ``T = R0``: the feedback law alone (the
+        reference path ``T/S`` is the whole law's); ``ctrl`` itself when ``R`` and ``S``
+        share no root.
+    """
+    ctrl = as_controller(ctrl)
+    R, S = poly.trim(ctrl.R), poly.trim(ctrl.S)
+    # exact roots at s = 0 (the integrator) stay exact: stripped here, put back below
+    zR = len(R) - 1 - int(np.flatnonzero(R)[-1])
+    zS = len(S) - 1 - int(np.flatnonzero(S)[-1])
+    R, S = R[:len(R) - zR], S[:len(S) - zS]
+    if len(R) < 2 or len(S) < 2:
+        return ctrl
+    sc = poly.Scaling.natural(S, R)
+    rr, rs = list(np.roots(sc.apply(R))), list(np.roots(sc.apply(S)))
+    common = []
+    for z in list(rr):
+        d = [abs(z - w) / max(abs(z), 1e-300) for w in rs]
+        if d and min(d) <= COMMON_ROOT_RTOL:
+            w = rs.pop(int(np.argmin(d)))
+            rr.remove(z)
+            common.append(0.5 * (z + w))
+    if not common:
+        return ctrl
+    F = np.real(np.poly(common))
+    Rs, remR = np.polydiv(sc.apply(R), F)
+    Ss, remS = np.polydiv(sc.apply(S), F)
+    if max(np.max(np.abs(remR)) / np.max(np.abs(sc.apply(R))),
+           np.max(np.abs(remS)) / np.max(np.abs(sc.apply(S)))) > 1e-10:
+        return ctrl           # not an exact common factor after all: keep the law as it is
+    S0 = sc.undo(Ss)
+    R0 = sc.undo(Rs) * (ctrl.S[0] / S0[0])     # S0 led as S is (the constant of the division)
+    S0 = S0 * (ctrl.S[0] / S0[0])
+    R0, S0 = np.concatenate([R0, np.zeros(zR)]), np.concatenate([S0, np.zeros(zS)])
+    return RSTController(R0, S0, R0)
+
+
 def _ss_of(N, D, sample_rate_hz=None):
     """``N/D`` as a physical-time ``control.StateSpace`` (balanced scaled realisation)."""
     import control
@@ -352,7 +405,7 @@ def _ss_of(N, D, sample_rate_hz=None):
 
 
 def closed_loop_control(plant: object, ctrl: RSTController, sample_rate_hz: float = None,
-                        delay_samples: int = 0) -> dict:
+                        delay_samples: int = 0, w_plane: bool = False) -> dict:
     """Every closed-loop transfer function as a python-control ``StateSpace``.
 
     Parameters
@@ -368,6 +421,13 @@ def closed_loop_control(plant: object, ctrl: RSTController, sample_rate_hz: floa
         ``dt = 1/fs``: the bilinear images of :func:`robrst.core.sampled.sampled_plant`'s
         exact loop, so their poles and frequency responses are the sampled loop's.
     delay_samples : int
+    w_plane : bool
+        With a rate: the sampled loop in the w-plane (Tustin's ``z = (1 + w/2fs)/(1 -
+        w/2fs)``) as *continuous* systems: the same stability, the same peaks and margins,
+        at the warped frequency ``nu = 2 fs tan(omega / 2 fs)``.  python-control's
+        continuous ``stability_margins`` on this ``L`` gives the sampled loop's margins
+        exactly (its discrete ``stability_margins`` is unreliable on loops sampled fast
+        relative to their dynamics: see the python-control guide in ``docs/``).
 
     Returns
     -------
@@ -376,6 +436,10 @@ def closed_loop_control(plant: object, ctrl: RSTController, sample_rate_hz: floa
         ``S`` (sensitivity), ``T`` (complementary), ``U`` (``K S``, V/µm), ``Sd`` (input
         disturbance to output, µm/V) and ``Tr`` (reference to output).  Each is SISO,
         built from robrst's closed-loop polynomials in a balanced scaled realisation.
+        ``L, S, T, U, Sd`` are those of the feedback law (:func:`feedback_part`: a 2-DOF
+        controller's reference model, common to ``R`` and ``S``, divided out; minimal
+        realisations, on which python-control's ``stability_margins`` works in discrete
+        time too); ``Tr`` is the whole law's.
 
     Examples
     --------
@@ -399,12 +463,18 @@ def closed_loop_control(plant: object, ctrl: RSTController, sample_rate_hz: floa
     else:
         _check_rate(fs)
         loop_plant = sampled_plant(plant, fs, k)
-    cl = closed_loop(loop_plant, ctrl)
+    fb = feedback_part(ctrl)
+    cl = closed_loop(loop_plant, fb)
     nums = dict(cl.nums)
     if k:   # the disturbance enters behind the delay: Sd = P_d S_d, not P_d z^-k S_d
         undelayed = sampled_plant(plant, fs, 0).B
-        nums["Sd"] = poly.pprod(undelayed, ctrl.S, poly.from_roots([-2.0 * fs] * k)
+        nums["Sd"] = poly.pprod(undelayed, fb.S, poly.from_roots([-2.0 * fs] * k)
                                 / (2.0 * fs) ** k)
-    out = {"L": _ss_of(poly.pmul(loop_plant.B, ctrl.R), poly.pmul(loop_plant.A, ctrl.S), fs)}
-    out.update({name: _ss_of(nums[name], cl.Delta, fs) for name in CLOSED_LOOP_NAMES[1:]})
+    if w_plane and fs is None:
+        raise SpecError("w_plane needs a sample rate (the sampled loop's w-plane)")
+    rate = None if w_plane else fs
+    out = {"L": _ss_of(poly.pmul(loop_plant.B, fb.R), poly.pmul(loop_plant.A, fb.S), rate)}
+    out.update({name: _ss_of(nums[name], cl.Delta, rate) for name in CLOSED_LOOP_NAMES[1:5]})
+    full = cl if fb is ctrl else closed_loop(loop_plant, ctrl)
+    out["Tr"] = _ss_of(full.nums["Tr"], full.Delta, rate)
     return out
