@@ -20,7 +20,7 @@ from robrst.core.family import PlantFamily
 from robrst.controller.implementation import run_loop
 from robrst.core.plant import Plant, paper_plant
 from robrst.problem.records import ControllerStructure, PoleSpec, Problem, Specs
-from robrst.core.rst import closed_loop, closed_loop_control
+from robrst.core.rst import closed_loop, closed_loop_control, feedback_part
 
 FS = 20000.0
 
@@ -122,9 +122,11 @@ def test_python_control_feedback_and_step_on_the_returned_objects(loops, name):
     r, m, cl, cld = loops[name]
     ctrl = r.controller
     cp = closed_loop(m, ctrl)
-    # feedback(L) closes the same loop: same characteristic polynomial (roots cluster)
+    # feedback(L) closes the same loop: same characteristic polynomial (roots cluster); L is
+    # the feedback law's (a 2-DOF controller's common reference-model factor divided out)
     poles = control.feedback(cl["L"]).poles()
-    assert poly.rel_coef_error(np.real(np.poly(poles)), poly.monic(cp.Delta)) < 1e-9
+    fb = closed_loop(m, feedback_part(ctrl))
+    assert poly.rel_coef_error(np.real(np.poly(poles)), poly.monic(fb.Delta)) < 1e-9
     # the controller objects: python-control's own closing equals robrst's Tr
     P = control.ss(m.to_tf())
     K = ctrl.to_ss()
