@@ -35,6 +35,7 @@ import numpy as np
 from robrst.data.dataset import check_sensor
 from robrst.base.errors import DataError, SpecError
 from robrst.identify.free import fit_free, record_starts
+from robrst.identify.thermal import modal_parameters, thermal_law
 from robrst.identify.vf import (fit_data, fit_residues, initial_poles, relative_degree,
                                 to_continuous, vector_fit)
 from robrst.base.threads import one_blas_thread
@@ -76,6 +77,7 @@ class Identified:
     starts: tuple = ()       # RecordStart per non-periodic training record
     notes: tuple = ()        # significant offsets and starts away from rest
     relative_degree: int = 1  # continuous numerator degree = order - this (0: feedthrough)
+    thermal: object = None    # ThermalLaw of a SISO family (several temperatures), or None
 
     @property
     def model(self):
@@ -88,6 +90,7 @@ class Identified:
                 "temperatures_C": [m.temperature_C for m in self.models],
                 "heldout_nrmse": self.heldout_nrmse, "train": list(self.train),
                 "heldout": list(self.heldout), "relative_degree": self.relative_degree,
+                "thermal": None if self.thermal is None else self.thermal.as_dict(),
                 "records": [r.as_dict() for r in self.starts], "notes": list(self.notes),
                 "orders": [{"order": s.order, "train_nrmse": _num(s.train_nrmse),
                             "heldout_nrmse": _num(s.heldout_nrmse), "note": s.note}
@@ -361,19 +364,28 @@ def identify(train, validate=None, order="auto", max_order=None, feedthrough=Fal
         # beyond Nyquist that no problem file can hold
         markov = relative_degree([d for _, d, _ in fits], [dm.zpoles for *_, dm in fits],
                                  feedthrough)
-        out = []
+        out, params = [], []
         for T, data, dm in fits:
             if markov:
                 dm = fit_residues(data, dm.zpoles, feedthrough, markov=markov)[0]
             label = "identified" if T is None else f"identified_T{T:g}C"
             out.append(to_continuous(dm, label=label, temperature_C=T))
+            if T is not None and len(fits) > 1 and (data.n_in, data.n_out) == (1, 1):
+                params.append(modal_parameters(data, dm, T, feedthrough, markov))
+        law = thermal_law(params, params[0].temperature_C) if len(params) > 1 else None
     notes = tuple(line for r in starts for line in r.notes(START_NOTE))
     for line in notes:
         say(line)
     say(f"chosen order {chosen.order} (held-out NRMSE {chosen.heldout_nrmse:.4g}),"
         f" relative degree {0 if feedthrough else markov + 1}")
+    if law is not None:
+        say("temperature family: " + (
+            "the thermal law holds: " + ", ".join(
+                f"{k} = {getattr(law, k):.4g} ± {law.std[k]:.2g}"
+                for k in ("gain_per_K", "resonance_per_K", "damping_per_K"))
+            if law.consistent else f"explicit models ({law.note})"))
     return Identified(models=tuple(out), order=chosen.order, feedthrough=feedthrough, fs=fs,
                       scores=tuple(scores), heldout=held_names,
                       train=tuple(d.source or "record" for d in train),
                       heldout_nrmse=chosen.heldout_nrmse, starts=tuple(starts), notes=notes,
-                      relative_degree=0 if feedthrough else markov + 1)
+                      relative_degree=0 if feedthrough else markov + 1, thermal=law)

@@ -200,9 +200,23 @@ def problem_text(ident, sources, name, channel=(0, 0)):
     if T0 is not None:
         lines.append(f"temperature_C = {_num(T0)}")
     lines.append(f"source = {toml_string('robrst identify')}")
-    if len(plants) > 1:
+    law = ident.thermal if (i, j) == (0, 0) else None
+    if len(plants) > 1 and law is not None and law.consistent:
+        temps = ", ".join(f"{T:g}" for T in law.temperatures_C)
+        lines += ["", "[family]", f"reference_C = {_num(T0)}",
+                  f"temperatures_C = {_list(law.temperatures_C)}",
+                  "source = " + toml_string(f"robrst identify: per-kelvin laws fitted to the"
+                                            f" models at {temps} degC (1-sigma beside each)"),
+                  "", "[family.parametric]"]
+        lines += [f"{k} = {_num(getattr(law, k))}    # +/- {law.std[k]:.3g} (1 sigma)"
+                  for k in ("gain_per_K", "resonance_per_K", "damping_per_K")]
+    elif len(plants) > 1:
+        why = ("" if law is None or not law.note else
+               f" (robrst's thermal law does not hold: {_comment(law.note)})")
         lines += ["", "[family]", f"reference_C = {_num(T0)}",
                   "source = " + toml_string("robrst identify: one model per record temperature")]
+        if why:
+            lines.append(f"# explicit models{why}")
         for p in plants:
             lines += ["", "[[family.models]]", f"temperature_C = {_num(p.temperature_C)}",
                       f"B = {_list(p.B)}", f"A = {_list(p.A)}"]
@@ -214,6 +228,11 @@ def model_text(ident, sources):
     """The model-file text (modal form, every channel)."""
     m0 = ident.models[0]
     lines = _header(ident, sources, "model file")
+    law = ident.thermal
+    if law is not None and law.std:
+        lines += [f"# per-kelvin laws fitted to these models ({'robrst thermal law holds' if law.consistent else _comment(law.note)}): "
+                  + ", ".join(f"{k} = {getattr(law, k):.6g} +/- {law.std[k]:.3g}"
+                              for k in ("gain_per_K", "resonance_per_K", "damping_per_K"))]
     lines += ["", "[model]", f"format = {toml_string(FORMAT)}", f"inputs = {m0.n_in}",
               f"outputs = {m0.n_out}", f"order = {ident.order}",
               f"fs_hz = {_num(ident.fs)}", f"source = {toml_string('robrst identify')}"]

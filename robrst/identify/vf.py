@@ -36,7 +36,8 @@ from robrst.identify.modal import DiscreteModel, ModalModel, pair_weight
 from robrst.core.lti import d2c_modal
 
 __all__ = ["FitData", "fit_data", "initial_poles", "vector_fit", "fit_residues",
-           "to_continuous", "EXCITED_DB", "markov_rows", "relative_degree"]
+           "to_continuous", "EXCITED_DB", "markov_rows", "relative_degree",
+           "output_error_jacobian"]
 
 EXCITED_DB = 40.0   # a DFT line is excited if its input power is within 40 dB of the
                     # strongest line above DC (DC: a bias, not an excitation of the dynamics)
@@ -406,3 +407,127 @@ def to_continuous(dmodel, label="identified", temperature_C=None):
                         " no continuous-time counterpart (too high an order for the data?)")
     s, residues = d2c_modal(z, dmodel.residues, dmodel.fs)
     return ModalModel(s, residues, dmodel.D, label=label, temperature_C=temperature_C)
+
+
+def _pole_theta(poles):
+    """Real parameters of stored sampled poles: ``(ln|z|, arg z)`` per pair, ``ln z`` per
+    real pole (positive: a negative one has no continuous counterpart)."""
+    out = []
+    for a in poles:
+        out += [np.log(abs(a)), np.angle(a)] if a.imag > 0 else [np.log(abs(a.real))]
+    return np.array(out)
+
+
+def _theta_poles(theta, template):
+    out, k = [], 0
+    for a in template:
+        if a.imag > 0:
+            out.append(np.exp(theta[k] + 1j * theta[k + 1]))
+            k += 2
+        else:
+            out.append(np.exp(theta[k]) + 0j)
+            k += 1
+    return np.array(out, complex)
+
+
+def _x_of(dm, feedthrough):
+    """Per output, the real unknowns of :func:`fit_residues` (its column order)."""
+    xs = []
+    for i in range(dm.D.shape[0]):
+        x = []
+        for j in range(dm.D.shape[1]):
+            for p, a in enumerate(dm.zpoles):
+                R = dm.residues[p, i, j]
+                x += [R.real, R.imag] if a.imag > 0 else [R.real]
+        if feedthrough:
+            x += list(dm.D[i])
+        xs.append(np.array(x))
+    return xs
+
+
+def output_error_jacobian(data, dm, feedthrough=False, markov=0, step=1e-7):
+    """The output-error least-squares problem of a fitted sampled model, linearised.
+
+    Parameters are ``theta = [pole parameters (ln|z|, arg z per pair; ln z per real
+    pole), then per output the residue unknowns]`` (in the null space of the Markov
+    constraints when ``markov`` > 0, :func:`markov_rows`).  The residual is the stacked
+    output error of every output (a time record's nuisance terms eliminated, as in the
+    fit).  The pole columns are central differences.
+
+    Returns
+    -------
+    J : ndarray (rows, parameters)
+    r : ndarray (rows,)
+        The residual at ``dm``.
+    theta : ndarray
+    model_of : callable
+        ``theta -> DiscreteModel``.
+    dof : int
+        Equations left over the parameters.
+    """
+    poles = dm.zpoles
+    k, m = data.n_in, data.n_out
+    tp = _pole_theta(poles)
+    G = markov_rows(poles, data.fs, k, markov) if markov and not feedthrough else None
+    Ns, ys = [], []
+    for x in _x_of(dm, feedthrough):
+        if G is None:
+            N = np.eye(x.size)
+        else:
+            Gp = np.hstack([G, np.zeros((G.shape[0], x.size - G.shape[1]))])
+            _, sv, Vt = np.linalg.svd(Gp)
+            N = Vt[int(np.sum(sv > 1e-12 * sv[0])):].T
+        Ns.append(N)
+        ys.append(N.T @ x)
+    nb = int(np.sum(pair_weight(poles)))
+
+    def blocks(p):
+        return [_blocks(data, p, i, False, feedthrough) for i in range(m)]
+
+    def residual(p, ys_):
+        return np.concatenate([b - A @ (N @ y) for (A, b, _), N, y in zip(blocks(p), Ns, ys_)])
+
+    base = blocks(poles)
+    r = np.concatenate([b - A @ (N @ y) for (A, b, _), N, y in zip(base, Ns, ys)])
+    cols = []
+    for q in range(tp.size):
+        h = step * max(1.0, abs(tp[q]))
+        up, dn = tp.copy(), tp.copy()
+        up[q] += h
+        dn[q] -= h
+        cols.append((residual(_theta_poles(up, poles), ys)
+                     - residual(_theta_poles(dn, poles), ys)) / (2 * h))
+    rows = r.size
+    lin = []
+    off = 0
+    for (A, _, _), N in zip(base, Ns):
+        blk = np.zeros((rows, N.shape[1]))
+        blk[off:off + A.shape[0]] = -A @ N
+        off += A.shape[0]
+        lin.append(blk)
+    J = np.column_stack(cols + lin)
+    n_eq = sum(n for _, _, n in base)
+    theta = np.concatenate([tp] + ys)
+
+    def model_of(th):
+        p = _theta_poles(th[:tp.size], poles)
+        res = np.zeros((poles.size, m, k), complex)
+        D = np.zeros((m, k))
+        o = tp.size
+        for i, N in enumerate(Ns):
+            x = N @ th[o:o + N.shape[1]]
+            o += N.shape[1]
+            for j in range(k):
+                c, q = x[j * nb:(j + 1) * nb], 0
+                for pi, a in enumerate(p):
+                    if a.imag > 0:
+                        res[pi, i, j] = c[q] + 1j * c[q + 1]
+                        q += 2
+                    else:
+                        res[pi, i, j] = c[q]
+                        q += 1
+            if feedthrough:
+                D[i] = x[nb * k:nb * k + k]
+        return DiscreteModel(p, res, D, data.fs, pair_weight(p))
+
+    return J, r, theta, model_of, max(n_eq - theta.size, 1)

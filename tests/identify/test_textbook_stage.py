@@ -35,12 +35,27 @@ def test_identify_finds_relative_degree_two_and_the_true_poles(records):
         assert abs(m.dc_gain()[0, 0] - k) < 1e-3 * k
 
 
+def test_the_temperature_family_is_the_fitted_thermal_law_with_its_uncertainty(records):
+    """Two temperatures: resonance -0.05 %/K, damping +0.5 %/K, and B ~ k wn^2 changing by
+    (1.02 x 0.99^2 - 1)/20 per K (robrst's gain_per_K is B's); each fitted law within 3
+    sigma of the truth, the sigmas from each model's own fit (delta method)."""
+    train = [load_dataset(p) for p in records[1]]
+    law = identify(train, max_order=3).thermal
+    assert law.consistent and law.reference_C == 20.0
+    truth = {"resonance_per_K": -0.0005, "damping_per_K": 0.005,
+             "gain_per_K": (1.02 * 0.99 ** 2 - 1) / 20}
+    for k, v in truth.items():
+        assert abs(getattr(law, k) - v) <= 3 * law.std[k], (k, getattr(law, k), law.std[k])
+        assert 0 < law.std[k] < 0.2 * abs(v)
+
+
 def test_the_problem_and_model_files_read_back_and_diagnose(records, tmp_path, capsys):
     out = tmp_path / "stage.toml"
     assert main(["identify", "--train", *map(str, records[1]), "--validate",
                  *map(str, records[2]), "--out", str(out), "--quiet"]) == 0
     fam = problem_family(out)
     assert len(fam.models) == 2 and all(m.m == 0 and m.n == 2 for m in fam.models)
+    assert fam.thermal is not None                       # the fitted law, parametric
     modal = tmp_path / "stage_modal.toml"
     assert main(["identify", "--train", *map(str, records[1]), "--out", str(modal),
                  "--modal", "--quiet"]) == 0
