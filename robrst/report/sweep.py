@@ -161,6 +161,9 @@ def sweep_text(summary):
         lo, hi = s["yield_ci95"]
         lines.append(f"certified: {s['certified']} of {s['done']}, yield {s['yield']:.4f}"
                      f" (95 % interval {lo:.4f}..{hi:.4f}); failed: {s['failed']}")
+    if s.get("unstable"):
+        lines.append(f"unstable: {s['unstable']} of {s['done']} (a loop unstable on some model:"
+                     " no peaks or margins for it, figure/bound inf)")
     for k in ("Ms", "Mt", "Mu", "Mt_band", "integral_gain"):
         if k in s["figures"]:
             v = s["figures"][k]
