@@ -19,6 +19,7 @@ from distributed import Client, LocalCluster, as_completed, get_worker
 from distributed.diagnostics.plugin import WorkerPlugin
 
 from robrst.base.errors import RobrstError
+from robrst.base.threads import available_cores
 from robrst.studies.sweep.evaluate import build_state, evaluate_chunk
 
 __all__ = ["SweepPlugin", "run_task", "DaskExecutor", "default_workers", "sigint_ignored",
@@ -27,10 +28,7 @@ __all__ = ["SweepPlugin", "run_task", "DaskExecutor", "default_workers", "sigint
 
 def default_workers():
     """The cores this process may use (the default size of the local cluster)."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:   # not on Linux
-        return os.cpu_count() or 1
+    return available_cores()
 
 
 def _main_thread():

@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from robrst.base.errors import SpecError
+from robrst.base.threads import available_cores
 from robrst.studies.sweep import store
 from robrst.studies.sweep.prepare import prepare
 from robrst.studies.sweep.evaluate import build_state, evaluate_chunk, failed_row, status_of
@@ -318,9 +319,7 @@ def run_sweep(sweep: Sweep | str | os.PathLike, out: str | os.PathLike,
             per = (time.perf_counter() - t_probe) / k
             pending = pending[k:]
             how["estimated_s"] = per * len(pending)
-            from robrst.studies.sweep.cluster import default_workers
-
-            want = min(workers or default_workers(), len(pending))
+            want = min(workers or available_cores(), len(pending))
             if pending and cluster_pays(how["estimated_s"], want):
                 executor.close()
                 executor = None
