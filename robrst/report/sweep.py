@@ -156,7 +156,8 @@ def sweep_text(summary):
     s = summary
     lines = [f"sweep {s['sweep']} ({s['kind']}): {s['done']}/{s['n']} variants"
              f"{'' if s['complete'] else ' (incomplete: run again to resume)'},"
-             f" {s['workers']} workers, {s['wall_s']:.1f} s"]
+             f" {'in this process' if s.get('executor') == 'in_process' else str(s['workers']) + ' workers'},"
+             f" {s['wall_s']:.1f} s"]
     if s["yield"] is not None:
         lo, hi = s["yield_ci95"]
         lines.append(f"certified: {s['certified']} of {s['done']}, yield {s['yield']:.4f}"

@@ -190,14 +190,24 @@ STARTUP_S, MARGIN_S = 4.0, 2.0
 PROBE_S = 1.0       # the first chunks run in this process for at least this long
 
 
-def cluster_pays(remaining_s, workers):
+def startup_estimate():
+    """What a local cluster's start-up costs now [s]: :data:`STARTUP_S`, times the machine's
+    load per core when it is above 1 (spawning and importing compete with that load)."""
+    try:
+        load = os.getloadavg()[0] / available_cores()
+    except (AttributeError, OSError):     # no load average on this platform
+        load = 1.0
+    return STARTUP_S * max(1.0, load)
+
+
+def cluster_pays(remaining_s, workers, startup_s=STARTUP_S):
     """Whether a local cluster of ``workers`` processes beats this process on work of
-    ``remaining_s`` seconds in this process: ``STARTUP_S + remaining/workers`` below
-    ``remaining - MARGIN_S``, i.e. remaining above ``(STARTUP_S + MARGIN_S) w / (w - 1)``
-    (12 s for 2 workers).  When it does not, a cluster whose start-up were as slow as
-    ``STARTUP_S + MARGIN_S`` would finish later than this process by more than nothing;
-    when it does, it finishes at most ``MARGIN_S`` later even then."""
-    return workers > 1 and remaining_s > (STARTUP_S + MARGIN_S) * workers / (workers - 1)
+    ``remaining_s`` seconds in this process: ``startup_s + remaining/workers`` below
+    ``remaining - MARGIN_S``, i.e. remaining above ``(startup_s + MARGIN_S) w / (w - 1)``
+    (12 s for 2 workers on an idle machine).  When it is chosen, a cluster whose start-up
+    takes up to ``startup_s + MARGIN_S`` finishes at most ``MARGIN_S`` after this process
+    would have."""
+    return workers > 1 and remaining_s > (startup_s + MARGIN_S) * workers / (workers - 1)
 
 
 def _executor(context, workers, scheduler, pending):
@@ -226,7 +236,8 @@ def run_sweep(sweep: Sweep | str | os.PathLike, out: str | os.PathLike,
         Processes of the local Dask cluster (default: the cores available, at most one per
         chunk); ``0`` runs every chunk in this process, without Dask.  With ``adaptive``
         the first chunks run in this process (at least :data:`PROBE_S`), and the cluster is
-        started only when the rest of the work pays its start-up (:func:`cluster_pays`);
+        started only when the rest of the work pays its start-up (:func:`cluster_pays`,
+        :func:`startup_estimate`);
         otherwise the sweep finishes here (``summary["executor"]`` says which).
     scheduler : str or distributed.Client, optional
         A running Dask scheduler (``"tcp://host:8786"``) or client, instead of a local cluster.
@@ -320,7 +331,7 @@ def run_sweep(sweep: Sweep | str | os.PathLike, out: str | os.PathLike,
             pending = pending[k:]
             how["estimated_s"] = per * len(pending)
             want = min(workers or available_cores(), len(pending))
-            if pending and cluster_pays(how["estimated_s"], want):
+            if pending and cluster_pays(how["estimated_s"], want, startup_estimate()):
                 executor.close()
                 executor = None
             else:
