@@ -34,10 +34,21 @@ __all__ = ["DesignResult", "AnalyticCheck", "Comparison", "run_problem", "analyt
 ARTEFACT_FORMAT = "robrst-design-1"
 
 
-def artefact_record(problem):
-    """The ``artefact`` object of a design's JSON: its format, the problem document
-    (:func:`robrst.problem.documents.problem_document`) and the versions it was made with
-    (:func:`robrst.base.versions.versions`)."""
+def artefact_record(problem: Problem) -> dict:
+    """The ``artefact`` object of a design's JSON.
+
+    Parameters
+    ----------
+    problem : Problem
+
+    Returns
+    -------
+    dict
+        ``format``, the problem document
+        (:func:`robrst.problem.documents.problem_document`; ``None`` with a ``note`` for a
+        problem no file can state) and the versions it was made with
+        (:func:`robrst.base.versions.versions`).
+    """
     from robrst.base.versions import versions
     from robrst.problem.documents import problem_document
 
@@ -123,13 +134,21 @@ class DesignResult:
         """``lim s R/S`` [V/(µm s)] of the controller."""
         return integral_gain(self.controller)
 
-    def loops(self, sampled=True):
+    def loops(self, sampled: bool = True) -> dict:
         """Every family model's closed loop as python-control systems, by model label.
 
-        ``{label: {"L", "S", "T", "U", "Sd", "Tr"}}`` of
-        :func:`robrst.core.rst.closed_loop_control`: the sampled loop (the problem's rate
-        and delay, ``dt = 1/fs``) when the problem names a rate and ``sampled``, else the
-        continuous one.  The controller itself: ``self.controller.to_control(fs)``.
+        Parameters
+        ----------
+        sampled : bool
+            The sampled loop (the problem's rate and delay, ``dt = 1/fs``) when the problem
+            names a rate; ``False``: the continuous one.
+
+        Returns
+        -------
+        dict
+            ``{label: {"L", "S", "T", "U", "Sd", "Tr"}}`` of
+            :func:`robrst.core.rst.closed_loop_control`.  The controller itself:
+            ``self.controller.to_control(fs)``.
         """
         from robrst.core.rst import closed_loop_control
 

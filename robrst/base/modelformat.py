@@ -44,8 +44,19 @@ DESIGN_TABLES = ("problem", "controller", "poles", "specs", "solver")
 
 @dataclass(frozen=True, eq=False)
 class ModelAt:
-    """One ``[[model.at]]``: poles (stored members, ``Im >= 0``) [rad/s], residues
-    ``(n, outputs, inputs)``, ``D (outputs, inputs)``, temperature [°C] or ``None``."""
+    """One ``[[model.at]]`` of a model file.
+
+    Attributes
+    ----------
+    poles : numpy.ndarray
+        Stored poles [rad/s] (real, or the member of a pair with ``Im > 0``).
+    residues : numpy.ndarray
+        ``(n, outputs, inputs)`` complex residues.
+    D : numpy.ndarray
+        ``(outputs, inputs)`` feedthrough.
+    temperature_C : float or None
+        Where the model holds [°C].
+    """
 
     poles: np.ndarray
     residues: np.ndarray
@@ -55,8 +66,17 @@ class ModelAt:
 
 @dataclass(frozen=True, eq=False)
 class ModelTable:
-    """The checked ``[model]`` table: channel counts, the records' rate (or ``None``) and
-    one :class:`ModelAt` per temperature, increasing."""
+    """The checked ``[model]`` table.
+
+    Attributes
+    ----------
+    inputs, outputs : int
+        Channel counts.
+    fs_hz : float or None
+        The records' sampling rate [Hz].
+    at : tuple of ModelAt
+        One per temperature, increasing.
+    """
 
     inputs: int
     outputs: int
@@ -86,7 +106,7 @@ def _number(path, key, value, positive=False):
     return float(value)
 
 
-def read_model_table(path, data, design_tables=False):
+def read_model_table(path: str | Path, data: dict, design_tables: bool = False) -> ModelTable:
     """The checked ``[model]`` table of ``data`` (a parsed model file from ``path``).
 
     Parameters

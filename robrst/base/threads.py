@@ -17,8 +17,13 @@ from threadpoolctl import threadpool_limits
 __all__ = ["one_blas_thread", "available_cores"]
 
 
-def available_cores():
-    """The cores this process may use (Linux: its affinity; else the machine's)."""
+def available_cores() -> int:
+    """The cores this process may use (Linux: its affinity; else the machine's).
+
+    Returns
+    -------
+    int
+    """
     try:
         return len(os.sched_getaffinity(0))
     except AttributeError:   # not on Linux

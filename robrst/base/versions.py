@@ -9,7 +9,7 @@ __all__ = ["versions", "PACKAGES"]
 PACKAGES = ("robrst", "numpy", "scipy", "casadi", "control")
 
 
-def versions():
+def versions() -> dict:
     """``{package: version}`` of robrst and the libraries its numbers depend on, plus
     ``python`` and ``platform`` (``None`` for a package not installed).
 

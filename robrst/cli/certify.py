@@ -1,6 +1,7 @@
 """``robrst certify``: the certificate of a saved design's controller, on its own problem or
 another one (another family, a drawn actuator, an identified model), without designing."""
 
+import argparse
 import sys
 
 from robrst.cli.common import print_json, progress_printer
@@ -9,8 +10,14 @@ from robrst.report.text import design_summary
 __all__ = ["add_parsers", "run_certify"]
 
 
-def add_parsers(sub):
-    """Register ``certify``."""
+def add_parsers(sub: argparse._SubParsersAction) -> None:
+    """Register ``certify``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The sub-command collection of the ``robrst`` parser.
+    """
     c = sub.add_parser("certify", help="certify a saved design's controller (DESIGN.json) on"
                                        " its problem or another one, without designing"
                                        " (exit 0 certified, 1 not certified, 2 error)")
@@ -28,8 +35,24 @@ def add_parsers(sub):
     c.set_defaults(func=run_certify)
 
 
-def run_certify(args):
-    """Certify; print the summary (or the JSON); exit 0 certified, 1 not certified."""
+def run_certify(args: argparse.Namespace) -> int:
+    """Certify; print the summary (or the JSON).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        The exit code: 0 certified, 1 not certified.
+
+    Raises
+    ------
+    SpecError
+        ``--family-only`` without ``--problem`` (and the files' own errors).
+    """
     from robrst.base.errors import SpecError
     from robrst.base.schema import load_toml
     from robrst.controller.artefact import read_design, recertify

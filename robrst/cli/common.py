@@ -1,6 +1,7 @@
 """Helpers shared by the commands: progress lines, JSON output."""
 
 import sys
+from collections.abc import Callable
 
 from robrst.base.fileio import json_text
 
@@ -19,17 +20,40 @@ def print_json(obj, indent=None):
     print(json_text(obj, indent=indent))
 
 
-def is_saved_design(arg):
-    """True when the command-line argument names a saved design (a JSON file)."""
+def is_saved_design(arg: str) -> bool:
+    """True when the command-line argument names a saved design (a JSON file).
+
+    Parameters
+    ----------
+    arg : str
+        A command's ``PROBLEM`` argument.
+
+    Returns
+    -------
+    bool
+    """
     from robrst.controller.artefact import is_design_file
 
     return is_design_file(arg)
 
 
-def design_result(arg, say, problem=None):
-    """The design result of a command's ``PROBLEM`` argument: a saved design read back
-    (its controller as saved, certified again; never designed) or a problem file (or
-    ``problem``, already loaded from it) designed now."""
+def design_result(arg: str, say: Callable[[str], None], problem: object = None) -> object:
+    """The design result of a command's ``PROBLEM`` argument.
+
+    Parameters
+    ----------
+    arg : str
+        A saved design (read back: its controller as saved, certified again; never
+        designed) or a problem file or built-in name (designed now).
+    say : callable
+        Progress lines.
+    problem : Problem, optional
+        The problem already loaded from ``arg``.
+
+    Returns
+    -------
+    DesignResult
+    """
     if is_saved_design(arg):
         from robrst.controller.artefact import design_from_dict, read_design
 

@@ -2,6 +2,7 @@
 
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 from robrst.cli.common import print_json
@@ -47,9 +48,27 @@ def add_parsers(sub):
 LONG_RUN_S = 2.0    # the bar appears once a run has lasted this long (short runs: none)
 
 
-def progress_bar(name, stream=sys.stderr, width=30, tty=True, after_s=LONG_RUN_S):
-    """A progress callback drawing one line: redrawn in place on a terminal (``tty``),
-    else one line per 10 % (a CI log); nothing before ``after_s`` seconds of a run."""
+def progress_bar(name: str, stream: object = sys.stderr, width: int = 30, tty: bool = True,
+                 after_s: float = LONG_RUN_S) -> Callable:
+    """A progress callback drawing one line.
+
+    Parameters
+    ----------
+    name : str
+        The sweep's name, first on the line.
+    stream : file
+    width : int
+        Characters of the bar.
+    tty : bool
+        Redraw in place (a terminal); else one line per 10 % (a CI log).
+    after_s : float
+        Nothing before a run has lasted this long [s].
+
+    Returns
+    -------
+    callable
+        ``draw(Progress)``.
+    """
     state = {"t": 0.0, "shown": False, "tenth": -1}
 
     def draw(p):

@@ -43,21 +43,49 @@ MAX_BYTES = 200_000_000     # a saved design is a few hundred kB; refuse to read
 @dataclass(frozen=True, eq=False)
 class StoredRecord:
     """A record of the saved design kept as it was written (the solver's rounds, the
-    2-DOF reference path): :meth:`as_dict` and :meth:`solver_dict` give it back."""
+    2-DOF reference path): :meth:`as_dict` and :meth:`solver_dict` give it back.
+
+    Attributes
+    ----------
+    data : dict
+        The JSON object as saved.
+    """
 
     data: dict
 
-    def as_dict(self):
+    def as_dict(self) -> dict:
+        """The record as saved.
+
+        Returns
+        -------
+        dict
+        """
         return dict(self.data)
 
-    def solver_dict(self):
+    def solver_dict(self) -> dict:
+        """The record as saved (the ``solver`` object of a design's JSON).
+
+        Returns
+        -------
+        dict
+        """
         return dict(self.data)
 
 
-def is_design_file(path):
-    """True when ``path`` is a JSON object with a ``controller`` and a ``certificate``: a
-    saved design (maybe of an older robrst: :func:`read_design` says so).  Problem files
-    are TOML; any other JSON is left to the problem reader (an invalid TOML file)."""
+def is_design_file(path: str | os.PathLike) -> bool:
+    """Whether ``path`` is a saved design.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    bool
+        True for a JSON object with a ``controller`` and a ``certificate`` (maybe of an
+        older robrst: :func:`read_design` says so).  Problem files are TOML; any other JSON
+        is left to the problem reader (an invalid TOML file).
+    """
     p = Path(path)
     try:
         if not p.is_file() or p.stat().st_size > MAX_BYTES:
@@ -71,8 +99,17 @@ def is_design_file(path):
     return isinstance(doc, dict) and {"controller", "certificate"} <= doc.keys()
 
 
-def read_design(path):
+def read_design(path: str | os.PathLike) -> dict:
     """The JSON object of a saved design (errors name the file).
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    dict
+        The object ``robrst design --json`` printed.
 
     Raises
     ------
@@ -113,7 +150,8 @@ def _controller(path, d):
                         ) from None
 
 
-def design_from_dict(doc, path="<design>", problem=None, progress=None):
+def design_from_dict(doc: dict, path: str = "<design>", problem: object = None,
+                     progress: Callable[[str], None] | None = None) -> DesignResult:
     """The :class:`~robrst.design.DesignResult` of a saved design's JSON object.
 
     Parameters
@@ -197,12 +235,29 @@ def load_design(path: str | os.PathLike,
     return design_from_dict(read_design(path), str(path), progress=progress)
 
 
-def merge_problem(doc, other, family_only=False):
+def merge_problem(doc: dict, other: dict, family_only: bool = False) -> dict:
     """A saved design's problem document with ``other``'s tables (a problem document).
 
-    ``other``'s plant family (``[plant]``, ``[family]``; a model file's ``[model]`` is one)
-    replaces the design's as a whole; with ``family_only`` nothing else is taken, otherwise
-    every other table ``other`` states replaces the design's (its specs, poles, solver).
+    Parameters
+    ----------
+    doc : dict
+        The saved design's problem document.
+    other : dict
+        Another problem document (or a model file's).
+    family_only : bool
+        Take only ``other``'s plant family.
+
+    Returns
+    -------
+    dict
+        ``other``'s plant family (``[plant]``, ``[family]``; a model file's ``[model]`` is
+        one) replaces the design's as a whole; without ``family_only`` every other table
+        ``other`` states replaces the design's too (its specs, poles, solver).
+
+    Raises
+    ------
+    SpecError
+        ``other`` states no plant.
     """
     out = {k: v for k, v in doc.items() if k not in FAMILY_TABLES}
     fam = {k: v for k, v in other.items() if k in FAMILY_TABLES + ("model",)}
@@ -216,8 +271,10 @@ def merge_problem(doc, other, family_only=False):
     return out
 
 
-def recertify(design, problem_doc=None, path="<problem>", family_only=False,
-              progress=None, name=None) -> DesignResult:
+def recertify(design: str | os.PathLike | dict, problem_doc: dict | None = None,
+              path: str = "<problem>", family_only: bool = False,
+              progress: Callable[[str], None] | None = None,
+              name: str | None = None) -> DesignResult:
     """Certify a saved design's controller on another problem, without designing.
 
     Parameters

@@ -247,7 +247,8 @@ def d2c_modal(zpoles, residues, sample_rate_hz):
     return s, np.asarray(residues, complex) * factor[:, None, None]
 
 
-def modal_polynomials(poles, residues, d=0.0):
+def modal_polynomials(poles: np.ndarray, residues: np.ndarray,
+                      d: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """``B(s), A(s)`` (highest power first) of one channel in modal form.
 
     ``G(s) = sum_i r_i/(s - p_i) (+ the conjugate term of every stored member of a pair,

@@ -205,9 +205,18 @@ def _strip_delay(num, den):
     return num, den, k
 
 
-def is_control_system(obj):
-    """True for a python-control ``TransferFunction`` or ``StateSpace`` (without importing
-    python-control for other objects)."""
+def is_control_system(obj: object) -> bool:
+    """Whether ``obj`` is a python-control ``TransferFunction`` or ``StateSpace``.
+
+    Parameters
+    ----------
+    obj : object
+        Anything (python-control is imported only for objects of its own).
+
+    Returns
+    -------
+    bool
+    """
     if type(obj).__module__.split(".")[0] != "control":
         return False
     import control
@@ -215,7 +224,7 @@ def is_control_system(obj):
     return isinstance(obj, (control.TransferFunction, control.StateSpace))
 
 
-def as_plant(obj, what="plant"):
+def as_plant(obj: object, what: str = "plant") -> Plant:
     """``obj`` as a :class:`Plant`: a Plant as it is, a SISO python-control
     ``TransferFunction`` or ``StateSpace`` through :meth:`Plant.from_control` (a discrete
     one is its continuous pre-image, its rate and delay in ``meta``).

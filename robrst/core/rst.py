@@ -53,8 +53,17 @@ class RSTController:
         return {k: getattr(self, k).tolist() for k in "RST"}
 
     @classmethod
-    def from_control(cls, sys):
+    def from_control(cls, sys: object) -> "RSTController":
         """The RST controller of a python-control ``TransferFunction`` or ``StateSpace``.
+
+        Parameters
+        ----------
+        sys : control.TransferFunction or control.StateSpace
+            One output; one input (``K``) or two (``yr, y``); continuous or discrete.
+
+        Returns
+        -------
+        RSTController
 
         * one input and one output, ``K``: the one-degree-of-freedom law
           ``u = K (yr - y)``, i.e. ``R = T = num K``, ``S = den K``;
@@ -112,9 +121,19 @@ class RSTController:
             R, S, T = inverse_tustin((R, S, T), 1.0 / float(sys.dt))
         return cls(R, S, T)
 
-    def to_control(self, sample_rate_hz=None):
-        """The law ``u = [T/S, -R/S] [yr; y]`` as a python-control ``StateSpace``
-        (:meth:`to_ss`: continuous, or the Tustin controller at ``sample_rate_hz``)."""
+    def to_control(self, sample_rate_hz: float | None = None) -> object:
+        """The law ``u = [T/S, -R/S] [yr; y]`` as a python-control ``StateSpace``.
+
+        Parameters
+        ----------
+        sample_rate_hz : float, optional
+            Without it the continuous law; with it the Tustin controller, ``dt = 1/fs``.
+
+        Returns
+        -------
+        control.StateSpace
+            :meth:`to_ss` (the well-conditioned realisation), inputs ``yr, y``.
+        """
         return self.to_ss(sample_rate_hz)
 
     def to_tf(self, sample_rate_hz=None):
@@ -223,9 +242,25 @@ def discretize(ctrl, sample_rate_hz, method="tustin"):
                               method=method)
 
 
-def as_controller(obj, what="controller"):
-    """``obj`` as an :class:`RSTController`: itself, or a python-control system through
-    :meth:`RSTController.from_control`; a clear :class:`SpecError` for anything else."""
+def as_controller(obj: object, what: str = "controller") -> RSTController:
+    """``obj`` as an :class:`RSTController`.
+
+    Parameters
+    ----------
+    obj : RSTController or control.TransferFunction or control.StateSpace
+        Itself, or a python-control system through :meth:`RSTController.from_control`.
+    what : str
+        Named in the error (the argument's name).
+
+    Returns
+    -------
+    RSTController
+
+    Raises
+    ------
+    SpecError
+        Anything else, naming ``what`` and the type.
+    """
     if isinstance(obj, RSTController):
         return obj
     if is_control_system(obj):
@@ -234,12 +269,24 @@ def as_controller(obj, what="controller"):
                     f" or StateSpace, got {type(obj).__name__}")
 
 
-def inverse_tustin(polys, sample_rate_hz):
+def inverse_tustin(polys: tuple, sample_rate_hz: float) -> tuple:
     """Polynomials in z (highest power first) of a Tustin controller mapped back to s.
 
     ``z = (1 + s/2fs)/(1 - s/2fs)``: each ``c(z)`` of a common degree ``n`` (the largest)
     becomes ``(1 - p)^n c((1 + p)/(1 - p))`` with ``p = s/(2 fs)``, the same factor for
     every polynomial, so ratios are exact; then ``p`` is unscaled.
+
+    Parameters
+    ----------
+    polys : sequence of array_like
+        ``(R, S, T)`` in z (the second is the denominator).
+    sample_rate_hz : float
+        The Tustin rate [Hz].
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        The polynomials in s, in the same order.
 
     Raises
     ------
@@ -341,7 +388,7 @@ def tustin_polynomials(ctrl, sample_rate_hz):
     return R_z / lead, S_z / lead, T_z / lead
 
 
-def feedback_part(ctrl):
+def feedback_part(ctrl: RSTController) -> RSTController:
     """The feedback law ``R/S`` of ``ctrl`` with the factors ``R`` and ``S`` share divided out.
 
     A two-degree-of-freedom controller (``T_mode = "reference_model"``) carries its
@@ -351,10 +398,14 @@ def feedback_part(ctrl):
     ``numpy.roots`` perturbed by about ``sqrt(eps)``) are divided out of ``R`` and ``S``
     when the division is exact to 1e-10 relative.
 
+    Parameters
+    ----------
+    ctrl : RSTController or control.TransferFunction or control.StateSpace
+
     Returns
     -------
     RSTController
-        ``R0, S0`` (``S0`` with the leading coefficient of ``S``) and ``T = R0``: the feedback law alone (the
+        ``R0, S0`` (``S0`` led as ``S`` is) and ``T = R0``: the feedback law alone (the
         reference path ``T/S`` is the whole law's); ``ctrl`` itself when ``R`` and ``S``
         share no root.
     """

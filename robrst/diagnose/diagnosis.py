@@ -95,13 +95,24 @@ def _name(d, i):
     return d.source or f"record{i}"
 
 
-def polynomial_plant(plant, model):
+def polynomial_plant(plant: object, model: ModalModel) -> Plant | None:
     """The SISO :class:`~robrst.core.plant.Plant` of the model under diagnosis, or ``None``.
 
     ``thermal_dynamics`` runs the twin's full step, whose linear part is ``B(s)/A(s)``: a
     :class:`~robrst.identify.modal.ModalModel` (a model file of ``robrst identify``) is
     expanded (:meth:`~robrst.identify.modal.ModalModel.channel`); a model of several inputs
     or outputs, or one whose expanded coefficients overflow, has none.
+
+    Parameters
+    ----------
+    plant : Plant or ModalModel
+        The model as given.
+    model : ModalModel
+        Its modal form.
+
+    Returns
+    -------
+    Plant or None
     """
     if isinstance(plant, Plant):
         return plant

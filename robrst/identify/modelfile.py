@@ -139,12 +139,23 @@ def _drop_negligible_lead(plants, fs, rtol=NEGLIGIBLE_LEAD):
     return plants
 
 
-def starting_wn(plants, fs):
+def starting_wn(plants: list, fs: float) -> float:
     """A dominant closed-loop natural frequency [rad/s] for a first design of ``plants``.
 
     A fifth of the lowest natural frequency of a lightly damped pole pair (damping below
     0.5) of any model; without one, the geometric mean of the nonzero pole magnitudes;
     at most ``2 pi fs / 20`` (well below Nyquist); three significant digits.
+
+    Parameters
+    ----------
+    plants : list of Plant
+        The identified models.
+    fs : float
+        The records' rate [Hz].
+
+    Returns
+    -------
+    float
     """
     poles = np.concatenate([np.roots(p.A) for p in plants])
     mag = np.abs(poles)
@@ -159,13 +170,25 @@ def starting_wn(plants, fs):
     return float(f"{max(w, 1e-6):.3g}")
 
 
-def starting_design(plants, fs):
+def starting_design(plants: list, fs: float) -> list:
     """The design tables ``robrst identify`` writes into a file of one input and one output,
     so that ``robrst design`` runs on it as it is: the robust NLP (integral gain, certified
     modulus margin 0.5, |T| <= 1.3 and a reference step overshooting at most 2 %, on the
     sampled loop at the records' rate), a two-degree-of-freedom reference path, the
-    dominant poles and the reference model's bandwidth from :func:`starting_wn`.  Lines of
-    TOML, commented."""
+    dominant poles and the reference model's bandwidth from :func:`starting_wn`.
+
+    Parameters
+    ----------
+    plants : list of Plant
+        The identified models.
+    fs : float
+        The records' rate [Hz].
+
+    Returns
+    -------
+    list of str
+        Lines of TOML, commented.
+    """
     wn = _num(starting_wn(plants, fs))
     return ["", "# A starting design, chosen by robrst identify from the model (edit freely):",
             "# the robust NLP at the records' sampling rate (the controller runs at it),",

@@ -33,8 +33,20 @@ NOT_RESONANT = 0.999    # the thermal law's resonant pairs (robrst.core.thermal)
 
 @dataclass(frozen=True, eq=False)
 class ModalParameters:
-    """One model's static gain, resonances ``(wn, zeta)`` by frequency and real poles
-    [rad/s], their covariance (``None`` when not computed), at ``temperature_C``."""
+    """One model's modal parameters and their covariance.
+
+    Attributes
+    ----------
+    temperature_C : float
+    gain : float
+        Static gain [µm/V].
+    pairs : tuple of (float, float)
+        Resonances ``(wn [rad/s], zeta)`` by frequency.
+    real : tuple of float
+        Real poles' magnitudes [rad/s].
+    cov : numpy.ndarray or None
+        Covariance of :attr:`vector` (``None`` when not computed).
+    """
 
     temperature_C: float
     gain: float
@@ -44,11 +56,13 @@ class ModalParameters:
 
     @property
     def vector(self):
+        """``[gain, wn..., zeta..., real...]``."""
         return np.array([self.gain, *(w for w, _ in self.pairs), *(z for _, z in self.pairs),
                          *self.real], float)
 
     @property
     def std(self):
+        """1-sigma of :attr:`vector` (zeros without a covariance)."""
         if self.cov is None:
             return np.zeros(self.vector.size)
         return np.sqrt(np.maximum(np.diag(self.cov), 0.0))
@@ -70,7 +84,8 @@ def _params(model):
     return gain, tuple(sorted(pairs)), tuple(sorted(real))
 
 
-def modal_parameters(data, dm, temperature_C, feedthrough=False, markov=0):
+def modal_parameters(data: object, dm: object, temperature_C: float, feedthrough: bool = False,
+                     markov: int = 0) -> ModalParameters:
     """The modal parameters of a fitted sampled model and their covariance.
 
     Parameters
@@ -125,7 +140,23 @@ def modal_parameters(data, dm, temperature_C, feedthrough=False, markov=0):
 
 @dataclass(frozen=True)
 class ThermalLaw:
-    """The per-kelvin laws fitted to a temperature family (see the module docstring)."""
+    """The per-kelvin laws fitted to a temperature family (see the module docstring).
+
+    Attributes
+    ----------
+    reference_C : float
+        Where the laws are centred [°C].
+    gain_per_K, resonance_per_K, damping_per_K : float
+        robrst's thermal law (:mod:`robrst.core.thermal`).
+    std : dict
+        1-sigma of each coefficient.
+    consistent : bool
+        Every model agrees with the law within its uncertainty.
+    note : str
+        Why not, when not.
+    temperatures_C : tuple of float
+        The models' temperatures.
+    """
 
     reference_C: float
     gain_per_K: float = 0.0
@@ -136,7 +167,13 @@ class ThermalLaw:
     note: str = ""
     temperatures_C: tuple = ()
 
-    def as_dict(self):
+    def as_dict(self) -> dict:
+        """The ``thermal`` object of ``robrst identify --json``.
+
+        Returns
+        -------
+        dict
+        """
         return {"reference_C": self.reference_C, "temperatures_C": list(self.temperatures_C),
                 "law": {k: getattr(self, k) for k in ("gain_per_K", "resonance_per_K",
                                                       "damping_per_K")},
@@ -183,7 +220,7 @@ def _combine(rels, sds):
     return mean, float(1.0 / np.sqrt(np.sum(w))), _agrees(chi2, len(rels) - 1)
 
 
-def thermal_law(params, reference_C):
+def thermal_law(params: list, reference_C: float) -> ThermalLaw:
     """Fit the per-kelvin laws to models at several temperatures.
 
     Parameters

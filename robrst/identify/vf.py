@@ -275,7 +275,7 @@ def _enough(n_eq, n_unknown, order):
                         " (too few excited lines or samples for this order)")
 
 
-def markov_rows(poles, fs, n_in, count):
+def markov_rows(poles: np.ndarray, fs: float, n_in: int, count: int) -> np.ndarray:
     """Rows ``G`` with ``G x = 0`` for the first ``count`` continuous Markov parameters of
     every input's channel, ``x`` the real residue unknowns of one output (as
     :func:`fit_residues` orders them: per input, per pole, real and imaginary parts).
@@ -284,6 +284,22 @@ def markov_rows(poles, fs, n_in, count):
     ``h_k = sum R p^k`` over every pole (conjugates included) is the ``k``-th Markov
     parameter ``C A^k B``: ``h_0 = ... = h_(r-1) = 0`` means a relative degree above ``r``.
     Rows are scaled by ``w0^-k`` (``w0`` the geometric mean of the pole magnitudes).
+
+    Parameters
+    ----------
+    poles : numpy.ndarray
+        Stored sampled poles.
+    fs : float
+        Sampling rate [Hz].
+    n_in : int
+        Inputs.
+    count : int
+        Markov parameters constrained.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(count * n_in, n_basis * n_in)``.
     """
     s, f = d2c_modal(poles, np.ones((poles.size, 1, 1)), fs)
     f = f[:, 0, 0]
@@ -303,14 +319,27 @@ def markov_rows(poles, fs, n_in, count):
     return np.array(rows).reshape(-1, nb * n_in)
 
 
-def fit_residues(data, poles, feedthrough=False, markov=0):
+def fit_residues(data: FitData, poles: np.ndarray, feedthrough: bool = False,
+                 markov: int = 0) -> tuple:
     """Output-error least squares of residues (and D) with the poles fixed.
 
     ``markov`` > 0 (no feedthrough) constrains the first ``markov`` continuous Markov
     parameters of every channel to zero (:func:`markov_rows`): a relative degree above
     ``markov`` in continuous time.
 
-    Returns ``(DiscreteModel, cost)`` with ``cost`` the summed squared residual.
+    Parameters
+    ----------
+    data : FitData
+    poles : numpy.ndarray
+        Stored sampled poles.
+    feedthrough : bool
+        Fit a direct term ``D``.
+    markov : int
+
+    Returns
+    -------
+    (DiscreteModel, float)
+        The model and the summed squared residual.
     """
     dm, cost, _ = _fit_residues(data, poles, feedthrough, markov)
     return dm, cost
@@ -360,7 +389,8 @@ def _fit_residues(data, poles, feedthrough=False, markov=0):
     return DiscreteModel(poles, res, D, data.fs, pair_weight(poles)), cost, dof
 
 
-def relative_degree(datas, poles, feedthrough=False, sigmas=SIGNIFICANT_SIGMAS):
+def relative_degree(datas: list, poles: list, feedthrough: bool = False,
+                    sigmas: float = SIGNIFICANT_SIGMAS) -> int:
     """The continuous relative degree the data support, one for every model and channel.
 
     Starting from 1 (what a sampled fit gives generically: a leading numerator
@@ -371,6 +401,15 @@ def relative_degree(datas, poles, feedthrough=False, sigmas=SIGNIFICANT_SIGMAS):
     sqrt(2 q)`` noise variances for ``q`` constraints (chi-square's mean plus ``sigmas``
     standard deviations); the noise variance is the free fit's residual per degree of
     freedom, pooled.  With ``feedthrough`` the relative degree is 0 (none tested).
+
+    Parameters
+    ----------
+    datas : list of FitData
+        One per model.
+    poles : list of numpy.ndarray
+        Each model's stored sampled poles.
+    feedthrough : bool
+    sigmas : float
 
     Returns
     -------
@@ -445,7 +484,8 @@ def _x_of(dm, feedthrough):
     return xs
 
 
-def output_error_jacobian(data, dm, feedthrough=False, markov=0, step=1e-7):
+def output_error_jacobian(data: FitData, dm: DiscreteModel, feedthrough: bool = False,
+                          markov: int = 0, step: float = 1e-7) -> tuple:
     """The output-error least-squares problem of a fitted sampled model, linearised.
 
     Parameters are ``theta = [pole parameters (ln|z|, arg z per pair; ln z per real
@@ -453,6 +493,18 @@ def output_error_jacobian(data, dm, feedthrough=False, markov=0, step=1e-7):
     constraints when ``markov`` > 0, :func:`markov_rows`).  The residual is the stacked
     output error of every output (a time record's nuisance terms eliminated, as in the
     fit).  The pole columns are central differences.
+
+    Parameters
+    ----------
+    data : FitData
+        What ``dm`` was fitted on.
+    dm : DiscreteModel
+        The fit.
+    feedthrough : bool
+    markov : int
+        Markov parameters constrained in the fit.
+    step : float
+        Relative step of the central differences.
 
     Returns
     -------

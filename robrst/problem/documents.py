@@ -12,7 +12,7 @@ from dataclasses import fields
 import numpy as np
 
 from robrst.base.errors import SpecError
-from robrst.problem.records import ControllerStructure, SolverOptions, Specs
+from robrst.problem.records import ControllerStructure, Problem, SolverOptions, Specs
 
 __all__ = ["problem_document"]
 
@@ -64,12 +64,13 @@ def _poles(p):
     return out
 
 
-def problem_document(problem):
+def problem_document(problem: Problem) -> dict:
     """The problem document of ``problem`` (what its problem file would parse to).
 
     Parameters
     ----------
     problem : Problem
+        From a file or built in Python.
 
     Returns
     -------

@@ -267,13 +267,25 @@ def _check_compare_with(path, solver):
                         ) from None
 
 
-def model_document(path, data):
+def model_document(path: str | os.PathLike, data: dict) -> dict:
     """The problem document of a model file of ``robrst identify`` (``[model]``).
 
     One input and one output: its ``[[model.at]]`` become ``[plant]`` (the first, lowest
     temperature: the reference) and, for several temperatures, an explicit ``[family]``,
     as ``robrst identify`` writes a problem file; the design tables the file carries
     (:data:`robrst.base.modelformat.DESIGN_TABLES`) are kept.
+
+    Parameters
+    ----------
+    path : str or Path
+        Named in every error.
+    data : dict
+        The parsed model file.
+
+    Returns
+    -------
+    dict
+        A problem document (:func:`parse_problem` takes it).
 
     Raises
     ------

@@ -38,10 +38,26 @@ PRECISIONS = {"float64": ("double", np.float64), "float32": ("float", np.float32
 class LoopController:
     """A digital controller ready to run: its C files and what they state.
 
-    ``files`` maps file names to text (``header`` is the one the source includes);
-    ``prefix`` its C prefix; ``py_step(dtype)`` a Python step with the same operations
-    (``None`` for a C file given as it is); ``exported`` the
-    :class:`~robrst.controller.export.ExportedController` when made here.
+    Attributes
+    ----------
+    name : str
+    files : dict
+        File name -> text of its C (header and source).
+    header : str
+        The header the source includes.
+    prefix : str
+        Its C prefix.
+    sample_rate_hz : float
+    delay_samples : int
+        Computation delay [samples].
+    py_step : callable or None
+        ``py_step(dtype) -> step(yr, y)``: a Python step with the same operations
+        (``None`` for a C file given as it is).
+    exported : ExportedController or None
+        The export, when made here.
+    source : str
+        Where it came from (named in messages).
+    meta : dict
     """
 
     name: str
@@ -56,12 +72,24 @@ class LoopController:
     meta: dict = field(default_factory=dict)
 
 
-def controller_of_design(result, sample_rate_hz=None, delay_samples=None, u_range=None):
-    """The exported controller of a design (:func:`robrst.controller.export.export_controller`:
-    Tustin sections at the design's rate, certified there) as C, ready to run.
+def controller_of_design(result: object, sample_rate_hz: float | None = None,
+                         delay_samples: int | None = None,
+                         u_range: tuple | None = None) -> LoopController:
+    """The exported controller of a design as C, ready to run.
 
-    ``u_range`` is the amplifier range the code saturates to (default none: the twin's own
-    ``[saturation]`` models the amplifier).
+    Parameters
+    ----------
+    result : DesignResult
+    sample_rate_hz, delay_samples : optional
+        Default the design's (:func:`robrst.controller.export.export_controller`: Tustin
+        sections at that rate, certified there).
+    u_range : (float, float), optional
+        The amplifier range the code saturates to (default none: the twin's own
+        ``[saturation]`` models the amplifier).
+
+    Returns
+    -------
+    LoopController
     """
     from robrst.controller.c_code import c_files
     from robrst.controller.export import export_controller
@@ -90,9 +118,17 @@ def _define(text, prefix, name, path):
     return float(m.group(1))
 
 
-def controller_of_c_file(path):
-    """The controller of the C files ``robrst export --format c`` wrote (``ctrl.c`` and the
-    ``ctrl.h`` it includes, side by side; either may be named): run as it is.
+def controller_of_c_file(path: str | Path) -> LoopController:
+    """The controller of the C files ``robrst export --format c`` wrote, run as it is.
+
+    Parameters
+    ----------
+    path : str or Path
+        ``ctrl.c`` (or ``ctrl.h``): the source and the header it includes, side by side.
+
+    Returns
+    -------
+    LoopController
 
     Raises
     ------
@@ -121,7 +157,8 @@ def controller_of_c_file(path):
                           source=str(src))
 
 
-def run_closed_loop(twin, controller, yr, temp, precision="float64", seed=0, t0=0.0):
+def run_closed_loop(twin: object, controller: LoopController, yr: object, temp: object,
+                    precision: str = "float64", seed: int = 0, t0: float = 0.0) -> SimResult:
     """Run ``controller`` in closed loop with ``twin`` on a reference profile.
 
     Parameters

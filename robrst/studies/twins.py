@@ -19,12 +19,20 @@ from robrst.twin.config import TwinConfig, default_twin, parse_twin
 __all__ = ["load_twin", "plant_file", "twin_of_design"]
 
 
-def plant_file(path):
-    """``(Plant, reference °C, per-kelvin law or None, sample rate or None)`` of a twin's
-    ``[twin] plant`` file: the reference model of a problem file's family (a model file of
-    ``robrst identify`` is one, :func:`robrst.problem.files.model_document`; a built-in
-    problem by name too), its parametric family's gain, resonance and damping laws, and
-    its ``specs.sample_rate_hz``.
+def plant_file(path: str | os.PathLike) -> tuple:
+    """What a twin's ``[twin] plant`` file gives the twin.
+
+    Parameters
+    ----------
+    path : str or Path
+        A problem file (a model file of ``robrst identify`` is one,
+        :func:`robrst.problem.files.model_document`), or a built-in problem by name.
+
+    Returns
+    -------
+    (Plant, float, dict or None, float or None)
+        The reference model of its family, its temperature [°C], the parametric family's
+        gain, resonance and damping laws, and its ``specs.sample_rate_hz``.
 
     Raises
     ------
@@ -106,9 +114,20 @@ def load_twin(path: str | os.PathLike, sample_rate_hz: float | None = None) -> T
     return cfg
 
 
-def twin_of_design(result, sample_rate_hz=None):
-    """The linear twin of a design's plant: its family's reference model, every effect
-    off, at the design's sampling rate (or ``sample_rate_hz``, else 20 kHz)."""
+def twin_of_design(result: object, sample_rate_hz: float | None = None) -> TwinConfig:
+    """The linear twin of a design's plant.
+
+    Parameters
+    ----------
+    result : DesignResult
+    sample_rate_hz : float, optional
+        Default the design's sampling rate, else 20 kHz.
+
+    Returns
+    -------
+    TwinConfig
+        Its family's reference model, every effect off.
+    """
     sp = result.problem.specs
     rate = sample_rate_hz or sp.sample_rate_hz or 20000.0
     ref = result.problem.family.reference_model

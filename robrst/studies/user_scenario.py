@@ -104,14 +104,38 @@ SCENARIO_SCHEMA = {
 }
 
 
-def scenario_schema_markdown():
-    """The scenario-file reference as Markdown table rows."""
+def scenario_schema_markdown() -> list:
+    """The scenario-file reference as Markdown table rows.
+
+    Returns
+    -------
+    list of str
+    """
     return markdown_rows(SCENARIO_SCHEMA)
 
 
 @dataclass(frozen=True)
 class UserScenario:
-    """A validated scenario file (see the module docstring)."""
+    """A validated scenario file (see the module docstring).
+
+    Attributes
+    ----------
+    name : str
+    duration_s : float
+    controller, twin : str or None
+        As the file names them (:meth:`resolve` gives the paths).
+    precision : str
+    seed : int
+    initial : float
+    steps : tuple of (at_s, to)
+    ramps : tuple of (from_s, to_s, to)
+    multisines : tuple of (from_s, to_s, amplitude, f_lo_hz, f_hi_hz, lines)
+    temperature : tuple or None
+        ``(times_s, values_C)``.
+    description : str
+    path : str
+        The scenario file.
+    """
 
     name: str
     duration_s: float
@@ -129,10 +153,20 @@ class UserScenario:
 
     @property
     def closed_loop(self):
+        """True when the scenario names a controller."""
         return self.controller is not None
 
-    def resolve(self, name):
-        """A path of this scenario (``controller``, ``twin``) relative to its file."""
+    def resolve(self, name: str | None) -> Path | None:
+        """A path of this scenario (``controller``, ``twin``) relative to its file.
+
+        Parameters
+        ----------
+        name : str or None
+
+        Returns
+        -------
+        Path or None
+        """
         if name is None:
             return None
         p = Path(name)
@@ -142,8 +176,25 @@ class UserScenario:
         return near if near.exists() or not p.exists() else p
 
 
-def parse_scenario(data, path="<scenario>"):
-    """Validate a parsed scenario document; see :func:`load_scenario`."""
+def parse_scenario(data: dict, path: str = "<scenario>") -> UserScenario:
+    """Validate a parsed scenario document; see :func:`load_scenario`.
+
+    Parameters
+    ----------
+    data : dict
+        The parsed TOML.
+    path : str
+        Named in every error.
+
+    Returns
+    -------
+    UserScenario
+
+    Raises
+    ------
+    SpecError
+        Naming the file and the key.
+    """
     v = validate(path, data, SCENARIO_SCHEMA)
     sc = v["scenario"]
     if sc is None:
@@ -196,6 +247,10 @@ def parse_scenario(data, path="<scenario>"):
 def load_scenario(path: str | os.PathLike) -> UserScenario:
     """Read and validate a scenario file (errors name the file and the key).
 
+    Parameters
+    ----------
+    path : str or Path
+
     Returns
     -------
     UserScenario
@@ -216,8 +271,19 @@ def _multisine(t, t0, t1, amp, f_lo, f_hi, lines):
     return out
 
 
-def scenario_signals(sc, sample_rate_hz, reference_C):
+def scenario_signals(sc: UserScenario, sample_rate_hz: float, reference_C: float) -> tuple:
     """``(t, signal, temperature)`` of ``sc`` sampled at ``sample_rate_hz``.
+
+    Parameters
+    ----------
+    sc : UserScenario
+    sample_rate_hz : float
+    reference_C : float
+        The temperature of a scenario that states none.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray, numpy.ndarray)
 
     Raises
     ------
@@ -254,10 +320,26 @@ def scenario_signals(sc, sample_rate_hz, reference_C):
     return t, level, temp
 
 
-def step_metrics(t, y, yr, steps, events=(), band=0.02):
-    """Per reference step ``(at_s, to)``: overshoot [%] of the step's size, 2 % settling
-    time [s] after it and the error at the end of its segment [µm] (up to the next event:
-    a step, or a start in ``events``)."""
+def step_metrics(t: np.ndarray, y: np.ndarray, yr: np.ndarray, steps: tuple,
+                 events: tuple = (), band: float = 0.02) -> list:
+    """Per reference step: overshoot, settling time and final error.
+
+    Parameters
+    ----------
+    t, y, yr : numpy.ndarray
+        Time [s], output and reference [µm].
+    steps : tuple of (at_s, to)
+    events : tuple of float
+        Other events' start times: a step's segment ends at the next event.
+    band : float
+        The settling band, relative to the step's size.
+
+    Returns
+    -------
+    list of dict
+        ``at_s, to, overshoot_pct`` (of the step's size), ``settling_time_s`` (``None``:
+        not settled in its segment), ``final_error`` [µm].
+    """
     out = []
     starts = sorted({a for a, _ in steps} | {float(e) for e in events})
     for a, to in steps:
@@ -280,7 +362,8 @@ def step_metrics(t, y, yr, steps, events=(), band=0.02):
     return out
 
 
-def run_user_scenario(sc, twin, controller=None, progress=None):
+def run_user_scenario(sc: UserScenario, twin: object, controller: object = None,
+                      progress: object = None) -> ScenarioResult:
     """Run a user scenario on ``twin``.
 
     Parameters
@@ -296,6 +379,11 @@ def run_user_scenario(sc, twin, controller=None, progress=None):
     Returns
     -------
     ScenarioResult
+
+    Raises
+    ------
+    SpecError
+        A closed-loop scenario without its controller.
     """
     from robrst.studies.closedloop import run_closed_loop
 

@@ -90,9 +90,14 @@ class Loop:
         return np.hstack(outs), x
 
 
-def compiler():
-    """The C compiler robrst uses (``$CC``, gcc or cc), or ``None`` (also with
-    ``ROBRST_NO_COMPILE`` set)."""
+def compiler() -> str | None:
+    """The C compiler robrst uses.
+
+    Returns
+    -------
+    str or None
+        ``$CC``, gcc or cc; ``None`` without one (also with ``ROBRST_NO_COMPILE`` set).
+    """
     if os.environ.get("ROBRST_NO_COMPILE"):
         return None
     return shutil.which(os.environ.get("CC", "gcc")) or shutil.which("cc")
@@ -189,9 +194,26 @@ class ControlledLoop:
     then the twin's ``step``.  ``lib``: the twin's C and the controller's own C compiled
     together (:func:`compile_controlled_loop`); else ``py_step(yr, y) -> u``, a Python step
     with the same arithmetic, around CasADi's VM (slower, the same numbers).
+
+    Parameters
+    ----------
+    step, output : casadi.Function
+        The twin's step and its measurement at the sample.
+    delay : int
+        Computation delay [samples].
+    lib : ctypes.CDLL, optional
+        The compiled loop.
+    py_step : callable, optional
+        ``step(yr, y) -> u``.
+
+    Raises
+    ------
+    ValueError
+        Neither ``lib`` nor ``py_step``.
     """
 
-    def __init__(self, step, output, delay=0, lib=None, py_step=None):
+    def __init__(self, step: object, output: object, delay: int = 0, lib: object = None,
+                 py_step: object = None):
         if lib is None and py_step is None:
             raise ValueError("ControlledLoop needs a compiled library or a Python step")
         self.step, self.output, self.lib, self.py_step = step, output, lib, py_step
@@ -199,10 +221,29 @@ class ControlledLoop:
         self.nx = step.size1_in(0)
         self.is_compiled = lib is not None
 
-    def __call__(self, P, x0, theta):
-        """Outputs ``(4 x N)``: measured and true output [µm], applied and commanded
-        voltage [V]; and the final state.  ``P`` is ``3 x N``: reference, temperature,
-        noise per sample."""
+    def __call__(self, P: np.ndarray, x0: np.ndarray, theta: np.ndarray) -> tuple:
+        """Run the loop over the columns of ``P``.
+
+        Parameters
+        ----------
+        P : numpy.ndarray
+            ``3 x N``: reference, temperature, noise per sample.
+        x0 : numpy.ndarray
+            The twin's initial state.
+        theta : numpy.ndarray
+            The twin's parameters.
+
+        Returns
+        -------
+        (numpy.ndarray, numpy.ndarray)
+            Outputs ``(4 x N)`` — measured and true output [µm], applied and commanded
+            voltage [V] — and the final state.
+
+        Raises
+        ------
+        RuntimeError
+            The compiled step failed.
+        """
         N = P.shape[1]
         x = np.ascontiguousarray(x0, dtype=float).copy()
         th = np.ascontiguousarray(theta, dtype=float)
@@ -231,8 +272,9 @@ class ControlledLoop:
         return Y, x
 
 
-def compile_controlled_loop(step, output, files, header, prefix, real="double", delay=0,
-                            flags=("-O2", "-ffp-contract=off")):
+def compile_controlled_loop(step: object, output: object, files: dict, header: str,
+                            prefix: str, real: str = "double", delay: int = 0,
+                            flags: tuple = ("-O2", "-ffp-contract=off")) -> object:
     """A compiled :class:`ControlledLoop`: the twin's ``step`` and ``output`` (CasADi code
     generation) with a controller's own C files, or ``None`` without a working compiler.
 
@@ -254,6 +296,15 @@ def compile_controlled_loop(step, output, files, header, prefix, real="double", 
         Computation delay [samples].
     flags : tuple of str
         Compiler flags (no FMA contraction: the controller's operations as written).
+
+    Returns
+    -------
+    ControlledLoop or None
+
+    Raises
+    ------
+    RuntimeError
+        The compiler refused the sources (its first lines in the message).
     """
     cc = compiler()
     if cc is None:

@@ -107,7 +107,8 @@ class TwinConfig:
         user's (:meth:`with_plant`, a plant file) or the built-in one named ``plant``."""
         return self.plant_model if self.plant_model is not None else named_plant(self.plant)
 
-    def with_plant(self, plant, reference_C=None, name=None):
+    def with_plant(self, plant: object, reference_C: float | None = None,
+                   name: str | None = None) -> "TwinConfig":
         """Copy whose linear part is ``plant``: a :class:`~robrst.core.plant.Plant` or a SISO
         continuous python-control ``TransferFunction``/``StateSpace`` (a discrete one is read
         as :meth:`~robrst.core.plant.Plant.from_control` reads it: its continuous plant).
@@ -185,13 +186,30 @@ def _plant_file(path, name, plant_loader):
         raise key_error(path, ("twin", "plant"), str(exc)) from None
 
 
-def parse_twin(data, path="<twin>", plant_loader=None):
+def parse_twin(data: dict, path: str = "<twin>", plant_loader: object = None) -> "TwinConfig":
     """Validate a parsed twin TOML document; see :func:`load_twin`.
 
-    ``plant_loader(path) -> (Plant, reference_C, law)`` reads a ``[twin] plant`` that is a
-    file (a problem file or a model file: :func:`robrst.studies.twins.load_twin` passes
-    one); ``law`` is the family's per-kelvin law (``gain_per_K``, ``resonance_per_K``,
-    ``damping_per_K``) or ``None``, the default of ``[thermal_dynamics]``.
+    Parameters
+    ----------
+    data : dict
+        The parsed TOML.
+    path : str
+        Named in every error.
+    plant_loader : callable, optional
+        ``plant_loader(path) -> (Plant, reference_C, law)`` reads a ``[twin] plant`` that is
+        a file (a problem file or a model file: :func:`robrst.studies.twins.load_twin`
+        passes one); ``law`` is the family's per-kelvin law (``gain_per_K``,
+        ``resonance_per_K``, ``damping_per_K``) or ``None``, the default of
+        ``[thermal_dynamics]``.
+
+    Returns
+    -------
+    TwinConfig
+
+    Raises
+    ------
+    SpecError
+        Naming the file and the key.
     """
     v = validate(path, data, TWIN_SCHEMA)
     tw = v["twin"] or validate(path, {}, TWIN_SCHEMA["twin"], ("twin",))
@@ -236,7 +254,7 @@ def parse_twin(data, path="<twin>", plant_loader=None):
                       plant_model=plant_model)
 
 
-def load_twin(path, plant_loader=None):
+def load_twin(path: str | Path, plant_loader: object = None) -> "TwinConfig":
     """Load and validate a twin TOML file (errors name the file and the key).
 
     Parameters

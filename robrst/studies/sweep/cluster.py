@@ -10,6 +10,7 @@ engine splits the chunk into single variants).
 
 import contextlib
 import logging
+from collections.abc import Iterator
 import os
 import signal
 import threading
@@ -36,7 +37,7 @@ def _main_thread():
 
 
 @contextlib.contextmanager
-def sigint_ignored():
+def sigint_ignored() -> Iterator[None]:
     """Hold SIGINT (Ctrl-C) back in this block, when this is the main thread.
 
     SIGINT is blocked (``pthread_sigmask``) rather than ignored: processes and threads
@@ -45,6 +46,10 @@ def sigint_ignored():
     a Ctrl-C that arrives while the cluster starts stays pending and interrupts the driver
     when the block ends (the driver closes the cluster).  Where signals cannot be blocked,
     SIGINT is ignored in the block instead.
+
+    Yields
+    ------
+    None
     """
     if not _main_thread():
         yield
@@ -64,10 +69,15 @@ def sigint_ignored():
 
 
 @contextlib.contextmanager
-def quiet_shutdown():
+def quiet_shutdown() -> Iterator[None]:
     """distributed's, tornado's and asyncio's loggers silenced while a cluster closes: its
     comms closing can log ``CommClosedError`` tracebacks after a successful run that say
-    nothing about the sweep (the sweep's own failures are rows, not log lines)."""
+    nothing about the sweep (the sweep's own failures are rows, not log lines).
+
+    Yields
+    ------
+    None
+    """
     loggers = [logging.getLogger(n) for n in ("distributed", "tornado", "asyncio")]
     levels = [lg.level for lg in loggers]
     raise_exc = logging.raiseExceptions

@@ -190,9 +190,15 @@ STARTUP_S, MARGIN_S = 4.0, 2.0
 PROBE_S = 1.0       # the first chunks run in this process for at least this long
 
 
-def startup_estimate():
-    """What a local cluster's start-up costs now [s]: :data:`STARTUP_S`, times the machine's
-    load per core when it is above 1 (spawning and importing compete with that load)."""
+def startup_estimate() -> float:
+    """What a local cluster's start-up costs now [s].
+
+    Returns
+    -------
+    float
+        :data:`STARTUP_S`, times the machine's load per core when it is above 1 (spawning
+        and importing compete with that load).
+    """
     try:
         load = os.getloadavg()[0] / available_cores()
     except (AttributeError, OSError):     # no load average on this platform
@@ -200,13 +206,26 @@ def startup_estimate():
     return STARTUP_S * max(1.0, load)
 
 
-def cluster_pays(remaining_s, workers, startup_s=STARTUP_S):
+def cluster_pays(remaining_s: float, workers: int, startup_s: float = STARTUP_S) -> bool:
     """Whether a local cluster of ``workers`` processes beats this process on work of
     ``remaining_s`` seconds in this process: ``startup_s + remaining/workers`` below
     ``remaining - MARGIN_S``, i.e. remaining above ``(startup_s + MARGIN_S) w / (w - 1)``
     (12 s for 2 workers on an idle machine).  When it is chosen, a cluster whose start-up
     takes up to ``startup_s + MARGIN_S`` finishes at most ``MARGIN_S`` after this process
-    would have."""
+    would have.
+
+    Parameters
+    ----------
+    remaining_s : float
+        The work left, as it would take in this process [s].
+    workers : int
+    startup_s : float
+        The cluster's start-up [s] (:func:`startup_estimate`).
+
+    Returns
+    -------
+    bool
+    """
     return workers > 1 and remaining_s > (startup_s + MARGIN_S) * workers / (workers - 1)
 
 
