@@ -53,17 +53,12 @@ def _user(args, say):
     from robrst.studies.twins import load_twin, twin_of_design
     from robrst.studies.user_scenario import load_scenario
 
+    from dataclasses import replace
+
     sc = load_scenario(args.scenario)
     ctrl_arg = args.controller or (str(sc.resolve(sc.controller)) if sc.controller else None)
     twin_arg = args.twin or (str(sc.resolve(sc.twin)) if sc.twin else None)
-    if args.precision:
-        from dataclasses import replace
-
-        sc = replace(sc, precision=args.precision)
-    if ctrl_arg is not None and sc.controller is None:
-        from dataclasses import replace
-
-        sc = replace(sc, controller=ctrl_arg)
+    sc = replace(sc, precision=args.precision or sc.precision, controller=ctrl_arg)
     if ctrl_arg is None:
         cfg = load_twin(twin_arg) if twin_arg else _paper_twin()
         return sc, cfg, None

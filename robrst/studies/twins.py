@@ -39,16 +39,17 @@ def plant_file(path: str | os.PathLike) -> tuple:
     SpecError
         Naming the file: not found, not a problem or model file, several inputs/outputs.
     """
+    from robrst.base.errors import SpecError
     from robrst.problem.files import load_problem, parse_problem
 
     p = Path(path)
     if p.is_file():
         data = load_toml(p, "problem or model file")
         fam = problem_family(p)
-        try:
+        try:     # the rate, when the file's design tables are valid (a plant file need not)
             rate = parse_problem({"poles": {"wn": 1.0, "zeta": 1.0}, **data}, p,
                                  compare=False).specs.sample_rate_hz
-        except Exception:      # noqa: BLE001 — the family was read; the rate is optional
+        except SpecError:
             rate = None
     else:
         problem = load_problem(path)

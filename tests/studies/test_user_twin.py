@@ -195,3 +195,22 @@ def test_the_guides_scenario_reference_is_the_schema():
     table = text[text.index("### Scenario-file reference"):]
     rows = [line for line in table.splitlines() if line.startswith("| `")]
     assert rows == list(scenario_schema_markdown())
+
+
+@pytest.mark.parametrize("args,words", [
+    (["simulate", "{sc}", "--controller", "{tmp}/nope.json"], "problem file not found"),
+    (["simulate", "{sc}", "--controller", "{tmp}/nope.c"], "C controller not found"),
+    (["simulate", "fig2", "--controller", "{tmp}/nope.json"], "fig2 runs no controller"),
+    (["simulate", "fig2", "--precision", "float32"], "fig2 runs no controller"),
+    (["simulate", "{tmp}/none.toml"], "unknown scenario"),
+    (["certify", "{tmp}/nope.json"], "saved design not found"),
+    (["certify", "{tmp}/nope.json", "--family-only"], "needs --problem"),
+])
+def test_bad_simulate_and_certify_arguments_are_one_line(tmp_path, capsys, args, words):
+    sc = tmp_path / "s.toml"
+    sc.write_text(GOOD)
+    args = [a.format(sc=sc, tmp=tmp_path) for a in args]
+    assert main(args + ["--out", str(tmp_path / "o")] if args[0] == "simulate" else args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("robrst: error:") and words in err[0], err
+    assert not (tmp_path / "o").exists()
