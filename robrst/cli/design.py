@@ -1,5 +1,9 @@
 """``robrst design`` and ``robrst report``."""
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 import re
 import sys
 from pathlib import Path
@@ -8,11 +12,20 @@ from robrst.cli.common import design_result, is_saved_design, print_json, progre
 from robrst.report.text import design_summary
 from robrst.problem.files import load_problem
 
+if TYPE_CHECKING:
+    import argparse
+
 __all__ = ["add_parsers", "run_design", "run_report"]
 
 
-def add_parsers(sub):
-    """Register ``design`` and ``report``."""
+def add_parsers(sub: argparse._SubParsersAction) -> None:
+    """Register ``design`` and ``report``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The sub-parser collection of :func:`robrst.cli.build_parser`.
+    """
     d = sub.add_parser("design", help="design and certify an RST controller from a problem file")
     d.add_argument("problem", help="problem file (TOML), or a built-in problem by name (a saved"
                                    " design, DESIGN.json: read back, not designed again)")
@@ -33,8 +46,19 @@ def add_parsers(sub):
     r.set_defaults(func=run_report)
 
 
-def run_design(args):
-    """Design, print the summary (or the JSON); exit 0 certified, 1 not certified."""
+def run_design(args: argparse.Namespace) -> int:
+    """Design, print the summary (or the JSON); exit 0 certified, 1 not certified.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        0 certified, 1 not certified.
+    """
     say = progress_printer(args.quiet or args.json)
     result = design_result(args.problem, say)
     d = result.as_dict()
@@ -49,8 +73,19 @@ def run_design(args):
     return 0
 
 
-def run_report(args):
-    """Design, certify and write the report folder."""
+def run_report(args: argparse.Namespace) -> int:
+    """Design, certify and write the report folder.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        0 certified, 1 not certified.
+    """
     from robrst.report.design import write_design_report
     from robrst.report.doc import check_report_target
 

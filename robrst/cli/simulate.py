@@ -1,17 +1,29 @@
 """``robrst simulate``: the paper's experiments or a user's scenario on the digital twin,
 open loop or in closed loop with a saved design or an exported C controller."""
 
+from __future__ import annotations
+
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from robrst.cli.common import print_json, progress_printer
 from robrst.base.errors import SpecError
 from robrst.base.fileio import json_text
 
+if TYPE_CHECKING:
+    import argparse
+
 __all__ = ["add_parsers", "run_simulate"]
 
 
-def add_parsers(sub):
-    """Register ``simulate``."""
+def add_parsers(sub: argparse._SubParsersAction) -> None:
+    """Register ``simulate``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The sub-parser collection of :func:`robrst.cli.build_parser`.
+    """
     s = sub.add_parser("simulate", help="run one of the paper's experiments, or a scenario"
                                         " file (steps, ramps, multisines, temperature), on the"
                                         " digital twin")
@@ -84,8 +96,25 @@ def _paper_twin():
     return default_twin()
 
 
-def run_simulate(args):
-    """Run the scenario, write its datasets and figure, print its metrics."""
+def run_simulate(args: argparse.Namespace) -> int:
+    """Run the scenario, write its datasets and figure, print its metrics.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        0.
+
+    Raises
+    ------
+    SpecError
+        An unknown scenario (neither a paper's figure nor a scenario file), or
+        ``--controller``/``--precision`` for a figure that runs no controller.
+    """
     from robrst.studies.scenarios import SCENARIOS, run_scenario
     from robrst.report.doc import check_report_target
     from robrst.report.scenario import write_scenario

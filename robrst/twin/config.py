@@ -9,13 +9,20 @@ temperature), ``thermal_drift`` (lagged, saturating, hysteretic in temperature),
 (sensor).
 """
 
+from __future__ import annotations
+
+from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from robrst.base import resources
 from robrst.base.errors import SpecError
 from robrst.core.plant import NAMED_PLANTS, Plant, as_plant, named_plant
 from robrst.base.schema import Field, key_error, load_toml, validate
+
+if TYPE_CHECKING:
+    from pathlib import Path
 
 __all__ = ["EFFECTS", "TWIN_SCHEMA", "TwinConfig", "load_twin", "parse_twin", "default_twin"]
 
@@ -89,8 +96,33 @@ DEFAULT_RATE_HZ = 20000.0
 class TwinConfig:
     """A validated twin: sampling rate, nominal plant name, and per-effect settings.
 
-    ``effects[name]`` is a dict of that effect's parameters including ``enabled``.
     Use :meth:`with_effects` to switch effects (e.g. only one on).
+
+    Parameters
+    ----------
+    name : str
+        The twin's name.
+    plant : str
+        The nominal linear model: a built-in name (``"paper"``: D(s) of eq. 4), or the
+        label of ``plant_model``.
+    sample_rate_hz : float
+        Simulation and control sampling rate [Hz].
+    reference_C : float
+        Temperature of the nominal model [°C].
+    effects : dict
+        ``effects[name]`` is a dict of that effect's parameters including ``enabled``.
+    path : str
+        The twin file (``"<default>"`` for the built-in defaults).
+    plant_model : Plant, optional
+        The user's linear plant (a plant file, :meth:`with_plant`); ``None``: the built-in
+        ``plant``.
+
+    Attributes
+    ----------
+    dt : float
+        The sampling period [s].
+    linear_plant : Plant
+        The nominal linear model in use.
     """
 
     name: str = "twin"
@@ -138,13 +170,48 @@ class TwinConfig:
             p.temperature_C if p.temperature_C is not None else self.reference_C)
         return replace(self, plant=name or p.label, plant_model=p, reference_C=float(ref))
 
-    def enabled(self, name):
+    def enabled(self, name: str) -> bool:
+        """Whether effect ``name`` is on.
+
+        Parameters
+        ----------
+        name : str
+            One of :data:`EFFECTS`.
+
+        Returns
+        -------
+        bool
+        """
         return bool(self.effects[name]["enabled"])
 
-    def with_effects(self, only=None, off=(), **overrides):
+    def with_effects(self, only: Iterable[str] | None = None, off: Iterable[str] = (),
+                     **overrides: dict) -> TwinConfig:
         """Copy with only ``only`` enabled (if given), ``off`` disabled, parameters overridden.
 
-        ``overrides`` map an effect name to a dict of parameter values.
+        Parameters
+        ----------
+        only : iterable of str, optional
+            The effects left on (every other one off).
+        off : iterable of str
+            Effects switched off.
+        **overrides
+            Effect name -> dict of parameter values.
+
+        Returns
+        -------
+        TwinConfig
+
+        Raises
+        ------
+        SpecError
+            An unknown effect or parameter.
+
+        Examples
+        --------
+        >>> from robrst import default_twin
+        >>> twin = default_twin().with_effects(only=["hysteresis"], hysteresis={"A": 0.3})
+        >>> twin.enabled("hysteresis"), twin.enabled("creep"), twin.effects["hysteresis"]["A"]
+        (True, False, 0.3)
         """
         eff = {k: dict(v) for k, v in self.effects.items()}
         if only is not None:
@@ -186,7 +253,7 @@ def _plant_file(path, name, plant_loader):
         raise key_error(path, ("twin", "plant"), str(exc)) from None
 
 
-def parse_twin(data: dict, path: str = "<twin>", plant_loader: object = None) -> "TwinConfig":
+def parse_twin(data: dict, path: str = "<twin>", plant_loader: object = None) -> TwinConfig:
     """Validate a parsed twin TOML document; see :func:`load_twin`.
 
     Parameters
@@ -209,7 +276,10 @@ def parse_twin(data: dict, path: str = "<twin>", plant_loader: object = None) ->
     Raises
     ------
     SpecError
-        Naming the file and the key.
+        Naming the file and the key: unknown keys, values out of range, both
+        ``sample_rate_hz`` and ``fs_hz``, Bouc–Wen parameters without a loop,
+        ``tau_max_s <= tau_min_s``, ``u_max <= u_min``, an unknown plant or a plant file
+        that cannot be read (``[twin.plant]``), a plant with feedthrough.
     """
     v = validate(path, data, TWIN_SCHEMA)
     tw = v["twin"] or validate(path, {}, TWIN_SCHEMA["twin"], ("twin",))
@@ -254,12 +324,13 @@ def parse_twin(data: dict, path: str = "<twin>", plant_loader: object = None) ->
                       plant_model=plant_model)
 
 
-def load_twin(path: str | Path, plant_loader: object = None) -> "TwinConfig":
+def load_twin(path: str | Path, plant_loader: object = None) -> TwinConfig:
     """Load and validate a twin TOML file (errors name the file and the key).
 
     Parameters
     ----------
-    path : str or Path
+    path : str or pathlib.Path
+        The twin file (the shipped one: :func:`robrst.base.resources.builtin_twin`).
     plant_loader : callable, optional
         Reads a ``[twin] plant`` that is a file (see :func:`parse_twin`);
         :func:`robrst.studies.twins.load_twin` (``robrst.load_twin``) passes one.
@@ -267,12 +338,22 @@ def load_twin(path: str | Path, plant_loader: object = None) -> "TwinConfig":
     Returns
     -------
     TwinConfig
+
+    Raises
+    ------
+    SpecError
+        A missing or invalid file (see :func:`parse_twin`).
     """
     return parse_twin(load_toml(path, "twin file"), str(path), plant_loader)
 
 
-def default_twin():
-    """The paper's twin with every effect on (the built-in defaults)."""
+def default_twin() -> TwinConfig:
+    """The paper's twin with every effect on (the built-in defaults).
+
+    Returns
+    -------
+    TwinConfig
+    """
     return parse_twin({}, "<default twin>")
 
 

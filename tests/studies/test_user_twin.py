@@ -186,17 +186,6 @@ def test_simulate_a_scenario_file_with_a_saved_design(design, tmp_path, capsys):
     assert np.max(np.abs(data.y - y_pc)) <= 1e-8 * np.max(np.abs(y_pc))  # CSV's 9 digits
 
 
-def test_the_guides_scenario_reference_is_the_schema():
-    from pathlib import Path
-
-    from robrst.studies.user_scenario import scenario_schema_markdown
-
-    text = (Path(__file__).resolve().parents[2] / "docs" / "guide" / "user-stage.md").read_text()
-    table = text[text.index("### Scenario-file reference"):]
-    rows = [line for line in table.splitlines() if line.startswith("| `")]
-    assert rows == list(scenario_schema_markdown())
-
-
 @pytest.mark.parametrize("args,words", [
     (["simulate", "{sc}", "--controller", "{tmp}/nope.json"], "problem file not found"),
     (["simulate", "{sc}", "--controller", "{tmp}/nope.c"], "C controller not found"),
