@@ -61,7 +61,8 @@ def is_saved_design(arg: str) -> bool:
     return is_design_file(arg)
 
 
-def design_result(arg: str, say: Callable[[str], None], problem: object = None) -> object:
+def design_result(arg: str, say: Callable[[str], None], problem: object = None,
+                  announce: bool = True) -> object:
     """The design result of a command's ``PROBLEM`` argument.
 
     Parameters
@@ -73,6 +74,9 @@ def design_result(arg: str, say: Callable[[str], None], problem: object = None) 
         Progress lines.
     problem : Problem, optional
         The problem already loaded from ``arg``.
+    announce : bool, optional
+        Say "designing NAME (method)" before a design (``robrst design`` does not: a
+        problem that fails before its design must print one line only).
 
     Returns
     -------
@@ -88,5 +92,6 @@ def design_result(arg: str, say: Callable[[str], None], problem: object = None) 
     from robrst.problem.files import load_problem
 
     problem = problem or load_problem(arg)
-    say(f"designing {problem.name} ({problem.solver.method})")
+    if announce:
+        say(f"designing {problem.name} ({problem.solver.method})")
     return run_problem(problem, progress=say)

@@ -60,7 +60,7 @@ def run_design(args: argparse.Namespace) -> int:
         0 certified, 1 not certified.
     """
     say = progress_printer(args.quiet or args.json)
-    result = design_result(args.problem, say)
+    result = design_result(args.problem, say, announce=False)   # an error stays one line
     d = result.as_dict()
     if args.json:
         print_json(d)
