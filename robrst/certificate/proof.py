@@ -51,7 +51,7 @@ from robrst.certificate.models import (BOUNDED, FIGURE_OF, JUMPS, LOWER_BOUNDED,
                                        check_model, margins)
 from robrst.core import poly, region
 from robrst.problem.records import Problem
-from robrst.core.rst import RSTController, closed_loop
+from robrst.core.rst import RSTController, as_controller, closed_loop
 from robrst.core.thermal import modal_form
 from robrst.base.threads import one_blas_thread
 
@@ -513,6 +513,7 @@ def certify(family: PlantFamily, ctrl: RSTController, specs: Specs, n_sweep: int
     -------
     Certificate
     """
+    ctrl = as_controller(ctrl)      # a python-control system too
     specs, damping_source = resolved_specs(specs, family)
     known = {m.temperature_C for m in family.models}
     models = list(family.models)
