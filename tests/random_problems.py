@@ -44,7 +44,7 @@ from fractions import Fraction
 import numpy as np
 
 __all__ = ["Chooser", "NumpyChooser", "RandomCase", "random_case", "draw_case", "to_toml",
-           "Figures", "figures", "check", "Discrepancy", "model_at"]
+           "Figures", "figures", "check", "Discrepancy", "model_at", "ExactZOH", "fold_band"]
 
 # --------------------------------------------------------------------------- generator
 
@@ -635,7 +635,10 @@ def sampled_figures(B, A, ctrl, fs, delay, band=None, n_grid=20000):
 
     ZOH plant (``control.c2d`` of the time-scaled plant), Tustin controller, ``z**-delay``;
     closed-loop poles from ``control.feedback``; ``|S|, |T|, |U|`` on a dense unit-circle
-    grid with refinement.  Returns a dict (frequencies in rad/s).
+    grid with refinement, each peak then evaluated in extended precision (:class:`ExactZOH`)
+    at the point found and at Nyquist.  The band (rad/s) is folded into ``[0, pi fs]``
+    (:func:`fold_band`: above Nyquist the sampled response repeats) and its ends and
+    Nyquist are evaluated exactly.  Returns a dict (frequencies in rad/s).
     """
     import control
 
@@ -667,26 +670,136 @@ def sampled_figures(B, A, ctrl, fs, delay, band=None, n_grid=20000):
     lam = lam[lam > 0]
     lo = max(min(float(lam.min()) / fs / 100.0, 1e-3), 1e-12) if lam.size else 1e-9
     th = np.geomspace(lo, np.pi, n_grid)
+    at = {}
     for key, f in funcs.items():
-        out[key] = _circle_peak(f, th)
+        out[key], at[key] = _circle_peak(f, th, where=True)
     if band is not None:
-        lo, hi = (min(b / fs, np.pi) for b in band)
-        if hi > lo:
-            out["Mt_band"] = _circle_peak(funcs["Mt"], np.linspace(lo, hi, 4000))
+        lo, hi = fold_band(band, fs)          # folded above Nyquist, both ends exact
+        out["Mt_band"], at["Mt_band"] = _circle_peak(funcs["Mt"], np.linspace(lo, hi, 4000),
+                                                     where=True)
+        at["Mt_band_ends"] = (lo, hi)
+    # each peak re-evaluated in extended precision where python-control found it, and at
+    # Nyquist and the band ends: the 60-digit ZOH (ExactZOH: exact for a pole near s = 0
+    # beside fast ones) and the Tustin controller in mpmath
+    exact = _ExactLoop(B, A, ctrl, fs, delay)
+    for key in ("Ms", "Mt", "Mu"):
+        out[key] = exact.figure(key, [at[key], np.pi])
+    if band is not None:
+        out["Mt_band"] = exact.figure("Mt", [at["Mt_band"], *at["Mt_band_ends"]])
+    out["exact_points"] = exact.count
     return out
 
 
-def _circle_peak(f, th, n_refine=6):
-    """max of ``f`` on the grid ``th``, every leading local maximum refined."""
+class _ExactLoop:
+    """|S|, |T|, |U| of the sampled loop at given points of the unit circle in mpmath."""
+
+    def __init__(self, B, A, ctrl, fs, delay):
+        self.zoh = ExactZOH(B, A, fs)
+        self.R, self.S, self.fs, self.delay = ctrl.R, ctrl.S, float(fs), int(delay)
+        self.count = 0
+
+    def _K(self, th):
+        import mpmath
+
+        mp = mpmath
+        with mp.workdps(_MP_DPS):
+            R = [mp.mpf(float(x)) for x in _strip(self.R)]
+            S = [mp.mpf(float(x)) for x in _strip(self.S)]
+            if th >= np.pi:                        # z = -1: nu = inf, the limit of R/S
+                if len(R) < len(S):
+                    return 0j
+                return complex(R[0] / S[0])
+            nu = mp.mpc(0, 2 * self.fs * mp.tan(mp.mpf(float(th)) / 2))
+            return complex(_mp_horner(R, nu, mp) / _mp_horner(S, nu, mp))
+
+    def figure(self, key, thetas):
+        best = -math.inf
+        for th in thetas:
+            self.count += 1
+            P = complex(self.zoh.at([th])[0]) * complex(np.exp(-1j * th * self.delay))
+            K = self._K(th)
+            L = P * K
+            val = {"Ms": 1 / (1 + L), "Mt": L / (1 + L), "Mu": K / (1 + L)}[key]
+            best = max(best, abs(val))
+        return best
+
+
+class ExactZOH:
+    """The ZOH model of ``B/A`` at ``fs`` in extended precision (independent of robrst and
+    python-control): the controllable form built from the float coefficients (exact in
+    mpmath), one matrix exponential of the augmented matrix ``[[A T, B T], [0, 0]]`` at
+    ``dps`` digits, and ``P_d(z) = C (zI - Ad)^-1 Bd + d``.  Exact for every pole location
+    (a pole near ``s = 0`` beside fast ones included) up to ``dps`` digits.
+
+    :meth:`at` evaluates ``P_d(e^{j theta})``; ``theta = pi`` is ``z = -1`` exactly.
+    """
+
+    def __init__(self, B, A, fs, dps=_MP_DPS):
+        import mpmath
+
+        self.mp, self.dps = mpmath, dps
+        with mpmath.workdps(dps):
+            A = [mpmath.mpf(float(x)) for x in A]
+            B = [mpmath.mpf(float(x)) for x in B]
+            A, B = [x / A[0] for x in A], [x / A[0] for x in B]
+            n = self.n = len(A) - 1
+            B = [mpmath.mpf(0)] * (n + 1 - len(B)) + B
+            self.d = B[0]
+            self.C = mpmath.matrix([[B[k] - self.d * A[k] for k in range(1, n + 1)]])
+            T = 1 / mpmath.mpf(float(fs))
+            M = mpmath.zeros(n + 1, n + 1)
+            for j in range(n):
+                M[0, j] = -A[j + 1] * T
+            for i in range(1, n):
+                M[i, i - 1] = T
+            M[0, n] = T
+            E = mpmath.expm(M)
+            self.Ad, self.Bd = E[:n, :n], E[:n, n]
+
+    def at(self, theta):
+        """``P_d(e^{j theta})`` (complex) for each ``theta`` [rad/sample] in ``[0, pi]``."""
+        mp = self.mp
+        out = []
+        with mp.workdps(self.dps):
+            for th in np.atleast_1d(np.asarray(theta, float)):
+                z = mp.mpf(-1) if th >= np.pi else mp.exp(mp.mpc(0, mp.mpf(float(th))))
+                x = mp.lu_solve(z * mp.eye(self.n) - self.Ad, self.Bd)
+                out.append(complex((self.C * x)[0] + self.d))
+        return np.array(out)
+
+
+def fold_band(band, fs):
+    """The physical band ``(lo, hi)`` [rad/s] as ``(theta_lo, theta_hi)`` [rad/sample] of
+    the sampled loop, folded into ``[0, pi]`` (the response is 2 pi periodic and even)."""
+    a, b = band[0] / fs, band[1] / fs
+    if b - a >= 2 * np.pi:
+        return 0.0, np.pi
+    fold = lambda t: 2 * np.pi - math.fmod(t, 2 * np.pi) if math.fmod(t, 2 * np.pi) > np.pi \
+        else math.fmod(t, 2 * np.pi)   # noqa: E731
+    lo, hi = sorted((fold(a), fold(b)))
+    ks = range(math.ceil(a / np.pi), math.floor(b / np.pi) + 1)
+    if any(k % 2 for k in ks):
+        hi = np.pi
+    if any(k % 2 == 0 for k in ks):
+        lo = 0.0
+    return lo, hi
+
+
+def _circle_peak(f, th, n_refine=6, where=False):
+    """max of ``f`` on the grid ``th``, every leading local maximum refined (with
+    ``where``: ``(max, argmax)``)."""
     g = f(th)
     inner = np.flatnonzero((g[1:-1] >= g[:-2]) & (g[1:-1] >= g[2:])) + 1
     idx = sorted(set(inner) | {0, len(g) - 1}, key=lambda i: -g[i])[:n_refine]
-    best = float(np.max(g))
+    j = int(np.argmax(g))
+    best, arg = float(g[j]), float(th[j])
     for i in idx:
         a, b = th[max(i - 1, 0)], th[min(i + 1, len(th) - 1)]
         x = _zoom(f, a, b, th[i])
-        best = max(best, float(f(np.array([x]))[0]))
-    return best
+        v = float(f(np.array([x]))[0])
+        if v > best:
+            best, arg = v, float(x)
+    return (best, arg) if where else best
 
 
 # --------------------------------------------------------------------------- figures, check
