@@ -18,7 +18,8 @@ from robrst.core.peaks import mag2_poly, peak_gains_many
 from robrst.core.plant import Plant
 from robrst.core.rst import RSTController, closed_loop
 
-__all__ = ["Margins", "Analysis", "analyze", "sensitivity", "crossovers", "bracketed_root",
+__all__ = ["Margins", "Analysis", "analyze", "sensitivity", "crossovers", "loop_value",
+           "bracketed_root",
            "step_response", "spectral_abscissa", "spectral_abscissa_many", "analyze_many"]
 
 SENSITIVITIES = ("S", "T", "U", "Sd")
@@ -36,7 +37,9 @@ class Margins:
     python-control: at every gain crossover ``(arg L(j wc) mod 360) - 180``, the one
     smallest in magnitude, with its sign (negative: ``arg L`` in (0, 180)).
     ``delay_margin_s`` is the smallest pure delay that puts ``L`` on -1 (phase lag
-    only, over every crossover).  None means infinite.
+    only, over every crossover).  None means infinite.  Phase crossovers include
+    ``w = 0`` (``L(0) < 0``) and ``w = inf`` (biproper ``L`` with ``L(inf) < 0``), as
+    python-control counts them (``phase_crossover_rad_s`` then holds 0.0 or inf).
     """
 
     gain_margin: float
@@ -192,6 +195,19 @@ def crossovers(num, den):
     Gain crossovers solve ``|num|^2 - |den|^2 = 0`` and phase crossovers
     ``Im(num(jw) den(-jw)) = 0`` with ``Re L < 0``, both as polynomials in
     ``x = w**2`` in the scaled variable, then polished on the exact function.
+
+    The ends of the frequency axis count as phase crossovers where ``L`` is finite and
+    on the negative real axis there, as python-control counts them: ``w = 0`` when
+    ``L(0) < 0`` (a real closed-loop pole crosses ``s = 0`` when the gain falls to
+    ``1/|L(0)|``), and ``w = inf`` when ``L`` is biproper with ``L(inf) < 0`` (a pole
+    passes through infinity; python-control's discrete loops count Nyquist, ``z = -1``,
+    in the same way, the image of ``w = inf`` for robrst's sampled loops).
+
+    Examples
+    --------
+    >>> wg, wp = crossovers([2.0], [1.0, -1.0])      # L = 2/(s - 1): L(0) = -2
+    >>> wp.tolist()
+    [0.0]
     """
     num, den = poly.trim(num), poly.trim(den)
     sc = poly.Scaling.natural(num, den)
@@ -208,15 +224,40 @@ def crossovers(num, den):
     q = odd * (-1.0) ** k
     wp = [_polish(lambda w: L(w).imag / abs(L(w)), w) for w in _positive_roots_x(q, 1.0)]
     wp = [w for w in wp if L(w).real < 0]
-    return np.array(wg) * w0, np.array(wp) * w0
+    wp = np.array(wp) * w0
+    ends = []
+    if den[-1] != 0 and num[-1] / den[-1] < 0:
+        ends.append(0.0)
+    if len(num) == len(den) and num[0] / den[0] < 0:
+        ends.append(np.inf)
+    if ends:
+        wp = np.sort(np.concatenate([wp, ends]))
+    return np.array(wg) * w0, wp
+
+
+def loop_value(num, den, w):
+    """``L(jw) = num(jw)/den(jw)``, with the limits at ``w = 0`` and ``w = inf``.
+
+    Returns
+    -------
+    complex
+    """
+    num, den = poly.trim(num), poly.trim(den)
+    if np.isinf(w):
+        return complex(num[0] / den[0]) if len(num) == len(den) else 0j
+    return complex(poly.eval_jw(num, w) / poly.eval_jw(den, w))
 
 
 def margins(plant, ctrl, Ms):
-    """Margins of ``L = BR/(AS)`` over every crossover; ``Ms`` is the exact |S| peak."""
+    """Margins of ``L = BR/(AS)`` over every crossover; ``Ms`` is the exact |S| peak.
+
+    Phase crossovers include ``w = 0`` and ``w = inf`` where ``L`` is finite and negative
+    there (:func:`crossovers`), as python-control counts them.
+    """
     num = poly.pmul(plant.B, ctrl.R)
     den = poly.pmul(plant.A, ctrl.S)
     wg, wp = crossovers(num, den)
-    L = lambda w: poly.eval_jw(num, w) / poly.eval_jw(den, w)  # noqa: E731
+    L = lambda w: loop_value(num, den, w)  # noqa: E731
     gms = [1.0 / abs(L(w)) for w in wp]
     up = [g for g in gms if g > 1.0]
     down = [g for g in gms if g < 1.0]
