@@ -1,9 +1,9 @@
 """Arrays as labs store them -> robrst records (:class:`~robrst.data.dataset.Dataset`).
 
-Measured data often come as multi-dimensional arrays, e.g. the fine-steering-mirror
-set in ``../shared/data/fsm``: ``(N, channel, realization, period)`` in volts and
-metres.  :func:`records_from_arrays` turns one pair of input/output arrays into one
-record per realization, its periods concatenated in order (a periodic record with
+Measured data often come as multi-dimensional arrays, e.g. the data set of a
+fine-steering mirror (KU Leuven, CC BY 4.0): ``(N, channel, realization, period)`` in
+volts and metres.  :func:`records_from_arrays` turns one pair of input/output arrays into
+one record per realization, its periods concatenated in order (a periodic record with
 ``period = N``), outputs converted to µm.  ``robrst convert`` is the command-line face.
 """
 
@@ -11,8 +11,9 @@ from pathlib import Path
 
 import numpy as np
 
-from robrst.data.dataset import Dataset
+from robrst.data.dataset import Dataset, check_dataset
 from robrst.base.errors import DataError
+from robrst.base.fileio import check_input_file
 
 __all__ = ["records_from_arrays", "load_array", "AXES", "Y_UNITS", "U_UNITS"]
 
@@ -23,6 +24,7 @@ U_UNITS = {"V": 1.0, "mV": 1e-3, "kV": 1e3}
 
 def load_array(path):
     """Load a ``.npy`` array (no pickles); :class:`DataError` naming the file otherwise."""
+    check_input_file(path, "NumPy array file", DataError)
     try:
         return np.load(Path(path), allow_pickle=False)
     except FileNotFoundError:
@@ -44,8 +46,11 @@ def _standard(a, names, what):
     if a.ndim != len(names):
         raise DataError(f"{what}: array has {a.ndim} axes but the layout names {len(names)}"
                         f" ({', '.join(names)})")
-    if not np.issubdtype(a.dtype, np.number):
+    if not np.issubdtype(a.dtype, np.number) or np.issubdtype(a.dtype, np.bool_):
         raise DataError(f"{what}: array must be numeric, got {a.dtype}")
+    if np.iscomplexobj(a):
+        raise DataError(f"{what}: array is complex ({a.dtype}); a record is a real signal"
+                        " (its imaginary part would be dropped): give the real part")
     for ax in AXES:
         if ax not in names:
             a = a[..., None]
@@ -78,9 +83,18 @@ def records_from_arrays(u, y, fs, layout="time,channel,realization,period", y_un
     Returns
     -------
     list of Dataset
+
+    Raises
+    ------
+    DataError
+        A complex or non-numeric array, a non-finite temperature, and every record
+        :func:`robrst.data.dataset.load_dataset` would refuse once written (fewer than 2
+        samples, values outside the plausible ranges, an output identically 0).
     """
     if not fs or not np.isfinite(fs) or fs <= 0:
         raise DataError(f"sampling rate must be > 0, got {fs}")
+    if temp_C is not None and not np.isfinite(temp_C):
+        raise DataError(f"temp_C: expected a finite temperature [°C], got {temp_C}")
     if y_unit not in Y_UNITS or u_unit not in U_UNITS:
         raise DataError(f"units: y in {sorted(Y_UNITS)}, u in {sorted(U_UNITS)}; got {y_unit!r},"
                         f" {u_unit!r}")
@@ -106,4 +120,6 @@ def records_from_arrays(u, y, fs, layout="time,channel,realization,period", y_un
                            temp=None if temp_C is None else np.full(n, float(temp_C)),
                            comments=(f"converted from {source}, realization {r + 1} of {R}",),
                            source=f"{source}_r{r + 1}", period=N if periodic else 0))
+    for d in out:     # what the loader would refuse is not written
+        check_dataset(d, f"{source}: record {d.source}")
     return out

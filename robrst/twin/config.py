@@ -16,7 +16,13 @@ from robrst.base.errors import SpecError
 from robrst.core.plant import named_plant
 from robrst.base.schema import Field, key_error, load_toml, validate
 
-__all__ = ["EFFECTS", "TWIN_SCHEMA", "TwinConfig", "load_twin", "parse_twin", "default_twin"]
+__all__ = ["EFFECTS", "TWIN_SCHEMA", "TwinConfig", "load_twin", "parse_twin", "default_twin",
+           "run_samples", "MAX_RUN_SAMPLES"]
+
+# samples of one simulated run (a scenario's profile): 5e7 is 400 MB per signal, 42 min at
+# the paper's 20 kHz (its longest experiment, Fig. 2, is 9 min); a twin at 1e8 Hz asked
+# for 2.4e10 (179 GiB)
+MAX_RUN_SAMPLES = 50_000_000
 
 EFFECTS = ("thermal_dynamics", "hysteresis", "creep", "thermal_drift", "delay", "saturation",
            "slew", "noise", "quantization")
@@ -28,8 +34,9 @@ TWIN_SCHEMA = {
         "name": Field("str", "twin", "name"),
         "plant": Field("str", "paper", "built-in nominal linear model (D(s) of eq. 4)"),
         "sample_rate_hz": Field("number", None, "simulation and control sampling rate [Hz]"
-                                " (default 20000)", positive=True, hi=1e8),
-        "fs_hz": Field("number", None, "older name of sample_rate_hz", positive=True, hi=1e8),
+                                " (default 20000; at least what the plant's RK4 steps need)",
+                                lo=1e3, hi=1e6),
+        "fs_hz": Field("number", None, "older name of sample_rate_hz", lo=1e3, hi=1e6),
         "reference_C": Field("number", 28.0, "temperature of the nominal model [°C]",
                              lo=-100.0, hi=500.0),
         "source": Field("str", "", "where the defaults come from"),
@@ -127,6 +134,36 @@ class TwinConfig:
         return 1.0 / self.sample_rate_hz
 
 
+def _check_rate(path, key, rate, plant):
+    """Refuse a rate at which the plant's RK4 step would need more substeps per sample than
+    the generated C can hold (:func:`robrst.twin.model.min_sample_rate_hz`)."""
+    from robrst.core.poly import natural_scale
+    from robrst.twin.model import MAX_SUBSTEPS, min_sample_rate_hz
+
+    need = min_sample_rate_hz(natural_scale(plant.A))
+    if rate < need:
+        raise key_error(path, key, f"{rate:g} Hz is too slow for the plant {plant.label!r}"
+                        f" (natural scale {natural_scale(plant.A):.4g} rad/s): the twin's RK4"
+                        f" steps need at least {need:.4g} Hz (at most {MAX_SUBSTEPS} substeps"
+                        " per sample)")
+
+
+def run_samples(config, seconds, what="the run"):
+    """Samples of a run of ``seconds`` at the twin's rate; :class:`SpecError` naming the twin
+    file and ``[twin.sample_rate_hz]`` beyond :data:`MAX_RUN_SAMPLES`.
+
+    Returns
+    -------
+    int
+    """
+    n = int(round(float(seconds) * config.sample_rate_hz))
+    if n > MAX_RUN_SAMPLES:
+        raise SpecError(f"{config.path}: [twin.sample_rate_hz] {config.sample_rate_hz:g} Hz:"
+                        f" {what} of {seconds:g} s needs {n:.3g} samples, more than"
+                        f" {MAX_RUN_SAMPLES:.3g}; lower the rate (or use a shorter run)")
+    return n
+
+
 def parse_twin(data, path="<twin>"):
     """Validate a parsed twin TOML document; see :func:`load_twin`."""
     v = validate(path, data, TWIN_SCHEMA)
@@ -136,9 +173,11 @@ def parse_twin(data, path="<twin>"):
         raise key_error(path, ("twin", "fs_hz"), "give sample_rate_hz only (fs_hz is its older name)")
     rate = tw["sample_rate_hz"] or tw["fs_hz"] or DEFAULT_RATE_HZ
     try:
-        named_plant(tw["plant"])
+        plant = named_plant(tw["plant"])
     except SpecError as exc:
         raise key_error(path, ("twin", "plant"), str(exc)) from None
+    _check_rate(path, ("twin", "fs_hz" if tw["fs_hz"] is not None else "sample_rate_hz"),
+                rate, plant)
     if effects["creep"]["tau_max_s"] <= effects["creep"]["tau_min_s"]:
         raise key_error(path, ("creep", "tau_max_s"), "must exceed tau_min_s")
     if effects["saturation"]["u_max"] <= effects["saturation"]["u_min"]:

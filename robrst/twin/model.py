@@ -18,13 +18,19 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from robrst.base.errors import SpecError
 from robrst.core import lti, poly
 from robrst.core.plant import named_plant
 from robrst.core.thermal import modal_form, thermal_polynomials
 
-__all__ = ["TwinModel", "build_model", "hysteresis_gain", "creep_taus", "substeps"]
+__all__ = ["TwinModel", "build_model", "hysteresis_gain", "creep_taus", "substeps",
+           "min_sample_rate_hz", "MAX_SUBSTEPS"]
 
 N_SUB = 4  # RK4 substeps per sample for the linear dynamics (error ~1e-6 of the peak)
+# the step is unrolled in the generated C: 64 substeps of an order-4 plant compile in
+# seconds; the 42,749 of the paper's plant at 1 Hz made a 50 MB file gcc did not finish
+MAX_SUBSTEPS = 64
+_RK4_STEP = 0.05   # scaled RK4 step w0 dt / n at most this
 
 
 def substeps(w0, dt):
@@ -34,7 +40,19 @@ def substeps(w0, dt):
     response matches the exact ZOH solution to ~1e-6 of its peak), so accuracy does
     not degrade when data are sampled slower than 20 kHz.
     """
-    return max(N_SUB, int(np.ceil(w0 * dt / 0.05)))
+    return max(N_SUB, int(np.ceil(w0 * dt / _RK4_STEP)))
+
+
+def min_sample_rate_hz(w0):
+    """The slowest rate [Hz] at which a plant of natural scale ``w0`` [rad/s] needs at most
+    :data:`MAX_SUBSTEPS` RK4 substeps per sample (:func:`substeps`).
+
+    Examples
+    --------
+    >>> round(min_sample_rate_hz(2137.4), 1)      # the paper's plant
+    668.0
+    """
+    return float(w0) / (_RK4_STEP * MAX_SUBSTEPS)
 
 
 @dataclass(frozen=True, eq=False)
@@ -104,6 +122,10 @@ def _linear_step(plant, w0, dt, xl, wtot, dT_lin, P):
 
     y_true = ca.mtimes(C, xl) + dfeed * wtot   # output at this sample (before the update)
     n_sub = substeps(w0, dt)
+    if n_sub > MAX_SUBSTEPS:
+        raise SpecError(f"the twin runs at {1 / dt:.6g} Hz, but its plant (natural scale"
+                        f" {w0:.4g} rad/s) needs at least {min_sample_rate_hz(w0):.4g} Hz"
+                        f" ({n_sub} RK4 substeps per sample, at most {MAX_SUBSTEPS})")
     hsub = dt / n_sub
     for _ in range(n_sub):
         k1 = f(xl)
