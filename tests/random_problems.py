@@ -9,8 +9,10 @@ Generator
 :func:`draw_case` (any :class:`Chooser`, e.g. one backed by hypothesis) build a problem
 document (a dict that is valid TOML and valid input of :func:`robrst.problem.files.parse_problem`):
 plant orders 1–6, lightly damped resonances, right-half-plane zeros, integrating plants,
-negative gains, single models, explicit and parametric temperature families, sampled loops
-from 1 to 100 kHz with 0 or 1 sample of delay, every method, objective and ``T_mode``,
+near-integrators (a pole at 1e-9 .. 1e-4 of the others), near-cancellations (a zero within
+1e-7 .. 1e-3 of a pole), negative gains, single models, explicit and parametric
+temperature families, sampled loops from 1 to 100 kHz with 0 or 1 sample of delay and |T|
+bands that reach Nyquist or fold over it, every method, objective and ``T_mode``,
 roll-off factors in ``S_fixed``.  The specs are set around what the analytic design at
 the problem's own poles achieves (measured by the checker below), so a known controller
 meets them when ``RandomCase.baseline_ok`` is true.
@@ -32,7 +34,9 @@ code (no ``robrst.core.peaks``, ``robrst.core.poly``, ``robrst.core.sampled``, `
   60-digit mpmath where float64 cannot resolve the value;
 * sampled loops through python-control: ``c2d`` (ZOH) of a time-scaled plant, Tustin
   controller, ``z**-k`` delay, ``feedback`` poles for stability and a dense unit-circle
-  grid with refinement for the peaks.
+  grid with refinement for the peaks; every peak, Nyquist and the band ends (the band
+  folded into ``[0, pi fs]``) then evaluated with a 60-digit ZOH (:class:`ExactZOH`), exact
+  for near-integrators.
 """
 
 from __future__ import annotations
@@ -155,6 +159,22 @@ def _plant_parts(ch, kind, fs=None):
     return pairs, reals, z_pairs, z_reals, wp
 
 
+def _near_classes(ch, kind, reals, pairs, z_pairs, z_reals):
+    """In place: a near-integrator (a real pole moved to ``-|p|`` times 1e-9 .. 1e-4, beside
+    the others: the exact ZOH and the peaks across 9+ decades) and a near-cancellation (a
+    zero within 1e-7 .. 1e-3 relative of a real pole), each now and then."""
+    free = [i for i, r in enumerate(reals) if r != 0]
+    if free and ch.coin(0.15):
+        i = free[ch.integer(0, len(free) - 1)]
+        reals[i] = -abs(reals[i]) * ch.loguniform(1e-9, 1e-4)
+        kind["near_integrator"] = True
+    n, m = len(reals) + 2 * len(pairs), len(z_reals) + 2 * len(z_pairs)
+    if free and m + 1 < n and ch.coin(0.08):
+        p = reals[free[ch.integer(0, len(free) - 1)]]
+        z_reals.append(p * (1.0 + ch.pick([-1.0, 1.0]) * ch.loguniform(1e-7, 1e-3)))
+        kind["near_cancellation"] = True
+
+
 def _coeffs(pairs, reals, z_pairs, z_reals, dc_target, sign):
     A = _poly_from(reals, pairs)
     B0 = _poly_from(z_reals, z_pairs)
@@ -191,6 +211,10 @@ def draw_case(ch, seed=None, method=None):
     sampled = ch.coin(0.3)
     fs = ch.loguniform(1e3, 1e5) if sampled else None
     pairs, reals, z_pairs, z_reals, wp = _plant_parts(ch, kind, fs)
+    # the classes added later draw from a stream of their own, so every other choice of a
+    # seed stays what it was
+    extra = NumpyChooser([seed, 35]) if isinstance(seed, (int, np.integer)) else ch
+    _near_classes(extra, kind, reals, pairs, z_pairs, z_reals)
     n = len(reals) + 2 * len(pairs)
     dc = ch.loguniform(0.01, 10.0)
     sign = -1.0 if ch.coin(0.1) else 1.0
@@ -247,6 +271,10 @@ def draw_case(ch, seed=None, method=None):
     if res and ch.coin(0.5):
         w_r = res[0] / (2 * math.pi)
         specs["resonance_band_hz"] = [0.7 * w_r, 1.3 * w_r]
+    if sampled and extra.coin(0.35):       # a |T| band that reaches Nyquist (or folds over it)
+        nyq = fs / 2.0
+        specs["resonance_band_hz"] = [nyq * extra.uniform(0.3, 0.95), nyq * extra.uniform(1.0, 1.3)]
+        kind["band_to_nyquist"] = True
     data["specs"] = specs
     method = method or ch.pick(["analytic", "nlp", "convex"], [0.45, 0.45, 0.1])
     solver = {"method": method, "cert_temperatures": ch.integer(3, 12), "max_rounds": 4}
@@ -313,8 +341,11 @@ def to_toml(d, prefix=""):
             return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
         if isinstance(v, (list, tuple)):
             return "[" + ", ".join(val(x) for x in v) + "]"
-        if isinstance(v, float):
+        if isinstance(v, (float, np.floating)):
+            v = float(v)
             return repr(v) if math.isfinite(v) else ("inf" if v > 0 else "-inf") if v == v else "nan"
+        if isinstance(v, np.integer):
+            return repr(int(v))
         return repr(v)
 
     lines, tables = [], []

@@ -95,10 +95,11 @@ def run_identify(args):
     quiet = args.quiet or to_stdout
     say = progress_printer(quiet)
     order, channel = _order(args.order), _channel(args.channel)
-    from robrst.identify.identification import MAX_ORDER
+    from robrst.identify.identification import MAX_AUTO_ORDER
 
-    if args.max_order is not None and not 1 <= args.max_order <= MAX_ORDER:
-        raise SpecError(f"--max-order: expected an integer 1..{MAX_ORDER}, got {args.max_order}")
+    if args.max_order is not None and not 1 <= args.max_order <= MAX_AUTO_ORDER:
+        raise SpecError(f"--max-order: expected an integer 1..{MAX_AUTO_ORDER}, got"
+                        f" {args.max_order}")
     check_target(args.out)                        # bad targets fail before any work or write
     if args.json and not to_stdout:
         check_json_target(args.json, [args.out])

@@ -50,7 +50,7 @@ def min_sample_rate_hz(w0):
     Examples
     --------
     >>> round(min_sample_rate_hz(2137.4), 1)      # the paper's plant
-    668.0
+    667.9
     """
     return float(w0) / (_RK4_STEP * MAX_SUBSTEPS)
 

@@ -226,13 +226,13 @@ def test_symlink_loops_are_named(tmp_path):
 
 def test_identify_max_order_is_limited(tmp_path):
     """identify --max-order 100000 ran past 300 s: refused at once, the flag named."""
-    from robrst.identify.identification import MAX_ORDER
+    from robrst.identify.identification import MAX_AUTO_ORDER, MAX_ORDER
 
     (tmp_path / "r.csv").write_text("t,u,y\n" + "".join(
         f"{k / 1000},{5 + np.sin(k / 5):.6f},{0.5 * np.sin(k / 5):.6f}\n" for k in range(300)))
     t0 = time.perf_counter()
     refused(["identify", "--train", "r.csv", "--max-order", "100000", "--out", "m.toml"],
-            tmp_path, "--max-order", f"1..{MAX_ORDER}")
+            tmp_path, "--max-order", f"1..{MAX_AUTO_ORDER}")
     refused(["identify", "--train", "r.csv", "--order", "100000", "--out", "m.toml"],
             tmp_path, "--order", f"1..{MAX_ORDER}")
     assert time.perf_counter() - t0 < 10
