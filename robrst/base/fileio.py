@@ -10,9 +10,11 @@ import errno
 import json
 import math
 import os
+import signal
 import socket
 import stat
 import tempfile
+import threading
 import time
 from contextlib import contextmanager
 from pathlib import Path
@@ -29,7 +31,7 @@ from robrst.base.errors import OutputError
 __all__ = ["atomic_write_bytes", "atomic_write_text", "json_text", "jsonable", "umask_mode",
            "check_file_target", "check_folder_target", "check_json_target", "read_utf8",
            "read_input_bytes", "check_input_file", "peek_text", "output_lock", "owner_tag",
-           "owner_alive", "WRITTEN_BY", "MAX_TOML_BYTES", "MAX_TEXT_BYTES"]
+           "owner_alive", "signals_deferred", "WRITTEN_BY", "MAX_TOML_BYTES", "MAX_TEXT_BYTES"]
 
 WRITTEN_BY = "written_by"   # the key of a JSON file robrst wrote: "robrst <command>"
 
@@ -322,6 +324,56 @@ def owner_alive(tag):
 
 
 @contextmanager
+def signals_deferred():
+    """SIGINT and SIGTERM held back (delivered when the block ends) for steps that must not
+    stop half-way, such as swapping a report folder: a Ctrl-C between its two renames
+    would leave the earlier report renamed away.  A no-op outside the main thread or
+    without ``pthread_sigmask``."""
+    if not hasattr(signal, "pthread_sigmask") or \
+            threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+def _acquire(lock, path, deadline, what, option, held):
+    """Flock ``lock``; its descriptor is appended to ``held`` before any signal can stop the
+    caller (see :func:`output_lock`)."""
+    while True:
+        with signals_deferred():          # no descriptor or file left half-made by a signal
+            try:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                fd = os.open(lock, os.O_RDWR | os.O_CREAT, umask_mode())
+            except OSError as exc:
+                raise OutputError(f"{path}: cannot write here ({exc.strerror or exc})") from None
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError:
+                os.close(fd)
+                fd = None
+            if fd is not None:
+                try:     # the holder before may have removed the file between open and lock
+                    same = os.fstat(fd).st_ino == os.stat(lock).st_ino
+                except OSError:
+                    same = False
+                if same:
+                    held.append(fd)
+                    os.ftruncate(fd, 0)
+                    os.write(fd, (owner_tag() + "\n").encode())
+                    return
+                os.close(fd)
+                continue
+        if time.monotonic() >= deadline:
+            raise OutputError(f"{path}: another robrst run is writing this {what} now;"
+                              f" wait for it to finish or choose another {option}")
+        time.sleep(0.05)
+
+
+@contextmanager
 def output_lock(path, wait_s=0.0, what="output folder", option="--out"):
     """One robrst writer at a time for the output ``path`` (an advisory lock).
 
@@ -344,39 +396,18 @@ def output_lock(path, wait_s=0.0, what="output folder", option="--out"):
         yield
         return
     lock = path.parent / f".{path.name}.lock"
-    deadline = time.monotonic() + float(wait_s)
-    while True:
-        try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            fd = os.open(lock, os.O_RDWR | os.O_CREAT, umask_mode())
-        except OSError as exc:
-            raise OutputError(f"{path}: cannot write here ({exc.strerror or exc})") from None
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            os.close(fd)
-            if time.monotonic() >= deadline:
-                raise OutputError(f"{path}: another robrst run is writing this {what} now;"
-                                  f" wait for it to finish or choose another {option}") from None
-            time.sleep(0.05)
-            continue
-        try:        # the holder before may have removed the file between open and lock
-            same = os.fstat(fd).st_ino == os.stat(lock).st_ino
-        except OSError:
-            same = False
-        if same:
-            break
-        os.close(fd)
+    held = []
     try:
-        os.ftruncate(fd, 0)
-        os.write(fd, (owner_tag() + "\n").encode())
+        _acquire(lock, path, time.monotonic() + float(wait_s), what, option, held)
         yield
     finally:
-        try:
-            os.unlink(lock)
-        except OSError:
-            pass
-        os.close(fd)
+        if held:
+            with signals_deferred():
+                try:
+                    os.unlink(lock)
+                except OSError:
+                    pass
+                os.close(held[0])
 
 
 def jsonable(x):

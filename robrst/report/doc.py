@@ -17,7 +17,8 @@ from pathlib import Path
 
 from robrst.base.errors import OutputError
 from robrst.base.fileio import (atomic_write_bytes, check_folder_target, output_lock,
-                                owner_alive, owner_tag, peek_text, umask_mode)
+                                owner_alive, owner_tag, peek_text, signals_deferred,
+                                umask_mode)
 
 __all__ = ["Doc", "to_markdown", "to_html", "write_folder", "check_report_target", "MARKER"]
 
@@ -186,11 +187,12 @@ def write_folder(out_dir, doc, extra_files, render_figures, force=False):
                     atomic_write_bytes(out / p.name, p.read_bytes())
                 shutil.rmtree(tmp)
                 return given
-            old = None
-            if mode == "replace":
-                old = out.with_name(f".{out.name}.old.{os.getpid()}")
-                os.replace(out, old)
-            os.replace(tmp, out)
+            with signals_deferred():     # the earlier report or the new one, never neither
+                old = None
+                if mode == "replace":
+                    old = out.with_name(f".{out.name}.old.{os.getpid()}")
+                    os.replace(out, old)
+                os.replace(tmp, out)
             if old is not None:
                 shutil.rmtree(old, ignore_errors=True)
     except BaseException:
