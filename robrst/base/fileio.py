@@ -6,6 +6,8 @@ permissions a plain ``open(path, "w")`` would give (the user's umask), and renam
 over the target (``os.replace`` is atomic on POSIX and Windows).
 """
 
+from __future__ import annotations
+
 import errno
 import json
 import math
@@ -16,8 +18,10 @@ import stat
 import tempfile
 import threading
 import time
+from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 try:
     import fcntl
@@ -36,8 +40,19 @@ __all__ = ["atomic_write_bytes", "atomic_write_text", "json_text", "jsonable", "
 WRITTEN_BY = "written_by"   # the key of a JSON file robrst wrote: "robrst <command>"
 
 
-def umask_mode(mode=0o666):
-    """``mode`` with the process's umask applied (what ``open`` would create)."""
+def umask_mode(mode: int = 0o666) -> int:
+    """``mode`` with the process's umask applied (what ``open`` would create).
+
+    Parameters
+    ----------
+    mode : int
+        Permission bits before the umask.
+
+    Returns
+    -------
+    int
+        ``mode & ~umask``.
+    """
     mask = os.umask(0)
     os.umask(mask)
     return mode & ~mask
@@ -50,7 +65,8 @@ MAX_TOML_BYTES = 16 * 2**20
 MAX_TEXT_BYTES = 2**30
 
 
-def check_input_file(path, what, error, kind=None):
+def check_input_file(path: str | os.PathLike, what: str, error: type[Exception],
+                     kind: str | None = None) -> os.stat_result:
     """Refuse an input that is not a regular file, before opening it.
 
     A FIFO would block the read until a writer appears (``robrst design fifo`` hung), a
@@ -70,6 +86,12 @@ def check_input_file(path, what, error, kind=None):
     Returns
     -------
     os.stat_result
+
+    Raises
+    ------
+    Exception
+        ``error``, naming ``path``: not found, a broken link, a symbolic-link loop, a
+        folder, a FIFO, a device or a socket.
     """
     path = Path(path)
     try:
@@ -92,10 +114,33 @@ def check_input_file(path, what, error, kind=None):
     return st
 
 
-def read_input_bytes(path, what, error, limit=MAX_TEXT_BYTES, kind=None):
+def read_input_bytes(path: str | os.PathLike, what: str, error: type[Exception],
+                     limit: int = MAX_TEXT_BYTES, kind: str | None = None) -> bytes:
     """The bytes of a regular input file of at most ``limit`` bytes (one bounded,
-    non-blocking read); every failure is one ``error`` naming ``path``
-    (:func:`check_input_file`)."""
+    non-blocking read); every failure is one ``error`` naming ``path``.
+
+    Parameters
+    ----------
+    path : str or Path
+    what : str
+        What the file is, for messages.
+    error : type
+        The robrst exception to raise.
+    limit : int
+        Largest size [bytes].
+    kind : str, optional
+        Its format, named when the path is a folder.
+
+    Returns
+    -------
+    bytes
+
+    Raises
+    ------
+    Exception
+        ``error``: what :func:`check_input_file` refuses, an unreadable file, a file
+        larger than ``limit``.
+    """
     path = Path(path)
     check_input_file(path, what, error, kind)
     try:
@@ -112,23 +157,32 @@ def read_input_bytes(path, what, error, limit=MAX_TEXT_BYTES, kind=None):
     return raw
 
 
-def read_utf8(path, what, kind, error, limit=None):
+def read_utf8(path: Path, what: str, kind: str, error: type[Exception],
+              limit: int | None = None) -> str:
     """The text of a UTF-8 file (BOM dropped); every failure is one ``error`` naming ``path``.
 
     A regular file only (no FIFO or device), read in one bounded read.
 
     Parameters
     ----------
-    path : Path
+    path : pathlib.Path
+        The file to read.
     what : str
         What the file is, for messages ("problem file", "data file").
     kind : str
         Its format, for the folder message ("TOML", "CSV").
     error : type
-        The robrst exception to raise (``SpecError``, ``DataError``).
+        The robrst exception to raise (``SpecError``, ``DataError``): for a folder, a
+        missing or unreadable file, a FIFO, a device, a file above ``limit``, UTF-16 text
+        and a byte that is not UTF-8 (with its line).
     limit : int, optional
         Largest size [bytes]; default :data:`MAX_TOML_BYTES` for TOML, else
         :data:`MAX_TEXT_BYTES`.
+
+    Returns
+    -------
+    str
+        The decoded text without a leading byte-order mark.
     """
     if limit is None:
         limit = MAX_TOML_BYTES if kind == "TOML" else MAX_TEXT_BYTES
@@ -144,10 +198,21 @@ def read_utf8(path, what, kind, error, limit=None):
     return text.removeprefix("\ufeff")
 
 
-def peek_text(path, limit=2**20):
+def peek_text(path: str | os.PathLike, limit: int = 2**20) -> str | None:
     """The text (UTF-8, undecodable bytes replaced) of an existing regular file of at most
     ``limit`` bytes, else ``None``: for deciding whether robrst wrote an output it is about
-    to replace (a FIFO, a device or a huge file there is not robrst's)."""
+    to replace (a FIFO, a device or a huge file there is not robrst's).
+
+    Parameters
+    ----------
+    path : str or Path
+    limit : int
+        Largest size read [bytes].
+
+    Returns
+    -------
+    str or None
+    """
     try:
         st = os.stat(path)
     except OSError:
@@ -187,14 +252,20 @@ def _check_parents(path):
         raise OutputError(f"{path}: the folder {near} is not writable")
 
 
-def check_file_target(path):
+def check_file_target(path: str | Path) -> Path:
     """Refuse an output file name that cannot be written: a folder, or a path under a file.
 
     Commands call it before any work, so a mistyped output fails at once.
 
     Parameters
     ----------
-    path : str or Path
+    path : str or pathlib.Path
+        The output file name.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path`` as a ``Path``.
 
     Raises
     ------
@@ -209,16 +280,22 @@ def check_file_target(path):
     return path
 
 
-def check_json_target(path, other_outputs=()):
+def check_json_target(path: str | Path, other_outputs: Iterable[str | Path | None] = ()) -> Path:
     """Refuse a ``--json`` output file robrst may not write: what :func:`check_file_target`
     refuses, one of ``other_outputs`` (the command's other output files), and an existing
     file that is not a JSON object robrst wrote (its ``"written_by"`` starts ``robrst``).
 
     Parameters
     ----------
-    path : str or Path
-    other_outputs : iterable of str or Path
-        The other files the same command writes.
+    path : str or pathlib.Path
+        The ``--json`` file name.
+    other_outputs : iterable of str or pathlib.Path
+        The other files the same command writes (``None`` entries are ignored).
+
+    Returns
+    -------
+    pathlib.Path
+        ``path`` as a ``Path``.
 
     Raises
     ------
@@ -241,12 +318,18 @@ def check_json_target(path, other_outputs=()):
     return path
 
 
-def check_folder_target(path):
+def check_folder_target(path: str | Path) -> Path:
     """Refuse an output folder that cannot be created: an existing file, or a path under a file.
 
     Parameters
     ----------
-    path : str or Path
+    path : str or pathlib.Path
+        The output folder.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path`` as a ``Path``.
 
     Raises
     ------
@@ -261,9 +344,21 @@ def check_folder_target(path):
     return path
 
 
-def atomic_write_bytes(path, data):
+def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
     """Write ``data`` to ``path`` atomically; create the parent folder if needed (a
     symbolic link is kept: the file it names is replaced).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The file to write (checked by :func:`check_file_target`).
+    data : bytes
+        The content.
+
+    Returns
+    -------
+    pathlib.Path
+        The file written (the link's target for a symbolic link).
 
     Raises
     ------
@@ -294,19 +389,46 @@ def atomic_write_bytes(path, data):
     return path
 
 
-def atomic_write_text(path, text):
-    """Write UTF-8 ``text`` to ``path`` atomically."""
+def atomic_write_text(path: str | Path, text: str) -> Path:
+    """Write UTF-8 ``text`` to ``path`` atomically (:func:`atomic_write_bytes`).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The file to write.
+    text : str
+        The content, encoded as UTF-8.
+
+    Returns
+    -------
+    pathlib.Path
+        The file written.
+    """
     return atomic_write_bytes(path, text.encode("utf-8"))
 
 
-def owner_tag():
-    """``"PID HOST"``: who made a temporary file or folder (see :func:`owner_alive`)."""
+def owner_tag() -> str:
+    """``"PID HOST"``: who made a temporary file or folder (see :func:`owner_alive`).
+
+    Returns
+    -------
+    str
+    """
     return f"{os.getpid()} {socket.gethostname()}"
 
 
-def owner_alive(tag):
+def owner_alive(tag: str) -> bool:
     """Whether the process of an :func:`owner_tag` may still run (``True`` when unsure:
-    another host, an unreadable tag)."""
+    another host, an unreadable tag).
+
+    Parameters
+    ----------
+    tag : str
+
+    Returns
+    -------
+    bool
+    """
     try:
         pid, host = tag.split()[:2]
         pid = int(pid)
@@ -324,11 +446,16 @@ def owner_alive(tag):
 
 
 @contextmanager
-def signals_deferred():
+def signals_deferred() -> Iterator[None]:
     """SIGINT and SIGTERM held back (delivered when the block ends) for steps that must not
     stop half-way, such as swapping a report folder: a Ctrl-C between its two renames
     would leave the earlier report renamed away.  A no-op outside the main thread or
-    without ``pthread_sigmask``."""
+    without ``pthread_sigmask``.
+
+    Yields
+    ------
+    None
+    """
     if not hasattr(signal, "pthread_sigmask") or \
             threading.current_thread() is not threading.main_thread():
         yield
@@ -374,7 +501,8 @@ def _acquire(lock, path, deadline, what, option, held):
 
 
 @contextmanager
-def output_lock(path, wait_s=0.0, what="output folder", option="--out"):
+def output_lock(path: str | os.PathLike, wait_s: float = 0.0, what: str = "output folder",
+                option: str = "--out") -> Iterator[None]:
     """One robrst writer at a time for the output ``path`` (an advisory lock).
 
     The lock is the file ``.NAME.lock`` beside ``path`` (``flock``, released when the
@@ -390,6 +518,17 @@ def output_lock(path, wait_s=0.0, what="output folder", option="--out"):
         How long to wait for another writer to finish.
     what, option : str
         For the message.
+
+    Yields
+    ------
+    None
+        While the lock is held.
+
+    Raises
+    ------
+    OutputError
+        Another writer holds the lock beyond ``wait_s``, or the folder cannot hold the
+        lock file.
     """
     path = Path(path)
     if fcntl is None:       # pragma: no cover
@@ -410,11 +549,29 @@ def output_lock(path, wait_s=0.0, what="output folder", option="--out"):
                 os.close(held[0])
 
 
-def jsonable(x):
+def jsonable(x: Any) -> Any:
     """``x`` with numpy scalars/arrays as Python values and non-finite floats as ``None``.
 
     JSON has no ``inf``/``nan``; robrst's contract writes ``null`` for an infinite
-    margin or gain (documented in the README).
+    margin or gain.
+
+    Parameters
+    ----------
+    x : object
+        Dicts, lists, tuples, numpy arrays and scalars are converted recursively (dict
+        keys become strings); anything else is returned as it is.
+
+    Returns
+    -------
+    object
+        A value ``json.dumps`` accepts with ``allow_nan=False``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from robrst.base.fileio import jsonable
+    >>> jsonable({"gm": np.inf, "poles": np.array([-1.0, -2.0]), 1: np.int64(3)})
+    {'gm': None, 'poles': [-1.0, -2.0], '1': 3}
     """
     if isinstance(x, dict):
         return {str(k): jsonable(v) for k, v in x.items()}
@@ -431,6 +588,19 @@ def jsonable(x):
     return x
 
 
-def json_text(obj, indent=None):
-    """robrst's JSON text of ``obj`` (see :func:`jsonable`)."""
+def json_text(obj: Any, indent: int | None = None) -> str:
+    """robrst's JSON text of ``obj`` (see :func:`jsonable`).
+
+    Parameters
+    ----------
+    obj : object
+        What to write.
+    indent : int, optional
+        Indentation of ``json.dumps`` (``None``: one line).
+
+    Returns
+    -------
+    str
+        Strict JSON (no ``NaN`` or ``Infinity``).
+    """
     return json.dumps(jsonable(obj), allow_nan=False, indent=indent)

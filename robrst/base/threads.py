@@ -9,15 +9,30 @@ the caller's settings afterwards.  A library is only limited once loaded, so Sci
 loaded first when the computation will use it (``scipy=True``).
 """
 
+import os
+from collections.abc import Iterator
 from contextlib import contextmanager
 
 from threadpoolctl import threadpool_limits
 
-__all__ = ["one_blas_thread"]
+__all__ = ["one_blas_thread", "available_cores"]
+
+
+def available_cores() -> int:
+    """The cores this process may use (Linux: its affinity; else the machine's).
+
+    Returns
+    -------
+    int
+    """
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:   # not on Linux
+        return os.cpu_count() or 1
 
 
 @contextmanager
-def one_blas_thread(scipy=True):
+def one_blas_thread(scipy: bool = True) -> Iterator[None]:
     """Run the ``with`` block with one BLAS thread in every BLAS library.
 
     Parameters
@@ -26,6 +41,12 @@ def one_blas_thread(scipy=True):
         Load ``scipy.linalg`` first (the sampled loop, step responses and balancing use
         it), so that its BLAS is limited as well; ``False`` for computations that never
         load SciPy (importing it costs 0.15-0.3 s).
+
+    Yields
+    ------
+    None
+        Inside the block every loaded BLAS library runs one thread; the caller's limits
+        are restored on exit.
 
     Examples
     --------

@@ -1,10 +1,12 @@
 """Command-line interface: ``robrst design | report | simulate | diagnose | identify | convert |
-export | check | sweep``.
+export | check | certify | sweep``.
 
 A thin layer: parse arguments, call the library, print.  Every robrst error becomes
 one line ``robrst: error: ...`` on stderr and exit code 2 (1 for a design that is not
 certified, 0 otherwise); never a traceback.
 """
+
+from __future__ import annotations
 
 import argparse
 import os
@@ -12,6 +14,7 @@ import signal
 import sys
 import threading
 import warnings
+from collections.abc import Sequence
 
 # robrst's matrices are small (< 30 x 30): BLAS threads only add wake-up latency (scipy's
 # expm is ~300x slower with two OpenBLAS threads on a 2-core machine).  The command line
@@ -21,7 +24,8 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 from robrst import __version__
-from robrst.cli import check, convert, design, diagnose, export, identify, simulate, sweep
+from robrst.cli import (certify, check, convert, design, diagnose, export, identify, simulate,
+                        sweep)
 from robrst.base.errors import RobrstError
 
 __all__ = ["main", "build_parser", "Terminated", "LAST_RESORT"]
@@ -30,7 +34,7 @@ __all__ = ["main", "build_parser", "Terminated", "LAST_RESORT"]
 # reached by a known input (the random-problem and bad-input suites fail if it is)
 LAST_RESORT = "computation failed ("
 
-COMMANDS = (design, simulate, diagnose, identify, convert, export, check, sweep)
+COMMANDS = (design, simulate, diagnose, identify, convert, export, check, certify, sweep)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -41,8 +45,14 @@ class _Parser(argparse.ArgumentParser):
         raise SystemExit(2)
 
 
-def build_parser():
-    """The argument parser of every command."""
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of every command.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        ``robrst`` with one sub-command per module of :mod:`robrst.cli`.
+    """
     p = _Parser(prog="robrst", description="Robust RST control of piezo actuators")
     p.add_argument("--version", action="version", version=f"robrst {__version__}")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
@@ -77,7 +87,7 @@ def _on_sigterm(signum, frame):
     raise Terminated()
 
 
-def main(argv=None):
+def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); return the exit code.
 
     numpy's floating-point warnings (overflow, invalid value) are not printed raw: every
@@ -85,6 +95,17 @@ def main(argv=None):
     either ends in a clear error or in a not-certified answer.  When one was raised and
     the run did not end in an error, one line ``robrst: note: ...`` says how many
     (``ROBRST_DEBUG=1`` prints them as Python does).
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        The arguments (without the program name).
+
+    Returns
+    -------
+    int
+        0 certified (or nothing worse), 1 not certified (or something worse), 2 error
+        (one line on stderr, never a traceback), 130 a sweep interrupted.
     """
     parser = build_parser()
     args = parser.parse_args(_negative_numbers(sys.argv[1:] if argv is None else argv))
@@ -135,7 +156,8 @@ def _run(args):
     except Exception as exc:   # noqa: BLE001 — the CLI never ends in a traceback
         if os.environ.get("ROBRST_DEBUG"):
             raise
-        where = next((str(getattr(args, k)) for k in ("problem", "file", "sweep", "scenario")
+        where = next((str(getattr(args, k)) for k in ("problem", "design", "file", "sweep",
+                                                      "scenario")
                       if isinstance(getattr(args, k, None), (str, os.PathLike))), "")
         msg = " ".join(str(exc).split()) or "no message"
         print(f"robrst: error: {where + ': ' if where else ''}{LAST_RESORT}"

@@ -1,20 +1,33 @@
 """``robrst check``: margins of a design against a golden file (users' regression tests)."""
 
-from robrst.cli.common import progress_printer
-from robrst.design import run_problem
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from robrst.cli.common import design_result, is_saved_design, progress_printer
 from robrst.base.fileio import check_file_target
 from robrst.problem.files import load_problem
 from robrst.testing import (check_golden_fits, compare_golden, count_figures, golden_figures,
                             read_golden, write_golden)
 
+if TYPE_CHECKING:
+    import argparse
+
 __all__ = ["add_parsers", "run_check"]
 
 
-def add_parsers(sub):
-    """Register ``check``."""
+def add_parsers(sub: argparse._SubParsersAction) -> None:
+    """Register ``check``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The sub-parser collection of :func:`robrst.cli.build_parser`.
+    """
     c = sub.add_parser("check", help="compare a design's margins with a golden file"
                                      " (exit 0 nothing worse, 1 something worse, 2 error)")
-    c.add_argument("problem", help="problem file (TOML), or a built-in problem by name")
+    c.add_argument("problem", help="problem file (TOML), a built-in problem by name, or a saved"
+                                   " design (DESIGN.json: its controller, not designed again)")
     c.add_argument("--golden", required=True, metavar="FILE", help="golden margins (TOML)")
     c.add_argument("--update", action="store_true",
                    help="write the golden from this design instead of comparing (exit 0"
@@ -23,17 +36,32 @@ def add_parsers(sub):
     c.set_defaults(func=run_check)
 
 
-def run_check(args):
-    """Design, then write the golden (``--update``) or print every figure that got worse."""
+def run_check(args: argparse.Namespace) -> int:
+    """Design, then write the golden (``--update``) or print every figure that got worse.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        The exit code: 0 nothing worse (``--update``: certified), 1 something worse
+        (``--update``: not certified).
+    """
     say = progress_printer(args.quiet)
     golden = None if args.update else read_golden(args.golden)   # a bad golden fails first
     if args.update:
         check_file_target(args.golden)
-    problem = load_problem(args.problem)
-    if golden is not None:
-        check_golden_fits(golden, problem)          # before the design
-    say(f"designing {problem.name} ({problem.solver.method})")
-    result = run_problem(problem, progress=say)
+    problem = None
+    if not is_saved_design(args.problem):
+        problem = load_problem(args.problem)
+        if golden is not None:
+            check_golden_fits(golden, problem)      # before the design
+    result = design_result(args.problem, say, problem)
+    if problem is None and golden is not None:
+        check_golden_fits(golden, result.problem)
     if args.update:                                 # exit code as `design`: 1 not certified
         write_golden(result, args.golden)
         g = golden_figures(result)

@@ -1,19 +1,92 @@
 """Helpers shared by the commands: progress lines, JSON output."""
 
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
 import sys
+from collections.abc import Callable
 
 from robrst.base.fileio import json_text
 
-__all__ = ["progress_printer", "print_json"]
+__all__ = ["progress_printer", "print_json", "is_saved_design", "design_result"]
 
 
-def progress_printer(quiet):
-    """A progress callback printing to stderr, or a silent one."""
+def progress_printer(quiet: bool) -> Callable[[str], None]:
+    """A progress callback printing to stderr, or a silent one.
+
+    Parameters
+    ----------
+    quiet : bool
+        Print nothing.
+
+    Returns
+    -------
+    callable
+        ``progress(message)``.
+    """
     if quiet:
         return lambda msg: None
     return lambda msg: print(msg, file=sys.stderr, flush=True)
 
 
-def print_json(obj, indent=None):
-    """Print exactly one JSON object on stdout (robrst's contract)."""
+def print_json(obj: Any, indent: int | None = None) -> None:
+    """Print exactly one JSON object on stdout (robrst's contract).
+
+    Parameters
+    ----------
+    obj : object
+        The object (see :func:`robrst.base.fileio.jsonable`).
+    indent : int, optional
+        Indentation (``None``: one line).
+    """
     print(json_text(obj, indent=indent))
+
+
+def is_saved_design(arg: str) -> bool:
+    """True when the command-line argument names a saved design (a JSON file).
+
+    Parameters
+    ----------
+    arg : str
+        A command's ``PROBLEM`` argument.
+
+    Returns
+    -------
+    bool
+    """
+    from robrst.controller.artefact import is_design_file
+
+    return is_design_file(arg)
+
+
+def design_result(arg: str, say: Callable[[str], None], problem: object = None) -> object:
+    """The design result of a command's ``PROBLEM`` argument.
+
+    Parameters
+    ----------
+    arg : str
+        A saved design (read back: its controller as saved, certified again; never
+        designed) or a problem file or built-in name (designed now).
+    say : callable
+        Progress lines.
+    problem : Problem, optional
+        The problem already loaded from ``arg``.
+
+    Returns
+    -------
+    DesignResult
+    """
+    if is_saved_design(arg):
+        from robrst.controller.artefact import design_from_dict, read_design
+
+        doc = read_design(arg)             # a bad file fails before any progress line
+        say(f"reading the saved design {arg} (its controller as saved; no design)")
+        return design_from_dict(doc, str(arg), progress=say)
+    from robrst.design import run_problem
+    from robrst.problem.files import load_problem
+
+    problem = problem or load_problem(arg)
+    say(f"designing {problem.name} ({problem.solver.method})")
+    return run_problem(problem, progress=say)

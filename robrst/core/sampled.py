@@ -16,7 +16,10 @@ peak, stability and margin computation of the continuous loop therefore applies 
 the sampled loop unchanged, including the exact Hamiltonian peaks.
 """
 
+from __future__ import annotations
+
 from math import comb
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -24,29 +27,61 @@ from robrst.core import lti, poly
 from robrst.base.errors import SpecError
 from robrst.core.plant import Plant
 
-__all__ = ["sampled_plant", "warp", "unwarp", "warp_band", "SAMPLED_RTOL"]
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
-# the sampled plant's polynomials must reproduce its exact state space to this relative
-# accuracy at the check points (else the plant is refused: no certificate on a wrong plant)
-SAMPLED_RTOL = 1e-8
+__all__ = ["sampled_plant", "warp", "unwarp", "warp_band"]
 
 # an irregular point of the scaled plane where the gain of P_w is matched
 _GAIN_POINT = 0.3719 + 0.8537j
 
 
-def warp(w, sample_rate_hz):
-    """Physical frequency ``w`` [rad/s] (below Nyquist) -> the loop variable ``nu``."""
+def warp(w: ArrayLike, sample_rate_hz: float) -> np.ndarray:
+    """Physical frequency ``w`` [rad/s] (below Nyquist) -> the loop variable ``nu``.
+
+    Parameters
+    ----------
+    w : array_like
+        Frequencies [rad/s], below ``pi fs``.
+    sample_rate_hz : float
+        Sampling rate ``fs`` [Hz].
+
+    Returns
+    -------
+    numpy.ndarray
+        ``nu = 2 fs tan(w / (2 fs))``.
+    """
     fs = float(sample_rate_hz)
     return 2.0 * fs * np.tan(np.asarray(w, float) / (2.0 * fs))
 
 
-def unwarp(nu, sample_rate_hz):
-    """Loop variable ``nu`` -> physical frequency [rad/s] (``inf`` -> Nyquist ``pi fs``)."""
+def unwarp(nu: ArrayLike, sample_rate_hz: float) -> np.ndarray:
+    """Loop variable ``nu`` -> physical frequency [rad/s] (``inf`` -> Nyquist ``pi fs``).
+
+    Parameters
+    ----------
+    nu : array_like
+        Frequencies of the w-plane loop.
+    sample_rate_hz : float
+        Sampling rate ``fs`` [Hz].
+
+    Returns
+    -------
+    numpy.ndarray
+        ``w = 2 fs arctan(nu / (2 fs))``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from robrst.core.sampled import unwarp, warp
+    >>> float(unwarp(warp(1000.0, 20000.0), 20000.0))
+    1000.0
+    """
     fs = float(sample_rate_hz)
     return 2.0 * fs * np.arctan(np.asarray(nu, float) / (2.0 * fs))
 
 
-def warp_band(w_lo, w_hi, sample_rate_hz):
+def warp_band(w_lo: float, w_hi: float, sample_rate_hz: float) -> tuple[float, float]:
     """The loop-variable interval of the physical band ``[w_lo, w_hi]`` [rad/s].
 
     The sampled loop's response at ``e^{j w / fs}`` is ``2 pi fs``-periodic and even in
@@ -123,7 +158,8 @@ def _w_plane(dss):
 _CHECK_THETA = (1.3e-3, 1.7e-2, 0.19, 0.83, 1.9, 2.87)
 
 
-def _w_polynomials(w_ss, poles, h, w0):
+def _w_polynomials(w_ss: tuple, poles: np.ndarray, h: float,
+                   w0: float) -> tuple[np.ndarray, np.ndarray]:
     """``(B, A)`` in s of the w-plane state space ``w_ss`` (scaled variable, poles known).
 
     The zeros are the transmission zeros of the balanced system matrix in two frequency
@@ -161,7 +197,7 @@ def _w_polynomials(w_ss, poles, h, w0):
     return B, poly.from_roots(w0 * poles)
 
 
-def sampled_plant(plant, sample_rate_hz, delay_samples=0):
+def sampled_plant(plant: Plant, sample_rate_hz: float, delay_samples: int = 0) -> Plant:
     """The plant ``P_w(s)`` of the sampled loop (see the module docstring).
 
     Parameters
@@ -178,6 +214,11 @@ def sampled_plant(plant, sample_rate_hz, delay_samples=0):
     Plant
         Biproper in general; label ``"<label>@<fs> Hz"``, same temperature, and
         ``meta`` ``{"fs_hz", "delay_samples", "continuous_label"}``.
+
+    Raises
+    ------
+    SpecError
+        For a rate that is not > 0 or a delay that is not a whole number >= 0.
 
     Notes
     -----

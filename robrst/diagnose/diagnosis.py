@@ -27,7 +27,11 @@ fitted offset); a ``cannot_tell`` whose held-out residual is mostly a constant
 (:meth:`Diagnosis.as_dict`) only ever gains fields.
 """
 
+from __future__ import annotations
+
 import time
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -42,9 +46,16 @@ from robrst.diagnose.result import Diagnosis, EffectScore
 from robrst.diagnose.select import OFFSET, Setup, candidates, forward, linear_with_offset
 from robrst.diagnose.thermal import max_delay, search_delay, search_saturation
 from robrst.diagnose.verdict import NEAR_RATIO, build, decide, unmodelled
-from robrst.base.errors import DataError
-from robrst.core.plant import paper_plant
+from robrst.base.errors import DataError, SpecError
+from robrst.core.plant import Plant, as_plant, paper_plant
+from robrst.identify.modal import ModalModel
 from robrst.base.threads import one_blas_thread
+
+if TYPE_CHECKING:
+    from robrst.core.plant import Plant
+    from robrst.data.dataset import Dataset
+    from robrst.diagnose.fit import Fitted
+    from robrst.identify.modal import ModalModel
 
 __all__ = ["Diagnosis", "EffectScore", "diagnose", "check_records", "decompose",
            "offset_finding", "MIN_SAMPLES", "NONE_RATIO"]
@@ -56,12 +67,28 @@ OFFSET_SHARE = 0.5       # a constant offset this share of the residual: finding
 TEMP_EXCITED_K = 0.05    # a temperature range below this does not excite thermal effects
 
 
-def check_records(train, test, n_in=None, n_out=None):
+def check_records(train: Sequence[Dataset], test: Sequence[Dataset], n_in: int | None = None,
+                  n_out: int | None = None) -> float:
     """Validate record sets; return the common sampling rate [Hz].
 
-    Raises :class:`DataError` naming the file for empty sets, records shorter than
-    ``MIN_SAMPLES``, a constant output while the input varies, sampling rates that differ (relative 1e-6) and channel counts that
-    differ from each other or from the model's.
+    Parameters
+    ----------
+    train, test : sequence of Dataset
+        The training and test records.
+    n_in, n_out : int, optional
+        The model's channel counts the records must have.
+
+    Returns
+    -------
+    float
+        The sampling rate [Hz].
+
+    Raises
+    ------
+    DataError
+        Naming the file: empty sets, records shorter than ``MIN_SAMPLES``, a constant
+        output while the input varies, sampling rates that differ (relative 1e-6) and
+        channel counts that differ from each other or from the model's.
     """
     if not train or not test:
         raise DataError("diagnosis needs at least one training and one test record")
@@ -94,7 +121,36 @@ def _name(d, i):
     return d.source or f"record{i}"
 
 
-def _skipped(train, effects, model):
+def polynomial_plant(plant: object, model: ModalModel) -> Plant | None:
+    """The SISO :class:`~robrst.core.plant.Plant` of the model under diagnosis, or ``None``.
+
+    ``thermal_dynamics`` runs the twin's full step, whose linear part is ``B(s)/A(s)``: a
+    :class:`~robrst.identify.modal.ModalModel` (a model file of ``robrst identify``) is
+    expanded (:meth:`~robrst.identify.modal.ModalModel.channel`); a model of several inputs
+    or outputs, or one whose expanded coefficients overflow, has none.
+
+    Parameters
+    ----------
+    plant : Plant or ModalModel
+        The model as given.
+    model : ModalModel
+        Its modal form.
+
+    Returns
+    -------
+    Plant or None
+    """
+    if isinstance(plant, Plant):
+        return plant
+    if (model.n_in, model.n_out) != (1, 1):
+        return None
+    try:
+        return model.channel(0, 0)
+    except SpecError:
+        return None
+
+
+def _skipped(train, effects, model, siso=True):
     """Effects not tried, with the reason (inputs never excited, SISO-only)."""
     out = {}
     temps = [d.temp for d in train if d.temp is not None]
@@ -106,6 +162,9 @@ def _skipped(train, effects, model):
                       if temps else "no temperature measured")
         elif e == "thermal_dynamics" and (model.n_in, model.n_out) != (1, 1):
             out[e] = "one input and one output only"
+        elif e == "thermal_dynamics" and not siso:
+            out[e] = ("the model's polynomials B(s), A(s) overflow float64 (its order is too"
+                      " high for the twin's linear step)")
     return out
 
 
@@ -118,8 +177,9 @@ def _levels_ok(train, test):
     return len(lv) >= 2 and lv[-1] > 1.3 * lv[0]
 
 
-def diagnose(train, test, plant=None, reference_C=None, effects=EFFECTS, progress=None,
-             workers=2):
+def diagnose(train: Sequence[Dataset], test: Sequence[Dataset], plant: Plant | ModalModel | None = None,
+             reference_C: float | None = None, effects: Sequence[str] = EFFECTS,
+             progress: Callable[[str], None] | None = None, workers: int = 2) -> Diagnosis:
     """Diagnose the gap between a simulation model and measured records.
 
     Parameters
@@ -129,7 +189,7 @@ def diagnose(train, test, plant=None, reference_C=None, effects=EFFECTS, progres
         (every reported gap is measured on them).  Same sampling rate and channels;
         ``u`` is the commanded input (open or closed loop).  Periodic records are
         simulated in steady state, the others from rest.
-    plant : Plant or ModalModel, optional
+    plant : Plant, ModalModel or control.TransferFunction/StateSpace, optional
         The simulation model's linear dynamics (default: the paper's D(s), eq. 4);
         a :class:`~robrst.identify.modal.ModalModel` may have several inputs/outputs.
     reference_C : float, optional
@@ -153,7 +213,8 @@ def diagnose(train, test, plant=None, reference_C=None, effects=EFFECTS, progres
     """
     t_start = time.perf_counter()
     say = progress or (lambda m: None)
-    plant = plant or paper_plant()
+    plant = paper_plant() if plant is None else (
+        plant if isinstance(plant, ModalModel) else as_plant(plant))
     model = as_modal(plant)
     fs = check_records(train, test, model.n_in, model.n_out)
     ref = reference_C if reference_C is not None else (model.temperature_C or 28.0)
@@ -198,7 +259,8 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
             "per_record": per_record, "model": model, "plant": plant, "t_start": t_start}
     traces = {"names": names, "records": all_recs, "base_residuals": base_res,
               "psd_f": f, "psd": P, "noise_psd": level}
-    skipped = _skipped(train, effects, model)
+    siso = polynomial_plant(plant, model)
+    skipped = _skipped(train, effects, model, siso is not None)
     tried = tuple(e for e in effects if e not in skipped)
     if not _excited(train) or not _excited(test):
         which = "training" if not _excited(train) else "test"
@@ -221,7 +283,7 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
     setup = Setup(fs=fs, ref=ref, train=train_p, train_full=preps[:n_tr], test=preps[n_tr:],
                   test_records=test, train_records=train, lin=lin,
                   lin_modal=LinearPart(model, fs, modal_gains=True), stats=summary(train),
-                  noise_sigma=sigma, plant=plant if (model.n_in, model.n_out) == (1, 1) else None,
+                  noise_sigma=sigma, plant=siso,
                   effects=tried, dynamic=_levels_ok(train, test) and "hysteresis" in tried,
                   delays=(search_delay(train_p, lin, max_delay(fs)) if "delay" in tried
                           else (0,) * model.n_in),
@@ -280,7 +342,9 @@ def _low_level_refit(setup, train, train_p, preps):
     return [p.Y - fit.predict_prepared(p) for p in preps]
 
 
-def decompose(res, before, floor, linear_res, offset=None, offset_linear_res=None):
+def decompose(res: Sequence[np.ndarray], before: float, floor: float,
+              linear_res: Sequence[np.ndarray], offset: np.ndarray | None = None,
+              offset_linear_res: Sequence[np.ndarray] | None = None) -> dict[str, float]:
     """Shares of the held-out residual's mean square by nested models: a partition.
 
     Parameters
@@ -346,7 +410,7 @@ def _offset(res):
     return mean, (mean ** 2 / ms if ms > 0 else 0.0)
 
 
-def offset_finding(res, fitted=None):
+def offset_finding(res: Sequence[np.ndarray], fitted: Fitted | None = None) -> dict | None:
     """``output_offset`` finding, or None.
 
     With ``fitted`` (the answer's fit, which includes a constant output offset) the
@@ -354,6 +418,18 @@ def offset_finding(res, fitted=None):
     constant alone is of the held-out residual's mean square.  Without, the finding is
     made when a constant is most (``OFFSET_SHARE``) of the held-out residual ``res`` (the
     dynamic effects and a linear re-fit cannot stand for it).
+
+    Parameters
+    ----------
+    res : sequence of numpy.ndarray
+        Held-out residuals per test record.
+    fitted : Fitted, optional
+        The answer's fit.
+
+    Returns
+    -------
+    dict or None
+        ``{"kind": "output_offset", "offset_um", "share"}``.
     """
     if fitted is not None:
         vals = list(fitted.params()["output_offset"][0].values())

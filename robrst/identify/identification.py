@@ -27,17 +27,26 @@ more than noise would, see :func:`robrst.identify.free.record_starts`) is taken 
 at rest with no offset in the final fit: no information is spent on them.
 """
 
+from __future__ import annotations
+
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from robrst.data.dataset import check_sensor
 from robrst.base.errors import DataError, SpecError
 from robrst.identify.free import fit_free, record_starts
-from robrst.identify.vf import (fit_data, fit_residues, initial_poles, to_continuous,
-                                vector_fit)
+from robrst.identify.thermal import modal_parameters, thermal_law
+from robrst.identify.vf import (fit_data, fit_residues, initial_poles, relative_degree,
+                                to_continuous, vector_fit)
 from robrst.base.threads import one_blas_thread
+
+if TYPE_CHECKING:
+    from robrst.data.dataset import Dataset
+    from robrst.identify.modal import DiscreteModel
 
 __all__ = ["identify", "Identified", "OrderScore", "ORDER_TOL", "MAX_ORDER", "MAX_AUTO_ORDER",
            "TEMP_TOL_K", "START_NOTE", "nrmse_of", "simulate_record"]
@@ -58,7 +67,19 @@ HELD_HEAD = 0.2         # a whole held-out record's offset and initial state: fr
 
 @dataclass(frozen=True)
 class OrderScore:
-    """Held-out result of one candidate order."""
+    """Held-out result of one candidate order.
+
+    Parameters
+    ----------
+    order : int
+        The candidate order.
+    train_nrmse : float
+        NRMSE on the fit records.
+    heldout_nrmse : float
+        NRMSE on the held-out records (or parts).
+    note : str
+        Why the order was not tried or not usable ("" otherwise).
+    """
 
     order: int
     train_nrmse: float
@@ -68,7 +89,42 @@ class OrderScore:
 
 @dataclass(frozen=True, eq=False)
 class Identified:
-    """Result of :func:`identify`: one model per temperature (increasing) and the scores."""
+    """Result of :func:`identify`: one model per temperature (increasing) and the scores.
+
+    Parameters
+    ----------
+    models : tuple of ModalModel
+        One per temperature group, increasing.
+    order : int
+        The chosen order.
+    feedthrough : bool
+        A direct term was fitted.
+    fs : float
+        Sampling rate of the records [Hz].
+    scores : tuple of OrderScore
+        Per candidate order (of the order-selection group).
+    heldout : tuple of str
+        Names of the held-out records (or parts).
+    train : tuple of str
+        Names of the fit records.
+    heldout_nrmse : float
+        Held-out NRMSE of the chosen order (selection group).
+    starts : tuple of RecordStart
+        Per non-periodic training record: its offset and start away from rest.
+    notes : tuple of str
+        Significant offsets and starts away from rest, in words.
+    relative_degree : int
+        Continuous numerator degree = order - this (0: feedthrough), the one the data
+        support (:func:`robrst.identify.vf.relative_degree`).
+    thermal : ThermalLaw or None
+        The per-kelvin laws of a family of one input and output at several temperatures
+        (:func:`robrst.identify.thermal.thermal_law`).
+
+    Attributes
+    ----------
+    model : ModalModel
+        The model of the first (lowest) temperature, or the only one.
+    """
 
     models: tuple            # ModalModel per temperature group
     order: int
@@ -80,18 +136,29 @@ class Identified:
     heldout_nrmse: float     # of the chosen order (selection group)
     starts: tuple = ()       # RecordStart per non-periodic training record
     notes: tuple = ()        # significant offsets and starts away from rest
+    relative_degree: int = 1  # continuous numerator degree = order - this (0: feedthrough)
+    thermal: object = None    # ThermalLaw of a SISO family (several temperatures), or None
 
     @property
     def model(self):
         """The model of the first (lowest) temperature, or the only one."""
         return self.models[0]
 
-    def as_dict(self):
+    def as_dict(self) -> dict:
+        """The JSON of ``robrst identify --json`` (fields are only added).
+
+        Returns
+        -------
+        dict
+            ``order, feedthrough, fs_hz, inputs, outputs, temperatures_C, heldout_nrmse,
+            train, heldout, records, notes, orders``.
+        """
         return {"order": self.order, "feedthrough": self.feedthrough, "fs_hz": self.fs,
                 "inputs": self.model.n_in, "outputs": self.model.n_out,
                 "temperatures_C": [m.temperature_C for m in self.models],
                 "heldout_nrmse": self.heldout_nrmse, "train": list(self.train),
-                "heldout": list(self.heldout),
+                "heldout": list(self.heldout), "relative_degree": self.relative_degree,
+                "thermal": None if self.thermal is None else self.thermal.as_dict(),
                 "records": [r.as_dict() for r in self.starts], "notes": list(self.notes),
                 "orders": [{"order": s.order, "train_nrmse": _num(s.train_nrmse),
                             "heldout_nrmse": _num(s.heldout_nrmse), "note": s.note}
@@ -115,11 +182,26 @@ def _fit_part(sl, n=None):
     return None if n is None else slice(0, max(int(math.ceil(HELD_HEAD * n)), 1))
 
 
-def simulate_record(dmodel, d, free=False, fit=None):
+def simulate_record(dmodel: DiscreteModel, d: Dataset, free: bool = False,
+                    fit: slice | None = None) -> np.ndarray:
     """Simulated outputs ``(N, m)`` of a sampled model on record ``d``.
 
-    ``free``: a non-periodic record's output offset and initial-state free response are
-    estimated by least squares on the samples ``fit`` (default: all) and included.
+    Parameters
+    ----------
+    dmodel : DiscreteModel
+        The sampled model.
+    d : Dataset
+        The record (periodic ones in steady state, the others from rest).
+    free : bool
+        Estimate a non-periodic record's output offset and initial-state free response by
+        least squares and include them.
+    fit : slice, optional
+        The samples they are estimated on (default: all).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(N, m)`` [µm].
     """
     periodic = bool(d.period) and d.periods >= 1
     Y = dmodel.response(d.U, periodic=periodic)
@@ -142,12 +224,26 @@ def _energies(dmodel, records, parts=None, free=False, held=False):
     return num, den
 
 
-def nrmse_of(dmodel, records, parts=None, free=False):
+def nrmse_of(dmodel: DiscreteModel, records: Sequence[Dataset],
+             parts: Sequence[slice | None] | None = None, free: bool = False) -> float:
     """Pooled NRMSE ``||Y - Yhat|| / ||Y - mean Y||`` over records and outputs.
 
-    ``parts`` optionally gives, per record, a slice of samples to score; ``free``
-    includes each non-periodic record's estimated offset and initial-state response
-    (estimated on the samples before the slice, or on the whole record).
+    Parameters
+    ----------
+    dmodel : DiscreteModel
+        The sampled model.
+    records : sequence of Dataset
+        The records scored.
+    parts : sequence of slice, optional
+        Per record, the samples to score (default: all).
+    free : bool
+        Include each non-periodic record's estimated offset and initial-state response
+        (estimated on the samples before the slice, or on the whole record).
+
+    Returns
+    -------
+    float
+        The NRMSE (``inf`` when the outputs do not vary).
     """
     num, den = _energies(dmodel, records, parts, free)
     return math.sqrt(num / den) if den > 0 else math.inf
@@ -265,8 +361,9 @@ def _candidates(order, max_order, n_lines):
     return list(range(1, min(top, 12) + 1)) + list(range(14, top + 1, 2))
 
 
-def identify(train, validate=None, order="auto", max_order=None, feedthrough=False,
-             progress=None):
+def identify(train: Sequence[Dataset], validate: Sequence[Dataset] | None = None,
+             order: str | int = "auto", max_order: int | None = None, feedthrough: bool = False,
+             progress: Callable[[str], None] | None = None) -> Identified:
     """Fit a continuous-time linear model (every output from every input) to records.
 
     Parameters
@@ -297,7 +394,10 @@ def identify(train, validate=None, order="auto", max_order=None, feedthrough=Fal
     ------
     DataError
         For inconsistent or unexcited records (also: training records of which only some
-        have a temperature column); SpecError for a bad order.
+        have a temperature column).
+    SpecError
+        For a bad order, or when no candidate order gives a usable model (naming the flag
+        to lower).
     """
     say = progress or (lambda m: None)
     fs = _check(list(train), "training")
@@ -347,27 +447,51 @@ def identify(train, validate=None, order="auto", max_order=None, feedthrough=Fal
                             + "; ".join(s.note for s in scores[:3]) + hint)
         best = min(s.heldout_nrmse for s in finite)
         chosen = next(s for s in finite if s.heldout_nrmse <= best * (1 + ORDER_TOL) + 1e-9)
-        out, starts = [], []
+        fits, starts = [], []
         for T, recs in groups:
-            dm = _fit_order(fit_data(recs, free=True), chosen.order, feedthrough)
+            data = fit_data(recs, free=True)
+            dm = _fit_order(data, chosen.order, feedthrough)
             rs = []
             if any(not (d.period and d.periods >= 1) for d in recs):
-                rest = _fit_order(fit_data(recs), chosen.order, feedthrough)
+                rest_data = fit_data(recs)
+                rest = _fit_order(rest_data, chosen.order, feedthrough)
                 rs = record_starts(dm, recs, rest)
                 flags = iter([r.significant for r in rs])
                 flags = [False if d.period and d.periods >= 1 else next(flags) for d in recs]
                 if not any(flags):
-                    dm = rest
+                    dm, data = rest, rest_data
                 elif not all(flags):     # refit: the others start at rest
-                    dm = _fit_order(fit_data(recs, free=flags), chosen.order, feedthrough)
+                    data = fit_data(recs, free=flags)
+                    dm = _fit_order(data, chosen.order, feedthrough)
+            fits.append((T, data, dm))
+            starts += rs
+        # one relative degree for every model: a family interpolates coefficient by
+        # coefficient, and a leading numerator term fitted to the noise is a zero far
+        # beyond Nyquist that no problem file can hold
+        markov = relative_degree([d for _, d, _ in fits], [dm.zpoles for *_, dm in fits],
+                                 feedthrough)
+        out, params = [], []
+        for T, data, dm in fits:
+            if markov:
+                dm = fit_residues(data, dm.zpoles, feedthrough, markov=markov)[0]
             label = "identified" if T is None else f"identified_T{T:g}C"
             out.append(to_continuous(dm, label=label, temperature_C=T))
-            starts += rs
+            if T is not None and len(fits) > 1 and (data.n_in, data.n_out) == (1, 1):
+                params.append(modal_parameters(data, dm, T, feedthrough, markov))
+        law = thermal_law(params, params[0].temperature_C) if len(params) > 1 else None
     notes = tuple(line for r in starts for line in r.notes(START_NOTE))
     for line in notes:
         say(line)
-    say(f"chosen order {chosen.order} (held-out NRMSE {chosen.heldout_nrmse:.4g})")
+    say(f"chosen order {chosen.order} (held-out NRMSE {chosen.heldout_nrmse:.4g}),"
+        f" relative degree {0 if feedthrough else markov + 1}")
+    if law is not None:
+        say("temperature family: " + (
+            "the thermal law holds: " + ", ".join(
+                f"{k} = {getattr(law, k):.4g} ± {law.std[k]:.2g}"
+                for k in ("gain_per_K", "resonance_per_K", "damping_per_K"))
+            if law.consistent else f"explicit models ({law.note})"))
     return Identified(models=tuple(out), order=chosen.order, feedthrough=feedthrough, fs=fs,
                       scores=tuple(scores), heldout=held_names,
                       train=tuple(d.source or "record" for d in train),
-                      heldout_nrmse=chosen.heldout_nrmse, starts=tuple(starts), notes=notes)
+                      heldout_nrmse=chosen.heldout_nrmse, starts=tuple(starts), notes=notes,
+                      relative_degree=0 if feedthrough else markov + 1, thermal=law)

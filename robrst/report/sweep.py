@@ -31,8 +31,18 @@ def _f(x, spec=".4g"):
     return format(x, spec)
 
 
-def figure_files(result):
-    """The figures the report of ``result`` holds (``(file, caption)``)."""
+def figure_files(result: SweepResult) -> list[tuple[str, str]]:
+    """The figures the report of ``result`` holds (``(file, caption)``).
+
+    Parameters
+    ----------
+    result : SweepResult
+        The sweep.
+
+    Returns
+    -------
+    list of (str, str)
+    """
     kind = result.sweep.kind
     out = []
     if result.summary["done"] == 0:
@@ -65,8 +75,18 @@ def _worst_table(s):
             "parameters"), tuple(rows)
 
 
-def sweep_doc(result):
-    """The report document of a sweep result (no I/O)."""
+def sweep_doc(result: SweepResult) -> Doc:
+    """The report document of a sweep result (no I/O).
+
+    Parameters
+    ----------
+    result : SweepResult
+        The sweep.
+
+    Returns
+    -------
+    Doc
+    """
     s = result.summary
     y = s["yield"]
     lo, hi = s["yield_ci95"]
@@ -115,14 +135,23 @@ def write_sweep_report(result: SweepResult, out_dir: str | os.PathLike | None = 
     Parameters
     ----------
     result : SweepResult
-    out_dir : str or Path, optional
+        The sweep.
+    out_dir : str or pathlib.Path, optional
+        The report folder (default ``result.out / "report"``).
     progress : callable, optional
+        Called with one line of text per stage.
     force : bool
         Write into an existing folder robrst did not write (only the report's files).
 
     Returns
     -------
-    Path
+    pathlib.Path
+        The folder.
+
+    Raises
+    ------
+    OutputError
+        A folder robrst did not write (without ``force``), or one the system refuses.
 
     Examples
     --------
@@ -151,16 +180,30 @@ def write_sweep_report(result: SweepResult, out_dir: str | os.PathLike | None = 
     return write_folder(out_dir or Path(result.out) / "report", doc, extra, draw, force=force)
 
 
-def sweep_text(summary):
-    """A few lines for the terminal: counts, yield, figures, the worst variants."""
+def sweep_text(summary: dict) -> str:
+    """A few lines for the terminal: counts, yield, figures, the worst variants.
+
+    Parameters
+    ----------
+    summary : dict
+        The sweep's ``summary.json`` object.
+
+    Returns
+    -------
+    str
+    """
     s = summary
     lines = [f"sweep {s['sweep']} ({s['kind']}): {s['done']}/{s['n']} variants"
              f"{'' if s['complete'] else ' (incomplete: run again to resume)'},"
-             f" {s['workers']} workers, {s['wall_s']:.1f} s"]
+             f" {'in this process' if s.get('executor') == 'in_process' else str(s['workers']) + ' workers'},"
+             f" {s['wall_s']:.1f} s"]
     if s["yield"] is not None:
         lo, hi = s["yield_ci95"]
         lines.append(f"certified: {s['certified']} of {s['done']}, yield {s['yield']:.4f}"
                      f" (95 % interval {lo:.4f}..{hi:.4f}); failed: {s['failed']}")
+    if s.get("unstable"):
+        lines.append(f"unstable: {s['unstable']} of {s['done']} (a loop unstable on some model:"
+                     " no peaks or margins for it, figure/bound inf)")
     for k in ("Ms", "Mt", "Mu", "Mt_band", "integral_gain"):
         if k in s["figures"]:
             v = s["figures"][k]

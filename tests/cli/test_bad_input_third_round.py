@@ -253,7 +253,8 @@ def test_twin_rate_is_checked_against_its_plant():
 
     from robrst.core.plant import Plant
     from robrst.twin.config import default_twin
-    from robrst.twin.model import MAX_SUBSTEPS, build_model, min_sample_rate_hz
+    from robrst.twin.config import MAX_SUBSTEPS, min_sample_rate_hz
+    from robrst.twin.model import build_model
 
     fast = Plant([1e12], [1.0, 2e4, 1e12])          # 1e6 rad/s: needs >= 312.5 kHz
     assert min_sample_rate_hz(1e6) == pytest.approx(1e6 / (0.05 * MAX_SUBSTEPS))

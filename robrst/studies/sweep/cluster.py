@@ -8,28 +8,44 @@ chunk again elsewhere (up to ``distributed.scheduler.allowed-failures`` times, t
 engine splits the chunk into single variants).
 """
 
+from __future__ import annotations
+
 import contextlib
 import logging
+from collections.abc import Iterator
 import os
 import signal
 import threading
 import warnings
+from typing import TYPE_CHECKING, Any
 
 from distributed import Client, LocalCluster, as_completed, get_worker
 from distributed.diagnostics.plugin import WorkerPlugin
 
 from robrst.base.errors import RobrstError
+from robrst.base.threads import available_cores
 from robrst.studies.sweep.evaluate import build_state, evaluate_chunk
 
-__all__ = ["SweepPlugin", "run_task", "DaskExecutor", "default_workers"]
+if TYPE_CHECKING:
+    import numpy as np
+    from distributed import Worker
+
+    from robrst.studies.sweep.evaluate import SweepContext
+
+__all__ = ["SweepPlugin", "run_task", "DaskExecutor", "default_workers", "sigint_ignored",
+           "quiet_shutdown"]
 
 
-def default_workers():
-    """The cores this process may use (the default size of the local cluster)."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:   # not on Linux
-        return os.cpu_count() or 1
+def default_workers() -> int:
+    """The cores this process may use (the default size of the local cluster).
+
+    Returns
+    -------
+    int
+        :func:`robrst.base.threads.available_cores`: the CPU affinity's size, else
+        ``os.cpu_count()``, at least 1.
+    """
+    return available_cores()
 
 
 def _main_thread():
@@ -37,15 +53,29 @@ def _main_thread():
 
 
 @contextlib.contextmanager
-def sigint_ignored():
-    """Ignore SIGINT (Ctrl-C) in this block, when this is the main thread.
+def sigint_ignored() -> Iterator[None]:
+    """Hold SIGINT (Ctrl-C) back in this block, when this is the main thread.
 
-    Processes started meanwhile (a local cluster's workers) inherit the ignored signal, so
-    Python installs no KeyboardInterrupt handler in them: a Ctrl-C in the terminal reaches
-    only the driver, which closes the cluster; the workers print no traceback.
+    SIGINT is blocked (``pthread_sigmask``) rather than ignored: processes and threads
+    started meanwhile (a local cluster's workers, its event loop) inherit the blocked
+    signal, so Ctrl-C in the terminal never reaches them (no traceback from a worker), and
+    a Ctrl-C that arrives while the cluster starts stays pending and interrupts the driver
+    when the block ends (the driver closes the cluster).  Where signals cannot be blocked,
+    SIGINT is ignored in the block instead.
+
+    Yields
+    ------
+    None
     """
     if not _main_thread():
         yield
+        return
+    if hasattr(signal, "pthread_sigmask"):
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:
+            yield
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old)
         return
     old = signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
@@ -54,28 +84,81 @@ def sigint_ignored():
         signal.signal(signal.SIGINT, old)
 
 
+@contextlib.contextmanager
+def quiet_shutdown() -> Iterator[None]:
+    """distributed's, tornado's and asyncio's loggers silenced while a cluster closes: its
+    comms closing can log ``CommClosedError`` tracebacks after a successful run that say
+    nothing about the sweep (the sweep's own failures are rows, not log lines).
+
+    Yields
+    ------
+    None
+    """
+    loggers = [logging.getLogger(n) for n in ("distributed", "tornado", "asyncio")]
+    levels = [lg.level for lg in loggers]
+    raise_exc = logging.raiseExceptions
+    logging.raiseExceptions = False          # no "--- Logging error ---" on a closed stream
+    for lg in loggers:
+        lg.setLevel(logging.CRITICAL + 1)
+    try:
+        yield
+    finally:
+        for lg, lvl in zip(loggers, levels):
+            lg.setLevel(lvl)
+        logging.raiseExceptions = raise_exc
+
+
 class SweepPlugin(WorkerPlugin):
     """Builds a worker's state once from the sweep's context.
 
-    ``local``: the worker belongs to the driver's own local cluster, so it ignores Ctrl-C
-    (the driver stops it; a restarted worker too).  Workers of a running scheduler keep
-    their signal handling.
+    Parameters
+    ----------
+    name : str
+        The plugin's name (the task finds its state under it).
+    context : SweepContext
+        What every variant needs (base problem, controller, designer).
+    local : bool
+        The worker belongs to the driver's own local cluster, so it ignores Ctrl-C (the
+        driver stops it; a restarted worker too).  Workers of a running scheduler keep
+        their signal handling.
     """
 
-    def __init__(self, name, context, local=False):
+    def __init__(self, name: str, context: SweepContext, local: bool = False) -> None:
         self.name = name
         self.context = context
         self.local = local
         self.state = None
 
-    def setup(self, worker):
+    def setup(self, worker: Worker) -> None:
+        """Build the worker's state (Dask calls this once per worker).
+
+        Parameters
+        ----------
+        worker : distributed.Worker
+            The worker starting up.
+        """
         if self.local and _main_thread():
             signal.signal(signal.SIGINT, signal.SIG_IGN)
         self.state = build_state(self.context)
 
 
-def run_task(name, indices, values):
-    """The rows of one chunk, on a worker (its state comes from the plugin ``name``)."""
+def run_task(name: str, indices: np.ndarray, values: np.ndarray) -> list[dict]:
+    """The rows of one chunk, on a worker (its state comes from the plugin ``name``).
+
+    Parameters
+    ----------
+    name : str
+        The plugin's name.
+    indices : numpy.ndarray
+        The variants' indices.
+    values : numpy.ndarray
+        Their parameter values, one row per variant.
+
+    Returns
+    -------
+    list of dict
+        One row per variant (:func:`robrst.studies.sweep.evaluate.evaluate_chunk`).
+    """
     plugin = get_worker().plugins[name]
     if plugin.state is None:     # defensive: a plugin whose setup has not run yet
         plugin.setup(get_worker())
@@ -88,13 +171,27 @@ class DaskExecutor:
     Parameters
     ----------
     context : SweepContext
+        What every variant needs.
     workers : int, optional
         Size of the local cluster (processes, one thread each) when no scheduler is given.
     scheduler : str or distributed.Client, optional
         Address of a running scheduler (``tcp://host:8786``), or a connected client.
+
+    Attributes
+    ----------
+    workers : int
+        Threads available on the cluster's workers.
+    pending : int
+        Tasks submitted and not yet returned by :meth:`next`.
+
+    Raises
+    ------
+    RobrstError
+        The scheduler cannot be reached, or no worker joins it within 60 s.
     """
 
-    def __init__(self, context, workers=None, scheduler=None):
+    def __init__(self, context: SweepContext, workers: int | None = None,
+                 scheduler: str | Client | None = None) -> None:
         self.cluster = None
         self.own_client = not isinstance(scheduler, Client)
         try:
@@ -111,7 +208,7 @@ class DaskExecutor:
                     self.cluster = LocalCluster(n_workers=workers or default_workers(),
                                                 threads_per_worker=1, processes=True,
                                                 dashboard_address=None,
-                                                silence_logs=logging.ERROR)
+                                                silence_logs=logging.CRITICAL)
                     self.client = Client(self.cluster)
         except (OSError, TimeoutError) as exc:
             self.close()
@@ -138,14 +235,27 @@ class DaskExecutor:
     def pending(self):
         return len(self.futures)
 
-    def submit(self, task):
+    def submit(self, task: Any) -> None:
+        """Submit one chunk (or one variant of a split chunk) as a Dask task.
+
+        Parameters
+        ----------
+        task : robrst.studies.sweep.engine.Task
+            The variants to evaluate.
+        """
         fut = self.client.submit(run_task, self.name, task.indices, task.values, pure=False,
                                  key=f"robrst-chunk-{task.chunk.index}-{task.start}-"
                                      f"{os.urandom(4).hex()}")
         self.futures[fut] = task
         self.done.add(fut)
 
-    def next(self):
+    def next(self) -> tuple[Any, list[dict] | BaseException]:
+        """The next task to finish, with its rows or the exception that ended it.
+
+        Returns
+        -------
+        (robrst.studies.sweep.engine.Task, list of dict or BaseException)
+        """
         fut = next(self.done)
         task = self.futures.pop(fut)
         try:
@@ -155,15 +265,26 @@ class DaskExecutor:
         finally:
             fut.release()
 
-    def close(self):
-        client = getattr(self, "client", None)
-        if client is not None:
-            try:
-                if getattr(self, "name", None):
-                    client.unregister_worker_plugin(self.name)
-            except Exception:   # noqa: BLE001 — closing: best effort
-                pass
-            if self.own_client:
-                client.close()
-        if self.cluster is not None:
-            self.cluster.close()
+    def close(self) -> None:
+        """Release what is pending and close the client (and the local cluster robrst
+        started), its loggers silenced (:func:`quiet_shutdown`)."""
+        with quiet_shutdown():
+            client = getattr(self, "client", None)
+            if client is not None:
+                for fut in list(getattr(self, "futures", {})):
+                    fut.release()                 # nothing left for the closing comms
+                try:
+                    if getattr(self, "name", None):
+                        client.unregister_worker_plugin(self.name)
+                except Exception:   # noqa: BLE001 — closing: best effort
+                    pass
+                if self.own_client:
+                    try:
+                        client.close()
+                    except Exception:   # noqa: BLE001 — closing: best effort
+                        pass
+            if self.cluster is not None:
+                try:
+                    self.cluster.close()
+                except Exception:   # noqa: BLE001 — closing: best effort
+                    pass

@@ -8,12 +8,16 @@ fingerprint identifies the sweep's results: the validated sweep, the bytes of ev
 file and the robrst version.
 """
 
+from __future__ import annotations
+
 import copy
 import hashlib
 import json
 import os
+from collections.abc import Iterable
 from dataclasses import asdict, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from robrst import __version__
 from robrst.base.errors import RobrstError, SolverError, SpecError
@@ -25,14 +29,27 @@ from robrst.studies.sweep.evaluate import SweepContext
 from robrst.studies.sweep.model import apply_overrides, check_plant_params
 from robrst.studies.sweep.variants import variant_table
 
+if TYPE_CHECKING:
+    from robrst.studies.sweep.files import Sweep
+    from robrst.studies.sweep.variants import VariantTable
+
 __all__ = ["prepare", "read_controller", "fingerprint", "member_document"]
 
 _RST = {k: Field("numbers", None, f"{k} coefficients, highest power first", required=True)
         for k in "RST"}
 
 
-def read_controller(path):
+def read_controller(path: str | Path) -> RSTController:
     """The RST controller of a result file (``robrst design --json``, ``result.json``).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The JSON file.
+
+    Returns
+    -------
+    RSTController
 
     Raises
     ------
@@ -114,11 +131,21 @@ def _fleet(sweep):
     return tuple(out), files, [p.name for p in names if not p.is_file()]
 
 
-def member_document(path):
+def member_document(path: Path) -> dict:
     """The problem document of a fleet member: a problem file, or a model file of
     ``robrst identify --modal`` with one input and one output (its ``[[model.at]]`` become
     ``[plant]`` and, for several temperatures, an explicit ``[family]``, as ``robrst
     identify`` writes a problem file).  ``[solver] compare_with`` is dropped.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The member file.
+
+    Returns
+    -------
+    dict
+        A problem document.
 
     Raises
     ------
@@ -137,25 +164,16 @@ def member_document(path):
 
 
 def _modal_document(path, data):
-    from robrst.identify.modelfile import modal_models
+    from robrst.base.modelformat import read_model_table
+    from robrst.problem.files import model_document
 
-    models, ref = modal_models(path, data)
-    m0 = models[0]
-    if (m0.n_in, m0.n_out) != (1, 1):
-        raise SpecError(f"{path}: [model] a model file of {m0.n_in} inputs and {m0.n_out}"
-                        " outputs; a fleet member needs one input and one output (robrst"
-                        " identify --channel I,J writes the problem file of one channel)")
-    plants = [m.channel(0, 0) for m in models]
-    plant = {"B": plants[0].B.tolist(), "A": plants[0].A.tolist(),
-             "source": "robrst identify model file"}
-    if ref is not None:
-        plant["temperature_C"] = float(ref)
-    doc = {"plant": plant}
-    if len(plants) > 1:
-        doc["family"] = {"reference_C": float(ref), "models": [
-            {"temperature_C": float(p.temperature_C), "B": p.B.tolist(), "A": p.A.tolist()}
-            for p in plants]}
-    return doc
+    table = read_model_table(path, data, design_tables=True)
+    if (table.inputs, table.outputs) != (1, 1):
+        raise SpecError(f"{path}: [model] a model file of {table.inputs} inputs and"
+                        f" {table.outputs} outputs; a fleet member needs one input and one"
+                        " output (robrst identify --channel I,J writes the problem file of"
+                        " one channel)")
+    return model_document(path, data)
 
 
 def _stable(x):
@@ -170,9 +188,24 @@ def _stable(x):
     return x
 
 
-def fingerprint(sweep, files, names=()):
+def fingerprint(sweep: Sweep, files: Iterable[str | Path], names: Iterable[str] = ()) -> str:
     """SHA-256 of the validated sweep (floats to 12 digits), the input files' bytes,
-    ``names`` (a fleet's members that are no file) and the robrst version."""
+    ``names`` (a fleet's members that are no file) and the robrst version.
+
+    Parameters
+    ----------
+    sweep : Sweep
+        The validated sweep.
+    files : iterable of str or pathlib.Path
+        The files its results depend on (sweep, base problem, result file, members).
+    names : iterable of str
+        Further names (broken fleet members).
+
+    Returns
+    -------
+    str
+        The hex digest; a folder computed from another fingerprint is not resumed.
+    """
     d = asdict(sweep)
     for k in ("path", "description", "problem", "worst"):
         d.pop(k)
@@ -185,8 +218,13 @@ def fingerprint(sweep, files, names=()):
     return h.hexdigest()
 
 
-def prepare(sweep):
+def prepare(sweep: Sweep) -> tuple[SweepContext, VariantTable]:
     """The context and the variant table of ``sweep``.
+
+    Parameters
+    ----------
+    sweep : Sweep
+        The validated sweep.
 
     Returns
     -------
