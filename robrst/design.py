@@ -638,8 +638,8 @@ def _design(problem, progress, templates, analyse, multistart):
     """:func:`run_problem` (its BLAS limited by the caller)."""
     say = progress or (lambda msg: None)
     method = problem.solver.method
+    start = analytic_design(problem)          # an ill-posed problem fails before any line
     say(f"method {problem.solver.method_reason}")
-    start = analytic_design(problem)
     two_dof = problem.controller.T_mode == "reference_model"
     starts = None
     if method == "analytic":
