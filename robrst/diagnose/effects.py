@@ -72,12 +72,23 @@ def _drift_d(z):
                      [0, 0, 0, 1.0]])
 
 
+def _b_max(s):
+    """Upper bound of log10 B [1/V] of Bouc–Wen: 30 / peak-to-peak, and the discrete update
+    ``h+ = h (1 - (B +- Gamma) |du|) + A du`` a contraction for the largest step of the data
+    (``(B + |Gamma|) |du| <= 2 BW_STEP_MAX`` with ``|Gamma| <= B``; the first step is from the
+    memory's 0 V to the first sample).  Beyond it the loop and its sensitivities diverge: a
+    fit of a smooth noise-free sine overflowed into NaN."""
+    return np.log10(min(30.0 / s["u_ptp"], BW_STEP_MAX / max(s["du_max"], 1e-12)))
+
+
+BW_STEP_MAX = 0.95       # (B + |Gamma|) |du| / 2 at the largest per-sample step
+
 SPECS = {
     "hysteresis": Spec(
         names=("A", "B_per_V", "Gamma_per_V", "gain"),
-        bounds=lambda s: ((0.0, np.log10(1e-4 / s["u_ptp"]), -1.0, 0.2),
-                          (0.95, np.log10(30.0 / s["u_ptp"]), 1.0, 5.0)),
-        init=lambda s: (0.3, np.log10(1.0 / s["u_ptp"]), 1.0, 1.2),
+        bounds=lambda s: ((0.0, min(np.log10(1e-4 / s["u_ptp"]), _b_max(s) - 1.0), -1.0, 0.2),
+                          (0.95, _b_max(s), 1.0, 5.0)),
+        init=lambda s: (0.3, min(np.log10(1.0 / s["u_ptp"]), _b_max(s) - 0.3), 1.0, 1.2),
         twin=_hyst_twin, dtwin=_hyst_d,
         report=lambda z: (z[0], 10 ** z[1], z[2] * 10 ** z[1], z[3])),
     "thermal_drift": Spec(
@@ -112,9 +123,11 @@ def summary(records):
     """Scales of the training data (per all inputs) for bounds and starting values."""
     U = np.concatenate([d.U for d in records])
     ptp = float(max(np.ptp(U), 1e-9))
-    rate = max(float(np.max(np.abs(np.diff(d.U, axis=0)))) * d.fs if d.n > 1 else 0.0
-               for d in records)
-    return {"u_ptp": ptp, "u_min": float(U.min()), "u_max": float(U.max()),
+    steps = [float(np.max(np.abs(np.diff(d.U, axis=0)))) if d.n > 1 else 0.0 for d in records]
+    rate = max(du * d.fs for du, d in zip(steps, records))
+    # the hysteresis memory starts at 0 V: its first step is to the first sample
+    first = max(float(np.max(np.abs(d.U[0]))) for d in records)
+    return {"u_ptp": ptp, "du_max": max(max(steps), first), "u_min": float(U.min()), "u_max": float(U.max()),
             "u_scale": max(float(np.max(np.abs(U))), ptp) / 150.0,
             "rate_max": max(rate, ptp), "duration_s": float(max(d.t[-1] - d.t[0] for d in records))}
 

@@ -235,7 +235,8 @@ def fit_model(name, effects, train, lin, chain, noise_sigma, joint=True, dynamic
         prior = np.zeros((nt + ns, x.size))
         prior[:, nz:nz + nt + ns] = np.diag(prior_w)
         rows.append(prior)
-        return np.vstack(rows)
+        J = np.vstack(rows)
+        return np.where(np.isfinite(J), J, 0.0)     # as fun: a trial point the solver rejects
 
     if x0.size == 0:
         res = optimize.OptimizeResult(x=x0, cost=0.5 * float(np.sum(fun(x0) ** 2)), nfev=1,
