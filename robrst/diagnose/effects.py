@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import signal
 
-from robrst.diagnose.stages import stage
+from robrst.diagnose.stages import cached_stage
 from robrst.twin.config import EFFECTS as TWIN_EFFECTS
 from robrst.twin.config import default_twin
 from robrst.twin.model import creep_taus
@@ -30,9 +30,17 @@ from robrst.twin.model import creep_taus
 __all__ = ["EFFECTS", "SENSOR_EFFECTS", "INPUT_EFFECTS", "Chain", "SPECS", "summary"]
 
 SENSOR_EFFECTS = ("noise", "quantization")      # properties of the measurement, not causes
-EFFECTS = tuple(e for e in TWIN_EFFECTS if e not in SENSOR_EFFECTS)
-ORDER = ("delay", "saturation", "slew", "hysteresis", "creep", "thermal_drift")
-INPUT_EFFECTS = tuple(e for e in ORDER if e in EFFECTS)
+FORMS = {"pi_hysteresis": "hysteresis"}          # a twin effect that is a form of another
+# the twin's effects (less the sensor's, forms under their effect), then the ones a twin of
+# one input and output cannot show and the level-dependent linear form
+EFFECTS = tuple(e for e in TWIN_EFFECTS if e not in SENSOR_EFFECTS and e not in FORMS) + (
+    "cross_coupling", "amplitude_dependent_dynamics")
+ORDER = ("delay", "input_nonlinearity", "saturation", "slew", "hysteresis", "pi_hysteresis",
+         "creep", "thermal_drift")
+PI_FRACTIONS = (0.02, 0.05, 0.1, 0.17, 0.25, 0.35)  # play thresholds / peak-to-peak input
+# knots of the static input map's hinges: quantiles of the training inputs
+KNOT_QUANTILES = (0.005, 0.02, 0.05, 0.1, 0.2, 0.35, 0.5, 0.65, 0.8, 0.9, 0.95, 0.98, 0.995)
+INPUT_EFFECTS = ORDER
 THERMAL = ("thermal_drift", "thermal_dynamics")  # need a varying temperature
 LN10 = np.log(10.0)
 
@@ -99,11 +107,23 @@ SPECS = {
         twin=_drift_twin, dtwin=_drift_d,
         report=lambda z: (10 ** z[0], 10 ** z[1], z[2] * 10 ** z[1], z[3])),
     "slew": Spec(
-        names=("V_per_s",),
-        bounds=lambda s: ((np.log10(s["u_ptp"] * 0.1),), (np.log10(s["rate_max"] * 10),)),
-        init=lambda s: (np.log10(0.5 * s["rate_max"]),),
-        twin=lambda z: np.array([10 ** z[0]]), dtwin=lambda z: np.array([[LN10 * 10 ** z[0]]]),
-        report=lambda z: (10 ** z[0],)),
+        names=("V_per_s", "V_per_s_down"),
+        bounds=lambda s: ((np.log10(s["u_ptp"] * 0.1),) * 2, (np.log10(s["rate_max"] * 10),) * 2),
+        init=lambda s: (np.log10(0.5 * s["rate_max"]),) * 2,
+        twin=lambda z: 10.0 ** np.asarray(z, float),
+        dtwin=lambda z: np.diag(LN10 * 10.0 ** np.asarray(z, float)),
+        report=lambda z: (10 ** z[0], 10 ** z[1])),
+    "input_nonlinearity": Spec(
+        names=("dead_zone_V", "center_V", "quadratic_per_V", "cubic_per_V2") + tuple(
+            f"slope_change_at_q{q:g}" for q in KNOT_QUANTILES),
+        bounds=lambda s: ((0.0, s["u_min"], -2.0 / s["u_ptp"], -4.0 / s["u_ptp"] ** 2)
+                          + (-2.0,) * len(KNOT_QUANTILES),
+                          (0.5 * s["u_ptp"], s["u_max"], 2.0 / s["u_ptp"], 4.0 / s["u_ptp"] ** 2)
+                          + (2.0,) * len(KNOT_QUANTILES)),
+        init=lambda s: (0.0, 0.5 * (s["u_min"] + s["u_max"]), 0.0, 0.0)
+        + (0.0,) * len(KNOT_QUANTILES),
+        twin=lambda z: np.asarray(z, float), dtwin=lambda z: np.eye(len(z)),
+        report=lambda z: tuple(z)),
     "creep": Spec(
         names=("per_decade", "per_K"),
         bounds=lambda s: ((-0.3, -1.0), (0.3, 2.0)), init=lambda s: (0.0, 0.0),
@@ -119,6 +139,25 @@ SPECS = {
 }
 
 
+def _pi_spec(stats):
+    n = len(PI_FRACTIONS)
+    return Spec(names=tuple(f"weight_{i + 1}" for i in range(n)),
+                bounds=lambda s: ((-3.0,) * n, (3.0,) * n), init=lambda s: (0.0,) * n,
+                twin=lambda z: np.asarray(z, float), dtwin=lambda z: np.eye(n),
+                report=lambda z: tuple(z))
+
+
+def pi_thresholds(stats):
+    """Play thresholds [V] of the Prandtl–Ishlinskii candidate: fractions of the input's
+    peak-to-peak range (:data:`PI_FRACTIONS`)."""
+    return tuple(float(f * stats["u_ptp"]) for f in PI_FRACTIONS)
+
+
+def spec(effect, stats):
+    """The :class:`Spec` of an input-side effect (the play weights depend on the data)."""
+    return _pi_spec(stats) if effect == "pi_hysteresis" else SPECS[effect]
+
+
 def summary(records):
     """Scales of the training data (per all inputs) for bounds and starting values."""
     U = np.concatenate([d.U for d in records])
@@ -127,7 +166,8 @@ def summary(records):
     rate = max(du * d.fs for du, d in zip(steps, records))
     # the hysteresis memory starts at 0 V: its first step is to the first sample
     first = max(float(np.max(np.abs(d.U[0]))) for d in records)
-    return {"u_ptp": ptp, "du_max": max(max(steps), first), "u_min": float(U.min()), "u_max": float(U.max()),
+    return {"u_ptp": ptp, "du_max": max(max(steps), first),
+            "knots": tuple(float(v) for v in np.quantile(U, KNOT_QUANTILES)), "u_min": float(U.min()), "u_max": float(U.max()),
             "u_scale": max(float(np.max(np.abs(U))), ptp) / 150.0,
             "rate_max": max(rate, ptp), "duration_s": float(max(d.t[-1] - d.t[0] for d in records))}
 
@@ -147,10 +187,11 @@ def _shift(x, d, x0):
 class Chain:
     """A set of input-side effects with per-input parameters ``z`` (see the module doc).
 
-    ``delays`` holds the whole-sample delay per input (fitted by search, not in ``z``).
+    ``delays`` holds the whole-sample delay per input (fitted by search, not in ``z``);
+    ``cache`` (a dict) shares the compiled stages across the chains of one diagnosis.
     """
 
-    def __init__(self, effects, n_in, fs, reference_C, stats, delays=None):
+    def __init__(self, effects, n_in, fs, reference_C, stats, delays=None, cache=None):
         self.effects = tuple(e for e in ORDER if e in effects)
         self.n_in, self.fs, self.ref = n_in, float(fs), float(reference_C)
         self.stats = stats
@@ -160,7 +201,7 @@ class Chain:
         for e in self.effects:
             if e == "delay":
                 continue
-            sp = SPECS[e]
+            sp = spec(e, stats)
             b_lo, b_hi = sp.bounds(stats)
             for j in range(n_in):
                 start = len(lo)
@@ -173,8 +214,11 @@ class Chain:
         self.lower, self.upper = np.array(lo, float), np.array(hi, float)
         self.z0 = np.array(z0, float)
         self.names = tuple(names)
-        self.stages = {e: stage(e, fs, reference_C) for e in self.effects
+        self.stages = {e: cached_stage(cache, e, fs, reference_C) for e in self.effects
                        if e in ("slew", "hysteresis", "thermal_drift")}
+        if "pi_hysteresis" in self.effects:
+            self.stages["pi_hysteresis"] = cached_stage(cache, "pi_hysteresis", fs, reference_C,
+                                                        thresholds_V=pi_thresholds(stats))
         self.cells = _creep_cells(fs) if "creep" in self.effects else None
 
     @property
@@ -210,14 +254,31 @@ class Chain:
                     dx[:, sl.start] = x < lo
                     dx[:, sl.start + 1] = x > hi
                 x = np.clip(x, lo, hi)
-            elif e in ("slew", "hysteresis"):
+            elif e == "input_nonlinearity":
+                d, c, a2, a3 = zz[:4]
+                h = zz[4:]
+                knots = np.asarray(self.stats["knots"])
+                ee = x - c
+                out = (np.abs(ee) > d)
+                above = x[:, None] > knots[None, :]
+                if jac:
+                    dx *= (out + 2 * a2 * ee + 3 * a3 * ee ** 2 + above @ h)[:, None]
+                    dx[:, sl.start] = -np.sign(ee) * out
+                    dx[:, sl.start + 1] = 1.0 - out - 2 * a2 * ee - 3 * a3 * ee ** 2
+                    dx[:, sl.start + 2] = ee ** 2
+                    dx[:, sl.start + 3] = ee ** 3
+                    dx[:, sl.start + 4:sl.stop] = np.maximum(x[:, None] - knots[None, :], 0.0)
+                x = (c + np.maximum(ee - d, 0.0) + np.minimum(ee + d, 0.0) + a2 * ee ** 2
+                     + a3 * ee ** 3 + np.maximum(x[:, None] - knots[None, :], 0.0) @ h)
+            elif e in ("slew", "hysteresis", "pi_hysteresis"):
                 st = self.stages[e]
-                out, dout = st.run(x, temp, SPECS[e].twin(zz))
+                sp = spec(e, self.stats)
+                out, dout = st.run(x, temp, sp.twin(zz))
                 if jac:
                     if np.any(dx):
                         fd_cols += [c for c in range(self.size) if np.any(dx[:, c])]
                     dx[:] = 0.0
-                    dx[:, sl] = dout @ SPECS[e].dtwin(zz)
+                    dx[:, sl] = dout @ sp.dtwin(zz)
                 x = out
             elif e == "creep":
                 a, per = self.cells
@@ -275,7 +336,7 @@ class Chain:
         out = {e: ({}, {}) for e in self.effects}
         for (e, j, sl) in self.blocks:
             vals, sds = out[e]
-            sp = SPECS[e]
+            sp = spec(e, self.stats)
             zz = np.asarray(z[sl], float)
             rep = np.asarray(sp.report(zz), float)
             suffix = f"_u{j + 1}" if self.n_in > 1 else ""

@@ -17,7 +17,7 @@ import numpy as np
 
 from robrst.diagnose import signals
 from robrst.diagnose.diagnosis import check_records
-from robrst.diagnose.effects import EFFECTS, INPUT_EFFECTS, Chain, summary
+from robrst.diagnose.effects import EFFECTS, FORMS, INPUT_EFFECTS, Chain, summary
 from robrst.diagnose.findings import noise_levels
 from robrst.diagnose.fit import fit_model, prepare
 from robrst.diagnose.linear import LinearPart, as_modal
@@ -97,10 +97,10 @@ def fit_effects(records, effects, plant=None, reference_C=None, joint=False, max
         model, bad records (named).
     """
     effects = tuple(effects)
-    unknown = [e for e in effects if e not in EFFECTS]
+    unknown = [e for e in effects if e not in EFFECTS and e not in FORMS]
     if unknown or not effects:
         raise DataError(f"unknown effect(s) {unknown or '(none given)'}; expected one or more"
-                        f" of {list(EFFECTS)}")
+                        f" of {list(EFFECTS) + list(FORMS)}")
     plant = plant or paper_plant()
     model = as_modal(plant)
     records = list(records)

@@ -10,8 +10,14 @@ the linear corrections vary linearly with the record's excitation level (the
 describing function of a hysteretic stiffness: resonances soften and gains change with
 amplitude); it needs periodic records at two or more levels.
 
-A constant output offset per output (``offset``: a sensor zero or bias, in µm) can be
-fitted with any candidate; it enters the output linearly, without a prior.
+Output-side blocks (:class:`Post`), each linear in its parameters and without a prior,
+can be fitted with any candidate: a constant output offset per output (``offset``: a
+sensor zero or bias, in µm), the sensor's static curvature (``curvature``: quadratic
+and cubic terms of each output about its training mean), and channel cross-coupling of a
+MIMO model (``mixing``: ``v_j += sum_k c_jk u_k`` on the input side and ``y_i += sum_l
+d_il y_l`` on the output side, off-diagonal only)::
+
+    u -> Chain -> input mixing -> L_theta -> output mixing -> sensor curvature -> + offset
 
 Periodic records are fitted in steady state on their period average (weight: the
 number of periods), the effects warmed up on one extra period.
@@ -25,7 +31,7 @@ from scipy import optimize
 from robrst.diagnose.effects import Chain
 from robrst.diagnose.linear import parameter_std
 
-__all__ = ["Prepared", "prepare", "Fitted", "fit_model", "level_factor"]
+__all__ = ["Prepared", "prepare", "Fitted", "Post", "fit_model", "level_factor"]
 
 SLOPE_KINDS = ("dlog_freq", "dlog_damping", "input_gain", "gain", "mode_gain")
 
@@ -63,6 +69,94 @@ def level_factor(level, reference):
     return (level - reference) / reference if reference > 0 else 0.0
 
 
+@dataclass(frozen=True)
+class Post:
+    """Output-side blocks of a fit and their layout (see the module doc).
+
+    ``center`` and ``scale`` are the training outputs' mean and half range per output
+    (the sensor map's centre, and the scale of its bounds).
+    """
+
+    m: int
+    k: int
+    offset: bool = False
+    curvature: bool = False
+    mixing: bool = False
+    center: tuple = ()
+    scale: tuple = ()
+
+    def sizes(self):
+        m, k = self.m, self.k
+        return {"offset": m if self.offset else 0, "curvature": 2 * m if self.curvature else 0,
+                "mix_in": k * (k - 1) if self.mixing else 0,
+                "mix_out": m * (m - 1) if self.mixing else 0}
+
+    @property
+    def size(self):
+        return sum(self.sizes().values())
+
+    def slices(self, start):
+        out, i = {}, start
+        for key, n in self.sizes().items():
+            out[key] = slice(i, i + n)
+            i += n
+        return out
+
+    def pairs(self, n):
+        """Off-diagonal (row, column) pairs of an n x n mixing matrix, row-major."""
+        return [(i, j) for i in range(n) for j in range(n) if i != j]
+
+    def names(self):
+        m, k = self.m, self.k
+        sy = (lambda j: f"_y{j + 1}") if m > 1 else (lambda j: "")
+        out = [f"offset{j}" for j in range(m)] if self.offset else []
+        if self.curvature:
+            out += [f"quadratic{j}" for j in range(m)] + [f"cubic{j}" for j in range(m)]
+        if self.mixing:
+            out += [f"mix_u{j + 1}_u{i + 1}" for j, i in self.pairs(k)]
+            out += [f"mix_y{j + 1}_y{i + 1}" for j, i in self.pairs(m)]
+        del sy
+        return out
+
+    def bounds(self):
+        lo, hi = [], []
+        if self.offset:
+            lo += [-np.inf] * self.m
+            hi += [np.inf] * self.m
+        if self.curvature:
+            sc = np.asarray(self.scale, float)
+            lo += list(-2.0 / sc) + list(-4.0 / sc ** 2)
+            hi += list(2.0 / sc) + list(4.0 / sc ** 2)
+        if self.mixing:
+            n = self.k * (self.k - 1) + self.m * (self.m - 1)
+            lo += [-1.0] * n
+            hi += [1.0] * n
+        return np.array(lo, float), np.array(hi, float)
+
+    def matrices(self, x, start):
+        """Input and output mixing matrices ``(k, k)``, ``(m, m)`` (zero diagonal)."""
+        sl = self.slices(start)
+        Ci, Co = np.zeros((self.k, self.k)), np.zeros((self.m, self.m))
+        if self.mixing:
+            for (i, j), v in zip(self.pairs(self.k), x[sl["mix_in"]]):
+                Ci[i, j] = v
+            for (i, j), v in zip(self.pairs(self.m), x[sl["mix_out"]]):
+                Co[i, j] = v
+        return Ci, Co
+
+
+def make_post(train, offset=False, curvature=False, mixing=False):
+    """The :class:`Post` of a fit on prepared records ``train`` (None when empty)."""
+    if not (offset or curvature or mixing):
+        return None
+    Y = np.concatenate([p.Y for p in train])
+    U = train[0].U
+    return Post(m=Y.shape[1], k=U.shape[1], offset=offset, curvature=curvature,
+                mixing=mixing and (U.shape[1] > 1 or Y.shape[1] > 1),
+                center=tuple(float(c) for c in Y.mean(axis=0)),
+                scale=tuple(float(max(0.5 * c, 1e-12)) for c in np.ptp(Y, axis=0)))
+
+
 @dataclass(frozen=True, eq=False)
 class Fitted:
     """A fitted candidate: effects, linear corrections (and level slopes), predictor."""
@@ -81,21 +175,33 @@ class Fitted:
     train_cost: float
     theta_fixed: np.ndarray = None
     n_offset: int = 0      # constant output offsets fitted (one per output, or none)
+    post: Post = None      # output-side blocks (offset, curvature, mixing)
+
+    @property
+    def _post_start(self):
+        return self.chain.size + (self.lin.size if self.joint else 0) + len(self.slopes)
 
     def parts(self, x=None):
-        """Effect parameters, linear corrections and level slopes (not the offsets)."""
+        """Effect parameters, linear corrections and level slopes (not the output blocks)."""
         x = self.x if x is None else x
         nz, nt = self.chain.size, self.lin.size if self.joint else 0
         fixed = self.theta_fixed if self.theta_fixed is not None else np.zeros(self.lin.size)
         return (x[:nz], (x[nz:nz + nt] if self.joint else fixed),
                 x[nz + nt:nz + nt + len(self.slopes)])
 
+    def block(self, key, x=None):
+        """Parameters of output block ``key`` (``offset``, ``curvature``, ``mix_in``,
+        ``mix_out``); empty when not fitted."""
+        x = self.x if x is None else x
+        if self.post is None:
+            return np.zeros(0)
+        return x[self.post.slices(self._post_start)[key]]
+
     def output_offset(self, x=None):
         """The fitted constant output offsets ``(m,)`` [µm] (zeros when not fitted)."""
-        x = self.x if x is None else x
         if not self.n_offset:
             return np.zeros(1)
-        return x[x.size - self.n_offset:]
+        return self.block("offset", x)
 
     def theta_at(self, level, x=None):
         _, th, s = self.parts(x)
@@ -104,14 +210,45 @@ class Fitted:
             th[list(self.slopes)] += s * level_factor(level, self.level_ref)
         return th
 
-    def predict_prepared(self, p, x=None):
-        z, _, _ = self.parts(x)
+    def effective_input(self, p, x=None, jac=False):
+        """Effective inputs ``(N, k)`` (chain, then input mixing) and the chain's Jacobians."""
+        z = self.parts(x)[0]
         U, T = p.U, p.temp
         if p.warm:
             U, T = np.vstack([U[-p.warm:], U]), np.concatenate([T[-p.warm:], T])
-        V, _ = self.chain.run(z, U, T, jac=False, warm=p.warm)
-        Y = self.lin.simulate(self.theta_at(p.level, x), V, p.periodic)
-        return Y + self.output_offset(x)[None, :] if self.n_offset else Y
+        V, dV = self.chain.run(z, U, T, jac=jac, warm=p.warm)
+        if self.post is not None and self.post.mixing:
+            Ci, _ = self.post.matrices(self.x if x is None else x, self._post_start)
+            V = V + V @ Ci.T
+            if jac:
+                dV = [dV[j] + sum(Ci[j, i] * dV[i] for i in range(len(dV)) if i != j)
+                      for j in range(len(dV))]
+        return V, dV
+
+    def linear_output(self, p, V, x=None):
+        """Outputs ``(N, m)`` of the linear part for effective inputs ``V``."""
+        return self.lin.simulate(self.theta_at(p.level, x), V, p.periodic)
+
+    def output_side(self, Y, x=None):
+        """Output mixing, sensor curvature and offset applied to the linear outputs ``Y``."""
+        if self.post is None:
+            return Y
+        x = self.x if x is None else x
+        if self.post.mixing:
+            _, Co = self.post.matrices(x, self._post_start)
+            Y = Y + Y @ Co.T
+        if self.post.curvature:
+            a = self.block("curvature", x)
+            m = Y.shape[1]
+            E = Y - np.asarray(self.post.center)[None, :]
+            Y = Y + a[None, :m] * E ** 2 + a[None, m:] * E ** 3
+        if self.post.offset:
+            Y = Y + self.block("offset", x)[None, :]
+        return Y
+
+    def predict_prepared(self, p, x=None):
+        V, _ = self.effective_input(p, x)
+        return self.output_side(self.linear_output(p, V, x), x)
 
     def predict(self, d, reference_C):
         """Simulated outputs ``(N, m)`` of record ``d`` (steady state when periodic)."""
@@ -121,11 +258,33 @@ class Fitted:
         """Reported effect parameters and 1-sigma (delta method): ``{effect: (values, sds)}``."""
         z = self.parts()[0]
         out = self.chain.report(z, self.std[:self.chain.size])
-        if self.n_offset:
-            sfx = (lambda j: f"_y{j + 1}") if self.n_offset > 1 else (lambda j: "")
-            off, sd = self.output_offset(), self.std[self.x.size - self.n_offset:]
-            out["output_offset"] = ({f"offset_um{sfx(j)}": float(v) for j, v in enumerate(off)},
-                                    {f"offset_um{sfx(j)}": float(d) for j, d in enumerate(sd)})
+        if self.post is None:
+            return out
+        m, k = self.post.m, self.post.k
+        sfx = (lambda j: f"_y{j + 1}") if m > 1 else (lambda j: "")
+        sl = self.post.slices(self._post_start)
+        x, sd = self.x, self.std
+        if self.post.offset:
+            out["output_offset"] = (
+                {f"offset_um{sfx(j)}": float(v) for j, v in enumerate(x[sl["offset"]])},
+                {f"offset_um{sfx(j)}": float(d) for j, d in enumerate(sd[sl["offset"]])})
+        if self.post.curvature:
+            a, s = x[sl["curvature"]], sd[sl["curvature"]]
+            vals, sds = {}, {}
+            for j in range(m):
+                vals[f"center_um{sfx(j)}"], sds[f"center_um{sfx(j)}"] = self.post.center[j], 0.0
+                vals[f"quadratic_per_um{sfx(j)}"] = float(a[j])
+                sds[f"quadratic_per_um{sfx(j)}"] = float(s[j])
+                vals[f"cubic_per_um2{sfx(j)}"] = float(a[m + j])
+                sds[f"cubic_per_um2{sfx(j)}"] = float(s[m + j])
+            out["output_nonlinearity"] = (vals, sds)
+        if self.post.mixing:
+            vals, sds = {}, {}
+            for (i, j), v, d in zip(self.post.pairs(k), x[sl["mix_in"]], sd[sl["mix_in"]]):
+                vals[f"u{j + 1}_into_u{i + 1}"], sds[f"u{j + 1}_into_u{i + 1}"] = float(v), float(d)
+            for (i, j), v, d in zip(self.post.pairs(m), x[sl["mix_out"]], sd[sl["mix_out"]]):
+                vals[f"y{j + 1}_into_y{i + 1}"], sds[f"y{j + 1}_into_y{i + 1}"] = float(v), float(d)
+            out["cross_coupling"] = (vals, sds)
         return out
 
     def linear_change(self):
@@ -145,8 +304,38 @@ class Fitted:
         return out, sd
 
 
+def _post_jacobian(fit, x, J, Y):
+    """Fill the output blocks' columns of ``J`` ``(N, m, n_x)`` and carry the others through
+    output mixing and curvature; ``Y`` are the linear part's outputs (before the blocks)."""
+    post = fit.post
+    sl = post.slices(fit._post_start)
+    first = fit._post_start
+    if post.mixing:
+        _, Co = post.matrices(x, fit._post_start)
+        J[:, :, :first] += np.einsum("nlc,il->nic", J[:, :, :first], Co)
+        for c, (i, j) in zip(range(sl["mix_out"].start, sl["mix_out"].stop), post.pairs(post.m)):
+            J[:, i, c] = Y[:, j]
+        J[:, :, sl["mix_in"]] += np.einsum("nlc,il->nic", J[:, :, sl["mix_in"]], Co)
+        Y = Y + Y @ Co.T
+    if post.curvature:
+        a = x[sl["curvature"]]
+        m = post.m
+        E = Y - np.asarray(post.center)[None, :]
+        f = 1.0 + 2 * a[None, :m] * E + 3 * a[None, m:] * E ** 2
+        keep = [c for c in range(J.shape[2]) if not sl["curvature"].start <= c < sl["curvature"].stop
+                and not sl["offset"].start <= c < sl["offset"].stop]
+        J[:, :, keep] *= f[:, :, None]
+        for j in range(m):
+            J[:, j, sl["curvature"].start + j] = E[:, j] ** 2
+            J[:, j, sl["curvature"].start + m + j] = E[:, j] ** 3
+    if post.offset:
+        for j in range(post.m):
+            J[:, j, sl["offset"].start + j] = 1.0
+
+
 def fit_model(name, effects, train, lin, chain, noise_sigma, joint=True, dynamic=False,
-              start=None, theta=None, max_nfev=40, ftol=1e-10, offset=False):
+              start=None, theta=None, max_nfev=40, ftol=1e-10, offset=False, curvature=False,
+              mixing=False):
     """Fit ``effects`` (+ linear corrections if ``joint``) on prepared training records.
 
     Parameters
@@ -163,7 +352,8 @@ def fit_model(name, effects, train, lin, chain, noise_sigma, joint=True, dynamic
     joint : bool
         Fit the linear corrections too (else they stay at ``theta``, default 0).
     dynamic : bool
-        Let the linear corrections vary with the excitation level (dynamic hysteresis).
+        Let the linear corrections vary with the excitation level (amplitude-dependent
+        dynamics).
     start : dict, optional
         Starting values by parameter name (from an earlier fit).
     theta : array, optional
@@ -172,6 +362,11 @@ def fit_model(name, effects, train, lin, chain, noise_sigma, joint=True, dynamic
         Stopping rules of the least-squares solver.
     offset : bool
         Fit a constant output offset per output too (parameters ``offset_um``, ...).
+    curvature : bool
+        Fit the sensor's quadratic and cubic curvature per output
+        (``output_nonlinearity``).
+    mixing : bool
+        Fit the channels' cross-coupling (``cross_coupling``; several inputs or outputs).
 
     Returns
     -------
@@ -180,19 +375,19 @@ def fit_model(name, effects, train, lin, chain, noise_sigma, joint=True, dynamic
     slopes = tuple(i for i, (k, _) in enumerate(lin.kinds) if k in SLOPE_KINDS) if dynamic else ()
     level_ref = min(p.level for p in train)
     nz, nt, ns = chain.size, lin.size if joint else 0, len(slopes)
-    no = train[0].Y.shape[1] if offset else 0
-    lo = np.concatenate([chain.lower, lin.lower if joint else [], np.full(ns, -5.0),
-                         np.full(no, -np.inf)])
-    hi = np.concatenate([chain.upper, lin.upper if joint else [], np.full(ns, 5.0),
-                         np.full(no, np.inf)])
+    post = make_post(train, offset, curvature, mixing)
+    no = post.sizes()["offset"] if post else 0
+    plo, phi = post.bounds() if post else (np.zeros(0), np.zeros(0))
+    lo = np.concatenate([chain.lower, lin.lower if joint else [], np.full(ns, -5.0), plo])
+    hi = np.concatenate([chain.upper, lin.upper if joint else [], np.full(ns, 5.0), phi])
     if joint and "hysteresis" in chain.effects:      # its gain is the linear gain: pin that
         for i, (kind, _) in enumerate(lin.kinds):
             if kind in ("gain", "input_gain"):
                 lo[nz + i], hi[nz + i] = -1e-12, 1e-12
     sd = np.concatenate([lin.prior_sd if joint else [], lin.prior_sd[list(slopes)]])
-    x0 = np.concatenate([chain.z0, np.zeros(nt + ns + no)])
+    x0 = np.concatenate([chain.z0, np.zeros(nt + ns + (post.size if post else 0))])
     names = (list(chain.names) + (list(lin.names) if joint else []) + [f"slope{i}" for i in slopes]
-             + [f"offset{j}" for j in range(no)])
+             + (post.names() if post else []))
     for i, n in enumerate(names):
         if start and n in start:
             x0[i] = np.clip(start[n], lo[i], hi[i])
@@ -201,7 +396,7 @@ def fit_model(name, effects, train, lin, chain, noise_sigma, joint=True, dynamic
     prior_w = noise_sigma / scale / sd
     fixed = np.zeros(lin.size) if theta is None else np.asarray(theta, float)
     proto = Fitted(name, tuple(effects), "dynamic" if dynamic else "input", chain, lin, x0,
-                   np.zeros_like(x0), joint, slopes, level_ref, 0, 0.0, fixed, no)
+                   np.zeros_like(x0), joint, slopes, level_ref, 0, 0.0, fixed, no, post)
 
     def fun(x):
         r = [(proto.predict_prepared(p, x) - p.Y).ravel() * (p.weight / scale) for p in train]
@@ -210,15 +405,11 @@ def fit_model(name, effects, train, lin, chain, noise_sigma, joint=True, dynamic
         return np.where(np.isfinite(out), out, 1e3)
 
     def jac(x):
-        z = x[:nz]
         rows = []
         for p in train:
-            U, T = p.U, p.temp
-            if p.warm:
-                U, T = np.vstack([U[-p.warm:], U]), np.concatenate([T[-p.warm:], T])
-            V, dV = chain.run(z, U, T, jac=True, warm=p.warm)
+            V, dV = proto.effective_input(p, x, jac=True)
             th = proto.theta_at(p.level, x)
-            _, JL = lin.simulate_jac(th, V, p.periodic)
+            Y0, JL = lin.simulate_jac(th, V, p.periodic)
             N, m = p.Y.shape
             J = np.zeros((N, m, x.size))
             for j, dv in enumerate(dV):
@@ -229,8 +420,16 @@ def fit_model(name, effects, train, lin, chain, noise_sigma, joint=True, dynamic
             if slopes:
                 J[:, :, nz + nt:nz + nt + ns] = (JL[:, :, list(slopes)]
                                                  * level_factor(p.level, level_ref))
-            for j in range(no):
-                J[:, j, nz + nt + ns + j] = 1.0
+            if post is not None:
+                if post.mixing:
+                    U, T = p.U, p.temp
+                    if p.warm:
+                        U, T = np.vstack([U[-p.warm:], U]), np.concatenate([T[-p.warm:], T])
+                    V0, _ = chain.run(x[:nz], U, T, jac=False, warm=p.warm)
+                    sl = post.slices(nz + nt + ns)["mix_in"]
+                    for c, (i, j) in zip(range(sl.start, sl.stop), post.pairs(post.k)):
+                        J[:, :, c] = lin.simulate_input(th, V0[:, j], i, p.periodic)
+                _post_jacobian(proto, x, J, Y0)
             rows.append(J.reshape(N * m, -1) * (p.weight / scale))
         prior = np.zeros((nt + ns, x.size))
         prior[:, nz:nz + nt + ns] = np.diag(prior_w)
@@ -250,4 +449,4 @@ def fit_model(name, effects, train, lin, chain, noise_sigma, joint=True, dynamic
                                          max_nfev=max_nfev)
     std = parameter_std(res.jac, res.cost, res.fun.size) if x0.size else np.zeros(0)
     return Fitted(name, tuple(effects), proto.form, chain, lin, res.x, std, joint, slopes,
-                  level_ref, int(res.nfev), 2 * float(res.cost), fixed, no)
+                  level_ref, int(res.nfev), 2 * float(res.cost), fixed, no, post)

@@ -51,19 +51,8 @@ class Polished(Fitted):
         sd["residue_change_per_level"] = float("nan")
         return out, sd
 
-    def predict_prepared(self, p, x=None):
-        V = _effective(self, p, x)
-        Y = self.model_at(p.level, x).discretise(self.lin.fs).response(V, periodic=p.periodic)
-        return Y + self.output_offset(x)[None, :] if self.n_offset else Y
-
-
-def _effective(fit, p, x=None):
-    """Effective inputs of a prepared record through the fit's effect chain."""
-    z = fit.parts(x)[0]
-    U, T = p.U, p.temp
-    if p.warm:
-        U, T = np.vstack([U[-p.warm:], U]), np.concatenate([T[-p.warm:], T])
-    return fit.chain.run(z, U, T, jac=False, warm=p.warm)[0]
+    def linear_output(self, p, V, x=None):
+        return self.model_at(p.level, x).discretise(self.lin.fs).response(V, periodic=p.periodic)
 
 
 def _mode_signal(zq, x, periodic):
@@ -118,13 +107,12 @@ def polish_residues(fit, train, noise_sigma):
         f = level_factor(p.level, fit.level_ref)
         if f == 0.0:
             continue
-        V = _effective(fit, p)
+        V = fit.effective_input(p)[0]
         model = fit.lin.continuous(fit.theta_at(p.level))
         C, index = _columns(model, fs, V, p.periodic)
         base = model.discretise(fs).response(V, periodic=p.periodic)
         rows.append(C * (f * p.weight))
-        rhs.append((p.Y - base - (fit.output_offset()[None, :] if fit.n_offset else 0.0))
-                   * p.weight)
+        rhs.append((p.Y - fit.output_side(base)) * p.weight)
     if not rows:
         return fit
     ref = fit.lin.continuous(fit.theta_at(fit.level_ref))

@@ -1,31 +1,27 @@
-"""Candidates and forward selection: which effects, together, explain the held-out gap.
+"""Which candidates, together, explain the held-out gap: screen, fit, credit, compare.
 
 1. ``linear``: the linear corrections alone (the user's model re-fitted, regularised).
-2. Every excited effect alone on the user's model (linear part as given), and the
-   dynamic form of hysteresis when the records allow it.  These are screening fits
-   (early stopping, at most ``SCREEN_SAMPLES`` samples per training record — whole
-   records for the thermal effects, which follow the whole temperature history); every
-   candidate is scored on the whole test records.
-3. Forward selection from the linear re-fit: the best remaining candidates (the two
-   best from the second step on) are re-fitted *jointly* with the effects already
-   selected and the linear corrections; the better is kept if it removes at least
-   ``MIN_SHRINK`` of the excess held-out gap (gap above the noise floor) left so far
-   and beats the current state by ``MARGIN``; the next candidates (``MAX_TRIES`` in
-   all) are tried when none is; repeat.  A candidate qualifies when its screening fit
-   improves on the model *as given* by ``PROMISING``, on the training or the held-out
-   records — not on the linear re-fit: an effect masked by another effect or by a
-   wrong linear model looks poor alone and only shows once fitted with them.
+2. Screening (:mod:`robrst.diagnose.screen`): every excited candidate scored by an exact
+   linear least-squares fit on precomputed columns, linearised about the user's model
+   and about the linear re-fit (the better of the two, on the training records).
+3. Forward selection: at each step the candidates whose screen improves on the current
+   set by ``PROMISING`` (held-out or training gap) are ranked, the best ``REFINE_TOP``
+   are fitted by their own nonlinear models *jointly* with the set so far and the linear
+   corrections (:func:`robrst.diagnose.fit.fit_model`, or the standalone fits of
+   ``thermal_dynamics`` and ``stiffness_nonlinearity``), and the best is kept if it
+   removes ``MIN_SHRINK`` of the excess held-out gap and beats the current set by
+   ``MARGIN`` (:func:`significant`).
+4. Credit by removal: every selected effect is removed from the joint fit in turn (the
+   others re-fitted); an effect whose removal costs less than the same bar is no cause
+   and is dropped (the set re-fitted without it).
+5. Alternatives: for every effect left, the best candidate that could stand in its place
+   (by the screen) is fitted in its place; when it explains the held-out gap as well
+   (neither is significantly better), the two are a tie.
 
-4. After every selection the remaining candidates are *re-screened* on top of the model
-   selected so far (its effects and linear corrections held as the start, each candidate's
-   parameters added; a screening fit): an effect hidden behind a larger one (creep behind
-   saturation) only improves once that one is in.  A re-screened candidate qualifies when
-   it improves on the current model by ``PROMISING``; it joins the candidates still
-   waiting, and all are ranked by their re-screened gaps.
-
-A constant output offset (``output_offset``: a sensor zero, one constant per output) is a
-candidate like the effects: screened alone on the model as given, fitted jointly with the
-others, selected only when it passes the same bars.
+Forms of one effect are not alternatives: ``hysteresis`` is fitted as Bouc–Wen and as
+Prandtl–Ishlinskii and the better form is kept.  A constant output offset (``output_offset``)
+is the constant of a static output nonlinearity: with ``output_nonlinearity`` in a set it
+is not a separate cause.
 
 Every gap is measured on the test records, every fit uses the training records only.
 """
@@ -33,28 +29,36 @@ Every gap is measured on the test records, every fit uses the training records o
 import math
 import time
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
+
+import numpy as np
 
 from robrst.diagnose import signals
-from robrst.diagnose.effects import INPUT_EFFECTS, THERMAL, Chain
+from robrst.diagnose.effects import Chain
 from robrst.diagnose.fit import fit_model
 from robrst.diagnose.polish import polish_residues
-from robrst.diagnose.thermal import fit_thermal_dynamics
+from robrst.diagnose.screen import build_screen
+from robrst.diagnose.stiffness import fit_stiffness
+from robrst.diagnose.thermal import fit_thermal_dynamics, search_saturation
 
-__all__ = ["Setup", "Scored", "candidates", "forward", "excess", "significant",
-           "linear_with_offset", "MIN_SHRINK", "MARGIN", "MAX_EFFECTS", "OFFSET"]
+__all__ = ["Setup", "Scored", "Explanation", "explain", "excess", "significant",
+           "linear_with_offset", "refit_keys", "MIN_SHRINK", "MARGIN", "MAX_EFFECTS", "OFFSET",
+           "DYNAMIC", "STANDALONE", "PROMISING", "REFINE_TOP"]
 
 OFFSET = "output_offset"  # the constant output offset's candidate name
+DYNAMIC = "amplitude_dependent_dynamics"
+STANDALONE = ("thermal_dynamics", "stiffness_nonlinearity")   # fitted alone, not combined
+CHAIN = ("delay", "input_nonlinearity", "saturation", "slew", "creep", "thermal_drift")
+# special cases of a more general candidate: fitted with it, and named when not worse
+SPECIAL = {"input_nonlinearity": ("saturation",), "output_nonlinearity": ("output_offset",)}
 
 MIN_SHRINK = 0.3         # an explanation must remove >= 30 % of the excess gap it faces
 MARGIN = 1.1             # ... and beat the alternative by 10 % in held-out gap
 MAX_EFFECTS = 3
-MAX_TRIES = 3            # joint fits tried per step until one is significant
+REFINE_TOP = 3           # candidates fitted per step (the best by the screen) ...
+SCREEN_SPREAD = 2.0      # ... when their screened gap is within this factor of the best
+PROMISING = 0.97         # a screen must improve on the current set by 3 %
 FINAL_NFEV = 150         # an unconverged joint fit is run on up to this many evaluations
-PROMISING = 0.97         # an effect alone must improve on the model as given by 3 %
-SCREEN_NFEV = 25         # single candidates are screening fits: early stopping
-SCREEN_FTOL = 1e-6
-SCREEN_SAMPLES = 100_000  # ... on at most the first 100 000 samples of each training record
 
 
 @dataclass(frozen=True, eq=False)
@@ -69,18 +73,19 @@ class Setup:
     test_records: list     # Dataset (held-out gap normalisation)
     train_records: list
     lin: object            # LinearPart
-    lin_modal: object      # LinearPart with per-mode gains (dynamic form of hysteresis)
+    lin_modal: object      # LinearPart with per-mode gains (amplitude-dependent dynamics)
     stats: dict
     noise_sigma: float
-    plant: object          # SISO Plant of the user's model (thermal_dynamics) or None
-    effects: tuple         # excited effects to try
-    dynamic: bool          # the dynamic form of hysteresis is possible
+    plant: object          # SISO Plant of the user's model (standalone fits) or None
+    effects: tuple         # excited candidates to try
+    dynamic: bool          # the amplitude-dependent dynamics can be fitted
     delays: tuple
-    saturation: list       # starting limits per input
+    saturation: list       # starting limits per input (unused: found by the screen)
     floor: float
     gap_before: float      # held-out gap of the model as given
     gap_before_train: float  # ... and its training gap
     workers: int = 2
+    stages: dict = field(default_factory=dict)   # compiled effect stages of this diagnosis
 
 
 @dataclass(frozen=True, eq=False)
@@ -94,10 +99,37 @@ class Scored:
     residuals: list        # held-out residuals per test record
     fit_s: float
     converged: bool = True  # the solver stopped before its evaluation limit
+    keys: tuple = ()        # the candidates it holds
+    form: str = "input"     # hysteresis: "input" (Bouc–Wen) or "prandtl_ishlinskii"
 
     @property
     def effects(self):
-        return tuple(self.fit.effects) + (("hysteresis",) if self.fit.form == "dynamic" else ())
+        return self.keys
+
+
+@dataclass(frozen=True)
+class Screened:
+    """A candidate scored by the screen only (no nonlinear fit)."""
+
+    name: str
+    gap: float
+    train_gap: float
+    params: dict
+    fit_s: float = 0.0
+
+
+@dataclass(frozen=True, eq=False)
+class Explanation:
+    """What :func:`explain` found (see the module doc)."""
+
+    linear: Scored
+    singles: dict          # key -> Scored (fitted alone) or Screened
+    steps: list            # [(key, gap before, Scored)] in the order selected
+    removal: dict          # key -> held-out gap of the final set without it
+    dropped: list          # [(key, gap with, gap without)]: credited nothing, removed
+    tie: tuple = None      # (key, alternative, gap, gap of the alternative)
+    alternatives: dict = field(default_factory=dict)   # key -> (alternative, Scored)
+    screen_rank: list = field(default_factory=list)    # [(key, screen gap)] best first
 
 
 def excess(g, floor):
@@ -110,41 +142,35 @@ def significant(new, old, floor):
     return excess(new, floor) <= (1 - MIN_SHRINK) * excess(old, floor) and new * MARGIN <= old
 
 
-def score(setup, fit, t0):
+def score(setup, fit, t0, keys=(), form="input"):
     res_te = [p.Y - fit.predict_prepared(p) for p in setup.test]
     res_tr = [p.Y - fit.predict_prepared(p) for p in setup.train_full]
     return Scored(name=fit.name, fit=fit, gap=signals.nrmse(setup.test_records, res_te),
                   train_gap=signals.nrmse(setup.train_records, res_tr), residuals=res_te,
-                  fit_s=time.perf_counter() - t0)
+                  fit_s=time.perf_counter() - t0, keys=tuple(keys), form=form)
 
 
 def _chain(setup, effects):
-    ch = Chain(effects, setup.lin.model.n_in, setup.fs, setup.ref, setup.stats, setup.delays)
-    ch.start_saturation(setup.saturation)
+    ch = Chain(effects, setup.lin.model.n_in, setup.fs, setup.ref, setup.stats, setup.delays,
+               cache=setup.stages)
     return ch
 
 
-def _screen(records, n):
-    """The first ``n`` samples of each from-rest record (periodic ones are one period)."""
-    return [p if p.periodic or len(p.U) <= n else replace(
-        p, U=p.U[:n], Y=p.Y[:n], temp=p.temp[:n]) for p in records]
-
-
 def _fit(setup, name, effects, joint, dynamic=False, start=None, theta=None, max_nfev=40,
-         ftol=1e-8, screen=False, offset=False):
+         ftol=1e-8, offset=False, curvature=False, mixing=False, keys=(), form="input"):
     t0 = time.perf_counter()
-    train = _screen(setup.train, SCREEN_SAMPLES) if screen else setup.train
     lin = setup.lin_modal if dynamic else setup.lin
-    fit = fit_model(name, effects, train, lin, _chain(setup, effects),
+    fit = fit_model(name, effects, setup.train, lin, _chain(setup, effects),
                     setup.noise_sigma, joint=joint, dynamic=dynamic, start=start, theta=theta,
-                    max_nfev=max_nfev, ftol=ftol, offset=offset)
+                    max_nfev=max_nfev, ftol=ftol, offset=offset, curvature=curvature,
+                    mixing=mixing)
     if dynamic:
-        fit = polish_residues(fit, train, setup.noise_sigma)
-    return replace(score(setup, fit, t0), converged=fit.n_eval < max_nfev)
+        fit = polish_residues(fit, setup.train, setup.noise_sigma)
+    return replace(score(setup, fit, t0, keys, form), converged=fit.n_eval < max_nfev)
 
 
 def _start(scored):
-    """Parameter values of a fit by name (chain, linear corrections, slopes)."""
+    """Parameter values of a fit by name (chain, linear corrections, slopes, output blocks)."""
     if scored is None or not hasattr(scored.fit, "chain"):
         return {}
     f = scored.fit
@@ -152,96 +178,72 @@ def _start(scored):
     out = dict(zip(f.lin.names, th))
     out.update(zip(f.chain.names, z))   # "gain" of hysteresis wins: the linear one is pinned
     out.update({f"slope{i}": v for i, v in zip(f.slopes, s)})
-    if f.n_offset:
-        out.update({f"offset{j}": v for j, v in enumerate(f.output_offset())})
+    if f.post is not None:
+        x = f.x[f._post_start:]
+        out.update(zip(f.post.names(), x))
     return out
-
-
-def candidates(setup, say):
-    """The linear re-fit and every single candidate; returns (linear, {name: Scored}).
-
-    All fits run in ``setup.workers`` threads, the longest first; the linear re-fit
-    runs first on its own only when the dynamic form of hysteresis starts from it.
-    """
-    def linear():
-        return _fit(setup, "linear", (), joint=True)
-
-    lin = linear() if setup.dynamic else None
-    for e in setup.effects:          # build (and compile) every stage before any thread runs
-        if e in INPUT_EFFECTS:
-            _chain(setup, (e,))
-    # thermal effects follow the whole temperature history: screened on whole records
-    jobs = {e: (lambda e=e: _fit(setup, e, (e,), joint=False, max_nfev=SCREEN_NFEV,
-                                 ftol=SCREEN_FTOL, screen=e not in THERMAL))
-            for e in setup.effects if e in INPUT_EFFECTS}
-    if "thermal_dynamics" in setup.effects:
-        def thermal():
-            t0 = time.perf_counter()
-            return score(setup, fit_thermal_dynamics(setup.train, setup.plant, setup.fs,
-                                                     setup.ref), t0)
-        jobs["thermal_dynamics"] = thermal
-    jobs[OFFSET] = lambda: _fit(setup, OFFSET, (), joint=False, offset=True,
-                                max_nfev=SCREEN_NFEV, ftol=SCREEN_FTOL)
-    if setup.dynamic:
-        jobs["hysteresis:dynamic"] = lambda: _fit(setup, "hysteresis", (), joint=True,
-                                                  dynamic=True, start=_start(lin))
-    else:
-        jobs["linear"] = linear
-    keys = sorted(jobs, key=lambda k: k not in THERMAL)   # the longest fits start first
-    out = dict(zip(keys, _run([jobs[k] for k in keys], setup.workers)))
-    lin = out.pop("linear", lin)
-    say(f"linear re-fit: held-out gap {lin.gap:.4g} ({lin.fit.n_eval} evaluations,"
-        f" {lin.fit_s:.1f} s)")
-    for k, sc in sorted(out.items(), key=lambda kv: kv[1].gap):
-        say(f"  {k:<20} alone: held-out gap {sc.gap:.4g} (training {sc.train_gap:.4g};"
-            f" {sc.fit.n_eval} evaluations, {sc.fit_s:.1f} s)")
-    return lin, out
-
-
-def _offset_of(state):
-    """Does the fit ``state`` (Scored) carry an output offset?"""
-    return state.name != "linear" and getattr(state.fit, "n_offset", 0) > 0
-
-
-def _grown(state, key):
-    """Effects, dynamic form, offset and name of ``state`` plus candidate ``key``."""
-    effects = tuple(e for e in (state.fit.effects if state.name != "linear" else ())) + (
-        () if key in ("hysteresis:dynamic", OFFSET) else (key,))
-    dynamic = key == "hysteresis:dynamic" or getattr(state.fit, "form", "") == "dynamic"
-    offset = key == OFFSET or _offset_of(state)
-    name = "+".join(sorted(set(effects) | ({"hysteresis"} if dynamic else set())
-                           | ({OFFSET} if offset else set())))
-    return effects, dynamic, offset, name
 
 
 def linear_with_offset(setup):
     """The linear re-fit with a constant output offset, fitted jointly (Scored)."""
-    return _fit(setup, f"linear+{OFFSET}", (), joint=True, offset=True)
+    return _fit(setup, f"linear+{OFFSET}", (), joint=True, offset=True, keys=(OFFSET,),
+                form="output")
 
 
-def _combine(setup, state, key, single, on_top=False):
-    """``state`` (Scored) plus candidate ``key`` (its single fit ``single``), jointly.
+def _name(keys):
+    return "+".join(sorted(keys)) or "linear"
 
-    A single candidate that already brings the held-out gap to the noise level needs no
-    joint re-fit (the linear part stays the user's).  ``on_top``: ``single`` was
-    re-screened on top of ``state`` (its values start the joint fit).
+
+def refit_keys(setup, keys, start=None, form=None, theta=None, max_nfev=40):
+    """The candidates ``keys`` fitted jointly with the linear corrections (Scored).
+
+    ``form`` of hysteresis: ``"input"`` (Bouc–Wen) or ``"prandtl_ishlinskii"``; ``None``
+    fits both and keeps the one that fits the training records better.  ``theta`` (the
+    linear re-fit's corrections) is the linear part of the standalone fits.
     """
-    if key == "thermal_dynamics" or (state.name == "linear"
-                                     and single.gap <= 1.25 * setup.floor):
-        return single
-    effects, dynamic, offset, name = _grown(state, key)
-    kept = _start(state) if state.name != "linear" else {}
-    starts = [{**kept, **_start(single)} if on_top else {**_start(single), **kept}]
-    if state.name != "linear":
-        # the fits so far may have absorbed the new effect (each effect alone mimics
-        # the others): also start every effect from its default, keep the better fit
-        starts.append({k: v for k, v in kept.items() if k in setup.lin.names})
-    jobs = [lambda st=st: _fit(setup, name, effects, joint=True, dynamic=dynamic, start=st,
-                               offset=offset)
-            for st in starts]
-    best = min(_run(jobs, setup.workers), key=lambda sc: sc.train_gap)
-    # run on only a fit that is getting somewhere (fits the training records better)
-    return _converge(setup, best) if best.train_gap < state.train_gap else best
+    keys = tuple(sorted(set(keys)))
+    if "hysteresis" in keys and form is None:
+        both = _run([lambda f=f: refit_keys(setup, keys, start, f, theta, max_nfev)
+                     for f in ("input", "prandtl_ishlinskii")], setup.workers)
+        return min(both, key=lambda sc: sc.train_gap)
+    t0 = time.perf_counter()
+    if keys and keys[0] in STANDALONE and len(keys) == 1:
+        if keys[0] == "thermal_dynamics":       # a law about the user's model at its reference
+            fit = fit_thermal_dynamics(setup.train, setup.plant, setup.fs, setup.ref)
+        else:                                   # on the user's model and on the re-fitted one
+            plants = [setup.plant] + ([setup.lin.continuous(theta).channel(0, 0, label="refit")]
+                                      if theta is not None else [])
+            fit = min((fit_stiffness(setup.train, p, setup.fs, setup.ref, cache=setup.stages)
+                       for p in plants), key=lambda f: f.train_cost)
+        return score(setup, fit, t0, keys)
+    chain = [k for k in keys if k in CHAIN]
+    if "hysteresis" in keys:
+        chain.append("hysteresis" if form == "input" else "pi_hysteresis")
+    start = dict(start or {})
+    if "saturation" in keys and not any(k.startswith("u_m") for k in start):
+        for j, (lo, hi) in enumerate(search_saturation(setup.train, setup.lin, None)):
+            sfx = f"_u{j + 1}" if len(setup.delays) > 1 else ""
+            start.setdefault(f"u_min_V{sfx}", lo)
+            start.setdefault(f"u_max_V{sfx}", hi)
+    curvature = "output_nonlinearity" in keys
+    return _fit(setup, _name(keys), tuple(chain), joint=True, dynamic=DYNAMIC in keys,
+                start=start, max_nfev=max_nfev, offset=OFFSET in keys or curvature,
+                curvature=curvature, mixing="cross_coupling" in keys, keys=keys,
+                form="prandtl_ishlinskii" if "hysteresis" in keys and form != "input"
+                else ("dynamic" if DYNAMIC in keys else "input"))
+
+
+def _converge(setup, sc, theta=None):
+    """``sc`` re-fitted to convergence (up to ``FINAL_NFEV`` evaluations) if it stopped early.
+
+    Kept if it fits the training records at least as well (the held-out gap is only
+    measured, never used).
+    """
+    if sc.converged or not hasattr(sc.fit, "chain"):
+        return sc
+    more = refit_keys(setup, sc.keys, _start(sc), sc.form if "hysteresis" in sc.keys else None,
+                      theta, max_nfev=FINAL_NFEV)
+    return more if more.train_gap <= sc.train_gap else sc
 
 
 def _run(jobs, workers):
@@ -252,96 +254,141 @@ def _run(jobs, workers):
         return [fut.result() for fut in [pool.submit(f) for f in jobs]]
 
 
-def forward(setup, lin, singles, say):
-    """Forward selection; returns (steps, tie) with steps = [(key, before, Scored)]."""
-    state, steps, tie = lin, [], None
-    g0, t0 = setup.gap_before, setup.gap_before_train
-    pool = {k: s for k, s in singles.items()
-            if s.gap <= PROMISING * g0 or s.train_gap <= PROMISING * t0}
-    ref = (g0, t0)
-    rank = lambda k: pool[k].gap / ref[0] + pool[k].train_gap / ref[1]  # noqa: E731
-    while len(steps) < MAX_EFFECTS and state.name != "thermal_dynamics":
-        if state.gap <= 1.25 * setup.floor:
+def _compatible(chosen, key):
+    if key in chosen:
+        return False
+    if chosen and (key in STANDALONE or any(c in STANDALONE for c in chosen)):
+        return False
+    if key == OFFSET and "output_nonlinearity" in chosen:
+        return False
+    return True
+
+
+def explain(setup, say):
+    """Screen, select, credit and compare the candidates (see the module doc).
+
+    Returns
+    -------
+    Explanation
+    """
+    t0 = time.perf_counter()
+    lin = _fit(setup, "linear", (), joint=True)
+    theta_l = lin.fit.parts()[1]
+    say(f"linear re-fit: held-out gap {lin.gap:.4g} ({lin.fit.n_eval} evaluations,"
+        f" {lin.fit_s:.1f} s)")
+    keys = [k for k in setup.effects if k != DYNAMIC or setup.dynamic]
+    level_ref = min(p.level for p in setup.train)
+    zero = np.zeros(setup.lin.size)
+    points = [zero] + ([theta_l] if np.max(np.abs(theta_l), initial=0.0) > 1e-3 else [])
+    screens = [build_screen(replace(setup, effects=tuple(keys)), th, setup.delays, level_ref,
+                            DYNAMIC in keys, stages=setup.stages) for th in points]
+    say(f"screened {len(keys)} candidate(s) on exact linear columns"
+        f" ({len(points)} linearisation point(s), {time.perf_counter() - t0:.1f} s)")
+
+    def screened(ks):
+        """The screen of ``ks`` (the linearisation point that fits training better)."""
+        return min((s.fit(ks) for s in screens if all(k in s.keys() for k in ks)),
+                   key=lambda f: f.train_gap, default=None)
+
+    def start_of(key):
+        for s in screens:
+            if key in s.keys():
+                return s.start(key)
+        return {}
+
+    alone = {k: screened((k,)) for k in keys}
+    alone = {k: v for k, v in alone.items() if v is not None}
+    rank0 = sorted(alone, key=lambda k: alone[k].gap)
+    for k in rank0:
+        say(f"  {k:<30} screen: held-out gap {alone[k].gap:.4g}"
+            f" (training {alone[k].train_gap:.4g})")
+    fitted = {}
+
+    def refine(ks, start):
+        ks = tuple(sorted(ks))
+        if ks not in fitted:
+            sc = refit_keys(setup, ks, start, theta=theta_l)
+            fitted[ks] = sc
+            say(f"  fitted {_name(ks):<30} held-out gap {sc.gap:.4g} (training"
+                f" {sc.train_gap:.4g}; {sc.fit.n_eval} evaluations, {sc.fit_s:.1f} s)")
+        return fitted[ks]
+
+    state, chosen, steps = lin, [], []
+    base_scr = screened(())
+    while len(chosen) < MAX_EFFECTS and state.gap > 1.25 * setup.floor:
+        cur = screened(tuple(chosen)) if chosen else base_scr
+        pool = [k for k in alone if _compatible(chosen, k)]
+        scr = {k: screened(tuple(chosen) + (k,)) for k in pool}
+        good = [k for k in pool if scr[k] is not None and (
+            scr[k].gap <= PROMISING * cur.gap or scr[k].train_gap <= PROMISING * cur.train_gap)]
+        if not good:
             break
-        if steps:          # re-screen what is left on top of the model selected so far
-            pool, ref = _rescreen(setup, state, singles, pool, steps, say), (
-                state.gap, state.train_gap)
-        order = [k for k in sorted(pool, key=rank) if not steps or k != "thermal_dynamics"]
-        if not order:
+        ranked = sorted(good, key=lambda k: scr[k].gap / max(cur.gap, 1e-300)
+                        + scr[k].train_gap / max(cur.train_gap, 1e-300))
+        base = _start(state) if chosen else {}
+        # the best by the screen, and the next ones only when their screen comes close
+        tries = [k for k in ranked[:REFINE_TOP]
+                 if scr[k].gap <= SCREEN_SPREAD * max(scr[ranked[0]].gap, setup.floor)]
+        tries += [c for k in tries for c in SPECIAL.get(k, ()) if c in good and c not in tries]
+        results = _run([lambda k=k: refine(chosen + [k], {**start_of(k), **base})
+                        for k in tries], setup.workers)
+        k_best, best = min(zip(tries, results), key=lambda kv: kv[1].gap)
+        for c in SPECIAL.get(k_best, ()):      # the special case, unless clearly worse
+            if c in tries:
+                sc = results[tries.index(c)]
+                if not significant(best.gap, sc.gap, setup.floor):
+                    k_best, best = c, sc
+        if best.train_gap < state.train_gap:
+            best = _converge(setup, best, theta_l)
+            fitted[tuple(sorted(chosen + [k_best]))] = best
+        if not significant(best.gap, state.gap, setup.floor):
             break
-        two = len(order) > 1 and (steps or pool[order[1]].gap <= 2 * pool[order[0]].gap)
-        tried = []
-        for k in order[:MAX_TRIES]:
-            tried.append((k, _combine(setup, state, k, pool[k], on_top=bool(steps))))
-            if len(tried) >= (2 if two else 1) and any(
-                    significant(sc.gap, state.gap, setup.floor) for _, sc in tried):
-                break
-        tried.sort(key=lambda kv: kv[1].gap)
-        for k, sc in tried:
-            how = "joint fit, " if getattr(sc.fit, "joint", False) else ""
-            say(f"  + {k:<18} held-out gap {state.gap:.4g} -> {sc.gap:.4g} ({how}"
-                f"{sc.fit.n_eval} evaluations, {sc.fit_s:.1f} s)")
-        if not tried or not significant(tried[0][1].gap, state.gap, setup.floor):
-            break
-        k, best = tried[0]
-        if not steps and len(tried) > 1:
-            k2, other = tried[1]
-            if significant(other.gap, state.gap, setup.floor) and best.gap * MARGIN >= other.gap:
-                both = _combine(setup, best, k2, pool[k2])
-                if significant(both.gap, best.gap, setup.floor):
-                    steps += [(k, state.gap, best), (k2, best.gap, both)]
-                    state = both
-                    continue
-                tie = (k, k2, best.gap, other.gap)
-                break
-        steps.append((k, state.gap, best))
+        steps.append((k_best, state.gap, best))
+        chosen.append(k_best)
         state = best
-    return steps, tie
-
-
-def _rescreen(setup, state, singles, pool, steps, say):
-    """The candidates not yet selected, each screened on top of ``state``: ``{key: Scored}``.
-
-    Every excited candidate is re-fitted with the selected model's effects (started at
-    their values) and its linear corrections held; it qualifies when it improves on
-    ``state`` by ``PROMISING`` (held-out or training gap).  The candidates that were
-    already waiting stay (with their re-screened scores) even when they do not.
-    """
-    chosen = {k for k, _, _ in steps}
-    keys = [k for k in singles if k not in chosen and k not in (
-        "thermal_dynamics", "hysteresis:dynamic") and not (k == OFFSET and _offset_of(state))
-        and not (k == "hysteresis" and "hysteresis" in state.effects)]
-    theta = state.fit.parts()[1]
-
-    def job(k):
-        effects, dynamic, offset, name = _grown(state, k)
-        return _fit(setup, name, effects, joint=False, dynamic=dynamic, theta=theta,
-                    start={**_start(singles[k]), **_start(state)}, max_nfev=SCREEN_NFEV,
-                    ftol=SCREEN_FTOL, screen=k not in THERMAL, offset=offset)
-
-    out = {}
-    for k, sc in zip(keys, _run([lambda k=k: job(k) for k in keys], setup.workers)):
-        good = sc.gap <= PROMISING * state.gap or sc.train_gap <= PROMISING * state.train_gap
-        say(f"  {k:<20} on top of {state.name}: held-out gap {state.gap:.4g} -> {sc.gap:.4g}"
-            f" (training {state.train_gap:.4g} -> {sc.train_gap:.4g}; {sc.fit.n_eval}"
-            f" evaluations, {sc.fit_s:.1f} s){'' if good else ', no improvement'}")
-        if good or k in pool:
-            out[k] = sc
-    if "hysteresis:dynamic" in pool and "hysteresis" not in state.effects:
-        out["hysteresis:dynamic"] = pool["hysteresis:dynamic"]
-    return out
-
-
-def _converge(setup, sc):
-    """``sc`` re-fitted to convergence (up to ``FINAL_NFEV`` evaluations) if it stopped early.
-
-    A joint fit that used all its evaluations is inconclusive (several effects fitted
-    together converge slowly): it is run on from where it stopped.  Kept if it fits the
-    training records at least as well (the held-out gap is only measured, never used).
-    """
-    f = sc.fit
-    if sc.converged or not hasattr(f, "chain"):
-        return sc
-    more = _fit(setup, sc.name, f.effects, joint=f.joint, dynamic=f.form == "dynamic",
-                start=_start(sc), max_nfev=FINAL_NFEV, offset=f.n_offset > 0)
-    return more if more.train_gap <= sc.train_gap else sc
+    # credit by removal: an effect the joint fit does not need is no cause
+    removal, dropped = {}, []
+    while chosen:
+        if len(chosen) == 1:
+            without = {chosen[0]: lin}
+        else:
+            st = _start(state)
+            without = dict(zip(chosen, _run(
+                [lambda k=k: refine([c for c in chosen if c != k], st) for k in chosen],
+                setup.workers)))
+        removal = {k: sc.gap for k, sc in without.items()}
+        weak = [k for k in chosen if not significant(state.gap, without[k].gap, setup.floor)]
+        if not weak:
+            break
+        k = min(weak, key=lambda k: without[k].gap)
+        dropped.append((k, state.gap, without[k].gap))
+        say(f"  {k} credited nothing: the joint fit without it leaves {without[k].gap:.4g}"
+            f" (with it {state.gap:.4g})")
+        chosen = [c for c in chosen if c != k]
+        state = without[k]
+        steps = [s for s in steps if s[0] != k]
+    # alternatives: what else could stand in place of each effect left
+    tie, alternatives = None, {}
+    if chosen and state.gap <= 0.5 * setup.gap_before:
+        for k in list(chosen):
+            rest = [c for c in chosen if c != k]
+            cands = [a for a in alone if a not in chosen and _compatible(rest, a)
+                     and not (k == "output_nonlinearity" and a == OFFSET)]
+            scr = {a: screened(tuple(rest) + (a,)) for a in cands}
+            scr = {a: f for a, f in scr.items() if f is not None}
+            if not scr:
+                continue
+            a = min(scr, key=lambda a: scr[a].gap)
+            mine = screened(tuple(chosen))
+            if mine is not None and scr[a].gap > SCREEN_SPREAD * max(mine.gap, setup.floor):
+                continue                 # the screen already tells them apart
+            alt = refine(rest + [a], {**start_of(a), **_start(state)})
+            alternatives[k] = (a, alt)
+            if not significant(state.gap, alt.gap, setup.floor):
+                tie = (k, a, state.gap, alt.gap)
+                break
+    singles = {k: fitted.get((k,)) or Screened(k, alone[k].gap, alone[k].train_gap,
+                                               alone[k].beta) for k in alone}
+    return Explanation(linear=lin, singles=singles, steps=steps, removal=removal,
+                       dropped=dropped, tie=tie, alternatives=alternatives,
+                       screen_rank=[(k, alone[k].gap) for k in rank0])

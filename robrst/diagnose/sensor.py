@@ -1,0 +1,152 @@
+"""Sensor faults in the records: isolated outliers and dropouts, found and set aside.
+
+A sensor that spikes or drops out for a few milliseconds raises every noise estimate
+(a spike is broadband; the period-to-period differences and the residual spectrum both
+see it) and can hide a clear effect.  Before the diagnosis, each record's residual
+``r = y - y_model`` (the model under diagnosis) is tested:
+
+* **outliers** — samples where ``e = r - median_7(r)`` (a running median of 7 samples)
+  exceeds ``OUTLIER_Z`` robust standard deviations of ``e`` (1.4826 x its median absolute
+  deviation) *and* ``ISOLATION`` times ``|e|`` two to four samples either side: a spike
+  stands alone, while a model error (a ringing resonance, the residual of a delay or a
+  rate limit at a step) spreads over its neighbours;
+* **dropouts** — runs of at least ``MIN_RUN`` identical readings (a held or zeroed
+  sensor) whose residual departs from the residual around them by more than
+  ``OUTLIER_Z`` robust standard deviations.
+
+Flagged samples are replaced by the model's output plus the residual interpolated
+linearly across them: the gap, the noise floor and every fit then see the plant, not
+the sensor fault, and the flagged share is reported (:func:`repair`).
+"""
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+__all__ = ["SensorFaults", "find_faults", "repair", "OUTLIER_Z", "MIN_RUN"]
+
+OUTLIER_Z = 10.0         # robust standard deviations
+MIN_RUN = 5              # identical readings that make a dropout
+ISOLATION = 4.0          # an outlier's |e| over its neighbours' (2 to 4 samples away)
+MEDIAN_WIDTH = 7
+MAX_SHARE = 0.02         # more than 2 % flagged: not isolated faults, leave the record alone
+
+
+@dataclass(frozen=True)
+class SensorFaults:
+    """Faults found in one record: flagged samples and their kind."""
+
+    name: str
+    outliers: np.ndarray     # sample indices
+    dropouts: tuple          # ((start, stop), ...) sample ranges
+    n: int
+
+    @property
+    def mask(self):
+        m = np.zeros(self.n, bool)
+        m[self.outliers] = True
+        for a, b in self.dropouts:
+            m[a:b] = True
+        return m
+
+    @property
+    def count(self):
+        return int(self.mask.sum())
+
+
+def _running_median(x, w):
+    """Running median of odd width ``w`` (edges: the nearest full window)."""
+    n = x.size
+    if n < w:
+        return np.full(n, np.median(x))
+    h = w // 2
+    win = np.lib.stride_tricks.sliding_window_view(x, w)
+    med = np.median(win, axis=1)
+    return np.concatenate([np.full(h, med[0]), med, np.full(h, med[-1])])
+
+
+def _runs(y, min_run):
+    """(start, stop) of runs of at least ``min_run`` identical values of ``y``."""
+    same = np.concatenate([[False], y[1:] == y[:-1]])
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], same.astype(int), [0]])))
+    out = []
+    for a, b in zip(edges[::2], edges[1::2]):
+        a -= 1                               # the run starts one sample before the repeats
+        if b - a >= min_run:
+            out.append((int(a), int(b)))
+    return out
+
+
+def find_faults(name, y, y_model):
+    """Outliers and dropouts of one output channel (see the module doc)."""
+    y = np.asarray(y, float)
+    r = y - y_model
+    n = r.size
+    e = r - _running_median(r, MEDIAN_WIDTH)
+    s = 1.4826 * float(np.median(np.abs(e - np.median(e))))
+    if not s > 0:
+        return SensorFaults(name, np.zeros(0, int), (), n)
+    a = np.abs(e)
+    pad = np.concatenate([np.zeros(4), a, np.zeros(4)])
+    near = np.max([pad[4 + j:4 + j + n] for j in (-4, -3, -2, 2, 3, 4)], axis=0)
+    big = (a > OUTLIER_Z * s) & (a > ISOLATION * near)
+    drops = []
+    for a, b in _runs(y, MIN_RUN):
+        L = b - a
+        around = np.concatenate([r[max(0, a - L):a], r[b:b + L]])
+        if around.size and abs(np.median(r[a:b]) - np.median(around)) > OUTLIER_Z * s:
+            drops.append((a, b))
+            big[a:b] = False
+    return SensorFaults(name, np.flatnonzero(big), tuple(drops), n)
+
+
+def repair(records, models, fs):
+    """Records with outliers and dropouts set aside, and what was found.
+
+    Parameters
+    ----------
+    records : list of Dataset
+    models : list of array
+        The model's outputs ``(N, m)`` per record (the model under diagnosis).
+    fs : float
+        Sampling rate [Hz] (for the report's times).
+
+    Returns
+    -------
+    list of Dataset, dict or None
+        The records (flagged samples replaced by the model plus the residual interpolated
+        across them; unchanged records are the same objects) and the ``sensor`` report:
+        ``{"outliers", "dropouts", "samples", "share", "records": [{file, outliers,
+        dropouts_s: [[start, end]], ...}]}``, or None when nothing was found.
+    """
+    out, rows, n_out, n_drop, n_all, n_flag = [], [], 0, 0, 0, 0
+    for d, ym in zip(records, models):
+        Y = d.Y.copy()
+        ym = np.asarray(ym, float).reshape(d.n, -1)
+        mask = np.zeros(d.n, bool)
+        found = []
+        for j in range(Y.shape[1]):
+            f = find_faults(d.source, Y[:, j], ym[:, j])
+            found.append(f)
+            mask |= f.mask
+        n_all += d.n
+        if not mask.any() or mask.mean() > MAX_SHARE:
+            out.append(d)
+            continue
+        good = np.flatnonzero(~mask)
+        R = Y - ym
+        for j in range(Y.shape[1]):
+            R[mask, j] = np.interp(np.flatnonzero(mask), good, R[good, j])
+        Y = ym + R
+        y = Y[:, 0] if d.y.ndim == 1 else Y
+        out.append(replace(d, y=y))
+        no = int(sum(f.outliers.size for f in found))
+        drops = sorted({ab for f in found for ab in f.dropouts})
+        n_out, n_drop, n_flag = n_out + no, n_drop + len(drops), n_flag + int(mask.sum())
+        rows.append({"file": d.source or "record", "outliers": no, "dropouts": len(drops),
+                     "dropouts_s": [[a / fs, b / fs] for a, b in drops],
+                     "flagged": int(mask.sum())})
+    if not rows:
+        return out, None
+    return out, {"outliers": n_out, "dropouts": n_drop, "samples": n_flag,
+                 "share": n_flag / max(n_all, 1), "records": rows}
