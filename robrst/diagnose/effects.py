@@ -35,11 +35,15 @@ FORMS = {"pi_hysteresis": "hysteresis"}          # a twin effect that is a form 
 # one input and output cannot show and the level-dependent linear form
 EFFECTS = tuple(e for e in TWIN_EFFECTS if e not in SENSOR_EFFECTS and e not in FORMS) + (
     "cross_coupling", "amplitude_dependent_dynamics")
-ORDER = ("delay", "input_nonlinearity", "saturation", "slew", "hysteresis", "pi_hysteresis",
+# the static input map acts after the sequential stages (its closed-form derivatives then
+# need no re-run of them); the twin puts it on the drive, the same map when alone
+ORDER = ("delay", "saturation", "slew", "hysteresis", "pi_hysteresis", "input_nonlinearity",
          "creep", "thermal_drift")
-PI_FRACTIONS = (0.02, 0.05, 0.1, 0.17, 0.25, 0.35)  # play thresholds / peak-to-peak input
-# knots of the static input map's hinges: quantiles of the training inputs
-KNOT_QUANTILES = (0.005, 0.02, 0.05, 0.1, 0.2, 0.35, 0.5, 0.65, 0.8, 0.9, 0.95, 0.98, 0.995)
+# play thresholds of the Prandtl–Ishlinskii candidate / peak-to-peak input (log-spaced)
+PI_FRACTIONS = (0.01, 0.02, 0.035, 0.05, 0.075, 0.1, 0.14, 0.19, 0.25, 0.33, 0.42, 0.52)
+# knots of the static input map's hinges: quantiles of the training inputs (distinct, with
+# samples on both sides: a hinge at the edge of the data is not determined by it)
+KNOT_QUANTILES = (0.02, 0.05, 0.1, 0.2, 0.35, 0.5, 0.65, 0.8, 0.9, 0.95, 0.98)
 INPUT_EFFECTS = ORDER
 THERMAL = ("thermal_drift", "thermal_dynamics")  # need a varying temperature
 LN10 = np.log(10.0)
@@ -113,17 +117,6 @@ SPECS = {
         twin=lambda z: 10.0 ** np.asarray(z, float),
         dtwin=lambda z: np.diag(LN10 * 10.0 ** np.asarray(z, float)),
         report=lambda z: (10 ** z[0], 10 ** z[1])),
-    "input_nonlinearity": Spec(
-        names=("dead_zone_V", "center_V", "quadratic_per_V", "cubic_per_V2") + tuple(
-            f"slope_change_at_q{q:g}" for q in KNOT_QUANTILES),
-        bounds=lambda s: ((0.0, s["u_min"], -2.0 / s["u_ptp"], -4.0 / s["u_ptp"] ** 2)
-                          + (-2.0,) * len(KNOT_QUANTILES),
-                          (0.5 * s["u_ptp"], s["u_max"], 2.0 / s["u_ptp"], 4.0 / s["u_ptp"] ** 2)
-                          + (2.0,) * len(KNOT_QUANTILES)),
-        init=lambda s: (0.0, 0.5 * (s["u_min"] + s["u_max"]), 0.0, 0.0)
-        + (0.0,) * len(KNOT_QUANTILES),
-        twin=lambda z: np.asarray(z, float), dtwin=lambda z: np.eye(len(z)),
-        report=lambda z: tuple(z)),
     "creep": Spec(
         names=("per_decade", "per_K"),
         bounds=lambda s: ((-0.3, -1.0), (0.3, 2.0)), init=lambda s: (0.0, 0.0),
@@ -153,9 +146,39 @@ def pi_thresholds(stats):
     return tuple(float(f * stats["u_ptp"]) for f in PI_FRACTIONS)
 
 
+def _map_spec(stats):
+    """Static input map: a dead zone about a centre, a polynomial, hinges at the knots."""
+    n = len(stats["knots"])
+    p = stats["u_ptp"]
+    return Spec(names=("dead_zone_V", "center_V", "quadratic_per_V", "cubic_per_V2") + tuple(
+                f"slope_change_at_{k:.4g}V" for k in stats["knots"]),
+                bounds=lambda s: ((0.0, s["u_min"], -0.5 / p, -1.0 / p ** 2) + (-2.0,) * n,
+                                  (0.5 * p, s["u_max"], 0.5 / p, 1.0 / p ** 2) + (2.0,) * n),
+                # a dead zone starts open (at its bound 0 the solver stalled on the first step)
+                init=lambda s: (0.02 * p, 0.5 * (s["u_min"] + s["u_max"]), 0.0, 0.0) + (0.0,) * n,
+                twin=lambda z: np.asarray(z, float), dtwin=lambda z: np.eye(len(z)),
+                report=lambda z: tuple(z))
+
+
 def spec(effect, stats):
-    """The :class:`Spec` of an input-side effect (the play weights depend on the data)."""
-    return _pi_spec(stats) if effect == "pi_hysteresis" else SPECS[effect]
+    """The :class:`Spec` of an input-side effect (the play weights and the input map's
+    hinges depend on the data)."""
+    if effect == "pi_hysteresis":
+        return _pi_spec(stats)
+    if effect == "input_nonlinearity":
+        return _map_spec(stats)
+    return SPECS[effect]
+
+
+def _knots(U):
+    """Distinct knots strictly inside the data: quantiles, at least 1 % of the range apart."""
+    lo, hi = float(U.min()), float(U.max())
+    gap = 0.01 * max(hi - lo, 1e-12)
+    out = []
+    for v in np.quantile(U, KNOT_QUANTILES):
+        if lo + gap < v < hi - gap and (not out or v > out[-1] + gap):
+            out.append(float(v))
+    return tuple(out)
 
 
 def summary(records):
@@ -167,7 +190,7 @@ def summary(records):
     # the hysteresis memory starts at 0 V: its first step is to the first sample
     first = max(float(np.max(np.abs(d.U[0]))) for d in records)
     return {"u_ptp": ptp, "du_max": max(max(steps), first),
-            "knots": tuple(float(v) for v in np.quantile(U, KNOT_QUANTILES)), "u_min": float(U.min()), "u_max": float(U.max()),
+            "knots": _knots(U), "u_min": float(U.min()), "u_max": float(U.max()),
             "u_scale": max(float(np.max(np.abs(U))), ptp) / 150.0,
             "rate_max": max(rate, ptp), "duration_s": float(max(d.t[-1] - d.t[0] for d in records))}
 

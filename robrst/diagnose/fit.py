@@ -31,7 +31,8 @@ from scipy import optimize
 from robrst.diagnose.effects import Chain
 from robrst.diagnose.linear import parameter_std
 
-__all__ = ["Prepared", "prepare", "Fitted", "Post", "fit_model", "level_factor"]
+__all__ = ["Prepared", "prepare", "Fitted", "Post", "fit_model", "model_jacobian",
+           "level_factor", "make_post"]
 
 SLOPE_KINDS = ("dlog_freq", "dlog_damping", "input_gain", "gain", "mode_gain")
 
@@ -333,6 +334,41 @@ def _post_jacobian(fit, x, J, Y):
             J[:, j, sl["offset"].start + j] = 1.0
 
 
+def model_jacobian(fit, p, x=None):
+    """Outputs ``(N, m)`` of the candidate ``fit`` on prepared record ``p`` (the linear part
+    as fitted, before a polish of the residues) and their derivatives with respect to its
+    parameters ``x`` ``(N, m, n_x)``: exact for the chain (compiled sensitivities, closed
+    forms), the gains and the output blocks; forward differences for the modes."""
+    x = fit.x if x is None else np.asarray(x, float)
+    lin, chain = fit.lin, fit.chain
+    nz, nt, ns = chain.size, lin.size if fit.joint else 0, len(fit.slopes)
+    V, dV = fit.effective_input(p, x, jac=True)
+    th = fit.theta_at(p.level, x)
+    Y0, JL = lin.simulate_jac(th, V, p.periodic)
+    N, m = Y0.shape
+    J = np.zeros((N, m, x.size))
+    for j, dv in enumerate(dV):
+        for c in np.flatnonzero(np.any(dv != 0, axis=0)):
+            J[:, :, c] += lin.simulate_input(th, dv[:, c], j, p.periodic)
+    if fit.joint:
+        J[:, :, nz:nz + nt] = JL
+    if fit.slopes:
+        J[:, :, nz + nt:nz + nt + ns] = (JL[:, :, list(fit.slopes)]
+                                         * level_factor(p.level, fit.level_ref))
+    post = fit.post
+    if post is not None:
+        if post.mixing:
+            U, T = p.U, p.temp
+            if p.warm:
+                U, T = np.vstack([U[-p.warm:], U]), np.concatenate([T[-p.warm:], T])
+            V0, _ = chain.run(x[:nz], U, T, jac=False, warm=p.warm)
+            sl = post.slices(nz + nt + ns)["mix_in"]
+            for c, (i, j) in zip(range(sl.start, sl.stop), post.pairs(post.k)):
+                J[:, :, c] = lin.simulate_input(th, V0[:, j], i, p.periodic)
+        _post_jacobian(fit, x, J, Y0)
+    return fit.output_side(Y0, x), J
+
+
 def fit_model(name, effects, train, lin, chain, noise_sigma, joint=True, dynamic=False,
               start=None, theta=None, max_nfev=40, ftol=1e-10, offset=False, curvature=False,
               mixing=False):
@@ -407,29 +443,8 @@ def fit_model(name, effects, train, lin, chain, noise_sigma, joint=True, dynamic
     def jac(x):
         rows = []
         for p in train:
-            V, dV = proto.effective_input(p, x, jac=True)
-            th = proto.theta_at(p.level, x)
-            Y0, JL = lin.simulate_jac(th, V, p.periodic)
+            J = model_jacobian(proto, p, x)[1]
             N, m = p.Y.shape
-            J = np.zeros((N, m, x.size))
-            for j, dv in enumerate(dV):
-                for c in np.flatnonzero(np.any(dv != 0, axis=0)):
-                    J[:, :, c] += lin.simulate_input(th, dv[:, c], j, p.periodic)
-            if joint:
-                J[:, :, nz:nz + nt] = JL
-            if slopes:
-                J[:, :, nz + nt:nz + nt + ns] = (JL[:, :, list(slopes)]
-                                                 * level_factor(p.level, level_ref))
-            if post is not None:
-                if post.mixing:
-                    U, T = p.U, p.temp
-                    if p.warm:
-                        U, T = np.vstack([U[-p.warm:], U]), np.concatenate([T[-p.warm:], T])
-                    V0, _ = chain.run(x[:nz], U, T, jac=False, warm=p.warm)
-                    sl = post.slices(nz + nt + ns)["mix_in"]
-                    for c, (i, j) in zip(range(sl.start, sl.stop), post.pairs(post.k)):
-                        J[:, :, c] = lin.simulate_input(th, V0[:, j], i, p.periodic)
-                _post_jacobian(proto, x, J, Y0)
             rows.append(J.reshape(N * m, -1) * (p.weight / scale))
         prior = np.zeros((nt + ns, x.size))
         prior[:, nz:nz + nt + ns] = np.diag(prior_w)
@@ -450,3 +465,48 @@ def fit_model(name, effects, train, lin, chain, noise_sigma, joint=True, dynamic
     std = parameter_std(res.jac, res.cost, res.fun.size) if x0.size else np.zeros(0)
     return Fitted(name, tuple(effects), proto.form, chain, lin, res.x, std, joint, slopes,
                   level_ref, int(res.nfev), 2 * float(res.cost), fixed, no, post)
+
+
+def fit_by_level(name, train, lin, chain, noise_sigma, start=None, max_nfev=20, tol=0.1):
+    """Amplitude-dependent dynamics by one linear re-fit per excitation level.
+
+    The training records are grouped by level (within ``tol``); the linear corrections are
+    re-fitted on each group (started at ``start``) and regressed on the level factor
+    ``f = (a - a_ref) / a_ref`` (``a_ref`` the lowest level): ``theta(a) = theta_0 + f s``.
+    With two levels this is the joint fit of the dynamic form exactly (two levels fix a
+    line), at the cost of two linear re-fits.  Falls back to the joint fit with fewer than
+    two levels.
+
+    Returns
+    -------
+    Fitted
+        Dynamic form (``form == "dynamic"``), every correction with a level slope;
+        ``n_eval`` is the longest per-level fit's.
+    """
+    order = sorted(train, key=lambda p: p.level)
+    groups = []
+    for p in order:
+        if groups and p.level <= groups[-1][0].level * (1 + tol):
+            groups[-1].append(p)
+        else:
+            groups.append([p])
+    if len(groups) < 2 or chain.size:
+        return fit_model(name, chain.effects, train, lin, chain, noise_sigma, joint=True,
+                         dynamic=True, start=start, max_nfev=max_nfev)
+    level_ref = min(p.level for p in train)
+    fits = [fit_model(name, (), g, lin, chain, noise_sigma, joint=True, start=start,
+                      max_nfev=max_nfev) for g in groups]
+    F = np.array([level_factor(np.mean([p.level for p in g]), level_ref) for g in groups])
+    W = np.array([sum(p.weight ** 2 * p.Y.size for p in g) for g in groups], float)
+    TH = np.array([f.x[:lin.size] for f in fits])
+    A = np.column_stack([np.ones_like(F), F]) * np.sqrt(W)[:, None]
+    coef = np.linalg.lstsq(A, TH * np.sqrt(W)[:, None], rcond=None)[0]
+    theta0, slope = coef[0], coef[1]
+    slopes = tuple(i for i, (k, _) in enumerate(lin.kinds) if k in SLOPE_KINDS)
+    x = np.concatenate([theta0, slope[list(slopes)]])
+    sd = np.array([f.std[:lin.size] for f in fits])
+    std = np.concatenate([sd[0], np.sqrt(np.sum(sd ** 2, axis=0))[list(slopes)]
+                          / max(float(np.ptp(F)), 1e-12)])
+    return Fitted(name, (), "dynamic", chain, lin, x, std, True, slopes, level_ref,
+                  int(max(f.n_eval for f in fits)), float(sum(f.train_cost for f in fits)),
+                  np.zeros(lin.size), 0, None)

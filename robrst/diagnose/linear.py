@@ -123,13 +123,15 @@ class LinearPart:
             P0 = np.concatenate([m.poles, np.conj(m.poles[cj])])
             P1 = np.concatenate([new, np.conj(new[cj])])
             R0 = np.concatenate([m.residues, np.conj(m.residues[cj])])
-            R = np.empty_like(m.residues)
-            for p in range(new.size):
-                x = P1[p]
-                others = np.arange(P0.size) != p
-                ratio = np.prod((x - P0[others]) / (x - P1[others]))
-                rest = np.tensordot((x - P0[p]) / (x - P0[others]), R0[others], axes=1)
-                R[p] = ratio * (R0[p] + rest)
+            n = new.size
+            x = P1[:n, None]                       # every new pole against all old/new ones
+            off = ~np.eye(n, P0.size, dtype=bool)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ratio = np.prod(np.where(off, (x - P0[None, :]) / (x - P1[None, :]), 1.0),
+                                axis=1)
+                C = np.where(off, (x - P0[:n, None]) / (x - P0[None, :]), 0.0)
+            rest = (C @ R0.reshape(P0.size, -1)).reshape((n,) + R0.shape[1:])
+            R = ratio[:, None, None] * (R0[:n] + rest)
         for t, (kind, q) in zip(theta, self.kinds):
             if kind == "mode_gain":
                 R[q] = R[q] * (1.0 + t)
@@ -188,12 +190,13 @@ class LinearPart:
             out += s1[:, None, :] * R.real[None]
 
     def _transfer(self, zp, Rd, z):
-        H = np.zeros((z.size,) + Rd.shape[1:], complex)
-        for p in range(zp.size):
-            H += Rd[p][None] / (z - zp[p])[:, None, None]
-            if self.weight[p] == 2.0:
-                H += np.conj(Rd[p])[None] / (z - np.conj(zp[p]))[:, None, None]
-        return H
+        """``sum_p Rd_p / (z - zp_p)`` (and the conjugate of every pair) on ``z``: one
+        product of the ``(F, poles)`` partial fractions with the residues."""
+        pair = self.weight == 2.0
+        poles = np.concatenate([zp, np.conj(zp[pair])])
+        res = np.concatenate([Rd, np.conj(Rd[pair])]).reshape(poles.size, -1)
+        W = 1.0 / (z[:, None] - poles[None, :])
+        return (W @ res).reshape((z.size,) + Rd.shape[1:])
 
     def simulate_inputs(self, theta, X, inputs, periodic=False):
         """Outputs ``(N, m, c)`` for columns ``X[:, c]`` each applied alone on ``inputs[c]``."""

@@ -17,9 +17,8 @@ scored exactly by a small linear solve, without another pass over the data.  Col
 ``output_offset``           one constant per output
 ``output_nonlinearity``     ``(y_L - c)^2``, ``(y_L - c)^3`` per output (sensor curvature)
 ``cross_coupling``          ``L_i(u_j)`` (input mixing) and ``y_L,l`` on output ``i`` (output)
-``input_nonlinearity``      ``L(1)``, ``L((u - c)^2)``, ``L((u - c)^3)``, hinges
-                            ``L(max(u - k, 0))`` at 13 quantiles of ``u`` (dead zones, any
-                            static map)
+``input_nonlinearity``      ``L((u - c)^2)``, ``L((u - c)^3)``, hinges ``L(max(u - k, 0))``
+                            at quantiles of ``u`` (dead zones, any static map)
 ``saturation``              one or two hinges at extreme quantiles (the best pair)
 ``slew``                    ``L(slew_r(u) - u)`` rising and falling, the best rate ``r``
 ``hysteresis``              ``L(play_r(u) - u)`` for six play thresholds (a
@@ -43,8 +42,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy import signal
 
-from robrst.diagnose.effects import KNOT_QUANTILES, SPECS, _creep_cells, pi_thresholds
-from robrst.diagnose.fit import level_factor
+from robrst.diagnose.effects import SPECS, _creep_cells, pi_thresholds
+from robrst.diagnose.fit import level_factor, model_jacobian
 from robrst.diagnose.polish import _columns
 from robrst.diagnose.stages import cached_stage
 
@@ -73,41 +72,46 @@ class ScreenFit:
 
 
 class Screen:
-    """Columns, Gram matrices and exact solves for sets of candidates (see the module doc).
+    """Columns, Gram matrices and exact solves for the candidates (see the module doc).
 
     ``groups[key]`` is a list of *options*, each a list of column indices; a candidate with
     several options (saturation knots, slew rates, drift lags) uses the one that fits the
-    training records best.  ``base`` holds the linear corrections' columns, always in.
+    training records best.  ``base`` holds the base columns (the linear corrections, or the
+    fitted candidate screened upon), always in.  The Gram matrices are kept per *block*: the
+    base alone (key ``""``) and the base with each candidate's columns, so a candidate is
+    screened alone on the base (one block), never two candidates together.
     """
 
-    def __init__(self, names, groups, base, G, b, c, den, ridge, starts=None):
+    def __init__(self, names, groups, base, blocks, c, den, ridge, starts=None):
         self.names = names
         self.starts = starts or {}         # candidate -> per option: start values by name
         self.groups = groups
         self.base = base
-        self.G, self.b, self.c, self.den = G, b, c, den      # per split: "train", "test"
-        self.ridge = ridge                                    # (diag, centre) on base columns
+        self.blocks = blocks               # key -> (idx, {split: Gram}, {split: X^T r})
+        self.c, self.den = c, den          # per split: r^T r and the NRMSE denominator
+        self.ridge = ridge                 # (diag, centre) on the base columns
         self._cache = {}
         self._choice = {}
 
     def keys(self):
         return [k for k, opts in self.groups.items() if opts and any(opts)]
 
-    def _solve(self, cols):
-        G, b = self.G["train"], self.b["train"]
-        idx = np.asarray(cols, int)
-        A = G[np.ix_(idx, idx)].copy()
-        rhs = b[idx].copy()
+    def _solve(self, key, cols):
+        idx, G, b = self.blocks[key]
+        pos = np.searchsorted(idx, np.asarray(cols, int))
+        A = G["train"][np.ix_(pos, pos)].copy()
+        rhs = b["train"][pos].copy()
         d, centre = self.ridge
-        dd = d[idx]
+        cc = np.asarray(cols, int)
+        dd = d[cc]
         A[np.diag_indices_from(A)] += dd + RIDGE * np.maximum(np.diag(A), 1e-300)
-        rhs += dd * centre[idx]
+        rhs += dd * centre[cc]
         s = np.sqrt(np.maximum(np.diag(A), 1e-300))
         beta = np.linalg.lstsq(A / s[:, None] / s[None, :], rhs / s, rcond=1e-12)[0] / s
         gaps = {}
         for split in ("train", "test"):
-            Gs, bs, cs = self.G[split], self.b[split], self.c[split]
-            ss = cs - 2 * beta @ bs[idx] + beta @ Gs[np.ix_(idx, idx)] @ beta
+            ss = (self.c[split] - 2 * beta @ b[split][pos]
+                  + beta @ G[split][np.ix_(pos, pos)] @ beta)
             gaps[split] = float(np.sqrt(max(ss, 0.0) / self.den[split]))
         return beta, gaps
 
@@ -116,7 +120,7 @@ class Screen:
         if key not in self._choice:
             opts = self.groups[key]
             best = min(range(len(opts)), key=lambda i: self._solve(
-                list(self.base) + list(opts[i]))[1]["train"])
+                key, list(self.base) + list(opts[i]))[1]["train"])
             self._choice[key] = best
         return self._choice[key]
 
@@ -126,15 +130,18 @@ class Screen:
         return dict(opts[self.option(key)]) if opts else {}
 
     def fit(self, keys):
-        """:class:`ScreenFit` of the candidates ``keys`` together (with the base columns)."""
+        """:class:`ScreenFit` of one candidate (``keys`` = ``(key,)``) or of the base alone
+        (``()``), with the base columns."""
         keys = tuple(sorted(set(keys)))
+        if len(keys) > 1:
+            raise ValueError("a screen scores one candidate at a time on its base")
         if keys not in self._cache:
             cols, opts = list(self.base), {}
             for k in keys:
                 i = self.option(k)
                 opts[k] = i
                 cols += [c for c in self.groups[k][i] if c not in cols]
-            beta, gaps = self._solve(cols)
+            beta, gaps = self._solve(keys[0] if keys else "", cols)
             self._cache[keys] = ScreenFit(keys, gaps["test"], gaps["train"],
                                           {self.names[c]: float(v) for c, v in zip(cols, beta)},
                                           opts)
@@ -144,6 +151,13 @@ class Screen:
         """Gaps of the linear re-fit itself on the screened samples (no column)."""
         return (float(np.sqrt(self.c["test"] / self.den["test"])),
                 float(np.sqrt(self.c["train"] / self.den["train"])))
+
+
+def _fit_names(fit):
+    """Names of a fitted candidate's parameters (chain, linear corrections, slopes, blocks)."""
+    names = list(fit.chain.names) + (list(fit.lin.names) if fit.joint else [])
+    names += [f"slope{i}" for i in fit.slopes]
+    return names + (fit.post.names() if fit.post is not None else [])
 
 
 def _play_columns(cache, U, temp, thresholds, fs, ref, warm):
@@ -183,7 +197,7 @@ def _slew_columns(cache, U, temp, rate, fs, ref, warm):
 
 
 def build_screen(setup, theta, delays=None, level_ref=None, dynamic_model=None, say=None,
-                 stages=None):
+                 stages=None, base_fit=None):
     """The :class:`Screen` of every candidate in ``setup.effects`` around ``theta``.
 
     Parameters
@@ -202,6 +216,11 @@ def build_screen(setup, theta, delays=None, level_ref=None, dynamic_model=None, 
         Progress lines.
     stages : dict, optional
         Compiled effect stages already built in this diagnosis (filled as needed).
+    base_fit : Fitted, optional
+        Screen on top of this fitted candidate instead of the linear part at ``theta``: its
+        prediction is the base, its parameters' Jacobian the base columns (the linear
+        corrections regularised by their priors), and the candidates' columns go through
+        its linear part.
 
     Returns
     -------
@@ -213,7 +232,7 @@ def build_screen(setup, theta, delays=None, level_ref=None, dynamic_model=None, 
     stats = setup.stats
     tried = set(setup.effects)
     U_all = np.concatenate([p.U for p in setup.train])
-    knots = [np.quantile(U_all[:, j], KNOT_QUANTILES) for j in range(k)]
+    knots = [stats["knots"]] * k
     sat_hi = [np.quantile(U_all[:, j], SAT_HIGH) for j in range(k)]
     sat_lo = [np.quantile(U_all[:, j], SAT_LOW) for j in range(k)]
     centre_u = [0.5 * (U_all[:, j].min() + U_all[:, j].max()) for j in range(k)]
@@ -237,16 +256,29 @@ def build_screen(setup, theta, delays=None, level_ref=None, dynamic_model=None, 
         names.append(f"{key}:{name}")
 
     base = []
-    for i, n in enumerate(lin.names):
-        base.append(len(names))
-        names.append(f"linear:{n}")
+    if base_fit is None:
+        for i, n in enumerate(lin.names):
+            base.append(len(names))
+            names.append(f"linear:{n}")
+    else:
+        bnames = _fit_names(base_fit)
+        theta = base_fit.parts()[1]
+        lin = base_fit.lin
+        for n in bnames:
+            base.append(len(names))
+            names.append(f"base:{n}")
     kinds = lin.kinds
     # column layout (the same for every record)
     if "output_offset" in tried:
         for j in range(m):
             add("output_offset", f"y{j + 1}")
     if "output_nonlinearity" in tried:
-        for j in range(m):
+        for j in range(m):               # the map's constant is the offset's column
+            groups.setdefault("output_nonlinearity", [[]])[0].append(
+                names.index(f"output_offset:y{j + 1}") if "output_offset" in tried
+                else len(names))
+            if "output_offset" not in tried:
+                names.append(f"output_nonlinearity:constant_y{j + 1}")
             add("output_nonlinearity", f"quadratic_y{j + 1}")
             add("output_nonlinearity", f"cubic_y{j + 1}")
     if "cross_coupling" in tried and (k > 1 or m > 1):
@@ -260,7 +292,8 @@ def build_screen(setup, theta, delays=None, level_ref=None, dynamic_model=None, 
                     add("cross_coupling", f"y{j + 1}_into_y{i + 1}")
     if "input_nonlinearity" in tried:
         for j in range(k):
-            for n in ("const", "quadratic", "cubic") + tuple(f"hinge{q}" for q in KNOT_QUANTILES):
+            for n in ("quadratic", "cubic") + tuple(f"hinge{q}" for q in range(
+                    len(knots[j]))):
                 add("input_nonlinearity", f"{n}_u{j + 1}")
     if "saturation" in tried:
         hinge = {}
@@ -348,10 +381,22 @@ def build_screen(setup, theta, delays=None, level_ref=None, dynamic_model=None, 
     P = len(names)
     sd = np.zeros(P)
     centre = np.zeros(P)
-    sd[base] = (setup.noise_sigma / lin.prior_sd) ** 2
-    centre[base] = -np.asarray(theta, float)
-    G = {s: np.zeros((P, P)) for s in ("train", "test")}
-    b = {s: np.zeros(P) for s in ("train", "test")}
+    if base_fit is None:
+        sd[base] = (setup.noise_sigma / lin.prior_sd) ** 2
+        centre[base] = -np.asarray(theta, float)
+    elif base_fit.joint:
+        nz, nt, ns = base_fit.chain.size, lin.size, len(base_fit.slopes)
+        idx = np.asarray(base, int)
+        sd[idx[nz:nz + nt]] = (setup.noise_sigma / lin.prior_sd) ** 2
+        centre[idx[nz:nz + nt]] = -base_fit.x[nz:nz + nt]
+        sd[idx[nz + nt:nz + nt + ns]] = (setup.noise_sigma / lin.prior_sd[list(base_fit.slopes)]) ** 2
+        centre[idx[nz + nt:nz + nt + ns]] = -base_fit.x[nz + nt:nz + nt + ns]
+    keys = [""] + [g for g, opts in groups.items() if opts and any(opts)]
+    blk = {}
+    for g in keys:
+        idx = np.array(sorted(set(base) | {c for o in (groups.get(g) or []) for c in o}), int)
+        blk[g] = (idx, {s: np.zeros((idx.size, idx.size)) for s in ("train", "test")},
+                  {s: np.zeros(idx.size) for s in ("train", "test")})
     c = {s: 0.0 for s in ("train", "test")}
     den = {s: 0.0 for s in ("train", "test")}
     index = {n: i for i, n in enumerate(names)}
@@ -364,9 +409,20 @@ def build_screen(setup, theta, delays=None, level_ref=None, dynamic_model=None, 
         U, T = p.U, p.temp
         warm = p.warm
         Uw, Tw = (np.vstack([U[-warm:], U]), np.concatenate([T[-warm:], T])) if warm else (U, T)
-        yL, JL = lin.simulate_jac(theta, U, p.periodic)
-        X = np.zeros((Ns, m, P))
-        X[:, :, base] = JL[R]
+        if base_fit is None:
+            th = theta
+            yL, JL = lin.simulate_jac(th, U, p.periodic)
+            X = np.zeros((Ns, m, P))
+            X[:, :, base] = JL[R]
+        else:
+            th = base_fit.theta_at(p.level)
+            yL = base_fit.predict_prepared(p)
+            Jb = model_jacobian(base_fit, p)[1]
+            nz = base_fit.chain.size
+            JL = (Jb[:, :, nz:nz + lin.size] if base_fit.joint
+                  else lin.simulate_jac(th, base_fit.effective_input(p)[0], p.periodic)[1])
+            X = np.zeros((Ns, m, P))
+            X[:, :, base] = Jb[R]
         r = (p.Y - yL)[R]
 
         def col(name):
@@ -382,6 +438,9 @@ def build_screen(setup, theta, delays=None, level_ref=None, dynamic_model=None, 
             for j in range(m):
                 X[:, j, col(f"output_offset:y{j + 1}")] = 1.0
         if "output_nonlinearity" in tried:
+            if "output_offset" not in tried:
+                for j in range(m):
+                    X[:, j, col(f"output_nonlinearity:constant_y{j + 1}")] = 1.0
             E = ((yL - centre_y[None, :]) / half_y[None, :])[R]
             for j in range(m):
                 X[:, j, col(f"output_nonlinearity:quadratic_y{j + 1}")] = E[:, j] ** 2
@@ -399,10 +458,9 @@ def build_screen(setup, theta, delays=None, level_ref=None, dynamic_model=None, 
             for j in range(k):
                 e = (U[:, j] - centre_u[j]) / half_u[j]
                 s = f"_u{j + 1}"
-                inp("input_nonlinearity:const" + s, j, np.ones(N))
                 inp("input_nonlinearity:quadratic" + s, j, e ** 2)
                 inp("input_nonlinearity:cubic" + s, j, e ** 3)
-                for q, kn in zip(KNOT_QUANTILES, knots[j]):
+                for q, kn in enumerate(knots[j]):
                     inp(f"input_nonlinearity:hinge{q}" + s, j, np.maximum(U[:, j] - kn, 0.0))
         if "saturation" in tried:
             for j in range(k):
@@ -465,7 +523,7 @@ def build_screen(setup, theta, delays=None, level_ref=None, dynamic_model=None, 
             f = level_factor(p.level, level_ref)
             for i, n in enumerate(lin.names):
                 X[:, :, col(f"amplitude_dependent_dynamics:{n}_per_level")] = f * JL[R, :, i]
-            C, _ = _columns(lin.continuous(theta), fs, U, p.periodic)
+            C, _ = _columns(lin.continuous(th), fs, U, p.periodic)
             for i in range(m):
                 for cc, (q, j, unit) in enumerate(res_index):
                     nm = (f"amplitude_dependent_dynamics:residue{q + 1}_"
@@ -473,14 +531,16 @@ def build_screen(setup, theta, delays=None, level_ref=None, dynamic_model=None, 
                     X[:, i, col(nm)] = f * C[R, cc]
         for a in range(0, len(sigs), BATCH):       # input-side columns, a batch at a time
             part = sigs[a:a + BATCH]
-            Yin = lin.simulate_inputs(theta, np.column_stack([x for _, x in part]),
+            Yin = lin.simulate_inputs(th, np.column_stack([x for _, x in part]),
                                       inputs[a:a + BATCH], p.periodic)
             for (ci, _), cc in zip(part, range(Yin.shape[2])):
                 X[:, :, ci] = Yin[R, :, cc]
         Xf = X.reshape(Ns * m, P) * w
         rf = r.reshape(-1) * w
-        G[split] += Xf.T @ Xf
-        b[split] += Xf.T @ rf
+        for idx, Gb, bb in blk.values():
+            Xb = Xf[:, idx]
+            Gb[split] += Xb.T @ Xb
+            bb[split] += Xb.T @ rf
         c[split] += float(rf @ rf)
         den[split] += float(np.sum((w * (p.Y[R] - p.Y.mean(axis=0))) ** 2))
 
@@ -494,4 +554,4 @@ def build_screen(setup, theta, delays=None, level_ref=None, dynamic_model=None, 
     if say:
         say(f"screened {len([g for g in groups if groups[g] and any(groups[g])])} candidate(s)"
             f" on {P} exact columns")
-    return Screen(names, groups, base, G, b, c, den, ridge, starts)
+    return Screen(names, groups, base, blk, c, den, ridge, starts)

@@ -35,7 +35,7 @@ import numpy as np
 
 from robrst.diagnose import signals
 from robrst.diagnose.effects import Chain
-from robrst.diagnose.fit import fit_model
+from robrst.diagnose.fit import fit_by_level, fit_model
 from robrst.diagnose.polish import polish_residues
 from robrst.diagnose.screen import build_screen
 from robrst.diagnose.stiffness import fit_stiffness
@@ -160,10 +160,14 @@ def _fit(setup, name, effects, joint, dynamic=False, start=None, theta=None, max
          ftol=1e-8, offset=False, curvature=False, mixing=False, keys=(), form="input"):
     t0 = time.perf_counter()
     lin = setup.lin_modal if dynamic else setup.lin
-    fit = fit_model(name, effects, setup.train, lin, _chain(setup, effects),
-                    setup.noise_sigma, joint=joint, dynamic=dynamic, start=start, theta=theta,
-                    max_nfev=max_nfev, ftol=ftol, offset=offset, curvature=curvature,
-                    mixing=mixing)
+    if dynamic and not (effects or offset or curvature or mixing):
+        fit = fit_by_level(name, setup.train, lin, _chain(setup, ()), setup.noise_sigma,
+                           start=start, max_nfev=max_nfev)
+    else:
+        fit = fit_model(name, effects, setup.train, lin, _chain(setup, effects),
+                        setup.noise_sigma, joint=joint, dynamic=dynamic, start=start,
+                        theta=theta, max_nfev=max_nfev, ftol=ftol, offset=offset,
+                        curvature=curvature, mixing=mixing)
     if dynamic:
         fit = polish_residues(fit, setup.train, setup.noise_sigma)
     return replace(score(setup, fit, t0, keys, form), converged=fit.n_eval < max_nfev)
@@ -313,24 +317,42 @@ def explain(setup, say):
                 f" {sc.train_gap:.4g}; {sc.fit.n_eval} evaluations, {sc.fit_s:.1f} s)")
         return fitted[ks]
 
-    state, chosen, steps = lin, [], []
+    state, chosen, steps, alternatives = lin, [], [], {}
     base_scr = screened(())
     while len(chosen) < MAX_EFFECTS and state.gap > 1.25 * setup.floor:
-        cur = screened(tuple(chosen)) if chosen else base_scr
         pool = [k for k in alone if _compatible(chosen, k)]
-        scr = {k: screened(tuple(chosen) + (k,)) for k in pool}
-        good = [k for k in pool if scr[k] is not None and (
+        if not chosen:
+            cur = base_scr
+            scr = {k: screened((k,)) for k in pool}
+            # the amplitude-dependent dynamics starts at the linear re-fit at every level
+            starts = {k: (_start(lin) if k == DYNAMIC else start_of(k)) for k in pool}
+        else:       # re-screened on top of the model selected so far (its fit the base)
+            on_top = build_screen(replace(setup, effects=tuple(pool)), None, setup.delays,
+                                  level_ref, DYNAMIC in pool, stages=setup.stages,
+                                  base_fit=state.fit)
+            cur = on_top.fit(())
+            scr = {k: on_top.fit((k,)) for k in pool if k in on_top.keys()}
+            starts = {k: on_top.start(k) or start_of(k) for k in pool}
+            for k in sorted(scr, key=lambda k: scr[k].gap):
+                say(f"  {k:<30} on top of {state.name}: screen {cur.gap:.4g} ->"
+                    f" {scr[k].gap:.4g} (training {cur.train_gap:.4g} -> {scr[k].train_gap:.4g})")
+        good = [k for k in scr if scr[k] is not None and (
             scr[k].gap <= PROMISING * cur.gap or scr[k].train_gap <= PROMISING * cur.train_gap)]
         if not good:
             break
+        # ranked by the product of the held-out and training ratios: an effect a wrong
+        # linear model or another effect masks may improve a lot on one, not on the other
         ranked = sorted(good, key=lambda k: scr[k].gap / max(cur.gap, 1e-300)
-                        + scr[k].train_gap / max(cur.train_gap, 1e-300))
+                        * scr[k].train_gap / max(cur.train_gap, 1e-300))
         base = _start(state) if chosen else {}
         # the best by the screen, and the next ones only when their screen comes close
+        g_best = min(scr[k].gap for k in good)
+        t_best = min(scr[k].train_gap for k in good)
         tries = [k for k in ranked[:REFINE_TOP]
-                 if scr[k].gap <= SCREEN_SPREAD * max(scr[ranked[0]].gap, setup.floor)]
+                 if scr[k].gap <= SCREEN_SPREAD * max(g_best, setup.floor)
+                 or scr[k].train_gap <= SCREEN_SPREAD * max(t_best, setup.floor)]
         tries += [c for k in tries for c in SPECIAL.get(k, ()) if c in good and c not in tries]
-        results = _run([lambda k=k: refine(chosen + [k], {**start_of(k), **base})
+        results = _run([lambda k=k: refine(chosen + [k], {**starts[k], **base})
                         for k in tries], setup.workers)
         k_best, best = min(zip(tries, results), key=lambda kv: kv[1].gap)
         for c in SPECIAL.get(k_best, ()):      # the special case, unless clearly worse
@@ -338,11 +360,16 @@ def explain(setup, say):
                 sc = results[tries.index(c)]
                 if not significant(best.gap, sc.gap, setup.floor):
                     k_best, best = c, sc
-        if best.train_gap < state.train_gap:
+        if best.train_gap < state.train_gap and DYNAMIC not in best.keys:
             best = _converge(setup, best, theta_l)
             fitted[tuple(sorted(chosen + [k_best]))] = best
         if not significant(best.gap, state.gap, setup.floor):
             break
+        related = {k_best, *SPECIAL.get(k_best, ())} | {g for g, sp in SPECIAL.items()
+                                                        if k_best in sp}
+        others = [(k, sc) for k, sc in zip(tries, results) if k not in related]
+        if others:
+            alternatives[k_best] = min(others, key=lambda kv: kv[1].gap)
         steps.append((k_best, state.gap, best))
         chosen.append(k_best)
         state = best
@@ -367,26 +394,15 @@ def explain(setup, say):
         chosen = [c for c in chosen if c != k]
         state = without[k]
         steps = [s for s in steps if s[0] != k]
-    # alternatives: what else could stand in place of each effect left
-    tie, alternatives = None, {}
-    if chosen and state.gap <= 0.5 * setup.gap_before:
-        for k in list(chosen):
-            rest = [c for c in chosen if c != k]
-            cands = [a for a in alone if a not in chosen and _compatible(rest, a)
-                     and not (k == "output_nonlinearity" and a == OFFSET)]
-            scr = {a: screened(tuple(rest) + (a,)) for a in cands}
-            scr = {a: f for a, f in scr.items() if f is not None}
-            if not scr:
-                continue
-            a = min(scr, key=lambda a: scr[a].gap)
-            mine = screened(tuple(chosen))
-            if mine is not None and scr[a].gap > SCREEN_SPREAD * max(mine.gap, setup.floor):
-                continue                 # the screen already tells them apart
-            alt = refine(rest + [a], {**start_of(a), **_start(state)})
-            alternatives[k] = (a, alt)
-            if not significant(state.gap, alt.gap, setup.floor):
-                tie = (k, a, state.gap, alt.gap)
-                break
+    # alternatives: the best other candidate fitted in the same step (a tie: neither explains
+    # the held-out gap significantly better)
+    tie = None
+    alternatives = {k: v for k, v in alternatives.items() if k in chosen}
+    gap_at = {k: sc.gap for k, _, sc in steps}
+    for k, (a, alt) in alternatives.items():
+        if not significant(gap_at[k], alt.gap, setup.floor):
+            tie = (k, a, gap_at[k], alt.gap)
+            break
     singles = {k: fitted.get((k,)) or Screened(k, alone[k].gap, alone[k].train_gap,
                                                alone[k].beta) for k in alone}
     return Explanation(linear=lin, singles=singles, steps=steps, removal=removal,

@@ -5,11 +5,11 @@ A sensor that spikes or drops out for a few milliseconds raises every noise esti
 see it) and can hide a clear effect.  Before the diagnosis, each record's residual
 ``r = y - y_model`` (the model under diagnosis) is tested:
 
-* **outliers** — samples where ``e = r - median_7(r)`` (a running median of 7 samples)
-  exceeds ``OUTLIER_Z`` robust standard deviations of ``e`` (1.4826 x its median absolute
-  deviation) *and* ``ISOLATION`` times ``|e|`` two to four samples either side: a spike
-  stands alone, while a model error (a ringing resonance, the residual of a delay or a
-  rate limit at a step) spreads over its neighbours;
+* **outliers** — samples where ``e = r - (r[k-1] + r[k+1]) / 2`` (what the neighbours do
+  not predict) exceeds ``OUTLIER_Z`` robust standard deviations of ``e`` (1.4826 x its
+  median absolute deviation) *and* ``ISOLATION`` times ``|e|`` two to four samples either
+  side: a spike stands alone, while a model error (a ringing resonance, the residual of a
+  delay or a rate limit at a step) spreads over its neighbours;
 * **dropouts** — runs of at least ``MIN_RUN`` identical readings (a held or zeroed
   sensor) whose residual departs from the residual around them by more than
   ``OUTLIER_Z`` robust standard deviations.
@@ -28,7 +28,6 @@ __all__ = ["SensorFaults", "find_faults", "repair", "OUTLIER_Z", "MIN_RUN"]
 OUTLIER_Z = 10.0         # robust standard deviations
 MIN_RUN = 5              # identical readings that make a dropout
 ISOLATION = 4.0          # an outlier's |e| over its neighbours' (2 to 4 samples away)
-MEDIAN_WIDTH = 7
 MAX_SHARE = 0.02         # more than 2 % flagged: not isolated faults, leave the record alone
 
 
@@ -54,17 +53,6 @@ class SensorFaults:
         return int(self.mask.sum())
 
 
-def _running_median(x, w):
-    """Running median of odd width ``w`` (edges: the nearest full window)."""
-    n = x.size
-    if n < w:
-        return np.full(n, np.median(x))
-    h = w // 2
-    win = np.lib.stride_tricks.sliding_window_view(x, w)
-    med = np.median(win, axis=1)
-    return np.concatenate([np.full(h, med[0]), med, np.full(h, med[-1])])
-
-
 def _runs(y, min_run):
     """(start, stop) of runs of at least ``min_run`` identical values of ``y``."""
     same = np.concatenate([[False], y[1:] == y[:-1]])
@@ -82,7 +70,9 @@ def find_faults(name, y, y_model):
     y = np.asarray(y, float)
     r = y - y_model
     n = r.size
-    e = r - _running_median(r, MEDIAN_WIDTH)
+    e = r.copy()
+    e[1:-1] -= 0.5 * (r[:-2] + r[2:])
+    e[0], e[-1] = r[0] - r[1], r[-1] - r[-2]
     s = 1.4826 * float(np.median(np.abs(e - np.median(e))))
     if not s > 0:
         return SensorFaults(name, np.zeros(0, int), (), n)

@@ -77,7 +77,7 @@ def where_text(info):
     if band:
         parts.append(f"the gap lies in {band[0]:.3g}–{band[1]:.3g} Hz")
     dom = reg.get("dominant")
-    if dom and reg.get(dom) is not None:
+    if dom and reg.get(dom) is not None and reg[dom] >= 0.1:
         parts.append(f"its regime is {dom.replace('_', ' ')} ({100 * reg[dom]:.0f} % of the"
                      " residual variance)")
     return "; ".join(parts)
