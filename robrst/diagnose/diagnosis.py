@@ -37,7 +37,7 @@ from robrst.diagnose.effects import EFFECTS, THERMAL, Chain, summary
 from robrst.diagnose.findings import (amplitude_finding, comparable, floor_of, noise_levels,
                                       unmodelled_finding)
 from robrst.diagnose.fit import fit_model, prepare
-from robrst.diagnose.linear import LinearPart, as_modal
+from robrst.diagnose.linear import LinearPart, as_modal, unexcited
 from robrst.diagnose.sensor import repair
 from robrst.diagnose.result import Diagnosis, EffectScore
 from robrst.diagnose.select import DYNAMIC, OFFSET, Setup, explain, linear_with_offset, significant
@@ -235,15 +235,18 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
         return build(info, where, tests, traces, "none", why, skipped=skipped,
                      findings=[amp, faults], sensor=sensor)
     train_p = [prepare(d, ref) for d in train]
+    lin_modal = LinearPart(model, fs, modal_gains=True)
     setup = Setup(fs=fs, ref=ref, train=train_p, train_full=preps[:n_tr], test=preps[n_tr:],
                   test_records=test, train_records=train, lin=lin,
-                  lin_modal=LinearPart(model, fs, modal_gains=True), stats=summary(train),
+                  lin_modal=lin_modal, stats=summary(train),
                   noise_sigma=sigma, plant=plant if (model.n_in, model.n_out) == (1, 1) else None,
                   effects=tried + (OFFSET,), dynamic=DYNAMIC in tried,
                   delays=(search_delay(train_p, lin, max_delay(fs)) if "delay" in tried
                           else (0,) * model.n_in),
                   saturation=[], floor=floor, gap_before=before,
-                  gap_before_train=before_train, workers=workers)
+                  gap_before_train=before_train, workers=workers,
+                  pinned=unexcited(lin, [d.U for d in train], fs),
+                  pinned_modal=unexcited(lin_modal, [d.U for d in train], fs))
     ex = explain(setup, say)
     linear, steps = ex.linear, ex.steps
     say("amplitude check: a linear model of the lowest training level at every level")
@@ -264,9 +267,10 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
     if off:
         findings.append(off)
         reason += f"; {off['message']}"
-    if not off and (cause == "cannot_tell" or (gap is not None and gap > NEAR_RATIO * floor)):
-        # what is left may be linear dynamics the model lacks (an effect's answer must
-        # leave more than a higher-order linear model does for that to be said)
+    if not off and cause in ("cannot_tell", "linear") and (gap is None
+                                                            or gap > NEAR_RATIO * floor):
+        # what is left may be linear dynamics the model lacks (a named effect's answer
+        # says itself how much it leaves unexplained)
         hi = unmodelled(setup, linear, info)
         if hi and steps and hi[1] >= gap:
             hi = None

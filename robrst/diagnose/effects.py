@@ -40,7 +40,7 @@ EFFECTS = tuple(e for e in TWIN_EFFECTS if e not in SENSOR_EFFECTS and e not in 
 ORDER = ("delay", "saturation", "slew", "hysteresis", "pi_hysteresis", "input_nonlinearity",
          "creep", "thermal_drift")
 # play thresholds of the Prandtl–Ishlinskii candidate / peak-to-peak input (log-spaced)
-PI_FRACTIONS = (0.01, 0.02, 0.035, 0.05, 0.075, 0.1, 0.14, 0.19, 0.25, 0.33, 0.42, 0.52)
+PI_FRACTIONS = (0.01, 0.02, 0.035, 0.05, 0.075, 0.1, 0.14, 0.19, 0.25, 0.33, 0.42)
 # knots of the static input map's hinges: quantiles of the training inputs (distinct, with
 # samples on both sides: a hinge at the edge of the data is not determined by it)
 KNOT_QUANTILES = (0.02, 0.05, 0.1, 0.2, 0.35, 0.5, 0.65, 0.8, 0.9, 0.95, 0.98)

@@ -371,7 +371,7 @@ def model_jacobian(fit, p, x=None):
 
 def fit_model(name, effects, train, lin, chain, noise_sigma, joint=True, dynamic=False,
               start=None, theta=None, max_nfev=40, ftol=1e-10, offset=False, curvature=False,
-              mixing=False):
+              mixing=False, pinned=()):
     """Fit ``effects`` (+ linear corrections if ``joint``) on prepared training records.
 
     Parameters
@@ -403,6 +403,9 @@ def fit_model(name, effects, train, lin, chain, noise_sigma, joint=True, dynamic
         (``output_nonlinearity``).
     mixing : bool
         Fit the channels' cross-coupling (``cross_coupling``; several inputs or outputs).
+    pinned : tuple of int
+        Linear corrections held at zero (and their level slopes): modes the training
+        records do not excite (:func:`robrst.diagnose.linear.unexcited`).
 
     Returns
     -------
@@ -416,6 +419,11 @@ def fit_model(name, effects, train, lin, chain, noise_sigma, joint=True, dynamic
     plo, phi = post.bounds() if post else (np.zeros(0), np.zeros(0))
     lo = np.concatenate([chain.lower, lin.lower if joint else [], np.full(ns, -5.0), plo])
     hi = np.concatenate([chain.upper, lin.upper if joint else [], np.full(ns, 5.0), phi])
+    for i in (pinned if joint else ()):
+        lo[nz + i], hi[nz + i] = -1e-12, 1e-12
+        if i in slopes:
+            k = nz + nt + slopes.index(i)
+            lo[k], hi[k] = -1e-12, 1e-12
     if joint and "hysteresis" in chain.effects:      # its gain is the linear gain: pin that
         for i, (kind, _) in enumerate(lin.kinds):
             if kind in ("gain", "input_gain"):
@@ -467,7 +475,8 @@ def fit_model(name, effects, train, lin, chain, noise_sigma, joint=True, dynamic
                   level_ref, int(res.nfev), 2 * float(res.cost), fixed, no, post)
 
 
-def fit_by_level(name, train, lin, chain, noise_sigma, start=None, max_nfev=20, tol=0.1):
+def fit_by_level(name, train, lin, chain, noise_sigma, start=None, max_nfev=20, tol=0.1,
+                 pinned=()):
     """Amplitude-dependent dynamics by one linear re-fit per excitation level.
 
     The training records are grouped by level (within ``tol``); the linear corrections are
@@ -492,10 +501,10 @@ def fit_by_level(name, train, lin, chain, noise_sigma, start=None, max_nfev=20, 
             groups.append([p])
     if len(groups) < 2 or chain.size:
         return fit_model(name, chain.effects, train, lin, chain, noise_sigma, joint=True,
-                         dynamic=True, start=start, max_nfev=max_nfev)
+                         dynamic=True, start=start, max_nfev=max_nfev, pinned=pinned)
     level_ref = min(p.level for p in train)
     fits = [fit_model(name, (), g, lin, chain, noise_sigma, joint=True, start=start,
-                      max_nfev=max_nfev) for g in groups]
+                      max_nfev=max_nfev, pinned=pinned) for g in groups]
     F = np.array([level_factor(np.mean([p.level for p in g]), level_ref) for g in groups])
     W = np.array([sum(p.weight ** 2 * p.Y.size for p in g) for g in groups], float)
     TH = np.array([f.x[:lin.size] for f in fits])

@@ -32,13 +32,14 @@ from robrst.core.lti import zoh_modal
 from robrst.core.plant import Plant
 
 __all__ = ["coefficient_changes", "LinearPart", "LinearSim", "as_modal", "refit_linear", "LinearFit", "PRIOR_SD",
-           "BOUNDS", "parameter_std"]
+           "BOUNDS", "parameter_std", "unexcited", "EXCITED_SHARE"]
 
 PRIOR_SD = {"dlog_freq": 0.1, "dlog_damping": 1.0, "gain": 0.2, "input_gain": 0.2,
             "mode_gain": 0.2}
 BOUNDS = {"dlog_freq": (-0.5, 0.5), "dlog_damping": (-3.0, 3.0), "gain": (-0.9, 2.0),
           "input_gain": (-0.9, 2.0), "mode_gain": (-0.9, 2.0)}
 FD_STEP = 1e-6
+EXCITED_SHARE = 1e-5     # input power within an octave of a mode that lets the records see it
 
 
 def as_modal(model):
@@ -342,6 +343,44 @@ def coefficient_changes(plant, fitted):
         if b != 0:
             out[f"b{i}"] = float(fitted.B[i] / b - 1.0)
     return out
+
+
+def unexcited(lin, inputs, fs):
+    """Indices of ``lin``'s mode corrections the ``inputs`` do not excite.
+
+    A mode's frequency and damping corrections are determined by records only through
+    its own band: when the inputs put less than ``EXCITED_SHARE`` of their power (about
+    their mean) within an octave of the mode's frequency, the records see the mode only
+    through side effects (the low-frequency phase), where any other model error would
+    pull it; such corrections are held at the user's values.
+
+    Parameters
+    ----------
+    lin : LinearPart
+    inputs : list of array
+        Input signals ``(N, k)`` of the training records.
+    fs : float
+        Sampling rate [Hz].
+
+    Returns
+    -------
+    tuple of int
+        Indices into ``lin``'s corrections.
+    """
+    num, den = {}, 0.0
+    f_modes = np.abs(lin.model.poles) / (2 * np.pi)
+    for U in inputs:
+        U = np.asarray(U, float).reshape(len(U), -1)
+        f, P = signal.welch(U - U.mean(axis=0), fs=fs, nperseg=min(4096, len(U)), axis=0)
+        P = P.sum(axis=1)
+        den += float(P[f > 0].sum())
+        for q, fq in enumerate(f_modes):
+            num[q] = num.get(q, 0.0) + float(P[(f >= fq / 2) & (f <= 2 * fq)].sum())
+    if den <= 0:
+        return ()
+    quiet = {q for q, v in num.items() if v < EXCITED_SHARE * den}
+    return tuple(i for i, (kind, q) in enumerate(lin.kinds)
+                 if kind in ("dlog_freq", "dlog_damping", "mode_gain") and q in quiet)
 
 
 def parameter_std(J, cost, m, rtol=1e-7):

@@ -28,8 +28,8 @@ scored exactly by a small linear solve, without another pass over the data.  Col
 ``thermal_dynamics``        ``dT J_L`` of the gain, the resonances and their damping
 ``delay``                   ``L(u(t - d) - u(t))`` with ``d`` by exact search
 ``stiffness_nonlinearity``  ``L(y_L^3) / D(0)`` (first order in the cubic stiffness)
-``amplitude_dependent_dynamics``  ``f J_L`` and ``f`` times the residues' columns, ``f``
-                            the record's level factor (periodic records, >= 2 levels)
+``amplitude_dependent_dynamics``  ``f J_L``, ``f`` the record's level factor (periodic
+                            records, >= 2 levels; the residues' slopes are fitted after)
 
 The screen is exact for the candidates linear in their parameters (offset, sensor
 curvature, cross-coupling, input maps with these knots, Prandtl–Ishlinskii with these
@@ -44,7 +44,6 @@ from scipy import signal
 
 from robrst.diagnose.effects import SPECS, _creep_cells, pi_thresholds
 from robrst.diagnose.fit import level_factor, model_jacobian
-from robrst.diagnose.polish import _columns
 from robrst.diagnose.stages import cached_stage
 
 __all__ = ["Screen", "ScreenFit", "build_screen", "SCREEN_SAMPLES"]
@@ -82,8 +81,9 @@ class Screen:
     screened alone on the base (one block), never two candidates together.
     """
 
-    def __init__(self, names, groups, base, blocks, c, den, ridge, starts=None):
+    def __init__(self, names, groups, base, blocks, c, den, ridge, starts=None, fixed=()):
         self.names = names
+        self.fixed = set(fixed)            # base columns held (pinned corrections)
         self.starts = starts or {}         # candidate -> per option: start values by name
         self.groups = groups
         self.base = base
@@ -97,6 +97,7 @@ class Screen:
         return [k for k, opts in self.groups.items() if opts and any(opts)]
 
     def _solve(self, key, cols):
+        cols = [c for c in cols if c not in self.fixed]
         idx, G, b = self.blocks[key]
         pos = np.searchsorted(idx, np.asarray(cols, int))
         A = G["train"][np.ix_(pos, pos)].copy()
@@ -167,12 +168,13 @@ def _play_columns(cache, U, temp, thresholds, fs, ref, warm):
     return d[warm:]
 
 
-def _bw_starts(stats):
-    """Bouc–Wen points the screen linearises about: ``z = (A, log10 B, Gamma/B, gain)``."""
+def _bw_starts(stats, n_in=1):
+    """Bouc–Wen points the screen linearises about: ``z = (A, log10 B, Gamma/B, gain)``
+    (symmetric loops only for several inputs: the columns grow with the inputs)."""
     b_max = SPECS["hysteresis"].bounds(stats)[1][1]
     out = []
     for b_rel in BW_B_REL:
-        for ratio in BW_RATIOS:
+        for ratio in (BW_RATIOS if n_in == 1 else BW_RATIOS[-1:]):
             out.append(np.array([0.4, min(np.log10(b_rel / stats["u_ptp"]), b_max - 0.05),
                                  ratio, 1.0]))
     return out
@@ -320,7 +322,7 @@ def build_screen(setup, theta, delays=None, level_ref=None, dynamic_model=None, 
             for i, r in enumerate(thresholds):
                 plays.append(len(names))
                 names.append(f"hysteresis:play{i + 1}_u{j + 1}")
-        bw_z = _bw_starts(stats)
+        bw_z = _bw_starts(stats, k)
         groups["hysteresis"] = []
         for o, z0 in enumerate(bw_z):
             cols = list(plays)
@@ -347,16 +349,9 @@ def build_screen(setup, theta, delays=None, level_ref=None, dynamic_model=None, 
                 add("delay", f"u{j + 1}_{d_in[j]}")
     if "stiffness_nonlinearity" in tried and (k, m) == (1, 1):
         add("stiffness_nonlinearity", "cubic")
-    res_index = None
     if dynamic_model:
         for i, n in enumerate(lin.names):
             add("amplitude_dependent_dynamics", f"{n}_per_level")
-        p0 = setup.train[0]
-        _, res_index = _columns(lin.continuous(theta), fs, p0.U[:8], True)
-        for i in range(m):
-            for c, (q, j, unit) in enumerate(res_index):
-                add("amplitude_dependent_dynamics",
-                    f"residue{q + 1}_{'re' if unit == 1.0 else 'im'}_u{j + 1}_y{i + 1}")
     sfx = (lambda j: f"_u{j + 1}") if k > 1 else (lambda j: "")
     starts = {}
     if "hysteresis" in groups:
@@ -381,9 +376,11 @@ def build_screen(setup, theta, delays=None, level_ref=None, dynamic_model=None, 
     P = len(names)
     sd = np.zeros(P)
     centre = np.zeros(P)
+    fixed = []
     if base_fit is None:
         sd[base] = (setup.noise_sigma / lin.prior_sd) ** 2
         centre[base] = -np.asarray(theta, float)
+        fixed = [base[i] for i in setup.pinned]
     elif base_fit.joint:
         nz, nt, ns = base_fit.chain.size, lin.size, len(base_fit.slopes)
         idx = np.asarray(base, int)
@@ -391,6 +388,9 @@ def build_screen(setup, theta, delays=None, level_ref=None, dynamic_model=None, 
         centre[idx[nz:nz + nt]] = -base_fit.x[nz:nz + nt]
         sd[idx[nz + nt:nz + nt + ns]] = (setup.noise_sigma / lin.prior_sd[list(base_fit.slopes)]) ** 2
         centre[idx[nz + nt:nz + nt + ns]] = -base_fit.x[nz + nt:nz + nt + ns]
+        pin = setup.pinned_modal if base_fit.form == "dynamic" else setup.pinned
+        fixed = [int(idx[nz + i]) for i in pin] + [
+            int(idx[nz + nt + base_fit.slopes.index(i)]) for i in pin if i in base_fit.slopes]
     keys = [""] + [g for g, opts in groups.items() if opts and any(opts)]
     blk = {}
     for g in keys:
@@ -412,8 +412,8 @@ def build_screen(setup, theta, delays=None, level_ref=None, dynamic_model=None, 
         if base_fit is None:
             th = theta
             yL, JL = lin.simulate_jac(th, U, p.periodic)
-            X = np.zeros((Ns, m, P))
-            X[:, :, base] = JL[R]
+            X = np.zeros((P, Ns, m))
+            X[base] = np.moveaxis(JL[R], 2, 0)
         else:
             th = base_fit.theta_at(p.level)
             yL = base_fit.predict_prepared(p)
@@ -421,8 +421,8 @@ def build_screen(setup, theta, delays=None, level_ref=None, dynamic_model=None, 
             nz = base_fit.chain.size
             JL = (Jb[:, :, nz:nz + lin.size] if base_fit.joint
                   else lin.simulate_jac(th, base_fit.effective_input(p)[0], p.periodic)[1])
-            X = np.zeros((Ns, m, P))
-            X[:, :, base] = Jb[R]
+            X = np.zeros((P, Ns, m))
+            X[base] = np.moveaxis(Jb[R], 2, 0)
         r = (p.Y - yL)[R]
 
         def col(name):
@@ -436,15 +436,15 @@ def build_screen(setup, theta, delays=None, level_ref=None, dynamic_model=None, 
 
         if "output_offset" in tried:
             for j in range(m):
-                X[:, j, col(f"output_offset:y{j + 1}")] = 1.0
+                X[col(f"output_offset:y{j + 1}"), :, j] = 1.0
         if "output_nonlinearity" in tried:
             if "output_offset" not in tried:
                 for j in range(m):
-                    X[:, j, col(f"output_nonlinearity:constant_y{j + 1}")] = 1.0
+                    X[col(f"output_nonlinearity:constant_y{j + 1}"), :, j] = 1.0
             E = ((yL - centre_y[None, :]) / half_y[None, :])[R]
             for j in range(m):
-                X[:, j, col(f"output_nonlinearity:quadratic_y{j + 1}")] = E[:, j] ** 2
-                X[:, j, col(f"output_nonlinearity:cubic_y{j + 1}")] = E[:, j] ** 3
+                X[col(f"output_nonlinearity:quadratic_y{j + 1}"), :, j] = E[:, j] ** 2
+                X[col(f"output_nonlinearity:cubic_y{j + 1}"), :, j] = E[:, j] ** 3
         if "cross_coupling" in groups:
             for i in range(k):
                 for j in range(k):
@@ -453,7 +453,7 @@ def build_screen(setup, theta, delays=None, level_ref=None, dynamic_model=None, 
             for i in range(m):
                 for j in range(m):
                     if i != j:
-                        X[:, i, col(f"cross_coupling:y{j + 1}_into_y{i + 1}")] = yL[R, j]
+                        X[col(f"cross_coupling:y{j + 1}_into_y{i + 1}"), :, i] = yL[R, j]
         if "input_nonlinearity" in tried:
             for j in range(k):
                 e = (U[:, j] - centre_u[j]) / half_u[j]
@@ -505,11 +505,11 @@ def build_screen(setup, theta, delays=None, level_ref=None, dynamic_model=None, 
                      if kind == "dlog_freq" and lin.model.poles[q].imag > 0]
             damp = [i for i, (kind, _) in enumerate(kinds) if kind == "dlog_damping"]
             gi = [i for i, (kind, _) in enumerate(kinds) if kind in ("gain", "input_gain")]
-            X[:, :, col("thermal_dynamics:gain")] = dT * JL[R][:, :, gi].sum(axis=2)
+            X[col("thermal_dynamics:gain")] = dT * JL[R][:, :, gi].sum(axis=2)
             if pairs:
-                X[:, :, col("thermal_dynamics:resonance")] = dT * JL[R][:, :, pairs].sum(axis=2)
+                X[col("thermal_dynamics:resonance")] = dT * JL[R][:, :, pairs].sum(axis=2)
             if damp:
-                X[:, :, col("thermal_dynamics:damping")] = dT * JL[R][:, :, damp].sum(axis=2)
+                X[col("thermal_dynamics:damping")] = dT * JL[R][:, :, damp].sum(axis=2)
         if "delay" in groups:
             for j in range(k):
                 d = d_in[j]
@@ -522,25 +522,25 @@ def build_screen(setup, theta, delays=None, level_ref=None, dynamic_model=None, 
         if dynamic_model:
             f = level_factor(p.level, level_ref)
             for i, n in enumerate(lin.names):
-                X[:, :, col(f"amplitude_dependent_dynamics:{n}_per_level")] = f * JL[R, :, i]
-            C, _ = _columns(lin.continuous(th), fs, U, p.periodic)
-            for i in range(m):
-                for cc, (q, j, unit) in enumerate(res_index):
-                    nm = (f"amplitude_dependent_dynamics:residue{q + 1}_"
-                          f"{'re' if unit == 1.0 else 'im'}_u{j + 1}_y{i + 1}")
-                    X[:, i, col(nm)] = f * C[R, cc]
+                X[col(f"amplitude_dependent_dynamics:{n}_per_level")] = f * JL[R, :, i]
         for a in range(0, len(sigs), BATCH):       # input-side columns, a batch at a time
             part = sigs[a:a + BATCH]
             Yin = lin.simulate_inputs(th, np.column_stack([x for _, x in part]),
                                       inputs[a:a + BATCH], p.periodic)
             for (ci, _), cc in zip(part, range(Yin.shape[2])):
-                X[:, :, ci] = Yin[R, :, cc]
-        Xf = X.reshape(Ns * m, P) * w
+                X[ci] = Yin[R, :, cc]
+        Xf = X.reshape(P, Ns * m)
+        if w != 1.0:
+            Xf *= w
         rf = r.reshape(-1) * w
+        Xb = Xf[base]
+        Gbb = Xb @ Xb.T
         for idx, Gb, bb in blk.values():
-            Xb = Xf[:, idx]
-            Gb[split] += Xb.T @ Xb
-            bb[split] += Xb.T @ rf
+            nb = len(base)
+            Xg = Xf[idx[nb:]]                  # the block: the base, then the candidate's
+            Gbg = Xb @ Xg.T
+            Gb[split] += np.block([[Gbb, Gbg], [Gbg.T, Xg @ Xg.T]])
+            bb[split] += np.concatenate([Xb @ rf, Xg @ rf])
         c[split] += float(rf @ rf)
         den[split] += float(np.sum((w * (p.Y[R] - p.Y.mean(axis=0))) ** 2))
 
@@ -554,4 +554,4 @@ def build_screen(setup, theta, delays=None, level_ref=None, dynamic_model=None, 
     if say:
         say(f"screened {len([g for g in groups if groups[g] and any(groups[g])])} candidate(s)"
             f" on {P} exact columns")
-    return Screen(names, groups, base, blk, c, den, ridge, starts)
+    return Screen(names, groups, base, blk, c, den, ridge, starts, fixed)

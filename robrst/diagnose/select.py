@@ -86,6 +86,8 @@ class Setup:
     gap_before_train: float  # ... and its training gap
     workers: int = 2
     stages: dict = field(default_factory=dict)   # compiled effect stages of this diagnosis
+    pinned: tuple = ()         # corrections of lin the training records do not excite
+    pinned_modal: tuple = ()   # ... of lin_modal
 
 
 @dataclass(frozen=True, eq=False)
@@ -160,14 +162,15 @@ def _fit(setup, name, effects, joint, dynamic=False, start=None, theta=None, max
          ftol=1e-8, offset=False, curvature=False, mixing=False, keys=(), form="input"):
     t0 = time.perf_counter()
     lin = setup.lin_modal if dynamic else setup.lin
+    pinned = setup.pinned_modal if dynamic else setup.pinned
     if dynamic and not (effects or offset or curvature or mixing):
         fit = fit_by_level(name, setup.train, lin, _chain(setup, ()), setup.noise_sigma,
-                           start=start, max_nfev=max_nfev)
+                           start=start, max_nfev=max_nfev, pinned=pinned)
     else:
         fit = fit_model(name, effects, setup.train, lin, _chain(setup, effects),
                         setup.noise_sigma, joint=joint, dynamic=dynamic, start=start,
                         theta=theta, max_nfev=max_nfev, ftol=ftol, offset=offset,
-                        curvature=curvature, mixing=mixing)
+                        curvature=curvature, mixing=mixing, pinned=pinned)
     if dynamic:
         fit = polish_residues(fit, setup.train, setup.noise_sigma)
     return replace(score(setup, fit, t0, keys, form), converged=fit.n_eval < max_nfev)
@@ -202,14 +205,15 @@ def refit_keys(setup, keys, start=None, form=None, theta=None, max_nfev=40):
     """The candidates ``keys`` fitted jointly with the linear corrections (Scored).
 
     ``form`` of hysteresis: ``"input"`` (Bouc–Wen) or ``"prandtl_ishlinskii"``; ``None``
-    fits both and keeps the one that fits the training records better.  ``theta`` (the
+    fits both and keeps the one that predicts the held-out records better (two models of
+    one mechanism: the choice does not change what is named).  ``theta`` (the
     linear re-fit's corrections) is the linear part of the standalone fits.
     """
     keys = tuple(sorted(set(keys)))
     if "hysteresis" in keys and form is None:
         both = _run([lambda f=f: refit_keys(setup, keys, start, f, theta, max_nfev)
                      for f in ("input", "prandtl_ishlinskii")], setup.workers)
-        return min(both, key=lambda sc: sc.train_gap)
+        return min(both, key=lambda sc: sc.gap)       # the form that predicts better
     t0 = time.perf_counter()
     if keys and keys[0] in STANDALONE and len(keys) == 1:
         if keys[0] == "thermal_dynamics":       # a law about the user's model at its reference
