@@ -40,7 +40,8 @@ from robrst.diagnose.fit import fit_model, prepare
 from robrst.diagnose.linear import LinearPart, as_modal, unexcited
 from robrst.diagnose.sensor import repair
 from robrst.diagnose.result import Diagnosis, EffectScore
-from robrst.diagnose.select import DYNAMIC, OFFSET, Setup, explain, linear_with_offset, significant
+from robrst.diagnose.select import (DYNAMIC, OFFSET, Setup, cut, explain, linear_with_offset,
+                                    significant)
 from robrst.diagnose.thermal import max_delay, search_delay
 from robrst.diagnose.verdict import NEAR_RATIO, build, decide, unmodelled
 from robrst.base.errors import DataError
@@ -48,7 +49,7 @@ from robrst.core.plant import paper_plant
 from robrst.base.threads import one_blas_thread
 
 __all__ = ["Diagnosis", "EffectScore", "diagnose", "check_records", "decompose",
-           "offset_finding", "MIN_SAMPLES", "NONE_RATIO"]
+           "offset_finding", "skipped_effects", "MIN_SAMPLES", "NONE_RATIO"]
 
 MIN_SAMPLES = 500        # per record
 NONE_RATIO = 1.25        # gap <= 1.25 x noise floor: nothing to explain
@@ -95,8 +96,9 @@ def _name(d, i):
     return d.source or f"record{i}"
 
 
-def _skipped(train, test, effects, model):
-    """Effects not tried, with the reason (inputs never excited, SISO- or MIMO-only)."""
+def skipped_effects(train, test, effects, model):
+    """Effects not tried, with the reason: ``{effect: reason}`` (inputs never excited,
+    SISO- or MIMO-only, one training level)."""
     out = {}
     temps = [d.temp for d in train if d.temp is not None]
     # within a record or across records (each at its own constant temperature)
@@ -214,7 +216,7 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
             "per_record": per_record, "model": model, "plant": plant, "t_start": t_start}
     traces = {"names": names, "records": all_recs, "base_residuals": base_res,
               "psd_f": f, "psd": P, "noise_psd": level}
-    skipped = _skipped(train, test, effects, model)
+    skipped = skipped_effects(train, test, effects, model)
     tried = tuple(e for e in effects if e not in skipped)
     if not _excited(train) or not _excited(test):
         which = "training" if not _excited(train) else "test"
@@ -246,7 +248,8 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
                   saturation=[], floor=floor, gap_before=before,
                   gap_before_train=before_train, workers=workers,
                   pinned=unexcited(lin, [d.U for d in train], fs),
-                  pinned_modal=unexcited(lin_modal, [d.U for d in train], fs))
+                  pinned_modal=unexcited(lin_modal, [d.U for d in train], fs),
+                  train_cut=cut(train_p), test_cut=cut(preps[n_tr:]))
     ex = explain(setup, say)
     linear, steps = ex.linear, ex.steps
     say("amplitude check: a linear model of the lowest training level at every level")

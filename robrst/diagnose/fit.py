@@ -20,7 +20,10 @@ d_il y_l`` on the output side, off-diagonal only)::
     u -> Chain -> input mixing -> L_theta -> output mixing -> sensor curvature -> + offset
 
 Periodic records are fitted in steady state on their period average (weight: the
-number of periods), the effects warmed up on one extra period.
+number of periods), the effects warmed up on one extra period.  Records are simulated
+whole; the residual of a long record enters the fit on every k-th sample (at most
+``FIT_ROWS`` rows per record, weighted by sqrt(k)): the cost of each solver step then does
+not grow with the record.
 """
 
 from dataclasses import dataclass
@@ -35,6 +38,7 @@ __all__ = ["Prepared", "prepare", "Fitted", "Post", "fit_model", "model_jacobian
            "level_factor", "make_post"]
 
 SLOPE_KINDS = ("dlog_freq", "dlog_damping", "input_gain", "gain", "mode_gain")
+FIT_ROWS = 8192          # residual rows per record in a fit (every k-th sample beyond)
 
 
 @dataclass(frozen=True, eq=False)
@@ -442,18 +446,22 @@ def fit_model(name, effects, train, lin, chain, noise_sigma, joint=True, dynamic
     proto = Fitted(name, tuple(effects), "dynamic" if dynamic else "input", chain, lin, x0,
                    np.zeros_like(x0), joint, slopes, level_ref, 0, 0.0, fixed, no, post)
 
+    # residual rows: every k-th sample of a long record (the simulation runs over all of it),
+    # weighted by sqrt(k) so the priors keep their weight
+    strides = [max(1, -(-len(p.Y) // FIT_ROWS)) for p in train]
+
     def fun(x):
-        r = [(proto.predict_prepared(p, x) - p.Y).ravel() * (p.weight / scale) for p in train]
+        r = [(proto.predict_prepared(p, x) - p.Y)[::k].ravel() * (p.weight * np.sqrt(k) / scale)
+             for p, k in zip(train, strides)]
         r.append(prior_w * x[nz:nz + nt + ns])
         out = np.concatenate(r)
         return np.where(np.isfinite(out), out, 1e3)
 
     def jac(x):
         rows = []
-        for p in train:
-            J = model_jacobian(proto, p, x)[1]
-            N, m = p.Y.shape
-            rows.append(J.reshape(N * m, -1) * (p.weight / scale))
+        for p, k in zip(train, strides):
+            J = model_jacobian(proto, p, x)[1][::k]
+            rows.append(J.reshape(-1, J.shape[2]) * (p.weight * np.sqrt(k) / scale))
         prior = np.zeros((nt + ns, x.size))
         prior[:, nz:nz + nt + ns] = np.diag(prior_w)
         rows.append(prior)

@@ -21,8 +21,10 @@ scored exactly by a small linear solve, without another pass over the data.  Col
                             at quantiles of ``u`` (dead zones, any static map)
 ``saturation``              one or two hinges at extreme quantiles (the best pair)
 ``slew``                    ``L(slew_r(u) - u)`` rising and falling, the best rate ``r``
-``hysteresis``              ``L(play_r(u) - u)`` for six play thresholds (a
-                            Prandtl–Ishlinskii operator; it screens Bouc–Wen too)
+``hysteresis``              ``L(play_r(u) - u)`` for the play thresholds (a
+                            Prandtl–Ishlinskii operator), or Bouc–Wen's output and
+                            derivatives about three points: the better option tells the
+                            form to fit first
 ``creep``                   ``L(S(u))``, ``L(dT+ S(u))`` (the creep cells' sum)
 ``thermal_drift``           ``L(lag_tau(T) - T_0)``, the best lag ``tau``
 ``thermal_dynamics``        ``dT J_L`` of the gain, the resonances and their damping
@@ -52,9 +54,10 @@ SCREEN_SAMPLES = 100_000      # Gram rows per record (every k-th sample of the w
 SAT_HIGH = (0.8, 0.9, 0.95, 0.98, 0.995)
 SAT_LOW = (0.005, 0.02, 0.05, 0.1, 0.2)
 DRIFT_LAGS_S = (0.3, 1.0, 3.0, 10.0, 30.0, 100.0)
-SLEW_FRACTIONS = (0.5, 0.2, 0.08, 0.03, 0.012, 0.005)   # slew rates / fastest input step
+SLEW_FRACTIONS = (0.3, 0.1, 0.03, 0.01)   # slew rates / fastest input step
 BW_B_REL = (0.3, 1.0, 3.0)    # Bouc–Wen's B x peak-to-peak input at the screen's points
-BW_RATIOS = (0.5, 1.0)        # ... and Gamma / B
+BW_RATIOS = (1.0,)            # ... and Gamma / B (its derivative is a column)
+DZ_WIDTHS = (0.01, 0.03, 0.06)   # dead-zone half widths screened / peak-to-peak input
 BATCH = 16                    # input-side columns simulated together
 RIDGE = 1e-9                  # relative ridge on the (normalised) effect columns
 
@@ -292,11 +295,19 @@ def build_screen(setup, theta, delays=None, level_ref=None, dynamic_model=None, 
             for j in range(m):
                 if i != j:
                     add("cross_coupling", f"y{j + 1}_into_y{i + 1}")
+    dz_grid = []
     if "input_nonlinearity" in tried:
         for j in range(k):
             for n in ("quadratic", "cubic") + tuple(f"hinge{q}" for q in range(
                     len(knots[j]))):
                 add("input_nonlinearity", f"{n}_u{j + 1}")
+        if k == 1:                  # dead zones about each knot, three widths: one option each
+            shared = list(groups["input_nonlinearity"][0])
+            for kn in knots[0]:
+                for wd in DZ_WIDTHS:
+                    dz_grid.append((float(kn), float(wd * stats["u_ptp"])))
+                    groups["input_nonlinearity"].append(shared + [len(names)])
+                    names.append(f"input_nonlinearity:dz{len(dz_grid) - 1}_u1")
     if "saturation" in tried:
         hinge = {}
         for j in range(k):
@@ -323,9 +334,9 @@ def build_screen(setup, theta, delays=None, level_ref=None, dynamic_model=None, 
                 plays.append(len(names))
                 names.append(f"hysteresis:play{i + 1}_u{j + 1}")
         bw_z = _bw_starts(stats, k)
-        groups["hysteresis"] = []
-        for o, z0 in enumerate(bw_z):
-            cols = list(plays)
+        groups["hysteresis"] = [list(plays)]          # option 0: Prandtl–Ishlinskii
+        for o, z0 in enumerate(bw_z):                 # then Bouc–Wen about each point
+            cols = []
             for j in range(k):
                 for n in ("v", "A", "logB", "ratio"):
                     cols.append(len(names))
@@ -355,14 +366,18 @@ def build_screen(setup, theta, delays=None, level_ref=None, dynamic_model=None, 
     sfx = (lambda j: f"_u{j + 1}") if k > 1 else (lambda j: "")
     starts = {}
     if "hysteresis" in groups:
-        starts["hysteresis"] = [{f"{n}{sfx(j)}": float(v) for j in range(k) for n, v in zip(
-            SPECS["hysteresis"].names, z0)} for z0 in bw_z]
+        starts["hysteresis"] = [{"form": "prandtl_ishlinskii"}] + [
+            {"form": "input", **{f"{n}{sfx(j)}": float(v) for j in range(k) for n, v in zip(
+                SPECS["hysteresis"].names, z0)}} for z0 in bw_z]
     if "slew" in groups:
         starts["slew"] = [{f"{n}{sfx(j)}": float(np.log10(r_)) for j in range(k)
                            for n in SPECS["slew"].names} for r_ in rates]
     if "thermal_drift" in groups:
         starts["thermal_drift"] = [{f"lag_s{sfx(j)}": float(np.log10(t)) for j in range(k)}
                                    for t in lags]
+    if dz_grid:
+        starts["input_nonlinearity"] = [{}] + [{"center_V": c, "dead_zone_V": d}
+                                                for c, d in dz_grid]
     if "saturation" in groups:
         starts["saturation"] = []
         for h, lo in opts:
@@ -462,6 +477,10 @@ def build_screen(setup, theta, delays=None, level_ref=None, dynamic_model=None, 
                 inp("input_nonlinearity:cubic" + s, j, e ** 3)
                 for q, kn in enumerate(knots[j]):
                     inp(f"input_nonlinearity:hinge{q}" + s, j, np.maximum(U[:, j] - kn, 0.0))
+            for o, (cz, dz) in enumerate(dz_grid):
+                e = U[:, 0] - cz
+                inp(f"input_nonlinearity:dz{o}_u1", 0,
+                    np.maximum(e - dz, 0.0) + np.minimum(e + dz, 0.0) - e)
         if "saturation" in tried:
             for j in range(k):
                 for h, kn in zip(SAT_HIGH, sat_hi[j]):

@@ -46,6 +46,10 @@ __all__ = ["Setup", "Scored", "Explanation", "explain", "excess", "significant",
            "DYNAMIC", "STANDALONE", "PROMISING", "REFINE_TOP"]
 
 OFFSET = "output_offset"  # the constant output offset's candidate name
+LONG = ("thermal_drift", "thermal_dynamics")   # follow the whole temperature history
+CUT_SAMPLES = 100_000    # other candidates are screened and fitted on this much of a record
+SECOND_POINT = False     # screen about the linear re-fit too (not only the user's model)
+NEAR_FLOOR = 2.0         # a hysteresis form this close to the floor needs no other form
 DYNAMIC = "amplitude_dependent_dynamics"
 STANDALONE = ("thermal_dynamics", "stiffness_nonlinearity")   # fitted alone, not combined
 CHAIN = ("delay", "input_nonlinearity", "saturation", "slew", "creep", "thermal_drift")
@@ -88,6 +92,8 @@ class Setup:
     stages: dict = field(default_factory=dict)   # compiled effect stages of this diagnosis
     pinned: tuple = ()         # corrections of lin the training records do not excite
     pinned_modal: tuple = ()   # ... of lin_modal
+    train_cut: list = None     # Prepared, from-rest records cut to CUT_SAMPLES (fits)
+    test_cut: list = None      # ... (screens)
 
 
 @dataclass(frozen=True, eq=False)
@@ -158,10 +164,18 @@ def _chain(setup, effects):
     return ch
 
 
+def cut(records, n=CUT_SAMPLES):
+    """The first ``n`` samples of each from-rest record (periodic ones whole)."""
+    return [p if p.periodic or len(p.U) <= n else replace(
+        p, U=p.U[:n], Y=p.Y[:n], temp=p.temp[:n]) for p in records]
+
+
 def _fit(setup, name, effects, joint, dynamic=False, start=None, theta=None, max_nfev=40,
          ftol=1e-8, offset=False, curvature=False, mixing=False, keys=(), form="input"):
     t0 = time.perf_counter()
     lin = setup.lin_modal if dynamic else setup.lin
+    if setup.train_cut is not None and not any(e in LONG for e in effects):
+        setup = replace(setup, train=setup.train_cut)
     pinned = setup.pinned_modal if dynamic else setup.pinned
     if dynamic and not (effects or offset or curvature or mixing):
         fit = fit_by_level(name, setup.train, lin, _chain(setup, ()), setup.noise_sigma,
@@ -210,9 +224,19 @@ def refit_keys(setup, keys, start=None, form=None, theta=None, max_nfev=40):
     linear re-fit's corrections) is the linear part of the standalone fits.
     """
     keys = tuple(sorted(set(keys)))
+    start = dict(start or {})
+    prefer = start.pop("form", None)
     if "hysteresis" in keys and form is None:
+        forms = ("input", "prandtl_ishlinskii")
+        if prefer in forms:           # the screen's form first; the other when it falls short
+            first = refit_keys(setup, keys, start, prefer, theta, max_nfev)
+            if first.gap <= NEAR_FLOOR * setup.floor:
+                return first
+            other = refit_keys(setup, keys, start, forms[1 - forms.index(prefer)], theta,
+                               max_nfev)
+            return min((first, other), key=lambda sc: sc.gap)
         both = _run([lambda f=f: refit_keys(setup, keys, start, f, theta, max_nfev)
-                     for f in ("input", "prandtl_ishlinskii")], setup.workers)
+                     for f in forms], setup.workers)
         return min(both, key=lambda sc: sc.gap)       # the form that predicts better
     t0 = time.perf_counter()
     if keys and keys[0] in STANDALONE and len(keys) == 1:
@@ -227,7 +251,6 @@ def refit_keys(setup, keys, start=None, form=None, theta=None, max_nfev=40):
     chain = [k for k in keys if k in CHAIN]
     if "hysteresis" in keys:
         chain.append("hysteresis" if form == "input" else "pi_hysteresis")
-    start = dict(start or {})
     if "saturation" in keys and not any(k.startswith("u_m") for k in start):
         for j, (lo, hi) in enumerate(search_saturation(setup.train, setup.lin, None)):
             sfx = f"_u{j + 1}" if len(setup.delays) > 1 else ""
@@ -287,16 +310,28 @@ def explain(setup, say):
     keys = [k for k in setup.effects if k != DYNAMIC or setup.dynamic]
     level_ref = min(p.level for p in setup.train)
     zero = np.zeros(setup.lin.size)
-    points = [zero] + ([theta_l] if np.max(np.abs(theta_l), initial=0.0) > 1e-3 else [])
-    screens = [build_screen(replace(setup, effects=tuple(keys)), th, setup.delays, level_ref,
-                            DYNAMIC in keys, stages=setup.stages) for th in points]
+    points = [zero] + ([theta_l] if SECOND_POINT and np.max(np.abs(theta_l), initial=0.0) > 1e-3
+                       else [])
+    long_keys = [k for k in keys if k in LONG]
+    was_cut = setup.train_cut is not None and any(
+        len(a.U) < len(b.U) for a, b in zip(setup.train_cut + setup.test_cut,
+                                            setup.train + setup.test))
+    parts = ([(replace(setup, train=setup.train_cut, test=setup.test_cut),
+               [k for k in keys if k not in LONG]), (setup, long_keys)] if was_cut
+             else [(setup, keys)])
+    screens = [build_screen(replace(st, effects=tuple(ks)), th, setup.delays, level_ref,
+                            DYNAMIC in ks, stages=setup.stages)
+               for st, ks in parts if ks or st is setup for th in points]
     say(f"screened {len(keys)} candidate(s) on exact linear columns"
         f" ({len(points)} linearisation point(s), {time.perf_counter() - t0:.1f} s)")
 
-    def screened(ks):
-        """The screen of ``ks`` (the linearisation point that fits training better)."""
-        return min((s.fit(ks) for s in screens if all(k in s.keys() for k in ks)),
-                   key=lambda f: f.train_gap, default=None)
+    def screened(ks, with_base=False):
+        """The screen of ``ks`` (the linearisation point that fits training better), and
+        the base of that screen when ``with_base``."""
+        best = min(((s.fit(ks), s) for s in screens if all(k in s.keys() for k in ks)),
+                   key=lambda fs: fs[0].train_gap, default=(None, None))
+        return (best[0], best[1].fit(()) if best[1] is not None else None) if with_base \
+            else best[0]
 
     def start_of(key):
         for s in screens:
@@ -312,51 +347,67 @@ def explain(setup, say):
             f" (training {alone[k].train_gap:.4g})")
     fitted = {}
 
-    def refine(ks, start):
+    def refine(ks, start, form=None):
         ks = tuple(sorted(ks))
         if ks not in fitted:
-            sc = refit_keys(setup, ks, start, theta=theta_l)
+            sc = refit_keys(setup, ks, start, form=form, theta=theta_l)
             fitted[ks] = sc
             say(f"  fitted {_name(ks):<30} held-out gap {sc.gap:.4g} (training"
                 f" {sc.train_gap:.4g}; {sc.fit.n_eval} evaluations, {sc.fit_s:.1f} s)")
         return fitted[ks]
 
     state, chosen, steps, alternatives = lin, [], [], {}
-    base_scr = screened(())
     while len(chosen) < MAX_EFFECTS and state.gap > 1.25 * setup.floor:
         pool = [k for k in alone if _compatible(chosen, k)]
         if not chosen:
-            cur = base_scr
-            scr = {k: screened((k,)) for k in pool}
+            both = {k: screened((k,), with_base=True) for k in pool}
+            scr = {k: f for k, (f, _) in both.items()}
+            bases = {k: b for k, (_, b) in both.items()}
             # the amplitude-dependent dynamics starts at the linear re-fit at every level
             starts = {k: (_start(lin) if k == DYNAMIC else start_of(k)) for k in pool}
         else:       # re-screened on top of the model selected so far (its fit the base)
-            on_top = build_screen(replace(setup, effects=tuple(pool)), None, setup.delays,
-                                  level_ref, DYNAMIC in pool, stages=setup.stages,
-                                  base_fit=state.fit)
-            cur = on_top.fit(())
-            scr = {k: on_top.fit((k,)) for k in pool if k in on_top.keys()}
-            starts = {k: on_top.start(k) or start_of(k) for k in pool}
-            for k in sorted(scr, key=lambda k: scr[k].gap):
-                say(f"  {k:<30} on top of {state.name}: screen {cur.gap:.4g} ->"
-                    f" {scr[k].gap:.4g} (training {cur.train_gap:.4g} -> {scr[k].train_gap:.4g})")
-        good = [k for k in scr if scr[k] is not None and (
-            scr[k].gap <= PROMISING * cur.gap or scr[k].train_gap <= PROMISING * cur.train_gap)]
+            scr, bases, starts = {}, {}, {}
+            for st, ks in parts:
+                ks = [k for k in ks if k in pool]
+                if not ks:
+                    continue
+                on_top = build_screen(replace(st, effects=tuple(ks)), None, setup.delays,
+                                      level_ref, DYNAMIC in ks, stages=setup.stages,
+                                      base_fit=state.fit)
+                cur = on_top.fit(())
+                for k in ks:
+                    if k in on_top.keys():
+                        scr[k], bases[k] = on_top.fit((k,)), cur
+                        starts[k] = on_top.start(k) or start_of(k)
+            for k in sorted(scr, key=lambda k: scr[k].gap / bases[k].gap):
+                b = bases[k]
+                say(f"  {k:<30} on top of {state.name}: screen {b.gap:.4g} ->"
+                    f" {scr[k].gap:.4g} (training {b.train_gap:.4g} -> {scr[k].train_gap:.4g})")
+        scr = {k: f for k, f in scr.items() if f is not None}
+        r_te = {k: scr[k].gap / max(bases[k].gap, 1e-300) for k in scr}
+        r_tr = {k: scr[k].train_gap / max(bases[k].train_gap, 1e-300) for k in scr}
+        ratio = {k: r_te[k] * r_tr[k] for k in scr}
+        # promising: 3 % better on the held-out or the training records, not worse on both
+        # together (the product of the two ratios below 1)
+        good = [k for k in ratio if ratio[k] < 1.0 and (
+            r_te[k] <= PROMISING or r_tr[k] <= PROMISING)]
         if not good:
             break
         # ranked by the product of the held-out and training ratios: an effect a wrong
         # linear model or another effect masks may improve a lot on one, not on the other
-        ranked = sorted(good, key=lambda k: scr[k].gap / max(cur.gap, 1e-300)
-                        * scr[k].train_gap / max(cur.train_gap, 1e-300))
+        ranked = sorted(good, key=ratio.get)
         base = _start(state) if chosen else {}
         # the best by the screen, and the next ones only when their screen comes close
-        g_best = min(scr[k].gap for k in good)
-        t_best = min(scr[k].train_gap for k in good)
+        # (relative to the base of their own screen; the noise floor bounds the ratios)
+        fl = {k: setup.floor / max(bases[k].gap, 1e-300) for k in good}
+        g_best = min(max(r_te[k], fl[k]) for k in good)
+        t_best = min(max(r_tr[k], fl[k]) for k in good)
         tries = [k for k in ranked[:REFINE_TOP]
-                 if scr[k].gap <= SCREEN_SPREAD * max(g_best, setup.floor)
-                 or scr[k].train_gap <= SCREEN_SPREAD * max(t_best, setup.floor)]
+                 if max(r_te[k], fl[k]) <= SCREEN_SPREAD * g_best
+                 or max(r_tr[k], fl[k]) <= SCREEN_SPREAD * t_best]
         tries += [c for k in tries for c in SPECIAL.get(k, ()) if c in good and c not in tries]
-        results = _run([lambda k=k: refine(chosen + [k], {**starts[k], **base})
+        form = state.form if "hysteresis" in chosen else None    # the form found before
+        results = _run([lambda k=k: refine(chosen + [k], {**starts[k], **base}, form)
                         for k in tries], setup.workers)
         k_best, best = min(zip(tries, results), key=lambda kv: kv[1].gap)
         for c in SPECIAL.get(k_best, ()):      # the special case, unless clearly worse
@@ -384,8 +435,10 @@ def explain(setup, say):
             without = {chosen[0]: lin}
         else:
             st = _start(state)
+            form = state.form if "hysteresis" in chosen else None
             without = dict(zip(chosen, _run(
-                [lambda k=k: refine([c for c in chosen if c != k], st) for k in chosen],
+                [lambda k=k: refine([c for c in chosen if c != k], st,
+                                    form if k != "hysteresis" else None) for k in chosen],
                 setup.workers)))
         removal = {k: sc.gap for k, sc in without.items()}
         weak = [k for k in chosen if not significant(state.gap, without[k].gap, setup.floor)]
