@@ -43,6 +43,7 @@ class Case:
     note: str = ""
     truth: tuple = None         # effects present (names the diagnosis may give); None: accept
     only: bool = False          # the causes named must be exactly ``must_name``
+    reason_has: tuple = ()      # phrases a ``cannot_tell`` reason must hold
 
     @property
     def truths(self):
@@ -108,6 +109,11 @@ CASES = {c.name: c for c in (
          truth=("hysteresis", "amplitude_dependent_dynamics"),
          note="periodic multisines (steady state) at 8, 16 and 24 V rms about 75 V, trained"
          " on the two lower levels; Bouc-Wen hysteresis: never linear"),
+    Case("recipe_one_level", ("cannot_tell", "hysteresis"), truth=("hysteresis",),
+         reason_has=("grows with the excitation level", "candidates:",
+                     "second training level"),
+         note="the Bouc-Wen recipe records trained at 8 V rms only, tested at 24 V rms: the"
+         " answer names the level dependence and asks for a second training level"),
     Case("recipe_hardening", ("stiffness_nonlinearity", "amplitude_dependent_dynamics",
                               "cannot_tell"),
          truth=("stiffness_nonlinearity", "amplitude_dependent_dynamics"),
@@ -400,9 +406,10 @@ def _creep_dropouts(seed, fs):
     return recs[:2], recs[2:], paper_plant()
 
 
-def _recipe(name, seed, fs, effects, over):
+def _recipe(name, seed, fs, effects, over, levels=(8.0, 8.0, 16.0, 16.0)):
     """Periodic multisines (steady state, two periods kept) at 8, 16 and 24 V rms about 75 V:
-    training on the two lower levels (two records each), test on the highest."""
+    training on ``levels`` (by default two records at each of the two lower levels), test
+    on the highest."""
     from robrst.data.dataset import Dataset
     rng = np.random.default_rng(seed)
     cfg = _twin(effects, fs, float(rng.uniform(0.005, 0.01)), **over)
@@ -410,7 +417,7 @@ def _recipe(name, seed, fs, effects, over):
     fr = np.arange(1, P // 2) * fs / P
     lines = np.flatnonzero((fr > 2.0) & (fr < 1500.0))[::3] + 1
     recs = []
-    for lv, r in ((8.0, 0), (8.0, 1), (16.0, 0), (16.0, 1), (24.0, 0)):
+    for r, lv in enumerate(tuple(levels) + (24.0,)):
         X = np.zeros(P // 2 + 1, complex)
         X[lines] = np.exp(2j * np.pi * rng.uniform(size=lines.size))
         x = np.fft.irfft(X, n=P)
@@ -420,11 +427,15 @@ def _recipe(name, seed, fs, effects, over):
         recs.append(Dataset(t=np.arange(2 * P) / fs, u=u[-2 * P:], y=res.y[-2 * P:], period=P,
                             temp=np.full(2 * P, 30.0),
                             source=f"{name}-{seed}-{lv:g}V-{r}"))
-    return recs[:4], recs[4:], paper_plant()
+    return recs[:-1], recs[-1:], paper_plant()
 
 
 def _recipe_bouc_wen(seed, fs):
     return _recipe("recipe_bouc_wen", seed, fs, ["hysteresis"], {})
+
+
+def _recipe_one_level(seed, fs):
+    return _recipe("recipe_one_level", seed, fs, ["hysteresis"], {}, levels=(8.0, 8.0))
 
 
 def _recipe_hardening(seed, fs):
@@ -436,4 +447,4 @@ NEW = {"sensor_curvature": _sensor_curvature, "duffing_levels": _duffing_levels,
        "pi_levels": _pi_levels, "asymmetric_slew": _asymmetric_slew,
        "cross_coupling_2ch": _cross_coupling_2ch, "hysteresis_outliers": _hysteresis_outliers,
        "creep_dropouts": _creep_dropouts, "recipe_bouc_wen": _recipe_bouc_wen,
-       "recipe_hardening": _recipe_hardening}
+       "recipe_one_level": _recipe_one_level, "recipe_hardening": _recipe_hardening}

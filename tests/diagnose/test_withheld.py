@@ -11,9 +11,8 @@ wider library (static input and output maps, cubic stiffness, Prandtl–Ishlinsk
 
 import pytest
 
-from robrst.diagnose import diagnose
 from robrst.diagnose.effects import EFFECTS
-from robrst.diagnose.validation import ANSWER, CASES, make_case
+from robrst.diagnose.validation import ANSWER, CASES
 
 SEEDS = (1, 2)
 EXPECTED_REGIME = {"hysteresis": {"direction", "amplitude", "time_since_step"},
@@ -24,9 +23,8 @@ EXPECTED_REGIME = {"hysteresis": {"direction", "amplitude", "time_since_step"},
 @pytest.mark.slow
 @pytest.mark.parametrize("case", CASES)
 @pytest.mark.parametrize("seed", SEEDS)
-def test_withheld_effect_is_named_localised_and_shrunk(case, seed):
-    train, test, truth = make_case(case, seed)
-    d = diagnose(train, test)
+def test_withheld_effect_is_named_localised_and_shrunk(case, seed, withheld):
+    d, truth, _ = withheld("twin", case, seed)
     assert d.cause == ANSWER[case], (d.reason, truth)
     if case == "none":
         assert d.where["time_windows"] == [] and d.where["frequency_band_hz"] is None
