@@ -26,7 +26,11 @@ whole; the residual of a long record enters the fit on every k-th sample (at mos
 not grow with the record.
 """
 
+from __future__ import annotations
+
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy import optimize
@@ -34,8 +38,12 @@ from scipy import optimize
 from robrst.diagnose.effects import Chain
 from robrst.diagnose.linear import parameter_std
 
-__all__ = ["Prepared", "prepare", "Fitted", "Post", "fit_model", "model_jacobian",
-           "level_factor", "make_post"]
+if TYPE_CHECKING:
+    from robrst.data.dataset import Dataset
+    from robrst.diagnose.linear import LinearPart
+
+__all__ = ["Prepared", "prepare", "Fitted", "fit_model", "fit_by_level", "model_jacobian",
+           "level_factor"]
 
 SLOPE_KINDS = ("dlog_freq", "dlog_damping", "input_gain", "gain", "mode_gain")
 FIT_ROWS = 8192          # residual rows per record in a fit (every k-th sample beyond)
@@ -43,7 +51,27 @@ FIT_ROWS = 8192          # residual rows per record in a fit (every k-th sample 
 
 @dataclass(frozen=True, eq=False)
 class Prepared:
-    """A record ready for fitting or scoring (arrays in samples x channels)."""
+    """A record ready for fitting or scoring (arrays in samples x channels).
+
+    Parameters
+    ----------
+    name : str
+        The record's name.
+    U : numpy.ndarray
+        Inputs ``(N, k)`` [V].
+    Y : numpy.ndarray
+        Outputs ``(N, m)`` [µm].
+    temp : numpy.ndarray
+        Temperature per sample [°C].
+    periodic : bool
+        One steady-state period (period-averaged).
+    warm : int
+        Warm-up samples prepended for the effects (periodic).
+    weight : float
+        Weight of the record in the fit (the periods averaged).
+    level : float
+        Excitation level [V rms].
+    """
 
     name: str
     U: np.ndarray
@@ -55,8 +83,23 @@ class Prepared:
     level: float          # excitation level [V rms]
 
 
-def prepare(d, reference_C, for_fit=True):
-    """Prepared record of ``d``; a periodic record is period-averaged when ``for_fit``."""
+def prepare(d: Dataset, reference_C: float, for_fit: bool = True) -> Prepared:
+    """Prepared record of ``d``; a periodic record is period-averaged when ``for_fit``.
+
+    Parameters
+    ----------
+    d : Dataset
+        The record.
+    reference_C : float
+        The temperature of a record without one [°C].
+    for_fit : bool
+        Average a periodic record's periods (fitting); else keep the whole record
+        (scoring).
+
+    Returns
+    -------
+    Prepared
+    """
     temp = d.temp_or(reference_C)
     if d.period and d.periods >= 1:
         P, k = d.period, d.periods
@@ -69,8 +112,21 @@ def prepare(d, reference_C, for_fit=True):
     return Prepared(d.source, d.U, d.Y, temp, False, 0, 1.0, d.level)
 
 
-def level_factor(level, reference):
-    """Excitation-level coordinate of the dynamic form: ``(a - a_ref) / a_ref``."""
+def level_factor(level: float, reference: float) -> float:
+    """Excitation-level coordinate of the dynamic form: ``(a - a_ref) / a_ref``.
+
+    Parameters
+    ----------
+    level : float
+        The record's level [V rms].
+    reference : float
+        The reference level [V rms].
+
+    Returns
+    -------
+    float
+        0 when ``reference <= 0``.
+    """
     return (level - reference) / reference if reference > 0 else 0.0
 
 
@@ -78,8 +134,16 @@ def level_factor(level, reference):
 class Post:
     """Output-side blocks of a fit and their layout (see the module doc).
 
-    ``center`` and ``scale`` are the training outputs' mean and half range per output
-    (the sensor map's centre, and the scale of its bounds).
+    Parameters
+    ----------
+    m, k : int
+        Outputs and inputs.
+    offset, curvature, mixing : bool
+        The blocks fitted: a constant per output, the sensor's quadratic and cubic terms
+        per output, the channels' cross-coupling.
+    center, scale : tuple of float
+        The training outputs' mean and half range per output (the sensor map's centre,
+        and the scale of its bounds).
     """
 
     m: int
@@ -164,7 +228,41 @@ def make_post(train, offset=False, curvature=False, mixing=False):
 
 @dataclass(frozen=True, eq=False)
 class Fitted:
-    """A fitted candidate: effects, linear corrections (and level slopes), predictor."""
+    """A fitted candidate: effects, linear corrections (and level slopes), predictor.
+
+    Parameters
+    ----------
+    name : str
+        The candidate's name.
+    effects : tuple of str
+        The effects fitted.
+    form : str
+        ``"input"`` or ``"dynamic"``.
+    chain : Chain
+        The effects' chain.
+    lin : LinearPart
+        The linear corrections' model.
+    x : numpy.ndarray
+        The fitted parameters ``[z, theta (joint), slopes, output blocks]``.
+    std : numpy.ndarray
+        Their 1-sigma.
+    joint : bool
+        The linear corrections were fitted.
+    slopes : tuple of int
+        Indices into ``theta`` that vary with level (dynamic form).
+    level_ref : float
+        The reference level [V rms].
+    n_eval : int
+        Model evaluations.
+    train_cost : float
+        The final least-squares cost.
+    theta_fixed : numpy.ndarray, optional
+        Fixed linear corrections when not ``joint``.
+    n_offset : int
+        Constant output offsets fitted (one per output, or none).
+    post : Post, optional
+        The output-side blocks fitted (offset, sensor curvature, cross-coupling).
+    """
 
     name: str
     effects: tuple
@@ -186,37 +284,99 @@ class Fitted:
     def _post_start(self):
         return self.chain.size + (self.lin.size if self.joint else 0) + len(self.slopes)
 
-    def parts(self, x=None):
-        """Effect parameters, linear corrections and level slopes (not the output blocks)."""
+    def parts(self, x: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Effect parameters, linear corrections and level slopes (not the output blocks).
+
+        Parameters
+        ----------
+        x : numpy.ndarray, optional
+            A parameter vector (default the fitted one).
+
+        Returns
+        -------
+        z, theta, slopes : numpy.ndarray
+        """
         x = self.x if x is None else x
         nz, nt = self.chain.size, self.lin.size if self.joint else 0
         fixed = self.theta_fixed if self.theta_fixed is not None else np.zeros(self.lin.size)
         return (x[:nz], (x[nz:nz + nt] if self.joint else fixed),
                 x[nz + nt:nz + nt + len(self.slopes)])
 
-    def block(self, key, x=None):
-        """Parameters of output block ``key`` (``offset``, ``curvature``, ``mix_in``,
-        ``mix_out``); empty when not fitted."""
+    def block(self, key: str, x: np.ndarray | None = None) -> np.ndarray:
+        """Parameters of output block ``key``; empty when not fitted.
+
+        Parameters
+        ----------
+        key : {"offset", "curvature", "mix_in", "mix_out"}
+            The block.
+        x : numpy.ndarray, optional
+            A parameter vector (default the fitted one).
+
+        Returns
+        -------
+        numpy.ndarray
+        """
         x = self.x if x is None else x
         if self.post is None:
             return np.zeros(0)
         return x[self.post.slices(self._post_start)[key]]
 
-    def output_offset(self, x=None):
-        """The fitted constant output offsets ``(m,)`` [µm] (zeros when not fitted)."""
+    def output_offset(self, x: np.ndarray | None = None) -> np.ndarray:
+        """The fitted constant output offsets ``(m,)`` [µm] (zeros when not fitted).
+
+        Parameters
+        ----------
+        x : numpy.ndarray, optional
+            A parameter vector (default the fitted one).
+
+        Returns
+        -------
+        numpy.ndarray
+        """
+        x = self.x if x is None else x
         if not self.n_offset:
             return np.zeros(1)
         return self.block("offset", x)
 
-    def theta_at(self, level, x=None):
+    def theta_at(self, level: float, x: np.ndarray | None = None) -> np.ndarray:
+        """The linear corrections at an excitation level (dynamic form: with the slopes).
+
+        Parameters
+        ----------
+        level : float
+            The level [V rms].
+        x : numpy.ndarray, optional
+            A parameter vector (default the fitted one).
+
+        Returns
+        -------
+        numpy.ndarray
+        """
         _, th, s = self.parts(x)
         th = th.copy()
         if self.slopes:
             th[list(self.slopes)] += s * level_factor(level, self.level_ref)
         return th
 
-    def effective_input(self, p, x=None, jac=False):
-        """Effective inputs ``(N, k)`` (chain, then input mixing) and the chain's Jacobians."""
+    def effective_input(self, p: Prepared, x: np.ndarray | None = None,
+                        jac: bool = False) -> tuple[np.ndarray, list | None]:
+        """Effective inputs ``(N, k)`` of a prepared record (chain, then input mixing).
+
+        Parameters
+        ----------
+        p : Prepared
+            The record.
+        x : numpy.ndarray, optional
+            A parameter vector (default the fitted one).
+        jac : bool
+            Also the chain's Jacobians.
+
+        Returns
+        -------
+        V : numpy.ndarray
+        dV : list of numpy.ndarray or None
+            Per input ``(N, n_z)``.
+        """
         z = self.parts(x)[0]
         U, T = p.U, p.temp
         if p.warm:
@@ -230,12 +390,39 @@ class Fitted:
                       for j in range(len(dV))]
         return V, dV
 
-    def linear_output(self, p, V, x=None):
-        """Outputs ``(N, m)`` of the linear part for effective inputs ``V``."""
+    def linear_output(self, p: Prepared, V: np.ndarray,
+                      x: np.ndarray | None = None) -> np.ndarray:
+        """Outputs ``(N, m)`` of the linear part for effective inputs ``V``.
+
+        Parameters
+        ----------
+        p : Prepared
+            The record (its level and whether it is periodic).
+        V : numpy.ndarray
+            Effective inputs ``(N, k)``.
+        x : numpy.ndarray, optional
+            A parameter vector (default the fitted one).
+
+        Returns
+        -------
+        numpy.ndarray
+        """
         return self.lin.simulate(self.theta_at(p.level, x), V, p.periodic)
 
-    def output_side(self, Y, x=None):
-        """Output mixing, sensor curvature and offset applied to the linear outputs ``Y``."""
+    def output_side(self, Y: np.ndarray, x: np.ndarray | None = None) -> np.ndarray:
+        """Output mixing, sensor curvature and offset applied to the linear outputs ``Y``.
+
+        Parameters
+        ----------
+        Y : numpy.ndarray
+            The linear part's outputs ``(N, m)``.
+        x : numpy.ndarray, optional
+            A parameter vector (default the fitted one).
+
+        Returns
+        -------
+        numpy.ndarray
+        """
         if self.post is None:
             return Y
         x = self.x if x is None else x
@@ -251,16 +438,48 @@ class Fitted:
             Y = Y + self.block("offset", x)[None, :]
         return Y
 
-    def predict_prepared(self, p, x=None):
+    def predict_prepared(self, p: Prepared, x: np.ndarray | None = None) -> np.ndarray:
+        """Simulated outputs ``(N, m)`` of a prepared record.
+
+        Parameters
+        ----------
+        p : Prepared
+            The record.
+        x : numpy.ndarray, optional
+            A parameter vector (default the fitted one).
+
+        Returns
+        -------
+        numpy.ndarray
+        """
         V, _ = self.effective_input(p, x)
         return self.output_side(self.linear_output(p, V, x), x)
 
-    def predict(self, d, reference_C):
-        """Simulated outputs ``(N, m)`` of record ``d`` (steady state when periodic)."""
+    def predict(self, d: Dataset, reference_C: float) -> np.ndarray:
+        """Simulated outputs ``(N, m)`` of record ``d`` (steady state when periodic).
+
+        Parameters
+        ----------
+        d : Dataset
+            The record.
+        reference_C : float
+            The temperature of a record without one [°C].
+
+        Returns
+        -------
+        numpy.ndarray
+        """
         return self.predict_prepared(prepare(d, reference_C, for_fit=False))
 
-    def params(self):
-        """Reported effect parameters and 1-sigma (delta method): ``{effect: (values, sds)}``."""
+    def params(self) -> dict:
+        """Reported effect parameters and 1-sigma (delta method): ``{effect: (values, sds)}``.
+
+        Returns
+        -------
+        dict
+            Values and sigmas as dicts keyed by parameter name (``output_offset`` too,
+            when fitted).
+        """
         z = self.parts()[0]
         out = self.chain.report(z, self.std[:self.chain.size])
         if self.post is None:
@@ -292,8 +511,14 @@ class Fitted:
             out["cross_coupling"] = (vals, sds)
         return out
 
-    def linear_change(self):
-        """Linear corrections (and level slopes) by name, with 1-sigma."""
+    def linear_change(self) -> tuple[dict, dict]:
+        """Linear corrections (and level slopes) by name, with 1-sigma.
+
+        Returns
+        -------
+        values, sigmas : dict
+            Fixed corrections have sigma NaN; slopes are named ``<name>_per_level``.
+        """
         nz = self.chain.size
         out, sd = {}, {}
         if self.joint:
@@ -338,11 +563,30 @@ def _post_jacobian(fit, x, J, Y):
             J[:, j, sl["offset"].start + j] = 1.0
 
 
-def model_jacobian(fit, p, x=None):
-    """Outputs ``(N, m)`` of the candidate ``fit`` on prepared record ``p`` (the linear part
-    as fitted, before a polish of the residues) and their derivatives with respect to its
-    parameters ``x`` ``(N, m, n_x)``: exact for the chain (compiled sensitivities, closed
-    forms), the gains and the output blocks; forward differences for the modes."""
+def model_jacobian(fit: Fitted, p: Prepared,
+                   x: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """A candidate's outputs on a record and their derivatives with respect to its parameters.
+
+    Exact for the chain (compiled sensitivities, closed forms), the gains and the output
+    blocks; forward differences for the modes.  The linear part is the fitted one before a
+    polish of the residues.
+
+    Parameters
+    ----------
+    fit : Fitted
+        The candidate.
+    p : Prepared
+        The record.
+    x : numpy.ndarray, optional
+        A parameter vector (default the fitted one).
+
+    Returns
+    -------
+    Y : numpy.ndarray
+        Outputs ``(N, m)``.
+    J : numpy.ndarray
+        ``dY / dx`` ``(N, m, n_x)``.
+    """
     x = fit.x if x is None else np.asarray(x, float)
     lin, chain = fit.lin, fit.chain
     nz, nt, ns = chain.size, lin.size if fit.joint else 0, len(fit.slopes)
@@ -373,9 +617,11 @@ def model_jacobian(fit, p, x=None):
     return fit.output_side(Y0, x), J
 
 
-def fit_model(name, effects, train, lin, chain, noise_sigma, joint=True, dynamic=False,
-              start=None, theta=None, max_nfev=40, ftol=1e-10, offset=False, curvature=False,
-              mixing=False, pinned=()):
+def fit_model(name: str, effects: Sequence[str], train: Sequence[Prepared], lin: LinearPart,
+              chain: Chain, noise_sigma: float, joint: bool = True, dynamic: bool = False,
+              start: dict | None = None, theta: np.ndarray | None = None, max_nfev: int = 40,
+              ftol: float = 1e-10, offset: bool = False, curvature: bool = False,
+              mixing: bool = False, pinned: Sequence[int] = ()) -> Fitted:
     """Fit ``effects`` (+ linear corrections if ``joint``) on prepared training records.
 
     Parameters
@@ -385,8 +631,11 @@ def fit_model(name, effects, train, lin, chain, noise_sigma, joint=True, dynamic
     effects : tuple of str
         Input-side effects (the ``chain`` holds them).
     train : list of Prepared
+        The prepared training records.
     lin : LinearPart
+        The linear corrections' model.
     chain : Chain
+        The effects' chain.
     noise_sigma : float
         Noise std per sample [µm] (weight of the priors on the linear corrections).
     joint : bool
@@ -483,8 +732,9 @@ def fit_model(name, effects, train, lin, chain, noise_sigma, joint=True, dynamic
                   level_ref, int(res.nfev), 2 * float(res.cost), fixed, no, post)
 
 
-def fit_by_level(name, train, lin, chain, noise_sigma, start=None, max_nfev=20, tol=0.1,
-                 pinned=()):
+def fit_by_level(name: str, train: Sequence[Prepared], lin: LinearPart, chain: Chain,
+                 noise_sigma: float, start: dict | None = None, max_nfev: int = 20,
+                 tol: float = 0.1, pinned: Sequence[int] = ()) -> Fitted:
     """Amplitude-dependent dynamics by one linear re-fit per excitation level.
 
     The training records are grouped by level (within ``tol``); the linear corrections are
@@ -493,6 +743,27 @@ def fit_by_level(name, train, lin, chain, noise_sigma, start=None, max_nfev=20, 
     With two levels this is the joint fit of the dynamic form exactly (two levels fix a
     line), at the cost of two linear re-fits.  Falls back to the joint fit with fewer than
     two levels.
+
+    Parameters
+    ----------
+    name : str
+        Candidate name.
+    train : sequence of Prepared
+        The training records.
+    lin : LinearPart
+        The linear corrections' model (with per-mode gains).
+    chain : Chain
+        An empty chain (effects fall back to the joint fit).
+    noise_sigma : float
+        Noise std per sample [µm] (weight of the priors).
+    start : dict, optional
+        Starting values by name (the linear re-fit's).
+    max_nfev : int
+        Evaluations of each per-level fit.
+    tol : float
+        Records within this relative level share a level.
+    pinned : sequence of int
+        Linear corrections held at zero (modes the records do not excite).
 
     Returns
     -------

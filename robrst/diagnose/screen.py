@@ -39,14 +39,21 @@ thresholds, creep) and first order for the others; a candidate that passes is th
 fitted by its own nonlinear model (:mod:`robrst.diagnose.select`).
 """
 
-from dataclasses import dataclass, field, replace
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy import signal
 
-from robrst.diagnose.effects import SPECS, _creep_cells, pi_thresholds
+from robrst.diagnose.effects import SPECS, creep_cells, pi_thresholds
 from robrst.diagnose.fit import level_factor, model_jacobian
 from robrst.diagnose.stages import cached_stage
+
+if TYPE_CHECKING:
+    from robrst.diagnose.fit import Fitted
 
 __all__ = ["Screen", "ScreenFit", "build_screen", "SCREEN_SAMPLES"]
 
@@ -64,7 +71,19 @@ RIDGE = 1e-9                  # relative ridge on the (normalised) effect column
 
 @dataclass(frozen=True)
 class ScreenFit:
-    """A screened set of candidates: held-out and training gaps, coefficients."""
+    """A screened candidate (or the base alone): held-out and training gaps, coefficients.
+
+    Parameters
+    ----------
+    keys : tuple of str
+        The candidate (empty: the base alone).
+    gap, train_gap : float
+        Held-out and training NRMSE on the screened samples.
+    beta : dict
+        The solved coefficients by column name.
+    options : dict
+        ``{candidate: the option used}``.
+    """
 
     keys: tuple
     gap: float               # held-out NRMSE (on the screened samples)
@@ -82,9 +101,30 @@ class Screen:
     fitted candidate screened upon), always in.  The Gram matrices are kept per *block*: the
     base alone (key ``""``) and the base with each candidate's columns, so a candidate is
     screened alone on the base (one block), never two candidates together.
+
+    Parameters
+    ----------
+    names : list of str
+        Column names (``candidate:column``).
+    groups : dict
+        ``{candidate: [option columns, ...]}``.
+    base : list of int
+        The base columns.
+    blocks : dict
+        ``{candidate or "": (column indices, {split: Gram}, {split: X^T r})}``.
+    c, den : dict
+        Per split (``train``, ``test``): ``r^T r`` and the NRMSE denominator.
+    ridge : tuple of numpy.ndarray
+        Ridge weights and centres per column (the linear corrections' priors).
+    starts : dict, optional
+        ``{candidate: [start values per option]}``.
+    fixed : sequence of int
+        Base columns held (pinned corrections).
     """
 
-    def __init__(self, names, groups, base, blocks, c, den, ridge, starts=None, fixed=()):
+    def __init__(self, names: list, groups: dict, base: list, blocks: dict, c: dict,
+                 den: dict, ridge: tuple, starts: dict | None = None,
+                 fixed: Sequence[int] = ()) -> None:
         self.names = names
         self.fixed = set(fixed)            # base columns held (pinned corrections)
         self.starts = starts or {}         # candidate -> per option: start values by name
@@ -96,7 +136,13 @@ class Screen:
         self._cache = {}
         self._choice = {}
 
-    def keys(self):
+    def keys(self) -> list:
+        """The candidates screened.
+
+        Returns
+        -------
+        list of str
+        """
         return [k for k, opts in self.groups.items() if opts and any(opts)]
 
     def _solve(self, key, cols):
@@ -119,8 +165,18 @@ class Screen:
             gaps[split] = float(np.sqrt(max(ss, 0.0) / self.den[split]))
         return beta, gaps
 
-    def option(self, key):
-        """Index of the option of ``key`` that fits the training records best (alone)."""
+    def option(self, key: str) -> int:
+        """Index of the option of ``key`` that fits the training records best (alone).
+
+        Parameters
+        ----------
+        key : str
+            The candidate.
+
+        Returns
+        -------
+        int
+        """
         if key not in self._choice:
             opts = self.groups[key]
             best = min(range(len(opts)), key=lambda i: self._solve(
@@ -128,14 +184,38 @@ class Screen:
             self._choice[key] = best
         return self._choice[key]
 
-    def start(self, key):
-        """Starting values (effect parameters by name) of the option ``key`` uses."""
+    def start(self, key: str) -> dict:
+        """Starting values (effect parameters by name) of the option ``key`` uses.
+
+        Parameters
+        ----------
+        key : str
+            The candidate.
+
+        Returns
+        -------
+        dict
+        """
         opts = self.starts.get(key)
         return dict(opts[self.option(key)]) if opts else {}
 
-    def fit(self, keys):
-        """:class:`ScreenFit` of one candidate (``keys`` = ``(key,)``) or of the base alone
-        (``()``), with the base columns."""
+    def fit(self, keys: Sequence[str]) -> ScreenFit:
+        """One candidate (``keys`` = ``(key,)``) or the base alone (``()``), solved exactly.
+
+        Parameters
+        ----------
+        keys : sequence of str
+            At most one candidate.
+
+        Returns
+        -------
+        ScreenFit
+
+        Raises
+        ------
+        ValueError
+            More than one candidate.
+        """
         keys = tuple(sorted(set(keys)))
         if len(keys) > 1:
             raise ValueError("a screen scores one candidate at a time on its base")
@@ -151,8 +231,13 @@ class Screen:
                                           opts)
         return self._cache[keys]
 
-    def before(self):
-        """Gaps of the linear re-fit itself on the screened samples (no column)."""
+    def before(self) -> tuple:
+        """Gaps of the base prediction itself on the screened samples (no column).
+
+        Returns
+        -------
+        held_out, training : float
+        """
         return (float(np.sqrt(self.c["test"] / self.den["test"])),
                 float(np.sqrt(self.c["train"] / self.den["train"])))
 
@@ -201,8 +286,10 @@ def _slew_columns(cache, U, temp, rate, fs, ref, warm):
     return np.column_stack([up - U, dn - U])[warm:]
 
 
-def build_screen(setup, theta, delays=None, level_ref=None, dynamic_model=None, say=None,
-                 stages=None, base_fit=None):
+def build_screen(setup: "Setup", theta: np.ndarray | None, delays: Sequence[int] | None = None,
+                 level_ref: float | None = None, dynamic_model: bool = False,
+                 say: Callable[[str], None] | None = None, stages: dict | None = None,
+                 base_fit: Fitted | None = None) -> Screen:
     """The :class:`Screen` of every candidate in ``setup.effects`` around ``theta``.
 
     Parameters
@@ -246,7 +333,7 @@ def build_screen(setup, theta, delays=None, level_ref=None, dynamic_model=None, 
     centre_y = Y_all.mean(axis=0)
     half_y = np.maximum(0.5 * np.ptp(Y_all, axis=0), 1e-12)
     rates = stats["rate_max"] * np.asarray(SLEW_FRACTIONS)
-    cells = _creep_cells(fs) if "creep" in tried else None
+    cells = creep_cells(fs) if "creep" in tried else None
     duration = max(len(p.U) for p in setup.train) / fs
     lags = [t for t in DRIFT_LAGS_S if t <= 2 * duration] or [DRIFT_LAGS_S[0]]
     thresholds = pi_thresholds(stats)

@@ -26,8 +26,12 @@ is not a separate cause.
 Every gap is measured on the test records, every fit uses the training records only.
 """
 
+from __future__ import annotations
+
 import math
 import time
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 
@@ -40,6 +44,9 @@ from robrst.diagnose.polish import polish_residues
 from robrst.diagnose.screen import build_screen
 from robrst.diagnose.stiffness import fit_stiffness
 from robrst.diagnose.thermal import fit_thermal_dynamics, search_saturation
+
+if TYPE_CHECKING:
+    from robrst.diagnose.fit import Prepared
 
 __all__ = ["Setup", "Scored", "Explanation", "explain", "excess", "significant",
            "linear_with_offset", "refit_keys", "MIN_SHRINK", "MARGIN", "MAX_EFFECTS", "OFFSET",
@@ -67,7 +74,57 @@ FINAL_NFEV = 150         # an unconverged joint fit is run on up to this many ev
 
 @dataclass(frozen=True, eq=False)
 class Setup:
-    """Everything the candidate fits share (built once per diagnosis)."""
+    """Everything the candidate fits share (built once per diagnosis).
+
+    Parameters
+    ----------
+    fs : float
+        Sampling rate [Hz].
+    ref : float
+        The model's temperature [°C].
+    train : list of Prepared
+        Period-averaged training records (fitting).
+    train_full : list of Prepared
+        Full training records (training gap).
+    test : list of Prepared
+        Full test records (held-out gap).
+    test_records : list of Dataset
+        Test records (held-out gap normalisation).
+    train_records : list of Dataset
+        Training records.
+    lin : LinearPart
+        The user's model's corrections.
+    lin_modal : LinearPart
+        With per-mode gains (dynamic form of hysteresis).
+    stats : dict
+        Scales of the training data.
+    noise_sigma : float
+        Pooled noise level [µm].
+    plant : Plant or None
+        SISO Plant of the user's model (thermal_dynamics).
+    effects : tuple of str
+        Excited effects to try.
+    dynamic : bool
+        The dynamic form of hysteresis is possible.
+    delays : tuple of int
+        Searched delay per input.
+    saturation : list
+        Starting limits per input.
+    floor : float
+        The noise floor.
+    gap_before : float
+        Held-out gap of the model as given.
+    gap_before_train : float
+        Its training gap.
+    workers : int
+        Threads for the candidate fits.
+    stages : dict
+        Compiled effect stages of this diagnosis (built once, shared).
+    pinned, pinned_modal : tuple of int
+        Corrections of ``lin`` / ``lin_modal`` the training records do not excite (held).
+    train_cut, test_cut : list of Prepared, optional
+        The records cut to ``CUT_SAMPLES`` (from-rest ones) for screens and fits.
+    """
 
     fs: float
     ref: float
@@ -98,7 +155,34 @@ class Setup:
 
 @dataclass(frozen=True, eq=False)
 class Scored:
-    """A fitted candidate and its gaps (held-out and training)."""
+    """A fitted candidate and its gaps (held-out and training).
+
+    Parameters
+    ----------
+    name : str
+        The candidate.
+    fit : Fitted or ThermalFit
+        Its fit.
+    gap : float
+        Held-out NRMSE.
+    train_gap : float
+        Training NRMSE.
+    residuals : list of numpy.ndarray
+        Held-out residuals per test record.
+    fit_s : float
+        Wall time of the fit [s].
+    converged : bool
+        The solver stopped before its evaluation limit.
+    keys : tuple of str
+        The candidates it holds.
+    form : str
+        Of hysteresis: ``"input"`` (Bouc–Wen) or ``"prandtl_ishlinskii"``.
+
+    Attributes
+    ----------
+    effects : tuple of str
+        The fit's effects.
+    """
 
     name: str
     fit: object
@@ -111,13 +195,26 @@ class Scored:
     form: str = "input"     # hysteresis: "input" (Bouc–Wen) or "prandtl_ishlinskii"
 
     @property
-    def effects(self):
+    def effects(self) -> tuple:
+        """The candidates it holds."""
         return self.keys
 
 
 @dataclass(frozen=True)
 class Screened:
-    """A candidate scored by the screen only (no nonlinear fit)."""
+    """A candidate scored by the screen only (no nonlinear fit).
+
+    Parameters
+    ----------
+    name : str
+        The candidate.
+    gap, train_gap : float
+        Held-out and training NRMSE of its screen (on the screened samples).
+    params : dict
+        The screen's coefficients by column name.
+    fit_s : float
+        Wall time [s].
+    """
 
     name: str
     gap: float
@@ -128,7 +225,28 @@ class Screened:
 
 @dataclass(frozen=True, eq=False)
 class Explanation:
-    """What :func:`explain` found (see the module doc)."""
+    """What :func:`explain` found (see the module doc).
+
+    Parameters
+    ----------
+    linear : Scored
+        The linear re-fit.
+    singles : dict
+        ``{key: Scored or Screened}``: every candidate alone (fitted when it was, else
+        its screen).
+    steps : list
+        ``[(key, gap before, Scored)]`` in the order selected (credited effects only).
+    removal : dict
+        ``{key: held-out gap of the final set without it}``.
+    dropped : list
+        ``[(key, gap with, gap without)]``: selected, credited nothing, removed.
+    tie : tuple, optional
+        ``(key, alternative, gap, gap of the alternative)`` when neither is better.
+    alternatives : dict
+        ``{key: (alternative, Scored)}``: the best other candidate of the same step.
+    screen_rank : list
+        ``[(key, screened held-out gap)]``, best first.
+    """
 
     linear: Scored
     singles: dict          # key -> Scored (fitted alone) or Screened
@@ -140,17 +258,47 @@ class Explanation:
     screen_rank: list = field(default_factory=list)    # [(key, screen gap)] best first
 
 
-def excess(g, floor):
-    """Gap above the noise floor: ``sqrt(max(g^2 - floor^2, 0))``."""
+def excess(g: float, floor: float) -> float:
+    """Gap above the noise floor: ``sqrt(max(g^2 - floor^2, 0))``.
+
+    Parameters
+    ----------
+    g : float
+        A gap.
+    floor : float
+        The noise floor.
+
+    Returns
+    -------
+    float
+
+    Examples
+    --------
+    >>> from robrst.diagnose.select import excess
+    >>> excess(0.5, 0.3)
+    0.4
+    """
     return math.sqrt(max(g * g - floor * floor, 0.0))
 
 
-def significant(new, old, floor):
-    """Does a gap ``new`` explain enough of ``old`` (the 30 % bar and the margin)?"""
+def significant(new: float, old: float, floor: float) -> bool:
+    """Does a gap ``new`` explain enough of ``old`` (the 30 % bar and the margin)?
+
+    Parameters
+    ----------
+    new, old : float
+        Gaps with and without the candidate.
+    floor : float
+        The noise floor.
+
+    Returns
+    -------
+    bool
+    """
     return excess(new, floor) <= (1 - MIN_SHRINK) * excess(old, floor) and new * MARGIN <= old
 
 
-def score(setup, fit, t0, keys=(), form="input"):
+def _score(setup, fit, t0, keys=(), form="input"):
     res_te = [p.Y - fit.predict_prepared(p) for p in setup.test]
     res_tr = [p.Y - fit.predict_prepared(p) for p in setup.train_full]
     return Scored(name=fit.name, fit=fit, gap=signals.nrmse(setup.test_records, res_te),
@@ -164,8 +312,20 @@ def _chain(setup, effects):
     return ch
 
 
-def cut(records, n=CUT_SAMPLES):
-    """The first ``n`` samples of each from-rest record (periodic ones whole)."""
+def cut(records: Sequence[Prepared], n: int = CUT_SAMPLES) -> list:
+    """The first ``n`` samples of each from-rest record (periodic ones whole).
+
+    Parameters
+    ----------
+    records : sequence of Prepared
+        The records.
+    n : int
+        Samples kept.
+
+    Returns
+    -------
+    list of Prepared
+    """
     return [p if p.periodic or len(p.U) <= n else replace(
         p, U=p.U[:n], Y=p.Y[:n], temp=p.temp[:n]) for p in records]
 
@@ -187,7 +347,7 @@ def _fit(setup, name, effects, joint, dynamic=False, start=None, theta=None, max
                         curvature=curvature, mixing=mixing, pinned=pinned)
     if dynamic:
         fit = polish_residues(fit, setup.train, setup.noise_sigma)
-    return replace(score(setup, fit, t0, keys, form), converged=fit.n_eval < max_nfev)
+    return replace(_score(setup, fit, t0, keys, form), converged=fit.n_eval < max_nfev)
 
 
 def _start(scored):
@@ -205,8 +365,18 @@ def _start(scored):
     return out
 
 
-def linear_with_offset(setup):
-    """The linear re-fit with a constant output offset, fitted jointly (Scored)."""
+def linear_with_offset(setup: Setup) -> Scored:
+    """The linear re-fit with a constant output offset, fitted jointly.
+
+    Parameters
+    ----------
+    setup : Setup
+        The shared data.
+
+    Returns
+    -------
+    Scored
+    """
     return _fit(setup, f"linear+{OFFSET}", (), joint=True, offset=True, keys=(OFFSET,),
                 form="output")
 
@@ -215,13 +385,32 @@ def _name(keys):
     return "+".join(sorted(keys)) or "linear"
 
 
-def refit_keys(setup, keys, start=None, form=None, theta=None, max_nfev=40):
-    """The candidates ``keys`` fitted jointly with the linear corrections (Scored).
+def refit_keys(setup: Setup, keys: Sequence[str], start: dict | None = None,
+               form: str | None = None, theta: np.ndarray | None = None,
+               max_nfev: int = 40) -> Scored:
+    """The candidates ``keys`` fitted jointly with the linear corrections.
 
-    ``form`` of hysteresis: ``"input"`` (Bouc–Wen) or ``"prandtl_ishlinskii"``; ``None``
-    fits both and keeps the one that predicts the held-out records better (two models of
-    one mechanism: the choice does not change what is named).  ``theta`` (the
-    linear re-fit's corrections) is the linear part of the standalone fits.
+    Parameters
+    ----------
+    setup : Setup
+        The shared data.
+    keys : sequence of str
+        Candidates (effects, ``output_offset``, ``amplitude_dependent_dynamics``).
+    start : dict, optional
+        Starting values by parameter name; ``"form"`` the hysteresis form to fit first.
+    form : str, optional
+        Of hysteresis: ``"input"`` (Bouc–Wen) or ``"prandtl_ishlinskii"``; ``None`` fits
+        the screen's form first and the other when the first leaves more than
+        ``NEAR_FLOOR`` x the floor, keeping the one that predicts the held-out records
+        better (two models of one mechanism: the choice does not change what is named).
+    theta : numpy.ndarray, optional
+        The linear re-fit's corrections: a linear part of ``stiffness_nonlinearity``.
+    max_nfev : int
+        Evaluations of the solver.
+
+    Returns
+    -------
+    Scored
     """
     keys = tuple(sorted(set(keys)))
     start = dict(start or {})
@@ -247,7 +436,7 @@ def refit_keys(setup, keys, start=None, form=None, theta=None, max_nfev=40):
                                       if theta is not None else [])
             fit = min((fit_stiffness(setup.train, p, setup.fs, setup.ref, cache=setup.stages)
                        for p in plants), key=lambda f: f.train_cost)
-        return score(setup, fit, t0, keys)
+        return _score(setup, fit, t0, keys)
     chain = [k for k in keys if k in CHAIN]
     if "hysteresis" in keys:
         chain.append("hysteresis" if form == "input" else "pi_hysteresis")
@@ -295,8 +484,15 @@ def _compatible(chosen, key):
     return True
 
 
-def explain(setup, say):
+def explain(setup: Setup, say: Callable[[str], None]) -> Explanation:
     """Screen, select, credit and compare the candidates (see the module doc).
+
+    Parameters
+    ----------
+    setup : Setup
+        The shared data.
+    say : callable
+        Progress: one line of text per stage and fit.
 
     Returns
     -------

@@ -19,9 +19,16 @@ linearly across them: the gap, the noise floor and every fit then see the plant,
 the sensor fault, and the flagged share is reported (:func:`repair`).
 """
 
+from __future__ import annotations
+
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from robrst.data.dataset import Dataset
 
 __all__ = ["SensorFaults", "find_faults", "repair", "OUTLIER_Z", "MIN_RUN"]
 
@@ -33,7 +40,26 @@ MAX_SHARE = 0.02         # more than 2 % flagged: not isolated faults, leave the
 
 @dataclass(frozen=True)
 class SensorFaults:
-    """Faults found in one record: flagged samples and their kind."""
+    """Faults found in one record: flagged samples and their kind.
+
+    Parameters
+    ----------
+    name : str
+        The record.
+    outliers : numpy.ndarray
+        Sample indices of the outliers.
+    dropouts : tuple
+        ``((start, stop), ...)`` sample ranges of the dropouts.
+    n : int
+        Samples of the record.
+
+    Attributes
+    ----------
+    mask : numpy.ndarray
+        Every flagged sample.
+    count : int
+        How many.
+    """
 
     name: str
     outliers: np.ndarray     # sample indices
@@ -41,7 +67,8 @@ class SensorFaults:
     n: int
 
     @property
-    def mask(self):
+    def mask(self) -> np.ndarray:
+        """Every flagged sample (boolean, one per sample)."""
         m = np.zeros(self.n, bool)
         m[self.outliers] = True
         for a, b in self.dropouts:
@@ -49,7 +76,8 @@ class SensorFaults:
         return m
 
     @property
-    def count(self):
+    def count(self) -> int:
+        """How many samples are flagged."""
         return int(self.mask.sum())
 
 
@@ -65,8 +93,20 @@ def _runs(y, min_run):
     return out
 
 
-def find_faults(name, y, y_model):
-    """Outliers and dropouts of one output channel (see the module doc)."""
+def find_faults(name: str, y: np.ndarray, y_model: np.ndarray) -> SensorFaults:
+    """Outliers and dropouts of one output channel (see the module doc).
+
+    Parameters
+    ----------
+    name : str
+        The record.
+    y, y_model : numpy.ndarray
+        Measured and simulated outputs ``(N,)``.
+
+    Returns
+    -------
+    SensorFaults
+    """
     y = np.asarray(y, float)
     r = y - y_model
     n = r.size
@@ -90,7 +130,8 @@ def find_faults(name, y, y_model):
     return SensorFaults(name, np.flatnonzero(big), tuple(drops), n)
 
 
-def repair(records, models, fs):
+def repair(records: Sequence[Dataset], models: Sequence[np.ndarray],
+           fs: float) -> tuple[list, dict | None]:
     """Records with outliers and dropouts set aside, and what was found.
 
     Parameters

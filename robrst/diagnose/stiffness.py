@@ -9,13 +9,21 @@ the linear model as ``D(s)`` and the exact sensitivity of ``c``; a relative inpu
 fitted with it (the linear re-fit's gain absorbs part of a stiffness).
 """
 
+from __future__ import annotations
+
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy import optimize
 
 from robrst.diagnose.linear import parameter_std
 from robrst.diagnose.stages import cached_stage
+
+if TYPE_CHECKING:
+    from robrst.core.plant import Plant
+    from robrst.diagnose.fit import Prepared
 
 __all__ = ["StiffnessFit", "fit_stiffness", "NAMES"]
 
@@ -26,7 +34,27 @@ FD_GAIN = 1e-6
 
 @dataclass(frozen=True, eq=False)
 class StiffnessFit:
-    """Fitted cubic stiffness and input gain, and a predictor (interface of a joint fit)."""
+    """Fitted cubic stiffness and input gain, and a predictor (interface of a joint fit).
+
+    Parameters
+    ----------
+    name : str
+        ``"stiffness_nonlinearity"``.
+    stage : SensitivityStage
+        The twin's full step with the plant.
+    x : numpy.ndarray
+        ``(c [1/µm²], relative input gain)``.
+    std : numpy.ndarray
+        Their 1-sigma.
+    n_eval : int
+        Model evaluations.
+    train_cost : float
+        The final least-squares cost.
+    effects : tuple of str
+        ``("stiffness_nonlinearity",)``.
+    form : str
+        ``"input"``.
+    """
 
     name: str
     stage: object
@@ -37,7 +65,24 @@ class StiffnessFit:
     effects: tuple = ("stiffness_nonlinearity",)
     form: str = "input"
 
-    def run(self, p, x=None, jac=False):
+    def run(self, p: Prepared, x: np.ndarray | None = None,
+            jac: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
+        """Output of a prepared record and, if ``jac``, its derivatives ``(N, 2)``.
+
+        Parameters
+        ----------
+        p : Prepared
+            The record.
+        x : numpy.ndarray, optional
+            ``(c, gain)`` (default the fitted ones).
+        jac : bool
+            Also the derivatives (exact in ``c``, a forward difference in the gain).
+
+        Returns
+        -------
+        y : numpy.ndarray
+        J : numpy.ndarray or None
+        """
         x = self.x if x is None else x
         U, T = p.U[:, 0], p.temp
         if p.warm:
@@ -49,18 +94,46 @@ class StiffnessFit:
         J = np.column_stack([dy[:, 0], (yg - y) / FD_GAIN])
         return y[p.warm:], J[p.warm:]
 
-    def predict_prepared(self, p, x=None):
+    def predict_prepared(self, p: Prepared, x: np.ndarray | None = None) -> np.ndarray:
+        """Simulated outputs ``(N, 1)`` of a prepared record.
+
+        Parameters
+        ----------
+        p : Prepared
+            The record.
+        x : numpy.ndarray, optional
+            ``(c, gain)`` (default the fitted ones).
+
+        Returns
+        -------
+        numpy.ndarray
+        """
         return self.run(p, x)[0][:, None]
 
-    def params(self):
+    def params(self) -> dict:
+        """``{"stiffness_nonlinearity": (values, sigmas)}`` by parameter name.
+
+        Returns
+        -------
+        dict
+        """
         return {"stiffness_nonlinearity": (dict(zip(NAMES, map(float, self.x))),
                                            dict(zip(NAMES, map(float, self.std))))}
 
-    def linear_change(self):
+    def linear_change(self) -> tuple[dict, dict]:
+        """No linear corrections (the plant is fixed).
+
+        Returns
+        -------
+        values, sigmas : dict
+            Empty.
+        """
         return {}, {}
 
 
-def fit_stiffness(train, plant, fs, reference_C, max_nfev=25, start=(0.0, 0.0), cache=None):
+def fit_stiffness(train: Sequence[Prepared], plant: Plant, fs: float, reference_C: float,
+                  max_nfev: int = 25, start: Sequence[float] = (0.0, 0.0),
+                  cache: dict | None = None) -> StiffnessFit:
     """Fit the cubic stiffness and an input gain on prepared SISO training records.
 
     Parameters

@@ -10,8 +10,12 @@ parametric family (the per-kelvin laws then generate the temperatures) or on eve
 an explicit family; ``temperature_C`` keeps the single model at that temperature.
 """
 
+from __future__ import annotations
+
 import copy
+from collections.abc import Iterable, Sequence
 from dataclasses import replace
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -22,35 +26,98 @@ from robrst.problem.files import FAMILY_TABLES, parse_problem
 from robrst.studies.sweep.files import COEF, PLANT_PARAMS, problem_field
 from robrst.core.thermal import modal_form, thermal_polynomials
 
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    from robrst.problem.records import Problem
+    from robrst.studies.sweep.files import Ageing, Param
+
 __all__ = ["set_key", "apply_overrides", "split_values", "variant_problem", "transform_plant",
            "transform_family", "merge_documents", "check_plant_params"]
 
 
-def set_key(doc, path, value):
-    """Set ``doc[a][b]... = value`` for the key path ``(a, b, ...)`` (tables created)."""
+def set_key(doc: dict, path: Sequence[str], value: Any) -> None:
+    """Set ``doc[a][b][...] = value`` for the key path ``(a, b, ...)`` (tables created).
+
+    Parameters
+    ----------
+    doc : dict
+        The document, changed in place.
+    path : sequence of str
+        The key path.
+    value : object
+        The value set.
+
+    Examples
+    --------
+    >>> from robrst.studies.sweep.model import set_key
+    >>> doc = {}
+    >>> set_key(doc, ("specs", "Mu_max"), 120.0)
+    >>> doc
+    {'specs': {'Mu_max': 120.0}}
+    """
     node = doc
     for part in path[:-1]:
         node = node.setdefault(part, {})
     node[path[-1]] = value
 
 
-def apply_overrides(doc, overrides):
-    """A deep copy of ``doc`` with the ``(key path, value)`` pairs set."""
+def apply_overrides(doc: dict, overrides: Iterable[tuple[Sequence[str], Any]]) -> dict:
+    """A deep copy of ``doc`` with the ``(key path, value)`` pairs set.
+
+    Parameters
+    ----------
+    doc : dict
+        A problem document (not changed).
+    overrides : iterable of (key path, value)
+        The pairs to set.
+
+    Returns
+    -------
+    dict
+    """
     out = copy.deepcopy(doc)
     for path, value in overrides:
         set_key(out, path, copy.deepcopy(value))
     return out
 
 
-def merge_documents(base, doc):
-    """``base`` with the top-level tables of ``doc`` replacing its own (a fleet member)."""
+def merge_documents(base: dict, doc: dict) -> dict:
+    """``base`` with the top-level tables of ``doc`` replacing its own (a fleet member).
+
+    Parameters
+    ----------
+    base : dict
+        The base problem's document (not changed).
+    doc : dict
+        A fleet member's document.
+
+    Returns
+    -------
+    dict
+        A new document (a member's ``[plant]`` or ``[[family.models]]`` also drops the
+        base problem's family tables it would contradict).
+    """
     out = copy.deepcopy(base)
     out.update(copy.deepcopy(doc))
     return out
 
 
-def split_values(values):
-    """``(key-path values, plant-factor values)`` of one variant's ``{name: value}``."""
+def split_values(values: dict[str, float]) -> tuple[dict[str, float], dict[str, float]]:
+    """``(key-path values, plant-factor values)`` of one variant's ``{name: value}``.
+
+    Parameters
+    ----------
+    values : dict
+        ``{parameter name: value}`` of one variant.
+
+    Returns
+    -------
+    keys : dict
+        Values of problem-file key paths (``specs.Mu_max``).
+    plant : dict
+        Values of plant factors (``gain``, ``resonance``, ``A1``, ``temperature_C``, ...).
+    """
     plant = {k: v for k, v in values.items() if k in PLANT_PARAMS or COEF.match(k)}
     keys = {k: v for k, v in values.items() if k not in plant}
     return keys, plant
@@ -63,8 +130,28 @@ def _factors(plant_values, ageing):
             plant_values.get("damping", 1.0) * (1.0 + ageing.damping_per_year * age))
 
 
-def transform_plant(plant, plant_values, ageing):
-    """``plant`` with the coefficient, gain, resonance and damping factors of a variant."""
+def transform_plant(plant: Plant, plant_values: dict[str, float], ageing: Ageing) -> Plant:
+    """``plant`` with the coefficient, gain, resonance and damping factors of a variant.
+
+    Parameters
+    ----------
+    plant : Plant
+        A model of the base family.
+    plant_values : dict
+        The variant's plant factors (``gain``, ``resonance``, ``damping``, ``age_years``,
+        ``A1``, ``B0``, ...).
+    ageing : Ageing
+        The rates per year of ``age_years``.
+
+    Returns
+    -------
+    Plant
+
+    Raises
+    ------
+    SpecError
+        A factor that is not > 0, or a coefficient index the model does not have.
+    """
     B, A = plant.B.copy(), plant.A.copy()
     for k, v in plant_values.items():
         m = COEF.match(k)
@@ -87,8 +174,25 @@ def transform_plant(plant, plant_values, ageing):
     return out
 
 
-def transform_family(family, plant_values, ageing):
-    """The family of a variant (see the module docstring)."""
+def transform_family(family: PlantFamily, plant_values: dict[str, float],
+                     ageing: Ageing) -> PlantFamily:
+    """The family of a variant (see the module docstring).
+
+    Parameters
+    ----------
+    family : PlantFamily
+        The base problem's family.
+    plant_values : dict
+        The variant's plant factors (``temperature_C`` picks one model).
+    ageing : Ageing
+        The rates per year of ``age_years``.
+
+    Returns
+    -------
+    PlantFamily
+        Parametric families: the factors act on the nominal model and the per-kelvin laws
+        generate the temperatures; explicit ones: the factors act on every model.
+    """
     temps = [m.temperature_C for m in family.models]
     T = plant_values.get("temperature_C")
     if family.thermal is not None:
@@ -102,8 +206,25 @@ def transform_family(family, plant_values, ageing):
     return fam if T is None else PlantFamily(models=(fam.at(T),), reference=0)
 
 
-def check_plant_params(params, family, path):
-    """Refuse plant factors the base family cannot take (one line naming the parameter)."""
+def check_plant_params(params: Sequence[Param], family: PlantFamily, path: str | Path) -> None:
+    """Refuse plant factors the base family cannot take (one line naming the parameter).
+
+    Parameters
+    ----------
+    params : sequence of Param
+        The sweep's parameters.
+    family : PlantFamily
+        The base problem's family.
+    path : str or pathlib.Path
+        The sweep file, named in errors.
+
+    Raises
+    ------
+    SpecError
+        ``resonance`` or ``damping`` without a complex pole pair, a per-kelvin law on a
+        family without one, a coefficient index out of range, a temperature outside a
+        family without a law.
+    """
     nominal = family.nominal if family.thermal is not None else family.reference_model
     for p in params:
         name = p.name
@@ -127,7 +248,8 @@ def check_plant_params(params, family, path):
                                 " °C (a random temperature needs lo and hi there)")
 
 
-def variant_problem(base, doc, path, values, ageing):
+def variant_problem(base: Problem, doc: dict, path: str | Path, values: dict[str, float],
+                    ageing: Ageing) -> Problem:
     """The :class:`~robrst.problem.records.Problem` of one variant.
 
     Parameters
@@ -136,15 +258,21 @@ def variant_problem(base, doc, path, values, ageing):
         The base problem (reused when no key-path value changes the document).
     doc : dict
         The base problem's document (``[set]`` applied).
-    path : str
+    path : str or pathlib.Path
         The base problem file (named in errors).
     values : dict
         ``{parameter name: value}``.
     ageing : Ageing
+        The rates per year of ``age_years``.
 
     Returns
     -------
     Problem
+
+    Raises
+    ------
+    SpecError
+        A variant the problem file's rules or the plant factors refuse.
     """
     keys, plant = split_values(values)
     problem = base
