@@ -189,7 +189,7 @@ def diagnose(train: Sequence[Dataset], test: Sequence[Dataset], plant: Plant | M
     effects : sequence of str
         Effects to try (default all of :data:`EFFECTS`).
     progress : callable, optional
-        Called with one line of text per stage.
+        Called with one line of text per stage and fit, prefixed with the seconds elapsed.
     workers : int
         Candidate fits run in this many threads.
 
@@ -203,7 +203,8 @@ def diagnose(train: Sequence[Dataset], test: Sequence[Dataset], plant: Plant | M
         Bad record sets (named); unknown effects.
     """
     t_start = time.perf_counter()
-    say = progress or (lambda m: None)
+    say = (lambda m: None) if progress is None else (     # elapsed time on every line
+        lambda m: progress(f"[{time.perf_counter() - t_start:6.1f} s] {m}"))
     plant = plant or paper_plant()
     model = as_modal(plant)
     fs = check_records(train, test, model.n_in, model.n_out)

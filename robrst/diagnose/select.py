@@ -536,7 +536,9 @@ def explain(setup: Setup, say: Callable[[str], None]) -> Explanation:
         return {}
 
     alone = {k: screened((k,)) for k in keys}
-    alone = {k: v for k, v in alone.items() if v is not None}
+    # a candidate without columns (a delay searched at 0 samples) is the base itself
+    nothing = screens[0].fit(())
+    alone = {k: (v if v is not None else nothing) for k, v in alone.items()}
     rank0 = sorted(alone, key=lambda k: alone[k].gap)
     for k in rank0:
         say(f"  {k:<30} screen: held-out gap {alone[k].gap:.4g}"
