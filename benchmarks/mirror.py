@@ -38,7 +38,12 @@ from robrst.cli import main as robrst
 
 PUBLISHED = {"linear_100mV_at_300mV": 0.3271, "lfr_all_levels_at_300mV": 0.0419,
              "linear_300mV_at_300mV": 0.0563}
-DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "fsm"
+# the full set (21 MB) where it lies beside the checkout; otherwise the project's compact copy
+# (tests/data/fsm_compact: one realization of the 100 and 200 mV training records and of the
+# 300 mV test record, what --quick reads)
+FULL_DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "fsm"
+QUICK_DATA = Path(__file__).resolve().parents[1] / "tests" / "data" / "fsm_compact"
+DATA = FULL_DATA if (FULL_DATA / "u_100mV_train.npy").is_file() else QUICK_DATA
 HEADLINE = ((100, 200), 300)
 SPLITS = (HEADLINE, ((100, 300), 200), ((200, 300), 100), ((100,), 300), ((100,), 200),
           ((200,), 300))

@@ -48,8 +48,9 @@ from robrst.diagnose.select import (DYNAMIC, OFFSET, Setup, cut, explain, linear
                                     significant)
 from robrst.diagnose.thermal import max_delay, search_delay
 from robrst.diagnose.verdict import NEAR_RATIO, build, decide, unmodelled
-from robrst.base.errors import DataError
-from robrst.core.plant import paper_plant
+from robrst.base.errors import DataError, SpecError
+from robrst.core.plant import Plant, as_plant, paper_plant
+from robrst.identify.modal import ModalModel
 from robrst.base.threads import one_blas_thread
 
 if TYPE_CHECKING:
@@ -59,7 +60,8 @@ if TYPE_CHECKING:
     from robrst.identify.modal import ModalModel
 
 __all__ = ["Diagnosis", "EffectScore", "diagnose", "check_records", "decompose",
-           "offset_finding", "skipped_effects", "MIN_SAMPLES", "NONE_RATIO"]
+           "offset_finding", "polynomial_plant", "skipped_effects", "MIN_SAMPLES",
+           "NONE_RATIO"]
 
 MIN_SAMPLES = 500        # per record
 NONE_RATIO = 1.25        # gap <= 1.25 x noise floor: nothing to explain
@@ -122,8 +124,37 @@ def _name(d, i):
     return d.source or f"record{i}"
 
 
+def polynomial_plant(plant: object, model: ModalModel) -> Plant | None:
+    """The SISO :class:`~robrst.core.plant.Plant` of the model under diagnosis, or ``None``.
+
+    ``thermal_dynamics`` runs the twin's full step, whose linear part is ``B(s)/A(s)``: a
+    :class:`~robrst.identify.modal.ModalModel` (a model file of ``robrst identify``) is
+    expanded (:meth:`~robrst.identify.modal.ModalModel.channel`); a model of several inputs
+    or outputs, or one whose expanded coefficients overflow, has none.
+
+    Parameters
+    ----------
+    plant : Plant or ModalModel
+        The model as given.
+    model : ModalModel
+        Its modal form.
+
+    Returns
+    -------
+    Plant or None
+    """
+    if isinstance(plant, Plant):
+        return plant
+    if (model.n_in, model.n_out) != (1, 1):
+        return None
+    try:
+        return model.channel(0, 0)
+    except SpecError:
+        return None
+
+
 def skipped_effects(train: Sequence[Dataset], test: Sequence[Dataset], effects: Sequence[str],
-                    model: ModalModel) -> dict:
+                    model: ModalModel, polynomial: bool = True) -> dict:
     """Effects not tried, with the reason.
 
     Parameters
@@ -134,12 +165,15 @@ def skipped_effects(train: Sequence[Dataset], test: Sequence[Dataset], effects: 
         The effects asked for.
     model : ModalModel
         The model under diagnosis.
+    polynomial : bool
+        Whether the model has SISO polynomials ``B(s)``, ``A(s)`` (:func:`polynomial_plant`):
+        ``thermal_dynamics`` and ``stiffness_nonlinearity`` run the twin's step on them.
 
     Returns
     -------
     dict
-        ``{effect: reason}``: temperature not excited, one input and output only, several
-        only, or (amplitude-dependent dynamics) not periodic at two training levels.
+        ``{effect: reason}``: temperature not excited, one input and output only (or
+        polynomials that overflow), several only, or (amplitude-dependent dynamics) not periodic at two training levels.
     """
     out = {}
     temps = [d.temp for d in train if d.temp is not None]
@@ -156,6 +190,9 @@ def skipped_effects(train: Sequence[Dataset], test: Sequence[Dataset], effects: 
             out[e] = "several inputs or outputs only"
         elif e == DYNAMIC and not _levels_ok(train, test):
             out[e] = "needs periodic records at two or more training levels"
+        elif e in ("thermal_dynamics", "stiffness_nonlinearity") and not polynomial:
+            out[e] = ("the model's polynomials B(s), A(s) overflow float64 (its order is too"
+                      " high for the twin's linear step)")
     return out
 
 
@@ -180,7 +217,7 @@ def diagnose(train: Sequence[Dataset], test: Sequence[Dataset], plant: Plant | M
         (every reported gap is measured on them).  Same sampling rate and channels;
         ``u`` is the commanded input (open or closed loop).  Periodic records are
         simulated in steady state, the others from rest.
-    plant : Plant or ModalModel, optional
+    plant : Plant, ModalModel or control.TransferFunction/StateSpace, optional
         The simulation model's linear dynamics (default: the paper's D(s), eq. 4);
         a :class:`~robrst.identify.modal.ModalModel` may have several inputs/outputs.
     reference_C : float, optional
@@ -205,7 +242,8 @@ def diagnose(train: Sequence[Dataset], test: Sequence[Dataset], plant: Plant | M
     t_start = time.perf_counter()
     say = (lambda m: None) if progress is None else (     # elapsed time on every line
         lambda m: progress(f"[{time.perf_counter() - t_start:6.1f} s] {m}"))
-    plant = plant or paper_plant()
+    plant = paper_plant() if plant is None else (
+        plant if isinstance(plant, ModalModel) else as_plant(plant))
     model = as_modal(plant)
     fs = check_records(train, test, model.n_in, model.n_out)
     ref = reference_C if reference_C is not None else (model.temperature_C or 28.0)
@@ -260,7 +298,8 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
             "per_record": per_record, "model": model, "plant": plant, "t_start": t_start}
     traces = {"names": names, "records": all_recs, "base_residuals": base_res,
               "psd_f": f, "psd": P, "noise_psd": level}
-    skipped = skipped_effects(train, test, effects, model)
+    siso = polynomial_plant(plant, model)
+    skipped = skipped_effects(train, test, effects, model, siso is not None)
     tried = tuple(e for e in effects if e not in skipped)
     if not _excited(train) or not _excited(test):
         which = "training" if not _excited(train) else "test"
@@ -285,7 +324,7 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
     setup = Setup(fs=fs, ref=ref, train=train_p, train_full=preps[:n_tr], test=preps[n_tr:],
                   test_records=test, train_records=train, lin=lin,
                   lin_modal=lin_modal, stats=summary(train),
-                  noise_sigma=sigma, plant=plant if (model.n_in, model.n_out) == (1, 1) else None,
+                  noise_sigma=sigma, plant=siso,
                   effects=tried + (OFFSET,), dynamic=DYNAMIC in tried,
                   delays=(search_delay(train_p, lin, max_delay(fs)) if "delay" in tried
                           else (0,) * model.n_in),

@@ -9,8 +9,12 @@ same schema (:func:`schema_markdown`).  Built-in problem files ship with the pac
 import os
 from pathlib import Path
 
+import numpy as np
+
 from robrst.base import resources
 from robrst.base.errors import SpecError
+from robrst.base.modelformat import read_model_table
+from robrst.core.lti import modal_polynomials
 from robrst.core.family import PlantFamily, ThermalCoefficients, explicit_family, parametric_family
 from robrst.core.plant import Plant, named_plant
 from robrst.problem.records import (AUX_MIN_FACTOR, HOMOTOPIES, INITS, METHODS, OBJECTIVES,
@@ -20,7 +24,7 @@ from robrst.problem.checks import (MAX_RATE, MIN_RATE, MIN_RATE_HZ, check_combin
                               check_pairs, check_rates, pole_spec)
 
 __all__ = ["load_problem", "parse_problem", "resolve_problem_path", "SCHEMA", "schema_markdown",
-           "FAMILY_TABLES"]
+           "FAMILY_TABLES", "model_document"]
 
 TEMP = dict(lo=-100.0, hi=500.0)      # plausible temperatures [°C]
 BAND = dict(positive=True, length=2)  # [lo, hi] pairs
@@ -213,6 +217,31 @@ def _same_degrees(path, models):
                             " every model needs the same degrees")
 
 
+PLANT_IN_FAMILY_RTOL = 1e-9   # [plant] beside [[family.models]]: the model at its temperature
+
+
+def _check_plant_in_family(path, nominal, family):
+    """With ``[[family.models]]`` the models are the family's: a ``[plant]`` beside them is
+    not used, so it must be the family's model at its temperature (as ``robrst identify``
+    writes it); a different one would be ignored silently."""
+    from robrst.core.poly import rel_coef_error
+
+    lo, hi = family.range_C
+    T = nominal.temperature_C
+    why = ("[[family.models]] define the models and [plant] is not used beside them: remove"
+           " [plant], or give it as the family's model at its temperature")
+    if not lo <= T <= hi:
+        raise key_error(path, ("plant", "temperature_C"), f"{T:g} °C is outside the models'"
+                        f" range [{lo:g}, {hi:g}] °C; {why}")
+    m = family.at(T)
+    same = len(m.A) == len(nominal.A) and len(m.B) == len(nominal.B) and max(
+        rel_coef_error(nominal.A, m.A), rel_coef_error(nominal.B, m.B)
+    ) <= PLANT_IN_FAMILY_RTOL
+    if not same:
+        raise key_error(path, ("plant",), f"differs from the family's model at {T:g} °C"
+                        f" (B = {list(m.B)}, A = {list(m.A)}); {why}")
+
+
 def _family(path, f, nominal):
     """The family; no ``[plant]``: reference at ``reference_C``, default the coldest model."""
     if f is None:
@@ -270,6 +299,57 @@ def _check_compare_with(path, solver):
                         ) from None
 
 
+def model_document(path: str | os.PathLike, data: dict) -> dict:
+    """The problem document of a model file of ``robrst identify`` (``[model]``).
+
+    One input and one output: its ``[[model.at]]`` become ``[plant]`` (the first, lowest
+    temperature: the reference) and, for several temperatures, an explicit ``[family]``,
+    as ``robrst identify`` writes a problem file; the design tables the file carries
+    (:data:`robrst.base.modelformat.DESIGN_TABLES`) are kept.
+
+    Parameters
+    ----------
+    path : str or Path
+        Named in every error.
+    data : dict
+        The parsed model file.
+
+    Returns
+    -------
+    dict
+        A problem document (:func:`parse_problem` takes it).
+
+    Raises
+    ------
+    SpecError
+        Naming the file and the key: a bad ``[model]`` table, several inputs or outputs,
+        ``[plant]`` or ``[family]`` beside it, an order whose expanded polynomials overflow.
+    """
+    table = read_model_table(path, data, design_tables=True)
+    if (table.inputs, table.outputs) != (1, 1):
+        raise key_error(path, ("model",), f"a model of {table.inputs} input(s) and"
+                        f" {table.outputs} output(s); a problem needs one input and one"
+                        " output (robrst identify --channel I,J writes the problem file of"
+                        " one channel)")
+    polys = []
+    for n, at in enumerate(table.at):
+        B, A = modal_polynomials(at.poles, at.residues[:, 0, 0], at.D[0, 0])
+        if not (np.all(np.isfinite(A)) and np.all(np.isfinite(B))):
+            raise key_error(path, ("model", "at", str(n)), f"its expanded polynomials B(s),"
+                            f" A(s) of order {len(A) - 1} overflow float64; a design needs"
+                            " them (identify a lower order)")
+        polys.append((B.tolist(), A.tolist(), at.temperature_C))
+    doc = {k: v for k, v in data.items() if k != "model"}
+    B, A, T0 = polys[0]
+    doc["plant"] = {"B": B, "A": A, "source": "model file (robrst identify)"}
+    if T0 is not None:
+        doc["plant"]["temperature_C"] = T0
+    if len(polys) > 1:
+        doc["family"] = {"reference_C": T0, "models": [
+            {"temperature_C": T, "B": B, "A": A} for B, A, T in polys]}
+    return doc
+
+
 def parse_problem(data: dict, path: str | Path = "<problem>", compare: bool = True) -> Problem:
     """Validate a parsed TOML document and build the :class:`~robrst.problem.records.Problem`.
 
@@ -291,10 +371,14 @@ def parse_problem(data: dict, path: str | Path = "<problem>", compare: bool = Tr
     SpecError
         Naming the file and the key path of the first problem found.
     """
+    if isinstance(data, dict) and "model" in data:    # a model file of robrst identify
+        data = model_document(path, data)
     v = validate(path, data, SCHEMA)
     explicit = v["plant"] is None and v["family"] is not None and v["family"]["models"]
     nominal = None if explicit else _plant(path, v["plant"])
     family = _family(path, v["family"], nominal)
+    if nominal is not None and v["family"] is not None and v["family"]["models"]:
+        _check_plant_in_family(path, nominal, family)
     poles = pole_spec(path, v["poles"])
     ctrl = ControllerStructure(**_table(path, v, "controller"))
     specs = Specs(**_table(path, v, "specs"))
