@@ -6,7 +6,10 @@ versus temperature, the plant family's coefficients), ``hysteresis`` (Bouc–Wen
 Hammerstein), ``creep`` (bank of first-order cells, log law growing with
 temperature), ``thermal_drift`` (lagged, saturating, hysteretic in temperature),
 ``delay``, ``saturation`` and ``slew`` (amplifier), ``noise`` and ``quantization``
-(sensor).
+(sensor); and, off in the paper's actuator, ``input_nonlinearity`` (a dead zone and a
+polynomial on the drive), ``output_nonlinearity`` (the sensor's curvature),
+``stiffness_nonlinearity`` (a Duffing-type cubic stiffness of the structure) and
+``pi_hysteresis`` (Prandtl–Ishlinskii: a weighted sum of play operators).
 """
 
 from __future__ import annotations
@@ -39,7 +42,10 @@ RK4_STEP = 0.05
 MAX_SUBSTEPS = 64
 
 EFFECTS = ("thermal_dynamics", "hysteresis", "creep", "thermal_drift", "delay", "saturation",
-           "slew", "noise", "quantization")
+           "slew", "noise", "quantization", "input_nonlinearity", "output_nonlinearity",
+           "stiffness_nonlinearity", "pi_hysteresis")
+
+_OFF = Field("bool", False, "switch the effect on/off (off in the paper's actuator)")
 
 _ON = Field("bool", True, "switch the effect on/off")
 _SRC = Field("str", "", "")
@@ -94,6 +100,8 @@ TWIN_SCHEMA = {
                    "source": _SRC},
     "slew": {"enabled": _ON,
              "V_per_s": Field("number", 6.0e4, "slew-rate limit [V/s]", positive=True),
+             "V_per_s_down": Field("number", None, "falling slew-rate limit [V/s] (default:"
+                                   " V_per_s, a symmetric limit)", positive=True),
              "source": _SRC},
     "noise": {"enabled": _ON,
               "sigma_um": Field("number", 0.005, "sensor noise std [µm]", lo=0.0),
@@ -101,6 +109,33 @@ TWIN_SCHEMA = {
     "quantization": {"enabled": _ON,
                      "step_um": Field("number", 0.0015, "sensor LSB [µm]", positive=True),
                      "source": _SRC},
+    # effects beyond the paper's actuator (off by default)
+    "input_nonlinearity": {
+        "enabled": _OFF,
+        "dead_zone_V": Field("number", 5.0, "half width of a dead zone about center_V [V]",
+                             lo=0.0),
+        "center_V": Field("number", 0.0, "centre of the dead zone and of the polynomial [V]"),
+        "quadratic_per_V": Field("number", 0.0, "v += quadratic (u - center)^2 [1/V]"),
+        "cubic_per_V2": Field("number", 0.0, "v += cubic (u - center)^3 [1/V^2]"),
+        "source": _SRC},
+    "output_nonlinearity": {
+        "enabled": _OFF,
+        "center_um": Field("number", 0.0, "centre of the sensor's polynomial [µm]"),
+        "quadratic_per_um": Field("number", 0.002, "y += quadratic (y - center)^2 [1/µm]"),
+        "cubic_per_um2": Field("number", 0.0, "y += cubic (y - center)^3 [1/µm^2]"),
+        "source": _SRC},
+    "stiffness_nonlinearity": {
+        "enabled": _OFF,
+        "cubic_per_um2": Field("number", 2e-6, "Duffing: stiffness k (1 + cubic y^2) of the"
+                               " structure, y from rest [1/µm^2]"),
+        "source": _SRC},
+    "pi_hysteresis": {
+        "enabled": _OFF,
+        "thresholds_V": Field("numbers", (5.0, 15.0, 30.0, 50.0), "play thresholds r_i [V]",
+                              lo=0.0),
+        "weights": Field("numbers", (0.06, 0.05, 0.04, 0.03),
+                         "v = u + sum w_i (play_{r_i}(u) - u)"),
+        "source": _SRC},
 }
 DEFAULT_RATE_HZ = 20000.0
 
@@ -389,6 +424,10 @@ def parse_twin(data: dict, path: str = "<twin>", plant_loader: object = None) ->
                         " |Gamma| <= B (bounded, passive loops)")
     if not h["slope_range_V"][0] < h["slope_range_V"][1]:
         raise key_error(path, ("hysteresis", "slope_range_V"), "expected [lo, hi] with lo < hi")
+    pi = effects["pi_hysteresis"]
+    if len(pi["thresholds_V"]) != len(pi["weights"]) or not pi["weights"]:
+        raise key_error(path, ("pi_hysteresis", "weights"), "expected one weight per threshold"
+                        f" ({len(pi['thresholds_V'])} thresholds, {len(pi['weights'])} weights)")
     d = effects["thermal_drift"]
     if d["B"] + d["Gamma"] <= 0 or abs(d["Gamma"]) > d["B"] + 1e-15:
         raise key_error(path, ("thermal_drift",), "needs B + Gamma > 0 and |Gamma| <= B")
