@@ -74,8 +74,8 @@ def plain(value: Any) -> Any:
 def comment_text(text: str) -> str:
     """``text`` safe on one ``#`` comment line.
 
-    Control characters are shown escaped (``\\n`` as the two characters ``\\`` ``n``),
-    undecodable bytes of a file name as U+FFFD.
+    Control characters are shown as Python escapes (a line break as a backslash and
+    ``n``), undecodable bytes of a file name as U+FFFD.
 
     Parameters
     ----------
@@ -133,7 +133,7 @@ def document(header: Iterable[str] = ()) -> tomlkit.TOMLDocument:
 
 
 def inline(mapping: Mapping[str, Any]) -> tomlkit.items.InlineTable:
-    """An inline table ``{ key = value, ... }`` (spaced inside its braces, as people write).
+    """An inline table, spaced inside its braces as people write it: ``{ a = 1, b = 2 }``.
 
     Parameters
     ----------
