@@ -121,10 +121,9 @@ def companion_monic(ns: ArrayLike, ds: ArrayLike,
     b = np.zeros(n + 1)
     b[n + 1 - len(ns):] = ns
     d = b[0]
-    A = np.zeros((n, n))
+    A = np.eye(n, k=-1)
     if n:
         A[0, :] = -ds[1:]
-        A[np.arange(1, n), np.arange(n - 1)] = 1.0
     B = np.zeros((n, 1))
     if n:
         B[0, 0] = 1.0
