@@ -33,13 +33,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import tomlkit
-
 from robrst import __version__
 from robrst.base.errors import OutputError, SpecError
 from robrst.base.fileio import atomic_write_text, check_file_target
 from robrst.base.schema import load_toml
-from robrst.base.tomlwrite import document, inline, plain
 
 if TYPE_CHECKING:
     from robrst.design import DesignResult
@@ -187,6 +184,10 @@ def write_golden(result: DesignResult | dict, path: str | Path, rtol: float = DE
     if path.exists() and (path.is_dir() or not path.read_text(errors="replace").startswith(MARKER)):
         raise OutputError(f"{path}: exists and is not a robrst golden (it does not start with"
                           f" {MARKER!r}); refusing to overwrite it")
+    import tomlkit   # noqa: PLC0415  (only writing a golden needs it: no command's start pays)
+
+    from robrst.base.tomlwrite import document, inline, plain   # noqa: PLC0415
+
     g = golden_figures(result)
     doc = document([
         f"{MARKER[2:]} for problem {json.dumps(g['problem'])}, written by robrst {__version__}.",
