@@ -25,7 +25,7 @@ from robrst.core.peaks import peak_gain, peak_gains_many
 from robrst.core.interval import distance_to_instability_many
 from robrst.problem.records import PEAK_SPECS
 from robrst.core.rst import closed_loop
-from robrst.core.sampled import sampled_plant, unwarp, warp
+from robrst.core.sampled import sampled_plant, unwarp, warp_band
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -198,13 +198,13 @@ class _Loop:
         self.bands = bands = []        # frequency-limited peaks, computed with the global ones
         if specs.T_resonance_max is not None:
             lo, hi = (2 * np.pi * f for f in specs.resonance_band_hz)
-            if fs is not None:
-                lo, hi = (warp(min(lo, 0.999 * np.pi * fs), fs),
-                          warp(min(hi, 0.999 * np.pi * fs), fs))
+            if fs is not None:        # folded above Nyquist; Nyquist itself is nu = inf
+                lo, hi = warp_band(lo, hi, fs)
             bands.append((list(PEAK_SPECS).index("T"), (float(lo), float(hi))))
         if specs.Mu_hf_max is not None:   # |U| above a corner frequency (up to inf / Nyquist)
             lo = 2 * np.pi * specs.Mu_hf_above_hz
-            lo = lo if fs is None else warp(min(lo, 0.999 * np.pi * fs), fs)
+            if fs is not None:        # up to Nyquist (nu = inf) included
+                lo = warp_band(min(lo, np.pi * fs), np.pi * fs, fs)[0]
             bands.append((list(PEAK_SPECS).index("U"), (float(lo), np.inf)))
 
     def phys(self, w):

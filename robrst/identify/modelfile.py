@@ -38,7 +38,7 @@ import numpy as np
 import tomlkit
 
 from robrst.base.errors import SpecError
-from robrst.base.fileio import atomic_write_text, check_file_target
+from robrst.base.fileio import atomic_write_text, check_file_target, peek_text, read_utf8
 from robrst.base.tomlwrite import comment_text, document, plain
 from robrst.identify.modal import ModalModel
 from robrst.base.modelformat import FORMAT, read_model_table
@@ -322,10 +322,7 @@ def check_target(path: str | Path) -> Path:
                         f" {path / 'model.toml'})")
     check_file_target(path)
     if path.exists():
-        try:
-            first = path.read_text(encoding="utf-8").splitlines()[:1]
-        except (OSError, UnicodeDecodeError):
-            first = []
+        first = (peek_text(path) or "").splitlines()[:1]
         if not first or not first[0].startswith(MARKER):
             raise SpecError(f"{path}: exists and was not written by robrst identify; not"
                             " overwriting it (choose another --out)")
@@ -420,10 +417,9 @@ def read_model_data(path: Path) -> dict:
         An unreadable file or invalid TOML.
     """
     path = Path(path)
+    text = read_utf8(path, "model file", "TOML", SpecError)
     try:
-        return tomllib.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise SpecError(f"{path}: cannot read model file ({exc.strerror})") from None
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SpecError(f"{path}: invalid TOML ({exc})") from None
 

@@ -217,6 +217,31 @@ def _same_degrees(path, models):
                             " every model needs the same degrees")
 
 
+PLANT_IN_FAMILY_RTOL = 1e-9   # [plant] beside [[family.models]]: the model at its temperature
+
+
+def _check_plant_in_family(path, nominal, family):
+    """With ``[[family.models]]`` the models are the family's: a ``[plant]`` beside them is
+    not used, so it must be the family's model at its temperature (as ``robrst identify``
+    writes it); a different one would be ignored silently."""
+    from robrst.core.poly import rel_coef_error
+
+    lo, hi = family.range_C
+    T = nominal.temperature_C
+    why = ("[[family.models]] define the models and [plant] is not used beside them: remove"
+           " [plant], or give it as the family's model at its temperature")
+    if not lo <= T <= hi:
+        raise key_error(path, ("plant", "temperature_C"), f"{T:g} °C is outside the models'"
+                        f" range [{lo:g}, {hi:g}] °C; {why}")
+    m = family.at(T)
+    same = len(m.A) == len(nominal.A) and len(m.B) == len(nominal.B) and max(
+        rel_coef_error(nominal.A, m.A), rel_coef_error(nominal.B, m.B)
+    ) <= PLANT_IN_FAMILY_RTOL
+    if not same:
+        raise key_error(path, ("plant",), f"differs from the family's model at {T:g} °C"
+                        f" (B = {list(m.B)}, A = {list(m.A)}); {why}")
+
+
 def _family(path, f, nominal):
     """The family; no ``[plant]``: reference at ``reference_C``, default the coldest model."""
     if f is None:
@@ -352,6 +377,8 @@ def parse_problem(data: dict, path: str | Path = "<problem>", compare: bool = Tr
     explicit = v["plant"] is None and v["family"] is not None and v["family"]["models"]
     nominal = None if explicit else _plant(path, v["plant"])
     family = _family(path, v["family"], nominal)
+    if nominal is not None and v["family"] is not None and v["family"]["models"]:
+        _check_plant_in_family(path, nominal, family)
     poles = pole_spec(path, v["poles"])
     ctrl = ControllerStructure(**_table(path, v, "controller"))
     specs = Specs(**_table(path, v, "specs"))

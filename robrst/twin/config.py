@@ -24,7 +24,19 @@ from robrst.base.schema import Field, key_error, load_toml, validate
 if TYPE_CHECKING:
     from pathlib import Path
 
-__all__ = ["EFFECTS", "TWIN_SCHEMA", "TwinConfig", "load_twin", "parse_twin", "default_twin"]
+__all__ = ["EFFECTS", "TWIN_SCHEMA", "TwinConfig", "load_twin", "parse_twin", "default_twin",
+           "run_samples", "min_sample_rate_hz", "MAX_RUN_SAMPLES", "MAX_SUBSTEPS", "RK4_STEP"]
+
+# samples of one simulated run (a scenario's profile): 5e7 is 400 MB per signal, 42 min at
+# the paper's 20 kHz (its longest experiment, Fig. 2, is 9 min); a twin at 1e8 Hz asked
+# for 2.4e10 (179 GiB)
+MAX_RUN_SAMPLES = 50_000_000
+# RK4 substeps per sample of the twin's linear part (robrst.twin.model.substeps): each at a
+# scaled step w0 dt / n <= RK4_STEP; the step is unrolled in the generated C, and 64
+# substeps of an order-4 plant compile in seconds (the 42,749 of the paper's plant at 1 Hz
+# made a 50 MB file gcc did not finish)
+RK4_STEP = 0.05
+MAX_SUBSTEPS = 64
 
 EFFECTS = ("thermal_dynamics", "hysteresis", "creep", "thermal_drift", "delay", "saturation",
            "slew", "noise", "quantization")
@@ -39,8 +51,9 @@ TWIN_SCHEMA = {
                        " relative to the twin file); with a file, the effects whose tables"
                        " the twin file leaves out are off"),
         "sample_rate_hz": Field("number", None, "simulation and control sampling rate [Hz]"
-                                " (default 20000)", positive=True, hi=1e8),
-        "fs_hz": Field("number", None, "older name of sample_rate_hz", positive=True, hi=1e8),
+                                " (default 20000; at least what the plant's RK4 steps need)",
+                                lo=1e3, hi=1e6),
+        "fs_hz": Field("number", None, "older name of sample_rate_hz", lo=1e3, hi=1e6),
         "reference_C": Field("number", 28.0, "temperature of the nominal model [°C]",
                              lo=-100.0, hi=500.0),
         "source": Field("str", "", "where the defaults come from"),
@@ -236,6 +249,68 @@ class TwinConfig:
         return 1.0 / self.sample_rate_hz
 
 
+def min_sample_rate_hz(w0: float) -> float:
+    """The slowest rate [Hz] at which a plant of natural scale ``w0`` [rad/s] needs at most
+    :data:`MAX_SUBSTEPS` RK4 substeps per sample (:func:`robrst.twin.model.substeps`).
+
+    Parameters
+    ----------
+    w0 : float
+        The plant's natural scale [rad/s].
+
+    Returns
+    -------
+    float
+
+    Examples
+    --------
+    >>> round(min_sample_rate_hz(2137.4), 1)      # the paper's plant
+    667.9
+    """
+    return float(w0) / (RK4_STEP * MAX_SUBSTEPS)
+
+
+def _check_rate(path, key, rate, plant):
+    """Refuse a rate at which the plant's RK4 step would need more substeps per sample than
+    the generated C can hold (:func:`min_sample_rate_hz`)."""
+    from robrst.core.poly import natural_scale
+
+    need = min_sample_rate_hz(natural_scale(plant.A))
+    if rate < need:
+        raise key_error(path, key, f"{rate:g} Hz is too slow for the plant {plant.label!r}"
+                        f" (natural scale {natural_scale(plant.A):.4g} rad/s): the twin's RK4"
+                        f" steps need at least {need:.4g} Hz (at most {MAX_SUBSTEPS} substeps"
+                        " per sample)")
+
+
+def run_samples(config: TwinConfig, seconds: float, what: str = "the run") -> int:
+    """Samples of a run of ``seconds`` at the twin's rate.
+
+    Parameters
+    ----------
+    config : TwinConfig
+    seconds : float
+        Duration of the run [s].
+    what : str
+        The run, for the message.
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    SpecError
+        Naming the twin file and ``[twin.sample_rate_hz]`` beyond :data:`MAX_RUN_SAMPLES`.
+    """
+    n = int(round(float(seconds) * config.sample_rate_hz))
+    if n > MAX_RUN_SAMPLES:
+        raise SpecError(f"{config.path}: [twin.sample_rate_hz] {config.sample_rate_hz:g} Hz:"
+                        f" {what} of {seconds:g} s needs {n:.3g} samples, more than"
+                        f" {MAX_RUN_SAMPLES:.3g}; lower the rate (or use a shorter run)")
+    return n
+
+
 def _plant_file(path, name, plant_loader):
     """``(Plant, reference °C, per-kelvin law or None)`` of ``[twin] plant = name``, a file
     (relative to the twin file) or what ``plant_loader`` knows by name."""
@@ -279,7 +354,8 @@ def parse_twin(data: dict, path: str = "<twin>", plant_loader: object = None) ->
         Naming the file and the key: unknown keys, values out of range, both
         ``sample_rate_hz`` and ``fs_hz``, Bouc–Wen parameters without a loop,
         ``tau_max_s <= tau_min_s``, ``u_max <= u_min``, an unknown plant or a plant file
-        that cannot be read (``[twin.plant]``), a plant with feedthrough.
+        that cannot be read (``[twin.plant]``), a plant with feedthrough, a rate too slow
+        for the plant's RK4 steps (``[twin.sample_rate_hz]``).
     """
     v = validate(path, data, TWIN_SCHEMA)
     tw = v["twin"] or validate(path, {}, TWIN_SCHEMA["twin"], ("twin",))
@@ -319,6 +395,8 @@ def parse_twin(data: dict, path: str = "<twin>", plant_loader: object = None) ->
     if user and not plant_model.m < plant_model.n:
         raise key_error(path, ("twin", "plant"), "the twin needs a strictly proper plant (no"
                         " feedthrough: y(k) must not depend on u(k))")
+    _check_rate(path, ("twin", "fs_hz" if tw["fs_hz"] is not None else "sample_rate_hz"),
+                rate, plant_model if user else named_plant(tw["plant"]))
     return TwinConfig(name=tw["name"], plant=tw["plant"], sample_rate_hz=rate,
                       reference_C=tw["reference_C"], effects=effects, path=str(path),
                       plant_model=plant_model)

@@ -24,8 +24,10 @@ from typing import TYPE_CHECKING
 import casadi as ca
 import numpy as np
 
+from robrst.base.errors import SpecError
 from robrst.core import lti, poly
 from robrst.core.thermal import modal_form, thermal_polynomials
+from robrst.twin.config import MAX_SUBSTEPS, RK4_STEP, min_sample_rate_hz
 
 if TYPE_CHECKING:
     from robrst.core.plant import Plant
@@ -54,7 +56,7 @@ def substeps(w0: float, dt: float) -> int:
     -------
     int
     """
-    return max(N_SUB, int(np.ceil(w0 * dt / 0.05)))
+    return max(N_SUB, int(np.ceil(w0 * dt / RK4_STEP)))
 
 
 @dataclass(frozen=True, eq=False)
@@ -183,6 +185,10 @@ def _linear_step(plant, w0, dt, xl, wtot, dT_lin, P):
 
     y_true = ca.mtimes(C, xl) + dfeed * wtot   # output at this sample (before the update)
     n_sub = substeps(w0, dt)
+    if n_sub > MAX_SUBSTEPS:
+        raise SpecError(f"the twin runs at {1 / dt:.6g} Hz, but its plant (natural scale"
+                        f" {w0:.4g} rad/s) needs at least {min_sample_rate_hz(w0):.4g} Hz"
+                        f" ({n_sub} RK4 substeps per sample, at most {MAX_SUBSTEPS})")
     hsub = dt / n_sub
     for _ in range(n_sub):
         k1 = f(xl)
