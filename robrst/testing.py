@@ -151,22 +151,13 @@ def golden_figures(result: DesignResult | dict) -> dict:
             "objective": _objective(result, d), "models": models}
 
 
-def _toml(v):
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, str):
-        return json.dumps(v)
-    v = _num(v)
-    return ("inf" if v > 0 else "-inf") if math.isinf(v) else repr(v)
-
-
 def _unchecked(way, value):
     """A golden value that checks nothing: a peak (larger is worse) of inf."""
     return way == "larger" and math.isinf(_num(value))
 
 
 def _tol(name, rtol, phase_atol):
-    return f"atol = {phase_atol!r}" if direction(name) == "abs" else f"rtol = {rtol!r}"
+    return {"atol": float(phase_atol)} if direction(name) == "abs" else {"rtol": float(rtol)}
 
 
 def write_golden(result: DesignResult | dict, path: str | Path, rtol: float = DEFAULT_TOL["rtol"],
@@ -199,31 +190,43 @@ def write_golden(result: DesignResult | dict, path: str | Path, rtol: float = DE
             path.is_dir() or not (peek_text(path) or "").startswith(MARKER)):
         raise OutputError(f"{path}: exists and is not a robrst golden (it does not start with"
                           f" {MARKER!r}); refusing to overwrite it")
+    import tomlkit   # noqa: PLC0415  (only writing a golden needs it: no command's start pays)
+
+    from robrst.base.tomlwrite import document, inline, plain   # noqa: PLC0415
+
     g = golden_figures(result)
-    lines = [f"{MARKER} for problem {json.dumps(g['problem'])}, written by robrst {__version__}.",
-             "# `robrst check PROBLEM --golden THIS_FILE` fails on every figure worse than its",
-             "# value beyond its tolerance (peaks: larger; margins: smaller; phase margin:",
-             "# smaller |pm|; gain margins: closer to 1; inf = infinite).  Edit tolerances",
-             "# freely; delete a figure to stop checking it.", "",
-             "[golden]", f"format = {FORMAT}", f"problem = {_toml(g['problem'])}",
-             f"robrst_version = {_toml(__version__)}", "", "[design]",
-             f"certified = {_toml(g['certified'])}"]
+    doc = document([
+        f"{MARKER[2:]} for problem {json.dumps(g['problem'])}, written by robrst {__version__}.",
+        "`robrst check PROBLEM --golden THIS_FILE` fails on every figure worse than its",
+        "value beyond its tolerance (peaks: larger; margins: smaller; phase margin:",
+        "smaller |pm|; gain margins: closer to 1; inf = infinite).  Edit tolerances",
+        "freely; delete a figure to stop checking it."])
+    doc["golden"] = plain({"format": FORMAT, "problem": g["problem"],
+                           "robrst_version": __version__})
+    design = tomlkit.table()
+    design["certified"] = bool(g["certified"])
     name, value = g["objective"]
-    if name is not None and value is not None and not _unchecked(OBJECTIVES[name], value):
-        lines.append(f"objective = {{ name = {_toml(name)}, value = {_toml(value)},"
-                     f" rtol = {rtol!r} }}")
+    if (name is not None and value is not None
+            and not _unchecked(OBJECTIVES[name], value)):
+        design["objective"] = inline({"name": name, "value": _num(value), "rtol": float(rtol)})
+    doc["design"] = design
+    models = tomlkit.table(True)       # a super-table: only [models."label"] headers
     for label, figs in g["models"].items():
-        lines += ["", f"[models.{json.dumps(label)}]"]
+        table = tomlkit.table()
         if figs.get("temperature_C") is not None:
-            lines.append(f"temperature_C = {_toml(figs['temperature_C'])}")
+            table["temperature_C"] = plain(_num(figs["temperature_C"]))
         for k, v in figs.items():
             if k == "temperature_C":
                 continue
             if _unchecked(direction(k), v):     # a peak of inf: nothing can be worse
-                lines.append(f"# {k} = inf checks nothing (no value is larger): not written")
+                table.add(tomlkit.comment(f"{k} = inf checks nothing (no value is larger):"
+                                          " not written"))
             else:
-                lines.append(f"{k} = {{ value = {_toml(v)}, {_tol(k, rtol, phase_atol_deg)} }}")
-    atomic_write_text(path, "\n".join(lines) + "\n")
+                table[k] = inline({"value": _num(v), **_tol(k, rtol, phase_atol_deg)})
+        models[plain(str(label))] = table
+    if g["models"]:
+        doc["models"] = models
+    atomic_write_text(path, tomlkit.dumps(doc))
     return path
 
 

@@ -46,6 +46,9 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 
 import numpy as np
+import tomlkit
+
+from robrst.base.tomlwrite import plain
 
 __all__ = ["Chooser", "NumpyChooser", "RandomCase", "random_case", "draw_case", "to_toml",
            "Figures", "figures", "check", "Discrepancy", "model_at", "ExactZOH", "fold_band"]
@@ -332,38 +335,9 @@ def _baseline(data):
     return figures(data, ctrl, n_temps=17, n_grid=4000)
 
 
-def to_toml(d, prefix=""):
+def to_toml(d):
     """A TOML text of a problem document (tables, arrays of tables, numbers, strings, lists)."""
-    def val(v):
-        if isinstance(v, bool):
-            return "true" if v else "false"
-        if isinstance(v, str):
-            return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
-        if isinstance(v, (list, tuple)):
-            return "[" + ", ".join(val(x) for x in v) + "]"
-        if isinstance(v, (float, np.floating)):
-            v = float(v)
-            return repr(v) if math.isfinite(v) else ("inf" if v > 0 else "-inf") if v == v else "nan"
-        if isinstance(v, np.integer):
-            return repr(int(v))
-        return repr(v)
-
-    lines, tables = [], []
-    for k, v in d.items():
-        if isinstance(v, dict):
-            tables.append((k, v))
-        elif isinstance(v, list) and v and all(isinstance(x, dict) for x in v):
-            tables.append((k, v))
-        else:
-            lines.append(f"{k} = {val(v)}")
-    for k, v in tables:
-        name = f"{prefix}{k}"
-        if isinstance(v, dict):
-            lines += ["", f"[{name}]", to_toml(v, name + ".").strip("\n")]
-        else:
-            for item in v:
-                lines += ["", f"[[{name}]]", to_toml(item, name + ".").strip("\n")]
-    return "\n".join(x for x in lines if x is not None) + "\n"
+    return tomlkit.dumps(plain(d))
 
 
 # --------------------------------------------------------------------------- checker

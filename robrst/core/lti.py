@@ -115,15 +115,19 @@ def companion_monic(ns: ArrayLike, ds: ArrayLike,
     n = len(ds) - 1
     if len(ns) > n + 1:
         raise ValueError("improper transfer function: deg N > deg D")
-    row, c, d = companion_parts(ds, ns)
-    A = np.zeros((n, n))
+    # companion_parts' arithmetic on arrays (the same products and differences, element
+    # by element: identical values), without a round trip through Python lists
+    ds = np.asarray(ds, float)
+    b = np.zeros(n + 1)
+    b[n + 1 - len(ns):] = ns
+    d = b[0]
+    A = np.eye(n, k=-1)
     if n:
-        A[0, :] = row
-        A[1:, :-1] = np.eye(n - 1)
+        A[0, :] = -ds[1:]
     B = np.zeros((n, 1))
     if n:
         B[0, 0] = 1.0
-    C = np.asarray(c, float).reshape(1, n)
+    C = (b[1:] - d * ds[1:]).reshape(1, n)
     if n and balance:
         A, B, C = _balanced(A, B, C)
     return A, B, C, float(d)

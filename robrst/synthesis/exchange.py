@@ -335,7 +335,8 @@ def solve_program(setup: NLPSetup, x0: np.ndarray, ipopt: dict, phase: Phase = P
     out = tpl.solve(v, x0, lbx, ubx, lbg, ubg)
     return SolveResult(status=out["status"], x=out["x"], objective=out["f"],
                        iterations=out["iterations"], g=out["g"], lbg=lbg, ubg=ubg,
-                       lam_g=out["lam_g"], labels=labels, w0=setup.w0, rates=dict(setup.rates))
+                       lam_g=out["lam_g"], labels=labels, w0=setup.w0, rates=dict(setup.rates),
+                       lam_x=out["lam_x"], lbx=lbx, ubx=ubx, params=v)
 
 
 def _initial_active(ratios, coarse_points, neighbours=True):

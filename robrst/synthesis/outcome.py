@@ -105,6 +105,15 @@ class SolveResult:
         How the constraint exchange went, when solved by it.
     rates : dict, optional
         Model label -> sample rate [Hz] of sampled-loop models.
+    lam_x : numpy.ndarray, optional
+        IPOPT's multipliers of the variable bounds (CasADi's sign convention: the
+        Lagrangian is ``f + lam_g' g + lam_x' x``).
+    lbx, ubx : numpy.ndarray, optional
+        The variable bounds of the solve.
+    params : dict, optional
+        The program's parameter blocks (:meth:`robrst.synthesis.template.Template.pack`'s
+        input): with ``x``, ``lam_g`` and ``lam_x`` they let the optimality (KKT) conditions
+        be checked independently of CasADi and IPOPT.
 
     Attributes
     ----------
@@ -124,6 +133,10 @@ class SolveResult:
     w0: float
     exchange: object = None
     rates: dict = None       # model label -> sample rate [Hz] of sampled-loop models
+    lam_x: np.ndarray = None
+    lbx: np.ndarray = None
+    ubx: np.ndarray = None
+    params: dict = None      # the program's parameter blocks (Template.pack's input)
 
     @property
     def success(self):

@@ -222,11 +222,13 @@ class Template:
         Returns
         -------
         dict
-            ``status, x, f, g, lam_g, iterations``.
+            ``status, x, f, g, lam_g, lam_x, iterations`` (``lam_g``, ``lam_x``: IPOPT's
+            multipliers of the constraints and of the variable bounds).
         """
         sol = self.solver(x0=x0, p=self.pack(values), lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         stats = self.solver.stats()
         return {"status": stats["return_status"], "x": np.array(sol["x"]).ravel(),
                 "f": float(sol["f"]), "g": np.array(sol["g"]).ravel(),
                 "lam_g": np.array(sol["lam_g"]).ravel(),
+                "lam_x": np.array(sol["lam_x"]).ravel(),
                 "iterations": int(stats.get("iter_count", 0))}
