@@ -515,6 +515,10 @@ class Run:
     def hard(self, ctx: Context, placement: str, x: np.ndarray, name: str) -> Outcome | None:
         """The objective under hard specs from ``x``, certified, refined round by round.
 
+        With freely placed poles, a first result the certificate refuses is solved again
+        from ``x`` with each block's exact peak frequency in the exchange
+        (``solve_exchange(exact=True)``), before any refinement.
+
         Parameters
         ----------
         ctx : Context
@@ -534,17 +538,19 @@ class Run:
         p = ctx.problem
         models, nu, last = list(p.family.models), ctx.nu, None
         x = np.concatenate([x[:-1], [1.0]])
+        exact, start = False, name
         for rnd in range(p.solver.max_rounds):
             if rnd and self.spent(placement):
                 self.notes.append(f"iteration budget ({self.budget}) spent: refinement stopped")
                 break
             setup = ctx.setup(models, nu, placement)
-            res = self.solve(ctx, setup, x, Phase("hard"), name if rnd == 0 else "previous round")
+            res = self.solve(ctx, setup, x, Phase("hard"), start, exact=exact)
             if not res.success and rnd > 0:   # the refined program: back to the specs first
                 x0 = np.concatenate([x[:-1], [max(last.badness, 1.0) * 1.02]])
                 soft = self.solve(ctx, setup, x0, Phase("soft", GAMMA_FLOOR), "previous round")
                 if soft.success and soft.x[-1] <= 1.0:
-                    res = self.solve(ctx, setup, soft.x, Phase("hard"), "soft-goal point")
+                    res = self.solve(ctx, setup, soft.x, Phase("hard"), "soft-goal point",
+                                     exact=exact)
                     if not res.success:
                         res = soft
             if not res.success:
@@ -554,7 +560,15 @@ class Run:
             last = self.outcome(ctx, setup, res, "hard")
             if last.certified:
                 break
-            x = res.x
+            if placement == "free" and not exact:
+                # freely placed poles put closed-loop resonances between grid points, where
+                # the certificate finds peaks far above the specs at every temperature (the
+                # refined program from there may not be solved within the budget): the same
+                # program again from the same start, the exchange adding each block's
+                # exact peak frequency (and so in the rounds after it)
+                exact = True
+                continue
+            x, start = res.x, "previous round"
             models, nu = refine(p, last.cert, models, nu)
         return last
 
