@@ -70,6 +70,8 @@ class DesignResult:
     :class:`~robrst.synthesis.outcome.SynthesisResult`; ``tracking`` the 2-DOF reference
     path (:class:`~robrst.synthesis.tracking.Tracking`) with ``T_mode = "reference_model"``
     (then ``controller`` is the 2-DOF controller and ``synthesis.controller`` the feedback).
+    ``fleet`` is the :class:`~robrst.synthesis.scenario.FleetDesign` of a problem with a
+    ``[spread]`` (then ``problem.scenarios`` are the drawn actuators the program held on).
     """
 
     problem: object
@@ -82,6 +84,7 @@ class DesignResult:
     analytic_check: AnalyticCheck = None
     comparison: Comparison = None
     tracking: object = None
+    fleet: object = None
 
     @property
     def best_achievable(self):
@@ -90,8 +93,9 @@ class DesignResult:
 
     @property
     def certified(self):
-        """True when the certificate holds over the whole family and sweep."""
-        return self.certificate.certified
+        """True when the certificate holds over the whole family and sweep (a fleet
+        design: and on every actuator drawn for it)."""
+        return self.certificate.certified and (self.fleet is None or not self.fleet.violated)
 
     @property
     def status(self):
@@ -151,6 +155,8 @@ class DesignResult:
             out["analytic_check"] = self.analytic_check.as_dict()
         if self.comparison is not None:
             out["comparison"] = self.comparison.as_dict()
+        if self.fleet is not None:
+            out["fleet"] = self.fleet.as_dict()
         return out
 
 
@@ -189,7 +195,10 @@ def with_time_domain(problem, cert, ctrl, factor=None):
     """
     sp = problem.specs
     recs = [dict(rec) for rec in cert.models]
-    models = [problem.family.at(rec["temperature_C"]) for rec in recs]
+    fams = problem.families      # a record of a further actuator names it (certify_families)
+    models = [fams[rec.get("actuator", 0)].at(rec["temperature_C"]) for rec in recs]
+    labels = [m.label if not rec.get("actuator") else f"actuator{rec['actuator']}/{m.label}"
+              for m, rec in zip(models, recs)]
     kinds = [(models, None, "")]
     if sp.sampled:
         kinds.append(([problem.family.sampled(m, sp.sample_rate_hz, sp.delay_samples)
@@ -209,7 +218,7 @@ def with_time_domain(problem, cert, ctrl, factor=None):
                                       sp, cert.rtol, fs)
         for k, (t_rec, failed) in zip(ks, checked):
             recs[k].update({q + suffix: v for q, v in t_rec.items()})
-            found[k] += [Violation(models[k].label, models[k].temperature_C, q, v, b, None,
+            found[k] += [Violation(labels[k], models[k].temperature_C, q, v, b, None,
                                    "sampled" if fs else "continuous", kind)
                          for q, v, b, kind in failed]
     viols = list(cert.violations) + [v for f in found for v in f]
@@ -334,10 +343,29 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
     (True, 'certified')
     """
     with one_blas_thread(problem.needs_scipy):
+        if problem.spread is not None:
+            return _fleet(problem, progress, templates, analyses)
         return _design(problem, progress, templates, analyses)
 
 
-def _design(problem, progress, templates, analyse):
+def _fleet(problem, progress, templates, analyse):
+    """A design for the problem's spread (:mod:`robrst.synthesis.scenario`)."""
+    from robrst.synthesis.scenario import scenario_design
+
+    templates = {} if templates is None else templates
+
+    say = progress or (lambda msg: None)
+
+    def one(p, warm):
+        return _design(p, lambda msg: say("  " + msg), templates, False, warm, compare=False)
+
+    result, fleet = scenario_design(problem, one, progress)
+    comp = comparison(result.problem, result.controller, result.certificate)
+    analyses = analyze_many(problem.family.models, result.controller) if analyse else ()
+    return replace(result, analyses=analyses, comparison=comp, fleet=fleet)
+
+
+def _design(problem, progress, templates, analyse, warm=None, compare=True):
     """:func:`run_problem` (its BLAS limited by the caller)."""
     from robrst.synthesis.robust import robust_synthesis
 
@@ -353,7 +381,7 @@ def _design(problem, progress, templates, analyse):
         cert = certify_problem(problem, ctrl)
     else:
         if method == "nlp":
-            stage = robust_synthesis(problem, start, say, templates)
+            stage = robust_synthesis(problem, start, say, templates, warm)
         else:
             from robrst.synthesis.convex import convex_synthesis   # cvxpy: only for this method
 
@@ -364,7 +392,7 @@ def _design(problem, progress, templates, analyse):
             ctrl, trk, cert = _tracked(problem, ctrl, cert)
         elif problem.specs.time_domain:
             cert = with_time_domain(problem, cert, ctrl)
-    comp = None if method == "analytic" else comparison(problem, ctrl, cert)
+    comp = None if method == "analytic" or not compare else comparison(problem, ctrl, cert)
     analyses = analyze_many(problem.family.models, ctrl) if analyse else ()
     return DesignResult(problem=problem, method=method, controller=ctrl,
                         target_char_poly=stage.Am, analyses=analyses, certificate=cert,

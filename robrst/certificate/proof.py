@@ -36,7 +36,7 @@ limit)}`` pairs in ``record["margins"]`` to have its figures refined like the ot
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -48,8 +48,8 @@ from robrst.core.rst import RSTController, closed_loop
 from robrst.core.thermal import modal_form
 from robrst.base.threads import one_blas_thread
 
-__all__ = ["Violation", "Certificate", "certify", "certify_problem", "check_model", "band_peak",
-           "REFINE_RATIO", "RESOLVE_FACTOR"]
+__all__ = ["Violation", "Certificate", "certify", "certify_problem", "certify_families",
+           "actuator_of", "check_model", "band_peak", "REFINE_RATIO", "RESOLVE_FACTOR"]
 
 REFINE_RATIO = 0.5     # halve an interval when a figure moves by more than this x its margin
 MIN_WIDTH = 1.0 / 4096  # resolution floor, as a fraction of the temperature range
@@ -354,6 +354,43 @@ def certify(family, ctrl, specs, n_sweep=35, rtol=1e-3, checks=(), max_refine=No
               if getattr(specs, attr) is not None}
     return Certificate(certified=not viols, models=recs_sorted, violations=tuple(viols),
                        rtol=rtol, interval=interval, bounds=bounds)
+
+
+ACTUATOR = "actuator"   # the record key (and label prefix) of a further actuator's models
+
+
+def actuator_of(label):
+    """``(index, model label)`` of a violation's label: ``"actuator3/T45C"`` is model
+    ``T45C`` of further actuator 3 (:func:`certify_families`); a plain label is actuator 0."""
+    head, sep, tail = str(label).partition("/")
+    if sep and head.startswith(ACTUATOR) and head[len(ACTUATOR):].isdigit():
+        return int(head[len(ACTUATOR):]), tail
+    return 0, label
+
+
+def certify_families(families, ctrl, specs, n_sweep=35, rtol=1e-3, checks=(), max_refine=None):
+    """:func:`certify` on every family of ``families`` (several actuators), merged.
+
+    The first family is the nominal actuator: with one family this is :func:`certify`
+    itself.  The records of further actuator ``k`` carry ``"actuator": k`` and its
+    violations the label ``"actuator<k>/<model>"`` (:func:`actuator_of`); the merged
+    certificate holds when every actuator's does, and its ``interval`` is the nominal
+    actuator's with ``"actuators"``, the number of families.
+
+    Returns
+    -------
+    Certificate
+    """
+    certs = [certify(f, ctrl, specs, n_sweep, rtol, checks, max_refine) for f in families]
+    if len(certs) == 1:
+        return certs[0]
+    models, viols = list(certs[0].models), list(certs[0].violations)
+    for k, c in enumerate(certs[1:], start=1):
+        models += [{**rec, ACTUATOR: k} for rec in c.models]
+        viols += [replace(v, label=f"{ACTUATOR}{k}/{v.label}") for v in c.violations]
+    return replace(certs[0], certified=all(c.certified for c in certs), models=tuple(models),
+                   violations=tuple(viols),
+                   interval={**certs[0].interval, "actuators": len(certs)})
 
 
 def certify_problem(problem: Problem, ctrl: RSTController) -> Certificate:

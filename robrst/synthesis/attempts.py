@@ -11,14 +11,15 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from robrst.certificate.proof import certify
+from robrst.certificate.proof import actuator_of, certify_families
 from robrst.synthesis.exchange import Phase, solve_exchange
 from robrst.synthesis.nlp import grid_blocks
 from robrst.synthesis.outcome import Round, worst_violation
 from robrst.synthesis.parametrize import integral_gain
 from robrst.synthesis.starts import ON_SLOW_POLE, candidates, score
 
-__all__ = ["Outcome", "Run", "worst_violation", "frequency_certificate", "refine",
+__all__ = ["Outcome", "Run", "worst_violation", "frequency_certificate", "program_models",
+           "refine",
            "objective_value", "GAMMA_FLOOR"]
 
 GAMMA_FLOOR = 0.97       # the soft phase stops once every spec holds with 3 % to spare
@@ -59,9 +60,18 @@ class Outcome:
 
 
 def frequency_certificate(problem, ctrl):
+    """The frequency-domain certificate of ``ctrl`` on every actuator of ``problem``."""
     so = problem.solver
-    return certify(problem.family, ctrl, problem.specs.without_time_domain(),
-                   n_sweep=so.cert_temperatures, rtol=so.cert_tol)
+    return certify_families(problem.families, ctrl, problem.specs.without_time_domain(),
+                            n_sweep=so.cert_temperatures, rtol=so.cert_tol)
+
+
+def program_models(problem):
+    """The models the program starts with: every family member, and the models at both
+    ends of the temperature range of every further actuator (``problem.scenarios``; the
+    certificate's refinement adds their other temperatures where they bind)."""
+    ends = [m for f in problem.scenarios for m in (f.models[0], f.models[-1])[:len(f.models)]]
+    return list(problem.family.models) + ends
 
 
 def refine(problem, cert, models, nu, max_new=2):
@@ -73,7 +83,7 @@ def refine(problem, cert, models, nu, max_new=2):
     """
     known = {m.temperature_C for m in models}
     fs = problem.specs.sample_rate_hz
-    new_T = {}
+    new_T, further = {}, {}
     for v in cert.violations:
         if v.freq_rad_s is not None:
             w = v.freq_rad_s
@@ -82,13 +92,27 @@ def refine(problem, cert, models, nu, max_new=2):
             nu = np.unique(np.concatenate([nu, [w * f for f in (0.98, 1.0, 1.02)]]))
         elif v.quantity.endswith("peak"):  # peak at infinity: push the grid further out
             nu = np.unique(np.concatenate([nu, [nu.max() * 100.0]]))
-        if v.temperature_C not in known:
-            r = v.value / v.bound if v.bound else np.inf
+        r = v.value / v.bound if v.bound else np.inf
+        k = actuator_of(v.label)[0]
+        if k:          # a further actuator's model (problem.scenarios), by identity
+            if not any(m is q for q in models for m in _models_at(problem.families[k],
+                                                                   v.temperature_C)):
+                further[k, v.temperature_C] = max(further.get((k, v.temperature_C), 0.0), r)
+        elif v.temperature_C not in known:
             new_T[v.temperature_C] = max(new_T.get(v.temperature_C, 0.0), r)
     for T in sorted(new_T, key=lambda t: -new_T[t])[:max_new]:
         models.append(problem.family.at(T))
+    for k, T in sorted(further, key=lambda kt: -further[kt])[:max_new]:
+        models.append(_models_at(problem.families[k], T)[0])
     models.sort(key=lambda m: m.temperature_C)
     return models, nu
+
+
+def _models_at(family, T):
+    """The member of ``family`` at ``T`` if there is one (both objects a program may hold),
+    else the model :meth:`~robrst.core.family.PlantFamily.at` ``T``."""
+    members = [m for m in family.models if m.temperature_C == T]
+    return members + [family.at(T)] if members else [family.at(T)]
 
 
 def _better(problem, out, others):
@@ -219,7 +243,7 @@ class Run:
         Returns the last outcome (``None`` if IPOPT failed in the first round).
         """
         p = ctx.problem
-        models, nu, last = list(p.family.models), ctx.nu, None
+        models, nu, last = program_models(p), ctx.nu, None
         x = np.concatenate([x[:-1], [1.0]])
         for rnd in range(p.solver.max_rounds):
             if rnd and self.spent(placement):
@@ -254,7 +278,7 @@ class Run:
         meets the specs on the grid, else a seed handed down, else the analytic design at
         the problem's poles.
         """
-        setup = ctx.setup(list(ctx.problem.family.models), ctx.nu, placement)
+        setup = ctx.setup(program_models(ctx.problem), ctx.nu, placement)
         blocks = grid_blocks(setup, np.ones(ctx.param.n_x))   # weights unused by the scores
         warm = next((sd for sd in seeds if sd[0] == WARM_START and sd[1] is not None), None)
         from_warm = None     # the hard phase from the warm start, once run

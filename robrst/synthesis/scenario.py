@@ -1,0 +1,407 @@
+"""Design for the fleet: the robust program over drawn actuators, with a stated yield.
+
+A problem with a ``[spread]`` (:class:`robrst.problem.spread.Spread`) is designed for the
+actuators a factory ships, not for the one identified.  Two methods:
+
+**Scenario design** (``method = "scenario"``).  ``N`` actuators are drawn from the spread
+(each with its own temperature family: plant factors and per-kelvin laws), and the
+controller must certify on every one of them — the *scenario constraint* of actuator
+``i`` is the certificate (:func:`robrst.certificate.proof.certify`, every spec of the
+problem, continuous and sampled loop, time-domain specs included) on its family over the
+whole temperature interval.  The program sees only the actuators that bind: a
+**constraint exchange over actuators** (:func:`scenario_design`) designs for the nominal
+actuator, checks all ``N`` (first their family members in one batched call,
+:func:`robrst.certificate.models.check_all_many`, then the full certificate on each),
+hands the ``ADD_PER_ROUND`` most violated to the program as further family models
+(``Problem.scenarios``; inside, the existing grid-point and stability-row exchange and
+the certificate's temperature refinement work on them as on the nominal family), and
+designs again from the previous controller, until every drawn actuator certifies.
+
+*The guarantee.*  The program is non-convex, so the classical bound of Campi and Garatti
+(2008) does not apply as such.  The bound used is the a-posteriori one of the general
+scenario theory of Campi, Garatti and Ramponi (2018), Theorem 1: for a decision that
+satisfies all ``N`` scenario constraints and is reproduced from a *compression set* of
+``k`` of them, the probability that a fresh actuator violates the constraint exceeds
+``epsilon(k)`` with probability at most ``beta`` over the draws, where ``epsilon(N) = 1``
+and, for ``k < N``, ``epsilon(k) = 1 - t(k)`` with ``t(k)`` the root in (0, 1) of
+
+    beta/N * sum_{i=k}^{N-1} C(i, k) t^(i-k) - C(N, k) t^(N-k) = 0
+
+(:func:`nonconvex_epsilon`).  The compression set is the set of actuators the exchange
+handed to the program: each round adds the worst violators over *all* ``N`` (ties by
+index), so run on those actuators alone the same rounds add the same actuators (the worst
+over all are the worst over any subset that holds them) and end at the same controller,
+which satisfies the ``N`` constraints — a compression of size ``k`` = the number of
+actuators added, provided the design of one round is a deterministic function of its
+inputs (it is: seeded draws, deterministic IPOPT).  ``N`` is chosen a priori as the
+smallest with ``epsilon(d) <= 1 - yield`` for ``d`` decision variables
+(:func:`scenario_count`), so the target holds whenever the exchange needs at most ``d``
+actuators; the guarantee reported is ``1 - epsilon(k)`` for the ``k`` actually found.
+For reference, the a-priori count of the convex case, ``N`` with
+``sum_{i<d} C(N, i) eps^i (1 - eps)^(N-i) <= beta`` (Campi and Garatti 2008, Theorem 1),
+is reported beside it (:func:`convex_scenario_count`); it is *not* claimed here.
+
+**Worst case over a box** (``method = "box"``).  The parameter box (uniform parameters:
+their range; normal and lognormal: ``box_sigmas`` standard deviations, within their
+truncation) is represented by its centre and its ``2^k`` corners, each an actuator with
+its temperature family, and the same exchange designs until every one certifies.  This
+is a deterministic statement about those actuators (every temperature of each, by the
+certificate); between corners it is not a proof — the spread's parameters act
+nonlinearly (a resonance factor moves every coefficient), and the interval certificate
+of :mod:`robrst.core.interval` applies to parameters entering the closed-loop polynomial
+affinely only.  The Monte Carlo verification on fresh draws states what it is worth.
+
+References
+----------
+M. C. Campi and S. Garatti, "The exact feasibility of randomized solutions of uncertain
+convex programs", SIAM J. Optim. 19(3):1211-1230, 2008.
+
+M. C. Campi, S. Garatti and F. A. Ramponi, "A general scenario theory for nonconvex
+optimization and decision making", IEEE Trans. Automat. Control 63(12):4067-4078, 2018.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from robrst.certificate.models import check_all_many
+from robrst.certificate.proof import certify
+from robrst.base.threads import one_blas_thread
+
+__all__ = ["FleetDesign", "ActuatorCheck", "scenario_design", "scenario_count",
+           "convex_scenario_count", "convex_confidence", "nonconvex_epsilon",
+           "check_actuators", "ADD_PER_ROUND", "MAX_ROUNDS"]
+
+ADD_PER_ROUND = 3     # the most violated actuators handed to the program per round
+MAX_ROUNDS = 12       # exchange rounds over actuators (then the best controller, stated)
+
+
+def _log_binom(n, k):
+    return math.lgamma(n + 1) - math.lgamma(k + 1) - math.lgamma(n - k + 1)
+
+
+def convex_confidence(N, d, epsilon):
+    """``beta`` of the convex scenario program (Campi and Garatti 2008, Theorem 1):
+    ``sum_{i=0}^{d-1} C(N, i) epsilon^i (1 - epsilon)^(N-i)``, the probability over the
+    draws that the solution with ``d`` decision variables violates more than ``epsilon``."""
+    from scipy.stats import binom
+
+    return float(binom.cdf(d - 1, N, epsilon))
+
+
+def convex_scenario_count(epsilon, beta, d):
+    """Smallest ``N`` with :func:`convex_confidence` ``(N, d, epsilon) <= beta``."""
+    lo, hi = d, d
+    while convex_confidence(hi, d, epsilon) > beta:
+        lo, hi = hi, 2 * hi
+    while lo < hi:                       # the tail decreases with N: bisection
+        mid = (lo + hi) // 2
+        if convex_confidence(mid, d, epsilon) <= beta:
+            hi = mid
+        else:
+            lo = mid + 1
+    return int(hi)
+
+
+def nonconvex_epsilon(k, N, beta):
+    """``epsilon(k)`` of Campi, Garatti and Ramponi (2018), Theorem 1 (module docstring).
+
+    Parameters
+    ----------
+    k : int
+        Size of the compression set (support scenarios), ``0 <= k <= N``.
+    N : int
+        Scenarios.
+    beta : float
+        Confidence parameter (the guarantee holds with probability ``>= 1 - beta``).
+
+    Returns
+    -------
+    float
+        ``epsilon(k) = 1 - t(k)``; 1 for ``k = N``.
+    """
+    from scipy.optimize import brentq
+
+    if not 0 <= k <= N:
+        raise ValueError(f"expected 0 <= k <= N, got k = {k}, N = {N}")
+    if k == N:
+        return 1.0
+    i = np.arange(k, N)
+    lc = np.array([_log_binom(int(j), k) for j in i])
+    lbeta, lnk = math.log(beta / N), _log_binom(N, k)
+
+    def f(logt):                          # the defining equation, in logarithms
+        left = lbeta + np.logaddexp.reduce(lc + (i - k) * logt)
+        return left - (lnk + (N - k) * logt)
+
+    # f is positive near t = 0 (left ~ beta/N, right ~ 0) and negative at t = 1
+    logt = brentq(f, -745.0 / max(N - k, 1), 0.0, xtol=1e-15, rtol=1e-13)
+    return float(-math.expm1(logt))
+
+
+def scenario_count(epsilon, beta, d):
+    """Smallest ``N`` with ``nonconvex_epsilon(d, N, beta) <= epsilon``: enough draws for
+    the target when the compression set has at most ``d`` actuators."""
+    lo, hi = d + 1, 2 * (d + 1)
+    while nonconvex_epsilon(d, hi, beta) > epsilon:
+        lo, hi = hi, 2 * hi
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if nonconvex_epsilon(d, mid, beta) <= epsilon:
+            hi = mid
+        else:
+            lo = mid + 1
+    return int(hi)
+
+
+@dataclass(frozen=True)
+class ActuatorCheck:
+    """One drawn actuator checked: its worst figure/bound (``inf``: unstable) and the
+    worst violation, if any (``stage``: ``"members"`` or ``"certificate"``)."""
+
+    index: int
+    ratio: float
+    certified: bool
+    violation: str = None
+    stage: str = "certificate"
+
+
+@dataclass(frozen=True, eq=False)
+class FleetDesign:
+    """What a fleet design did and what it guarantees (``robrst design --json``: ``fleet``).
+
+    ``values`` holds the drawn parameters (one row per actuator, columns ``names``);
+    ``support`` the actuators the exchange handed to the program (the compression set);
+    ``checks`` every actuator's final check.
+    """
+
+    method: str
+    names: tuple
+    values: np.ndarray
+    n_scenarios: int
+    decision_variables: int
+    yield_target: float
+    confidence: float
+    support: tuple
+    checks: tuple
+    rounds: int
+    nominal_integral_gain: float
+    integral_gain: float
+    wall_time_s: float
+    seed: int = 0
+    n_convex: int = None
+    discarded: tuple = ()
+
+    @property
+    def violated(self):
+        """Drawn actuators the final controller does not certify on."""
+        return tuple(c.index for c in self.checks if not c.certified)
+
+    @property
+    def compression(self):
+        """The compression set: the actuators handed to the program, those discarded and
+        any the final controller violates."""
+        return tuple(sorted(set(self.support) | set(self.discarded) | set(self.violated)))
+
+    @property
+    def epsilon(self):
+        """``epsilon(k)`` of the compression set's size ``k`` (``None`` for a box)."""
+        if self.method != "scenario":
+            return None
+        return nonconvex_epsilon(len(self.compression), self.n_scenarios,
+                                 1.0 - self.confidence)
+
+    @property
+    def guaranteed_yield(self):
+        """``1 - epsilon(k)``: the yield guaranteed with probability ``confidence``."""
+        e = self.epsilon
+        return None if e is None else 1.0 - e
+
+    @property
+    def integral_gain_ratio(self):
+        """The fleet controller's integral gain over the nominal design's."""
+        return abs(self.integral_gain) / abs(self.nominal_integral_gain) \
+            if self.nominal_integral_gain else None
+
+    def worst(self, count=10):
+        """The ``count`` worst actuators (largest figure/bound first)."""
+        return sorted(self.checks, key=lambda c: (-c.ratio, c.index))[:count]
+
+    def as_dict(self):
+        """The ``fleet`` object of the JSON contract (fields are only added)."""
+        beta = 1.0 - self.confidence
+        g = self.guaranteed_yield
+        return {
+            "method": self.method, "scenarios": self.n_scenarios, "seed": self.seed,
+            "parameters": list(self.names),
+            "decision_variables": self.decision_variables,
+            "yield_target": self.yield_target, "confidence": self.confidence,
+            "support": list(self.support), "discarded": list(self.discarded),
+            "violated": list(self.violated), "compression_size": len(self.compression),
+            "rounds": self.rounds,
+            "epsilon": self.epsilon, "guaranteed_yield": g,
+            "target_met": None if g is None else bool(g >= self.yield_target - 1e-12),
+            "bound": None if self.method != "scenario" else
+            "Campi, Garatti & Ramponi (2018), Theorem 1: a-posteriori, compression size"
+            f" k = {len(self.compression)}, N = {self.n_scenarios}, beta = {beta:g}",
+            "n_convex_a_priori": self.n_convex,
+            "nominal_integral_gain": self.nominal_integral_gain,
+            "integral_gain": self.integral_gain,
+            "integral_gain_ratio": self.integral_gain_ratio,
+            "wall_time_s": self.wall_time_s,
+            "worst": [{"index": c.index, "ratio": c.ratio, "violation": c.violation,
+                       "parameters": dict(zip(self.names, map(float, self.values[c.index])))}
+                      for c in self.worst() if c.ratio > 0],
+        }
+
+
+def _ratio(violations):
+    """Worst ``value / bound`` of violations (``inf``: a crossing, unresolved, unstable)."""
+    worst, text = 0.0, None
+    for v in violations:
+        r = v.value / v.bound if (v.kind == "exceeds" and v.bound and v.bound > 0
+                                  and np.isfinite(v.value)) else np.inf
+        if text is None or r > worst:
+            worst, text = r, v.describe()
+    return worst, text
+
+
+def check_actuators(problem, ctrl, families, full=True):
+    """Check ``ctrl`` on every actuator of ``families`` against every spec of ``problem``.
+
+    First the family members of every actuator, all loops in one batched call
+    (:func:`robrst.certificate.models.check_all_many`); when ``full``, the certificate
+    over each actuator's whole temperature interval
+    (:func:`robrst.certificate.proof.certify`, ``spread.cert_temperatures``) on those the
+    members do not already fail.
+
+    Returns
+    -------
+    list of ActuatorCheck
+    """
+    sp, so = problem.specs, problem.solver
+    n_T = problem.spread.cert_temperatures if problem.spread and \
+        problem.spread.cert_temperatures else so.cert_temperatures
+    models = [m for f in families for m in f.models]
+    with one_blas_thread(problem.needs_scipy):
+        found = check_all_many(models, ctrl, sp, so.cert_tol, ())
+        out, at = [], 0
+        for i, f in enumerate(families):
+            viols = [v for _, vs in found[at:at + len(f.models)] for v in vs]
+            at += len(f.models)
+            if viols or not full:
+                r, text = _ratio(viols)
+                out.append(ActuatorCheck(i, r, not viols, text, "members"))
+                continue
+            cert = certify(f, ctrl, sp, n_sweep=n_T, rtol=so.cert_tol)
+            ratios = cert.ratios()
+            r = max(ratios.values(), default=0.0)
+            stable = all(rec["stable"] and rec.get("stable_sampled", True)
+                         for rec in cert.models)
+            text = _ratio(cert.violations)[1]
+            out.append(ActuatorCheck(i, r if stable else np.inf, cert.certified, text))
+    return out
+
+
+def scenario_design(problem, design, progress=None, families=None, values=None,
+                    n_scenarios=None):
+    """Design ``problem`` for its spread (module docstring): an exchange over actuators.
+
+    Parameters
+    ----------
+    problem : Problem
+        With ``spread`` (its method, yield target, confidence and seed).
+    design : callable
+        ``design(problem, warm) -> DesignResult``: one design of a problem whose
+        ``scenarios`` are the actuators handed to the program (``warm``: the previous
+        round's synthesis record, or ``None``).
+    progress : callable, optional
+        Called with one line of text per round.
+    families, values : optional
+        The actuators (and their parameter rows) to design for, instead of the spread's
+        draws (tests; the box method's corners).
+    n_scenarios : int, optional
+        Drawn actuators (default: ``spread.scenarios``, else :func:`scenario_count`).
+
+    Returns
+    -------
+    (DesignResult, FleetDesign)
+        The last round's design (its certificate covers the nominal actuator and the
+        actuators handed to the program) and the fleet record.
+    """
+    from robrst.synthesis.analytic import pole_placement
+    from robrst.synthesis.context import Context
+
+    say = progress or (lambda m: None)
+    t0 = time.perf_counter()
+    spread = problem.spread
+    beta = 1.0 - spread.confidence
+    eps = 1.0 - spread.yield_target
+    start = pole_placement(problem.family.reference_model, problem.poles, problem.controller)
+    ctx = Context.of(problem, start)
+    d = ctx.param.n_x + (2 if problem.solver.free_poles else 0)
+    n_convex = convex_scenario_count(eps, beta, d)
+    if families is None:
+        if spread.method == "box":
+            values = spread.corners()
+        else:
+            n = n_scenarios or spread.scenarios or scenario_count(eps, beta, d)
+            values = spread.draws(n)
+        families = spread.actuators(problem.family, values)
+    N = len(families)
+    say(f"fleet design ({spread.method}): {N} actuators, {d} decision variables"
+        + (f", yield {spread.yield_target:g} at confidence {spread.confidence:g}"
+           if spread.method == "scenario" else ""))
+    base = replace(problem, scenarios=())
+    support, discarded, added = [], [], []
+    warm, result, nominal_ki, checks, last = None, None, None, [], None
+    for rnd in range(1, MAX_ROUNDS + 1):
+        p = replace(base, scenarios=tuple(families[i] for i in support))
+        out = design(p, warm)
+        if nominal_ki is None:
+            nominal_ki = out.integral_gain
+        if not out.certified and last is not None:
+            # the program cannot meet the actuators just added together with the others:
+            # the most violated of them is discarded (it counts in the guarantee), the
+            # previous controller stands, and the others are tried without it
+            worst = added[0]
+            discarded.append(worst)
+            support.remove(worst)
+            added = added[1:]
+            say(f"round {rnd}: design {out.status} with {len(support) + 1} actuators in the"
+                f" program: actuator {worst} discarded")
+            if added:
+                continue
+            result, checks = last
+        else:
+            result = out
+            warm = out.synthesis
+            checks = check_actuators(problem, result.controller, families, full=False)
+            stage = "members"
+            if all(c.certified for c in checks):
+                checks = check_actuators(problem, result.controller, families, full=True)
+                stage = "certificate"
+            last = (result, checks)
+            say(f"round {rnd}: {len(support)} actuators in the program, integral gain"
+                f" {result.integral_gain:.5g}, design {result.status};"
+                f" {sum(not c.certified for c in checks)} of {N} violated ({stage})")
+        bad = sorted((c for c in checks if not c.certified and c.index not in support
+                      and c.index not in discarded), key=lambda c: (-c.ratio, c.index))
+        if not bad:
+            break
+        say(f"  worst: actuator {bad[0].index}: {bad[0].violation}")
+        added = [c.index for c in bad[:ADD_PER_ROUND]]
+        support += added
+    fleet = FleetDesign(method=spread.method, names=spread.names, values=np.asarray(values),
+                        n_scenarios=N, decision_variables=d, yield_target=spread.yield_target,
+                        confidence=spread.confidence, support=tuple(support),
+                        discarded=tuple(discarded),
+                        checks=tuple(checks), rounds=rnd, nominal_integral_gain=nominal_ki,
+                        integral_gain=result.integral_gain,
+                        wall_time_s=time.perf_counter() - t0, seed=spread.seed,
+                        n_convex=n_convex if spread.method == "scenario" else None)
+    return result, fleet
