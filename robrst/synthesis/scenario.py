@@ -260,10 +260,12 @@ class FleetDesign:
 
 
 def _ratio(violations):
-    """Worst ``value / bound`` of violations (``inf``: a crossing, unresolved, unstable)."""
+    """Worst ``value / bound`` of violations (``inf``: a crossing or an unstable loop)."""
     worst, text = 0.0, None
     for v in violations:
-        r = v.value / v.bound if (v.kind == "exceeds" and v.bound and v.bound > 0
+        # an unresolved figure by its proved bound (value); a crossing or an instability
+        # (bound 0, or no finite value) is infinitely bad
+        r = v.value / v.bound if (v.bound and v.bound > 0 and v.value is not None
                                   and np.isfinite(v.value)) else np.inf
         if text is None or r > worst:
             worst, text = r, v.describe()
