@@ -58,7 +58,18 @@ def run(path, out, n=1000, workers=2, targets=(), tradeoff_n=200, say=print):
                "nominal_design_wall_s": nominal_wall,
                "nominal_integral_gain": nom.integral_gain,
                "verification": ver.as_dict(), "tradeoff": []}
+    if targets:        # the design above is the trade-off's point at its own target
+        records["tradeoff"].append({"yield_target": problem.spread.yield_target,
+                                    "integral_gain": result.integral_gain,
+                                    "scenarios": fleet.n_scenarios,
+                                    "compression_size": len(fleet.compression),
+                                    "guaranteed_yield": fleet.guaranteed_yield,
+                                    "measured_yield": ver.measured_yield,
+                                    "yield_ci95": list(ver.yield_ci95), "n": ver.n,
+                                    "design_wall_s": wall})
     for target in targets:
+        if target == problem.spread.yield_target:
+            continue
         say(f"price of yield: target {target}")
         p = replace(problem, spread=replace(problem.spread, yield_target=float(target),
                                             scenarios=None))

@@ -93,3 +93,77 @@ def test_yield_on_fresh_actuators_and_its_collapse_without_the_spread(designs):
     nominal_yield = np.mean([_certifies(nominal.controller, r) for r in rows])
     assert fleet_yield >= 0.9, fleet_yield
     assert nominal_yield < 0.5, nominal_yield
+
+
+def test_result_json_is_a_controller_a_sweep_file_analyses(designs, tmp_path):
+    """`robrst design --json` of a fleet problem: its `fleet` object, and its controller
+    analysed by a sweep file (`controller = "result.json"`) on fresh draws of the spread:
+    the sweep's yield equals the python-control count on the same actuators."""
+    import json
+
+    from robrst.base.fileio import json_text
+    from robrst.studies.sweep import parse_sweep, run_sweep
+
+    problem, fleet, _ = designs
+    d = fleet.as_dict()
+    for key in ("scenarios", "decision_variables", "compression_size", "guaranteed_yield",
+                "bound", "integral_gain_ratio", "worst"):
+        assert key in d["fleet"]
+    (tmp_path / "result.json").write_text(json_text(d))
+    (tmp_path / "tiny.toml").write_text(_toml(DOC))
+    sweep = parse_sweep({"sweep": {"kind": "analysis", "problem": "tiny.toml", "n": 12,
+                                   "seed": FRESH_SEED},
+                         "analysis": {"controller": "result.json", "margins": False},
+                         "param": [dict(p) for p in DOC["spread"]["param"]]},
+                        str(tmp_path / "verify.toml"))
+    res = run_sweep(sweep, tmp_path / "out", workers=0)
+    rows = draw_rows(problem.spread.params, 12, FRESH_SEED)
+    assert json.loads((tmp_path / "out" / "summary.json").read_text())["done"] == 12
+    assert res.summary["certified"] == sum(_certifies(fleet.controller, r) for r in rows)
+
+
+def test_box_design_certifies_on_every_corner():
+    """method = "box": the centre and the 4 corners of gain x resonance (3 sigma) are
+    actuators the design certifies on, checked with python-control."""
+    doc = {**DOC, "spread": {"method": "box", "box_sigmas": 2.0, "param": [
+        {"name": "gain", "dist": "normal", "mean": 1.0, "std": 0.1, "lo": 0.7, "hi": 1.3},
+        {"name": "resonance", "dist": "normal", "mean": 1.0, "std": 0.03}]}}
+    problem = parse_problem(doc, "box.toml")
+    res = run_problem(problem)
+    f = res.fleet
+    assert f.method == "box" and f.n_scenarios == 5 and f.guaranteed_yield is None
+    assert not f.violated and res.certified
+    corners = [(1.0, 1.0), (0.8, 0.94), (1.2, 0.94), (0.8, 1.06), (1.2, 1.06)]
+    np.testing.assert_allclose(f.values, corners)
+    assert all(_certifies(res.controller, (g, r, 1.0)) for g, r in corners)
+
+
+def _toml(doc):
+    """A minimal TOML writer for the test document (tables, arrays of tables, lists)."""
+    def val(v):
+        if isinstance(v, str):
+            return f'"{v}"'
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        if isinstance(v, list):
+            return "[" + ", ".join(val(x) for x in v) + "]"
+        return repr(v)
+
+    out = []
+
+    def table(name, t):
+        scalars = {k: v for k, v in t.items() if not isinstance(v, dict)
+                   and not (isinstance(v, list) and v and isinstance(v[0], dict))}
+        out.append(f"[{name}]")
+        out.extend(f"{k} = {val(v)}" for k, v in scalars.items())
+        for k, v in t.items():
+            if isinstance(v, dict):
+                table(f"{name}.{k}", v)
+            elif isinstance(v, list) and v and isinstance(v[0], dict):
+                for item in v:
+                    out.append(f"[[{name}.{k}]]")
+                    out.extend(f"{a} = {val(b)}" for a, b in item.items())
+
+    for name, t in doc.items():
+        table(name, t)
+    return "\n".join(out) + "\n"
