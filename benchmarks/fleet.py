@@ -1,7 +1,7 @@
 """A fleet design end to end: design, verification on fresh draws, the price of yield.
 
 ``python -m benchmarks.fleet PROBLEM [--out DIR] [--n 1000] [--workers 2]
-[--targets 0.5 0.8 0.9 0.95] [--tradeoff-n 200]``
+[--targets 0.5 0.8 0.9 0.95] [--tradeoff-n 200] [--scaling RESULT_JSON]``
 
 1. ``robrst design PROBLEM --json`` (the fleet design; its ``fleet`` object states N, the
    compression set and the guarantee) -> ``DIR/result.json``;
@@ -104,6 +104,33 @@ def run(path, out, n=1000, workers=2, targets=(), tradeoff_n=200, say=print):
     return records
 
 
+def scaling(path, result_path, n=200, repeats=3, say=print):
+    """Verification speed-up on 2 Dask workers against 1: the same fresh draws, runs
+    alternating (1, 2, 1, 2, ...), compute time (wall after the cluster is up); the
+    median of the per-repeat ratios."""
+    import tempfile
+
+    import numpy as np
+
+    from robrst.studies.fleet import FRESH_SEED_OFFSET, fleet_sweep
+    from robrst.studies.sweep import run_sweep
+
+    problem = load_problem(path)
+    sp = problem.spread
+    sweep = fleet_sweep(problem.path, result_path, sp, n, sp.seed + FRESH_SEED_OFFSET)
+    times = {1: [], 2: []}
+    for r in range(repeats):
+        for w in (1, 2):
+            with tempfile.TemporaryDirectory() as tmp:
+                res = run_sweep(sweep, Path(tmp) / "v", workers=w)
+            s = res.summary
+            times[w].append(s["wall_s"] - s["startup_s"])
+            say(f"repeat {r}: {w} worker(s): {times[w][-1]:.1f} s compute"
+                f" ({s['certified']}/{s['done']} certified)")
+    ratio = float(np.median(np.array(times[1]) / np.array(times[2])))
+    return {"n": n, "repeats": repeats, "compute_s": times, "speedup_2_workers": ratio}
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m benchmarks.fleet", description=__doc__)
     ap.add_argument("problem")
@@ -112,11 +139,20 @@ def main(argv=None):
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--targets", type=float, nargs="*", default=())
     ap.add_argument("--tradeoff-n", type=int, default=200)
+    ap.add_argument("--scaling", type=Path, default=None, metavar="RESULT_JSON",
+                    help="only measure the verification's speed-up on 2 workers for this"
+                    " design result (alternating runs of --n draws)")
     a = ap.parse_args(argv)
 
     def say(msg):
         print(msg, file=sys.stderr, flush=True)
 
+    if a.scaling is not None:
+        out = scaling(a.problem, a.scaling, a.n, say=say)
+        a.out.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(a.out / "scaling.json", json_text(out))
+        say(f"speed-up on 2 workers: {out['speedup_2_workers']:.2f}x")
+        return 0
     run(a.problem, a.out, a.n, a.workers, a.targets, a.tradeoff_n, say)
     return 0
 

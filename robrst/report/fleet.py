@@ -123,7 +123,8 @@ def _draw_tradeoff(records, path):
                         xytext=(4, 4), fontsize=8)
         ax2.set_ylabel("measured yield [%]", color="C3")
         ax2.set_ylim(0, 102)
-        ax2.legend(loc="lower left", fontsize=8)
+        ax.margins(y=0.1)
+        ax2.legend(loc="center right", fontsize=8)
 
 
 def write_fleet_report(records, out_dir: str | os.PathLike, force=False):

@@ -15,7 +15,9 @@ actuator, checks all ``N`` (first their family members in one batched call,
 hands the ``ADD_PER_ROUND`` most violated to the program as further family models
 (``Problem.scenarios``; inside, the existing grid-point and stability-row exchange and
 the certificate's temperature refinement work on them as on the nominal family), and
-designs again from the previous controller, until every drawn actuator certifies.
+designs again from the previous controller, until every drawn actuator certifies.  When
+the program cannot meet the actuators just added together with the others, the most
+violated of them is *discarded* and the previous controller stands.
 
 *The guarantee.*  The program is non-convex, so the classical bound of Campi and Garatti
 (2008) does not apply as such.  The bound used is the a-posteriori one of the general
@@ -28,15 +30,16 @@ and, for ``k < N``, ``epsilon(k) = 1 - t(k)`` with ``t(k)`` the root in (0, 1) o
     beta/N * sum_{i=k}^{N-1} C(i, k) t^(i-k) - C(N, k) t^(N-k) = 0
 
 (:func:`nonconvex_epsilon`).  The compression set is the set of actuators the exchange
-handed to the program: each round adds the worst violators over *all* ``N`` (ties by
-index), so run on those actuators alone the same rounds add the same actuators (the worst
-over all are the worst over any subset that holds them) and end at the same controller,
-which satisfies the ``N`` constraints — a compression of size ``k`` = the number of
-actuators added, provided the design of one round is a deterministic function of its
-inputs (it is: seeded draws, deterministic IPOPT).  ``N`` is chosen a priori as the
-smallest with ``epsilon(d) <= 1 - yield`` for ``d`` decision variables
-(:func:`scenario_count`), so the target holds whenever the exchange needs at most ``d``
-actuators; the guarantee reported is ``1 - epsilon(k)`` for the ``k`` actually found.
+handed to the program, with those it discarded and any the final controller violates:
+each round adds the worst violators over *all* ``N`` (ties by index), so run on that set
+alone the same rounds add (and discard) the same actuators — the worst over all are the
+worst over any subset that holds them — and end at the same controller; and a fresh
+actuator the controller violates would change the set.  This needs the design of one
+round to be a deterministic function of its inputs (it is: seeded draws, deterministic
+IPOPT).  ``N`` is chosen a priori as the smallest with ``epsilon(d) <= 1 - yield`` for
+``d`` decision variables (:func:`scenario_count`), so the target holds whenever the
+compression set has at most ``d`` actuators; the guarantee reported is
+``1 - epsilon(k)`` for the ``k`` actually found.
 For reference, the a-priori count of the convex case, ``N`` with
 ``sum_{i<d} C(N, i) eps^i (1 - eps)^(N-i) <= beta`` (Campi and Garatti 2008, Theorem 1),
 is reported beside it (:func:`convex_scenario_count`); it is *not* claimed here.
