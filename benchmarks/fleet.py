@@ -37,18 +37,24 @@ def _design(problem, out, say):
     return result, d, wall
 
 
-def run(path, out, n=1000, workers=2, targets=(), tradeoff_n=200, say=print):
+def run(path, out, n=1000, workers=2, targets=(), tradeoff_n=200, say=print, reuse=False):
     """Design, verify and (with ``targets``) trade off; returns the records written."""
     out = Path(out)
     problem = load_problem(path)
-    say(f"designing {problem.name} for its spread")
-    result, d, wall = _design(problem, out, say)
-    fleet = result.fleet
-    say(f"fleet design: {wall:.1f} s, {fleet.n_scenarios} actuators, guarantee"
-        f" {fleet.guaranteed_yield}; verifying on {n} fresh draws")
+    if reuse and (out / "result.json").is_file():      # a design of an earlier run
+        d = json.loads((out / "result.json").read_text(encoding="utf-8"))
+        wall = d["fleet"]["wall_time_s"]
+        say(f"reusing {out / 'result.json'}")
+    else:
+        say(f"designing {problem.name} for its spread")
+        _, d, wall = _design(problem, out, say)
+    fleet = d["fleet"]
+    say(f"fleet design: {wall:.1f} s, {fleet['scenarios']} actuators, guarantee"
+        f" {fleet['guaranteed_yield']}; verifying on {n} fresh draws")
     t0 = time.perf_counter()
     ver = verify_fleet(problem, out / "result.json", out / "verification", n=n,
-                       workers=workers, guaranteed_yield=fleet.guaranteed_yield)
+                       workers=workers, guaranteed_yield=fleet["guaranteed_yield"],
+                       restart=True)
     say(f"verified: {ver.certified}/{ver.n} certify ({time.perf_counter() - t0:.1f} s)")
     nominal = replace(problem, spread=None)
     t0 = time.perf_counter()
@@ -60,10 +66,10 @@ def run(path, out, n=1000, workers=2, targets=(), tradeoff_n=200, say=print):
                "verification": ver.as_dict(), "tradeoff": []}
     if targets:        # the design above is the trade-off's point at its own target
         records["tradeoff"].append({"yield_target": problem.spread.yield_target,
-                                    "integral_gain": result.integral_gain,
-                                    "scenarios": fleet.n_scenarios,
-                                    "compression_size": len(fleet.compression),
-                                    "guaranteed_yield": fleet.guaranteed_yield,
+                                    "integral_gain": d["integral_gain"],
+                                    "scenarios": fleet["scenarios"],
+                                    "compression_size": fleet["compression_size"],
+                                    "guaranteed_yield": fleet["guaranteed_yield"],
                                     "measured_yield": ver.measured_yield,
                                     "yield_ci95": list(ver.yield_ci95), "n": ver.n,
                                     "design_wall_s": wall})
@@ -76,7 +82,8 @@ def run(path, out, n=1000, workers=2, targets=(), tradeoff_n=200, say=print):
         sub = out / "tradeoff" / f"yield_{target:g}"
         r, _, w = _design(p, sub, say)
         v = verify_fleet(problem, sub / "result.json", sub / "verification", n=tradeoff_n,
-                         workers=workers, guaranteed_yield=r.fleet.guaranteed_yield)
+                         workers=workers, guaranteed_yield=r.fleet.guaranteed_yield,
+                         restart=True)
         records["tradeoff"].append({"yield_target": float(target),
                                     "integral_gain": r.integral_gain,
                                     "scenarios": r.fleet.n_scenarios,
@@ -90,7 +97,7 @@ def run(path, out, n=1000, workers=2, targets=(), tradeoff_n=200, say=print):
         sub.mkdir(parents=True, exist_ok=True)
         atomic_write_text(sub / "result.json", json_text(nom.as_dict()))
         v = verify_fleet(problem, sub / "result.json", sub / "verification", n=tradeoff_n,
-                         workers=workers)
+                         workers=workers, restart=True)
         records["tradeoff"].append({"yield_target": None, "integral_gain": nom.integral_gain,
                                     "scenarios": 0, "compression_size": 0,
                                     "guaranteed_yield": None,
@@ -139,6 +146,8 @@ def main(argv=None):
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--targets", type=float, nargs="*", default=())
     ap.add_argument("--tradeoff-n", type=int, default=200)
+    ap.add_argument("--reuse", action="store_true", help="reuse OUT/result.json (the design"
+                    " of an earlier run) instead of designing again")
     ap.add_argument("--scaling", type=Path, default=None, metavar="RESULT_JSON",
                     help="only measure the verification's speed-up on 2 workers for this"
                     " design result (alternating runs of --n draws)")
@@ -153,7 +162,7 @@ def main(argv=None):
         atomic_write_text(a.out / "scaling.json", json_text(out))
         say(f"speed-up on 2 workers: {out['speedup_2_workers']:.2f}x")
         return 0
-    run(a.problem, a.out, a.n, a.workers, a.targets, a.tradeoff_n, say)
+    run(a.problem, a.out, a.n, a.workers, a.targets, a.tradeoff_n, say, a.reuse)
     return 0
 
 

@@ -90,7 +90,7 @@ def fleet_sweep(problem_path, result_path, spread, n, seed, name="fleet_verifica
 
 
 def verify_fleet(problem, result_path, out, n=1000, seed=None, workers=None, progress=None,
-                 guaranteed_yield=None):
+                 guaranteed_yield=None, restart=False):
     """Certify a fleet design's controller on ``n`` fresh actuators (module docstring).
 
     Parameters
@@ -111,6 +111,8 @@ def verify_fleet(problem, result_path, out, n=1000, seed=None, workers=None, pro
         The sweep engine's progress callback.
     guaranteed_yield : float, optional
         The design's guarantee, reported beside the measured yield.
+    restart : bool
+        Discard earlier results in ``out`` (robrst's own files only).
 
     Returns
     -------
@@ -131,7 +133,7 @@ def verify_fleet(problem, result_path, out, n=1000, seed=None, workers=None, pro
         raise SpecError(f"seed {seed}: the design's own draws; fresh actuators need another seed")
     sweep = fleet_sweep(problem.path, result_path, spread, n, seed,
                         name=f"{problem.name}_verification")
-    res = run_sweep(sweep, out, workers=workers, progress=progress)
+    res = run_sweep(sweep, out, workers=workers, progress=progress, restart=restart)
     s = res.summary
     stable = [r for r in res.table.column("stable").to_pylist()]
     unstable = sum(1 for v in stable if v is False)
