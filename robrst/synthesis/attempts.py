@@ -273,16 +273,19 @@ class Run:
         """Soft goals, then the objective, from the previous design ``warm`` (a scored
         start): in a fleet design's next round the actuators just added move the specs a
         little, and the boldest start that already meets them may lead to a far worse
-        local optimum (``None`` when the soft goals are not met)."""
+        local optimum.  Returns the certified outcome of the objective, else the soft-goal
+        point (``None`` if nothing was solved)."""
         if warm.worst > FAR_START or self.spent(placement):
             return None
         x0 = ctx.full(warm.xc, setup, warm.wn, warm.zeta,
                       gamma=max(warm.worst * 1.02, GAMMA_FLOOR) if warm.stable else
                       max(warm.worst, 1.0) * 2)
         res = self.solve(ctx, setup, x0, Phase("soft", GAMMA_FLOOR), WARM_START)
+        soft = self.outcome(ctx, setup, res, "soft")
         if not (res.success and res.x[-1] <= 1.0):
-            return None
-        return self.hard(ctx, placement, res.x, f"soft-goal point from {WARM_START}")
+            return soft
+        out = self.hard(ctx, placement, res.x, f"soft-goal point from {WARM_START}")
+        return out if out is not None and (out.certified or not soft.certified) else soft
 
     def attempt(self, ctx, placement, seeds):
         """Hard phase from the preferred start; if that fails, soft phase then hard phase.
@@ -308,7 +311,10 @@ class Run:
                     return from_warm
             elif ctx.problem.scenarios:    # a fleet design's next round: soft goals first
                 out = self.from_warm(ctx, setup, placement, s)
-                if out is not None and out.certified:
+                if out is not None:
+                    # certified, or not: the actuators just added are then out of reach
+                    # near the previous design, and the round ends (the exchange over
+                    # actuators discards one and tries again)
                     return out
         convex = ctx.problem.solver.init == "convex" and placement == "fixed"
         starts = candidates(ctx, setup, blocks, seeds, convex=convex)

@@ -198,6 +198,8 @@ class FleetDesign:
     seed: int = 0
     n_convex: int = None
     discarded: tuple = ()
+    design_time_s: float = 0.0
+    check_time_s: float = 0.0
 
     @property
     def violated(self):
@@ -255,7 +257,8 @@ class FleetDesign:
             "nominal_integral_gain": self.nominal_integral_gain,
             "integral_gain": self.integral_gain,
             "integral_gain_ratio": self.integral_gain_ratio,
-            "wall_time_s": self.wall_time_s,
+            "wall_time_s": self.wall_time_s, "design_time_s": self.design_time_s,
+            "check_time_s": self.check_time_s,
             "worst": [{"index": c.index, "ratio": c.ratio, "violation": c.violation,
                        "parameters": dict(zip(self.names, map(float, self.values[c.index])))}
                       for c in self.worst() if c.ratio > 0],
@@ -364,9 +367,18 @@ def scenario_design(problem, design, progress=None, families=None, values=None,
     base = replace(problem, scenarios=())
     support, discarded, added = [], [], []
     warm, result, nominal_ki, checks, last = None, None, None, [], None
+    spent = {"design": 0.0, "check": 0.0}
+
+    def timed(kind, f, *args, **kw):
+        t = time.perf_counter()
+        try:
+            return f(*args, **kw)
+        finally:
+            spent[kind] += time.perf_counter() - t
+
     for rnd in range(1, MAX_ROUNDS + 1):
         p = replace(base, scenarios=tuple(families[i] for i in support))
-        out = design(p, warm)
+        out = timed("design", design, p, warm)
         if nominal_ki is None:
             nominal_ki = out.integral_gain
         if not out.certified and last is not None:
@@ -385,10 +397,12 @@ def scenario_design(problem, design, progress=None, families=None, values=None,
         else:
             result = out
             warm = out.synthesis
-            checks = check_actuators(problem, result.controller, families, full=False)
+            checks = timed("check", check_actuators, problem, result.controller, families,
+                           full=False)
             stage = "members"
             if all(c.certified for c in checks):
-                checks = check_actuators(problem, result.controller, families, full=True)
+                checks = timed("check", check_actuators, problem, result.controller, families,
+                               full=True)
                 stage = "certificate"
             last = (result, checks)
             say(f"round {rnd}: {len(support)} actuators in the program, integral gain"
@@ -408,5 +422,6 @@ def scenario_design(problem, design, progress=None, families=None, values=None,
                         checks=tuple(checks), rounds=rnd, nominal_integral_gain=nominal_ki,
                         integral_gain=result.integral_gain,
                         wall_time_s=time.perf_counter() - t0, seed=spread.seed,
+                        design_time_s=spent["design"], check_time_s=spent["check"],
                         n_convex=n_convex if spread.method == "scenario" else None)
     return result, fleet
