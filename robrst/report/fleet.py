@@ -59,7 +59,9 @@ def fleet_doc(records):
                   ("integral gain (fleet design)", _f(d["integral_gain"])),
                   ("integral gain (nominal design)", _f(records["nominal_integral_gain"])),
                   ("fleet / nominal integral gain", _f(fl["integral_gain_ratio"])),
-                  ("fleet design wall time", f"{records['design_wall_s']:.1f} s"),
+                  ("fleet design wall time", f"{records['design_wall_s']:.1f} s"
+                   + (f" (designs {fl['design_time_s']:.0f} s, actuator checks"
+                      f" {fl['check_time_s']:.0f} s)" if fl.get("check_time_s") else "")),
                   ("nominal design wall time", f"{records['nominal_design_wall_s']:.1f} s"),
                   ("verification wall time", f"{v['wall_s']:.1f} s on {v['workers']} workers"),
               ]),

@@ -49,10 +49,11 @@ their range; normal and lognormal: ``box_sigmas`` standard deviations, within th
 truncation) is represented by its centre and its ``2^k`` corners, each an actuator with
 its temperature family, and the same exchange designs until every one certifies.  This
 is a deterministic statement about those actuators (every temperature of each, by the
-certificate); between corners it is not a proof — the spread's parameters act
-nonlinearly (a resonance factor moves every coefficient), and the interval certificate
-of :mod:`robrst.core.interval` applies to parameters entering the closed-loop polynomial
-affinely only.  The Monte Carlo verification on fresh draws states what it is worth.
+certificate).  Along the box's *gain* edges the closed-loop polynomial is affine in the
+parameter, and the interval certificate of :mod:`robrst.core.interval` proves stability
+on them exactly (:func:`gain_edges`, at every family member, both loops); elsewhere
+between corners it is no proof — a resonance or damping factor moves every coefficient
+non-linearly.  The Monte Carlo verification on fresh draws states what it is worth.
 
 References
 ----------
@@ -73,9 +74,11 @@ import numpy as np
 
 from robrst.certificate.models import check_all_many
 from robrst.certificate.proof import certify
+from robrst.core.interval import segment_crossing
+from robrst.core.rst import closed_loop
 from robrst.base.threads import one_blas_thread
 
-__all__ = ["FleetDesign", "ActuatorCheck", "scenario_design", "scenario_count",
+__all__ = ["FleetDesign", "ActuatorCheck", "scenario_design", "scenario_count", "gain_edges",
            "convex_scenario_count", "convex_confidence", "nonconvex_epsilon",
            "check_actuators", "ADD_PER_ROUND", "MAX_ROUNDS"]
 
@@ -200,6 +203,7 @@ class FleetDesign:
     discarded: tuple = ()
     design_time_s: float = 0.0
     check_time_s: float = 0.0
+    edges: dict = None
 
     @property
     def violated(self):
@@ -258,7 +262,7 @@ class FleetDesign:
             "integral_gain": self.integral_gain,
             "integral_gain_ratio": self.integral_gain_ratio,
             "wall_time_s": self.wall_time_s, "design_time_s": self.design_time_s,
-            "check_time_s": self.check_time_s,
+            "check_time_s": self.check_time_s, "edges": self.edges,
             "worst": [{"index": c.index, "ratio": c.ratio, "violation": c.violation,
                        "parameters": dict(zip(self.names, map(float, self.values[c.index])))}
                       for c in self.worst() if c.ratio > 0],
@@ -313,6 +317,50 @@ def check_actuators(problem, ctrl, families, full=True):
             text = _ratio(cert.violations)[1]
             out.append(ActuatorCheck(i, r if stable else np.inf, cert.certified, text))
     return out
+
+
+def gain_edges(problem, ctrl, names, values, families):
+    """Closed-loop stability along the box's gain edges, proved exactly.
+
+    The static-gain factor multiplies the plant's numerator, so along an edge of the box
+    on which only ``gain`` varies the closed-loop polynomial ``A S + g B R`` of each
+    temperature (and, the zero-order hold being linear in the plant, of its sampled loop)
+    is the segment between the edge's end polynomials:
+    :func:`robrst.core.interval.segment_crossing` proves that no root crosses the
+    imaginary axis on it.  Checked at every family member of the edge's actuators.
+
+    Returns
+    -------
+    dict
+        ``edges`` tested, ``segments`` (edges x temperatures x loops), ``crossings`` (a
+        list of ``(edge ends, temperature, loop)``) and ``proved`` (no crossing).
+    """
+    if "gain" not in names:
+        return None
+    g = names.index("gain")
+    values = np.asarray(values, float)
+    others = np.delete(values, g, axis=1)
+    sp = problem.specs
+    edges, crossings, segments = 0, [], 0
+    for i in range(len(values)):
+        for j in range(i + 1, len(values)):
+            if values[i, g] == values[j, g] or not np.array_equal(others[i], others[j]):
+                continue
+            edges += 1
+            for a, b in zip(families[i].models, families[j].models):
+                loops = [(a, b, "continuous")]
+                if sp.sampled:
+                    loops.append(tuple(problem.family.sampled(m, sp.sample_rate_hz,
+                                                              sp.delay_samples)
+                                       for m in (a, b)) + ("sampled",))
+                for pa, pb, loop in loops:
+                    segments += 1
+                    cr = segment_crossing(closed_loop(pa, ctrl).Delta,
+                                          closed_loop(pb, ctrl).Delta)
+                    if cr.crossing:
+                        crossings.append(([i, j], a.temperature_C, loop))
+    return {"edges": edges, "segments": segments, "crossings": crossings,
+            "proved": edges > 0 and not crossings}
 
 
 def scenario_design(problem, design, progress=None, families=None, values=None,
@@ -415,7 +463,15 @@ def scenario_design(problem, design, progress=None, families=None, values=None,
         say(f"  worst: actuator {bad[0].index}: {bad[0].violation}")
         added = [c.index for c in bad[:ADD_PER_ROUND]]
         support += added
-    fleet = FleetDesign(method=spread.method, names=spread.names, values=np.asarray(values),
+    edges = None
+    if spread.method == "box":
+        edges = gain_edges(problem, result.controller, spread.names, values,
+                           families)
+        if edges is not None:
+            say(f"box: stability along {edges['edges']} gain edges"
+                f" {'proved' if edges['proved'] else 'NOT proved'}"
+                f" ({edges['segments']} segments, {len(edges['crossings'])} crossings)")
+    fleet = FleetDesign(method=spread.method, edges=edges, names=spread.names, values=np.asarray(values),
                         n_scenarios=N, decision_variables=d, yield_target=spread.yield_target,
                         confidence=spread.confidence, support=tuple(support),
                         discarded=tuple(discarded),
