@@ -304,18 +304,18 @@ class Run:
             # a previous design of a nearby variant near the specs on the grid is the
             # preferred start: solved from at once, the other starts scored only if it fails
             s = score(setup, blocks, *warm)
-            if s.stable and s.worst <= WARM_NEAR:
-                from_warm = self.hard(ctx, placement, ctx.full(s.xc, setup, s.wn, s.zeta),
-                                      s.name)
-                if from_warm is not None and from_warm.certified:
-                    return from_warm
-            elif ctx.problem.scenarios:    # a fleet design's next round: soft goals first
-                out = self.from_warm(ctx, setup, placement, s)
+            if ctx.problem.scenarios:     # a fleet design's next round: from the previous
+                out = self.from_warm(ctx, setup, placement, s)     # design, soft goals first
                 if out is not None:
                     # certified, or not: the actuators just added are then out of reach
                     # near the previous design, and the round ends (the exchange over
                     # actuators discards one and tries again)
                     return out
+            elif s.stable and s.worst <= WARM_NEAR:
+                from_warm = self.hard(ctx, placement, ctx.full(s.xc, setup, s.wn, s.zeta),
+                                      s.name)
+                if from_warm is not None and from_warm.certified:
+                    return from_warm
         convex = ctx.problem.solver.init == "convex" and placement == "fixed"
         starts = candidates(ctx, setup, blocks, seeds, convex=convex)
         if not starts:
