@@ -24,7 +24,7 @@ from pathlib import Path
 from robrst.base.fileio import atomic_write_text, json_text
 from robrst.design import run_problem
 from robrst.problem.files import load_problem
-from robrst.studies.fleet import verify_fleet
+from robrst.studies.fleet import FRESH_SEED_OFFSET, verification_toml, verify_fleet
 
 
 def _design(problem, out, say):
@@ -56,6 +56,8 @@ def run(path, out, n=1000, workers=2, targets=(), tradeoff_n=200, say=print, reu
                        workers=workers, guaranteed_yield=fleet["guaranteed_yield"],
                        restart=True)
     say(f"verified: {ver.certified}/{ver.n} certify ({time.perf_counter() - t0:.1f} s)")
+    atomic_write_text(out / "verification.toml", verification_toml(
+        problem.name, problem.spread, n, problem.spread.seed + FRESH_SEED_OFFSET))
     nominal = replace(problem, spread=None)
     t0 = time.perf_counter()
     nom = run_problem(nominal)

@@ -13,6 +13,7 @@ the same: ``kind = "analysis"``, ``controller = "result.json"`` and the spread a
 
 from __future__ import annotations
 
+import json
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,7 +22,8 @@ from robrst.base.errors import SpecError
 from robrst.studies.sweep.engine import run_sweep
 from robrst.studies.sweep.files import Sweep
 
-__all__ = ["FleetVerification", "fleet_sweep", "verify_fleet", "yield_interval"]
+__all__ = ["FleetVerification", "fleet_sweep", "verify_fleet", "yield_interval",
+           "verification_toml", "FRESH_SEED_OFFSET"]
 
 FRESH_SEED_OFFSET = 1_000_003   # fresh draws: the design's seed plus this (never the same)
 
@@ -143,3 +145,27 @@ def verify_fleet(problem, result_path, out, n=1000, seed=None, workers=None, pro
                              guaranteed_yield=guaranteed_yield, yield_target=spread.yield_target,
                              confidence=spread.confidence, worst=tuple(s["worst"]),
                              workers=s["workers"], wall_s=s["wall_s"], out=os.fspath(out))
+
+
+def verification_toml(problem, spread, n, seed, controller="result.json"):
+    """The sweep file of :func:`fleet_sweep` as TOML text: ``robrst sweep FILE`` runs the
+    same verification (``problem``: a built-in name or a path relative to the file)."""
+    def num(x):
+        return repr(float(x))
+
+    lines = ["# The fleet design's controller certified on fresh actuators of its spread",
+             "[sweep]", f'name = "{Path(str(problem)).stem}_verification"',
+             'kind = "analysis"', f'problem = "{problem}"', f"seed = {int(seed)}",
+             f"n = {int(n)}", "", "[analysis]", f'controller = "{controller}"',
+             "margins = false", ""]
+    if spread.cert_temperatures:
+        lines += ["[set.solver]", f"cert_temperatures = {int(spread.cert_temperatures)}", ""]
+    for p in spread.params:
+        lines += ["[[param]]", f'name = "{p.name}"', f'dist = "{p.dist}"']
+        for k in ("mean", "std", "median", "sigma", "lo", "hi"):
+            if getattr(p, k) is not None:
+                lines.append(f"{k} = {num(getattr(p, k))}")
+        if p.note:
+            lines.append(f"note = {json.dumps(p.note, ensure_ascii=False)}")
+        lines.append("")
+    return "\n".join(lines)

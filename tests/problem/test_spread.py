@@ -112,3 +112,22 @@ def test_spread_needs_the_nlp_and_a_parametric_family_for_the_laws(problems_dir)
                                 "mean": 0.0, "std": 1e-3}]}
     with pytest.raises(SpecError, match="not parametric"):
         parse_problem(doc, "p.toml")
+
+
+def test_the_verification_sweep_file_draws_the_verified_actuators(tmp_path):
+    """The sweep file written beside a fleet report is the verification's sweep: same
+    parameters, seed and draws."""
+    from robrst.studies.fleet import FRESH_SEED_OFFSET, fleet_sweep, verification_toml
+    from robrst.studies.sweep.variants import variant_table
+
+    p = load_problem("paper_robust_fleet")
+    seed = p.spread.seed + FRESH_SEED_OFFSET
+    (tmp_path / "result.json").write_text("{}")
+    path = tmp_path / "verification.toml"
+    path.write_text(verification_toml(p.name, p.spread, 50, seed))
+    sweep = load_sweep(path)
+    ref = fleet_sweep(p.path, tmp_path / "result.json", p.spread, 50, seed)
+    assert sweep.params == ref.params and sweep.seed == ref.seed and sweep.n == 50
+    assert sweep.overrides == ((("solver", "cert_temperatures"), 12),)
+    np.testing.assert_array_equal(variant_table(sweep).values, variant_table(ref).values)
+    np.testing.assert_array_equal(variant_table(sweep).values, p.spread.draws(50, seed))
