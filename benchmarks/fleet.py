@@ -65,7 +65,7 @@ def run(path, out, n=1000, workers=2, targets=(), tradeoff_n=200, say=print, reu
     records = {"problem": problem.name, "design": d, "design_wall_s": wall,
                "nominal_design_wall_s": nominal_wall,
                "nominal_integral_gain": nom.integral_gain,
-               "verification": ver.as_dict(), "tradeoff": []}
+               "verification": {**ver.as_dict(), "sweep": "verification"}, "tradeoff": []}
     if targets:        # the design above is the trade-off's point at its own target
         records["tradeoff"].append({"yield_target": problem.spread.yield_target,
                                     "integral_gain": d["integral_gain"],
