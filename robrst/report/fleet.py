@@ -80,7 +80,9 @@ def fleet_doc(records):
     files = []
     if records.get("tradeoff"):
         rows = []
-        for t in records["tradeoff"]:
+        order = sorted(records["tradeoff"], key=lambda t: (t["yield_target"] is None,
+                                                           t["yield_target"] or 0.0))
+        for t in order:
             lo_t, hi_t = t["yield_ci95"]
             rows.append(("nominal (no spread)" if t["yield_target"] is None
                          else _pct(t["yield_target"]), t["scenarios"], t["compression_size"],
