@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -27,6 +28,14 @@ from robrst.synthesis.parametrize import integral_gain
 from robrst.synthesis.robust import best_achievable
 from robrst.base.threads import one_blas_thread
 
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from robrst.certificate.proof import Certificate
+    from robrst.core.rst import RSTController
+    from robrst.problem.records import PoleSpec
+    from robrst.synthesis.analytic import AnalyticDesign
+
 __all__ = ["DesignResult", "AnalyticCheck", "Comparison", "run_problem", "analytic_design",
            "analytic_check", "comparison", "with_time_domain"]
 
@@ -35,28 +44,59 @@ __all__ = ["DesignResult", "AnalyticCheck", "Comparison", "run_problem", "analyt
 class AnalyticCheck:
     """A synthesised controller against the closed-form Diophantine solution.
 
-    ``kind`` is ``"sylvester_coefficients"`` (no free degree: the solution is unique and
-    must be reproduced coefficient by coefficient) or ``"diophantine_residual"``.
+    Parameters
+    ----------
+    kind : {"sylvester_coefficients", "diophantine_residual"}
+        No free degree: the solution is unique and must be reproduced coefficient by
+        coefficient; else the Diophantine residual at the nominal model.
+    max_rel_coef_error : float
+        The largest relative error found.
+    passed : bool
+        ``max_rel_coef_error <= 1e-8``.
     """
 
     kind: str
     max_rel_coef_error: float
     passed: bool
 
-    def as_dict(self):
+    def as_dict(self) -> dict:
+        """The ``analytic_check`` object of the design JSON.
+
+        Returns
+        -------
+        dict
+            ``kind, max_rel_coef_error, passed``.
+        """
         return {"kind": self.kind, "max_rel_coef_error": self.max_rel_coef_error,
                 "passed": self.passed}
 
 
 @dataclass(frozen=True)
 class Comparison:
-    """Worst-case figures over the family for this design and an analytic one."""
+    """Worst-case figures over the family for this design and an analytic one.
+
+    Parameters
+    ----------
+    rows : dict
+        Figure -> ``{"this": value, "analytic": value}``.
+    table : str
+        The comparison as printed.
+    range_C : tuple of float
+        The family's temperature range [°C].
+    """
 
     rows: dict
     table: str
     range_C: tuple
 
-    def as_dict(self):
+    def as_dict(self) -> dict:
+        """The ``comparison`` object of the design JSON.
+
+        Returns
+        -------
+        dict
+            ``rows, table``.
+        """
         return {"rows": self.rows, "table": self.table}
 
 
@@ -64,14 +104,46 @@ class Comparison:
 class DesignResult:
     """A certified (or explicitly uncertified) design and everything reported about it.
 
-    ``analyses`` holds one :class:`~robrst.core.analysis.Analysis` per family model (none when
-    :func:`run_problem` was asked for none).  ``synthesis`` is the stage's own record: an
-    :class:`~robrst.synthesis.analytic.AnalyticDesign` or a
-    :class:`~robrst.synthesis.outcome.SynthesisResult`; ``tracking`` the 2-DOF reference
-    path (:class:`~robrst.synthesis.tracking.Tracking`) with ``T_mode = "reference_model"``
-    (then ``controller`` is the 2-DOF controller and ``synthesis.controller`` the feedback).
-    ``fleet`` is the :class:`~robrst.synthesis.scenario.FleetDesign` of a problem with a
-    ``[spread]`` (then ``problem.scenarios`` are the drawn actuators the program held on).
+    Parameters
+    ----------
+    problem : Problem
+        The problem designed.
+    method : str
+        ``solver.method``.
+    controller : RSTController
+        The controller (the 2-DOF controller with ``T_mode = "reference_model"``; then
+        ``synthesis.controller`` is the feedback).
+    target_char_poly : numpy.ndarray
+        The nominal characteristic polynomial aimed at.
+    analyses : tuple of Analysis
+        One :class:`~robrst.core.analysis.Analysis` per family model (none when
+        :func:`run_problem` was asked for none).
+    certificate : Certificate
+        The certificate over the whole temperature interval.
+    synthesis : AnalyticDesign or SynthesisResult
+        The stage's own record.
+    analytic_check : AnalyticCheck, optional
+        The synthesised controller against the Sylvester solution.
+    comparison : Comparison, optional
+        The comparison with ``compare_with``'s analytic design.
+    tracking : Tracking, optional
+        The 2-DOF reference path (``T_mode = "reference_model"``).
+    fleet : FleetDesign, optional
+        The :class:`~robrst.synthesis.scenario.FleetDesign` of a problem with a
+        ``[spread]`` (then ``problem.scenarios`` are the drawn actuators the program held
+        on).
+
+    Attributes
+    ----------
+    best_achievable : str or None
+        What an uncertified design achieves (its worst violation).
+    certified : bool
+        The certificate holds over the whole family and sweep (a fleet design: and on
+        every actuator drawn for it).
+    status : str
+        ``"certified"`` or ``"not_certified"``.
+    integral_gain : float
+        ``lim s R/S`` [V/(µm s)] of the controller.
     """
 
     problem: object
@@ -107,16 +179,27 @@ class DesignResult:
         """``lim s R/S`` [V/(µm s)] of the controller."""
         return integral_gain(self.controller)
 
-    def solver_dict(self):
-        """The ``solver`` object of the JSON contract."""
+    def solver_dict(self) -> dict:
+        """The ``solver`` object of the JSON contract.
+
+        Returns
+        -------
+        dict
+        """
         s = self.synthesis
         if isinstance(s, analytic.AnalyticDesign):
             return {"name": "sylvester", "status": s.status, "w0_rad_s": s.w0, "cond": s.cond,
                     "cond_unscaled": s.cond_unscaled, "residual": s.residual}
         return s.solver_dict()
 
-    def as_dict(self):
-        """The public JSON contract of ``robrst design --json`` (fields are only added)."""
+    def as_dict(self) -> dict:
+        """The public JSON contract of ``robrst design --json`` (fields are only added).
+
+        Returns
+        -------
+        dict
+            See the documentation's command-line reference (``robrst design``).
+        """
         p = self.problem
         sp = p.specs
         models = [a.as_dict(m) for a, m in zip(self.analyses, p.family.models)]
@@ -160,8 +243,15 @@ class DesignResult:
         return out
 
 
-def analytic_design(problem, poles=None):
+def analytic_design(problem: Problem, poles: PoleSpec | None = None) -> AnalyticDesign:
     """Pole placement on the reference model of ``problem`` (the paper's method).
+
+    Parameters
+    ----------
+    problem : Problem
+        The problem (its reference model and controller structure).
+    poles : PoleSpec, optional
+        Other poles than the problem's.
 
     Returns
     -------
@@ -181,7 +271,8 @@ def analytic_design(problem, poles=None):
         raise
 
 
-def with_time_domain(problem, cert, ctrl, factor=None):
+def with_time_domain(problem: Problem, cert: Certificate, ctrl: RSTController,
+                     factor: ArrayLike | None = None) -> Certificate:
     """``cert`` (of the feedback ``R/S``) completed by the time-domain specs of ``ctrl``.
 
     The frequency-domain records of a certificate depend on ``R/S`` only, so a
@@ -192,6 +283,21 @@ def with_time_domain(problem, cert, ctrl, factor=None):
     those of ``factor`` when given (a polynomial that ``ctrl``'s ``R`` and ``S`` have
     beyond the certificate's controller, so every closed-loop polynomial gained exactly
     it), else those of each new closed-loop polynomial.
+
+    Parameters
+    ----------
+    problem : Problem
+        The problem.
+    cert : Certificate
+        The feedback's certificate.
+    ctrl : RSTController
+        The controller with its reference path.
+    factor : array_like, optional
+        The common factor of ``R`` and ``S`` the reference path added.
+
+    Returns
+    -------
+    Certificate
     """
     sp = problem.specs
     recs = [dict(rec) for rec in cert.models]
@@ -228,12 +334,21 @@ def with_time_domain(problem, cert, ctrl, factor=None):
                    interval={**cert.interval, "time_domain": "checked points"}, bounds=bounds)
 
 
-def analytic_check(problem, ctrl, Am):
+def analytic_check(problem: Problem, ctrl: RSTController, Am: ArrayLike) -> AnalyticCheck:
     """Compare a synthesised controller with the Sylvester solution for the same ``Am``.
 
     With no free degree (``extra_degree = 0``) the Diophantine solution is unique and
     the synthesis must reproduce it coefficient by coefficient; with free degrees the
     check is the Diophantine residual at the nominal model.
+
+    Parameters
+    ----------
+    problem : Problem
+        The problem.
+    ctrl : RSTController
+        The synthesised controller.
+    Am : array_like
+        Its nominal characteristic polynomial.
 
     Returns
     -------
@@ -261,7 +376,7 @@ def _worst(cert, ctrl, sampled):
     return row
 
 
-def comparison(problem, ctrl, cert):
+def comparison(problem: Problem, ctrl: RSTController, cert: Certificate) -> Comparison | None:
     """Worst-case margins over the family: this controller vs ``compare_with``'s analytic design.
 
     This controller's figures come from its certificate (reused, not recomputed); the
@@ -271,7 +386,9 @@ def comparison(problem, ctrl, cert):
     Parameters
     ----------
     problem : Problem
+        The problem (its ``compare_with``).
     ctrl : RSTController
+        This controller.
     cert : Certificate
         This controller's certificate.
 
@@ -317,6 +434,7 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
     Parameters
     ----------
     problem : Problem
+        The problem (a problem file read by :func:`robrst.load_problem`, or built in code).
     progress : callable, optional
         Called with one line of text per stage (certification rounds included).
     templates : dict, optional

@@ -7,17 +7,17 @@ sampled problem, the sampled peaks), the design's ``certified`` and its objectiv
 with its tolerance.  Checking compares a new design with it and lists every figure that
 got *worse* beyond its tolerance; improvements never fail.  Which way is worse:
 
-==========================================  ==============================================
-figure                                      worse when
-==========================================  ==============================================
+==============================================  ===============================================
+figure                                          worse when
+==============================================  ===============================================
 ``Ms``, ``Mt``, ``Mu``, ``Msd``, ``*_sampled``  ``current > value (1 + rtol) + atol``
-``modulus_margin``, ``delay_margin_s``      ``current < value (1 - rtol) - atol``
-``phase_margin_deg``                        ``|current| < |value| (1 - rtol) - atol``
-``gain_margin*`` (every gain margin)        ``|ln current| < |ln value| (1 - rtol) - atol``
-``certified``                               ``true`` became ``false``
-``integral_gain`` (objective)               ``current < value (1 - rtol) - atol``
-``worst_Ms`` (objective ``min_Ms``)         ``current > value (1 + rtol) + atol``
-==========================================  ==============================================
+``modulus_margin``, ``delay_margin_s``          ``current < value (1 - rtol) - atol``
+``phase_margin_deg``                            ``|current| < |value| (1 - rtol) - atol``
+``gain_margin*`` (every gain margin)            ``|ln current| < |ln value| (1 - rtol) - atol``
+``certified``                                   ``true`` became ``false``
+``integral_gain`` (objective)                   ``current < value (1 - rtol) - atol``
+``worst_Ms`` (objective ``min_Ms``)             ``current > value (1 + rtol) + atol``
+==============================================  ===============================================
 
 Figures are read by name from ``DesignResult.as_dict()["models"]`` (and the certificate's
 family-member records for ``*_sampled``); fields added later are ignored until a golden
@@ -31,11 +31,16 @@ import math
 import re
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from robrst import __version__
 from robrst.base.errors import OutputError, SpecError
 from robrst.base.fileio import atomic_write_text, check_file_target
 from robrst.base.schema import load_toml
+
+if TYPE_CHECKING:
+    from robrst.design import DesignResult
+    from robrst.problem.records import Problem
 
 __all__ = ["Worse", "golden_figures", "write_golden", "read_golden", "compare_golden",
            "assert_margins", "check_golden_fits", "count_figures", "MARKER", "DEFAULT_TOL"]
@@ -64,7 +69,22 @@ def direction(name):
 
 @dataclass(frozen=True)
 class Worse:
-    """One figure that got worse: where, what, the golden and current values, the tolerance."""
+    """One figure that got worse: where, what, the golden and current values, the tolerance.
+
+    Parameters
+    ----------
+    model : str
+        The model's label (``""`` for a design-level figure).
+    figure : str
+        The figure (``Ms``, ``gain_margin``, ``certified``, ``model`` for a missing model,
+        ...).
+    golden : object
+        The golden value.
+    current : object
+        The design's value.
+    tolerance : str
+        The tolerance, in words (``"rtol 0.0001"``).
+    """
 
     model: str
     figure: str
@@ -72,7 +92,13 @@ class Worse:
     current: object
     tolerance: str
 
-    def describe(self):
+    def describe(self) -> str:
+        """One line for the report: ``"<model> <figure>: <current> is worse than golden ..."``.
+
+        Returns
+        -------
+        str
+        """
         f = lambda v: v if isinstance(v, (bool, str)) else f"{v:.6g}"   # noqa: E731
         where = f"{self.model} " if self.model else ""
         return (f"{where}{self.figure}: {f(self.current)} is worse than golden"
@@ -96,8 +122,13 @@ def _objective(result, d):
     return "integral_gain", d.get("integral_gain")
 
 
-def golden_figures(result):
+def golden_figures(result: DesignResult | dict) -> dict:
     """The figures of ``result`` (a DesignResult or its ``as_dict()``) a golden records.
+
+    Parameters
+    ----------
+    result : DesignResult or dict
+        A design or its JSON.
 
     Returns
     -------
@@ -133,9 +164,25 @@ def _tol(name, rtol, phase_atol):
     return f"atol = {phase_atol!r}" if direction(name) == "abs" else f"rtol = {rtol!r}"
 
 
-def write_golden(result, path, rtol=DEFAULT_TOL["rtol"],
-                 phase_atol_deg=DEFAULT_TOL["phase_atol_deg"]):
+def write_golden(result: DesignResult | dict, path: str | Path, rtol: float = DEFAULT_TOL["rtol"],
+                 phase_atol_deg: float = DEFAULT_TOL["phase_atol_deg"]) -> Path:
     """Write the golden of ``result`` to ``path`` (atomically; only over a robrst golden).
+
+    Parameters
+    ----------
+    result : DesignResult or dict
+        A design or its JSON.
+    path : str or pathlib.Path
+        The golden file.
+    rtol : float
+        Relative tolerance written for every figure but the phase margin.
+    phase_atol_deg : float
+        Absolute tolerance of the phase margin [°].
+
+    Returns
+    -------
+    pathlib.Path
+        The file written.
 
     Raises
     ------
@@ -197,8 +244,13 @@ def _figure(path, where, v):
     return float(val), tol["rtol"], tol["atol"]
 
 
-def read_golden(path):
+def read_golden(path: str | Path) -> dict:
     """Parse and validate a golden file; errors name the file and the key.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The golden file.
 
     Returns
     -------
@@ -267,16 +319,39 @@ def _known(path, table, d, keys):
         raise _bad(path, f"{table}.{unknown[0]}", f"unknown key; expected {', '.join(keys)}")
 
 
-def count_figures(golden):
+def count_figures(golden: dict) -> int:
     """How many figures :func:`compare_golden` checks (``certified = true`` and the
-    objective count as one each)."""
+    objective count as one each).
+
+    Parameters
+    ----------
+    golden : dict
+        As :func:`read_golden` returns it.
+
+    Returns
+    -------
+    int
+    """
     return (sum(len(m) for m in golden["models"].values()) + bool(golden["certified"])
             + (golden["objective"] is not None))
 
 
-def check_golden_fits(golden, problem):
-    """Refuse (:class:`SpecError` naming the file and key), before any design, a golden of
-    another problem or objective, or with sampled figures for a continuous problem."""
+def check_golden_fits(golden: dict, problem: Problem) -> None:
+    """Refuse, before any design, a golden of another problem or objective, or with sampled
+    figures for a continuous problem.
+
+    Parameters
+    ----------
+    golden : dict
+        As :func:`read_golden` returns it.
+    problem : Problem
+        The problem about to be designed.
+
+    Raises
+    ------
+    SpecError
+        Naming the golden file and the key.
+    """
     path = golden.get("path", "golden")
     if golden["problem"] != problem.name:
         raise SpecError(f"{path}: [golden.problem] golden is for problem {golden['problem']!r},"
@@ -313,14 +388,27 @@ def _tol_text(rtol, atol):
                      if t) or "no tolerance"
 
 
-def compare_golden(result, golden):
+def compare_golden(result: DesignResult | dict, golden: str | Path | dict) -> list[Worse]:
     """Every figure of ``result`` worse than ``golden`` (a path or :func:`read_golden`'s dict).
+
+    Parameters
+    ----------
+    result : DesignResult or dict
+        A design or its JSON.
+    golden : str, pathlib.Path or dict
+        The golden file, or its parsed form.
 
     Returns
     -------
     list of Worse
         Empty when nothing got worse.  A model of the golden missing from the design is
         one entry (figure ``model``).
+
+    Raises
+    ------
+    SpecError
+        A malformed golden, a golden of another problem or objective, or a figure the
+        design does not have.
     """
     g = read_golden(golden) if isinstance(golden, (str, Path)) else golden
     path = g.get("path", "golden")
@@ -352,7 +440,7 @@ def compare_golden(result, golden):
     return out
 
 
-def assert_margins(result: object, golden: str | Path, update: bool = False) -> None:
+def assert_margins(result: DesignResult | dict, golden: str | Path, update: bool = False) -> None:
     """Fail (``AssertionError``) when a margin of ``result`` got worse than ``golden``.
 
     Parameters

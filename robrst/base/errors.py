@@ -29,9 +29,17 @@ class DegreeError(SpecError):
 
 
 class CoprimeError(RobrstError, ValueError):
-    """A and B share a root, so the Diophantine equation has no unique solution."""
+    """A and B share a root, so the Diophantine equation has no unique solution.
 
-    def __init__(self, message, root=None):
+    Parameters
+    ----------
+    message : str
+        The error message (names the common root).
+    root : complex, optional
+        The common root of ``A·Sf`` and ``B·Rf`` [rad/s].
+    """
+
+    def __init__(self, message: str, root: complex | None = None) -> None:
         super().__init__(message)
         self.root = root
 
@@ -45,9 +53,17 @@ class SolverError(RobrstError, RuntimeError):
 
 
 class InfeasibleError(SolverError):
-    """The specifications cannot be met; the message names the binding constraint."""
+    """The specifications cannot be met; the message names the binding constraint.
 
-    def __init__(self, message, binding=None):
+    Parameters
+    ----------
+    message : str
+        The error message.
+    binding : dict, optional
+        The binding constraints (name -> multiplier or figure); ``{}`` when not given.
+    """
+
+    def __init__(self, message: str, binding: dict | None = None) -> None:
         super().__init__(message)
         self.binding = binding or {}
 

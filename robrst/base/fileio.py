@@ -6,11 +6,15 @@ permissions a plain ``open(path, "w")`` would give (the user's umask), and renam
 over the target (``os.replace`` is atomic on POSIX and Windows).
 """
 
+from __future__ import annotations
+
 import json
 import math
 import os
 import tempfile
+from collections.abc import Iterable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -23,25 +27,43 @@ __all__ = ["atomic_write_bytes", "atomic_write_text", "json_text", "jsonable", "
 WRITTEN_BY = "written_by"   # the key of a JSON file robrst wrote: "robrst <command>"
 
 
-def umask_mode(mode=0o666):
-    """``mode`` with the process's umask applied (what ``open`` would create)."""
+def umask_mode(mode: int = 0o666) -> int:
+    """``mode`` with the process's umask applied (what ``open`` would create).
+
+    Parameters
+    ----------
+    mode : int
+        Permission bits before the umask.
+
+    Returns
+    -------
+    int
+        ``mode & ~umask``.
+    """
     mask = os.umask(0)
     os.umask(mask)
     return mode & ~mask
 
 
-def read_utf8(path, what, kind, error):
+def read_utf8(path: Path, what: str, kind: str, error: type[Exception]) -> str:
     """The text of a UTF-8 file (BOM dropped); every failure is one ``error`` naming ``path``.
 
     Parameters
     ----------
-    path : Path
+    path : pathlib.Path
+        The file to read.
     what : str
         What the file is, for messages ("problem file", "data file").
     kind : str
         Its format, for the folder message ("TOML", "CSV").
     error : type
-        The robrst exception to raise (``SpecError``, ``DataError``).
+        The robrst exception to raise (``SpecError``, ``DataError``): for a folder, a
+        missing or unreadable file, UTF-16 text and a byte that is not UTF-8 (with its line).
+
+    Returns
+    -------
+    str
+        The decoded text without a leading byte-order mark.
     """
     try:
         raw = path.read_bytes()
@@ -72,14 +94,20 @@ def _check_parents(path):
         raise OutputError(f"{path}: the folder {near} is not writable")
 
 
-def check_file_target(path):
+def check_file_target(path: str | Path) -> Path:
     """Refuse an output file name that cannot be written: a folder, or a path under a file.
 
     Commands call it before any work, so a mistyped output fails at once.
 
     Parameters
     ----------
-    path : str or Path
+    path : str or pathlib.Path
+        The output file name.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path`` as a ``Path``.
 
     Raises
     ------
@@ -93,16 +121,22 @@ def check_file_target(path):
     return path
 
 
-def check_json_target(path, other_outputs=()):
+def check_json_target(path: str | Path, other_outputs: Iterable[str | Path | None] = ()) -> Path:
     """Refuse a ``--json`` output file robrst may not write: what :func:`check_file_target`
     refuses, one of ``other_outputs`` (the command's other output files), and an existing
     file that is not a JSON object robrst wrote (its ``"written_by"`` starts ``robrst``).
 
     Parameters
     ----------
-    path : str or Path
-    other_outputs : iterable of str or Path
-        The other files the same command writes.
+    path : str or pathlib.Path
+        The ``--json`` file name.
+    other_outputs : iterable of str or pathlib.Path
+        The other files the same command writes (``None`` entries are ignored).
+
+    Returns
+    -------
+    pathlib.Path
+        ``path`` as a ``Path``.
 
     Raises
     ------
@@ -125,12 +159,18 @@ def check_json_target(path, other_outputs=()):
     return path
 
 
-def check_folder_target(path):
+def check_folder_target(path: str | Path) -> Path:
     """Refuse an output folder that cannot be created: an existing file, or a path under a file.
 
     Parameters
     ----------
-    path : str or Path
+    path : str or pathlib.Path
+        The output folder.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path`` as a ``Path``.
 
     Raises
     ------
@@ -144,9 +184,21 @@ def check_folder_target(path):
     return path
 
 
-def atomic_write_bytes(path, data):
+def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
     """Write ``data`` to ``path`` atomically; create the parent folder if needed (a
     symbolic link is kept: the file it names is replaced).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The file to write (checked by :func:`check_file_target`).
+    data : bytes
+        The content.
+
+    Returns
+    -------
+    pathlib.Path
+        The file written (the link's target for a symbolic link).
 
     Raises
     ------
@@ -177,16 +229,47 @@ def atomic_write_bytes(path, data):
     return path
 
 
-def atomic_write_text(path, text):
-    """Write UTF-8 ``text`` to ``path`` atomically."""
+def atomic_write_text(path: str | Path, text: str) -> Path:
+    """Write UTF-8 ``text`` to ``path`` atomically (:func:`atomic_write_bytes`).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The file to write.
+    text : str
+        The content, encoded as UTF-8.
+
+    Returns
+    -------
+    pathlib.Path
+        The file written.
+    """
     return atomic_write_bytes(path, text.encode("utf-8"))
 
 
-def jsonable(x):
+def jsonable(x: Any) -> Any:
     """``x`` with numpy scalars/arrays as Python values and non-finite floats as ``None``.
 
     JSON has no ``inf``/``nan``; robrst's contract writes ``null`` for an infinite
-    margin or gain (documented in the README).
+    margin or gain.
+
+    Parameters
+    ----------
+    x : object
+        Dicts, lists, tuples, numpy arrays and scalars are converted recursively (dict
+        keys become strings); anything else is returned as it is.
+
+    Returns
+    -------
+    object
+        A value ``json.dumps`` accepts with ``allow_nan=False``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from robrst.base.fileio import jsonable
+    >>> jsonable({"gm": np.inf, "poles": np.array([-1.0, -2.0]), 1: np.int64(3)})
+    {'gm': None, 'poles': [-1.0, -2.0], '1': 3}
     """
     if isinstance(x, dict):
         return {str(k): jsonable(v) for k, v in x.items()}
@@ -203,6 +286,19 @@ def jsonable(x):
     return x
 
 
-def json_text(obj, indent=None):
-    """robrst's JSON text of ``obj`` (see :func:`jsonable`)."""
+def json_text(obj: Any, indent: int | None = None) -> str:
+    """robrst's JSON text of ``obj`` (see :func:`jsonable`).
+
+    Parameters
+    ----------
+    obj : object
+        What to write.
+    indent : int, optional
+        Indentation of ``json.dumps`` (``None``: one line).
+
+    Returns
+    -------
+    str
+        Strict JSON (no ``NaN`` or ``Infinity``).
+    """
     return json.dumps(jsonable(obj), allow_nan=False, indent=indent)

@@ -61,8 +61,14 @@ class Field:
     positive: bool = False
     length: int = None
 
-    def describe(self):
-        """The accepted values in words (for error messages)."""
+    def describe(self) -> str:
+        """The accepted values in words (for error messages).
+
+        Returns
+        -------
+        str
+            E.g. ``"number >= 1e-06 and <= 1e+09"`` or ``"one of auto, fixed, free"``.
+        """
         what = TYPE_NAMES[self.type]
         if self.choices:
             return "one of " + ", ".join(self.choices)
@@ -80,15 +86,40 @@ class Field:
 
 @dataclass(frozen=True)
 class ArrayOf:
-    """An array of tables (``[[key]]``), each validated against ``table``."""
+    """An array of tables (``[[key]]``), each validated against ``table``.
+
+    Parameters
+    ----------
+    table : dict
+        The schema of one table of the array.
+    doc : str
+        One line for the file-format reference.
+    max_items : int
+        Largest number of tables accepted.
+    """
 
     table: dict
     doc: str = ""
     max_items: int = 1000
 
 
-def key_error(path, key, msg):
-    """A :class:`SpecError` ``"FILE: [a.b.c] msg"`` naming the file and the key path."""
+def key_error(path: str | Path, key: tuple, msg: str) -> SpecError:
+    """A :class:`SpecError` ``"FILE: [a.b.c] msg"`` naming the file and the key path.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The file.
+    key : tuple of str
+        The key path (empty: the top level).
+    msg : str
+        What was expected, got what.
+
+    Returns
+    -------
+    SpecError
+        The exception, for the caller to raise.
+    """
     where = ".".join(str(k) for k in key) if key else "(top level)"
     return SpecError(f"{path}: [{where}] {msg}")
 
@@ -150,12 +181,12 @@ def _default(field):
     return tuple(d) if isinstance(d, (list, tuple)) else d
 
 
-def validate(path, data, schema, key=()):
+def validate(path: str | Path, data: dict, schema: dict, key: tuple = ()) -> dict:
     """Validate ``data`` (a parsed TOML table) against ``schema``; fill defaults.
 
     Parameters
     ----------
-    path : str or Path
+    path : str or pathlib.Path
         The file, named in every error.
     data : dict
         The parsed table.
@@ -206,18 +237,25 @@ def validate(path, data, schema, key=()):
     return out
 
 
-def load_toml(path, what="file"):
+def load_toml(path: str | Path, what: str = "file") -> dict:
     """Read and parse a UTF-8 TOML file; every failure is a one-line :class:`SpecError`.
 
     Parameters
     ----------
-    path : str or Path
+    path : str or pathlib.Path
+        The file.
     what : str
         What the file is ("problem file", "twin file"), for messages.
 
     Returns
     -------
     dict
+        The parsed document (not validated).
+
+    Raises
+    ------
+    SpecError
+        A missing, unreadable or non-UTF-8 file, invalid TOML, or an empty document.
     """
     path = Path(path)
     text = read_utf8(path, what, "TOML", SpecError)
@@ -230,8 +268,22 @@ def load_toml(path, what="file"):
     return doc
 
 
-def markdown_rows(schema, prefix=""):
-    """The file-format reference as Markdown rows ``| table | key | type | required | default | meaning |``."""
+def markdown_rows(schema: dict, prefix: str = "") -> list[str]:
+    """The file-format reference as Markdown rows ``| table | key | type | required | default | meaning |``.
+
+    Parameters
+    ----------
+    schema : dict
+        Key -> :class:`Field`, nested dict or :class:`ArrayOf`.
+    prefix : str
+        Table path of ``schema`` followed by a dot (``"family.models[]."``); ``""`` at
+        the top level.
+
+    Returns
+    -------
+    list of str
+        One row per key, nested tables after their parent's keys.
+    """
     rows = []
     for key, spec in schema.items():
         if isinstance(spec, dict):

@@ -9,6 +9,7 @@ the caller's settings afterwards.  A library is only limited once loaded, so Sci
 loaded first when the computation will use it (``scipy=True``).
 """
 
+from collections.abc import Iterator
 from contextlib import contextmanager
 
 from threadpoolctl import threadpool_limits
@@ -17,7 +18,7 @@ __all__ = ["one_blas_thread"]
 
 
 @contextmanager
-def one_blas_thread(scipy=True):
+def one_blas_thread(scipy: bool = True) -> Iterator[None]:
     """Run the ``with`` block with one BLAS thread in every BLAS library.
 
     Parameters
@@ -26,6 +27,12 @@ def one_blas_thread(scipy=True):
         Load ``scipy.linalg`` first (the sampled loop, step responses and balancing use
         it), so that its BLAS is limited as well; ``False`` for computations that never
         load SciPy (importing it costs 0.15-0.3 s).
+
+    Yields
+    ------
+    None
+        Inside the block every loaded BLAS library runs one thread; the caller's limits
+        are restored on exit.
 
     Examples
     --------

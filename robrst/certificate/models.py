@@ -12,7 +12,9 @@ caller's extra checks; :func:`margins` lists the ``{figure: (value, limit)}`` pa
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -25,6 +27,14 @@ from robrst.problem.records import PEAK_SPECS
 from robrst.core.rst import closed_loop
 from robrst.core.sampled import sampled_plant, unwarp, warp
 
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from robrst.core.family import PlantFamily
+    from robrst.core.plant import Plant
+    from robrst.core.rst import RSTController
+    from robrst.problem.records import Specs
+
 __all__ = ["Violation", "check_model", "check_all", "check_all_many", "margins", "band_peak",
            "BOUNDED", "FIGURE_OF", "JUMPS", "SAMPLED_KEYS", "RESOLVE_FACTOR"]
 
@@ -34,9 +44,26 @@ RESOLVE_FACTOR = 64.0  # stability resolved when the distance to instability > t
 class Violation:
     """One failed check: model, temperature, quantity, value, bound, frequency.
 
-    ``kind`` is ``"exceeds"`` (``value > bound``), ``"crossing"`` (a closed-loop root
-    reaches the imaginary axis between two checked temperatures) or ``"unresolved"`` (the
-    check could not be decided: ``quantity`` says why; nothing is certified then).
+    Parameters
+    ----------
+    label : str
+        The model's label.
+    temperature_C : float
+        Its temperature [°C].
+    quantity : str
+        What failed (``"|S| peak"``, ``"overshoot_pct"``, ``"spectral_abscissa"``, ...; for
+        ``unresolved``, why it could not be decided).
+    value : float
+        The figure found.
+    bound : float
+        Its bound.
+    freq_rad_s : float or None
+        Where (physical frequency [rad/s]), when a frequency applies.
+    loop : {"continuous", "sampled"}
+        Which loop.
+    kind : {"exceeds", "crossing", "unresolved"}
+        ``value > bound``; a closed-loop root reaches the imaginary axis between two checked
+        temperatures; or the check could not be decided (nothing is certified then).
     """
 
     label: str
@@ -48,7 +75,13 @@ class Violation:
     loop: str = "continuous"     # or "sampled"
     kind: str = "exceeds"
 
-    def describe(self):
+    def describe(self) -> str:
+        """One line: ``"model T45C (45 °C): |S| peak = 2.31 > 2 at 612 Hz"``.
+
+        Returns
+        -------
+        str
+        """
         at = "" if self.freq_rad_s is None else f" at {self.freq_rad_s / (2 * np.pi):.4g} Hz"
         loop = " in the sampled loop" if self.loop == "sampled" else ""
         if self.kind != "exceeds":
@@ -58,8 +91,23 @@ class Violation:
 
 
 
-def band_peak(N, D, w_lo, w_hi):
-    """Exact peak of ``|N/D|`` over ``[w_lo, w_hi]`` rad/s: ``(value, frequency)``."""
+def band_peak(N: ArrayLike, D: ArrayLike, w_lo: float, w_hi: float) -> tuple[float, float]:
+    """Exact peak of ``|N/D|`` over ``[w_lo, w_hi]`` rad/s: ``(value, frequency)``.
+
+    Parameters
+    ----------
+    N, D : array_like
+        Numerator and denominator in s, highest power first.
+    w_lo, w_hi : float
+        The band [rad/s] (``w_hi`` may be ``inf``).
+
+    Returns
+    -------
+    value : float
+        The peak gain.
+    frequency : float
+        Where it is attained [rad/s].
+    """
     pk = peak_gain(N, D, band=(w_lo, w_hi))
     return pk.value, pk.freq_rad_s
 
@@ -78,13 +126,34 @@ def _stability(loops):
     return [(sa, rhos.get(k)) for k, (sa, _) in enumerate(found)]
 
 
-def check_model(plant, ctrl, specs, rtol, fs=None):
+def check_model(plant: Plant, ctrl: RSTController, specs: Specs, rtol: float,
+                fs: float | None = None) -> tuple[dict, list[Violation]]:
     """Exact peaks and stability of one model; returns (record, violations).
 
     With ``fs`` the plant is a sampled-loop plant (:func:`robrst.core.sampled.sampled_plant`):
     reported frequencies are mapped back to physical ones, the resonance band is
     warped, and a closed-loop polynomial that lost degree (a pole at ``z = -1``)
     counts as unstable.
+
+    Parameters
+    ----------
+    plant : Plant
+        The model (or its sampled-loop plant).
+    ctrl : RSTController
+        The controller.
+    specs : Specs
+        The bounds checked.
+    rtol : float
+        Relative tolerance on the bounds.
+    fs : float, optional
+        The sampling rate when ``plant`` is a sampled-loop plant [Hz].
+
+    Returns
+    -------
+    record : dict
+        The model's figures (``Ms``, ``Mt``, ``Mu``, frequencies, ``stable``,
+        ``spectral_abscissa``, ``distance_to_instability``, step figures, ...).
+    violations : list of Violation
     """
     return _check_loops([(plant, fs)], ctrl, specs, rtol)[0]
 
@@ -233,25 +302,60 @@ def check_sampled(plant, ctrl, specs, rtol, family=None):
     return _suffixed(plant, *check_model(ps, ctrl, specs, rtol, fs=fs))
 
 
-def check_all(m, ctrl, specs, rtol, checks, family=None):
+def check_all(m: Plant, ctrl: RSTController, specs: Specs, rtol: float,
+              checks: Sequence[Callable], family: PlantFamily | None = None) -> tuple[dict, list[Violation]]:
     """Every per-model check on model ``m`` (of ``family``, whose memo then holds its
     sampled plant): continuous, sampled, then the hooks.
+
+    Parameters
+    ----------
+    m : Plant
+        The model.
+    ctrl : RSTController
+        The controller.
+    specs : Specs
+        The bounds checked.
+    rtol : float
+        Relative tolerance on the bounds.
+    checks : sequence of callable
+        Extra checks ``check(plant, ctrl, specs, rtol) -> (record, violations)``.
+    family : PlantFamily, optional
+        The family ``m`` belongs to.
 
     Returns
     -------
     record : dict
+        Continuous figures, the sampled ones suffixed ``_sampled``, the hooks' figures.
     violations : list of Violation
     """
     return check_all_many([m], ctrl, specs, rtol, checks, family)[0]
 
 
-def check_all_many(models, ctrl, specs, rtol, checks, family=None):
+def check_all_many(models: Sequence[Plant], ctrl: RSTController, specs: Specs, rtol: float,
+                   checks: Sequence[Callable],
+                   family: PlantFamily | None = None) -> list[tuple[dict, list[Violation]]]:
     """:func:`check_all` of each model, the peak computations of all their loops
     (continuous and sampled) batched: the same records as one model at a time.
+
+    Parameters
+    ----------
+    models : sequence of Plant
+        The models.
+    ctrl : RSTController
+        The controller.
+    specs : Specs
+        The bounds checked.
+    rtol : float
+        Relative tolerance on the bounds.
+    checks : sequence of callable
+        Extra checks ``check(plant, ctrl, specs, rtol) -> (record, violations)``.
+    family : PlantFamily, optional
+        The family the models belong to.
 
     Returns
     -------
     list of (record, violations)
+        One per model, in order.
     """
     loops = [(m, None) for m in models]
     if specs.sampled:
@@ -275,12 +379,23 @@ def check_all_many(models, ctrl, specs, rtol, checks, family=None):
     return out
 
 
-def margins(rec, specs, rtol):
+def margins(rec: dict, specs: Specs, rtol: float) -> dict[str, tuple[float, float]]:
     """``{figure: (value, limit)}`` of a record: what the refinement watches.
+
+    Parameters
+    ----------
+    rec : dict
+        A model's record.
+    specs : Specs
+        The bounds.
+    rtol : float
+        Relative tolerance on the bounds (the limits include it).
 
     Returns
     -------
     dict
+        The spectral abscissae (limit 0) and every bounded figure, continuous and sampled,
+        and the hooks' ``margins``.
     """
     out = {}
     for suffix in ("", "_sampled"):

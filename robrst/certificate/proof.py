@@ -36,7 +36,9 @@ limit)}`` pairs in ``record["margins"]`` to have its figures refined like the ot
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -48,6 +50,10 @@ from robrst.core.rst import RSTController, closed_loop
 from robrst.core.thermal import modal_form
 from robrst.base.threads import one_blas_thread
 
+if TYPE_CHECKING:
+    from robrst.core.family import PlantFamily
+    from robrst.problem.records import Specs
+
 __all__ = ["Violation", "Certificate", "certify", "certify_problem", "certify_families",
            "actuator_of", "check_model", "band_peak", "REFINE_RATIO", "RESOLVE_FACTOR"]
 
@@ -57,7 +63,26 @@ MIN_WIDTH = 1.0 / 4096  # resolution floor, as a fraction of the temperature ran
 
 @dataclass(frozen=True, eq=False)
 class Certificate:
-    """Per-model exact figures, every violation found, and what the interval checks proved."""
+    """Per-model exact figures, every violation found, and what the interval checks proved.
+
+    Parameters
+    ----------
+    certified : bool
+        No checked figure exceeds its bound beyond ``rtol``, every stability verdict is
+        resolved in double precision and the interval checks pass.
+    models : tuple of dict
+        One record per checked model (family members, sweep and refinement points), in
+        temperature order.
+    violations : tuple of Violation
+        Every violation found.
+    rtol : float
+        Relative tolerance on the bounds.
+    interval : dict
+        What was proved between the checked temperatures and at what resolution (fields
+        in the documentation's *What a certificate proves*).
+    bounds : dict
+        ``{figure: bound}`` of every bound checked.
+    """
 
     certified: bool
     models: tuple
@@ -66,12 +91,22 @@ class Certificate:
     interval: dict = field(default_factory=dict)
     bounds: dict = field(default_factory=dict)   # {figure: bound} of every bound checked
 
-    def worst(self, key):
-        """Largest ``key`` over the models (``None`` if no record has it)."""
+    def worst(self, key: str) -> float | None:
+        """Largest ``key`` over the models (``None`` if no record has it).
+
+        Parameters
+        ----------
+        key : str
+            A record figure (``"Ms"``, ``"Ms_sampled"``, ``"overshoot_pct"``, ...).
+
+        Returns
+        -------
+        float or None
+        """
         vals = [m[key] for m in self.models if key in m and m[key] is not None]
         return max(vals) if vals else None
 
-    def ratios(self):
+    def ratios(self) -> dict[str, float]:
         """Worst ``value / bound`` over the checked models, for every bound checked.
 
         Keys are the record figures (``"Ms"``, ``"Mt_resonance_band"``, ``"Ms_sampled"``,
@@ -104,7 +139,15 @@ class Certificate:
                     out[k] = max(out.get(k, -np.inf), v.value / v.bound)
         return out
 
-    def as_dict(self):
+    def as_dict(self) -> dict:
+        """The ``certificate`` object of the design JSON (fields are only added).
+
+        Returns
+        -------
+        dict
+            ``ratios, certified, rtol, models, violations, interval, interval_proof,
+            interval_resolution_C``.
+        """
         return {"ratios": self.ratios(), "certified": self.certified, "rtol": self.rtol, "models": list(self.models),
                 "violations": [v.__dict__ for v in self.violations],
                 "interval": self.interval,
@@ -285,14 +328,19 @@ def _split(a, b, recs, floor, walked):
     return (a + 0.5 * floor if low == a else b - 0.5 * floor), low
 
 
-def certify(family, ctrl, specs, n_sweep=35, rtol=1e-3, checks=(), max_refine=None):
+def certify(family: PlantFamily, ctrl: RSTController, specs: Specs, n_sweep: int = 35,
+            rtol: float = 1e-3, checks: Sequence[Callable] = (),
+            max_refine: int | None = None) -> Certificate:
     """Certify ``ctrl`` on ``family`` over its whole temperature interval (module docstring).
 
     Parameters
     ----------
     family : PlantFamily
+        The models the controller must hold on.
     ctrl : RSTController
+        The controller.
     specs : Specs
+        The bounds checked.
     n_sweep : int
         Evenly spaced temperatures checked besides the family members.
     rtol : float
@@ -405,7 +453,9 @@ def certify_problem(problem: Problem, ctrl: RSTController) -> Certificate:
     Parameters
     ----------
     problem : Problem
+        The problem (its family, specs and ``solver.cert_temperatures``, ``cert_tol``).
     ctrl : RSTController
+        The controller.
 
     Returns
     -------

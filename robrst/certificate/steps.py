@@ -26,14 +26,25 @@ same way (what the controller sees).
 certificate's hooks; :func:`step_metrics` is the public computation.
 """
 
+from __future__ import annotations
+
 from collections import defaultdict
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from robrst.core import lti, poly
 from robrst.certificate._stepbound import SETTLING_BAND, StepBounds
 from robrst.certificate._stepgrid import StepResponses
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from robrst.core.plant import Plant
+    from robrst.core.rst import ClosedLoop, RSTController
+    from robrst.problem.records import Specs
 
 __all__ = ["StepMetrics", "step_metrics", "step_metrics_many", "check", "check_many", "KEYS",
            "SETTLING_BAND"]
@@ -47,8 +58,26 @@ class StepMetrics:
     2 % settling time [s], and the largest ``|y|`` (for the control voltage).
 
     Peak, overshoot, settling time and largest ``|y|`` are proved upper bounds
-    (:mod:`robrst.certificate._stepbound`); ``resolved`` is false when one of them could not be
-    decided between grid points and is only the conservative bound."""
+    (:mod:`robrst.certificate._stepbound`).
+
+    Parameters
+    ----------
+    final : float
+        The final value ``N(0)/D(0)``.
+    peak : float
+        The largest value of the response.
+    peak_time_s : float
+        When it is reached [s].
+    overshoot_pct : float
+        ``100 (peak - final) / |final|`` (0 without overshoot) [%].
+    settling_time_s : float
+        The last time the response is outside 2 % of the final value [s].
+    max_abs : float
+        The largest ``|y|``.
+    resolved : bool
+        False when one of the figures could not be decided between grid points and is
+        only the conservative bound.
+    """
 
     final: float
     peak: float
@@ -85,7 +114,7 @@ def _by_degree(Ds):
     return groups.values()
 
 
-def step_metrics(N, D, fs=None):
+def step_metrics(N: ArrayLike, D: ArrayLike, fs: float | None = None) -> StepMetrics:
     """Exact step response figures of ``N(s)/D(s)`` (``D`` Hurwitz).
 
     Parameters
@@ -110,9 +139,19 @@ def step_metrics(N, D, fs=None):
     return step_metrics_many([N], D, fs)[0]
 
 
-def step_metrics_many(Ns, D, fs=None):
+def step_metrics_many(Ns: Sequence[ArrayLike], D: ArrayLike,
+                      fs: float | None = None) -> list[StepMetrics]:
     """:func:`step_metrics` of several numerators over one denominator, sharing one
     realisation and one propagation of its states.
+
+    Parameters
+    ----------
+    Ns : sequence of array_like
+        Numerators in s, each of degree at most ``deg D``.
+    D : array_like
+        The common denominator (Hurwitz).
+    fs : float, optional
+        Sample rate [Hz] of a loop in the bilinear variable.
 
     Returns
     -------
@@ -136,7 +175,8 @@ def step_metrics_many(Ns, D, fs=None):
     return out
 
 
-def check(plant, ctrl, cl, specs, rtol, fs=None):
+def check(plant: Plant, ctrl: RSTController, cl: ClosedLoop, specs: Specs, rtol: float,
+          fs: float | None = None) -> tuple[dict, list[tuple]]:
     """Time-domain figures and failed specs of one closed loop (the certificate's hook).
 
     Parameters
@@ -144,10 +184,13 @@ def check(plant, ctrl, cl, specs, rtol, fs=None):
     plant : Plant
         The (possibly sampled-loop) plant.
     ctrl : RSTController
+        The controller.
     cl : ClosedLoop
         :func:`robrst.core.rst.closed_loop` of ``plant`` and ``ctrl``.
     specs : Specs
+        The time-domain bounds.
     rtol : float
+        Relative tolerance on the bounds.
     fs : float, optional
         Sample rate of a sampled-loop plant.
 
@@ -164,7 +207,8 @@ def check(plant, ctrl, cl, specs, rtol, fs=None):
     return check_many([plant], ctrl, [cl], specs, rtol, fs)[0]
 
 
-def check_many(plants, ctrl, cls, specs, rtol, fs=None):
+def check_many(plants: Sequence[Plant], ctrl: RSTController, cls: Sequence[ClosedLoop], specs: Specs,
+               rtol: float, fs: float | None = None) -> list[tuple[dict, list[tuple]]]:
     """:func:`check` of several closed loops of one controller, computed together.
 
     The loops of one closed-loop degree share every stage of the computation (stacked
@@ -176,10 +220,13 @@ def check_many(plants, ctrl, cls, specs, rtol, fs=None):
     plants : sequence of Plant
         The (possibly sampled-loop) plants, all continuous or all sampled at ``fs``.
     ctrl : RSTController
+        The controller.
     cls : sequence of ClosedLoop
         :func:`robrst.core.rst.closed_loop` of each plant and ``ctrl``.
     specs : Specs
+        The time-domain bounds.
     rtol : float
+        Relative tolerance on the bounds.
     fs : float, optional
         Sample rate of sampled-loop plants.
 

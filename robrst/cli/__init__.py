@@ -6,10 +6,13 @@ one line ``robrst: error: ...`` on stderr and exit code 2 (1 for a design that i
 certified, 0 otherwise); never a traceback.
 """
 
+from __future__ import annotations
+
 import argparse
 import os
 import sys
 import warnings
+from collections.abc import Sequence
 
 # robrst's matrices are small (< 30 x 30): BLAS threads only add wake-up latency (scipy's
 # expm is ~300x slower with two OpenBLAS threads on a 2-core machine).  The command line
@@ -35,8 +38,14 @@ class _Parser(argparse.ArgumentParser):
         raise SystemExit(2)
 
 
-def build_parser():
-    """The argument parser of every command."""
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of every command.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        ``robrst`` with one sub-command per module of :mod:`robrst.cli`.
+    """
     p = _Parser(prog="robrst", description="Robust RST control of piezo actuators")
     p.add_argument("--version", action="version", version=f"robrst {__version__}")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
@@ -62,7 +71,7 @@ def _negative_numbers(argv):
     return out
 
 
-def main(argv=None):
+def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); return the exit code.
 
     numpy's floating-point warnings (overflow, invalid value) are not printed raw: every
@@ -70,6 +79,17 @@ def main(argv=None):
     either ends in a clear error or in a not-certified answer.  When one was raised and
     the run did not end in an error, one line ``robrst: note: ...`` says how many
     (``ROBRST_DEBUG=1`` prints them as Python does).
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        The arguments (without the program name).
+
+    Returns
+    -------
+    int
+        0 certified (or nothing worse), 1 not certified (or something worse), 2 error
+        (one line on stderr, never a traceback), 130 a sweep interrupted.
     """
     parser = build_parser()
     args = parser.parse_args(_negative_numbers(sys.argv[1:] if argv is None else argv))

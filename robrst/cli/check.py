@@ -1,5 +1,9 @@
 """``robrst check``: margins of a design against a golden file (users' regression tests)."""
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 from robrst.cli.common import progress_printer
 from robrst.design import run_problem
 from robrst.base.fileio import check_file_target
@@ -7,11 +11,20 @@ from robrst.problem.files import load_problem
 from robrst.testing import (check_golden_fits, compare_golden, count_figures, golden_figures,
                             read_golden, write_golden)
 
+if TYPE_CHECKING:
+    import argparse
+
 __all__ = ["add_parsers", "run_check"]
 
 
-def add_parsers(sub):
-    """Register ``check``."""
+def add_parsers(sub: argparse._SubParsersAction) -> None:
+    """Register ``check``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The sub-parser collection of :func:`robrst.cli.build_parser`.
+    """
     c = sub.add_parser("check", help="compare a design's margins with a golden file"
                                      " (exit 0 nothing worse, 1 something worse, 2 error)")
     c.add_argument("problem", help="problem file (TOML), or a built-in problem by name")
@@ -23,8 +36,20 @@ def add_parsers(sub):
     c.set_defaults(func=run_check)
 
 
-def run_check(args):
-    """Design, then write the golden (``--update``) or print every figure that got worse."""
+def run_check(args: argparse.Namespace) -> int:
+    """Design, then write the golden (``--update``) or print every figure that got worse.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        The exit code: 0 nothing worse (``--update``: certified), 1 something worse
+        (``--update``: not certified).
+    """
     say = progress_printer(args.quiet)
     golden = None if args.update else read_golden(args.golden)   # a bad golden fails first
     if args.update:

@@ -4,15 +4,28 @@ Handler pair for the CLI: :func:`add_parsers` registers the sub-command,
 :func:`run_convert` executes it (prints one line per file written).
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 from pathlib import Path
 
 from robrst.base.errors import DataError
 
+if TYPE_CHECKING:
+    import argparse
+
 __all__ = ["add_parsers", "run_convert"]
 
 
-def add_parsers(sub):
-    """Register ``convert`` on an argparse sub-parser collection."""
+def add_parsers(sub: argparse._SubParsersAction) -> None:
+    """Register ``convert`` on an argparse sub-parser collection.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The sub-parser collection of :func:`robrst.cli.build_parser`.
+    """
     c = sub.add_parser(
         "convert", help="convert .npy arrays (e.g. time x channel x realization x period) to"
                         " robrst records")
@@ -34,8 +47,25 @@ def add_parsers(sub):
     c.set_defaults(func=run_convert)
 
 
-def run_convert(args):
-    """Convert; returns the exit code (0)."""
+def run_convert(args: argparse.Namespace) -> int:
+    """Convert lab arrays to records; returns the exit code (0).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        0.
+
+    Raises
+    ------
+    DataError
+        A ``--name`` with a folder part, or a record file that exists (without
+        ``--overwrite``).
+    """
     from robrst.data.convert import load_array, records_from_arrays
     from robrst.data.dataset import save_dataset
 

@@ -1,5 +1,9 @@
 """``robrst design`` and ``robrst report``."""
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 import re
 import sys
 from pathlib import Path
@@ -9,11 +13,20 @@ from robrst.design import run_problem
 from robrst.report.text import design_summary
 from robrst.problem.files import load_problem
 
+if TYPE_CHECKING:
+    import argparse
+
 __all__ = ["add_parsers", "run_design", "run_report"]
 
 
-def add_parsers(sub):
-    """Register ``design`` and ``report``."""
+def add_parsers(sub: argparse._SubParsersAction) -> None:
+    """Register ``design`` and ``report``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The sub-parser collection of :func:`robrst.cli.build_parser`.
+    """
     d = sub.add_parser("design", help="design and certify an RST controller from a problem file")
     d.add_argument("problem", help="problem file (TOML), or a built-in problem by name")
     d.add_argument("--json", action="store_true", help="print exactly one JSON object")
@@ -29,8 +42,19 @@ def add_parsers(sub):
     r.set_defaults(func=run_report)
 
 
-def run_design(args):
-    """Design, print the summary (or the JSON); exit 0 certified, 1 not certified."""
+def run_design(args: argparse.Namespace) -> int:
+    """Design, print the summary (or the JSON); exit 0 certified, 1 not certified.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        0 certified, 1 not certified.
+    """
     say = progress_printer(args.quiet or args.json)
     result = run_problem(load_problem(args.problem), progress=say)
     d = result.as_dict()
@@ -45,8 +69,19 @@ def run_design(args):
     return 0
 
 
-def run_report(args):
-    """Design, certify and write the report folder."""
+def run_report(args: argparse.Namespace) -> int:
+    """Design, certify and write the report folder.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        0 certified, 1 not certified.
+    """
     from robrst.report.design import write_design_report
     from robrst.report.doc import check_report_target
 

@@ -1,13 +1,26 @@
 """``robrst diagnose``: where a simulation model misses measured data, and why."""
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 from robrst.cli.common import progress_printer
 from robrst.base.fileio import WRITTEN_BY, atomic_write_text, check_json_target, json_text
+
+if TYPE_CHECKING:
+    import argparse
 
 __all__ = ["add_parsers", "run_diagnose"]
 
 
-def add_parsers(sub):
-    """Register ``diagnose``."""
+def add_parsers(sub: argparse._SubParsersAction) -> None:
+    """Register ``diagnose``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The sub-parser collection of :func:`robrst.cli.build_parser`.
+    """
     g = sub.add_parser("diagnose", help="where a simulation model misses measured data, and why")
     g.add_argument("--train", nargs="+", required=True, metavar="FILE",
                    help="training records (CSV: t,u,y,temp[,yr]); effects are fitted on them")
@@ -24,8 +37,19 @@ def add_parsers(sub):
     g.set_defaults(func=run_diagnose)
 
 
-def run_diagnose(args):
-    """Load the records, diagnose, write JSON/report, print the summary."""
+def run_diagnose(args: argparse.Namespace) -> int:
+    """Load the records, diagnose, write JSON/report, print the summary.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        0 for any verdict.
+    """
     from robrst.data.dataset import load_dataset
     from robrst.diagnose import diagnose
     from robrst.diagnose.summary import summary_text

@@ -1,5 +1,9 @@
 """``robrst export``: the digital controller (JSON, C or Python) and its sampled-loop certificate."""
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 import json
 import math
 import re
@@ -19,6 +23,9 @@ from robrst.base.fileio import atomic_write_text, check_file_target, json_text
 from robrst.problem.files import load_problem
 from robrst.problem.checks import MIN_RATE_HZ, check_delay_order
 
+if TYPE_CHECKING:
+    import argparse
+
 __all__ = ["add_parsers", "run_export"]
 
 # the first line of every file export writes (its JSON: an object with these keys)
@@ -29,8 +36,14 @@ OWN_FIRST_LINE = (re.compile(r'/\* \S+\.h: digital RST controller of problem .*'
 OWN_JSON_KEYS = {"robrst_version", "R_z", "S_z", "T_z", "sections", "certificate"}
 
 
-def add_parsers(sub):
-    """Register ``export``."""
+def add_parsers(sub: argparse._SubParsersAction) -> None:
+    """Register ``export``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The sub-parser collection of :func:`robrst.cli.build_parser`.
+    """
     e = sub.add_parser("export", help="the digital RST controller (Tustin sections, direct form)"
                                       " with the certificate of its sampled loop")
     e.add_argument("problem", help="problem file (TOML), or a built-in problem by name")
@@ -94,8 +107,19 @@ def _check_arguments(args):
         raise SpecError(f"--u-range: expected two finite voltages LO < HI, got {args.u_range}")
 
 
-def run_export(args):
-    """Design, discretise, certify the sampled loop, write; exit 0 certified, 1 not certified."""
+def run_export(args: argparse.Namespace) -> int:
+    """Design, discretise, certify the sampled loop, write; exit 0 certified, 1 not certified.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        0 certified, 1 not certified (the controller is still written).
+    """
     say = progress_printer(args.quiet or args.out is None)
     check_prefix(args.prefix)                     # bad arguments fail before the design
     _check_arguments(args)

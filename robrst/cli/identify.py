@@ -4,15 +4,28 @@ Handler pair for the CLI: :func:`add_parsers` registers the sub-command,
 :func:`run_identify` executes it.  ``--json -`` prints the result as one JSON object.
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 from robrst.cli.common import progress_printer
 from robrst.base.errors import SpecError
 from robrst.base.fileio import WRITTEN_BY, atomic_write_text, check_json_target, json_text
 
+if TYPE_CHECKING:
+    import argparse
+
 __all__ = ["add_parsers", "run_identify"]
 
 
-def add_parsers(sub):
-    """Register ``identify`` on an argparse sub-parser collection."""
+def add_parsers(sub: argparse._SubParsersAction) -> None:
+    """Register ``identify`` on an argparse sub-parser collection.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The sub-parser collection of :func:`robrst.cli.build_parser`.
+    """
     g = sub.add_parser("identify", help="fit a continuous-time linear model to records")
     g.add_argument("--train", nargs="+", required=True, metavar="FILE",
                    help="records (CSV or .npz; steps, multisines or any input)")
@@ -82,8 +95,25 @@ def _problem_readable(ident):
     return check
 
 
-def run_identify(args):
-    """Identify and write; returns the exit code (0)."""
+def run_identify(args: argparse.Namespace) -> int:
+    """Identify and write; returns the exit code (0).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        0.
+
+    Raises
+    ------
+    SpecError
+        A ``--max-order`` below 1 (and the reader's errors: ``--order``, ``--channel``,
+        a problem file robrst could not read back).
+    """
     from robrst.data.dataset import load_dataset
     from robrst.identify.identification import identify
     from robrst.identify.modelfile import check_target, write_identified

@@ -1,14 +1,27 @@
 """``robrst simulate``: the paper's experiments on the digital twin."""
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 from robrst.cli.common import print_json, progress_printer
 from robrst.base.errors import SpecError
 from robrst.base.fileio import json_text
 
+if TYPE_CHECKING:
+    import argparse
+
 __all__ = ["add_parsers", "run_simulate"]
 
 
-def add_parsers(sub):
-    """Register ``simulate``."""
+def add_parsers(sub: argparse._SubParsersAction) -> None:
+    """Register ``simulate``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The sub-parser collection of :func:`robrst.cli.build_parser`.
+    """
     s = sub.add_parser("simulate", help="run one of the paper's experiments on the digital twin")
     s.add_argument("scenario", help="fig2 | fig3 | fig45 | fig7 | fig8")
     s.add_argument("--twin", help="twin file (TOML); default: the built-in paper twin")
@@ -22,8 +35,24 @@ def add_parsers(sub):
     s.set_defaults(func=run_simulate)
 
 
-def run_simulate(args):
-    """Run the scenario, write its datasets and figure, print its metrics."""
+def run_simulate(args: argparse.Namespace) -> int:
+    """Run the scenario, write its datasets and figure, print its metrics.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        0.
+
+    Raises
+    ------
+    SpecError
+        An unknown scenario name.
+    """
     from robrst.studies.scenarios import SCENARIOS, run_scenario
     from robrst.report.doc import check_report_target
     from robrst.report.scenario import write_scenario

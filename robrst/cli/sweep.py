@@ -1,5 +1,10 @@
 """``robrst sweep``: Monte Carlo analyses, trade-off and fleet sweeps, on Dask."""
 
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import TYPE_CHECKING, TextIO
+
 import sys
 import time
 from pathlib import Path
@@ -7,11 +12,22 @@ from pathlib import Path
 from robrst.cli.common import print_json
 from robrst.base.errors import SpecError
 
+if TYPE_CHECKING:
+    import argparse
+
+    from robrst.studies.sweep.engine import Progress
+
 __all__ = ["add_parsers", "run_sweep_command", "progress_bar", "with_notes"]
 
 
-def add_parsers(sub):
-    """Register ``sweep``."""
+def add_parsers(sub: argparse._SubParsersAction) -> None:
+    """Register ``sweep``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The sub-parser collection of :func:`robrst.cli.build_parser`.
+    """
     s = sub.add_parser("sweep", help="run a sweep file: Monte Carlo analysis, design trade-off"
                                      " or fleet, on a Dask cluster; resumes an interrupted run")
     s.add_argument("sweep", help="sweep file (TOML), or a built-in sweep by name")
@@ -35,8 +51,23 @@ def add_parsers(sub):
     s.set_defaults(func=run_sweep_command)
 
 
-def progress_bar(name, stream=sys.stderr, width=30):
-    """A progress callback drawing one line, redrawn in place (for a terminal)."""
+def progress_bar(name: str, stream: TextIO = sys.stderr, width: int = 30) -> Callable[[Progress], None]:
+    """A progress callback drawing one line, redrawn in place (for a terminal).
+
+    Parameters
+    ----------
+    name : str
+        The sweep's name, at the start of the line.
+    stream : file-like
+        Where to draw (a terminal).
+    width : int
+        Characters of the bar.
+
+    Returns
+    -------
+    callable
+        ``draw(progress)`` for :func:`robrst.run_sweep`'s ``progress``.
+    """
     state = {"t": 0.0}
 
     def draw(p):
@@ -57,9 +88,25 @@ def progress_bar(name, stream=sys.stderr, width=30):
     return draw
 
 
-def with_notes(bar, out, stream=None):
+def with_notes(bar: Callable[[Progress], None] | None, out: str | Path,
+               stream: TextIO | None = None) -> Callable[[Progress], None]:
     """A progress callback that first notes, once, the chunks computed again because their
-    part file in ``out`` did not hold their variants, then draws ``bar`` (if any)."""
+    part file in ``out`` did not hold their variants, then draws ``bar`` (if any).
+
+    Parameters
+    ----------
+    bar : callable or None
+        A progress bar (:func:`progress_bar`), or ``None``.
+    out : str or pathlib.Path
+        The sweep's output folder (named in the note).
+    stream : file-like, optional
+        Where the note goes (default ``sys.stderr``).
+
+    Returns
+    -------
+    callable
+        ``progress(p)`` for :func:`robrst.run_sweep`.
+    """
     state = {"noted": False}
 
     def progress(p):
@@ -77,8 +124,24 @@ def with_notes(bar, out, stream=None):
     return progress
 
 
-def run_sweep_command(args):
-    """Run the sweep, write the report; exit 0 when the yield reaches --min-yield, else 1."""
+def run_sweep_command(args: argparse.Namespace) -> int:
+    """Run the sweep, write the report; exit 0 when the yield reaches --min-yield, else 1.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        0 complete with yield >= ``--min-yield``, else 1.
+
+    Raises
+    ------
+    SpecError
+        A ``--min-yield`` outside [0, 1].
+    """
     from robrst.report.doc import check_report_target
     from robrst.report.sweep import sweep_text, write_sweep_report
     from robrst.studies.sweep import load_sweep, run_sweep

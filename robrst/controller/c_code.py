@@ -9,17 +9,39 @@ step equals that reference to the last bit in either precision (no FMA contracti
 compile with ``-ffp-contract=off`` where the target has FMA).
 """
 
+from __future__ import annotations
+
 import math
 import re
+from typing import TYPE_CHECKING
 
 from robrst.base.errors import SpecError
 from robrst.controller.export import LAW
 
+if TYPE_CHECKING:
+    from robrst.controller.export import ExportedController
+
 __all__ = ["c_files", "check_prefix"]
 
 
-def check_prefix(prefix):
-    """``prefix`` if it is a C identifier, else a :class:`SpecError`."""
+def check_prefix(prefix: str) -> str:
+    """``prefix`` if it is a C identifier (at most 41 characters).
+
+    Parameters
+    ----------
+    prefix : str
+        The prefix of the generated C names.
+
+    Returns
+    -------
+    str
+        ``prefix`` unchanged.
+
+    Raises
+    ------
+    SpecError
+        When it is not a C identifier.
+    """
     if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]{0,40}", prefix or ""):
         raise SpecError(f"C prefix {prefix!r}: expected a C identifier (letters, digits, _)")
     return prefix
@@ -125,12 +147,14 @@ def _source(exp, prefix, name):
     return "\n".join(lines)
 
 
-def c_files(exp, name="robrst_ctrl", prefix="robrst_ctrl"):
+def c_files(exp: ExportedController, name: str = "robrst_ctrl",
+            prefix: str = "robrst_ctrl") -> tuple[str, str]:
     """Header and source text of ``exp`` (an :class:`~robrst.controller.export.ExportedController`).
 
     Parameters
     ----------
     exp : ExportedController
+        The exported controller.
     name : str
         File stem: the source includes ``"<name>.h"``.
     prefix : str
@@ -140,6 +164,12 @@ def c_files(exp, name="robrst_ctrl", prefix="robrst_ctrl"):
     Returns
     -------
     header, source : str
+        C99 text, no allocation, no library beyond ``<math.h>``.
+
+    Raises
+    ------
+    SpecError
+        When ``prefix`` is not a C identifier.
     """
     check_prefix(prefix)
     return _header(exp, prefix, name), _source(exp, prefix, name)

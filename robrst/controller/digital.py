@@ -31,13 +31,20 @@ One step (``v_k = [w_k-1, yr, y]``, ``w_0 = 0``)::
     x_k = x_k + (F_k x_k + G_k v_k + L_k (us - u))
 """
 
+from __future__ import annotations
+
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from robrst.core import poly
 from robrst.base.errors import SpecError
 from robrst.core.rst import RSTController, tustin_polynomials
+
+if TYPE_CHECKING:
+    import control
+    from numpy.typing import ArrayLike
 
 __all__ = ["Section", "DigitalController", "digital_controller", "aw_poles", "exact_response",
            "tustin_frequencies"]
@@ -49,9 +56,28 @@ AW_SPREAD = 1.25     # ratio between successive anti-windup poles
 class Section:
     """One section in delta form: ``x <- x + F x + G v + L du``, ``w = H x + J v``.
 
-    ``v = [w_prev, yr, y]``; ``F`` is ``n x n`` (``n`` = 1 or 2), ``G`` ``n x 3``, ``H``
-    ``1 x n``, ``J`` length 3, ``L`` length ``n``; ``pole_rad_s`` is the continuous
-    pole [rad/s] (the upper one of a pair) whose Tustin image the section holds.
+    ``v = [w_prev, yr, y]``.
+
+    Parameters
+    ----------
+    F : numpy.ndarray
+        ``n x n`` (``n`` = 1 or 2): ``Ad - I`` of the section.
+    G : numpy.ndarray
+        ``n x 3``.
+    H : numpy.ndarray
+        ``1 x n``.
+    J : numpy.ndarray
+        Length 3.
+    L : numpy.ndarray
+        Length ``n``: the anti-windup gain.
+    pole_rad_s : complex
+        The continuous pole [rad/s] (the upper one of a pair) whose Tustin image the
+        section holds.
+
+    Attributes
+    ----------
+    order : int
+        ``n``: 1 for a real pole, 2 for a complex pair.
     """
 
     F: np.ndarray
@@ -65,16 +91,26 @@ class Section:
     def order(self):
         return self.F.shape[0]
 
-    def poles_z(self):
-        """Discrete poles of the section (eigenvalues of ``I + F``)."""
+    def poles_z(self) -> np.ndarray:
+        """Discrete poles of the section (eigenvalues of ``I + F``).
+
+        Returns
+        -------
+        numpy.ndarray
+        """
         return 1.0 + np.linalg.eigvals(self.F)
 
-    def sos(self):
+    def sos(self) -> dict[str, list[float]]:
         """The section as transfer functions in ``q^-1``: denominator ``a`` and numerators.
 
         ``a = [1, a1(, a2)]``; ``b_prev``, ``b_yr``, ``b_y`` from each input.  Formed
         from the delta form (``a1 = -2 - tr F``, ``a2 = 1 + tr F + det F``): the standard
         biquad view, for reading; :class:`DigitalController` runs the delta form.
+
+        Returns
+        -------
+        dict
+            ``{"a", "b_prev", "b_yr", "b_y"}`` -> coefficients, ascending powers of ``q^-1``.
         """
         F, G, H, J = self.F, self.G, self.H.ravel(), self.J
         if self.order == 1:
@@ -91,7 +127,14 @@ class Section:
         return {"a": [float(x) for x in a],
                 **{k: [float(x) for x in n] for k, n in zip(("b_prev", "b_yr", "b_y"), nums)}}
 
-    def as_dict(self):
+    def as_dict(self) -> dict:
+        """The ``sections`` record of the export JSON.
+
+        Returns
+        -------
+        dict
+            ``order, pole_rad_s, poles_z, F, G, H, J, L, sos``.
+        """
         return {"order": self.order, "pole_rad_s": [float(np.real(self.pole_rad_s)),
                                                      float(np.imag(self.pole_rad_s))],
                 "poles_z": [[float(z.real), float(z.imag)] for z in self.poles_z()],
@@ -103,12 +146,29 @@ class Section:
 class DigitalController:
     """The Tustin RST controller at ``sample_rate_hz``: sections, direct form, anti-windup.
 
-    ``sections`` run inner to outer; ``D`` is the feedthrough ``[d_yr, d_y]`` added to
-    the outer section's output.  ``R_z, S_z, T_z`` (ascending powers of ``q^-1``,
-    ``S_z[0] = 1``) describe the same law in direct form.  ``ctrl`` is the controller
-    in s it came from, ``w0`` the scaling [rad/s] its sections were built in;
-    ``aw_poles_z`` the eigenvalues of ``A - L C`` (the dynamics while saturated) that
-    ``aw_method`` (``placed``, ``kalman`` or ``none``) achieved.
+    Parameters
+    ----------
+    ctrl : RSTController
+        The controller in s it came from.
+    sample_rate_hz : float
+        Sampling rate [Hz].
+    w0 : float
+        The scaling [rad/s] its sections were built in.
+    sections : tuple of Section
+        Inner to outer.
+    D : numpy.ndarray
+        The feedthrough ``[d_yr, d_y]`` added to the outer section's output.
+    R_z, S_z, T_z : numpy.ndarray
+        The same law in direct form (ascending powers of ``q^-1``, ``S_z[0] = 1``).
+    aw_poles_z : numpy.ndarray
+        The eigenvalues of ``A - L C`` (the dynamics while saturated) achieved.
+    aw_method : {"placed", "kalman", "none"}
+        How the anti-windup gain was found.
+
+    Attributes
+    ----------
+    n_states : int
+        Total number of states of the sections.
     """
 
     ctrl: RSTController
@@ -126,8 +186,14 @@ class DigitalController:
     def n_states(self):
         return sum(s.order for s in self.sections)
 
-    def state_space(self):
-        """The assembled realisation ``(A, B, C, D, L)``: ``x+ = A x + B [yr, y] + L du``."""
+    def state_space(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The assembled realisation ``(A, B, C, D, L)``: ``x+ = A x + B [yr, y] + L du``.
+
+        Returns
+        -------
+        A, B, C, D, L : numpy.ndarray
+            ``u = C x + D [yr, y]``; ``L`` the anti-windup gain.
+        """
         n = self.n_states
         A, B, L = np.eye(n), np.zeros((n, 2)), np.zeros(n)
         Cw, Dw = np.zeros(n), np.zeros(2)          # output of the previous section
@@ -144,8 +210,19 @@ class DigitalController:
             i += s.order
         return A, B, Cw.reshape(1, n), (Dw + self.D).reshape(1, 2), L
 
-    def freqresp(self, theta):
-        """``[K_yr, K_y]`` of the sections at ``z = exp(j theta)`` (array ``(len, 2)``)."""
+    def freqresp(self, theta: ArrayLike) -> np.ndarray:
+        """``[K_yr, K_y]`` of the sections at ``z = exp(j theta)`` (array ``(len, 2)``).
+
+        Parameters
+        ----------
+        theta : array_like
+            Angles on the unit circle [rad per sample].
+
+        Returns
+        -------
+        numpy.ndarray
+            Complex, shape ``(len(theta), 2)``.
+        """
         theta = np.atleast_1d(np.asarray(theta, float))
         zm1 = 2j * np.sin(theta / 2) * np.exp(0.5j * theta)          # z - 1 without cancellation
         W = np.zeros((theta.size, 2), complex)
@@ -157,8 +234,14 @@ class DigitalController:
             W = tf[:, :1] * W + tf[:, 1:]
         return W + self.D
 
-    def to_ss(self):
-        """The sections' realisation as a discrete ``control.StateSpace`` (``dt = 1/fs``)."""
+    def to_ss(self) -> control.StateSpace:
+        """The sections' realisation as a discrete ``control.StateSpace`` (``dt = 1/fs``).
+
+        Returns
+        -------
+        control.StateSpace
+            Inputs ``yr, y``, output ``u``.
+        """
         import control
 
         A, B, C, D, _ = self.state_space()
@@ -166,15 +249,42 @@ class DigitalController:
                           outputs=["u"])
 
 
-def tustin_frequencies(theta, sample_rate_hz):
-    """Continuous frequencies [rad/s] whose Tustin images are ``exp(j theta)``."""
+def tustin_frequencies(theta: ArrayLike, sample_rate_hz: float) -> np.ndarray:
+    """Continuous frequencies [rad/s] whose Tustin images are ``exp(j theta)``.
+
+    Parameters
+    ----------
+    theta : array_like
+        Angles on the unit circle [rad per sample].
+    sample_rate_hz : float
+        Sampling rate [Hz].
+
+    Returns
+    -------
+    numpy.ndarray
+        ``2 fs tan(theta / 2)``.
+    """
     return 2.0 * float(sample_rate_hz) * np.tan(np.asarray(theta, float) / 2.0)
 
 
-def exact_response(ctrl, theta, sample_rate_hz):
+def exact_response(ctrl: RSTController, theta: ArrayLike, sample_rate_hz: float) -> np.ndarray:
     """``[T/S, -R/S]`` of the controller in s at the Tustin points of ``theta`` (reference).
 
     Evaluated on the scaled polynomials, independently of the sections.
+
+    Parameters
+    ----------
+    ctrl : RSTController
+        The controller in s.
+    theta : array_like
+        Angles on the unit circle [rad per sample].
+    sample_rate_hz : float
+        Sampling rate [Hz].
+
+    Returns
+    -------
+    numpy.ndarray
+        Complex, shape ``(len(theta), 2)``.
     """
     sc = poly.Scaling.natural(ctrl.S, ctrl.R)
     p = 1j * tustin_frequencies(theta, sample_rate_hz) / sc.w0
@@ -217,12 +327,32 @@ def _section_ct(root, quad, b):
     return A, np.array(cols).T, np.array([[1.0, 0.0]])
 
 
-def aw_poles(ctrl, sample_rate_hz, aw_rad_s=None):
+def aw_poles(ctrl: RSTController, sample_rate_hz: float,
+             aw_rad_s: float | None = None) -> np.ndarray:
     """Anti-windup poles in z: ``-a, -a r, -a r**2, ...`` (``r`` = 1.25) under Tustin.
 
     ``a`` defaults to the natural frequency of S (geometric mean of its non-zero roots,
     or of R's); the whole sequence is lowered, if needed, so that its fastest pole is at
     most ``fs`` rad/s (none nears ``z = -1``) and the poles stay distinct.
+
+    Parameters
+    ----------
+    ctrl : RSTController
+        The controller (one pole per degree of S).
+    sample_rate_hz : float
+        Sampling rate [Hz].
+    aw_rad_s : float, optional
+        The slowest pole ``a`` [rad/s].
+
+    Returns
+    -------
+    numpy.ndarray
+        ``deg S`` real poles in z.
+
+    Raises
+    ------
+    SpecError
+        When ``aw_rad_s`` is not > 0.
     """
     n = len(ctrl.S) - 1
     a = float(aw_rad_s) if aw_rad_s is not None else poly.Scaling.natural(ctrl.S, ctrl.R).w0
@@ -271,7 +401,7 @@ def _aw_gain(A, C, targets):
 
 
 def digital_controller(ctrl: RSTController, sample_rate_hz: float,
-                       aw_rad_s: float = None) -> DigitalController:
+                       aw_rad_s: float | None = None) -> DigitalController:
     """The Tustin controller at ``sample_rate_hz`` as delta-form sections (see module doc).
 
     Parameters
@@ -286,6 +416,11 @@ def digital_controller(ctrl: RSTController, sample_rate_hz: float,
     Returns
     -------
     DigitalController
+
+    Raises
+    ------
+    SpecError
+        When a controller pole sits at ``s = 2 fs`` (its Tustin image is at infinity).
 
     Examples
     --------

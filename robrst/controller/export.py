@@ -10,6 +10,7 @@ with the sampled specs) and measures what float64 and float32 implementations co
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -19,6 +20,9 @@ from robrst.design import DesignResult
 from robrst.controller.digital import DigitalController, digital_controller
 from robrst.base.errors import SpecError
 from robrst.controller.implementation import implementation_report, sampled_loop
+
+if TYPE_CHECKING:
+    from robrst.problem.records import Problem
 
 __all__ = ["ExportedController", "export_controller", "sampling", "check_u_range", "LAW",
            "default_u_range"]
@@ -32,8 +36,14 @@ F32_MU_MAX, F32_STEP_MAX = 1e-3, 1e-4
 MAX_LISTED = 20      # violations spelled out in the JSON (all are counted)
 
 
-def default_u_range():
-    """The amplifier range of the paper's actuator (the twin's ``[saturation]``: 0..150 V)."""
+def default_u_range() -> tuple[float, float]:
+    """The amplifier range of the paper's actuator (the twin's ``[saturation]``: 0..150 V).
+
+    Returns
+    -------
+    (float, float)
+        ``(u_min, u_max)`` [V].
+    """
     from robrst.twin.config import default_twin
 
     sat = default_twin().effects["saturation"]
@@ -44,12 +54,33 @@ def default_u_range():
 class ExportedController:
     """A digital controller ready for a target, with the certificate of its sampled loop.
 
-    ``digital`` holds the sections and ``R_z, S_z, T_z``; ``certificate`` is the
-    certificate of the problem with the sampled loop at ``digital.sample_rate_hz`` and
-    ``delay_samples``; ``spectral_radius`` is the largest closed-loop pole modulus over
-    the certified models; ``implementation`` the float64/float32 figures of
-    :func:`robrst.controller.implementation.implementation_report`; ``u_range`` the amplifier range [V]
-    the written code saturates to.
+    Parameters
+    ----------
+    problem : str
+        The problem's name.
+    digital : DigitalController
+        The sections and ``R_z, S_z, T_z``.
+    delay_samples : int
+        Computation delay of the certified sampled loop [samples].
+    certificate : Certificate
+        The certificate of the problem with the sampled loop at
+        ``digital.sample_rate_hz`` and ``delay_samples``.
+    spectral_radius : float
+        The largest closed-loop pole modulus over the certified models.
+    implementation : dict
+        The float64/float32 figures of
+        :func:`robrst.controller.implementation.implementation_report`.
+    u_range : (float, float)
+        The amplifier range [V] the written code saturates to.
+
+    Attributes
+    ----------
+    certified : bool
+        The sampled loop is certified.
+    recommended : str or None
+        The realisation and precision to run: ``"sections_float32"`` when float32 keeps
+        the guarantee with ``mu <= 1e-3`` and a step error ``<= 1e-4``, else
+        ``"sections_float64"`` when that keeps it, else ``None``.
     """
 
     problem: str
@@ -74,8 +105,16 @@ class ExportedController:
             return "sections_float32"
         return "sections_float64" if imp["sections_float64"]["stable_guaranteed"] else None
 
-    def certificate_dict(self):
-        """The ``certificate`` object of the JSON (worst case over the certified models)."""
+    def certificate_dict(self) -> dict:
+        """The ``certificate`` object of the JSON (worst case over the certified models).
+
+        Returns
+        -------
+        dict
+            ``certified, Ms_sampled, Mt_sampled, Mu_sampled, spectral_radius, n_models,
+            n_violations, violations`` (at most 20 described) and the family members'
+            ``models``.
+        """
         c = self.certificate
         worst = {k: c.worst(f"{k}_sampled") for k in ("Ms", "Mt", "Mu")}
         members = [m for m in c.models if m.get("family_member", True)]
@@ -89,8 +128,17 @@ class ExportedController:
                                                   "Ms_sampled", "Mt_sampled", "Mu_sampled")}
                            for m in members]}
 
-    def implementation_dict(self):
-        """Implementation figures, with the bounds on the implemented loop's peaks."""
+    def implementation_dict(self) -> dict:
+        """Implementation figures, with the bounds on the implemented loop's peaks.
+
+        Returns
+        -------
+        dict
+            ``recommended`` and, per realisation and precision, the figures of
+            :func:`~robrst.controller.implementation.implementation_report` plus
+            ``Ms_sampled_bound = Ms/(1 - mu)`` and ``Mt_sampled_bound = (Mt + mu)/(1 - mu)``
+            (``None`` without the guarantee).
+        """
         ms, mt = (self.certificate.worst(f"{k}_sampled") for k in ("Ms", "Mt"))
         out = {"recommended": self.recommended}
         for key, rec in self.implementation.items():
@@ -101,8 +149,15 @@ class ExportedController:
             out[key] = rec
         return out
 
-    def as_dict(self):
-        """The JSON of ``robrst export --format json`` (fields are only added)."""
+    def as_dict(self) -> dict:
+        """The JSON of ``robrst export --format json`` (fields are only added).
+
+        Returns
+        -------
+        dict
+            The export contract: the law, ``R_z, S_z, T_z``, the sections, anti-windup,
+            certificate, implementation and the controller in s.
+        """
         dc = self.digital
         return {
             "problem": self.problem,
@@ -126,8 +181,23 @@ class ExportedController:
         }
 
 
-def check_u_range(u_range):
-    """``(u_min, u_max)`` [V]: ``u_range`` validated, or :func:`default_u_range`."""
+def check_u_range(u_range: tuple[float, float] | None) -> tuple[float, float]:
+    """``(u_min, u_max)`` [V]: ``u_range`` validated, or :func:`default_u_range`.
+
+    Parameters
+    ----------
+    u_range : (float, float) or None
+        The amplifier range; ``None`` for the paper's.
+
+    Returns
+    -------
+    (float, float)
+
+    Raises
+    ------
+    SpecError
+        Unless both ends are finite and ``u_min < u_max``.
+    """
     if u_range is None:
         return default_u_range()
     lo, hi = (float(u) for u in u_range)
@@ -137,8 +207,23 @@ def check_u_range(u_range):
     return lo, hi
 
 
-def sampling(problem, sample_rate_hz=None, delay_samples=None):
+def sampling(problem: Problem, sample_rate_hz: float | None = None,
+             delay_samples: int | None = None) -> tuple[float, int]:
     """The sampling rate and delay of the export: the arguments, else the problem's specs.
+
+    Parameters
+    ----------
+    problem : Problem
+        The design problem.
+    sample_rate_hz : float, optional
+        Overrides ``specs.sample_rate_hz`` [Hz].
+    delay_samples : int, optional
+        Overrides ``specs.delay_samples``.
+
+    Returns
+    -------
+    (float, int)
+        The rate [Hz] and the delay [samples].
 
     Raises
     ------
@@ -170,7 +255,7 @@ def _certified_models(problem, cert):
 
 def export_controller(result: DesignResult, sample_rate_hz: float | None = None,
                       delay_samples: int | None = None,
-                      u_range: tuple | None = None) -> ExportedController:
+                      u_range: tuple[float, float] | None = None) -> ExportedController:
     """The digital controller of ``result`` and the certificate of its sampled loop.
 
     Parameters

@@ -19,8 +19,12 @@ Two effects separate an implementation from the exact Tustin loop the certificat
 emit (same operations in the same order), so the compiled code can be checked against it.
 """
 
+from __future__ import annotations
+
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -32,6 +36,11 @@ from robrst.core.plant import Plant
 from robrst.core.rst import closed_loop
 from robrst.core.sampled import sampled_plant
 
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from robrst.core.rst import RSTController
+
 __all__ = ["rounded", "controller_step", "run_loop", "run_direct_form", "SampledLoop",
            "sampled_loop", "loop_perturbation", "implementation_report", "frequency_grid",
            "PRECISIONS"]
@@ -39,8 +48,21 @@ __all__ = ["rounded", "controller_step", "run_loop", "run_direct_form", "Sampled
 PRECISIONS = {"float64": np.float64, "float32": np.float32}
 
 
-def rounded(dc, dtype):
-    """``dc`` with every coefficient rounded to ``dtype`` (stored back as float64)."""
+def rounded(dc: DigitalController, dtype: type) -> DigitalController:
+    """``dc`` with every coefficient rounded to ``dtype`` (stored back as float64).
+
+    Parameters
+    ----------
+    dc : DigitalController
+        The controller.
+    dtype : type
+        ``numpy.float32`` or ``numpy.float64``.
+
+    Returns
+    -------
+    DigitalController
+        The sections, feedthrough and direct form rounded; the anti-windup poles kept.
+    """
     r = lambda a: np.asarray(a, float).astype(dtype).astype(float)   # noqa: E731
     secs = tuple(Section(r(s.F), r(s.G), r(s.H), r(s.J), r(s.L), s.pole_rad_s)
                  for s in dc.sections)
@@ -50,8 +72,19 @@ def rounded(dc, dtype):
                              aw_method=dc.aw_method)
 
 
-def frequency_grid(n=4000):
-    """``theta`` in (0, pi] dense near 0 and near Nyquist (log-spaced in tan and cot)."""
+def frequency_grid(n: int = 4000) -> np.ndarray:
+    """``theta`` in (0, pi] dense near 0 and near Nyquist (log-spaced in tan and cot).
+
+    Parameters
+    ----------
+    n : int
+        About the number of points.
+
+    Returns
+    -------
+    numpy.ndarray
+        Increasing angles [rad per sample], ending at ``pi``.
+    """
     lo = 2.0 * np.arctan(np.geomspace(1e-7, 1.0, n // 2))
     hi = np.pi - 2.0 * np.arctan(np.geomspace(1.0, 1e-7, n // 2))
     return np.unique(np.concatenate([lo, hi[1:], [np.pi]]))
@@ -61,10 +94,24 @@ def frequency_grid(n=4000):
 class SampledLoop:
     """The exact sampled loop of one model on the grid of :func:`frequency_grid`.
 
-    ``P`` (ZOH plant with the delay) and ``K`` (``[T/S, -R/S]``, Tustin) at
-    ``z = exp(j theta)``, from the w-plane polynomials of :mod:`robrst.core.sampled`;
-    ``poles_z`` are the closed-loop poles (a lost degree of the characteristic
-    polynomial is a pole at ``z = -1``).
+    Parameters
+    ----------
+    plant : Plant
+        The continuous model.
+    theta : numpy.ndarray
+        The grid [rad per sample].
+    P : numpy.ndarray
+        The ZOH plant with the delay at ``z = exp(j theta)``.
+    K : numpy.ndarray
+        ``[T/S, -R/S]`` (Tustin) at the same points, shape ``(len(theta), 2)``.
+    poles_z : numpy.ndarray
+        The closed-loop poles (a lost degree of the characteristic polynomial is a pole
+        at ``z = -1``).
+
+    Attributes
+    ----------
+    spectral_radius : float
+        Largest closed-loop pole modulus.
     """
 
     plant: Plant
@@ -78,8 +125,25 @@ class SampledLoop:
         return float(np.max(np.abs(self.poles_z))) if self.poles_z.size else 0.0
 
 
-def sampled_loop(ctrl, plant, sample_rate_hz, delay_samples=0):
-    """:class:`SampledLoop` of ``ctrl`` (in s, Tustin at ``sample_rate_hz``) on ``plant``."""
+def sampled_loop(ctrl: RSTController, plant: Plant, sample_rate_hz: float,
+                 delay_samples: int = 0) -> SampledLoop:
+    """:class:`SampledLoop` of ``ctrl`` (in s, Tustin at ``sample_rate_hz``) on ``plant``.
+
+    Parameters
+    ----------
+    ctrl : RSTController
+        The controller in s.
+    plant : Plant
+        The continuous model.
+    sample_rate_hz : float
+        Sampling rate [Hz].
+    delay_samples : int
+        Whole samples of computation delay.
+
+    Returns
+    -------
+    SampledLoop
+    """
     fs = float(sample_rate_hz)
     theta = frequency_grid()
     th = theta[:-1]                                         # theta[-1] = pi (Nyquist)
@@ -98,14 +162,23 @@ def sampled_loop(ctrl, plant, sample_rate_hz, delay_samples=0):
     return SampledLoop(plant=plant, theta=theta, P=P, K=K, poles_z=z)
 
 
-def loop_perturbation(loop, implemented):
+def loop_perturbation(loop: SampledLoop, implemented: DigitalController) -> dict[str, float]:
     """``sup |P S dK|`` per channel on ``loop`` (``dK``: ``implemented`` minus exact).
+
+    Parameters
+    ----------
+    loop : SampledLoop
+        The exact loop.
+    implemented : DigitalController
+        Anything with ``freqresp(theta)`` returning ``[K_yr, K_y]`` (e.g. a rounded
+        controller).
 
     Returns
     -------
     dict
         ``mu_y`` (feedback channel: the small-gain figure of the module doc) and
-        ``mu_yr`` (feedforward channel: an absolute error on ``|Tr|``).
+        ``mu_yr`` (feedforward channel: an absolute error on ``|Tr|``); ``inf`` when
+        the implemented response is not finite.
     """
     with np.errstate(all="ignore"):
         dK = implemented.freqresp(loop.theta) - loop.K
@@ -123,11 +196,27 @@ def _nyquist(ctrl):
     return np.array([lead(ctrl.T), -lead(ctrl.R)], complex)
 
 
-def controller_step(dc, dtype=np.float64, u_range=None):
+def controller_step(dc: DigitalController, dtype: type = np.float64,
+                    u_range: tuple[float, float] | None = None) -> Callable[[float, float], float]:
     """A step function ``f(yr, y) -> u`` with the controller's state inside (reference).
 
     The operations and their order are those of the generated C and Python code:
     section outputs inner to outer, ``u``, saturation, then every state incremented.
+
+    Parameters
+    ----------
+    dc : DigitalController
+        The controller.
+    dtype : type
+        Arithmetic of the step (``float``/``numpy.float64``, ``numpy.float32``,
+        ``numpy.longdouble``).
+    u_range : (float, float), optional
+        Saturation limits [V] (``None``: none).
+
+    Returns
+    -------
+    callable
+        ``step(yr, y) -> u`` [µm, µm -> V], saturated; the state starts at rest.
     """
     t = float if dtype in (float, np.float64) else dtype
     secs = [([[t(x) for x in row] for row in s.F], [[t(x) for x in row] for row in s.G],
@@ -185,20 +274,67 @@ def _plant_loop(plant, fs, yr, delay_samples, control):
     return y_out, u_out
 
 
-def run_loop(dc, plant, yr, delay_samples=0, dtype=np.float64, u_range=None):
+def run_loop(dc: DigitalController, plant: Plant, yr: ArrayLike, delay_samples: int = 0,
+             dtype: type = np.float64,
+             u_range: tuple[float, float] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Closed loop of the sections (arithmetic in ``dtype``) and the exact ZOH ``plant``.
+
+    Parameters
+    ----------
+    dc : DigitalController
+        The controller.
+    plant : Plant
+        The continuous model (simulated by its exact ZOH in float64).
+    yr : array_like
+        The reference per sample [µm].
+    delay_samples : int
+        Whole samples of computation delay.
+    dtype : type
+        Arithmetic of the controller.
+    u_range : (float, float), optional
+        Saturation limits [V].
 
     Returns
     -------
-    y, u : ndarray
+    y, u : numpy.ndarray
         Measured output [µm] and commanded (saturated) voltage [V] per sample.
+
+    Raises
+    ------
+    SpecError
+        For a biproper plant without delay (an algebraic loop).
     """
     return _plant_loop(plant, dc.sample_rate_hz, np.asarray(yr, float), int(delay_samples),
                        controller_step(dc, dtype, u_range))
 
 
-def run_direct_form(dc, plant, yr, delay_samples=0, dtype=np.float64):
-    """The same loop with the direct form ``S_z u = T_z yr - R_z y`` in ``dtype`` (comparison)."""
+def run_direct_form(dc: DigitalController, plant: Plant, yr: ArrayLike, delay_samples: int = 0,
+                    dtype: type = np.float64) -> tuple[np.ndarray, np.ndarray]:
+    """The same loop with the direct form ``S_z u = T_z yr - R_z y`` in ``dtype`` (comparison).
+
+    Parameters
+    ----------
+    dc : DigitalController
+        The controller (its ``R_z, S_z, T_z``).
+    plant : Plant
+        The continuous model.
+    yr : array_like
+        The reference per sample [µm].
+    delay_samples : int
+        Whole samples of computation delay.
+    dtype : type
+        Arithmetic of the controller.
+
+    Returns
+    -------
+    y, u : numpy.ndarray
+        Measured output [µm] and command [V] per sample (no saturation).
+
+    Raises
+    ------
+    SpecError
+        For a biproper plant without delay (an algebraic loop).
+    """
     t = dtype
     R, S, T = (np.asarray(c, float).astype(t) for c in (dc.R_z, dc.S_z, dc.T_z))
     n = len(S)
@@ -236,15 +372,18 @@ def _unstable_poles(dc):
     return int(np.sum(np.abs(np.linalg.eigvals(A)) > 1.0)) if A.size else 0
 
 
-def implementation_report(dc, loops, delay_samples=0, n_steps=1000):
+def implementation_report(dc: DigitalController, loops: Sequence[SampledLoop],
+                          delay_samples: int = 0, n_steps: int = 1000) -> dict[str, dict]:
     """Float64 and float32 sections (and, for comparison, the direct form) vs the exact loop.
 
     Parameters
     ----------
     dc : DigitalController
+        The controller.
     loops : sequence of SampledLoop
         The models' exact sampled loops (the first one is also simulated).
     delay_samples : int
+        Whole samples of computation delay.
     n_steps : int
         Length of the simulated 1 µm reference step [samples].
 

@@ -5,10 +5,16 @@ whose ``step`` performs the operations of :func:`robrst.controller.implementatio
 (float64) in the same order.
 """
 
+from __future__ import annotations
+
 import math
+from typing import TYPE_CHECKING
 
 from robrst import __version__
 from robrst.controller.export import LAW
+
+if TYPE_CHECKING:
+    from robrst.controller.export import ExportedController
 
 __all__ = ["python_module"]
 
@@ -74,8 +80,20 @@ class Controller:
 '''
 
 
-def python_module(exp):
-    """Source text of the standalone module of ``exp`` (an ``ExportedController``)."""
+def python_module(exp: ExportedController) -> str:
+    """Source text of the standalone module of ``exp`` (an ``ExportedController``).
+
+    Parameters
+    ----------
+    exp : ExportedController
+        The exported controller.
+
+    Returns
+    -------
+    str
+        A Python module without dependencies: the data and ``Controller().step(yr, y)``,
+        the operations of :func:`robrst.controller.implementation.controller_step`.
+    """
     dc = exp.digital
     secs = [{"F": s.F.tolist(), "G": s.G.tolist(), "H": s.H.ravel().tolist(), "J": s.J.tolist(),
              "L": s.L.tolist()} for s in dc.sections]

@@ -9,13 +9,19 @@ computation; a lone level in scalars, the same steps).  :mod:`robrst.core.peaks`
 entry (module docstring there).
 """
 
+from __future__ import annotations
+
 import copy
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from robrst.core import lti
 from robrst.core._levelbatch import LOOSE, Batch, One, derivative, gain
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 __all__ = ["Peak", "Level", "run_levels", "mag2_poly", "LOOSE", "MAX_SPREAD"]
 
@@ -26,9 +32,16 @@ MAX_SPREAD = 1e12   # pole-magnitude ratio beyond which float64 eigenvalues cann
 class Peak:
     """Exact peak ``value`` of ``|G(jw)|`` at ``freq_rad_s`` (inf if at w = inf).
 
-    ``verified`` is false when the poles of ``D`` span more than ``MAX_SPREAD`` (12
-    decades): double-precision eigenvalues then cannot prove that no higher peak exists,
-    and ``value`` is the best of the level-set iteration and a dense scan (a lower bound).
+    Parameters
+    ----------
+    value : float
+        The peak gain (``inf`` for an improper ``G`` or a pole on the imaginary axis).
+    freq_rad_s : float
+        Where it is attained [rad/s] (``inf``: the limit at infinite frequency).
+    verified : bool
+        False when the poles of ``D`` span more than ``MAX_SPREAD`` (12 decades):
+        double-precision eigenvalues then cannot prove that no higher peak exists, and
+        ``value`` is the best of the level-set iteration and a dense scan (a lower bound).
     """
 
     value: float
@@ -36,8 +49,25 @@ class Peak:
     verified: bool = True
 
 
-def mag2_poly(c):
-    """Polynomial ``q`` in ``x = w**2`` with ``|c(jw)|**2 == q(w**2)`` (length ``len(c)``)."""
+def mag2_poly(c: ArrayLike) -> np.ndarray:
+    """Polynomial ``q`` in ``x = w**2`` with ``|c(jw)|**2 == q(w**2)`` (length ``len(c)``).
+
+    Parameters
+    ----------
+    c : array_like
+        Real coefficients in s, highest power first.
+
+    Returns
+    -------
+    numpy.ndarray
+        Coefficients of ``q`` in ``x``, highest power first.
+
+    Examples
+    --------
+    >>> from robrst.core.peaks import mag2_poly
+    >>> mag2_poly([1.0, 2.0]).tolist()          # |jw + 2|^2 = w^2 + 4
+    [1.0, 4.0]
+    """
     c = np.asarray(c, dtype=float)
     d = len(c) - 1
     sign = (-1.0) ** np.arange(d, -1, -1)

@@ -9,7 +9,9 @@ variable ``p = s / w0``.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -17,6 +19,9 @@ from robrst.core import lti, poly
 from robrst.core.peaks import mag2_poly, peak_gains_many
 from robrst.core.plant import Plant
 from robrst.core.rst import RSTController, closed_loop
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 __all__ = ["Margins", "Analysis", "analyze", "sensitivity", "crossovers", "bracketed_root",
            "step_response", "spectral_abscissa", "spectral_abscissa_many", "analyze_many"]
@@ -26,17 +31,31 @@ SENSITIVITIES = ("S", "T", "U", "Sd")
 
 @dataclass(frozen=True)
 class Margins:
-    """Classical margins of the loop ``L = BR/(AS)``.
+    """Classical margins of the loop ``L = BR/(AS)``; ``None`` means infinite.
 
-    ``gain_margin`` is the smallest factor > 1 by which the loop gain can grow
-    before a phase crossover reaches -1 (None: infinite); ``gain_margin_lower`` the
-    largest factor < 1 to which it can shrink before one does (None: down to 0, as in
-    a loop stable for every smaller gain).  python-control's ``stability_margins`` gm
-    is whichever of the two is closer to 1 in log.  ``phase_margin_deg`` follows
-    python-control: at every gain crossover ``(arg L(j wc) mod 360) - 180``, the one
-    smallest in magnitude, with its sign (negative: ``arg L`` in (0, 180)).
-    ``delay_margin_s`` is the smallest pure delay that puts ``L`` on -1 (phase lag
-    only, over every crossover).  None means infinite.
+    Parameters
+    ----------
+    gain_margin : float or None
+        The smallest factor > 1 by which the loop gain can grow before a phase crossover
+        reaches -1 (None: infinite).
+    gain_crossover_rad_s : tuple of float
+        Every gain crossover [rad/s].
+    phase_crossover_rad_s : tuple of float
+        Every phase crossover with ``Re L < 0`` [rad/s].
+    phase_margin_deg : float or None
+        As python-control defines it: at every gain crossover ``(arg L(j wc) mod 360) -
+        180``, the one smallest in magnitude, with its sign (negative: ``arg L`` in
+        (0, 180)).
+    delay_margin_s : float or None
+        The smallest pure delay that puts ``L`` on -1 (phase lag only, over every
+        crossover) [s].
+    modulus_margin : float
+        ``1 / Ms``.
+    gain_margin_lower : float or None
+        The largest factor < 1 to which the loop gain can shrink before a phase crossover
+        reaches -1 (None: down to 0, as in a loop stable for every smaller gain).
+        python-control's ``stability_margins`` gm is whichever of the two gain margins is
+        closer to 1 in log.
     """
 
     gain_margin: float
@@ -50,7 +69,25 @@ class Margins:
 
 @dataclass(frozen=True, eq=False)
 class Analysis:
-    """Everything :func:`analyze` computes for one plant/controller pair."""
+    """Everything :func:`analyze` computes for one plant/controller pair.
+
+    Parameters
+    ----------
+    label : str
+        The plant's label.
+    temperature_C : float or None
+        The plant's temperature [°C].
+    stable : bool
+        The closed loop is stable (spectral abscissa < 0).
+    poles : numpy.ndarray
+        Closed-loop poles [rad/s].
+    spectral_abscissa : float
+        Largest real part of the closed-loop poles [rad/s].
+    peaks : dict
+        ``"S"``, ``"T"``, ``"U"``, ``"Sd"`` -> exact :class:`~robrst.core.peaks.Peak`.
+    margins : Margins
+        Gain, phase, modulus and delay margins.
+    """
 
     label: str
     temperature_C: float
@@ -60,7 +97,20 @@ class Analysis:
     peaks: dict
     margins: Margins
 
-    def as_dict(self, plant):
+    def as_dict(self, plant: Plant) -> dict:
+        """The ``models`` record of the design JSON (infinite figures as ``None``).
+
+        Parameters
+        ----------
+        plant : Plant
+            The analysed plant (its ``A`` and ``B`` are written).
+
+        Returns
+        -------
+        dict
+            ``label, temperature_C, A, B, stable, closed_loop_poles, spectral_abscissa``,
+            the peaks ``Ms, Mt, Mu, Msd`` with their frequencies and the margins.
+        """
         pk = self.peaks
         m = self.margins
         return {
@@ -87,25 +137,60 @@ def _fin(x):
     return None if x is None or not np.isfinite(x) else float(x)
 
 
-def sensitivity(plant, ctrl, name, w):
-    """Complex frequency response of sensitivity ``name`` in S, T, U, Sd, Tr at ``w`` [rad/s]."""
+def sensitivity(plant: Plant, ctrl: RSTController, name: str, w: ArrayLike) -> np.ndarray:
+    """Complex frequency response of sensitivity ``name`` in S, T, U, Sd, Tr at ``w`` [rad/s].
+
+    Parameters
+    ----------
+    plant : Plant
+        The plant.
+    ctrl : RSTController
+        The controller.
+    name : {"S", "T", "U", "Sd", "Tr"}
+        Which closed-loop transfer function.
+    w : array_like
+        Frequencies [rad/s].
+
+    Returns
+    -------
+    numpy.ndarray
+        Complex values at ``s = jw``.
+    """
     cl = closed_loop(plant, ctrl)
     N, D = cl.tf(name)
     return poly.eval_jw(N, w) / poly.eval_jw(D, w)
 
 
-def spectral_abscissa(Delta):
-    """Largest real part of the roots of ``Delta`` (computed in scaled form)."""
-    return spectral_abscissa_many([Delta])[0]
+def spectral_abscissa(Delta: ArrayLike) -> tuple[float, np.ndarray]:
+    """Largest real part of the roots of ``Delta`` (computed in scaled form).
 
-
-def spectral_abscissa_many(Deltas):
-    """:func:`spectral_abscissa` of each polynomial, the root computations batched
-    (:func:`robrst.core.poly.roots_many`: identical roots).
+    Parameters
+    ----------
+    Delta : array_like
+        A polynomial in s, highest power first.
 
     Returns
     -------
-    list of (float, ndarray)
+    abscissa : float
+        The largest real part of its roots [rad/s].
+    roots : numpy.ndarray
+        The roots [rad/s].
+    """
+    return spectral_abscissa_many([Delta])[0]
+
+
+def spectral_abscissa_many(Deltas: Sequence[ArrayLike]) -> list[tuple[float, np.ndarray]]:
+    """:func:`spectral_abscissa` of each polynomial, the root computations batched
+    (:func:`robrst.core.poly.roots_many`: identical roots).
+
+    Parameters
+    ----------
+    Deltas : sequence of array_like
+        Polynomials in s, highest power first.
+
+    Returns
+    -------
+    list of (float, numpy.ndarray)
         Spectral abscissa and roots [rad/s] of each.
     """
     scs = [poly.Scaling.natural(D) for D in Deltas]
@@ -137,12 +222,37 @@ def _polish(f, w):
     return w
 
 
-def bracketed_root(f, a, b, fa, fb, xtol, max_iter=200):
+def bracketed_root(f: Callable[[float], float], a: float, b: float, fa: float, fb: float,
+                   xtol: float, max_iter: int = 200) -> float:
     """A root of ``f`` in ``[a, b]`` (``fa``, ``fb`` of opposite signs) to ``xtol``.
 
     Illinois (modified regula falsi): superlinear on a simple root, and the bracket
     always holds it; a bisection step whenever the bracket fails to halve.  Replaces
     ``scipy.optimize.brentq`` here: importing scipy.optimize costs 0.2 s per command.
+
+    Parameters
+    ----------
+    f : callable
+        A continuous function of one float.
+    a, b : float
+        The bracket.
+    fa, fb : float
+        ``f(a)`` and ``f(b)``, of opposite signs (or one of them 0).
+    xtol : float
+        Width of the final bracket.
+    max_iter : int
+        Iteration cap.
+
+    Returns
+    -------
+    float
+        The end of the final bracket with the smaller ``|f|`` (or an exact zero).
+
+    Examples
+    --------
+    >>> from robrst.core.analysis import bracketed_root
+    >>> round(bracketed_root(lambda x: x * x - 2.0, 1.0, 2.0, -1.0, 2.0, 1e-12), 12)
+    1.414213562373
     """
     if fa == 0:
         return a
@@ -186,12 +296,22 @@ def bracketed_root(f, a, b, fa, fb, xtol, max_iter=200):
     return a if abs(fa) <= abs(fb) else b
 
 
-def crossovers(num, den):
+def crossovers(num: ArrayLike, den: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """Gain and phase crossover frequencies [rad/s] of ``L = num/den``.
 
     Gain crossovers solve ``|num|^2 - |den|^2 = 0`` and phase crossovers
     ``Im(num(jw) den(-jw)) = 0`` with ``Re L < 0``, both as polynomials in
     ``x = w**2`` in the scaled variable, then polished on the exact function.
+
+    Parameters
+    ----------
+    num, den : array_like
+        Numerator and denominator of the loop gain in s, highest power first.
+
+    Returns
+    -------
+    gain_crossovers, phase_crossovers : numpy.ndarray
+        Frequencies [rad/s], increasing.
     """
     num, den = poly.trim(num), poly.trim(den)
     sc = poly.Scaling.natural(num, den)
@@ -241,7 +361,9 @@ def analyze(plant: Plant, ctrl: RSTController, rtol: float = 1e-10) -> Analysis:
     Parameters
     ----------
     plant : Plant
+        The plant.
     ctrl : RSTController
+        The controller.
     rtol : float
         Relative accuracy of the exact peaks.
 
@@ -261,13 +383,24 @@ def analyze(plant: Plant, ctrl: RSTController, rtol: float = 1e-10) -> Analysis:
     return analyze_many([plant], ctrl, rtol)[0]
 
 
-def analyze_many(plants, ctrl, rtol=1e-10):
+def analyze_many(plants: Sequence[Plant], ctrl: RSTController,
+                 rtol: float = 1e-10) -> tuple[Analysis, ...]:
     """:func:`analyze` of each plant under ``ctrl``, the roots and the peak computations of
     all loops batched (the same figures as one plant at a time).
+
+    Parameters
+    ----------
+    plants : sequence of Plant
+        The plants.
+    ctrl : RSTController
+        The controller.
+    rtol : float
+        Relative accuracy of the exact peaks.
 
     Returns
     -------
     tuple of Analysis
+        One per plant, in order.
     """
     cls = [closed_loop(plant, ctrl) for plant in plants]
     stab = spectral_abscissa_many([cl.Delta for cl in cls])
@@ -283,11 +416,23 @@ def analyze_many(plants, ctrl, rtol=1e-10):
     return tuple(out)
 
 
-def step_response(N, D, t):
+def step_response(N: ArrayLike, D: ArrayLike, t: ArrayLike) -> np.ndarray:
     """Response of ``N(s)/D(s)`` to a unit step at t = 0, sampled at ``t`` [s].
 
     Simulated exactly (matrix exponential of the zero-order-hold discretisation
     of the balanced scaled realisation), independent of coefficient size.
+
+    Parameters
+    ----------
+    N, D : array_like
+        Numerator and denominator in s, ``deg N <= deg D``.
+    t : array_like
+        Increasing, evenly spaced times from 0 [s].
+
+    Returns
+    -------
+    numpy.ndarray
+        The response at ``t``.
     """
     import scipy.signal as sig
 

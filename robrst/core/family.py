@@ -12,6 +12,9 @@ the model at any temperature in range:
   coefficient by coefficient between neighbours (A stays monic).
 """
 
+from __future__ import annotations
+
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from numbers import Real
 
@@ -57,10 +60,38 @@ def _thermal_model(nominal, c, T):
 class PlantFamily:
     """Plants indexed by temperature; ``models[i].temperature_C`` increasing.
 
-    ``reference`` is the index of the nominal model (where the Diophantine
-    equation is imposed).  Use :meth:`at` for any temperature in range (computed once
-    per temperature: a design certifies the same temperatures several times) and
-    :meth:`sampled` for a model's sampled-loop plant (once per model).
+    Use :meth:`at` for any temperature in range (computed once per temperature: a design
+    certifies the same temperatures several times) and :meth:`sampled` for a model's
+    sampled-loop plant (once per model).
+
+    Parameters
+    ----------
+    models : tuple of Plant
+        The members, at strictly increasing temperatures.
+    reference : int
+        Index of the nominal model (where the Diophantine equation is imposed).
+    thermal : ThermalCoefficients, optional
+        The per-kelvin law of a parametric family (``None``: explicit, interpolated
+        coefficient by coefficient between members).
+    nominal : Plant, optional
+        The model the law starts from (parametric families).
+
+    Attributes
+    ----------
+    memo : dict
+        Models and sampled plants already computed (not compared, not pickled; at most
+        ``MEMO_MAX`` entries).
+    temperatures : numpy.ndarray
+        The members' temperatures [°C].
+    reference_model : Plant
+        ``models[reference]``.
+    range_C : tuple of float
+        ``(lowest, highest)`` temperature [°C].
+
+    Raises
+    ------
+    SpecError
+        No models, a model without temperature, or temperatures that do not increase.
     """
 
     models: tuple
@@ -94,8 +125,20 @@ class PlantFamily:
     def range_C(self):
         return float(self.temperatures[0]), float(self.temperatures[-1])
 
-    def at(self, T):
-        """The model at temperature ``T`` [°C] (within the family's range)."""
+    def at(self, T: float) -> Plant:
+        """The model at temperature ``T`` [°C] (within the family's range).
+
+        Parameters
+        ----------
+        T : float
+            Temperature [°C]; a real number is memoised, anything else (a CasADi symbol)
+            computed each time.
+
+        Returns
+        -------
+        Plant
+            Labelled ``"T<T>C"``.
+        """
         if not isinstance(T, Real):
             return self._at(T)
         key = ("at", T)
@@ -104,9 +147,24 @@ class PlantFamily:
             self.memo[key] = self._at(T)
         return self.memo[key]
 
-    def sampled(self, plant, sample_rate_hz, delay_samples=0):
+    def sampled(self, plant: Plant, sample_rate_hz: float, delay_samples: int = 0) -> Plant:
         """:func:`robrst.core.sampled.sampled_plant` of ``plant`` (a model of this family: a member
-        or one from :meth:`at`), computed once per plant object."""
+        or one from :meth:`at`), computed once per plant object.
+
+        Parameters
+        ----------
+        plant : Plant
+            A model of this family.
+        sample_rate_hz : float
+            Sampling rate [Hz].
+        delay_samples : int
+            Whole samples of computation delay.
+
+        Returns
+        -------
+        Plant
+            The plant ``P_w(s)`` of the exact sampled loop.
+        """
         key = ("sampled", id(plant), sample_rate_hz, delay_samples)
         try:
             hit = self.memo.get(key)
@@ -142,21 +200,75 @@ class PlantFamily:
         return Plant((1 - lam) * a.B + lam * b.B, (1 - lam) * a.A + lam * b.A,
                      label=f"T{T:g}C", temperature_C=float(T))
 
-    def sweep(self, n):
-        """``n`` models evenly spaced in temperature over the whole range."""
+    def sweep(self, n: int) -> list[Plant]:
+        """``n`` models evenly spaced in temperature over the whole range.
+
+        Parameters
+        ----------
+        n : int
+            Number of temperatures (the range's ends included).
+
+        Returns
+        -------
+        list of Plant
+        """
         return [self.at(T) for T in np.linspace(*self.range_C, n)]
 
 
-def parametric_family(nominal, temperatures, coeffs):
-    """Family generated from ``nominal`` (valid at ``coeffs.reference_C``)."""
+def parametric_family(nominal: Plant, temperatures: Iterable[float],
+                      coeffs: ThermalCoefficients) -> PlantFamily:
+    """Family generated from ``nominal`` (valid at ``coeffs.reference_C``).
+
+    Parameters
+    ----------
+    nominal : Plant
+        The model at the reference temperature.
+    temperatures : iterable of float
+        The members' temperatures [°C] (sorted here).
+    coeffs : ThermalCoefficients
+        The per-kelvin law and the creep.
+
+    Returns
+    -------
+    PlantFamily
+        Its reference is the member nearest ``coeffs.reference_C``.
+
+    Raises
+    ------
+    SpecError
+        When the law leaves its domain at a member's temperature (gain factor outside
+        ``GAIN_SPAN``, resonance or damping <= 0, negative creep).
+
+    Examples
+    --------
+    >>> from robrst.core.family import ThermalCoefficients, parametric_family
+    >>> from robrst.core.plant import paper_plant
+    >>> fam = parametric_family(paper_plant(), [28.0, 45.0],
+    ...                         ThermalCoefficients(reference_C=28.0, gain_per_K=0.0015))
+    >>> round(float(fam.at(45.0).dc_gain / fam.at(28.0).dc_gain), 4)     # 1 + 17 K x 0.15 %
+    1.0255
+    """
     temps = sorted(float(t) for t in temperatures)
     models = tuple(_thermal_model(nominal, coeffs, T) for T in temps)
     ref = int(np.argmin(np.abs(np.array(temps) - coeffs.reference_C)))
     return PlantFamily(models=models, reference=ref, thermal=coeffs, nominal=nominal)
 
 
-def explicit_family(models, reference_C):
-    """Family from explicit models; the reference is the one closest to ``reference_C``."""
+def explicit_family(models: Iterable[Plant], reference_C: float) -> PlantFamily:
+    """Family from explicit models; the reference is the one closest to ``reference_C``.
+
+    Parameters
+    ----------
+    models : iterable of Plant
+        Models with their temperatures (sorted here); between two of them the family
+        interpolates coefficient by coefficient.
+    reference_C : float
+        Temperature of the nominal model [°C].
+
+    Returns
+    -------
+    PlantFamily
+    """
     models = tuple(sorted(models, key=lambda m: m.temperature_C))
     temps = np.array([m.temperature_C for m in models])
     return PlantFamily(models=models, reference=int(np.argmin(np.abs(temps - reference_C))))

@@ -15,11 +15,18 @@ closed-loop polynomial along the interpolation), in the scaled variable.
 the rounding error of forming it, no double-precision computation resolves stability.
 """
 
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from robrst.core import poly
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 __all__ = ["SegmentCrossing", "segment_crossing", "distance_to_instability",
            "distance_to_instability_many", "hurwitz_guardian", "ParameterProof",
@@ -32,8 +39,17 @@ EPS = np.finfo(float).eps
 class SegmentCrossing:
     """Result of :func:`segment_crossing`.
 
-    ``lam`` and ``freq_rad_s`` locate the first crossing (``None``: none), ``kind`` is
-    ``"axis"`` (a root on the imaginary axis) or ``"infinity"`` (degree drop).
+    Parameters
+    ----------
+    crossing : bool
+        A root reaches the imaginary axis (or infinity) on the segment.
+    lam : float, optional
+        Where on the segment, in [0, 1] (``None``: no crossing).
+    freq_rad_s : float, optional
+        The crossing frequency [rad/s] (``inf`` for a degree drop; ``None``: none).
+    kind : {"axis", "infinity"}, optional
+        A root on the imaginary axis, or through infinity (the leading coefficient
+        vanishes).
     """
 
     crossing: bool
@@ -46,7 +62,7 @@ def _pad(a, n):
     return np.concatenate([np.zeros(n - len(a)), a])
 
 
-def segment_crossing(Da, Db, tol=1e-9):
+def segment_crossing(Da: ArrayLike, Db: ArrayLike, tol: float = 1e-9) -> SegmentCrossing:
     """Does a root of ``(1 - lam) Da + lam Db`` reach the imaginary axis for ``lam`` in [0, 1]?
 
     Parameters
@@ -61,6 +77,7 @@ def segment_crossing(Da, Db, tol=1e-9):
     Returns
     -------
     SegmentCrossing
+        ``crossing=False`` when no root reaches the axis or infinity.
     """
     Da, Db = poly.trim(Da), poly.trim(Db)
     n = max(len(Da), len(Db))
@@ -99,7 +116,8 @@ def segment_crossing(Da, Db, tol=1e-9):
     return SegmentCrossing(False)
 
 
-def distance_to_instability(parts, Delta, roots, n_grid=400):
+def distance_to_instability(parts: Sequence[tuple[ArrayLike, ArrayLike]], Delta: ArrayLike,
+                            roots: ArrayLike, n_grid: int = 400) -> float:
     """Relative distance of ``Delta`` from a polynomial with a root on the imaginary axis.
 
     ``min_w |Delta(jw)| / sum_k size_k w^k`` with ``size`` the coefficient-wise
@@ -115,24 +133,36 @@ def distance_to_instability(parts, Delta, roots, n_grid=400):
     parts : sequence of (array_like, array_like)
         The products whose sum is ``Delta`` (e.g. ``(A, S)`` and ``(B, R)``).
     Delta : array_like
+        The closed-loop polynomial, highest power first.
     roots : array_like
         Roots of ``Delta`` [rad/s] (for the grid's span).
+    n_grid : int
+        Points of the log grid before the refinement.
 
     Returns
     -------
     float
+        The relative distance (NaN when no grid point is finite).
     """
     return distance_to_instability_many([(parts, Delta, roots)], n_grid)[0]
 
 
-def distance_to_instability_many(jobs, n_grid=400):
+def distance_to_instability_many(jobs: Sequence[tuple], n_grid: int = 400) -> list[float]:
     """:func:`distance_to_instability` of each ``(parts, Delta, roots)``, the polynomial
     evaluations of jobs of equal size vectorised (the same Horner steps per point:
     identical values).
 
+    Parameters
+    ----------
+    jobs : sequence of (parts, Delta, roots)
+        The arguments of :func:`distance_to_instability`, one tuple per polynomial.
+    n_grid : int
+        Points of the log grid before the refinement.
+
     Returns
     -------
     list of float
+        One distance per job, in order.
     """
     out, groups = [None] * len(jobs), {}
     for i, (parts, Delta, roots) in enumerate(jobs):
@@ -185,11 +215,29 @@ def _rho(ds, ss, x):
     return np.abs(y) / z
 
 
-def hurwitz_guardian(c):
+def hurwitz_guardian(c: ArrayLike) -> float:
     """``a_n * H_{n-1}`` of ``c`` (highest power first, ``c[0] > 0``): zero exactly when
     a root lies on the imaginary axis (the guardian map of Hurwitz stability).
 
     ``H_{n-1}`` is the leading ``(n-1)``-th principal minor of the Hurwitz matrix.
+
+    Parameters
+    ----------
+    c : array_like
+        Polynomial coefficients, highest power first.
+
+    Returns
+    -------
+    float
+        The guardian's value.
+
+    Examples
+    --------
+    >>> from robrst.core.interval import hurwitz_guardian
+    >>> hurwitz_guardian([1.0, 0.0, 4.0])       # roots +-2j: on the axis
+    0.0
+    >>> hurwitz_guardian([1.0, 3.0, 2.0]) > 0   # roots -1, -2
+    True
     """
     c = np.asarray(c, float)
     n = len(c) - 1
@@ -207,16 +255,27 @@ def hurwitz_guardian(c):
 
 @dataclass(frozen=True)
 class ParameterProof:
-    """Result of :func:`parameter_crossing`: ``proved`` (no root reaches the imaginary axis
-    on ``[a, b]``), else ``candidate_T`` (a root of the guardian inside, or ``None`` when the
-    interpolation could not be validated), and the number of nodes used."""
+    """Result of :func:`parameter_crossing`.
+
+    Parameters
+    ----------
+    proved : bool
+        No root reaches the imaginary axis on ``[a, b]``.
+    candidate_T : float, optional
+        When not proved: a root of the guardian inside, or a temperature where the
+        degree or the sign of the leading coefficient changes (``None`` when the
+        interpolation could not be validated).
+    nodes : int
+        Chebyshev nodes used.
+    """
 
     proved: bool
     candidate_T: float = None
     nodes: int = 0
 
 
-def parameter_crossing(delta_at, a, b, deg_T, max_doublings=3):
+def parameter_crossing(delta_at: Callable[[float], ArrayLike], a: float, b: float, deg_T: int,
+                       max_doublings: int = 3) -> ParameterProof:
     """Prove that ``delta_at(T)`` keeps its roots off the imaginary axis for ``T`` in [a, b].
 
     ``delta_at(T)`` must be a polynomial in ``s`` (degree ``n``, constant, positive leading
@@ -227,6 +286,17 @@ def parameter_crossing(delta_at, a, b, deg_T, max_doublings=3):
     (relative ``1e-7`` of its size; nodes are doubled otherwise) and its real roots in
     ``[a, b]`` are the only temperatures where a root can cross.  No root: proved (if
     ``delta_at`` is Hurwitz anywhere on ``[a, b]``, it is Hurwitz on all of it).
+
+    Parameters
+    ----------
+    delta_at : callable
+        Maps a temperature ``T`` to the closed-loop polynomial (in s, highest power first).
+    a, b : float
+        The interval [°C].
+    deg_T : int
+        Degree in ``T`` of the coefficients.
+    max_doublings : int
+        How often the nodes may be doubled before giving up.
 
     Returns
     -------

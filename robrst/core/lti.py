@@ -11,11 +11,18 @@ expansion of a polynomial in ``z``, whose roots cluster at ``z = 1`` and are los
 cancellation at high sampling rates.
 """
 
+from __future__ import annotations
+
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from robrst.core import poly
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 __all__ = ["companion_parts", "companion", "companion_monic", "companion_outputs",
            "companion_outputs_many", "DiscreteSS",
@@ -23,7 +30,7 @@ __all__ = ["companion_parts", "companion", "companion_monic", "companion_outputs
            "d2c"]
 
 
-def companion_parts(a, b):
+def companion_parts(a: Sequence[Any], b: Sequence[Any]) -> tuple[list, list, Any]:
     """The controllable canonical form of ``b/a`` as plain sequences.
 
     For monic ``a`` (length ``n + 1``) and ``len(b) <= n + 1`` (highest power first),
@@ -31,10 +38,21 @@ def companion_parts(a, b):
     subdiagonal, ``B = e1``.  Only ``+``, ``-`` and ``*`` are used, so the coefficients
     may be floats or CasADi symbols.
 
+    Parameters
+    ----------
+    a : sequence
+        The monic denominator, highest power first.
+    b : sequence
+        The numerator, at most as long as ``a``.
+
     Returns
     -------
-    first_row, c_row, d
-        Lists of length ``n``, ``n`` and the feedthrough.
+    first_row : list
+        ``-a[1:]``, the first row of ``A``.
+    c_row : list
+        The ``n`` entries of ``C``.
+    d : object
+        The feedthrough.
     """
     a, b = list(a), list(b)
     n = len(a) - 1
@@ -43,7 +61,8 @@ def companion_parts(a, b):
     return [-x for x in a[1:]], [b[k] - d * a[k] for k in range(1, n + 1)], d
 
 
-def companion(N, D, scaling=None, balance=True):
+def companion(N: ArrayLike, D: ArrayLike, scaling: poly.Scaling | None = None,
+              balance: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """Balanced controllable-form realisation of ``N/D`` in the scaled variable.
 
     Parameters
@@ -57,7 +76,9 @@ def companion(N, D, scaling=None, balance=True):
 
     Returns
     -------
-    A, B, C, d
+    A, B, C : numpy.ndarray
+        Of shapes ``(n, n)``, ``(n, 1)``, ``(1, n)``.
+    d : float
         With ``N(w0 p)/D(w0 p) = C (pI - A)^-1 B + d``.
     """
     N, D = poly.trim(N), poly.trim(D)
@@ -66,12 +87,30 @@ def companion(N, D, scaling=None, balance=True):
     return companion_monic(Ns / Ds[0], Ds / Ds[0], balance)
 
 
-def companion_monic(ns, ds, balance=True):
+def companion_monic(ns: ArrayLike, ds: ArrayLike,
+                    balance: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """:func:`companion` of ``ns/ds`` given in the scaled variable with ``ds`` monic.
+
+    Parameters
+    ----------
+    ns : array_like
+        Numerator in the scaled variable, at most as long as ``ds``.
+    ds : array_like
+        Monic denominator in the scaled variable.
+    balance : bool
+        Balance the realisation (LAPACK ``gebal``).
 
     Returns
     -------
-    A, B, C, d
+    A, B, C : numpy.ndarray
+        The realisation.
+    d : float
+        The feedthrough.
+
+    Raises
+    ------
+    ValueError
+        When ``deg ns > deg ds``.
     """
     n = len(ds) - 1
     if len(ns) > n + 1:
@@ -102,19 +141,32 @@ def _balanced(A, B, C):
             C * sc[..., None, :])
 
 
-def companion_outputs(Ns, D, scaling):
+def companion_outputs(Ns: Sequence[ArrayLike], D: ArrayLike,
+                      scaling: poly.Scaling) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                      np.ndarray]:
     """:func:`companion` of several numerators over one ``D``: one ``A, B``, one balancing,
     a row of ``C`` and an entry of ``d`` per numerator (the same matrices as one call each).
 
+    Parameters
+    ----------
+    Ns : sequence of array_like
+        Numerators in s, each of degree at most ``deg D``.
+    D : array_like
+        The common denominator in s.
+    scaling : Scaling
+        The frequency scaling of the realisation.
+
     Returns
     -------
-    A, B, C, d
+    A, B, C, d : numpy.ndarray
         ``C`` of shape ``(len(Ns), n)``, ``d`` of length ``len(Ns)``.
     """
     return tuple(x[0] for x in companion_outputs_many([Ns], [D], [scaling]))
 
 
-def companion_outputs_many(Ns, Ds, scalings):
+def companion_outputs_many(Ns: Sequence[Sequence[ArrayLike]], Ds: Sequence[ArrayLike],
+                           scalings: Sequence[poly.Scaling]) -> tuple[np.ndarray, np.ndarray,
+                                                                     np.ndarray, np.ndarray]:
     """:func:`companion_outputs` of several loops of one degree, stacked.
 
     Parameters
@@ -128,9 +180,14 @@ def companion_outputs_many(Ns, Ds, scalings):
 
     Returns
     -------
-    A, B, C, d
+    A, B, C, d : numpy.ndarray
         Shapes ``(K, n, n)``, ``(K, n, 1)``, ``(K, r, n)``, ``(K, r)`` for ``K`` loops of
         ``r`` numerators; slice ``k`` is :func:`companion_outputs` of loop ``k``.
+
+    Raises
+    ------
+    ValueError
+        When a numerator's degree exceeds its denominator's.
     """
     den = np.stack([sc.apply(poly.trim(D)) for D, sc in zip(Ds, scalings)])
     K, n = den.shape[0], den.shape[1] - 1
@@ -161,6 +218,23 @@ class DiscreteSS:
 
     ``A`` is the continuous scaled matrix, ``h = w0 / fs`` the scaled sampling period,
     ``Gamma = int_0^h exp(A t) dt`` (so ``Ad - I = A Gamma`` without cancellation).
+
+    Attributes
+    ----------
+    Ad, Bd, C : numpy.ndarray
+        The discrete realisation.
+    d : float
+        The feedthrough.
+    A : numpy.ndarray
+        The continuous matrix in scaled time.
+    Gamma : numpy.ndarray
+        ``int_0^h exp(A t) dt``.
+    h : float
+        The scaled sampling period ``w0 / fs``.
+    scaling : Scaling
+        The frequency scaling of the states.
+    poles : numpy.ndarray
+        The discrete poles (eigenvalues of ``Ad``).
     """
 
     Ad: np.ndarray
@@ -178,11 +252,21 @@ class DiscreteSS:
         return np.linalg.eigvals(self.Ad)
 
 
-def zoh(N, D, sample_rate_hz, scaling=None):
+def zoh(N: ArrayLike, D: ArrayLike, sample_rate_hz: float,
+        scaling: poly.Scaling | None = None) -> DiscreteSS:
     """Exact zero-order-hold discretisation of ``N(s)/D(s)`` at ``sample_rate_hz``.
 
     One matrix exponential of the augmented matrix ``[[A h, I h, B h], [0, 0, 0]]`` in
     scaled time gives ``Ad``, ``Gamma`` and ``Bd`` at once.
+
+    Parameters
+    ----------
+    N, D : array_like
+        Numerator and denominator in s, ``deg N <= deg D``.
+    sample_rate_hz : float
+        The sampling rate [Hz].
+    scaling : Scaling, optional
+        Default: :meth:`robrst.core.poly.Scaling.natural` of ``D``.
 
     Returns
     -------
@@ -195,14 +279,33 @@ def zoh(N, D, sample_rate_hz, scaling=None):
     return DiscreteSS(Ad=Ad, Bd=Bd, C=C, d=d, A=A, Gamma=Gamma, h=h, scaling=sc)
 
 
-def zoh_matrices(A, B, h, gamma=True):
-    """``(Ad, Gamma, Bd)`` of ``x' = A x + B u`` held over a step ``h`` (same time unit):
+def zoh_matrices(A: np.ndarray, B: np.ndarray, h: float | np.ndarray,
+                 gamma: bool = True) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
+    """``(Ad, Gamma, Bd)`` of ``x' = A x + B u`` held over a step ``h`` (same time unit).
+
     ``Ad = exp(A h)``, ``Gamma = int_0^h exp(A t) dt``, ``Bd = Gamma B``, from one matrix
     exponential of ``[[A h, I h, B h], [0, 0, 0]]``; with ``gamma=False`` ``Gamma`` is
-    ``None`` and the exponential is the smaller ``[[A h, B h], [0, 0]]``.
+    ``None`` and the exponential is the smaller ``[[A h, B h], [0, 0]]``.  Stacks too:
+    ``A`` of shape ``(..., n, n)``, ``B`` ``(..., n, 1)`` and ``h`` a scalar or of shape
+    ``(...)`` give stacked results, slice by slice the same as one call each.
 
-    Stacks too: ``A`` of shape ``(..., n, n)``, ``B`` ``(..., n, 1)`` and ``h`` a scalar or
-    of shape ``(...)`` give stacked results, slice by slice the same as one call each."""
+    Parameters
+    ----------
+    A : numpy.ndarray
+        ``(..., n, n)``.
+    B : numpy.ndarray
+        ``(..., n, 1)``.
+    h : float or numpy.ndarray
+        The step, in the time unit of ``A``.
+    gamma : bool
+        Also return ``Gamma``.
+
+    Returns
+    -------
+    Ad : numpy.ndarray
+    Gamma : numpy.ndarray or None
+    Bd : numpy.ndarray
+    """
     from scipy.linalg import expm   # scipy.linalg only where used: 0.3 s to import
 
     n = A.shape[-1]
@@ -217,11 +320,28 @@ def zoh_matrices(A, B, h, gamma=True):
     return E[..., :n, :n], (E[..., :n, n:2 * n] if gamma else None), E[..., :n, k - 1:]
 
 
-def zoh_modal(poles, residues, sample_rate_hz):
+def zoh_modal(poles: ArrayLike, residues: ArrayLike,
+              sample_rate_hz: float) -> tuple[np.ndarray, np.ndarray]:
     """Exact zero-order-hold discretisation of a modal (partial-fraction) model at ``sample_rate_hz``.
 
     A mode ``R / (s - p)`` becomes ``R (e^{pT} - 1) / p / (z - e^{pT})`` (``R T`` at
-    ``p = 0``).  Returns ``(z_poles, discrete residues)``; the feedthrough is unchanged.
+    ``p = 0``); the feedthrough is unchanged.
+
+    Parameters
+    ----------
+    poles : array_like
+        Continuous poles [rad/s], length ``n``.
+    residues : array_like
+        Residue matrices, shape ``(n, outputs, inputs)``.
+    sample_rate_hz : float
+        The sampling rate [Hz].
+
+    Returns
+    -------
+    z_poles : numpy.ndarray
+        ``e^{pT}``.
+    residues : numpy.ndarray
+        The discrete residues, shape of ``residues``.
     """
     T = 1.0 / float(sample_rate_hz)
     p = np.asarray(poles, complex)
@@ -231,12 +351,29 @@ def zoh_modal(poles, residues, sample_rate_hz):
     return np.exp(pt), np.asarray(residues, complex) * factor[:, None, None]
 
 
-def d2c_modal(zpoles, residues, sample_rate_hz):
+def d2c_modal(zpoles: ArrayLike, residues: ArrayLike,
+              sample_rate_hz: float) -> tuple[np.ndarray, np.ndarray]:
     """Exact inverse of :func:`zoh_modal`: continuous poles and residues of a sampled modal model.
 
     ``z = e^{pT}`` gives ``p = log(z) / T`` (real for a real positive ``z``) and the
     residue ``R = Rd p / (z - 1)`` (``Rd / T`` at ``z = 1``).  The caller refuses poles on
-    the negative real axis (no real continuous counterpart).  Returns ``(poles, residues)``.
+    the negative real axis (no real continuous counterpart).
+
+    Parameters
+    ----------
+    zpoles : array_like
+        Discrete poles.
+    residues : array_like
+        Discrete residue matrices, shape ``(n, outputs, inputs)``.
+    sample_rate_hz : float
+        The sampling rate [Hz].
+
+    Returns
+    -------
+    poles : numpy.ndarray
+        Continuous poles [rad/s].
+    residues : numpy.ndarray
+        Continuous residues.
     """
     fs = float(sample_rate_hz)
     z = np.asarray(zpoles, complex)
@@ -247,8 +384,21 @@ def d2c_modal(zpoles, residues, sample_rate_hz):
     return s, np.asarray(residues, complex) * factor[:, None, None]
 
 
-def transmission_zeros(A, B, C, d):
-    """Finite transmission zeros of a SISO state space (generalised eigenvalues)."""
+def transmission_zeros(A: np.ndarray, B: np.ndarray, C: np.ndarray, d: float) -> np.ndarray:
+    """Finite transmission zeros of a SISO state space (generalised eigenvalues).
+
+    Parameters
+    ----------
+    A, B, C : numpy.ndarray
+        ``(n, n)``, ``(n, 1)``, ``(1, n)``.
+    d : float
+        The feedthrough.
+
+    Returns
+    -------
+    numpy.ndarray
+        The finite zeros (complex).
+    """
     n = A.shape[0]
     M = np.block([[A, B], [C, np.array([[d]])]])
     E = np.zeros_like(M)
@@ -266,13 +416,26 @@ def transmission_zeros(A, B, C, d):
 _GAIN_POINT = 0.4127 + 0.9111j
 
 
-def ss_to_poly(A, B, C, d):
+def ss_to_poly(A: ArrayLike, B: ArrayLike, C: ArrayLike,
+               d: float | ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """``C (sI - A)^-1 B + d`` as polynomials ``(N, D)`` in s, highest power first.
 
     Poles are the eigenvalues of ``A``, zeros its transmission zeros, both computed in
     the scaled time of the natural scale of the poles (so entries spanning decades do not
     matter); the gain is matched at one point of the scaled plane.  No polynomial is
     expanded until the end.
+
+    Parameters
+    ----------
+    A, B, C : array_like
+        A SISO state space.
+    d : float or array_like
+        The feedthrough (its first element is used).
+
+    Returns
+    -------
+    N, D : numpy.ndarray
+        Numerator (leading zeros trimmed) and monic denominator.
     """
     A, B = np.atleast_2d(np.asarray(A, float)), np.asarray(B, float).reshape(-1, 1)
     C, d = np.asarray(C, float).reshape(1, -1), float(np.asarray(d, float).ravel()[0])
@@ -293,12 +456,30 @@ def ss_to_poly(A, B, C, d):
     return poly.trim(N), poly.from_roots(w0 * poles)
 
 
-def d2c(Ad, Bd, dt):
+def d2c(Ad: ArrayLike, Bd: ArrayLike, dt: float) -> tuple[np.ndarray, np.ndarray]:
     """Continuous ``(A, B)`` whose zero-order hold at period ``dt`` is ``(Ad, Bd)``.
 
     The inverse of :func:`zoh`: the principal matrix logarithm of ``[[Ad, Bd], [0, 1]]``.
-    Defined when no eigenvalue of ``Ad`` is zero or real negative (those have no real
-    continuous pre-image); otherwise ``ValueError`` naming the eigenvalue.
+
+    Parameters
+    ----------
+    Ad : array_like
+        ``(n, n)``.
+    Bd : array_like
+        ``(n, 1)`` (or ``n`` entries).
+    dt : float
+        The sampling period [s].
+
+    Returns
+    -------
+    A, B : numpy.ndarray
+        The continuous pair.
+
+    Raises
+    ------
+    ValueError
+        When an eigenvalue of ``Ad`` is zero or real negative (no real continuous
+        pre-image, named), or the logarithm is not real.
     """
     Ad, Bd = np.atleast_2d(np.asarray(Ad, float)), np.asarray(Bd, float).reshape(-1, 1)
     n = Ad.shape[0]

@@ -30,10 +30,18 @@ numerators over one denominator (the certificate's S, T and U) with the same ari
 their eigenvalue problems batched.
 """
 
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from robrst.core import poly
 from robrst.core._levelset import Level, Peak, mag2_poly, run_levels
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 __all__ = ["Peak", "peak_gain", "peak_gains", "peak_gains_many", "mag2_poly"]
 
@@ -48,7 +56,8 @@ def _prepare(N, D):
     return N, D
 
 
-def peak_gain(N, D, rtol=1e-10, scaling=None, max_iter=60, band=None):
+def peak_gain(N: ArrayLike, D: ArrayLike, rtol: float = 1e-10, scaling: poly.Scaling | None = None,
+              max_iter: int = 60, band: tuple[float, float] | None = None) -> Peak:
     """Exact peak of ``|N(jw)/D(jw)|`` over ``w >= 0`` (or over a band).
 
     Parameters
@@ -90,7 +99,8 @@ def peak_gain(N, D, rtol=1e-10, scaling=None, max_iter=60, band=None):
         return run_levels([lv], rtol, max_iter)[0]
 
 
-def peak_gains(Ns, D, rtol=1e-10, max_iter=60, bands=()):
+def peak_gains(Ns: Sequence[ArrayLike], D: ArrayLike, rtol: float = 1e-10, max_iter: int = 60,
+               bands: Sequence[tuple[int, tuple[float, float]]] = ()) -> list[Peak]:
     """Global peaks of ``|N/D|`` for each numerator of ``Ns`` over the one denominator ``D``,
     then the band peaks asked for.
 
@@ -100,8 +110,10 @@ def peak_gains(Ns, D, rtol=1e-10, max_iter=60, bands=()):
     Parameters
     ----------
     Ns : sequence of array_like
+        Numerators in s, highest power first.
     D : array_like
-    rtol, max_iter
+        The common denominator in s.
+    rtol, max_iter : float, int
         As :func:`peak_gain`.
     bands : sequence of (int, (float, float))
         ``(i, (w_lo, w_hi))``: the peak of numerator ``i`` over that band [rad/s]; the
@@ -117,7 +129,8 @@ def peak_gains(Ns, D, rtol=1e-10, max_iter=60, bands=()):
     return peak_gains_many([(Ns, D, bands)], rtol, max_iter)[0]
 
 
-def peak_gains_many(jobs, rtol=1e-10, max_iter=60):
+def peak_gains_many(jobs: Sequence[tuple], rtol: float = 1e-10,
+                    max_iter: int = 60) -> list[list[Peak]]:
     """:func:`peak_gains` of several ``(Ns, D, bands)`` jobs (e.g. the closed loops of a
     family's models), the eigenvalue problems of all of them batched.
 
@@ -128,7 +141,7 @@ def peak_gains_many(jobs, rtol=1e-10, max_iter=60):
     ----------
     jobs : sequence of (Ns, D, bands)
         As the arguments of :func:`peak_gains`.
-    rtol, max_iter
+    rtol, max_iter : float, int
         As :func:`peak_gain`.
 
     Returns

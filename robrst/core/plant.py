@@ -3,12 +3,19 @@
 Units: input u [V], output y [µm], s in rad/s.
 """
 
+from __future__ import annotations
+
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from robrst.core import poly
 from robrst.base.errors import SpecError
+
+if TYPE_CHECKING:
+    import control
+    from numpy.typing import ArrayLike
 
 __all__ = ["Plant", "paper_plant", "named_plant", "NAMED_PLANTS"]
 
@@ -26,6 +33,15 @@ class Plant:
         Name used in reports.
     temperature_C : float or None
         Temperature [°C] at which the model holds.
+    meta : dict
+        Free-form facts about the model (``"source"``; ``"sample_rate_hz"`` and
+        ``"delay_samples"`` of a model read from a discrete one); not compared.
+
+    Raises
+    ------
+    SpecError
+        Coefficients that are not finite, ``deg A < 1``, ``deg B > deg A`` or ``B = 0``,
+        naming the plant's label.
 
     Examples
     --------
@@ -73,25 +89,80 @@ class Plant:
         """Static gain B(0)/A(0) [µm/V] (inf for a pole at 0)."""
         return self.B[-1] / self.A[-1] if self.A[-1] != 0 else np.inf
 
-    def poles(self):
+    def poles(self) -> np.ndarray:
+        """The roots of ``A`` [rad/s].
+
+        Returns
+        -------
+        numpy.ndarray
+            ``numpy.roots(A)``.
+        """
         return np.roots(self.A)
 
-    def zeros(self):
+    def zeros(self) -> np.ndarray:
+        """The roots of ``B`` [rad/s] (none for a constant numerator).
+
+        Returns
+        -------
+        numpy.ndarray
+        """
         return np.roots(self.B) if self.m > 0 else np.zeros(0)
 
-    def freqresp(self, w):
-        """Complex frequency response at ``w`` [rad/s]."""
+    def freqresp(self, w: float | ArrayLike) -> complex | np.ndarray:
+        """Complex frequency response at ``w`` [rad/s].
+
+        Parameters
+        ----------
+        w : float or array_like
+            Frequencies [rad/s].
+
+        Returns
+        -------
+        complex or numpy.ndarray
+            ``B(jw) / A(jw)`` [µm/V].
+        """
         return poly.eval_jw(self.B, w) / poly.eval_jw(self.A, w)
 
     @classmethod
-    def from_zpk(cls, zeros, poles, gain, **kw):
-        """Build from zeros, poles [rad/s] and the leading gain ``k`` of ``k*prod(s-z)/prod(s-p)``."""
+    def from_zpk(cls, zeros: ArrayLike, poles: ArrayLike, gain: float, **kw: Any) -> Plant:
+        """Build from zeros, poles [rad/s] and the leading gain ``k`` of ``k*prod(s-z)/prod(s-p)``.
+
+        Parameters
+        ----------
+        zeros, poles : array_like
+            Roots [rad/s]; complex ones with their conjugates.
+        gain : float
+            The leading gain ``k``.
+        **kw
+            ``label``, ``temperature_C``, ``meta`` of :class:`Plant`.
+
+        Returns
+        -------
+        Plant
+        """
         B = float(gain) * poly.from_roots(zeros) if len(zeros) else np.array([float(gain)])
         return cls(B, poly.from_roots(poles), **kw)
 
     @classmethod
-    def from_tf(cls, tf, **kw):
-        """Build from a continuous-time SISO ``control.TransferFunction``."""
+    def from_tf(cls, tf: control.TransferFunction, **kw: Any) -> Plant:
+        """Build from a continuous-time SISO ``control.TransferFunction``.
+
+        Parameters
+        ----------
+        tf : control.TransferFunction
+            Continuous (``dt`` 0 or ``None``), one input and one output.
+        **kw
+            ``label``, ``temperature_C``, ``meta`` of :class:`Plant`.
+
+        Returns
+        -------
+        Plant
+
+        Raises
+        ------
+        SpecError
+            For a discrete or a MIMO transfer function.
+        """
         if getattr(tf, "dt", 0) not in (0, None):
             raise SpecError("from_tf: only continuous-time transfer functions are supported"
                             " (use Plant.from_control for discrete ones)")
@@ -101,7 +172,8 @@ class Plant:
         return cls(num, den, **kw)
 
     @classmethod
-    def from_control(cls, sys, label="plant", temperature_C=None):
+    def from_control(cls, sys: control.TransferFunction | control.StateSpace,
+                     label: str = "plant", temperature_C: float | None = None) -> Plant:
         """Build from a SISO python-control ``TransferFunction`` or ``StateSpace``.
 
         Continuous systems are taken as they are (a state space through its poles,
@@ -117,8 +189,11 @@ class Plant:
         Parameters
         ----------
         sys : control.TransferFunction or control.StateSpace
+            A SISO system, continuous or discrete.
         label : str
+            Name used in reports.
         temperature_C : float, optional
+            Temperature [°C] at which the model holds.
 
         Returns
         -------
@@ -173,13 +248,32 @@ class Plant:
                 "source": "inverse zero-order hold of a discrete model"}
         return Plant(plant.B, plant.A, meta=meta, **kw)
 
-    def to_tf(self):
-        """Return the model as a ``control.TransferFunction``."""
+    def to_tf(self) -> control.TransferFunction:
+        """Return the model as a ``control.TransferFunction``.
+
+        Returns
+        -------
+        control.TransferFunction
+            ``B(s)/A(s)``, continuous.
+        """
         import control
 
         return control.tf(self.B, self.A)
 
-    def with_label(self, label, temperature_C=None):
+    def with_label(self, label: str, temperature_C: float | None = None) -> Plant:
+        """The same model under another label (and temperature); ``meta`` is kept.
+
+        Parameters
+        ----------
+        label : str
+            The new label.
+        temperature_C : float, optional
+            The new temperature [°C] (``None``: none).
+
+        Returns
+        -------
+        Plant
+        """
         return Plant(self.B, self.A, label=label, temperature_C=temperature_C, meta=self.meta)
 
 
@@ -205,12 +299,23 @@ def _strip_delay(num, den):
     return num, den, k
 
 
-def paper_plant():
+def paper_plant() -> Plant:
     """The identified actuator model D(s) of eq. (4) of the paper.
 
     ``D(s) = 107 (s^2 + 1.4e4 s + 6.1e7) / ((s + 651)(s^2 + 42 s + 1.5e7))``:
     static gain 0.668 µm/V, a lightly damped resonance at sqrt(1.5e7) rad/s
     (616 Hz, damping 0.0054).
+
+    Returns
+    -------
+    Plant
+        Labelled ``"paper_D"``.
+
+    Examples
+    --------
+    >>> from robrst.core.plant import paper_plant
+    >>> round(float(paper_plant().dc_gain), 3)
+    0.668
     """
     B = 107.0 * np.array([1.0, 1.4e4, 6.1e7])
     A = poly.pmul([1.0, 651.0], [1.0, 42.0, 1.5e7])
@@ -220,8 +325,23 @@ def paper_plant():
 NAMED_PLANTS = {"paper": paper_plant}
 
 
-def named_plant(name):
-    """Look up a built-in plant by name (``"paper"``)."""
+def named_plant(name: str) -> Plant:
+    """Look up a built-in plant by name (``"paper"``).
+
+    Parameters
+    ----------
+    name : str
+        A key of ``NAMED_PLANTS``.
+
+    Returns
+    -------
+    Plant
+
+    Raises
+    ------
+    SpecError
+        For an unknown name, listing the known ones.
+    """
     try:
         return NAMED_PLANTS[name]()
     except KeyError:

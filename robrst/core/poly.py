@@ -6,9 +6,16 @@ where these spans shrink to a few decades; :func:`to_scaled` and :func:`from_sca
 move coefficient vectors between the two.
 """
 
+from __future__ import annotations
+
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 __all__ = [
     "Scaling",
@@ -30,8 +37,32 @@ __all__ = [
 ]
 
 
-def as_poly(c, name="polynomial"):
-    """Return ``c`` as a 1-D float array of finite coefficients, leading zeros trimmed."""
+def as_poly(c: ArrayLike, name: str = "polynomial") -> np.ndarray:
+    """Return ``c`` as a 1-D float array of finite coefficients, leading zeros trimmed.
+
+    Parameters
+    ----------
+    c : array_like
+        Coefficients, highest power first.
+    name : str
+        What the polynomial is, for the error message.
+
+    Returns
+    -------
+    numpy.ndarray
+        A new float array (at least one coefficient).
+
+    Raises
+    ------
+    ValueError
+        For an empty or multi-dimensional input, or a coefficient that is not finite.
+
+    Examples
+    --------
+    >>> from robrst.core.poly import as_poly
+    >>> as_poly([0, 0, 1, 2]).tolist()
+    [1.0, 2.0]
+    """
     a = np.atleast_1d(np.asarray(c, dtype=float))
     if a.ndim != 1 or a.size == 0:
         raise ValueError(f"{name}: expected a non-empty 1-D list of coefficients")
@@ -40,8 +71,19 @@ def as_poly(c, name="polynomial"):
     return trim(a)
 
 
-def trim(c):
-    """Drop leading zeros (keep at least one coefficient)."""
+def trim(c: ArrayLike) -> np.ndarray:
+    """Drop leading zeros (keep at least one coefficient).
+
+    Parameters
+    ----------
+    c : array_like
+        Coefficients, highest power first.
+
+    Returns
+    -------
+    numpy.ndarray
+        A new float array; ``[0.0]`` for the zero polynomial.
+    """
     c = np.asarray(c, dtype=float)
     if c.size and c[0] != 0.0:
         return c.copy()
@@ -49,13 +91,34 @@ def trim(c):
     return c[nz[0]:].copy() if nz.size else np.zeros(1)
 
 
-def degree(c):
-    """Degree of a trimmed coefficient vector (0 for constants)."""
+def degree(c: ArrayLike) -> int:
+    """Degree of a trimmed coefficient vector (0 for constants).
+
+    Parameters
+    ----------
+    c : array_like
+        Coefficients, highest power first.
+
+    Returns
+    -------
+    int
+    """
     return len(trim(c)) - 1
 
 
-def padd(a, b):
-    """Sum of two polynomials."""
+def padd(a: ArrayLike, b: ArrayLike) -> np.ndarray:
+    """Sum of two polynomials.
+
+    Parameters
+    ----------
+    a, b : array_like
+        Coefficients, highest power first (any lengths).
+
+    Returns
+    -------
+    numpy.ndarray
+        The coefficients of ``a + b``, leading zeros trimmed.
+    """
     a, b = np.asarray(a, float), np.asarray(b, float)
     if len(a) < len(b):
         a, b = b, a
@@ -64,20 +127,42 @@ def padd(a, b):
     return trim(out)
 
 
-def pmul(a, b):
-    """Product of two polynomials."""
+def pmul(a: ArrayLike, b: ArrayLike) -> np.ndarray:
+    """Product of two polynomials.
+
+    Parameters
+    ----------
+    a, b : array_like
+        Coefficients, highest power first.
+
+    Returns
+    -------
+    numpy.ndarray
+        The coefficients of ``a * b``, leading zeros trimmed.
+    """
     return trim(np.convolve(np.asarray(a, float), np.asarray(b, float)))
 
 
-def pprod(*polys):
-    """Product of any number of polynomials (1 for none)."""
+def pprod(*polys: ArrayLike) -> np.ndarray:
+    """Product of any number of polynomials (1 for none).
+
+    Parameters
+    ----------
+    *polys : array_like
+        Coefficients, highest power first.
+
+    Returns
+    -------
+    numpy.ndarray
+        The coefficients of the product; ``[1.0]`` when no polynomial is given.
+    """
     out = np.ones(1)
     for p in polys:
         out = pmul(out, p)
     return out
 
 
-def to_scaled(c, w0):
+def to_scaled(c: ArrayLike, w0: float) -> np.ndarray:
     """Coefficients of ``P(w0 * p)`` in ``p`` (no normalisation).
 
     Parameters
@@ -86,24 +171,51 @@ def to_scaled(c, w0):
         Coefficients in ``s``, highest power first.
     w0 : float
         Frequency scale [rad/s]; ``s = w0 * p``.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``c[k] * w0**(n - k)`` for a polynomial of length ``n + 1``.
     """
     c = np.asarray(c, dtype=float)
     d = len(c) - 1
     return c * float(w0) ** np.arange(d, -1, -1)
 
 
-def from_scaled(c, w0):
-    """Inverse of :func:`to_scaled`: coefficients in ``s`` of ``Q(s / w0)``."""
+def from_scaled(c: ArrayLike, w0: float) -> np.ndarray:
+    """Inverse of :func:`to_scaled`: coefficients in ``s`` of ``Q(s / w0)``.
+
+    Parameters
+    ----------
+    c : array_like
+        Coefficients in ``p``, highest power first.
+    w0 : float
+        Frequency scale [rad/s].
+
+    Returns
+    -------
+    numpy.ndarray
+    """
     c = np.asarray(c, dtype=float)
     d = len(c) - 1
     return c / float(w0) ** np.arange(d, -1, -1)
 
 
-def conv_generic(a, b):
+def conv_generic(a: Sequence[Any], b: Sequence[Any]) -> list:
     """Coefficients of the product of two polynomials given as sequences of any ring elements.
 
     Uses only ``+`` and ``*``, so the entries may be floats or CasADi symbols (the twin's
-    symbolic model and the numeric family share one thermal law through it).  Returns a list.
+    symbolic model and the numeric family share one thermal law through it).
+
+    Parameters
+    ----------
+    a, b : sequence
+        Coefficients, highest power first (floats, CasADi symbols, ...).
+
+    Returns
+    -------
+    list
+        The ``len(a) + len(b) - 1`` coefficients of the product.
     """
     a, b = list(a), list(b)
     out = [0] * (len(a) + len(b) - 1)
@@ -124,6 +236,11 @@ class Scaling:
     plain substitution ``c(w0 p)`` and its inverse; :meth:`freq`/:meth:`unfreq` map
     frequencies.
 
+    Parameters
+    ----------
+    w0 : float
+        The frequency scale [rad/s].
+
     Examples
     --------
     >>> sc = Scaling(10.0)
@@ -136,50 +253,155 @@ class Scaling:
     w0: float
 
     @classmethod
-    def natural(cls, *polys):
-        """The scaling at the geometric mean of the polynomials' root moduli."""
+    def natural(cls, *polys: ArrayLike) -> Scaling:
+        """The scaling at the geometric mean of the polynomials' root moduli.
+
+        Parameters
+        ----------
+        *polys : array_like
+            Coefficients, highest power first (see :func:`natural_scale`).
+
+        Returns
+        -------
+        Scaling
+        """
         return cls(natural_scale(*polys))
 
-    def apply(self, c):
-        """Coefficients of ``c(w0 p)`` in ``p``."""
+    def apply(self, c: ArrayLike) -> np.ndarray:
+        """Coefficients of ``c(w0 p)`` in ``p``.
+
+        Parameters
+        ----------
+        c : array_like
+            Coefficients in ``s``, highest power first.
+
+        Returns
+        -------
+        numpy.ndarray
+        """
         return to_scaled(c, self.w0)
 
-    def undo(self, c):
-        """Coefficients in ``s`` of ``c(s / w0)``."""
+    def undo(self, c: ArrayLike) -> np.ndarray:
+        """Coefficients in ``s`` of ``c(s / w0)``.
+
+        Parameters
+        ----------
+        c : array_like
+            Coefficients in ``p``, highest power first.
+
+        Returns
+        -------
+        numpy.ndarray
+        """
         return from_scaled(c, self.w0)
 
-    def normalize(self, c, degree=None):
-        """``c(w0 p) / w0**degree`` (``degree`` defaults to ``len(c) - 1``)."""
+    def normalize(self, c: ArrayLike, degree: int | None = None) -> np.ndarray:
+        """``c(w0 p) / w0**degree`` (``degree`` defaults to ``len(c) - 1``).
+
+        Parameters
+        ----------
+        c : array_like
+            Coefficients in ``s``, highest power first.
+        degree : int, optional
+            The nominal degree (of the larger polynomial of a ratio).
+
+        Returns
+        -------
+        numpy.ndarray
+        """
         c = np.asarray(c, dtype=float)
         n = len(c) - 1 if degree is None else degree
         return to_scaled(c, self.w0) / float(self.w0) ** n
 
-    def denormalize(self, c, degree=None):
-        """Inverse of :meth:`normalize`: coefficients in ``s``."""
+    def denormalize(self, c: ArrayLike, degree: int | None = None) -> np.ndarray:
+        """Inverse of :meth:`normalize`: coefficients in ``s``.
+
+        Parameters
+        ----------
+        c : array_like
+            Normalised coefficients in ``p``, highest power first.
+        degree : int, optional
+            The nominal degree used by :meth:`normalize`.
+
+        Returns
+        -------
+        numpy.ndarray
+        """
         c = np.asarray(c, dtype=float)
         n = len(c) - 1 if degree is None else degree
         return from_scaled(c, self.w0) * float(self.w0) ** n
 
-    def freq(self, w):
-        """Physical frequency [rad/s] -> scaled frequency (complex values allowed)."""
+    def freq(self, w: ArrayLike) -> np.ndarray:
+        """Physical frequency [rad/s] -> scaled frequency (complex values allowed).
+
+        Parameters
+        ----------
+        w : array_like
+            Frequencies [rad/s] (or complex points of the s-plane).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``w / w0``.
+        """
         return np.asarray(w) / self.w0
 
-    def unfreq(self, nu):
-        """Scaled frequency -> physical frequency [rad/s] (complex values allowed)."""
+    def unfreq(self, nu: ArrayLike) -> np.ndarray:
+        """Scaled frequency -> physical frequency [rad/s] (complex values allowed).
+
+        Parameters
+        ----------
+        nu : array_like
+            Scaled frequencies (or points of the p-plane).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``nu * w0``.
+        """
         return np.asarray(nu) * self.w0
 
 
-def monic(c):
-    """Divide by the leading coefficient."""
+def monic(c: ArrayLike) -> np.ndarray:
+    """Divide by the leading coefficient.
+
+    Parameters
+    ----------
+    c : array_like
+        Coefficients, highest power first (leading zeros are trimmed first).
+
+    Returns
+    -------
+    numpy.ndarray
+        The monic polynomial.
+    """
     c = trim(c)
     return c / c[0]
 
 
-def eval_jw(c, w):
+def eval_jw(c: ArrayLike, w: float | ArrayLike) -> np.complex128 | np.ndarray:
     """Evaluate a polynomial at ``s = j*w`` (vectorised in ``w``).
 
     One frequency (a root polish calls this many times): Horner's rule in Python complex
     arithmetic, the same operations as ``numpy.polyval`` without its array overhead.
+
+    Parameters
+    ----------
+    c : array_like
+        Coefficients in ``s``, highest power first.
+    w : float or array_like
+        Frequency or frequencies [rad/s].
+
+    Returns
+    -------
+    numpy.complex128 or numpy.ndarray
+        ``c(jw)``: a scalar for a scalar ``w``, else an array of ``w``'s shape.
+
+    Examples
+    --------
+    >>> from robrst.core.poly import eval_jw
+    >>> complex(eval_jw([1.0, 0.0, 4.0], 2.0))
+    0j
     """
     if np.ndim(w) == 0:
         s, out = 1j * float(w), 0j
@@ -189,13 +411,28 @@ def eval_jw(c, w):
     return np.polyval(np.asarray(c, float), 1j * np.asarray(w, float))
 
 
-def natural_scale(*polys):
+def natural_scale(*polys: ArrayLike) -> float:
     """A frequency scale [rad/s]: geometric mean of the moduli of the non-zero roots.
 
     Computed in closed form, without an eigenvalue problem: a polynomial of degree
     ``n`` with ``k`` trailing zero coefficients has ``n - k`` non-zero roots whose
-    product has modulus ``|c[n-k] / c[0]|``.  Returns 1.0 when no polynomial has a
-    non-zero root.
+    product has modulus ``|c[n-k] / c[0]|``.
+
+    Parameters
+    ----------
+    *polys : array_like
+        Coefficients, highest power first.
+
+    Returns
+    -------
+    float
+        The scale; 1.0 when no polynomial has a non-zero root.
+
+    Examples
+    --------
+    >>> from robrst.core.poly import natural_scale
+    >>> round(natural_scale([1.0, 101.0, 100.0]), 12)     # roots -1 and -100
+    10.0
     """
     log_sum, count = 0.0, 0
     for p in polys:
@@ -211,15 +448,31 @@ def natural_scale(*polys):
     return float(np.exp(log_sum / count)) if count else 1.0
 
 
-def from_roots(roots):
-    """Real monic polynomial with the given roots (conjugates must be listed)."""
+def from_roots(roots: ArrayLike) -> np.ndarray:
+    """Real monic polynomial with the given roots (conjugates must be listed).
+
+    Parameters
+    ----------
+    roots : array_like
+        Real and complex roots; every complex root with its conjugate.
+
+    Returns
+    -------
+    numpy.ndarray
+        The real coefficients, highest power first (``[1.0]`` for no roots).
+
+    Raises
+    ------
+    ValueError
+        When the roots do not form conjugate pairs.
+    """
     c = np.atleast_1d(np.poly(np.asarray(roots, dtype=complex)))   # no roots: [1.0]
     if np.max(np.abs(c.imag)) > 1e-9 * max(1.0, np.max(np.abs(c.real))):
         raise ValueError("roots do not form conjugate pairs; polynomial is not real")
     return c.real.copy()
 
 
-def roots_many(polys):
+def roots_many(polys: Sequence[ArrayLike]) -> list[np.ndarray]:
     """``numpy.roots`` of each polynomial, the eigenvalue problems of equal degree in one
     batched LAPACK call (the same companion matrix and routine per polynomial as
     ``numpy.roots``: identical roots).
@@ -227,10 +480,12 @@ def roots_many(polys):
     Parameters
     ----------
     polys : sequence of array_like
+        Coefficients, highest power first.
 
     Returns
     -------
-    list of ndarray
+    list of numpy.ndarray
+        The roots of each polynomial, in the order given.
     """
     out, groups = [None] * len(polys), {}
     for i, c in enumerate(polys):
@@ -253,12 +508,24 @@ def roots_many(polys):
     return out
 
 
-def rel_coef_error(a, b):
+def rel_coef_error(a: ArrayLike, b: ArrayLike) -> float:
     """Largest coefficient-wise error relative to the largest coefficient of ``b``.
 
     Both polynomials are compared in the scaled variable chosen by
     :func:`natural_scale` on ``b``, so that a 1e24-size constant term does not
     hide errors in the small leading coefficients.
+
+    Parameters
+    ----------
+    a : array_like
+        The polynomial checked.
+    b : array_like
+        The reference polynomial.
+
+    Returns
+    -------
+    float
+        ``max |a - b| / max |b|`` in the scaled variable.
     """
     a, b = trim(a), trim(b)
     n = max(len(a), len(b))

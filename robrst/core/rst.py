@@ -1,12 +1,20 @@
 """The RST controller ``S u = T yr - R y``: polynomials, closed loop, discretisation."""
 
+from __future__ import annotations
+
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from robrst.core import lti, poly
 from robrst.base.errors import DegreeError, SpecError
 from robrst.core.sampled import sampled_plant
+
+if TYPE_CHECKING:
+    import control
+
+    from robrst.core.plant import Plant
 
 __all__ = ["RSTController", "closed_loop", "ClosedLoop", "DiscreteController", "discretize",
            "tustin_polynomials", "closed_loop_control", "CLOSED_LOOP_NAMES"]
@@ -21,6 +29,27 @@ class RSTController:
 
     The control law is ``S(s) u = T(s) yr - R(s) y``; ``u`` [V], ``y``, ``yr`` [µm].
     Causality requires ``deg R <= deg S`` and ``deg T <= deg S``.
+
+    Parameters
+    ----------
+    R, S, T : array_like
+        Coefficients in s, highest power first (stored as trimmed float arrays).
+
+    Attributes
+    ----------
+    has_integrator : bool
+        ``S(0) == 0`` exactly (zero static error to steps).
+
+    Raises
+    ------
+    DegreeError
+        For an improper controller (``deg R`` or ``deg T`` above ``deg S``).
+
+    Examples
+    --------
+    >>> from robrst.core.rst import RSTController
+    >>> bool(RSTController([2.0], [1.0, 0.0], [2.0]).has_integrator)
+    True
     """
 
     R: np.ndarray
@@ -43,10 +72,17 @@ class RSTController:
         """True when S(0) == 0 exactly (zero static error to steps)."""
         return self.S[-1] == 0.0
 
-    def as_dict(self):
+    def as_dict(self) -> dict[str, list[float]]:
+        """The polynomials as lists (the ``controller`` object of the JSON).
+
+        Returns
+        -------
+        dict
+            ``{"R": [...], "S": [...], "T": [...]}``, highest power first.
+        """
         return {k: getattr(self, k).tolist() for k in "RST"}
 
-    def to_tf(self, sample_rate_hz=None):
+    def to_tf(self, sample_rate_hz: float | None = None) -> control.TransferFunction:
         """The law ``u = [T/S, -R/S] [yr; y]`` as a 1x2 ``control.TransferFunction``.
 
         Continuous (the coefficients in s, as stored) or, with ``sample_rate_hz``, the
@@ -54,6 +90,15 @@ class RSTController:
         ``T_z, -R_z`` over ``S_z`` read as polynomials in z.  Inputs ``yr, y``, output ``u``.
         Expanded polynomials in z lose digits when many roots sit near z = 1 (high sample
         rates); :meth:`to_ss` is the well-conditioned form.
+
+        Parameters
+        ----------
+        sample_rate_hz : float, optional
+            Sampling rate [Hz] of the Tustin controller (``None``: continuous).
+
+        Returns
+        -------
+        control.TransferFunction
         """
         import control
 
@@ -65,12 +110,21 @@ class RSTController:
         return control.tf([[list(num[0]), list(num[1])]], [[list(den), list(den)]], dt,
                           inputs=["yr", "y"], outputs=["u"])
 
-    def to_ss(self, sample_rate_hz=None):
+    def to_ss(self, sample_rate_hz: float | None = None) -> control.StateSpace:
         """The law as a 1x2 ``control.StateSpace`` (inputs ``yr, y``, output ``u``).
 
         The realisation of :func:`discretize` (one shared ``1/S``, scaled time), in
         physical time, continuous or, with ``sample_rate_hz``, Tustin with ``dt = 1/fs``.
         Well conditioned where the coefficients in s are not.
+
+        Parameters
+        ----------
+        sample_rate_hz : float, optional
+            Sampling rate [Hz] of the Tustin controller (``None``: continuous).
+
+        Returns
+        -------
+        control.StateSpace
         """
         import control
 
@@ -84,22 +138,61 @@ class RSTController:
 
 @dataclass(frozen=True, eq=False)
 class ClosedLoop:
-    """Numerators of the four closed-loop transfer functions over ``Delta``.
+    """Numerators of the closed-loop transfer functions over ``Delta``.
 
     ``S = AS/Delta`` (sensitivity), ``T = BR/Delta`` (complementary sensitivity),
     ``U = AR/Delta`` (input sensitivity, V/µm), ``Sd = BS/Delta`` (input disturbance
     to output, µm/V) and ``Tr = BT/Delta`` (reference to output).
+
+    Parameters
+    ----------
+    Delta : numpy.ndarray
+        The closed-loop polynomial ``A S + B R``, highest power first.
+    nums : dict
+        ``{"S", "T", "U", "Sd", "Tr"}`` -> numerator coefficients.
     """
 
     Delta: np.ndarray
     nums: dict
 
-    def tf(self, name):
+    def tf(self, name: str) -> tuple[np.ndarray, np.ndarray]:
+        """One closed-loop transfer function as ``(numerator, Delta)``.
+
+        Parameters
+        ----------
+        name : {"S", "T", "U", "Sd", "Tr"}
+            Which transfer function.
+
+        Returns
+        -------
+        N, D : numpy.ndarray
+            Coefficients in s, highest power first.
+        """
         return self.nums[name], self.Delta
 
 
-def closed_loop(plant, ctrl):
-    """Closed-loop polynomials of ``plant`` under ``ctrl``."""
+def closed_loop(plant: Plant, ctrl: RSTController) -> ClosedLoop:
+    """Closed-loop polynomials of ``plant`` under ``ctrl``.
+
+    Parameters
+    ----------
+    plant : Plant
+        ``B/A`` (continuous, or the w-plane plant of a sampled loop).
+    ctrl : RSTController
+        The controller.
+
+    Returns
+    -------
+    ClosedLoop
+
+    Examples
+    --------
+    >>> from robrst.core.plant import Plant
+    >>> from robrst.core.rst import RSTController, closed_loop
+    >>> cl = closed_loop(Plant([1.0], [1.0, 1.0]), RSTController([2.0], [1.0, 0.0], [2.0]))
+    >>> cl.Delta.tolist()                      # s (s + 1) + 2
+    [1.0, 1.0, 2.0]
+    """
     A, B = plant.A, plant.B
     AS = poly.pmul(A, ctrl.S)
     BR = poly.pmul(B, ctrl.R)
@@ -116,7 +209,17 @@ def closed_loop(plant, ctrl):
 
 @dataclass(frozen=True, eq=False)
 class DiscreteController:
-    """``xc+ = A xc + B [yr, y]``, ``u = C xc + D [yr, y]`` at ``sample_rate_hz``."""
+    """``xc+ = A xc + B [yr, y]``, ``u = C xc + D [yr, y]`` at ``sample_rate_hz``.
+
+    Parameters
+    ----------
+    A, B, C, D : numpy.ndarray
+        The discrete realisation (two inputs ``yr, y``, one output ``u``; scaled states).
+    sample_rate_hz : float
+        Sampling rate [Hz].
+    method : str
+        The discretisation rule (``"tustin"``).
+    """
 
     A: np.ndarray
     B: np.ndarray
@@ -126,16 +229,31 @@ class DiscreteController:
     method: str
 
 
-def discretize(ctrl, sample_rate_hz, method="tustin"):
+def discretize(ctrl: RSTController, sample_rate_hz: float,
+               method: str = "tustin") -> DiscreteController:
     """Discretise ``ctrl`` at ``sample_rate_hz`` [Hz] with the bilinear (Tustin) rule.
 
     ``u = (T yr - R y) / S`` is realised as one two-input state space in the scaled
     time ``tau = w0 t`` (:func:`robrst.core.lti.companion` of ``1/S``, O(1) coefficients
     whatever the size of R, S, T in s), then mapped by the bilinear transform.
 
+    Parameters
+    ----------
+    ctrl : RSTController
+        The continuous controller.
+    sample_rate_hz : float
+        Sampling rate [Hz].
+    method : str
+        ``"tustin"`` (the only rule provided).
+
     Returns
     -------
     DiscreteController
+
+    Raises
+    ------
+    SpecError
+        For another method, or a rate that is not a finite number > 0.
     """
     import scipy.signal as sig
 
@@ -176,7 +294,8 @@ def _scaled_realisation(ctrl):
     return (Ac, Bc, Cc, Dc), sc
 
 
-def tustin_polynomials(ctrl, sample_rate_hz):
+def tustin_polynomials(ctrl: RSTController,
+                       sample_rate_hz: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Direct-form coefficients of the Tustin controller, ascending powers of ``q^-1``.
 
     ``S(q^-1) u(t) = T(q^-1) yr(t) - R(q^-1) y(t)`` with ``S_z[0] = 1``: the exact
@@ -187,10 +306,23 @@ def tustin_polynomials(ctrl, sample_rate_hz):
     ill conditioned when poles sit close to ``z = 1`` (slow poles, fast sampling): run
     :mod:`robrst.controller.digital`'s sections, not these coefficients.
 
+    Parameters
+    ----------
+    ctrl : RSTController
+        The continuous controller.
+    sample_rate_hz : float
+        Sampling rate [Hz].
+
     Returns
     -------
-    R_z, S_z, T_z : ndarray
+    R_z, S_z, T_z : numpy.ndarray
         Each of length ``deg S + 1``.
+
+    Raises
+    ------
+    SpecError
+        For a rate that is not a finite number > 0, or a controller pole at
+        ``s = 2 fs`` (its Tustin image is at ``z = infinity``).
 
     Examples
     --------
@@ -235,8 +367,8 @@ def _ss_of(N, D, sample_rate_hz=None):
     return control.ss(Ad, Bd, Cd, Dd, 1.0 / float(sample_rate_hz))
 
 
-def closed_loop_control(plant: object, ctrl: RSTController, sample_rate_hz: float = None,
-                        delay_samples: int = 0) -> dict:
+def closed_loop_control(plant: Plant, ctrl: RSTController, sample_rate_hz: float | None = None,
+                        delay_samples: int = 0) -> dict[str, control.StateSpace]:
     """Every closed-loop transfer function as a python-control ``StateSpace``.
 
     Parameters
@@ -244,12 +376,14 @@ def closed_loop_control(plant: object, ctrl: RSTController, sample_rate_hz: floa
     plant : Plant
         Continuous plant ``B/A``.
     ctrl : RSTController
+        The controller.
     sample_rate_hz : float, optional
         Without it, the continuous loop.  With it, the sampled loop (ZOH plant, Tustin
         controller, ``delay_samples`` of computation delay) as discrete systems with
         ``dt = 1/fs``: the bilinear images of :func:`robrst.core.sampled.sampled_plant`'s
         exact loop, so their poles and frequency responses are the sampled loop's.
     delay_samples : int
+        Whole samples of computation delay (needs ``sample_rate_hz``).
 
     Returns
     -------
@@ -258,6 +392,11 @@ def closed_loop_control(plant: object, ctrl: RSTController, sample_rate_hz: floa
         ``S`` (sensitivity), ``T`` (complementary), ``U`` (``K S``, V/µm), ``Sd`` (input
         disturbance to output, µm/V) and ``Tr`` (reference to output).  Each is SISO,
         built from robrst's closed-loop polynomials in a balanced scaled realisation.
+
+    Raises
+    ------
+    SpecError
+        A delay without a sample rate, or a rate that is not a finite number > 0.
 
     Examples
     --------

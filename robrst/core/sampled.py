@@ -16,7 +16,10 @@ peak, stability and margin computation of the continuous loop therefore applies 
 the sampled loop unchanged, including the exact Hamiltonian peaks.
 """
 
+from __future__ import annotations
+
 from math import comb
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -24,20 +27,56 @@ from robrst.core import lti, poly
 from robrst.base.errors import SpecError
 from robrst.core.plant import Plant
 
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
 __all__ = ["sampled_plant", "warp", "unwarp"]
 
 # an irregular point of the scaled plane where the gain of P_w is matched
 _GAIN_POINT = 0.3719 + 0.8537j
 
 
-def warp(w, sample_rate_hz):
-    """Physical frequency ``w`` [rad/s] (below Nyquist) -> the loop variable ``nu``."""
+def warp(w: ArrayLike, sample_rate_hz: float) -> np.ndarray:
+    """Physical frequency ``w`` [rad/s] (below Nyquist) -> the loop variable ``nu``.
+
+    Parameters
+    ----------
+    w : array_like
+        Frequencies [rad/s], below ``pi fs``.
+    sample_rate_hz : float
+        Sampling rate ``fs`` [Hz].
+
+    Returns
+    -------
+    numpy.ndarray
+        ``nu = 2 fs tan(w / (2 fs))``.
+    """
     fs = float(sample_rate_hz)
     return 2.0 * fs * np.tan(np.asarray(w, float) / (2.0 * fs))
 
 
-def unwarp(nu, sample_rate_hz):
-    """Loop variable ``nu`` -> physical frequency [rad/s] (``inf`` -> Nyquist ``pi fs``)."""
+def unwarp(nu: ArrayLike, sample_rate_hz: float) -> np.ndarray:
+    """Loop variable ``nu`` -> physical frequency [rad/s] (``inf`` -> Nyquist ``pi fs``).
+
+    Parameters
+    ----------
+    nu : array_like
+        Frequencies of the w-plane loop.
+    sample_rate_hz : float
+        Sampling rate ``fs`` [Hz].
+
+    Returns
+    -------
+    numpy.ndarray
+        ``w = 2 fs arctan(nu / (2 fs))``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from robrst.core.sampled import unwarp, warp
+    >>> float(unwarp(warp(1000.0, 20000.0), 20000.0))
+    1000.0
+    """
     fs = float(sample_rate_hz)
     return 2.0 * fs * np.arctan(np.asarray(nu, float) / (2.0 * fs))
 
@@ -64,7 +103,7 @@ def _w_plane(dss):
     return Aw, Bw, dss.C, dw
 
 
-def sampled_plant(plant, sample_rate_hz, delay_samples=0):
+def sampled_plant(plant: Plant, sample_rate_hz: float, delay_samples: int = 0) -> Plant:
     """The plant ``P_w(s)`` of the sampled loop (see the module docstring).
 
     Parameters
@@ -81,6 +120,11 @@ def sampled_plant(plant, sample_rate_hz, delay_samples=0):
     Plant
         Biproper in general; label ``"<label>@<fs> Hz"``, same temperature, and
         ``meta`` ``{"fs_hz", "delay_samples", "continuous_label"}``.
+
+    Raises
+    ------
+    SpecError
+        For a rate that is not > 0 or a delay that is not a whole number >= 0.
 
     Notes
     -----

@@ -8,11 +8,17 @@ with plain arithmetic, so the numeric plant family (:mod:`robrst.core.family`) a
 symbolic CasADi twin (:mod:`robrst.twin.model`) are generated from the same definition.
 """
 
+from __future__ import annotations
+
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from robrst.core import poly
+
+if TYPE_CHECKING:
+    from robrst.core.plant import Plant
 
 __all__ = ["ThermalCoefficients", "ModalForm", "modal_form", "thermal_polynomials",
            "ZETA_NOT_RESONANT"]
@@ -25,6 +31,23 @@ class ThermalCoefficients:
     ``creep_per_K`` is the creep strength ``kappa`` (fractional extra static
     displacement reached with time constant ``creep_tau_s``) gained per kelvin above
     the reference; ``creep_at_ref`` its value at the reference.
+
+    Parameters
+    ----------
+    reference_C : float
+        The temperature of the nominal model [°C].
+    gain_per_K : float
+        Relative change of the numerator per kelvin.
+    resonance_per_K : float
+        Relative change of every resonant pair's natural frequency per kelvin.
+    damping_per_K : float
+        Relative change of every resonant pair's damping per kelvin.
+    creep_per_K : float
+        Creep strength gained per kelvin above the reference.
+    creep_at_ref : float
+        Creep strength at the reference temperature.
+    creep_tau_s : float
+        Time constant of the creep lag-lead [s].
     """
 
     reference_C: float
@@ -45,9 +68,17 @@ ZETA_NOT_RESONANT = 0.999
 class ModalForm:
     """A nominal plant ``B/A`` with ``A`` split into real poles and complex pairs.
 
-    ``pairs`` holds ``(wn, zeta)`` of every resonant pair: ``s^2 + 2 zeta wn s + wn^2``;
-    ``fixed`` those of pairs damped ``>= ZETA_NOT_RESONANT`` (kept unchanged, like the
-    real poles).
+    Parameters
+    ----------
+    B : numpy.ndarray
+        The numerator, highest power first.
+    real_poles : tuple of float
+        The real poles [rad/s].
+    pairs : tuple of (float, float)
+        ``(wn, zeta)`` of every resonant pair: ``s^2 + 2 zeta wn s + wn^2``.
+    fixed : tuple of (float, float)
+        ``(wn, zeta)`` of pairs damped ``>= ZETA_NOT_RESONANT`` (kept unchanged, like
+        the real poles).
     """
 
     B: np.ndarray
@@ -56,9 +87,19 @@ class ModalForm:
     fixed: tuple = ()
 
 
-def modal_form(plant):
+def modal_form(plant: Plant) -> ModalForm:
     """Factor the denominator of ``plant`` into real poles, resonant ``(wn, zeta)`` pairs
-    and (near-)critically damped pairs (see :class:`ModalForm`)."""
+    and (near-)critically damped pairs (see :class:`ModalForm`).
+
+    Parameters
+    ----------
+    plant : Plant
+        The nominal model.
+
+    Returns
+    -------
+    ModalForm
+    """
     roots = np.roots(plant.A)
     real, pairs, fixed, used = [], [], [], set()
     for i, z in enumerate(roots):
@@ -78,20 +119,38 @@ def modal_form(plant):
                      fixed=tuple(fixed))
 
 
-def thermal_polynomials(form, dT, gain_per_K, resonance_per_K, damping_per_K):
+def thermal_polynomials(form: ModalForm, dT: Any, gain_per_K: Any, resonance_per_K: Any,
+                        damping_per_K: Any) -> tuple[list, list]:
     """Numerator and monic denominator ``dT`` kelvin away from the reference.
 
     The numerator scales by ``1 + gain_per_K dT``; every resonant pair's natural frequency
     by ``1 + resonance_per_K dT`` and its damping by ``1 + damping_per_K dT`` (real poles
     and pairs damped ``>= ZETA_NOT_RESONANT`` stay).  A pair's static gain ``1/wn^2``
     moves with its frequency: the static gain changes by ``1 + gain_per_K dT`` times
-    ``(1 + resonance_per_K dT)^-2`` per resonant pair.  The
-    arguments may be floats or CasADi symbols.
+    ``(1 + resonance_per_K dT)^-2`` per resonant pair.
+
+    Parameters
+    ----------
+    form : ModalForm
+        The nominal model's factors.
+    dT : float or casadi.SX
+        Temperature minus the reference [K].
+    gain_per_K, resonance_per_K, damping_per_K : float or casadi.SX
+        The relative coefficients per kelvin (floats or CasADi symbols).
 
     Returns
     -------
     B, A : list
         Coefficients, highest power first.
+
+    Examples
+    --------
+    >>> from robrst.core.plant import Plant
+    >>> from robrst.core.thermal import modal_form, thermal_polynomials
+    >>> form = modal_form(Plant([4.0], [1.0, 0.4, 4.0]))       # wn 2, zeta 0.1
+    >>> B, A = thermal_polynomials(form, 10.0, 0.01, 0.0, 0.0)  # +10 K, gain +1 %/K
+    >>> [round(float(b), 9) for b in B], [round(float(a), 9) for a in A]
+    ([4.4], [1.0, 0.4, 4.0])
     """
     A = [1.0]
     for p in form.real_poles:

@@ -7,6 +7,8 @@ record per realization, its periods concatenated in order (a periodic record wit
 ``period = N``), outputs converted to µm.  ``robrst convert`` is the command-line face.
 """
 
+from __future__ import annotations
+
 from pathlib import Path
 
 import numpy as np
@@ -21,8 +23,23 @@ Y_UNITS = {"m": 1e6, "mm": 1e3, "um": 1.0, "µm": 1.0, "nm": 1e-3}
 U_UNITS = {"V": 1.0, "mV": 1e-3, "kV": 1e3}
 
 
-def load_array(path):
-    """Load a ``.npy`` array (no pickles); :class:`DataError` naming the file otherwise."""
+def load_array(path: str | Path) -> np.ndarray:
+    """Load a ``.npy`` array (no pickles).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The ``.npy`` file.
+
+    Returns
+    -------
+    numpy.ndarray
+
+    Raises
+    ------
+    DataError
+        Naming the file when it is missing or not a readable array.
+    """
     try:
         return np.load(Path(path), allow_pickle=False)
     except FileNotFoundError:
@@ -53,13 +70,15 @@ def _standard(a, names, what):
     return np.transpose(a, [names.index(ax) for ax in AXES]).astype(float)
 
 
-def records_from_arrays(u, y, fs, layout="time,channel,realization,period", y_unit="m",
-                        u_unit="V", source="arrays", temp_C=None):
+def records_from_arrays(u: np.ndarray, y: np.ndarray, fs: float,
+                        layout: str = "time,channel,realization,period", y_unit: str = "m",
+                        u_unit: str = "V", source: str = "arrays",
+                        temp_C: float | None = None) -> list[Dataset]:
     """One :class:`Dataset` per realization from input/output arrays.
 
     Parameters
     ----------
-    u, y : ndarray
+    u, y : numpy.ndarray
         Input and output arrays with the axes named by ``layout`` (same sizes except
         the channel axis).
     fs : float
@@ -78,6 +97,21 @@ def records_from_arrays(u, y, fs, layout="time,channel,realization,period", y_un
     Returns
     -------
     list of Dataset
+
+    Raises
+    ------
+    DataError
+        A rate that is not > 0, unknown units or layout axes, arrays that do not match
+        the layout or each other, non-numeric arrays, NaN or inf.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from robrst.data.convert import records_from_arrays
+    >>> u = np.ones((100, 1, 2))                        # time x channel x realization
+    >>> recs = records_from_arrays(u, 1e-6 * u, 1000.0, layout="time,channel,realization")
+    >>> len(recs), float(recs[0].y[0])                  # metres -> µm
+    (2, 1.0)
     """
     if not fs or not np.isfinite(fs) or fs <= 0:
         raise DataError(f"sampling rate must be > 0, got {fs}")

@@ -18,8 +18,11 @@ line or column.  CSV bodies are parsed in bulk (``numpy.loadtxt``); only a file 
 fails is re-read line by line to name the offending line.
 """
 
+from __future__ import annotations
+
 import io
 import re
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -45,9 +48,42 @@ class Dataset:
     """Uniformly sampled record: t [s], u [V, commanded], y [µm], temp [°C], yr [µm].
 
     ``u`` and ``y`` are 1-D for one input/output, ``(N, k)`` / ``(N, m)`` otherwise
-    (:attr:`U` and :attr:`Y` are always 2-D).  ``temp`` is ``None`` when not measured.
-    ``period`` is the number of samples per period of a periodic excitation (0: not
-    periodic); a periodic record holds a whole number of periods in steady state.
+    (:attr:`U` and :attr:`Y` are always 2-D).
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        Time [s], uniform.
+    u : numpy.ndarray
+        Commanded input(s) [V].
+    y : numpy.ndarray
+        Output(s) [µm].
+    temp : numpy.ndarray, optional
+        Temperature [°C]; ``None`` when not measured.
+    yr : numpy.ndarray, optional
+        Reference [µm] (one output only).
+    comments : tuple of str
+        Comment lines of the file.
+    source : str
+        Where the record comes from (its file), named in messages.
+    period : int
+        Samples per period of a periodic excitation (0: not periodic); a periodic
+        record holds a whole number of periods in steady state.
+
+    Attributes
+    ----------
+    fs : float
+        Sampling rate [Hz] (NaN below 2 samples).
+    n : int
+        Number of samples.
+    U, Y : numpy.ndarray
+        Inputs ``(N, k)`` and outputs ``(N, m)``.
+    n_in, n_out : int
+        Number of inputs and outputs.
+    periods : int
+        Whole periods in the record (0 when not periodic).
+    level : float
+        Excitation level: RMS of the inputs about their mean [V].
     """
 
     t: np.ndarray
@@ -100,25 +136,50 @@ class Dataset:
         U = self.U
         return float(np.sqrt(np.mean((U - U.mean(axis=0)) ** 2)))
 
-    def temp_or(self, default_C):
-        """Temperature per sample, ``default_C`` everywhere when not measured."""
+    def temp_or(self, default_C: float) -> np.ndarray:
+        """Temperature per sample, ``default_C`` everywhere when not measured.
+
+        Parameters
+        ----------
+        default_C : float
+            The temperature to assume [°C].
+
+        Returns
+        -------
+        numpy.ndarray
+            ``n`` temperatures [°C].
+        """
         return np.full(self.n, float(default_C)) if self.temp is None else self.temp
 
-    def column_names(self):
+    def column_names(self) -> list[str]:
+        """The CSV column names of this record, in file order.
+
+        Returns
+        -------
+        list of str
+            ``t``, ``u`` or ``u1..uk``, ``y`` or ``y1..ym``, then ``temp`` and ``yr``
+            when present.
+        """
         u = ["u"] if self.u.ndim == 1 else [f"u{i + 1}" for i in range(self.n_in)]
         y = ["y"] if self.y.ndim == 1 else [f"y{i + 1}" for i in range(self.n_out)]
         return ["t", *u, *y] + (["temp"] if self.temp is not None else []) + (
             ["yr"] if self.yr is not None else [])
 
-    def columns(self):
-        """Name -> 1-D array, in file order."""
+    def columns(self) -> dict[str, np.ndarray]:
+        """Name -> 1-D array, in file order.
+
+        Returns
+        -------
+        dict
+            The columns of :meth:`column_names`.
+        """
         arrays = [self.t, *self.U.T, *self.Y.T]
         arrays += [self.temp] if self.temp is not None else []
         arrays += [self.yr] if self.yr is not None else []
         return dict(zip(self.column_names(), arrays))
 
 
-def check_sensor(d):
+def check_sensor(d: Dataset) -> None:
     """Refuse a record whose output column is constant while an input varies.
 
     A valid file (a sensor that was off or saturated still writes numbers), but nothing
@@ -142,8 +203,23 @@ def check_sensor(d):
                         " or compare a model with")
 
 
-def save_dataset(ds, path, comments=()):
-    """Write ``ds`` atomically: ``.npz`` by suffix, else CSV (``%.9g``; time ``%.12g``)."""
+def save_dataset(ds: Dataset, path: str | Path, comments: Iterable[str] = ()) -> Path:
+    """Write ``ds`` atomically: ``.npz`` by suffix, else CSV (``%.9g``; time ``%.12g``).
+
+    Parameters
+    ----------
+    ds : Dataset
+        The record.
+    path : str or pathlib.Path
+        The file; its suffix chooses the format.
+    comments : iterable of str
+        Extra comment lines (CSV only), after the record's own.
+
+    Returns
+    -------
+    pathlib.Path
+        The file written.
+    """
     path = Path(path)
     if path.suffix == ".npz":
         arrays = {"t": ds.t, "u": ds.u, "y": ds.y}
@@ -310,8 +386,18 @@ def _read_npz(path):
     return cols, (), period, (lambda j: f"sample {j}"), header
 
 
-def load_dataset(path):
+def load_dataset(path: str | Path) -> Dataset:
     """Read and validate a dataset (``.npz`` by suffix, else CSV).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        A record file in the format of this module's docstring.
+
+    Returns
+    -------
+    Dataset
+        With ``source`` the file's name.
 
     Raises
     ------

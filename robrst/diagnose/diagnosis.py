@@ -27,7 +27,11 @@ fitted offset); a ``cannot_tell`` whose held-out residual is mostly a constant
 (:meth:`Diagnosis.as_dict`) only ever gains fields.
 """
 
+from __future__ import annotations
+
 import time
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -46,6 +50,12 @@ from robrst.base.errors import DataError
 from robrst.core.plant import paper_plant
 from robrst.base.threads import one_blas_thread
 
+if TYPE_CHECKING:
+    from robrst.core.plant import Plant
+    from robrst.data.dataset import Dataset
+    from robrst.diagnose.fit import Fitted
+    from robrst.identify.modal import ModalModel
+
 __all__ = ["Diagnosis", "EffectScore", "diagnose", "check_records", "decompose",
            "offset_finding", "MIN_SAMPLES", "NONE_RATIO"]
 
@@ -56,12 +66,28 @@ OFFSET_SHARE = 0.5       # a constant offset this share of the residual: finding
 TEMP_EXCITED_K = 0.05    # a temperature range below this does not excite thermal effects
 
 
-def check_records(train, test, n_in=None, n_out=None):
+def check_records(train: Sequence[Dataset], test: Sequence[Dataset], n_in: int | None = None,
+                  n_out: int | None = None) -> float:
     """Validate record sets; return the common sampling rate [Hz].
 
-    Raises :class:`DataError` naming the file for empty sets, records shorter than
-    ``MIN_SAMPLES``, a constant output while the input varies, sampling rates that differ (relative 1e-6) and channel counts that
-    differ from each other or from the model's.
+    Parameters
+    ----------
+    train, test : sequence of Dataset
+        The training and test records.
+    n_in, n_out : int, optional
+        The model's channel counts the records must have.
+
+    Returns
+    -------
+    float
+        The sampling rate [Hz].
+
+    Raises
+    ------
+    DataError
+        Naming the file: empty sets, records shorter than ``MIN_SAMPLES``, a constant
+        output while the input varies, sampling rates that differ (relative 1e-6) and
+        channel counts that differ from each other or from the model's.
     """
     if not train or not test:
         raise DataError("diagnosis needs at least one training and one test record")
@@ -118,8 +144,9 @@ def _levels_ok(train, test):
     return len(lv) >= 2 and lv[-1] > 1.3 * lv[0]
 
 
-def diagnose(train, test, plant=None, reference_C=None, effects=EFFECTS, progress=None,
-             workers=2):
+def diagnose(train: Sequence[Dataset], test: Sequence[Dataset], plant: Plant | ModalModel | None = None,
+             reference_C: float | None = None, effects: Sequence[str] = EFFECTS,
+             progress: Callable[[str], None] | None = None, workers: int = 2) -> Diagnosis:
     """Diagnose the gap between a simulation model and measured records.
 
     Parameters
@@ -280,7 +307,9 @@ def _low_level_refit(setup, train, train_p, preps):
     return [p.Y - fit.predict_prepared(p) for p in preps]
 
 
-def decompose(res, before, floor, linear_res, offset=None, offset_linear_res=None):
+def decompose(res: Sequence[np.ndarray], before: float, floor: float,
+              linear_res: Sequence[np.ndarray], offset: np.ndarray | None = None,
+              offset_linear_res: Sequence[np.ndarray] | None = None) -> dict[str, float]:
     """Shares of the held-out residual's mean square by nested models: a partition.
 
     Parameters
@@ -346,7 +375,7 @@ def _offset(res):
     return mean, (mean ** 2 / ms if ms > 0 else 0.0)
 
 
-def offset_finding(res, fitted=None):
+def offset_finding(res: Sequence[np.ndarray], fitted: Fitted | None = None) -> dict | None:
     """``output_offset`` finding, or None.
 
     With ``fitted`` (the answer's fit, which includes a constant output offset) the
@@ -354,6 +383,18 @@ def offset_finding(res, fitted=None):
     constant alone is of the held-out residual's mean square.  Without, the finding is
     made when a constant is most (``OFFSET_SHARE``) of the held-out residual ``res`` (the
     dynamic effects and a linear re-fit cannot stand for it).
+
+    Parameters
+    ----------
+    res : sequence of numpy.ndarray
+        Held-out residuals per test record.
+    fitted : Fitted, optional
+        The answer's fit.
+
+    Returns
+    -------
+    dict or None
+        ``{"kind": "output_offset", "offset_um", "share"}``.
     """
     if fitted is not None:
         vals = list(fitted.params()["output_offset"][0].values())

@@ -17,7 +17,11 @@ upstream of slew or hysteresis).  ``thermal_dynamics`` changes the linear part w
 temperature and is handled by :mod:`robrst.diagnose.thermal`.
 """
 
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy import signal
@@ -26,6 +30,9 @@ from robrst.diagnose.stages import stage
 from robrst.twin.config import EFFECTS as TWIN_EFFECTS
 from robrst.twin.config import default_twin
 from robrst.twin.model import creep_taus
+
+if TYPE_CHECKING:
+    from robrst.data.dataset import Dataset
 
 __all__ = ["EFFECTS", "SENSOR_EFFECTS", "INPUT_EFFECTS", "Chain", "SPECS", "summary"]
 
@@ -108,8 +115,20 @@ SPECS = {
 }
 
 
-def summary(records):
-    """Scales of the training data (per all inputs) for bounds and starting values."""
+def summary(records: Sequence[Dataset]) -> dict:
+    """Scales of the training data (per all inputs) for bounds and starting values.
+
+    Parameters
+    ----------
+    records : sequence of Dataset
+        The training records.
+
+    Returns
+    -------
+    dict
+        ``u_ptp``, ``u_min``, ``u_max``, ``u_scale``, ``rate_max`` [V/s] and
+        ``duration_s``.
+    """
     U = np.concatenate([d.U for d in records])
     ptp = float(max(np.ptp(U), 1e-9))
     rate = max(float(np.max(np.abs(np.diff(d.U, axis=0)))) * d.fs if d.n > 1 else 0.0
@@ -134,10 +153,29 @@ def _shift(x, d, x0):
 class Chain:
     """A set of input-side effects with per-input parameters ``z`` (see the module doc).
 
-    ``delays`` holds the whole-sample delay per input (fitted by search, not in ``z``).
+    Parameters
+    ----------
+    effects : iterable of str
+        The effects (kept in the chain's fixed order).
+    n_in : int
+        Number of inputs.
+    fs : float
+        Sampling rate [Hz].
+    reference_C : float
+        The model's temperature [°C].
+    stats : dict
+        :func:`summary` of the training data (bounds and starting values).
+    delays : sequence of int, optional
+        The whole-sample delay per input (fitted by search, not in ``z``).
+
+    Attributes
+    ----------
+    size : int
+        Length of ``z``.
     """
 
-    def __init__(self, effects, n_in, fs, reference_C, stats, delays=None):
+    def __init__(self, effects: Iterable[str], n_in: int, fs: float, reference_C: float,
+                 stats: dict, delays: Sequence[int] | None = None) -> None:
         self.effects = tuple(e for e in ORDER if e in effects)
         self.n_in, self.fs, self.ref = n_in, float(fs), float(reference_C)
         self.stats = stats
@@ -171,8 +209,14 @@ class Chain:
     def _block(self, e, j):
         return next(s for (name, jj, s) in self.blocks if name == e and jj == j)
 
-    def start_saturation(self, limits):
-        """Start the saturation limits at ``limits`` (one ``(lo, hi)`` per input), in bounds."""
+    def start_saturation(self, limits: Sequence[tuple[float, float]]) -> None:
+        """Start the saturation limits at ``limits`` (one ``(lo, hi)`` per input), in bounds.
+
+        Parameters
+        ----------
+        limits : sequence of (float, float)
+            Per input [V].
+        """
         if "saturation" in self.effects:
             for j, (lo, hi) in enumerate(limits):
                 sl = self._block("saturation", j)
@@ -235,10 +279,28 @@ class Chain:
         a = np.exp(-1.0 / (self.fs * lag))
         return signal.lfilter([1 - a], [1.0, -a], temp, zi=[a * temp[0]])[0]
 
-    def run(self, z, U, temp, jac=True, warm=0):
+    def run(self, z: np.ndarray, U: np.ndarray, temp: np.ndarray, jac: bool = True,
+            warm: int = 0) -> tuple[np.ndarray, list | None]:
         """Effective inputs ``(N, k)`` and their Jacobians (list per input of (N, n_z)).
 
-        ``warm`` samples at the start are a warm-up (dropped from the outputs).
+        Parameters
+        ----------
+        z : numpy.ndarray
+            The effects' parameters.
+        U : numpy.ndarray
+            Commanded inputs ``(N + warm, k)`` [V].
+        temp : numpy.ndarray
+            Temperature per sample [°C].
+        jac : bool
+            Also compute the Jacobians.
+        warm : int
+            Samples at the start that are a warm-up (dropped from the outputs).
+
+        Returns
+        -------
+        V : numpy.ndarray
+            ``(N, k)`` [V].
+        dV : list of numpy.ndarray or None
         """
         z = np.asarray(z, float)
         V, dV = [], []
@@ -254,10 +316,20 @@ class Chain:
             V.append(x[warm:])
         return np.column_stack(V), (dV if jac else None)
 
-    def report(self, z, std=None):
+    def report(self, z: np.ndarray, std: np.ndarray | None = None) -> dict:
         """Reported parameter values and 1-sigma (delta method) by effect, then name.
 
-        Returns ``{effect: (values, sigmas)}`` with dicts keyed by parameter name.
+        Parameters
+        ----------
+        z : numpy.ndarray
+            The effects' parameters.
+        std : numpy.ndarray, optional
+            Their 1-sigma.
+
+        Returns
+        -------
+        dict
+            ``{effect: (values, sigmas)}`` with dicts keyed by parameter name.
         """
         out = {e: ({}, {}) for e in self.effects}
         for (e, j, sl) in self.blocks:

@@ -11,7 +11,11 @@ do not determine (e.g. the split of the drift's ``B`` and ``Gamma`` on a one-way
 temperature ramp) gets ``inf``.
 """
 
+from __future__ import annotations
+
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -25,6 +29,11 @@ from robrst.diagnose.thermal import (fit_thermal_dynamics, max_delay, search_del
                                      search_saturation)
 from robrst.base.errors import DataError
 from robrst.core.plant import paper_plant
+
+if TYPE_CHECKING:
+    from robrst.core.plant import Plant
+    from robrst.data.dataset import Dataset
+    from robrst.identify.modal import ModalModel
 
 __all__ = ["EffectEstimate", "fit_effects"]
 
@@ -61,12 +70,29 @@ class EffectEstimate:
     gap_linear: float
     n_eval: int
 
-    def params_of(self, effect):
-        """``{name: value}`` of one effect (KeyError for an effect not fitted)."""
+    def params_of(self, effect: str) -> dict[str, float]:
+        """``{name: value}`` of one effect.
+
+        Parameters
+        ----------
+        effect : str
+            An effect fitted.
+
+        Returns
+        -------
+        dict
+
+        Raises
+        ------
+        KeyError
+            For an effect not fitted.
+        """
         return dict(self.by_effect[effect])
 
 
-def fit_effects(records, effects, plant=None, reference_C=None, joint=False, max_nfev=80):
+def fit_effects(records: Sequence[Dataset], effects: Sequence[str],
+                plant: Plant | ModalModel | None = None, reference_C: float | None = None,
+                joint: bool = False, max_nfev: int = 80) -> EffectEstimate:
     """Fit the parameters of ``effects`` on measured records.
 
     Parameters

@@ -16,12 +16,20 @@
   re-fitted model.
 """
 
+from __future__ import annotations
+
 import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy import signal
 
 from robrst.diagnose import signals
+
+if TYPE_CHECKING:
+    from robrst.data.dataset import Dataset
+    from robrst.identify.modal import ModalModel
 
 __all__ = ["noise_levels", "level_groups", "comparable", "amplitude_finding",
            "unmodelled_finding", "LEVEL_TOL", "AMPLITUDE_RATIO"]
@@ -31,8 +39,25 @@ AMPLITUDE_RATIO = 1.5    # gap ratio across levels that flags amplitude dependen
 SHAPE_TOL = 0.3          # max |log10| difference of band shares for "same excitation shape"
 
 
-def noise_levels(records, residuals, fs):
-    """Noise std per record and output ``(records, m)`` [µm] and the method used."""
+def noise_levels(records: Sequence[Dataset], residuals: Sequence[np.ndarray],
+                 fs: float) -> tuple[np.ndarray, str]:
+    """Noise std per record and output ``(records, m)`` [µm] and the method used.
+
+    Parameters
+    ----------
+    records : sequence of Dataset
+        The records (periodic ones use period-to-period differences).
+    residuals : sequence of numpy.ndarray
+        Their residuals (the others use the residual's spectrum).
+    fs : float
+        Sampling rate [Hz].
+
+    Returns
+    -------
+    levels : numpy.ndarray
+    method : str
+        ``"period_differences"``, ``"spectrum"`` or both joined by ``+``.
+    """
     out, methods = [], set()
     for d, r in zip(records, residuals):
         if d.period and d.periods >= 2:
@@ -68,11 +93,20 @@ def _signature(d, bands=24):
     return share / max(share.sum(), 1e-300), hold, crest
 
 
-def comparable(a, b):
+def comparable(a: Dataset, b: Dataset) -> bool:
     """Do two records share an excitation shape (input spectrum, holding, crest factor)?
 
     Band shares within a factor 2 where either holds more than 1 % of the power, the
     fraction of samples holding the input within 0.1, crest factors within 35 %.
+
+    Parameters
+    ----------
+    a, b : Dataset
+        The records.
+
+    Returns
+    -------
+    bool
     """
     (sa, ha, ca), (sb, hb, cb) = _signature(a), _signature(b)
     big = (sa > 0.01) | (sb > 0.01)
@@ -80,8 +114,19 @@ def comparable(a, b):
     return bool(spectrum and abs(ha - hb) < 0.1 and abs(ca - cb) <= 0.35 * max(ca, cb))
 
 
-def level_groups(records):
-    """Indices of records grouped by level (increasing); list of (level, [indices])."""
+def level_groups(records: Sequence[Dataset]) -> list[tuple[float, list[int]]]:
+    """Indices of records grouped by level (increasing).
+
+    Parameters
+    ----------
+    records : sequence of Dataset
+        The records.
+
+    Returns
+    -------
+    list of (float, list of int)
+        ``(mean level [V rms], indices)`` per group.
+    """
     order = np.argsort([d.level for d in records])
     groups = []
     for i in order:
@@ -97,12 +142,32 @@ def gaps_per_level(records, residuals, groups):
     return [signals.nrmse([records[i] for i in g], [residuals[i] for i in g]) for _, g in groups]
 
 
-def amplitude_finding(records, base_res, refit_res, sigmas, n_train):
+def amplitude_finding(records: Sequence[Dataset], base_res: Sequence[np.ndarray],
+                      refit_res: Sequence[np.ndarray] | None, sigmas: np.ndarray,
+                      n_train: int) -> tuple[dict | None, list]:
     """``amplitude_dependent`` finding (or None) and the per-level table.
 
-    ``refit_res`` are the residuals of a linear model fitted on the lowest training
-    level (None when no level has training records).  Only records sharing the
-    excitation shape of the lowest level are compared.
+    Only records sharing the excitation shape of the lowest level are compared.
+
+    Parameters
+    ----------
+    records : sequence of Dataset
+        Training records first, then test records.
+    base_res : sequence of numpy.ndarray
+        Residuals of the model under diagnosis.
+    refit_res : sequence of numpy.ndarray or None
+        Residuals of a linear model fitted on the lowest training level (None when no
+        level has training records).
+    sigmas : numpy.ndarray
+        Noise level per record.
+    n_train : int
+        How many of ``records`` are training records.
+
+    Returns
+    -------
+    finding : dict or None
+    table : list of dict
+        Per level group: ``level_V``, ``records``, ``split``, ``gap``, ``noise_floor``.
     """
     groups = level_groups(records)
     table = [{"level_V": lv, "records": [records[i].source or f"record{i}" for i in g],
@@ -139,16 +204,38 @@ def amplitude_finding(records, base_res, refit_res, sigmas, n_train):
             else "(the model under diagnosis)"}, table
 
 
-def unmodelled_finding(high, refit, fs, gap_high, gap_refit, gap_before, floor, inputs=()):
+def unmodelled_finding(high: ModalModel, refit: ModalModel, fs: float, gap_high: float,
+                       gap_refit: float, gap_before: float, floor: float,
+                       inputs: Sequence[np.ndarray] = ()) -> dict | None:
     """``unmodelled_dynamics`` finding from a higher-order linear fit, or None.
 
-    ``high`` and ``refit`` are continuous-time modal models (higher order; the user's
-    order re-fitted).  The finding needs the higher order to remove at least half of
-    the excess gap the re-fit leaves; its band is where the two models' outputs differ on
-    the training ``inputs`` (the response difference times the inputs' amplitude spectrum)
-    by more than a fifth of their largest difference — where the data see the missing
-    dynamics, not where the response is largest; its extra modes are the higher order's
-    poles (pairs and real ones) 5 % away from every re-fitted pole.
+    The finding needs the higher order to remove at least half of the excess gap the
+    re-fit leaves; its band is where the two models' outputs differ on the training
+    ``inputs`` (the response difference times the inputs' amplitude spectrum) by more
+    than a fifth of their largest difference — where the data see the missing dynamics,
+    not where the response is largest; its extra modes are the higher order's poles
+    (pairs and real ones) 5 % away from every re-fitted pole.
+
+    Parameters
+    ----------
+    high : ModalModel
+        The higher-order fit (continuous time).
+    refit : ModalModel
+        The user's order re-fitted.
+    fs : float
+        Sampling rate [Hz].
+    gap_high, gap_refit, gap_before : float
+        Held-out gaps of the two fits and of the model as given.
+    floor : float
+        The noise floor.
+    inputs : sequence of numpy.ndarray
+        The training inputs.
+
+    Returns
+    -------
+    dict or None
+        ``{"kind": "unmodelled_dynamics", "message", "band_hz", "order", "model_order",
+        "extra_modes_hz", "gap_after", "gap_refit", "gap_before"}``.
     """
     ex = lambda g: math.sqrt(max(g * g - floor * floor, 0.0))  # noqa: E731
     if not ex(gap_high) <= 0.5 * ex(gap_refit):

@@ -17,13 +17,21 @@ Periodic records are fitted in steady state on their period average (weight: the
 number of periods), the effects warmed up on one extra period.
 """
 
+from __future__ import annotations
+
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy import optimize
 
 from robrst.diagnose.effects import Chain
 from robrst.diagnose.linear import parameter_std
+
+if TYPE_CHECKING:
+    from robrst.data.dataset import Dataset
+    from robrst.diagnose.linear import LinearPart
 
 __all__ = ["Prepared", "prepare", "Fitted", "fit_model", "level_factor"]
 
@@ -32,7 +40,27 @@ SLOPE_KINDS = ("dlog_freq", "dlog_damping", "input_gain", "gain", "mode_gain")
 
 @dataclass(frozen=True, eq=False)
 class Prepared:
-    """A record ready for fitting or scoring (arrays in samples x channels)."""
+    """A record ready for fitting or scoring (arrays in samples x channels).
+
+    Parameters
+    ----------
+    name : str
+        The record's name.
+    U : numpy.ndarray
+        Inputs ``(N, k)`` [V].
+    Y : numpy.ndarray
+        Outputs ``(N, m)`` [µm].
+    temp : numpy.ndarray
+        Temperature per sample [°C].
+    periodic : bool
+        One steady-state period (period-averaged).
+    warm : int
+        Warm-up samples prepended for the effects (periodic).
+    weight : float
+        Weight of the record in the fit (the periods averaged).
+    level : float
+        Excitation level [V rms].
+    """
 
     name: str
     U: np.ndarray
@@ -44,8 +72,23 @@ class Prepared:
     level: float          # excitation level [V rms]
 
 
-def prepare(d, reference_C, for_fit=True):
-    """Prepared record of ``d``; a periodic record is period-averaged when ``for_fit``."""
+def prepare(d: Dataset, reference_C: float, for_fit: bool = True) -> Prepared:
+    """Prepared record of ``d``; a periodic record is period-averaged when ``for_fit``.
+
+    Parameters
+    ----------
+    d : Dataset
+        The record.
+    reference_C : float
+        The temperature of a record without one [°C].
+    for_fit : bool
+        Average a periodic record's periods (fitting); else keep the whole record
+        (scoring).
+
+    Returns
+    -------
+    Prepared
+    """
     temp = d.temp_or(reference_C)
     if d.period and d.periods >= 1:
         P, k = d.period, d.periods
@@ -58,14 +101,59 @@ def prepare(d, reference_C, for_fit=True):
     return Prepared(d.source, d.U, d.Y, temp, False, 0, 1.0, d.level)
 
 
-def level_factor(level, reference):
-    """Excitation-level coordinate of the dynamic form: ``(a - a_ref) / a_ref``."""
+def level_factor(level: float, reference: float) -> float:
+    """Excitation-level coordinate of the dynamic form: ``(a - a_ref) / a_ref``.
+
+    Parameters
+    ----------
+    level : float
+        The record's level [V rms].
+    reference : float
+        The reference level [V rms].
+
+    Returns
+    -------
+    float
+        0 when ``reference <= 0``.
+    """
     return (level - reference) / reference if reference > 0 else 0.0
 
 
 @dataclass(frozen=True, eq=False)
 class Fitted:
-    """A fitted candidate: effects, linear corrections (and level slopes), predictor."""
+    """A fitted candidate: effects, linear corrections (and level slopes), predictor.
+
+    Parameters
+    ----------
+    name : str
+        The candidate's name.
+    effects : tuple of str
+        The effects fitted.
+    form : str
+        ``"input"`` or ``"dynamic"``.
+    chain : Chain
+        The effects' chain.
+    lin : LinearPart
+        The linear corrections' model.
+    x : numpy.ndarray
+        The fitted parameters ``[z, theta (joint), slopes, offsets]``.
+    std : numpy.ndarray
+        Their 1-sigma.
+    joint : bool
+        The linear corrections were fitted.
+    slopes : tuple of int
+        Indices into ``theta`` that vary with level (dynamic form).
+    level_ref : float
+        The reference level [V rms].
+    n_eval : int
+        Model evaluations.
+    train_cost : float
+        The final least-squares cost.
+    theta_fixed : numpy.ndarray, optional
+        Fixed linear corrections when not ``joint``.
+    n_offset : int
+        Constant output offsets fitted (one per output, or none).
+    """
 
     name: str
     effects: tuple
@@ -82,29 +170,75 @@ class Fitted:
     theta_fixed: np.ndarray = None
     n_offset: int = 0      # constant output offsets fitted (one per output, or none)
 
-    def parts(self, x=None):
-        """Effect parameters, linear corrections and level slopes (not the offsets)."""
+    def parts(self, x: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Effect parameters, linear corrections and level slopes (not the offsets).
+
+        Parameters
+        ----------
+        x : numpy.ndarray, optional
+            A parameter vector (default the fitted one).
+
+        Returns
+        -------
+        z, theta, slopes : numpy.ndarray
+        """
         x = self.x if x is None else x
         nz, nt = self.chain.size, self.lin.size if self.joint else 0
         fixed = self.theta_fixed if self.theta_fixed is not None else np.zeros(self.lin.size)
         return (x[:nz], (x[nz:nz + nt] if self.joint else fixed),
                 x[nz + nt:nz + nt + len(self.slopes)])
 
-    def output_offset(self, x=None):
-        """The fitted constant output offsets ``(m,)`` [µm] (zeros when not fitted)."""
+    def output_offset(self, x: np.ndarray | None = None) -> np.ndarray:
+        """The fitted constant output offsets ``(m,)`` [µm] (zeros when not fitted).
+
+        Parameters
+        ----------
+        x : numpy.ndarray, optional
+            A parameter vector (default the fitted one).
+
+        Returns
+        -------
+        numpy.ndarray
+        """
         x = self.x if x is None else x
         if not self.n_offset:
             return np.zeros(1)
         return x[x.size - self.n_offset:]
 
-    def theta_at(self, level, x=None):
+    def theta_at(self, level: float, x: np.ndarray | None = None) -> np.ndarray:
+        """The linear corrections at an excitation level (dynamic form: with the slopes).
+
+        Parameters
+        ----------
+        level : float
+            The level [V rms].
+        x : numpy.ndarray, optional
+            A parameter vector (default the fitted one).
+
+        Returns
+        -------
+        numpy.ndarray
+        """
         _, th, s = self.parts(x)
         th = th.copy()
         if self.slopes:
             th[list(self.slopes)] += s * level_factor(level, self.level_ref)
         return th
 
-    def predict_prepared(self, p, x=None):
+    def predict_prepared(self, p: Prepared, x: np.ndarray | None = None) -> np.ndarray:
+        """Simulated outputs ``(N, m)`` of a prepared record.
+
+        Parameters
+        ----------
+        p : Prepared
+            The record.
+        x : numpy.ndarray, optional
+            A parameter vector (default the fitted one).
+
+        Returns
+        -------
+        numpy.ndarray
+        """
         z, _, _ = self.parts(x)
         U, T = p.U, p.temp
         if p.warm:
@@ -113,12 +247,31 @@ class Fitted:
         Y = self.lin.simulate(self.theta_at(p.level, x), V, p.periodic)
         return Y + self.output_offset(x)[None, :] if self.n_offset else Y
 
-    def predict(self, d, reference_C):
-        """Simulated outputs ``(N, m)`` of record ``d`` (steady state when periodic)."""
+    def predict(self, d: Dataset, reference_C: float) -> np.ndarray:
+        """Simulated outputs ``(N, m)`` of record ``d`` (steady state when periodic).
+
+        Parameters
+        ----------
+        d : Dataset
+            The record.
+        reference_C : float
+            The temperature of a record without one [°C].
+
+        Returns
+        -------
+        numpy.ndarray
+        """
         return self.predict_prepared(prepare(d, reference_C, for_fit=False))
 
-    def params(self):
-        """Reported effect parameters and 1-sigma (delta method): ``{effect: (values, sds)}``."""
+    def params(self) -> dict:
+        """Reported effect parameters and 1-sigma (delta method): ``{effect: (values, sds)}``.
+
+        Returns
+        -------
+        dict
+            Values and sigmas as dicts keyed by parameter name (``output_offset`` too,
+            when fitted).
+        """
         z = self.parts()[0]
         out = self.chain.report(z, self.std[:self.chain.size])
         if self.n_offset:
@@ -128,8 +281,14 @@ class Fitted:
                                     {f"offset_um{sfx(j)}": float(d) for j, d in enumerate(sd)})
         return out
 
-    def linear_change(self):
-        """Linear corrections (and level slopes) by name, with 1-sigma."""
+    def linear_change(self) -> tuple[dict, dict]:
+        """Linear corrections (and level slopes) by name, with 1-sigma.
+
+        Returns
+        -------
+        values, sigmas : dict
+            Fixed corrections have sigma NaN; slopes are named ``<name>_per_level``.
+        """
         nz = self.chain.size
         out, sd = {}, {}
         if self.joint:
@@ -145,8 +304,10 @@ class Fitted:
         return out, sd
 
 
-def fit_model(name, effects, train, lin, chain, noise_sigma, joint=True, dynamic=False,
-              start=None, theta=None, max_nfev=40, ftol=1e-10, offset=False):
+def fit_model(name: str, effects: Sequence[str], train: Sequence[Prepared], lin: LinearPart,
+              chain: Chain, noise_sigma: float, joint: bool = True, dynamic: bool = False,
+              start: dict | None = None, theta: np.ndarray | None = None, max_nfev: int = 40,
+              ftol: float = 1e-10, offset: bool = False) -> Fitted:
     """Fit ``effects`` (+ linear corrections if ``joint``) on prepared training records.
 
     Parameters
@@ -156,8 +317,11 @@ def fit_model(name, effects, train, lin, chain, noise_sigma, joint=True, dynamic
     effects : tuple of str
         Input-side effects (the ``chain`` holds them).
     train : list of Prepared
+        The prepared training records.
     lin : LinearPart
+        The linear corrections' model.
     chain : Chain
+        The effects' chain.
     noise_sigma : float
         Noise std per sample [µm] (weight of the priors on the linear corrections).
     joint : bool

@@ -22,7 +22,11 @@ steady state on the DFT grid.  :class:`LinearPart` returns outputs and their Jac
 (gains analytically, frequencies and damping by forward differences).
 """
 
+from __future__ import annotations
+
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy import optimize, signal
@@ -30,6 +34,9 @@ from scipy import optimize, signal
 from robrst.identify.modal import ModalModel, pair_weight
 from robrst.core.lti import zoh_modal
 from robrst.core.plant import Plant
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 __all__ = ["coefficient_changes", "LinearPart", "LinearSim", "as_modal", "refit_linear", "LinearFit", "PRIOR_SD",
            "BOUNDS", "parameter_std"]
@@ -41,15 +48,42 @@ BOUNDS = {"dlog_freq": (-0.5, 0.5), "dlog_damping": (-3.0, 3.0), "gain": (-0.9, 
 FD_STEP = 1e-6
 
 
-def as_modal(model):
-    """A :class:`ModalModel` from a ModalModel or a SISO Plant."""
+def as_modal(model: ModalModel | Plant) -> ModalModel:
+    """A :class:`ModalModel` from a ModalModel or a SISO Plant.
+
+    Parameters
+    ----------
+    model : ModalModel or Plant
+        The linear model.
+
+    Returns
+    -------
+    ModalModel
+    """
     return model if isinstance(model, ModalModel) else ModalModel.from_plant(model)
 
 
 class LinearPart:
-    """Corrections ``theta`` of a modal model and the sampled simulation at ``fs`` [Hz]."""
+    """Corrections ``theta`` of a modal model and the sampled simulation at ``fs`` [Hz].
 
-    def __init__(self, model, fs, modal_gains=False):
+    Parameters
+    ----------
+    model : ModalModel or Plant
+        The user's model.
+    fs : float
+        Sampling rate [Hz].
+    modal_gains : bool
+        Also a gain correction per mode (else one overall gain).
+
+    Attributes
+    ----------
+    size : int
+        Length of ``theta``.
+    names : tuple of str
+        The corrections' names (``gain``, ``mode1_dlog_freq``, ...).
+    """
+
+    def __init__(self, model: ModalModel | Plant, fs: float, modal_gains: bool = False) -> None:
         self.model = as_modal(model)
         self.modal_gains = bool(modal_gains)
         self.fs = float(fs)
@@ -135,8 +169,18 @@ class LinearPart:
                 R[q] = R[q] * (1.0 + t)
         return new, R * self._gains(theta)[None, None, :]
 
-    def continuous(self, theta):
-        """The corrected model as a :class:`ModalModel`."""
+    def continuous(self, theta: np.ndarray) -> ModalModel:
+        """The corrected model as a :class:`ModalModel`.
+
+        Parameters
+        ----------
+        theta : numpy.ndarray
+            The corrections.
+
+        Returns
+        -------
+        ModalModel
+        """
         new, R = self._modes(theta)
         D = self.model.D * self._gains(theta)[None, :]
         return ModalModel(new, R, D, label=f"{self.model.label}_refit",
@@ -195,8 +239,25 @@ class LinearPart:
                 H += np.conj(Rd[p])[None] / (z - np.conj(zp[p]))[:, None, None]
         return H
 
-    def simulate_inputs(self, theta, X, inputs, periodic=False):
-        """Outputs ``(N, m, c)`` for columns ``X[:, c]`` each applied alone on ``inputs[c]``."""
+    def simulate_inputs(self, theta: np.ndarray, X: np.ndarray, inputs: Sequence[int],
+                        periodic: bool = False) -> np.ndarray:
+        """Outputs ``(N, m, c)`` for columns ``X[:, c]`` each applied alone on ``inputs[c]``.
+
+        Parameters
+        ----------
+        theta : numpy.ndarray
+            The corrections.
+        X : numpy.ndarray
+            ``(N, c)`` signals.
+        inputs : sequence of int
+            The input each column drives.
+        periodic : bool
+            Steady state of a periodic record (else from rest).
+
+        Returns
+        -------
+        numpy.ndarray
+        """
         X = np.asarray(X, float).reshape(len(X), -1)
         inputs = np.asarray(inputs, int)
         N = X.shape[0]
@@ -211,16 +272,65 @@ class LinearPart:
             self._add_mode(Y, zp[p], Rd[p], X, p, inputs)
         return Y
 
-    def simulate_input(self, theta, x, j, periodic=False):
-        """Output ``(N, m)`` for the signal ``x`` on input ``j`` alone (others zero)."""
+    def simulate_input(self, theta: np.ndarray, x: ArrayLike, j: int,
+                       periodic: bool = False) -> np.ndarray:
+        """Output ``(N, m)`` for the signal ``x`` on input ``j`` alone (others zero).
+
+        Parameters
+        ----------
+        theta : numpy.ndarray
+            The corrections.
+        x : array_like
+            The signal, ``N`` samples.
+        j : int
+            The input.
+        periodic : bool
+            Steady state of a periodic record (else from rest).
+
+        Returns
+        -------
+        numpy.ndarray
+        """
         return self.simulate_inputs(theta, np.asarray(x, float)[:, None], [j], periodic)[:, :, 0]
 
-    def simulate(self, theta, V, periodic=False):
-        """Outputs ``(N, m)`` for effective inputs ``V`` (N x k)."""
+    def simulate(self, theta: np.ndarray, V: np.ndarray, periodic: bool = False) -> np.ndarray:
+        """Outputs ``(N, m)`` for effective inputs ``V`` (N x k).
+
+        Parameters
+        ----------
+        theta : numpy.ndarray
+            The corrections.
+        V : numpy.ndarray
+            The inputs [V].
+        periodic : bool
+            Steady state of a periodic record (else from rest).
+
+        Returns
+        -------
+        numpy.ndarray
+        """
         return self.simulate_jac(theta, V, periodic, jac=False)[0]
 
-    def simulate_jac(self, theta, V, periodic=False, jac=True):
-        """Outputs ``(N, m)`` and, if ``jac``, ``d outputs / d theta`` ``(N, m, size)``."""
+    def simulate_jac(self, theta: np.ndarray, V: np.ndarray, periodic: bool = False,
+                     jac: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+        """Outputs ``(N, m)`` and, if ``jac``, ``d outputs / d theta`` ``(N, m, size)``.
+
+        Parameters
+        ----------
+        theta : numpy.ndarray
+            The corrections.
+        V : numpy.ndarray
+            The inputs [V].
+        periodic : bool
+            Steady state of a periodic record (else from rest).
+        jac : bool
+            Also the Jacobian.
+
+        Returns
+        -------
+        Y : numpy.ndarray
+        J : numpy.ndarray or None
+        """
         theta = np.asarray(theta, float)
         V = np.asarray(V, float).reshape(len(V), -1)
         N = V.shape[0]
@@ -248,6 +358,18 @@ class LinearSim:
 
     ``y[k]`` is sampled at the instant ``u[k]`` is applied, as in the twin.  For one
     input and output ``u`` and the result are 1-D; else ``(N, k)`` and ``(N, m)``.
+
+    Parameters
+    ----------
+    model : ModalModel
+        The model.
+    fs : float
+        Sampling rate [Hz].
+
+    Attributes
+    ----------
+    stable : bool
+        Every pole in the open left half-plane.
     """
 
     model: ModalModel
@@ -257,7 +379,20 @@ class LinearSim:
         object.__setattr__(self, "discrete", self.model.discretise(self.fs))
 
     @classmethod
-    def of(cls, plant, fs):
+    def of(cls, plant: Plant | ModalModel, fs: float) -> LinearSim:
+        """The simulation of ``plant`` at ``fs``.
+
+        Parameters
+        ----------
+        plant : Plant or ModalModel
+            The model.
+        fs : float
+            Sampling rate [Hz].
+
+        Returns
+        -------
+        LinearSim
+        """
         return cls(as_modal(plant), float(fs))
 
     @property
@@ -272,7 +407,19 @@ class LinearSim:
 
 @dataclass(frozen=True)
 class LinearFit:
-    """A re-fitted linear model: the model, its corrections with 1-sigma, evaluations."""
+    """A re-fitted linear model: the model, its corrections with 1-sigma, evaluations.
+
+    Parameters
+    ----------
+    plant : Plant or ModalModel
+        The fitted model (a Plant for a SISO Plant given).
+    rel_change : dict
+        Correction name -> value (``theta``; for a Plant also ``b0..``, ``a1..``).
+    std : dict
+        Their 1-sigma.
+    n_eval : int
+        Model evaluations.
+    """
 
     plant: object          # Plant (SISO input) or ModalModel
     rel_change: dict       # correction name -> value (theta)
@@ -280,7 +427,8 @@ class LinearFit:
     n_eval: int
 
 
-def refit_linear(plant, records, fs, max_nfev=60):
+def refit_linear(plant: Plant | ModalModel, records: Sequence[tuple[np.ndarray, np.ndarray]],
+                 fs: float, max_nfev: int = 60) -> LinearFit:
     """Re-fit the corrections of ``plant`` on ``records`` (output error, from rest).
 
     Parameters
@@ -291,6 +439,8 @@ def refit_linear(plant, records, fs, max_nfev=60):
         Training inputs [V] and measured outputs [µm].
     fs : float
         Sampling rate [Hz].
+    max_nfev : int
+        Evaluations allowed to the least-squares solver.
 
     Returns
     -------
@@ -326,9 +476,21 @@ def refit_linear(plant, records, fs, max_nfev=60):
     return LinearFit(plant=fitted, rel_change=rel, std=sd, n_eval=int(res.nfev))
 
 
-def coefficient_changes(plant, fitted):
+def coefficient_changes(plant: Plant, fitted: Plant) -> dict[str, float]:
     """Relative change of every non-zero coefficient, ``b{i}`` of B and ``a{i}`` of monic A
-    (highest power first, ``a0`` = 1 omitted): the keys earlier versions reported."""
+    (highest power first, ``a0`` = 1 omitted): the keys earlier versions reported.
+
+    Parameters
+    ----------
+    plant : Plant
+        The user's model.
+    fitted : Plant
+        The re-fitted one (same degrees).
+
+    Returns
+    -------
+    dict
+    """
     out = {}
     if len(fitted.A) != len(plant.A) or len(fitted.B) != len(plant.B):
         return out
@@ -341,12 +503,36 @@ def coefficient_changes(plant, fitted):
     return out
 
 
-def parameter_std(J, cost, m, rtol=1e-7):
+def parameter_std(J: np.ndarray, cost: float, m: int, rtol: float = 1e-7) -> np.ndarray:
     """1-sigma of least-squares parameters from the Jacobian ``J`` at the optimum.
 
     ``cov = s^2 (J^T J)^-1`` through the SVD of ``J`` (``s^2 = 2 cost / (m - n)``); a
     parameter taking part in a direction the data do not determine (singular value
     below ``rtol`` x the largest) gets ``inf``, never a misleadingly small number.
+
+    Parameters
+    ----------
+    J : numpy.ndarray
+        ``(m, n)`` Jacobian of the residuals.
+    cost : float
+        Half the sum of squared residuals.
+    m : int
+        Number of residuals.
+    rtol : float
+        Relative threshold of the singular values.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``n`` standard deviations (``inf``: undetermined).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from robrst.diagnose.linear import parameter_std
+    >>> J = np.array([[1.0, 1.0], [1.0, 1.0], [1.0, 1.0]])   # only the sum is determined
+    >>> parameter_std(J, 0.5, 3).tolist()
+    [inf, inf]
     """
     J = np.asarray(J, float)
     n = J.shape[1]

@@ -14,13 +14,20 @@ of one residue magnitude per unit of ``f``), every output at once.  At the refer
 level the model is unchanged; held-out records judge whether the slopes generalise.
 """
 
+from __future__ import annotations
+
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy import signal
 
 from robrst.diagnose.fit import Fitted, level_factor
 from robrst.identify.modal import ModalModel
+
+if TYPE_CHECKING:
+    from robrst.diagnose.fit import Prepared
 
 __all__ = ["Polished", "polish_residues", "PRIOR_PER_LEVEL"]
 
@@ -29,21 +36,72 @@ PRIOR_PER_LEVEL = 1.0     # prior sd of dR_p per unit of f, relative to |R_p|
 
 @dataclass(frozen=True, eq=False)
 class Polished(Fitted):
-    """A dynamic-form fit with level slopes ``dR`` of the residues (continuous time)."""
+    """A dynamic-form fit with level slopes ``dR`` of the residues (continuous time).
+
+    Parameters
+    ----------
+    name : str
+        The candidate's name.
+    effects : tuple of str
+        The effects fitted.
+    form : str
+        ``"dynamic"``.
+    chain : Chain
+        The effects' chain.
+    lin : LinearPart
+        The linear corrections' model.
+    x : numpy.ndarray
+        The fitted parameters.
+    std : numpy.ndarray
+        Their 1-sigma.
+    joint : bool
+        The linear corrections were fitted.
+    slopes : tuple of int
+        Indices into ``theta`` that vary with level.
+    level_ref : float
+        The reference level [V rms].
+    n_eval : int
+        Model evaluations.
+    train_cost : float
+        The final least-squares cost.
+    theta_fixed : numpy.ndarray, optional
+        Fixed linear corrections when not ``joint``.
+    n_offset : int
+        Constant output offsets fitted.
+    dR : numpy.ndarray
+        ``(n, m, k)`` complex: the residues' change per unit of level factor.
+    """
 
     dR: np.ndarray = None          # (n, m, k) complex, per unit of level factor
 
-    def model_at(self, level, x=None):
+    def model_at(self, level: float, x: np.ndarray | None = None) -> ModalModel:
         """The continuous-time :class:`ModalModel` at excitation level ``level`` [V rms]
-        (parameters ``x``, default the fitted ones; ``dR`` stays the fitted one)."""
+        (parameters ``x``, default the fitted ones; ``dR`` stays the fitted one).
+
+        Parameters
+        ----------
+        level : float
+            The level [V rms].
+        x : numpy.ndarray, optional
+            A parameter vector.
+
+        Returns
+        -------
+        ModalModel
+        """
         cm = self.lin.continuous(self.theta_at(level, x))
         f = level_factor(level, self.level_ref)
         return ModalModel(cm.poles, cm.residues + f * self.dR, cm.D, label=cm.label,
                           temperature_C=cm.temperature_C)
 
-    def linear_change(self):
+    def linear_change(self) -> tuple[dict, dict]:
         """As :meth:`Fitted.linear_change`, plus ``residue_change_per_level``: the largest
-        ``|dR_p| / |R_p|`` over the modes (max over outputs and inputs)."""
+        ``|dR_p| / |R_p|`` over the modes (max over outputs and inputs).
+
+        Returns
+        -------
+        values, sigmas : dict
+        """
         out, sd = super().linear_change()
         R = self.lin.continuous(self.theta_at(self.level_ref)).residues
         rel = [np.max(np.abs(d)) / max(np.max(np.abs(r)), 1e-300) for d, r in zip(self.dR, R)]
@@ -51,7 +109,20 @@ class Polished(Fitted):
         sd["residue_change_per_level"] = float("nan")
         return out, sd
 
-    def predict_prepared(self, p, x=None):
+    def predict_prepared(self, p: Prepared, x: np.ndarray | None = None) -> np.ndarray:
+        """Simulated outputs ``(N, m)`` of a prepared record, the residues at its level.
+
+        Parameters
+        ----------
+        p : Prepared
+            The record.
+        x : numpy.ndarray, optional
+            A parameter vector (default the fitted one).
+
+        Returns
+        -------
+        numpy.ndarray
+        """
         V = _effective(self, p, x)
         Y = self.model_at(p.level, x).discretise(self.lin.fs).response(V, periodic=p.periodic)
         return Y + self.output_offset(x)[None, :] if self.n_offset else Y
@@ -93,7 +164,7 @@ def _columns(model, fs, V, periodic):
     return np.column_stack(cols), index
 
 
-def polish_residues(fit, train, noise_sigma):
+def polish_residues(fit: Fitted, train: Sequence[Prepared], noise_sigma: float) -> Fitted:
     """Fit the level slopes of the residues of a dynamic-form ``fit`` (see module doc).
 
     Parameters

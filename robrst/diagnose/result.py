@@ -11,8 +11,11 @@ form, overfit``), ``linear_refit{...}``, ``where{...}``, ``tests{...}``,
 effect's; it is a candidate but not an effect, so not in ``effects[]``).
 """
 
+from __future__ import annotations
+
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -21,7 +24,34 @@ __all__ = ["EffectScore", "Diagnosis", "finite"]
 
 @dataclass(frozen=True)
 class EffectScore:
-    """One candidate's held-out result (gap on the test records)."""
+    """One candidate's held-out result (gap on the test records).
+
+    Parameters
+    ----------
+    name : str
+        The effect (or ``"linear"``, ``"output_offset"``, a joint selection's name).
+    gap_before : float
+        Held-out NRMSE of the model under diagnosis.
+    gap_after : float
+        Held-out NRMSE with the candidate fitted.
+    shrink : float
+        ``1 - gap_after / gap_before``.
+    train_gap : float
+        NRMSE on the training records with the candidate.
+    params : dict
+        Fitted parameters.
+    params_std : dict
+        Their 1-sigma (``inf``: not determined by the data).
+    n_eval : int
+        Model evaluations of the fit.
+    fit_s : float
+        Wall time of the fit [s].
+    form : str
+        ``"input"`` (the twin's parametrisation) or ``"dynamic"`` (the describing-function
+        form of hysteresis).
+    overfit : bool
+        The fit improves the training records but not the held-out ones.
+    """
 
     name: str
     gap_before: float
@@ -35,7 +65,13 @@ class EffectScore:
     form: str = "input"
     overfit: bool = False
 
-    def as_dict(self):
+    def as_dict(self) -> dict:
+        """The ``effects`` entry of the diagnosis JSON.
+
+        Returns
+        -------
+        dict
+        """
         return {"name": self.name, "gap_before": self.gap_before, "gap_after": self.gap_after,
                 "shrink": self.shrink, "train_gap": self.train_gap, "params": self.params,
                 "params_std": self.params_std, "n_eval": self.n_eval, "fit_s": self.fit_s,
@@ -44,7 +80,51 @@ class EffectScore:
 
 @dataclass(frozen=True, eq=False)
 class Diagnosis:
-    """Result of :func:`~robrst.diagnose.diagnosis.diagnose`; :meth:`as_dict` is the contract."""
+    """Result of :func:`~robrst.diagnose.diagnosis.diagnose`; :meth:`as_dict` is the contract.
+
+    Parameters
+    ----------
+    cause : str
+        One of the effects, ``output_offset``, ``none``, ``linear`` or ``cannot_tell``.
+    reason : str
+        Why, in one sentence.
+    gap_before : float
+        Held-out NRMSE of the model under diagnosis.
+    noise_floor : float
+        The noise floor in the same units.
+    gap_train : float
+        The gap on the training records.
+    effects : tuple of EffectScore
+        Every candidate, best first.
+    linear_refit : EffectScore
+        The linear re-fit alone.
+    where : dict
+        Time windows, frequency band, FRF departure, regime.
+    tests : dict
+        Whiteness and residual-input cross-correlation tests.
+    decomposition : dict
+        Shares of the residual's mean square.
+    data : dict
+        The records used.
+    model : dict
+        The model diagnosed.
+    extra : dict
+        ``causes``, ``selected``, ``final``, ``findings``, ...
+    traces : dict
+        Arrays for the report.
+
+    Attributes
+    ----------
+    winner : EffectScore or None
+        The cause's own single-candidate score (None for none/linear/cannot_tell).
+    causes : tuple of str
+        Every selected effect.
+    findings : tuple of dict
+        ``amplitude_dependent``, ``unmodelled_dynamics``, ``output_offset``,
+        ``train_only``.
+    final : dict or None
+        The final joint fit of the selected effects.
+    """
 
     cause: str
     reason: str
@@ -78,14 +158,26 @@ class Diagnosis:
     def final(self):
         return self.extra.get("final")
 
-    def gap_after(self):
-        """Held-out gap of the answer (selected effects, or the linear re-fit)."""
+    def gap_after(self) -> float | None:
+        """Held-out gap of the answer (selected effects, or the linear re-fit).
+
+        Returns
+        -------
+        float or None
+            ``None`` for ``none`` and ``cannot_tell``.
+        """
         if self.cause == "linear":
             return self.linear_refit.gap_after
         f = self.final
         return f["gap_after"] if f and self.cause not in ("none", "cannot_tell") else None
 
-    def as_dict(self):
+    def as_dict(self) -> dict:
+        """The JSON of ``robrst diagnose --json`` (fields are only added; no inf or NaN).
+
+        Returns
+        -------
+        dict
+        """
         g = {"metric": "nrmse", "before": self.gap_before, "noise_floor": self.noise_floor,
              "after": self.gap_after(), "before_train": self.gap_train}
         g.update(self.extra.get("gap", {}))
@@ -100,8 +192,25 @@ class Diagnosis:
         return finite(d)
 
 
-def finite(x):
-    """Non-finite floats become None (JSON has no inf/nan); numpy scalars become Python."""
+def finite(x: Any) -> Any:
+    """Non-finite floats become None (JSON has no inf/nan); numpy scalars become Python.
+
+    Parameters
+    ----------
+    x : object
+        Dicts, lists and tuples are converted recursively.
+
+    Returns
+    -------
+    object
+
+    Examples
+    --------
+    >>> import math
+    >>> from robrst.diagnose.result import finite
+    >>> finite({"a": [1.0, math.inf], "b": math.nan})
+    {'a': [1.0, None], 'b': None}
+    """
     if isinstance(x, dict):
         return {k: finite(v) for k, v in x.items()}
     if isinstance(x, (list, tuple)):

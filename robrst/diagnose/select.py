@@ -30,8 +30,11 @@ others, selected only when it passes the same bars.
 Every gap is measured on the test records, every fit uses the training records only.
 """
 
+from __future__ import annotations
+
 import math
 import time
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
 
@@ -59,7 +62,51 @@ SCREEN_SAMPLES = 100_000  # ... on at most the first 100 000 samples of each tra
 
 @dataclass(frozen=True, eq=False)
 class Setup:
-    """Everything the candidate fits share (built once per diagnosis)."""
+    """Everything the candidate fits share (built once per diagnosis).
+
+    Parameters
+    ----------
+    fs : float
+        Sampling rate [Hz].
+    ref : float
+        The model's temperature [°C].
+    train : list of Prepared
+        Period-averaged training records (fitting).
+    train_full : list of Prepared
+        Full training records (training gap).
+    test : list of Prepared
+        Full test records (held-out gap).
+    test_records : list of Dataset
+        Test records (held-out gap normalisation).
+    train_records : list of Dataset
+        Training records.
+    lin : LinearPart
+        The user's model's corrections.
+    lin_modal : LinearPart
+        With per-mode gains (dynamic form of hysteresis).
+    stats : dict
+        Scales of the training data.
+    noise_sigma : float
+        Pooled noise level [µm].
+    plant : Plant or None
+        SISO Plant of the user's model (thermal_dynamics).
+    effects : tuple of str
+        Excited effects to try.
+    dynamic : bool
+        The dynamic form of hysteresis is possible.
+    delays : tuple of int
+        Searched delay per input.
+    saturation : list
+        Starting limits per input.
+    floor : float
+        The noise floor.
+    gap_before : float
+        Held-out gap of the model as given.
+    gap_before_train : float
+        Its training gap.
+    workers : int
+        Threads for the candidate fits.
+    """
 
     fs: float
     ref: float
@@ -85,7 +132,30 @@ class Setup:
 
 @dataclass(frozen=True, eq=False)
 class Scored:
-    """A fitted candidate and its gaps (held-out and training)."""
+    """A fitted candidate and its gaps (held-out and training).
+
+    Parameters
+    ----------
+    name : str
+        The candidate.
+    fit : Fitted or ThermalFit
+        Its fit.
+    gap : float
+        Held-out NRMSE.
+    train_gap : float
+        Training NRMSE.
+    residuals : list of numpy.ndarray
+        Held-out residuals per test record.
+    fit_s : float
+        Wall time of the fit [s].
+    converged : bool
+        The solver stopped before its evaluation limit.
+
+    Attributes
+    ----------
+    effects : tuple of str
+        The fit's effects.
+    """
 
     name: str
     fit: object
@@ -100,13 +170,43 @@ class Scored:
         return tuple(self.fit.effects) + (("hysteresis",) if self.fit.form == "dynamic" else ())
 
 
-def excess(g, floor):
-    """Gap above the noise floor: ``sqrt(max(g^2 - floor^2, 0))``."""
+def excess(g: float, floor: float) -> float:
+    """Gap above the noise floor: ``sqrt(max(g^2 - floor^2, 0))``.
+
+    Parameters
+    ----------
+    g : float
+        A gap.
+    floor : float
+        The noise floor.
+
+    Returns
+    -------
+    float
+
+    Examples
+    --------
+    >>> from robrst.diagnose.select import excess
+    >>> excess(0.5, 0.3)
+    0.4
+    """
     return math.sqrt(max(g * g - floor * floor, 0.0))
 
 
-def significant(new, old, floor):
-    """Does a gap ``new`` explain enough of ``old`` (the 30 % bar and the margin)?"""
+def significant(new: float, old: float, floor: float) -> bool:
+    """Does a gap ``new`` explain enough of ``old`` (the 30 % bar and the margin)?
+
+    Parameters
+    ----------
+    new, old : float
+        Gaps with and without the candidate.
+    floor : float
+        The noise floor.
+
+    Returns
+    -------
+    bool
+    """
     return excess(new, floor) <= (1 - MIN_SHRINK) * excess(old, floor) and new * MARGIN <= old
 
 
@@ -157,11 +257,24 @@ def _start(scored):
     return out
 
 
-def candidates(setup, say):
+def candidates(setup: Setup, say: Callable[[str], None]) -> tuple[Scored, dict[str, Scored]]:
     """The linear re-fit and every single candidate; returns (linear, {name: Scored}).
 
     All fits run in ``setup.workers`` threads, the longest first; the linear re-fit
     runs first on its own only when the dynamic form of hysteresis starts from it.
+
+    Parameters
+    ----------
+    setup : Setup
+        The shared data.
+    say : callable
+        Progress: one line of text per fit.
+
+    Returns
+    -------
+    linear : Scored
+    singles : dict
+        ``{name: Scored}``.
     """
     def linear():
         return _fit(setup, "linear", (), joint=True)
@@ -214,8 +327,18 @@ def _grown(state, key):
     return effects, dynamic, offset, name
 
 
-def linear_with_offset(setup):
-    """The linear re-fit with a constant output offset, fitted jointly (Scored)."""
+def linear_with_offset(setup: Setup) -> Scored:
+    """The linear re-fit with a constant output offset, fitted jointly.
+
+    Parameters
+    ----------
+    setup : Setup
+        The shared data.
+
+    Returns
+    -------
+    Scored
+    """
     return _fit(setup, f"linear+{OFFSET}", (), joint=True, offset=True)
 
 
@@ -252,8 +375,28 @@ def _run(jobs, workers):
         return [fut.result() for fut in [pool.submit(f) for f in jobs]]
 
 
-def forward(setup, lin, singles, say):
-    """Forward selection; returns (steps, tie) with steps = [(key, before, Scored)]."""
+def forward(setup: Setup, lin: Scored, singles: dict[str, Scored],
+            say: Callable[[str], None]) -> tuple[list, tuple | None]:
+    """Forward selection (see the module docstring).
+
+    Parameters
+    ----------
+    setup : Setup
+        The shared data.
+    lin : Scored
+        The linear re-fit.
+    singles : dict
+        Every single candidate.
+    say : callable
+        Progress.
+
+    Returns
+    -------
+    steps : list of (key, before, Scored)
+        The selections in order.
+    tie : tuple or None
+        Two candidates that explain the gap equally well and do not add up.
+    """
     state, steps, tie = lin, [], None
     g0, t0 = setup.gap_before, setup.gap_before_train
     pool = {k: s for k, s in singles.items()

@@ -13,8 +13,17 @@ needed, the matching list of residuals ``r = y - y_model`` [µm].
   Bonferroni-corrected 99 % bound.
 """
 
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
 from scipy import signal, stats
+
+if TYPE_CHECKING:
+    from robrst.data.dataset import Dataset
+    from robrst.identify.modal import DiscreteModel
 
 __all__ = ["nrmse", "noise_sigma", "time_windows", "frequency_band", "frf_departure", "regime",
            "whiteness", "cross_correlation", "residual_psd"]
@@ -22,10 +31,22 @@ __all__ = ["nrmse", "noise_sigma", "time_windows", "frequency_band", "frf_depart
 MAX_LAG = 25
 
 
-def nrmse(records, residuals):
+def nrmse(records: Sequence[Dataset], residuals: Sequence[np.ndarray]) -> float:
     """Pooled normalised RMS error ``sqrt(sum r^2) / sqrt(sum (y - mean y)^2)``.
 
     Pooled over records and outputs (each output about its own mean).
+
+    Parameters
+    ----------
+    records : sequence of Dataset
+        The records.
+    residuals : sequence of numpy.ndarray
+        Their residuals, ``(N, m)`` or ``N``.
+
+    Returns
+    -------
+    float
+        ``inf`` when the outputs do not vary.
     """
     num = sum(float(np.sum(np.asarray(r) ** 2)) for r in residuals)
     den = sum(float(np.sum((d.Y - d.Y.mean(axis=0)) ** 2)) for d in records)
@@ -45,7 +66,7 @@ def _nperseg(n, cap):
 NOISE_BANDS = ((0.3, 0.45), (0.45, 0.6), (0.6, 0.75), (0.75, 0.95))   # fractions of Nyquist
 
 
-def noise_sigma(r, fs):
+def noise_sigma(r: np.ndarray, fs: float) -> float:
     """Noise std [µm] of a 1-D residual from its spectrum in the upper 70 % of the band.
 
     The one-sided PSD of white noise of std sigma is ``2 sigma^2 / fs``.  The level is
@@ -53,6 +74,17 @@ def noise_sigma(r, fs):
     of Nyquist) of a median-averaged Welch estimate: a plant mode or model error in one
     sub-band does not raise the floor.  For periodic records the period-to-period
     differences are better (:func:`robrst.diagnose.findings.noise_levels`).
+
+    Parameters
+    ----------
+    r : numpy.ndarray
+        A residual.
+    fs : float
+        Sampling rate [Hz].
+
+    Returns
+    -------
+    float
     """
     r = np.asarray(r, float)
     f, P = signal.welch(r - r.mean(), fs=fs, nperseg=_nperseg(r.size, 1024), average="median")
@@ -62,11 +94,32 @@ def noise_sigma(r, fs):
     return float(np.sqrt(level * fs / 2))
 
 
-def time_windows(records, residuals, sigma, names, max_windows=12, factor=3.0):
+def time_windows(records: Sequence[Dataset], residuals: Sequence[np.ndarray], sigma: float,
+                 names: Sequence[str], max_windows: int = 12,
+                 factor: float = 3.0) -> tuple[list[dict], float]:
     """Intervals where the moving RMS of the residual exceeds ``factor`` x noise.
 
-    Returns a list of ``{"file", "start_s", "end_s", "rms_um"}``, strongest first
-    (at most ``max_windows``), and the fraction of the residual energy they hold.
+    Parameters
+    ----------
+    records : sequence of Dataset
+        The records.
+    residuals : sequence of numpy.ndarray
+        Their residuals.
+    sigma : float
+        The noise level [µm].
+    names : sequence of str
+        The records' names.
+    max_windows : int
+        At most this many windows.
+    factor : float
+        The threshold in noise levels.
+
+    Returns
+    -------
+    windows : list of dict
+        ``{"file", "start_s", "end_s", "rms_um"}``, strongest first.
+    share : float
+        The fraction of the residual energy they hold.
     """
     out, held, total = [], 0.0, 0.0
     for d, r, name in zip(records, residuals, names):
@@ -103,8 +156,21 @@ def time_windows(records, residuals, sigma, names, max_windows=12, factor=3.0):
     return out, (held / total if total > 0 else 0.0)
 
 
-def residual_psd(residuals, fs):
-    """Pooled Welch PSD [µm²/Hz] of the residuals (mean averaging); returns (f, P)."""
+def residual_psd(residuals: Sequence[np.ndarray], fs: float) -> tuple[np.ndarray, np.ndarray]:
+    """Pooled Welch PSD [µm²/Hz] of the residuals (mean averaging).
+
+    Parameters
+    ----------
+    residuals : sequence of numpy.ndarray
+        The residuals.
+    fs : float
+        Sampling rate [Hz].
+
+    Returns
+    -------
+    f, P : numpy.ndarray
+        Frequencies [Hz] and the PSD.
+    """
     n = min(len(r) for r in residuals)
     nper = _nperseg(n, 8192)
     acc, wsum, f = 0.0, 0.0, None
@@ -115,11 +181,29 @@ def residual_psd(residuals, fs):
     return f, acc / wsum
 
 
-def frequency_band(residuals, fs, sigma, factor=4.0):
+def frequency_band(residuals: Sequence[np.ndarray], fs: float, sigma: float,
+                   factor: float = 4.0) -> tuple[list[float] | None, np.ndarray, np.ndarray, float]:
     """Band [Hz] holding 95 % of the residual energy that exceeds the noise floor.
 
-    Returns ``(band or None, f, P, noise_level)``; ``None`` when no bin of the residual
-    spectrum exceeds ``factor`` x the white-noise level ``2 sigma^2 / fs``.
+    Parameters
+    ----------
+    residuals : sequence of numpy.ndarray
+        The residuals.
+    fs : float
+        Sampling rate [Hz].
+    sigma : float
+        The noise level [µm].
+    factor : float
+        A bin counts when it exceeds ``factor`` x the white-noise level ``2 sigma^2 / fs``.
+
+    Returns
+    -------
+    band : list of float or None
+        ``[lo, hi]``; ``None`` when no bin exceeds the threshold.
+    f, P : numpy.ndarray
+        The residual spectrum.
+    noise_level : float
+        The white-noise level.
     """
     f, P = residual_psd(residuals, fs)
     level = 2 * sigma ** 2 / fs
@@ -132,16 +216,31 @@ def frequency_band(residuals, fs, sigma, factor=4.0):
     return [float(lo), float(hi)], f, P, level
 
 
-def frf_departure(records, dmodel, fs, max_coh=0.999):
+def frf_departure(records: Sequence[Dataset], dmodel: DiscreteModel, fs: float,
+                  max_coh: float = 0.999) -> dict:
     """Where the nonparametric FRF (H1, with coherence) departs from the model's.
 
-    ``dmodel`` is the sampled model (:class:`~robrst.identify.modal.DiscreteModel`),
-    compared at ``z = exp(j 2 pi f / fs)``.  With several inputs H1 is the matrix
-    ``S_yu S_uu^-1`` and the coherence the multiple coherence of each output.  The
+    ``dmodel`` is compared at ``z = exp(j 2 pi f / fs)``.  With several inputs H1 is the
+    matrix ``S_yu S_uu^-1`` and the coherence the multiple coherence of each output.  The
     relative error ``|H1 - Hm| / max(|Hm|)`` of each channel is compared, bin by bin,
     with 3x its standard error ``sqrt((1 - g2) / (2 n_avg g2))`` on bins with
-    coherence > 0.5.  Returns ``{"band_hz": [lo, hi] or None, "max_rel_error": x,
-    "bins": n}``.
+    coherence > 0.5.
+
+    Parameters
+    ----------
+    records : sequence of Dataset
+        The records.
+    dmodel : DiscreteModel
+        The sampled model.
+    fs : float
+        Sampling rate [Hz].
+    max_coh : float
+        Coherence is capped here (its standard error would vanish).
+
+    Returns
+    -------
+    dict
+        ``{"band_hz": [lo, hi] or None, "max_rel_error": x, "bins": n}``.
     """
     n = min(d.n for d in records)
     nper = _nperseg(n, 4096)
@@ -201,13 +300,28 @@ def eta2(r, x, bins=10):
     return float(np.sum(cnt * (mean - r.mean()) ** 2) / tot)
 
 
-def regime(records, residuals, reference_C):
+def regime(records: Sequence[Dataset], residuals: Sequence[np.ndarray],
+           reference_C: float) -> dict:
     """How much of the residual each operating-regime variable explains (``eta2``).
 
     ``temperature`` (T - reference), ``temperature_x_amplitude`` ((T - ref) u),
     ``amplitude`` (u), ``direction`` (sign of du/dt while moving) and
     ``time_since_step`` (log time since the last step, signed by that step).
-    ``dominant`` names the largest share; ``None`` marks an unexcited variable.
+
+    Parameters
+    ----------
+    records : sequence of Dataset
+        The records.
+    residuals : sequence of numpy.ndarray
+        Their residuals.
+    reference_C : float
+        The model's temperature [°C].
+
+    Returns
+    -------
+    dict
+        Each variable's share (``None``: not excited), ``dominant`` (the largest) and
+        ``measure``.
     """
     cols = {k: [] for k in ("temperature", "temperature_x_amplitude", "amplitude", "direction",
                             "time_since_step")}
@@ -241,8 +355,21 @@ def _bound(n, m):
     return float(stats.norm.ppf(1 - 0.005 / m) / np.sqrt(n))
 
 
-def whiteness(residuals, max_lag=MAX_LAG):
-    """Autocorrelation test of the residual at lags 1..max_lag (99 %, Bonferroni)."""
+def whiteness(residuals: Sequence[np.ndarray], max_lag: int = MAX_LAG) -> dict:
+    """Autocorrelation test of the residual at lags 1..max_lag (99 %, Bonferroni).
+
+    Parameters
+    ----------
+    residuals : sequence of numpy.ndarray
+        The residuals.
+    max_lag : int
+        The largest lag.
+
+    Returns
+    -------
+    dict
+        ``max_abs_autocorr``, ``bound``, ``passed``.
+    """
     acc, n = np.zeros(max_lag + 1), 0
     for r in (c for res in residuals for c in _cols(res).T):
         r = r - r.mean()
@@ -254,10 +381,25 @@ def whiteness(residuals, max_lag=MAX_LAG):
             "passed": bool(np.max(np.abs(rho)) <= b)}
 
 
-def cross_correlation(records, residuals, max_lag=MAX_LAG):
+def cross_correlation(records: Sequence[Dataset], residuals: Sequence[np.ndarray],
+                      max_lag: int = MAX_LAG) -> dict:
     """Residual-input cross-correlation test at lags 0..max_lag (input leading).
 
     Pooled over every (input, output) pair of every record.
+
+    Parameters
+    ----------
+    records : sequence of Dataset
+        The records.
+    residuals : sequence of numpy.ndarray
+        Their residuals.
+    max_lag : int
+        The largest lag.
+
+    Returns
+    -------
+    dict
+        ``max_abs_crosscorr``, ``bound``, ``passed``.
     """
     num, ruu, rrr, n = np.zeros(max_lag + 1), 0.0, 0.0, 0
     pairs = [(u, r) for d, res in zip(records, residuals) for u in d.U.T for r in _cols(res).T]

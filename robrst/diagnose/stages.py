@@ -9,7 +9,11 @@ the output and its exact derivative with respect to every free parameter, instea
 one simulation per parameter and iteration.
 """
 
+from __future__ import annotations
+
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
@@ -17,6 +21,9 @@ import numpy as np
 from robrst.twin.config import default_twin
 from robrst.twin.model import build_model
 from robrst.twin.simulate import Simulator, rest_state
+
+if TYPE_CHECKING:
+    from robrst.core.plant import Plant
 
 __all__ = ["SensitivityStage", "stage", "FREE"]
 
@@ -54,23 +61,61 @@ def _augmented(model, free):
 
 @dataclass(frozen=True, eq=False)
 class SensitivityStage:
-    """One effect's compiled twin step with sensitivities (``run``: output, d output)."""
+    """One effect's compiled twin step with sensitivities (``run``: output, d output).
+
+    Parameters
+    ----------
+    name : str
+        The effect.
+    model : TwinModel
+        The twin's model with only that effect on.
+    sim : Simulator
+        The compiled loop of the step with its sensitivities.
+    free : tuple of int
+        Indices into theta of the fitted parameters.
+    """
 
     name: str
     model: object
     sim: Simulator
     free: tuple          # indices into theta
 
-    def theta(self, values):
-        """The twin's theta vector with the free parameters set to ``values``."""
+    def theta(self, values: Sequence[float]) -> np.ndarray:
+        """The twin's theta vector with the free parameters set to ``values``.
+
+        Parameters
+        ----------
+        values : sequence of float
+            The free parameters.
+
+        Returns
+        -------
+        numpy.ndarray
+        """
         th = self.model.theta0.copy()
         th[list(self.free)] = values
         return th
 
-    def run(self, u, temp, values, u0_rest=None):
+    def run(self, u: np.ndarray, temp: np.ndarray, values: Sequence[float],
+            u0_rest: float | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Output ``(N,)`` and its derivative ``(N, n_free)`` on input ``u`` and ``temp``.
 
         Starts at the twin's rest state (hysteresis memory at 0 V; stack at ``temp[0]``).
+
+        Parameters
+        ----------
+        u : numpy.ndarray
+            Input [V].
+        temp : numpy.ndarray
+            Temperature [°C].
+        values : sequence of float
+            The free parameters.
+        u0_rest : float, optional
+            The voltage held before the record (default ``u[0]``).
+
+        Returns
+        -------
+        y, dy : numpy.ndarray
         """
         n = u.size
         P = np.vstack([u, temp, np.zeros(n)])
@@ -81,12 +126,27 @@ class SensitivityStage:
         return Y[0], Y[1:1 + nf].T
 
 
-def stage(name, fs, reference_C=28.0, plant=None):
+def stage(name: str, fs: float, reference_C: float = 28.0, plant: Plant | None = None) -> SensitivityStage:
     """The :class:`SensitivityStage` of effect ``name`` at ``fs`` [Hz].
 
     ``plant`` (a SISO Plant) is needed only for ``thermal_dynamics``, whose step
     contains the linear dynamics; the other effects stop at the effective input.
     The compiled library is cached on disk (:mod:`robrst.twin.compiled`).
+
+    Parameters
+    ----------
+    name : str
+        The effect.
+    fs : float
+        Sampling rate [Hz].
+    reference_C : float
+        The model's temperature [°C].
+    plant : Plant, optional
+        The user's SISO model (``thermal_dynamics``).
+
+    Returns
+    -------
+    SensitivityStage
     """
     cfg = replace(default_twin().with_effects(only=[name]), sample_rate_hz=float(fs),
                   reference_C=float(reference_C), name=f"diagnose_{name}")

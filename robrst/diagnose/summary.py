@@ -1,6 +1,12 @@
 """Short human-readable summary of a :class:`~robrst.diagnose.result.Diagnosis`."""
 
+from __future__ import annotations
+
 import math
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from robrst.diagnose.result import Diagnosis
 
 __all__ = ["summary_text"]
 
@@ -15,8 +21,19 @@ def _g(v, fmt):
     return "n/a" if v is None else format(v, fmt)
 
 
-def summary_text(diag):
-    """A dozen lines: gap, verdict, findings, candidates, the selected effects, where."""
+def summary_text(diag: Diagnosis) -> str:
+    """A dozen lines: gap, verdict, findings, candidates, the selected effects, where.
+
+    Parameters
+    ----------
+    diag : Diagnosis
+        The diagnosis.
+
+    Returns
+    -------
+    str
+        What ``robrst diagnose`` prints.
+    """
     d = diag.as_dict()
     g = d["gap"]
     out = [f"gap of the simulation model (held-out NRMSE): {_g(g['before'], '.4g')}"

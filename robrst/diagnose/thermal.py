@@ -6,13 +6,22 @@ full step (one input, one output) with the user's model as ``D(s)`` and exact
 parameter sensitivities; it is scored alone (not combined with other effects).
 """
 
+from __future__ import annotations
+
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy import optimize
 
 from robrst.diagnose.linear import parameter_std
 from robrst.diagnose.stages import stage
+
+if TYPE_CHECKING:
+    from robrst.core.plant import Plant
+    from robrst.diagnose.fit import Prepared
+    from robrst.diagnose.linear import LinearPart
 
 __all__ = ["ThermalFit", "fit_thermal_dynamics", "search_delay", "search_saturation",
            "max_delay", "MAX_DELAY_S"]
@@ -23,7 +32,27 @@ NAMES = ("gain_per_K", "resonance_per_K", "damping_per_K")
 
 @dataclass(frozen=True, eq=False)
 class ThermalFit:
-    """Fitted thermal coefficients and a predictor (same interface as a joint fit)."""
+    """Fitted thermal coefficients and a predictor (same interface as a joint fit).
+
+    Parameters
+    ----------
+    name : str
+        ``"thermal_dynamics"``.
+    stage : SensitivityStage
+        The compiled step.
+    x : numpy.ndarray
+        The fitted coefficients (gain, resonance, damping per K).
+    std : numpy.ndarray
+        Their 1-sigma.
+    n_eval : int
+        Model evaluations.
+    train_cost : float
+        The final least-squares cost.
+    effects : tuple of str
+        ``("thermal_dynamics",)``.
+    form : str
+        ``"input"``.
+    """
 
     name: str
     stage: object
@@ -34,7 +63,20 @@ class ThermalFit:
     effects: tuple = ("thermal_dynamics",)
     form: str = "input"
 
-    def predict_prepared(self, p, x=None):
+    def predict_prepared(self, p: Prepared, x: np.ndarray | None = None) -> np.ndarray:
+        """Simulated output ``(N, 1)`` of a prepared record.
+
+        Parameters
+        ----------
+        p : Prepared
+            The record.
+        x : numpy.ndarray, optional
+            The coefficients (default the fitted ones).
+
+        Returns
+        -------
+        numpy.ndarray
+        """
         x = self.x if x is None else x
         U, T = p.U[:, 0], p.temp
         if p.warm:
@@ -42,16 +84,47 @@ class ThermalFit:
         y, _ = self.stage.run(U, T, x)
         return y[p.warm:, None]
 
-    def params(self):
+    def params(self) -> dict:
+        """``{"thermal_dynamics": (values, sigmas)}`` keyed by coefficient name.
+
+        Returns
+        -------
+        dict
+        """
         return {"thermal_dynamics": (dict(zip(NAMES, map(float, self.x))),
                                      dict(zip(NAMES, map(float, self.std))))}
 
-    def linear_change(self):
+    def linear_change(self) -> tuple[dict, dict]:
+        """No linear corrections: ``({}, {})``.
+
+        Returns
+        -------
+        values, sigmas : dict
+        """
         return {}, {}
 
 
-def fit_thermal_dynamics(train, plant, fs, reference_C, max_nfev=25):
-    """Fit the three thermal coefficients on prepared SISO training records."""
+def fit_thermal_dynamics(train: Sequence[Prepared], plant: Plant, fs: float, reference_C: float,
+                         max_nfev: int = 25) -> ThermalFit:
+    """Fit the three thermal coefficients on prepared SISO training records.
+
+    Parameters
+    ----------
+    train : sequence of Prepared
+        The training records (one input and output).
+    plant : Plant
+        The user's model.
+    fs : float
+        Sampling rate [Hz].
+    reference_C : float
+        The model's temperature [°C].
+    max_nfev : int
+        Evaluations allowed to the least-squares solver.
+
+    Returns
+    -------
+    ThermalFit
+    """
     st = stage("thermal_dynamics", fs, reference_C, plant=plant)
     scale = np.sqrt(sum(p.weight ** 2 * float(np.sum((p.Y - p.Y.mean(0)) ** 2))
                         for p in train)) or 1.0
@@ -86,17 +159,41 @@ MAX_DELAY_SAMPLES = 200  # ... and at most 200 samples
 REFINE_EVALS = 8         # golden-section evaluations refining a saturation limit
 
 
-def max_delay(fs):
-    """Largest whole-sample delay searched at ``fs`` [Hz] (at least one sample)."""
+def max_delay(fs: float) -> int:
+    """Largest whole-sample delay searched at ``fs`` [Hz] (at least one sample).
+
+    Parameters
+    ----------
+    fs : float
+        Sampling rate [Hz].
+
+    Returns
+    -------
+    int
+    """
     return int(max(1, min(round(MAX_DELAY_S * fs), MAX_DELAY_SAMPLES)))
 
 
-def search_delay(train, lin, max_delay):
+def search_delay(train: Sequence[Prepared], lin: LinearPart, max_delay: int) -> tuple[int, ...]:
     """Whole-sample delay per input minimising the training error of the linear model.
 
     Exact and cheap: a delayed input's response is the delayed response (plus the
     held initial value's step response for records from rest; a circular shift for
     periodic ones), so each input needs two simulations, not one per candidate delay.
+
+    Parameters
+    ----------
+    train : sequence of Prepared
+        The training records.
+    lin : LinearPart
+        The linear model.
+    max_delay : int
+        The largest delay tried [samples].
+
+    Returns
+    -------
+    tuple of int
+        One per input.
     """
     th = np.zeros(lin.size)
     k = train[0].U.shape[1]
@@ -124,8 +221,24 @@ def search_delay(train, lin, max_delay):
     return tuple(best)
 
 
-def search_saturation(train, lin, stats):
-    """Starting limits (u_min, u_max) per input: a quantile search on the linear model."""
+def search_saturation(train: Sequence[Prepared], lin: LinearPart,
+                      stats: dict) -> list[tuple[float, float]]:
+    """Starting limits (u_min, u_max) per input: a quantile search on the linear model.
+
+    Parameters
+    ----------
+    train : sequence of Prepared
+        The training records.
+    lin : LinearPart
+        The linear model.
+    stats : dict
+        Scales of the training data.
+
+    Returns
+    -------
+    list of (float, float)
+        [V].
+    """
     th = np.zeros(lin.size)
     out = []
     for j in range(train[0].U.shape[1]):

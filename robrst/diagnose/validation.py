@@ -9,7 +9,11 @@ levels.  ``"none"`` cases have no effect at all.  :func:`confusion` tallies
 diagnoses against the truth.
 """
 
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -17,14 +21,41 @@ from robrst.diagnose.effects import EFFECTS
 from robrst.twin.config import default_twin
 from robrst.twin.simulate import simulate
 
+if TYPE_CHECKING:
+    from robrst.data.dataset import Dataset
+
 __all__ = ["CASES", "excitation", "make_case", "confusion", "truth_params"]
 
 CASES = EFFECTS + ("none",)
 KINDS = ("steps", "sine", "multisine", "triangle")
 
 
-def excitation(kind, n, fs, lo, hi, rng):
-    """A commanded-voltage profile [V] of ``n`` samples between ``lo`` and ``hi``."""
+def excitation(kind: str, n: int, fs: float, lo: float, hi: float,
+               rng: np.random.Generator) -> np.ndarray:
+    """A commanded-voltage profile [V] of ``n`` samples between ``lo`` and ``hi``.
+
+    Parameters
+    ----------
+    kind : str
+        One of ``KINDS`` (steps, sine, multisine, triangle, ...).
+    n : int
+        Samples.
+    fs : float
+        Sampling rate [Hz].
+    lo, hi : float
+        The voltage range [V].
+    rng : numpy.random.Generator
+        The seeded generator.
+
+    Returns
+    -------
+    numpy.ndarray
+
+    Raises
+    ------
+    ValueError
+        An unknown kind.
+    """
     t = np.arange(n) / fs
     mid, amp = (lo + hi) / 2, (hi - lo) / 2
     if kind == "steps":
@@ -52,8 +83,20 @@ def excitation(kind, n, fs, lo, hi, rng):
     raise ValueError(f"unknown excitation {kind!r}; expected {KINDS}")
 
 
-def truth_params(effect, rng):
-    """Effect parameters drawn around the paper's values (overrides for ``with_effects``)."""
+def truth_params(effect: str, rng: np.random.Generator) -> dict:
+    """Effect parameters drawn around the paper's values (overrides for ``with_effects``).
+
+    Parameters
+    ----------
+    effect : str
+        The hidden effect (``"none"``: none).
+    rng : numpy.random.Generator
+        The seeded generator.
+
+    Returns
+    -------
+    dict
+    """
     j = lambda v, s=0.3: float(v * rng.uniform(1 - s, 1 + s))  # noqa: E731
     if effect == "hysteresis":
         b = j(0.0045)
@@ -84,11 +127,27 @@ def _temperature(n, fs, rng, ramp):
     return np.full(n, rng.uniform(28, 45))
 
 
-def make_case(effect, seed, fs=5000.0, duration_s=8.0):
+def make_case(effect: str, seed: int, fs: float = 5000.0,
+              duration_s: float = 8.0) -> tuple[list[Dataset], list[Dataset], dict]:
     """Train/test records from a twin with only ``effect`` on (``"none"``: no effect).
 
-    Returns ``(train, test, truth)`` where ``truth`` holds the effect, its drawn
-    parameters, the noise level and each record's excitation.
+    Parameters
+    ----------
+    effect : str
+        The hidden effect.
+    seed : int
+        Seed of the draws (parameters, noise, excitations).
+    fs : float
+        Sampling rate [Hz].
+    duration_s : float
+        Length of each record [s].
+
+    Returns
+    -------
+    train, test : list of Dataset
+        Two records each, different excitations.
+    truth : dict
+        The effect, its drawn parameters, the noise level and each record's excitation.
     """
     rng = np.random.default_rng(seed)
     params = truth_params(effect, rng)
@@ -122,8 +181,28 @@ def make_case(effect, seed, fs=5000.0, duration_s=8.0):
     return train, test, truth
 
 
-def confusion(pairs, labels=CASES + ("linear", "cannot_tell")):
-    """Confusion matrix ``{truth: {diagnosed: count}}`` from (truth, diagnosed) pairs."""
+def confusion(pairs: Iterable[tuple[str, str]],
+              labels: Sequence[str] = CASES + ("linear", "cannot_tell")) -> dict[str, dict[str, int]]:
+    """Confusion matrix ``{truth: {diagnosed: count}}`` from (truth, diagnosed) pairs.
+
+    Parameters
+    ----------
+    pairs : iterable of (str, str)
+        ``(hidden effect, diagnosed cause)``.
+    labels : sequence of str
+        The columns.
+
+    Returns
+    -------
+    dict
+
+    Examples
+    --------
+    >>> from robrst.diagnose.validation import confusion
+    >>> m = confusion([("creep", "creep"), ("creep", "none")])
+    >>> m["creep"]["creep"], m["creep"]["none"]
+    (1, 1)
+    """
     m = {t: {d: 0 for d in labels} for t in CASES}
     for t, d in pairs:
         m[t][d] = m[t].get(d, 0) + 1

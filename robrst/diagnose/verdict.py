@@ -10,7 +10,11 @@ but under ``HELD_OUT_MIN`` of the held-out gap is flagged ``overfit`` (finding
 ``train_only``).
 """
 
+from __future__ import annotations
+
 import time
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -18,6 +22,10 @@ from robrst.diagnose.result import Diagnosis, EffectScore
 from robrst.diagnose.select import MIN_SHRINK, OFFSET, excess, significant
 from robrst.identify.vf import fit_data, fit_residues, initial_poles, to_continuous, vector_fit
 from robrst.core.plant import Plant
+
+if TYPE_CHECKING:
+    from robrst.diagnose.select import Scored, Setup
+    from robrst.identify.modal import ModalModel
 
 __all__ = ["decide", "build", "unmodelled", "NEAR_RATIO", "NEAR_EXCESS"]
 
@@ -32,8 +40,25 @@ def _key_name(key):
     return ("hysteresis", "dynamic") if key == "hysteresis:dynamic" else (key, "input")
 
 
-def decide(info, linear, steps, tie):
-    """(cause, reason, causes, best partial explanation or None, answer gap)."""
+def decide(info: dict, linear: Scored, steps: list, tie: tuple | None) -> tuple:
+    """The verdict (see the module docstring).
+
+    Parameters
+    ----------
+    info : dict
+        ``before``, ``floor``, ``before_train`` gaps.
+    linear : Scored
+        The linear re-fit.
+    steps : list
+        The forward selection's steps.
+    tie : tuple or None
+        Two candidates that explain the gap equally well.
+
+    Returns
+    -------
+    tuple
+        ``(cause, reason, causes, best partial explanation or None, answer gap)``.
+    """
     before, floor = info["before"], info["floor"]
     pct = lambda g: 100 * (1 - g / before)  # noqa: E731
     if tie:
@@ -79,8 +104,26 @@ def decide(info, linear, steps, tie):
                            f" {pct(gap):.0f} %)"), (), best, gap
 
 
-def unmodelled(setup, linear, info, order_extra=(2, 4)):
-    """Higher-order linear fits on the training records: (model, held-out gap) or None."""
+def unmodelled(setup: Setup, linear: Scored, info: dict,
+               order_extra: Sequence[int] = (2, 4)) -> tuple[ModalModel, float] | None:
+    """Higher-order linear fits on the training records.
+
+    Parameters
+    ----------
+    setup : Setup
+        The shared data.
+    linear : Scored
+        The linear re-fit (its order is the base).
+    info : dict
+        The gaps.
+    order_extra : sequence of int
+        Orders added to the re-fit's.
+
+    Returns
+    -------
+    (ModalModel, float) or None
+        The best higher-order model and its held-out gap.
+    """
     base = setup.lin.continuous(linear.fit.parts()[1])
     data = fit_data(setup.train_records)
     best = None
@@ -136,9 +179,47 @@ def _linear_score(linear, before, model_is_plant, plant):
                        n_eval=linear.fit.n_eval, fit_s=linear.fit_s)
 
 
-def build(info, where, tests, traces, cause, reason, skipped=None, findings=(), linear=None,
-          singles=None, steps=(), causes=(), best_partial=None, decomposition=None):
-    """The :class:`Diagnosis` record."""
+def build(info: dict, where: dict, tests: dict, traces: dict, cause: str, reason: str,
+          skipped: dict | None = None, findings: Sequence[dict] = (), linear: Scored | None = None,
+          singles: dict | None = None, steps: Sequence = (), causes: Sequence[str] = (),
+          best_partial: dict | None = None, decomposition: dict | None = None) -> Diagnosis:
+    """The :class:`Diagnosis` record.
+
+    Parameters
+    ----------
+    info : dict
+        Gaps, floor, data and model descriptions.
+    where : dict
+        Localisation (windows, band, FRF, regime).
+    tests : dict
+        Whiteness and cross-correlation.
+    traces : dict
+        Arrays for the report.
+    cause : str
+        The verdict.
+    reason : str
+        Why.
+    skipped : dict, optional
+        Effects not tried, with the reason.
+    findings : sequence of dict
+        The findings.
+    linear : Scored, optional
+        The linear re-fit.
+    singles : dict, optional
+        Every single candidate.
+    steps : sequence
+        The forward selection's steps.
+    causes : sequence of str
+        The selected effects.
+    best_partial : dict, optional
+        The best partial explanation of a ``cannot_tell``.
+    decomposition : dict, optional
+        Shares of the residual.
+
+    Returns
+    -------
+    Diagnosis
+    """
     before, model, plant = info["before"], info["model"], info["plant"]
     n_tr, names = info["n_train"], info["names"]
     scores, fit_res = [], {}

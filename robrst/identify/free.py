@@ -11,20 +11,42 @@ eliminates them from its equations (``robrst.identify.vf``), and the identificat
 and reports its models with them (``robrst.identify.identification``).
 """
 
+from __future__ import annotations
+
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from robrst.data.dataset import Dataset
+    from robrst.identify.modal import DiscreteModel
 
 __all__ = ["free_columns", "fit_free", "record_starts", "RecordStart", "SIGNIFICANT_SIGMAS"]
 
 SIGNIFICANT_SIGMAS = 5.0   # terms lowering the residual by more than 5 sigma of chi-square
 
 
-def free_columns(zpoles, n):
+def free_columns(zpoles: ArrayLike, n: int) -> np.ndarray:
     """Regressors ``(n, 1 + n_basis)``: a constant, then ``a^k`` per sampled pole.
 
     A complex pole (stored member, ``Im a > 0``) gives two real columns, ``Re a^k`` and
     ``Im a^k``; a real pole one.  ``k = 0 .. n - 1``.
+
+    Parameters
+    ----------
+    zpoles : array_like
+        Sampled poles (stored members: ``Im >= 0``).
+    n : int
+        Number of samples.
+
+    Returns
+    -------
+    numpy.ndarray
+        The regressors, shape ``(n, 1 + n_basis)``.
     """
     a = np.atleast_1d(np.asarray(zpoles, complex))
     k = np.arange(n, dtype=float)[:, None]
@@ -42,7 +64,8 @@ def free_columns(zpoles, n):
     return out
 
 
-def fit_free(E, zpoles, fit=None):
+def fit_free(E: np.ndarray, zpoles: ArrayLike,
+             fit: slice | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Least-squares offset and free response of a residual ``E`` (N or N x m).
 
     Parameters
@@ -76,12 +99,21 @@ def fit_free(E, zpoles, fit=None):
 class RecordStart:
     """Per record: the estimated output offset and the largest free-response magnitude.
 
-    ``offset_um`` and ``initial_um`` hold one value per output [µm]; ``initial_um`` is
-    ``max_k |f[k]|``, the size of the transient of the state the record started in (0
-    for a record starting at rest).  ``scale_um`` is the output's RMS variation, the
-    yardstick of :meth:`notes`.  ``significant``: the terms reduce the record's residual
-    beyond what noise explains (:func:`record_starts`); otherwise the record is taken
-    to start at rest with no offset.
+    Parameters
+    ----------
+    name : str
+        The record's name.
+    offset_um : tuple of float
+        The constant output offset per output [µm].
+    initial_um : tuple of float
+        ``max_k |f[k]|`` per output [µm], the size of the transient of the state the
+        record started in (0 for a record starting at rest).
+    scale_um : tuple of float
+        The output's RMS variation per output [µm], the yardstick of :meth:`notes`.
+    significant : bool
+        The terms reduce the record's residual beyond what noise explains
+        (:func:`record_starts`); otherwise the record is taken to start at rest with no
+        offset.
     """
 
     name: str
@@ -90,9 +122,20 @@ class RecordStart:
     scale_um: tuple
     significant: bool = True
 
-    def notes(self, share):
+    def notes(self, share: float) -> list[str]:
         """Lines for a significant offset or start away from rest above ``share`` of the
-        output's RMS variation."""
+        output's RMS variation.
+
+        Parameters
+        ----------
+        share : float
+            The threshold as a fraction of ``scale_um`` (e.g. 0.01).
+
+        Returns
+        -------
+        list of str
+            One line per output and term above it (none when not ``significant``).
+        """
         if not self.significant:
             return []
         out = []
@@ -107,13 +150,21 @@ class RecordStart:
                            " removed)")
         return out
 
-    def as_dict(self):
+    def as_dict(self) -> dict:
+        """The ``records`` entry of the identification JSON.
+
+        Returns
+        -------
+        dict
+            ``record, offset_um, initial_um, from_rest``.
+        """
         return {"record": self.name, "offset_um": [float(x) for x in self.offset_um],
                 "initial_um": [float(x) for x in self.initial_um],
                 "from_rest": not self.significant}
 
 
-def record_starts(dmodel, records, rest_model, sigmas=SIGNIFICANT_SIGMAS):
+def record_starts(dmodel: DiscreteModel, records: Sequence[Dataset], rest_model: DiscreteModel,
+                  sigmas: float = SIGNIFICANT_SIGMAS) -> list[RecordStart]:
     """:class:`RecordStart` of each non-periodic record.
 
     Parameters

@@ -27,8 +27,12 @@ more than noise would, see :func:`robrst.identify.free.record_starts`) is taken 
 at rest with no offset in the final fit: no information is spent on them.
 """
 
+from __future__ import annotations
+
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -38,6 +42,10 @@ from robrst.identify.free import fit_free, record_starts
 from robrst.identify.vf import (fit_data, fit_residues, initial_poles, to_continuous,
                                 vector_fit)
 from robrst.base.threads import one_blas_thread
+
+if TYPE_CHECKING:
+    from robrst.data.dataset import Dataset
+    from robrst.identify.modal import DiscreteModel
 
 __all__ = ["identify", "Identified", "OrderScore", "ORDER_TOL", "TEMP_TOL_K", "START_NOTE",
            "nrmse_of", "simulate_record"]
@@ -53,7 +61,19 @@ HELD_HEAD = 0.2         # a whole held-out record's offset and initial state: fr
 
 @dataclass(frozen=True)
 class OrderScore:
-    """Held-out result of one candidate order."""
+    """Held-out result of one candidate order.
+
+    Parameters
+    ----------
+    order : int
+        The candidate order.
+    train_nrmse : float
+        NRMSE on the fit records.
+    heldout_nrmse : float
+        NRMSE on the held-out records (or parts).
+    note : str
+        Why the order was not tried or not usable ("" otherwise).
+    """
 
     order: int
     train_nrmse: float
@@ -63,7 +83,36 @@ class OrderScore:
 
 @dataclass(frozen=True, eq=False)
 class Identified:
-    """Result of :func:`identify`: one model per temperature (increasing) and the scores."""
+    """Result of :func:`identify`: one model per temperature (increasing) and the scores.
+
+    Parameters
+    ----------
+    models : tuple of ModalModel
+        One per temperature group, increasing.
+    order : int
+        The chosen order.
+    feedthrough : bool
+        A direct term was fitted.
+    fs : float
+        Sampling rate of the records [Hz].
+    scores : tuple of OrderScore
+        Per candidate order (of the order-selection group).
+    heldout : tuple of str
+        Names of the held-out records (or parts).
+    train : tuple of str
+        Names of the fit records.
+    heldout_nrmse : float
+        Held-out NRMSE of the chosen order (selection group).
+    starts : tuple of RecordStart
+        Per non-periodic training record: its offset and start away from rest.
+    notes : tuple of str
+        Significant offsets and starts away from rest, in words.
+
+    Attributes
+    ----------
+    model : ModalModel
+        The model of the first (lowest) temperature, or the only one.
+    """
 
     models: tuple            # ModalModel per temperature group
     order: int
@@ -81,7 +130,15 @@ class Identified:
         """The model of the first (lowest) temperature, or the only one."""
         return self.models[0]
 
-    def as_dict(self):
+    def as_dict(self) -> dict:
+        """The JSON of ``robrst identify --json`` (fields are only added).
+
+        Returns
+        -------
+        dict
+            ``order, feedthrough, fs_hz, inputs, outputs, temperatures_C, heldout_nrmse,
+            train, heldout, records, notes, orders``.
+        """
         return {"order": self.order, "feedthrough": self.feedthrough, "fs_hz": self.fs,
                 "inputs": self.model.n_in, "outputs": self.model.n_out,
                 "temperatures_C": [m.temperature_C for m in self.models],
@@ -110,11 +167,26 @@ def _fit_part(sl, n=None):
     return None if n is None else slice(0, max(int(math.ceil(HELD_HEAD * n)), 1))
 
 
-def simulate_record(dmodel, d, free=False, fit=None):
+def simulate_record(dmodel: DiscreteModel, d: Dataset, free: bool = False,
+                    fit: slice | None = None) -> np.ndarray:
     """Simulated outputs ``(N, m)`` of a sampled model on record ``d``.
 
-    ``free``: a non-periodic record's output offset and initial-state free response are
-    estimated by least squares on the samples ``fit`` (default: all) and included.
+    Parameters
+    ----------
+    dmodel : DiscreteModel
+        The sampled model.
+    d : Dataset
+        The record (periodic ones in steady state, the others from rest).
+    free : bool
+        Estimate a non-periodic record's output offset and initial-state free response by
+        least squares and include them.
+    fit : slice, optional
+        The samples they are estimated on (default: all).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(N, m)`` [µm].
     """
     periodic = bool(d.period) and d.periods >= 1
     Y = dmodel.response(d.U, periodic=periodic)
@@ -137,12 +209,26 @@ def _energies(dmodel, records, parts=None, free=False, held=False):
     return num, den
 
 
-def nrmse_of(dmodel, records, parts=None, free=False):
+def nrmse_of(dmodel: DiscreteModel, records: Sequence[Dataset],
+             parts: Sequence[slice | None] | None = None, free: bool = False) -> float:
     """Pooled NRMSE ``||Y - Yhat|| / ||Y - mean Y||`` over records and outputs.
 
-    ``parts`` optionally gives, per record, a slice of samples to score; ``free``
-    includes each non-periodic record's estimated offset and initial-state response
-    (estimated on the samples before the slice, or on the whole record).
+    Parameters
+    ----------
+    dmodel : DiscreteModel
+        The sampled model.
+    records : sequence of Dataset
+        The records scored.
+    parts : sequence of slice, optional
+        Per record, the samples to score (default: all).
+    free : bool
+        Include each non-periodic record's estimated offset and initial-state response
+        (estimated on the samples before the slice, or on the whole record).
+
+    Returns
+    -------
+    float
+        The NRMSE (``inf`` when the outputs do not vary).
     """
     num, den = _energies(dmodel, records, parts, free)
     return math.sqrt(num / den) if den > 0 else math.inf
@@ -260,8 +346,9 @@ def _candidates(order, max_order, n_lines):
     return list(range(1, min(top, 12) + 1)) + list(range(14, top + 1, 2))
 
 
-def identify(train, validate=None, order="auto", max_order=None, feedthrough=False,
-             progress=None):
+def identify(train: Sequence[Dataset], validate: Sequence[Dataset] | None = None,
+             order: str | int = "auto", max_order: int | None = None, feedthrough: bool = False,
+             progress: Callable[[str], None] | None = None) -> Identified:
     """Fit a continuous-time linear model (every output from every input) to records.
 
     Parameters
@@ -291,7 +378,10 @@ def identify(train, validate=None, order="auto", max_order=None, feedthrough=Fal
     ------
     DataError
         For inconsistent or unexcited records (also: training records of which only some
-        have a temperature column); SpecError for a bad order.
+        have a temperature column).
+    SpecError
+        For a bad order, or when no candidate order gives a usable model (naming the flag
+        to lower).
     """
     say = progress or (lambda m: None)
     fs = _check(list(train), "training")

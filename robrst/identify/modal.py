@@ -12,7 +12,11 @@ simulates the sampled model from rest (parallel first-order recursions) or in
 periodic steady state (exact, through the DFT).
 """
 
+from __future__ import annotations
+
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy import signal
@@ -21,11 +25,26 @@ from robrst.base.errors import SpecError
 from robrst.core.lti import zoh_modal
 from robrst.core.plant import Plant
 
+if TYPE_CHECKING:
+    import control
+    from numpy.typing import ArrayLike
+
 __all__ = ["ModalModel", "DiscreteModel", "pair_weight"]
 
 
-def pair_weight(poles):
-    """2 for the stored member of a complex pair (its conjugate is implied), 1 for real."""
+def pair_weight(poles: ArrayLike) -> np.ndarray:
+    """2 for the stored member of a complex pair (its conjugate is implied), 1 for real.
+
+    Parameters
+    ----------
+    poles : array_like
+        Stored poles (real, or positive imaginary part).
+
+    Returns
+    -------
+    numpy.ndarray
+        One weight per pole.
+    """
     return np.where(np.imag(poles) > 0, 2.0, 1.0)
 
 
@@ -35,6 +54,32 @@ class ModalModel:
 
     Units: inputs V, outputs µm, s in rad/s.  Stored poles are real or have positive
     imaginary part (see the module docstring).
+
+    Parameters
+    ----------
+    poles : numpy.ndarray
+        The stored poles [rad/s].
+    residues : numpy.ndarray
+        ``(n, m, k)``: the residue matrix of each pole.
+    D : numpy.ndarray
+        ``(m, k)``: the feedthrough.
+    label : str
+        Name used in files and reports.
+    temperature_C : float, optional
+        The temperature the model holds at [°C].
+
+    Attributes
+    ----------
+    n_in, n_out : int
+        Number of inputs ``k`` and outputs ``m``.
+    order : int
+        Number of poles counting both members of a pair (the SISO order).
+
+    Raises
+    ------
+    SpecError
+        Residues not of shape ``(n_poles, outputs, inputs)``, or poles that are not
+        finite or stored with ``Im < 0``.
     """
 
     poles: np.ndarray
@@ -71,13 +116,29 @@ class ModalModel:
         """Number of poles counting both members of a pair (the SISO order)."""
         return int(np.sum(pair_weight(self.poles)))
 
-    def all_poles(self):
-        """Every pole, conjugates included [rad/s]."""
+    def all_poles(self) -> np.ndarray:
+        """Every pole, conjugates included [rad/s].
+
+        Returns
+        -------
+        numpy.ndarray
+        """
         p = self.poles
         return np.concatenate([p, np.conj(p[np.imag(p) > 0])])
 
-    def freqresp(self, w):
-        """Frequency response ``(F, m, k)`` at ``w`` [rad/s]."""
+    def freqresp(self, w: ArrayLike) -> np.ndarray:
+        """Frequency response ``(F, m, k)`` at ``w`` [rad/s].
+
+        Parameters
+        ----------
+        w : array_like
+            ``F`` frequencies [rad/s].
+
+        Returns
+        -------
+        numpy.ndarray
+            Complex, ``(F, m, k)`` [µm/V].
+        """
         s = 1j * np.atleast_1d(np.asarray(w, float))
         p, R = self.poles, self.residues
         out = np.zeros((s.size, self.n_out, self.n_in), complex) + self.D
@@ -87,22 +148,53 @@ class ModalModel:
                 out += np.conj(Rk)[None] / (s - np.conj(pk))[:, None, None]
         return out
 
-    def dc_gain(self):
-        """Static gain ``(m, k)`` [µm/V] (inf entries for a pole at 0)."""
+    def dc_gain(self) -> np.ndarray:
+        """Static gain ``(m, k)`` [µm/V] (inf entries for a pole at 0).
+
+        Returns
+        -------
+        numpy.ndarray
+        """
         with np.errstate(divide="ignore", invalid="ignore"):
             return self.freqresp([0.0])[0].real
 
-    def discretise(self, fs):
-        """The ZOH-sampled model at ``fs`` [Hz] (:class:`DiscreteModel`)."""
+    def discretise(self, fs: float) -> DiscreteModel:
+        """The ZOH-sampled model at ``fs`` [Hz] (:class:`DiscreteModel`).
+
+        Parameters
+        ----------
+        fs : float
+            Sampling rate [Hz].
+
+        Returns
+        -------
+        DiscreteModel
+        """
         zp, dres = zoh_modal(self.poles, self.residues, fs)
         return DiscreteModel(zp, dres, self.D, float(fs), pair_weight(self.poles))
 
-    def channel(self, i=0, j=0, label=None):
+    def channel(self, i: int = 0, j: int = 0, label: str | None = None) -> Plant:
         """Output ``i`` from input ``j`` as a :class:`~robrst.core.plant.Plant` ``B(s)/A(s)``.
 
         Expanded in the scaled variable ``s / w0`` (``w0`` the geometric mean of the
         pole magnitudes) so the coefficients keep their precision, then unscaled.
-        Raises :class:`SpecError` when the unscaled coefficients overflow float64.
+
+        Parameters
+        ----------
+        i, j : int
+            Output and input index.
+        label : str, optional
+            The plant's label (default ``"<label>_y<i+1>u<j+1>"``).
+
+        Returns
+        -------
+        Plant
+            At the model's temperature.
+
+        Raises
+        ------
+        SpecError
+            When the unscaled coefficients overflow float64.
         """
         allp = self.all_poles()
         mags = np.abs(allp[np.abs(allp) > 0])
@@ -131,10 +223,24 @@ class ModalModel:
                      temperature_C=self.temperature_C)
 
     @classmethod
-    def from_plant(cls, plant, label=None):
+    def from_plant(cls, plant: Plant, label: str | None = None) -> ModalModel:
         """Partial-fraction form of a SISO :class:`~robrst.core.plant.Plant` (distinct poles).
 
-        Raises :class:`SpecError` for repeated poles (no modal form).
+        Parameters
+        ----------
+        plant : Plant
+            The model ``B(s)/A(s)``.
+        label : str, optional
+            The model's label (default the plant's).
+
+        Returns
+        -------
+        ModalModel
+
+        Raises
+        ------
+        SpecError
+            For repeated poles (no modal form).
         """
         A, B = np.asarray(plant.A, float), np.asarray(plant.B, float)
         roots = np.roots(A)
@@ -156,8 +262,13 @@ class ModalModel:
         return cls(np.array(poles), np.array(res, complex).reshape(-1, 1, 1), [[D]],
                    label=label or plant.label, temperature_C=plant.temperature_C)
 
-    def to_control(self):
-        """A real ``control.StateSpace`` (block-diagonal, one block per mode and input)."""
+    def to_control(self) -> control.StateSpace:
+        """A real ``control.StateSpace`` (block-diagonal, one block per mode and input).
+
+        Returns
+        -------
+        control.StateSpace
+        """
         import control
 
         m, k = self.n_out, self.n_in
@@ -187,7 +298,24 @@ class DiscreteModel:
 
     ``x_p[k+1] = z_p x_p[k] + u[k]``: ``y[k]`` is sampled at the instant ``u[k]`` is
     applied (a strictly proper model's ``y[k]`` depends on ``u`` up to ``k - 1``).
-    ``weight`` is 2 for a stored complex pair, 1 for a real pole.
+
+    Parameters
+    ----------
+    zpoles : numpy.ndarray
+        The sampled poles (stored members).
+    residues : numpy.ndarray
+        ``(n, m, k)`` discrete residues.
+    D : numpy.ndarray
+        ``(m, k)`` feedthrough.
+    fs : float
+        Sampling rate [Hz].
+    weight : numpy.ndarray
+        2 for a stored complex pair, 1 for a real pole.
+
+    Attributes
+    ----------
+    stable : bool
+        Every sampled pole inside the unit circle.
     """
 
     zpoles: np.ndarray
@@ -200,18 +328,44 @@ class DiscreteModel:
     def stable(self):
         return bool(np.all(np.abs(self.zpoles) < 1.0))
 
-    def states(self, u, pole_index=None):
-        """``x_p`` for each pole (rows) driven by the 1-D input ``u`` from rest."""
+    def states(self, u: ArrayLike, pole_index: Sequence[int] | None = None) -> np.ndarray:
+        """``x_p`` for each pole (rows) driven by the 1-D input ``u`` from rest.
+
+        Parameters
+        ----------
+        u : array_like
+            One input, ``N`` samples.
+        pole_index : sequence of int, optional
+            The poles to simulate (default all).
+
+        Returns
+        -------
+        numpy.ndarray
+            Complex, ``(len(pole_index), N)``.
+        """
         idx = range(self.zpoles.size) if pole_index is None else pole_index
         u = np.asarray(u, float)
         return np.array([signal.lfilter([0.0, 1.0], [1.0, -self.zpoles[p]], u) for p in idx])
 
-    def response(self, U, periodic=False, poles=None):
+    def response(self, U: ArrayLike, periodic: bool = False,
+                 poles: Sequence[int] | None = None) -> np.ndarray:
         """Output ``(N, m)`` for inputs ``U`` (N or N x k); ``poles`` limits the modes.
 
-        ``periodic``: the record holds whole periods of a periodic input, and the
-        response is the periodic steady state (exact, by the DFT) instead of a start
-        from rest.  The feedthrough ``D`` is included only when ``poles`` is None.
+        Parameters
+        ----------
+        U : array_like
+            Inputs, ``N`` or ``(N, k)``.
+        periodic : bool
+            The record holds whole periods of a periodic input, and the response is the
+            periodic steady state (exact, by the DFT) instead of a start from rest.
+        poles : sequence of int, optional
+            Indices of the modes to include; the feedthrough ``D`` is included only when
+            ``poles`` is None.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, m)`` [µm].
         """
         U = np.asarray(U, float).reshape(len(U), -1)
         N = U.shape[0]
@@ -231,8 +385,24 @@ class DiscreteModel:
                 Y += np.outer(U[:, j], self.D[:, j])
         return Y
 
-    def transfer(self, z, poles=None, with_d=True):
-        """``H(z)`` as ``(F, m, k)`` at the points ``z`` (conjugate terms included)."""
+    def transfer(self, z: ArrayLike, poles: Sequence[int] | None = None,
+                 with_d: bool = True) -> np.ndarray:
+        """``H(z)`` as ``(F, m, k)`` at the points ``z`` (conjugate terms included).
+
+        Parameters
+        ----------
+        z : array_like
+            ``F`` points of the z-plane.
+        poles : sequence of int, optional
+            Indices of the modes to include (default all).
+        with_d : bool
+            Include the feedthrough.
+
+        Returns
+        -------
+        numpy.ndarray
+            Complex, ``(F, m, k)``.
+        """
         z = np.atleast_1d(np.asarray(z, complex))
         idx = np.arange(self.zpoles.size) if poles is None else np.atleast_1d(poles)
         H = np.zeros((z.size,) + self.D.shape, complex) + (self.D if with_d else 0.0)

@@ -26,9 +26,13 @@
 reads either kind (problem files through :mod:`robrst.problem.files`, a layer above this one).
 """
 
+from __future__ import annotations
+
 import tomllib
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -36,6 +40,9 @@ from robrst.base.errors import SpecError
 from robrst.base.fileio import atomic_write_text, check_file_target
 from robrst.identify.modal import ModalModel
 from robrst.base.schema import MAX_MAGNITUDE
+
+if TYPE_CHECKING:
+    from robrst.identify.identification import Identified
 
 __all__ = ["problem_text", "model_text", "toml_string", "write_identified", "check_target", "read_model_data",
            "modal_models", "MARKER", "FORMAT"]
@@ -53,7 +60,7 @@ _ESCAPES = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n",
             "\f": "\\f", "\r": "\\r"}
 
 
-def toml_string(text):
+def toml_string(text: str) -> str:
     """``text`` as a TOML basic string, quotes included.
 
     Every character TOML requires escaped is: quote, backslash, control characters and
@@ -67,7 +74,7 @@ def toml_string(text):
     Returns
     -------
     str
-        The TOML literal, e.g. ``"a\\"b"`` for ``a"b``.
+        The TOML literal, e.g. ``"a\"b"`` for ``a"b``.
     """
     out = []
     for ch in str(text):
@@ -139,13 +146,32 @@ def _drop_negligible_lead(plants, fs, rtol=NEGLIGIBLE_LEAD):
     return plants
 
 
-def problem_text(ident, sources, name, channel=(0, 0)):
+def problem_text(ident: Identified, sources: Sequence[str], name: str,
+                 channel: tuple[int, int] = (0, 0)) -> str:
     """The problem-file text of output ``channel[0]`` from input ``channel[1]``.
+
+    Parameters
+    ----------
+    ident : Identified
+        The identification result (one model per temperature).
+    sources : sequence of str
+        Names of the training records (named in the header comment).
+    name : str
+        The problem name.
+    channel : (int, int)
+        Output and input, 0-based.
+
+    Returns
+    -------
+    str
+        ``[problem]``, ``[plant]`` (and ``[family]`` for several temperatures) and a
+        commented template of the tables a design needs.
 
     Raises
     ------
     SpecError
-        When the expanded polynomials do not fit in a robrst file (see :func:`_readable`).
+        When the expanded polynomials do not fit in a robrst file (beyond 1e100, or
+        beyond float64).
     """
     i, j = channel
     try:
@@ -174,8 +200,22 @@ def problem_text(ident, sources, name, channel=(0, 0)):
     return "\n".join(lines)
 
 
-def model_text(ident, sources):
-    """The model-file text (modal form, every channel)."""
+def model_text(ident: Identified, sources: Sequence[str]) -> str:
+    """The model-file text (modal form, every channel).
+
+    Parameters
+    ----------
+    ident : Identified
+        The identification result.
+    sources : sequence of str
+        Names of the training records (named in the header comment).
+
+    Returns
+    -------
+    str
+        ``[model]`` with ``format = "robrst-modal-1"`` and one ``[[model.at]]`` per
+        temperature.
+    """
     m0 = ident.models[0]
     lines = _header(ident, sources, "model file")
     lines += ["", "[model]", f"format = {toml_string(FORMAT)}", f"inputs = {m0.n_in}",
@@ -192,13 +232,23 @@ def model_text(ident, sources):
     return "\n".join(lines) + "\n"
 
 
-def check_target(path):
+def check_target(path: str | Path) -> Path:
     """The output path, refused when it is a folder or a file robrst identify did not write
     (called before any work, and again when writing).
 
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The ``--out`` file.
+
     Returns
     -------
-    Path
+    pathlib.Path
+
+    Raises
+    ------
+    SpecError
+        For a folder, or an existing file without robrst identify's first line.
     """
     path = Path(path)
     if path.is_dir():
@@ -216,16 +266,19 @@ def check_target(path):
     return path
 
 
-def write_identified(ident, path, sources, channel=None, name=None, modal=False, check=None):
+def write_identified(ident: Identified, path: str | Path, sources: Sequence[str],
+                     channel: tuple[int, int] | None = None, name: str | None = None,
+                     modal: bool = False,
+                     check: Callable[[str, Path], None] | None = None) -> Path:
     """Write a problem file (SISO or ``channel``) or a model file; atomically.
 
     Parameters
     ----------
     ident : Identified
         The identification result.
-    path : str or Path
+    path : str or pathlib.Path
         The output file; an existing file robrst identify did not write is refused.
-    sources : list of str
+    sources : sequence of str
         Names of the training records (named in the file's header comment).
     channel : (int, int), optional
         Output and input (0-based) of the problem file of a MIMO model.
@@ -240,7 +293,14 @@ def write_identified(ident, path, sources, channel=None, name=None, modal=False,
 
     Returns
     -------
-    Path
+    pathlib.Path
+        The file written.
+
+    Raises
+    ------
+    SpecError
+        ``modal`` with ``channel``, a channel the model does not have, a refused target or
+        a problem file that cannot hold the model.
     """
     path = check_target(path)
     if modal and channel is not None:
@@ -324,8 +384,24 @@ def _modal_models(path, data):
     return tuple(out)
 
 
-def read_model_data(path):
-    """The TOML table of a model or problem file (robrst's errors name the file)."""
+def read_model_data(path: Path) -> dict:
+    """The TOML table of a model or problem file (robrst's errors name the file).
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The file.
+
+    Returns
+    -------
+    dict
+        The parsed document.
+
+    Raises
+    ------
+    SpecError
+        An unreadable file or invalid TOML.
+    """
     path = Path(path)
     try:
         return tomllib.loads(path.read_text(encoding="utf-8"))
@@ -335,11 +411,27 @@ def read_model_data(path):
         raise SpecError(f"{path}: invalid TOML ({exc})") from None
 
 
-def modal_models(path, data):
+def modal_models(path: str | Path, data: dict) -> tuple[tuple[ModalModel, ...], float | None]:
     """Models of a model file's ``[model]`` table (``data`` as read from ``path``).
 
-    Returns ``(models, reference_C)``: a tuple of :class:`ModalModel`, lowest
-    temperature first, and the reference temperature (None when the file states none).
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The file, named in errors.
+    data : dict
+        Its parsed document.
+
+    Returns
+    -------
+    models : tuple of ModalModel
+        Lowest temperature first.
+    reference_C : float or None
+        The reference temperature (None when the file states none).
+
+    Raises
+    ------
+    SpecError
+        Naming the file and the key of a malformed table or array.
     """
     models = _modal_models(path, data)
     return models, models[0].temperature_C

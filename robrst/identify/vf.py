@@ -25,7 +25,11 @@ residues are fitted by output-error least squares with the poles fixed.
 (``s = fs ln z``, ``R = R_d s / (z - 1)``): no polynomial is ever expanded.
 """
 
+from __future__ import annotations
+
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy import linalg, signal
@@ -34,6 +38,9 @@ from robrst.base.errors import SpecError
 from robrst.identify.free import free_columns
 from robrst.identify.modal import DiscreteModel, ModalModel, pair_weight
 from robrst.core.lti import d2c_modal
+
+if TYPE_CHECKING:
+    from robrst.data.dataset import Dataset
 
 __all__ = ["FitData", "fit_data", "initial_poles", "vector_fit", "fit_residues",
            "to_continuous", "EXCITED_DB"]
@@ -44,7 +51,21 @@ EXCITED_DB = 40.0   # a DFT line is excited if its input power is within 40 dB o
 
 @dataclass(frozen=True, eq=False)
 class FitData:
-    """Records prepared for fitting: spectra of periodic ones, signals of the others."""
+    """Records prepared for fitting: spectra of periodic ones, signals of the others.
+
+    Parameters
+    ----------
+    fs : float
+        Sampling rate [Hz].
+    n_in, n_out : int
+        Number of inputs and outputs.
+    freq : tuple
+        Per periodic record ``(z (L,), U (L, k), Y (L, m), weight)`` at its excited lines.
+    time : tuple
+        Per non-periodic record ``(U (N, k), Y (N, m), free)``.
+    band : tuple of float
+        ``(f_lo, f_hi)`` [Hz]: the excited lines, or record length to Nyquist.
+    """
 
     fs: float
     n_in: int
@@ -54,12 +75,21 @@ class FitData:
     band: tuple     # (f_lo, f_hi) [Hz]: excited lines, or record length to Nyquist
 
 
-def fit_data(records, free=False):
+def fit_data(records: Sequence[Dataset], free: bool | Sequence[bool] = False) -> FitData:
     """Split records into periodic spectra (excited lines) and time signals.
 
-    ``free`` (one bool, or one per record): a time record need not start at rest; its
-    constant output offset and initial-state free response are estimated with the model
-    (nuisance terms).  Default False: records start at rest, with no offset.
+    Parameters
+    ----------
+    records : sequence of Dataset
+        Records of one sampling rate and channel counts.
+    free : bool or sequence of bool
+        One value, or one per record: a time record need not start at rest; its constant
+        output offset and initial-state free response are estimated with the model
+        (nuisance terms).  Default False: records start at rest, with no offset.
+
+    Returns
+    -------
+    FitData
     """
     fs = records[0].fs
     flags = [bool(free)] * len(records) if np.ndim(free) == 0 else [bool(f) for f in free]
@@ -89,11 +119,25 @@ def fit_data(records, free=False):
                    time=tuple(time), band=(min(lo), max(hi)))
 
 
-def initial_poles(n, fs, f_lo, f_hi):
+def initial_poles(n: int, fs: float, f_lo: float, f_hi: float) -> np.ndarray:
     """``n`` starting poles (z-domain): lightly damped pairs evenly spaced in [f_lo, f_hi] Hz.
 
     Even spacing (not logarithmic) is vector fitting's usual start for resonant data;
     an odd order adds a real pole at ``f_lo``.
+
+    Parameters
+    ----------
+    n : int
+        The model order (a pair counts two).
+    fs : float
+        Sampling rate [Hz].
+    f_lo, f_hi : float
+        The band [Hz].
+
+    Returns
+    -------
+    numpy.ndarray
+        The stored poles in z (real, or positive imaginary part).
     """
     npair = n // 2
     f_lo = max(f_lo, 1e-6)
@@ -237,8 +281,28 @@ def _canonical(p):
     return np.array(sorted(out, key=lambda z: (abs(np.angle(z)), -abs(z))), complex)
 
 
-def vector_fit(data, poles, n_iter=12, feedthrough=False, tol=1e-7):
-    """Relocate ``poles`` by vector fitting on ``data``; returns the final poles."""
+def vector_fit(data: FitData, poles: np.ndarray, n_iter: int = 12, feedthrough: bool = False,
+               tol: float = 1e-7) -> np.ndarray:
+    """Relocate ``poles`` by vector fitting on ``data``; returns the final poles.
+
+    Parameters
+    ----------
+    data : FitData
+        The prepared records.
+    poles : numpy.ndarray
+        Starting poles in z (stored members).
+    n_iter : int
+        Most relocations.
+    feedthrough : bool
+        Fit a direct term ``D``.
+    tol : float
+        Stop when the poles move by less than this (relative).
+
+    Returns
+    -------
+    numpy.ndarray
+        The relocated poles in z, stable (unstable ones reflected into the unit circle).
+    """
     for _ in range(n_iter):
         nb = int(np.sum(pair_weight(poles)))
         n_priv = nb * data.n_in + (data.n_in if feedthrough else 0)
@@ -274,10 +338,25 @@ def _enough(n_eq, n_unknown, order):
                         " (too few excited lines or samples for this order)")
 
 
-def fit_residues(data, poles, feedthrough=False):
+def fit_residues(data: FitData, poles: np.ndarray,
+                 feedthrough: bool = False) -> tuple[DiscreteModel, float]:
     """Output-error least squares of residues (and D) with the poles fixed.
 
-    Returns ``(DiscreteModel, cost)`` with ``cost`` the summed squared residual.
+    Parameters
+    ----------
+    data : FitData
+        The prepared records.
+    poles : numpy.ndarray
+        The poles in z (stored members).
+    feedthrough : bool
+        Fit a direct term ``D``.
+
+    Returns
+    -------
+    model : DiscreteModel
+        The fitted sampled model.
+    cost : float
+        The summed squared residual.
     """
     nb = int(np.sum(pair_weight(poles)))
     k, m = data.n_in, data.n_out
@@ -306,11 +385,28 @@ def fit_residues(data, poles, feedthrough=False):
     return DiscreteModel(poles, res, D, data.fs, pair_weight(poles)), cost
 
 
-def to_continuous(dmodel, label="identified", temperature_C=None):
+def to_continuous(dmodel: DiscreteModel, label: str = "identified",
+                  temperature_C: float | None = None) -> ModalModel:
     """The continuous-time :class:`ModalModel` whose ZOH sampling is ``dmodel`` (exactly).
 
-    Raises :class:`SpecError` for a pole on the negative real axis or at 0 (no real
-    continuous-time counterpart).
+    Parameters
+    ----------
+    dmodel : DiscreteModel
+        The sampled model.
+    label : str
+        The model's label.
+    temperature_C : float, optional
+        Its temperature [°C].
+
+    Returns
+    -------
+    ModalModel
+
+    Raises
+    ------
+    SpecError
+        For a pole on the negative real axis or at 0 (no real continuous-time
+        counterpart).
     """
     z = dmodel.zpoles
     bad = (np.abs(z.imag) == 0) & (z.real <= 0)

@@ -10,13 +10,22 @@ matrices overflow or underflow in float64.  Every error is a
 :class:`~robrst.base.errors.SpecError` naming the file and the key.
 """
 
+from __future__ import annotations
+
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from robrst.base.errors import SpecError
 from robrst.problem.records import AUX_MIN_FACTOR, PoleSpec
 from robrst.base.schema import MAX_MAGNITUDE, key_error
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    from robrst.core.plant import Plant
+    from robrst.problem.records import ControllerStructure, Problem, SolverOptions, Specs
 
 __all__ = ["MAX_RATE", "MIN_RATE", "MIN_RATE_HZ", "MAX_ORDER", "check_delay_order", "check_rates", "pole_spec", "check_pairs",
            "check_combinations", "check_generated", "pair_rates"]
@@ -27,14 +36,28 @@ MIN_RATE_HZ = 1.6e-7   # MIN_RATE / 2 pi, rounded up: slowest corner or sampling
 MAX_ORDER = 30      # degree of a plant model's denominator (Sylvester matrices < 100 x 100)
 
 
-def check_rates(path, key, plant):
+def check_rates(path: str | Path, key: tuple, plant: Plant) -> Plant:
     """Refuse a model whose poles or zeros lie beyond :data:`MAX_RATE`, whose coefficients
     exceed ±1e100 or whose order exceeds :data:`MAX_ORDER` (float64 overflows beyond).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The problem file, named in errors.
+    key : tuple of str
+        The key path of the model (``("plant",)``, ``("family", "models", "2")``).
+    plant : Plant
+        The model.
 
     Returns
     -------
     Plant
         ``plant`` unchanged.
+
+    Raises
+    ------
+    SpecError
+        Naming the file and the key.
     """
     if plant.n > MAX_ORDER:
         raise key_error(path, key, f"a model of order {plant.n}; expected at most {MAX_ORDER}"
@@ -52,9 +75,28 @@ def check_rates(path, key, plant):
     return plant
 
 
-def pair_rates(wn, zeta):
+def pair_rates(wn: float, zeta: float) -> tuple[float, float]:
     """Magnitudes ``(slowest, fastest)`` of the roots of ``s^2 + 2 zeta wn s + wn^2``
-    (computed without cancellation for any ``zeta > 0``)."""
+    (computed without cancellation for any ``zeta > 0``).
+
+    Parameters
+    ----------
+    wn : float
+        Natural frequency [rad/s].
+    zeta : float
+        Damping (> 0).
+
+    Returns
+    -------
+    (float, float)
+        [rad/s].
+
+    Examples
+    --------
+    >>> from robrst.problem.checks import pair_rates
+    >>> [round(r, 6) for r in pair_rates(10.0, 1.25)]          # roots -5 and -20
+    [5.0, 20.0]
+    """
     if zeta <= 1.0:
         return wn, wn
     fast = wn * (zeta + math.sqrt((zeta - 1.0) * (zeta + 1.0)))
@@ -69,8 +111,19 @@ def _in_rates(path, key, what, rates):
                         f" places within [{MIN_RATE:g}, {MAX_RATE:g}] rad/s")
 
 
-def pole_spec(path, p):
+def pole_spec(path: str | Path, p: dict | None) -> PoleSpec:
     """The :class:`PoleSpec` of a validated ``[poles]`` table, its poles within the rates.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The problem file, named in errors.
+    p : dict or None
+        The validated ``[poles]`` table (``None``: missing).
+
+    Returns
+    -------
+    PoleSpec
 
     Raises
     ------
@@ -131,8 +184,23 @@ def _aux(path, spec, fastest):
         _in_rates(path, key, "an auxiliary pole", np.abs(aux).tolist())
 
 
-def check_pairs(path, specs, solver):
-    """``[lo, hi]`` pairs in order."""
+def check_pairs(path: str | Path, specs: Specs, solver: SolverOptions) -> None:
+    """``[lo, hi]`` pairs in order (``resonance_band_hz``, ``wn_bounds``, ``zeta_bounds``).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The problem file, named in errors.
+    specs : Specs
+        The specs.
+    solver : SolverOptions
+        The solver options.
+
+    Raises
+    ------
+    SpecError
+        A pair that is not ``0 < lo < hi``.
+    """
     for tab, rec, k in (("specs", specs, "resonance_band_hz"), ("solver", solver, "wn_bounds"),
                         ("solver", solver, "zeta_bounds")):
         b = getattr(rec, k)
@@ -140,8 +208,25 @@ def check_pairs(path, specs, solver):
             raise key_error(path, (tab, k), f"expected [lo, hi] with 0 < lo < hi, got {list(b)}")
 
 
-def check_combinations(path, ctrl, specs):
-    """Keys that go together."""
+def check_combinations(path: str | Path, ctrl: ControllerStructure, specs: Specs) -> None:
+    """Keys that go together.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The problem file, named in errors.
+    ctrl : ControllerStructure
+        The controller structure.
+    specs : Specs
+        The specs.
+
+    Raises
+    ------
+    SpecError
+        ``Mu_hf_max`` without ``Mu_hf_above_hz`` (or the reverse), ``roll_off_hz`` and
+        ``roll_off_order`` not together, ``T_mode = "reference_model"`` without
+        ``reference_wn``.
+    """
     if (specs.Mu_hf_max is None) != (specs.Mu_hf_above_hz is None):
         raise key_error(path, ("specs",), "'Mu_hf_max' and 'Mu_hf_above_hz' go together")
     if ctrl.roll_off_order and ctrl.roll_off_hz is None:
@@ -165,10 +250,17 @@ def _factor_rates(path, key, coefs):
         _in_rates(path, key, "a root", roots.tolist())
 
 
-def check_generated(path, problem):
+def check_generated(path: str | Path, problem: Problem) -> None:
     """Every pole the problem generates within the rates: the fixed factors of S and R
     (the roll-off included), the reference model, the family's models and the auxiliary
     poles of the fastest dominant pair ``free_poles`` allows.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The problem file, named in errors.
+    problem : Problem
+        The parsed problem.
 
     Raises
     ------
@@ -190,9 +282,27 @@ def check_generated(path, problem):
             check_rates(path, ("family", "parametric"), m)
 
 
-def check_delay_order(path, key, problem, delay_samples=None):
+def check_delay_order(path: str | Path, key: tuple | None, problem: Problem,
+                      delay_samples: int | None = None) -> None:
     """The sampled loop's plant (order + ``delay_samples``, default the problem's) within
-    :data:`MAX_ORDER`: its delay polynomial ``(1 + s/2fs)^k`` overflows float64 beyond."""
+    :data:`MAX_ORDER`: its delay polynomial ``(1 + s/2fs)^k`` overflows float64 beyond.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The problem file (or the command), named in errors.
+    key : tuple of str or None
+        The key path named (``None``: the message names the option).
+    problem : Problem
+        The problem.
+    delay_samples : int, optional
+        The delay to check (default ``problem.specs.delay_samples``).
+
+    Raises
+    ------
+    SpecError
+        Order plus delay above ``MAX_ORDER``.
+    """
     k = problem.specs.delay_samples if delay_samples is None else delay_samples
     n = max(m.n for m in problem.family.models)
     if k and n + k > MAX_ORDER:

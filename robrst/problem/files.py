@@ -2,8 +2,8 @@
 
 Every key is declared in :data:`SCHEMA` (validated by the neutral :mod:`robrst.base.schema`);
 unknown or misspelled keys are rejected with the file name, the key path and the
-closest valid key.  The README's "Problem-file reference" is generated from the same
-schema.  Built-in problem files ship with the package (:mod:`robrst.base.resources`).
+closest valid key.  The documentation's problem-file reference is generated from the
+same schema (:func:`schema_markdown`).  Built-in problem files ship with the package (:mod:`robrst.base.resources`).
 """
 
 import os
@@ -195,8 +195,15 @@ SCHEMA = {
 }
 
 
-def schema_markdown():
-    """The problem-file reference as Markdown table rows (the README's table)."""
+def schema_markdown() -> list[str]:
+    """The problem-file reference as Markdown table rows (rendered in the documentation).
+
+    Returns
+    -------
+    list of str
+        One row ``| table | key | type | required | default | meaning |`` per key of
+        :data:`SCHEMA`.
+    """
     return markdown_rows(SCHEMA)
 
 
@@ -298,14 +305,14 @@ def _check_compare_with(path, solver):
                         ) from None
 
 
-def parse_problem(data, path="<problem>", compare=True):
+def parse_problem(data: dict, path: str | Path = "<problem>", compare: bool = True) -> Problem:
     """Validate a parsed TOML document and build the :class:`~robrst.problem.records.Problem`.
 
     Parameters
     ----------
     data : dict
         The parsed TOML document.
-    path : str or Path
+    path : str or pathlib.Path
         Where it came from (named in every error).
     compare : bool
         Also validate the ``[solver] compare_with`` problem file.
@@ -402,11 +409,20 @@ def _spread(path, sp, family):
                   box_sigmas=sp["box_sigmas"], cert_temperatures=sp["cert_temperatures"])
 
 
-def resolve_problem_path(name_or_path):
+def resolve_problem_path(name_or_path: str | os.PathLike) -> Path:
     """A problem file's path: an existing file, or a built-in problem by name.
 
     ``"paper_robust"`` and ``"paper_robust.toml"`` name the built-in problem when no
     such file exists in the current folder.
+
+    Parameters
+    ----------
+    name_or_path : str or pathlib.Path
+        A file, or a built-in problem's name.
+
+    Returns
+    -------
+    pathlib.Path
 
     Raises
     ------

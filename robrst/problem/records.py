@@ -7,6 +7,8 @@ must meet and the solver options.  Problem files are parsed into these records b
 sees a dict of options or the raw TOML.
 """
 
+from __future__ import annotations
+
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -54,13 +56,25 @@ class PoleSpec:
     aux_factor: float = 10.0
     aux_roots: tuple = None
 
-    def dominant(self):
+    def dominant(self) -> np.ndarray:
         """The dominant closed-loop roots [rad/s] (complex array).
+
+        Returns
+        -------
+        numpy.ndarray
+            The pair of ``wn, zeta`` (two real roots for ``zeta >= 1``) and
+            ``dominant_real``, or the explicit ``dominant_roots``.
 
         Raises
         ------
         SpecError
             Missing, unstable or non-conjugate roots.
+
+        Examples
+        --------
+        >>> from robrst.problem.records import PoleSpec
+        >>> PoleSpec(wn=600.0, zeta=1.0).dominant().real.tolist()
+        [-600.0, -600.0]
         """
         if self.dominant_roots is not None:
             roots = np.asarray(self.dominant_roots, dtype=complex)
@@ -94,16 +108,42 @@ class PoleSpec:
 class ControllerStructure:
     """Fixed parts and degrees of the RST controller ``S u = T yr - R y``.
 
-    ``S = S_fixed * S'`` and ``R = R_fixed * R'`` (coefficients in s, highest power
-    first; ``S_fixed`` contains the integrator ``s``); ``extra_degree`` raises
-    ``deg S`` above the paper's minimum (free Youla parameter for the NLP);
-    ``T_mode`` and ``T_zeros`` choose the feed-forward polynomial T.
+    Parameters
+    ----------
+    S_fixed : tuple of float
+        Fixed factor of ``S = S_fixed S'`` (coefficients in s, highest power first; must
+        contain the integrator ``s``).
+    R_fixed : tuple of float
+        Fixed factor of ``R = R_fixed R'`` (e.g. a roll-off).
+    extra_degree : int
+        Degrees of ``S`` above the paper's minimum (free Youla parameter for the NLP).
+    T_mode : {"paper", "static", "cancel_aux", "reference_model"}
+        How the feed-forward polynomial T is chosen: ``T = Bm_aux`` with ``T(0) = R(0)``
+        (the paper), ``T = Am(0)/B(0)``, T cancelling ``Am_aux``, or a designed reference
+        model (two degrees of freedom, :mod:`robrst.synthesis.tracking`).
+    T_zeros : tuple of float
+        Zeros of ``T = Bm_aux`` [rad/s] (``T_mode = "paper"``).
+    relative_degree : int
+        ``deg R <= deg S - relative_degree`` (1: a strictly proper controller).
+    roll_off_order : int
+        Poles of a fixed roll-off factor ``(s/wc + 1)**order`` in S (adds to the
+        relative degree).
+    roll_off_hz : float, optional
+        Its corner ``wc / 2 pi`` [Hz].
+    reference_wn : float, optional
+        Bandwidth of the reference model [rad/s] (``T_mode = "reference_model"``).
+    reference_zeta : float
+        Damping of the reference model.
+    T_cancel_damping : float
+        T cancels nominal closed-loop factors damped at least this much
+        (``T_mode = "reference_model"``).
 
-    Roll-off: ``deg R <= deg S - relative_degree`` (1: a strictly proper controller),
-    and ``roll_off_order`` poles at ``roll_off_hz`` fixed in ``S`` (their order adds to
-    the relative degree).  ``T_mode = "reference_model"`` designs T for the reference
-    model of ``reference_wn``/``reference_zeta`` (two degrees of freedom, see
-    :mod:`robrst.synthesis.tracking`).
+    Attributes
+    ----------
+    S_total : numpy.ndarray
+        ``S_fixed`` times the fixed roll-off factor.
+    controller_relative_degree : int
+        Required ``deg S - deg R`` of the controller.
     """
 
     S_fixed: tuple = (1.0, 0.0)
@@ -136,17 +176,50 @@ class ControllerStructure:
 
 @dataclass(frozen=True)
 class Specs:
-    """What the closed loop must achieve on every model of the family.
+    """What the closed loop must achieve on every model of the family (``None``: no bound).
 
-    Peak bounds on ``|S|`` (``Ms_max``), ``|T|`` (``Mt_max``), ``|U|`` [V/µm]
-    (``Mu_max``) and on ``|T|`` over ``resonance_band_hz`` (``T_resonance_max``);
-    ``stable_controller`` asks for ``S/s`` Hurwitz; with ``sample_rate_hz`` the sampled
-    loop (ZOH plant, Tustin controller, ``delay_samples`` of delay) is designed and
-    certified as well.  ``Mu_hf_max`` bounds ``|U|`` above ``Mu_hf_above_hz`` (the
-    amplifier budget at high frequency).  Time-domain specs (certified on every model
-    and the sweep, :mod:`robrst.certificate.steps`): ``overshoot_max_pct`` and
-    ``settling_time_max_s`` (2 %) of a reference step, and ``step_u_max_V`` on the peak
-    control voltage for a reference step of ``step_um``.  ``None`` means no bound.
+    Parameters
+    ----------
+    Ms_max : float, optional
+        Bound on ``|S|`` (modulus margin >= ``1/Ms_max``).
+    Mt_max : float, optional
+        Bound on ``|T|``.
+    Mu_max : float, optional
+        Bound on ``|U|`` [V/µm].
+    Mu_reason : str
+        Why this ``Mu_max`` (free text).
+    T_resonance_max : float, optional
+        Bound on ``|T|`` over ``resonance_band_hz``.
+    resonance_band_hz : tuple of float, optional
+        ``(f_lo, f_hi)`` [Hz].
+    stable_controller : bool
+        Require ``S/s`` Hurwitz.
+    sample_rate_hz : float, optional
+        Also design and certify the sampled loop (ZOH plant, Tustin controller) at this
+        rate [Hz].
+    delay_samples : int
+        Computation delay of the sampled loop [samples].
+    Mu_hf_max : float, optional
+        Bound on ``|U|`` above ``Mu_hf_above_hz`` [V/µm] (the amplifier budget at high
+        frequency).
+    Mu_hf_above_hz : float, optional
+        Where that bound starts [Hz].
+    overshoot_max_pct : float, optional
+        Overshoot of a reference step [%].
+    settling_time_max_s : float, optional
+        2 % settling time of a reference step [s].
+    step_um : float
+        The reference step of ``step_u_max_V`` [µm].
+    step_u_max_V : float, optional
+        Peak ``|u|`` for a reference step of ``step_um`` [V].
+
+    Attributes
+    ----------
+    time_domain : bool
+        A time-domain spec is given (certified on every model and the sweep,
+        :mod:`robrst.certificate.steps`).
+    sampled : bool
+        The sampled loop is part of the specs.
     """
 
     Ms_max: float = None
@@ -171,15 +244,30 @@ class Specs:
         return any(v is not None for v in (self.overshoot_max_pct, self.settling_time_max_s,
                                            self.step_u_max_V))
 
-    def without_time_domain(self):
-        """These specs without the time-domain ones (what the feedback synthesis certifies)."""
+    def without_time_domain(self) -> Specs:
+        """These specs without the time-domain ones (what the feedback synthesis certifies).
+
+        Returns
+        -------
+        Specs
+        """
         from dataclasses import replace
 
         return replace(self, overshoot_max_pct=None, settling_time_max_s=None,
                        step_u_max_V=None)
 
-    def peak_bound(self, name):
-        """Bound on the peak of sensitivity ``name`` (S, T or U), or ``None``."""
+    def peak_bound(self, name: str) -> float | None:
+        """Bound on the peak of sensitivity ``name`` (S, T or U), or ``None``.
+
+        Parameters
+        ----------
+        name : {"S", "T", "U"}
+            The sensitivity.
+
+        Returns
+        -------
+        float or None
+        """
         return getattr(self, PEAK_SPECS[name])
 
     @property
@@ -192,13 +280,43 @@ class Specs:
 class SolverOptions:
     """How the controller is computed and certified (see the problem-file reference).
 
-    ``placement``: ``"fixed"`` keeps the nominal closed-loop poles the [poles] table
-    (and ``free_poles``) asks for; ``"free"`` lets every controller coefficient move
-    (the pole placement is only a start); ``"auto"`` starts as ``"fixed"`` and frees the
-    poles when the specs cannot be met with them.  ``homotopy``: ``"on_failure"``
-    solves ``extra_degree - 1`` (recursively) only when the requested degree does not
-    certify; ``"always"`` solves every degree from 0 up, each seeded with the one
-    below, so more degrees never give a worse certified objective.
+    Parameters
+    ----------
+    method : {"analytic", "nlp", "convex"}
+        Pole placement, the robust synthesis, or nominal convex shaping.
+    objective : {"max_integral_gain", "min_Ms", "feasibility"}
+        What the NLP optimises.
+    free_poles : bool
+        Let ``wn`` and ``zeta`` vary within ``wn_bounds`` and ``zeta_bounds``.
+    wn_bounds, zeta_bounds : tuple of float, optional
+        ``(lo, hi)``.
+    n_freq : int
+        Frequency-grid points per model.
+    max_rounds : int
+        Certification rounds.
+    exchange : bool
+        Impose the grid by constraint exchange (false: every point in one NLP).
+    cert_temperatures : int
+        Temperatures of the certification sweep.
+    cert_tol : float
+        Relative tolerance on certified peaks.
+    init : {"analytic", "convex"}
+        The NLP's start.
+    max_iter : int
+        IPOPT iterations.
+    ipopt_tol : float
+        IPOPT tolerance.
+    compare_with : str, optional
+        A problem file (relative) whose analytic design is compared.
+    placement : {"auto", "fixed", "free"}
+        ``"fixed"`` keeps the nominal closed-loop poles the [poles] table (and
+        ``free_poles``) asks for; ``"free"`` lets every controller coefficient move (the
+        pole placement is only a start); ``"auto"`` starts as ``"fixed"`` and frees the
+        poles when the specs cannot be met with them.
+    homotopy : {"on_failure", "always"}
+        ``"on_failure"`` solves ``extra_degree - 1`` (recursively) only when the requested
+        degree does not certify; ``"always"`` solves every degree from 0 up, each seeded
+        with the one below, so more degrees never give a worse certified objective.
     """
 
     method: str = "analytic"
@@ -226,16 +344,22 @@ class Problem:
     Parameters
     ----------
     name : str
+        The problem's name.
     family : PlantFamily
         The models the design must hold on (a single model is a family of one).
     poles : PoleSpec
+        The closed-loop pole specification.
     controller : ControllerStructure
+        The controller's fixed parts and degrees.
     specs : Specs
+        What the closed loop must achieve.
     solver : SolverOptions
+        How the controller is computed and certified.
     path : str
         The problem file (``"<python>"`` for problems built in code); relative
         ``compare_with`` paths are resolved against its folder.
     description : str
+        Free text.
     plant_name : str or None
         The built-in plant the nominal model came from (e.g. ``"paper"``), if any.
     spread : Spread or None
@@ -244,6 +368,22 @@ class Problem:
     scenarios : tuple of PlantFamily
         Further actuators (each with its temperature family) the synthesis must hold on
         besides ``family``: the drawn actuators of a fleet design that bind.
+
+    Attributes
+    ----------
+    families : tuple of PlantFamily
+        ``(family, *scenarios)``: every actuator the synthesis holds on.
+    needs_scipy : bool
+        Designing or certifying this problem uses SciPy's linear algebra (the sampled
+        loop, step responses, a designed reference path).
+
+    Examples
+    --------
+    >>> from robrst import PlantFamily, PoleSpec, Problem, Specs, paper_plant, run_problem
+    >>> pr = Problem("mine", PlantFamily(models=(paper_plant().with_label("nominal", 28.0),)),
+    ...              poles=PoleSpec(wn=600.0, zeta=1.0), specs=Specs(Ms_max=2.0))
+    >>> run_problem(pr).certified
+    True
     """
 
     name: str

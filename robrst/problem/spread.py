@@ -64,7 +64,31 @@ DRAW_BLOCK = 1 << 18     # rows of random numbers drawn at a time
 
 @dataclass(frozen=True)
 class Param:
-    """One varied parameter: a seeded distribution or a grid of values."""
+    """One varied parameter: a seeded distribution or a grid of values.
+
+    Parameters
+    ----------
+    name : str
+        A problem-file key path (``specs.Mu_max``) or a plant factor (``gain``,
+        ``resonance``, ``damping``, ``age_years``, ``temperature_C``, ``A1``, ``B0``, ...).
+    dist : {"normal", "uniform", "lognormal", "grid"}
+        The distribution.
+    mean, std : float, optional
+        Normal: mean and standard deviation.
+    median, sigma : float, optional
+        Lognormal: median and standard deviation of the logarithm.
+    lo, hi : float, optional
+        Uniform and grid: the ends; normal and lognormal: truncation.
+    values : tuple of float, optional
+        Grid: the values (or ``lo``, ``hi`` and ``steps`` expanded).
+    note : str
+        Where the spread comes from.
+
+    Attributes
+    ----------
+    random : bool
+        True for a distribution, False for a grid.
+    """
 
     name: str
     dist: str
@@ -85,7 +109,17 @@ class Param:
 
 @dataclass(frozen=True)
 class Ageing:
-    """Relative change per year of age of the static gain, natural frequency and damping."""
+    """Relative change per year of age of the static gain, natural frequency and damping.
+
+    Parameters
+    ----------
+    gain_per_year : float
+        Relative static-gain change per year.
+    resonance_per_year : float
+        Relative natural-frequency change per year.
+    damping_per_year : float
+        Relative damping change per year.
+    """
 
     gain_per_year: float = 0.0
     resonance_per_year: float = 0.0
@@ -183,7 +217,27 @@ def _factors(plant_values, ageing):
 
 
 def transform_plant(plant, plant_values, ageing=Ageing()):
-    """``plant`` with the coefficient, gain, resonance and damping factors of a variant."""
+    """``plant`` with the coefficient, gain, resonance and damping factors of a variant.
+
+    Parameters
+    ----------
+    plant : Plant
+        A model of the base family.
+    plant_values : dict
+        The variant's plant factors (``gain``, ``resonance``, ``damping``, ``age_years``,
+        ``A1``, ``B0``, ...).
+    ageing : Ageing
+        The rates per year of ``age_years``.
+
+    Returns
+    -------
+    Plant
+
+    Raises
+    ------
+    SpecError
+        A factor that is not > 0, or a coefficient index the model does not have.
+    """
     B, A = plant.B.copy(), plant.A.copy()
     for k, v in plant_values.items():
         m = COEF.match(k)
@@ -207,9 +261,24 @@ def transform_plant(plant, plant_values, ageing=Ageing()):
 
 
 def transform_family(family, plant_values, ageing=Ageing()):
-    """The family of a variant: the plant factors on the nominal model of a parametric
-    family (the per-kelvin laws then generate the temperatures) or on every model of an
-    explicit one; ``temperature_C`` keeps the single model at that temperature."""
+    """The family of a variant (``temperature_C`` keeps the single model at that
+    temperature).
+
+    Parameters
+    ----------
+    family : PlantFamily
+        The base problem's family.
+    plant_values : dict
+        The variant's plant factors (``temperature_C`` picks one model).
+    ageing : Ageing
+        The rates per year of ``age_years``.
+
+    Returns
+    -------
+    PlantFamily
+        Parametric families: the factors act on the nominal model and the per-kelvin laws
+        generate the temperatures; explicit ones: the factors act on every model.
+    """
     temps = [m.temperature_C for m in family.models]
     T = plant_values.get("temperature_C")
     if family.thermal is not None:
@@ -263,7 +332,24 @@ def actuator_family(family, values, ageing=Ageing()):
 
 
 def check_plant_params(params, family, path):
-    """Refuse plant factors the base family cannot take (one line naming the parameter)."""
+    """Refuse plant factors the base family cannot take (one line naming the parameter).
+
+    Parameters
+    ----------
+    params : sequence of Param
+        The sweep's or spread's parameters.
+    family : PlantFamily
+        The base problem's family.
+    path : str or pathlib.Path
+        The sweep or problem file, named in errors.
+
+    Raises
+    ------
+    SpecError
+        ``resonance`` or ``damping`` without a complex pole pair, a per-kelvin law on a
+        family without one, a coefficient index out of range, a temperature outside a
+        family without a law.
+    """
     nominal = family.nominal if family.thermal is not None else family.reference_model
     for p in params:
         name = p.name

@@ -44,8 +44,20 @@ def _margins_rows(d):
     return rows
 
 
-def design_doc(result, twin=False):
-    """The report document of a design result (no I/O)."""
+def design_doc(result: DesignResult, twin: bool = False) -> Doc:
+    """The report document of a design result (no I/O).
+
+    Parameters
+    ----------
+    result : DesignResult
+        The design.
+    twin : bool
+        The step figure also shows the digital twin (its caption says so).
+
+    Returns
+    -------
+    Doc
+    """
     d = result.as_dict()
     cert = d["certificate"]
     specs = d["specs"]
@@ -103,15 +115,24 @@ def write_design_report(result: DesignResult, out_dir: str | os.PathLike,
     Parameters
     ----------
     result : DesignResult
-    out_dir : str or Path
+        The design.
+    out_dir : str or pathlib.Path
         A new folder or an earlier robrst report (replaced atomically); any other
         existing folder is refused unless ``force`` (see :func:`robrst.report.doc.write_folder`).
     progress : callable, optional
+        Called with one line of text per stage.
     force : bool
+        Write into a folder robrst did not write (only the report's files).
 
     Returns
     -------
-    Path
+    pathlib.Path
+        The folder.
+
+    Raises
+    ------
+    OutputError
+        A folder robrst did not write (without ``force``), or one the system refuses.
 
     Examples
     --------

@@ -5,6 +5,10 @@ writes one PNG (:func:`robrst.report.figure.drawing`: no global matplotlib state
 Frequencies are in Hz on log axes, magnitudes in dB, time in ms, displacement in µm.
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from robrst.core import poly
@@ -12,6 +16,10 @@ from robrst.core.analysis import sensitivity, step_response
 from robrst.report.figure import colors as _colors
 from robrst.report.figure import drawing
 from robrst.core.rst import closed_loop
+
+if TYPE_CHECKING:
+    from pathlib import Path
+    from robrst.design import DesignResult
 
 __all__ = ["bode_figure", "nyquist_figure", "step_figure", "step_horizon"]
 
@@ -22,8 +30,16 @@ def _db(x):
     return 20 * np.log10(np.maximum(np.abs(x), 1e-300))
 
 
-def bode_figure(result, path):
-    """|S|, |T|, |U| for every family temperature, spec bounds dashed, peaks marked."""
+def bode_figure(result: DesignResult, path: str | Path) -> None:
+    """``|S|, |T|, |U|`` for every family temperature, spec bounds dashed, peaks marked.
+
+    Parameters
+    ----------
+    result : DesignResult
+        The design (its analyses and certificate are drawn).
+    path : str or pathlib.Path
+        The PNG file.
+    """
     fam = result.problem.family.models
     specs = result.problem.specs
     with drawing(path, (8, 9), 3, 1, sharex=True) as (fig, axes):
@@ -50,8 +66,16 @@ def _bode(result, fam, specs, axes):
     axes[-1].set_xlabel("frequency f [Hz] (log)")
 
 
-def nyquist_figure(result, path):
-    """Loop L = BR/(AS) per temperature around -1 with the modulus-margin circles."""
+def nyquist_figure(result: DesignResult, path: str | Path) -> None:
+    """Loop L = BR/(AS) per temperature around -1 with the modulus-margin circles.
+
+    Parameters
+    ----------
+    result : DesignResult
+        The design.
+    path : str or pathlib.Path
+        The PNG file.
+    """
     with drawing(path, (7, 6.5)) as (fig, ax):
         _nyquist(result, ax)
 
@@ -85,11 +109,23 @@ def _nyquist(result, ax):
     ax.legend(fontsize=8, loc="lower left")
 
 
-def step_horizon(result, t_max=1.0):
+def step_horizon(result: DesignResult, t_max: float = 1.0) -> float:
     """Three times the slowest 2 % settling time of the reference step [s], 5 ms..1 s.
 
     (The spectral abscissa would be misleading: a slow pole nearly cancelled by a
     zero of T hardly shows in the response.)
+
+    Parameters
+    ----------
+    result : DesignResult
+        The design.
+    t_max : float
+        Upper limit [s].
+
+    Returns
+    -------
+    float
+        The time span of the step figure [s].
     """
     t = np.linspace(0, t_max, 20001)
     ts = 0.0
@@ -102,11 +138,19 @@ def step_horizon(result, t_max=1.0):
     return float(np.clip(3 * ts, 5e-3, t_max))
 
 
-def step_figure(result, path, twin=None):
+def step_figure(result: DesignResult, path: str | Path,
+                twin: dict[str, tuple] | None = None) -> None:
     """Reference and input-disturbance steps at the extreme temperatures.
 
-    ``twin`` optionally maps a label to ``(t [s], y [µm])`` curves of the digital twin
-    (sampled controller, every effect on), drawn on the reference panel.
+    Parameters
+    ----------
+    result : DesignResult
+        The design.
+    path : str or pathlib.Path
+        The PNG file.
+    twin : dict, optional
+        Maps a label to ``(t [s], y [µm])`` curves of the digital twin (sampled
+        controller, every effect on), drawn on the reference panel.
     """
     fam = result.problem.family.models
     ext = [fam[0], fam[-1]] if len(fam) > 1 else [fam[0]]

@@ -9,12 +9,21 @@ model, with the noise floor).  ``diagnosis.json`` is the ``--json`` result.
 """
 
 
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from robrst.diagnose.summary import summary_text
 from robrst.base.fileio import json_text
 from robrst.report.doc import Doc, write_folder
 from robrst.report.figure import drawing
+
+if TYPE_CHECKING:
+    from pathlib import Path
+    from robrst.diagnose.result import Diagnosis
 
 __all__ = ["diagnosis_doc", "write_diagnosis_report", "FIGURES", "levels_figure"]
 
@@ -120,9 +129,23 @@ def _effects_fig(diag, path):
         ax.legend(fontsize=8)
 
 
-def levels_figure(path, per_record, final_per_record=None,
-                  title="gap per record against its level"):
-    """Draw the gap (NRMSE) per record against its excitation level into the PNG ``path``."""
+def levels_figure(path: str | Path, per_record: Sequence[dict],
+                  final_per_record: Sequence[dict] | None = None,
+                  title: str = "gap per record against its level") -> None:
+    """Draw the gap (NRMSE) per record against its excitation level into the PNG ``path``.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The PNG file.
+    per_record : sequence of dict
+        Per record ``file, split ("train"/"test"), level_V, gap, noise_floor`` under the
+        model diagnosed.
+    final_per_record : sequence of dict, optional
+        Per test record ``file, gap`` under the final model.
+    title : str
+        The figure's title.
+    """
     with drawing(path, (8, 4)) as (fig, ax):
         for split, marker in (("train", "o"), ("test", "s")):
             rows = [r for r in per_record if r["split"] == split]
@@ -149,8 +172,18 @@ def _levels_fig(diag, path):
     levels_figure(path, g["per_record"], final)
 
 
-def diagnosis_doc(diag):
-    """The report document of a diagnosis (no I/O)."""
+def diagnosis_doc(diag: Diagnosis) -> Doc:
+    """The report document of a diagnosis (no I/O).
+
+    Parameters
+    ----------
+    diag : Diagnosis
+        The diagnosis.
+
+    Returns
+    -------
+    Doc
+    """
     d = diag.as_dict()
     rows = tuple((e["name"] + (" (dynamic)" if e["form"] == "dynamic" else ""),
                   f"{e['gap_before']:.4g}", f"{e['gap_after']:.4g}", f"{100 * e['shrink']:.1f} %",
@@ -176,8 +209,32 @@ def diagnosis_doc(diag):
     return Doc(title="robrst gap diagnosis", blocks=tuple(blocks))
 
 
-def write_diagnosis_report(diag, out_dir, progress=None, force=False):
-    """Write the diagnosis report folder (see :func:`robrst.report.doc.write_folder`); returns its path."""
+def write_diagnosis_report(diag: Diagnosis, out_dir: str | Path,
+                           progress: Callable[[str], None] | None = None,
+                           force: bool = False) -> Path:
+    """Write the diagnosis report folder (see :func:`robrst.report.doc.write_folder`).
+
+    Parameters
+    ----------
+    diag : Diagnosis
+        The diagnosis.
+    out_dir : str or pathlib.Path
+        A new folder or an earlier robrst report.
+    progress : callable, optional
+        Called with one line of text per stage.
+    force : bool
+        Write into a folder robrst did not write (only the report's files).
+
+    Returns
+    -------
+    pathlib.Path
+        The folder.
+
+    Raises
+    ------
+    OutputError
+        A folder robrst did not write (without ``force``), or one the system refuses.
+    """
     say = progress or (lambda m: None)
 
     def draw(tmp):

@@ -7,10 +7,13 @@ beside them.  :func:`write_folder` writes the whole folder atomically: it is bui
 in a temporary sibling and swapped in, so a failure never leaves half a report.
 """
 
+from __future__ import annotations
+
 import html
 import os
 import shutil
 import tempfile
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -27,12 +30,27 @@ _CSS = ("body{font-family:system-ui,sans-serif;max-width:60em;margin:2em auto;pa
 
 @dataclass(frozen=True)
 class Doc:
-    """A titled list of blocks (see the module docstring)."""
+    """A titled list of blocks (see the module docstring).
+
+    Parameters
+    ----------
+    title : str
+        The document's title.
+    blocks : tuple
+        ``("h2", text)``, ``("p", text)``, ``("table", header, rows)``,
+        ``("img", file, caption)``, ``("pre", text)``.
+    """
 
     title: str
     blocks: tuple
 
-    def images(self):
+    def images(self) -> list[str]:
+        """The image files the document references, in order.
+
+        Returns
+        -------
+        list of str
+        """
         return [b[1] for b in self.blocks if b[0] == "img"]
 
 
@@ -40,7 +58,23 @@ def _cell(x):
     return "" if x is None else str(x)
 
 
-def to_markdown(doc):
+def to_markdown(doc: Doc) -> str:
+    """The document as Markdown (``report.md``).
+
+    Parameters
+    ----------
+    doc : Doc
+        The document.
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    ValueError
+        For an unknown block kind.
+    """
     out = [f"# {doc.title}", ""]
     for b in doc.blocks:
         kind = b[0]
@@ -62,7 +96,23 @@ def to_markdown(doc):
     return "\n".join(out)
 
 
-def to_html(doc):
+def to_html(doc: Doc) -> str:
+    """The document as a self-contained HTML page (``report.html``; images beside it).
+
+    Parameters
+    ----------
+    doc : Doc
+        The document.
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    ValueError
+        For an unknown block kind.
+    """
     e = html.escape
     out = ["<!DOCTYPE html>", "<html lang=\"en\"><head><meta charset=\"utf-8\">",
            f"<title>{e(doc.title)}</title><style>{_CSS}</style></head><body>",
@@ -92,12 +142,34 @@ def to_html(doc):
 MARKER = ".robrst-report"
 
 
-def check_report_target(out, force=False, option="--out", can_force=True):
-    """Refuse report folders whose replacement could lose what robrst did not write (called
-    before any work by the commands, and again when writing); returns how the folder will be
-    written: ``"new"``, ``"replace"`` (an earlier robrst report) or ``"merge"`` (``force``).
-    ``option`` names the command's flag for the folder in the messages, ``can_force``
-    whether it offers ``--force``.
+def check_report_target(out: str | Path, force: bool = False, option: str = "--out",
+                        can_force: bool = True) -> str:
+    """Refuse report folders whose replacement could lose what robrst did not write.
+
+    Called before any work by the commands, and again when writing.
+
+    Parameters
+    ----------
+    out : str or pathlib.Path
+        The report folder.
+    force : bool
+        The user allows writing into a folder robrst did not write.
+    option : str
+        The command's flag for the folder, named in the messages.
+    can_force : bool
+        Whether the command offers ``--force`` (named in the messages).
+
+    Returns
+    -------
+    str
+        How the folder will be written: ``"new"``, ``"replace"`` (an earlier robrst
+        report) or ``"merge"`` (``force``).
+
+    Raises
+    ------
+    OutputError
+        The current folder or one of its parents, a file, or a folder robrst did not
+        write (without ``force``).
     """
     hint = f"choose another {option}" + (", or --force to write the report files into it"
                                          " (nothing else is touched)" if can_force else "")
@@ -128,11 +200,9 @@ def check_report_target(out, force=False, option="--out", can_force=True):
     return "replace"
 
 
-def write_folder(out_dir, doc, extra_files, render_figures, force=False):
+def write_folder(out_dir: str | Path, doc: Doc, extra_files: dict[str, str],
+                 render_figures: Callable[[Path], None], force: bool = False) -> Path:
     """Write ``report.md``, ``report.html``, ``extra_files`` and the figures.
-
-    ``render_figures(tmp_dir)`` draws every image the document references into
-    ``tmp_dir``; ``extra_files`` maps file names to text (e.g. the JSON result).
 
     A new folder, or an earlier robrst report (recognised by its ``.robrst-report``
     marker, listing the files robrst wrote), is replaced atomically: the report is built
@@ -140,6 +210,32 @@ def write_folder(out_dir, doc, extra_files, render_figures, force=False):
     folder robrst did not write is refused (:class:`~robrst.base.errors.OutputError`) unless
     ``force``, which writes the report files into it one by one, atomically, and touches
     nothing else.  A symbolic link to a folder stays a link: the folder it names is written.
+
+    Parameters
+    ----------
+    out_dir : str or pathlib.Path
+        The report folder.
+    doc : Doc
+        The document.
+    extra_files : dict
+        File name -> text (e.g. the JSON result).
+    render_figures : callable
+        ``render_figures(tmp_dir)`` draws every image the document references into
+        ``tmp_dir``.
+    force : bool
+        Write into a folder robrst did not write.
+
+    Returns
+    -------
+    pathlib.Path
+        The folder, as given.
+
+    Raises
+    ------
+    OutputError
+        See :func:`check_report_target`; also a folder the system refuses.
+    RuntimeError
+        When ``render_figures`` did not draw every image the document references.
     """
     given = out = Path(out_dir)
     mode = check_report_target(out, force)

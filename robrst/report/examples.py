@@ -6,7 +6,10 @@ and ``OUT/diagnosis_twin`` (a gap diagnosis of twin data with a hidden effect, c
 ``reports``.
 """
 
+from __future__ import annotations
+
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 from robrst.design import run_problem
@@ -21,8 +24,22 @@ __all__ = ["write_examples", "DIAGNOSIS_CASE"]
 DIAGNOSIS_CASE = ("hysteresis", 100)
 
 
-def write_examples(out="reports", progress=None):
-    """Write the three example report folders under ``out``; returns their paths."""
+def write_examples(out: str | Path = "reports",
+                   progress: Callable[[str], None] | None = None) -> list[Path]:
+    """Write the three example report folders under ``out``; returns their paths.
+
+    Parameters
+    ----------
+    out : str or pathlib.Path
+        The parent folder (``paper``, ``paper_robust`` and ``diagnosis_twin`` are written
+        in it).
+    progress : callable, optional
+        Called with one line of text per stage.
+
+    Returns
+    -------
+    list of pathlib.Path
+    """
     say = progress or (lambda m: None)
     out = Path(out)
     paths = []

@@ -7,6 +7,11 @@ held-out NRMSE of every candidate order, and measured vs simulated output on a r
 """
 
 
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
 from scipy import signal
 
@@ -14,6 +19,11 @@ from robrst.base.fileio import json_text
 from robrst.identify.identification import simulate_record
 from robrst.report.doc import Doc, write_folder
 from robrst.report.figure import drawing
+
+if TYPE_CHECKING:
+    from pathlib import Path
+    from robrst.data.dataset import Dataset
+    from robrst.identify.identification import Identified
 
 __all__ = ["write_identification_report", "identification_doc", "FIGURES"]
 
@@ -88,8 +98,18 @@ def _output_fig(ident, records, path):
         ax.legend(fontsize=8)
 
 
-def identification_doc(ident):
-    """The report document of an identification (no I/O)."""
+def identification_doc(ident: Identified) -> Doc:
+    """The report document of an identification (no I/O).
+
+    Parameters
+    ----------
+    ident : Identified
+        The identification result.
+
+    Returns
+    -------
+    Doc
+    """
     d = ident.as_dict()
     rows = tuple((o["order"], f"{o['train_nrmse']:.4g}" if o["train_nrmse"] is not None else "",
                   f"{o['heldout_nrmse']:.4g}" if o["heldout_nrmse"] is not None else "", o["note"])
@@ -109,8 +129,31 @@ def identification_doc(ident):
     return Doc(title="robrst identification", blocks=tuple(blocks))
 
 
-def write_identification_report(ident, records, out_dir, progress=None):
-    """Write the identification report folder; returns its path."""
+def write_identification_report(ident: Identified, records: Sequence[Dataset],
+                                out_dir: str | Path,
+                                progress: Callable[[str], None] | None = None) -> Path:
+    """Write the identification report folder; returns its path.
+
+    Parameters
+    ----------
+    ident : Identified
+        The identification result.
+    records : sequence of Dataset
+        The records drawn against the model.
+    out_dir : str or pathlib.Path
+        A new folder or an earlier robrst report.
+    progress : callable, optional
+        Called with one line of text per stage.
+
+    Returns
+    -------
+    pathlib.Path
+
+    Raises
+    ------
+    OutputError
+        A folder robrst did not write, or one the system refuses.
+    """
     say = progress or (lambda m: None)
 
     def draw(tmp):

@@ -2,31 +2,45 @@
 folder, written like every robrst report folder (:func:`robrst.report.doc.write_folder`:
 atomically, never over a folder robrst did not write unless ``force``)."""
 
+from __future__ import annotations
+
 import json
+from typing import TYPE_CHECKING
 
 from robrst.data.dataset import save_dataset
 from robrst.base.fileio import jsonable
 from robrst.report.doc import Doc, write_folder
 from robrst.report.figure import drawing
 
+if TYPE_CHECKING:
+    from pathlib import Path
+    from robrst.studies.scenarios import ScenarioResult
+
 __all__ = ["write_scenario"]
 
 
-def write_scenario(res, out_dir, force=False):
+def write_scenario(res: ScenarioResult, out_dir: str | Path, force: bool = False) -> Path:
     """Write every dataset of ``res`` (a ScenarioResult), ``<name>.png`` and
     ``report.md``/``report.html`` (the claim and the metrics) into ``out_dir``.
 
     Parameters
     ----------
     res : ScenarioResult
-    out_dir : str or Path
+        The scenario's datasets, claim and metrics.
+    out_dir : str or pathlib.Path
+        A new folder or an earlier robrst folder.
     force : bool
         Write the files into a folder robrst did not write (touching nothing else).
 
     Returns
     -------
-    Path
+    pathlib.Path
         The folder.
+
+    Raises
+    ------
+    OutputError
+        A folder robrst did not write (without ``force``), or one the system refuses.
     """
     figure = f"{res.name}.png"
     metrics = json.dumps(jsonable(res.metrics), indent=2, allow_nan=False)

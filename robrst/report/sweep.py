@@ -31,8 +31,18 @@ def _f(x, spec=".4g"):
     return format(x, spec)
 
 
-def figure_files(result):
-    """The figures the report of ``result`` holds (``(file, caption)``)."""
+def figure_files(result: SweepResult) -> list[tuple[str, str]]:
+    """The figures the report of ``result`` holds (``(file, caption)``).
+
+    Parameters
+    ----------
+    result : SweepResult
+        The sweep.
+
+    Returns
+    -------
+    list of (str, str)
+    """
     kind = result.sweep.kind
     out = []
     if result.summary["done"] == 0:
@@ -65,8 +75,18 @@ def _worst_table(s):
             "parameters"), tuple(rows)
 
 
-def sweep_doc(result):
-    """The report document of a sweep result (no I/O)."""
+def sweep_doc(result: SweepResult) -> Doc:
+    """The report document of a sweep result (no I/O).
+
+    Parameters
+    ----------
+    result : SweepResult
+        The sweep.
+
+    Returns
+    -------
+    Doc
+    """
     s = result.summary
     y = s["yield"]
     lo, hi = s["yield_ci95"]
@@ -115,14 +135,23 @@ def write_sweep_report(result: SweepResult, out_dir: str | os.PathLike | None = 
     Parameters
     ----------
     result : SweepResult
-    out_dir : str or Path, optional
+        The sweep.
+    out_dir : str or pathlib.Path, optional
+        The report folder (default ``result.out / "report"``).
     progress : callable, optional
+        Called with one line of text per stage.
     force : bool
         Write into an existing folder robrst did not write (only the report's files).
 
     Returns
     -------
-    Path
+    pathlib.Path
+        The folder.
+
+    Raises
+    ------
+    OutputError
+        A folder robrst did not write (without ``force``), or one the system refuses.
 
     Examples
     --------
@@ -151,8 +180,18 @@ def write_sweep_report(result: SweepResult, out_dir: str | os.PathLike | None = 
     return write_folder(out_dir or Path(result.out) / "report", doc, extra, draw, force=force)
 
 
-def sweep_text(summary):
-    """A few lines for the terminal: counts, yield, figures, the worst variants."""
+def sweep_text(summary: dict) -> str:
+    """A few lines for the terminal: counts, yield, figures, the worst variants.
+
+    Parameters
+    ----------
+    summary : dict
+        The sweep's ``summary.json`` object.
+
+    Returns
+    -------
+    str
+    """
     s = summary
     lines = [f"sweep {s['sweep']} ({s['kind']}): {s['done']}/{s['n']} variants"
              f"{'' if s['complete'] else ' (incomplete: run again to resume)'},"

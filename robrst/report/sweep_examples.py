@@ -6,6 +6,8 @@ and writes their report folders to ``OUT/NAME`` (``OUT`` defaults to ``reports``
 1–2 minutes on two cores.
 """
 
+from __future__ import annotations
+
 import sys
 from pathlib import Path
 
@@ -17,8 +19,23 @@ __all__ = ["write_sweep_examples", "SWEEP_EXAMPLES"]
 SWEEP_EXAMPLES = ("paper_montecarlo", "paper_tradeoff")
 
 
-def write_sweep_examples(out="reports", work="sweeps", workers=None):
-    """Run the example sweeps and write their report folders under ``out``; return the paths."""
+def write_sweep_examples(out: str | Path = "reports", work: str | Path = "sweeps",
+                         workers: int | None = None) -> list[Path]:
+    """Run the example sweeps and write their report folders under ``out``; return the paths.
+
+    Parameters
+    ----------
+    out : str or pathlib.Path
+        The parent of the report folders (``paper_montecarlo``, ``paper_tradeoff``).
+    work : str or pathlib.Path
+        The parent of the sweeps' own output folders.
+    workers : int, optional
+        Dask workers (default: one per core).
+
+    Returns
+    -------
+    list of pathlib.Path
+    """
     paths = []
     for name in SWEEP_EXAMPLES:
         result = run_sweep(name, Path(work) / name, workers=workers)

@@ -5,6 +5,10 @@ one PNG (:func:`robrst.report.figure.drawing`: no global matplotlib state).  Onl
 evaluated without error (status ``ok``) are drawn; infinite margins are counted in the titles.
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 import numpy as np
 import pyarrow as pa
 
@@ -13,6 +17,10 @@ from robrst.report.figure import colors, drawing
 from robrst.studies.sweep.evaluate import problem_of
 from robrst.studies.sweep.summary import front_values, pareto_front, worst_rows
 from robrst.core.rst import RSTController
+
+if TYPE_CHECKING:
+    from pathlib import Path
+    from robrst.studies.sweep.engine import SweepResult
 
 __all__ = ["histograms_figure", "sensitivity_figure", "front_figure", "fleet_figure",
            "worst_bode_figure", "worst_ok_row", "HIST"]
@@ -39,8 +47,16 @@ def _values(table, name, scale=1.0):
     return v * scale
 
 
-def histograms_figure(result, path):
-    """Histograms of the worst-case figures of every variant, spec bounds dashed."""
+def histograms_figure(result: SweepResult, path: str | Path) -> None:
+    """Histograms of the worst-case figures of every variant, spec bounds dashed.
+
+    Parameters
+    ----------
+    result : SweepResult
+        The sweep.
+    path : str or pathlib.Path
+        The PNG file.
+    """
     t = _ok(result.table)
     specs = result.context.base.specs
     with drawing(path, (13, 6.5), 2, 4) as (fig, axes):
@@ -83,8 +99,16 @@ def _histogram(ax, fin, bound):
                 va="top")
 
 
-def sensitivity_figure(result, path):
-    """``worst_ratio`` against every varied parameter (certified blue, not certified red)."""
+def sensitivity_figure(result: SweepResult, path: str | Path) -> None:
+    """``worst_ratio`` against every varied parameter (certified blue, not certified red).
+
+    Parameters
+    ----------
+    result : SweepResult
+        The sweep.
+    path : str or pathlib.Path
+        The PNG file.
+    """
     t = _ok(result.table)
     names = list(result.context.names)[:8]
     ncols = min(4, max(1, len(names)))
@@ -104,8 +128,16 @@ def sensitivity_figure(result, path):
         axes.ravel()[0].legend(fontsize=7)
 
 
-def front_figure(result, path):
-    """Trade-off: the maximised figure against the first parameter, and the Pareto front."""
+def front_figure(result: SweepResult, path: str | Path) -> None:
+    """Trade-off: the maximised figure against the first parameter, and the Pareto front.
+
+    Parameters
+    ----------
+    result : SweepResult
+        A design sweep.
+    path : str or pathlib.Path
+        The PNG file.
+    """
     t = _ok(result.table)
     x_name, y_name = result.sweep.front
     names = list(result.context.names)
@@ -149,8 +181,16 @@ def front_figure(result, path):
         a2.legend(fontsize=8)
 
 
-def fleet_figure(result, path):
-    """Per fleet member: worst figure/bound and integral gain."""
+def fleet_figure(result: SweepResult, path: str | Path) -> None:
+    """Per fleet member: worst figure/bound and integral gain.
+
+    Parameters
+    ----------
+    result : SweepResult
+        A fleet sweep.
+    path : str or pathlib.Path
+        The PNG file.
+    """
     t = result.table
     files = t.column("file").to_pylist()
     ratio = _values(t, "worst_ratio")
@@ -168,15 +208,34 @@ def fleet_figure(result, path):
         a2.set_xticks(pos, files, rotation=30, ha="right", fontsize=8)
 
 
-def worst_ok_row(result):
-    """The worst variant evaluated without error (a dict), or ``None``."""
+def worst_ok_row(result: SweepResult) -> dict | None:
+    """The worst variant evaluated without error (a dict), or ``None``.
+
+    Parameters
+    ----------
+    result : SweepResult
+        The sweep.
+
+    Returns
+    -------
+    dict or None
+        Its row of ``results.parquet``.
+    """
     t = _ok(result.table)
     rows = worst_rows(t, 1)
     return t.slice(rows[0], 1).to_pylist()[0] if rows else None
 
 
-def worst_bode_figure(result, path):
-    """|S|, |T|, |U| of the worst variant per temperature; thin grey: the base family."""
+def worst_bode_figure(result: SweepResult, path: str | Path) -> None:
+    """``|S|, |T|, |U|`` of the worst variant per temperature; thin grey: the base family.
+
+    Parameters
+    ----------
+    result : SweepResult
+        The sweep.
+    path : str or pathlib.Path
+        The PNG file.
+    """
     row = worst_ok_row(result)
     ctx = result.context
     values = {k: row[k] for k in ctx.names}

@@ -1,19 +1,50 @@
 """Plain-text views of a design's JSON dict, shared by the CLI and the reports."""
 
+from __future__ import annotations
+
 import math
 
 __all__ = ["margins_table", "sampled_summary", "design_summary", "fleet_summary", "fmt"]
 
 
-def fmt(x, spec):
-    """``format(x, spec)``; ``"inf"`` for ``None`` (an infinite margin) or a non-finite value."""
+def fmt(x: float | None, spec: str) -> str:
+    """``format(x, spec)``; ``"inf"`` for ``None`` (an infinite margin) or a non-finite value.
+
+    Parameters
+    ----------
+    x : float or None
+        The value.
+    spec : str
+        A format spec (``".3f"``).
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> from robrst.report.text import fmt
+    >>> fmt(1.23456, ".2f"), fmt(None, ".2f")
+    ('1.23', 'inf')
+    """
     if x is None or (isinstance(x, float) and not math.isfinite(x)):
         return "inf"
     return format(x, spec)
 
 
-def margins_table(d):
-    """Margins per model (label, temperature, stable, Ms, Mt, Mu, GM, PM, MM, DM)."""
+def margins_table(d: dict) -> str:
+    """Margins per model (label, temperature, stable, Ms, Mt, Mu, GM, PM, MM, DM).
+
+    Parameters
+    ----------
+    d : dict
+        The design JSON (``DesignResult.as_dict()``).
+
+    Returns
+    -------
+    str
+        A fixed-width table, one line per model.
+    """
     head = (f"{'model':<8}{'T[°C]':>7}{'stable':>8}{'Ms':>8}{'Mt':>8}{'Mu[V/µm]':>10}"
             f"{'GM':>8}{'PM[°]':>8}{'MM':>7}{'DM[µs]':>9}")
     lines = [head, "-" * len(head)]
@@ -38,8 +69,18 @@ def _cell(x, spec, width):
     return f"{s:>{width}}"
 
 
-def sampled_summary(d):
-    """One line on the sampled loop's certificate (``None`` when not asked for)."""
+def sampled_summary(d: dict) -> str | None:
+    """One line on the sampled loop's certificate (``None`` when not asked for).
+
+    Parameters
+    ----------
+    d : dict
+        The design JSON.
+
+    Returns
+    -------
+    str or None
+    """
     sp, models = d["specs"], d["certificate"]["models"]
     if not sp.get("sample_rate_hz") or not models or "Ms_sampled" not in models[0]:
         return None
@@ -51,8 +92,18 @@ def sampled_summary(d):
             f" {'all stable' if stable else 'NOT all stable'}")
 
 
-def design_summary(d):
-    """The text ``robrst design`` prints: controller, margins, certificate, checks."""
+def design_summary(d: dict) -> str:
+    """The text ``robrst design`` prints: controller, margins, certificate, checks.
+
+    Parameters
+    ----------
+    d : dict
+        The design JSON.
+
+    Returns
+    -------
+    str
+    """
     out = [f"problem {d['problem']}  method {d['method']}  certified: {d['certified']}"]
     c = d["controller"]
     for k in "RST":

@@ -6,7 +6,11 @@ decimated for the slow thermal experiments) and the curves of its figure
 (:func:`robrst.report.scenario.write_scenario` writes both).
 """
 
+from __future__ import annotations
+
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -19,12 +23,32 @@ from robrst.problem.files import load_problem
 from robrst.twin.model import build_model
 from robrst.twin.simulate import Simulator, simulate
 
+if TYPE_CHECKING:
+    from robrst.core.rst import RSTController
+    from robrst.twin.config import TwinConfig
+
 __all__ = ["SCENARIOS", "ScenarioResult", "run_scenario", "controllers", "twin_step_responses",
            "loop_width"]
 
 
 @dataclass(frozen=True, eq=False)
 class ScenarioResult:
+    """One experiment of the paper on the twin: its claim, numbers and data.
+
+    Parameters
+    ----------
+    name : str
+        The scenario (``"fig2"``, ...).
+    claim : str
+        What the paper claims, in one sentence.
+    metrics : dict
+        The numbers that test the claim.
+    datasets : dict
+        Name -> :class:`~robrst.data.dataset.Dataset` of the simulated records.
+    curves : dict
+        Name -> ``(x, y, xlabel, ylabel)`` for the figure.
+    """
+
     name: str
     claim: str
     metrics: dict
@@ -70,8 +94,21 @@ def fig2(cfg, ctrls, fast=False):
                           " hysteresis versus temperature", metrics, ds, curves)
 
 
-def loop_width(u, y):
-    """Max vertical gap between the two branches of a y(u) loop, relative to the stroke."""
+def loop_width(u: np.ndarray, y: np.ndarray) -> float:
+    """Max vertical gap between the two branches of a y(u) loop, relative to the stroke.
+
+    Parameters
+    ----------
+    u : numpy.ndarray
+        The input over one cycle (up, then down).
+    y : numpy.ndarray
+        The output.
+
+    Returns
+    -------
+    float
+        The loop width as a fraction of ``ptp(y)``.
+    """
     grid = np.linspace(np.min(u) + 0.05 * np.ptp(u), np.max(u) - 0.05 * np.ptp(u), 50)
     du = np.gradient(u)
     up, dn = du > 0, du < 0
@@ -160,8 +197,14 @@ def fig45(cfg, ctrls, fast=False):
                           metrics, ds, curves)
 
 
-def controllers():
-    """The analytic (built-in ``paper``) and robust (``paper_robust``) controllers, by name."""
+def controllers() -> dict[str, RSTController]:
+    """The analytic (built-in ``paper``) and robust (``paper_robust``) controllers, by name.
+
+    Returns
+    -------
+    dict
+        ``{"analytic": RSTController, "robust": RSTController}``.
+    """
     a = analytic_design(load_problem("paper")).controller
     r = run_problem(load_problem("paper_robust")).controller
     return {"analytic": a, "robust": r}
@@ -213,13 +256,16 @@ def fig8(cfg, ctrls, fast=False):
 SCENARIOS = {"fig2": fig2, "fig3": fig3, "fig45": fig45, "fig7": fig7, "fig8": fig8}
 
 
-def run_scenario(name, cfg, fast=False, ctrls=None):
+def run_scenario(name: str, cfg: TwinConfig, fast: bool = False,
+                 ctrls: dict[str, RSTController] | None = None) -> ScenarioResult:
     """Run one of the paper's experiments on the twin ``cfg``.
 
     Parameters
     ----------
     name : {"fig2", "fig3", "fig45", "fig7", "fig8"}
+        The experiment.
     cfg : TwinConfig
+        The twin.
     fast : bool
         Shorter thermal ramps and sweeps.
     ctrls : dict, optional
@@ -228,6 +274,11 @@ def run_scenario(name, cfg, fast=False, ctrls=None):
     Returns
     -------
     ScenarioResult
+
+    Raises
+    ------
+    SpecError
+        For an unknown scenario name.
     """
     if name not in SCENARIOS:
         raise SpecError(f"unknown scenario {name!r}; expected one of {', '.join(SCENARIOS)}")
@@ -235,8 +286,22 @@ def run_scenario(name, cfg, fast=False, ctrls=None):
     return SCENARIOS[name](cfg, (ctrls or controllers()) if needs else None, fast)
 
 
-def twin_step_responses(cfg, ctrl, temperatures, t_end, step_um=10.0):
+def twin_step_responses(cfg: TwinConfig, ctrl: RSTController, temperatures: Sequence[float],
+                        t_end: float, step_um: float = 10.0) -> dict[str, tuple]:
     """Reference steps of ``step_um`` on the twin with ``ctrl`` (Tustin at the twin's rate).
+
+    Parameters
+    ----------
+    cfg : TwinConfig
+        The twin (its sampling rate is the controller's).
+    ctrl : RSTController
+        The controller in s.
+    temperatures : sequence of float
+        Constant temperatures [°C], one response each.
+    t_end : float
+        Duration [s].
+    step_um : float
+        Reference step [µm].
 
     Returns
     -------

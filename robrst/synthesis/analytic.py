@@ -7,8 +7,10 @@ through the Sylvester matrix, in the scaled variable ``p = s / w0``.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -17,6 +19,9 @@ from robrst.base.errors import CoprimeError, DegreeError, SpecError
 from robrst.core.plant import Plant
 from robrst.problem.records import AUX_MIN_FACTOR, ControllerStructure, PoleSpec
 from robrst.core.rst import RSTController
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 __all__ = [
     "characteristic_polynomial",
@@ -32,8 +37,39 @@ __all__ = [
 COPRIME_RTOL = 1e-6
 
 
-def characteristic_polynomial(spec, degree):
-    """Return ``(Am, Am_dom, Am_aux)`` of total ``degree`` from a :class:`PoleSpec`."""
+def characteristic_polynomial(spec: PoleSpec,
+                              degree: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Return ``(Am, Am_dom, Am_aux)`` of total ``degree`` from a :class:`PoleSpec`.
+
+    Parameters
+    ----------
+    spec : PoleSpec
+        The dominant poles and the auxiliary rule.
+    degree : int
+        ``deg Am`` (:func:`closed_loop_degree`).
+
+    Returns
+    -------
+    Am, Am_dom, Am_aux : numpy.ndarray
+        Monic polynomials in s, ``Am = Am_dom * Am_aux``.
+
+    Raises
+    ------
+    DegreeError
+        More dominant (or explicit auxiliary) roots than the degree allows, or too few
+        explicit auxiliary roots.
+    SpecError
+        Auxiliary roots that are unstable or less than ``AUX_MIN_FACTOR`` times faster
+        than the dominant ones.
+
+    Examples
+    --------
+    >>> from robrst.problem.records import PoleSpec
+    >>> from robrst.synthesis.analytic import characteristic_polynomial
+    >>> Am, Am_dom, Am_aux = characteristic_polynomial(PoleSpec(wn=1.0, zeta=1.0), 3)
+    >>> Am_dom.tolist(), Am_aux.tolist()              # aux pole at 10x the dominant
+    ([1.0, 2.0, 1.0], [1.0, 10.0])
+    """
     dom = spec.dominant()
     n_aux = degree - len(dom)
     if n_aux < 0:
@@ -71,10 +107,26 @@ def characteristic_polynomial(spec, degree):
 class DiophantineSolution:
     """Result of :func:`solve_diophantine`.
 
-    ``cond`` is the 2-norm condition number of the scaled, column-equilibrated
-    Sylvester matrix actually solved; ``cond_unscaled`` that of the same system
-    written in s (what a naive solve would face); ``residual`` the relative
-    coefficient error of ``A S + B R - Am`` (see :func:`robrst.core.poly.rel_coef_error`).
+    Parameters
+    ----------
+    R, S : numpy.ndarray
+        The solution in s (fixed factors included), highest power first.
+    w0 : float
+        The frequency scale of the solve [rad/s].
+    cond : float
+        The 2-norm condition number of the scaled, column-equilibrated Sylvester matrix
+        actually solved.
+    residual : float
+        The relative coefficient error of ``A S + B R - Am`` (see
+        :func:`robrst.core.poly.rel_coef_error`).
+    raw_system : tuple
+        ``(Ap, Bp, ks)`` in s, for :attr:`cond_unscaled`.
+
+    Attributes
+    ----------
+    cond_unscaled : float
+        The condition number of the same system written in s (what a naive solve would
+        face), computed on first use.
     """
 
     R: np.ndarray
@@ -140,7 +192,8 @@ def _solve_refined(M, b, steps=2):
     return x
 
 
-def diophantine_residual(A, B, R, S, Am, w0=None):
+def diophantine_residual(A: ArrayLike, B: ArrayLike, R: ArrayLike, S: ArrayLike, Am: ArrayLike,
+                         w0: float | None = None) -> float:
     """Relative coefficient error of ``A S + B R = Am``, in the scaled variable.
 
     Each coefficient's error is divided by the size of the terms that produce it,
@@ -149,6 +202,21 @@ def diophantine_residual(A, B, R, S, Am, w0=None):
     ``w0``).  When the target is reached without cancellation this equals the error
     relative to ``Am``'s coefficients; when ``Am`` results from cancelling much larger terms
     (poles moved by decades) it measures what floating point can deliver.
+
+    Parameters
+    ----------
+    A, B : array_like
+        The plant polynomials.
+    R, S : array_like
+        The controller polynomials.
+    Am : array_like
+        The target characteristic polynomial.
+    w0 : float, optional
+        The scale [rad/s] (default the natural scale of ``Am``).
+
+    Returns
+    -------
+    float
     """
     sc = poly.Scaling.natural(Am) if w0 is None else poly.Scaling(w0)
     a, b, r, s_, am = (sc.apply(poly.trim(c)) for c in (A, B, R, S, Am))
@@ -163,7 +231,8 @@ def diophantine_residual(A, B, R, S, Am, w0=None):
     return float(np.max(np.abs(lhs)) / np.max(size))
 
 
-def solve_diophantine(A, B, Am, S_fixed=(1.0, 0.0), R_fixed=(1.0,)):
+def solve_diophantine(A: ArrayLike, B: ArrayLike, Am: ArrayLike, S_fixed: ArrayLike = (1.0, 0.0),
+                      R_fixed: ArrayLike = (1.0,)) -> DiophantineSolution:
     """Solve ``A Sf S' + B Rf R' = Am`` for monic ``S'`` and ``R'`` of degree ``deg(A Sf) - 1``.
 
     Parameters
@@ -236,21 +305,43 @@ def solve_diophantine(A, B, Am, S_fixed=(1.0, 0.0), R_fixed=(1.0,)):
     return DiophantineSolution(R=R, S=S, w0=w0, cond=cond, residual=res, raw_system=(Ap, Bp, ks))
 
 
-def closed_loop_degree(n, m, S_fixed=(1.0, 0.0), R_fixed=(1.0,), extra_degree=0,
-                       relative_degree=0):
+def closed_loop_degree(n: int, m: int, S_fixed: ArrayLike = (1.0, 0.0), R_fixed: ArrayLike = (1.0,),
+                       extra_degree: int = 0, relative_degree: int = 0) -> int:
     """Degree of ``Am`` for plant degrees ``n >= m`` and the fixed factors.
 
     With ``Sf = s`` and ``Rf = 1`` this is the paper's ``2n`` (``deg S = deg R = n``);
     ``extra_degree`` raises ``deg S`` (and so ``deg Am``) further, and so does
     ``relative_degree`` (``deg R <= deg S - relative_degree``: roll-off).
+
+    Parameters
+    ----------
+    n, m : int
+        ``deg A`` and ``deg B``.
+    S_fixed, R_fixed : array_like
+        Fixed factors of S and R.
+    extra_degree : int
+        Degrees of S above the minimum.
+    relative_degree : int
+        Required ``deg S - deg R``.
+
+    Returns
+    -------
+    int
+
+    Examples
+    --------
+    >>> from robrst.synthesis.analytic import closed_loop_degree
+    >>> closed_loop_degree(3, 2), closed_loop_degree(3, 2, extra_degree=1)
+    (6, 7)
     """
     dSf, dRf = len(poly.trim(S_fixed)) - 1, len(poly.trim(R_fixed)) - 1
     ks = max(n - 1 + dRf + int(relative_degree), m + dRf) + int(extra_degree)
     return n + dSf + ks
 
 
-def tracking_polynomial(mode, R, B, Am, Am_aux, zeros=()):
-    """The feed-forward polynomial T.
+def tracking_polynomial(mode: str, R: ArrayLike, B: ArrayLike, Am: ArrayLike, Am_aux: ArrayLike,
+                        zeros: Sequence[float] = ()) -> np.ndarray:
+    """The feed-forward polynomial T (all three modes give unit static gain from yr to y).
 
     Parameters
     ----------
@@ -259,7 +350,26 @@ def tracking_polynomial(mode, R, B, Am, Am_aux, zeros=()):
         ``"static"``: ``T = Am(0)/B(0)`` (a constant);
         ``"cancel_aux"``: ``T = Am_aux * Am(0) / (Am_aux(0) B(0))`` (the tracking model
         keeps only the dominant poles).
-    All three give unit static gain from yr to y.
+    R : array_like
+        The feedback polynomial.
+    B : array_like
+        The plant's numerator.
+    Am : array_like
+        The characteristic polynomial.
+    Am_aux : array_like
+        Its auxiliary factor.
+    zeros : sequence of float
+        Zeros of ``Bm_aux`` (``"paper"``).
+
+    Returns
+    -------
+    numpy.ndarray
+        T in s, highest power first.
+
+    Raises
+    ------
+    SpecError
+        An unknown mode, or ``B(0) = 0`` (no unit static gain is possible).
     """
     B0 = B[-1]
     if B0 == 0:
@@ -278,9 +388,27 @@ def tracking_polynomial(mode, R, B, Am, Am_aux, zeros=()):
 class AnalyticDesign:
     """Result of :func:`pole_placement`.
 
-    ``cond`` is the condition number of the scaled Sylvester matrix actually solved,
-    ``cond_unscaled`` that of the same system written in s, ``residual`` the relative
-    error of ``A S + B R = Am`` (:func:`diophantine_residual`), ``w0`` [rad/s] the scale.
+    Parameters
+    ----------
+    controller : RSTController
+        The controller.
+    Am, Am_dom, Am_aux : numpy.ndarray
+        The characteristic polynomial and its dominant and auxiliary factors.
+    w0 : float
+        The scale of the solve [rad/s].
+    cond : float
+        The condition number of the scaled Sylvester matrix actually solved.
+    residual : float
+        The relative error of ``A S + B R = Am`` (:func:`diophantine_residual`).
+    solution : DiophantineSolution, optional
+        The solve behind it.
+
+    Attributes
+    ----------
+    cond_unscaled : float
+        The condition number of the same system written in s (computed on first use).
+    status : str
+        Always ``"solved"``: failures raise instead of returning.
     """
 
     controller: RSTController
@@ -310,6 +438,7 @@ def pole_placement(plant: Plant, poles: PoleSpec,
     Parameters
     ----------
     plant : Plant
+        The nominal model.
     poles : PoleSpec
         Closed-loop poles ``Am = Am_dom * Am_aux``.
     structure : ControllerStructure

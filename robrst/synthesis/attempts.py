@@ -7,7 +7,11 @@ fails, the soft-goal phase from the best starts followed by the objective again,
 result certified and refined round by round (see :mod:`robrst.synthesis.robust`).
 """
 
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -17,6 +21,14 @@ from robrst.synthesis.nlp import grid_blocks
 from robrst.synthesis.outcome import Round, worst_violation
 from robrst.synthesis.parametrize import integral_gain
 from robrst.synthesis.starts import ON_SLOW_POLE, candidates, score
+
+if TYPE_CHECKING:
+    from robrst.certificate.proof import Certificate
+    from robrst.core.rst import RSTController
+    from robrst.problem.records import Problem
+    from robrst.synthesis.context import Context
+    from robrst.synthesis.nlp import NLPSetup
+    from robrst.synthesis.outcome import SolveResult, SynthesisResult
 
 __all__ = ["Outcome", "Run", "worst_violation", "frequency_certificate", "program_models",
            "refine",
@@ -35,7 +47,32 @@ WARM_START = "previous design"   # the name of that start (robrst.synthesis.robu
 
 @dataclass(frozen=True, eq=False)
 class Outcome:
-    """A point of an attempt: controller, certificate, solve, phase and placement."""
+    """A point of an attempt: controller, certificate, solve, phase and placement.
+
+    Parameters
+    ----------
+    ctrl : RSTController
+        The controller.
+    cert : Certificate
+        Its frequency-domain certificate.
+    res : SolveResult
+        The solve it came from.
+    phase : str
+        ``"hard"``, ``"soft"`` or ``"start"``.
+    placement : str
+        The nominal pole placement.
+    x : numpy.ndarray
+        The variable vector.
+    setup : NLPSetup
+        The program it was solved in.
+
+    Attributes
+    ----------
+    certified : bool
+        The certificate holds.
+    badness : float
+        The worst violation's ratio to its bound (0 when certified).
+    """
 
     ctrl: object
     cert: object
@@ -59,8 +96,21 @@ class Outcome:
         return v.value / v.bound
 
 
-def frequency_certificate(problem, ctrl):
-    """The frequency-domain certificate of ``ctrl`` on every actuator of ``problem``."""
+def frequency_certificate(problem: Problem, ctrl: RSTController) -> Certificate:
+    """The certificate of ``ctrl`` for the frequency-domain specs on every actuator of
+    ``problem`` (the time-domain ones are checked once the reference path is designed).
+
+    Parameters
+    ----------
+    problem : Problem
+        The problem (its family, specs and certificate resolution).
+    ctrl : RSTController
+        The controller.
+
+    Returns
+    -------
+    Certificate
+    """
     so = problem.solver
     return certify_families(problem.families, ctrl, problem.specs.without_time_domain(),
                             n_sweep=so.cert_temperatures, rtol=so.cert_tol)
@@ -74,12 +124,31 @@ def program_models(problem):
     return list(problem.family.models) + ends
 
 
-def refine(problem, cert, models, nu, max_new=2):
+def refine(problem: Problem, cert: Certificate, models: list,
+           nu: np.ndarray, max_new: int = 2) -> tuple[list, np.ndarray]:
     """Add the certificate's offending frequencies, and its worst temperatures, to the program.
 
     Every offending frequency joins the grid (with its 2 % neighbours); of the offending
     temperatures not yet modelled only the ``max_new`` worst join (the family members
     already span the range: most violations between them are the same peak).
+
+    Parameters
+    ----------
+    problem : Problem
+        The problem.
+    cert : Certificate
+        The last round's certificate.
+    models : list of Plant
+        The program's models.
+    nu : numpy.ndarray
+        The program's grid [rad/s].
+    max_new : int
+        At most this many new temperatures.
+
+    Returns
+    -------
+    models : list of Plant
+    nu : numpy.ndarray
     """
     known = {m.temperature_C for m in models}
     fs = problem.specs.sample_rate_hz
@@ -123,8 +192,21 @@ def _better(problem, out, others):
                key=lambda o: objective_value(problem, o))
 
 
-def objective_value(problem, out):
-    """The objective of a certified outcome (larger is better; ``-inf`` if uncertified)."""
+def objective_value(problem: Problem, out: Outcome) -> float:
+    """The objective of a certified outcome (larger is better; ``-inf`` if uncertified).
+
+    Parameters
+    ----------
+    problem : Problem
+        The problem (its objective).
+    out : Outcome
+        The outcome.
+
+    Returns
+    -------
+    float
+        ``|integral gain|``, ``-worst Ms`` or 0 (feasibility).
+    """
     if out is None or not out.certified:
         return -np.inf
     obj = problem.solver.objective
@@ -154,25 +236,80 @@ def _key(obj):
 
 
 class Run:
-    """One synthesis: what its attempts share (built solvers, progress, rounds, notes)."""
+    """One synthesis: what its attempts share (built solvers, progress, rounds, notes).
 
-    def __init__(self, problem, say, templates, warm=None):
+    Parameters
+    ----------
+    problem : Problem
+        The problem.
+    say : callable
+        Progress: called with one line of text.
+    templates : dict
+        Built solvers by structure.
+    warm : SynthesisResult, optional
+        A previous design of a nearby variant.
+
+    Attributes
+    ----------
+    rounds : list of Round
+        Every certification round so far.
+    notes : list of str
+        What the pipeline had to do.
+    hopeless : bool
+        Set when the specs are provably infeasible.
+    solved : dict
+        Program key -> result: a repeated program is not solved again.
+    """
+
+    def __init__(self, problem: Problem, say: Callable[[str], None], templates: dict,
+                 warm: SynthesisResult | None = None) -> None:
         self.problem, self.say, self.templates, self.warm = problem, say, templates, warm
         self.rounds, self.notes = [], []
         self.hopeless = False     # set when the specs are provably infeasible
         self.solved = {}          # program key -> result: a repeated program is not re-solved
 
-    def spent(self, placement=None):
+    def spent(self, placement: str | None = None) -> bool:
         """True once the synthesis has used its IPOPT iteration budget: ``RUN_ITER_BUDGET``
         for the rounds of ``placement`` (the fixed poles' rounds do not take the budget of
-        the free search that follows them), twice that over all rounds."""
+        the free search that follows them), twice that over all rounds.
+
+        Parameters
+        ----------
+        placement : str, optional
+            The placement whose rounds count (``None``: every round, one budget).
+
+        Returns
+        -------
+        bool
+        """
         total = sum(r.iterations for r in self.rounds)
         if placement is None or total > 2 * RUN_ITER_BUDGET:
             return total > RUN_ITER_BUDGET
         return sum(r.iterations for r in self.rounds if r.placement == placement) > RUN_ITER_BUDGET
 
-    def solve(self, ctx, setup, x0, phase, start, exact=False):
-        """One program by constraint exchange (trust regions with freely placed poles)."""
+    def solve(self, ctx: Context, setup: NLPSetup, x0: np.ndarray, phase: Phase, start: str,
+              exact: bool = False) -> SolveResult:
+        """One program by constraint exchange (trust regions with freely placed poles).
+
+        Parameters
+        ----------
+        ctx : Context
+            The synthesis's context.
+        setup : NLPSetup
+            The program's data.
+        x0 : numpy.ndarray
+            The start.
+        phase : Phase
+            Soft goals or the objective.
+        start : str
+            The start's name (reported).
+        exact : bool
+            Also impose each block's exact peak frequency once the grid holds.
+
+        Returns
+        -------
+        SolveResult
+        """
         ipopt = ctx.ipopt
         if start == WARM_START:   # a near-optimal start: a small barrier keeps it near
             ipopt = {**ipopt, "mu_init": WARM_MU}
@@ -202,10 +339,30 @@ class Run:
                  f" {len(setup.nu)} freqs" + (f", worst spec ratio {gamma:.4g}" if gamma else ""))
         return res
 
-    def boxed(self, ctx, setup, x0, phase, exact):
+    def boxed(self, ctx: Context, setup: NLPSetup, x0: np.ndarray, phase: Phase,
+              exact: bool) -> SolveResult:
         """Trust-region solves for freely placed poles (free coefficients move resonances
         and slow poles far in one step; IPOPT alone wanders): a box around the point,
-        re-centred and doubled while the solution lands on it, halved after a failure."""
+        re-centred and doubled while the solution lands on it, halved after a failure.
+
+        Parameters
+        ----------
+        ctx : Context
+            The synthesis's context.
+        setup : NLPSetup
+            The program's data.
+        x0 : numpy.ndarray
+            The start.
+        phase : Phase
+            Soft goals or the objective.
+        exact : bool
+            Also impose each block's exact peak frequency once the grid holds.
+
+        Returns
+        -------
+        SolveResult
+            The best box's result, ``iterations`` summed.
+        """
         ipopt = {**ctx.ipopt, "max_iter": min(ctx.ipopt["max_iter"], FREE_MAX_ITER)}
         best, x, iters, res, f = None, np.asarray(x0, float), 0, None, FREE_BOX
         for _ in range(FREE_BOXES):
@@ -227,8 +384,27 @@ class Run:
             f = min(2 * f, 8 * FREE_BOX)
         return replace(best if best is not None else res, iterations=iters)
 
-    def outcome(self, ctx, setup, res, phase, x=None):
-        """Certify the point ``x`` (default: the solve's) for the frequency-domain specs."""
+    def outcome(self, ctx: Context, setup: NLPSetup, res: SolveResult, phase: str,
+                x: np.ndarray | None = None) -> Outcome:
+        """Certify the point ``x`` (default: the solve's) for the frequency-domain specs.
+
+        Parameters
+        ----------
+        ctx : Context
+            The synthesis's context.
+        setup : NLPSetup
+            The program's data.
+        res : SolveResult
+            The solve.
+        phase : str
+            ``"hard"``, ``"soft"`` or ``"start"``.
+        x : numpy.ndarray, optional
+            The point (default ``res.x``).
+
+        Returns
+        -------
+        Outcome
+        """
         x = res.x if x is None else x
         ctrl = ctx.controller(x)
         cert = frequency_certificate(ctx.problem, ctrl)
@@ -237,10 +413,24 @@ class Run:
         return Outcome(ctrl=ctrl, cert=cert, res=res, phase=phase, placement=setup.placement,
                        x=np.asarray(x, float), setup=setup)
 
-    def hard(self, ctx, placement, x, name):
+    def hard(self, ctx: Context, placement: str, x: np.ndarray, name: str) -> Outcome | None:
         """The objective under hard specs from ``x``, certified, refined round by round.
 
-        Returns the last outcome (``None`` if IPOPT failed in the first round).
+        Parameters
+        ----------
+        ctx : Context
+            The synthesis's context.
+        placement : str
+            The nominal pole placement.
+        x : numpy.ndarray
+            The start.
+        name : str
+            The start's name.
+
+        Returns
+        -------
+        Outcome or None
+            The last outcome (``None`` if IPOPT failed in the first round).
         """
         p = ctx.problem
         models, nu, last = program_models(p), ctx.nu, None
@@ -287,7 +477,7 @@ class Run:
         out = self.hard(ctx, placement, res.x, f"soft-goal point from {WARM_START}")
         return out if out is not None and (out.certified or not soft.certified) else soft
 
-    def attempt(self, ctx, placement, seeds):
+    def attempt(self, ctx: Context, placement: str, seeds: Sequence[tuple]) -> Outcome | None:
         """Hard phase from the preferred start; if that fails, soft phase then hard phase.
 
         A previous design of a nearby variant (``warm``) within ``WARM_NEAR`` of the specs
@@ -295,6 +485,21 @@ class Run:
         does not certify, or otherwise, the preferred start is the best one when it already
         meets the specs on the grid, else a seed handed down, else the analytic design at
         the problem's poles.
+
+        Parameters
+        ----------
+        ctx : Context
+            The synthesis's context.
+        placement : str
+            The nominal pole placement.
+        seeds : sequence of tuple
+            Starts handed down (the homotopy's lower degree, a fixed placement's result).
+
+        Returns
+        -------
+        Outcome or None
+            The best certified outcome, else the least violating one (``None``: nothing
+            solved).
         """
         setup = ctx.setup(program_models(ctx.problem), ctx.nu, placement)
         blocks = grid_blocks(setup, np.ones(ctx.param.n_x))   # weights unused by the scores

@@ -7,7 +7,11 @@ decision-vector parametrisation, the frequency grid, the sampled-loop plants, an
 :class:`~robrst.synthesis.nlp.NLPSetup` of one program.
 """
 
+from __future__ import annotations
+
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -16,6 +20,14 @@ from robrst.core.sampled import warp
 from robrst.synthesis.nlp import NLPSetup, scale_plant
 from robrst.synthesis.parametrize import (Parametrization, TrackingRule, frequency_grid,
                                           integral_gain)
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from robrst.core.plant import Plant
+    from robrst.core.rst import RSTController
+    from robrst.problem.records import Problem, SolverOptions
+    from robrst.synthesis.analytic import AnalyticDesign
 
 __all__ = ["Context", "BOUND_MARGIN", "FREE_MARGIN", "ipopt_options", "CTRL_POLE_RATIO",
            "low_frequency_coefficient"]
@@ -26,22 +38,78 @@ CTRL_POLE_RATIO = 0.1   # max_integral_gain: controller poles at Re s <= -0.1 |s
 CTRL_MAX = 30.0         # free placement: controller poles at Re s >= -30 |fastest start root|
 
 
-def ipopt_options(so):
-    """IPOPT options of the problem's solver settings."""
+def ipopt_options(so: SolverOptions) -> dict:
+    """IPOPT options of the problem's solver settings.
+
+    Parameters
+    ----------
+    so : SolverOptions
+        The problem's solver options (``max_iter``, ``ipopt_tol``).
+
+    Returns
+    -------
+    dict
+        Options for CasADi's ``nlpsol("ipopt")``.
+    """
     return {"max_iter": so.max_iter, "tol": so.ipopt_tol, "print_level": 0,
             "sb": "yes", "mu_strategy": "monotone", "nlp_scaling_method": "none"}
 
 
-def low_frequency_coefficient(a):
+def low_frequency_coefficient(a: ArrayLike) -> float:
     """The lowest nonzero coefficient of ``a`` (``a(0)``, or that of ``a / s^k`` for a
-    polynomial with ``k`` roots at the origin); 0 for the zero polynomial."""
+    polynomial with ``k`` roots at the origin); 0 for the zero polynomial.
+
+    Parameters
+    ----------
+    a : array_like
+        Coefficients, highest power first.
+
+    Returns
+    -------
+    float
+
+    Examples
+    --------
+    >>> from robrst.synthesis.context import low_frequency_coefficient
+    >>> low_frequency_coefficient([1.0, 3.0, 0.0, 0.0])      # s^3 + 3 s^2 = s^2 (s + 3)
+    3.0
+    """
     nz = np.flatnonzero(np.asarray(a, float))
     return float(a[nz[-1]]) if nz.size else 0.0
 
 
 @dataclass(frozen=True, eq=False)
 class Context:
-    """Per-problem data of the synthesis (see the module docstring)."""
+    """Per-problem data of the synthesis (see the module docstring).
+
+    Parameters
+    ----------
+    problem : Problem
+        The problem.
+    param : Parametrization
+        The decision vector's degrees, factors and scaling.
+    tracking : TrackingRule
+        T from R.
+    nu : numpy.ndarray
+        The physical frequency grid [rad/s].
+    Am : numpy.ndarray
+        The start's closed-loop polynomial (in s).
+    sign : float
+        Sign of the integral gain of a stabilising controller.
+    ctrl_shift : float
+        Scaled: the controller's slow poles stay at ``Re p <= -ctrl_shift``.
+    ctrl_max : float
+        Scaled: controller poles no faster than this (free placement).
+    ipopt : dict
+        IPOPT options.
+    extra_degree : int
+        The degree of this context (the homotopy's lower degrees have their own).
+
+    Attributes
+    ----------
+    w0 : float
+        The frequency scale [rad/s].
+    """
 
     problem: object
     param: Parametrization
@@ -55,8 +123,22 @@ class Context:
     extra_degree: int = 0
 
     @classmethod
-    def of(cls, problem, start, extra_degree=None):
-        """The context of ``problem`` around the analytic design ``start``."""
+    def of(cls, problem: Problem, start: AnalyticDesign, extra_degree: int | None = None) -> Context:
+        """The context of ``problem`` around the analytic design ``start``.
+
+        Parameters
+        ----------
+        problem : Problem
+            The problem.
+        start : AnalyticDesign
+            The analytic design at the problem's poles.
+        extra_degree : int, optional
+            Overrides the structure's (the homotopy's lower degrees).
+
+        Returns
+        -------
+        Context
+        """
         so = problem.solver
         sc = poly.Scaling.natural(start.Am)
         ref = problem.family.reference_model
@@ -89,17 +171,46 @@ class Context:
     def w0(self):
         return self.param.scaling.w0
 
-    def sampled(self, model):
-        """The sampled-loop plant of ``model`` (the family's memo)."""
+    def sampled(self, model: Plant) -> Plant:
+        """The sampled-loop plant of ``model`` (the family's memo).
+
+        Parameters
+        ----------
+        model : Plant
+            A model of the problem's family.
+
+        Returns
+        -------
+        Plant
+        """
         sp = self.problem.specs
         return self.problem.family.sampled(model, sp.sample_rate_hz, sp.delay_samples)
 
-    def default_placement(self):
-        """``"dominant"`` with free poles, else ``"fixed"``."""
+    def default_placement(self) -> str:
+        """``"dominant"`` with free poles, else ``"fixed"``.
+
+        Returns
+        -------
+        str
+        """
         return "dominant" if self.problem.solver.free_poles else "fixed"
 
-    def setup(self, models, nu, placement):
-        """The numeric program data for ``models`` on the grid ``nu`` [rad/s]."""
+    def setup(self, models: Sequence[Plant], nu: np.ndarray, placement: str) -> NLPSetup:
+        """The numeric program data for ``models`` on the grid ``nu`` [rad/s].
+
+        Parameters
+        ----------
+        models : sequence of Plant
+            The models of the program (and, for a sampled problem, their sampled loops).
+        nu : numpy.ndarray
+            The physical grid [rad/s].
+        placement : {"fixed", "dominant", "free"}
+            The nominal pole placement.
+
+        Returns
+        -------
+        NLPSetup
+        """
         p = self.problem
         sp, so = p.specs, p.solver
         sc, w0 = self.param.scaling, self.w0
@@ -148,8 +259,25 @@ class Context:
                         ctrl_shift=self.ctrl_shift, ctrl_max=self.ctrl_max,
                         grids=tuple(grids))
 
-    def full(self, xc, setup, wn=None, zeta=None, gamma=1.0):
-        """The full variable vector ``[xc, (wn, zeta), gamma]`` for ``setup``."""
+    def full(self, xc: np.ndarray, setup: NLPSetup, wn: float | None = None,
+             zeta: float | None = None, gamma: float = 1.0) -> np.ndarray:
+        """The full variable vector ``[xc, (wn, zeta), gamma]`` for ``setup``.
+
+        Parameters
+        ----------
+        xc : numpy.ndarray
+            The controller part.
+        setup : NLPSetup
+            The program (``wn, zeta`` only for the dominant placement).
+        wn, zeta : float, optional
+            The scaled dominant pair (default the start's).
+        gamma : float
+            The soft phase's scale.
+
+        Returns
+        -------
+        numpy.ndarray
+        """
         parts = [np.asarray(xc, float)[:self.param.n_x]]
         if setup.placement == "dominant":
             (wl, wh), (zl, zh) = setup.pole_bounds
@@ -160,6 +288,16 @@ class Context:
         parts.append([gamma])
         return np.concatenate(parts)
 
-    def controller(self, x):
-        """The RST controller of a (full) variable vector."""
+    def controller(self, x: np.ndarray) -> RSTController:
+        """The RST controller of a (full) variable vector.
+
+        Parameters
+        ----------
+        x : numpy.ndarray
+            The variable vector (its controller part is used).
+
+        Returns
+        -------
+        RSTController
+        """
         return self.param.controller(np.asarray(x, float)[:self.param.n_x], self.tracking)

@@ -6,7 +6,11 @@ nominal closed-loop denominator is the constant ``Am``, so ``|A0 S(jw)| <= g |Am
 shapes the nominal sensitivity; the result also initialises the NLP.
 """
 
+from __future__ import annotations
+
 import warnings
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import cvxpy as cp
 import numpy as np
@@ -18,10 +22,15 @@ from robrst.synthesis.nlp import conv_matrix, jw_matrices, scale_plant
 from robrst.synthesis.parametrize import Parametrization, TrackingRule, frequency_grid
 from robrst.synthesis.outcome import SynthesisResult, best_achievable
 
+if TYPE_CHECKING:
+    from robrst.problem.records import Problem
+    from robrst.synthesis.analytic import AnalyticDesign
+
 __all__ = ["convex_synthesis", "solve_convex"]
 
 
-def solve_convex(problem, Am, param, nu, objective=None, soft=False):
+def solve_convex(problem: Problem, Am: np.ndarray, param: Parametrization, nu: np.ndarray,
+                 objective: str | None = None, soft: bool = False) -> tuple[np.ndarray, float]:
     """Solve the SOCP; return the scaled decision vector ``[S' (non-leading), R']`` and g.
 
     With ``soft`` the spec bounds are scaled by a variable ``t`` that is minimised (the
@@ -32,16 +41,31 @@ def solve_convex(problem, Am, param, nu, objective=None, soft=False):
     Parameters
     ----------
     problem : Problem
-    Am : ndarray
+        The problem (nominal model, specs, objective).
+    Am : numpy.ndarray
         The fixed closed-loop polynomial (in s).
     param : Parametrization
         Degrees, fixed factors and scaling of the decision vector.
-    nu : ndarray
+    nu : numpy.ndarray
         Scaled frequency grid.
     objective : str, optional
         Overrides ``problem.solver.objective`` (the NLP initialiser uses ``"feasibility"``).
     soft : bool
         Minimise the worst ratio of peak to bound instead (objective ignored).
+
+    Returns
+    -------
+    x : numpy.ndarray
+        The scaled decision vector.
+    g : float
+        The optimal value (the worst ``|S|`` of ``min_Ms``, ``t`` of the soft program).
+
+    Raises
+    ------
+    SpecError
+        An objective the convex method does not support.
+    SolverError
+        The program is infeasible, ends without a solution, or the solver fails.
     """
     Sf_s, Rf_s, ks, kr = param.Sf, param.Rf, param.ks, param.kr
     ref = problem.family.reference_model
@@ -104,19 +128,27 @@ def solve_convex(problem, Am, param, nu, objective=None, soft=False):
     return np.concatenate([np.zeros(0) if ks == 0 else xs.value, xr.value]), float(g.value)
 
 
-def convex_synthesis(problem, start, progress=None):
+def convex_synthesis(problem: Problem, start: AnalyticDesign,
+                     progress: Callable[[str], None] | None = None) -> SynthesisResult:
     """The ``method = "convex"`` path: nominal-model SOCP with the fixed Am, certified.
 
     Parameters
     ----------
     problem : Problem
+        The problem.
     start : AnalyticDesign
         The analytic design (its ``Am`` is kept).
     progress : callable, optional
+        Called with one line of text per solve.
 
     Returns
     -------
     SynthesisResult
+
+    Raises
+    ------
+    SpecError
+        ``free_poles`` (the convex method needs a fixed Am) or an unsupported objective.
     """
     say = progress or (lambda m: None)
     if problem.solver.free_poles:

@@ -19,7 +19,11 @@ The program itself is one parametric solver per structure
 round only changes the parameters, it never rebuilds the CasADi graph.
 """
 
+from __future__ import annotations
+
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -32,6 +36,9 @@ from robrst.synthesis.stability import (ROUTH_MIN, initial_stability, joined, ro
                                         stability_rows)
 from robrst.synthesis.template import Structure, Template
 
+if TYPE_CHECKING:
+    from robrst.synthesis.nlp import GridBlock, NLPSetup
+
 __all__ = ["ExchangeInfo", "Phase", "solve_exchange", "solve_program", "local_maxima",
            "effective_ratios"]
 NEAR_ACTIVE = 0.02      # local maxima within 2 % below the bound join the active set
@@ -42,9 +49,16 @@ NEIGHBOURS_NEAR = 0.8   # local maxima above this share of their bound start wit
 
 @dataclass(frozen=True)
 class Phase:
-    """What is solved: ``"soft"`` (minimise the worst normalised spec ratio ``gamma``,
-    systune's soft goals, down to ``gamma_floor``) or ``"hard"`` (the problem's objective
-    with every spec a constraint)."""
+    """What is solved: the soft goals or the objective.
+
+    Parameters
+    ----------
+    kind : {"hard", "soft"}
+        ``"soft"``: minimise the worst normalised spec ratio ``gamma`` (systune's soft
+        goals); ``"hard"``: the problem's objective with every spec a constraint.
+    gamma_floor : float
+        The soft phase stops minimising below this ``gamma``.
+    """
 
     kind: str = "hard"
     gamma_floor: float = 0.0
@@ -52,7 +66,23 @@ class Phase:
 
 @dataclass(frozen=True)
 class ExchangeInfo:
-    """How the exchange went: rounds, IPOPT iterations, active and total grid points."""
+    """How the exchange went: rounds, IPOPT iterations, active and total grid points.
+
+    Parameters
+    ----------
+    rounds : int
+        Exchange rounds.
+    iterations : int
+        IPOPT iterations summed over the rounds.
+    active_points : int
+        Grid points imposed at the end.
+    grid_points : int
+        Grid points in all.
+    max_grid_ratio : float
+        Max over every grid point of ``|N| / (limit |Delta|)`` at the result.
+    stability_models : int
+        Models whose closed-loop stability rows were imposed (-1: not recorded).
+    """
 
     rounds: int
     iterations: int
@@ -75,8 +105,25 @@ def _limits(setup, blocks, phase):
     return out
 
 
-def effective_ratios(blocks, limits, x, gamma):
-    """Per block, ``|N| / (limit |Delta|)`` at every grid point."""
+def effective_ratios(blocks: Sequence[GridBlock], limits: Sequence[tuple[float, bool]],
+                     x: np.ndarray, gamma: float) -> list[np.ndarray]:
+    """Per block, ``|N| / (limit |Delta|)`` at every grid point.
+
+    Parameters
+    ----------
+    blocks : sequence of GridBlock
+        The constraints.
+    limits : sequence of (float, bool)
+        Per block its limit and whether it scales with ``gamma``.
+    x : numpy.ndarray
+        The decision vector.
+    gamma : float
+        The soft phase's scale.
+
+    Returns
+    -------
+    list of numpy.ndarray
+    """
     return [b.ratio(x) * b.bound / (m * (gamma if sc else 1.0)) for b, (m, sc) in zip(blocks, limits)]
 
 
@@ -210,16 +257,39 @@ def _var_bounds(setup, st, phase, box=None):
     return lbx, ubx
 
 
-def solve_program(setup, x0, ipopt, phase=Phase(), blocks=None, active=None, templates=None,
-                  x_ref=None, box=None, routh=None, rows=None):
+def solve_program(setup: NLPSetup, x0: np.ndarray, ipopt: dict, phase: Phase = Phase(),
+                  blocks: Sequence[GridBlock] | None = None, active: Sequence | None = None,
+                  templates: dict | None = None, x_ref: np.ndarray | None = None,
+                  box: tuple[np.ndarray, np.ndarray] | None = None,
+                  routh: Sequence[int] | None = None, rows: list | None = None) -> SolveResult:
     """Solve the program on the ``active`` grid points of ``blocks`` (default: all).
 
-    ``x0`` is the full variable vector ``[xc, (wn, zeta), gamma]``.  ``templates``
-    caches built solvers by structure (a dict; default: a fresh one); ``box`` =
-    ``(center, radius)`` bounds the controller coefficients (a trust region); ``routh``
-    the indices of the models whose closed-loop stability rows are imposed (default:
-    every model); ``rows`` those rows, if the caller has them
-    (:func:`~robrst.synthesis.stability.stability_rows`).
+    Parameters
+    ----------
+    setup : NLPSetup
+        The program's data.
+    x0 : numpy.ndarray
+        The full variable vector ``[xc, (wn, zeta), gamma]``.
+    ipopt : dict
+        IPOPT options.
+    phase : Phase
+        Soft goals or the objective.
+    blocks : sequence of GridBlock, optional
+        The grid constraints (default :func:`~robrst.synthesis.nlp.grid_blocks` at
+        ``x_ref``).
+    active : sequence, optional
+        Per block, the indices of its grid points imposed (default: all).
+    templates : dict, optional
+        Built solvers by structure (default: a fresh one).
+    x_ref : numpy.ndarray, optional
+        The point whose ``|Delta|^2`` weights the constraints (default ``x0``).
+    box : (numpy.ndarray, numpy.ndarray), optional
+        ``(center, radius)`` bounds the controller coefficients (a trust region).
+    routh : sequence of int, optional
+        The models whose closed-loop stability rows are imposed (default: every model).
+    rows : list, optional
+        Those rows, if the caller has them
+        (:func:`~robrst.synthesis.stability.stability_rows`).
 
     Returns
     -------
@@ -293,19 +363,24 @@ def _exact_growth(blocks, limits, active, x, gamma):
     return added
 
 
-def solve_exchange(setup, x0, ipopt, phase=Phase(), templates=None, max_rounds=50,
-                   coarse_points=COARSE_POINTS, exact=False, box=None, stability=None):
+def solve_exchange(setup: NLPSetup, x0: np.ndarray, ipopt: dict, phase: Phase = Phase(),
+                   templates: dict | None = None, max_rounds: int = 50,
+                   coarse_points: int = COARSE_POINTS, exact: bool = False,
+                   box: tuple[np.ndarray, np.ndarray] | None = None,
+                   stability: Sequence[int] | None = None) -> SolveResult:
     """Solve the program of ``setup`` on its whole grid by constraint exchange.
 
     Parameters
     ----------
     setup : NLPSetup
-    x0 : ndarray
+        The program's data.
+    x0 : numpy.ndarray
         Starting point ``[xc, (wn, zeta), gamma]``; its closed-loop ``|Delta|^2``
         weights every grid constraint.
     ipopt : dict
         IPOPT options.
     phase : Phase
+        Soft goals or the objective.
     templates : dict, optional
         Built solvers by structure, shared between calls.
     max_rounds : int

@@ -5,7 +5,7 @@ divided by ``w0**deg A`` and the controller by ``w0**deg S``, which keeps every
 closed-loop ratio unchanged while bringing coefficients to O(1).  Decision
 variables: the free coefficients of ``S'`` and ``R'`` (``S = Sf S'``, ``R = Rf R'``),
 optionally the dominant pole parameters ``(wn, zeta)``, and ``gamma`` (the worst
-normalised spec ratio of the soft-goal phase, or the |S| bound of ``min_Ms``).  Every
+normalised spec ratio of the soft-goal phase, or the ``|S|`` bound of ``min_Ms``).  Every
 closed-loop polynomial is *affine* in the controller coefficients, so on a frequency
 grid each peak constraint ``|N(jw)|^2 <= M^2 |Delta(jw)|^2`` (denominators cleared,
 divided by a fixed weight ``|Delta_0(jw)|^2``) is a quadratic in the variables: this
@@ -14,10 +14,20 @@ Diophantine maps; :mod:`robrst.synthesis.template` holds the one CasADi program 
 takes them as parameters.
 """
 
+from __future__ import annotations
+
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from robrst.core import poly
+    from robrst.core.plant import Plant
 
 
 __all__ = ["GridBlock", "NLPSetup", "grid_blocks", "conv_matrix", "jw_matrices",
@@ -28,8 +38,28 @@ __all__ = ["GridBlock", "NLPSetup", "grid_blocks", "conv_matrix", "jw_matrices",
 PEAK_KEYS = ("S", "T", "U", "Tband", "Uhf")
 
 
-def conv_matrix(c, n):
-    """Matrix ``M`` with ``M @ x == np.convolve(c, x)`` for ``len(x) == n``."""
+def conv_matrix(c: ArrayLike, n: int) -> np.ndarray:
+    """Matrix ``M`` with ``M @ x == np.convolve(c, x)`` for ``len(x) == n``.
+
+    Parameters
+    ----------
+    c : array_like
+        Coefficients.
+    n : int
+        Length of ``x``.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(len(c) + n - 1, n)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from robrst.synthesis.nlp import conv_matrix
+    >>> (conv_matrix([1.0, 2.0], 2) @ np.array([3.0, 4.0])).tolist()
+    [3.0, 10.0, 8.0]
+    """
     c = np.asarray(c, dtype=float)
     M = np.zeros((len(c) + n - 1, n))
     for j in range(n):
@@ -37,18 +67,48 @@ def conv_matrix(c, n):
     return M
 
 
-def jw_matrices(nu, deg):
-    """Real and imaginary parts of ``[ (j nu)^deg, ..., 1 ]`` (highest power first)."""
+def jw_matrices(nu: np.ndarray, deg: int) -> tuple[np.ndarray, np.ndarray]:
+    """Real and imaginary parts of ``[ (j nu)^deg, ..., 1 ]`` (highest power first).
+
+    Parameters
+    ----------
+    nu : numpy.ndarray
+        Scaled frequencies.
+    deg : int
+        The degree.
+
+    Returns
+    -------
+    real, imag : numpy.ndarray
+        ``(len(nu), deg + 1)``: ``c(j nu) = (real + j imag) @ c``.
+    """
     k = np.arange(deg, -1, -1)
     z = (1j * np.asarray(nu, float)[:, None]) ** k[None, :]
     return z.real, z.imag
 
 
-def routh_column(c):
+def routh_column(c: np.ndarray | ca.MX) -> np.ndarray | ca.MX:
     """First column of the Routh array of a polynomial with symbolic (CasADi) or numeric
     (1-D numpy) coefficients.
 
     All entries > 0 (with ``c[0] > 0``) is the Hurwitz condition.
+
+    Parameters
+    ----------
+    c : numpy.ndarray or casadi.MX
+        Coefficients, highest power first (a 1-D array, or a CasADi column).
+
+    Returns
+    -------
+    numpy.ndarray or casadi.MX
+        The column (normalised as the program's rows), numeric or symbolic as ``c``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from robrst.synthesis.nlp import routh_column
+    >>> bool((routh_column(np.array([1.0, 3.0, 3.0, 1.0])) > 0).all())   # (s + 1)^3: Hurwitz
+    True
     """
     numeric = isinstance(c, np.ndarray)
     n = (c.size if numeric else c.numel()) - 1
@@ -65,8 +125,21 @@ def routh_column(c):
     return np.array(col, dtype=float) if numeric else ca.vertcat(*col)
 
 
-def shift_matrix(deg, a):
-    """Matrix ``M`` with ``M @ c`` the coefficients of ``c(p - a)`` (``len(c) == deg + 1``)."""
+def shift_matrix(deg: int, a: float) -> np.ndarray:
+    """Matrix ``M`` with ``M @ c`` the coefficients of ``c(p - a)`` (``len(c) == deg + 1``).
+
+    Parameters
+    ----------
+    deg : int
+        The degree.
+    a : float
+        The shift.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(deg + 1, deg + 1)``.
+    """
     M = np.zeros((deg + 1, deg + 1))
     for j in range(deg + 1):          # column j: the monomial p**(deg - j)
         col = np.ones(1)
@@ -80,15 +153,63 @@ def shift_matrix(deg, a):
 class NLPSetup:
     """Numeric data of one program instance (all polynomials scaled).
 
-    ``placement`` is ``"fixed"`` (nominal closed loop = ``Am_fixed``), ``"dominant"``
-    (``(wn, zeta)`` free within ``pole_bounds``) or ``"free"`` (no Diophantine
-    equality: stability of every model by Routh only).  ``bands`` and ``hf`` hold
-    per model the scaled grids of the resonance-band and high-frequency |U| bounds.
-    ``ctrl_shift``: the controller's poles other than its integrators are kept at
-    ``Re p <= -ctrl_shift`` (``None``: not imposed) — ``max_integral_gain`` needs it,
-    else a second slow controller pole makes ``lim s K(s)`` unbounded;
-    ``ctrl_max``: and at ``Re p >= -ctrl_max`` (with every coefficient free, a
-    controller pole can otherwise run off to infinity chasing a PI/PID limit).
+    Parameters
+    ----------
+    w0 : float
+        The frequency scale [rad/s].
+    models : tuple
+        ``((label, T, a, b), ...)``: the scaled plant polynomials.
+    ref : int
+        Index of the nominal model in ``models``.
+    Sf, Rf : numpy.ndarray
+        Scaled fixed factors of S (monic) and R.
+    ks, kr : int
+        Degrees of ``S'`` and ``R'``.
+    nu : numpy.ndarray
+        Scaled frequency grid.
+    bounds : dict
+        ``{"S": Ms, "T": Mt, "U": Mu, "Tband": ..., "Uhf": ...}``.
+    objective : str
+        The objective.
+    Am_fixed : numpy.ndarray
+        Scaled monic Am (placement ``"fixed"``).
+    pole_bounds : tuple
+        ``((wn_lo, wn_hi), (z_lo, z_hi))`` scaled (placement ``"dominant"``).
+    aux_factor : float
+        Auxiliary poles at this factor times the fastest dominant one.
+    n_dom_real : tuple
+        Extra dominant real poles (scaled), fixed.
+    stable_controller : bool
+        ``S/s`` must be Hurwitz.
+    bands : tuple
+        Per model, its scaled resonance-band grid.
+    rates : tuple
+        ``(label, sample rate [Hz])`` of the sampled-loop models.
+    placement : {"fixed", "dominant", "free"}
+        Nominal closed loop ``= Am_fixed``; ``(wn, zeta)`` free within ``pole_bounds``; or
+        no Diophantine equality (stability of every model by Routh only).
+    hf : tuple
+        Per model, its scaled grid above the ``Mu_hf`` frequency.
+    integrators : int
+        Roots of S at ``s = 0``.
+    sign : float
+        Sign of the integral gain of a stabilising controller.
+    ctrl_shift : float, optional
+        The controller's poles other than its integrators are kept at
+        ``Re p <= -ctrl_shift`` (``None``: not imposed) — ``max_integral_gain`` needs it,
+        else a second slow controller pole makes ``lim s K(s)`` unbounded.
+    ctrl_max : float, optional
+        And at ``Re p >= -ctrl_max`` (with every coefficient free, a controller pole can
+        otherwise run off to infinity chasing a PI/PID limit).
+    grids : tuple
+        Per model, its scaled grid for S, T, U (default: ``nu``).
+
+    Attributes
+    ----------
+    n_x : int
+        Length of the controller part of the decision vector.
+    free_poles : bool
+        ``placement == "dominant"``.
     """
 
     w0: float
@@ -125,8 +246,18 @@ class NLPSetup:
         return self.placement == "dominant"
 
 
-def affine_controller(setup):
-    """Numeric maps ``S = Ls x + s0`` and ``R = Lr x`` of the decision vector ``x``."""
+def affine_controller(setup: NLPSetup) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Numeric maps ``S = Ls x + s0`` and ``R = Lr x`` of the decision vector ``x``.
+
+    Parameters
+    ----------
+    setup : NLPSetup
+        The program's data.
+
+    Returns
+    -------
+    Ls, s0, Lr : numpy.ndarray
+    """
     ks, kr = setup.ks, setup.kr
     nx = ks + kr + 1
     CS = conv_matrix(setup.Sf, ks + 1)          # S = CS @ [1; x[:ks]]
@@ -146,8 +277,20 @@ def _product(c, L, l0, n_out):
     return np.vstack([np.zeros((pad, M.shape[1])), M]), np.concatenate([np.zeros(pad), m0])
 
 
-def closed_loop_maps(setup):
-    """``closed_loop(a, b) -> ((Dm, Dc), {key: (Nm, Nc)})`` affine maps of ``xc``."""
+def closed_loop_maps(setup: NLPSetup) -> Callable:
+    """``closed_loop(a, b) -> ((Dm, Dc), {key: (Nm, Nc)})`` affine maps of ``xc``.
+
+    Parameters
+    ----------
+    setup : NLPSetup
+        The program's data.
+
+    Returns
+    -------
+    callable
+        ``closed_loop(a, b)`` for a scaled plant: ``Delta = Dm xc + Dc`` and the
+        numerators of ``"S"``, ``"T"``, ``"U"``, ``"Tband"``, ``"Uhf"`` likewise.
+    """
     Ls, s0, Lr = affine_controller(setup)
     zero_r = np.zeros(Lr.shape[0])
 
@@ -162,20 +305,44 @@ def closed_loop_maps(setup):
     return closed_loop
 
 
-def objective_rows(setup):
-    """Rows ``(r0, q0, q0c)``: ``sign R(0) = r0 @ x``, ``(S/s^k)(0) = q0 @ x + q0c``."""
+def objective_rows(setup: NLPSetup) -> tuple[np.ndarray, np.ndarray, float]:
+    """Rows ``(r0, q0, q0c)``: ``sign R(0) = r0 @ x``, ``(S/s^k)(0) = q0 @ x + q0c``.
+
+    Parameters
+    ----------
+    setup : NLPSetup
+        The program's data.
+
+    Returns
+    -------
+    r0, q0 : numpy.ndarray
+    q0c : float
+    """
     Ls, s0, Lr = affine_controller(setup)
     k = setup.integrators
     return setup.sign * Lr[-1], Ls[-1 - k], float(s0[-1 - k])
 
 
-def controller_conditions(setup, shift, stable, bounded):
+def controller_conditions(setup: NLPSetup, shift: float | None, stable: bool,
+                          bounded: bool) -> tuple[np.ndarray, np.ndarray] | None:
     """Hurwitz conditions on the controller's poles other than its integrators.
 
-    Returns ``(M, m)`` stacking the coefficients, affine in ``x``, of the polynomials
-    that must be Hurwitz: ``Q(p - shift)`` (``Re p <= -shift``; ``stable`` with shift
-    0) and ``Q(-p - ctrl_max)`` (``bounded``: ``Re p >= -ctrl_max``), with ``Q = S/s^k``.
-    ``None`` when nothing is asked or ``Q`` is a constant.
+    Parameters
+    ----------
+    setup : NLPSetup
+        The program's data.
+    shift : float or None
+        ``Q(p - shift)`` must be Hurwitz (``Re p <= -shift``).
+    stable : bool
+        ``Q`` itself must be Hurwitz (shift 0).
+    bounded : bool
+        ``Q(-p - ctrl_max)`` must be Hurwitz (``Re p >= -ctrl_max``).
+
+    Returns
+    -------
+    (M, m) or None
+        The stacked coefficients ``M x + m`` of the polynomials that must be Hurwitz
+        (``Q = S/s^k``); ``None`` when nothing is asked or ``Q`` is a constant.
     """
     Ls, s0, _ = affine_controller(setup)
     k = setup.integrators
@@ -201,8 +368,33 @@ class GridBlock:
     on the grid ``N(j nu) = (Nr + j Ni) xc + (nr + j ni)`` and likewise ``Delta``.
     The constraint at grid point ``i`` is
     ``(|N_i|^2 - (g M)^2 |Delta_i|^2) / w_i <= 0`` with the fixed weight
-    ``w_i = |Delta(x_ref)(j nu_i)|^2``; ``bound`` is ``M`` and ``g`` is 1 or, for a
-    soft (scaled) block, the variable ``gamma``.
+    ``w_i = |Delta(x_ref)(j nu_i)|^2``; ``g`` is 1 or, for a soft (scaled) block, the
+    variable ``gamma``.
+
+    Parameters
+    ----------
+    key : {"S", "T", "U", "Tband", "Uhf"}
+        The constraint.
+    model : int
+        Index into ``setup.models``.
+    label : str
+        The model's label.
+    temperature_C : float
+        Its temperature [°C].
+    nu : numpy.ndarray
+        Scaled frequencies.
+    N : tuple
+        ``(Nr, nr, Ni, ni)``.
+    D : tuple
+        ``(Dr, dr, Di, di)``.
+    w : numpy.ndarray
+        The weights.
+    bound : float
+        ``M``.
+    maps : tuple, optional
+        ``(Nm, Nc, Dm, Dc)``: ``N = Nm x + Nc``, ``Delta = Dm x + Dc``.
+    D_ref : numpy.ndarray, optional
+        ``Delta`` at ``x_ref``.
     """
 
     key: str               # "S", "T", "U", "Tband" or "Uhf"
@@ -217,20 +409,50 @@ class GridBlock:
     maps: tuple = None     # (Nm, Nc, Dm, Dc): N = Nm x + Nc, Delta = Dm x + Dc
     D_ref: np.ndarray = None
 
-    def polys(self, x):
-        """Numerator and closed-loop polynomial (scaled) at the decision vector ``x``."""
+    def polys(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Numerator and closed-loop polynomial (scaled) at the decision vector ``x``.
+
+        Parameters
+        ----------
+        x : numpy.ndarray
+            The decision vector.
+
+        Returns
+        -------
+        N, Delta : numpy.ndarray
+        """
         Nm, Nc, Dm, Dc = self.maps
         xc = np.asarray(x, float)[:Nm.shape[1]]
         return Nm @ xc + Nc, Dm @ xc + Dc
 
-    def with_points(self, nu_new):
-        """This block with the frequencies ``nu_new`` added (sorted, duplicates dropped)."""
+    def with_points(self, nu_new: ArrayLike) -> GridBlock:
+        """This block with the frequencies ``nu_new`` added (sorted, duplicates dropped).
+
+        Parameters
+        ----------
+        nu_new : array_like
+            Scaled frequencies.
+
+        Returns
+        -------
+        GridBlock
+        """
         nu = np.unique(np.concatenate([self.nu, np.asarray(nu_new, float)]))
         return _block(self.key, self.model, self.label, self.temperature_C, nu, self.maps,
                       self.D_ref, self.bound)
 
-    def ratio(self, x):
-        """``|N| / (M |Delta|)`` at every grid point for the decision vector ``x``."""
+    def ratio(self, x: np.ndarray) -> np.ndarray:
+        """``|N| / (M |Delta|)`` at every grid point for the decision vector ``x``.
+
+        Parameters
+        ----------
+        x : numpy.ndarray
+            The decision vector.
+
+        Returns
+        -------
+        numpy.ndarray
+        """
         xc = np.asarray(x, float)[:self.N[0].shape[1]]
         Nr, nr, Ni, ni = self.N
         Dr, dr, Di, di = self.D
@@ -239,11 +461,23 @@ class GridBlock:
         return num / (self.bound * np.maximum(den, 1e-300))
 
 
-def grid_blocks(setup, x_ref, min_ms_unbounded=True):
+def grid_blocks(setup: NLPSetup, x_ref: np.ndarray,
+                min_ms_unbounded: bool = True) -> tuple[GridBlock, ...]:
     """Every grid constraint of ``setup`` as :class:`GridBlock` (weights at ``x_ref``).
 
-    The |S| block of ``min_Ms`` without an ``Ms_max`` gets the bound 1 (its scale is
-    ``gamma`` itself).
+    Parameters
+    ----------
+    setup : NLPSetup
+        The program's data.
+    x_ref : numpy.ndarray
+        The decision vector whose ``|Delta|^2`` weights the constraints.
+    min_ms_unbounded : bool
+        The ``|S|`` block of ``min_Ms`` without an ``Ms_max`` gets the bound 1 (its scale
+        is ``gamma`` itself).
+
+    Returns
+    -------
+    tuple of GridBlock
     """
     nx = setup.n_x
     x_ref = np.asarray(x_ref, float)[:nx]
@@ -286,14 +520,44 @@ def _block(key, model, label, T, nu, maps, D_ref, bound, rows=None):
                      D_ref=D_ref)
 
 
-def scale_plant(plant, scaling):
-    """Scaled ``(a, b)``: ``A(w0 p) / w0**n`` (monic) and ``B(w0 p) / w0**n``."""
+def scale_plant(plant: Plant, scaling: poly.Scaling) -> tuple[np.ndarray, np.ndarray]:
+    """Scaled ``(a, b)``: ``A(w0 p) / w0**n`` (monic) and ``B(w0 p) / w0**n``.
+
+    Parameters
+    ----------
+    plant : Plant
+        The model.
+    scaling : Scaling
+        The frequency scaling.
+
+    Returns
+    -------
+    a, b : numpy.ndarray
+    """
     n = plant.n
     return scaling.normalize(plant.A, n), scaling.normalize(plant.B, n)
 
 
-def local_maxima(r):
-    """Indices of the local maxima of ``r`` (end points included, plateaus once)."""
+def local_maxima(r: np.ndarray) -> np.ndarray:
+    """Indices of the local maxima of ``r`` (end points included, plateaus once).
+
+    Parameters
+    ----------
+    r : numpy.ndarray
+        Values on a grid.
+
+    Returns
+    -------
+    numpy.ndarray
+        Integer indices.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from robrst.synthesis.nlp import local_maxima
+    >>> local_maxima(np.array([3.0, 1.0, 2.0, 2.0, 0.0])).tolist()
+    [0, 2]
+    """
     r = np.asarray(r, float)
     if r.size <= 2:
         return np.arange(r.size)

@@ -1,12 +1,19 @@
 """What the synthesis returns: solves (status, point, objective, multipliers, binding
 constraints), certification rounds, and the synthesised controller with its certificate."""
 
+from __future__ import annotations
+
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from robrst.core.sampled import unwarp
 from robrst.synthesis.parametrize import integral_gain
+
+if TYPE_CHECKING:
+    from robrst.certificate.models import Violation
+    from robrst.certificate.proof import Certificate
 
 __all__ = ["OK_STATUS", "Binding", "SolveResult", "Round", "SynthesisResult", "worst_violation",
            "best_achievable"]
@@ -18,10 +25,21 @@ OK_STATUS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 class Binding:
     """A constraint of the NLP named for the user: kind, model, temperature, frequency.
 
-    ``kind`` is ``"S"``, ``"T"``, ``"U"``, ``"Tband"``, ``"Uhf"`` (a peak bound on the grid),
-    ``"routh"`` (stability), ``"positivity"``, ``"gamma"`` or ``"controller_routh"``;
-    ``freq_rad_s`` is physical; ``multiplier`` IPOPT's ``lam_g`` (scaled by the
-    constraint's size) and ``violation`` how far the constraint is from holding.
+    Parameters
+    ----------
+    kind : str
+        ``"S"``, ``"T"``, ``"U"``, ``"Tband"``, ``"Uhf"`` (a peak bound on the grid),
+        ``"routh"`` (stability), ``"positivity"``, ``"gamma"`` or ``"controller_routh"``.
+    model : str
+        The model's label.
+    temperature_C : float
+        Its temperature [°C].
+    freq_rad_s : float
+        The physical frequency [rad/s] (``None`` where none applies).
+    multiplier : float
+        IPOPT's ``lam_g`` (scaled by the constraint's size).
+    violation : float
+        How far the constraint is from holding.
     """
 
     kind: str
@@ -31,7 +49,13 @@ class Binding:
     multiplier: float
     violation: float
 
-    def describe(self):
+    def describe(self) -> str:
+        """One line, e.g. ``"|S| peak, model T45C (45 °C) at 612 Hz"``.
+
+        Returns
+        -------
+        str
+        """
         what = {"S": "|S| peak", "T": "|T| peak", "U": "|U| peak", "Tband": "|T| in the band",
                 "Uhf": "|U| above the high-frequency corner",
                 "routh": "closed-loop stability (Routh)",
@@ -46,9 +70,34 @@ class Binding:
 class SolveResult:
     """One IPOPT solve: status, point, objective, iterations, constraints and multipliers.
 
-    ``labels[i]`` is ``(kind, model label, temperature, scaled frequency or index)`` of
-    constraint ``g[i]``; ``lam_g`` IPOPT's multipliers; ``exchange`` the
-    :class:`~robrst.synthesis.exchange.ExchangeInfo` when solved by constraint exchange.
+    Parameters
+    ----------
+    status : str
+        IPOPT's return status.
+    x : numpy.ndarray
+        The point.
+    objective : float
+        The objective there.
+    iterations : int
+        IPOPT iterations.
+    g, lbg, ubg : numpy.ndarray
+        Constraint values and bounds.
+    lam_g : numpy.ndarray
+        IPOPT's multipliers.
+    labels : tuple
+        ``labels[i]`` is ``(kind, model label, temperature, scaled frequency or index)``
+        of constraint ``g[i]``.
+    w0 : float
+        The frequency scale [rad/s].
+    exchange : ExchangeInfo, optional
+        How the constraint exchange went, when solved by it.
+    rates : dict, optional
+        Model label -> sample rate [Hz] of sampled-loop models.
+
+    Attributes
+    ----------
+    success : bool
+        IPOPT reports success.
     """
 
     status: str
@@ -68,8 +117,13 @@ class SolveResult:
     def success(self):
         return self.status in OK_STATUS
 
-    def violations(self):
-        """How far each constraint is from holding (0 where it holds)."""
+    def violations(self) -> np.ndarray:
+        """How far each constraint is from holding (0 where it holds).
+
+        Returns
+        -------
+        numpy.ndarray
+        """
         return np.maximum(np.maximum(self.lbg - self.g, self.g - self.ubg), 0.0)
 
     def _binding_at(self, i, v):
@@ -81,12 +135,21 @@ class SolveResult:
         return Binding(kind=kind, model=label, temperature_C=T, freq_rad_s=freq,
                        multiplier=float(self.lam_g[i]), violation=float(v[i]))
 
-    def binding(self, count=3):
+    def binding(self, count: int = 3) -> tuple[Binding, ...]:
         """The inequality constraints that bind, strongest first (by ``|multiplier|``).
 
         The Diophantine equality is structural and never named; multipliers below 1e-4
         of the largest are an interior point's inactive constraints, not binding ones.
         When IPOPT ended on an infeasible point, the violated constraints come first.
+
+        Parameters
+        ----------
+        count : int
+            At most this many.
+
+        Returns
+        -------
+        tuple of Binding
         """
         v = self.violations()
         ineq = np.array([lab[0] not in ("diophantine", "unused") for lab in self.labels], bool)
@@ -111,7 +174,39 @@ class SolveResult:
 
 @dataclass(frozen=True)
 class Round:
-    """One certification round: the NLP's outcome and what the certificate found."""
+    """One certification round: the NLP's outcome and what the certificate found.
+
+    Parameters
+    ----------
+    round : int
+        The round's number.
+    status : str
+        IPOPT's status.
+    iterations : int
+        IPOPT iterations.
+    models : int
+        Models in the program.
+    frequencies : int
+        Grid frequencies per model.
+    violations : int
+        Violations the certificate found.
+    exchange_rounds : int, optional
+        Constraint-exchange rounds.
+    active_points : int, optional
+        Grid points imposed at the end.
+    grid_points : int, optional
+        Grid points in all.
+    phase : {"soft", "hard"}
+        The worst normalised spec ratio minimised, or the objective optimised.
+    placement : {"fixed", "dominant", "free"}, optional
+        The nominal pole placement.
+    start : str, optional
+        The start point's name.
+    gamma : float, optional
+        Soft phase: the worst normalised spec ratio reached on the grid.
+    stability_models : int, optional
+        Models whose closed-loop stability rows were imposed.
+    """
 
     round: int
     status: str
@@ -128,7 +223,13 @@ class Round:
     gamma: float = None        # soft phase: worst normalised spec ratio reached on the grid
     stability_models: int = None   # models whose closed-loop stability rows were imposed
 
-    def as_dict(self):
+    def as_dict(self) -> dict:
+        """The ``rounds`` entry of the design JSON (``None`` fields left out).
+
+        Returns
+        -------
+        dict
+        """
         d = {k: getattr(self, k) for k in ("round", "status", "iterations", "models",
                                            "frequencies", "violations", "phase", "placement",
                                            "start", "gamma")}
@@ -142,14 +243,50 @@ class Round:
 class SynthesisResult:
     """A synthesised controller with its certificate and how the solver got there.
 
-    ``status`` is ``"certified"`` or ``"not_certified"`` (the best controller found,
-    certified for what it achieves: ``best_achievable`` says how far from the specs).
-    ``solve`` is the :class:`~robrst.synthesis.outcome.SolveResult` the controller came
-    from (its ``binding()`` names the limiting constraints); ``placement`` the nominal
-    pole placement it was solved with, ``phase`` whether it is the objective's optimum
-    (``"hard"``), the soft-goal point (``"soft"``: the specs' worst normalised ratio
-    minimised) or a start that met the specs (``"start"``); ``notes`` what the pipeline
-    had to do (fallbacks, relaxations).
+    Parameters
+    ----------
+    controller : RSTController
+        The controller.
+    Am : numpy.ndarray
+        Its nominal characteristic polynomial.
+    certificate : Certificate
+        Its certificate.
+    status : {"certified", "not_certified"}
+        ``"not_certified"``: the best controller found, certified for what it achieves
+        (``best_achievable`` says how far from the specs).
+    objective : str
+        The objective optimised.
+    w0 : float
+        The frequency scale [rad/s].
+    rounds : tuple of Round
+        The certification rounds.
+    solve : SolveResult, optional
+        The solve the controller came from (its ``binding()`` names the limiting
+        constraints).
+    wall_time_s : float, optional
+        Wall time [s].
+    wn_rad_s, zeta : float, optional
+        The dominant pair reached.
+    name : str
+        The solver's name.
+    grid_peak_S : float, optional
+        The worst ``|S|`` on the grid.
+    placement : str, optional
+        The nominal pole placement it was solved with.
+    phase : {"hard", "soft", "start"}
+        The objective's optimum, the soft-goal point (the specs' worst normalised ratio
+        minimised) or a start that met the specs.
+    best_achievable : str, optional
+        One line on what an uncertified controller achieves.
+    notes : tuple of str
+        What the pipeline had to do (fallbacks, relaxations).
+
+    Attributes
+    ----------
+    integral_gain : float
+        ``lim s R/S`` of the controller [V/(µm s)].
+    certified : bool
+        The certificate holds.
     """
 
     controller: object
@@ -180,8 +317,13 @@ class SynthesisResult:
         """True when the certificate holds."""
         return self.status == "certified"
 
-    def solver_dict(self):
-        """The ``solver`` object of the design JSON (fields are only added)."""
+    def solver_dict(self) -> dict:
+        """The ``solver`` object of the design JSON (fields are only added).
+
+        Returns
+        -------
+        dict
+        """
         if self.name != "ipopt":
             return {"name": self.name, "status": self.status, "w0_rad_s": self.w0,
                     "grid_peak_S": self.grid_peak_S,
@@ -199,15 +341,36 @@ class SynthesisResult:
         return d
 
 
-def worst_violation(cert):
-    """The certificate's violation with the largest ratio to its bound (``None``: none)."""
+def worst_violation(cert: Certificate) -> Violation | None:
+    """The certificate's violation with the largest ratio to its bound (``None``: none).
+
+    Parameters
+    ----------
+    cert : Certificate
+        A certificate.
+
+    Returns
+    -------
+    Violation or None
+    """
     if not cert.violations:
         return None
     return max(cert.violations, key=lambda v: np.inf if v.bound == 0 else v.value / v.bound)
 
 
-def best_achievable(cert):
-    """One line on what an uncertified controller achieves (``None`` when certified)."""
+def best_achievable(cert: Certificate) -> str | None:
+    """One line on what an uncertified controller achieves (``None`` when certified).
+
+    Parameters
+    ----------
+    cert : Certificate
+        A certificate.
+
+    Returns
+    -------
+    str or None
+        ``"best achievable: model T45C (45 °C): |S| peak = 2.31 > 2 at 612 Hz"``.
+    """
     v = worst_violation(cert)
     if v is None:
         return None

@@ -7,7 +7,10 @@ so every coefficient is O(1).  The decision vector is ``x = [S' (non-leading), R
 program and the robust driver share it.
 """
 
+from __future__ import annotations
+
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -15,6 +18,13 @@ from robrst.core import poly
 from robrst.base.errors import SolverError
 from robrst.core.rst import RSTController
 from robrst.synthesis import analytic
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from robrst.core.family import PlantFamily
+    from robrst.core.plant import Plant
+    from robrst.problem.records import ControllerStructure
 
 __all__ = ["Parametrization", "TrackingRule", "integral_gain", "frequency_grid"]
 
@@ -29,6 +39,30 @@ class Parametrization:
     """Degrees, fixed factors and scaling of the controller's free coefficients.
 
     Use :meth:`of` to build it from a controller structure and the nominal plant.
+
+    Parameters
+    ----------
+    scaling : Scaling
+        The frequency scaling of the decision vector.
+    S_fixed, R_fixed : numpy.ndarray
+        The unscaled fixed factors of S and R.
+    Sf : numpy.ndarray
+        The scaled fixed factor of S, monic.
+    Rf : numpy.ndarray
+        The scaled fixed factor of R, leading coefficient 1.
+    ks : int
+        Degree of ``S'``.
+    kr : int
+        Degree of ``R'``.
+    deg_s : int
+        Degree of S.
+
+    Attributes
+    ----------
+    n_x : int
+        Length of the controller part of the decision vector.
+    integrators : int
+        Number of roots at ``s = 0`` in the fixed factor of S.
     """
 
     scaling: poly.Scaling
@@ -41,11 +75,24 @@ class Parametrization:
     deg_s: int              # degree of S
 
     @classmethod
-    def of(cls, structure, plant, scaling, extra_degree=None):
-        """The parametrisation of ``structure`` (ControllerStructure) for ``plant``.
+    def of(cls, structure: ControllerStructure, plant: Plant, scaling: poly.Scaling,
+           extra_degree: int | None = None) -> Parametrization:
+        """The parametrisation of ``structure`` for ``plant``.
 
-        ``extra_degree`` overrides the structure's (the lower-degree problems of the
-        homotopy).
+        Parameters
+        ----------
+        structure : ControllerStructure
+            Fixed factors and degrees.
+        plant : Plant
+            The nominal model.
+        scaling : Scaling
+            The frequency scaling.
+        extra_degree : int, optional
+            Overrides the structure's (the lower-degree problems of the homotopy).
+
+        Returns
+        -------
+        Parametrization
         """
         Sf, Rf = poly.trim(structure.S_total), poly.trim(structure.R_fixed)
         extra = structure.extra_degree if extra_degree is None else extra_degree
@@ -68,8 +115,24 @@ class Parametrization:
         nz = np.flatnonzero(self.S_fixed)
         return len(self.S_fixed) - 1 - int(nz[-1])
 
-    def vector(self, ctrl):
-        """The scaled decision vector of a controller that contains the fixed factors."""
+    def vector(self, ctrl: RSTController) -> np.ndarray:
+        """The scaled decision vector of a controller that contains the fixed factors.
+
+        Parameters
+        ----------
+        ctrl : RSTController
+            A controller of this structure's degrees.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``[S' (non-leading coefficients), R']`` scaled.
+
+        Raises
+        ------
+        SolverError
+            Wrong degrees, or the fixed factors are not factors of ``ctrl``.
+        """
         sc, n = self.scaling, self.deg_s
         pad = lambda c: np.concatenate([np.zeros(n + 1 - len(c)), c])  # noqa: E731
         if len(poly.trim(ctrl.S)) != n + 1 or len(poly.trim(ctrl.R)) > len(self.R_fixed) + self.kr:
@@ -85,10 +148,19 @@ class Parametrization:
         sp = sp / sp[0]
         return np.concatenate([sp[1:], rp])
 
-    def controller(self, x, tracking):
+    def controller(self, x: np.ndarray, tracking: TrackingRule) -> RSTController:
         """The unscaled RST controller of the decision vector ``x``.
 
-        ``tracking`` builds T from R (a :class:`TrackingRule`).
+        Parameters
+        ----------
+        x : numpy.ndarray
+            The decision vector (its controller part).
+        tracking : TrackingRule
+            Builds T from R.
+
+        Returns
+        -------
+        RSTController
         """
         sp = np.concatenate([[1.0], x[:self.ks]])
         rp = x[self.ks:self.n_x]
@@ -98,11 +170,22 @@ class Parametrization:
         S[len(S) - k:] = 0.0  # the integrators are structural (exact zeros, not 1e-300)
         return RSTController(R=R, S=S, T=tracking(R))
 
-    def embed(self, ctrl, root):
+    def embed(self, ctrl: RSTController, root: float) -> np.ndarray | None:
         """``ctrl`` of a lower degree raised to this one: R and S times ``(s - root)``.
 
-        The controller ``R/S`` is unchanged (a common factor); returns the decision
-        vector, or ``None`` if the degrees do not fit.
+        The controller ``R/S`` is unchanged (a common factor).
+
+        Parameters
+        ----------
+        ctrl : RSTController
+            A controller of a lower degree.
+        root : float
+            The common root added [rad/s].
+
+        Returns
+        -------
+        numpy.ndarray or None
+            The decision vector, or ``None`` if the degrees do not fit.
         """
         f = poly.from_roots([root])
         R, S = poly.pmul(ctrl.R, f), poly.pmul(ctrl.S, f)
@@ -116,7 +199,19 @@ class Parametrization:
 
 @dataclass(frozen=True, eq=False)
 class TrackingRule:
-    """``T`` from ``R`` with unit static gain (``T(0) = R(0)``): the structure's T_mode."""
+    """``T`` from ``R`` with unit static gain (``T(0) = R(0)``): the structure's T_mode.
+
+    Calling it with R returns T.
+
+    Parameters
+    ----------
+    mode : str
+        ``"static"`` (a constant T), else the paper's ``T = Bm_aux``.
+    zeros : tuple of float
+        Zeros of ``Bm_aux`` [rad/s].
+    B : numpy.ndarray
+        Numerator of the nominal plant.
+    """
 
     mode: str
     zeros: tuple
@@ -129,10 +224,25 @@ class TrackingRule:
         return analytic.tracking_polynomial("paper", R, self.B, Am0, np.ones(1), self.zeros)
 
 
-def integral_gain(ctrl):
+def integral_gain(ctrl: RSTController) -> float:
     """``lim_{s->0} s R/S`` [V/(µm s)]: the low-frequency disturbance-rejection gain.
 
-    ``inf`` when ``S`` has more than one root at ``s = 0`` (JSON: ``null``).
+    Parameters
+    ----------
+    ctrl : RSTController
+        A controller with (at least) one integrator.
+
+    Returns
+    -------
+    float
+        ``inf`` when ``S`` has more than one root at ``s = 0`` (JSON: ``null``).
+
+    Examples
+    --------
+    >>> from robrst.core.rst import RSTController
+    >>> from robrst.synthesis.parametrize import integral_gain
+    >>> integral_gain(RSTController([3.0, 6.0], [1.0, 2.0, 0.0], [6.0]))   # (3s + 6)/(s^2 + 2s)
+    3.0
     """
     Sq = poly.trim(ctrl.S)[:-1]
     return float(ctrl.R[-1] / Sq[-1]) if Sq[-1] != 0 else float("inf")
@@ -155,9 +265,24 @@ def _resonance_points(roots):
     return out
 
 
-def frequency_grid(family, Am, n_freq):
+def frequency_grid(family: PlantFamily, Am: ArrayLike, n_freq: int) -> np.ndarray:
     """The NLP's frequency grid [rad/s]: log-spaced around every pole, zero and Am root,
-    dense around every lightly damped pole of every model (their peaks are narrow)."""
+    dense around every lightly damped pole of every model (their peaks are narrow).
+
+    Parameters
+    ----------
+    family : PlantFamily
+        The models.
+    Am : array_like
+        The nominal characteristic polynomial.
+    n_freq : int
+        The grid's base size (``solver.n_freq``).
+
+    Returns
+    -------
+    numpy.ndarray
+        Increasing positive frequencies.
+    """
     roots = [np.abs(np.roots(Am))]
     extra = []
     for m in family.models:

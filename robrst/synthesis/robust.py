@@ -31,8 +31,12 @@ violation ratio, certified for what it achieves), status ``"not_certified"`` wit
 multipliers.  A raw solver status is never the only answer.
 """
 
+from __future__ import annotations
+
 import time
+from collections.abc import Callable
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -42,16 +46,28 @@ from robrst.synthesis.attempts import WARM_START, Outcome, Run, objective_value
 from robrst.synthesis.context import BOUND_MARGIN, Context
 from robrst.synthesis.outcome import SynthesisResult, best_achievable, worst_violation
 
+if TYPE_CHECKING:
+    from robrst.problem.records import Problem
+    from robrst.synthesis.analytic import AnalyticDesign
+
 __all__ = ["robust_synthesis", "a_priori_note", "BOUND_MARGIN", "worst_violation",
            "best_achievable"]
 
 NEAR_MISS = 1.5   # on failure, lower degrees are tried when the specs are missed by <= 50 %
 
 
-def a_priori_note(problem):
+def a_priori_note(problem: Problem) -> str | None:
     """Specs no controller with an integrator can meet (``|T(0)| = 1``, ``|U(0)| = 1/|D(0)|``).
 
-    Returns the reason as text, or ``None``.
+    Parameters
+    ----------
+    problem : Problem
+        The problem.
+
+    Returns
+    -------
+    str or None
+        The reason as text, or ``None``.
     """
     sp = problem.specs
     for m in problem.family.models:
@@ -169,12 +185,15 @@ def _homotopy(problem, start, run):
     return again if objective_value(problem, again) >= objective_value(problem, out) else out
 
 
-def robust_synthesis(problem, start, progress=None, templates=None, warm=None):
+def robust_synthesis(problem: Problem, start: AnalyticDesign,
+                     progress: Callable[[str], None] | None = None, templates: dict | None = None,
+                     warm: SynthesisResult | None = None) -> SynthesisResult:
     """Synthesise, certify and always return a controller; see the module docstring.
 
     Parameters
     ----------
     problem : Problem
+        The problem.
     start : AnalyticDesign
         The analytic design at the problem's poles (start point, fixed ``Am``).
     progress : callable, optional

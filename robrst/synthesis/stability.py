@@ -11,9 +11,17 @@ with every row.  Most rows never bind (the peak bounds keep the loops well insid
 stability), and each costs every IPOPT iteration of the round.
 """
 
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from robrst.synthesis.nlp import closed_loop_maps, routh_column
+
+if TYPE_CHECKING:
+    from robrst.synthesis.nlp import NLPSetup
 
 __all__ = ["ROUTH_MIN", "ROUTH_FIRST", "stability_rows", "routh_margins", "initial_stability",
            "joined"]
@@ -22,8 +30,19 @@ ROUTH_MIN = 1e-9
 ROUTH_FIRST = 4         # stability rows of the first round: models per closed-loop degree
 
 
-def stability_rows(setup):
-    """Per model ``(deg, Dm, Dc)`` of its closed-loop polynomial."""
+def stability_rows(setup: NLPSetup) -> list[tuple]:
+    """Per model ``(deg, Dm, Dc)`` of its closed-loop polynomial.
+
+    Parameters
+    ----------
+    setup : NLPSetup
+        The program's data.
+
+    Returns
+    -------
+    list of (int, numpy.ndarray, numpy.ndarray)
+        ``Delta = Dm xc + Dc`` of degree ``deg``.
+    """
     cl = closed_loop_maps(setup)
     out = []
     for label, T, a, b in setup.models:
@@ -32,10 +51,22 @@ def stability_rows(setup):
     return out
 
 
-def routh_margins(rows, x):
+def routh_margins(rows: Sequence[tuple], x: np.ndarray) -> list[float]:
     """Per model, the least entry of the Routh column of its closed-loop polynomial at
     ``x`` (normalised as the program's rows, :func:`robrst.synthesis.nlp.routh_column`);
-    ``-inf`` where it is undefined."""
+    ``-inf`` where it is undefined.
+
+    Parameters
+    ----------
+    rows : sequence
+        :func:`stability_rows`.
+    x : numpy.ndarray
+        The decision vector.
+
+    Returns
+    -------
+    list of float
+    """
     out = np.empty(len(rows))
     xc = np.asarray(x, float)[:rows[0][1].shape[1]] if rows else None
     with np.errstate(all="ignore"):
@@ -46,11 +77,24 @@ def routh_margins(rows, x):
     return out
 
 
-def initial_stability(rows, x0):
+def initial_stability(rows: Sequence[tuple], x0: np.ndarray) -> tuple[int, ...]:
     """The models whose stability rows the first round carries: per closed-loop degree,
     every model if there are at most ``2 ROUTH_FIRST`` (a smaller group would save few
     rows and cost a build of its own), else the ``ROUTH_FIRST`` with the least Routh
-    margin at ``x0`` (every one whose rows ``x0`` violates, in steps of ``ROUTH_FIRST``)."""
+    margin at ``x0`` (every one whose rows ``x0`` violates, in steps of ``ROUTH_FIRST``).
+
+    Parameters
+    ----------
+    rows : sequence
+        :func:`stability_rows`.
+    x0 : numpy.ndarray
+        The start.
+
+    Returns
+    -------
+    tuple of int
+        Model indices, sorted.
+    """
     margin = routh_margins(rows, x0)
     keep = []
     for deg in sorted({r[0] for r in rows}):
@@ -62,8 +106,23 @@ def initial_stability(rows, x0):
     return tuple(sorted(keep))
 
 
-def joined(rows, routh, x):
-    """``routh`` (model indices) and every model left out whose rows ``x`` violates."""
+def joined(rows: Sequence[tuple], routh: Sequence[int], x: np.ndarray) -> tuple[int, ...]:
+    """``routh`` (model indices) and every model left out whose rows ``x`` violates.
+
+    Parameters
+    ----------
+    rows : sequence
+        :func:`stability_rows`.
+    routh : sequence of int
+        The models imposed so far.
+    x : numpy.ndarray
+        A round's result.
+
+    Returns
+    -------
+    tuple of int
+        Sorted.
+    """
     if len(routh) == len(rows):
         return tuple(routh)
     margin = routh_margins(rows, x)

@@ -15,7 +15,11 @@ Candidates (decision vectors of one :class:`~robrst.synthesis.context.Context`):
 largest closed-loop spectral abscissa over the models, without solving anything.
 """
 
+from __future__ import annotations
+
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -25,6 +29,10 @@ from robrst.base.errors import RobrstError
 from robrst.synthesis import analytic
 from robrst.synthesis.context import low_frequency_coefficient
 from robrst.synthesis.nlp import closed_loop_maps
+
+if TYPE_CHECKING:
+    from robrst.synthesis.context import Context
+    from robrst.synthesis.nlp import GridBlock, NLPSetup
 
 __all__ = ["Start", "score", "score_many", "candidates", "abscissa", "ON_SLOW_POLE"]
 
@@ -37,7 +45,28 @@ KI_GRID = np.geomspace(1e-5, 1.0, 26)     # integral/PI starts: scaled crossover
 
 @dataclass(frozen=True, eq=False)
 class Start:
-    """A start point: its name, controller vector, worst grid ratio and spectral abscissa."""
+    """A start point: its name, controller vector, worst grid ratio and spectral abscissa.
+
+    Parameters
+    ----------
+    name : str
+        What the start is (``"analytic"``, ``"PI ..."``, ``"warm"``, ...).
+    xc : numpy.ndarray
+        The controller part of the decision vector.
+    worst : float
+        The worst ``|N|/(M |Delta|)`` over the grid constraints.
+    abscissa : float
+        The largest real part of the closed-loop roots over the models (scaled).
+    wn, zeta : float, optional
+        The scaled dominant pair (dominant placement).
+    gain : float
+        Integral/PI starts: their crossover (scaled).
+
+    Attributes
+    ----------
+    stable : bool
+        Every model's closed loop is stable.
+    """
 
     name: str
     xc: np.ndarray
@@ -51,16 +80,32 @@ class Start:
     def stable(self):
         return self.abscissa < 0
 
-    def key(self):
-        """Sort key: stable first, then the smallest worst ratio."""
+    def key(self) -> tuple[bool, float]:
+        """Sort key: stable first, then the smallest worst ratio.
+
+        Returns
+        -------
+        tuple
+        """
         return (not self.stable, self.worst if self.stable else self.abscissa)
 
 
-def abscissa(setup, xc):
+def abscissa(setup: NLPSetup, xc: np.ndarray) -> float:
     """Largest real part of the closed-loop roots over every model of ``setup`` (scaled).
 
     A sampled-loop model whose closed-loop polynomial lost its leading coefficient
     (a pole at ``z = -1``) counts as unstable (``inf``).
+
+    Parameters
+    ----------
+    setup : NLPSetup
+        The program's data.
+    xc : numpy.ndarray
+        The controller part of the decision vector.
+
+    Returns
+    -------
+    float
     """
     return _abscissae(setup, [xc])[0]
 
@@ -98,13 +143,48 @@ def _closed_loops(maps, xc):
     return out
 
 
-def score(setup, blocks, name, xc, wn=None, zeta=None):
-    """A :class:`Start` for ``xc``: worst ``|N|/(M |Delta|)`` over ``blocks`` and stability."""
+def score(setup: NLPSetup, blocks: Sequence[GridBlock], name: str, xc: np.ndarray,
+          wn: float | None = None, zeta: float | None = None) -> Start:
+    """A :class:`Start` for ``xc``: worst ``|N|/(M |Delta|)`` over ``blocks`` and stability.
+
+    Parameters
+    ----------
+    setup : NLPSetup
+        The program's data.
+    blocks : sequence of GridBlock
+        The grid constraints.
+    name : str
+        The start's name.
+    xc : numpy.ndarray
+        The controller part of the decision vector.
+    wn, zeta : float, optional
+        The scaled dominant pair.
+
+    Returns
+    -------
+    Start
+    """
     return score_many(setup, blocks, [(name, xc, wn, zeta)])[0]
 
 
-def score_many(setup, blocks, items):
-    """:func:`score` of each ``(name, xc, wn, zeta)`` of ``items``, computed together."""
+def score_many(setup: NLPSetup, blocks: Sequence[GridBlock],
+               items: Sequence[tuple]) -> list[Start]:
+    """:func:`score` of each ``(name, xc, wn, zeta)`` of ``items``, computed together.
+
+    Parameters
+    ----------
+    setup : NLPSetup
+        The program's data.
+    blocks : sequence of GridBlock
+        The grid constraints.
+    items : sequence of (name, xc, wn, zeta)
+        The starts.
+
+    Returns
+    -------
+    list of Start
+        In the order of ``items``.
+    """
     if not items:
         return []
     X = np.stack([np.asarray(xc, float)[:setup.n_x] for _, xc, _, _ in items], axis=1)
@@ -181,11 +261,28 @@ def _boldest(starts):
     return max(ok, key=lambda s: s.gain) if ok else min(starts, key=Start.key)
 
 
-def candidates(ctx, setup, blocks, seeds=(), convex=False):
+def candidates(ctx: Context, setup: NLPSetup, blocks: Sequence[GridBlock],
+               seeds: Sequence[tuple] = (), convex: bool = False) -> list[Start]:
     """Scored start points for ``setup``, best first (see the module docstring).
 
-    ``seeds`` are ``(name, xc)`` or ``(name, xc, wn, zeta)`` (scaled ``wn``) of this
-    context's parametrisation.
+    Parameters
+    ----------
+    ctx : Context
+        The synthesis's context.
+    setup : NLPSetup
+        The program's data.
+    blocks : sequence of GridBlock
+        The grid constraints.
+    seeds : sequence of tuple
+        ``(name, xc)`` or ``(name, xc, wn, zeta)`` (scaled ``wn``) of this context's
+        parametrisation.
+    convex : bool
+        Also start from the nominal SOCP's solution.
+
+    Returns
+    -------
+    list of Start
+        Stable first, then by the worst ratio.
     """
     p = ctx.problem
     items = [(*sd, None, None)[:4] for sd in seeds if sd[1] is not None]

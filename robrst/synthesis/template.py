@@ -22,6 +22,8 @@ Variables ``X = [xc, (wn, zeta), gamma]``.  Constraints, in order:
 Objective ``c_gamma gamma + c_ki (-log(sign R(0)) + log((S/s^k)(0))) + c_reg |xc - xref|^2``.
 """
 
+from __future__ import annotations
+
 from dataclasses import dataclass
 
 import casadi as ca
@@ -37,7 +39,34 @@ TINY = 1e-20           # log clip: its second derivative (1e40) stays finite
 
 @dataclass(frozen=True)
 class Structure:
-    """What a built solver depends on (its cache key)."""
+    """What a built solver depends on (its cache key).
+
+    Parameters
+    ----------
+    nx : int
+        Controller coefficients in the decision vector.
+    placement : {"fixed", "dominant", "free"}
+        The nominal pole placement.
+    deg_eq : int
+        Diophantine rows (``deg Am``), 0 for ``"free"``.
+    n_dom_real : int
+        Extra dominant real poles.
+    groups : tuple
+        ``((degree of Delta, capacity), ...)`` of the Routh rows.
+    slots : int
+        Grid-constraint slots (in steps of 1.5x).
+    ctrl_deg : int
+        Degree of the controller polynomial under Routh (-1: none).
+    ipopt : tuple
+        IPOPT options as sorted ``(key, value)`` pairs.
+    ctrl_count : int
+        How many controller polynomials are under Routh.
+
+    Attributes
+    ----------
+    n_var : int
+        Variables of the program.
+    """
 
     nx: int
     placement: str          # "fixed" | "dominant" | "free"
@@ -60,9 +89,10 @@ class Template:
     Parameters
     ----------
     structure : Structure
+        What the program's shape depends on; the solver is built here, once.
     """
 
-    def __init__(self, structure):
+    def __init__(self, structure: Structure) -> None:
         st = self.structure = structure
         nx, K = st.nx, st.slots
         blocks = [(k, (K, nx)) for k in ("NR", "NI", "DR", "DI")]
@@ -138,8 +168,23 @@ class Template:
             am = poly.conv_generic(am, [1, aux * wn])
         return ca.vertcat(*am[1:])
 
-    def pack(self, values):
-        """The parameter vector from a dict of arrays (missing blocks are zero)."""
+    def pack(self, values: dict[str, np.ndarray]) -> np.ndarray:
+        """The parameter vector from a dict of arrays (missing blocks are zero).
+
+        Parameters
+        ----------
+        values : dict
+            Parameter block name -> array of that block's shape.
+
+        Returns
+        -------
+        numpy.ndarray
+
+        Raises
+        ------
+        ValueError
+            A block of the wrong shape (naming it).
+        """
         p = np.zeros(self.n_p)
         for name, v in values.items():
             o, shape = self.layout[name]
@@ -149,8 +194,26 @@ class Template:
             p[o:o + a.size] = a.ravel(order="F")
         return p
 
-    def solve(self, values, x0, lbx, ubx, lbg, ubg):
-        """Solve with parameters ``values``; returns IPOPT's raw outcome as a dict."""
+    def solve(self, values: dict[str, np.ndarray], x0: np.ndarray, lbx: np.ndarray, ubx: np.ndarray,
+              lbg: np.ndarray, ubg: np.ndarray) -> dict:
+        """Solve with parameters ``values``; returns IPOPT's raw outcome as a dict.
+
+        Parameters
+        ----------
+        values : dict
+            The parameter blocks (:meth:`pack`).
+        x0 : numpy.ndarray
+            The start.
+        lbx, ubx : numpy.ndarray
+            Bounds of the variables.
+        lbg, ubg : numpy.ndarray
+            Bounds of the constraints.
+
+        Returns
+        -------
+        dict
+            ``status, x, f, g, lam_g, iterations``.
+        """
         sol = self.solver(x0=x0, p=self.pack(values), lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         stats = self.solver.stats()
         return {"status": stats["return_status"], "x": np.array(sol["x"]).ravel(),

@@ -31,7 +31,11 @@ that checks them on more models (:func:`robrst.design.run_problem`: every model 
 certificate, whose step figures it keeps).
 """
 
+from __future__ import annotations
+
+from collections.abc import Iterator
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -39,6 +43,10 @@ from robrst.core import poly
 from robrst.core.analysis import spectral_abscissa_many
 from robrst.core.rst import RSTController, closed_loop
 from robrst.certificate.steps import check_many
+
+if TYPE_CHECKING:
+    from robrst.core.plant import Plant
+    from robrst.problem.records import Problem
 
 __all__ = ["Tracking", "two_dof", "design_tracking", "tracking_candidates", "reference_model",
            "cancel_thresholds", "CANCEL_FLOOR"]
@@ -49,7 +57,23 @@ CANCEL_FLOOR = 0.2   # never cancel a closed-loop factor less damped than this (
 
 @dataclass(frozen=True, eq=False)
 class Tracking:
-    """The 2-DOF reference path: ``Am_ref``, the cancelled ``Delta_wd``, gain ``c``."""
+    """The 2-DOF reference path: ``Am_ref``, the cancelled ``Delta_wd``, gain ``c``.
+
+    Parameters
+    ----------
+    reference_wn : float
+        Reference model bandwidth [rad/s].
+    reference_zeta : float
+        Reference model damping.
+    Am_ref : numpy.ndarray
+        The reference model's denominator.
+    Delta_wd : numpy.ndarray
+        The nominal closed-loop factors T cancels.
+    Delta_bad : numpy.ndarray
+        The factors it keeps.
+    gain : float
+        ``c`` of ``T' = c Delta_wd``.
+    """
 
     reference_wn: float
     reference_zeta: float
@@ -58,7 +82,14 @@ class Tracking:
     Delta_bad: np.ndarray
     gain: float
 
-    def as_dict(self):
+    def as_dict(self) -> dict:
+        """The ``tracking`` object of the design JSON.
+
+        Returns
+        -------
+        dict
+            ``reference_wn_rad_s, reference_zeta, reference_den, cancelled, kept``.
+        """
         return {"reference_wn_rad_s": self.reference_wn, "reference_zeta": self.reference_zeta,
                 "reference_den": self.Am_ref.tolist(), "cancelled": self.Delta_wd.tolist(),
                 "kept": self.Delta_bad.tolist()}
@@ -76,8 +107,29 @@ def _split(Delta, min_damping):
         poly.from_roots(bad) if bad.size else np.ones(1)
 
 
-def reference_model(wn, zeta, degree):
-    """``Am_ref``: the pair ``(wn, zeta)`` and ``degree - 2`` real poles at ``-2 wn``."""
+def reference_model(wn: float, zeta: float, degree: int) -> np.ndarray:
+    """``Am_ref``: the pair ``(wn, zeta)`` and ``degree - 2`` real poles at ``-2 wn``.
+
+    Parameters
+    ----------
+    wn : float
+        Bandwidth [rad/s].
+    zeta : float
+        Damping.
+    degree : int
+        Degree of ``Am_ref`` (at least 2).
+
+    Returns
+    -------
+    numpy.ndarray
+        Monic, highest power first.
+
+    Examples
+    --------
+    >>> from robrst.synthesis.tracking import reference_model
+    >>> reference_model(1.0, 1.0, 3).tolist()        # (s + 1)^2 (s + 2)
+    [1.0, 4.0, 5.0, 2.0]
+    """
     pair = [1.0, 2 * zeta * wn, wn * wn]
     den = np.asarray(pair, float)
     for _ in range(max(degree, 2) - 2):
@@ -85,7 +137,8 @@ def reference_model(wn, zeta, degree):
     return den
 
 
-def two_dof(plant, ctrl, wn, zeta, min_damping=0.5):
+def two_dof(plant: Plant, ctrl: RSTController, wn: float, zeta: float,
+            min_damping: float = 0.5) -> tuple[RSTController, Tracking]:
     """The 2-DOF controller for the reference model ``(wn, zeta)`` on ``plant``.
 
     Parameters
@@ -136,10 +189,17 @@ def _meets(problem, ctrl):
     return True
 
 
-def design_tracking(problem, ctrl):
+def design_tracking(problem: Problem, ctrl: RSTController) -> tuple[RSTController, Tracking]:
     """The problem's 2-DOF controller (``T_mode = "reference_model"``), see the module doc:
     the first of :func:`tracking_candidates` whose loops on every family model meet the
     time-domain specs, else the first.
+
+    Parameters
+    ----------
+    problem : Problem
+        The problem.
+    ctrl : RSTController
+        The feedback design.
 
     Returns
     -------
@@ -153,9 +213,17 @@ def design_tracking(problem, ctrl):
     return first
 
 
-def tracking_candidates(problem, ctrl):
+def tracking_candidates(problem: Problem,
+                        ctrl: RSTController) -> Iterator[tuple[RSTController, Tracking]]:
     """The 2-DOF controllers of the feedback ``ctrl`` to try, in order (module doc): each
     cancellation threshold, each reference bandwidth from the stated one down.
+
+    Parameters
+    ----------
+    problem : Problem
+        The problem.
+    ctrl : RSTController
+        The feedback design.
 
     Yields
     ------
@@ -171,13 +239,26 @@ def tracking_candidates(problem, ctrl):
             yield two_dof(ref, ctrl, c.reference_wn * f, c.reference_zeta, damping)
 
 
-def cancel_thresholds(plant, ctrl, preferred):
+def cancel_thresholds(plant: Plant, ctrl: RSTController, preferred: float) -> tuple[float, ...]:
     """Damping thresholds to try: ``preferred``, then each kept pair's own damping down to
     :data:`CANCEL_FLOOR` (one more factor cancelled each time, best damped first).
 
     A nominal closed-loop pair just below ``preferred`` (e.g. damping 0.49 at 0.5) left in
     the reference path gives ~12 % overshoot; cancelling it is robust when its damping is
     well above a resonance's, and the time-domain certificate has the last word.
+
+    Parameters
+    ----------
+    plant : Plant
+        The nominal model (or its sampled loop's plant).
+    ctrl : RSTController
+        The feedback design.
+    preferred : float
+        ``controller.T_cancel_damping``.
+
+    Returns
+    -------
+    tuple of float
     """
     Delta = poly.padd(poly.pmul(plant.A, ctrl.S), poly.pmul(plant.B, ctrl.R))
     sc = poly.Scaling.natural(Delta)

@@ -7,12 +7,15 @@ source (SHA-256 key) in ``$ROBRST_CACHE`` (default ``~/.cache/robrst``) and retu
 CasADi's ``mapaccum`` in its virtual machine (same numbers, slower) and says so.
 """
 
+from __future__ import annotations
+
 import ctypes
 import hashlib
 import os
 import shutil
 import subprocess
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
 
 import casadi as ca
@@ -44,14 +47,38 @@ int robrst_loop(long N, double* x, const double* P, const double* theta, double*
 """
 
 
-def cache_dir():
+def cache_dir() -> Path:
+    """Where compiled loops are cached: ``$ROBRST_CACHE``, else ``~/.cache/robrst``.
+
+    Returns
+    -------
+    pathlib.Path
+    """
     return Path(os.environ.get("ROBRST_CACHE", Path.home() / ".cache" / "robrst"))
 
 
 class Loop:
-    """Run ``step`` over the columns of ``P``: compiled C when available, else the VM."""
+    """Run ``step`` over the columns of ``P``: compiled C when available, else the VM.
 
-    def __init__(self, step, lib=None):
+    Calling it as ``loop(P, x0, theta)`` returns the outputs (one column per sample) and
+    the final state.
+
+    Parameters
+    ----------
+    step : casadi.Function
+        ``(x, p, theta) -> (x_next, out)``.
+    lib : ctypes.CDLL, optional
+        The compiled driver loop (``None``: CasADi's virtual machine).
+
+    Attributes
+    ----------
+    nx, np_, ny : int
+        Sizes of the state, the per-sample input and the output.
+    is_compiled : bool
+        The loop runs compiled C.
+    """
+
+    def __init__(self, step: ca.Function, lib: ctypes.CDLL | None = None) -> None:
         self.step, self.lib = step, lib
         self.nx = step.size1_in(0)
         self.np_ = step.size1_in(1)
@@ -89,8 +116,21 @@ class Loop:
         return np.hstack(outs), x
 
 
-def compile_loop(step, flags=("-O2",)):
-    """A :class:`Loop` for ``step``; compiled when a C compiler works, else the VM."""
+def compile_loop(step: ca.Function, flags: Sequence[str] = ("-O2",)) -> Loop:
+    """A :class:`Loop` for ``step``; compiled when a C compiler works, else the VM.
+
+    Parameters
+    ----------
+    step : casadi.Function
+        ``(x, p, theta) -> (x_next, out)``.
+    flags : sequence of str
+        C compiler flags.
+
+    Returns
+    -------
+    Loop
+        The same numbers either way (the compiled loop is cached by the step's hash).
+    """
     cc = shutil.which(os.environ.get("CC", "gcc")) or shutil.which("cc")
     if cc is None or os.environ.get("ROBRST_NO_COMPILE"):
         return Loop(step)

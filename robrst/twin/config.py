@@ -9,12 +9,19 @@ temperature), ``thermal_drift`` (lagged, saturating, hysteretic in temperature),
 (sensor).
 """
 
+from __future__ import annotations
+
+from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 from robrst.base import resources
 from robrst.base.errors import SpecError
 from robrst.core.plant import named_plant
 from robrst.base.schema import Field, key_error, load_toml, validate
+
+if TYPE_CHECKING:
+    from pathlib import Path
 
 __all__ = ["EFFECTS", "TWIN_SCHEMA", "TwinConfig", "load_twin", "parse_twin", "default_twin"]
 
@@ -85,8 +92,27 @@ DEFAULT_RATE_HZ = 20000.0
 class TwinConfig:
     """A validated twin: sampling rate, nominal plant name, and per-effect settings.
 
-    ``effects[name]`` is a dict of that effect's parameters including ``enabled``.
     Use :meth:`with_effects` to switch effects (e.g. only one on).
+
+    Parameters
+    ----------
+    name : str
+        The twin's name.
+    plant : str
+        The built-in nominal linear model (``"paper"``: D(s) of eq. 4).
+    sample_rate_hz : float
+        Simulation and control sampling rate [Hz].
+    reference_C : float
+        Temperature of the nominal model [°C].
+    effects : dict
+        ``effects[name]`` is a dict of that effect's parameters including ``enabled``.
+    path : str
+        The twin file (``"<default>"`` for the built-in defaults).
+
+    Attributes
+    ----------
+    dt : float
+        The sampling period [s].
     """
 
     name: str = "twin"
@@ -96,13 +122,48 @@ class TwinConfig:
     effects: dict = field(default_factory=dict)
     path: str = "<default>"
 
-    def enabled(self, name):
+    def enabled(self, name: str) -> bool:
+        """Whether effect ``name`` is on.
+
+        Parameters
+        ----------
+        name : str
+            One of :data:`EFFECTS`.
+
+        Returns
+        -------
+        bool
+        """
         return bool(self.effects[name]["enabled"])
 
-    def with_effects(self, only=None, off=(), **overrides):
+    def with_effects(self, only: Iterable[str] | None = None, off: Iterable[str] = (),
+                     **overrides: dict) -> TwinConfig:
         """Copy with only ``only`` enabled (if given), ``off`` disabled, parameters overridden.
 
-        ``overrides`` map an effect name to a dict of parameter values.
+        Parameters
+        ----------
+        only : iterable of str, optional
+            The effects left on (every other one off).
+        off : iterable of str
+            Effects switched off.
+        **overrides
+            Effect name -> dict of parameter values.
+
+        Returns
+        -------
+        TwinConfig
+
+        Raises
+        ------
+        SpecError
+            An unknown effect or parameter.
+
+        Examples
+        --------
+        >>> from robrst import default_twin
+        >>> twin = default_twin().with_effects(only=["hysteresis"], hysteresis={"A": 0.3})
+        >>> twin.enabled("hysteresis"), twin.enabled("creep"), twin.effects["hysteresis"]["A"]
+        (True, False, 0.3)
         """
         eff = {k: dict(v) for k, v in self.effects.items()}
         if only is not None:
@@ -127,8 +188,27 @@ class TwinConfig:
         return 1.0 / self.sample_rate_hz
 
 
-def parse_twin(data, path="<twin>"):
-    """Validate a parsed twin TOML document; see :func:`load_twin`."""
+def parse_twin(data: dict, path: str = "<twin>") -> TwinConfig:
+    """Validate a parsed twin TOML document; see :func:`load_twin`.
+
+    Parameters
+    ----------
+    data : dict
+        The parsed document.
+    path : str
+        The file, named in errors.
+
+    Returns
+    -------
+    TwinConfig
+
+    Raises
+    ------
+    SpecError
+        Naming the file and the key: unknown keys, values out of range, both
+        ``sample_rate_hz`` and ``fs_hz``, Bouc–Wen parameters without a loop,
+        ``tau_max_s <= tau_min_s``, ``u_max <= u_min``, an unknown plant.
+    """
     v = validate(path, data, TWIN_SCHEMA)
     tw = v["twin"] or validate(path, {}, TWIN_SCHEMA["twin"], ("twin",))
     effects = {k: dict(v[k] or validate(path, {}, TWIN_SCHEMA[k], (k,))) for k in EFFECTS}
@@ -156,22 +236,33 @@ def parse_twin(data, path="<twin>"):
                       reference_C=tw["reference_C"], effects=effects, path=str(path))
 
 
-def load_twin(path):
+def load_twin(path: str | Path) -> TwinConfig:
     """Load and validate a twin TOML file (errors name the file and the key).
 
     Parameters
     ----------
-    path : str or Path
+    path : str or pathlib.Path
+        The twin file (the shipped one: :func:`robrst.base.resources.builtin_twin`).
+
+    Returns
+    -------
+    TwinConfig
+
+    Raises
+    ------
+    SpecError
+        A missing or invalid file (see :func:`parse_twin`).
+    """
+    return parse_twin(load_toml(path, "twin file"), str(path))
+
+
+def default_twin() -> TwinConfig:
+    """The paper's twin with every effect on (the built-in defaults).
 
     Returns
     -------
     TwinConfig
     """
-    return parse_twin(load_toml(path, "twin file"), str(path))
-
-
-def default_twin():
-    """The paper's twin with every effect on (the built-in defaults)."""
     return parse_twin({}, "<default twin>")
 
 

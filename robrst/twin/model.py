@@ -13,7 +13,10 @@ time.  The linear part is a controllable-canonical realisation in the scaled tim
 ``p = w0 t`` (O(1) coefficients) advanced by RK4 with the input held over the sample.
 """
 
+from __future__ import annotations
+
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
@@ -22,24 +25,65 @@ from robrst.core import lti, poly
 from robrst.core.plant import named_plant
 from robrst.core.thermal import modal_form, thermal_polynomials
 
+if TYPE_CHECKING:
+    from robrst.core.plant import Plant
+    from robrst.twin.config import TwinConfig
+
 __all__ = ["TwinModel", "build_model", "hysteresis_gain", "creep_taus", "substeps"]
 
 N_SUB = 4  # RK4 substeps per sample for the linear dynamics (error ~1e-6 of the peak)
 
 
-def substeps(w0, dt):
+def substeps(w0: float, dt: float) -> int:
     """RK4 substeps per sample: ``N_SUB`` at the paper's 20 kHz, more at slower rates.
 
     Keeps the scaled RK4 step ``w0 dt / n`` at or below 0.05 (the paper plant's
     response matches the exact ZOH solution to ~1e-6 of its peak), so accuracy does
     not degrade when data are sampled slower than 20 kHz.
+
+    Parameters
+    ----------
+    w0 : float
+        The plant's frequency scale [rad/s].
+    dt : float
+        The sampling period [s].
+
+    Returns
+    -------
+    int
     """
     return max(N_SUB, int(np.ceil(w0 * dt / 0.05)))
 
 
 @dataclass(frozen=True, eq=False)
 class TwinModel:
-    """A built step function with its parameter vector and state layout."""
+    """A built step function with its parameter vector and state layout.
+
+    Parameters
+    ----------
+    config : TwinConfig
+        The twin it was built from.
+    step : casadi.Function
+        ``(x, p, theta) -> (x_next, out)``.
+    output : casadi.Function
+        ``(x, p, theta) -> y_meas`` at this sample (strictly proper plants).
+    theta_names : tuple of str
+        The parameters of ``theta`` (``"effect.parameter"``).
+    theta0 : numpy.ndarray
+        Their values in ``config``.
+    n_state : int
+        Size of the state.
+    slices : dict
+        Name -> slice into the state.
+    n_delay : int
+        Samples of transport delay.
+    w0 : float
+        The plant's frequency scale [rad/s].
+    dc_gain : float
+        The nominal static gain [µm/V].
+    strictly_proper : bool
+        The plant has no feedthrough.
+    """
 
     config: object
     step: ca.Function          # (x, p, theta) -> (x_next, out)
@@ -54,19 +98,42 @@ class TwinModel:
     strictly_proper: bool
 
 
-def creep_taus(c):
-    """Time constants of the creep cells [s], log-spaced from tau_min to tau_max."""
+def creep_taus(c: dict) -> np.ndarray:
+    """Time constants of the creep cells [s], log-spaced from tau_min to tau_max.
+
+    Parameters
+    ----------
+    c : dict
+        The ``creep`` effect's parameters.
+
+    Returns
+    -------
+    numpy.ndarray
+    """
     decades = np.log10(c["tau_max_s"] / c["tau_min_s"])
     n = int(round(decades * c["cells_per_decade"])) + 1
     return np.geomspace(c["tau_min_s"], c["tau_max_s"], n)
 
 
-def hysteresis_gain(A, B, G, lo, hi, n=4000):
+def hysteresis_gain(A: float, B: float, G: float, lo: float, hi: float, n: int = 4000) -> float:
     """``g_h`` making the mean slope of ``g_h (u - h)`` over a ``lo..hi`` cycle equal 1.
 
     The Bouc–Wen state ``h`` is driven through three triangle cycles (the last is
     periodic); the secant slope of ``u - h`` between the cycle's extremes is measured
     and inverted, so ``D(0)`` keeps its identified value on average.
+
+    Parameters
+    ----------
+    A, B, G : float
+        Bouc–Wen ``A``, ``beta`` [1/V] and ``gamma`` [1/V].
+    lo, hi : float
+        The voltage cycle [V].
+    n : int
+        Samples per triangle.
+
+    Returns
+    -------
+    float
     """
     u = np.concatenate([np.linspace(lo, hi, n), np.linspace(hi, lo, n)] * 3)
     du = np.diff(u, prepend=u[0])
@@ -114,14 +181,29 @@ def _linear_step(plant, w0, dt, xl, wtot, dT_lin, P):
     return xl, y_true
 
 
-def build_model(config, plant=None, linear=True):
-    """Build the symbolic step of the twin described by ``config`` (a TwinConfig).
+def build_model(config: TwinConfig, plant: Plant | None = None, linear: bool = True) -> TwinModel:
+    """Build the symbolic step of the twin described by ``config``.
 
-    ``plant`` (a :class:`~robrst.core.plant.Plant`) replaces the config's named nominal
-    model, e.g. the nominal plant of a problem file in a gap diagnosis.  With
-    ``linear=False`` the step stops before ``D_T(s)``: its outputs are the effective
-    input ``v + u_c + u_T`` [V] instead of displacements (for input-referred effects
-    whose linear part is simulated exactly elsewhere; needs thermal_dynamics off).
+    Parameters
+    ----------
+    config : TwinConfig
+        The twin.
+    plant : Plant, optional
+        Replaces the config's named nominal model, e.g. the nominal plant of a problem
+        file in a gap diagnosis.
+    linear : bool
+        ``False``: the step stops before ``D_T(s)``: its outputs are the effective input
+        ``v + u_c + u_T`` [V] instead of displacements (for input-referred effects whose
+        linear part is simulated exactly elsewhere; needs thermal_dynamics off).
+
+    Returns
+    -------
+    TwinModel
+
+    Raises
+    ------
+    ValueError
+        ``linear=False`` with thermal_dynamics on.
     """
     eff = config.effects
     on = {k: bool(v["enabled"]) for k, v in eff.items()}

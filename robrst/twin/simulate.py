@@ -8,7 +8,9 @@ controller inside) is unrolled ``CHUNK`` times with ``mapaccum``, compiled to C 
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
@@ -21,11 +23,35 @@ from robrst.twin.config import TwinConfig
 from robrst.twin.compiled import compile_loop
 from robrst.twin.model import build_model
 
+if TYPE_CHECKING:
+    from robrst.data.dataset import Dataset
+    from robrst.twin.model import TwinModel
+
 __all__ = ["SimResult", "simulate", "closed_loop_step", "Simulator", "rest_state"]
 
 @dataclass(frozen=True, eq=False)
 class SimResult:
-    """Sampled signals: t [s], u_cmd/u_applied [V], y (measured) / y_true [µm], temp [°C]."""
+    """Sampled signals: t [s], u_cmd/u_applied [V], y (measured) / y_true [µm], temp [°C].
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        Time [s].
+    u_cmd : numpy.ndarray
+        Commanded voltage [V].
+    u_applied : numpy.ndarray
+        Voltage reaching the stack (after delay, saturation, slew) [V].
+    y : numpy.ndarray
+        Measured displacement (noise, quantisation) [µm].
+    y_true : numpy.ndarray
+        True displacement [µm].
+    temp : numpy.ndarray
+        Temperature [°C].
+    yr : numpy.ndarray, optional
+        Reference (closed loop) [µm].
+    meta : dict
+        What was simulated (twin, compiled, seed).
+    """
 
     t: np.ndarray
     u_cmd: np.ndarray
@@ -36,15 +62,43 @@ class SimResult:
     yr: np.ndarray = None
     meta: dict = field(default_factory=dict)
 
-    def to_dataset(self, comments=()):
+    def to_dataset(self, comments: Iterable[str] = ()) -> Dataset:
+        """The record as measured: ``t``, commanded ``u``, measured ``y``, ``temp``, ``yr``.
+
+        Parameters
+        ----------
+        comments : iterable of str
+            Comment lines of the record.
+
+        Returns
+        -------
+        Dataset
+        """
         from robrst.data.dataset import Dataset
 
         return Dataset(t=self.t, u=self.u_cmd, y=self.y, temp=self.temp, yr=self.yr,
                        comments=tuple(comments), source="twin")
 
 
-def closed_loop_step(model, dctrl):
-    """Step of twin + discrete RST: ``(x, [yr, T, noise], theta) -> (x+, [y, y_true, u_a, u])``."""
+def closed_loop_step(model: TwinModel, dctrl: DiscreteController) -> ca.Function:
+    """Step of twin + discrete RST: ``(x, [yr, T, noise], theta) -> (x+, [y, y_true, u_a, u])``.
+
+    Parameters
+    ----------
+    model : TwinModel
+        The twin's model.
+    dctrl : DiscreteController
+        The controller at the twin's rate.
+
+    Returns
+    -------
+    casadi.Function
+
+    Raises
+    ------
+    SpecError
+        For a plant with feedthrough (an algebraic loop).
+    """
     if not model.strictly_proper:
         raise SpecError("closed-loop simulation needs a strictly proper plant (no feedthrough)")
     nk = dctrl.A.shape[0]
@@ -61,11 +115,24 @@ def closed_loop_step(model, dctrl):
                                                     ca.vertcat(out, u)])
 
 
-def rest_state(model, u0, T0):
+def rest_state(model: TwinModel, u0: float, T0: float) -> np.ndarray:
     """Initial state at rest: linear part and effect memories empty, stack at ``T0``.
 
     The drive (delay line, slew memory) holds ``u0``; with hysteresis on, the
     Bouc–Wen memory starts at 0 V so a record starting at ``u0 != 0`` enters the loop.
+
+    Parameters
+    ----------
+    model : TwinModel
+        The twin's model.
+    u0 : float
+        The held voltage [V].
+    T0 : float
+        The temperature [°C].
+
+    Returns
+    -------
+    numpy.ndarray
     """
     x0 = np.zeros(model.n_state)
     x0[model.slices["T_s"]] = T0
@@ -75,17 +142,50 @@ def rest_state(model, u0, T0):
 
 
 class Simulator:
-    """A compiled loop for one model (and controller); reusable across runs."""
+    """A compiled loop for one model (and controller); reusable across runs.
 
-    def __init__(self, model, dctrl=None):
+    Parameters
+    ----------
+    model : TwinModel
+        The twin's model.
+    dctrl : DiscreteController, optional
+        The controller of a closed-loop simulation.
+
+    Attributes
+    ----------
+    loop : Loop
+        The compiled loop.
+    is_compiled : bool
+        It runs compiled C (else CasADi's VM, with the same numbers).
+    n_x : int
+        Size of the state (twin and controller).
+    """
+
+    def __init__(self, model: TwinModel, dctrl: DiscreteController | None = None) -> None:
         self.model, self.dctrl = model, dctrl
         step = model.step if dctrl is None else closed_loop_step(model, dctrl)
         self.loop = compile_loop(step)
         self.is_compiled = self.loop.is_compiled
         self.n_x = model.n_state + (0 if dctrl is None else dctrl.A.shape[0])
 
-    def run(self, P, x0, theta=None):
-        """Advance over the columns of ``P`` (3 x N); return (outputs (k x N), final state)."""
+    def run(self, P: ArrayLike, x0: np.ndarray,
+            theta: ArrayLike | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Advance over the columns of ``P`` (3 x N); return (outputs (k x N), final state).
+
+        Parameters
+        ----------
+        P : array_like
+            Per sample ``[u or yr, T, noise]``.
+        x0 : numpy.ndarray
+            The initial state.
+        theta : array_like, optional
+            The model's parameters (default ``model.theta0``).
+
+        Returns
+        -------
+        outputs : numpy.ndarray
+        state : numpy.ndarray
+        """
         theta = self.model.theta0 if theta is None else np.asarray(theta, float)
         return self.loop(np.asarray(P, float), x0, theta)
 
@@ -99,6 +199,7 @@ def simulate(config: TwinConfig, temp: ArrayLike, u: ArrayLike | None = None,
     Parameters
     ----------
     config : TwinConfig
+        The twin.
     temp : array_like
         Ambient temperature per sample [°C].
     u : array_like, optional
@@ -119,6 +220,14 @@ def simulate(config: TwinConfig, temp: ArrayLike, u: ArrayLike | None = None,
     Returns
     -------
     SimResult
+
+    Raises
+    ------
+    SpecError
+        Neither or both of ``u`` and ``yr``, ``yr`` without ``dctrl``, or a controller
+        sampled at another rate than the twin.
+    DataError
+        Profiles of different or zero length, or with NaN or inf.
 
     Examples
     --------

@@ -152,28 +152,6 @@ def test_sampled_problems_record_the_sampled_peaks(tmp_path, designs):
     assert compare_golden(designs("paper_robust"), path) == []
 
 
-def test_readme_py_snippets_run(tmp_path, monkeypatch, problems_dir):
-    """The README's ``py`` blocks (python-control round trip, the CI recipe) run as written."""
-    from pathlib import Path
-
-    text = (Path(__file__).parents[2] / "README.md").read_text()
-    blocks = re.findall(r"```py\n(.*?)```", text, re.S)
-    assert len(blocks) == 2
-    monkeypatch.chdir(tmp_path)
-    (tmp_path / "my_problem.toml").write_text((problems_dir / "paper.toml").read_text())
-    assert main(["check", "my_problem.toml", "--golden", "tests/golden/my_problem.toml",
-                 "--update", "--quiet"]) == 0
-    for code in blocks:
-        ns = {}
-        exec(compile(code, "README.md", "exec"), ns)   # noqa: S102
-        if "test_margins_did_not_get_worse" in ns:
-            ns["test_margins_did_not_get_worse"]()
-        else:
-            assert ns["result"].certified
-            assert 1 / ns["sm"] == pytest.approx(ns["result"].certificate.worst("Ms_sampled"),
-                                                 rel=1e-6)
-
-
 def test_infinite_margins(tmp_path, designs):
     """``null`` margins are infinite: written as inf; a finite one later is worse."""
     d = designs("paper").as_dict()

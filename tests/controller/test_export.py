@@ -82,15 +82,15 @@ def test_a_design_without_rate_is_certified_on_its_sampled_loop_at_fs(designs):
     is unstable; the certificate says so, and python-control agrees on exactly that loop."""
     result = designs("paper")
     assert result.certified and not result.problem.specs.sampled
-    for fs in (5000.0, 2000.0):
-        exp = export_controller(result, fs)
+    exps = {fs: export_controller(result, fs) for fs in (5000.0, 2000.0)}
+    for fs, exp in exps.items():
         cert = exp.as_dict()["certificate"]
         assert not exp.certified and any("in the sampled loop" in v for v in cert["violations"])
         P = zoh_plant(result.problem.family.models[0], fs)
         poles = control.feedback(P, feedback_law(exp, P.dt, "sections")).poles()
         assert np.max(np.abs(poles)) == pytest.approx(cert["spectral_radius"], abs=1e-8)
         assert (cert["spectral_radius"] < 1) == (fs == 5000.0)
-    _check_against_python_control(export_controller(result, 5000.0), result.problem)
+    _check_against_python_control(exps[5000.0], result.problem)
 
 
 def _random_problem(seed):

@@ -311,16 +311,6 @@ def test_bad_arguments_are_one_line(tmp_path, capsys):
         assert len(err) == 1 and expected in err[0], err
 
 
-def test_readme_sweep_file_reference_matches_schema(root):
-    from robrst.studies.sweep.files import sweep_schema_markdown
-
-    lines = (root / "README.md").read_text().splitlines()
-    hdr = lines.index("| table | key | type | required | default | meaning |",
-                      lines.index("## Sweep-file reference"))
-    table = [x for x in lines[hdr + 2:hdr + 2 + len(sweep_schema_markdown())]]
-    assert table == sweep_schema_markdown()
-
-
 @pytest.mark.parametrize("name", ["paper_montecarlo", "paper_tradeoff"])
 def test_committed_sweep_examples_are_not_stale(root, name):
     """The committed report was made from the shipped sweep and base problem as they are now

@@ -130,11 +130,8 @@ def test_noise_is_seeded_and_quantised():
     assert not np.array_equal(a.y, simulate(cfg, T, u=u, seed=8).y)
 
 
-def test_discrete_rst_loop_matches_continuous_design():
-    from robrst.design import analytic_design
-    from robrst.problem.files import load_problem
-
-    ctrl = analytic_design(load_problem("paper")).controller
+def test_discrete_rst_loop_matches_continuous_design(designs):
+    ctrl = designs("paper").controller              # the analytic design (shared fixture)
     cfg = default_twin().with_effects(only=[])
     n = int(0.03 * FS)
     r = simulate(cfg, np.full(n, 28.0), yr=np.full(n, 10.0), dctrl=discretize(ctrl, FS))

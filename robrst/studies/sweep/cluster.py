@@ -8,12 +8,15 @@ chunk again elsewhere (up to ``distributed.scheduler.allowed-failures`` times, t
 engine splits the chunk into single variants).
 """
 
+from __future__ import annotations
+
 import contextlib
 import logging
 import os
 import signal
 import threading
 import warnings
+from typing import TYPE_CHECKING, Any
 
 from distributed import Client, LocalCluster, as_completed, get_worker
 from distributed.diagnostics.plugin import WorkerPlugin
@@ -21,11 +24,23 @@ from distributed.diagnostics.plugin import WorkerPlugin
 from robrst.base.errors import RobrstError
 from robrst.studies.sweep.evaluate import build_state, evaluate_chunk
 
+if TYPE_CHECKING:
+    import numpy as np
+    from distributed import Worker
+
+    from robrst.studies.sweep.evaluate import SweepContext
+
 __all__ = ["SweepPlugin", "run_task", "DaskExecutor", "default_workers"]
 
 
-def default_workers():
-    """The cores this process may use (the default size of the local cluster)."""
+def default_workers() -> int:
+    """The cores this process may use (the default size of the local cluster).
+
+    Returns
+    -------
+    int
+        The CPU affinity's size, else ``os.cpu_count()``, at least 1.
+    """
     try:
         return len(os.sched_getaffinity(0))
     except AttributeError:   # not on Linux
@@ -57,25 +72,54 @@ def sigint_ignored():
 class SweepPlugin(WorkerPlugin):
     """Builds a worker's state once from the sweep's context.
 
-    ``local``: the worker belongs to the driver's own local cluster, so it ignores Ctrl-C
-    (the driver stops it; a restarted worker too).  Workers of a running scheduler keep
-    their signal handling.
+    Parameters
+    ----------
+    name : str
+        The plugin's name (the task finds its state under it).
+    context : SweepContext
+        What every variant needs (base problem, controller, designer).
+    local : bool
+        The worker belongs to the driver's own local cluster, so it ignores Ctrl-C (the
+        driver stops it; a restarted worker too).  Workers of a running scheduler keep
+        their signal handling.
     """
 
-    def __init__(self, name, context, local=False):
+    def __init__(self, name: str, context: SweepContext, local: bool = False) -> None:
         self.name = name
         self.context = context
         self.local = local
         self.state = None
 
-    def setup(self, worker):
+    def setup(self, worker: Worker) -> None:
+        """Build the worker's state (Dask calls this once per worker).
+
+        Parameters
+        ----------
+        worker : distributed.Worker
+            The worker starting up.
+        """
         if self.local and _main_thread():
             signal.signal(signal.SIGINT, signal.SIG_IGN)
         self.state = build_state(self.context)
 
 
-def run_task(name, indices, values):
-    """The rows of one chunk, on a worker (its state comes from the plugin ``name``)."""
+def run_task(name: str, indices: np.ndarray, values: np.ndarray) -> list[dict]:
+    """The rows of one chunk, on a worker (its state comes from the plugin ``name``).
+
+    Parameters
+    ----------
+    name : str
+        The plugin's name.
+    indices : numpy.ndarray
+        The variants' indices.
+    values : numpy.ndarray
+        Their parameter values, one row per variant.
+
+    Returns
+    -------
+    list of dict
+        One row per variant (:func:`robrst.studies.sweep.evaluate.evaluate_chunk`).
+    """
     plugin = get_worker().plugins[name]
     if plugin.state is None:     # defensive: a plugin whose setup has not run yet
         plugin.setup(get_worker())
@@ -88,13 +132,27 @@ class DaskExecutor:
     Parameters
     ----------
     context : SweepContext
+        What every variant needs.
     workers : int, optional
         Size of the local cluster (processes, one thread each) when no scheduler is given.
     scheduler : str or distributed.Client, optional
         Address of a running scheduler (``tcp://host:8786``), or a connected client.
+
+    Attributes
+    ----------
+    workers : int
+        Threads available on the cluster's workers.
+    pending : int
+        Tasks submitted and not yet returned by :meth:`next`.
+
+    Raises
+    ------
+    RobrstError
+        The scheduler cannot be reached, or no worker joins it within 60 s.
     """
 
-    def __init__(self, context, workers=None, scheduler=None):
+    def __init__(self, context: SweepContext, workers: int | None = None,
+                 scheduler: str | Client | None = None) -> None:
         self.cluster = None
         self.own_client = not isinstance(scheduler, Client)
         try:
@@ -138,14 +196,27 @@ class DaskExecutor:
     def pending(self):
         return len(self.futures)
 
-    def submit(self, task):
+    def submit(self, task: Any) -> None:
+        """Submit one chunk (or one variant of a split chunk) as a Dask task.
+
+        Parameters
+        ----------
+        task : robrst.studies.sweep.engine.Task
+            The variants to evaluate.
+        """
         fut = self.client.submit(run_task, self.name, task.indices, task.values, pure=False,
                                  key=f"robrst-chunk-{task.chunk.index}-{task.start}-"
                                      f"{os.urandom(4).hex()}")
         self.futures[fut] = task
         self.done.add(fut)
 
-    def next(self):
+    def next(self) -> tuple[Any, list[dict] | BaseException]:
+        """The next task to finish, with its rows or the exception that ended it.
+
+        Returns
+        -------
+        (robrst.studies.sweep.engine.Task, list of dict or BaseException)
+        """
         fut = next(self.done)
         task = self.futures.pop(fut)
         try:
@@ -155,7 +226,8 @@ class DaskExecutor:
         finally:
             fut.release()
 
-    def close(self):
+    def close(self) -> None:
+        """Cancel what is pending and close the client (and the local cluster robrst started)."""
         client = getattr(self, "client", None)
         if client is not None:
             try:

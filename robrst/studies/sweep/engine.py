@@ -17,9 +17,10 @@ import os
 import re
 import time
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -31,13 +32,35 @@ from robrst.studies.sweep.files import Sweep, load_sweep
 from robrst.studies.sweep.summary import summarise
 from robrst.studies.sweep.variants import chunks
 
+if TYPE_CHECKING:
+    from robrst.studies.sweep.cluster import DaskExecutor
+    from robrst.studies.sweep.evaluate import SweepContext
+    from robrst.studies.sweep.variants import Chunk
+
 __all__ = ["Task", "Progress", "SweepResult", "SequentialExecutor", "execute", "run_sweep",
            "check_scheduler", "ADDRESS"]
 
 
 @dataclass(frozen=True, eq=False)
 class Task:
-    """Variants ``indices`` (parameter ``values``) of ``chunk``; ``single``: split off it."""
+    """Variants ``indices`` (parameter ``values``) of ``chunk``; ``single``: split off it.
+
+    Parameters
+    ----------
+    chunk : Chunk
+        The chunk the variants belong to.
+    indices : numpy.ndarray
+        The variants' indices.
+    values : numpy.ndarray
+        Their parameter values, one row per variant.
+    single : bool
+        A single variant split off a chunk that failed as a whole.
+
+    Attributes
+    ----------
+    start : int
+        The first variant's index.
+    """
 
     chunk: object
     indices: np.ndarray
@@ -53,8 +76,23 @@ class Task:
 class Progress:
     """Where a sweep stands: variants finished (of ``total``), certified, failed.
 
-    ``recomputed``: the chunks whose part file in the output folder did not hold their own
-    variants (e.g. a part copied over another), computed again by this run.
+    Parameters
+    ----------
+    done : int
+        Variants finished (this run and resumed).
+    total : int
+        Variants of the sweep.
+    certified : int
+        Variants certified so far.
+    failed : int
+        Variants that failed (no evaluation).
+    elapsed_s : float
+        Wall time of this run [s].
+    workers : int
+        Workers computing.
+    recomputed : tuple of int
+        The chunks whose part file in the output folder did not hold their own variants
+        (e.g. a part copied over another), computed again by this run.
     """
 
     done: int
@@ -68,7 +106,28 @@ class Progress:
 
 @dataclass(frozen=True, eq=False)
 class SweepResult:
-    """A sweep's results: the Arrow ``table`` (one row per finished variant), the summary."""
+    """A sweep's results: the Arrow ``table`` (one row per finished variant), the summary.
+
+    Parameters
+    ----------
+    sweep : Sweep
+        The sweep run.
+    out : pathlib.Path
+        Its output folder.
+    context : SweepContext
+        What every variant needed (base problem, controller).
+    table : pyarrow.Table
+        One row per finished variant, ordered by ``index``.
+    summary : dict
+        The ``summary.json`` object.
+
+    Attributes
+    ----------
+    complete : bool
+        Every variant finished.
+    yield_ : float
+        Share of the finished variants that are certified.
+    """
 
     sweep: Sweep
     out: Path
@@ -87,11 +146,24 @@ class SweepResult:
 
 
 class SequentialExecutor:
-    """Chunks run one after the other in this process (``workers=0``)."""
+    """Chunks run one after the other in this process (``workers=0``).
+
+    Parameters
+    ----------
+    context : SweepContext
+        What every variant needs (the state is built once, here).
+
+    Attributes
+    ----------
+    workers : int
+        1.
+    pending : int
+        Tasks submitted and not yet returned by :meth:`next`.
+    """
 
     workers = 1
 
-    def __init__(self, context):
+    def __init__(self, context: SweepContext) -> None:
         self.state = build_state(context)
         self.queue = deque()
 
@@ -99,17 +171,32 @@ class SequentialExecutor:
     def pending(self):
         return len(self.queue)
 
-    def submit(self, task):
+    def submit(self, task: Task) -> None:
+        """Queue one task.
+
+        Parameters
+        ----------
+        task : Task
+            The variants to evaluate.
+        """
         self.queue.append(task)
 
-    def next(self):
+    def next(self) -> tuple[Task, list[dict] | BaseException]:
+        """Evaluate the oldest queued task.
+
+        Returns
+        -------
+        (Task, list of dict or BaseException)
+            Its rows, or the exception that ended it.
+        """
         task = self.queue.popleft()
         try:
             return task, evaluate_chunk(self.state, task.indices, task.values)
         except Exception as exc:   # noqa: BLE001 — the engine splits the chunk
             return task, exc
 
-    def close(self):
+    def close(self) -> None:
+        """Nothing to release (in process)."""
         pass
 
 
@@ -120,12 +207,23 @@ def _lost(task, exc):
     return [row]
 
 
-def execute(tasks, executor, on_rows, window):
-    """Run ``tasks`` (any iterable, consumed as the window frees) on ``executor``, ``window``
-    at a time; ``on_rows(chunk, rows)`` per chunk.
+def execute(tasks: Iterable[Task], executor: SequentialExecutor | DaskExecutor,
+            on_rows: Callable[[Chunk, list[dict]], None], window: int) -> None:
+    """Run ``tasks`` on ``executor``, ``window`` at a time; ``on_rows(chunk, rows)`` per chunk.
 
     A task that fails as a whole is split into single variants; a single variant that fails
     becomes a row with its status (``worker_lost`` when its worker died).
+
+    Parameters
+    ----------
+    tasks : iterable of Task
+        Consumed as the window frees.
+    executor : SequentialExecutor or DaskExecutor
+        Where the tasks run.
+    on_rows : callable
+        Called once per chunk with all its rows, in index order.
+    window : int
+        Tasks in flight at most.
     """
     queue, source = deque(), iter(tasks)     # queue: the singles of split chunks, first
     split = {}
@@ -165,14 +263,32 @@ ADDRESS = re.compile(r"((tcp|tls|ws|wss|ucx)://)?(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9.
                      r":(\d{1,5})/?|inproc://\S+")
 
 
-def check_scheduler(address, name="scheduler"):
+def check_scheduler(address: str, name: str = "scheduler") -> str:
     """``address`` if it is a Dask scheduler address (``tcp://host:8786``, ``host:8786``,
     ``tls://``, ``ws://``, ``wss://``, ``ucx://``, ``inproc://``).
+
+    Parameters
+    ----------
+    address : str
+        The address given.
+    name : str
+        What to call it in the message (``--scheduler`` on the command line).
+
+    Returns
+    -------
+    str
+        ``address`` without surrounding blanks.
 
     Raises
     ------
     SpecError
-        Naming ``name`` (``--scheduler`` on the command line) and what is expected.
+        Naming ``name`` and what is expected.
+
+    Examples
+    --------
+    >>> from robrst.studies.sweep.engine import check_scheduler
+    >>> check_scheduler(" tcp://10.0.0.5:8786 ")
+    'tcp://10.0.0.5:8786'
     """
     m = ADDRESS.fullmatch(address.strip())
     if m is None or (m.group(4) is not None and not 0 < int(m.group(4)) < 65536):

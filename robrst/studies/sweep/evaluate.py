@@ -17,10 +17,13 @@ figure/bound over the specs and every violation the certificate found (> 1 + cer
 violated; ``inf``: unstable).
 """
 
+from __future__ import annotations
+
 import threading
 import time
 import warnings
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -31,6 +34,10 @@ from robrst.problem.files import parse_problem
 from robrst.studies.sweep.model import merge_documents, variant_problem
 from robrst.synthesis.parametrize import integral_gain
 from robrst.base.threads import one_blas_thread
+
+if TYPE_CHECKING:
+    from robrst.design import DesignResult
+    from robrst.problem.records import Problem
 
 __all__ = ["SweepContext", "WorkerState", "build_state", "evaluate_chunk", "evaluate_variant",
            "problem_of", "fleet_problem", "FIGURE_COLUMNS", "CONTROLLER_COLUMNS", "status_of",
@@ -53,7 +60,22 @@ CONTROLLER_COLUMNS = ("R", "S", "T")   # design and fleet rows: the variant's co
 class SweepContext:
     """What every worker needs, built once by the driver (see the module docstring).
 
-    ``fleet`` holds ``(label, document or None, error or None)`` per file.
+    Parameters
+    ----------
+    sweep : Sweep
+        The sweep.
+    names : tuple of str
+        The varied parameters, in file order.
+    base : Problem, optional
+        The base problem (after ``[set]``; ``None`` for a fleet without one).
+    doc : dict, optional
+        The base problem's document (variants are set in it and parsed again).
+    controller : RSTController, optional
+        The controller an analysis certifies on every variant.
+    fleet : tuple
+        ``(label, document or None, error or None)`` per fleet file.
+    fingerprint : str
+        What the output folder's results were computed from (resume check).
     """
 
     sweep: object
@@ -67,7 +89,20 @@ class SweepContext:
 
 @dataclass(frozen=True, eq=False)
 class WorkerState:
-    """A worker's state, built once by :func:`build_state`."""
+    """A worker's state, built once by :func:`build_state`.
+
+    Parameters
+    ----------
+    context : SweepContext
+        What every variant needs.
+    designer : Synthesizer, optional
+        The designer of design and fleet sweeps (its built programs shared by the
+        variants).
+    lock : threading.Lock
+        Serialises the variants of one worker's threads.
+    templates : dict
+        Built NLP solvers, shared by the variants.
+    """
 
     context: SweepContext
     designer: object = None
@@ -75,8 +110,13 @@ class WorkerState:
     templates: dict = field(default_factory=dict)   # built NLP solvers, shared by the variants
 
 
-def build_state(context):
+def build_state(context: SweepContext) -> WorkerState:
     """The per-worker state of ``context`` (run once per worker process).
+
+    Parameters
+    ----------
+    context : SweepContext
+        What every variant needs.
 
     Returns
     -------
@@ -93,8 +133,18 @@ def build_state(context):
     return WorkerState(context=context, designer=designer)
 
 
-def status_of(exc):
-    """The row status of an exception: infeasible, solver_failed, invalid or error."""
+def status_of(exc: BaseException) -> str:
+    """The row status of an exception: infeasible, solver_failed, invalid or error.
+
+    Parameters
+    ----------
+    exc : BaseException
+        What ended a variant.
+
+    Returns
+    -------
+    str
+    """
     if isinstance(exc, InfeasibleError):
         return "infeasible"
     if isinstance(exc, SolverError):
@@ -170,9 +220,20 @@ def _design_row(state, problem):
     return row
 
 
-def design_cause(result):
+def design_cause(result: DesignResult) -> str | None:
     """Why a design is not certified: the synthesis's proof of infeasibility if it found
-    one, else what the best controller achieves (its binding constraint)."""
+    one, else what the best controller achieves (its binding constraint).
+
+    Parameters
+    ----------
+    result : DesignResult
+        A design that is not certified.
+
+    Returns
+    -------
+    str or None
+        One line.
+    """
     syn = result.synthesis
     notes = getattr(syn, "notes", ())
     proof = [n for n in notes if "infeasible" in n]
@@ -181,16 +242,53 @@ def design_cause(result):
     return getattr(syn, "best_achievable", None) or result.best_achievable
 
 
-def problem_of(context, index, values):
-    """The problem of variant ``index`` (``values``: {name: value}; a fleet's file ``index``)."""
+def problem_of(context: SweepContext, index: int, values: dict[str, float]) -> Problem:
+    """The problem of variant ``index`` (``values``: {name: value}; a fleet's file ``index``).
+
+    Parameters
+    ----------
+    context : SweepContext
+        What every variant needs.
+    index : int
+        The variant's index.
+    values : dict
+        ``{parameter name: value}`` of the variant.
+
+    Returns
+    -------
+    Problem
+
+    Raises
+    ------
+    SpecError
+        A variant the problem file's rules refuse, or an invalid fleet file.
+    """
     if context.sweep.kind == "fleet":
         return fleet_problem(context, index)
     return variant_problem(context.base, context.doc, context.base.path, values,
                            context.sweep.ageing)
 
 
-def fleet_problem(ctx, index):
-    """The problem of fleet file ``index`` (its tables over the base problem's, if any)."""
+def fleet_problem(ctx: SweepContext, index: int) -> Problem:
+    """The problem of fleet file ``index`` (its tables over the base problem's, if any).
+
+    Parameters
+    ----------
+    ctx : SweepContext
+        What every variant needs.
+    index : int
+        The fleet file's index.
+
+    Returns
+    -------
+    Problem
+        Without ``compare_with``.
+
+    Raises
+    ------
+    SpecError
+        The file's error, as read by the driver.
+    """
     label, doc, error = ctx.fleet[index]
     if error is not None:
         raise SpecError(error)
@@ -200,8 +298,23 @@ def fleet_problem(ctx, index):
     return replace(problem, solver=replace(problem.solver, compare_with=None))
 
 
-def evaluate_variant(state, index, values):
-    """One row: ``values`` ({name: value}) of variant ``index`` evaluated, errors captured."""
+def evaluate_variant(state: WorkerState, index: int, values: dict[str, float]) -> dict:
+    """One row: ``values`` ({name: value}) of variant ``index`` evaluated, errors captured.
+
+    Parameters
+    ----------
+    state : WorkerState
+        The worker's state.
+    index : int
+        The variant's index.
+    values : dict
+        ``{parameter name: value}``.
+
+    Returns
+    -------
+    dict
+        The row of ``results.parquet`` (status ``ok`` or the failure's status).
+    """
     ctx = state.context
     t0, c0 = time.perf_counter(), time.process_time()
     try:
@@ -218,15 +331,36 @@ def evaluate_variant(state, index, values):
     return row
 
 
-def failed_row(status, exc):
-    """The row of a variant that could not be evaluated (``certified`` false)."""
+def failed_row(status: str, exc: BaseException) -> dict:
+    """The row of a variant that could not be evaluated (``certified`` false).
+
+    Parameters
+    ----------
+    status : str
+        ``invalid``, ``infeasible``, ``solver_failed``, ``error`` or ``worker_lost``.
+    exc : BaseException
+        Its message is the row's.
+
+    Returns
+    -------
+    dict
+    """
     msg = str(exc) if isinstance(exc, RobrstError) else f"{type(exc).__name__}: {exc}"
     return {"status": status, "message": msg, "certified": False, "stable": None,
             "worst_ratio": np.inf}
 
 
-def evaluate_chunk(state, indices, values):
+def evaluate_chunk(state: WorkerState, indices: np.ndarray, values: np.ndarray) -> list[dict]:
     """Rows of the variants ``indices`` (``values``: one row of parameter values each).
+
+    Parameters
+    ----------
+    state : WorkerState
+        The worker's state.
+    indices : numpy.ndarray
+        The variants' indices.
+    values : numpy.ndarray
+        One row of parameter values per variant.
 
     Returns
     -------

@@ -97,11 +97,52 @@ _DIST_KEYS = DIST_KEYS
 
 @dataclass(frozen=True, eq=False)
 class Sweep:
-    """A validated sweep file.
+    """A validated sweep file (every key is in the sweep-file reference).
 
-    ``overrides`` are ``(key path, value)`` pairs of ``[set]``, applied to the base problem
-    document before the variants; ``problem`` is the resolved base problem file (or
-    ``None`` for a fleet of complete problem files).
+    Parameters
+    ----------
+    name : str
+        The sweep's name (default the file stem).
+    kind : {"analysis", "design", "fleet"}
+        What a variant is.
+    path : str
+        The sweep file.
+    problem : str, optional
+        The resolved base problem file (``None`` for a fleet of complete problem files).
+    description : str
+        Free text.
+    seed : int
+        Seed of the random draws.
+    n : int, optional
+        Random draws, repeated at every grid point.
+    chunk_size : int
+        Variants per task.
+    worst : int
+        Worst variants listed in ``summary.json``.
+    params : tuple of Param
+        The varied parameters, in file order.
+    overrides : tuple
+        ``(key path, value)`` pairs of ``[set]``, applied to the base problem document
+        before the variants.
+    ageing : Ageing
+        The rates per year of ``age_years``.
+    controller : str
+        Analysis: ``"design"`` (the base problem's) or a result JSON file.
+    margins : bool
+        Analysis: compute gain, phase and delay margins.
+    front : tuple of str
+        Design: the figures ``(x minimised, y maximised)`` of the trade-off front.
+    folder : str, optional
+        Fleet: the folder of problem or model files.
+    pattern : str
+        Fleet: the file-name pattern.
+
+    Attributes
+    ----------
+    grid : tuple of Param
+        The grid parameters (cartesian product).
+    draws : int
+        Random draws per grid point (``n`` or 1).
     """
 
     name: str
@@ -133,16 +174,33 @@ class Sweep:
         return self.n or 1
 
 
-def sweep_schema_markdown():
-    """The sweep-file reference as Markdown table rows (the README's table)."""
+def sweep_schema_markdown() -> list[str]:
+    """The sweep-file reference as Markdown table rows (rendered in the documentation).
+
+    Returns
+    -------
+    list of str
+        The rows of :data:`SWEEP_SCHEMA` and one for ``set.*``.
+    """
     return markdown_rows(SWEEP_SCHEMA) + [
         "| `set.*` | any problem-file key | as in the problem file | no | – | set in the base"
         " problem before the variants (`[set.solver] cert_temperatures = 12`); checked like a"
         " problem file |"]
 
 
-def problem_field(name):
-    """The problem-file :class:`Field` a key path names, or ``None``."""
+def problem_field(name: str) -> Field | None:
+    """The problem-file :class:`Field` a key path names, or ``None``.
+
+    Parameters
+    ----------
+    name : str
+        A key path (``"specs.Mu_max"``).
+
+    Returns
+    -------
+    Field or None
+        The field when the path names a number or integer of the problem file.
+    """
     node = PROBLEM_SCHEMA
     for part in name.split("."):
         if not isinstance(node, dict) or part not in node:
@@ -224,13 +282,32 @@ def _resolve_base(path, name, key=("sweep", "problem")):
         raise key_error(path, key, str(exc)) from None
 
 
-def parse_sweep(data, path="<sweep>"):
+def parse_sweep(data: dict, path: str | Path = "<sweep>") -> Sweep:
     """Validate a parsed sweep document and build the :class:`Sweep`.
+
+    Parameters
+    ----------
+    data : dict
+        The parsed TOML document.
+    path : str or pathlib.Path
+        The file, named in errors; relative paths in the document are relative to it.
+
+    Returns
+    -------
+    Sweep
 
     Raises
     ------
     SpecError
         Naming the file and the key path of the first problem found.
+
+    Examples
+    --------
+    >>> from robrst.studies.sweep import parse_sweep
+    >>> sw = parse_sweep({"sweep": {"kind": "analysis", "problem": "paper", "n": 10},
+    ...                   "param": [{"name": "gain", "dist": "uniform", "lo": 0.9, "hi": 1.1}]})
+    >>> sw.kind, sw.draws, sw.params[0].random
+    ('analysis', 10, True)
     """
     data = dict(data)
     overrides = _overrides(path, data.pop("set", {}), PROBLEM_SCHEMA)
@@ -284,8 +361,17 @@ def parse_sweep(data, path="<sweep>"):
         folder=fl.get("folder"), pattern=fl.get("pattern", "*.toml"))
 
 
-def resolve_sweep_path(name_or_path):
+def resolve_sweep_path(name_or_path: str | os.PathLike) -> Path:
     """A sweep file's path: an existing file, or a built-in sweep by name.
+
+    Parameters
+    ----------
+    name_or_path : str or pathlib.Path
+        A file, or a built-in sweep's name.
+
+    Returns
+    -------
+    pathlib.Path
 
     Raises
     ------

@@ -8,12 +8,16 @@ fingerprint identifies the sweep's results: the validated sweep, the bytes of ev
 file and the robrst version.
 """
 
+from __future__ import annotations
+
 import copy
 import hashlib
 import json
 import os
+from collections.abc import Iterable
 from dataclasses import asdict, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from robrst import __version__
 from robrst.base.errors import RobrstError, SolverError, SpecError
@@ -24,14 +28,27 @@ from robrst.studies.sweep.evaluate import SweepContext
 from robrst.studies.sweep.model import apply_overrides, check_plant_params
 from robrst.studies.sweep.variants import variant_table
 
+if TYPE_CHECKING:
+    from robrst.studies.sweep.files import Sweep
+    from robrst.studies.sweep.variants import VariantTable
+
 __all__ = ["prepare", "read_controller", "fingerprint", "member_document"]
 
 _RST = {k: Field("numbers", None, f"{k} coefficients, highest power first", required=True)
         for k in "RST"}
 
 
-def read_controller(path):
+def read_controller(path: str | Path) -> RSTController:
     """The RST controller of a result file (``robrst design --json``, ``result.json``).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The JSON file.
+
+    Returns
+    -------
+    RSTController
 
     Raises
     ------
@@ -116,11 +133,21 @@ def _fleet(sweep):
     return tuple(out), files, [p.name for p in names if not p.is_file()]
 
 
-def member_document(path):
+def member_document(path: Path) -> dict:
     """The problem document of a fleet member: a problem file, or a model file of
     ``robrst identify --modal`` with one input and one output (its ``[[model.at]]`` become
     ``[plant]`` and, for several temperatures, an explicit ``[family]``, as ``robrst
     identify`` writes a problem file).  ``[solver] compare_with`` is dropped.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The member file.
+
+    Returns
+    -------
+    dict
+        A problem document.
 
     Raises
     ------
@@ -172,9 +199,24 @@ def _stable(x):
     return x
 
 
-def fingerprint(sweep, files, names=()):
+def fingerprint(sweep: Sweep, files: Iterable[str | Path], names: Iterable[str] = ()) -> str:
     """SHA-256 of the validated sweep (floats to 12 digits), the input files' bytes,
-    ``names`` (a fleet's members that are no file) and the robrst version."""
+    ``names`` (a fleet's members that are no file) and the robrst version.
+
+    Parameters
+    ----------
+    sweep : Sweep
+        The validated sweep.
+    files : iterable of str or pathlib.Path
+        The files its results depend on (sweep, base problem, result file, members).
+    names : iterable of str
+        Further names (broken fleet members).
+
+    Returns
+    -------
+    str
+        The hex digest; a folder computed from another fingerprint is not resumed.
+    """
     d = asdict(sweep)
     for k in ("path", "description", "problem", "worst"):
         d.pop(k)
@@ -187,8 +229,13 @@ def fingerprint(sweep, files, names=()):
     return h.hexdigest()
 
 
-def prepare(sweep):
+def prepare(sweep: Sweep) -> tuple[SweepContext, VariantTable]:
     """The context and the variant table of ``sweep``.
+
+    Parameters
+    ----------
+    sweep : Sweep
+        The validated sweep.
 
     Returns
     -------

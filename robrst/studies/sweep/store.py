@@ -14,14 +14,24 @@ different sweep in the folder is refused unless ``restart``, which deletes only 
 listed above.  Nothing else in ``DIR`` is ever touched.
 """
 
+from __future__ import annotations
+
 import io
 import json
 import re
+from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from robrst.base.errors import OutputError
 from robrst.base.fileio import atomic_write_bytes, atomic_write_text, json_text
 from robrst.studies.sweep.evaluate import CONTROLLER_COLUMNS, FIGURE_COLUMNS
+
+if TYPE_CHECKING:
+    import pyarrow as pa
+
+    from robrst.studies.sweep.evaluate import SweepContext
+    from robrst.studies.sweep.variants import Chunk, VariantTable
 
 __all__ = ["MARKER", "arrow_schema", "rows_table", "prepare_folder", "write_part",
            "done_chunks", "checked_chunks", "read_results", "write_results", "previous_runs",
@@ -31,8 +41,18 @@ MARKER = ".robrst-sweep"
 PART = re.compile(r"^part-(\d{6,})\.parquet$")
 
 
-def arrow_schema(context):
-    """The columns of ``results.parquet`` for ``context`` (same for every chunk)."""
+def arrow_schema(context: SweepContext) -> pa.Schema:
+    """The columns of ``results.parquet`` for ``context`` (same for every chunk).
+
+    Parameters
+    ----------
+    context : SweepContext
+        The sweep's context (its parameter names and kind).
+
+    Returns
+    -------
+    pyarrow.Schema
+    """
     import pyarrow as pa
 
     fields = [pa.field("index", pa.int64()), pa.field("chunk", pa.int64())]
@@ -45,8 +65,26 @@ def arrow_schema(context):
     return pa.schema(fields)
 
 
-def rows_table(rows, chunk, context, table):
-    """An Arrow table of one chunk's ``rows`` with the variants' parameters from ``table``."""
+def rows_table(rows: Sequence[dict], chunk: Chunk, context: SweepContext,
+               table: VariantTable) -> pa.Table:
+    """An Arrow table of one chunk's ``rows`` with the variants' parameters from ``table``.
+
+    Parameters
+    ----------
+    rows : sequence of dict
+        The chunk's rows, one per variant.
+    chunk : Chunk
+        The chunk.
+    context : SweepContext
+        The sweep's context.
+    table : VariantTable
+        The variants' parameter values.
+
+    Returns
+    -------
+    pyarrow.Table
+        With the schema of :func:`arrow_schema`.
+    """
     import pyarrow as pa
 
     schema = arrow_schema(context)
@@ -85,12 +123,13 @@ def _own_files(out):
     return files
 
 
-def prepare_folder(out, meta, restart=False):
+def prepare_folder(out: Path, meta: dict, restart: bool = False) -> bool:
     """Create or reopen the output folder of the sweep described by ``meta``.
 
     Parameters
     ----------
-    out : Path
+    out : pathlib.Path
+        The output folder.
     meta : dict
         Written to the marker; ``meta["fingerprint"]`` identifies the sweep.
     restart : bool
@@ -133,8 +172,18 @@ def prepare_folder(out, meta, restart=False):
     return resume
 
 
-def write_part(out, chunk, table):
-    """Write one chunk's rows atomically to ``chunks/part-NNNNNN.parquet``."""
+def write_part(out: Path, chunk: Chunk, table: pa.Table) -> None:
+    """Write one chunk's rows atomically to ``chunks/part-NNNNNN.parquet``.
+
+    Parameters
+    ----------
+    out : pathlib.Path
+        The output folder.
+    chunk : Chunk
+        The chunk (its number names the file).
+    table : pyarrow.Table
+        Its rows.
+    """
     import pyarrow.parquet as pq
 
     buf = io.BytesIO()
@@ -142,23 +191,50 @@ def write_part(out, chunk, table):
     atomic_write_bytes(Path(out) / "chunks" / f"part-{chunk:06d}.parquet", buf.getvalue())
 
 
-def done_chunks(out, chunk_list, schema=None):
+def done_chunks(out: Path, chunk_list: Sequence[Chunk], schema: pa.Schema | None = None) -> set[int]:
     """Indices of the chunks whose part file holds exactly that chunk's variants.
 
     A part file counts only when its ``index`` column is the chunk's indices, in order (and
     its ``chunk`` column the chunk's number): a part copied over from another chunk, or
     from another sweep, is computed again (see :func:`checked_chunks`).
+
+    Parameters
+    ----------
+    out : pathlib.Path
+        The output folder.
+    chunk_list : sequence of Chunk
+        The sweep's chunks.
+    schema : pyarrow.Schema, optional
+        The columns a part must have.
+
+    Returns
+    -------
+    set of int
     """
     return checked_chunks(out, chunk_list, schema)[0]
 
 
-def checked_chunks(out, chunk_list, schema=None):
+def checked_chunks(out: Path, chunk_list: Sequence[Chunk],
+                   schema: pa.Schema | None = None) -> tuple[set[int], set[int]]:
     """``(done, foreign)``: sets of chunk indices.
 
     ``done``: the part file holds exactly the chunk's variants (see :func:`done_chunks`) and,
     when ``schema`` is given, has these columns; ``foreign``: a part file exists but holds
     other variants or columns, or cannot be read — the chunk is computed again and its part
     file replaced.
+
+    Parameters
+    ----------
+    out : pathlib.Path
+        The output folder.
+    chunk_list : sequence of Chunk
+        The sweep's chunks.
+    schema : pyarrow.Schema, optional
+        The columns a part must have.
+
+    Returns
+    -------
+    done, foreign : set of int
     """
     import pyarrow.parquet as pq
 
@@ -190,8 +266,23 @@ def _holds(table, c):
             or all(k == c.index for k in table.column("chunk").to_pylist()))
 
 
-def read_results(out, chunk_list, schema):
-    """Every finished chunk's rows, ordered by variant index (an Arrow table)."""
+def read_results(out: Path, chunk_list: Sequence[Chunk], schema: pa.Schema) -> pa.Table:
+    """Every finished chunk's rows, ordered by variant index (an Arrow table).
+
+    Parameters
+    ----------
+    out : pathlib.Path
+        The output folder.
+    chunk_list : sequence of Chunk
+        The sweep's chunks.
+    schema : pyarrow.Schema
+        The results' columns.
+
+    Returns
+    -------
+    pyarrow.Table
+        Empty (with ``schema``) when no chunk is finished.
+    """
     import pyarrow as pa
     import pyarrow.parquet as pq
 
@@ -201,8 +292,16 @@ def read_results(out, chunk_list, schema):
     return pa.concat_tables(parts) if parts else schema.empty_table()
 
 
-def write_results(out, table):
-    """Write ``results.parquet`` atomically."""
+def write_results(out: Path, table: pa.Table) -> None:
+    """Write ``results.parquet`` atomically.
+
+    Parameters
+    ----------
+    out : pathlib.Path
+        The output folder.
+    table : pyarrow.Table
+        Every finished variant's row.
+    """
     import pyarrow.parquet as pq
 
     buf = io.BytesIO()
@@ -210,8 +309,18 @@ def write_results(out, table):
     atomic_write_bytes(Path(out) / "results.parquet", buf.getvalue())
 
 
-def previous_runs(out):
-    """The ``runs`` of the folder's earlier ``summary.json`` (``[]`` if none or unreadable)."""
+def previous_runs(out: Path) -> list[dict]:
+    """The ``runs`` of the folder's earlier ``summary.json`` (``[]`` if none or unreadable).
+
+    Parameters
+    ----------
+    out : pathlib.Path
+        The output folder.
+
+    Returns
+    -------
+    list of dict
+    """
     try:
         runs = json.loads((Path(out) / "summary.json").read_text(encoding="utf-8"))["runs"]
     except (OSError, ValueError, KeyError, TypeError):
@@ -220,6 +329,14 @@ def previous_runs(out):
                                                          "computed"} <= set(r)]
 
 
-def write_summary(out, summary):
-    """Write ``summary.json`` atomically (non-finite numbers as null)."""
+def write_summary(out: Path, summary: dict) -> None:
+    """Write ``summary.json`` atomically (non-finite numbers as null).
+
+    Parameters
+    ----------
+    out : pathlib.Path
+        The output folder.
+    summary : dict
+        The summary.
+    """
     atomic_write_text(Path(out) / "summary.json", json_text(summary, indent=1) + "\n")

@@ -7,9 +7,19 @@ certified), with its 95 % Wilson score interval.  The worst variants are the fai
 first, then by ``worst_ratio`` (largest figure/bound over the specs), with their parameters.
 """
 
+from __future__ import annotations
+
 import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    import pyarrow as pa
+    from numpy.typing import ArrayLike
+
+    from robrst.studies.sweep.evaluate import SweepContext
 
 __all__ = ["wilson_interval", "pareto_front", "front_values", "figure_stats", "worst_rows",
            "summarise", "STAT_FIGURES"]
@@ -19,8 +29,29 @@ STAT_FIGURES = ("Ms", "Mt", "Mu", "Mt_band", "modulus_margin", "gain_margin",
                 "worst_ratio", "seconds", "cpu_s")
 
 
-def wilson_interval(k, n, z=1.959963984540054):
-    """95 % Wilson score interval of a proportion ``k/n`` (``(None, None)`` for n = 0)."""
+def wilson_interval(k: int, n: int, z: float = 1.959963984540054) -> tuple[float | None, float | None]:
+    """95 % Wilson score interval of a proportion ``k/n`` (``(None, None)`` for n = 0).
+
+    Parameters
+    ----------
+    k : int
+        Successes.
+    n : int
+        Trials.
+    z : float
+        The normal quantile (default: two-sided 95 %).
+
+    Returns
+    -------
+    (float, float) or (None, None)
+        The interval, clipped to [0, 1] (exactly 0 for ``k = 0``, 1 for ``k = n``).
+
+    Examples
+    --------
+    >>> from robrst.studies.sweep.summary import wilson_interval
+    >>> [round(x, 4) for x in wilson_interval(34, 1000)]
+    [0.0244, 0.0471]
+    """
     if n == 0:
         return None, None
     p = k / n
@@ -31,13 +62,30 @@ def wilson_interval(k, n, z=1.959963984540054):
     return (0.0 if k == 0 else max(0.0, c - h)), (1.0 if k == n else min(1.0, c + h))
 
 
-def pareto_front(x, y):
+def pareto_front(x: ArrayLike, y: ArrayLike) -> list[int]:
     """Indices of the points not dominated when minimising ``x`` and maximising ``y``.
 
     A point is dominated when another is at least as good in both figures and strictly
     better in one; equal points do not dominate each other, so ties are all on the front.
-    Points with a non-finite coordinate are left out.  Ordered by increasing ``x`` (then
-    by index).
+    Points with a non-finite coordinate are left out.
+
+    Parameters
+    ----------
+    x : array_like
+        The figure minimised.
+    y : array_like
+        The figure maximised.
+
+    Returns
+    -------
+    list of int
+        Ordered by increasing ``x`` (then by index).
+
+    Examples
+    --------
+    >>> from robrst.studies.sweep.summary import pareto_front
+    >>> pareto_front([1.0, 2.0, 2.0, 3.0], [1.0, 3.0, 2.0, 3.0])
+    [0, 1]
     """
     x, y = np.asarray(x, float), np.asarray(y, float)
     ok = np.flatnonzero(np.isfinite(x) & np.isfinite(y))
@@ -56,10 +104,22 @@ def pareto_front(x, y):
     return front
 
 
-def front_values(name, values):
+def front_values(name: str, values: ArrayLike) -> np.ndarray:
     """Figure ``name`` as the trade-off front ranks it: the integral gain by its magnitude
     (robrst maximises ``|ki|``: a plant of negative static gain has a negative one), any
-    other figure as it is."""
+    other figure as it is.
+
+    Parameters
+    ----------
+    name : str
+        The figure's column name.
+    values : array_like
+        Its values.
+
+    Returns
+    -------
+    numpy.ndarray
+    """
     v = np.asarray(values, float)
     return np.abs(v) if name == "integral_gain" else v
 
@@ -69,8 +129,22 @@ def _col(table, name):
                     dtype=float)
 
 
-def figure_stats(table, names=STAT_FIGURES):
-    """min, 5 %, median, 95 %, max of every figure over the variants evaluated."""
+def figure_stats(table: pa.Table, names: Sequence[str] = STAT_FIGURES) -> dict[str, dict]:
+    """min, 5 %, median, 95 %, max of every figure over the variants evaluated.
+
+    Parameters
+    ----------
+    table : pyarrow.Table
+        The finished rows.
+    names : sequence of str
+        The figures' columns.
+
+    Returns
+    -------
+    dict
+        ``{figure: {"min", "p05", "median", "p95", "max"}}`` for the figures with finite
+        values.
+    """
     out = {}
     for name in names:
         if name not in table.column_names:
@@ -97,8 +171,20 @@ WORST_KEYS = ("status", "certified", "worst_ratio", "Ms", "Ms_temperature_C", "M
               "spectral_abscissa", "integral_gain", "violation", "message")
 
 
-def worst_rows(table, count):
-    """Row indices (in ``table``) of the ``count`` worst variants: failed first, then by ratio."""
+def worst_rows(table: pa.Table, count: int) -> list[int]:
+    """Row indices (in ``table``) of the ``count`` worst variants: failed first, then by ratio.
+
+    Parameters
+    ----------
+    table : pyarrow.Table
+        The finished rows.
+    count : int
+        How many.
+
+    Returns
+    -------
+    list of int
+    """
     if table.num_rows == 0 or count == 0:
         return []
     failed = np.array([s != "ok" for s in table.column("status").to_pylist()])
@@ -108,16 +194,20 @@ def worst_rows(table, count):
     return [int(i) for i in order[:count]]
 
 
-def summarise(context, table, n, workers, wall_s, complete):
+def summarise(context: SweepContext, table: pa.Table, n: int, workers: int, wall_s: float,
+              complete: bool) -> dict:
     """The summary of ``table`` (the finished rows).
 
     Parameters
     ----------
     context : SweepContext
+        The sweep's context.
     table : pyarrow.Table
+        The finished rows.
     n : int
         Variants in the sweep.
     workers : int
+        Workers of this run.
     wall_s : float
         Wall time of this run [s].
     complete : bool
@@ -126,6 +216,7 @@ def summarise(context, table, n, workers, wall_s, complete):
     Returns
     -------
     dict
+        The ``summary.json`` object (fields are only added).
     """
     sw = context.sweep
     done = table.num_rows

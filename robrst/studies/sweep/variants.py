@@ -8,12 +8,19 @@ parameters (the first one varying slowest).  Chunks are fixed index ranges of
 ``chunk_size`` variants: the unit of work, of writing and of resuming.
 """
 
+from __future__ import annotations
+
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from robrst.base.schema import key_error
 from robrst.problem.spread import DRAW_BLOCK, draw, draw_rows
+
+if TYPE_CHECKING:
+    from pathlib import Path
 
 __all__ = ["VariantTable", "Chunk", "variant_table", "chunks", "draw", "grid_values",
            "DRAW_BLOCK"]
@@ -22,7 +29,22 @@ __all__ = ["VariantTable", "Chunk", "variant_table", "chunks", "draw", "grid_val
 
 @dataclass(frozen=True, eq=False)
 class VariantTable:
-    """Parameter ``values`` (``n`` x ``len(names)``), or ``labels`` for a fleet."""
+    """Parameter ``values`` (``n`` x ``len(names)``), or ``labels`` for a fleet.
+
+    Parameters
+    ----------
+    names : tuple of str
+        The varied parameters, in file order.
+    values : numpy.ndarray
+        One row per variant.
+    labels : tuple of str
+        A fleet's member files (no parameters).
+
+    Attributes
+    ----------
+    n : int
+        Number of variants.
+    """
 
     names: tuple
     values: np.ndarray
@@ -32,14 +54,32 @@ class VariantTable:
     def n(self):
         return len(self.labels) if self.labels else int(self.values.shape[0])
 
-    def row(self, i):
-        """``{name: value}`` of variant ``i``."""
+    def row(self, i: int) -> dict[str, float]:
+        """``{name: value}`` of variant ``i``.
+
+        Parameters
+        ----------
+        i : int
+            The variant's index.
+
+        Returns
+        -------
+        dict
+        """
         return {k: float(v) for k, v in zip(self.names, self.values[i])}
 
 
 @dataclass(frozen=True)
 class Chunk:
-    """Variants ``start <= i < stop``, chunk number ``index``."""
+    """Variants ``start <= i < stop``, chunk number ``index``.
+
+    Parameters
+    ----------
+    index : int
+        The chunk's number (names its part file).
+    start, stop : int
+        The variants it holds.
+    """
 
     index: int
     start: int
@@ -49,8 +89,19 @@ class Chunk:
         return self.stop - self.start
 
 
-def variant_table(sweep, labels=()):
+def variant_table(sweep: Any, labels: Sequence[str] = ()) -> VariantTable:
     """Every variant of ``sweep`` (``labels``: the fleet's file names).
+
+    Random draws are ``numpy.random.default_rng(seed).random((n, k))`` mapped by the
+    inverse CDF (drawn in blocks, the same numbers as one draw), repeated at every grid
+    point (the grid's first parameter varies slowest).
+
+    Parameters
+    ----------
+    sweep : robrst.studies.sweep.files.Sweep
+        The validated sweep.
+    labels : sequence of str
+        A fleet's member files.
 
     Returns
     -------
@@ -80,14 +131,51 @@ def variant_table(sweep, labels=()):
     return VariantTable(names=names, values=values)
 
 
-def chunks(n, size):
-    """The chunks of ``n`` variants, ``size`` per chunk (the last one shorter)."""
+def chunks(n: int, size: int) -> list[Chunk]:
+    """The chunks of ``n`` variants, ``size`` per chunk (the last one shorter).
+
+    Parameters
+    ----------
+    n : int
+        Variants.
+    size : int
+        Variants per chunk.
+
+    Returns
+    -------
+    list of Chunk
+
+    Examples
+    --------
+    >>> from robrst.studies.sweep.variants import chunks
+    >>> [(c.start, c.stop) for c in chunks(5, 2)]
+    [(0, 2), (2, 4), (4, 5)]
+    """
     return [Chunk(k, s, min(s + size, n)) for k, s in enumerate(range(0, n, size))]
 
 
-def grid_values(path, key, p):
-    """The values of a grid ``[[param]]`` table ``p`` (validated keys; errors name
-    ``path`` and the key path ``key``)."""
+def grid_values(path: str | Path, key: tuple, p: dict) -> tuple[float, ...]:
+    """The values of a grid ``[[param]]`` table ``p``.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The sweep file, named in errors.
+    key : tuple of str
+        The table's key path, named in errors.
+    p : dict
+        The validated table (``values``, or ``lo``, ``hi``, ``steps``, ``log``).
+
+    Returns
+    -------
+    tuple of float
+
+    Raises
+    ------
+    SpecError
+        Both or neither of ``values`` and ``lo, hi, steps``, no value, or a log grid with
+        ``lo <= 0``.
+    """
     if p["values"] is not None:
         if any(p[k] is not None for k in ("lo", "hi", "steps")) or p["log"]:
             raise key_error(path, key + ("values",), "give either 'values' or lo, hi and steps")
