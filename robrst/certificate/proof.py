@@ -407,16 +407,29 @@ def certify(family: PlantFamily, ctrl: RSTController, specs: Specs, n_sweep: int
 ACTUATOR = "actuator"   # the record key (and label prefix) of a further actuator's models
 
 
-def actuator_of(label):
-    """``(index, model label)`` of a violation's label: ``"actuator3/T45C"`` is model
-    ``T45C`` of further actuator 3 (:func:`certify_families`); a plain label is actuator 0."""
+def actuator_of(label: str) -> tuple[int, str]:
+    """``(index, model label)`` of a violation's label.
+
+    Parameters
+    ----------
+    label : str
+        A violation's model label: ``"actuator3/T45C"`` is model ``T45C`` of further
+        actuator 3 (:func:`certify_families`); a plain label is actuator 0's.
+
+    Returns
+    -------
+    (int, str)
+        The actuator's index and the model's own label.
+    """
     head, sep, tail = str(label).partition("/")
     if sep and head.startswith(ACTUATOR) and head[len(ACTUATOR):].isdigit():
         return int(head[len(ACTUATOR):]), tail
     return 0, label
 
 
-def certify_families(families, ctrl, specs, n_sweep=35, rtol=1e-3, checks=(), max_refine=None):
+def certify_families(families: Sequence[PlantFamily], ctrl: RSTController, specs: Specs,
+                     n_sweep: int = 35, rtol: float = 1e-3, checks: Sequence[Callable] = (),
+                     max_refine: int | None = None) -> Certificate:
     """:func:`certify` on every family of ``families`` (several actuators), merged.
 
     The first family is the nominal actuator: with one family this is :func:`certify`
@@ -424,6 +437,17 @@ def certify_families(families, ctrl, specs, n_sweep=35, rtol=1e-3, checks=(), ma
     violations the label ``"actuator<k>/<model>"`` (:func:`actuator_of`); the merged
     certificate holds when every actuator's does, and its ``interval`` is the nominal
     actuator's with ``"actuators"``, the number of families.
+
+    Parameters
+    ----------
+    families : sequence of PlantFamily
+        The nominal actuator's family first, then the further actuators'.
+    ctrl : RSTController
+        The controller.
+    specs : Specs
+        The specs checked.
+    n_sweep, rtol, checks, max_refine
+        As for :func:`certify` (each family).
 
     Returns
     -------

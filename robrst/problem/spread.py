@@ -24,7 +24,9 @@ The one owner of what a sweep file's ``[[param]]`` tables and a problem file's
 
 from __future__ import annotations
 
+import os
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -37,7 +39,7 @@ from robrst.core.thermal import modal_form, thermal_polynomials
 __all__ = ["Param", "Ageing", "Spread", "DISTS", "RANDOM_DISTS", "DIST_KEYS", "PLANT_PARAMS",
            "THERMAL_KEYS", "COEF", "DRAW_BLOCK", "SPREAD_METHODS", "draw", "draw_rows",
            "transform_plant", "transform_family", "actuator_family", "check_plant_params",
-           "split_plant_values", "param_box"]
+           "split_plant_values"]
 
 DISTS = ("normal", "uniform", "lognormal", "grid")
 RANDOM_DISTS = DISTS[:3]
@@ -126,10 +128,22 @@ class Ageing:
     damping_per_year: float = 0.0
 
 
-def draw(param, u):
+def draw(param: Param, u: np.ndarray) -> np.ndarray:
     """Values of a random ``param`` for uniform numbers ``u`` in [0, 1) (inverse CDF).
 
     A truncated normal or lognormal is drawn exactly (the CDF is mapped onto ``[lo, hi]``).
+
+    Parameters
+    ----------
+    param : Param
+        A distribution (not a grid).
+    u : numpy.ndarray
+        Uniform numbers in [0, 1).
+
+    Returns
+    -------
+    numpy.ndarray
+        The parameter's values, shape of ``u``.
     """
     from scipy.special import ndtr, ndtri
 
@@ -150,7 +164,8 @@ def draw(param, u):
     return np.clip(x, lo, hi)   # rounding at the truncation points only
 
 
-def draw_rows(params, n, seed, out=None, cols=None):
+def draw_rows(params: Sequence[Param], n: int, seed: int, out: np.ndarray | None = None,
+              cols: Sequence[int] | None = None) -> np.ndarray:
     """``n`` draws of the random ``params`` from ``numpy.random.default_rng(seed)``.
 
     Parameters
@@ -184,7 +199,7 @@ def draw_rows(params, n, seed, out=None, cols=None):
     return out
 
 
-def param_box(param, sigmas=3.0):
+def _param_box(param, sigmas=3.0):
     """``(lo, hi)`` of a random ``param``: its support, cut at ``sigmas`` standard
     deviations (normal) or ``sigmas`` sigmas of the logarithm (lognormal), within its
     truncation."""
@@ -202,8 +217,21 @@ def param_box(param, sigmas=3.0):
     return float(lo), float(hi)
 
 
-def split_plant_values(values):
-    """``(key-path values, plant-factor values)`` of one variant's ``{name: value}``."""
+def split_plant_values(values: dict[str, float]) -> tuple[dict[str, float], dict[str, float]]:
+    """``(key-path values, plant-factor values)`` of one variant's ``{name: value}``.
+
+    Parameters
+    ----------
+    values : dict
+        ``{parameter name: value}``.
+
+    Returns
+    -------
+    keys : dict
+        Values of problem-file key paths (``specs.Mu_max``, the per-kelvin laws).
+    plant : dict
+        Values of plant factors (``gain``, ``resonance``, ``A1``, ``temperature_C``, ...).
+    """
     plant = {k: v for k, v in values.items() if k in PLANT_PARAMS or COEF.match(k)}
     keys = {k: v for k, v in values.items() if k not in plant}
     return keys, plant
@@ -216,7 +244,8 @@ def _factors(plant_values, ageing):
             plant_values.get("damping", 1.0) * (1.0 + ageing.damping_per_year * age))
 
 
-def transform_plant(plant, plant_values, ageing=Ageing()):
+def transform_plant(plant: Plant, plant_values: dict[str, float],
+                    ageing: Ageing = Ageing()) -> Plant:
     """``plant`` with the coefficient, gain, resonance and damping factors of a variant.
 
     Parameters
@@ -260,7 +289,8 @@ def transform_plant(plant, plant_values, ageing=Ageing()):
     return out
 
 
-def transform_family(family, plant_values, ageing=Ageing()):
+def transform_family(family: PlantFamily, plant_values: dict[str, float],
+                     ageing: Ageing = Ageing()) -> PlantFamily:
     """The family of a variant (``temperature_C`` keeps the single model at that
     temperature).
 
@@ -292,7 +322,8 @@ def transform_family(family, plant_values, ageing=Ageing()):
     return fam if T is None else PlantFamily(models=(fam.at(T),), reference=0)
 
 
-def actuator_family(family, values, ageing=Ageing()):
+def actuator_family(family: PlantFamily, values: dict[str, float],
+                    ageing: Ageing = Ageing()) -> PlantFamily:
     """The temperature family of one actuator drawn from a spread.
 
     Parameters
@@ -331,7 +362,8 @@ def actuator_family(family, values, ageing=Ageing()):
     return transform_family(family, plant, ageing) if plant else family
 
 
-def check_plant_params(params, family, path):
+def check_plant_params(params: Sequence[Param], family: PlantFamily,
+                       path: str | os.PathLike) -> None:
     """Refuse plant factors the base family cannot take (one line naming the parameter).
 
     Parameters
@@ -413,18 +445,50 @@ class Spread:
     def names(self):
         return tuple(p.name for p in self.params)
 
-    def draws(self, n, seed=None):
-        """``n`` x ``len(params)`` values of ``n`` actuators (seed: the spread's)."""
+    def draws(self, n: int, seed: int | None = None) -> np.ndarray:
+        """The parameters of ``n`` drawn actuators (:func:`draw_rows`).
+
+        Parameters
+        ----------
+        n : int
+            Actuators.
+        seed : int, optional
+            Default: the spread's.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``n`` x ``len(params)``.
+        """
         return draw_rows(self.params, n, self.seed if seed is None else seed)
 
-    def actuators(self, family, values):
-        """The family of every row of ``values`` (:func:`actuator_family`)."""
+    def actuators(self, family: PlantFamily, values: np.ndarray) -> tuple[PlantFamily, ...]:
+        """The temperature family of every actuator (:func:`actuator_family`).
+
+        Parameters
+        ----------
+        family : PlantFamily
+            The nominal actuator's.
+        values : numpy.ndarray
+            One row of parameter values per actuator (columns ``names``).
+
+        Returns
+        -------
+        tuple of PlantFamily
+        """
         return tuple(actuator_family(family, dict(zip(self.names, (float(v) for v in row))),
                                      self.ageing) for row in values)
 
-    def corners(self):
-        """The parameter box's centre and corners, ``(2^k + 1)`` x ``k`` values."""
-        box = [param_box(p, self.box_sigmas) for p in self.params]
+    def corners(self) -> np.ndarray:
+        """The parameter box's centre and corners.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(2^k + 1)`` x ``k`` values: the centre first, then the corners (parameter
+            ``j`` at its upper end when bit ``j`` of the corner's index is set).
+        """
+        box = [_param_box(p, self.box_sigmas) for p in self.params]
         centre = [0.5 * (lo + hi) if p.dist == "uniform" else
                   (p.mean if p.dist == "normal" else p.median)
                   for p, (lo, hi) in zip(self.params, box)]

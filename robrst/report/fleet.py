@@ -31,8 +31,19 @@ def _pct(x, digits=1):
     return "–" if x is None else f"{100 * x:.{digits}f} %"
 
 
-def fleet_doc(records):
-    """The report document of ``records`` (``fleet.json``)."""
+def fleet_doc(records: dict) -> tuple[Doc, list[str]]:
+    """The report document of ``records`` (``fleet.json``).
+
+    Parameters
+    ----------
+    records : dict
+        The design's JSON, the verification and the trade-off.
+
+    Returns
+    -------
+    (Doc, list of str)
+        The document and the figure files it references.
+    """
     d = records["design"]
     fl = d["fleet"]
     v = records["verification"]
@@ -131,8 +142,23 @@ def _draw_tradeoff(records, path):
         ax2.legend(loc="center right", fontsize=8)
 
 
-def write_fleet_report(records, out_dir: str | os.PathLike, force=False):
-    """Write ``OUT/report/`` (``report.md``, ``report.html``, figures) from ``records``."""
+def write_fleet_report(records: dict, out_dir: str | os.PathLike, force: bool = False) -> Path:
+    """Write ``OUT/report/`` (``report.md``, ``report.html``, figures) from ``records``.
+
+    Parameters
+    ----------
+    records : dict
+        As for :func:`fleet_doc`.
+    out_dir : str or Path
+        The run's folder; the report goes to its ``report`` folder.
+    force : bool
+        Write into a folder robrst did not write (its own files only).
+
+    Returns
+    -------
+    Path
+        The report folder.
+    """
     doc, files = fleet_doc(records)
 
     def draw(tmp):

@@ -126,8 +126,18 @@ def design_summary(d: dict) -> str:
     return "\n".join(out)
 
 
-def fleet_summary(f):
-    """The lines on a fleet design (``robrst design`` of a problem with a ``[spread]``)."""
+def fleet_summary(f: dict) -> str:
+    """The lines on a fleet design (``robrst design`` of a problem with a ``[spread]``).
+
+    Parameters
+    ----------
+    f : dict
+        The ``fleet`` object of the design's JSON.
+
+    Returns
+    -------
+    str
+    """
     head = (f"fleet design ({f['method']}): {f['scenarios']} drawn actuators, seed {f['seed']},"
             f" {len(f['violated'])} violated; {f['rounds']} exchange rounds, compression set"
             f" {f['compression_size']} (in the program {len(f['support'])}, discarded"

@@ -15,12 +15,18 @@ from __future__ import annotations
 
 import json
 import os
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from robrst.base.errors import SpecError
 from robrst.studies.sweep.engine import run_sweep
 from robrst.studies.sweep.files import Sweep
+
+if TYPE_CHECKING:
+    from robrst.problem.records import Problem
+    from robrst.problem.spread import Spread
 
 __all__ = ["FleetVerification", "fleet_sweep", "verify_fleet", "yield_interval",
            "verification_toml", "FRESH_SEED_OFFSET"]
@@ -28,8 +34,17 @@ __all__ = ["FleetVerification", "fleet_sweep", "verify_fleet", "yield_interval",
 FRESH_SEED_OFFSET = 1_000_003   # fresh draws: the design's seed plus this (never the same)
 
 
-def yield_interval(certified, n, confidence=0.95):
+def yield_interval(certified: int, n: int, confidence: float = 0.95) -> tuple[float, float]:
     """Wilson score interval of a yield (:func:`scipy.stats.binomtest`'s ``proportion_ci``).
+
+    Parameters
+    ----------
+    certified : int
+        Actuators certified.
+    n : int
+        Actuators checked.
+    confidence : float
+        Confidence level of the interval.
 
     Returns
     -------
@@ -43,7 +58,38 @@ def yield_interval(certified, n, confidence=0.95):
 
 @dataclass(frozen=True)
 class FleetVerification:
-    """The measured yield of a fleet design on fresh draws, and the guarantee beside it."""
+    """The measured yield of a fleet design on fresh draws, and the guarantee beside it.
+
+    Parameters
+    ----------
+    problem : str
+        The problem's name.
+    n : int
+        Fresh actuators checked.
+    seed : int
+        Their seed.
+    certified, unstable : int
+        How many certify; how many have an unstable loop.
+    yield_ci95 : (float, float)
+        Wilson interval of the measured yield.
+    guaranteed_yield : float or None
+        The design's a-priori statement, beside it.
+    yield_target, confidence : float
+        The spread's.
+    worst : tuple of dict
+        The worst actuators found (the sweep summary's rows).
+    workers : int
+        Dask workers.
+    wall_s : float
+        The sweep's wall time.
+    out : str
+        The sweep's output folder.
+
+    Attributes
+    ----------
+    measured_yield : float or None
+        ``certified / n``.
+    """
 
     problem: str
     n: int
@@ -63,7 +109,13 @@ class FleetVerification:
     def measured_yield(self):
         return self.certified / self.n if self.n else None
 
-    def as_dict(self):
+    def as_dict(self) -> dict:
+        """The record as a JSON-able dict.
+
+        Returns
+        -------
+        dict
+        """
         return {"problem": self.problem, "n": self.n, "seed": self.seed,
                 "certified": self.certified, "measured_yield": self.measured_yield,
                 "yield_ci95": list(self.yield_ci95), "unstable": self.unstable,
@@ -72,10 +124,26 @@ class FleetVerification:
                 "workers": self.workers, "wall_s": self.wall_s, "sweep": self.out}
 
 
-def fleet_sweep(problem_path, result_path, spread, n, seed, name="fleet_verification",
-                chunk_size=10, worst=10):
+def fleet_sweep(problem_path: str | os.PathLike, result_path: str | os.PathLike,
+                spread: Spread, n: int, seed: int, name: str = "fleet_verification",
+                chunk_size: int = 10, worst: int = 10) -> Sweep:
     """The analysis sweep that certifies a result file's controller on ``n`` actuators of
     ``spread`` drawn with ``seed`` (each certificate at ``spread.cert_temperatures``).
+
+    Parameters
+    ----------
+    problem_path : str or Path
+        The design problem file.
+    result_path : str or Path
+        Its result file (``robrst design --json``).
+    spread : Spread
+        The actuators' spread.
+    n, seed : int
+        Actuators and their seed.
+    name : str
+        The sweep's name.
+    chunk_size, worst : int
+        Variants per task; worst variants listed.
 
     Returns
     -------
@@ -91,8 +159,10 @@ def fleet_sweep(problem_path, result_path, spread, n, seed, name="fleet_verifica
                  ageing=spread.ageing, controller=str(result_path), margins=False)
 
 
-def verify_fleet(problem, result_path, out, n=1000, seed=None, workers=None, progress=None,
-                 guaranteed_yield=None, restart=False):
+def verify_fleet(problem: Problem, result_path: str | os.PathLike, out: str | os.PathLike,
+                 n: int = 1000, seed: int | None = None, workers: int | None = None,
+                 progress: Callable | None = None, guaranteed_yield: float | None = None,
+                 restart: bool = False) -> FleetVerification:
     """Certify a fleet design's controller on ``n`` fresh actuators (module docstring).
 
     Parameters
@@ -147,9 +217,26 @@ def verify_fleet(problem, result_path, out, n=1000, seed=None, workers=None, pro
                              workers=s["workers"], wall_s=s["wall_s"], out=os.fspath(out))
 
 
-def verification_toml(problem, spread, n, seed, controller="result.json"):
-    """The sweep file of :func:`fleet_sweep` as TOML text: ``robrst sweep FILE`` runs the
-    same verification (``problem``: a built-in name or a path relative to the file)."""
+def verification_toml(problem: str, spread: Spread, n: int, seed: int,
+                      controller: str = "result.json") -> str:
+    """The sweep file of :func:`fleet_sweep` as TOML text (``robrst sweep FILE`` runs the
+    same verification).
+
+    Parameters
+    ----------
+    problem : str
+        A built-in problem's name, or a path relative to the sweep file.
+    spread : Spread
+        The actuators' spread.
+    n, seed : int
+        Actuators and their seed.
+    controller : str
+        The result file, relative to the sweep file.
+
+    Returns
+    -------
+    str
+    """
     def num(x):
         return repr(float(x))
 

@@ -30,8 +30,7 @@ if TYPE_CHECKING:
     from robrst.synthesis.nlp import NLPSetup
     from robrst.synthesis.outcome import SolveResult, SynthesisResult
 
-__all__ = ["Outcome", "Run", "worst_violation", "frequency_certificate", "program_models",
-           "refine",
+__all__ = ["Outcome", "Run", "worst_violation", "frequency_certificate", "refine",
            "objective_value", "GAMMA_FLOOR"]
 
 GAMMA_FLOOR = 0.97       # the soft phase stops once every spec holds with 3 % to spare
@@ -116,7 +115,7 @@ def frequency_certificate(problem: Problem, ctrl: RSTController) -> Certificate:
                             n_sweep=so.cert_temperatures, rtol=so.cert_tol)
 
 
-def program_models(problem):
+def _program_models(problem):
     """The models the program starts with: every family member, and the models at both
     ends of the temperature range of every further actuator (``problem.scenarios``; the
     certificate's refinement adds their other temperatures where they bind)."""
@@ -433,7 +432,7 @@ class Run:
             The last outcome (``None`` if IPOPT failed in the first round).
         """
         p = ctx.problem
-        models, nu, last = program_models(p), ctx.nu, None
+        models, nu, last = _program_models(p), ctx.nu, None
         x = np.concatenate([x[:-1], [1.0]])
         for rnd in range(p.solver.max_rounds):
             if rnd and self.spent(placement):
@@ -459,7 +458,7 @@ class Run:
             models, nu = refine(p, last.cert, models, nu)
         return last
 
-    def from_warm(self, ctx, setup, placement, warm):
+    def _from_warm(self, ctx, setup, placement, warm):
         """Soft goals, then the objective, from the previous design ``warm`` (a scored
         start): in a fleet design's next round the actuators just added move the specs a
         little, and the boldest start that already meets them may lead to a far worse
@@ -501,7 +500,7 @@ class Run:
             The best certified outcome, else the least violating one (``None``: nothing
             solved).
         """
-        setup = ctx.setup(program_models(ctx.problem), ctx.nu, placement)
+        setup = ctx.setup(_program_models(ctx.problem), ctx.nu, placement)
         blocks = grid_blocks(setup, np.ones(ctx.param.n_x))   # weights unused by the scores
         warm = next((sd for sd in seeds if sd[0] == WARM_START and sd[1] is not None), None)
         from_warm = None     # the hard phase from the warm start, once run
@@ -510,7 +509,7 @@ class Run:
             # preferred start: solved from at once, the other starts scored only if it fails
             s = score(setup, blocks, *warm)
             if ctx.problem.scenarios:     # a fleet design's next round: from the previous
-                out = self.from_warm(ctx, setup, placement, s)     # design, soft goals first
+                out = self._from_warm(ctx, setup, placement, s)     # design, soft goals first
                 if out is not None:
                     # certified, or not: the actuators just added are then out of reach
                     # near the previous design, and the round ends (the exchange over

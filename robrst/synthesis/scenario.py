@@ -68,7 +68,9 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -77,6 +79,11 @@ from robrst.certificate.proof import certify
 from robrst.core.interval import segment_crossing
 from robrst.core.rst import closed_loop
 from robrst.base.threads import one_blas_thread
+
+if TYPE_CHECKING:
+    from robrst.core.family import PlantFamily
+    from robrst.core.rst import RSTController
+    from robrst.problem.records import Problem
 
 __all__ = ["FleetDesign", "ActuatorCheck", "scenario_design", "scenario_count", "gain_edges",
            "convex_scenario_count", "convex_confidence", "nonconvex_epsilon",
@@ -90,17 +97,45 @@ def _log_binom(n, k):
     return math.lgamma(n + 1) - math.lgamma(k + 1) - math.lgamma(n - k + 1)
 
 
-def convex_confidence(N, d, epsilon):
-    """``beta`` of the convex scenario program (Campi and Garatti 2008, Theorem 1):
-    ``sum_{i=0}^{d-1} C(N, i) epsilon^i (1 - epsilon)^(N-i)``, the probability over the
-    draws that the solution with ``d`` decision variables violates more than ``epsilon``."""
+def convex_confidence(N: int, d: int, epsilon: float) -> float:
+    """``beta`` of the convex scenario program (Campi and Garatti 2008, Theorem 1).
+
+    Parameters
+    ----------
+    N : int
+        Scenarios.
+    d : int
+        Decision variables.
+    epsilon : float
+        Violation probability.
+
+    Returns
+    -------
+    float
+        ``sum_{i=0}^{d-1} C(N, i) epsilon^i (1 - epsilon)^(N-i)``: the probability over the
+        draws that the solution violates more than ``epsilon``.
+    """
     from scipy.stats import binom
 
     return float(binom.cdf(d - 1, N, epsilon))
 
 
-def convex_scenario_count(epsilon, beta, d):
-    """Smallest ``N`` with :func:`convex_confidence` ``(N, d, epsilon) <= beta``."""
+def convex_scenario_count(epsilon: float, beta: float, d: int) -> int:
+    """Smallest ``N`` with :func:`convex_confidence` ``(N, d, epsilon) <= beta``.
+
+    Parameters
+    ----------
+    epsilon : float
+        Violation probability (``1 -`` the yield).
+    beta : float
+        ``1 -`` the confidence.
+    d : int
+        Decision variables.
+
+    Returns
+    -------
+    int
+    """
     lo, hi = d, d
     while convex_confidence(hi, d, epsilon) > beta:
         lo, hi = hi, 2 * hi
@@ -113,7 +148,7 @@ def convex_scenario_count(epsilon, beta, d):
     return int(hi)
 
 
-def nonconvex_epsilon(k, N, beta):
+def nonconvex_epsilon(k: int, N: int, beta: float) -> float:
     """``epsilon(k)`` of Campi, Garatti and Ramponi (2018), Theorem 1 (module docstring).
 
     Parameters
@@ -129,6 +164,11 @@ def nonconvex_epsilon(k, N, beta):
     -------
     float
         ``epsilon(k) = 1 - t(k)``; 1 for ``k = N``.
+
+    Raises
+    ------
+    ValueError
+        ``k`` outside ``0..N``.
     """
     from scipy.optimize import brentq
 
@@ -149,9 +189,23 @@ def nonconvex_epsilon(k, N, beta):
     return float(-math.expm1(logt))
 
 
-def scenario_count(epsilon, beta, d):
-    """Smallest ``N`` with ``nonconvex_epsilon(d, N, beta) <= epsilon``: enough draws for
-    the target when the compression set has at most ``d`` actuators."""
+def scenario_count(epsilon: float, beta: float, d: int) -> int:
+    """Smallest ``N`` with ``nonconvex_epsilon(d, N, beta) <= epsilon``.
+
+    Parameters
+    ----------
+    epsilon : float
+        Violation probability (``1 -`` the yield target).
+    beta : float
+        ``1 -`` the confidence.
+    d : int
+        Decision variables (the compression sizes the target must cover).
+
+    Returns
+    -------
+    int
+        Enough draws for the target when the compression set has at most ``d`` actuators.
+    """
     lo, hi = d + 1, 2 * (d + 1)
     while nonconvex_epsilon(d, hi, beta) > epsilon:
         lo, hi = hi, 2 * hi
@@ -166,8 +220,21 @@ def scenario_count(epsilon, beta, d):
 
 @dataclass(frozen=True)
 class ActuatorCheck:
-    """One drawn actuator checked: its worst figure/bound (``inf``: unstable) and the
-    worst violation, if any (``stage``: ``"members"`` or ``"certificate"``)."""
+    """One drawn actuator checked.
+
+    Parameters
+    ----------
+    index : int
+        The actuator (row of the drawn values).
+    ratio : float
+        Its worst figure/bound (``inf``: unstable).
+    certified : bool
+        Every spec holds.
+    violation : str, optional
+        The worst violation.
+    stage : str
+        ``"members"`` (its family members) or ``"certificate"`` (its whole interval).
+    """
 
     index: int
     ratio: float
@@ -180,9 +247,53 @@ class ActuatorCheck:
 class FleetDesign:
     """What a fleet design did and what it guarantees (``robrst design --json``: ``fleet``).
 
-    ``values`` holds the drawn parameters (one row per actuator, columns ``names``);
-    ``support`` the actuators the exchange handed to the program (the compression set);
-    ``checks`` every actuator's final check.
+    Parameters
+    ----------
+    method : str
+        ``"scenario"`` or ``"box"``.
+    names : tuple of str
+        The spread's parameters.
+    values : numpy.ndarray
+        The drawn parameters, one row per actuator (columns ``names``).
+    n_scenarios : int
+        Actuators designed for.
+    decision_variables : int
+        The program's decision variables ``d``.
+    yield_target, confidence : float
+        The spread's target and confidence.
+    support : tuple of int
+        The actuators the exchange handed to the program.
+    checks : tuple of ActuatorCheck
+        Every actuator's final check.
+    rounds : int
+        Exchange rounds.
+    nominal_integral_gain, integral_gain : float
+        The first round's (nominal) and the final controller's integral gain.
+    wall_time_s : float
+        The fleet design's wall time.
+    seed : int
+        The draws' seed.
+    n_convex : int, optional
+        The convex a-priori count, for reference.
+    discarded : tuple of int
+        Actuators the program could not meet with the others.
+    design_time_s, check_time_s : float
+        Time in the rounds' designs and in the actuator checks.
+    edges : dict, optional
+        A box's gain edges (:func:`gain_edges`).
+
+    Attributes
+    ----------
+    violated : tuple of int
+        Drawn actuators the final controller does not certify on.
+    compression : tuple of int
+        The compression set (program, discarded, violated).
+    epsilon : float or None
+        ``epsilon(k)`` of the compression set (``None`` for a box).
+    guaranteed_yield : float or None
+        ``1 - epsilon(k)``.
+    integral_gain_ratio : float or None
+        The integral gain over the nominal design's.
     """
 
     method: str
@@ -236,12 +347,28 @@ class FleetDesign:
         return abs(self.integral_gain) / abs(self.nominal_integral_gain) \
             if self.nominal_integral_gain else None
 
-    def worst(self, count=10):
-        """The ``count`` worst actuators (largest figure/bound first)."""
+    def worst(self, count: int = 10) -> list[ActuatorCheck]:
+        """The worst actuators.
+
+        Parameters
+        ----------
+        count : int
+            How many.
+
+        Returns
+        -------
+        list of ActuatorCheck
+            Largest figure/bound first.
+        """
         return sorted(self.checks, key=lambda c: (-c.ratio, c.index))[:count]
 
-    def as_dict(self):
-        """The ``fleet`` object of the JSON contract (fields are only added)."""
+    def as_dict(self) -> dict:
+        """The ``fleet`` object of the JSON contract (fields are only added).
+
+        Returns
+        -------
+        dict
+        """
         beta = 1.0 - self.confidence
         g = self.guaranteed_yield
         return {
@@ -282,7 +409,8 @@ def _ratio(violations):
     return worst, text
 
 
-def check_actuators(problem, ctrl, families, full=True):
+def check_actuators(problem: Problem, ctrl: RSTController, families: Sequence[PlantFamily],
+                    full: bool = True) -> list[ActuatorCheck]:
     """Check ``ctrl`` on every actuator of ``families`` against every spec of ``problem``.
 
     First the family members of every actuator, all loops in one batched call
@@ -290,6 +418,17 @@ def check_actuators(problem, ctrl, families, full=True):
     over each actuator's whole temperature interval
     (:func:`robrst.certificate.proof.certify`, ``spread.cert_temperatures``) on those the
     members do not already fail.
+
+    Parameters
+    ----------
+    problem : Problem
+        Its specs, solver options and spread.
+    ctrl : RSTController
+        The controller.
+    families : sequence of PlantFamily
+        The actuators.
+    full : bool
+        Also the whole-interval certificate.
 
     Returns
     -------
@@ -319,7 +458,8 @@ def check_actuators(problem, ctrl, families, full=True):
     return out
 
 
-def gain_edges(problem, ctrl, names, values, families):
+def gain_edges(problem: Problem, ctrl: RSTController, names: Sequence[str],
+               values: np.ndarray, families: Sequence[PlantFamily]) -> dict | None:
     """Closed-loop stability along the box's gain edges, proved exactly.
 
     The static-gain factor multiplies the plant's numerator, so along an edge of the box
@@ -329,9 +469,23 @@ def gain_edges(problem, ctrl, names, values, families):
     :func:`robrst.core.interval.segment_crossing` proves that no root crosses the
     imaginary axis on it.  Checked at every family member of the edge's actuators.
 
+    Parameters
+    ----------
+    problem : Problem
+        Its specs (the sampled loop).
+    ctrl : RSTController
+        The controller.
+    names : sequence of str
+        The box's parameters.
+    values : numpy.ndarray
+        The box's points (centre and corners), one row each.
+    families : sequence of PlantFamily
+        Their actuators.
+
     Returns
     -------
-    dict
+    dict or None
+        ``None`` without a ``gain`` parameter, else
         ``edges`` tested, ``segments`` (edges x temperatures x loops), ``crossings`` (a
         list of ``(edge ends, temperature, loop)``) and ``proved`` (no crossing).
     """
@@ -363,8 +517,10 @@ def gain_edges(problem, ctrl, names, values, families):
             "proved": edges > 0 and not crossings}
 
 
-def scenario_design(problem, design, progress=None, families=None, values=None,
-                    n_scenarios=None):
+def scenario_design(problem: Problem, design: Callable, progress: Callable | None = None,
+                    families: Sequence[PlantFamily] | None = None,
+                    values: np.ndarray | None = None,
+                    n_scenarios: int | None = None) -> tuple:
     """Design ``problem`` for its spread (module docstring): an exchange over actuators.
 
     Parameters
