@@ -178,8 +178,9 @@ SCHEMA = {
                                    " actuator (default: solver.cert_temperatures)",
                                    lo=1, hi=10000),
         "param": ArrayOf({
-            "name": Field("str", None, "gain, resonance, damping, A<i>, B<i> or a per-kelvin"
-                          " law family.parametric.<law>", required=True),
+            "name": Field("str", None, "gain, resonance, damping, a coefficient factor (A1, B0,"
+                          " ...) or a per-kelvin law (family.parametric.gain_per_K, ...)",
+                          required=True),
             "dist": Field("str", None, "normal | uniform | lognormal", required=True,
                           choices=RANDOM_DISTS),
             "mean": Field("number", None, "normal: mean"),
