@@ -45,7 +45,7 @@ _EXPORTS = {
     "run_problem": "robrst.design", "DesignResult": "robrst.design",
     "Synthesizer": "robrst.synthesis.synthesizer", "step_metrics": "robrst.certificate.steps",
     # twin, data, diagnosis
-    "default_twin": "robrst.twin.config", "load_twin": "robrst.twin.config",
+    "default_twin": "robrst.twin.config", "load_twin": "robrst.studies.twins",
     "simulate": "robrst.twin.simulate",
     "Dataset": "robrst.data.dataset", "load_dataset": "robrst.data.dataset",
     "save_dataset": "robrst.data.dataset",
@@ -53,6 +53,8 @@ _EXPORTS = {
     "export_controller": "robrst.controller.export",
     "ExportedController": "robrst.controller.export",
     "assert_margins": "robrst.testing",
+    # saved designs: read back and certified again, never designed again
+    "load_design": "robrst.controller.artefact", "recertify": "robrst.controller.artefact",
     # sweeps
     "Sweep": "robrst.studies.sweep.files", "load_sweep": "robrst.studies.sweep.files",
     "run_sweep": "robrst.studies.sweep.engine", "SweepResult": "robrst.studies.sweep.engine",

@@ -37,7 +37,38 @@ if TYPE_CHECKING:
     from robrst.synthesis.analytic import AnalyticDesign
 
 __all__ = ["DesignResult", "AnalyticCheck", "Comparison", "run_problem", "analytic_design",
-           "analytic_check", "comparison", "with_time_domain"]
+           "analytic_check", "comparison", "with_time_domain", "artefact_record",
+           "ARTEFACT_FORMAT"]
+
+ARTEFACT_FORMAT = "robrst-design-1"
+
+
+def artefact_record(problem: Problem) -> dict:
+    """The ``artefact`` object of a design's JSON.
+
+    Parameters
+    ----------
+    problem : Problem
+
+    Returns
+    -------
+    dict
+        ``format``, the problem document
+        (:func:`robrst.problem.documents.problem_document`; ``None`` with a ``note`` for a
+        problem no file can state) and the versions it was made with
+        (:func:`robrst.base.versions.versions`).
+    """
+    from robrst.base.versions import versions
+    from robrst.problem.documents import problem_document
+
+    try:
+        doc, note = problem_document(problem), None
+    except SpecError as exc:       # a problem built in code that no file can state
+        doc, note = None, str(exc)
+    out = {"format": ARTEFACT_FORMAT, "problem_document": doc, "versions": versions()}
+    if note:
+        out["note"] = note
+    return out
 
 
 @dataclass(frozen=True)
@@ -179,6 +210,30 @@ class DesignResult:
         """``lim s R/S`` [V/(µm s)] of the controller."""
         return integral_gain(self.controller)
 
+    def loops(self, sampled: bool = True) -> dict:
+        """Every family model's closed loop as python-control systems, by model label.
+
+        Parameters
+        ----------
+        sampled : bool
+            The sampled loop (the problem's rate and delay, ``dt = 1/fs``) when the problem
+            names a rate; ``False``: the continuous one.
+
+        Returns
+        -------
+        dict
+            ``{label: {"L", "S", "T", "U", "Sd", "Tr"}}`` of
+            :func:`robrst.core.rst.closed_loop_control`.  The controller itself:
+            ``self.controller.to_control(fs)``.
+        """
+        from robrst.core.rst import closed_loop_control
+
+        sp = self.problem.specs
+        fs = sp.sample_rate_hz if sampled and sp.sampled else None
+        return {m.label: closed_loop_control(m, self.controller, fs,
+                                             sp.delay_samples if fs else 0)
+                for m in self.problem.family.models}
+
     def solver_dict(self) -> dict:
         """The ``solver`` object of the JSON contract.
 
@@ -238,6 +293,7 @@ class DesignResult:
             out["analytic_check"] = self.analytic_check.as_dict()
         if self.comparison is not None:
             out["comparison"] = self.comparison.as_dict()
+        out["artefact"] = artefact_record(p)   # what robrst.load_design reads back
         if self.fleet is not None:
             out["fleet"] = self.fleet.as_dict()
         return out

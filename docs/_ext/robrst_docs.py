@@ -7,8 +7,9 @@ declarations the readers validate with (so the reference cannot drift from the c
     ```
 
 Kinds: ``problem`` (:func:`robrst.problem.files.schema_markdown`), ``sweep``
-(:func:`robrst.studies.sweep.files.sweep_schema_markdown`) and ``twin``
-(:data:`robrst.twin.config.TWIN_SCHEMA`).
+(:func:`robrst.studies.sweep.files.sweep_schema_markdown`), ``twin``
+(:data:`robrst.twin.config.TWIN_SCHEMA`) and ``scenario``
+(:func:`robrst.studies.user_scenario.scenario_schema_markdown`).
 
 The API reference is generated too: at ``builder-inited`` one page per public module is
 written to ``api/generated/`` (reST: ``automodule``, then ``autoclass``/``autofunction`` of the functions and classes its
@@ -42,7 +43,10 @@ def schema_rows(kind):
         from robrst.base.schema import markdown_rows
         from robrst.twin.config import TWIN_SCHEMA
         return markdown_rows(TWIN_SCHEMA)
-    raise ValueError(f"unknown schema {kind!r}: expected problem, sweep or twin")
+    if kind == "scenario":
+        from robrst.studies.user_scenario import scenario_schema_markdown
+        return scenario_schema_markdown()
+    raise ValueError(f"unknown schema {kind!r}: expected problem, sweep, twin or scenario")
 
 
 class SchemaTable(SphinxDirective):

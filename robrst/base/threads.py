@@ -9,12 +9,26 @@ the caller's settings afterwards.  A library is only limited once loaded, so Sci
 loaded first when the computation will use it (``scipy=True``).
 """
 
+import os
 from collections.abc import Iterator
 from contextlib import contextmanager
 
 from threadpoolctl import threadpool_limits
 
-__all__ = ["one_blas_thread"]
+__all__ = ["one_blas_thread", "available_cores"]
+
+
+def available_cores() -> int:
+    """The cores this process may use (Linux: its affinity; else the machine's).
+
+    Returns
+    -------
+    int
+    """
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:   # not on Linux
+        return os.cpu_count() or 1
 
 
 @contextmanager

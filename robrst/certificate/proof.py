@@ -46,7 +46,7 @@ from robrst.core.interval import parameter_crossing, segment_crossing
 from robrst.certificate.models import (BOUNDED, FIGURE_OF, JUMPS, RESOLVE_FACTOR, Violation,
                                band_peak, check_all, check_all_many, check_model, margins)
 from robrst.problem.records import Problem
-from robrst.core.rst import RSTController, closed_loop
+from robrst.core.rst import RSTController, as_controller, closed_loop
 from robrst.core.thermal import modal_form
 from robrst.base.threads import one_blas_thread
 
@@ -354,6 +354,7 @@ def certify(family: PlantFamily, ctrl: RSTController, specs: Specs, n_sweep: int
     -------
     Certificate
     """
+    ctrl = as_controller(ctrl)      # a python-control system too
     known = {m.temperature_C for m in family.models}
     models = list(family.models)
     if len(models) > 1 and n_sweep > 0:

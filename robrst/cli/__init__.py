@@ -1,5 +1,5 @@
 """Command-line interface: ``robrst design | report | simulate | diagnose | identify | convert |
-export | check | sweep``.
+export | check | certify | sweep``.
 
 A thin layer: parse arguments, call the library, print.  Every robrst error becomes
 one line ``robrst: error: ...`` on stderr and exit code 2 (1 for a design that is not
@@ -22,12 +22,13 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 from robrst import __version__
-from robrst.cli import check, convert, design, diagnose, export, identify, simulate, sweep
+from robrst.cli import (certify, check, convert, design, diagnose, export, identify, simulate,
+                        sweep)
 from robrst.base.errors import RobrstError
 
 __all__ = ["main", "build_parser"]
 
-COMMANDS = (design, simulate, diagnose, identify, convert, export, check, sweep)
+COMMANDS = (design, simulate, diagnose, identify, convert, export, check, certify, sweep)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -127,7 +128,8 @@ def _run(args):
     except Exception as exc:   # noqa: BLE001 — the CLI never ends in a traceback
         if os.environ.get("ROBRST_DEBUG"):
             raise
-        where = next((str(getattr(args, k)) for k in ("problem", "file", "sweep", "scenario")
+        where = next((str(getattr(args, k)) for k in ("problem", "design", "file", "sweep",
+                                                      "scenario")
                       if isinstance(getattr(args, k, None), (str, os.PathLike))), "")
         msg = " ".join(str(exc).split()) or "no message"
         print(f"robrst: error: {where + ': ' if where else ''}computation failed"

@@ -4,8 +4,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from robrst.cli.common import progress_printer
-from robrst.design import run_problem
+from robrst.cli.common import design_result, is_saved_design, progress_printer
 from robrst.base.fileio import check_file_target
 from robrst.problem.files import load_problem
 from robrst.testing import (check_golden_fits, compare_golden, count_figures, golden_figures,
@@ -27,7 +26,8 @@ def add_parsers(sub: argparse._SubParsersAction) -> None:
     """
     c = sub.add_parser("check", help="compare a design's margins with a golden file"
                                      " (exit 0 nothing worse, 1 something worse, 2 error)")
-    c.add_argument("problem", help="problem file (TOML), or a built-in problem by name")
+    c.add_argument("problem", help="problem file (TOML), a built-in problem by name, or a saved"
+                                   " design (DESIGN.json: its controller, not designed again)")
     c.add_argument("--golden", required=True, metavar="FILE", help="golden margins (TOML)")
     c.add_argument("--update", action="store_true",
                    help="write the golden from this design instead of comparing (exit 0"
@@ -54,11 +54,14 @@ def run_check(args: argparse.Namespace) -> int:
     golden = None if args.update else read_golden(args.golden)   # a bad golden fails first
     if args.update:
         check_file_target(args.golden)
-    problem = load_problem(args.problem)
-    if golden is not None:
-        check_golden_fits(golden, problem)          # before the design
-    say(f"designing {problem.name} ({problem.solver.method})")
-    result = run_problem(problem, progress=say)
+    problem = None
+    if not is_saved_design(args.problem):
+        problem = load_problem(args.problem)
+        if golden is not None:
+            check_golden_fits(golden, problem)      # before the design
+    result = design_result(args.problem, say, problem)
+    if problem is None and golden is not None:
+        check_golden_fits(golden, result.problem)
     if args.update:                                 # exit code as `design`: 1 not certified
         write_golden(result, args.golden)
         g = golden_figures(result)

@@ -6,10 +6,11 @@ from collections.abc import Callable
 from typing import Any
 
 import sys
+from collections.abc import Callable
 
 from robrst.base.fileio import json_text
 
-__all__ = ["progress_printer", "print_json"]
+__all__ = ["progress_printer", "print_json", "is_saved_design", "design_result"]
 
 
 def progress_printer(quiet: bool) -> Callable[[str], None]:
@@ -41,3 +42,56 @@ def print_json(obj: Any, indent: int | None = None) -> None:
         Indentation (``None``: one line).
     """
     print(json_text(obj, indent=indent))
+
+
+def is_saved_design(arg: str) -> bool:
+    """True when the command-line argument names a saved design (a JSON file).
+
+    Parameters
+    ----------
+    arg : str
+        A command's ``PROBLEM`` argument.
+
+    Returns
+    -------
+    bool
+    """
+    from robrst.controller.artefact import is_design_file
+
+    return is_design_file(arg)
+
+
+def design_result(arg: str, say: Callable[[str], None], problem: object = None,
+                  announce: bool = True) -> object:
+    """The design result of a command's ``PROBLEM`` argument.
+
+    Parameters
+    ----------
+    arg : str
+        A saved design (read back: its controller as saved, certified again; never
+        designed) or a problem file or built-in name (designed now).
+    say : callable
+        Progress lines.
+    problem : Problem, optional
+        The problem already loaded from ``arg``.
+    announce : bool, optional
+        Say "designing NAME (method)" before a design (``robrst design`` does not: a
+        problem that fails before its design must print one line only).
+
+    Returns
+    -------
+    DesignResult
+    """
+    if is_saved_design(arg):
+        from robrst.controller.artefact import design_from_dict, read_design
+
+        doc = read_design(arg)             # a bad file fails before any progress line
+        say(f"reading the saved design {arg} (its controller as saved; no design)")
+        return design_from_dict(doc, str(arg), progress=say)
+    from robrst.design import run_problem
+    from robrst.problem.files import load_problem
+
+    problem = problem or load_problem(arg)
+    if announce:
+        say(f"designing {problem.name} ({problem.solver.method})")
+    return run_problem(problem, progress=say)

@@ -8,8 +8,7 @@ import re
 import sys
 from pathlib import Path
 
-from robrst.cli.common import print_json, progress_printer
-from robrst.design import run_problem
+from robrst.cli.common import design_result, is_saved_design, print_json, progress_printer
 from robrst.report.text import design_summary
 from robrst.problem.files import load_problem
 
@@ -28,12 +27,17 @@ def add_parsers(sub: argparse._SubParsersAction) -> None:
         The sub-parser collection of :func:`robrst.cli.build_parser`.
     """
     d = sub.add_parser("design", help="design and certify an RST controller from a problem file")
-    d.add_argument("problem", help="problem file (TOML), or a built-in problem by name")
-    d.add_argument("--json", action="store_true", help="print exactly one JSON object")
+    d.add_argument("problem", help="problem file (TOML), or a built-in problem by name (a saved"
+                                   " design, DESIGN.json: read back, not designed again)")
+    d.add_argument("--json", action="store_true", help="print exactly one JSON object (the"
+                                                       " design: save it, DESIGN.json, and give"
+                                                       " it to export, check, report, simulate,"
+                                                       " certify)")
     d.add_argument("--quiet", action="store_true", help="no progress lines")
     d.set_defaults(func=run_design)
     r = sub.add_parser("report", help="design, certify and write a report folder (md, html, PNG)")
-    r.add_argument("problem", help="problem file (TOML), or a built-in problem by name")
+    r.add_argument("problem", help="problem file (TOML), a built-in problem by name, or a saved"
+                                   " design (DESIGN.json, not designed again)")
     r.add_argument("--out", help="output folder (default reports/PROBLEM_NAME)")
     r.add_argument("--force", action="store_true",
                    help="write into an existing folder that is not a robrst report"
@@ -56,7 +60,7 @@ def run_design(args: argparse.Namespace) -> int:
         0 certified, 1 not certified.
     """
     say = progress_printer(args.quiet or args.json)
-    result = run_problem(load_problem(args.problem), progress=say)
+    result = design_result(args.problem, say, announce=False)   # an error stays one line
     d = result.as_dict()
     if args.json:
         print_json(d)
@@ -86,12 +90,17 @@ def run_report(args: argparse.Namespace) -> int:
     from robrst.report.doc import check_report_target
 
     say = progress_printer(args.quiet)
-    problem = load_problem(args.problem)
+    if is_saved_design(args.problem):
+        from robrst.controller.artefact import read_design
+
+        problem, name = None, str(read_design(args.problem)["problem"])
+    else:
+        problem = load_problem(args.problem)
+        name = problem.name
     # the default folder is one component under reports/, whatever the problem's name holds
-    out = args.out or "reports/" + (re.sub(r"[^\w.-]+", "_", problem.name).lstrip(".") or "problem")
+    out = args.out or "reports/" + (re.sub(r"[^\w.-]+", "_", name).lstrip(".") or "problem")
     check_report_target(Path(out), args.force)     # a bad target fails before the design
-    say(f"designing {problem.name} ({problem.solver.method})")
-    result = run_problem(problem, progress=say)
+    result = design_result(args.problem, say, problem)
     path = write_design_report(result, out, progress=say, force=args.force)
     print(f"wrote {path}/report.md, report.html, result.json and figures"
           f" (certified: {result.certified})")

@@ -11,7 +11,7 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
-from robrst.cli.common import progress_printer
+from robrst.cli.common import is_saved_design, progress_printer
 from robrst.design import run_problem
 from robrst.base.errors import OutputError, SpecError
 from robrst.controller.c_code import c_files
@@ -46,7 +46,9 @@ def add_parsers(sub: argparse._SubParsersAction) -> None:
     """
     e = sub.add_parser("export", help="the digital RST controller (Tustin sections, direct form)"
                                       " with the certificate of its sampled loop")
-    e.add_argument("problem", help="problem file (TOML), or a built-in problem by name")
+    e.add_argument("problem", help="problem file (TOML), a built-in problem by name, or a saved"
+                                   " design (DESIGN.json: exports its controller, never"
+                                   " designs again)")
     e.add_argument("--fs", type=float, metavar="HZ",
                    help="sampling rate [Hz] (default specs.sample_rate_hz; a problem that names"
                         " one is re-designed at this rate)")
@@ -107,6 +109,25 @@ def _check_arguments(args):
         raise SpecError(f"--u-range: expected two finite voltages LO < HI, got {args.u_range}")
 
 
+def _saved(args, say):
+    """A saved design read back (never designed again: another --fs or --delay-samples
+    certifies *its* controller's sampled loop there)."""
+    from robrst.controller.artefact import design_from_dict, read_design
+
+    doc = read_design(args.problem)
+    specs = doc["artefact"]["problem_document"].get("specs", {})
+    fs = args.fs if args.fs is not None else specs.get("sample_rate_hz")
+    say(f"reading the saved design {args.problem} (its controller as saved; no design)")
+    result = design_from_dict(doc, str(args.problem), progress=say)
+    if args.delay_samples is not None:
+        check_delay_order("--delay-samples", (), result.problem, args.delay_samples)
+    k = args.delay_samples if args.delay_samples is not None else specs.get("delay_samples", 0)
+    if fs is not None and (fs, k) != (specs.get("sample_rate_hz"), specs.get("delay_samples", 0)):
+        say(f"the saved controller is exported as designed; its sampled loop at {fs:g} Hz"
+            " is certified (not designed for it)")
+    return result
+
+
 def run_export(args: argparse.Namespace) -> int:
     """Design, discretise, certify the sampled loop, write; exit 0 certified, 1 not certified.
 
@@ -126,16 +147,20 @@ def run_export(args: argparse.Namespace) -> int:
     u_range = check_u_range(args.u_range)       # its message names --u-range
     targets = _targets(args)
     _check_targets(targets)
-    problem = load_problem(args.problem)
-    fs, k = sampling(problem, args.fs, args.delay_samples)
-    if args.delay_samples is not None:
-        check_delay_order("--delay-samples", (), problem, k)
-    sp = problem.specs
-    if sp.sampled and (sp.sample_rate_hz, sp.delay_samples) != (fs, k):
-        say(f"re-designing {problem.name} for the sampled loop at {fs:g} Hz, delay {k}")
-        problem = replace(problem, specs=replace(sp, sample_rate_hz=fs, delay_samples=k))
-    say(f"designing {problem.name} ({problem.solver.method})")
-    result = run_problem(problem, progress=say)
+    if is_saved_design(args.problem):
+        result = _saved(args, say)
+        fs, k = sampling(result.problem, args.fs, args.delay_samples)
+    else:
+        problem = load_problem(args.problem)
+        fs, k = sampling(problem, args.fs, args.delay_samples)
+        if args.delay_samples is not None:
+            check_delay_order("--delay-samples", (), problem, k)
+        sp = problem.specs
+        if sp.sampled and (sp.sample_rate_hz, sp.delay_samples) != (fs, k):
+            say(f"re-designing {problem.name} for the sampled loop at {fs:g} Hz, delay {k}")
+            problem = replace(problem, specs=replace(sp, sample_rate_hz=fs, delay_samples=k))
+        say(f"designing {problem.name} ({problem.solver.method})")
+        result = run_problem(problem, progress=say)
     say(f"discretising at {fs:g} Hz and certifying the sampled loop")
     exp = export_controller(result, fs, k, u_range)
     if args.format == "json":

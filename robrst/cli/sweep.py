@@ -34,7 +34,15 @@ def add_parsers(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--out", help="output folder (default sweeps/SWEEP_NAME); an earlier run of"
                                  " the same sweep there is resumed")
     s.add_argument("--workers", type=int, help="processes of the local Dask cluster (default:"
-                                               " one per core); 0: run in this process")
+                                               " one per core), started when the work pays"
+                                               " their start-up; 0: run in this process")
+    s.add_argument("--cluster", action="store_true",
+                   help="start the local cluster whatever the work (default: the first chunks"
+                        " run in this process, and a sweep too small to pay the cluster's"
+                        " start-up finishes here)")
+    s.add_argument("--progress", action="store_true",
+                   help="draw the progress bar also when stderr is no terminal (a CI log:"
+                        " one line per 10 %%)")
     s.add_argument("--scheduler", help="address of a running Dask scheduler"
                                        " (tcp://host:8786) instead of a local cluster")
     s.add_argument("--restart", action="store_true",
@@ -46,42 +54,57 @@ def add_parsers(sub: argparse._SubParsersAction) -> None:
                    help="write the report into an existing OUT/report folder that robrst did"
                         " not write (only the report's own files; nothing is deleted)")
     s.add_argument("--json", action="store_true", help="print summary.json on stdout")
-    s.add_argument("--quiet", action="store_true", help="no progress bar (it is drawn only on"
-                                                         " a terminal)")
+    s.add_argument("--quiet", action="store_true", help="no progress bar (it is drawn on a"
+                                                         " terminal once a run lasts 2 s, or"
+                                                         " with --progress)")
     s.set_defaults(func=run_sweep_command)
 
 
-def progress_bar(name: str, stream: TextIO = sys.stderr, width: int = 30) -> Callable[[Progress], None]:
-    """A progress callback drawing one line, redrawn in place (for a terminal).
+LONG_RUN_S = 2.0    # the bar appears once a run has lasted this long (short runs: none)
+
+
+def progress_bar(name: str, stream: TextIO = sys.stderr, width: int = 30, tty: bool = True,
+                 after_s: float = LONG_RUN_S) -> Callable[[Progress], None]:
+    """A progress callback drawing one line.
 
     Parameters
     ----------
     name : str
-        The sweep's name, at the start of the line.
+        The sweep's name, first on the line.
     stream : file-like
-        Where to draw (a terminal).
+        Where to draw.
     width : int
         Characters of the bar.
+    tty : bool
+        Redraw in place (a terminal); else one line per 10 % (a CI log).
+    after_s : float
+        Nothing before a run has lasted this long [s].
 
     Returns
     -------
     callable
         ``draw(progress)`` for :func:`robrst.run_sweep`'s ``progress``.
     """
-    state = {"t": 0.0}
+    state = {"t": 0.0, "shown": False, "tenth": -1}
 
     def draw(p):
         now = time.monotonic()
-        if p.done < p.total and now - state["t"] < 0.2:
+        if p.elapsed_s < after_s and not (state["shown"] and p.done >= p.total):
             return
-        state["t"] = now
         frac = p.done / p.total if p.total else 1.0
+        if tty:
+            if p.done < p.total and now - state["t"] < 0.2:
+                return
+        elif int(10 * frac) == state["tenth"]:
+            return
+        state.update(t=now, shown=True, tenth=int(10 * frac))
         bar = "#" * int(round(width * frac))
         rate = p.done / p.elapsed_s if p.elapsed_s > 0 else 0.0
         cert = f"{p.certified / p.done:.1%} certified" if p.done else ""
-        stream.write(f"\r{name} [{bar:<{width}}] {p.done}/{p.total} {cert}"
-                     f" · {rate:.1f}/s · {p.workers} workers · {p.elapsed_s:.0f} s ")
-        if p.done >= p.total:
+        line = (f"{name} [{bar:<{width}}] {p.done}/{p.total} {cert}"
+                f" · {rate:.1f}/s · {p.workers} workers · {p.elapsed_s:.0f} s ")
+        stream.write(("\r" + line) if tty else line.rstrip() + "\n")
+        if tty and p.done >= p.total:
             stream.write("\n")
         stream.flush()
 
@@ -155,9 +178,11 @@ def run_sweep_command(args: argparse.Namespace) -> int:
     sweep = load_sweep(args.sweep)
     out = args.out or f"sweeps/{sweep.name}"
     check_report_target(Path(out) / "report", args.force)   # before any work or write
-    bar = progress_bar(sweep.name) if not quiet and sys.stderr.isatty() else None
+    tty = sys.stderr.isatty()
+    bar = progress_bar(sweep.name, tty=tty) if not quiet and (tty or args.progress) else None
     result = run_sweep(sweep, out, workers=args.workers, scheduler=args.scheduler,
-                       progress=None if quiet else with_notes(bar, out), restart=args.restart)
+                       progress=None if quiet else with_notes(bar, out), restart=args.restart,
+                       adaptive=not args.cluster)
     write_sweep_report(result, force=args.force)
     s = result.summary
     if args.json:

@@ -40,7 +40,7 @@ import numpy as np
 
 from robrst.core import poly
 from robrst.base.errors import SpecError
-from robrst.core.rst import RSTController, tustin_polynomials
+from robrst.core.rst import RSTController, as_controller, tustin_polynomials
 
 if TYPE_CHECKING:
     import control
@@ -432,6 +432,7 @@ def digital_controller(ctrl: RSTController, sample_rate_hz: float,
     ([1, 2, 1], 1.0)
     """
     fs = float(sample_rate_hz)
+    ctrl = as_controller(ctrl)
     R_z, S_z, T_z = tustin_polynomials(ctrl, fs)
     sc = poly.Scaling.natural(ctrl.S, ctrl.R)
     n = len(ctrl.S) - 1

@@ -121,6 +121,11 @@ class ExportedController:
         return {"certified": self.certified,
                 "Ms_sampled": worst["Ms"], "Mt_sampled": worst["Mt"], "Mu_sampled": worst["Mu"],
                 "spectral_radius": self.spectral_radius,
+                # the same loop's slowest decay as python-control's discrete poles give it
+                # (ln|z| / dt); the certificate's spectral_abscissa_sampled is its w-plane value
+                "spectral_abscissa_sampled_z": (
+                    float(self.digital.sample_rate_hz * np.log(self.spectral_radius))
+                    if self.spectral_radius > 0 else None),
                 "n_models": len(c.models),
                 "n_violations": len(c.violations),
                 "violations": [v.describe() for v in c.violations[:MAX_LISTED]],
@@ -187,7 +192,7 @@ def check_u_range(u_range: tuple[float, float] | None) -> tuple[float, float]:
     Parameters
     ----------
     u_range : (float, float) or None
-        The amplifier range; ``None`` for the paper's.
+        The amplifier range (``(-inf, inf)``: no saturation); ``None`` for the paper's.
 
     Returns
     -------
@@ -196,12 +201,12 @@ def check_u_range(u_range: tuple[float, float] | None) -> tuple[float, float]:
     Raises
     ------
     SpecError
-        Unless both ends are finite and ``u_min < u_max``.
+        Unless ``u_min < u_max`` (no NaN; an infinite end only on its own side).
     """
     if u_range is None:
         return default_u_range()
     lo, hi = (float(u) for u in u_range)
-    if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
+    if np.isnan(lo) or np.isnan(hi) or not lo < hi or lo == np.inf or hi == -np.inf:
         raise SpecError(f"--u-range: amplifier range must be [u_min, u_max] with u_min < u_max,"
                         f" got [{lo}, {hi}]")
     return lo, hi

@@ -17,8 +17,8 @@ import numpy as np
 
 from robrst.core import lti, poly
 from robrst.core.peaks import mag2_poly, peak_gains_many
-from robrst.core.plant import Plant
-from robrst.core.rst import RSTController, closed_loop
+from robrst.core.plant import Plant, as_plant
+from robrst.core.rst import RSTController, as_controller, closed_loop
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -360,10 +360,10 @@ def analyze(plant: Plant, ctrl: RSTController, rtol: float = 1e-10) -> Analysis:
 
     Parameters
     ----------
-    plant : Plant
-        The plant.
-    ctrl : RSTController
-        The controller.
+    plant : Plant or control.TransferFunction or control.StateSpace
+        The plant (a python-control system: :func:`~robrst.core.plant.as_plant`).
+    ctrl : RSTController or control.TransferFunction or control.StateSpace
+        The controller (a python-control system: :func:`~robrst.core.rst.as_controller`).
     rtol : float
         Relative accuracy of the exact peaks.
 
@@ -402,6 +402,7 @@ def analyze_many(plants: Sequence[Plant], ctrl: RSTController,
     tuple of Analysis
         One per plant, in order.
     """
+    plants, ctrl = [as_plant(p) for p in plants], as_controller(ctrl)
     cls = [closed_loop(plant, ctrl) for plant in plants]
     stab = spectral_abscissa_many([cl.Delta for cl in cls])
     # the four peaks of a loop together: the same figures as peak_gain of each

@@ -22,7 +22,7 @@ import numpy as np
 
 from robrst.core import poly
 from robrst.base.errors import SpecError
-from robrst.core.plant import Plant
+from robrst.core.plant import Plant, as_plant
 from robrst.core.sampled import sampled_plant
 from robrst.core.thermal import ThermalCoefficients, modal_form, thermal_polynomials
 
@@ -107,6 +107,8 @@ class PlantFamily:
         self.__dict__.update(state, memo={})
 
     def __post_init__(self):
+        object.__setattr__(self, "models", tuple(as_plant(m, "family model")
+                                                 for m in self.models))
         temps = [m.temperature_C for m in self.models]
         if not self.models or any(t is None for t in temps):
             raise SpecError("family: every model needs a temperature_C")
@@ -249,6 +251,7 @@ def parametric_family(nominal: Plant, temperatures: Iterable[float],
     1.0255
     """
     temps = sorted(float(t) for t in temperatures)
+    nominal = as_plant(nominal, "nominal")
     models = tuple(_thermal_model(nominal, coeffs, T) for T in temps)
     ref = int(np.argmin(np.abs(np.array(temps) - coeffs.reference_C)))
     return PlantFamily(models=models, reference=ref, thermal=coeffs, nominal=nominal)
@@ -259,7 +262,7 @@ def explicit_family(models: Iterable[Plant], reference_C: float) -> PlantFamily:
 
     Parameters
     ----------
-    models : iterable of Plant
+    models : iterable of Plant (or python-control systems with a temperature)
         Models with their temperatures (sorted here); between two of them the family
         interpolates coefficient by coefficient.
     reference_C : float
@@ -269,6 +272,7 @@ def explicit_family(models: Iterable[Plant], reference_C: float) -> PlantFamily:
     -------
     PlantFamily
     """
-    models = tuple(sorted(models, key=lambda m: m.temperature_C))
+    models = tuple(sorted((as_plant(m, "family model") for m in models),
+                          key=lambda m: m.temperature_C))
     temps = np.array([m.temperature_C for m in models])
     return PlantFamily(models=models, reference=int(np.argmin(np.abs(temps - reference_C))))

@@ -26,8 +26,8 @@ if TYPE_CHECKING:
 
 __all__ = ["companion_parts", "companion", "companion_monic", "companion_outputs",
            "companion_outputs_many", "DiscreteSS",
-           "zoh", "zoh_matrices", "zoh_modal", "d2c_modal", "transmission_zeros", "ss_to_poly",
-           "d2c"]
+           "zoh", "zoh_matrices", "zoh_modal", "d2c_modal", "modal_polynomials",
+           "transmission_zeros", "ss_to_poly", "d2c"]
 
 
 def companion_parts(a: Sequence[Any], b: Sequence[Any]) -> tuple[list, list, Any]:
@@ -382,6 +382,52 @@ def d2c_modal(zpoles: ArrayLike, residues: ArrayLike,
     at_one = np.abs(z - 1) < 1e-12
     factor = np.where(at_one, fs, s / np.where(at_one, 1.0, z - 1))
     return s, np.asarray(residues, complex) * factor[:, None, None]
+
+
+def modal_polynomials(poles: np.ndarray, residues: np.ndarray,
+                      d: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """``B(s), A(s)`` (highest power first) of one channel in modal form.
+
+    ``G(s) = sum_i r_i/(s - p_i) (+ the conjugate term of every stored member of a pair,
+    Im p_i > 0) + d``.  Expanded in the scaled variable ``s / w0`` (``w0`` the geometric
+    mean of the pole magnitudes) so the coefficients keep their precision, then unscaled;
+    the rounding residue of the partial-fraction sum (leading numerator terms below 1e-13
+    of the largest, in the scaled variable) is dropped before unscaling.
+
+    Parameters
+    ----------
+    poles : array_like
+        Stored poles [rad/s] (real, or the member with positive imaginary part).
+    residues : array_like
+        One residue per stored pole.
+    d : float
+        Feedthrough.
+
+    Returns
+    -------
+    B, A : ndarray
+        ``A`` monic.  Non-finite when the unscaled coefficients overflow float64 (the
+        caller decides: an order too high for expanded polynomials).
+    """
+    p = np.asarray(poles, complex).ravel()
+    r = np.asarray(residues, complex).ravel()
+    pair = np.imag(p) > 0
+    allp = np.concatenate([p, np.conj(p[pair])])
+    mags = np.abs(allp[np.abs(allp) > 0])
+    w0 = float(np.exp(np.mean(np.log(mags)))) if mags.size else 1.0
+    ps = allp / w0
+    res = np.concatenate([r, np.conj(r[pair])]) / w0
+    A = np.poly(ps).real
+    B = np.zeros(len(A) - 1, complex)
+    for k, rk in enumerate(res):
+        B += rk * np.poly(np.delete(ps, k))
+    B = np.concatenate([[0.0], B.real]) + float(d) * A
+    B = np.trim_zeros(np.where(np.abs(B) > 1e-13 * np.max(np.abs(B)), B, 0.0), "f")
+    n = len(A) - 1
+    with np.errstate(over="ignore", invalid="ignore"):
+        A = A * w0 ** np.arange(0, n + 1)
+        B = B * w0 ** np.arange(n + 1 - len(B), n + 1)
+    return (B if B.size else np.zeros(1)), A
 
 
 def transmission_zeros(A: np.ndarray, B: np.ndarray, C: np.ndarray, d: float) -> np.ndarray:

@@ -17,7 +17,7 @@ if TYPE_CHECKING:
     import control
     from numpy.typing import ArrayLike
 
-__all__ = ["Plant", "paper_plant", "named_plant", "NAMED_PLANTS"]
+__all__ = ["Plant", "paper_plant", "named_plant", "NAMED_PLANTS", "as_plant", "is_control_system"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -297,6 +297,59 @@ def _strip_delay(num, den):
                         " model (its numerator outgrows the denominator once the delay is"
                         " removed)")
     return num, den, k
+
+
+def is_control_system(obj: object) -> bool:
+    """Whether ``obj`` is a python-control ``TransferFunction`` or ``StateSpace``.
+
+    Parameters
+    ----------
+    obj : object
+        Anything (python-control is imported only for objects of its own).
+
+    Returns
+    -------
+    bool
+    """
+    if type(obj).__module__.split(".")[0] != "control":
+        return False
+    import control
+
+    return isinstance(obj, (control.TransferFunction, control.StateSpace))
+
+
+def as_plant(obj: object, what: str = "plant") -> Plant:
+    """``obj`` as a :class:`Plant`: a Plant as it is, a SISO python-control
+    ``TransferFunction`` or ``StateSpace`` through :meth:`Plant.from_control` (a discrete
+    one is its continuous pre-image, its rate and delay in ``meta``).
+
+    Parameters
+    ----------
+    obj : Plant or control.TransferFunction or control.StateSpace
+    what : str
+        Named in the error (the argument's name).
+
+    Returns
+    -------
+    Plant
+
+    Raises
+    ------
+    SpecError
+        Anything else (a MIMO system, an array, a name), naming ``what`` and the type.
+
+    Examples
+    --------
+    >>> import control
+    >>> as_plant(control.tf([2.0], [1.0, 3.0])).A.tolist()
+    [1.0, 3.0]
+    """
+    if isinstance(obj, Plant):
+        return obj
+    if is_control_system(obj):
+        return Plant.from_control(obj)
+    raise SpecError(f"{what}: expected a robrst Plant or a SISO python-control TransferFunction"
+                    f" or StateSpace, got {type(obj).__name__}")
 
 
 def paper_plant() -> Plant:

@@ -46,8 +46,9 @@ from robrst.diagnose.result import Diagnosis, EffectScore
 from robrst.diagnose.select import OFFSET, Setup, candidates, forward, linear_with_offset
 from robrst.diagnose.thermal import max_delay, search_delay, search_saturation
 from robrst.diagnose.verdict import NEAR_RATIO, build, decide, unmodelled
-from robrst.base.errors import DataError
-from robrst.core.plant import paper_plant
+from robrst.base.errors import DataError, SpecError
+from robrst.core.plant import Plant, as_plant, paper_plant
+from robrst.identify.modal import ModalModel
 from robrst.base.threads import one_blas_thread
 
 if TYPE_CHECKING:
@@ -120,7 +121,36 @@ def _name(d, i):
     return d.source or f"record{i}"
 
 
-def _skipped(train, effects, model):
+def polynomial_plant(plant: object, model: ModalModel) -> Plant | None:
+    """The SISO :class:`~robrst.core.plant.Plant` of the model under diagnosis, or ``None``.
+
+    ``thermal_dynamics`` runs the twin's full step, whose linear part is ``B(s)/A(s)``: a
+    :class:`~robrst.identify.modal.ModalModel` (a model file of ``robrst identify``) is
+    expanded (:meth:`~robrst.identify.modal.ModalModel.channel`); a model of several inputs
+    or outputs, or one whose expanded coefficients overflow, has none.
+
+    Parameters
+    ----------
+    plant : Plant or ModalModel
+        The model as given.
+    model : ModalModel
+        Its modal form.
+
+    Returns
+    -------
+    Plant or None
+    """
+    if isinstance(plant, Plant):
+        return plant
+    if (model.n_in, model.n_out) != (1, 1):
+        return None
+    try:
+        return model.channel(0, 0)
+    except SpecError:
+        return None
+
+
+def _skipped(train, effects, model, siso=True):
     """Effects not tried, with the reason (inputs never excited, SISO-only)."""
     out = {}
     temps = [d.temp for d in train if d.temp is not None]
@@ -132,6 +162,9 @@ def _skipped(train, effects, model):
                       if temps else "no temperature measured")
         elif e == "thermal_dynamics" and (model.n_in, model.n_out) != (1, 1):
             out[e] = "one input and one output only"
+        elif e == "thermal_dynamics" and not siso:
+            out[e] = ("the model's polynomials B(s), A(s) overflow float64 (its order is too"
+                      " high for the twin's linear step)")
     return out
 
 
@@ -156,7 +189,7 @@ def diagnose(train: Sequence[Dataset], test: Sequence[Dataset], plant: Plant | M
         (every reported gap is measured on them).  Same sampling rate and channels;
         ``u`` is the commanded input (open or closed loop).  Periodic records are
         simulated in steady state, the others from rest.
-    plant : Plant or ModalModel, optional
+    plant : Plant, ModalModel or control.TransferFunction/StateSpace, optional
         The simulation model's linear dynamics (default: the paper's D(s), eq. 4);
         a :class:`~robrst.identify.modal.ModalModel` may have several inputs/outputs.
     reference_C : float, optional
@@ -180,7 +213,8 @@ def diagnose(train: Sequence[Dataset], test: Sequence[Dataset], plant: Plant | M
     """
     t_start = time.perf_counter()
     say = progress or (lambda m: None)
-    plant = plant or paper_plant()
+    plant = paper_plant() if plant is None else (
+        plant if isinstance(plant, ModalModel) else as_plant(plant))
     model = as_modal(plant)
     fs = check_records(train, test, model.n_in, model.n_out)
     ref = reference_C if reference_C is not None else (model.temperature_C or 28.0)
@@ -225,7 +259,8 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
             "per_record": per_record, "model": model, "plant": plant, "t_start": t_start}
     traces = {"names": names, "records": all_recs, "base_residuals": base_res,
               "psd_f": f, "psd": P, "noise_psd": level}
-    skipped = _skipped(train, effects, model)
+    siso = polynomial_plant(plant, model)
+    skipped = _skipped(train, effects, model, siso is not None)
     tried = tuple(e for e in effects if e not in skipped)
     if not _excited(train) or not _excited(test):
         which = "training" if not _excited(train) else "test"
@@ -248,7 +283,7 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
     setup = Setup(fs=fs, ref=ref, train=train_p, train_full=preps[:n_tr], test=preps[n_tr:],
                   test_records=test, train_records=train, lin=lin,
                   lin_modal=LinearPart(model, fs, modal_gains=True), stats=summary(train),
-                  noise_sigma=sigma, plant=plant if (model.n_in, model.n_out) == (1, 1) else None,
+                  noise_sigma=sigma, plant=siso,
                   effects=tried, dynamic=_levels_ok(train, test) and "hysteresis" in tried,
                   delays=(search_delay(train_p, lin, max_delay(fs)) if "delay" in tried
                           else (0,) * model.n_in),

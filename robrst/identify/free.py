@@ -181,7 +181,11 @@ def record_starts(dmodel: DiscreteModel, records: Sequence[Dataset], rest_model:
         ``rest_model`` from rest exceeds that of ``dmodel`` with them by more than
         ``q + sigmas sqrt(2 q)`` noise variances (``q`` terms: chi-square's mean plus
         ``sigmas`` standard deviations, if the record did start at rest with no offset);
-        the noise variance is the residual per sample left with them, pooled.
+        the noise variance is the residual per sample left with them, pooled; and when the
+        from-rest fit misses the record's start (its first 10 %) more than the rest of it
+        (:func:`_head_excess`): a linear model of a nonlinear actuator (the twin's
+        hysteresis, creep) is missed everywhere, which the terms would otherwise absorb.
+        A record whose terms are not significant is reported with offset and start 0.
 
     Returns
     -------
@@ -193,15 +197,57 @@ def record_starts(dmodel: DiscreteModel, records: Sequence[Dataset], rest_model:
             continue
         E = d.Y - dmodel.response(d.U)
         c, f = fit_free(E, dmodel.zpoles)
-        e_rest = np.sum((d.Y - rest_model.response(d.U)) ** 2, axis=0)
-        rows.append((d, c, f, e_rest, np.sum((E - c - f) ** 2, axis=0)))
+        r0 = d.Y - rest_model.response(d.U)
+        rows.append((d, c, f, np.sum(r0 ** 2, axis=0), np.sum((E - c - f) ** 2, axis=0),
+                     _head_excess(r0, sigmas)))
     if not rows:
         return []
     q = free_columns(dmodel.zpoles, 1).shape[1]
     dof = sum(max(d.n - q, 1) for d, *_ in rows)
     var = np.sum([r[4] for r in rows], axis=0) / dof
     limit = (q + sigmas * np.sqrt(2.0 * q)) * var
-    return [RecordStart(d.source or "record", tuple(c.tolist()),
-                        tuple(np.max(np.abs(f), axis=0).tolist()),
-                        tuple(np.std(d.Y, axis=0).tolist()), bool(np.any(e0 - e1 > limit)))
-            for d, c, f, e0, e1 in rows]
+    out = []
+    for d, c, f, e0, e1, head in rows:
+        significant = bool(np.any((e0 - e1 > limit) & head))
+        # a record taken to start at rest was fitted so: its terms are reported as 0 (their
+        # estimates under a model with slow modes can be any size, cancelling each other)
+        offset, initial = _split(c, f) if significant else (0.0 * c, 0.0 * c)
+        out.append(RecordStart(d.source or "record", tuple(offset.tolist()),
+                               tuple(initial.tolist()), tuple(np.std(d.Y, axis=0).tolist()),
+                               significant))
+    return out
+
+
+HEAD = 0.1          # a start away from rest shows in the record's first 10 %
+HEAD_MIN = 50       # samples
+
+
+def _head_excess(r0, sigmas):
+    """Per output: does the from-rest fit miss the record's start more than the rest of it?
+
+    A state the record starts in (or an offset) shows first where the from-rest model
+    predicts rest: in the record's head the residual per sample exceeds the record's mean
+    square by more than noise would (chi-square: ``n_h + sigmas sqrt(2 n_h)`` mean squares).
+    A model that misses the actuator elsewhere (a nonlinear one: hysteresis, creep) leaves
+    a residual that the nuisance terms reduce too, but not one concentrated at the start:
+    such a record started at rest.
+    """
+    n = r0.shape[0]
+    nh = min(n, max(int(np.ceil(HEAD * n)), HEAD_MIN))
+    mean_sq = np.mean(r0 ** 2, axis=0)
+    head = np.sum(r0[:nh] ** 2, axis=0)
+    return head > (nh + sigmas * np.sqrt(2.0 * nh)) * mean_sq
+
+
+def _split(c, f):
+    """``(offset, initial)`` reported per output: the estimated offset and the largest free
+    response, unless they cancel (a slow mode's free response over the record looks like
+    an offset: their split is then not determined, only their sum ``n = c + f``): then the
+    sum's mean and its largest departure from it."""
+    n = c[None, :] + f
+    size = np.max(np.abs(n), axis=0)
+    fmax = np.max(np.abs(f), axis=0)
+    cancel = (np.abs(c) > 10 * size) & (fmax > 10 * size)
+    offset = np.where(cancel, np.mean(n, axis=0), c)
+    initial = np.where(cancel, np.max(np.abs(n - np.mean(n, axis=0)), axis=0), fmax)
+    return offset, initial

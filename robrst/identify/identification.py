@@ -39,8 +39,9 @@ import numpy as np
 from robrst.data.dataset import check_sensor
 from robrst.base.errors import DataError, SpecError
 from robrst.identify.free import fit_free, record_starts
-from robrst.identify.vf import (fit_data, fit_residues, initial_poles, to_continuous,
-                                vector_fit)
+from robrst.identify.thermal import modal_parameters, thermal_law
+from robrst.identify.vf import (fit_data, fit_residues, initial_poles, relative_degree,
+                                to_continuous, vector_fit)
 from robrst.base.threads import one_blas_thread
 
 if TYPE_CHECKING:
@@ -107,6 +108,12 @@ class Identified:
         Per non-periodic training record: its offset and start away from rest.
     notes : tuple of str
         Significant offsets and starts away from rest, in words.
+    relative_degree : int
+        Continuous numerator degree = order - this (0: feedthrough), the one the data
+        support (:func:`robrst.identify.vf.relative_degree`).
+    thermal : ThermalLaw or None
+        The per-kelvin laws of a family of one input and output at several temperatures
+        (:func:`robrst.identify.thermal.thermal_law`).
 
     Attributes
     ----------
@@ -124,6 +131,8 @@ class Identified:
     heldout_nrmse: float     # of the chosen order (selection group)
     starts: tuple = ()       # RecordStart per non-periodic training record
     notes: tuple = ()        # significant offsets and starts away from rest
+    relative_degree: int = 1  # continuous numerator degree = order - this (0: feedthrough)
+    thermal: object = None    # ThermalLaw of a SISO family (several temperatures), or None
 
     @property
     def model(self):
@@ -143,7 +152,8 @@ class Identified:
                 "inputs": self.model.n_in, "outputs": self.model.n_out,
                 "temperatures_C": [m.temperature_C for m in self.models],
                 "heldout_nrmse": self.heldout_nrmse, "train": list(self.train),
-                "heldout": list(self.heldout),
+                "heldout": list(self.heldout), "relative_degree": self.relative_degree,
+                "thermal": None if self.thermal is None else self.thermal.as_dict(),
                 "records": [r.as_dict() for r in self.starts], "notes": list(self.notes),
                 "orders": [{"order": s.order, "train_nrmse": _num(s.train_nrmse),
                             "heldout_nrmse": _num(s.heldout_nrmse), "note": s.note}
@@ -427,27 +437,51 @@ def identify(train: Sequence[Dataset], validate: Sequence[Dataset] | None = None
                             + "; ".join(s.note for s in scores[:3]) + hint)
         best = min(s.heldout_nrmse for s in finite)
         chosen = next(s for s in finite if s.heldout_nrmse <= best * (1 + ORDER_TOL) + 1e-9)
-        out, starts = [], []
+        fits, starts = [], []
         for T, recs in groups:
-            dm = _fit_order(fit_data(recs, free=True), chosen.order, feedthrough)
+            data = fit_data(recs, free=True)
+            dm = _fit_order(data, chosen.order, feedthrough)
             rs = []
             if any(not (d.period and d.periods >= 1) for d in recs):
-                rest = _fit_order(fit_data(recs), chosen.order, feedthrough)
+                rest_data = fit_data(recs)
+                rest = _fit_order(rest_data, chosen.order, feedthrough)
                 rs = record_starts(dm, recs, rest)
                 flags = iter([r.significant for r in rs])
                 flags = [False if d.period and d.periods >= 1 else next(flags) for d in recs]
                 if not any(flags):
-                    dm = rest
+                    dm, data = rest, rest_data
                 elif not all(flags):     # refit: the others start at rest
-                    dm = _fit_order(fit_data(recs, free=flags), chosen.order, feedthrough)
+                    data = fit_data(recs, free=flags)
+                    dm = _fit_order(data, chosen.order, feedthrough)
+            fits.append((T, data, dm))
+            starts += rs
+        # one relative degree for every model: a family interpolates coefficient by
+        # coefficient, and a leading numerator term fitted to the noise is a zero far
+        # beyond Nyquist that no problem file can hold
+        markov = relative_degree([d for _, d, _ in fits], [dm.zpoles for *_, dm in fits],
+                                 feedthrough)
+        out, params = [], []
+        for T, data, dm in fits:
+            if markov:
+                dm = fit_residues(data, dm.zpoles, feedthrough, markov=markov)[0]
             label = "identified" if T is None else f"identified_T{T:g}C"
             out.append(to_continuous(dm, label=label, temperature_C=T))
-            starts += rs
+            if T is not None and len(fits) > 1 and (data.n_in, data.n_out) == (1, 1):
+                params.append(modal_parameters(data, dm, T, feedthrough, markov))
+        law = thermal_law(params, params[0].temperature_C) if len(params) > 1 else None
     notes = tuple(line for r in starts for line in r.notes(START_NOTE))
     for line in notes:
         say(line)
-    say(f"chosen order {chosen.order} (held-out NRMSE {chosen.heldout_nrmse:.4g})")
+    say(f"chosen order {chosen.order} (held-out NRMSE {chosen.heldout_nrmse:.4g}),"
+        f" relative degree {0 if feedthrough else markov + 1}")
+    if law is not None:
+        say("temperature family: " + (
+            "the thermal law holds: " + ", ".join(
+                f"{k} = {getattr(law, k):.4g} ± {law.std[k]:.2g}"
+                for k in ("gain_per_K", "resonance_per_K", "damping_per_K"))
+            if law.consistent else f"explicit models ({law.note})"))
     return Identified(models=tuple(out), order=chosen.order, feedthrough=feedthrough, fs=fs,
                       scores=tuple(scores), heldout=held_names,
                       train=tuple(d.source or "record" for d in train),
-                      heldout_nrmse=chosen.heldout_nrmse, starts=tuple(starts), notes=notes)
+                      heldout_nrmse=chosen.heldout_nrmse, starts=tuple(starts), notes=notes,
+                      relative_degree=0 if feedthrough else markov + 1, thermal=law)

@@ -22,7 +22,7 @@ import numpy as np
 from scipy import signal
 
 from robrst.base.errors import SpecError
-from robrst.core.lti import zoh_modal
+from robrst.core.lti import modal_polynomials, zoh_modal
 from robrst.core.plant import Plant
 
 if TYPE_CHECKING:
@@ -196,30 +196,15 @@ class ModalModel:
         SpecError
             When the unscaled coefficients overflow float64.
         """
-        allp = self.all_poles()
-        mags = np.abs(allp[np.abs(allp) > 0])
-        w0 = float(np.exp(np.mean(np.log(mags)))) if mags.size else 1.0
-        ps = allp / w0
-        res = np.concatenate([self.residues[:, i, j],
-                              np.conj(self.residues[np.imag(self.poles) > 0, i, j])]) / w0
-        A = np.poly(ps).real
-        B = np.zeros(len(A) - 1, complex)
-        for k, (pk, rk) in enumerate(zip(ps, res)):
-            B += rk * np.poly(np.delete(ps, k))
-        B = np.concatenate([[0.0], B.real]) + self.D[i, j] * A
-        # rounding residue of the partial-fraction sum (leading terms of a strictly proper
-        # channel) is dropped where the coefficients are O(1), before unscaling: after it
-        # they span w0**n and a relative threshold would drop terms that matter
-        B = np.trim_zeros(np.where(np.abs(B) > 1e-13 * np.max(np.abs(B)), B, 0.0), "f")
+        B, A = modal_polynomials(self.poles, self.residues[:, i, j], self.D[i, j])
         n = len(A) - 1
-        with np.errstate(over="ignore", invalid="ignore"):
-            A = A * w0 ** np.arange(0, n + 1)
-            B = B * w0 ** np.arange(n + 1 - len(B), n + 1)
         if not (np.all(np.isfinite(A)) and np.all(np.isfinite(B))):
+            mags = np.abs(self.all_poles())
+            w0 = float(np.exp(np.mean(np.log(mags[mags > 0])))) if np.any(mags > 0) else 1.0
             raise SpecError(f"model {self.label!r}: the expanded polynomials B(s), A(s) of"
                             f" order {n} overflow float64 (pole magnitudes around {w0:.3g}"
                             f" rad/s, w0^{n}); use the modal form")
-        return Plant(B if B.size else [0.0], A, label=label or f"{self.label}_y{i + 1}u{j + 1}",
+        return Plant(B, A, label=label or f"{self.label}_y{i + 1}u{j + 1}",
                      temperature_C=self.temperature_C)
 
     @classmethod

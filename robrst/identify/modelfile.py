@@ -39,6 +39,7 @@ import numpy as np
 from robrst.base.errors import SpecError
 from robrst.base.fileio import atomic_write_text, check_file_target
 from robrst.identify.modal import ModalModel
+from robrst.base.modelformat import FORMAT, read_model_table
 from robrst.base.schema import MAX_MAGNITUDE
 
 if TYPE_CHECKING:
@@ -49,7 +50,6 @@ __all__ = ["problem_text", "model_text", "toml_string", "write_identified", "che
 
 MARKER = "# written by robrst identify"
 NEGLIGIBLE_LEAD = 1e-9   # a leading numerator term below this share of B up to Nyquist
-FORMAT = "robrst-modal-1"
 
 
 def _num(x):
@@ -146,6 +146,67 @@ def _drop_negligible_lead(plants, fs, rtol=NEGLIGIBLE_LEAD):
     return plants
 
 
+def starting_wn(plants: list, fs: float) -> float:
+    """A dominant closed-loop natural frequency [rad/s] for a first design of ``plants``.
+
+    A fifth of the lowest natural frequency of a lightly damped pole pair (damping below
+    0.5) of any model; without one, the geometric mean of the nonzero pole magnitudes;
+    at most ``2 pi fs / 20`` (well below Nyquist); three significant digits.
+
+    Parameters
+    ----------
+    plants : list of Plant
+        The identified models.
+    fs : float
+        The records' rate [Hz].
+
+    Returns
+    -------
+    float
+    """
+    poles = np.concatenate([np.roots(p.A) for p in plants])
+    mag = np.abs(poles)
+    pairs = (poles.imag > 0) & (-poles.real < 0.5 * mag)
+    if np.any(pairs):
+        w = float(np.min(mag[pairs])) / 5.0
+    elif np.any(mag > 0):
+        w = float(np.exp(np.mean(np.log(mag[mag > 0]))))
+    else:
+        w = 2 * np.pi * fs / 100.0
+    w = min(w, 2 * np.pi * fs / 20.0)
+    return float(f"{max(w, 1e-6):.3g}")
+
+
+def starting_design(plants: list, fs: float) -> list:
+    """The design tables ``robrst identify`` writes into a file of one input and one output,
+    so that ``robrst design`` runs on it as it is: the robust NLP (integral gain, certified
+    modulus margin 0.5, |T| <= 1.3 and a reference step overshooting at most 2 %, on the
+    sampled loop at the records' rate), a two-degree-of-freedom reference path, the
+    dominant poles and the reference model's bandwidth from :func:`starting_wn`.
+
+    Parameters
+    ----------
+    plants : list of Plant
+        The identified models.
+    fs : float
+        The records' rate [Hz].
+
+    Returns
+    -------
+    list of str
+        Lines of TOML, commented.
+    """
+    wn = _num(starting_wn(plants, fs))
+    return ["", "# A starting design, chosen by robrst identify from the model (edit freely):",
+            "# the robust NLP at the records' sampling rate (the controller runs at it),",
+            "# dominant poles a fifth of the lowest resonance, modulus margin >= 0.5, and a",
+            "# reference path (2-DOF) whose step overshoots at most 2 %.",
+            "[poles]", f"wn = {wn}      # dominant natural frequency [rad/s]", "zeta = 1.0", "",
+            "[controller]", 'T_mode = "reference_model"', f"reference_wn = {wn}", "",
+            "[specs]", "Ms_max = 2.0", "Mt_max = 1.3", "overshoot_max_pct = 2.0",
+            f"sample_rate_hz = {_num(fs)}", "", "[solver]", 'method = "nlp"']
+
+
 def problem_text(ident: Identified, sources: Sequence[str], name: str,
                  channel: tuple[int, int] = (0, 0)) -> str:
     """The problem-file text of output ``channel[0]`` from input ``channel[1]``.
@@ -188,15 +249,27 @@ def problem_text(ident: Identified, sources: Sequence[str], name: str,
     if T0 is not None:
         lines.append(f"temperature_C = {_num(T0)}")
     lines.append(f"source = {toml_string('robrst identify')}")
-    if len(plants) > 1:
+    law = ident.thermal if (i, j) == (0, 0) else None
+    if len(plants) > 1 and law is not None and law.consistent:
+        temps = ", ".join(f"{T:g}" for T in law.temperatures_C)
+        lines += ["", "[family]", f"reference_C = {_num(T0)}",
+                  f"temperatures_C = {_list(law.temperatures_C)}",
+                  "source = " + toml_string(f"robrst identify: per-kelvin laws fitted to the"
+                                            f" models at {temps} degC (1-sigma beside each)"),
+                  "", "[family.parametric]"]
+        lines += [f"{k} = {_num(getattr(law, k))}    # +/- {law.std[k]:.3g} (1 sigma)"
+                  for k in ("gain_per_K", "resonance_per_K", "damping_per_K")]
+    elif len(plants) > 1:
+        why = ("" if law is None or not law.note else
+               f" (robrst's thermal law does not hold: {_comment(law.note)})")
         lines += ["", "[family]", f"reference_C = {_num(T0)}",
                   "source = " + toml_string("robrst identify: one model per record temperature")]
+        if why:
+            lines.append(f"# explicit models{why}")
         for p in plants:
             lines += ["", "[[family.models]]", f"temperature_C = {_num(p.temperature_C)}",
                       f"B = {_list(p.B)}", f"A = {_list(p.A)}"]
-    lines += ["", "# To design a controller, add the closed-loop poles (and specs), e.g.:",
-              "# [poles]", "# wn = 600.0      # dominant natural frequency [rad/s]",
-              "# zeta = 1.0", "# [specs]", "# Ms_max = 2.0", ""]
+    lines += starting_design([m.channel(i, j) for m in ident.models], ident.fs) + [""]
     return "\n".join(lines)
 
 
@@ -218,6 +291,11 @@ def model_text(ident: Identified, sources: Sequence[str]) -> str:
     """
     m0 = ident.models[0]
     lines = _header(ident, sources, "model file")
+    law = ident.thermal
+    if law is not None and law.std:
+        lines += [f"# per-kelvin laws fitted to these models ({'robrst thermal law holds' if law.consistent else _comment(law.note)}): "
+                  + ", ".join(f"{k} = {getattr(law, k):.6g} +/- {law.std[k]:.3g}"
+                              for k in ("gain_per_K", "resonance_per_K", "damping_per_K"))]
     lines += ["", "[model]", f"format = {toml_string(FORMAT)}", f"inputs = {m0.n_in}",
               f"outputs = {m0.n_out}", f"order = {ident.order}",
               f"fs_hz = {_num(ident.fs)}", f"source = {toml_string('robrst identify')}"]
@@ -229,6 +307,13 @@ def model_text(ident: Identified, sources: Sequence[str]) -> str:
                   "residues_re = [" + ", ".join(_matrix(R.real) for R in m.residues) + "]",
                   "residues_im = [" + ", ".join(_matrix(R.imag) for R in m.residues) + "]",
                   f"D = {_matrix(m.D)}"]
+    if (m0.n_in, m0.n_out) == (1, 1):
+        try:
+            plants = [m.channel(0, 0) for m in ident.models]
+        except SpecError:      # too high an order for polynomials: no design from this file
+            plants = None
+        if plants is not None:
+            lines += starting_design(plants, ident.fs)
     return "\n".join(lines) + "\n"
 
 
@@ -323,64 +408,15 @@ def write_identified(ident: Identified, path: str | Path, sources: Sequence[str]
     return path
 
 
-def _err(path, key, msg):
-    return SpecError(f"{path}: [{key}] {msg}")
-
-
-def _array(path, key, value, shape):
-    try:
-        a = np.array(value, dtype=float)
-    except (TypeError, ValueError):
-        raise _err(path, key, f"expected numbers of shape {shape}") from None
-    if a.shape != shape or not np.all(np.isfinite(a)):
-        raise _err(path, key, f"expected finite numbers of shape {shape}, got shape {a.shape}")
-    return a
-
-
 def _modal_models(path, data):
-    allowed = {"format", "inputs", "outputs", "order", "fs_hz", "source", "at"}
-    model = data["model"]
-    if not isinstance(model, dict):
-        raise _err(path, "model", "expected a table")
-    unknown = sorted(set(model) - allowed)
-    if unknown or set(data) - {"model"}:
-        raise _err(path, "model", f"unknown key(s) {unknown or sorted(set(data) - {'model'})};"
-                   f" valid: {', '.join(sorted(allowed))}")
-    if model.get("format") != FORMAT:
-        raise _err(path, "model.format", f"expected {FORMAT!r}, got {model.get('format')!r}")
-    k, m = model.get("inputs"), model.get("outputs")
-    if not (isinstance(k, int) and isinstance(m, int) and k >= 1 and m >= 1):
-        raise _err(path, "model", "inputs and outputs must be integers >= 1")
-    ats = model.get("at")
-    if not isinstance(ats, list) or not ats:
-        raise _err(path, "model.at", "expected at least one [[model.at]] table")
+    table = read_model_table(path, data, design_tables=True)
     out = []
-    for n, at in enumerate(ats):
-        key = f"model.at.{n}"
-        extra = sorted(set(at) - {"temperature_C", "poles_re", "poles_im", "residues_re",
-                                  "residues_im", "D"})
-        if extra:
-            raise _err(path, key, f"unknown key(s) {extra}")
-        missing = [x for x in ("poles_re", "poles_im", "residues_re", "residues_im", "D")
-                   if x not in at]
-        if missing:
-            raise _err(path, key, f"missing key(s) {missing}")
-        pr = _array(path, f"{key}.poles_re", at["poles_re"], (len(at["poles_re"]),))
-        pi = _array(path, f"{key}.poles_im", at["poles_im"], pr.shape)
-        Rr = _array(path, f"{key}.residues_re", at["residues_re"], (pr.size, m, k))
-        Ri = _array(path, f"{key}.residues_im", at["residues_im"], (pr.size, m, k))
-        D = _array(path, f"{key}.D", at["D"], (m, k))
-        T = at.get("temperature_C")
-        if T is not None and (isinstance(T, bool) or not isinstance(T, (int, float))):
-            raise _err(path, f"{key}.temperature_C", f"expected a number, got {T!r}")
+    for n, at in enumerate(table.at):
         try:
-            out.append(ModalModel(pr + 1j * pi, Rr + 1j * Ri, D, label=f"{Path(path).stem}",
-                                  temperature_C=None if T is None else float(T)))
+            out.append(ModalModel(at.poles, at.residues, at.D, label=f"{Path(path).stem}",
+                                  temperature_C=at.temperature_C))
         except SpecError as exc:
-            raise _err(path, key, str(exc)) from None
-    temps = [mm.temperature_C for mm in out]
-    if len(out) > 1 and (None in temps or np.any(np.diff(temps) <= 0)):
-        raise _err(path, "model.at", "several models need increasing temperature_C values")
+            raise SpecError(f"{path}: [model.at.{n}] {exc}") from None
     return tuple(out)
 
 

@@ -35,7 +35,7 @@ import numpy as np
 from scipy import linalg, signal
 
 from robrst.base.errors import SpecError
-from robrst.identify.free import free_columns
+from robrst.identify.free import SIGNIFICANT_SIGMAS, free_columns
 from robrst.identify.modal import DiscreteModel, ModalModel, pair_weight
 from robrst.core.lti import d2c_modal
 
@@ -43,7 +43,8 @@ if TYPE_CHECKING:
     from robrst.data.dataset import Dataset
 
 __all__ = ["FitData", "fit_data", "initial_poles", "vector_fit", "fit_residues",
-           "to_continuous", "EXCITED_DB"]
+           "to_continuous", "EXCITED_DB", "markov_rows", "relative_degree",
+           "output_error_jacobian"]
 
 EXCITED_DB = 40.0   # a DFT line is excited if its input power is within 40 dB of the
                     # strongest line above DC (DC: a bias, not an excitation of the dynamics)
@@ -338,38 +339,105 @@ def _enough(n_eq, n_unknown, order):
                         " (too few excited lines or samples for this order)")
 
 
-def fit_residues(data: FitData, poles: np.ndarray,
-                 feedthrough: bool = False) -> tuple[DiscreteModel, float]:
+def markov_rows(poles: np.ndarray, fs: float, n_in: int, count: int) -> np.ndarray:
+    """Rows ``G`` with ``G x = 0`` for the first ``count`` continuous Markov parameters of
+    every input's channel, ``x`` the real residue unknowns of one output (as
+    :func:`fit_residues` orders them: per input, per pole, real and imaginary parts).
+
+    The continuous residue of a sampled one is ``R = Rd s/(z - 1)`` (:func:`d2c_modal`), and
+    ``h_k = sum R p^k`` over every pole (conjugates included) is the ``k``-th Markov
+    parameter ``C A^k B``: ``h_0 = ... = h_(r-1) = 0`` means a relative degree above ``r``.
+    Rows are scaled by ``w0^-k`` (``w0`` the geometric mean of the pole magnitudes).
+
+    Parameters
+    ----------
+    poles : numpy.ndarray
+        Stored sampled poles.
+    fs : float
+        Sampling rate [Hz].
+    n_in : int
+        Inputs.
+    count : int
+        Markov parameters constrained.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(count * n_in, n_basis * n_in)``.
+    """
+    s, f = d2c_modal(poles, np.ones((poles.size, 1, 1)), fs)
+    f = f[:, 0, 0]
+    mags = np.abs(s[np.abs(s) > 0])
+    w0 = float(np.exp(np.mean(np.log(mags)))) if mags.size else 1.0
+    nb = int(np.sum(pair_weight(poles)))
+    rows = []
+    for k in range(count):
+        g = f * (s / w0) ** k
+        block = []
+        for a, gp in zip(poles, g):
+            block += [2.0 * gp.real, -2.0 * gp.imag] if a.imag > 0 else [gp.real]
+        for j in range(n_in):
+            row = np.zeros(nb * n_in)
+            row[j * nb:(j + 1) * nb] = block
+            rows.append(row)
+    return np.array(rows).reshape(-1, nb * n_in)
+
+
+def fit_residues(data: FitData, poles: np.ndarray, feedthrough: bool = False,
+                 markov: int = 0) -> tuple:
     """Output-error least squares of residues (and D) with the poles fixed.
+
+    ``markov`` > 0 (no feedthrough) constrains the first ``markov`` continuous Markov
+    parameters of every channel to zero (:func:`markov_rows`): a relative degree above
+    ``markov`` in continuous time.
 
     Parameters
     ----------
     data : FitData
-        The prepared records.
     poles : numpy.ndarray
-        The poles in z (stored members).
+        Stored sampled poles.
     feedthrough : bool
         Fit a direct term ``D``.
+    markov : int
 
     Returns
     -------
-    model : DiscreteModel
-        The fitted sampled model.
-    cost : float
-        The summed squared residual.
+    (DiscreteModel, float)
+        The model and the summed squared residual.
     """
+    dm, cost, _ = _fit_residues(data, poles, feedthrough, markov)
+    return dm, cost
+
+
+def _fit_residues(data, poles, feedthrough=False, markov=0):
+    """:func:`fit_residues` plus the equations left over the unknowns (the residual's
+    degrees of freedom)."""
     nb = int(np.sum(pair_weight(poles)))
     k, m = data.n_in, data.n_out
     res = np.zeros((poles.size, m, k), complex)
     D = np.zeros((m, k))
-    cost = 0.0
+    cost, dof = 0.0, 0
+    G = markov_rows(poles, data.fs, k, markov) if markov and not feedthrough else None
     for i in range(m):
         A, b, n_eq = _blocks(data, poles, i, False, feedthrough)
         _enough(n_eq, A.shape[1], nb)
         R, scale = tall_r(np.column_stack([A, b]))
         q = A.shape[1]
-        x = linalg.lstsq(R[:q, :q], R[:q, q])[0] * scale[-1] / scale[:q]
-        cost += float((R[q, q] * scale[-1]) ** 2)
+        dof += n_eq - q
+        if G is None:
+            x = linalg.lstsq(R[:q, :q], R[:q, q])[0] * scale[-1] / scale[:q]
+            cost += float((R[q, q] * scale[-1]) ** 2)
+        else:
+            # x = N y with N spanning the null space of G (in the scaled unknowns)
+            Gs = G / scale[None, :q]
+            _, sv, Vt = np.linalg.svd(Gs)
+            rank = int(np.sum(sv > 1e-12 * sv[0])) if sv.size else 0
+            N = Vt[rank:].T
+            M = R[:q, :q] @ N
+            y = linalg.lstsq(M, R[:q, q])[0]
+            left = R[:q, q] - M @ y
+            x = (N @ y) * scale[-1] / scale[:q]
+            cost += float((float(left @ left) + R[q, q] ** 2) * scale[-1] ** 2)
         for j in range(k):
             c = x[j * nb:(j + 1) * nb]
             q = 0
@@ -382,7 +450,51 @@ def fit_residues(data: FitData, poles: np.ndarray,
                     q += 1
         if feedthrough:
             D[i] = x[nb * k:nb * k + k]
-    return DiscreteModel(poles, res, D, data.fs, pair_weight(poles)), cost
+    return DiscreteModel(poles, res, D, data.fs, pair_weight(poles)), cost, dof
+
+
+def relative_degree(datas: list, poles: list, feedthrough: bool = False,
+                    sigmas: float = SIGNIFICANT_SIGMAS) -> int:
+    """The continuous relative degree the data support, one for every model and channel.
+
+    Starting from 1 (what a sampled fit gives generically: a leading numerator
+    coefficient fitted to the noise puts a zero far beyond Nyquist, e.g. at 1e9 rad/s
+    for a second-order stage), the next Markov parameter of every channel is constrained
+    to zero while that raises the summed output-error energy over ``datas`` (one
+    :class:`FitData` per model, ``poles`` each) by no more than noise would: ``q + sigmas
+    sqrt(2 q)`` noise variances for ``q`` constraints (chi-square's mean plus ``sigmas``
+    standard deviations); the noise variance is the free fit's residual per degree of
+    freedom, pooled.  With ``feedthrough`` the relative degree is 0 (none tested).
+
+    Parameters
+    ----------
+    datas : list of FitData
+        One per model.
+    poles : list of numpy.ndarray
+        Each model's stored sampled poles.
+    feedthrough : bool
+    sigmas : float
+
+    Returns
+    -------
+    int
+        The number of leading Markov parameters set to zero (0: relative degree 1).
+    """
+    if feedthrough:
+        return 0
+    free = [_fit_residues(d, p) for d, p in zip(datas, poles)]
+    base = sum(c for _, c, _ in free)
+    var = base / max(sum(f for *_, f in free), 1)
+    order = min(int(np.sum(pair_weight(p))) for p in poles)
+    per = sum(d.n_in * d.n_out for d in datas)
+    r = 0
+    while r + 1 < order:
+        q = (r + 1) * per
+        cost = sum(_fit_residues(d, p, markov=r + 1)[1] for d, p in zip(datas, poles))
+        if not cost - base <= (q + sigmas * np.sqrt(2.0 * q)) * var:
+            break
+        r += 1
+    return r
 
 
 def to_continuous(dmodel: DiscreteModel, label: str = "identified",
@@ -415,3 +527,140 @@ def to_continuous(dmodel: DiscreteModel, label: str = "identified",
                         " no continuous-time counterpart (too high an order for the data?)")
     s, residues = d2c_modal(z, dmodel.residues, dmodel.fs)
     return ModalModel(s, residues, dmodel.D, label=label, temperature_C=temperature_C)
+
+
+def _pole_theta(poles):
+    """Real parameters of stored sampled poles: ``(ln|z|, arg z)`` per pair, ``ln z`` per
+    real pole (positive: a negative one has no continuous counterpart)."""
+    out = []
+    for a in poles:
+        out += [np.log(abs(a)), np.angle(a)] if a.imag > 0 else [np.log(abs(a.real))]
+    return np.array(out)
+
+
+def _theta_poles(theta, template):
+    out, k = [], 0
+    for a in template:
+        if a.imag > 0:
+            out.append(np.exp(theta[k] + 1j * theta[k + 1]))
+            k += 2
+        else:
+            out.append(np.exp(theta[k]) + 0j)
+            k += 1
+    return np.array(out, complex)
+
+
+def _x_of(dm, feedthrough):
+    """Per output, the real unknowns of :func:`fit_residues` (its column order)."""
+    xs = []
+    for i in range(dm.D.shape[0]):
+        x = []
+        for j in range(dm.D.shape[1]):
+            for p, a in enumerate(dm.zpoles):
+                R = dm.residues[p, i, j]
+                x += [R.real, R.imag] if a.imag > 0 else [R.real]
+        if feedthrough:
+            x += list(dm.D[i])
+        xs.append(np.array(x))
+    return xs
+
+
+def output_error_jacobian(data: FitData, dm: DiscreteModel, feedthrough: bool = False,
+                          markov: int = 0, step: float = 1e-7) -> tuple:
+    """The output-error least-squares problem of a fitted sampled model, linearised.
+
+    Parameters are ``theta = [pole parameters (ln|z|, arg z per pair; ln z per real
+    pole), then per output the residue unknowns]`` (in the null space of the Markov
+    constraints when ``markov`` > 0, :func:`markov_rows`).  The residual is the stacked
+    output error of every output (a time record's nuisance terms eliminated, as in the
+    fit).  The pole columns are central differences.
+
+    Parameters
+    ----------
+    data : FitData
+        What ``dm`` was fitted on.
+    dm : DiscreteModel
+        The fit.
+    feedthrough : bool
+    markov : int
+        Markov parameters constrained in the fit.
+    step : float
+        Relative step of the central differences.
+
+    Returns
+    -------
+    J : ndarray (rows, parameters)
+    r : ndarray (rows,)
+        The residual at ``dm``.
+    theta : ndarray
+    model_of : callable
+        ``theta -> DiscreteModel``.
+    dof : int
+        Equations left over the parameters.
+    """
+    poles = dm.zpoles
+    k, m = data.n_in, data.n_out
+    tp = _pole_theta(poles)
+    G = markov_rows(poles, data.fs, k, markov) if markov and not feedthrough else None
+    Ns, ys = [], []
+    for x in _x_of(dm, feedthrough):
+        if G is None:
+            N = np.eye(x.size)
+        else:
+            Gp = np.hstack([G, np.zeros((G.shape[0], x.size - G.shape[1]))])
+            _, sv, Vt = np.linalg.svd(Gp)
+            N = Vt[int(np.sum(sv > 1e-12 * sv[0])):].T
+        Ns.append(N)
+        ys.append(N.T @ x)
+    nb = int(np.sum(pair_weight(poles)))
+
+    def blocks(p):
+        return [_blocks(data, p, i, False, feedthrough) for i in range(m)]
+
+    def residual(p, ys_):
+        return np.concatenate([b - A @ (N @ y) for (A, b, _), N, y in zip(blocks(p), Ns, ys_)])
+
+    base = blocks(poles)
+    r = np.concatenate([b - A @ (N @ y) for (A, b, _), N, y in zip(base, Ns, ys)])
+    cols = []
+    for q in range(tp.size):
+        h = step * max(1.0, abs(tp[q]))
+        up, dn = tp.copy(), tp.copy()
+        up[q] += h
+        dn[q] -= h
+        cols.append((residual(_theta_poles(up, poles), ys)
+                     - residual(_theta_poles(dn, poles), ys)) / (2 * h))
+    rows = r.size
+    lin = []
+    off = 0
+    for (A, _, _), N in zip(base, Ns):
+        blk = np.zeros((rows, N.shape[1]))
+        blk[off:off + A.shape[0]] = -A @ N
+        off += A.shape[0]
+        lin.append(blk)
+    J = np.column_stack(cols + lin)
+    n_eq = sum(n for _, _, n in base)
+    theta = np.concatenate([tp] + ys)
+
+    def model_of(th):
+        p = _theta_poles(th[:tp.size], poles)
+        res = np.zeros((poles.size, m, k), complex)
+        D = np.zeros((m, k))
+        o = tp.size
+        for i, N in enumerate(Ns):
+            x = N @ th[o:o + N.shape[1]]
+            o += N.shape[1]
+            for j in range(k):
+                c, q = x[j * nb:(j + 1) * nb], 0
+                for pi, a in enumerate(p):
+                    if a.imag > 0:
+                        res[pi, i, j] = c[q] + 1j * c[q + 1]
+                        q += 2
+                    else:
+                        res[pi, i, j] = c[q]
+                        q += 1
+            if feedthrough:
+                D[i] = x[nb * k:nb * k + k]
+        return DiscreteModel(p, res, D, data.fs, pair_weight(p))
+
+    return J, r, theta, model_of, max(n_eq - theta.size, 1)

@@ -10,8 +10,12 @@ import os
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
+
 from robrst.base import resources
 from robrst.base.errors import SpecError
+from robrst.base.modelformat import read_model_table
+from robrst.core.lti import modal_polynomials
 from robrst.core.family import PlantFamily, ThermalCoefficients, explicit_family, parametric_family
 from robrst.core.plant import Plant, named_plant
 from robrst.problem.records import (AUX_MIN_FACTOR, HOMOTOPIES, INITS, METHODS, OBJECTIVES,
@@ -23,7 +27,7 @@ from robrst.problem.checks import (MAX_RATE, MIN_RATE, MIN_RATE_HZ, check_combin
                               check_pairs, check_rates, pole_spec)
 
 __all__ = ["load_problem", "parse_problem", "resolve_problem_path", "SCHEMA", "schema_markdown",
-           "FAMILY_TABLES"]
+           "FAMILY_TABLES", "model_document"]
 
 TEMP = dict(lo=-100.0, hi=500.0)      # plausible temperatures [°C]
 BAND = dict(positive=True, length=2)  # [lo, hi] pairs
@@ -306,6 +310,57 @@ def _check_compare_with(path, solver):
                         ) from None
 
 
+def model_document(path: str | os.PathLike, data: dict) -> dict:
+    """The problem document of a model file of ``robrst identify`` (``[model]``).
+
+    One input and one output: its ``[[model.at]]`` become ``[plant]`` (the first, lowest
+    temperature: the reference) and, for several temperatures, an explicit ``[family]``,
+    as ``robrst identify`` writes a problem file; the design tables the file carries
+    (:data:`robrst.base.modelformat.DESIGN_TABLES`) are kept.
+
+    Parameters
+    ----------
+    path : str or Path
+        Named in every error.
+    data : dict
+        The parsed model file.
+
+    Returns
+    -------
+    dict
+        A problem document (:func:`parse_problem` takes it).
+
+    Raises
+    ------
+    SpecError
+        Naming the file and the key: a bad ``[model]`` table, several inputs or outputs,
+        ``[plant]`` or ``[family]`` beside it, an order whose expanded polynomials overflow.
+    """
+    table = read_model_table(path, data, design_tables=True)
+    if (table.inputs, table.outputs) != (1, 1):
+        raise key_error(path, ("model",), f"a model of {table.inputs} input(s) and"
+                        f" {table.outputs} output(s); a problem needs one input and one"
+                        " output (robrst identify --channel I,J writes the problem file of"
+                        " one channel)")
+    polys = []
+    for n, at in enumerate(table.at):
+        B, A = modal_polynomials(at.poles, at.residues[:, 0, 0], at.D[0, 0])
+        if not (np.all(np.isfinite(A)) and np.all(np.isfinite(B))):
+            raise key_error(path, ("model", "at", str(n)), f"its expanded polynomials B(s),"
+                            f" A(s) of order {len(A) - 1} overflow float64; a design needs"
+                            " them (identify a lower order)")
+        polys.append((B.tolist(), A.tolist(), at.temperature_C))
+    doc = {k: v for k, v in data.items() if k != "model"}
+    B, A, T0 = polys[0]
+    doc["plant"] = {"B": B, "A": A, "source": "model file (robrst identify)"}
+    if T0 is not None:
+        doc["plant"]["temperature_C"] = T0
+    if len(polys) > 1:
+        doc["family"] = {"reference_C": T0, "models": [
+            {"temperature_C": T, "B": B, "A": A} for B, A, T in polys]}
+    return doc
+
+
 def parse_problem(data: dict, path: str | Path = "<problem>", compare: bool = True) -> Problem:
     """Validate a parsed TOML document and build the :class:`~robrst.problem.records.Problem`.
 
@@ -327,6 +382,8 @@ def parse_problem(data: dict, path: str | Path = "<problem>", compare: bool = Tr
     SpecError
         Naming the file and the key path of the first problem found.
     """
+    if isinstance(data, dict) and "model" in data:    # a model file of robrst identify
+        data = model_document(path, data)
     v = validate(path, data, SCHEMA)
     explicit = v["plant"] is None and v["family"] is not None and v["family"]["models"]
     nominal = None if explicit else _plant(path, v["plant"])

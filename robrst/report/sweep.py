@@ -195,11 +195,15 @@ def sweep_text(summary: dict) -> str:
     s = summary
     lines = [f"sweep {s['sweep']} ({s['kind']}): {s['done']}/{s['n']} variants"
              f"{'' if s['complete'] else ' (incomplete: run again to resume)'},"
-             f" {s['workers']} workers, {s['wall_s']:.1f} s"]
+             f" {'in this process' if s.get('executor') == 'in_process' else str(s['workers']) + ' workers'},"
+             f" {s['wall_s']:.1f} s"]
     if s["yield"] is not None:
         lo, hi = s["yield_ci95"]
         lines.append(f"certified: {s['certified']} of {s['done']}, yield {s['yield']:.4f}"
                      f" (95 % interval {lo:.4f}..{hi:.4f}); failed: {s['failed']}")
+    if s.get("unstable"):
+        lines.append(f"unstable: {s['unstable']} of {s['done']} (a loop unstable on some model:"
+                     " no peaks or margins for it, figure/bound inf)")
     for k in ("Ms", "Mt", "Mu", "Mt_band", "integral_gain"):
         if k in s["figures"]:
             v = s["figures"][k]

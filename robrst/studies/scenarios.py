@@ -17,7 +17,6 @@ import numpy as np
 from robrst.data.dataset import Dataset
 from robrst.design import analytic_design, run_problem
 from robrst.base.errors import SpecError
-from robrst.core.plant import named_plant
 from robrst.core.rst import discretize
 from robrst.problem.files import load_problem
 from robrst.twin.model import build_model
@@ -169,7 +168,7 @@ def _harmonic(cfg, sim, freqs, T, amp, offset, closed=False, dctrl=None):
 
 def fig45(cfg, ctrls, fast=False):
     fs = cfg.sample_rate_hz
-    D = named_plant(cfg.plant)
+    D = cfg.linear_plant
     n = int(0.06 * fs)
     t = np.arange(n) / fs
     metrics, ds, curves = {}, {}, {}

@@ -16,7 +16,7 @@ import numpy as np
 
 from robrst.core import poly
 from robrst.base.errors import CoprimeError, DegreeError, SpecError
-from robrst.core.plant import Plant
+from robrst.core.plant import Plant, as_plant
 from robrst.problem.records import AUX_MIN_FACTOR, ControllerStructure, PoleSpec
 from robrst.core.rst import RSTController
 
@@ -461,6 +461,7 @@ def pole_placement(plant: Plant, poles: PoleSpec,
     >>> float(d.controller.S[-1]), d.cond < 1e3      # integrator in S; well conditioned
     (0.0, True)
     """
+    plant = as_plant(plant)          # a python-control system too
     Sf, Rf = poly.trim(structure.S_total), poly.trim(structure.R_fixed)
     degree = closed_loop_degree(plant.n, plant.m, Sf, Rf, structure.extra_degree,
                                 structure.controller_relative_degree)

@@ -21,7 +21,8 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
-__all__ = ["Loop", "compile_loop", "cache_dir"]
+__all__ = ["Loop", "compile_loop", "cache_dir", "ControlledLoop", "compile_controlled_loop",
+           "compiler"]
 
 _DRIVER = r"""
 #include <stdlib.h>
@@ -116,6 +117,19 @@ class Loop:
         return np.hstack(outs), x
 
 
+def compiler() -> str | None:
+    """The C compiler robrst uses.
+
+    Returns
+    -------
+    str or None
+        ``$CC``, gcc or cc; ``None`` without one (also with ``ROBRST_NO_COMPILE`` set).
+    """
+    if os.environ.get("ROBRST_NO_COMPILE"):
+        return None
+    return shutil.which(os.environ.get("CC", "gcc")) or shutil.which("cc")
+
+
 def compile_loop(step: ca.Function, flags: Sequence[str] = ("-O2",)) -> Loop:
     """A :class:`Loop` for ``step``; compiled when a C compiler works, else the VM.
 
@@ -131,8 +145,8 @@ def compile_loop(step: ca.Function, flags: Sequence[str] = ("-O2",)) -> Loop:
     Loop
         The same numbers either way (the compiled loop is cached by the step's hash).
     """
-    cc = shutil.which(os.environ.get("CC", "gcc")) or shutil.which("cc")
-    if cc is None or os.environ.get("ROBRST_NO_COMPILE"):
+    cc = compiler()
+    if cc is None:
         return Loop(step)
     name = step.name()
     with tempfile.TemporaryDirectory() as tmp:
@@ -161,3 +175,215 @@ def compile_loop(step: ca.Function, flags: Sequence[str] = ("-O2",)) -> Loop:
     lib = ctypes.CDLL(str(out))
     lib.robrst_loop.restype = ctypes.c_int
     return Loop(step, lib)
+
+
+_CL_DRIVER = r"""
+#include <stdlib.h>
+#include <string.h>
+#include "HEADER"
+static int robrst_call(int (*f)(const casadi_real**, casadi_real**, casadi_int*, casadi_real*, int),
+                       const casadi_real** arg, casadi_real** res, casadi_int* iw,
+                       casadi_real* w) {
+  return f(arg, res, iw, w, 0);
+}
+int robrst_cl_loop(long N, double* x, const double* P, const double* theta, double* Y,
+                   long delay) {
+  casadi_int a1, r1, i1, w1, a2, r2, i2, w2;
+  STEP_work(&a1, &r1, &i1, &w1);
+  OUT_work(&a2, &r2, &i2, &w2);
+  casadi_int na = (a1 > a2 ? a1 : a2) + 3, nr = (r1 > r2 ? r1 : r2) + 2;
+  casadi_int ni = (i1 > i2 ? i1 : i2) + 1, nw = (w1 > w2 ? w1 : w2) + 1;
+  const casadi_real** arg = malloc(sizeof(casadi_real*) * na);
+  casadi_real** res = malloc(sizeof(casadi_real*) * nr);
+  casadi_int* iw = malloc(sizeof(casadi_int) * ni);
+  casadi_real* w = malloc(sizeof(casadi_real) * nw);
+  double* pend = calloc((size_t)(delay + 1), sizeof(double));
+  casadi_real xn[NX], p[3], yo[1], out[NY];
+  PREFIX_state st;
+  int flag = 0;
+  PREFIX_init(&st);
+  for (long k = 0; k < N; ++k) {
+    double u, ua;
+    p[0] = 0.0; p[1] = P[3 * k + 1]; p[2] = P[3 * k + 2];
+    arg[0] = x; arg[1] = p; arg[2] = theta; res[0] = yo;
+    if (robrst_call(OUT, arg, res, iw, w)) { flag = 1; break; }
+    u = (double) PREFIX_step(&st, (PREFIX_real) P[3 * k], (PREFIX_real) yo[0]);
+    ua = u;
+    if (delay > 0) {
+      ua = pend[0];
+      memmove(pend, pend + 1, sizeof(double) * (size_t)(delay - 1));
+      pend[delay - 1] = u;
+    }
+    p[0] = ua;
+    arg[0] = x; arg[1] = p; arg[2] = theta; res[0] = xn; res[1] = out;
+    if (robrst_call(STEP, arg, res, iw, w)) { flag = 1; break; }
+    memcpy(x, xn, sizeof(casadi_real) * NX);
+    Y[4 * k] = out[0]; Y[4 * k + 1] = out[1]; Y[4 * k + 2] = out[2]; Y[4 * k + 3] = u;
+  }
+  free(arg); free(res); free(iw); free(w); free(pend);
+  return flag;
+}
+"""
+
+
+class ControlledLoop:
+    """The twin's step in closed loop with a digital controller, sample by sample.
+
+    Each sample: the measured output at the sample (``output``), the controller's command
+    for ``(yr, y)``, held over the sample after ``delay`` samples of computation delay,
+    then the twin's ``step``.  ``lib``: the twin's C and the controller's own C compiled
+    together (:func:`compile_controlled_loop`); else ``py_step(yr, y) -> u``, a Python step
+    with the same arithmetic, around CasADi's VM (slower, the same numbers).
+
+    Parameters
+    ----------
+    step, output : casadi.Function
+        The twin's step and its measurement at the sample.
+    delay : int
+        Computation delay [samples].
+    lib : ctypes.CDLL, optional
+        The compiled loop.
+    py_step : callable, optional
+        ``step(yr, y) -> u``.
+
+    Raises
+    ------
+    ValueError
+        Neither ``lib`` nor ``py_step``.
+    """
+
+    def __init__(self, step: object, output: object, delay: int = 0, lib: object = None,
+                 py_step: object = None):
+        if lib is None and py_step is None:
+            raise ValueError("ControlledLoop needs a compiled library or a Python step")
+        self.step, self.output, self.lib, self.py_step = step, output, lib, py_step
+        self.delay = int(delay)
+        self.nx = step.size1_in(0)
+        self.is_compiled = lib is not None
+
+    def __call__(self, P: np.ndarray, x0: np.ndarray, theta: np.ndarray) -> tuple:
+        """Run the loop over the columns of ``P``.
+
+        Parameters
+        ----------
+        P : numpy.ndarray
+            ``3 x N``: reference, temperature, noise per sample.
+        x0 : numpy.ndarray
+            The twin's initial state.
+        theta : numpy.ndarray
+            The twin's parameters.
+
+        Returns
+        -------
+        (numpy.ndarray, numpy.ndarray)
+            Outputs ``(4 x N)`` — measured and true output [µm], applied and commanded
+            voltage [V] — and the final state.
+
+        Raises
+        ------
+        RuntimeError
+            The compiled step failed.
+        """
+        N = P.shape[1]
+        x = np.ascontiguousarray(x0, dtype=float).copy()
+        th = np.ascontiguousarray(theta, dtype=float)
+        if self.lib is not None:
+            Pc = np.ascontiguousarray(P.T, dtype=float)
+            Y = np.empty((N, 4))
+            dp = ctypes.POINTER(ctypes.c_double)
+            flag = self.lib.robrst_cl_loop(ctypes.c_long(N), x.ctypes.data_as(dp),
+                                           Pc.ctypes.data_as(dp), th.ctypes.data_as(dp),
+                                           Y.ctypes.data_as(dp), ctypes.c_long(self.delay))
+            if flag:
+                raise RuntimeError("compiled closed-loop twin step failed")
+            return Y.T, x
+        Y = np.empty((4, N))
+        pend = [0.0] * self.delay
+        for k in range(N):
+            p = np.array([0.0, P[1, k], P[2, k]])
+            y = float(self.output(x, p, th))
+            u = float(self.py_step(P[0, k], y))
+            pend.append(u)
+            p[0] = pend.pop(0)
+            xn, out = self.step(x, p, th)
+            x = np.asarray(xn, float).ravel()
+            out = np.asarray(out, float).ravel()
+            Y[:3, k], Y[3, k] = out[:3], u
+        return Y, x
+
+
+def compile_controlled_loop(step: object, output: object, files: dict, header: str,
+                            prefix: str, real: str = "double", delay: int = 0,
+                            flags: tuple = ("-O2", "-ffp-contract=off")) -> object:
+    """A compiled :class:`ControlledLoop`: the twin's ``step`` and ``output`` (CasADi code
+    generation) with a controller's own C files, or ``None`` without a working compiler.
+
+    Parameters
+    ----------
+    step, output : casadi.Function
+        ``(x, [u, T, noise], theta) -> (x+, [y_meas, y_true, u_applied])`` and
+        ``(x, p, theta) -> y_meas`` (a strictly proper plant: ``y`` at the sample).
+    files : dict
+        ``{file name: text}`` of the controller's C (its header and source).
+    header : str
+        The header's file name (included by the driver).
+    prefix : str
+        The controller's C prefix: ``<prefix>_state``, ``<prefix>_init``,
+        ``<prefix>_step``, ``<PREFIX>_REAL``.
+    real : {"double", "float"}
+        The controller's arithmetic (``-D<PREFIX>_REAL=...``).
+    delay : int
+        Computation delay [samples].
+    flags : tuple of str
+        Compiler flags (no FMA contraction: the controller's operations as written).
+
+    Returns
+    -------
+    ControlledLoop or None
+
+    Raises
+    ------
+    RuntimeError
+        The compiler refused the sources (its first lines in the message).
+    """
+    cc = compiler()
+    if cc is None:
+        return None
+    with tempfile.TemporaryDirectory() as tmp:
+        cg = ca.CodeGenerator("twin_cl.c", {"with_header": False})
+        cg.add(step)
+        cg.add(output)
+        cg.generate(tmp + os.sep)
+        twin_src = Path(tmp, "twin_cl.c").read_text()
+    P = prefix.upper()
+    driver = (_CL_DRIVER.replace("HEADER", header).replace("STEP", step.name())
+              .replace("OUT", output.name()).replace("NX", str(step.size1_in(0)))
+              .replace("NY", str(step.size1_out(1))).replace("PREFIX_state", f"{prefix}_state")
+              .replace("PREFIX_init", f"{prefix}_init").replace("PREFIX_step", f"{prefix}_step")
+              .replace("PREFIX_real", f"{prefix}_real"))
+    defines = (f"-D{P}_REAL={real}",)
+    twin_src = twin_src + driver      # one unit: the driver calls the generated functions
+    key_src = "\n".join([twin_src, *(files[k] for k in sorted(files)),
+                         " ".join(flags + defines)])
+    key = hashlib.sha256(key_src.encode()).hexdigest()[:16]
+    out = cache_dir() / f"twin_cl_{key}.so"
+    if not out.exists():
+        out.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryDirectory() as tmp:
+            for name, text in files.items():
+                Path(tmp, name).write_text(text)
+            Path(tmp, "twin_cl.c").write_text(twin_src)
+            sources = [str(Path(tmp, n)) for n in files if n.endswith(".c")]
+            so = Path(tmp, "f.so")
+            r = subprocess.run([cc, *flags, *defines, "-shared", "-fPIC", "-o", str(so),
+                                str(Path(tmp, "twin_cl.c")), *sources, "-lm"],
+                               capture_output=True, text=True)
+            if r.returncode != 0:
+                raise RuntimeError(f"compiling the controller with the twin failed:"
+                                   f" {r.stderr.strip()[:400]}")
+            tmp_out = out.with_suffix(f".{os.getpid()}.tmp")
+            shutil.copyfile(so, tmp_out)
+            os.replace(tmp_out, out)
+    lib = ctypes.CDLL(str(out))
+    lib.robrst_cl_loop.restype = ctypes.c_int
+    return ControlledLoop(step, output, delay, lib=lib)

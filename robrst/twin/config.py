@@ -13,11 +13,12 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 from robrst.base import resources
 from robrst.base.errors import SpecError
-from robrst.core.plant import named_plant
+from robrst.core.plant import NAMED_PLANTS, Plant, as_plant, named_plant
 from robrst.base.schema import Field, key_error, load_toml, validate
 
 if TYPE_CHECKING:
@@ -33,7 +34,10 @@ _SRC = Field("str", "", "")
 TWIN_SCHEMA = {
     "twin": {
         "name": Field("str", "twin", "name"),
-        "plant": Field("str", "paper", "built-in nominal linear model (D(s) of eq. 4)"),
+        "plant": Field("str", "paper", "the linear plant: 'paper' (D(s) of eq. 4), or a problem"
+                       " file or model file of robrst identify (its reference model; a path"
+                       " relative to the twin file); with a file, the effects whose tables"
+                       " the twin file leaves out are off"),
         "sample_rate_hz": Field("number", None, "simulation and control sampling rate [Hz]"
                                 " (default 20000)", positive=True, hi=1e8),
         "fs_hz": Field("number", None, "older name of sample_rate_hz", positive=True, hi=1e8),
@@ -99,7 +103,8 @@ class TwinConfig:
     name : str
         The twin's name.
     plant : str
-        The built-in nominal linear model (``"paper"``: D(s) of eq. 4).
+        The nominal linear model: a built-in name (``"paper"``: D(s) of eq. 4), or the
+        label of ``plant_model``.
     sample_rate_hz : float
         Simulation and control sampling rate [Hz].
     reference_C : float
@@ -108,11 +113,16 @@ class TwinConfig:
         ``effects[name]`` is a dict of that effect's parameters including ``enabled``.
     path : str
         The twin file (``"<default>"`` for the built-in defaults).
+    plant_model : Plant, optional
+        The user's linear plant (a plant file, :meth:`with_plant`); ``None``: the built-in
+        ``plant``.
 
     Attributes
     ----------
     dt : float
         The sampling period [s].
+    linear_plant : Plant
+        The nominal linear model in use.
     """
 
     name: str = "twin"
@@ -121,6 +131,44 @@ class TwinConfig:
     reference_C: float = 28.0
     effects: dict = field(default_factory=dict)
     path: str = "<default>"
+    plant_model: object = None
+
+    @property
+    def linear_plant(self):
+        """The nominal linear model ``D(s)`` (a :class:`~robrst.core.plant.Plant`): the
+        user's (:meth:`with_plant`, a plant file) or the built-in one named ``plant``."""
+        return self.plant_model if self.plant_model is not None else named_plant(self.plant)
+
+    def with_plant(self, plant: object, reference_C: float | None = None,
+                   name: str | None = None) -> "TwinConfig":
+        """Copy whose linear part is ``plant``: a :class:`~robrst.core.plant.Plant` or a SISO
+        continuous python-control ``TransferFunction``/``StateSpace`` (a discrete one is read
+        as :meth:`~robrst.core.plant.Plant.from_control` reads it: its continuous plant).
+
+        Parameters
+        ----------
+        plant : Plant or control.TransferFunction or control.StateSpace
+        reference_C : float, optional
+            Temperature [°C] at which ``plant`` holds (default its ``temperature_C``, else
+            this twin's).
+        name : str, optional
+            The ``plant`` label (default the plant's label).
+
+        Returns
+        -------
+        TwinConfig
+
+        Examples
+        --------
+        >>> import control
+        >>> twin = default_twin().with_effects(only=[]).with_plant(control.tf([2.0], [1e-3, 1.0]))
+        >>> round(float(twin.linear_plant.dc_gain), 12)
+        2.0
+        """
+        p = as_plant(plant, "plant")
+        ref = reference_C if reference_C is not None else (
+            p.temperature_C if p.temperature_C is not None else self.reference_C)
+        return replace(self, plant=name or p.label, plant_model=p, reference_C=float(ref))
 
     def enabled(self, name: str) -> bool:
         """Whether effect ``name`` is on.
@@ -188,15 +236,38 @@ class TwinConfig:
         return 1.0 / self.sample_rate_hz
 
 
-def parse_twin(data: dict, path: str = "<twin>") -> TwinConfig:
+def _plant_file(path, name, plant_loader):
+    """``(Plant, reference °C, per-kelvin law or None)`` of ``[twin] plant = name``, a file
+    (relative to the twin file) or what ``plant_loader`` knows by name."""
+    if plant_loader is None:
+        raise key_error(path, ("twin", "plant"), f"unknown plant name {name!r}; expected one of"
+                        f" {sorted(NAMED_PLANTS)}, or a problem or model file (read by"
+                        " robrst.load_twin)")
+    target = Path(name)
+    if not target.is_absolute() and not str(path).startswith("<"):
+        near = Path(str(path)).parent / target
+        target = near if near.exists() or not target.exists() else target
+    try:
+        return plant_loader(target)
+    except SpecError as exc:
+        raise key_error(path, ("twin", "plant"), str(exc)) from None
+
+
+def parse_twin(data: dict, path: str = "<twin>", plant_loader: object = None) -> TwinConfig:
     """Validate a parsed twin TOML document; see :func:`load_twin`.
 
     Parameters
     ----------
     data : dict
-        The parsed document.
+        The parsed TOML.
     path : str
-        The file, named in errors.
+        Named in every error.
+    plant_loader : callable, optional
+        ``plant_loader(path) -> (Plant, reference_C, law)`` reads a ``[twin] plant`` that is
+        a file (a problem file or a model file: :func:`robrst.studies.twins.load_twin`
+        passes one); ``law`` is the family's per-kelvin law (``gain_per_K``,
+        ``resonance_per_K``, ``damping_per_K``) or ``None``, the default of
+        ``[thermal_dynamics]``.
 
     Returns
     -------
@@ -207,18 +278,31 @@ def parse_twin(data: dict, path: str = "<twin>") -> TwinConfig:
     SpecError
         Naming the file and the key: unknown keys, values out of range, both
         ``sample_rate_hz`` and ``fs_hz``, Bouc–Wen parameters without a loop,
-        ``tau_max_s <= tau_min_s``, ``u_max <= u_min``, an unknown plant.
+        ``tau_max_s <= tau_min_s``, ``u_max <= u_min``, an unknown plant or a plant file
+        that cannot be read (``[twin.plant]``), a plant with feedthrough.
     """
     v = validate(path, data, TWIN_SCHEMA)
     tw = v["twin"] or validate(path, {}, TWIN_SCHEMA["twin"], ("twin",))
-    effects = {k: dict(v[k] or validate(path, {}, TWIN_SCHEMA[k], (k,))) for k in EFFECTS}
+    user = tw["plant"] not in NAMED_PLANTS
+    plant_model, law = None, None
+    if user:
+        plant_model, ref, law = _plant_file(path, tw["plant"], plant_loader)
+        if "reference_C" not in (data.get("twin") or {}):
+            tw = {**tw, "reference_C": float(ref if ref is not None else tw["reference_C"])}
+    effects = {}
+    for k in EFFECTS:
+        given = v[k] is not None
+        eff = dict(v[k] or validate(path, {}, TWIN_SCHEMA[k], (k,)))
+        if k == "thermal_dynamics" and user:
+            raw = data.get(k) or {}
+            eff.update({q: float((law or {}).get(q, 0.0)) for q in
+                        ("gain_per_K", "resonance_per_K", "damping_per_K") if q not in raw})
+        if user and not given:      # a user's plant: only the effects the file switches on
+            eff["enabled"] = False
+        effects[k] = eff
     if tw["fs_hz"] is not None and tw["sample_rate_hz"] is not None:
         raise key_error(path, ("twin", "fs_hz"), "give sample_rate_hz only (fs_hz is its older name)")
     rate = tw["sample_rate_hz"] or tw["fs_hz"] or DEFAULT_RATE_HZ
-    try:
-        named_plant(tw["plant"])
-    except SpecError as exc:
-        raise key_error(path, ("twin", "plant"), str(exc)) from None
     if effects["creep"]["tau_max_s"] <= effects["creep"]["tau_min_s"]:
         raise key_error(path, ("creep", "tau_max_s"), "must exceed tau_min_s")
     if effects["saturation"]["u_max"] <= effects["saturation"]["u_min"]:
@@ -232,17 +316,24 @@ def parse_twin(data: dict, path: str = "<twin>") -> TwinConfig:
     d = effects["thermal_drift"]
     if d["B"] + d["Gamma"] <= 0 or abs(d["Gamma"]) > d["B"] + 1e-15:
         raise key_error(path, ("thermal_drift",), "needs B + Gamma > 0 and |Gamma| <= B")
+    if user and not plant_model.m < plant_model.n:
+        raise key_error(path, ("twin", "plant"), "the twin needs a strictly proper plant (no"
+                        " feedthrough: y(k) must not depend on u(k))")
     return TwinConfig(name=tw["name"], plant=tw["plant"], sample_rate_hz=rate,
-                      reference_C=tw["reference_C"], effects=effects, path=str(path))
+                      reference_C=tw["reference_C"], effects=effects, path=str(path),
+                      plant_model=plant_model)
 
 
-def load_twin(path: str | Path) -> TwinConfig:
+def load_twin(path: str | Path, plant_loader: object = None) -> TwinConfig:
     """Load and validate a twin TOML file (errors name the file and the key).
 
     Parameters
     ----------
     path : str or pathlib.Path
         The twin file (the shipped one: :func:`robrst.base.resources.builtin_twin`).
+    plant_loader : callable, optional
+        Reads a ``[twin] plant`` that is a file (see :func:`parse_twin`);
+        :func:`robrst.studies.twins.load_twin` (``robrst.load_twin``) passes one.
 
     Returns
     -------
@@ -253,7 +344,7 @@ def load_twin(path: str | Path) -> TwinConfig:
     SpecError
         A missing or invalid file (see :func:`parse_twin`).
     """
-    return parse_twin(load_toml(path, "twin file"), str(path))
+    return parse_twin(load_toml(path, "twin file"), str(path), plant_loader)
 
 
 def default_twin() -> TwinConfig:

@@ -9,8 +9,11 @@ Signal chain (eq. 2 of the paper, ``y = D_T(s) (v + u_c + u_T)``)::
 The step maps ``(state, [u_cmd, T_amb, noise], theta) -> (state+, [y_meas, y_true, u_a])``.
 ``theta`` holds every continuous parameter (so identification can free any of them);
 structure (delay length, creep time constants, which effects exist) is fixed at build
-time.  The linear part is a controllable-canonical realisation in the scaled time
-``p = w0 t`` (O(1) coefficients) advanced by RK4 with the input held over the sample.
+time.  The linear part is exact: the zero-order-hold discretisation of ``D(s)`` (a
+balanced realisation in scaled time, :func:`robrst.core.lti.zoh`) when
+``thermal_dynamics`` is off; with it on, ``D_T`` changes with the stack temperature and is
+a controllable-canonical realisation in the scaled time ``p = w0 t`` (O(1) coefficients)
+advanced by RK4 with the input held over the sample.
 """
 
 from __future__ import annotations
@@ -22,7 +25,6 @@ import casadi as ca
 import numpy as np
 
 from robrst.core import lti, poly
-from robrst.core.plant import named_plant
 from robrst.core.thermal import modal_form, thermal_polynomials
 
 if TYPE_CHECKING:
@@ -147,6 +149,16 @@ def hysteresis_gain(A: float, B: float, G: float, lo: float, hi: float, n: int =
     return float(1.0 / slope)
 
 
+def _exact_step(plant, dt, xl, wtot):
+    """Exact ZOH step of ``D(s)`` (no thermal change: the linear part is time-invariant);
+    returns (next state, output at this sample).  The input is held over the sample, as a
+    DAC holds it: the twin's linear part is then exactly the sampled plant a controller
+    sees (:func:`robrst.core.lti.zoh`, balanced scaled realisation)."""
+    z = lti.zoh(plant.B, plant.A, 1.0 / dt)
+    y_true = ca.mtimes(ca.DM(z.C), xl) + float(z.d) * wtot
+    return ca.mtimes(ca.DM(z.Ad), xl) + ca.DM(z.Bd) * wtot, y_true
+
+
 def _linear_step(plant, w0, dt, xl, wtot, dT_lin, P):
     """RK4 step of ``D_T`` in scaled time; returns (next state, output at this sample).
 
@@ -207,7 +219,7 @@ def build_model(config: TwinConfig, plant: Plant | None = None, linear: bool = T
     """
     eff = config.effects
     on = {k: bool(v["enabled"]) for k, v in eff.items()}
-    plant = named_plant(config.plant) if plant is None else plant
+    plant = config.linear_plant if plant is None else plant
     n = plant.n
     w0 = poly.natural_scale(plant.A)
     dt = config.dt
@@ -284,8 +296,10 @@ def build_model(config: TwinConfig, plant: Plant | None = None, linear: bool = T
     else:
         c_next, u_c = xs["creep"], 0.0
     wtot = v + u_c + u_T
-    if linear:
-        xl, y_true = _linear_step(plant, w0, dt, xs["lin"], wtot, dT if on["thermal_dynamics"] else 0.0, P)
+    if linear and not on["thermal_dynamics"]:
+        xl, y_true = _exact_step(plant, dt, xs["lin"], wtot)
+    elif linear:
+        xl, y_true = _linear_step(plant, w0, dt, xs["lin"], wtot, dT, P)
     else:
         xl, y_true = xs["lin"], wtot
     y_n = y_true + (P["noise_um"] * noise if on["noise"] else 0.0)

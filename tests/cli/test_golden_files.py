@@ -54,7 +54,9 @@ def test_a_bad_golden_is_refused_before_the_design(tmp_path, capsys, monkeypatch
     def no_design(*a, **k):
         raise AssertionError("designed before refusing the golden")
 
-    monkeypatch.setattr(robrst.cli.check, "run_problem", no_design)
+    import robrst.design
+
+    monkeypatch.setattr(robrst.design, "run_problem", no_design)     # every command's design
     assert main(["check", "paper", "--golden", str(path), "--quiet"]) == 2
     out = capsys.readouterr()
     lines = out.err.strip().splitlines()

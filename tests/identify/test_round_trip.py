@@ -105,7 +105,8 @@ def test_mimo_periodic_round_trip_and_python_control_check():
 
 
 def test_cli_temperature_family_problem_file_loads_and_designs(tmp_path, capsys):
-    """Records at 28, 36 and 45 °C -> [[family.models]]; with [poles] added, robrst design runs."""
+    """Records at 28, 36 and 45 °C -> [[family.models]]; robrst design runs on the file as
+    identify wrote it (its starting design), and with the user's [poles]."""
     base = paper_plant()
     files, truth = [], {}
     for T, g in ((28.0, 1.0), (36.0, 1.05), (45.0, 1.12)):
@@ -124,7 +125,10 @@ def test_cli_temperature_family_problem_file_loads_and_designs(tmp_path, capsys)
     for mm in models:
         Ht = truth[mm.temperature_C].freqresp(w)
         assert np.max(np.abs(mm.freqresp(w)[:, 0, 0] - Ht) / np.abs(Ht)) < 1e-3
-    out.write_text(out.read_text() + "\n[poles]\nwn = 600.0\nzeta = 1.0\n")
+    prob = load_problem(out)                               # identify's starting design
+    assert prob.solver.method == "nlp" and prob.specs.sample_rate_hz == FS
+    text = out.read_text()
+    out.write_text(text[:text.index("[poles]")] + "[poles]\nwn = 600.0\nzeta = 1.0\n")
     prob = load_problem(out)
     assert len(prob.family.models) == 3
     assert main(["design", str(out), "--quiet"]) in (0, 1)

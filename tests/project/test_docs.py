@@ -140,7 +140,7 @@ def test_relative_links_and_images_resolve(path):
 # -- the file references: generated at build time, never copied ---------------------------
 
 SCHEMA_PAGES = {"problem": "reference/problem-files.md", "sweep": "reference/sweep-files.md",
-                "twin": "reference/twin-files.md"}
+                "twin": "reference/twin-files.md", "scenario": "reference/scenario-files.md"}
 
 
 def schema_rows(kind):
@@ -148,10 +148,12 @@ def schema_rows(kind):
     from robrst.base.schema import markdown_rows
     from robrst.problem.files import schema_markdown
     from robrst.studies.sweep.files import sweep_schema_markdown
+    from robrst.studies.user_scenario import SCENARIO_SCHEMA
     from robrst.twin.config import TWIN_SCHEMA
 
     return {"problem": schema_markdown, "sweep": sweep_schema_markdown,
-            "twin": lambda: markdown_rows(TWIN_SCHEMA)}[kind]()
+            "twin": lambda: markdown_rows(TWIN_SCHEMA),
+            "scenario": lambda: markdown_rows(SCENARIO_SCHEMA)}[kind]()
 
 
 @pytest.mark.parametrize("kind", sorted(SCHEMA_PAGES))
@@ -174,7 +176,7 @@ def test_each_file_reference_is_generated_from_its_schema(kind):
 
 
 def test_the_references_render_as_tables(tmp_path):
-    """Build the three reference pages with Sphinx and compare every rendered row with the
+    """Build the reference pages with Sphinx and compare every rendered row with the
     schema's (skipped without the ``docs`` extra; ``.ci/run`` installs it)."""
     pytest.importorskip("sphinx")
     pytest.importorskip("myst_parser")

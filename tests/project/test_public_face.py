@@ -11,7 +11,7 @@ import robrst
 ENTRY_POINTS = ("load_problem", "run_problem", "certify_problem", "analyze", "pole_placement",
                 "simulate", "write_design_report", "export_controller", "digital_controller",
                 "closed_loop_control", "assert_margins", "load_sweep", "run_sweep",
-                "write_sweep_report")
+                "write_sweep_report", "load_design", "load_twin")
 
 
 def test_every_export_resolves_even_after_every_module_is_imported():

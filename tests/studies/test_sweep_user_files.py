@@ -64,7 +64,7 @@ def test_ctrl_c_on_a_local_cluster_is_one_line_and_exit_130(tmp_path):
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
     proc = subprocess.Popen(
         [sys.executable, "-m", "robrst", "sweep", str(path), "--out", str(out), "--workers",
-         "2", "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env,
+         "2", "--cluster", "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env,
         start_new_session=True,     # its own process group, as a terminal's foreground job
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:

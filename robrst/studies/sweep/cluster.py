@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+from collections.abc import Iterator
 import os
 import signal
 import threading
@@ -22,6 +23,7 @@ from distributed import Client, LocalCluster, as_completed, get_worker
 from distributed.diagnostics.plugin import WorkerPlugin
 
 from robrst.base.errors import RobrstError
+from robrst.base.threads import available_cores
 from robrst.studies.sweep.evaluate import build_state, evaluate_chunk
 
 if TYPE_CHECKING:
@@ -30,7 +32,8 @@ if TYPE_CHECKING:
 
     from robrst.studies.sweep.evaluate import SweepContext
 
-__all__ = ["SweepPlugin", "run_task", "DaskExecutor", "default_workers"]
+__all__ = ["SweepPlugin", "run_task", "DaskExecutor", "default_workers", "sigint_ignored",
+           "quiet_shutdown"]
 
 
 def default_workers() -> int:
@@ -39,12 +42,10 @@ def default_workers() -> int:
     Returns
     -------
     int
-        The CPU affinity's size, else ``os.cpu_count()``, at least 1.
+        :func:`robrst.base.threads.available_cores`: the CPU affinity's size, else
+        ``os.cpu_count()``, at least 1.
     """
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:   # not on Linux
-        return os.cpu_count() or 1
+    return available_cores()
 
 
 def _main_thread():
@@ -52,21 +53,59 @@ def _main_thread():
 
 
 @contextlib.contextmanager
-def sigint_ignored():
-    """Ignore SIGINT (Ctrl-C) in this block, when this is the main thread.
+def sigint_ignored() -> Iterator[None]:
+    """Hold SIGINT (Ctrl-C) back in this block, when this is the main thread.
 
-    Processes started meanwhile (a local cluster's workers) inherit the ignored signal, so
-    Python installs no KeyboardInterrupt handler in them: a Ctrl-C in the terminal reaches
-    only the driver, which closes the cluster; the workers print no traceback.
+    SIGINT is blocked (``pthread_sigmask``) rather than ignored: processes and threads
+    started meanwhile (a local cluster's workers, its event loop) inherit the blocked
+    signal, so Ctrl-C in the terminal never reaches them (no traceback from a worker), and
+    a Ctrl-C that arrives while the cluster starts stays pending and interrupts the driver
+    when the block ends (the driver closes the cluster).  Where signals cannot be blocked,
+    SIGINT is ignored in the block instead.
+
+    Yields
+    ------
+    None
     """
     if not _main_thread():
         yield
+        return
+    if hasattr(signal, "pthread_sigmask"):
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:
+            yield
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old)
         return
     old = signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
         yield
     finally:
         signal.signal(signal.SIGINT, old)
+
+
+@contextlib.contextmanager
+def quiet_shutdown() -> Iterator[None]:
+    """distributed's, tornado's and asyncio's loggers silenced while a cluster closes: its
+    comms closing can log ``CommClosedError`` tracebacks after a successful run that say
+    nothing about the sweep (the sweep's own failures are rows, not log lines).
+
+    Yields
+    ------
+    None
+    """
+    loggers = [logging.getLogger(n) for n in ("distributed", "tornado", "asyncio")]
+    levels = [lg.level for lg in loggers]
+    raise_exc = logging.raiseExceptions
+    logging.raiseExceptions = False          # no "--- Logging error ---" on a closed stream
+    for lg in loggers:
+        lg.setLevel(logging.CRITICAL + 1)
+    try:
+        yield
+    finally:
+        for lg, lvl in zip(loggers, levels):
+            lg.setLevel(lvl)
+        logging.raiseExceptions = raise_exc
 
 
 class SweepPlugin(WorkerPlugin):
@@ -169,7 +208,7 @@ class DaskExecutor:
                     self.cluster = LocalCluster(n_workers=workers or default_workers(),
                                                 threads_per_worker=1, processes=True,
                                                 dashboard_address=None,
-                                                silence_logs=logging.ERROR)
+                                                silence_logs=logging.CRITICAL)
                     self.client = Client(self.cluster)
         except (OSError, TimeoutError) as exc:
             self.close()
@@ -227,15 +266,25 @@ class DaskExecutor:
             fut.release()
 
     def close(self) -> None:
-        """Cancel what is pending and close the client (and the local cluster robrst started)."""
-        client = getattr(self, "client", None)
-        if client is not None:
-            try:
-                if getattr(self, "name", None):
-                    client.unregister_worker_plugin(self.name)
-            except Exception:   # noqa: BLE001 — closing: best effort
-                pass
-            if self.own_client:
-                client.close()
-        if self.cluster is not None:
-            self.cluster.close()
+        """Release what is pending and close the client (and the local cluster robrst
+        started), its loggers silenced (:func:`quiet_shutdown`)."""
+        with quiet_shutdown():
+            client = getattr(self, "client", None)
+            if client is not None:
+                for fut in list(getattr(self, "futures", {})):
+                    fut.release()                 # nothing left for the closing comms
+                try:
+                    if getattr(self, "name", None):
+                        client.unregister_worker_plugin(self.name)
+                except Exception:   # noqa: BLE001 — closing: best effort
+                    pass
+                if self.own_client:
+                    try:
+                        client.close()
+                    except Exception:   # noqa: BLE001 — closing: best effort
+                        pass
+            if self.cluster is not None:
+                try:
+                    self.cluster.close()
+                except Exception:   # noqa: BLE001 — closing: best effort
+                    pass

@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from robrst.base.errors import SpecError
+from robrst.base.threads import available_cores
 from robrst.studies.sweep import store
 from robrst.studies.sweep.prepare import prepare
 from robrst.studies.sweep.evaluate import build_state, evaluate_chunk, failed_row, status_of
@@ -298,6 +299,52 @@ def check_scheduler(address: str, name: str = "scheduler") -> str:
     return address.strip()
 
 
+#: what a local cluster's start-up costs at most here [s] (processes, imports, state: 0.9 s
+#: quiet, 7 s on a 2-core machine under a load of 11), and what it may cost beyond the
+#: in-process run (the number the sweep must keep)
+STARTUP_S, MARGIN_S = 4.0, 2.0
+PROBE_S = 1.0       # the first chunks run in this process for at least this long
+
+
+def startup_estimate() -> float:
+    """What a local cluster's start-up costs now [s].
+
+    Returns
+    -------
+    float
+        :data:`STARTUP_S`, times the machine's load per core when it is above 1 (spawning
+        and importing compete with that load).
+    """
+    try:
+        load = os.getloadavg()[0] / available_cores()
+    except (AttributeError, OSError):     # no load average on this platform
+        load = 1.0
+    return STARTUP_S * max(1.0, load)
+
+
+def cluster_pays(remaining_s: float, workers: int, startup_s: float = STARTUP_S) -> bool:
+    """Whether a local cluster of ``workers`` processes beats this process on work of
+    ``remaining_s`` seconds in this process: ``startup_s + remaining/workers`` below
+    ``remaining - MARGIN_S``, i.e. remaining above ``(startup_s + MARGIN_S) w / (w - 1)``
+    (12 s for 2 workers on an idle machine).  When it is chosen, a cluster whose start-up
+    takes up to ``startup_s + MARGIN_S`` finishes at most ``MARGIN_S`` after this process
+    would have.
+
+    Parameters
+    ----------
+    remaining_s : float
+        The work left, as it would take in this process [s].
+    workers : int
+    startup_s : float
+        The cluster's start-up [s] (:func:`startup_estimate`).
+
+    Returns
+    -------
+    bool
+    """
+    return workers > 1 and remaining_s > (startup_s + MARGIN_S) * workers / (workers - 1)
+
+
 def _executor(context, workers, scheduler, pending):
     if workers == 0:
         return SequentialExecutor(context)
@@ -311,7 +358,7 @@ def _executor(context, workers, scheduler, pending):
 def run_sweep(sweep: Sweep | str | os.PathLike, out: str | os.PathLike,
               workers: int | None = None, scheduler: object = None,
               progress: Callable[[Progress], None] | None = None,
-              restart: bool = False) -> SweepResult:
+              restart: bool = False, adaptive: bool = True) -> SweepResult:
     """Run a sweep (or resume it) and write its results to ``out``.
 
     Parameters
@@ -322,13 +369,20 @@ def run_sweep(sweep: Sweep | str | os.PathLike, out: str | os.PathLike,
         Output folder: new, empty, or an earlier run of the same sweep (resumed).
     workers : int, optional
         Processes of the local Dask cluster (default: the cores available, at most one per
-        chunk); ``0`` runs every chunk in this process, without Dask.
+        chunk); ``0`` runs every chunk in this process, without Dask.  With ``adaptive``
+        the first chunks run in this process (at least :data:`PROBE_S`), and the cluster is
+        started only when the rest of the work pays its start-up (:func:`cluster_pays`,
+        :func:`startup_estimate`);
+        otherwise the sweep finishes here (``summary["executor"]`` says which).
     scheduler : str or distributed.Client, optional
         A running Dask scheduler (``"tcp://host:8786"``) or client, instead of a local cluster.
     progress : callable, optional
         Called with a :class:`Progress` after every finished chunk.
     restart : bool
         Discard earlier results in ``out`` (robrst's own files only).
+    adaptive : bool
+        Start a local cluster only when the work pays for it (above); ``False``: always
+        (the cluster itself is what is wanted, e.g. to measure it).
 
     Returns
     -------
@@ -376,8 +430,11 @@ def run_sweep(sweep: Sweep | str | os.PathLike, out: str | os.PathLike,
                                                   .to_pylist()),
              "failed": sum(s != "ok" for s in prior.column("status").to_pylist())}
     pending = [c for c in plan if c.index not in done]
+    done_before = set(done)
     executor, n_workers, t_ready = None, 0, time.perf_counter()
     before = count["done"]
+    how = {"executor": "in_process" if workers == 0 else
+           "scheduler" if scheduler is not None else "local_cluster", "estimated_s": None}
 
     def report():
         if progress is not None:
@@ -392,14 +449,35 @@ def run_sweep(sweep: Sweep | str | os.PathLike, out: str | os.PathLike,
         count["failed"] += sum(r["status"] != "ok" for r in rows)
         report()
 
+    def task(c):
+        return Task(c, np.arange(c.start, c.stop), table.values[c.start:c.stop])
+
     try:
-        if pending:
-            executor = _executor(context, workers, scheduler, len(pending))
-            n_workers, t_ready = executor.workers, time.perf_counter()
+        if pending and workers != 0 and scheduler is None and adaptive:
+            # the first chunks in this process: what the rest would cost here decides
+            executor = SequentialExecutor(context)
+            n_workers, t_ready = 1, time.perf_counter()
             report()
-            tasks = (Task(c, np.arange(c.start, c.stop), table.values[c.start:c.stop])
-                     for c in pending)      # made as they are submitted
-            execute(tasks, executor, on_rows, window=2 * n_workers + 1)
+            t_probe, k = time.perf_counter(), 0
+            while k < len(pending) and (k == 0 or time.perf_counter() - t_probe < PROBE_S):
+                execute([task(pending[k])], executor, on_rows, window=1)
+                k += 1
+            per = (time.perf_counter() - t_probe) / k
+            pending = pending[k:]
+            how["estimated_s"] = per * len(pending)
+            want = min(workers or available_cores(), len(pending))
+            if pending and cluster_pays(how["estimated_s"], want, startup_estimate()):
+                executor.close()
+                executor = None
+            else:
+                how["executor"] = "in_process"
+        if pending:
+            if executor is None:
+                executor = _executor(context, workers, scheduler, len(pending))
+                n_workers, t_ready = executor.workers, time.perf_counter()
+                report()
+            execute((task(c) for c in pending),      # made as they are submitted
+                    executor, on_rows, window=2 * n_workers + 1)
     finally:
         if executor is not None:
             executor.close()
@@ -410,7 +488,9 @@ def run_sweep(sweep: Sweep | str | os.PathLike, out: str | os.PathLike,
         busy = [r for r in runs if r["computed"]] or runs[-1:]
         summary = summarise(context, results, table.n, busy[-1]["workers"],
                             sum(r["wall_s"] for r in busy), complete=len(done) == len(plan))
-        summary.update(startup_s=busy[-1]["startup_s"], resumed_chunks=len(plan) - len(pending),
-                       runs=runs, recomputed_chunks=sorted(foreign))
+        summary.update(startup_s=busy[-1]["startup_s"],
+                       resumed_chunks=len(done_before),
+                       runs=runs, recomputed_chunks=sorted(foreign), executor=how["executor"],
+                       estimated_in_process_s=how["estimated_s"])
         store.write_summary(out, summary)
     return SweepResult(sweep=sweep, out=out, context=context, table=results, summary=summary)

@@ -10,7 +10,9 @@ the same structure reuses the program compiled for the first).
 its status and message, never an exception.
 
 Row figures are worst cases over the variant's family and the certificate's temperature
-sweep (``Ms``, ``Mt``, ``Mu``, ``Mt_band``, ``spectral_abscissa``; ``modulus_margin = 1/Ms``),
+sweep (``Ms``, ``Mt``, ``Mu``, ``Mt_band``, ``spectral_abscissa``; ``modulus_margin = 1/Ms``;
+none of a loop that is unstable on some model: its peaks and margins are no figures of it,
+``stable`` is false and ``violation`` names the instability),
 from :func:`robrst.certificate.proof.certify_problem`; gain, phase and delay margins are the smallest
 over the family's models (:func:`robrst.core.analysis.margins`).  ``worst_ratio`` is the largest
 figure/bound over the specs and every violation the certificate found (> 1 + cert_tol:
@@ -157,24 +159,29 @@ def status_of(exc: BaseException) -> str:
 def _figures(problem, ctrl, cert, member_margins):
     recs = cert.models
     worst_ms = max(recs, key=lambda r: r["Ms"]) if recs else {}
-    stable = all(r["stable"] for r in recs) and all(r.get("stable_sampled", True) for r in recs)
+    cont = all(r["stable"] for r in recs)
+    samp = all(r.get("stable_sampled", True) for r in recs)
+    stable = cont and samp
     # every bound the certificate checked (peaks, band peaks, sampled loop, time-domain specs,
     # |U| above a corner, violated hook bounds): one source, Certificate.ratios()
     ratios = cert.ratios()
     worst = max(ratios.values()) if ratios else 0.0
     viol = max(cert.violations, key=lambda v: v.value / max(abs(v.bound), 1e-300),
                default=None)
-    gm, pm, dm = member_margins
-    ms = cert.worst("Ms")
+    gm, pm, dm = member_margins if cont else (None, None, None)
+    # the peaks and margins of an unstable loop are no figures of it: none are reported
+    c = (lambda q: cert.worst(q)) if cont else (lambda q: None)     # noqa: E731
+    s = (lambda q: cert.worst(q)) if samp else (lambda q: None)     # noqa: E731
+    ms = c("Ms")
     return {"certified": bool(cert.certified), "stable": bool(stable),
             "worst_ratio": worst if stable else np.inf, "Ms": ms,
-            "Ms_temperature_C": worst_ms.get("temperature_C"), "Mt": cert.worst("Mt"),
-            "Mu": cert.worst("Mu"), "Mt_band": cert.worst("Mt_resonance_band"),
+            "Ms_temperature_C": worst_ms.get("temperature_C") if cont else None, "Mt": c("Mt"),
+            "Mu": c("Mu"), "Mt_band": c("Mt_resonance_band"),
             "modulus_margin": None if not ms else 1.0 / ms, "gain_margin": gm,
             "phase_margin_deg": pm, "delay_margin_s": dm,
             "spectral_abscissa": cert.worst("spectral_abscissa"),
-            "Ms_sampled": cert.worst("Ms_sampled"), "Mt_sampled": cert.worst("Mt_sampled"),
-            "Mu_sampled": cert.worst("Mu_sampled"), "integral_gain": integral_gain(ctrl),
+            "Ms_sampled": s("Ms_sampled"), "Mt_sampled": s("Mt_sampled"),
+            "Mu_sampled": s("Mu_sampled"), "integral_gain": integral_gain(ctrl),
             "violations": len(cert.violations),
             "violation": None if viol is None else viol.describe()}
 

@@ -166,25 +166,16 @@ def member_document(path: Path) -> dict:
 
 
 def _modal_document(path, data):
-    from robrst.identify.modelfile import modal_models
+    from robrst.base.modelformat import read_model_table
+    from robrst.problem.files import model_document
 
-    models, ref = modal_models(path, data)
-    m0 = models[0]
-    if (m0.n_in, m0.n_out) != (1, 1):
-        raise SpecError(f"{path}: [model] a model file of {m0.n_in} inputs and {m0.n_out}"
-                        " outputs; a fleet member needs one input and one output (robrst"
-                        " identify --channel I,J writes the problem file of one channel)")
-    plants = [m.channel(0, 0) for m in models]
-    plant = {"B": plants[0].B.tolist(), "A": plants[0].A.tolist(),
-             "source": "robrst identify model file"}
-    if ref is not None:
-        plant["temperature_C"] = float(ref)
-    doc = {"plant": plant}
-    if len(plants) > 1:
-        doc["family"] = {"reference_C": float(ref), "models": [
-            {"temperature_C": float(p.temperature_C), "B": p.B.tolist(), "A": p.A.tolist()}
-            for p in plants]}
-    return doc
+    table = read_model_table(path, data, design_tables=True)
+    if (table.inputs, table.outputs) != (1, 1):
+        raise SpecError(f"{path}: [model] a model file of {table.inputs} inputs and"
+                        f" {table.outputs} outputs; a fleet member needs one input and one"
+                        " output (robrst identify --channel I,J writes the problem file of"
+                        " one channel)")
+    return model_document(path, data)
 
 
 def _stable(x):

@@ -224,6 +224,7 @@ def summarise(context: SweepContext, table: pa.Table, n: int, workers: int, wall
     certified = sum(bool(c) for c in table.column("certified").to_pylist())
     lo, hi = wilson_interval(certified, done)
     counts = {s: statuses.count(s) for s in sorted(set(statuses))}
+    unstable = sum(s is False for s in table.column("stable").to_pylist()) if done else 0
     cpu = float(np.nansum(_col(table, "cpu_s"))) if done else 0.0
     rows = table.to_pylist() if done <= 200_000 else None
     worst = []
@@ -238,7 +239,7 @@ def summarise(context: SweepContext, table: pa.Table, n: int, workers: int, wall
            "wall_s": wall_s, "cpu_s": cpu, "cpu_s_per_variant": cpu / done if done else None,
            "chunk_size": sw.chunk_size, "seed": sw.seed, "params": list(context.names),
            "fingerprint": context.fingerprint, "figures": figure_stats(table), "worst": worst,
-           "results": "results.parquet", "report": "report"}
+           "results": "results.parquet", "report": "report", "unstable": unstable}
     if context.controller is not None:
         out["controller"] = context.controller.as_dict()
     if context.base is not None:

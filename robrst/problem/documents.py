@@ -1,0 +1,126 @@
+"""A :class:`~robrst.problem.records.Problem` as a problem document (the parsed TOML).
+
+:func:`problem_document` is the inverse of :func:`robrst.problem.files.parse_problem`:
+``parse_problem(problem_document(p))`` is ``p`` again (the same plant coefficients, bit for
+bit: floats travel as their shortest round-trip text), whether ``p`` came from a file or
+was built in Python.  A saved design carries it (``robrst design --json``'s ``artefact``),
+so the problem can be rebuilt without the file it came from.
+"""
+
+from dataclasses import fields
+
+import numpy as np
+
+from robrst.base.errors import SpecError
+from robrst.problem.records import ControllerStructure, Problem, SolverOptions, Specs
+
+__all__ = ["problem_document"]
+
+
+def _value(v):
+    """A record value as TOML-able data (tuples as lists, numpy scalars as Python's)."""
+    if isinstance(v, (tuple, list, np.ndarray)):
+        return [_value(x) for x in v]
+    if isinstance(v, np.generic):
+        return v.item()
+    return v
+
+
+def _table(record, cls):
+    """The fields of ``record`` that are set (``None`` is a key's absence)."""
+    return {f.name: _value(getattr(record, f.name)) for f in fields(cls)
+            if getattr(record, f.name) is not None}
+
+
+def _plant(plant):
+    return {"B": [float(c) for c in plant.B], "A": [float(c) for c in plant.A]}
+
+
+def _reals(name, values):
+    out = []
+    for v in values:
+        c = complex(v)
+        if c.imag != 0.0:
+            raise SpecError(f"problem document: [poles] {name} must be real roots, got {v}")
+        out.append(c.real)
+    return out
+
+
+def _poles(p):
+    out = {}
+    if p.wn is not None:
+        out["wn"] = float(p.wn)
+    if p.zeta is not None:
+        out["zeta"] = float(p.zeta)
+    if p.dominant_real:
+        out["dominant_real"] = [float(x) for x in p.dominant_real]
+    if p.dominant_roots is not None:
+        roots = [complex(r) for r in p.dominant_roots]
+        out["dominant_roots_re"] = [r.real for r in roots]
+        out["dominant_roots_im"] = [r.imag for r in roots]
+    out["aux_factor"] = float(p.aux_factor)
+    if p.aux_roots is not None:
+        out["aux_roots"] = _reals("aux_roots", p.aux_roots)
+    return out
+
+
+def problem_document(problem: Problem) -> dict:
+    """The problem document of ``problem`` (what its problem file would parse to).
+
+    Parameters
+    ----------
+    problem : Problem
+        From a file or built in Python.
+
+    Returns
+    -------
+    dict
+        Tables ``problem``, ``plant`` and/or ``family``, ``poles``, ``controller``,
+        ``specs``, ``solver``; keys as in the problem-file reference, unset values left out.
+        A parametric family is its nominal plant, temperatures and per-kelvin law; an
+        explicit one its models; a built-in plant keeps its name.
+
+    Raises
+    ------
+    SpecError
+        A problem no problem file can state (complex auxiliary roots).
+
+    Examples
+    --------
+    >>> from robrst import load_problem
+    >>> from robrst.problem.files import parse_problem
+    >>> p = load_problem("paper_robust")
+    >>> doc = problem_document(p)
+    >>> problem_document(parse_problem(doc)) == doc
+    True
+    """
+    fam = problem.family
+    doc = {"problem": {"name": problem.name}}
+    if problem.description:
+        doc["problem"]["description"] = problem.description
+    ref = fam.reference_model
+    if fam.thermal is not None:
+        nominal = fam.nominal
+        plant = ({"name": problem.plant_name} if problem.plant_name else _plant(nominal))
+        plant["temperature_C"] = float(nominal.temperature_C if nominal.temperature_C is not None
+                                       else fam.thermal.reference_C)
+        c = fam.thermal
+        doc["plant"] = plant
+        doc["family"] = {"reference_C": float(c.reference_C),
+                         "temperatures_C": [float(T) for T in fam.temperatures],
+                         "parametric": {k: float(getattr(c, k)) for k in (
+                             "gain_per_K", "resonance_per_K", "damping_per_K", "creep_per_K",
+                             "creep_at_ref", "creep_tau_s")}}
+    elif len(fam.models) > 1:
+        doc["family"] = {"reference_C": float(ref.temperature_C),
+                         "models": [{"temperature_C": float(m.temperature_C), **_plant(m)}
+                                    for m in fam.models]}
+    else:
+        plant = {"name": problem.plant_name} if problem.plant_name else _plant(ref)
+        plant["temperature_C"] = float(ref.temperature_C)
+        doc["plant"] = plant
+    doc["poles"] = _poles(problem.poles)
+    doc["controller"] = _table(problem.controller, ControllerStructure)
+    doc["specs"] = _table(problem.specs, Specs)
+    doc["solver"] = _table(problem.solver, SolverOptions)
+    return doc
