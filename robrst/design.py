@@ -18,8 +18,9 @@ import numpy as np
 from robrst.core import poly
 from robrst.certificate import steps as timespec
 from robrst.core.analysis import analyze_many, spectral_abscissa_many
-from robrst.certificate.proof import Violation, certify, certify_problem
+from robrst.certificate.proof import ACTUATOR, Violation, actuator_of, certify, certify_problem
 from robrst.base.errors import CoprimeError, SpecError
+from robrst.certificate.figures import StepFigures
 from robrst.certificate.models import BOUNDED
 from robrst.problem.records import Problem
 from robrst.core.rst import closed_loop
@@ -163,6 +164,11 @@ class DesignResult:
         The :class:`~robrst.synthesis.scenario.FleetDesign` of a problem with a
         ``[spread]`` (then ``problem.scenarios`` are the drawn actuators the program held
         on).
+    assessment : Assessment, optional
+        What the specs left unbounded and its warnings
+        (:class:`~robrst.certificate.assessment.Assessment`; with the analyses).
+    starts : MultiStart, optional
+        Every start of a multi-start design (:class:`~robrst.synthesis.multistart.MultiStart`).
 
     Attributes
     ----------
@@ -188,6 +194,8 @@ class DesignResult:
     comparison: Comparison = None
     tracking: object = None
     fleet: object = None
+    assessment: object = None
+    starts: object = None
 
     @property
     def best_achievable(self):
@@ -277,6 +285,8 @@ class DesignResult:
             "solver": self.solver_dict(),
             "integral_gain": self.integral_gain,
             "best_achievable": self.best_achievable,
+            "specs_achieved": spec_rows(p, self.certificate),
+            "controller_factored": controller_factors(self.controller),
         }
         if sp.T_resonance_max is not None:
             specs.update(T_resonance_max=sp.T_resonance_max,
@@ -287,6 +297,14 @@ class DesignResult:
             specs.update(overshoot_max_pct=sp.overshoot_max_pct,
                          settling_time_max_s=sp.settling_time_max_s, step_um=sp.step_um,
                          step_u_max_V=sp.step_u_max_V)
+        for key in ("Msd_max", "Mry_max", "damping_min", "decay_min", "controller_damping_min"):
+            if getattr(sp, key) is not None:
+                specs[key] = getattr(sp, key)
+        out["method_reason"] = p.solver.method_reason
+        if self.assessment is not None:
+            out["assessment"] = self.assessment.as_dict()
+        if self.starts is not None:
+            out["starts"] = self.starts.as_dict()
         if self.tracking is not None:
             out["tracking"] = self.tracking.as_dict()
         if self.analytic_check is not None:
@@ -297,6 +315,100 @@ class DesignResult:
         if self.fleet is not None:
             out["fleet"] = self.fleet.as_dict()
         return out
+
+
+# spec key -> (certificate figure, is a lower bound)
+SPEC_FIGURES = (("Ms_max", "Ms", False), ("Mt_max", "Mt", False), ("Mu_max", "Mu", False),
+                ("T_resonance_max", "Mt_resonance_band", False), ("Mu_hf_max", "Mu_hf", False),
+                ("Msd_max", "Msd", False), ("Mry_max", "Mry", False),
+                ("overshoot_max_pct", "overshoot_pct", False),
+                ("settling_time_max_s", "settling_time_s", False),
+                ("step_u_max_V", "step_u_peak_V", False), ("damping_min", "damping", True),
+                ("decay_min", "decay_rad_s", True))
+BINDING_SLACK = 0.01     # a spec within 1 % of its bound is reported as binding
+
+
+def spec_rows(problem: Problem, cert: Certificate) -> list[dict]:
+    """Each bounded spec with its worst achieved value over the certificate's models (both
+    loops), the slack ``1 - value/bound`` (``1 - bound/value`` for a lower bound), where it
+    is attained and whether it binds (slack below ``BINDING_SLACK``).
+
+    Parameters
+    ----------
+    problem : Problem
+        The problem (its specs and the default damping floor on its family).
+    cert : Certificate
+        The design's certificate.
+
+    Returns
+    -------
+    list of dict
+        ``spec, bound, achieved, slack, model, temperature_C, loop, binding, source``.
+    """
+    sp = problem.specs
+    floor, source = sp.damping_floor(problem.family)
+    out = []
+    for key, fig, lower in SPEC_FIGURES:
+        bound = floor if key == "damping_min" else getattr(sp, key)
+        if not bound:
+            continue
+        best = None
+        for loop in ("continuous", "sampled"):
+            recs = [(m.value(fig, loop), m) for m in cert.models if m.value(fig, loop) is not None]
+            if not recs:
+                continue
+            v, m = (min if lower else max)(recs, key=lambda r: r[0])
+            ratio = bound / v if lower else v / bound
+            if best is None or ratio > best[0]:
+                best = (ratio, v, m, loop)
+        if best is None:
+            continue
+        ratio, v, m, loop = best
+        out.append({"spec": key, "bound": bound, "achieved": float(v),
+                    "slack": float(1 - ratio), "model": m.label,
+                    "temperature_C": m.temperature_C, "loop": loop,
+                    "binding": bool(1 - ratio <= BINDING_SLACK),
+                    "source": source if key == "damping_min" else "specs"})
+    if cert.controller is not None and sp.controller_damping_min:
+        v, b = cert.controller["damping"], sp.controller_damping_min
+        out.append({"spec": "controller_damping_min", "bound": b, "achieved": v,
+                    "slack": 1 - b / v if v > 0 else -np.inf, "model": "controller",
+                    "temperature_C": None, "loop": None,
+                    "binding": bool(v > 0 and 1 - b / v <= BINDING_SLACK), "source": "specs"})
+    return out
+
+
+def controller_factors(ctrl: RSTController) -> dict:
+    """R, S and T as gain, real roots and damped pairs, and their coefficients in the
+    scaled variable ``x = s / w0`` (``w0`` the geometric mean of the root moduli of S and R):
+    ``{"w0_rad_s": w0, "R": {...}, "S": {...}, "T": {...}}`` with per polynomial ``gain``
+    (leading coefficient), ``real`` (roots [rad/s]), ``pairs`` (``[wn rad/s, zeta]``),
+    ``integrators`` (roots at 0) and ``scaled`` (coefficients of ``x``, highest first, all
+    divided by ``w0**deg S``: ``R/S`` unchanged, ``S`` monic with O(1) coefficients).
+
+    Parameters
+    ----------
+    ctrl : RSTController
+        The controller.
+
+    Returns
+    -------
+    dict
+    """
+    polys = {k: poly.trim(getattr(ctrl, k)) for k in "RST"}
+    sc = poly.Scaling.natural(polys["S"], polys["R"])
+    out = {"w0_rad_s": float(sc.w0)}
+    for k, c in polys.items():
+        nz = np.flatnonzero(c)
+        zeros_at_0 = len(c) - 1 - int(nz[-1]) if nz.size else 0
+        core = c[:len(c) - zeros_at_0] if zeros_at_0 else c
+        r = np.roots(core) if len(core) > 1 else np.zeros(0, complex)
+        real = sorted(float(x.real) for x in r if abs(x.imag) <= 1e-9 * max(abs(x), 1e-300))
+        pairs = sorted([float(abs(x)), float(-x.real / abs(x))] for x in r
+                       if x.imag > 1e-9 * max(abs(x), 1e-300))
+        out[k] = {"gain": float(c[0]), "integrators": int(zeros_at_0), "real": real,
+                  "pairs": pairs, "scaled": sc.normalize(c, len(polys["S"]) - 1).tolist()}
+    return out
 
 
 def analytic_design(problem: Problem, poles: PoleSpec | None = None) -> AnalyticDesign:
@@ -356,33 +468,38 @@ def with_time_domain(problem: Problem, cert: Certificate, ctrl: RSTController,
     Certificate
     """
     sp = problem.specs
-    recs = [dict(rec) for rec in cert.models]
+    recs = list(cert.models)
     fams = problem.families      # a record of a further actuator names it (certify_families)
-    models = [fams[rec.get("actuator", 0)].at(rec["temperature_C"]) for rec in recs]
-    labels = [m.label if not rec.get("actuator") else f"actuator{rec['actuator']}/{m.label}"
-              for m, rec in zip(models, recs)]
-    kinds = [(models, None, "")]
+    acts = [rec.actuator or actuator_of(rec.label)[0] for rec in recs]
+    models = [fams[k].at(rec.temperature_C) for k, rec in zip(acts, recs)]
+    labels = [m.label if not k else f"{ACTUATOR}{k}/{m.label}" for m, k in zip(models, acts)]
+    kinds = [(models, None, "continuous")]
     if sp.sampled:
-        kinds.append(([problem.family.sampled(m, sp.sample_rate_hz, sp.delay_samples)
-                       for m in models], sp.sample_rate_hz, "_sampled"))
+        kinds.append(([fams[k].sampled(m, sp.sample_rate_hz, sp.delay_samples)
+                       for k, m in zip(acts, models)], sp.sample_rate_hz, "sampled"))
     found = [[] for _ in recs]            # per model, the failed specs of each loop
     added = None if factor is None else spectral_abscissa_many([factor])[0][0]
-    for plants, fs, suffix in kinds:      # every model's loop of one kind at once
+    for plants, fs, loop in kinds:        # every model's loop of one kind at once
         cls = [closed_loop(plant, ctrl) for plant in plants]
         sas = [added] * len(recs) if factor is not None else [
             sa for sa, _ in spectral_abscissa_many([cl.Delta for cl in cls])]
-        for rec, sa in zip(recs, sas):
-            rec["spectral_abscissa" + suffix] = max(rec["spectral_abscissa" + suffix], sa)
-        if not sp.time_domain:
-            continue
-        ks = [k for k, rec in enumerate(recs) if rec[f"stable{suffix}"]]
-        checked = timespec.check_many([plants[k] for k in ks], ctrl, [cls[k] for k in ks],
-                                      sp, cert.rtol, fs)
-        for k, (t_rec, failed) in zip(ks, checked):
-            recs[k].update({q + suffix: v for q, v in t_rec.items()})
-            found[k] += [Violation(labels[k], models[k].temperature_C, q, v, b, None,
-                                   "sampled" if fs else "continuous", kind)
-                         for q, v, b, kind in failed]
+        figs = [rec.loop(loop) for rec in recs]
+        figs = [replace(f, spectral_abscissa=max(f.spectral_abscissa, sa))
+                for f, sa in zip(figs, sas)]
+        if sp.time_domain:
+            ks = [k for k, f in enumerate(figs) if f.stable]
+            checked = timespec.check_many([plants[k] for k in ks], ctrl, [cls[k] for k in ks],
+                                          sp, cert.rtol, fs)
+            for k, (t_rec, failed) in zip(ks, checked):
+                figs[k] = replace(figs[k], step=StepFigures(**t_rec))
+                found[k] += [Violation(labels[k], models[k].temperature_C, q, v, b, None,
+                                       loop, kind) for q, v, b, kind in failed]
+        recs = [replace(rec, **{loop: f}) for rec, f in zip(recs, figs)]
+    if sp.time_domain:   # figures the certificate did not have are published after it
+        recs = [rec if rec.steps_checked_after or old.continuous.step is not None
+                or (old.sampled is not None and old.sampled.step is not None)
+                else replace(rec, steps_checked_after=True)
+                for rec, old in zip(recs, cert.models)]
     viols = list(cert.violations) + [v for f in found for v in f]
     bounds = {**cert.bounds, **{key: getattr(sp, attr) for key, attr in BOUNDED
                                 if getattr(sp, attr) is not None}}
@@ -428,7 +545,7 @@ def _worst(cert, ctrl, sampled):
            "max_spectral_abscissa": cert.worst("spectral_abscissa"),
            "integral_gain": integral_gain(ctrl), "certified": cert.certified}
     if sampled:
-        row.update({f"worst_{k}_sampled": cert.worst(f"{k}_sampled") for k in ("Ms", "Mt", "Mu")})
+        row.update({f"worst_{k}_sampled": cert.worst(k, loop="sampled") for k in ("Ms", "Mt", "Mu")})
     return row
 
 
@@ -480,7 +597,8 @@ def comparison(problem: Problem, ctrl: RSTController, cert: Certificate) -> Comp
 
 
 def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
-                templates: dict | None = None, analyses: bool = True) -> DesignResult:
+                templates: dict | None = None, analyses: bool = True,
+                multistart: bool | None = None) -> DesignResult:
     """Run the design the problem asks for, certify it, analyse every family model.
 
     A synthesis always ends with a controller: when the specs cannot be met the result
@@ -497,8 +615,16 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
         Built NLP solvers by structure, shared between designs of the same structure
         (see :class:`robrst.synthesis.synthesizer.Synthesizer`).
     analyses : bool
-        Analyse every family model (exact peaks to 1e-10, margins); off: none (a sweep
-        reads the certificate's figures and computes only the margins).
+        Analyse every family model (exact peaks to 1e-10, margins) and assess what the
+        specs left unbounded (:func:`robrst.certificate.assessment.assess`: damping,
+        overshoot, input disturbances); off: none (a sweep reads the certificate's figures
+        and computes only the margins).
+    multistart : bool, optional
+        The robust program (``method = "nlp"``) also runs from the diverse starts of
+        :mod:`robrst.synthesis.multistart` on 2 processes and keeps the best certified
+        answer (default: ``problem.solver.multistart``; sweeps pass ``False``). A problem
+        with a ``[spread]`` is designed for the fleet (:mod:`robrst.synthesis.scenario`),
+        its rounds warm-started from one another and never multi-started.
 
     Returns
     -------
@@ -516,14 +642,17 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
     >>> result.certified, result.status
     (True, 'certified')
     """
+    if multistart is None:
+        multistart = problem.solver.multistart
     with one_blas_thread(problem.needs_scipy):
         if problem.spread is not None:
             return _fleet(problem, progress, templates, analyses)
-        return _design(problem, progress, templates, analyses)
+        return _design(problem, progress, templates, analyses, multistart)
 
 
 def _fleet(problem, progress, templates, analyse):
-    """A design for the problem's spread (:mod:`robrst.synthesis.scenario`)."""
+    """A design for the problem's spread (:mod:`robrst.synthesis.scenario`): every round
+    one design warm-started from the previous round's, without comparison or multi-start."""
     from robrst.synthesis.scenario import scenario_design
 
     templates = {} if templates is None else templates
@@ -531,22 +660,29 @@ def _fleet(problem, progress, templates, analyse):
     say = progress or (lambda msg: None)
 
     def one(p, warm):
-        return _design(p, lambda msg: say("  " + msg), templates, False, warm, compare=False)
+        return _design(p, lambda msg: say("  " + msg), templates, False, False, warm,
+                       compare=False)
 
     result, fleet = scenario_design(problem, one, progress)
     comp = comparison(result.problem, result.controller, result.certificate)
     analyses = analyze_many(problem.family.models, result.controller) if analyse else ()
-    return replace(result, analyses=analyses, comparison=comp, fleet=fleet)
+    assessment = None
+    if analyse:
+        from robrst.certificate.assessment import assess
+
+        assessment = assess(result.problem, result.controller)
+    return replace(result, analyses=analyses, comparison=comp, fleet=fleet,
+                   assessment=assessment)
 
 
-def _design(problem, progress, templates, analyse, warm=None, compare=True):
+def _design(problem, progress, templates, analyse, multistart, warm=None, compare=True):
     """:func:`run_problem` (its BLAS limited by the caller)."""
-    from robrst.synthesis.robust import robust_synthesis
-
     say = progress or (lambda msg: None)
     method = problem.solver.method
-    start = analytic_design(problem)
+    start = analytic_design(problem)          # an ill-posed problem fails before any line
+    say(f"method {problem.solver.method_reason}")
     two_dof = problem.controller.T_mode == "reference_model"
+    starts = None
     if method == "analytic":
         say(f"analytic pole placement: cond(scaled Sylvester) = {start.cond:.3g}"
             f" (unscaled {start.cond_unscaled:.3g})")
@@ -554,23 +690,152 @@ def _design(problem, progress, templates, analyse, warm=None, compare=True):
         ctrl, trk = _tracking(problem, start.controller) if two_dof else (start.controller, None)
         cert = certify_problem(problem, ctrl)
     else:
-        if method == "nlp":
-            stage = robust_synthesis(problem, start, say, templates, warm)
-        else:
-            from robrst.synthesis.convex import convex_synthesis   # cvxpy: only for this method
+        if method == "nlp" and multistart and problem.solver.starts > 0:
+            from robrst.synthesis.multistart import plans
 
-            stage = convex_synthesis(problem, start, say)
+            (stage, ctrl, trk, cert), starts = _multistart(
+                problem, plans(problem, problem.solver.starts), start, say, templates)
+        else:
+            stage, ctrl, trk, cert = _candidate(problem, problem, False, start, say, templates,
+                                                warm=warm)
         check = analytic_check(problem, stage.controller, stage.Am)
-        ctrl, trk, cert = stage.controller, None, stage.certificate
-        if two_dof:
-            ctrl, trk, cert = _tracked(problem, ctrl, cert)
-        elif problem.specs.time_domain:
-            cert = with_time_domain(problem, cert, ctrl)
     comp = None if method == "analytic" or not compare else comparison(problem, ctrl, cert)
     analyses = analyze_many(problem.family.models, ctrl) if analyse else ()
+    assessment = None
+    if analyse:
+        from robrst.certificate.assessment import assess
+
+        assessment = assess(problem, ctrl)
     return DesignResult(problem=problem, method=method, controller=ctrl,
                         target_char_poly=stage.Am, analyses=analyses, certificate=cert,
-                        synthesis=stage, analytic_check=check, comparison=comp, tracking=trk)
+                        synthesis=stage, analytic_check=check, comparison=comp, tracking=trk,
+                        assessment=assessment, starts=starts)
+
+
+def _candidate(problem, original, recheck, start=None, say=None, templates=None, budget=None,
+               warm=None):
+    """One synthesis of ``problem`` judged on ``original`` (the same problem, or a
+    neighbouring one whose answer is certified on ``original`` when ``recheck``):
+    ``(stage, controller, tracking, certificate)`` with the reference path and the
+    time-domain figures completed; ``warm`` a previous design's synthesis record, the
+    robust synthesis's preferred start (a fleet design's rounds)."""
+    from robrst.synthesis.robust import robust_synthesis
+
+    start = start if start is not None else analytic_design(problem)
+    if problem.solver.method == "convex":
+        from robrst.synthesis.convex import convex_synthesis   # cvxpy: only for this method
+
+        stage = convex_synthesis(problem, start, say)
+    else:
+        stage = robust_synthesis(problem, start, say, templates, warm=warm, budget=budget)
+    ctrl, trk, cert = stage.controller, None, stage.certificate
+    if recheck:
+        from robrst.synthesis.attempts import frequency_certificate
+
+        cert = frequency_certificate(original, ctrl)
+    if original.controller.T_mode == "reference_model":
+        ctrl, trk, cert = _tracked(original, ctrl, cert)
+    elif original.specs.time_domain:
+        cert = with_time_domain(original, cert, ctrl)
+    return stage, ctrl, trk, cert
+
+
+def _objective(problem, ctrl, cert):
+    """The certified objective (larger is better; ``None`` when not certified)."""
+    if not cert.certified:
+        return None
+    obj = problem.solver.objective
+    if obj == "max_integral_gain":
+        ki = integral_gain(ctrl)
+        return abs(ki) if np.isfinite(ki) else None
+    if obj == "min_Ms":
+        return -cert.worst("Ms")
+    return 0.0
+
+
+def _worst_ratio(cert):
+    r = [v.ratio for v in cert.violations]
+    return max(r) if r else 0.0
+
+
+def _run_start(plan, original, budget=None):
+    """A multi-start run in a worker process: its candidate, or the error."""
+    import time
+
+    t0 = time.perf_counter()
+    problem = plan.problem
+    if budget is not None:    # every IPOPT call within the budget too
+        problem = replace(problem, solver=replace(problem.solver, max_iter=min(
+            problem.solver.max_iter, int(budget))))
+    try:
+        with one_blas_thread(problem.needs_scipy):
+            return _candidate(problem, original, plan.recheck, budget=budget), None, \
+                time.perf_counter() - t0
+    except Exception as exc:      # noqa: BLE001 — a failed start is an outcome, not a crash
+        return None, f"{type(exc).__name__}: {exc}", time.perf_counter() - t0
+
+
+MULTISTART_WORKERS = 2
+MIN_START_BUDGET = 100     # IPOPT iterations an extra start may spend at least
+
+
+def _multistart(problem, plans, start, say, templates):
+    """The design as asked, then the ``plans`` on ``MULTISTART_WORKERS`` processes, each
+    with the first run's IPOPT iterations as its budget (at least ``MIN_START_BUDGET``);
+    the best certified objective wins (else the smallest worst violation).
+
+    Returns
+    -------
+    ((stage, controller, tracking, certificate), MultiStart)
+    """
+    import time
+    from concurrent.futures import ProcessPoolExecutor
+    import multiprocessing
+
+    from robrst.synthesis.multistart import MultiStart, StartOutcome, StartPlan
+
+    t0 = time.perf_counter()
+    say(f"multi-start: the problem as asked and {len(plans)} other starts on"
+        f" {MULTISTART_WORKERS} processes")
+    runs = [StartPlan("as asked", problem)] + list(plans)
+    results = [None] * len(runs)
+    t1 = time.perf_counter()
+    results[0] = (_candidate(problem, problem, False, start, say, templates), None,
+                  time.perf_counter() - t1)
+    first = results[0][0][0]
+    budget = max(MIN_START_BUDGET, sum(r.iterations for r in getattr(first, "rounds", ())))
+    try:
+        ctx = multiprocessing.get_context("fork")
+        with ProcessPoolExecutor(MULTISTART_WORKERS, mp_context=ctx) as pool:
+            futs = [pool.submit(_run_start, p, problem, budget) for p in runs[1:]]
+            for k, f in enumerate(futs, 1):
+                results[k] = f.result()
+    except (OSError, ValueError, ImportError) as exc:   # no processes here: one at a time
+        say(f"multi-start: no worker processes ({exc}); running the starts in turn")
+        for k, p in enumerate(runs):
+            if results[k] is None:
+                results[k] = _run_start(p, problem, budget)
+    outcomes, best, best_key = [], None, None
+    for k, (p, (cand, err, wall)) in enumerate(zip(runs, results)):
+        if cand is None:
+            outcomes.append(StartOutcome(p.name, "failed", wall_time_s=wall, note=err))
+            continue
+        stage, ctrl, trk, cert = cand
+        obj = _objective(problem, ctrl, cert)
+        outcomes.append(StartOutcome(
+            p.name, "certified" if cert.certified else "not_certified", objective=obj,
+            integral_gain=integral_gain(ctrl), worst_ratio=_worst_ratio(cert),
+            placement=getattr(stage, "placement", None), wall_time_s=wall))
+        key = (1, obj, -k) if obj is not None else (0, -_worst_ratio(cert), -k)
+        if best_key is None or key > best_key:
+            best, best_key = (k, cand), key
+        say(f"multi-start: {p.name}: {outcomes[-1].status}"
+            + (f", objective {obj:.6g}" if obj is not None else ""))
+    k, cand = best
+    ms = MultiStart(outcomes=tuple(outcomes), winner=runs[k].name,
+                    objective=problem.solver.objective, workers=MULTISTART_WORKERS,
+                    wall_time_s=time.perf_counter() - t0)
+    return cand, ms
 
 
 def _tracking(problem, ctrl):
@@ -595,7 +860,7 @@ def _tracked(problem, ctrl, cert):
     for out, trk in tracking_candidates(problem, ctrl):
         done = with_time_domain(problem, cert, out, factor=trk.Am_ref)
         first = first or (out, trk, done)
-        stable = all(r["stable"] and r.get("stable_sampled", True) for r in done.models)
+        stable = all(r.stable for r in done.models)
         if not problem.specs.time_domain or (
                 stable and len(done.violations) == len(cert.violations)):
             return out, trk, done

@@ -35,7 +35,7 @@ from typing import TYPE_CHECKING
 
 from robrst import __version__
 from robrst.base.errors import OutputError, SpecError
-from robrst.base.fileio import atomic_write_text, check_file_target
+from robrst.base.fileio import atomic_write_text, check_file_target, peek_text
 from robrst.base.schema import load_toml
 
 if TYPE_CHECKING:
@@ -151,17 +151,13 @@ def golden_figures(result: DesignResult | dict) -> dict:
             "objective": _objective(result, d), "models": models}
 
 
-def _toml(v):
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, str):
-        return json.dumps(v)
-    v = _num(v)
-    return ("inf" if v > 0 else "-inf") if math.isinf(v) else repr(v)
+def _unchecked(way, value):
+    """A golden value that checks nothing: a peak (larger is worse) of inf."""
+    return way == "larger" and math.isinf(_num(value))
 
 
 def _tol(name, rtol, phase_atol):
-    return f"atol = {phase_atol!r}" if direction(name) == "abs" else f"rtol = {rtol!r}"
+    return {"atol": float(phase_atol)} if direction(name) == "abs" else {"rtol": float(rtol)}
 
 
 def write_golden(result: DesignResult | dict, path: str | Path, rtol: float = DEFAULT_TOL["rtol"],
@@ -190,29 +186,47 @@ def write_golden(result: DesignResult | dict, path: str | Path, rtol: float = DE
         ``path`` exists and is not a robrst golden (nothing is overwritten).
     """
     path = check_file_target(path)
-    if path.exists() and (path.is_dir() or not path.read_text(errors="replace").startswith(MARKER)):
+    if (path.exists() or path.is_symlink()) and (
+            path.is_dir() or not (peek_text(path) or "").startswith(MARKER)):
         raise OutputError(f"{path}: exists and is not a robrst golden (it does not start with"
                           f" {MARKER!r}); refusing to overwrite it")
+    import tomlkit   # noqa: PLC0415  (only writing a golden needs it: no command's start pays)
+
+    from robrst.base.tomlwrite import document, inline, plain   # noqa: PLC0415
+
     g = golden_figures(result)
-    lines = [f"{MARKER} for problem {json.dumps(g['problem'])}, written by robrst {__version__}.",
-             "# `robrst check PROBLEM --golden THIS_FILE` fails on every figure worse than its",
-             "# value beyond its tolerance (peaks: larger; margins: smaller; phase margin:",
-             "# smaller |pm|; gain margins: closer to 1; inf = infinite).  Edit tolerances",
-             "# freely; delete a figure to stop checking it.", "",
-             "[golden]", f"format = {FORMAT}", f"problem = {_toml(g['problem'])}",
-             f"robrst_version = {_toml(__version__)}", "", "[design]",
-             f"certified = {_toml(g['certified'])}"]
+    doc = document([
+        f"{MARKER[2:]} for problem {json.dumps(g['problem'])}, written by robrst {__version__}.",
+        "`robrst check PROBLEM --golden THIS_FILE` fails on every figure worse than its",
+        "value beyond its tolerance (peaks: larger; margins: smaller; phase margin:",
+        "smaller |pm|; gain margins: closer to 1; inf = infinite).  Edit tolerances",
+        "freely; delete a figure to stop checking it."])
+    doc["golden"] = plain({"format": FORMAT, "problem": g["problem"],
+                           "robrst_version": __version__})
+    design = tomlkit.table()
+    design["certified"] = bool(g["certified"])
     name, value = g["objective"]
-    if name is not None and value is not None:
-        lines.append(f"objective = {{ name = {_toml(name)}, value = {_toml(value)},"
-                     f" rtol = {rtol!r} }}")
+    if (name is not None and value is not None
+            and not _unchecked(OBJECTIVES[name], value)):
+        design["objective"] = inline({"name": name, "value": _num(value), "rtol": float(rtol)})
+    doc["design"] = design
+    models = tomlkit.table(True)       # a super-table: only [models."label"] headers
     for label, figs in g["models"].items():
-        lines += ["", f"[models.{json.dumps(label)}]"]
+        table = tomlkit.table()
         if figs.get("temperature_C") is not None:
-            lines.append(f"temperature_C = {_toml(figs['temperature_C'])}")
-        lines += [f"{k} = {{ value = {_toml(v)}, {_tol(k, rtol, phase_atol_deg)} }}"
-                  for k, v in figs.items() if k != "temperature_C"]
-    atomic_write_text(path, "\n".join(lines) + "\n")
+            table["temperature_C"] = plain(_num(figs["temperature_C"]))
+        for k, v in figs.items():
+            if k == "temperature_C":
+                continue
+            if _unchecked(direction(k), v):     # a peak of inf: nothing can be worse
+                table.add(tomlkit.comment(f"{k} = inf checks nothing (no value is larger):"
+                                          " not written"))
+            else:
+                table[k] = inline({"value": _num(v), **_tol(k, rtol, phase_atol_deg)})
+        models[plain(str(label))] = table
+    if g["models"]:
+        doc["models"] = models
+    atomic_write_text(path, tomlkit.dumps(doc))
     return path
 
 
@@ -220,27 +234,50 @@ def _bad(path, where, what):
     return SpecError(f"{path}: [{where}] {what}")
 
 
-def _figure(path, where, v):
-    """A validated ``{value, rtol, atol}`` entry."""
+def _float(v):
+    """``float(v)`` of a TOML number (``None`` for anything else, or an integer beyond the
+    range of a float)."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return None
+    try:
+        return float(v)
+    except OverflowError:
+        return None
+
+
+def _shown(v):
+    if isinstance(v, int) and not isinstance(v, bool) and abs(v) >= 10**20:
+        return f"an integer of {len(str(abs(v)))} digits"
+    return repr(v)
+
+
+def _figure(path, where, v, objective=None):
+    """A validated ``{value, rtol, atol}`` entry (``objective``: its name, for the
+    objective's entry)."""
     if not isinstance(v, dict) or "value" not in v:
         raise _bad(path, where, "expected { value = number, rtol = number | atol = number }")
     unknown = set(v) - {"value", "rtol", "atol"}
     if unknown:
         raise _bad(path, where, f"unknown key(s) {sorted(unknown)}; expected value, rtol, atol")
-    val = v["value"]
-    if isinstance(val, bool) or not isinstance(val, (int, float)) or math.isnan(val):
-        raise _bad(path, where, f"value must be a number (inf allowed), got {val!r}")
-    way = direction(where.rsplit(".", 1)[-1]) if where.startswith("models.") else None
+    val = _float(v["value"])
+    if val is None or math.isnan(val):
+        raise _bad(path, where, f"value must be a number (inf allowed), got {_shown(v['value'])}")
+    name = where.rsplit(".", 1)[-1]
+    way = direction(name) if where.startswith("models.") else OBJECTIVES.get(objective)
     if way == "log" and not val > 0:
         raise _bad(path, where, f"a gain margin is a factor > 0 (inf allowed), got {val!r}")
     if way in ("larger", "smaller") and not val >= 0:
         raise _bad(path, where, f"a peak or margin is >= 0 (inf allowed), got {val!r}")
+    if way == "larger" and math.isinf(val):
+        raise _bad(path, where, "value = inf checks nothing (no value is larger than inf);"
+                   " expected a finite number >= 0 (delete the figure to stop checking it)")
     tol = {}
     for k in ("rtol", "atol"):
-        t = v.get(k, 0.0)
-        if isinstance(t, bool) or not isinstance(t, (int, float)) or not 0 <= t < math.inf:
-            raise _bad(path, f"{where}.{k}", f"must be a finite number >= 0, got {t!r}")
-        tol[k] = float(t)
+        t = _float(v.get(k, 0.0))
+        if t is None or not 0 <= t < math.inf:
+            raise _bad(path, f"{where}.{k}", f"must be a finite number >= 0, got"
+                       f" {_shown(v.get(k))}")
+        tol[k] = t
     return float(val), tol["rtol"], tol["atol"]
 
 
@@ -288,7 +325,7 @@ def read_golden(path: str | Path) -> dict:
             raise _bad(path, "design.objective", f"expected {{ name = one of {sorted(OBJECTIVES)},"
                        " value = number, rtol = number }")
         obj = (obj["name"], *_figure(path, "design.objective",
-                                     {k: v for k, v in obj.items() if k != "name"}))
+                                     {k: v for k, v in obj.items() if k != "name"}, obj["name"]))
     models = data.get("models", {})
     if not isinstance(models, dict):
         raise _bad(path, "models", "expected a table of models")
@@ -299,8 +336,8 @@ def read_golden(path: str | Path) -> dict:
         out[label] = {}
         for k, v in figs.items():
             if k == "temperature_C":
-                if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                    raise _bad(path, f"models.{label}.{k}", f"expected a number, got {v!r}")
+                if _float(v) is None or not math.isfinite(_float(v)):
+                    raise _bad(path, f"models.{label}.{k}", f"expected a number, got {_shown(v)}")
                 continue
             if direction(k) is None:
                 raise _bad(path, f"models.{label}.{k}", "not a margin figure robrst checks")

@@ -375,7 +375,7 @@ VARIANTS = [
     twin("twin_unknown_key", "[twin]\nnmae = 'x'\n", ("[twin.nmae]", "did you mean 'name'")),
     twin("twin_unknown_effect", "[hysterisis]\nenabled = false\n", ("[hysterisis]",)),
     twin("twin_rate_negative", "[twin]\nsample_rate_hz = -1.0\n",
-         ("[twin.sample_rate_hz]", "> 0")),
+         ("[twin.sample_rate_hz]", ">= 1000")),
     twin("twin_rate_huge", "[twin]\nsample_rate_hz = 1e300\n", ("[twin.sample_rate_hz]", "<=")),
     twin("twin_wrong_type", "[creep]\nenabled = 'no'\n", ("[creep.enabled]", "true or false")),
     twin("twin_bad_plant", "[twin]\nplant = 'nonesuch'\n", ("[twin.plant]",)),

@@ -9,7 +9,10 @@ from robrst.base.resources import problems_dir as _problems_dir
 from robrst.problem.files import load_problem
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-SHARED = ROOT.parent / "shared"
+REPRO = ROOT / "tests" / "repro"
+
+# the reproducers are data (problem files, a script that writes a record), not test modules
+collect_ignore = ["repro"]
 
 
 @pytest.fixture(scope="session")
@@ -24,9 +27,10 @@ def problems_dir():
 
 
 @pytest.fixture(scope="session")
-def shared_dir():
-    """``../shared`` beside the checkout (reproducers, real data)."""
-    return SHARED
+def repro_dir():
+    """``tests/repro``: the reproducers (each file's header says what went wrong and the
+    truth); ``tests/project/test_reproducers.py`` checks that every one has a test."""
+    return REPRO
 
 
 @pytest.fixture(scope="session")

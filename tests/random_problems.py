@@ -9,8 +9,10 @@ Generator
 :func:`draw_case` (any :class:`Chooser`, e.g. one backed by hypothesis) build a problem
 document (a dict that is valid TOML and valid input of :func:`robrst.problem.files.parse_problem`):
 plant orders 1–6, lightly damped resonances, right-half-plane zeros, integrating plants,
-negative gains, single models, explicit and parametric temperature families, sampled loops
-from 1 to 100 kHz with 0 or 1 sample of delay, every method, objective and ``T_mode``,
+near-integrators (a pole at 1e-9 .. 1e-4 of the others), near-cancellations (a zero within
+1e-7 .. 1e-3 of a pole), negative gains, single models, explicit and parametric
+temperature families, sampled loops from 1 to 100 kHz with 0 or 1 sample of delay and |T|
+bands that reach Nyquist or fold over it, every method, objective and ``T_mode``,
 roll-off factors in ``S_fixed``.  The specs are set around what the analytic design at
 the problem's own poles achieves (measured by the checker below), so a known controller
 meets them when ``RandomCase.baseline_ok`` is true.
@@ -32,7 +34,9 @@ code (no ``robrst.core.peaks``, ``robrst.core.poly``, ``robrst.core.sampled``, `
   60-digit mpmath where float64 cannot resolve the value;
 * sampled loops through python-control: ``c2d`` (ZOH) of a time-scaled plant, Tustin
   controller, ``z**-k`` delay, ``feedback`` poles for stability and a dense unit-circle
-  grid with refinement for the peaks.
+  grid with refinement for the peaks; every peak, Nyquist and the band ends (the band
+  folded into ``[0, pi fs]``) then evaluated with a 60-digit ZOH (:class:`ExactZOH`), exact
+  for near-integrators.
 """
 
 from __future__ import annotations
@@ -42,9 +46,12 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 
 import numpy as np
+import tomlkit
+
+from robrst.base.tomlwrite import plain
 
 __all__ = ["Chooser", "NumpyChooser", "RandomCase", "random_case", "draw_case", "to_toml",
-           "Figures", "figures", "check", "Discrepancy", "model_at"]
+           "Figures", "figures", "check", "Discrepancy", "model_at", "ExactZOH", "fold_band"]
 
 # --------------------------------------------------------------------------- generator
 
@@ -155,6 +162,22 @@ def _plant_parts(ch, kind, fs=None):
     return pairs, reals, z_pairs, z_reals, wp
 
 
+def _near_classes(ch, kind, reals, pairs, z_pairs, z_reals):
+    """In place: a near-integrator (a real pole moved to ``-|p|`` times 1e-9 .. 1e-4, beside
+    the others: the exact ZOH and the peaks across 9+ decades) and a near-cancellation (a
+    zero within 1e-7 .. 1e-3 relative of a real pole), each now and then."""
+    free = [i for i, r in enumerate(reals) if r != 0]
+    if free and ch.coin(0.15):
+        i = free[ch.integer(0, len(free) - 1)]
+        reals[i] = -abs(reals[i]) * ch.loguniform(1e-9, 1e-4)
+        kind["near_integrator"] = True
+    n, m = len(reals) + 2 * len(pairs), len(z_reals) + 2 * len(z_pairs)
+    if free and m + 1 < n and ch.coin(0.08):
+        p = reals[free[ch.integer(0, len(free) - 1)]]
+        z_reals.append(p * (1.0 + ch.pick([-1.0, 1.0]) * ch.loguniform(1e-7, 1e-3)))
+        kind["near_cancellation"] = True
+
+
 def _coeffs(pairs, reals, z_pairs, z_reals, dc_target, sign):
     A = _poly_from(reals, pairs)
     B0 = _poly_from(z_reals, z_pairs)
@@ -191,6 +214,10 @@ def draw_case(ch, seed=None, method=None):
     sampled = ch.coin(0.3)
     fs = ch.loguniform(1e3, 1e5) if sampled else None
     pairs, reals, z_pairs, z_reals, wp = _plant_parts(ch, kind, fs)
+    # the classes added later draw from a stream of their own, so every other choice of a
+    # seed stays what it was
+    extra = NumpyChooser([seed, 35]) if isinstance(seed, (int, np.integer)) else ch
+    _near_classes(extra, kind, reals, pairs, z_pairs, z_reals)
     n = len(reals) + 2 * len(pairs)
     dc = ch.loguniform(0.01, 10.0)
     sign = -1.0 if ch.coin(0.1) else 1.0
@@ -247,6 +274,10 @@ def draw_case(ch, seed=None, method=None):
     if res and ch.coin(0.5):
         w_r = res[0] / (2 * math.pi)
         specs["resonance_band_hz"] = [0.7 * w_r, 1.3 * w_r]
+    if sampled and extra.coin(0.35):       # a |T| band that reaches Nyquist (or folds over it)
+        nyq = fs / 2.0
+        specs["resonance_band_hz"] = [nyq * extra.uniform(0.3, 0.95), nyq * extra.uniform(1.0, 1.3)]
+        kind["band_to_nyquist"] = True
     data["specs"] = specs
     method = method or ch.pick(["analytic", "nlp", "convex"], [0.45, 0.45, 0.1])
     solver = {"method": method, "cert_temperatures": ch.integer(3, 12), "max_rounds": 4}
@@ -304,35 +335,9 @@ def _baseline(data):
     return figures(data, ctrl, n_temps=17, n_grid=4000)
 
 
-def to_toml(d, prefix=""):
+def to_toml(d):
     """A TOML text of a problem document (tables, arrays of tables, numbers, strings, lists)."""
-    def val(v):
-        if isinstance(v, bool):
-            return "true" if v else "false"
-        if isinstance(v, str):
-            return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
-        if isinstance(v, (list, tuple)):
-            return "[" + ", ".join(val(x) for x in v) + "]"
-        if isinstance(v, float):
-            return repr(v) if math.isfinite(v) else ("inf" if v > 0 else "-inf") if v == v else "nan"
-        return repr(v)
-
-    lines, tables = [], []
-    for k, v in d.items():
-        if isinstance(v, dict):
-            tables.append((k, v))
-        elif isinstance(v, list) and v and all(isinstance(x, dict) for x in v):
-            tables.append((k, v))
-        else:
-            lines.append(f"{k} = {val(v)}")
-    for k, v in tables:
-        name = f"{prefix}{k}"
-        if isinstance(v, dict):
-            lines += ["", f"[{name}]", to_toml(v, name + ".").strip("\n")]
-        else:
-            for item in v:
-                lines += ["", f"[[{name}]]", to_toml(item, name + ".").strip("\n")]
-    return "\n".join(x for x in lines if x is not None) + "\n"
+    return tomlkit.dumps(plain(d))
 
 
 # --------------------------------------------------------------------------- checker
@@ -635,7 +640,10 @@ def sampled_figures(B, A, ctrl, fs, delay, band=None, n_grid=20000):
 
     ZOH plant (``control.c2d`` of the time-scaled plant), Tustin controller, ``z**-delay``;
     closed-loop poles from ``control.feedback``; ``|S|, |T|, |U|`` on a dense unit-circle
-    grid with refinement.  Returns a dict (frequencies in rad/s).
+    grid with refinement, each peak then evaluated in extended precision (:class:`ExactZOH`)
+    at the point found and at Nyquist.  The band (rad/s) is folded into ``[0, pi fs]``
+    (:func:`fold_band`: above Nyquist the sampled response repeats) and its ends and
+    Nyquist are evaluated exactly.  Returns a dict (frequencies in rad/s).
     """
     import control
 
@@ -667,26 +675,136 @@ def sampled_figures(B, A, ctrl, fs, delay, band=None, n_grid=20000):
     lam = lam[lam > 0]
     lo = max(min(float(lam.min()) / fs / 100.0, 1e-3), 1e-12) if lam.size else 1e-9
     th = np.geomspace(lo, np.pi, n_grid)
+    at = {}
     for key, f in funcs.items():
-        out[key] = _circle_peak(f, th)
+        out[key], at[key] = _circle_peak(f, th, where=True)
     if band is not None:
-        lo, hi = (min(b / fs, np.pi) for b in band)
-        if hi > lo:
-            out["Mt_band"] = _circle_peak(funcs["Mt"], np.linspace(lo, hi, 4000))
+        lo, hi = fold_band(band, fs)          # folded above Nyquist, both ends exact
+        out["Mt_band"], at["Mt_band"] = _circle_peak(funcs["Mt"], np.linspace(lo, hi, 4000),
+                                                     where=True)
+        at["Mt_band_ends"] = (lo, hi)
+    # each peak re-evaluated in extended precision where python-control found it, and at
+    # Nyquist and the band ends: the 60-digit ZOH (ExactZOH: exact for a pole near s = 0
+    # beside fast ones) and the Tustin controller in mpmath
+    exact = _ExactLoop(B, A, ctrl, fs, delay)
+    for key in ("Ms", "Mt", "Mu"):
+        out[key] = exact.figure(key, [at[key], np.pi])
+    if band is not None:
+        out["Mt_band"] = exact.figure("Mt", [at["Mt_band"], *at["Mt_band_ends"]])
+    out["exact_points"] = exact.count
     return out
 
 
-def _circle_peak(f, th, n_refine=6):
-    """max of ``f`` on the grid ``th``, every leading local maximum refined."""
+class _ExactLoop:
+    """|S|, |T|, |U| of the sampled loop at given points of the unit circle in mpmath."""
+
+    def __init__(self, B, A, ctrl, fs, delay):
+        self.zoh = ExactZOH(B, A, fs)
+        self.R, self.S, self.fs, self.delay = ctrl.R, ctrl.S, float(fs), int(delay)
+        self.count = 0
+
+    def _K(self, th):
+        import mpmath
+
+        mp = mpmath
+        with mp.workdps(_MP_DPS):
+            R = [mp.mpf(float(x)) for x in _strip(self.R)]
+            S = [mp.mpf(float(x)) for x in _strip(self.S)]
+            if th >= np.pi:                        # z = -1: nu = inf, the limit of R/S
+                if len(R) < len(S):
+                    return 0j
+                return complex(R[0] / S[0])
+            nu = mp.mpc(0, 2 * self.fs * mp.tan(mp.mpf(float(th)) / 2))
+            return complex(_mp_horner(R, nu, mp) / _mp_horner(S, nu, mp))
+
+    def figure(self, key, thetas):
+        best = -math.inf
+        for th in thetas:
+            self.count += 1
+            P = complex(self.zoh.at([th])[0]) * complex(np.exp(-1j * th * self.delay))
+            K = self._K(th)
+            L = P * K
+            val = {"Ms": 1 / (1 + L), "Mt": L / (1 + L), "Mu": K / (1 + L)}[key]
+            best = max(best, abs(val))
+        return best
+
+
+class ExactZOH:
+    """The ZOH model of ``B/A`` at ``fs`` in extended precision (independent of robrst and
+    python-control): the controllable form built from the float coefficients (exact in
+    mpmath), one matrix exponential of the augmented matrix ``[[A T, B T], [0, 0]]`` at
+    ``dps`` digits, and ``P_d(z) = C (zI - Ad)^-1 Bd + d``.  Exact for every pole location
+    (a pole near ``s = 0`` beside fast ones included) up to ``dps`` digits.
+
+    :meth:`at` evaluates ``P_d(e^{j theta})``; ``theta = pi`` is ``z = -1`` exactly.
+    """
+
+    def __init__(self, B, A, fs, dps=_MP_DPS):
+        import mpmath
+
+        self.mp, self.dps = mpmath, dps
+        with mpmath.workdps(dps):
+            A = [mpmath.mpf(float(x)) for x in A]
+            B = [mpmath.mpf(float(x)) for x in B]
+            A, B = [x / A[0] for x in A], [x / A[0] for x in B]
+            n = self.n = len(A) - 1
+            B = [mpmath.mpf(0)] * (n + 1 - len(B)) + B
+            self.d = B[0]
+            self.C = mpmath.matrix([[B[k] - self.d * A[k] for k in range(1, n + 1)]])
+            T = 1 / mpmath.mpf(float(fs))
+            M = mpmath.zeros(n + 1, n + 1)
+            for j in range(n):
+                M[0, j] = -A[j + 1] * T
+            for i in range(1, n):
+                M[i, i - 1] = T
+            M[0, n] = T
+            E = mpmath.expm(M)
+            self.Ad, self.Bd = E[:n, :n], E[:n, n]
+
+    def at(self, theta):
+        """``P_d(e^{j theta})`` (complex) for each ``theta`` [rad/sample] in ``[0, pi]``."""
+        mp = self.mp
+        out = []
+        with mp.workdps(self.dps):
+            for th in np.atleast_1d(np.asarray(theta, float)):
+                z = mp.mpf(-1) if th >= np.pi else mp.exp(mp.mpc(0, mp.mpf(float(th))))
+                x = mp.lu_solve(z * mp.eye(self.n) - self.Ad, self.Bd)
+                out.append(complex((self.C * x)[0] + self.d))
+        return np.array(out)
+
+
+def fold_band(band, fs):
+    """The physical band ``(lo, hi)`` [rad/s] as ``(theta_lo, theta_hi)`` [rad/sample] of
+    the sampled loop, folded into ``[0, pi]`` (the response is 2 pi periodic and even)."""
+    a, b = band[0] / fs, band[1] / fs
+    if b - a >= 2 * np.pi:
+        return 0.0, np.pi
+    fold = lambda t: 2 * np.pi - math.fmod(t, 2 * np.pi) if math.fmod(t, 2 * np.pi) > np.pi \
+        else math.fmod(t, 2 * np.pi)   # noqa: E731
+    lo, hi = sorted((fold(a), fold(b)))
+    ks = range(math.ceil(a / np.pi), math.floor(b / np.pi) + 1)
+    if any(k % 2 for k in ks):
+        hi = np.pi
+    if any(k % 2 == 0 for k in ks):
+        lo = 0.0
+    return lo, hi
+
+
+def _circle_peak(f, th, n_refine=6, where=False):
+    """max of ``f`` on the grid ``th``, every leading local maximum refined (with
+    ``where``: ``(max, argmax)``)."""
     g = f(th)
     inner = np.flatnonzero((g[1:-1] >= g[:-2]) & (g[1:-1] >= g[2:])) + 1
     idx = sorted(set(inner) | {0, len(g) - 1}, key=lambda i: -g[i])[:n_refine]
-    best = float(np.max(g))
+    j = int(np.argmax(g))
+    best, arg = float(g[j]), float(th[j])
     for i in idx:
         a, b = th[max(i - 1, 0)], th[min(i + 1, len(th) - 1)]
         x = _zoom(f, a, b, th[i])
-        best = max(best, float(f(np.array([x]))[0]))
-    return best
+        v = float(f(np.array([x]))[0])
+        if v > best:
+            best, arg = v, float(x)
+    return (best, arg) if where else best
 
 
 # --------------------------------------------------------------------------- figures, check

@@ -2,14 +2,16 @@
 
 :func:`generator` plugs :func:`random_problems.draw_case` into the ``gen(rng) -> Problem``
 hook of ``tests/synthesis/test_random_problems.py``; :func:`run_seed` designs one seeded problem
-and classifies the outcome with the independent checker (:func:`random_problems.check`):
+as a user would (its TOML file through ``robrst design FILE --json``, in this process) and
+classifies the outcome with the independent checker (:func:`random_problems.check`):
 
 * ``certified``: ``certified: true`` and the checker confirms every claim;
 * ``wrong``: ``certified: true`` and the checker refutes it (unstable somewhere on the
   temperature interval, or a peak above its bound) — a wrong certificate;
 * ``refused``: an answer that is not a certificate (``not_certified`` with the best
   controller and what it achieves) or a clear robrst error (``robrst.base.errors``);
-* ``failed``: anything else (a Python exception that is not robrst's, no answer);
+* ``failed``: anything else (a Python exception that is not robrst's — the command line's
+  last-resort line :data:`robrst.cli.LAST_RESORT` or a traceback —, no answer);
 * ``hung``: no answer within the time limit (:func:`run_many` only).
 
 ``figure_low`` counts certificates (certified or not) whose reported exact peak at a
@@ -22,11 +24,15 @@ prints the table of the README ("Reliability").
 
 from __future__ import annotations
 
+import contextlib
+import io
+import json
 import multiprocessing as mp
 import sys
+import tempfile
 import time
-import traceback
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -54,31 +60,56 @@ class Outcome:
     figure_low: bool = False
 
 
+@dataclass(frozen=True)
+class _Answer:
+    """A design answer read back from ``robrst design --json``: what the checker reads."""
+
+    doc: dict
+    controller: object
+
+    def as_dict(self):
+        return self.doc
+
+
 def run_seed(seed, n_temps=33, n_grid=20000, method=None):
-    """Design random problem ``seed`` (``method`` forces ``solver.method``) and classify
-    the outcome (module docstring)."""
-    from robrst.design import run_problem
-    from robrst.base.errors import RobrstError
+    """Design random problem ``seed`` (``method`` forces ``solver.method``) through the
+    command line and classify the outcome (module docstring)."""
+    from robrst.cli import LAST_RESORT, main
+    from robrst.core.rst import RSTController
 
     t0 = time.perf_counter()
     case = random_case(seed, method=method)
+    out, err = io.StringIO(), io.StringIO()
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / f"random_{seed}.toml"
+        path.write_text(case.toml(), encoding="utf-8")
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            try:
+                rc = main(["design", str(path), "--json", "--quiet"])
+            except BaseException as exc:   # noqa: BLE001 - the command line must not raise
+                rc, _ = None, err.write(f"raised {type(exc).__name__}: {exc}")
+    err = err.getvalue().strip()
+    lines = [x for x in err.splitlines() if not x.startswith("robrst: note:")]
+    seconds = time.perf_counter() - t0
+    if LAST_RESORT in err or "Traceback" in err or rc is None:
+        return Outcome(seed, "failed", err[:400], case.kind, seconds)
+    if rc == 2:
+        ok = len(lines) == 1 and lines[0].startswith("robrst: error: ")
+        return Outcome(seed, "refused" if ok else "failed", f"error: {err[:400]}", case.kind,
+                       seconds)
     try:
-        res = run_problem(case.problem())
-    except RobrstError as exc:
-        return Outcome(seed, "refused", f"error: {exc}", case.kind, time.perf_counter() - t0)
-    except Exception as exc:   # noqa: BLE001 - every other exception is a failure to report
-        tb = traceback.format_exception_only(type(exc), exc)[-1].strip()
-        return Outcome(seed, "failed", tb, case.kind, time.perf_counter() - t0)
-    if res.controller is None or not (res.certified or res.best_achievable):
-        return Outcome(seed, "failed", "no answer", case.kind, time.perf_counter() - t0)
+        doc = json.loads(out.getvalue())
+        ctrl = RSTController(**{k: doc["controller"][k] for k in "RST"})
+    except (ValueError, KeyError, TypeError) as exc:
+        return Outcome(seed, "failed", f"no JSON answer ({exc})", case.kind, seconds)
+    if rc != (0 if doc["certified"] else 1) or not (doc["certified"] or doc["best_achievable"]):
+        return Outcome(seed, "failed", f"no answer (exit {rc})", case.kind, seconds)
+    res = _Answer(doc, ctrl)
     bad = check(case.data, res, n_temps=n_temps, n_grid=n_grid)
     wrong = [d for d in bad if d.what != "figure"]
     low = any(d.what == "figure" for d in bad)
-    if res.certified:
-        status = "wrong" if wrong else "certified"
-    else:
-        status = "refused"
-    detail = "; ".join(d.detail for d in bad) or res.status
+    status = ("wrong" if wrong else "certified") if doc["certified"] else "refused"
+    detail = "; ".join(d.detail for d in bad) or doc["status"]
     return Outcome(seed, status, detail, case.kind, time.perf_counter() - t0, low)
 
 

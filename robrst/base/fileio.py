@@ -8,13 +8,25 @@ over the target (``os.replace`` is atomic on POSIX and Windows).
 
 from __future__ import annotations
 
+import errno
 import json
 import math
 import os
+import signal
+import socket
+import stat
 import tempfile
-from collections.abc import Iterable
+import threading
+import time
+from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
+
+try:
+    import fcntl
+except ImportError:     # pragma: no cover - not POSIX: no advisory locks
+    fcntl = None
 
 import numpy as np
 
@@ -22,7 +34,8 @@ from robrst.base.errors import OutputError
 
 __all__ = ["atomic_write_bytes", "atomic_write_text", "json_text", "jsonable", "umask_mode",
            "check_file_target", "check_folder_target", "check_json_target", "read_utf8",
-           "WRITTEN_BY"]
+           "read_input_bytes", "check_input_file", "peek_text", "output_lock", "owner_tag",
+           "owner_alive", "signals_deferred", "WRITTEN_BY", "MAX_TOML_BYTES", "MAX_TEXT_BYTES"]
 
 WRITTEN_BY = "written_by"   # the key of a JSON file robrst wrote: "robrst <command>"
 
@@ -45,8 +58,110 @@ def umask_mode(mode: int = 0o666) -> int:
     return mode & ~mask
 
 
-def read_utf8(path: Path, what: str, kind: str, error: type[Exception]) -> str:
+# the largest input robrst reads into memory: a TOML file (problem, twin, sweep, golden,
+# model) and any other text (a CSV record of ~25 million rows); /dev/zero or a runaway
+# file is refused instead of filling the memory
+MAX_TOML_BYTES = 16 * 2**20
+MAX_TEXT_BYTES = 2**30
+
+
+def check_input_file(path: str | os.PathLike, what: str, error: type[Exception],
+                     kind: str | None = None) -> os.stat_result:
+    """Refuse an input that is not a regular file, before opening it.
+
+    A FIFO would block the read until a writer appears (``robrst design fifo`` hung), a
+    device such as ``/dev/zero`` never ends, a folder or a symbolic-link loop has no
+    content.
+
+    Parameters
+    ----------
+    path : str or Path
+    what : str
+        What the file is, for messages ("problem file", "data file").
+    error : type
+        The robrst exception to raise.
+    kind : str, optional
+        Its format ("TOML", "CSV"), named when the path is a folder.
+
+    Returns
+    -------
+    os.stat_result
+
+    Raises
+    ------
+    Exception
+        ``error``, naming ``path``: not found, a broken link, a symbolic-link loop, a
+        folder, a FIFO, a device or a socket.
+    """
+    path = Path(path)
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        if path.is_symlink():
+            raise error(f"{path}: is a broken symbolic link; expected a {what}") from None
+        raise error(f"{path}: {what} not found") from None
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            raise error(f"{path}: is a symbolic-link loop; expected a {what}") from None
+        raise error(f"{path}: cannot read the {what} ({exc.strerror})") from None
+    if stat.S_ISDIR(st.st_mode):
+        raise error(f"{path}: is a folder, expected a {what}" + (f" ({kind})" if kind else ""))
+    if not stat.S_ISREG(st.st_mode):
+        kind = ("a FIFO (named pipe)" if stat.S_ISFIFO(st.st_mode) else
+                "a device" if stat.S_ISCHR(st.st_mode) or stat.S_ISBLK(st.st_mode) else
+                "a socket" if stat.S_ISSOCK(st.st_mode) else "not a regular file")
+        raise error(f"{path}: is {kind}, not a regular file; expected a {what}")
+    return st
+
+
+def read_input_bytes(path: str | os.PathLike, what: str, error: type[Exception],
+                     limit: int = MAX_TEXT_BYTES, kind: str | None = None) -> bytes:
+    """The bytes of a regular input file of at most ``limit`` bytes (one bounded,
+    non-blocking read); every failure is one ``error`` naming ``path``.
+
+    Parameters
+    ----------
+    path : str or Path
+    what : str
+        What the file is, for messages.
+    error : type
+        The robrst exception to raise.
+    limit : int
+        Largest size [bytes].
+    kind : str, optional
+        Its format, named when the path is a folder.
+
+    Returns
+    -------
+    bytes
+
+    Raises
+    ------
+    Exception
+        ``error``: what :func:`check_input_file` refuses, an unreadable file, a file
+        larger than ``limit``.
+    """
+    path = Path(path)
+    check_input_file(path, what, error, kind)
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+        with os.fdopen(fd, "rb") as fh:
+            raw = fh.read(limit + 1)
+    except IsADirectoryError:
+        raise error(f"{path}: is a folder, expected a {what}") from None
+    except OSError as exc:
+        raise error(f"{path}: cannot read the {what} ({exc.strerror or exc})") from None
+    if len(raw) > limit:
+        raise error(f"{path}: larger than {limit / 2**20:g} MiB; expected a {what} of at most"
+                    " that size")
+    return raw
+
+
+def read_utf8(path: Path, what: str, kind: str, error: type[Exception],
+              limit: int | None = None) -> str:
     """The text of a UTF-8 file (BOM dropped); every failure is one ``error`` naming ``path``.
+
+    A regular file only (no FIFO or device), read in one bounded read.
 
     Parameters
     ----------
@@ -58,21 +173,20 @@ def read_utf8(path: Path, what: str, kind: str, error: type[Exception]) -> str:
         Its format, for the folder message ("TOML", "CSV").
     error : type
         The robrst exception to raise (``SpecError``, ``DataError``): for a folder, a
-        missing or unreadable file, UTF-16 text and a byte that is not UTF-8 (with its line).
+        missing or unreadable file, a FIFO, a device, a file above ``limit``, UTF-16 text
+        and a byte that is not UTF-8 (with its line).
+    limit : int, optional
+        Largest size [bytes]; default :data:`MAX_TOML_BYTES` for TOML, else
+        :data:`MAX_TEXT_BYTES`.
 
     Returns
     -------
     str
         The decoded text without a leading byte-order mark.
     """
-    try:
-        raw = path.read_bytes()
-    except IsADirectoryError:
-        raise error(f"{path}: is a folder, expected a {what} ({kind})") from None
-    except FileNotFoundError:
-        raise error(f"{path}: {what} not found") from None
-    except OSError as exc:
-        raise error(f"{path}: cannot read the {what} ({exc.strerror})") from None
+    if limit is None:
+        limit = MAX_TOML_BYTES if kind == "TOML" else MAX_TEXT_BYTES
+    raw = read_input_bytes(path, what, error, limit, kind)
     if raw[:2] in (b"\xff\xfe", b"\xfe\xff"):
         raise error(f"{path}: {what} is UTF-16; save it as UTF-8")
     try:
@@ -82,6 +196,50 @@ def read_utf8(path: Path, what: str, kind: str, error: type[Exception]) -> str:
         raise error(f"{path}: line {line}: not valid UTF-8 (byte 0x{raw[exc.start]:02x});"
                     f" save the {what} as UTF-8") from None
     return text.removeprefix("\ufeff")
+
+
+def peek_text(path: str | os.PathLike, limit: int = 2**20) -> str | None:
+    """The text (UTF-8, undecodable bytes replaced) of an existing regular file of at most
+    ``limit`` bytes, else ``None``: for deciding whether robrst wrote an output it is about
+    to replace (a FIFO, a device or a huge file there is not robrst's).
+
+    Parameters
+    ----------
+    path : str or Path
+    limit : int
+        Largest size read [bytes].
+
+    Returns
+    -------
+    str or None
+    """
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    if not stat.S_ISREG(st.st_mode) or st.st_size > limit:
+        return None
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+        with os.fdopen(fd, "rb") as fh:
+            return fh.read(limit).decode("utf-8", errors="replace")
+    except OSError:
+        return None
+
+
+def _check_links(path, expected):
+    """Refuse a path that is, or lies under, a symbolic-link loop (or a broken link)."""
+    for p in reversed((path, *path.parents)):      # the outermost offending part first
+        try:
+            os.stat(p)
+        except FileNotFoundError:
+            if p.is_symlink():
+                raise OutputError(f"{path}: {'it' if p == path else p} is a broken symbolic"
+                                  f" link; expected {expected}") from None
+        except OSError as exc:
+            if exc.errno == errno.ELOOP:
+                raise OutputError(f"{path}: {'it' if p == path else p} is a symbolic-link"
+                                  f" loop; expected {expected}") from None
 
 
 def _check_parents(path):
@@ -115,6 +273,7 @@ def check_file_target(path: str | Path) -> Path:
         Naming the path and what was expected.
     """
     path = Path(path)
+    _check_links(path, "a file name")
     if path.is_dir():
         raise OutputError(f"{path}: is a folder; expected a file name")
     _check_parents(path)
@@ -150,8 +309,8 @@ def check_json_target(path: str | Path, other_outputs: Iterable[str | Path | Non
                               " expected a separate --json file")
     if path.exists() or path.is_symlink():
         try:
-            doc = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError, ValueError):
+            doc = json.loads(peek_text(path, 64 * 2**20) or "")
+        except ValueError:
             doc = None
         if not (isinstance(doc, dict) and str(doc.get(WRITTEN_BY, "")).startswith("robrst")):
             raise OutputError(f"{path}: exists and was not written by robrst; not overwriting"
@@ -178,6 +337,7 @@ def check_folder_target(path: str | Path) -> Path:
         Naming the path and what was expected.
     """
     path = Path(path)
+    _check_links(path, "a folder")
     if path.exists() and not path.is_dir():
         raise OutputError(f"{path}: is a file; expected a folder")
     _check_parents(path)
@@ -245,6 +405,148 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
         The file written.
     """
     return atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def owner_tag() -> str:
+    """``"PID HOST"``: who made a temporary file or folder (see :func:`owner_alive`).
+
+    Returns
+    -------
+    str
+    """
+    return f"{os.getpid()} {socket.gethostname()}"
+
+
+def owner_alive(tag: str) -> bool:
+    """Whether the process of an :func:`owner_tag` may still run (``True`` when unsure:
+    another host, an unreadable tag).
+
+    Parameters
+    ----------
+    tag : str
+
+    Returns
+    -------
+    bool
+    """
+    try:
+        pid, host = tag.split()[:2]
+        pid = int(pid)
+    except (AttributeError, ValueError):
+        return True
+    if host != socket.gethostname():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:
+        return True
+    return True
+
+
+@contextmanager
+def signals_deferred() -> Iterator[None]:
+    """SIGINT and SIGTERM held back (delivered when the block ends) for steps that must not
+    stop half-way, such as swapping a report folder: a Ctrl-C between its two renames
+    would leave the earlier report renamed away.  A no-op outside the main thread or
+    without ``pthread_sigmask``.
+
+    Yields
+    ------
+    None
+    """
+    if not hasattr(signal, "pthread_sigmask") or \
+            threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+def _acquire(lock, path, deadline, what, option, held):
+    """Flock ``lock``; its descriptor is appended to ``held`` before any signal can stop the
+    caller (see :func:`output_lock`)."""
+    while True:
+        with signals_deferred():          # no descriptor or file left half-made by a signal
+            try:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                fd = os.open(lock, os.O_RDWR | os.O_CREAT, umask_mode())
+            except OSError as exc:
+                raise OutputError(f"{path}: cannot write here ({exc.strerror or exc})") from None
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError:
+                os.close(fd)
+                fd = None
+            if fd is not None:
+                try:     # the holder before may have removed the file between open and lock
+                    same = os.fstat(fd).st_ino == os.stat(lock).st_ino
+                except OSError:
+                    same = False
+                if same:
+                    held.append(fd)
+                    os.ftruncate(fd, 0)
+                    os.write(fd, (owner_tag() + "\n").encode())
+                    return
+                os.close(fd)
+                continue
+        if time.monotonic() >= deadline:
+            raise OutputError(f"{path}: another robrst run is writing this {what} now;"
+                              f" wait for it to finish or choose another {option}")
+        time.sleep(0.05)
+
+
+@contextmanager
+def output_lock(path: str | os.PathLike, wait_s: float = 0.0, what: str = "output folder",
+                option: str = "--out") -> Iterator[None]:
+    """One robrst writer at a time for the output ``path`` (an advisory lock).
+
+    The lock is the file ``.NAME.lock`` beside ``path`` (``flock``, released when the
+    process ends however it ends, removed on release).  A second writer waits up to
+    ``wait_s`` seconds, then gets an :class:`~robrst.base.errors.OutputError` naming the
+    path and ``option``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The output file or folder.
+    wait_s : float
+        How long to wait for another writer to finish.
+    what, option : str
+        For the message.
+
+    Yields
+    ------
+    None
+        While the lock is held.
+
+    Raises
+    ------
+    OutputError
+        Another writer holds the lock beyond ``wait_s``, or the folder cannot hold the
+        lock file.
+    """
+    path = Path(path)
+    if fcntl is None:       # pragma: no cover
+        yield
+        return
+    lock = path.parent / f".{path.name}.lock"
+    held = []
+    try:
+        _acquire(lock, path, time.monotonic() + float(wait_s), what, option, held)
+        yield
+    finally:
+        if held:
+            with signals_deferred():
+                try:
+                    os.unlink(lock)
+                except OSError:
+                    pass
+                os.close(held[0])
 
 
 def jsonable(x: Any) -> Any:

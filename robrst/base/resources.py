@@ -153,4 +153,6 @@ def find_file(name_or_path: str | Path, kind: str) -> Path | None:
     if p.exists() and not p.is_dir():
         return p
     builtin = (builtin_problem if kind == "problem" else builtin_sweep)(str(name_or_path))
+    if builtin is None and p.is_symlink():    # a broken link or a loop: the reader names it
+        return p
     return builtin if builtin is not None or not p.exists() else p

@@ -128,29 +128,49 @@ def _is_number(v):
     return isinstance(v, (int, float)) and not isinstance(v, bool)
 
 
+def _finite_float(v):
+    """``float(v)`` of a number, ``None`` when it is not finite (an integer beyond the
+    range of a float, e.g. a 400-digit integer literal, included)."""
+    try:
+        f = float(v)
+    except OverflowError:
+        return None
+    return f if math.isfinite(f) else None
+
+
+def _shown(v):
+    """A value for a message: long integers abbreviated."""
+    if isinstance(v, int) and not isinstance(v, bool) and abs(v) >= 10**20:
+        return f"an integer of {len(str(abs(v)))} digits"
+    if isinstance(v, list) and any(isinstance(x, int) and abs(x) >= 10**20 for x in v
+                                   if not isinstance(x, bool)):
+        return "[" + ", ".join(_shown(x) if isinstance(x, int) else repr(x) for x in v) + "]"
+    return repr(v)
+
+
 def _check_range(path, key, field, v):
     bad = ((field.positive and not v > 0) or (field.lo is not None and v < field.lo)
            or (field.hi is not None and v > field.hi))
     if bad:
-        raise key_error(path, key, f"expected {field.describe()}, got {v!r}")
+        raise key_error(path, key, f"expected {field.describe()}, got {_shown(v)}")
     if v != 0 and not 1.0 / MAX_MAGNITUDE <= abs(v) <= MAX_MAGNITUDE:
         raise key_error(path, key, f"expected 0 or {1 / MAX_MAGNITUDE:g} <= |value| <="
-                        f" {MAX_MAGNITUDE:g}, got {v!r}")
+                        f" {MAX_MAGNITUDE:g}, got {_shown(v)}")
 
 
 def _check_value(path, key, field, value):
     t = field.type
     if t == "number":
-        if not _is_number(value) or not math.isfinite(value):
-            raise key_error(path, key, f"expected a finite number, got {value!r}")
+        if not _is_number(value) or _finite_float(value) is None:
+            raise key_error(path, key, f"expected a finite number, got {_shown(value)}")
         value = float(value)
         _check_range(path, key, field, value)
         return value
     if t == "numbers":
         if not isinstance(value, list) or not all(_is_number(v) for v in value):
-            raise key_error(path, key, f"expected a list of numbers, got {value!r}")
-        if not all(math.isfinite(v) for v in value):
-            raise key_error(path, key, f"numbers must be finite, got {value!r}")
+            raise key_error(path, key, f"expected a list of numbers, got {_shown(value)}")
+        if not all(_finite_float(v) is not None for v in value):
+            raise key_error(path, key, f"numbers must be finite, got {_shown(value)}")
         if len(value) > MAX_LIST:
             raise key_error(path, key, f"at most {MAX_LIST} numbers, got {len(value)}")
         if field.length is not None and len(value) != field.length:
@@ -160,7 +180,7 @@ def _check_value(path, key, field, value):
         return tuple(float(v) for v in value)
     if t == "int":
         if isinstance(value, bool) or not isinstance(value, int):
-            raise key_error(path, key, f"expected an integer, got {value!r}")
+            raise key_error(path, key, f"expected an integer, got {_shown(value)}")
         _check_range(path, key, field, value)
         return value
     if t == "bool":

@@ -5,9 +5,11 @@ exact global peaks of ``|S|, |T|, |U|`` (:func:`robrst.core.peaks.peak_gain`), t
 frequency-limited peaks (``|T|`` over the resonance band, ``|U|`` above a corner), the
 spectral abscissa and whether double precision resolves that verdict
 (:func:`robrst.core.interval.distance_to_instability`), and the reference-step figures
-(:mod:`robrst.certificate.steps`).  :func:`check_all` adds the exact sampled loop and the
-caller's extra checks; :func:`margins` lists the ``{figure: (value, limit)}`` pairs that
-:mod:`robrst.certificate.proof` refines over the temperature interval.
+(:mod:`robrst.certificate.steps`), as one :class:`~robrst.certificate.figures.LoopFigures`.
+:func:`check_all` adds the exact sampled loop and the caller's extra checks into one
+:class:`~robrst.certificate.figures.ModelRecord`; :func:`margins` lists the ``{figure:
+(value, limit)}`` pairs (by published name) that :mod:`robrst.certificate.proof` refines
+over the temperature interval.
 """
 
 from __future__ import annotations
@@ -20,12 +22,14 @@ import numpy as np
 
 from robrst.core import poly
 from robrst.certificate import steps as timespec
+from robrst.certificate.figures import LOOPS, LoopFigures, ModelRecord, StepFigures, figure_key
 from robrst.core.analysis import spectral_abscissa_many
 from robrst.core.peaks import peak_gain, peak_gains_many
 from robrst.core.interval import distance_to_instability_many
-from robrst.problem.records import PEAK_SPECS
+from robrst.core import region
+from robrst.problem.records import EXTRA_PEAK_SPECS, PEAK_SPECS
 from robrst.core.rst import closed_loop
-from robrst.core.sampled import sampled_plant, unwarp, warp
+from robrst.core.sampled import sampled_plant, unwarp, warp_band
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -36,9 +40,14 @@ if TYPE_CHECKING:
     from robrst.problem.records import Specs
 
 __all__ = ["Violation", "check_model", "check_all", "check_all_many", "margins", "band_peak",
-           "BOUNDED", "FIGURE_OF", "JUMPS", "SAMPLED_KEYS", "RESOLVE_FACTOR"]
+           "BOUNDED", "LOWER_BOUNDED", "FIGURE_OF", "JUMPS", "RESOLVE_FACTOR"]
 
 RESOLVE_FACTOR = 64.0  # stability resolved when the distance to instability > this x n eps
+# a pole-region verdict needs the zero-exclusion test only near the boundary: a root this far
+# inside (damping, relative decay) moves across it only for a relative root error of ~0.05,
+# far beyond what rounding does even to a 10-fold root cluster (eps**(1/10) ~ 0.03)
+RESOLVED_DAMPING = 0.05
+RESOLVED_DECAY = 0.05
 
 @dataclass(frozen=True)
 class Violation:
@@ -49,10 +58,10 @@ class Violation:
     label : str
         The model's label.
     temperature_C : float
-        Its temperature [°C].
+        Its temperature [°C] (``nan`` for the controller's own poles).
     quantity : str
-        What failed (``"|S| peak"``, ``"overshoot_pct"``, ``"spectral_abscissa"``, ...; for
-        ``unresolved``, why it could not be decided).
+        What failed (``"|S| peak"``, ``"overshoot_pct"``, ``"spectral_abscissa"``,
+        ``"closed-loop damping"``, ...; for ``unresolved``, why it could not be decided).
     value : float
         The figure found.
     bound : float
@@ -61,9 +70,11 @@ class Violation:
         Where (physical frequency [rad/s]), when a frequency applies.
     loop : {"continuous", "sampled"}
         Which loop.
-    kind : {"exceeds", "crossing", "unresolved"}
-        ``value > bound``; a closed-loop root reaches the imaginary axis between two checked
-        temperatures; or the check could not be decided (nothing is certified then).
+    kind : {"exceeds", "below", "crossing", "unresolved"}
+        ``value > bound``; ``value < bound`` (a lower bound: the pole region's damping and
+        decay); a closed-loop root reaches the imaginary axis, or a pole-region boundary,
+        between two checked temperatures; or the check could not be decided (nothing is
+        certified then).
     """
 
     label: str
@@ -75,8 +86,24 @@ class Violation:
     loop: str = "continuous"     # or "sampled"
     kind: str = "exceeds"
 
+    @property
+    def ratio(self) -> float:
+        """How far beyond its bound: ``value / bound`` (``bound / value`` for a lower bound,
+        ``> 1`` when violated); ``inf`` for a crossing, an unresolved check or a bound 0.
+
+        Returns
+        -------
+        float
+        """
+        if self.kind == "exceeds" and self.bound:
+            return self.value / self.bound
+        if self.kind == "below" and self.bound:
+            return self.bound / self.value if self.value > 0 else np.inf
+        return np.inf
+
     def describe(self) -> str:
-        """One line: ``"model T45C (45 °C): |S| peak = 2.31 > 2 at 612 Hz"``.
+        """One line: ``"model T45C (45 °C): |S| peak = 2.31 > 2 at 612 Hz"`` (``<`` for a
+        lower bound).
 
         Returns
         -------
@@ -84,10 +111,11 @@ class Violation:
         """
         at = "" if self.freq_rad_s is None else f" at {self.freq_rad_s / (2 * np.pi):.4g} Hz"
         loop = " in the sampled loop" if self.loop == "sampled" else ""
-        if self.kind != "exceeds":
+        if self.kind not in ("exceeds", "below"):
             return f"model {self.label} ({self.temperature_C:g} °C){loop}: {self.quantity}{at}"
+        rel = ">" if self.kind == "exceeds" else "<"
         return (f"model {self.label} ({self.temperature_C:g} °C): {self.quantity}{loop} ="
-                f" {self.value:.4g} > {self.bound:.4g}{at}")
+                f" {self.value:.4g} {rel} {self.bound:.4g}{at}")
 
 
 
@@ -113,8 +141,9 @@ def band_peak(N: ArrayLike, D: ArrayLike, w_lo: float, w_hi: float) -> tuple[flo
 
 
 def _stability(loops):
-    """Spectral abscissa and distance to instability of each loop (``(inf, None)`` for a
-    sampled loop that lost degree: a pole at ``z = -1``), batched."""
+    """Spectral abscissa, distance to instability and closed-loop roots of each loop
+    (``(inf, None, None)`` for a sampled loop that lost degree: a pole at ``z = -1``),
+    batched."""
     found = spectral_abscissa_many([lp.cl.Delta for lp in loops])
     jobs = {}
     for k, (lp, (sa, roots)) in enumerate(zip(loops, found)):
@@ -123,12 +152,12 @@ def _stability(loops):
         else:
             jobs[k] = ([(lp.plant.A, lp.ctrl.S), (lp.plant.B, lp.ctrl.R)], lp.cl.Delta, roots)
     rhos = dict(zip(jobs, distance_to_instability_many(list(jobs.values()))))
-    return [(sa, rhos.get(k)) for k, (sa, _) in enumerate(found)]
+    return [(sa, rhos.get(k), roots) for k, (sa, roots) in enumerate(found)]
 
 
 def check_model(plant: Plant, ctrl: RSTController, specs: Specs, rtol: float,
-                fs: float | None = None) -> tuple[dict, list[Violation]]:
-    """Exact peaks and stability of one model; returns (record, violations).
+                fs: float | None = None) -> tuple[LoopFigures, list[Violation]]:
+    """Exact peaks and stability of one closed loop.
 
     With ``fs`` the plant is a sampled-loop plant (:func:`robrst.core.sampled.sampled_plant`):
     reported frequencies are mapped back to physical ones, the resonance band is
@@ -150,9 +179,9 @@ def check_model(plant: Plant, ctrl: RSTController, specs: Specs, rtol: float,
 
     Returns
     -------
-    record : dict
-        The model's figures (``Ms``, ``Mt``, ``Mu``, frequencies, ``stable``,
-        ``spectral_abscissa``, ``distance_to_instability``, step figures, ...).
+    figures : LoopFigures
+        The loop's figures (peaks and frequencies, stability, band peaks, step figures,
+        the pole region's damping and decay when checked).
     violations : list of Violation
     """
     return _check_loops([(plant, fs)], ctrl, specs, rtol)[0]
@@ -162,8 +191,8 @@ def _check_loops(loops, ctrl, specs, rtol):
     """:func:`check_model` of each ``(plant, fs)``, the peak computations of all batched
     (:func:`robrst.core.peaks.peak_gains_many`: the same figures as one loop at a time)."""
     loops = [_Loop(plant, ctrl, specs, fs) for plant, fs in loops]
-    for lp, (sa, rho) in zip(loops, _stability(loops)):
-        lp.sa, lp.rho = sa, rho
+    for lp, (sa, rho, roots) in zip(loops, _stability(loops)):
+        lp.sa, lp.rho, lp.roots = sa, rho, roots
     pks = peak_gains_many([(lp.nums, lp.cl.Delta, lp.bands) for lp in loops])
     steps = _steps(loops, ctrl, specs, rtol)
     return [lp.finish(pk, specs, rtol, st) for lp, pk, st in zip(loops, pks, steps)]
@@ -193,18 +222,19 @@ class _Loop:
     def __init__(self, plant, ctrl, specs, fs):
         self.plant, self.ctrl, self.fs = plant, ctrl, fs
         self.cl = cl = closed_loop(plant, ctrl)
-        self.sa = self.rho = None      # set by _stability
-        self.nums = [cl.nums[k] for k in PEAK_SPECS]
+        self.sa = self.rho = self.roots = None      # set by _stability
+        self.extra = [k for k in EXTRA_PEAK_SPECS if specs.extra_peak_bound(k) is not None]
+        self.nums = [cl.nums[k] for k in PEAK_SPECS] + [cl.nums[k] for k in self.extra]
         self.bands = bands = []        # frequency-limited peaks, computed with the global ones
         if specs.T_resonance_max is not None:
             lo, hi = (2 * np.pi * f for f in specs.resonance_band_hz)
-            if fs is not None:
-                lo, hi = (warp(min(lo, 0.999 * np.pi * fs), fs),
-                          warp(min(hi, 0.999 * np.pi * fs), fs))
+            if fs is not None:        # folded above Nyquist; Nyquist itself is nu = inf
+                lo, hi = warp_band(lo, hi, fs)
             bands.append((list(PEAK_SPECS).index("T"), (float(lo), float(hi))))
         if specs.Mu_hf_max is not None:   # |U| above a corner frequency (up to inf / Nyquist)
             lo = 2 * np.pi * specs.Mu_hf_above_hz
-            lo = lo if fs is None else warp(min(lo, 0.999 * np.pi * fs), fs)
+            if fs is not None:        # up to Nyquist (nu = inf) included
+                lo = warp_band(min(lo, np.pi * fs), np.pi * fs, fs)[0]
             bands.append((list(PEAK_SPECS).index("U"), (float(lo), np.inf)))
 
     def phys(self, w):
@@ -216,8 +246,7 @@ class _Loop:
         reference-step figures ``step`` (``(record, failed)`` or ``None``)."""
         plant, cl, sa, rho, fs = self.plant, self.cl, self.sa, self.rho, self.fs
         loop = "continuous" if fs is None else "sampled"
-        rec = {"label": plant.label, "temperature_C": plant.temperature_C,
-               "spectral_abscissa": sa, "stable": bool(sa < 0), "distance_to_instability": rho,
+        fig = {"spectral_abscissa": sa, "stable": bool(sa < 0), "distance_to_instability": rho,
                "closed_loop_degree": len(poly.trim(cl.Delta)) - 1}
         viol = []
 
@@ -231,13 +260,27 @@ class _Loop:
             add(f"stability not resolved in double precision: A S + B R is within {rho:.2g}"
                 " (relative) of a polynomial with a root on the imaginary axis (cancellation"
                 " in the closed-loop coefficients)", rho, RESOLVE_FACTOR, kind="unresolved")
-        band_pks = iter(pks[len(PEAK_SPECS):])
+        band_pks = iter(pks[len(PEAK_SPECS) + len(self.extra):])
+        for name, pk in zip(self.extra, pks[len(PEAK_SPECS):]):    # B S/Delta, B T/Delta
+            freq = (self.phys(float(pk.freq_rad_s))
+                    if fs is not None or np.isfinite(pk.freq_rad_s) else None)
+            key = _EXTRA_FIGURE[name]
+            fig[key], fig[key + "_freq_rad_s"] = pk.value, freq
+            bound = specs.extra_peak_bound(name)
+            what = _EXTRA_QUANTITY[name]
+            if pk.value > bound * (1 + rtol):
+                add(f"{what} peak", pk.value, bound, freq)
+            elif not pk.verified:
+                add(f"{what} peak not verified: the closed-loop poles span more than 12"
+                    " decades", pk.value, bound, freq, kind="unresolved")
+        if (specs.damping_min or specs.decay_min) and self.roots is not None:
+            fig.update(self.region(specs, rtol, add))
         for name, pk in zip(PEAK_SPECS, pks):
             # a sampled peak at nu = inf is at Nyquist (unwarp(inf) = pi fs)
             freq = (self.phys(float(pk.freq_rad_s))
                     if fs is not None or np.isfinite(pk.freq_rad_s) else None)
-            rec[f"M{name.lower()}"] = pk.value
-            rec[f"M{name.lower()}_freq_rad_s"] = freq
+            fig[f"M{name.lower()}"] = pk.value
+            fig[f"M{name.lower()}_freq_rad_s"] = freq
             bound = specs.peak_bound(name)
             if bound is not None and pk.value > bound * (1 + rtol):
                 add(f"|{name}| peak", pk.value, bound, freq)
@@ -246,8 +289,8 @@ class _Loop:
                     " decades", pk.value, bound, freq, kind="unresolved")
         if specs.T_resonance_max is not None:
             pk = next(band_pks)
-            rec["Mt_resonance_band"] = pk.value
-            rec["Mt_resonance_band_freq_rad_s"] = self.phys(pk.freq_rad_s)
+            fig["Mt_resonance_band"] = pk.value
+            fig["Mt_resonance_band_freq_rad_s"] = self.phys(pk.freq_rad_s)
             if pk.value > specs.T_resonance_max * (1 + rtol):
                 add("|T| in resonance band", pk.value, specs.T_resonance_max,
                     self.phys(pk.freq_rad_s))
@@ -256,7 +299,7 @@ class _Loop:
                     " decades", pk.value, specs.T_resonance_max, kind="unresolved")
         if specs.Mu_hf_max is not None:
             pk = next(band_pks)
-            rec["Mu_hf"] = pk.value
+            fig["Mu_hf"] = pk.value
             if pk.value > specs.Mu_hf_max * (1 + rtol):
                 add("|U| above corner", pk.value, specs.Mu_hf_max, self.phys(pk.freq_rad_s))
             elif not pk.verified:
@@ -264,22 +307,71 @@ class _Loop:
                     " decades", pk.value, specs.Mu_hf_max, kind="unresolved")
         if step is not None:   # reference-step specs (robrst.certificate.steps)
             t_rec, failed = step
-            rec.update(t_rec)
+            fig["step"] = StepFigures(**t_rec)
             for q, v, b, kind in failed:
                 add(q, v, b, kind=kind)
-        return rec, viol
+        return LoopFigures(**fig), viol
+
+    def region(self, specs, rtol, add):
+        """The pole-region figures ``{"damping": .., "decay_rad_s": ..}`` of this loop (its
+        roots mapped to s), violations and unresolved verdicts through ``add``.
+
+        A verdict that the region holds is unresolved when double precision cannot tell:
+        the closed-loop polynomial lies within its rounding error (``RESOLVE_FACTOR n
+        eps``, relative to the products forming it) of one with a root on the region's
+        boundary (:func:`robrst.core.region.boundary_distance`).  The sampled loop's
+        region (its boundary has no polynomial form in the loop variable) is decided from
+        its mapped roots alone; a loop whose roots are all ``RESOLVED_DAMPING`` above the
+        floor (and ``RESOLVED_DECAY`` beyond the decay) is resolved without the test.
+        """
+        p, fs = self.plant, self.fs
+        roots = np.asarray(self.roots, complex)
+        s = region.s_poles(roots, fs)
+        out = {"damping": region.least_damping(s), "decay_rad_s": region.least_decay(s)}
+        floor, sigma = specs.damping_min, specs.decay_min
+        lows = []
+        for name, lim, what in (("damping", floor, "closed-loop damping"),
+                                ("decay_rad_s", sigma, "closed-loop decay rate [rad/s]")):
+            if not lim:
+                continue
+            vals = region.damping_of(s) if name == "damping" else -s.real
+            k = int(np.argmin(vals))
+            if vals[k] < lim * (1 - rtol):
+                add(what, float(vals[k]), lim, abs(float(s[k].imag)) or None, kind="below")
+                lows.append(name)
+        if len(lows) == sum(bool(b) for b in (floor, sigma)) or fs is not None:
+            return out
+        zmin, dmin = out["damping"], out["decay_rad_s"]
+        if (not floor or zmin >= floor + RESOLVED_DAMPING) and (
+                not sigma or dmin >= sigma * (1 + RESOLVED_DECAY)):
+            return out     # far inside: rounding cannot move a root across the boundary
+        size = np.polyadd(np.convolve(np.abs(p.A), np.abs(self.ctrl.S)),
+                          np.convolve(np.abs(p.B), np.abs(self.ctrl.R)))
+        D = poly.trim(self.cl.Delta)
+        rho = region.boundary_distance(D, size, roots, None if "damping" in lows else
+                                       (floor or None), None if "decay_rad_s" in lows else
+                                       (sigma or None))
+        if not rho > RESOLVE_FACTOR * len(D) * np.finfo(float).eps:
+            add(f"pole region not resolved in double precision: A S + B R is within {rho:.2g}"
+                " (relative) of a polynomial with a root on the region's boundary", rho,
+                RESOLVE_FACTOR, kind="unresolved")
+        return out
 
 
-SAMPLED_KEYS = ("spectral_abscissa", "stable", "Ms", "Ms_freq_rad_s", "Mt", "Mt_freq_rad_s",
-                "Mu", "Mu_freq_rad_s", "Mt_resonance_band", "distance_to_instability", "Mu_hf",
-                *timespec.KEYS)
+_EXTRA_FIGURE = {"Sd": "Msd", "Tr": "Mry"}
+_EXTRA_QUANTITY = {"Sd": "|B S/Delta|", "Tr": "|B T/Delta|"}
+
+
 BOUNDED = (("Ms", "Ms_max"), ("Mt", "Mt_max"), ("Mu", "Mu_max"),
            ("Mt_resonance_band", "T_resonance_max"), ("Mu_hf", "Mu_hf_max"),
            ("overshoot_pct", "overshoot_max_pct"), ("settling_time_s", "settling_time_max_s"),
-           ("step_u_peak_V", "step_u_max_V"))
+           ("step_u_peak_V", "step_u_max_V"), ("Msd", "Msd_max"), ("Mry", "Mry_max"))
+LOWER_BOUNDED = (("damping", "damping_min"), ("decay_rad_s", "decay_min"))   # figure >= bound
 FIGURE_OF = {"|S| peak": "Ms", "|T| peak": "Mt", "|U| peak": "Mu",   # violation -> record
-             "|T| in resonance band": "Mt_resonance_band", "|U| above corner": "Mu_hf"}
-JUMPS = ("settling_time_s", "settling_time_s_sampled")   # piecewise continuous figures
+             "|T| in resonance band": "Mt_resonance_band", "|U| above corner": "Mu_hf",
+             "|B S/Delta| peak": "Msd", "|B T/Delta| peak": "Mry",
+             "closed-loop damping": "damping", "closed-loop decay rate [rad/s]": "decay_rad_s"}
+JUMPS = tuple(figure_key("settling_time_s", loop) for loop in LOOPS)   # piecewise continuous
 
 
 def _sampled_loop(plant, specs, family):
@@ -288,22 +380,22 @@ def _sampled_loop(plant, specs, family):
     return (sampled_plant(plant, fs, k) if family is None else family.sampled(plant, fs, k)), fs
 
 
-def _suffixed(plant, rec, viol):
-    """A sampled loop's record (keys suffixed ``_sampled``) and violations (naming the
-    continuous model)."""
-    viol = [replace(v, label=plant.label) for v in viol]
-    return {f"{key}_sampled": rec[key] for key in SAMPLED_KEYS if key in rec}, viol
+def _named(plant, viol):
+    """A sampled loop's violations, naming the continuous model."""
+    return [replace(v, label=plant.label) for v in viol]
 
 
 def check_sampled(plant, ctrl, specs, rtol, family=None):
     """:func:`check_model` of the sampled loop of ``plant`` (its sampled plant from
-    ``family``'s memo when given); figures suffixed ``_sampled``."""
+    ``family``'s memo when given), violations naming ``plant``."""
     ps, fs = _sampled_loop(plant, specs, family)
-    return _suffixed(plant, *check_model(ps, ctrl, specs, rtol, fs=fs))
+    figs, viol = check_model(ps, ctrl, specs, rtol, fs=fs)
+    return figs, _named(plant, viol)
 
 
 def check_all(m: Plant, ctrl: RSTController, specs: Specs, rtol: float,
-              checks: Sequence[Callable], family: PlantFamily | None = None) -> tuple[dict, list[Violation]]:
+              checks: Sequence[Callable],
+              family: PlantFamily | None = None) -> tuple[ModelRecord, list[Violation]]:
     """Every per-model check on model ``m`` (of ``family``, whose memo then holds its
     sampled plant): continuous, sampled, then the hooks.
 
@@ -324,8 +416,8 @@ def check_all(m: Plant, ctrl: RSTController, specs: Specs, rtol: float,
 
     Returns
     -------
-    record : dict
-        Continuous figures, the sampled ones suffixed ``_sampled``, the hooks' figures.
+    record : ModelRecord
+        The continuous and sampled loops' figures and the hooks' figures.
     violations : list of Violation
     """
     return check_all_many([m], ctrl, specs, rtol, checks, family)[0]
@@ -333,7 +425,7 @@ def check_all(m: Plant, ctrl: RSTController, specs: Specs, rtol: float,
 
 def check_all_many(models: Sequence[Plant], ctrl: RSTController, specs: Specs, rtol: float,
                    checks: Sequence[Callable],
-                   family: PlantFamily | None = None) -> list[tuple[dict, list[Violation]]]:
+                   family: PlantFamily | None = None) -> list[tuple[ModelRecord, list[Violation]]]:
     """:func:`check_all` of each model, the peak computations of all their loops
     (continuous and sampled) batched: the same records as one model at a time.
 
@@ -354,7 +446,7 @@ def check_all_many(models: Sequence[Plant], ctrl: RSTController, specs: Specs, r
 
     Returns
     -------
-    list of (record, violations)
+    list of (ModelRecord, list of Violation)
         One per model, in order.
     """
     loops = [(m, None) for m in models]
@@ -363,28 +455,32 @@ def check_all_many(models: Sequence[Plant], ctrl: RSTController, specs: Specs, r
     done = _check_loops(loops, ctrl, specs, rtol)
     out = []
     for i, m in enumerate(models):
-        rec, v = done[i]
+        figs, v = done[i]
+        sampled = None
         if specs.sampled:
-            rec_s, v_s = _suffixed(m, *done[len(models) + i])
-            rec.update(rec_s)
-            v = v + v_s
+            sampled, v_s = done[len(models) + i]
+            v = v + _named(m, v_s)
+        extra, marg = {}, {}
         for check in checks:
             rec_x, v_x = check(m, ctrl, specs, rtol)
-            margins = {**rec.get("margins", {}), **rec_x.pop("margins", {})}
-            rec.update(rec_x)
-            if margins:
-                rec["margins"] = margins
+            rec_x = dict(rec_x)
+            marg.update(rec_x.pop("margins", {}))
+            extra.update(rec_x)
             v = v + list(v_x)
-        out.append((rec, v))
+        out.append((ModelRecord(label=m.label, temperature_C=m.temperature_C, continuous=figs,
+                                sampled=sampled, extra=extra, margins=marg), v))
     return out
 
 
-def margins(rec: dict, specs: Specs, rtol: float) -> dict[str, tuple[float, float]]:
+def margins(rec: ModelRecord, specs: Specs, rtol: float) -> dict[str, tuple[float, float]]:
     """``{figure: (value, limit)}`` of a record: what the refinement watches.
+
+    Figures by their published names (:func:`robrst.certificate.figures.figure_key`):
+    the spectral abscissa of every loop, every bounded figure, then the hooks' margins.
 
     Parameters
     ----------
-    rec : dict
+    rec : ModelRecord
         A model's record.
     specs : Specs
         The bounds.
@@ -398,13 +494,20 @@ def margins(rec: dict, specs: Specs, rtol: float) -> dict[str, tuple[float, floa
         and the hooks' ``margins``.
     """
     out = {}
-    for suffix in ("", "_sampled"):
-        sa = rec.get("spectral_abscissa" + suffix)
+    for loop in LOOPS:
+        lf = rec.loop(loop)
+        if lf is None:
+            continue
+        sa = lf.spectral_abscissa
         if sa is not None and np.isfinite(sa):
-            out["spectral_abscissa" + suffix] = (sa, 0.0)
+            out[figure_key("spectral_abscissa", loop)] = (sa, 0.0)
         for key, attr in BOUNDED:
-            b, v = getattr(specs, attr), rec.get(key + suffix)
+            b, v = getattr(specs, attr), lf.value(key)
             if b is not None and v is not None and np.isfinite(v):
-                out[key + suffix] = (v, b * (1 + rtol))
-    out.update(rec.get("margins", {}))
+                out[figure_key(key, loop)] = (v, b * (1 + rtol))
+        for key, attr in LOWER_BOUNDED:   # a lower bound: (-value, -limit), the same test
+            b, v = getattr(specs, attr), lf.value(key)
+            if b and v is not None and np.isfinite(v):
+                out[figure_key(key, loop)] = (-v, -b * (1 - rtol))
+    out.update(rec.margins)
     return out

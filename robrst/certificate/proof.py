@@ -6,8 +6,9 @@ Nothing from the optimiser is trusted: every figure is recomputed from the polyn
   frequency-limited peak of ``|T|`` over the resonance band (:func:`robrst.core.peaks.peak_gain`),
   the closed-loop spectral abscissa, and whether double precision resolves that stability
   verdict at all (:func:`robrst.core.interval.distance_to_instability`).  With a sampling rate
-  the same on the exact sampled loop (:mod:`robrst.core.sampled`; figures suffixed ``_sampled``,
-  physical frequencies up to Nyquist, the band warped).
+  the same on the exact sampled loop (:mod:`robrst.core.sampled`; physical frequencies up to
+  Nyquist, the band warped).  One :class:`~robrst.certificate.figures.ModelRecord` per model
+  holds both loops' :class:`~robrst.certificate.figures.LoopFigures`.
 * **Over the interval** (:func:`certify`): the family members and ``n_sweep`` evenly
   spaced temperatures, then
 
@@ -30,8 +31,9 @@ The record ``interval`` says what was proved and at what resolution.
 
 Further per-model checks (e.g. time-domain specs) plug in through ``checks``: callables
 ``check(plant, ctrl, specs, rtol) -> (record, violations)`` run on every model checked
-(family members, sweep and refinement points).  A check may put ``{name: (value,
-limit)}`` pairs in ``record["margins"]`` to have its figures refined like the others.
+(family members, sweep and refinement points); its record's figures land in the model
+record's ``extra``.  A check may put ``{name: (value, limit)}`` pairs in
+``record["margins"]`` to have its figures refined like the others.
 """
 
 from __future__ import annotations
@@ -43,8 +45,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from robrst.core.interval import parameter_crossing, segment_crossing
-from robrst.certificate.models import (BOUNDED, FIGURE_OF, JUMPS, RESOLVE_FACTOR, Violation,
-                               band_peak, check_all, check_all_many, check_model, margins)
+from robrst.certificate.figures import LOOPS, ModelRecord, figure_key, parse_key
+from robrst.certificate.models import (BOUNDED, FIGURE_OF, JUMPS, LOWER_BOUNDED, RESOLVE_FACTOR,
+                                       Violation, band_peak, check_all, check_all_many,
+                                       check_model, margins)
+from robrst.core import poly, region
 from robrst.problem.records import Problem
 from robrst.core.rst import RSTController, as_controller, closed_loop
 from robrst.core.thermal import modal_form
@@ -68,20 +73,27 @@ class Certificate:
     Parameters
     ----------
     certified : bool
-        No checked figure exceeds its bound beyond ``rtol``, every stability verdict is
-        resolved in double precision and the interval checks pass.
-    models : tuple of dict
-        One record per checked model (family members, sweep and refinement points), in
-        temperature order.
+        No checked figure exceeds its bound beyond ``rtol`` (or falls below a lower bound),
+        every stability and pole-region verdict is resolved in double precision and the
+        interval checks pass.
+    models : tuple of ModelRecord
+        One typed record per checked model (family members, sweep and refinement points),
+        in temperature order: its continuous and sampled loops' figures
+        (:class:`~robrst.certificate.figures.ModelRecord`).
     violations : tuple of Violation
         Every violation found.
     rtol : float
         Relative tolerance on the bounds.
     interval : dict
         What was proved between the checked temperatures and at what resolution (fields
-        in the documentation's *What a certificate proves*).
+        in the documentation's *What a certificate proves*; ``pole_region`` with a
+        damping or decay bound).
     bounds : dict
-        ``{figure: bound}`` of every bound checked.
+        ``{figure: bound}`` of every bound checked (lower bounds: ``damping``,
+        ``decay_rad_s``).
+    controller : dict or None
+        The controller's own poles and their least damping (with
+        ``controller_damping_min``).
     """
 
     certified: bool
@@ -90,21 +102,44 @@ class Certificate:
     rtol: float
     interval: dict = field(default_factory=dict)
     bounds: dict = field(default_factory=dict)   # {figure: bound} of every bound checked
+    controller: dict = None      # the controller's own poles (controller_damping_min)
 
-    def worst(self, key: str) -> float | None:
-        """Largest ``key`` over the models (``None`` if no record has it).
+    def worst(self, key: str, loop: str | None = None) -> float | None:
+        """Largest figure ``key`` over the models (``None`` if no record has it).
 
         Parameters
         ----------
         key : str
-            A record figure (``"Ms"``, ``"Ms_sampled"``, ``"overshoot_pct"``, ...).
+            A figure (``"Ms"``, ``"spectral_abscissa"``, ``"overshoot_pct"``, a hook's
+            figure); a published name (``"Ms_sampled"``) names its loop too.
+        loop : str, optional
+            ``"continuous"`` (default) or ``"sampled"``.
 
         Returns
         -------
         float or None
         """
-        vals = [m[key] for m in self.models if key in m and m[key] is not None]
+        name, where = parse_key(key) if loop is None else (key, loop)
+        vals = [v for m in self.models if (v := m.value(name, where)) is not None]
         return max(vals) if vals else None
+
+    def worst_model(self, key: str, loop: str = "continuous") -> ModelRecord | None:
+        """The model record where figure ``key`` of ``loop`` is largest.
+
+        Parameters
+        ----------
+        key : str
+            A figure (``"Ms"``, ...).
+        loop : str
+            ``"continuous"`` or ``"sampled"``.
+
+        Returns
+        -------
+        ModelRecord or None
+            ``None`` when no record has the figure.
+        """
+        recs = [m for m in self.models if m.value(key, loop) is not None]
+        return max(recs, key=lambda m: m.value(key, loop)) if recs else None
 
     def ratios(self) -> dict[str, float]:
         """Worst ``value / bound`` over the checked models, for every bound checked.
@@ -122,21 +157,24 @@ class Certificate:
         def ratio(v, b):
             return v / b if b > 0 else (0.0 if v <= 0 else np.inf)
 
+        def lower(v, b):          # a lower bound: bound / value
+            return b / v if v > 0 else np.inf
+
         out = {}
         for key, b in self.bounds.items():
-            for k in (key, key + "_sampled"):
-                vals = [m[k] for m in self.models if m.get(k) is not None]
+            r = lower if key in _LOWER else ratio
+            for loop in LOOPS:
+                vals = [v for m in self.models if (v := m.value(key, loop)) is not None]
                 if vals:
-                    out[k] = max(ratio(float(v), b) for v in vals)
+                    out[figure_key(key, loop)] = max(r(float(v), b) for v in vals)
         for m in self.models:
-            for k, (v, lim) in m.get("margins", {}).items():
+            for k, (v, lim) in m.margins.items():
                 out[k] = max(out.get(k, -np.inf), ratio(v, lim))
         for v in self.violations:
-            if v.kind == "exceeds" and v.bound and v.bound > 0 and np.isfinite(v.value):
-                k = FIGURE_OF.get(v.quantity, v.quantity) + ("_sampled" if v.loop == "sampled"
-                                                              else "")
+            if v.kind in ("exceeds", "below") and v.bound and v.bound > 0 and np.isfinite(v.value):
+                k = figure_key(FIGURE_OF.get(v.quantity, v.quantity), v.loop)
                 if k not in out:
-                    out[k] = max(out.get(k, -np.inf), v.value / v.bound)
+                    out[k] = max(out.get(k, -np.inf), v.ratio)
         return out
 
     def as_dict(self) -> dict:
@@ -145,10 +183,13 @@ class Certificate:
         Returns
         -------
         dict
-            ``ratios, certified, rtol, models, violations, interval, interval_proof,
-            interval_resolution_C``.
+            ``ratios, certified, rtol, (controller), models, violations, interval,
+            interval_proof, interval_resolution_C``; ``models`` in their published form
+            (:meth:`~robrst.certificate.figures.ModelRecord.as_dict`).
         """
-        return {"ratios": self.ratios(), "certified": self.certified, "rtol": self.rtol, "models": list(self.models),
+        extra = {} if self.controller is None else {"controller": self.controller}
+        return {"ratios": self.ratios(), "certified": self.certified, "rtol": self.rtol,
+                **extra, "models": [m.as_dict() for m in self.models],
                 "violations": [v.__dict__ for v in self.violations],
                 "interval": self.interval,
                 "interval_proof": self.interval.get("stability"),
@@ -177,7 +218,7 @@ def _segments(family, ctrl, recs):
     ms = family.models
     for a, b in zip(ms[:-1], ms[1:]):
         ra, rb = recs[a.temperature_C], recs[b.temperature_C]
-        if not (ra["stable"] and rb["stable"]) or a.n != b.n or a.m != b.m:
+        if not (ra.continuous.stable and rb.continuous.stable) or a.n != b.n or a.m != b.m:
             tested = False
             continue   # an unstable end is already a violation; degrees differ: no segment
         cr = segment_crossing(closed_loop(a, ctrl).Delta, closed_loop(b, ctrl).Delta)
@@ -194,7 +235,7 @@ def _segments(family, ctrl, recs):
 def _guardian(family, ctrl, specs, rtol, checks, recs, viols):
     """Parametric families: the guardian-map proof on each side of the reference (where
     the creep law has its kink); a candidate crossing is checked and refined around."""
-    if not all(r["stable"] for r in recs.values()):
+    if not all(r.continuous.stable for r in recs.values()):
         return {"proved": False, "parts": [], "skipped": "a checked model is unstable"}
     lo, hi = family.range_C
     ref = family.thermal.reference_C
@@ -210,8 +251,8 @@ def _guardian(family, ctrl, specs, rtol, checks, recs, viols):
             for T in (pr.candidate_T, pr.candidate_T - 1e-6 * (b - a),
                       pr.candidate_T + 1e-6 * (b - a)):
                 if a <= T <= b and T not in recs:
-                    recs[T], v = check_all(family.at(T), ctrl, specs, rtol, checks, family)
-                    recs[T]["family_member"] = False
+                    rec, v = check_all(family.at(T), ctrl, specs, rtol, checks, family)
+                    recs[T] = replace(rec, family_member=False)
                     viols.extend(v)
     return {"proved": all(p["proved"] for p in out), "parts": out}
 
@@ -245,10 +286,8 @@ def _refine(family, ctrl, specs, rtol, checks, recs, viols, budget, orders, igno
         done = check_all_many([family.at(m) for _, _, m, _ in todo], ctrl, specs, rtol,
                               checks, family)
         for (a, b, m, low), (rec, v) in zip(todo, done):
-            rec["family_member"] = False
-            recs[m], found[m] = rec, v
-            if low is not None and rec.get("closed_loop_degree") == recs[low].get(
-                    "closed_loop_degree"):
+            recs[m], found[m] = replace(rec, family_member=False), v
+            if low is not None and _degree(rec) == _degree(recs[low]):
                 walked.add(m)   # the lower order persists beyond the probe: halve from here on
             level += [(a, m), (m, b)]
         left -= len(todo)
@@ -269,13 +308,17 @@ def _refine(family, ctrl, specs, rtol, checks, recs, viols, budget, orders, igno
         viols.extend(found[m])
         seen.add(m)
         budget -= 1
-        if low is not None and (recs[m].get("closed_loop_degree")
-                                == recs[low].get("closed_loop_degree")):
+        if low is not None and _degree(recs[m]) == _degree(recs[low]):
             walked.add(m)
         stack += [(a, m), (m, b)]
     for m in sorted(found.keys() - seen):   # checked in a batch, not reached depth first
         viols.extend(found[m])
     return out
+
+
+def _degree(rec):
+    """The degree of a record's continuous closed-loop polynomial."""
+    return rec.continuous.closed_loop_degree
 
 
 def _decide(recs, a, b, specs, rtol, ignore, floor):
@@ -285,8 +328,7 @@ def _decide(recs, a, b, specs, rtol, ignore, floor):
     key = _unresolved(recs[a], recs[b], specs, rtol, ignore)
     if key is None:
         return "resolved", None
-    if b - a <= floor and recs[a].get("closed_loop_degree") != recs[b].get(
-            "closed_loop_degree"):
+    if b - a <= floor and _degree(recs[a]) != _degree(recs[b]):
         return "order", key
     if b - a <= floor:   # a settling time jumps (a ripple leaves the band): both sides hold
         key = _unresolved(recs[a], recs[b], specs, rtol, (*ignore, *JUMPS))
@@ -319,13 +361,130 @@ def _split(a, b, recs, floor, walked):
     creep pair cancelling at the reference), and one check there isolates it where
     halving would need ``log2(width / floor)`` checks.
     """
-    da, db = (recs[t].get("closed_loop_degree") for t in (a, b))
+    da, db = (_degree(recs[t]) for t in (a, b))
     if da is None or db is None or da == db or b - a <= floor:
         return 0.5 * (a + b), None
     low = a if da < db else b
     if low in walked:
         return 0.5 * (a + b), None
     return (a + 0.5 * floor if low == a else b - 0.5 * floor), low
+
+
+_LOWER = {key for key, _ in LOWER_BOUNDED}
+REGION_WIDE = 3.0      # no interval proof of the pole region when every pole is this far inside
+_REGION_FIGURES = ("damping", "decay_rad_s")     # the continuous loop's, by published name
+
+
+def resolved_specs(specs, family):
+    """``specs`` with the damping floor resolved on ``family`` (the default floor when
+    ``damping_min`` is not given, :meth:`robrst.problem.records.Specs.damping_floor`; 0:
+    none) and its source."""
+    floor, source = specs.damping_floor(family)
+    return replace(specs, damping_min=floor or 0.0), source
+
+
+def _region_polys(specs):
+    """The region tests of a continuous closed-loop polynomial ``D``: ``(name, f,
+    degree factor)`` with ``f(D)`` Hurwitz exactly when every root of ``D`` meets the
+    bound (:mod:`robrst.core.region`)."""
+    out = []
+    if specs.decay_min:
+        sigma = specs.decay_min
+
+        def shifted(D):
+            return region.shift_matrix(len(D) - 1, sigma) @ D
+        out.append(("decay", shifted, 1))
+    if specs.damping_min:
+        zeta = specs.damping_min * (1 - 1e-12)
+        out.append(("damping", lambda D: region.sector_polynomial(D, zeta), 2))
+    return out
+
+
+def _region_interval(family, ctrl, specs, rtol, checks, recs, viols):
+    """The pole region of the continuous loop between checked temperatures: no root of the
+    closed-loop polynomial crosses the region's boundary (guardian map of the shifted and
+    of the rotated polynomials, :func:`robrst.core.interval.parameter_crossing`) on each
+    side of a parametric family's reference, or along each segment between members of an
+    explicit family (linear interpolation of the closed-loop polynomial).  A candidate
+    crossing is checked (and refined around)."""
+    tests = _region_polys(specs)
+    if not tests or len(family.models) < 2:
+        return None
+    if not all(r.continuous.stable for r in recs.values()):
+        return {"proved": False, "skipped": "a checked model is unstable"}
+    wide = [(specs.damping_min, "damping"), (specs.decay_min, "decay_rad_s")]
+    if all(not b or min(r.continuous.value(k) for r in recs.values()) >= REGION_WIDE * b
+           for b, k in wide):
+        # every checked pole far inside the region: the refinement, which halves an
+        # interval whose figure moves by half its margin, decides (no proof needed there)
+        return {"proved": False, "skipped": f"every checked pole beyond {REGION_WIDE:g} x its"
+                " bound: refined sweep"}
+    explicit = family.thermal is None
+    if explicit:
+        ms = family.models
+        parts = [(a.temperature_C, b.temperature_C,
+                  (closed_loop(a, ctrl).Delta, closed_loop(b, ctrl).Delta)) for a, b in
+                 zip(ms[:-1], ms[1:])]
+        deg_T = 1
+    else:
+        lo, hi = family.range_C
+        ref = family.thermal.reference_C
+        c = family.thermal
+        k = len(modal_form(family.reference_model).pairs)
+        deg_T = max(2 * k, 2 if (c.creep_per_K or c.creep_at_ref) else 1)
+        parts = [(a, b, None) for a, b in ((lo, min(ref, hi)), (max(ref, lo), hi)) if b > a]
+    out = []
+    for a, b, ends in parts:
+        for name, f, factor in tests:
+            if ends is None:
+                def at(T, f=f):
+                    return _positive(f(poly.trim(closed_loop(family.at(T), ctrl).Delta)))
+                pr = parameter_crossing(at, a, b, factor * deg_T)
+            else:
+                Da, Db = (poly.trim(D) for D in ends)
+                if len(Da) != len(Db):
+                    out.append({"range_C": [a, b], "test": name, "proved": False})
+                    continue
+
+                def at(lam, f=f, Da=Da, Db=Db):
+                    return _positive(f((1 - lam) * Da + lam * Db))
+                pr = parameter_crossing(at, 0.0, 1.0, factor)
+            cand = pr.candidate_T
+            if cand is not None and ends is not None:
+                cand = a + cand * (b - a)
+            out.append({"range_C": [a, b], "test": name, "proved": pr.proved, "nodes": pr.nodes,
+                        "candidate_C": cand})
+            if cand is not None:   # check the candidate and its neighbours
+                for T in (cand, cand - 1e-6 * (b - a), cand + 1e-6 * (b - a)):
+                    if a <= T <= b and T not in recs:
+                        rec, v = check_all(family.at(T), ctrl, specs, rtol, checks, family)
+                        recs[T] = replace(rec, family_member=False)
+                        viols.extend(v)
+    return {"proved": all(p["proved"] for p in out), "parts": out}
+
+
+def _positive(c):
+    """``c`` with a positive leading coefficient."""
+    return c if c[0] > 0 else -c
+
+
+def _controller_poles(ctrl, specs, rtol):
+    """The controller's own poles (roots of ``S`` other than its integrators): least
+    damping, and the violation of ``controller_damping_min``."""
+    S = poly.trim(ctrl.S)
+    nz = np.flatnonzero(S)
+    Q = S[:nz[-1] + 1] if nz.size else S
+    roots = np.roots(Q) if len(Q) > 1 else np.zeros(0, complex)
+    zeta = region.least_damping(roots)
+    rec = {"damping": zeta, "damping_min": specs.controller_damping_min,
+           "poles_rad_s": [[float(r.real), float(r.imag)] for r in roots]}
+    viol = []
+    b = specs.controller_damping_min
+    if b and zeta < b * (1 - rtol):
+        k = int(np.argmin(region.damping_of(roots)))
+        viol.append(Violation("controller", float("nan"), "controller pole damping", zeta, b,
+                              abs(float(roots[k].imag)) or None, kind="below"))
+    return rec, viol
 
 
 def certify(family: PlantFamily, ctrl: RSTController, specs: Specs, n_sweep: int = 35,
@@ -355,14 +514,14 @@ def certify(family: PlantFamily, ctrl: RSTController, specs: Specs, n_sweep: int
     Certificate
     """
     ctrl = as_controller(ctrl)      # a python-control system too
+    specs, damping_source = resolved_specs(specs, family)
     known = {m.temperature_C for m in family.models}
     models = list(family.models)
     if len(models) > 1 and n_sweep > 0:
         models += [m for m in family.sweep(n_sweep) if m.temperature_C not in known]
     recs, viols = {}, []
     for m, (rec, v) in zip(models, check_all_many(models, ctrl, specs, rtol, checks, family)):
-        recs[m.temperature_C] = rec
-        rec["family_member"] = m.temperature_C in known
+        recs[m.temperature_C] = replace(rec, family_member=m.temperature_C in known)
         viols.extend(v)
     lo, hi = family.range_C
     interval = {"range_C": [lo, hi], "stability": "single_model", "peaks": "single_model"}
@@ -376,13 +535,17 @@ def certify(family: PlantFamily, ctrl: RSTController, specs: Specs, n_sweep: int
         else:
             proof = _guardian(family, ctrl, specs, rtol, checks, recs, viols)
             proved = proof["proved"]
+        region_proof = _region_interval(family, ctrl, specs, rtol, checks, recs, viols)
         budget = max(4 * n_sweep, 64) if max_refine is None else max_refine
         orders = []
         # stability proved for every temperature: the refinement need not chase the
         # continuous spectral abscissa (it still watches every bounded figure and the
-        # sampled loop, whose stability no proof covers)
+        # sampled loop, whose stability no proof covers); likewise the pole region
+        ignore = ("spectral_abscissa",) if proved else ()
+        if region_proof is not None and region_proof["proved"]:
+            ignore += _REGION_FIGURES
         viols += _refine(family, ctrl, specs, rtol, checks, recs, viols, budget, orders,
-                         ignore=("spectral_abscissa",) if proved else ())
+                         ignore=ignore)
         temps = np.array(sorted(recs))
         interval = {
             "range_C": [lo, hi],
@@ -398,14 +561,54 @@ def certify(family: PlantFamily, ctrl: RSTController, specs: Specs, n_sweep: int
             **({} if proof is None else {"guardian": proof}),
             "statement": _statement(explicit, tested, proved),
         }
+        if region_proof is not None:
+            interval["pole_region_proof"] = region_proof
+    if specs.damping_min or specs.decay_min:
+        interval["pole_region"] = _region_statement(specs, damping_source, interval)
+    ctrl_rec = None
+    if specs.controller_damping_min is not None:
+        ctrl_rec, v = _controller_poles(ctrl, specs, rtol)
+        viols += v
     recs_sorted = tuple(recs[T] for T in sorted(recs))
     bounds = {key: getattr(specs, attr) for key, attr in BOUNDED
               if getattr(specs, attr) is not None}
+    bounds.update({key: getattr(specs, attr) for key, attr in LOWER_BOUNDED
+                   if getattr(specs, attr)})
     return Certificate(certified=not viols, models=recs_sorted, violations=tuple(viols),
-                       rtol=rtol, interval=interval, bounds=bounds)
+                       rtol=rtol, interval=interval, bounds=bounds, controller=ctrl_rec)
 
 
-ACTUATOR = "actuator"   # the record key (and label prefix) of a further actuator's models
+def _region_statement(specs, source, interval):
+    """What the certificate established about the closed-loop pole region."""
+    proof = interval.get("pole_region_proof")
+    parts = []
+    if specs.damping_min:
+        parts.append(f"damping >= {specs.damping_min:.4g}"
+                     + (" (the default floor)" if source == "default" else ""))
+    if specs.decay_min:
+        parts.append(f"decay rate -Re(p) >= {specs.decay_min:.4g} rad/s")
+    what = " and ".join(parts)
+    pts = ("at every checked temperature (family members, sweep and refinement points),"
+           " from the roots of the closed-loop polynomial (a root within its rounding error"
+           " of the boundary is 'unresolved')")
+    if proof is None:
+        between = "a single model" if "points" not in interval else "no proof between points"
+    elif proof["proved"]:
+        between = ("proved between them for the continuous loop: no closed-loop root crosses"
+                   " the region's boundary (guardian map of the shifted and the rotated"
+                   " closed-loop polynomials along the thermal law or the interpolation)")
+    else:
+        between = ("between them a refined sweep (the guardian-map proof did not hold or"
+                   " could not be validated)")
+    samp = ("; the sampled loop's poles (mapped to s by fs ln z) on the refined sweep"
+            if specs.sampled else "")
+    return {"damping_min": specs.damping_min or None, "damping_source": source,
+            "decay_min": specs.decay_min, "proved_between_points": bool(proof and
+                                                                          proof["proved"]),
+            "statement": f"every closed-loop pole: {what}, {pts}; {between}{samp}"}
+
+
+ACTUATOR = "actuator"   # the published record key (and label prefix) of a further actuator
 
 
 def actuator_of(label: str) -> tuple[int, str]:
@@ -434,7 +637,8 @@ def certify_families(families: Sequence[PlantFamily], ctrl: RSTController, specs
     """:func:`certify` on every family of ``families`` (several actuators), merged.
 
     The first family is the nominal actuator: with one family this is :func:`certify`
-    itself.  The records of further actuator ``k`` carry ``"actuator": k`` and its
+    itself.  The records of further actuator ``k`` carry ``actuator = k`` (published as
+    ``"actuator": k``) and its
     violations the label ``"actuator<k>/<model>"`` (:func:`actuator_of`); the merged
     certificate holds when every actuator's does, and its ``interval`` is the nominal
     actuator's with ``"actuators"``, the number of families.
@@ -459,8 +663,9 @@ def certify_families(families: Sequence[PlantFamily], ctrl: RSTController, specs
         return certs[0]
     models, viols = list(certs[0].models), list(certs[0].violations)
     for k, c in enumerate(certs[1:], start=1):
-        models += [{**rec, ACTUATOR: k} for rec in c.models]
-        viols += [replace(v, label=f"{ACTUATOR}{k}/{v.label}") for v in c.violations]
+        models += [replace(rec, actuator=k) for rec in c.models]
+        viols += [replace(v, label=f"{ACTUATOR}{k}/{v.label}") for v in c.violations
+                  if v.label != "controller"]   # the controller's own poles: listed once
     return replace(certs[0], certified=all(c.certified for c in certs), models=tuple(models),
                    violations=tuple(viols),
                    interval={**certs[0].interval, "actuators": len(certs)})

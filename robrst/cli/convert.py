@@ -6,9 +6,9 @@ Handler pair for the CLI: :func:`add_parsers` registers the sub-command,
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
+import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from robrst.base.errors import DataError
 
@@ -73,9 +73,15 @@ def run_convert(args: argparse.Namespace) -> int:
     if not name or Path(name).name != name or name in (".", ".."):
         raise DataError(f"--name {name!r}: expected a file-name prefix (no folder part);"
                         " the records go into --out")
-    recs = records_from_arrays(load_array(args.u), load_array(args.y), args.fs,
-                               layout=args.layout, y_unit=args.y_unit, u_unit=args.u_unit,
-                               source=name, temp_C=args.temp)
+    for flag, v in (("--fs", args.fs), ("--temp", args.temp)):
+        if v is not None and not math.isfinite(v):
+            raise DataError(f"{flag}: expected a finite number, got {v}")
+    u, y = load_array(args.u), load_array(args.y)
+    try:
+        recs = records_from_arrays(u, y, args.fs, layout=args.layout, y_unit=args.y_unit,
+                                   u_unit=args.u_unit, source=name, temp_C=args.temp)
+    except DataError as exc:
+        raise DataError(f"{args.u}, {args.y}: {exc}") from None
     out = Path(args.out)
     ext = ".csv" if args.csv else ".npz"
     paths = [out / f"{d.source}{ext}" for d in recs]

@@ -6,6 +6,7 @@ from typing import TYPE_CHECKING
 
 import re
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 from robrst.cli.common import design_result, is_saved_design, print_json, progress_printer
@@ -34,6 +35,7 @@ def add_parsers(sub: argparse._SubParsersAction) -> None:
                                                        " it to export, check, report, simulate,"
                                                        " certify)")
     d.add_argument("--quiet", action="store_true", help="no progress lines")
+    _method_options(d)
     d.set_defaults(func=run_design)
     r = sub.add_parser("report", help="design, certify and write a report folder (md, html, PNG)")
     r.add_argument("problem", help="problem file (TOML), a built-in problem by name, or a saved"
@@ -43,7 +45,32 @@ def add_parsers(sub: argparse._SubParsersAction) -> None:
                    help="write into an existing folder that is not a robrst report"
                         " (only the report's own files are written; nothing is deleted)")
     r.add_argument("--quiet", action="store_true", help="no progress lines")
+    _method_options(r)
     r.set_defaults(func=run_report)
+
+
+def _method_options(p: argparse.ArgumentParser) -> None:
+    """Add ``--method`` and ``--starts`` to a command's parser."""
+    p.add_argument("--method", choices=("analytic", "nlp", "convex"),
+                   help="override [solver] method (default: the file's, else nlp when [specs]"
+                        " bounds anything)")
+    p.add_argument("--starts", type=int, metavar="N",
+                   help="nlp multi-start: N starts beyond the one asked for (0: single start)")
+
+
+def _problem(args: argparse.Namespace) -> Problem:
+    """The problem file with the command line's overrides (``--method``, ``--starts``)."""
+    problem = load_problem(args.problem)
+    so = problem.solver
+    if getattr(args, "method", None):
+        so = replace(so, method=args.method, method_source="command line")
+    if getattr(args, "starts", None) is not None:
+        if args.starts < 0:
+            from robrst.base.errors import SpecError
+
+            raise SpecError(f"--starts: expected a whole number >= 0, got {args.starts}")
+        so = replace(so, starts=args.starts, multistart=args.starts > 0)
+    return replace(problem, solver=so) if so is not problem.solver else problem
 
 
 def run_design(args: argparse.Namespace) -> int:
@@ -60,7 +87,10 @@ def run_design(args: argparse.Namespace) -> int:
         0 certified, 1 not certified.
     """
     say = progress_printer(args.quiet or args.json)
-    result = design_result(args.problem, say, announce=False)   # an error stays one line
+    if is_saved_design(args.problem):
+        result = design_result(args.problem, say, announce=False)
+    else:        # an error stays one line
+        result = design_result(args.problem, say, _problem(args), announce=False)
     d = result.as_dict()
     if args.json:
         print_json(d)
@@ -88,6 +118,7 @@ def run_report(args: argparse.Namespace) -> int:
     """
     from robrst.report.design import write_design_report
     from robrst.report.doc import check_report_target
+    from robrst.studies.design_curves import design_curves
 
     say = progress_printer(args.quiet)
     if is_saved_design(args.problem):
@@ -95,13 +126,17 @@ def run_report(args: argparse.Namespace) -> int:
 
         problem, name = None, str(read_design(args.problem)["problem"])
     else:
-        problem = load_problem(args.problem)
+        problem = _problem(args)
         name = problem.name
     # the default folder is one component under reports/, whatever the problem's name holds
     out = args.out or "reports/" + (re.sub(r"[^\w.-]+", "_", name).lstrip(".") or "problem")
     check_report_target(Path(out), args.force)     # a bad target fails before the design
     result = design_result(args.problem, say, problem)
-    path = write_design_report(result, out, progress=say, force=args.force)
+    twin = result.problem.plant_name == "paper"
+    if twin:
+        say("simulating the digital twin for step.png")
+    curves = design_curves(result, twin=twin)
+    path = write_design_report(result, out, progress=say, force=args.force, curves=curves)
     print(f"wrote {path}/report.md, report.html, result.json and figures"
           f" (certified: {result.certified})")
     return 0 if result.certified else 1

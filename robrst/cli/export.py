@@ -19,7 +19,7 @@ from robrst.controller.export import export_controller
 from robrst.controller.python_code import python_module
 from robrst.controller.c_code import check_prefix
 from robrst.controller.export import check_u_range, sampling
-from robrst.base.fileio import atomic_write_text, check_file_target, json_text
+from robrst.base.fileio import atomic_write_text, check_file_target, json_text, peek_text
 from robrst.problem.files import load_problem
 from robrst.problem.checks import MIN_RATE_HZ, check_delay_order
 
@@ -78,7 +78,9 @@ def _targets(args):
 def _written_by_export(path):
     """Whether ``path`` is a file robrst export wrote: its first line (C, Python) or its
     JSON object's keys are export's own (a mention of robrst elsewhere is not enough)."""
-    text = path.read_text(encoding="utf-8", errors="replace")
+    text = peek_text(path, 64 * 2**20)
+    if text is None:
+        return False
     if any(r.match(text.split("\n", 1)[0]) for r in OWN_FIRST_LINE):
         return True
     try:

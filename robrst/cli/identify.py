@@ -55,8 +55,10 @@ def _order(text):
         n = int(text)
     except ValueError:
         n = 0
-    if n < 1:
-        raise SpecError(f"--order: expected 'auto' or an integer >= 1, got {text!r}")
+    from robrst.identify.identification import MAX_ORDER
+
+    if not 1 <= n <= MAX_ORDER:
+        raise SpecError(f"--order: expected 'auto' or an integer 1..{MAX_ORDER}, got {text!r}")
     return n
 
 
@@ -123,8 +125,11 @@ def run_identify(args: argparse.Namespace) -> int:
     quiet = args.quiet or to_stdout
     say = progress_printer(quiet)
     order, channel = _order(args.order), _channel(args.channel)
-    if args.max_order is not None and args.max_order < 1:
-        raise SpecError(f"--max-order: expected an integer >= 1, got {args.max_order}")
+    from robrst.identify.identification import MAX_AUTO_ORDER
+
+    if args.max_order is not None and not 1 <= args.max_order <= MAX_AUTO_ORDER:
+        raise SpecError(f"--max-order: expected an integer 1..{MAX_AUTO_ORDER}, got"
+                        f" {args.max_order}")
     check_target(args.out)                        # bad targets fail before any work or write
     if args.json and not to_stdout:
         check_json_target(args.json, [args.out])

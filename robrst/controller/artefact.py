@@ -185,6 +185,8 @@ def design_from_dict(doc: dict, path: str = "<design>", problem: object = None,
             + (" (as saved)" if cert.certified == was else
                f" (saved: {'certified' if was else 'not certified'}; robrst"
                f" {doc['artefact'].get('versions', {}).get('robrst')} made it)"))
+    from robrst.certificate.assessment import assess
+
     ac, comp = doc.get("analytic_check"), doc.get("comparison")
     return DesignResult(
         problem=problem, method=str(doc.get("method", "saved")), controller=ctrl,
@@ -195,7 +197,9 @@ def design_from_dict(doc: dict, path: str = "<design>", problem: object = None,
         analytic_check=None if not saved or ac is None else AnalyticCheck(**ac),
         comparison=None if not saved or comp is None else Comparison(
             rows=comp["rows"], table=comp["table"], range_C=tuple(problem.family.range_C)),
-        tracking=None if doc.get("tracking") is None else StoredRecord(doc["tracking"]))
+        tracking=None if doc.get("tracking") is None else StoredRecord(doc["tracking"]),
+        assessment=assess(problem, ctrl),     # computed again, as the analyses
+        starts=None if doc.get("starts") is None else StoredRecord(doc["starts"]))
 
 
 def load_design(path: str | os.PathLike,

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from robrst import __version__
+from robrst.certificate.figures import figure_key
 from robrst.certificate.proof import Certificate, certify_problem
 from robrst.design import DesignResult
 from robrst.controller.digital import DigitalController, digital_controller
@@ -116,8 +117,8 @@ class ExportedController:
             ``models``.
         """
         c = self.certificate
-        worst = {k: c.worst(f"{k}_sampled") for k in ("Ms", "Mt", "Mu")}
-        members = [m for m in c.models if m.get("family_member", True)]
+        worst = {k: c.worst(k, "sampled") for k in ("Ms", "Mt", "Mu")}
+        members = [m for m in c.models if m.family_member is not False]
         return {"certified": self.certified,
                 "Ms_sampled": worst["Ms"], "Mt_sampled": worst["Mt"], "Mu_sampled": worst["Mu"],
                 "spectral_radius": self.spectral_radius,
@@ -129,9 +130,7 @@ class ExportedController:
                 "n_models": len(c.models),
                 "n_violations": len(c.violations),
                 "violations": [v.describe() for v in c.violations[:MAX_LISTED]],
-                "models": [{k: m.get(k) for k in ("label", "temperature_C", "stable_sampled",
-                                                  "Ms_sampled", "Mt_sampled", "Mu_sampled")}
-                           for m in members]}
+                "models": [_sampled_row(m) for m in members]}
 
     def implementation_dict(self) -> dict:
         """Implementation figures, with the bounds on the implemented loop's peaks.
@@ -144,7 +143,7 @@ class ExportedController:
             ``Ms_sampled_bound = Ms/(1 - mu)`` and ``Mt_sampled_bound = (Mt + mu)/(1 - mu)``
             (``None`` without the guarantee).
         """
-        ms, mt = (self.certificate.worst(f"{k}_sampled") for k in ("Ms", "Mt"))
+        ms, mt = (self.certificate.worst(k, "sampled") for k in ("Ms", "Mt"))
         out = {"recommended": self.recommended}
         for key, rec in self.implementation.items():
             rec = dict(rec)
@@ -251,11 +250,20 @@ def sampling(problem: Problem, sample_rate_hz: float | None = None,
     return fs, int(k)
 
 
+def _sampled_row(rec):
+    """A model's row of the export's certificate: its sampled loop's stability and peaks."""
+    sl = rec.sampled
+    row = {"label": rec.label, "temperature_C": rec.temperature_C}
+    for name in ("stable", "Ms", "Mt", "Mu"):
+        row[figure_key(name, "sampled")] = None if sl is None else getattr(sl, name)
+    return row
+
+
 def _certified_models(problem, cert):
     """The plants behind the certificate's records: family members, then the sweep."""
     fam = problem.family
     members = {m.temperature_C: m for m in fam.models}
-    return [members.get(r["temperature_C"]) or fam.at(r["temperature_C"]) for r in cert.models]
+    return [members.get(r.temperature_C) or fam.at(r.temperature_C) for r in cert.models]
 
 
 def export_controller(result: DesignResult, sample_rate_hz: float | None = None,

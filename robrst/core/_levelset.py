@@ -12,6 +12,7 @@ entry (module docstring there).
 from __future__ import annotations
 
 import copy
+import functools
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -69,10 +70,17 @@ def mag2_poly(c: ArrayLike) -> np.ndarray:
     [1.0, 4.0]
     """
     c = np.asarray(c, dtype=float)
-    d = len(c) - 1
-    sign = (-1.0) ** np.arange(d, -1, -1)
+    sign = _signs(len(c))
     e = np.convolve(c, c * sign)          # c(s) c(-s), even, degree 2d
     return e[::2] * sign                  # s^(2k) = (-x)^k
+
+
+@functools.lru_cache(maxsize=64)
+def _signs(length):
+    """``(-1) ** [d, ..., 1, 0]`` for ``d = length - 1`` (read-only: shared)."""
+    s = (-1.0) ** np.arange(length - 1, -1, -1)
+    s.flags.writeable = False
+    return s
 
 
 def _companion_matrix(c):

@@ -23,7 +23,8 @@ from robrst.core.rst import RSTController, as_controller, closed_loop
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
-__all__ = ["Margins", "Analysis", "analyze", "sensitivity", "crossovers", "bracketed_root",
+__all__ = ["Margins", "Analysis", "analyze", "sensitivity", "crossovers", "loop_value",
+           "bracketed_root",
            "step_response", "spectral_abscissa", "spectral_abscissa_many", "analyze_many"]
 
 SENSITIVITIES = ("S", "T", "U", "Sd")
@@ -41,7 +42,9 @@ class Margins:
     gain_crossover_rad_s : tuple of float
         Every gain crossover [rad/s].
     phase_crossover_rad_s : tuple of float
-        Every phase crossover with ``Re L < 0`` [rad/s].
+        Every phase crossover with ``Re L < 0`` [rad/s]; ``w = 0`` (``L(0) < 0``) and
+        ``w = inf`` (biproper ``L`` with ``L(inf) < 0``) included, as python-control
+        counts them (0.0 or inf then).
     phase_margin_deg : float or None
         As python-control defines it: at every gain crossover ``(arg L(j wc) mod 360) -
         180``, the one smallest in magnitude, with its sign (negative: ``arg L`` in
@@ -303,6 +306,13 @@ def crossovers(num: ArrayLike, den: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     ``Im(num(jw) den(-jw)) = 0`` with ``Re L < 0``, both as polynomials in
     ``x = w**2`` in the scaled variable, then polished on the exact function.
 
+    The ends of the frequency axis count as phase crossovers where ``L`` is finite and
+    on the negative real axis there, as python-control counts them: ``w = 0`` when
+    ``L(0) < 0`` (a real closed-loop pole crosses ``s = 0`` when the gain falls to
+    ``1/|L(0)|``), and ``w = inf`` when ``L`` is biproper with ``L(inf) < 0`` (a pole
+    passes through infinity; python-control's discrete loops count Nyquist, ``z = -1``,
+    in the same way, the image of ``w = inf`` for robrst's sampled loops).
+
     Parameters
     ----------
     num, den : array_like
@@ -312,6 +322,12 @@ def crossovers(num: ArrayLike, den: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     -------
     gain_crossovers, phase_crossovers : numpy.ndarray
         Frequencies [rad/s], increasing.
+
+    Examples
+    --------
+    >>> wg, wp = crossovers([2.0], [1.0, -1.0])      # L = 2/(s - 1): L(0) = -2
+    >>> wp.tolist()
+    [0.0]
     """
     num, den = poly.trim(num), poly.trim(den)
     sc = poly.Scaling.natural(num, den)
@@ -328,15 +344,52 @@ def crossovers(num: ArrayLike, den: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     q = odd * (-1.0) ** k
     wp = [_polish(lambda w: L(w).imag / abs(L(w)), w) for w in _positive_roots_x(q, 1.0)]
     wp = [w for w in wp if L(w).real < 0]
-    return np.array(wg) * w0, np.array(wp) * w0
+    wp = np.array(wp) * w0
+    ends = []
+    if den[-1] != 0 and num[-1] / den[-1] < 0:
+        ends.append(0.0)
+    if len(num) == len(den) and num[0] / den[0] < 0:
+        ends.append(np.inf)
+    if ends:
+        wp = np.sort(np.concatenate([wp, ends]))
+    return np.array(wg) * w0, wp
+
+
+def loop_value(num: ArrayLike, den: ArrayLike, w: float) -> complex:
+    """``L(jw) = num(jw)/den(jw)``, with the limits at ``w = 0`` and ``w = inf``.
+
+    Parameters
+    ----------
+    num, den : array_like
+        Numerator and denominator of the loop gain in s, highest power first.
+    w : float
+        Frequency [rad/s], ``inf`` allowed.
+
+    Returns
+    -------
+    complex
+
+    Examples
+    --------
+    >>> loop_value([-0.5, 1.5], [1.0, 1.0], float("inf"))
+    (-0.5+0j)
+    """
+    num, den = poly.trim(num), poly.trim(den)
+    if np.isinf(w):
+        return complex(num[0] / den[0]) if len(num) == len(den) else 0j
+    return complex(poly.eval_jw(num, w) / poly.eval_jw(den, w))
 
 
 def margins(plant, ctrl, Ms):
-    """Margins of ``L = BR/(AS)`` over every crossover; ``Ms`` is the exact |S| peak."""
+    """Margins of ``L = BR/(AS)`` over every crossover; ``Ms`` is the exact |S| peak.
+
+    Phase crossovers include ``w = 0`` and ``w = inf`` where ``L`` is finite and negative
+    there (:func:`crossovers`), as python-control counts them.
+    """
     num = poly.pmul(plant.B, ctrl.R)
     den = poly.pmul(plant.A, ctrl.S)
     wg, wp = crossovers(num, den)
-    L = lambda w: poly.eval_jw(num, w) / poly.eval_jw(den, w)  # noqa: E731
+    L = lambda w: loop_value(num, den, w)  # noqa: E731
     gms = [1.0 / abs(L(w)) for w in wp]
     up = [g for g in gms if g > 1.0]
     down = [g for g in gms if g < 1.0]

@@ -115,15 +115,19 @@ def companion_monic(ns: ArrayLike, ds: ArrayLike,
     n = len(ds) - 1
     if len(ns) > n + 1:
         raise ValueError("improper transfer function: deg N > deg D")
-    row, c, d = companion_parts(ds, ns)
-    A = np.zeros((n, n))
+    # companion_parts' arithmetic on arrays (the same products and differences, element
+    # by element: identical values), without a round trip through Python lists
+    ds = np.asarray(ds, float)
+    b = np.zeros(n + 1)
+    b[n + 1 - len(ns):] = ns
+    d = b[0]
+    A = np.eye(n, k=-1)
     if n:
-        A[0, :] = row
-        A[1:, :-1] = np.eye(n - 1)
+        A[0, :] = -ds[1:]
     B = np.zeros((n, 1))
     if n:
         B[0, 0] = 1.0
-    C = np.asarray(c, float).reshape(1, n)
+    C = (b[1:] - d * ds[1:]).reshape(1, n)
     if n and balance:
         A, B, C = _balanced(A, B, C)
     return A, B, C, float(d)
@@ -430,32 +434,46 @@ def modal_polynomials(poles: np.ndarray, residues: np.ndarray,
     return (B if B.size else np.zeros(1)), A
 
 
-def transmission_zeros(A: np.ndarray, B: np.ndarray, C: np.ndarray, d: float) -> np.ndarray:
+def transmission_zeros(A: np.ndarray, B: np.ndarray, C: np.ndarray, d: float,
+                       scale: float = 1.0) -> np.ndarray:
     """Finite transmission zeros of a SISO state space (generalised eigenvalues).
+
+    The system matrix ``[[A / scale, B / scale], [C, d]]`` is balanced (LAPACK ``gebal`` on
+    the square system matrix: a diagonal scaling of the states with the input and output,
+    which leaves the zeros unchanged) before the QZ algorithm; ``scale`` is a frequency
+    (in the unit of ``A``) near which the zeros are expected, so that they are O(1) in the
+    pencil.  Without the balancing, zeros far above the poles of a realisation whose
+    states span decades (a pole near ``s = 0`` next to O(1) poles) are lost.
 
     Parameters
     ----------
-    A, B, C : numpy.ndarray
-        ``(n, n)``, ``(n, 1)``, ``(1, n)``.
-    d : float
-        The feedthrough.
+    A, B, C, d : array_like
+        Real or complex SISO state space.
+    scale : float
+        Frequency unit of the pencil (default 1: the unit of ``A``).
 
     Returns
     -------
-    numpy.ndarray
-        The finite zeros (complex).
+    ndarray
+        The finite zeros (complex), in the unit of ``A``.
     """
+    from scipy.linalg import eigvals
+    from scipy.linalg.lapack import dgebal, zgebal
+
+    A = np.atleast_2d(A)
     n = A.shape[0]
-    M = np.block([[A, B], [C, np.array([[d]])]])
+    g = float(scale)
+    M = np.block([[A / g, np.reshape(B, (n, 1)) / g],
+                  [np.reshape(C, (1, n)), np.array([[d]])]])
+    bal = zgebal if np.iscomplexobj(M) else dgebal
+    sc = bal(M, scale=1, permute=0)[3].real
+    M = M * (1 / sc)[:, None] * sc[None, :]
     E = np.zeros_like(M)
     E[:n, :n] = np.eye(n)
-    from scipy.linalg import eigvals
-
-    ab = eigvals(M, E, homogeneous_eigvals=True)
-    alpha, beta = ab
-    scale = np.maximum(np.abs(alpha), 1.0)
-    finite = np.abs(beta) > 1e-12 * scale
-    return alpha[finite] / beta[finite]
+    alpha, beta = eigvals(M, E, homogeneous_eigvals=True)
+    scale_ab = np.maximum(np.abs(alpha), 1.0)
+    finite = np.abs(beta) > 1e-12 * scale_ab
+    return alpha[finite] / beta[finite] * g
 
 
 # an irregular point of the scaled plane where the gain is matched

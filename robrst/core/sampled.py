@@ -30,7 +30,7 @@ from robrst.core.plant import Plant
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
-__all__ = ["sampled_plant", "warp", "unwarp"]
+__all__ = ["sampled_plant", "warp", "unwarp", "warp_band"]
 
 # an irregular point of the scaled plane where the gain of P_w is matched
 _GAIN_POINT = 0.3719 + 0.8537j
@@ -81,6 +81,56 @@ def unwarp(nu: ArrayLike, sample_rate_hz: float) -> np.ndarray:
     return 2.0 * fs * np.arctan(np.asarray(nu, float) / (2.0 * fs))
 
 
+def warp_band(w_lo: float, w_hi: float, sample_rate_hz: float) -> tuple[float, float]:
+    """The loop-variable interval of the physical band ``[w_lo, w_hi]`` [rad/s].
+
+    The sampled loop's response at ``e^{j w / fs}`` is ``2 pi fs``-periodic and even in
+    ``w``: a band reaching above Nyquist folds onto ``[0, pi fs]``; the folded interval
+    is then warped, its ends exactly (Nyquist itself is ``nu = inf``, not a point just
+    below it).
+
+    Parameters
+    ----------
+    w_lo, w_hi : float
+        Band ends [rad/s], ``0 <= w_lo <= w_hi`` (``w_hi`` may be ``inf``).
+    sample_rate_hz : float
+
+    Returns
+    -------
+    (float, float)
+        ``(nu_lo, nu_hi)`` in the loop variable; ``nu_hi = inf`` when the band contains
+        Nyquist (or an odd multiple of it).
+
+    Examples
+    --------
+    >>> warp_band(10.0, 20.0, 100.0)[1] == float(warp(20.0, 100.0))
+    True
+    >>> lo, hi = warp_band(100.0, 400.0, 100.0)   # Nyquist (314.16 rad/s) inside the band
+    >>> round(lo, 4), hi
+    (109.2605, inf)
+    """
+    fs = float(sample_rate_hz)
+    nyq = np.pi * fs
+    lo, hi = float(w_lo), float(w_hi)
+    if not hi - lo < 2.0 * nyq:
+        return 0.0, np.inf
+
+    def fold(w):
+        r = np.fmod(w, 2.0 * nyq)
+        return 2.0 * nyq - r if r > nyq else r
+
+    a, b = sorted((fold(lo), fold(hi)))
+    m = np.ceil(lo / nyq)                 # the first multiple of Nyquist in [lo, hi]
+    if m * nyq <= hi:
+        if m % 2 == 1 or (m + 1) * nyq <= hi:
+            b = nyq
+        if m % 2 == 0 or (m + 1) * nyq <= hi:
+            a = 0.0
+    nu_lo = 0.0 if a == 0.0 else (np.inf if a >= nyq else float(warp(a, fs)))
+    nu_hi = np.inf if b >= nyq else float(warp(b, fs))
+    return nu_lo, nu_hi
+
+
 def _binomial(k, sign):
     """Coefficients of ``(sign * q + 1)**k`` (highest power first)."""
     return np.array([comb(k, j) * sign ** (k - j) for j in range(k + 1)], float)
@@ -101,6 +151,50 @@ def _w_plane(dss):
     Bw = Bw1 - (h / 2.0) * (Aw @ Bw1)
     dw = float(dss.d - (h / 2.0) * (dss.C @ Bw1).item())
     return Aw, Bw, dss.C, dw
+
+
+# physical frequencies (fractions of the sampling rate, rad/sample) where the polynomials of
+# the sampled plant are compared with its exact state space (besides s = 0)
+_CHECK_THETA = (1.3e-3, 1.7e-2, 0.19, 0.83, 1.9, 2.87)
+
+
+def _w_polynomials(w_ss: tuple, poles: np.ndarray, h: float,
+                   w0: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(B, A)`` in s of the w-plane state space ``w_ss`` (scaled variable, poles known).
+
+    The zeros are the transmission zeros of the balanced system matrix in two frequency
+    units: the unit of ``q = s / (2 fs)`` (where the sampling zeros are O(1) whatever
+    the spread of the poles: a pole near ``s = 0`` beside O(1) poles) and the plant's
+    natural unit; the gain is matched at one point of the scaled plane.  Of the two,
+    the one closer to the exact state space at ``s = 0`` and on the unit circle
+    (:data:`_CHECK_THETA`) is kept.
+    """
+    Aw, Bw, Cw, dw = w_ss
+    n = len(poles)
+    eye = np.eye(n)
+
+    def exact(p):
+        return (Cw @ np.linalg.solve(p * eye - Aw, Bw)).item() + dw
+
+    pts = [1j * (2.0 / h) * np.tan(th / 2.0) for th in _CHECK_THETA]
+    if np.all(poles != 0):
+        pts.append(0.0)
+    ref = np.array([exact(p) for p in pts])
+    p0 = _GAIN_POINT
+    val = exact(p0)
+    best = None
+    for unit in (2.0 / h, 1.0):
+        zeros = lti.transmission_zeros(Aw, Bw, Cw, dw, scale=unit)
+        gain = (val * np.prod(p0 - poles) / np.prod(p0 - zeros)).real
+        got = np.array([gain * np.prod(p - zeros) / np.prod(p - poles) for p in pts])
+        with np.errstate(all="ignore"):
+            err = np.max(np.abs(got - ref) / np.abs(ref)) if len(pts) else 0.0
+        err = err if np.isfinite(err) else np.inf
+        if best is None or err < best[0]:
+            best = (err, zeros, gain)
+    _, zeros, gain = best
+    B = (gain * w0 ** (n - len(zeros))) * poly.from_roots(w0 * zeros)
+    return B, poly.from_roots(w0 * poles)
 
 
 def sampled_plant(plant: Plant, sample_rate_hz: float, delay_samples: int = 0) -> Plant:
@@ -130,8 +224,12 @@ def sampled_plant(plant: Plant, sample_rate_hz: float, delay_samples: int = 0) -
     -----
     Built from the exact state-space ZOH model (:func:`robrst.core.lti.zoh`): the poles are
     the exact images ``2 fs tanh(p / (2 fs))`` of the continuous poles, the zeros the
-    transmission zeros of the w-plane state space, the gain matched at one point.  No
-    polynomial in ``z`` is ever expanded (its roots cluster at ``z = 1``).
+    transmission zeros of the balanced w-plane system matrix (in the unit of
+    ``s / (2 fs)``, where the sampling zeros are O(1): exact for a pole near ``s = 0``
+    beside faster ones, a near-integrator, as for one at 0), the gain matched at one
+    point; of two frequency units for the zeros, the one that reproduces the state space
+    at ``s = 0`` and on the unit circle is kept.  No polynomial in ``z`` is ever
+    expanded (its roots cluster at ``z = 1``).
     """
     fs = float(sample_rate_hz)
     if not fs > 0:
@@ -143,13 +241,7 @@ def sampled_plant(plant: Plant, sample_rate_hz: float, delay_samples: int = 0) -
     # poles: exact images 2/h tanh(lambda h / 2) of the continuous poles (scaled)
     lam = np.linalg.eigvals(dss.A)
     poles = (2.0 / h) * np.tanh(lam * h / 2.0)
-    Aw, Bw, Cw, dw = _w_plane(dss)
-    zeros = lti.transmission_zeros(Aw, Bw, Cw, dw)
-    p0 = _GAIN_POINT
-    val = (Cw @ np.linalg.solve(p0 * np.eye(len(lam)) - Aw, Bw)).item() + dw
-    gain = val * np.prod(p0 - poles) / np.prod(p0 - zeros)
-    B = (gain.real * w0 ** (len(poles) - len(zeros))) * poly.from_roots(w0 * zeros)
-    A = poly.from_roots(w0 * poles)
+    B, A = _w_polynomials(_w_plane(dss), poles, h, w0)
     k = int(delay_samples)
     if k:   # z**-k = ((1 - q)/(1 + q))**k with q = s / (2 fs)
         B = np.convolve(B, poly.from_scaled(_binomial(k, -1.0), 2.0 * fs))

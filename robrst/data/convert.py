@@ -1,9 +1,9 @@
 """Arrays as labs store them -> robrst records (:class:`~robrst.data.dataset.Dataset`).
 
-Measured data often come as multi-dimensional arrays, e.g. the fine-steering-mirror
-set in ``../shared/data/fsm``: ``(N, channel, realization, period)`` in volts and
-metres.  :func:`records_from_arrays` turns one pair of input/output arrays into one
-record per realization, its periods concatenated in order (a periodic record with
+Measured data often come as multi-dimensional arrays, e.g. the data set of a
+fine-steering mirror (KU Leuven, CC BY 4.0): ``(N, channel, realization, period)`` in
+volts and metres.  :func:`records_from_arrays` turns one pair of input/output arrays into
+one record per realization, its periods concatenated in order (a periodic record with
 ``period = N``), outputs converted to µm.  ``robrst convert`` is the command-line face.
 """
 
@@ -13,8 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
-from robrst.data.dataset import Dataset
+from robrst.data.dataset import Dataset, check_dataset
 from robrst.base.errors import DataError
+from robrst.base.fileio import check_input_file
 
 __all__ = ["records_from_arrays", "load_array", "AXES", "Y_UNITS", "U_UNITS"]
 
@@ -40,6 +41,7 @@ def load_array(path: str | Path) -> np.ndarray:
     DataError
         Naming the file when it is missing or not a readable array.
     """
+    check_input_file(path, "NumPy array file", DataError)
     try:
         return np.load(Path(path), allow_pickle=False)
     except FileNotFoundError:
@@ -61,8 +63,11 @@ def _standard(a, names, what):
     if a.ndim != len(names):
         raise DataError(f"{what}: array has {a.ndim} axes but the layout names {len(names)}"
                         f" ({', '.join(names)})")
-    if not np.issubdtype(a.dtype, np.number):
+    if not np.issubdtype(a.dtype, np.number) or np.issubdtype(a.dtype, np.bool_):
         raise DataError(f"{what}: array must be numeric, got {a.dtype}")
+    if np.iscomplexobj(a):
+        raise DataError(f"{what}: array is complex ({a.dtype}); a record is a real signal"
+                        " (its imaginary part would be dropped): give the real part")
     for ax in AXES:
         if ax not in names:
             a = a[..., None]
@@ -102,7 +107,10 @@ def records_from_arrays(u: np.ndarray, y: np.ndarray, fs: float,
     ------
     DataError
         A rate that is not > 0, unknown units or layout axes, arrays that do not match
-        the layout or each other, non-numeric arrays, NaN or inf.
+        the layout or each other, non-numeric or complex arrays, NaN or inf, a
+        non-finite temperature, and every record :func:`robrst.data.dataset.load_dataset`
+        would refuse once written (fewer than 2 samples, values outside the plausible
+        ranges, an output identically 0).
 
     Examples
     --------
@@ -115,6 +123,8 @@ def records_from_arrays(u: np.ndarray, y: np.ndarray, fs: float,
     """
     if not fs or not np.isfinite(fs) or fs <= 0:
         raise DataError(f"sampling rate must be > 0, got {fs}")
+    if temp_C is not None and not np.isfinite(temp_C):
+        raise DataError(f"temp_C: expected a finite temperature [°C], got {temp_C}")
     if y_unit not in Y_UNITS or u_unit not in U_UNITS:
         raise DataError(f"units: y in {sorted(Y_UNITS)}, u in {sorted(U_UNITS)}; got {y_unit!r},"
                         f" {u_unit!r}")
@@ -140,4 +150,6 @@ def records_from_arrays(u: np.ndarray, y: np.ndarray, fs: float,
                            temp=None if temp_C is None else np.full(n, float(temp_C)),
                            comments=(f"converted from {source}, realization {r + 1} of {R}",),
                            source=f"{source}_r{r + 1}", period=N if periodic else 0))
+    for d in out:     # what the loader would refuse is not written
+        check_dataset(d, f"{source}: record {d.source}")
     return out

@@ -29,9 +29,10 @@ from pathlib import Path
 import numpy as np
 
 from robrst.base.errors import DataError
-from robrst.base.fileio import atomic_write_bytes, atomic_write_text, read_utf8
+from robrst.base.fileio import atomic_write_bytes, atomic_write_text, check_input_file, read_utf8
 
-__all__ = ["Dataset", "load_dataset", "save_dataset", "check_sensor", "COLUMNS", "PLAUSIBLE"]
+__all__ = ["Dataset", "load_dataset", "save_dataset", "check_dataset", "check_sensor", "COLUMNS",
+           "PLAUSIBLE"]
 
 COLUMNS = ("t", "u", "y")          # required (u/y or u1..uk/y1..ym)
 OPTIONAL = ("temp", "yr")
@@ -337,6 +338,7 @@ def _read_csv(path):
 
 
 def _read_npz(path):
+    check_input_file(path, "data file", DataError)
     try:
         with np.load(path, allow_pickle=False) as z:
             data = {k: np.asarray(z[k]) for k in z.files}
@@ -386,32 +388,9 @@ def _read_npz(path):
     return cols, (), period, (lambda j: f"sample {j}"), header
 
 
-def load_dataset(path: str | Path) -> Dataset:
-    """Read and validate a dataset (``.npz`` by suffix, else CSV).
-
-    Parameters
-    ----------
-    path : str or pathlib.Path
-        A record file in the format of this module's docstring.
-
-    Returns
-    -------
-    Dataset
-        With ``source`` the file's name.
-
-    Raises
-    ------
-    DataError
-        Naming the file and the line (CSV) or array/column of the first problem.
-    """
-    path = Path(path)
-    npz = path.suffix == ".npz"
-    col, comments, period, line_of, header = _read_npz(path) if npz else _read_csv(path)
-
-    def at(j):  # location of data row j in messages
-        loc = line_of(j)
-        return loc if npz else f"line {loc}"
-
+def _check_columns(path, col, header, period, at):
+    """The loader's checks of a record's columns (named ``header``, in ``col``); returns the
+    input and output column names.  ``at(j)`` names data row ``j`` in messages."""
     n = col["t"].size
     if n < 2:
         raise DataError(f"{path}: fewer than 2 data rows")
@@ -463,6 +442,55 @@ def load_dataset(path: str | Path) -> Dataset:
         if period < 2 or n % period:
             raise DataError(f"{path}: period_samples = {period} does not divide the {n} samples"
                             " into whole periods")
+    return ins, outs
+
+
+def check_dataset(ds: Dataset, where: str) -> None:
+    """Refuse a record (in memory) that :func:`load_dataset` would refuse once written.
+
+    Parameters
+    ----------
+    ds : Dataset
+    where : str
+        What to name in messages (e.g. the record file about to be written).
+
+    Raises
+    ------
+    DataError
+        The loader's message: fewer than 2 samples, NaN or inf, non-uniform time, a value
+        outside its plausible range (temperature, input, output), an output identically 0.
+    """
+    col = ds.columns()
+    _check_columns(where, col, list(col), ds.period, lambda j: f"sample {j}")
+
+
+def load_dataset(path: str | Path) -> Dataset:
+    """Read and validate a dataset (``.npz`` by suffix, else CSV).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        A record file in the format of this module's docstring.
+
+    Returns
+    -------
+    Dataset
+        With ``source`` the file's name.
+
+    Raises
+    ------
+    DataError
+        Naming the file and the line (CSV) or array/column of the first problem.
+    """
+    path = Path(path)
+    npz = path.suffix == ".npz"
+    col, comments, period, line_of, header = _read_npz(path) if npz else _read_csv(path)
+
+    def at(j):  # location of data row j in messages
+        loc = line_of(j)
+        return loc if npz else f"line {loc}"
+
+    ins, outs = _check_columns(path, col, header, period, at)
 
     def stack(names):
         if len(names) == 1 and names[0] in ("u", "y"):
@@ -470,5 +498,5 @@ def load_dataset(path: str | Path) -> Dataset:
         order = sorted(names, key=lambda s: int(s[1:]))
         return np.column_stack([col[c] for c in order]) if len(order) > 1 else col[order[0]]
 
-    return Dataset(t=t, u=stack(ins), y=stack(outs), temp=col.get("temp"), yr=col.get("yr"),
+    return Dataset(t=col["t"], u=stack(ins), y=stack(outs), temp=col.get("temp"), yr=col.get("yr"),
                    comments=comments, source=str(path), period=period)

@@ -41,10 +41,12 @@ from robrst.diagnose.effects import EFFECTS, THERMAL, Chain, summary
 from robrst.diagnose.findings import (amplitude_finding, comparable, floor_of, noise_levels,
                                       unmodelled_finding)
 from robrst.diagnose.fit import fit_model, prepare
-from robrst.diagnose.linear import LinearPart, as_modal
+from robrst.diagnose.linear import LinearPart, as_modal, unexcited
+from robrst.diagnose.sensor import repair
 from robrst.diagnose.result import Diagnosis, EffectScore
-from robrst.diagnose.select import OFFSET, Setup, candidates, forward, linear_with_offset
-from robrst.diagnose.thermal import max_delay, search_delay, search_saturation
+from robrst.diagnose.select import (DYNAMIC, OFFSET, Setup, cut, explain, linear_with_offset,
+                                    significant)
+from robrst.diagnose.thermal import max_delay, search_delay
 from robrst.diagnose.verdict import NEAR_RATIO, build, decide, unmodelled
 from robrst.base.errors import DataError, SpecError
 from robrst.core.plant import Plant, as_plant, paper_plant
@@ -58,7 +60,8 @@ if TYPE_CHECKING:
     from robrst.identify.modal import ModalModel
 
 __all__ = ["Diagnosis", "EffectScore", "diagnose", "check_records", "decompose",
-           "offset_finding", "MIN_SAMPLES", "NONE_RATIO"]
+           "offset_finding", "polynomial_plant", "skipped_effects", "MIN_SAMPLES",
+           "NONE_RATIO"]
 
 MIN_SAMPLES = 500        # per record
 NONE_RATIO = 1.25        # gap <= 1.25 x noise floor: nothing to explain
@@ -150,19 +153,44 @@ def polynomial_plant(plant: object, model: ModalModel) -> Plant | None:
         return None
 
 
-def _skipped(train, effects, model, siso=True):
-    """Effects not tried, with the reason (inputs never excited, SISO-only)."""
+def skipped_effects(train: Sequence[Dataset], test: Sequence[Dataset], effects: Sequence[str],
+                    model: ModalModel, polynomial: bool = True) -> dict:
+    """Effects not tried, with the reason.
+
+    Parameters
+    ----------
+    train, test : sequence of Dataset
+        The training and test records.
+    effects : sequence of str
+        The effects asked for.
+    model : ModalModel
+        The model under diagnosis.
+    polynomial : bool
+        Whether the model has SISO polynomials ``B(s)``, ``A(s)`` (:func:`polynomial_plant`):
+        ``thermal_dynamics`` and ``stiffness_nonlinearity`` run the twin's step on them.
+
+    Returns
+    -------
+    dict
+        ``{effect: reason}``: temperature not excited, one input and output only (or
+        polynomials that overflow), several only, or (amplitude-dependent dynamics) not periodic at two training levels.
+    """
     out = {}
     temps = [d.temp for d in train if d.temp is not None]
     # within a record or across records (each at its own constant temperature)
     t_range = float(np.ptp(np.concatenate(temps))) if temps else 0.0
+    siso = (model.n_in, model.n_out) == (1, 1)
     for e in effects:
         if e in THERMAL and t_range < TEMP_EXCITED_K:
             out[e] = (f"temperature constant within {t_range:.3g} K on the training records"
                       if temps else "no temperature measured")
-        elif e == "thermal_dynamics" and (model.n_in, model.n_out) != (1, 1):
+        elif e in ("thermal_dynamics", "stiffness_nonlinearity") and not siso:
             out[e] = "one input and one output only"
-        elif e == "thermal_dynamics" and not siso:
+        elif e == "cross_coupling" and siso:
+            out[e] = "several inputs or outputs only"
+        elif e == DYNAMIC and not _levels_ok(train, test):
+            out[e] = "needs periodic records at two or more training levels"
+        elif e in ("thermal_dynamics", "stiffness_nonlinearity") and not polynomial:
             out[e] = ("the model's polynomials B(s), A(s) overflow float64 (its order is too"
                       " high for the twin's linear step)")
     return out
@@ -198,7 +226,7 @@ def diagnose(train: Sequence[Dataset], test: Sequence[Dataset], plant: Plant | M
     effects : sequence of str
         Effects to try (default all of :data:`EFFECTS`).
     progress : callable, optional
-        Called with one line of text per stage.
+        Called with one line of text per stage and fit, prefixed with the seconds elapsed.
     workers : int
         Candidate fits run in this many threads.
 
@@ -212,7 +240,8 @@ def diagnose(train: Sequence[Dataset], test: Sequence[Dataset], plant: Plant | M
         Bad record sets (named); unknown effects.
     """
     t_start = time.perf_counter()
-    say = progress or (lambda m: None)
+    say = (lambda m: None) if progress is None else (     # elapsed time on every line
+        lambda m: progress(f"[{time.perf_counter() - t_start:6.1f} s] {m}"))
     plant = paper_plant() if plant is None else (
         plant if isinstance(plant, ModalModel) else as_plant(plant))
     model = as_modal(plant)
@@ -234,6 +263,13 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
     names = [_name(d, i) for i, d in enumerate(all_recs)]
     preps = [prepare(d, ref, for_fit=False) for d in all_recs]
     base_res = [p.Y - lin.simulate(th0, p.U, p.periodic) for p in preps]
+    fixed, sensor = repair(all_recs, [p.Y - r for p, r in zip(preps, base_res)], fs)
+    if sensor:          # outliers and dropouts set aside: the gap and the floor are the plant's
+        sig_raw, _ = noise_levels(all_recs, base_res, fs)
+        sensor["noise_floor_with_faults"] = floor_of(test, sig_raw[n_tr:])
+        all_recs, train, test = fixed, fixed[:n_tr], fixed[n_tr:]
+        preps = [prepare(d, ref, for_fit=False) for d in all_recs]
+        base_res = [p.Y - lin.simulate(th0, p.U, p.periodic) for p in preps]
     before = signals.nrmse(test, base_res[n_tr:])
     before_train = signals.nrmse(train, base_res[:n_tr])
     sig, method = noise_levels(all_recs, base_res, fs)
@@ -242,6 +278,9 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
     sigma = float(np.sqrt(np.mean(sig ** 2)))
     say(f"gap of the simulation model on {len(test)} test record(s): NRMSE {before:.4g}"
         f" (noise floor {floor:.3g}, from {method.replace('_', ' ')})")
+    faults = _sensor_finding(sensor, floor)
+    if faults:
+        say(f"sensor: {faults['message']}")
     windows, frac = signals.time_windows(all_recs, base_res, sigma, names)
     band, f, P, level = signals.frequency_band(base_res, fs, sigma)
     dmodel = model.discretise(fs)
@@ -260,7 +299,7 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
     traces = {"names": names, "records": all_recs, "base_residuals": base_res,
               "psd_f": f, "psd": P, "noise_psd": level}
     siso = polynomial_plant(plant, model)
-    skipped = _skipped(train, effects, model, siso is not None)
+    skipped = skipped_effects(train, test, effects, model, siso is not None)
     tried = tuple(e for e in effects if e not in skipped)
     if not _excited(train) or not _excited(test):
         which = "training" if not _excited(train) else "test"
@@ -278,37 +317,46 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
                     f" {before_train / floor_train:.3g}x their noise floor) the test records do"
                     " not: the test records do not excite what causes it (add test records"
                     " like the training ones to diagnose it)")
-        return build(info, where, tests, traces, "none", why, skipped=skipped, findings=[amp])
+        return build(info, where, tests, traces, "none", why, skipped=skipped,
+                     findings=[amp, faults], sensor=sensor)
     train_p = [prepare(d, ref) for d in train]
+    lin_modal = LinearPart(model, fs, modal_gains=True)
     setup = Setup(fs=fs, ref=ref, train=train_p, train_full=preps[:n_tr], test=preps[n_tr:],
                   test_records=test, train_records=train, lin=lin,
-                  lin_modal=LinearPart(model, fs, modal_gains=True), stats=summary(train),
+                  lin_modal=lin_modal, stats=summary(train),
                   noise_sigma=sigma, plant=siso,
-                  effects=tried, dynamic=_levels_ok(train, test) and "hysteresis" in tried,
+                  effects=tried + (OFFSET,), dynamic=DYNAMIC in tried,
                   delays=(search_delay(train_p, lin, max_delay(fs)) if "delay" in tried
                           else (0,) * model.n_in),
-                  saturation=search_saturation(train_p, lin, None) if "saturation" in tried
-                  else [], floor=floor, gap_before=before,
-                  gap_before_train=before_train, workers=workers)
-    linear, singles = candidates(setup, say)
+                  saturation=[], floor=floor, gap_before=before,
+                  gap_before_train=before_train, workers=workers,
+                  pinned=unexcited(lin, [d.U for d in train], fs),
+                  pinned_modal=unexcited(lin_modal, [d.U for d in train], fs),
+                  train_cut=cut(train_p), test_cut=cut(preps[n_tr:]))
+    ex = explain(setup, say)
+    linear, steps = ex.linear, ex.steps
+    say("amplitude check: a linear model of the lowest training level at every level")
     amp, info["per_level"] = amplitude_finding(all_recs, base_res, _low_level_refit(
         setup, train, train_p, preps), sig, n_tr)
-    steps, tie = forward(setup, linear, singles, say)
-    cause, reason, causes, best, gap = decide(info, linear, steps, tie)
-    findings = [amp]
+    info["band"], info["regime"] = where["frequency_band_hz"], where["regime"]
+    info["train_levels"] = [d.level for d in train]
+    cause, reason, causes, best, gap = decide(info, ex, amp)
+    findings = [amp, faults]
     off = None
     if OFFSET in causes:            # selected on the same footing as the effects
         off = offset_finding(base_res[n_tr:], fitted=steps[-1][2].fit)
-    elif cause == "cannot_tell":
+    elif cause == "cannot_tell" and not _curved(ex, floor):
         # nothing explains the gap and it is mostly a constant: say so (a sensor offset), and
-        # do not search for missing dynamics (a higher order imitates a constant badly)
+        # do not search for missing dynamics (a higher order imitates a constant badly) --
+        # unless a static output nonlinearity explains it better than a constant
         off = offset_finding(base_res[n_tr:])
     if off:
         findings.append(off)
         reason += f"; {off['message']}"
-    if not off and (cause == "cannot_tell" or (gap is not None and gap > NEAR_RATIO * floor)):
-        # what is left may be linear dynamics the model lacks (an effect's answer must
-        # leave more than a higher-order linear model does for that to be said)
+    if not off and cause in ("cannot_tell", "linear") and (gap is None
+                                                            or gap > NEAR_RATIO * floor):
+        # what is left may be linear dynamics the model lacks (a named effect's answer
+        # says itself how much it leaves unexplained)
         hi = unmodelled(setup, linear, info)
         if hi and steps and hi[1] >= gap:
             hi = None
@@ -324,8 +372,30 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
     else:
         shares = decompose(base_res[n_tr:], before, floor, linear.residuals)
     return build(info, where, tests, traces, cause, reason, skipped=skipped, findings=findings,
-                 linear=linear, singles=singles, steps=steps, causes=causes, best_partial=best,
-                 decomposition=shares)
+                 linear=linear, singles=ex.singles, steps=steps, causes=causes,
+                 best_partial=best, decomposition=shares, explanation=ex, sensor=sensor)
+
+
+def _sensor_finding(sensor, floor):
+    """``sensor_faults`` finding from :func:`robrst.diagnose.sensor.repair`'s report."""
+    if not sensor:
+        return None
+    drops = [f"{a:.4g}–{b:.4g} s" for r in sensor["records"] for a, b in r["dropouts_s"]][:4]
+    return {"kind": "sensor_faults", "outliers": sensor["outliers"],
+            "dropouts": sensor["dropouts"], "share": sensor["share"],
+            "message": (f"the records hold {sensor['outliers']} outlier(s) and"
+                        f" {sensor['dropouts']} dropout(s) of the sensor"
+                        f"{' (' + ', '.join(drops) + ')' if drops else ''},"
+                        f" {100 * sensor['share']:.2g} % of the samples; they are set aside"
+                        " (replaced by the model plus the residual interpolated across them):"
+                        f" noise floor {floor:.3g}, {sensor['noise_floor_with_faults']:.3g}"
+                        " with them")}
+
+
+def _curved(ex, floor):
+    """Does a static output nonlinearity explain the held-out gap better than a constant?"""
+    a, b = ex.singles.get("output_nonlinearity"), ex.singles.get(OFFSET)
+    return a is not None and b is not None and significant(a.gap, b.gap, floor)
 
 
 def _low_level_refit(setup, train, train_p, preps):
@@ -336,7 +406,7 @@ def _low_level_refit(setup, train, train_p, preps):
         return None
     lowest = min(d.level for d in train)
     low = [p for p, d in zip(train_p, train) if d.level <= lowest * 1.1]
-    ch = Chain((), setup.lin.model.n_in, setup.fs, setup.ref, setup.stats)
+    ch = Chain((), setup.lin.model.n_in, setup.fs, setup.ref, setup.stats, cache=setup.stages)
     fit = fit_model("linear@low", (), low, setup.lin, ch, setup.noise_sigma, joint=True,
                     max_nfev=30, ftol=1e-8)
     return [p.Y - fit.predict_prepared(p) for p in preps]

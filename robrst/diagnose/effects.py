@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy import signal
 
-from robrst.diagnose.stages import stage
+from robrst.diagnose.stages import cached_stage
 from robrst.twin.config import EFFECTS as TWIN_EFFECTS
 from robrst.twin.config import default_twin
 from robrst.twin.model import creep_taus
@@ -37,9 +37,21 @@ if TYPE_CHECKING:
 __all__ = ["EFFECTS", "SENSOR_EFFECTS", "INPUT_EFFECTS", "Chain", "SPECS", "summary"]
 
 SENSOR_EFFECTS = ("noise", "quantization")      # properties of the measurement, not causes
-EFFECTS = tuple(e for e in TWIN_EFFECTS if e not in SENSOR_EFFECTS)
-ORDER = ("delay", "saturation", "slew", "hysteresis", "creep", "thermal_drift")
-INPUT_EFFECTS = tuple(e for e in ORDER if e in EFFECTS)
+FORMS = {"pi_hysteresis": "hysteresis"}          # a twin effect that is a form of another
+# the twin's effects (less the sensor's, forms under their effect), then the ones a twin of
+# one input and output cannot show and the level-dependent linear form
+EFFECTS = tuple(e for e in TWIN_EFFECTS if e not in SENSOR_EFFECTS and e not in FORMS) + (
+    "cross_coupling", "amplitude_dependent_dynamics")
+# the static input map acts after the sequential stages (its closed-form derivatives then
+# need no re-run of them); the twin puts it on the drive, the same map when alone
+ORDER = ("delay", "saturation", "slew", "hysteresis", "pi_hysteresis", "input_nonlinearity",
+         "creep", "thermal_drift")
+# play thresholds of the Prandtl–Ishlinskii candidate / peak-to-peak input (log-spaced)
+PI_FRACTIONS = (0.01, 0.02, 0.035, 0.05, 0.075, 0.1, 0.14, 0.19, 0.25, 0.33, 0.42)
+# knots of the static input map's hinges: quantiles of the training inputs (distinct, with
+# samples on both sides: a hinge at the edge of the data is not determined by it)
+KNOT_QUANTILES = (0.02, 0.05, 0.1, 0.2, 0.35, 0.5, 0.65, 0.8, 0.9, 0.95, 0.98)
+INPUT_EFFECTS = ORDER
 THERMAL = ("thermal_drift", "thermal_dynamics")  # need a varying temperature
 LN10 = np.log(10.0)
 
@@ -79,12 +91,23 @@ def _drift_d(z):
                      [0, 0, 0, 1.0]])
 
 
+def _b_max(s):
+    """Upper bound of log10 B [1/V] of Bouc–Wen: 30 / peak-to-peak, and the discrete update
+    ``h+ = h (1 - (B +- Gamma) |du|) + A du`` a contraction for the largest step of the data
+    (``(B + |Gamma|) |du| <= 2 BW_STEP_MAX`` with ``|Gamma| <= B``; the first step is from the
+    memory's 0 V to the first sample).  Beyond it the loop and its sensitivities diverge: a
+    fit of a smooth noise-free sine overflowed into NaN."""
+    return np.log10(min(30.0 / s["u_ptp"], BW_STEP_MAX / max(s["du_max"], 1e-12)))
+
+
+BW_STEP_MAX = 0.95       # (B + |Gamma|) |du| / 2 at the largest per-sample step
+
 SPECS = {
     "hysteresis": Spec(
         names=("A", "B_per_V", "Gamma_per_V", "gain"),
-        bounds=lambda s: ((0.0, np.log10(1e-4 / s["u_ptp"]), -1.0, 0.2),
-                          (0.95, np.log10(30.0 / s["u_ptp"]), 1.0, 5.0)),
-        init=lambda s: (0.3, np.log10(1.0 / s["u_ptp"]), 1.0, 1.2),
+        bounds=lambda s: ((0.0, min(np.log10(1e-4 / s["u_ptp"]), _b_max(s) - 1.0), -1.0, 0.2),
+                          (0.95, _b_max(s), 1.0, 5.0)),
+        init=lambda s: (0.3, min(np.log10(1.0 / s["u_ptp"]), _b_max(s) - 0.3), 1.0, 1.2),
         twin=_hyst_twin, dtwin=_hyst_d,
         report=lambda z: (z[0], 10 ** z[1], z[2] * 10 ** z[1], z[3])),
     "thermal_drift": Spec(
@@ -95,11 +118,12 @@ SPECS = {
         twin=_drift_twin, dtwin=_drift_d,
         report=lambda z: (10 ** z[0], 10 ** z[1], z[2] * 10 ** z[1], z[3])),
     "slew": Spec(
-        names=("V_per_s",),
-        bounds=lambda s: ((np.log10(s["u_ptp"] * 0.1),), (np.log10(s["rate_max"] * 10),)),
-        init=lambda s: (np.log10(0.5 * s["rate_max"]),),
-        twin=lambda z: np.array([10 ** z[0]]), dtwin=lambda z: np.array([[LN10 * 10 ** z[0]]]),
-        report=lambda z: (10 ** z[0],)),
+        names=("V_per_s", "V_per_s_down"),
+        bounds=lambda s: ((np.log10(s["u_ptp"] * 0.1),) * 2, (np.log10(s["rate_max"] * 10),) * 2),
+        init=lambda s: (np.log10(0.5 * s["rate_max"]),) * 2,
+        twin=lambda z: 10.0 ** np.asarray(z, float),
+        dtwin=lambda z: np.diag(LN10 * 10.0 ** np.asarray(z, float)),
+        report=lambda z: (10 ** z[0], 10 ** z[1])),
     "creep": Spec(
         names=("per_decade", "per_K"),
         bounds=lambda s: ((-0.3, -1.0), (0.3, 2.0)), init=lambda s: (0.0, 0.0),
@@ -115,6 +139,55 @@ SPECS = {
 }
 
 
+def _pi_spec(stats):
+    n = len(PI_FRACTIONS)
+    return Spec(names=tuple(f"weight_{i + 1}" for i in range(n)),
+                bounds=lambda s: ((-3.0,) * n, (3.0,) * n), init=lambda s: (0.0,) * n,
+                twin=lambda z: np.asarray(z, float), dtwin=lambda z: np.eye(n),
+                report=lambda z: tuple(z))
+
+
+def pi_thresholds(stats):
+    """Play thresholds [V] of the Prandtl–Ishlinskii candidate: fractions of the input's
+    peak-to-peak range (:data:`PI_FRACTIONS`)."""
+    return tuple(float(f * stats["u_ptp"]) for f in PI_FRACTIONS)
+
+
+def _map_spec(stats):
+    """Static input map: a dead zone about a centre, a polynomial, hinges at the knots."""
+    n = len(stats["knots"])
+    p = stats["u_ptp"]
+    return Spec(names=("dead_zone_V", "center_V", "quadratic_per_V", "cubic_per_V2") + tuple(
+                f"slope_change_at_{k:.4g}V" for k in stats["knots"]),
+                bounds=lambda s: ((0.0, s["u_min"], -0.5 / p, -1.0 / p ** 2) + (-2.0,) * n,
+                                  (0.5 * p, s["u_max"], 0.5 / p, 1.0 / p ** 2) + (2.0,) * n),
+                # a dead zone starts open (at its bound 0 the solver stalled on the first step)
+                init=lambda s: (0.02 * p, 0.5 * (s["u_min"] + s["u_max"]), 0.0, 0.0) + (0.0,) * n,
+                twin=lambda z: np.asarray(z, float), dtwin=lambda z: np.eye(len(z)),
+                report=lambda z: tuple(z))
+
+
+def spec(effect, stats):
+    """The :class:`Spec` of an input-side effect (the play weights and the input map's
+    hinges depend on the data)."""
+    if effect == "pi_hysteresis":
+        return _pi_spec(stats)
+    if effect == "input_nonlinearity":
+        return _map_spec(stats)
+    return SPECS[effect]
+
+
+def _knots(U):
+    """Distinct knots strictly inside the data: quantiles, at least 1 % of the range apart."""
+    lo, hi = float(U.min()), float(U.max())
+    gap = 0.01 * max(hi - lo, 1e-12)
+    out = []
+    for v in np.quantile(U, KNOT_QUANTILES):
+        if lo + gap < v < hi - gap and (not out or v > out[-1] + gap):
+            out.append(float(v))
+    return tuple(out)
+
+
 def summary(records: Sequence[Dataset]) -> dict:
     """Scales of the training data (per all inputs) for bounds and starting values.
 
@@ -126,19 +199,23 @@ def summary(records: Sequence[Dataset]) -> dict:
     Returns
     -------
     dict
-        ``u_ptp``, ``u_min``, ``u_max``, ``u_scale``, ``rate_max`` [V/s] and
-        ``duration_s``.
+        ``u_ptp``, ``du_max`` (the largest step, from 0 V to the first sample
+        included), ``knots`` (of the static input map), ``u_min``, ``u_max``,
+        ``u_scale``, ``rate_max`` [V/s] and ``duration_s``.
     """
     U = np.concatenate([d.U for d in records])
     ptp = float(max(np.ptp(U), 1e-9))
-    rate = max(float(np.max(np.abs(np.diff(d.U, axis=0)))) * d.fs if d.n > 1 else 0.0
-               for d in records)
-    return {"u_ptp": ptp, "u_min": float(U.min()), "u_max": float(U.max()),
+    steps = [float(np.max(np.abs(np.diff(d.U, axis=0)))) if d.n > 1 else 0.0 for d in records]
+    rate = max(du * d.fs for du, d in zip(steps, records))
+    # the hysteresis memory starts at 0 V: its first step is to the first sample
+    first = max(float(np.max(np.abs(d.U[0]))) for d in records)
+    return {"u_ptp": ptp, "du_max": max(max(steps), first),
+            "knots": _knots(U), "u_min": float(U.min()), "u_max": float(U.max()),
             "u_scale": max(float(np.max(np.abs(U))), ptp) / 150.0,
             "rate_max": max(rate, ptp), "duration_s": float(max(d.t[-1] - d.t[0] for d in records))}
 
 
-def _creep_cells(fs):
+def creep_cells(fs):
     c = default_twin().effects["creep"]
     taus = creep_taus(c)
     return np.exp(-1.0 / (fs * taus)), float(c["cells_per_decade"])
@@ -167,6 +244,8 @@ class Chain:
         :func:`summary` of the training data (bounds and starting values).
     delays : sequence of int, optional
         The whole-sample delay per input (fitted by search, not in ``z``).
+    cache : dict, optional
+        Compiled stages shared by the chains of one diagnosis.
 
     Attributes
     ----------
@@ -175,7 +254,8 @@ class Chain:
     """
 
     def __init__(self, effects: Iterable[str], n_in: int, fs: float, reference_C: float,
-                 stats: dict, delays: Sequence[int] | None = None) -> None:
+                 stats: dict, delays: Sequence[int] | None = None,
+                 cache: dict | None = None) -> None:
         self.effects = tuple(e for e in ORDER if e in effects)
         self.n_in, self.fs, self.ref = n_in, float(fs), float(reference_C)
         self.stats = stats
@@ -185,7 +265,7 @@ class Chain:
         for e in self.effects:
             if e == "delay":
                 continue
-            sp = SPECS[e]
+            sp = spec(e, stats)
             b_lo, b_hi = sp.bounds(stats)
             for j in range(n_in):
                 start = len(lo)
@@ -198,9 +278,12 @@ class Chain:
         self.lower, self.upper = np.array(lo, float), np.array(hi, float)
         self.z0 = np.array(z0, float)
         self.names = tuple(names)
-        self.stages = {e: stage(e, fs, reference_C) for e in self.effects
+        self.stages = {e: cached_stage(cache, e, fs, reference_C) for e in self.effects
                        if e in ("slew", "hysteresis", "thermal_drift")}
-        self.cells = _creep_cells(fs) if "creep" in self.effects else None
+        if "pi_hysteresis" in self.effects:
+            self.stages["pi_hysteresis"] = cached_stage(cache, "pi_hysteresis", fs, reference_C,
+                                                        thresholds_V=pi_thresholds(stats))
+        self.cells = creep_cells(fs) if "creep" in self.effects else None
 
     @property
     def size(self):
@@ -241,14 +324,31 @@ class Chain:
                     dx[:, sl.start] = x < lo
                     dx[:, sl.start + 1] = x > hi
                 x = np.clip(x, lo, hi)
-            elif e in ("slew", "hysteresis"):
+            elif e == "input_nonlinearity":
+                d, c, a2, a3 = zz[:4]
+                h = zz[4:]
+                knots = np.asarray(self.stats["knots"])
+                ee = x - c
+                out = (np.abs(ee) > d)
+                above = x[:, None] > knots[None, :]
+                if jac:
+                    dx *= (out + 2 * a2 * ee + 3 * a3 * ee ** 2 + above @ h)[:, None]
+                    dx[:, sl.start] = -np.sign(ee) * out
+                    dx[:, sl.start + 1] = 1.0 - out - 2 * a2 * ee - 3 * a3 * ee ** 2
+                    dx[:, sl.start + 2] = ee ** 2
+                    dx[:, sl.start + 3] = ee ** 3
+                    dx[:, sl.start + 4:sl.stop] = np.maximum(x[:, None] - knots[None, :], 0.0)
+                x = (c + np.maximum(ee - d, 0.0) + np.minimum(ee + d, 0.0) + a2 * ee ** 2
+                     + a3 * ee ** 3 + np.maximum(x[:, None] - knots[None, :], 0.0) @ h)
+            elif e in ("slew", "hysteresis", "pi_hysteresis"):
                 st = self.stages[e]
-                out, dout = st.run(x, temp, SPECS[e].twin(zz))
+                sp = spec(e, self.stats)
+                out, dout = st.run(x, temp, sp.twin(zz))
                 if jac:
                     if np.any(dx):
                         fd_cols += [c for c in range(self.size) if np.any(dx[:, c])]
                     dx[:] = 0.0
-                    dx[:, sl] = dout @ SPECS[e].dtwin(zz)
+                    dx[:, sl] = dout @ sp.dtwin(zz)
                 x = out
             elif e == "creep":
                 a, per = self.cells
@@ -334,7 +434,7 @@ class Chain:
         out = {e: ({}, {}) for e in self.effects}
         for (e, j, sl) in self.blocks:
             vals, sds = out[e]
-            sp = SPECS[e]
+            sp = spec(e, self.stats)
             zz = np.asarray(z[sl], float)
             rep = np.asarray(sp.report(zz), float)
             suffix = f"_u{j + 1}" if self.n_in > 1 else ""

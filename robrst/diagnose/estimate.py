@@ -21,10 +21,11 @@ import numpy as np
 
 from robrst.diagnose import signals
 from robrst.diagnose.diagnosis import check_records
-from robrst.diagnose.effects import EFFECTS, INPUT_EFFECTS, Chain, summary
+from robrst.diagnose.effects import EFFECTS, FORMS, INPUT_EFFECTS, Chain, summary
 from robrst.diagnose.findings import noise_levels
 from robrst.diagnose.fit import fit_model, prepare
 from robrst.diagnose.linear import LinearPart, as_modal
+from robrst.diagnose.stiffness import fit_stiffness
 from robrst.diagnose.thermal import (fit_thermal_dynamics, max_delay, search_delay,
                                      search_saturation)
 from robrst.base.errors import DataError
@@ -100,9 +101,11 @@ def fit_effects(records: Sequence[Dataset], effects: Sequence[str],
     records : list of Dataset
         Records of the actuator (one sampling rate; the model's channel counts).
     effects : sequence of str
-        Effects from :data:`~robrst.diagnose.effects.EFFECTS`.  ``thermal_dynamics``
-        is fitted alone (it changes the linear part with temperature; one input and
-        one output).
+        Effects from :data:`~robrst.diagnose.effects.EFFECTS` (``hysteresis`` is
+        Bouc–Wen; ``pi_hysteresis`` its Prandtl–Ishlinskii form) and ``output_offset``.
+        ``thermal_dynamics`` and ``stiffness_nonlinearity`` are fitted alone (they change
+        the linear part; one input and one output); ``amplitude_dependent_dynamics`` is
+        the diagnosis's own (not estimated here).
     plant : Plant or ModalModel, optional
         The linear model (default: the paper's D(s)).
     reference_C : float, optional
@@ -119,14 +122,16 @@ def fit_effects(records: Sequence[Dataset], effects: Sequence[str],
     Raises
     ------
     DataError
-        Unknown effects, ``thermal_dynamics`` combined with others or on a MIMO
-        model, bad records (named).
+        Unknown effects, ``thermal_dynamics`` or ``stiffness_nonlinearity`` combined with
+        others or on a MIMO model, bad records (named).
     """
     effects = tuple(effects)
-    unknown = [e for e in effects if e not in EFFECTS]
+    known = [e for e in EFFECTS if e != "amplitude_dependent_dynamics"] + list(FORMS) + [
+        "output_offset"]
+    unknown = [e for e in effects if e not in known]
     if unknown or not effects:
         raise DataError(f"unknown effect(s) {unknown or '(none given)'}; expected one or more"
-                        f" of {list(EFFECTS)}")
+                        f" of {known}")
     plant = plant or paper_plant()
     model = as_modal(plant)
     records = list(records)
@@ -137,12 +142,19 @@ def fit_effects(records: Sequence[Dataset], effects: Sequence[str],
     base = [p.Y - lin.simulate(np.zeros(lin.size), p.U, p.periodic) for p in full]
     gap_linear = signals.nrmse(records, base)
     train = [prepare(d, ref) for d in records]
-    if "thermal_dynamics" in effects:
+    alone = [e for e in effects if e in ("thermal_dynamics", "stiffness_nonlinearity")]
+    if alone:
         if len(effects) > 1 or (model.n_in, model.n_out) != (1, 1):
-            raise DataError("thermal_dynamics is fitted alone, on a model with one input and"
+            raise DataError(f"{alone[0]} is fitted alone, on a model with one input and"
                             f" one output (got effects {list(effects)}, {model.n_in} input(s),"
                             f" {model.n_out} output(s))")
-        fit = fit_thermal_dynamics(train, plant, fs, ref, max_nfev=max_nfev)
+        if alone[0] == "thermal_dynamics":
+            fit = fit_thermal_dynamics(train, plant, fs, ref, max_nfev=max_nfev)
+        else:
+            siso = plant if not hasattr(plant, "residues") else model.channel(0, 0)
+            fit = fit_stiffness(train, siso, fs, ref, max_nfev=max_nfev)
+    elif "cross_coupling" in effects and (model.n_in, model.n_out) == (1, 1):
+        raise DataError("cross_coupling needs a model with several inputs or outputs")
     else:
         fit = _fit_input_effects(effects, records, train, base, lin, fs, ref, joint, max_nfev)
     res = [p.Y - fit.predict_prepared(p) for p in full]
@@ -169,5 +181,8 @@ def _fit_input_effects(effects, records, train, base, lin, fs, ref, joint, max_n
                   stats, delays)
     if "saturation" in chain.effects:
         chain.start_saturation(search_saturation(train, lin, stats))
-    return fit_model("+".join(chain.effects), chain.effects, train, lin, chain, sigma,
-                     joint=joint, max_nfev=max_nfev)
+    curvature = "output_nonlinearity" in effects
+    return fit_model("+".join(effects), chain.effects, train, lin, chain, sigma,
+                     joint=joint, max_nfev=max_nfev,
+                     offset="output_offset" in effects or curvature, curvature=curvature,
+                     mixing="cross_coupling" in effects)

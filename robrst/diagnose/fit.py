@@ -10,11 +10,20 @@ the linear corrections vary linearly with the record's excitation level (the
 describing function of a hysteretic stiffness: resonances soften and gains change with
 amplitude); it needs periodic records at two or more levels.
 
-A constant output offset per output (``offset``: a sensor zero or bias, in µm) can be
-fitted with any candidate; it enters the output linearly, without a prior.
+Output-side blocks (:class:`Post`), each linear in its parameters and without a prior,
+can be fitted with any candidate: a constant output offset per output (``offset``: a
+sensor zero or bias, in µm), the sensor's static curvature (``curvature``: quadratic
+and cubic terms of each output about its training mean), and channel cross-coupling of a
+MIMO model (``mixing``: ``v_j += sum_k c_jk u_k`` on the input side and ``y_i += sum_l
+d_il y_l`` on the output side, off-diagonal only)::
+
+    u -> Chain -> input mixing -> L_theta -> output mixing -> sensor curvature -> + offset
 
 Periodic records are fitted in steady state on their period average (weight: the
-number of periods), the effects warmed up on one extra period.
+number of periods), the effects warmed up on one extra period.  Records are simulated
+whole; the residual of a long record enters the fit on every k-th sample (at most
+``FIT_ROWS`` rows per record, weighted by sqrt(k)): the cost of each solver step then does
+not grow with the record.
 """
 
 from __future__ import annotations
@@ -33,9 +42,11 @@ if TYPE_CHECKING:
     from robrst.data.dataset import Dataset
     from robrst.diagnose.linear import LinearPart
 
-__all__ = ["Prepared", "prepare", "Fitted", "fit_model", "level_factor"]
+__all__ = ["Prepared", "prepare", "Fitted", "fit_model", "fit_by_level", "model_jacobian",
+           "level_factor"]
 
 SLOPE_KINDS = ("dlog_freq", "dlog_damping", "input_gain", "gain", "mode_gain")
+FIT_ROWS = 8192          # residual rows per record in a fit (every k-th sample beyond)
 
 
 @dataclass(frozen=True, eq=False)
@@ -119,6 +130,102 @@ def level_factor(level: float, reference: float) -> float:
     return (level - reference) / reference if reference > 0 else 0.0
 
 
+@dataclass(frozen=True)
+class Post:
+    """Output-side blocks of a fit and their layout (see the module doc).
+
+    Parameters
+    ----------
+    m, k : int
+        Outputs and inputs.
+    offset, curvature, mixing : bool
+        The blocks fitted: a constant per output, the sensor's quadratic and cubic terms
+        per output, the channels' cross-coupling.
+    center, scale : tuple of float
+        The training outputs' mean and half range per output (the sensor map's centre,
+        and the scale of its bounds).
+    """
+
+    m: int
+    k: int
+    offset: bool = False
+    curvature: bool = False
+    mixing: bool = False
+    center: tuple = ()
+    scale: tuple = ()
+
+    def sizes(self):
+        m, k = self.m, self.k
+        return {"offset": m if self.offset else 0, "curvature": 2 * m if self.curvature else 0,
+                "mix_in": k * (k - 1) if self.mixing else 0,
+                "mix_out": m * (m - 1) if self.mixing else 0}
+
+    @property
+    def size(self):
+        return sum(self.sizes().values())
+
+    def slices(self, start):
+        out, i = {}, start
+        for key, n in self.sizes().items():
+            out[key] = slice(i, i + n)
+            i += n
+        return out
+
+    def pairs(self, n):
+        """Off-diagonal (row, column) pairs of an n x n mixing matrix, row-major."""
+        return [(i, j) for i in range(n) for j in range(n) if i != j]
+
+    def names(self):
+        m, k = self.m, self.k
+        sy = (lambda j: f"_y{j + 1}") if m > 1 else (lambda j: "")
+        out = [f"offset{j}" for j in range(m)] if self.offset else []
+        if self.curvature:
+            out += [f"quadratic{j}" for j in range(m)] + [f"cubic{j}" for j in range(m)]
+        if self.mixing:
+            out += [f"mix_u{j + 1}_u{i + 1}" for j, i in self.pairs(k)]
+            out += [f"mix_y{j + 1}_y{i + 1}" for j, i in self.pairs(m)]
+        del sy
+        return out
+
+    def bounds(self):
+        lo, hi = [], []
+        if self.offset:
+            lo += [-np.inf] * self.m
+            hi += [np.inf] * self.m
+        if self.curvature:
+            sc = np.asarray(self.scale, float)
+            lo += list(-2.0 / sc) + list(-4.0 / sc ** 2)
+            hi += list(2.0 / sc) + list(4.0 / sc ** 2)
+        if self.mixing:
+            n = self.k * (self.k - 1) + self.m * (self.m - 1)
+            lo += [-1.0] * n
+            hi += [1.0] * n
+        return np.array(lo, float), np.array(hi, float)
+
+    def matrices(self, x, start):
+        """Input and output mixing matrices ``(k, k)``, ``(m, m)`` (zero diagonal)."""
+        sl = self.slices(start)
+        Ci, Co = np.zeros((self.k, self.k)), np.zeros((self.m, self.m))
+        if self.mixing:
+            for (i, j), v in zip(self.pairs(self.k), x[sl["mix_in"]]):
+                Ci[i, j] = v
+            for (i, j), v in zip(self.pairs(self.m), x[sl["mix_out"]]):
+                Co[i, j] = v
+        return Ci, Co
+
+
+def make_post(train, offset=False, curvature=False, mixing=False):
+    """The :class:`Post` of a fit on prepared records ``train`` (None when empty)."""
+    if not (offset or curvature or mixing):
+        return None
+    Y = np.concatenate([p.Y for p in train])
+    U = train[0].U
+    return Post(m=Y.shape[1], k=U.shape[1], offset=offset, curvature=curvature,
+                mixing=mixing and (U.shape[1] > 1 or Y.shape[1] > 1),
+                center=tuple(float(c) for c in Y.mean(axis=0)),
+                scale=tuple(float(max(0.5 * c, 1e-12)) for c in np.ptp(Y, axis=0)))
+
+
 @dataclass(frozen=True, eq=False)
 class Fitted:
     """A fitted candidate: effects, linear corrections (and level slopes), predictor.
@@ -136,7 +243,7 @@ class Fitted:
     lin : LinearPart
         The linear corrections' model.
     x : numpy.ndarray
-        The fitted parameters ``[z, theta (joint), slopes, offsets]``.
+        The fitted parameters ``[z, theta (joint), slopes, output blocks]``.
     std : numpy.ndarray
         Their 1-sigma.
     joint : bool
@@ -153,6 +260,8 @@ class Fitted:
         Fixed linear corrections when not ``joint``.
     n_offset : int
         Constant output offsets fitted (one per output, or none).
+    post : Post, optional
+        The output-side blocks fitted (offset, sensor curvature, cross-coupling).
     """
 
     name: str
@@ -169,9 +278,14 @@ class Fitted:
     train_cost: float
     theta_fixed: np.ndarray = None
     n_offset: int = 0      # constant output offsets fitted (one per output, or none)
+    post: Post = None      # output-side blocks (offset, curvature, mixing)
+
+    @property
+    def _post_start(self):
+        return self.chain.size + (self.lin.size if self.joint else 0) + len(self.slopes)
 
     def parts(self, x: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Effect parameters, linear corrections and level slopes (not the offsets).
+        """Effect parameters, linear corrections and level slopes (not the output blocks).
 
         Parameters
         ----------
@@ -188,6 +302,25 @@ class Fitted:
         return (x[:nz], (x[nz:nz + nt] if self.joint else fixed),
                 x[nz + nt:nz + nt + len(self.slopes)])
 
+    def block(self, key: str, x: np.ndarray | None = None) -> np.ndarray:
+        """Parameters of output block ``key``; empty when not fitted.
+
+        Parameters
+        ----------
+        key : {"offset", "curvature", "mix_in", "mix_out"}
+            The block.
+        x : numpy.ndarray, optional
+            A parameter vector (default the fitted one).
+
+        Returns
+        -------
+        numpy.ndarray
+        """
+        x = self.x if x is None else x
+        if self.post is None:
+            return np.zeros(0)
+        return x[self.post.slices(self._post_start)[key]]
+
     def output_offset(self, x: np.ndarray | None = None) -> np.ndarray:
         """The fitted constant output offsets ``(m,)`` [µm] (zeros when not fitted).
 
@@ -203,7 +336,7 @@ class Fitted:
         x = self.x if x is None else x
         if not self.n_offset:
             return np.zeros(1)
-        return x[x.size - self.n_offset:]
+        return self.block("offset", x)
 
     def theta_at(self, level: float, x: np.ndarray | None = None) -> np.ndarray:
         """The linear corrections at an excitation level (dynamic form: with the slopes).
@@ -225,6 +358,86 @@ class Fitted:
             th[list(self.slopes)] += s * level_factor(level, self.level_ref)
         return th
 
+    def effective_input(self, p: Prepared, x: np.ndarray | None = None,
+                        jac: bool = False) -> tuple[np.ndarray, list | None]:
+        """Effective inputs ``(N, k)`` of a prepared record (chain, then input mixing).
+
+        Parameters
+        ----------
+        p : Prepared
+            The record.
+        x : numpy.ndarray, optional
+            A parameter vector (default the fitted one).
+        jac : bool
+            Also the chain's Jacobians.
+
+        Returns
+        -------
+        V : numpy.ndarray
+        dV : list of numpy.ndarray or None
+            Per input ``(N, n_z)``.
+        """
+        z = self.parts(x)[0]
+        U, T = p.U, p.temp
+        if p.warm:
+            U, T = np.vstack([U[-p.warm:], U]), np.concatenate([T[-p.warm:], T])
+        V, dV = self.chain.run(z, U, T, jac=jac, warm=p.warm)
+        if self.post is not None and self.post.mixing:
+            Ci, _ = self.post.matrices(self.x if x is None else x, self._post_start)
+            V = V + V @ Ci.T
+            if jac:
+                dV = [dV[j] + sum(Ci[j, i] * dV[i] for i in range(len(dV)) if i != j)
+                      for j in range(len(dV))]
+        return V, dV
+
+    def linear_output(self, p: Prepared, V: np.ndarray,
+                      x: np.ndarray | None = None) -> np.ndarray:
+        """Outputs ``(N, m)`` of the linear part for effective inputs ``V``.
+
+        Parameters
+        ----------
+        p : Prepared
+            The record (its level and whether it is periodic).
+        V : numpy.ndarray
+            Effective inputs ``(N, k)``.
+        x : numpy.ndarray, optional
+            A parameter vector (default the fitted one).
+
+        Returns
+        -------
+        numpy.ndarray
+        """
+        return self.lin.simulate(self.theta_at(p.level, x), V, p.periodic)
+
+    def output_side(self, Y: np.ndarray, x: np.ndarray | None = None) -> np.ndarray:
+        """Output mixing, sensor curvature and offset applied to the linear outputs ``Y``.
+
+        Parameters
+        ----------
+        Y : numpy.ndarray
+            The linear part's outputs ``(N, m)``.
+        x : numpy.ndarray, optional
+            A parameter vector (default the fitted one).
+
+        Returns
+        -------
+        numpy.ndarray
+        """
+        if self.post is None:
+            return Y
+        x = self.x if x is None else x
+        if self.post.mixing:
+            _, Co = self.post.matrices(x, self._post_start)
+            Y = Y + Y @ Co.T
+        if self.post.curvature:
+            a = self.block("curvature", x)
+            m = Y.shape[1]
+            E = Y - np.asarray(self.post.center)[None, :]
+            Y = Y + a[None, :m] * E ** 2 + a[None, m:] * E ** 3
+        if self.post.offset:
+            Y = Y + self.block("offset", x)[None, :]
+        return Y
+
     def predict_prepared(self, p: Prepared, x: np.ndarray | None = None) -> np.ndarray:
         """Simulated outputs ``(N, m)`` of a prepared record.
 
@@ -239,13 +452,8 @@ class Fitted:
         -------
         numpy.ndarray
         """
-        z, _, _ = self.parts(x)
-        U, T = p.U, p.temp
-        if p.warm:
-            U, T = np.vstack([U[-p.warm:], U]), np.concatenate([T[-p.warm:], T])
-        V, _ = self.chain.run(z, U, T, jac=False, warm=p.warm)
-        Y = self.lin.simulate(self.theta_at(p.level, x), V, p.periodic)
-        return Y + self.output_offset(x)[None, :] if self.n_offset else Y
+        V, _ = self.effective_input(p, x)
+        return self.output_side(self.linear_output(p, V, x), x)
 
     def predict(self, d: Dataset, reference_C: float) -> np.ndarray:
         """Simulated outputs ``(N, m)`` of record ``d`` (steady state when periodic).
@@ -274,11 +482,33 @@ class Fitted:
         """
         z = self.parts()[0]
         out = self.chain.report(z, self.std[:self.chain.size])
-        if self.n_offset:
-            sfx = (lambda j: f"_y{j + 1}") if self.n_offset > 1 else (lambda j: "")
-            off, sd = self.output_offset(), self.std[self.x.size - self.n_offset:]
-            out["output_offset"] = ({f"offset_um{sfx(j)}": float(v) for j, v in enumerate(off)},
-                                    {f"offset_um{sfx(j)}": float(d) for j, d in enumerate(sd)})
+        if self.post is None:
+            return out
+        m, k = self.post.m, self.post.k
+        sfx = (lambda j: f"_y{j + 1}") if m > 1 else (lambda j: "")
+        sl = self.post.slices(self._post_start)
+        x, sd = self.x, self.std
+        if self.post.offset:
+            out["output_offset"] = (
+                {f"offset_um{sfx(j)}": float(v) for j, v in enumerate(x[sl["offset"]])},
+                {f"offset_um{sfx(j)}": float(d) for j, d in enumerate(sd[sl["offset"]])})
+        if self.post.curvature:
+            a, s = x[sl["curvature"]], sd[sl["curvature"]]
+            vals, sds = {}, {}
+            for j in range(m):
+                vals[f"center_um{sfx(j)}"], sds[f"center_um{sfx(j)}"] = self.post.center[j], 0.0
+                vals[f"quadratic_per_um{sfx(j)}"] = float(a[j])
+                sds[f"quadratic_per_um{sfx(j)}"] = float(s[j])
+                vals[f"cubic_per_um2{sfx(j)}"] = float(a[m + j])
+                sds[f"cubic_per_um2{sfx(j)}"] = float(s[m + j])
+            out["output_nonlinearity"] = (vals, sds)
+        if self.post.mixing:
+            vals, sds = {}, {}
+            for (i, j), v, d in zip(self.post.pairs(k), x[sl["mix_in"]], sd[sl["mix_in"]]):
+                vals[f"u{j + 1}_into_u{i + 1}"], sds[f"u{j + 1}_into_u{i + 1}"] = float(v), float(d)
+            for (i, j), v, d in zip(self.post.pairs(m), x[sl["mix_out"]], sd[sl["mix_out"]]):
+                vals[f"y{j + 1}_into_y{i + 1}"], sds[f"y{j + 1}_into_y{i + 1}"] = float(v), float(d)
+            out["cross_coupling"] = (vals, sds)
         return out
 
     def linear_change(self) -> tuple[dict, dict]:
@@ -304,10 +534,94 @@ class Fitted:
         return out, sd
 
 
+def _post_jacobian(fit, x, J, Y):
+    """Fill the output blocks' columns of ``J`` ``(N, m, n_x)`` and carry the others through
+    output mixing and curvature; ``Y`` are the linear part's outputs (before the blocks)."""
+    post = fit.post
+    sl = post.slices(fit._post_start)
+    first = fit._post_start
+    if post.mixing:
+        _, Co = post.matrices(x, fit._post_start)
+        J[:, :, :first] += np.einsum("nlc,il->nic", J[:, :, :first], Co)
+        for c, (i, j) in zip(range(sl["mix_out"].start, sl["mix_out"].stop), post.pairs(post.m)):
+            J[:, i, c] = Y[:, j]
+        J[:, :, sl["mix_in"]] += np.einsum("nlc,il->nic", J[:, :, sl["mix_in"]], Co)
+        Y = Y + Y @ Co.T
+    if post.curvature:
+        a = x[sl["curvature"]]
+        m = post.m
+        E = Y - np.asarray(post.center)[None, :]
+        f = 1.0 + 2 * a[None, :m] * E + 3 * a[None, m:] * E ** 2
+        keep = [c for c in range(J.shape[2]) if not sl["curvature"].start <= c < sl["curvature"].stop
+                and not sl["offset"].start <= c < sl["offset"].stop]
+        J[:, :, keep] *= f[:, :, None]
+        for j in range(m):
+            J[:, j, sl["curvature"].start + j] = E[:, j] ** 2
+            J[:, j, sl["curvature"].start + m + j] = E[:, j] ** 3
+    if post.offset:
+        for j in range(post.m):
+            J[:, j, sl["offset"].start + j] = 1.0
+
+
+def model_jacobian(fit: Fitted, p: Prepared,
+                   x: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """A candidate's outputs on a record and their derivatives with respect to its parameters.
+
+    Exact for the chain (compiled sensitivities, closed forms), the gains and the output
+    blocks; forward differences for the modes.  The linear part is the fitted one before a
+    polish of the residues.
+
+    Parameters
+    ----------
+    fit : Fitted
+        The candidate.
+    p : Prepared
+        The record.
+    x : numpy.ndarray, optional
+        A parameter vector (default the fitted one).
+
+    Returns
+    -------
+    Y : numpy.ndarray
+        Outputs ``(N, m)``.
+    J : numpy.ndarray
+        ``dY / dx`` ``(N, m, n_x)``.
+    """
+    x = fit.x if x is None else np.asarray(x, float)
+    lin, chain = fit.lin, fit.chain
+    nz, nt, ns = chain.size, lin.size if fit.joint else 0, len(fit.slopes)
+    V, dV = fit.effective_input(p, x, jac=True)
+    th = fit.theta_at(p.level, x)
+    Y0, JL = lin.simulate_jac(th, V, p.periodic)
+    N, m = Y0.shape
+    J = np.zeros((N, m, x.size))
+    for j, dv in enumerate(dV):
+        for c in np.flatnonzero(np.any(dv != 0, axis=0)):
+            J[:, :, c] += lin.simulate_input(th, dv[:, c], j, p.periodic)
+    if fit.joint:
+        J[:, :, nz:nz + nt] = JL
+    if fit.slopes:
+        J[:, :, nz + nt:nz + nt + ns] = (JL[:, :, list(fit.slopes)]
+                                         * level_factor(p.level, fit.level_ref))
+    post = fit.post
+    if post is not None:
+        if post.mixing:
+            U, T = p.U, p.temp
+            if p.warm:
+                U, T = np.vstack([U[-p.warm:], U]), np.concatenate([T[-p.warm:], T])
+            V0, _ = chain.run(x[:nz], U, T, jac=False, warm=p.warm)
+            sl = post.slices(nz + nt + ns)["mix_in"]
+            for c, (i, j) in zip(range(sl.start, sl.stop), post.pairs(post.k)):
+                J[:, :, c] = lin.simulate_input(th, V0[:, j], i, p.periodic)
+        _post_jacobian(fit, x, J, Y0)
+    return fit.output_side(Y0, x), J
+
+
 def fit_model(name: str, effects: Sequence[str], train: Sequence[Prepared], lin: LinearPart,
               chain: Chain, noise_sigma: float, joint: bool = True, dynamic: bool = False,
               start: dict | None = None, theta: np.ndarray | None = None, max_nfev: int = 40,
-              ftol: float = 1e-10, offset: bool = False) -> Fitted:
+              ftol: float = 1e-10, offset: bool = False, curvature: bool = False,
+              mixing: bool = False, pinned: Sequence[int] = ()) -> Fitted:
     """Fit ``effects`` (+ linear corrections if ``joint``) on prepared training records.
 
     Parameters
@@ -327,7 +641,8 @@ def fit_model(name: str, effects: Sequence[str], train: Sequence[Prepared], lin:
     joint : bool
         Fit the linear corrections too (else they stay at ``theta``, default 0).
     dynamic : bool
-        Let the linear corrections vary with the excitation level (dynamic hysteresis).
+        Let the linear corrections vary with the excitation level (amplitude-dependent
+        dynamics).
     start : dict, optional
         Starting values by parameter name (from an earlier fit).
     theta : array, optional
@@ -336,6 +651,14 @@ def fit_model(name: str, effects: Sequence[str], train: Sequence[Prepared], lin:
         Stopping rules of the least-squares solver.
     offset : bool
         Fit a constant output offset per output too (parameters ``offset_um``, ...).
+    curvature : bool
+        Fit the sensor's quadratic and cubic curvature per output
+        (``output_nonlinearity``).
+    mixing : bool
+        Fit the channels' cross-coupling (``cross_coupling``; several inputs or outputs).
+    pinned : tuple of int
+        Linear corrections held at zero (and their level slopes): modes the training
+        records do not excite (:func:`robrst.diagnose.linear.unexcited`).
 
     Returns
     -------
@@ -344,19 +667,24 @@ def fit_model(name: str, effects: Sequence[str], train: Sequence[Prepared], lin:
     slopes = tuple(i for i, (k, _) in enumerate(lin.kinds) if k in SLOPE_KINDS) if dynamic else ()
     level_ref = min(p.level for p in train)
     nz, nt, ns = chain.size, lin.size if joint else 0, len(slopes)
-    no = train[0].Y.shape[1] if offset else 0
-    lo = np.concatenate([chain.lower, lin.lower if joint else [], np.full(ns, -5.0),
-                         np.full(no, -np.inf)])
-    hi = np.concatenate([chain.upper, lin.upper if joint else [], np.full(ns, 5.0),
-                         np.full(no, np.inf)])
+    post = make_post(train, offset, curvature, mixing)
+    no = post.sizes()["offset"] if post else 0
+    plo, phi = post.bounds() if post else (np.zeros(0), np.zeros(0))
+    lo = np.concatenate([chain.lower, lin.lower if joint else [], np.full(ns, -5.0), plo])
+    hi = np.concatenate([chain.upper, lin.upper if joint else [], np.full(ns, 5.0), phi])
+    for i in (pinned if joint else ()):
+        lo[nz + i], hi[nz + i] = -1e-12, 1e-12
+        if i in slopes:
+            k = nz + nt + slopes.index(i)
+            lo[k], hi[k] = -1e-12, 1e-12
     if joint and "hysteresis" in chain.effects:      # its gain is the linear gain: pin that
         for i, (kind, _) in enumerate(lin.kinds):
             if kind in ("gain", "input_gain"):
                 lo[nz + i], hi[nz + i] = -1e-12, 1e-12
     sd = np.concatenate([lin.prior_sd if joint else [], lin.prior_sd[list(slopes)]])
-    x0 = np.concatenate([chain.z0, np.zeros(nt + ns + no)])
+    x0 = np.concatenate([chain.z0, np.zeros(nt + ns + (post.size if post else 0))])
     names = (list(chain.names) + (list(lin.names) if joint else []) + [f"slope{i}" for i in slopes]
-             + [f"offset{j}" for j in range(no)])
+             + (post.names() if post else []))
     for i, n in enumerate(names):
         if start and n in start:
             x0[i] = np.clip(start[n], lo[i], hi[i])
@@ -365,41 +693,29 @@ def fit_model(name: str, effects: Sequence[str], train: Sequence[Prepared], lin:
     prior_w = noise_sigma / scale / sd
     fixed = np.zeros(lin.size) if theta is None else np.asarray(theta, float)
     proto = Fitted(name, tuple(effects), "dynamic" if dynamic else "input", chain, lin, x0,
-                   np.zeros_like(x0), joint, slopes, level_ref, 0, 0.0, fixed, no)
+                   np.zeros_like(x0), joint, slopes, level_ref, 0, 0.0, fixed, no, post)
+
+    # residual rows: every k-th sample of a long record (the simulation runs over all of it),
+    # weighted by sqrt(k) so the priors keep their weight
+    strides = [max(1, -(-len(p.Y) // FIT_ROWS)) for p in train]
 
     def fun(x):
-        r = [(proto.predict_prepared(p, x) - p.Y).ravel() * (p.weight / scale) for p in train]
+        r = [(proto.predict_prepared(p, x) - p.Y)[::k].ravel() * (p.weight * np.sqrt(k) / scale)
+             for p, k in zip(train, strides)]
         r.append(prior_w * x[nz:nz + nt + ns])
         out = np.concatenate(r)
         return np.where(np.isfinite(out), out, 1e3)
 
     def jac(x):
-        z = x[:nz]
         rows = []
-        for p in train:
-            U, T = p.U, p.temp
-            if p.warm:
-                U, T = np.vstack([U[-p.warm:], U]), np.concatenate([T[-p.warm:], T])
-            V, dV = chain.run(z, U, T, jac=True, warm=p.warm)
-            th = proto.theta_at(p.level, x)
-            _, JL = lin.simulate_jac(th, V, p.periodic)
-            N, m = p.Y.shape
-            J = np.zeros((N, m, x.size))
-            for j, dv in enumerate(dV):
-                for c in np.flatnonzero(np.any(dv != 0, axis=0)):
-                    J[:, :, c] += lin.simulate_input(th, dv[:, c], j, p.periodic)
-            if joint:
-                J[:, :, nz:nz + nt] = JL
-            if slopes:
-                J[:, :, nz + nt:nz + nt + ns] = (JL[:, :, list(slopes)]
-                                                 * level_factor(p.level, level_ref))
-            for j in range(no):
-                J[:, j, nz + nt + ns + j] = 1.0
-            rows.append(J.reshape(N * m, -1) * (p.weight / scale))
+        for p, k in zip(train, strides):
+            J = model_jacobian(proto, p, x)[1][::k]
+            rows.append(J.reshape(-1, J.shape[2]) * (p.weight * np.sqrt(k) / scale))
         prior = np.zeros((nt + ns, x.size))
         prior[:, nz:nz + nt + ns] = np.diag(prior_w)
         rows.append(prior)
-        return np.vstack(rows)
+        J = np.vstack(rows)
+        return np.where(np.isfinite(J), J, 0.0)     # as fun: a trial point the solver rejects
 
     if x0.size == 0:
         res = optimize.OptimizeResult(x=x0, cost=0.5 * float(np.sum(fun(x0) ** 2)), nfev=1,
@@ -413,4 +729,72 @@ def fit_model(name: str, effects: Sequence[str], train: Sequence[Prepared], lin:
                                          max_nfev=max_nfev)
     std = parameter_std(res.jac, res.cost, res.fun.size) if x0.size else np.zeros(0)
     return Fitted(name, tuple(effects), proto.form, chain, lin, res.x, std, joint, slopes,
-                  level_ref, int(res.nfev), 2 * float(res.cost), fixed, no)
+                  level_ref, int(res.nfev), 2 * float(res.cost), fixed, no, post)
+
+
+def fit_by_level(name: str, train: Sequence[Prepared], lin: LinearPart, chain: Chain,
+                 noise_sigma: float, start: dict | None = None, max_nfev: int = 20,
+                 tol: float = 0.1, pinned: Sequence[int] = ()) -> Fitted:
+    """Amplitude-dependent dynamics by one linear re-fit per excitation level.
+
+    The training records are grouped by level (within ``tol``); the linear corrections are
+    re-fitted on each group (started at ``start``) and regressed on the level factor
+    ``f = (a - a_ref) / a_ref`` (``a_ref`` the lowest level): ``theta(a) = theta_0 + f s``.
+    With two levels this is the joint fit of the dynamic form exactly (two levels fix a
+    line), at the cost of two linear re-fits.  Falls back to the joint fit with fewer than
+    two levels.
+
+    Parameters
+    ----------
+    name : str
+        Candidate name.
+    train : sequence of Prepared
+        The training records.
+    lin : LinearPart
+        The linear corrections' model (with per-mode gains).
+    chain : Chain
+        An empty chain (effects fall back to the joint fit).
+    noise_sigma : float
+        Noise std per sample [µm] (weight of the priors).
+    start : dict, optional
+        Starting values by name (the linear re-fit's).
+    max_nfev : int
+        Evaluations of each per-level fit.
+    tol : float
+        Records within this relative level share a level.
+    pinned : sequence of int
+        Linear corrections held at zero (modes the records do not excite).
+
+    Returns
+    -------
+    Fitted
+        Dynamic form (``form == "dynamic"``), every correction with a level slope;
+        ``n_eval`` is the longest per-level fit's.
+    """
+    order = sorted(train, key=lambda p: p.level)
+    groups = []
+    for p in order:
+        if groups and p.level <= groups[-1][0].level * (1 + tol):
+            groups[-1].append(p)
+        else:
+            groups.append([p])
+    if len(groups) < 2 or chain.size:
+        return fit_model(name, chain.effects, train, lin, chain, noise_sigma, joint=True,
+                         dynamic=True, start=start, max_nfev=max_nfev, pinned=pinned)
+    level_ref = min(p.level for p in train)
+    fits = [fit_model(name, (), g, lin, chain, noise_sigma, joint=True, start=start,
+                      max_nfev=max_nfev, pinned=pinned) for g in groups]
+    F = np.array([level_factor(np.mean([p.level for p in g]), level_ref) for g in groups])
+    W = np.array([sum(p.weight ** 2 * p.Y.size for p in g) for g in groups], float)
+    TH = np.array([f.x[:lin.size] for f in fits])
+    A = np.column_stack([np.ones_like(F), F]) * np.sqrt(W)[:, None]
+    coef = np.linalg.lstsq(A, TH * np.sqrt(W)[:, None], rcond=None)[0]
+    theta0, slope = coef[0], coef[1]
+    slopes = tuple(i for i, (k, _) in enumerate(lin.kinds) if k in SLOPE_KINDS)
+    x = np.concatenate([theta0, slope[list(slopes)]])
+    sd = np.array([f.std[:lin.size] for f in fits])
+    std = np.concatenate([sd[0], np.sqrt(np.sum(sd ** 2, axis=0))[list(slopes)]
+                          / max(float(np.ptp(F)), 1e-12)])
+    return Fitted(name, (), "dynamic", chain, lin, x, std, True, slopes, level_ref,
+                  int(max(f.n_eval for f in fits)), float(sum(f.train_cost for f in fits)),
+                  np.zeros(lin.size), 0, None)

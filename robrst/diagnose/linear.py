@@ -39,13 +39,14 @@ if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
 __all__ = ["coefficient_changes", "LinearPart", "LinearSim", "as_modal", "refit_linear", "LinearFit", "PRIOR_SD",
-           "BOUNDS", "parameter_std"]
+           "BOUNDS", "parameter_std", "unexcited", "EXCITED_SHARE"]
 
 PRIOR_SD = {"dlog_freq": 0.1, "dlog_damping": 1.0, "gain": 0.2, "input_gain": 0.2,
             "mode_gain": 0.2}
 BOUNDS = {"dlog_freq": (-0.5, 0.5), "dlog_damping": (-3.0, 3.0), "gain": (-0.9, 2.0),
           "input_gain": (-0.9, 2.0), "mode_gain": (-0.9, 2.0)}
 FD_STEP = 1e-6
+EXCITED_SHARE = 1e-5     # input power within an octave of a mode that lets the records see it
 
 
 def as_modal(model: ModalModel | Plant) -> ModalModel:
@@ -157,13 +158,15 @@ class LinearPart:
             P0 = np.concatenate([m.poles, np.conj(m.poles[cj])])
             P1 = np.concatenate([new, np.conj(new[cj])])
             R0 = np.concatenate([m.residues, np.conj(m.residues[cj])])
-            R = np.empty_like(m.residues)
-            for p in range(new.size):
-                x = P1[p]
-                others = np.arange(P0.size) != p
-                ratio = np.prod((x - P0[others]) / (x - P1[others]))
-                rest = np.tensordot((x - P0[p]) / (x - P0[others]), R0[others], axes=1)
-                R[p] = ratio * (R0[p] + rest)
+            n = new.size
+            x = P1[:n, None]                       # every new pole against all old/new ones
+            off = ~np.eye(n, P0.size, dtype=bool)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ratio = np.prod(np.where(off, (x - P0[None, :]) / (x - P1[None, :]), 1.0),
+                                axis=1)
+                C = np.where(off, (x - P0[:n, None]) / (x - P0[None, :]), 0.0)
+            rest = (C @ R0.reshape(P0.size, -1)).reshape((n,) + R0.shape[1:])
+            R = ratio[:, None, None] * (R0[:n] + rest)
         for t, (kind, q) in zip(theta, self.kinds):
             if kind == "mode_gain":
                 R[q] = R[q] * (1.0 + t)
@@ -232,12 +235,13 @@ class LinearPart:
             out += s1[:, None, :] * R.real[None]
 
     def _transfer(self, zp, Rd, z):
-        H = np.zeros((z.size,) + Rd.shape[1:], complex)
-        for p in range(zp.size):
-            H += Rd[p][None] / (z - zp[p])[:, None, None]
-            if self.weight[p] == 2.0:
-                H += np.conj(Rd[p])[None] / (z - np.conj(zp[p]))[:, None, None]
-        return H
+        """``sum_p Rd_p / (z - zp_p)`` (and the conjugate of every pair) on ``z``: one
+        product of the ``(F, poles)`` partial fractions with the residues."""
+        pair = self.weight == 2.0
+        poles = np.concatenate([zp, np.conj(zp[pair])])
+        res = np.concatenate([Rd, np.conj(Rd[pair])]).reshape(poles.size, -1)
+        W = 1.0 / (z[:, None] - poles[None, :])
+        return (W @ res).reshape((z.size,) + Rd.shape[1:])
 
     def simulate_inputs(self, theta: np.ndarray, X: np.ndarray, inputs: Sequence[int],
                         periodic: bool = False) -> np.ndarray:
@@ -501,6 +505,45 @@ def coefficient_changes(plant: Plant, fitted: Plant) -> dict[str, float]:
         if b != 0:
             out[f"b{i}"] = float(fitted.B[i] / b - 1.0)
     return out
+
+
+def unexcited(lin: LinearPart, inputs: Sequence[np.ndarray], fs: float) -> tuple:
+    """Indices of ``lin``'s mode corrections the ``inputs`` do not excite.
+
+    A mode's frequency and damping corrections are determined by records only through
+    its own band: when the inputs put less than ``EXCITED_SHARE`` of their power (about
+    their mean) within an octave of the mode's frequency, the records see the mode only
+    through side effects (the low-frequency phase), where any other model error would
+    pull it; such corrections are held at the user's values.
+
+    Parameters
+    ----------
+    lin : LinearPart
+        The linear part.
+    inputs : list of array
+        Input signals ``(N, k)`` of the training records.
+    fs : float
+        Sampling rate [Hz].
+
+    Returns
+    -------
+    tuple of int
+        Indices into ``lin``'s corrections.
+    """
+    num, den = {}, 0.0
+    f_modes = np.abs(lin.model.poles) / (2 * np.pi)
+    for U in inputs:
+        U = np.asarray(U, float).reshape(len(U), -1)
+        f, P = signal.welch(U - U.mean(axis=0), fs=fs, nperseg=min(4096, len(U)), axis=0)
+        P = P.sum(axis=1)
+        den += float(P[f > 0].sum())
+        for q, fq in enumerate(f_modes):
+            num[q] = num.get(q, 0.0) + float(P[(f >= fq / 2) & (f <= 2 * fq)].sum())
+    if den <= 0:
+        return ()
+    quiet = {q for q, v in num.items() if v < EXCITED_SHARE * den}
+    return tuple(i for i, (kind, q) in enumerate(lin.kinds)
+                 if kind in ("dlog_freq", "dlog_damping", "mode_gain") and q in quiet)
 
 
 def parameter_std(J: np.ndarray, cost: float, m: int, rtol: float = 1e-7) -> np.ndarray:

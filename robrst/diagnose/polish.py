@@ -66,6 +66,8 @@ class Polished(Fitted):
         The final least-squares cost.
     theta_fixed : numpy.ndarray, optional
         Fixed linear corrections when not ``joint``.
+    post : Post, optional
+        The output-side blocks fitted.
     n_offset : int
         Constant output offsets fitted.
     dR : numpy.ndarray
@@ -109,13 +111,16 @@ class Polished(Fitted):
         sd["residue_change_per_level"] = float("nan")
         return out, sd
 
-    def predict_prepared(self, p: Prepared, x: np.ndarray | None = None) -> np.ndarray:
-        """Simulated outputs ``(N, m)`` of a prepared record, the residues at its level.
+    def linear_output(self, p: Prepared, V: np.ndarray,
+                      x: np.ndarray | None = None) -> np.ndarray:
+        """Outputs ``(N, m)`` of the linear part at the record's level (residues included).
 
         Parameters
         ----------
         p : Prepared
-            The record.
+            The record (its level and whether it is periodic).
+        V : numpy.ndarray
+            Effective inputs ``(N, k)``.
         x : numpy.ndarray, optional
             A parameter vector (default the fitted one).
 
@@ -123,18 +128,7 @@ class Polished(Fitted):
         -------
         numpy.ndarray
         """
-        V = _effective(self, p, x)
-        Y = self.model_at(p.level, x).discretise(self.lin.fs).response(V, periodic=p.periodic)
-        return Y + self.output_offset(x)[None, :] if self.n_offset else Y
-
-
-def _effective(fit, p, x=None):
-    """Effective inputs of a prepared record through the fit's effect chain."""
-    z = fit.parts(x)[0]
-    U, T = p.U, p.temp
-    if p.warm:
-        U, T = np.vstack([U[-p.warm:], U]), np.concatenate([T[-p.warm:], T])
-    return fit.chain.run(z, U, T, jac=False, warm=p.warm)[0]
+        return self.model_at(p.level, x).discretise(self.lin.fs).response(V, periodic=p.periodic)
 
 
 def _mode_signal(zq, x, periodic):
@@ -189,13 +183,12 @@ def polish_residues(fit: Fitted, train: Sequence[Prepared], noise_sigma: float) 
         f = level_factor(p.level, fit.level_ref)
         if f == 0.0:
             continue
-        V = _effective(fit, p)
+        V = fit.effective_input(p)[0]
         model = fit.lin.continuous(fit.theta_at(p.level))
         C, index = _columns(model, fs, V, p.periodic)
         base = model.discretise(fs).response(V, periodic=p.periodic)
         rows.append(C * (f * p.weight))
-        rhs.append((p.Y - base - (fit.output_offset()[None, :] if fit.n_offset else 0.0))
-                   * p.weight)
+        rhs.append((p.Y - fit.output_side(base)) * p.weight)
     if not rows:
         return fit
     ref = fit.lin.continuous(fit.theta_at(fit.level_ref))

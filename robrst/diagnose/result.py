@@ -8,7 +8,14 @@ form, overfit``), ``linear_refit{...}``, ``where{...}``, ``tests{...}``,
 ``decomposition``, ``data``, ``model``, and (added) ``causes[]``, ``selected[]``,
 ``final{}``, ``findings[]``, ``best_partial``, ``skipped{}``, ``seconds``,
 ``output_offset{}`` (the constant output offset screened alone, same fields as an
-effect's; it is a candidate but not an effect, so not in ``effects[]``).
+effect's; it is a candidate but not an effect, so not in ``effects[]``), and (added)
+``effects[].method`` (``fit``: its own nonlinear model; ``screen``: the exact linear
+screen only), ``selected[].gap_without`` and ``selected[].credit`` (the held-out gap of
+the answer without that effect, and the share of the excess gap it removes),
+``not_causes[]`` (effects selected but credited nothing by removal), ``alternatives[]``
+(what could stand in place of each cause, and its held-out gap), ``screen[]`` (every
+candidate's screened held-out gap) and ``sensor{}`` (outliers and dropouts found in the
+records).
 """
 
 from __future__ import annotations
@@ -47,10 +54,13 @@ class EffectScore:
     fit_s : float
         Wall time of the fit [s].
     form : str
-        ``"input"`` (the twin's parametrisation) or ``"dynamic"`` (the describing-function
-        form of hysteresis).
+        ``"input"`` (the twin's parametrisation), ``"prandtl_ishlinskii"`` (hysteresis as
+        play operators), ``"dynamic"`` (amplitude-dependent dynamics) or ``"output"``.
     overfit : bool
         The fit improves the training records but not the held-out ones.
+    method : str
+        ``"fit"`` (its own nonlinear model) or ``"screen"`` (the exact linear screen only;
+        the gaps on the screened samples).
     """
 
     name: str
@@ -64,6 +74,7 @@ class EffectScore:
     fit_s: float
     form: str = "input"
     overfit: bool = False
+    method: str = "fit"       # "fit" (its own nonlinear model) or "screen" (linear columns)
 
     def as_dict(self) -> dict:
         """The ``effects`` entry of the diagnosis JSON.
@@ -75,7 +86,7 @@ class EffectScore:
         return {"name": self.name, "gap_before": self.gap_before, "gap_after": self.gap_after,
                 "shrink": self.shrink, "train_gap": self.train_gap, "params": self.params,
                 "params_std": self.params_std, "n_eval": self.n_eval, "fit_s": self.fit_s,
-                "form": self.form, "overfit": self.overfit}
+                "form": self.form, "overfit": self.overfit, "method": self.method}
 
 
 @dataclass(frozen=True, eq=False)
@@ -187,7 +198,7 @@ class Diagnosis:
              "where": self.where, "tests": self.tests, "decomposition": self.decomposition,
              "data": self.data, "model": self.model}
         for k in ("causes", "selected", "final", "findings", "best_partial", "skipped",
-                  "seconds", "output_offset"):
+                  "seconds", "output_offset", "not_causes", "alternatives", "screen", "sensor"):
             d[k] = self.extra.get(k)
         return finite(d)
 

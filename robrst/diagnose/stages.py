@@ -2,8 +2,8 @@
 
 A diagnosis fits the twin's parametrisation (:mod:`robrst.twin.model`), so an effect
 found in data can be put straight back into the twin.  For the sequential effects
-(``slew``, ``hysteresis``, ``thermal_drift``; and ``thermal_dynamics``, which changes
-the linear part itself) the twin's symbolic step is augmented with its forward
+(``slew``, ``hysteresis``, ``pi_hysteresis``, ``thermal_drift``; and
+``thermal_dynamics``, which changes the linear part itself) the twin's symbolic step is augmented with its forward
 sensitivities ``S = dx/dtheta`` (``S+ = f_x S + f_theta``): one compiled pass returns
 the output and its exact derivative with respect to every free parameter, instead of
 one simulation per parameter and iteration.
@@ -25,15 +25,18 @@ from robrst.twin.simulate import Simulator, rest_state
 if TYPE_CHECKING:
     from robrst.core.plant import Plant
 
-__all__ = ["SensitivityStage", "stage", "FREE"]
+__all__ = ["SensitivityStage", "stage", "cached_stage", "FREE"]
 
 # free twin parameters (theta names) per effect
 FREE = {
-    "slew": ("slew_V_per_s",),
+    "slew": ("slew_V_per_s", "slew_down_V_per_s"),
+    "pi_hysteresis": (),     # its weights pi_w1.. (as many as thresholds)
     "hysteresis": ("bw_A", "bw_B", "bw_Gamma", "bw_gain"),
     "thermal_drift": ("drift_lag_s", "drift_B", "drift_Gamma", "drift_V_per_K"),
     "thermal_dynamics": ("gain_per_K", "resonance_per_K", "damping_per_K"),
+    "stiffness_nonlinearity": ("stiff_cubic",),
 }
+LINEAR_STAGES = ("thermal_dynamics", "stiffness_nonlinearity")   # their step holds D(s)
 
 
 def _augmented(model, free):
@@ -126,12 +129,14 @@ class SensitivityStage:
         return Y[0], Y[1:1 + nf].T
 
 
-def stage(name: str, fs: float, reference_C: float = 28.0, plant: Plant | None = None) -> SensitivityStage:
+def stage(name: str, fs: float, reference_C: float = 28.0, plant: Plant | None = None,
+          **settings: tuple) -> SensitivityStage:
     """The :class:`SensitivityStage` of effect ``name`` at ``fs`` [Hz].
 
-    ``plant`` (a SISO Plant) is needed only for ``thermal_dynamics``, whose step
-    contains the linear dynamics; the other effects stop at the effective input.
-    The compiled library is cached on disk (:mod:`robrst.twin.compiled`).
+    ``plant`` (a SISO Plant) is needed only for ``thermal_dynamics`` and
+    ``stiffness_nonlinearity``, whose step contains the linear dynamics; the other effects
+    stop at the effective input.  The compiled library is cached on disk
+    (:mod:`robrst.twin.compiled`).
 
     Parameters
     ----------
@@ -142,18 +147,52 @@ def stage(name: str, fs: float, reference_C: float = 28.0, plant: Plant | None =
     reference_C : float
         The model's temperature [°C].
     plant : Plant, optional
-        The user's SISO model (``thermal_dynamics``).
+        The user's SISO model (``thermal_dynamics``, ``stiffness_nonlinearity``).
+    **settings : tuple
+        The twin's structural settings of the effect (the play thresholds of
+        ``pi_hysteresis``: ``thresholds_V``).
 
     Returns
     -------
     SensitivityStage
     """
-    cfg = replace(default_twin().with_effects(only=[name]), sample_rate_hz=float(fs),
-                  reference_C=float(reference_C), name=f"diagnose_{name}")
-    model = build_model(cfg, plant=plant, linear=name == "thermal_dynamics")
+    over = dict(settings)
+    if name == "pi_hysteresis" and "thresholds_V" in over:
+        over["weights"] = (0.0,) * len(over["thresholds_V"])
+    cfg = replace(default_twin().with_effects(only=[name], **({name: over} if over else {})),
+                  sample_rate_hz=float(fs), reference_C=float(reference_C),
+                  name=f"diagnose_{name}")
+    model = build_model(cfg, plant=plant, linear=name in LINEAR_STAGES)
     index = {k: i for i, k in enumerate(model.theta_names)}
-    free = tuple(index[k] for k in FREE[name])
+    names = FREE[name] or tuple(k for k in model.theta_names if k.startswith("pi_w"))
+    free = tuple(index[k] for k in names)
     return SensitivityStage(name=name, model=model,
                             sim=Simulator(replace(model, step=_augmented(model, free),
                                                   n_state=model.n_state * (1 + len(free)))),
                             free=free)
+
+
+def cached_stage(cache: dict | None, name: str, fs: float, reference_C: float = 28.0,
+                 plant: Plant | None = None, **settings: tuple) -> SensitivityStage:
+    """``stage(name, ...)`` built once per ``cache`` (a dict owned by one diagnosis).
+
+    Parameters
+    ----------
+    cache : dict or None
+        The diagnosis's stages (``None``: build a new stage).
+    name, fs, reference_C, plant, **settings
+        As :func:`stage` (``plant`` keyed by its coefficients).
+
+    Returns
+    -------
+    SensitivityStage
+    """
+    if cache is None:
+        return stage(name, fs, reference_C, plant=plant, **settings)
+    pk = None if plant is None else (tuple(np.ravel(plant.B)), tuple(np.ravel(plant.A)))
+    key = (name, float(fs), float(reference_C), pk,
+           tuple(sorted((k, tuple(v) if isinstance(v, (list, tuple)) else v)
+                        for k, v in settings.items())))
+    if key not in cache:
+        cache[key] = stage(name, fs, reference_C, plant=plant, **settings)
+    return cache[key]

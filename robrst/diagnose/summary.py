@@ -46,21 +46,30 @@ def summary_text(diag: Diagnosis) -> str:
     if d["skipped"]:
         out.append("not tried: " + "; ".join(f"{k} ({v})" for k, v in d["skipped"].items()))
     if d["effects"]:
-        out.append(f"  {'candidate (alone)':<22}{'gap before':>11}{'gap after':>11}{'shrink':>9}")
+        out.append(f"  {'candidate (alone)':<30}{'gap before':>11}{'gap after':>11}{'shrink':>9}")
         rows = d["effects"] + ([dict(d["linear_refit"], name="(linear re-fit)", form="input")]
                                if d["linear_refit"] else []) + (
             [dict(d["output_offset"], name="(output offset)", form="output")]
             if d.get("output_offset") else [])
         for e in rows:
-            name = e["name"] + (" (dynamic)" if e.get("form") == "dynamic" else "")
+            name = e["name"] + {"prandtl_ishlinskii": " (PI)"}.get(e.get("form"), "")
             flag = "  overfit" if e.get("overfit") else ""
-            out.append(f"  {name:<22}{e['gap_before']:>11.4g}{e['gap_after']:>11.4g}"
-                       f"{100 * e['shrink']:>8.1f}%{flag}")
+            how = "  (screen)" if e.get("method") == "screen" else ""
+            out.append(f"  {name:<30}{e['gap_before']:>11.4g}{e['gap_after']:>11.4g}"
+                       f"{100 * e['shrink']:>8.1f}%{flag}{how}")
     for s in d["selected"] or []:
         ps = ", ".join(f"{k} = {_pm(v, s['params_std'].get(k))}" for k, v in list(
             s["params"].items())[:6])
+        without = (f"; without it {s['gap_without']:.4g}" if s.get("gap_without") is not None
+                   else "")
         out.append(f"selected {s['name']} ({s['form']}): gap {s['gap_before']:.4g} ->"
-                   f" {s['gap_after']:.4g}; {ps}")
+                   f" {s['gap_after']:.4g}{without}; {ps}")
+    for n in d.get("not_causes") or []:
+        out.append(f"not a cause: {n['name']} (the joint fit without it leaves"
+                   f" {n['gap_without']:.4g}, with it {n['gap_with']:.4g})")
+    for a in d.get("alternatives") or []:
+        out.append(f"alternative to {a['effect']}: {a['alternative']} (held-out gap"
+                   f" {a['gap_alternative']:.4g})")
     fin = d["final"]
     if fin:
         out.append(f"final model ({' + '.join(fin['effects'])} + linear corrections): held-out gap"

@@ -5,7 +5,9 @@
 single tuning), plus sensor noise and quantisation, and four records: two for
 training and two for testing with *different* excitation (steps, sines,
 multisines, triangles), amplitudes, temperatures (constant or ramps) and noise
-levels.  ``"none"`` cases have no effect at all.  :func:`confusion` tallies
+levels.  ``"none"`` cases have no effect at all.  The cases are every effect the twin
+can hide (:data:`CASES`); :data:`ANSWER` maps a twin effect to the diagnosis's name for
+it (a Prandtl–Ishlinskii hysteresis is ``hysteresis``).  :func:`confusion` tallies
 diagnoses against the truth.
 """
 
@@ -17,16 +19,18 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from robrst.diagnose.effects import EFFECTS
+from robrst.diagnose.effects import FORMS, SENSOR_EFFECTS
+from robrst.twin.config import EFFECTS as TWIN_EFFECTS
 from robrst.twin.config import default_twin
 from robrst.twin.simulate import simulate
 
 if TYPE_CHECKING:
     from robrst.data.dataset import Dataset
 
-__all__ = ["CASES", "excitation", "make_case", "confusion", "truth_params"]
+__all__ = ["CASES", "ANSWER", "excitation", "make_case", "confusion", "truth_params"]
 
-CASES = EFFECTS + ("none",)
+CASES = tuple(e for e in TWIN_EFFECTS if e not in SENSOR_EFFECTS) + ("none",)
+ANSWER = {c: FORMS.get(c, c) for c in CASES}      # the diagnosis's name of each case
 KINDS = ("steps", "sine", "multisine", "triangle")
 
 
@@ -113,6 +117,17 @@ def truth_params(effect: str, rng: np.random.Generator) -> dict:
         return {"u_min": float(rng.uniform(0, 15)), "u_max": float(rng.uniform(105, 130))}
     if effect == "slew":
         return {"V_per_s": float(rng.uniform(1.0e4, 3.0e4))}
+    if effect == "input_nonlinearity":
+        return {"dead_zone_V": float(rng.uniform(3.0, 8.0)), "center_V": float(rng.uniform(40, 80)),
+                "quadratic_per_V": float(rng.uniform(-1.0, 1.0) * 1e-3)}
+    if effect == "output_nonlinearity":
+        return {"center_um": float(rng.uniform(20.0, 60.0)),
+                "quadratic_per_um": float(rng.choice([-1, 1]) * rng.uniform(1e-3, 3e-3))}
+    if effect == "stiffness_nonlinearity":
+        return {"cubic_per_um2": float(rng.uniform(1.5e-6, 3e-6))}
+    if effect == "pi_hysteresis":
+        return {"thresholds_V": tuple(float(v * rng.uniform(0.7, 1.3)) for v in (5, 15, 30, 50)),
+                "weights": tuple(float(w * rng.uniform(0.7, 1.3)) for w in (0.06, 0.05, 0.04, 0.03))}
     return {}
 
 
@@ -203,6 +218,8 @@ def confusion(pairs: Iterable[tuple[str, str]],
     >>> m["creep"]["creep"], m["creep"]["none"]
     (1, 1)
     """
+    pairs = list(pairs)
+    labels = tuple(dict.fromkeys(tuple(labels) + tuple(d for _, d in pairs)))
     m = {t: {d: 0 for d in labels} for t in CASES}
     for t, d in pairs:
         m[t][d] = m[t].get(d, 0) + 1

@@ -19,40 +19,102 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from robrst.diagnose.result import Diagnosis, EffectScore
-from robrst.diagnose.select import MIN_SHRINK, OFFSET, excess, significant
+from robrst.diagnose.select import DYNAMIC, MIN_SHRINK, OFFSET, Screened, excess, significant
 from robrst.identify.vf import fit_data, fit_residues, initial_poles, to_continuous, vector_fit
 from robrst.core.plant import Plant
 
 if TYPE_CHECKING:
-    from robrst.diagnose.select import Scored, Setup
+    from robrst.diagnose.select import Explanation, Scored, Setup
     from robrst.identify.modal import ModalModel
 
-__all__ = ["decide", "build", "unmodelled", "NEAR_RATIO", "NEAR_EXCESS"]
+__all__ = ["decide", "build", "unmodelled", "NEAR_RATIO", "NEAR_EXCESS", "LEVEL_EFFECTS"]
 
 NEAR_RATIO = 2.0
 NEAR_EXCESS = 0.35
 HELD_OUT_MIN = 0.05
 
 
-def _key_name(key):
+LEVEL_EFFECTS = ("hysteresis", "amplitude_dependent_dynamics", "stiffness_nonlinearity",
+                 "saturation", "input_nonlinearity", "output_nonlinearity")
+# what record tells two candidates apart (by pair; the default names the usual levers)
+TELL_APART = {
+    frozenset(("hysteresis", "amplitude_dependent_dynamics")):
+        "a slow triangle at two amplitudes (hysteresis keeps a loop at any rate; a level-"
+        "dependent linear model has none at low frequency)",
+    frozenset(("hysteresis", "stiffness_nonlinearity")):
+        "a slow triangle at full stroke (a stiffness nonlinearity bends the curve without a"
+        " loop; hysteresis opens one)",
+    frozenset(("amplitude_dependent_dynamics", "stiffness_nonlinearity")):
+        "a record at a third amplitude between the training ones",
+    frozenset(("hysteresis", "creep")):
+        "a large step held for several seconds (creep keeps moving, hysteresis does not)",
+    frozenset(("creep", "thermal_drift")):
+        "a record at constant temperature with held steps (creep follows the input, drift"
+        " the temperature)",
+    frozenset(("saturation", "input_nonlinearity")):
+        "a slow ramp through the full input range",
+    frozenset(("output_nonlinearity", "input_nonlinearity")):
+        "a slow ramp and a fast multisine (a sensor map bends the output after the"
+        " dynamics, an input map before)",
+    frozenset(("slew", "delay")): "steps of several sizes (a rate limit grows with the step,"
+                                   " a delay does not)",
+}
+
+
+def key_name(key):
+    """Effect name and form of a candidate key."""
     if key == OFFSET:
         return key, "output"
-    return ("hysteresis", "dynamic") if key == "hysteresis:dynamic" else (key, "input")
+    if key == DYNAMIC:
+        return key, "dynamic"
+    return key, "input"
 
 
-def decide(info: dict, linear: Scored, steps: list, tie: tuple | None) -> tuple:
+def tell_apart(a, b):
+    """What record tells candidates ``a`` and ``b`` apart (a sentence)."""
+    return TELL_APART.get(frozenset((a, b)), "records that excite them differently (other"
+                          " amplitudes, rates and holding times than the training records)")
+
+
+def where_text(info):
+    """Where the gap lies: band and regime (for a ``cannot_tell``)."""
+    band = info.get("band")
+    reg = info.get("regime") or {}
+    parts = []
+    if band:
+        parts.append(f"the gap lies in {band[0]:.3g}–{band[1]:.3g} Hz")
+    dom = reg.get("dominant")
+    if dom and reg.get(dom) is not None and reg[dom] >= 0.1:
+        parts.append(f"its regime is {dom.replace('_', ' ')} ({100 * reg[dom]:.0f} % of the"
+                     " residual variance)")
+    return "; ".join(parts)
+
+
+def _levels_text(amp, rank, single_level, levels):
+    cands = [k for k, _ in rank if k in LEVEL_EFFECTS][:4] or list(LEVEL_EFFECTS[:3])
+    txt = (f"the gap grows with the excitation level ({amp['gap_per_level'][0]:.3g} at"
+           f" {amp['levels_V'][0]:.3g} V rms, {amp['gap_per_level'][-1]:.3g} at"
+           f" {amp['levels_V'][-1]:.3g} V rms for a linear model of the lowest level): the"
+           f" plant is not linear; candidates: {', '.join(cands)}")
+    if single_level:
+        lv = levels[0] if levels else amp["levels_V"][0]
+        txt += (f"; the training records span one level ({lv:.3g} V rms): record a second"
+                f" training level (e.g. {2 * lv:.3g} V rms) to tell them apart")
+    return txt
+
+
+def decide(info: dict, ex: Explanation, amp: dict | None = None) -> tuple:
     """The verdict (see the module docstring).
 
     Parameters
     ----------
     info : dict
-        ``before``, ``floor``, ``before_train`` gaps.
-    linear : Scored
-        The linear re-fit.
-    steps : list
-        The forward selection's steps.
-    tie : tuple or None
-        Two candidates that explain the gap equally well.
+        ``before``, ``floor``, ``before_train``, ``floor_train`` gaps; ``band`` and
+        ``regime`` (where the gap lies); ``train_levels`` (input rms per training record).
+    ex : Explanation
+        What the selection found.
+    amp : dict, optional
+        The ``amplitude_dependent`` finding.
 
     Returns
     -------
@@ -60,28 +122,43 @@ def decide(info: dict, linear: Scored, steps: list, tie: tuple | None) -> tuple:
         ``(cause, reason, causes, best partial explanation or None, answer gap)``.
     """
     before, floor = info["before"], info["floor"]
+    linear = ex.linear
     pct = lambda g: 100 * (1 - g / before)  # noqa: E731
-    if tie:
-        a, b, ga, gb = tie
-        best = {"effects": [_key_name(a)[0]], "gap_after": ga, "shrink": 1 - ga / before}
-        return "cannot_tell", (f"{_key_name(a)[0]} and {_key_name(b)[0]} explain the held-out"
-                               f" gap equally well ({ga:.3g} vs {gb:.3g}) and do not add up"), \
-            (), best, None
-    if steps:
-        causes = tuple(_key_name(k)[0] for k, _, _ in steps)
-        final = steps[-1][2]
+    levels = sorted({round(d, 9) for d in info.get("train_levels", [])})
+    single = len(levels) <= 1 or levels[-1] <= 1.3 * levels[0]
+    extra = ""
+    where = where_text(info)
+    if ex.tie:
+        a, b, ga, gb = ex.tie
+        best = {"effects": [key_name(a)[0]], "gap_after": ga, "shrink": 1 - ga / before,
+                "alternative": key_name(b)[0], "alternative_gap": gb}
+        return "cannot_tell", (f"{key_name(a)[0]} and {key_name(b)[0]} explain the held-out"
+                               f" gap equally well ({ga:.3g} vs {gb:.3g}; neither removes"
+                               f" {100 * MIN_SHRINK:.0f} % more of the excess than the other);"
+                               f" {where + '; ' if where else ''}to tell them apart, record"
+                               f" {tell_apart(a, b)}"), (), best, None
+    if ex.steps:
+        causes = tuple(key_name(k)[0] for k, _, _ in ex.steps)
+        final = ex.steps[-1][2]
         answer, gap = causes[0], final.gap
         what = " + ".join(causes)
-        joint = " (fitted jointly with the linear corrections)" if getattr(
-            final.fit, "joint", False) else ""
-        reason = (f"adding {what}{joint} shrinks the held-out gap by {pct(gap):.0f} %"
-                  f" ({before:.3g} -> {gap:.3g}; linear re-fit alone {linear.gap:.3g};"
-                  f" noise floor {floor:.3g})")
+        credit = "; ".join(f"without {key_name(k)[0]} {ex.removal[k]:.3g}" for k, _, _ in ex.steps
+                           if k in ex.removal)
+        joint = (" (fitted jointly with the linear corrections)"
+                 if getattr(final.fit, "joint", False) else "")
+        reason = (f"{what}{joint} shrinks the held-out"
+                  f" gap by {pct(gap):.0f} % ({before:.3g} -> {gap:.3g}; linear re-fit alone"
+                  f" {linear.gap:.3g}; {credit}; noise floor {floor:.3g})")
     elif significant(linear.gap, before, floor):
         causes, answer, gap = (), "linear", linear.gap
         what = "the linear re-fit"
         reason = (f"a re-fit of the linear model explains the gap ({before:.3g} -> {gap:.3g};"
                   f" no effect adds {100 * MIN_SHRINK:.0f} % to it; noise floor {floor:.3g})")
+        if amp:
+            best = {"effects": ["linear"], "gap_after": gap, "shrink": 1 - gap / before}
+            return "cannot_tell", (f"a linear re-fit narrows the gap ({before:.3g} ->"
+                                   f" {gap:.3g}) but {_levels_text(amp, ex.screen_rank, single, levels)}"
+                                   ), (), best, gap
     elif info["before_train"] <= 1.25 * info.get("floor_train", floor):
         return "cannot_tell", (f"the training records show no gap ({info['before_train']:.3g},"
                                " at their noise floor) while the test records do"
@@ -89,9 +166,12 @@ def decide(info: dict, linear: Scored, steps: list, tie: tuple | None) -> tuple:
                                " records do not; add training records like the test ones"), \
             (), None, None
     else:
-        return "cannot_tell", (f"no effect in the library nor a linear re-fit removes"
+        if amp:
+            extra = f"; {_levels_text(amp, ex.screen_rank, single, levels)}"
+        return "cannot_tell", (f"no candidate in the library nor a linear re-fit removes"
                                f" {100 * MIN_SHRINK:.0f} % of the excess held-out gap (linear"
-                               f" re-fit {linear.gap:.3g} vs {before:.3g})"), (), None, None
+                               f" re-fit {linear.gap:.3g} vs {before:.3g})"
+                               f"{'; ' + where if where else ''}{extra}"), (), None, None
     near = gap <= NEAR_RATIO * floor or excess(gap, floor) <= NEAR_EXCESS * excess(before, floor)
     if near:
         if gap > NEAR_RATIO * floor:
@@ -99,9 +179,14 @@ def decide(info: dict, linear: Scored, steps: list, tie: tuple | None) -> tuple:
                        " part of the gap is still unexplained")
         return answer, reason, causes, None, gap
     best = {"effects": list(causes) or ["linear"], "gap_after": gap, "shrink": 1 - gap / before}
-    return "cannot_tell", (f"nothing brings the held-out gap near the noise floor {floor:.3g};"
-                           f" best partial explanation: {what} ({before:.3g} -> {gap:.3g},"
-                           f" {pct(gap):.0f} %)"), (), best, gap
+    if amp:
+        extra = f"; {_levels_text(amp, ex.screen_rank, single, levels)}"
+    return "cannot_tell", (f"nothing brings the held-out gap near the noise floor {floor:.3g}"
+                           f" (an effect outside the library may explain the"
+                           f" {100 * excess(gap, floor) / excess(before, floor):.0f} % of the"
+                           f" excess left); best partial explanation: {what} ({before:.3g} ->"
+                           f" {gap:.3g}, {pct(gap):.0f} %){'; ' + where if where else ''}"
+                           f"{extra}"), (), best, gap
 
 
 def unmodelled(setup: Setup, linear: Scored, info: dict,
@@ -147,15 +232,29 @@ def unmodelled(setup: Setup, linear: Scored, info: dict,
     return best
 
 
-def _score(key, sc, before, before_train):
-    name, form = _key_name(key)
-    params, sds = ({}, {})
+def _params(key, sc):
+    """Reported parameters of candidate ``key`` in the fit ``sc`` (values, 1-sigma)."""
+    name, form = key_name(key)
     if form == "dynamic":
-        params, sds = sc.fit.linear_change()
-        params = {k: v for k, v in params.items() if k.endswith("_per_level")}
-        sds = {k: sds[k] for k in params}
-    else:
-        params, sds = sc.fit.params().get(name, ({}, {}))
+        p, sd = sc.fit.linear_change()
+        p = {k: v for k, v in p.items() if k.endswith("_per_level")}
+        return p, {k: sd[k] for k in p}
+    prm = sc.fit.params()
+    if key == "hysteresis" and "hysteresis" not in prm:
+        return prm.get("pi_hysteresis", ({}, {}))
+    return prm.get(name, ({}, {}))
+
+
+def _score(key, sc, before, before_train):
+    name, form = key_name(key)
+    if isinstance(sc, Screened):
+        return EffectScore(name=name, gap_before=before, gap_after=sc.gap,
+                           shrink=1 - sc.gap / before if before > 0 else 0.0,
+                           train_gap=sc.train_gap, params={}, params_std={}, n_eval=0,
+                           fit_s=sc.fit_s, form=form, overfit=False, method="screen")
+    params, sds = _params(key, sc)
+    if form == "input" and getattr(sc, "form", "input") == "prandtl_ishlinskii":
+        form = "prandtl_ishlinskii"
     overfit = (sc.train_gap <= (1 - MIN_SHRINK) * before_train
                and sc.gap >= (1 - HELD_OUT_MIN) * before)
     return EffectScore(name=name, gap_before=before, gap_after=sc.gap,
@@ -182,7 +281,8 @@ def _linear_score(linear, before, model_is_plant, plant):
 def build(info: dict, where: dict, tests: dict, traces: dict, cause: str, reason: str,
           skipped: dict | None = None, findings: Sequence[dict] = (), linear: Scored | None = None,
           singles: dict | None = None, steps: Sequence = (), causes: Sequence[str] = (),
-          best_partial: dict | None = None, decomposition: dict | None = None) -> Diagnosis:
+          best_partial: dict | None = None, decomposition: dict | None = None,
+          explanation: Explanation | None = None, sensor: dict | None = None) -> Diagnosis:
     """The :class:`Diagnosis` record.
 
     Parameters
@@ -215,6 +315,10 @@ def build(info: dict, where: dict, tests: dict, traces: dict, cause: str, reason
         The best partial explanation of a ``cannot_tell``.
     decomposition : dict, optional
         Shares of the residual.
+    explanation : Explanation, optional
+        What the selection found (credit by removal, alternatives, the screen).
+    sensor : dict, optional
+        Outliers and dropouts set aside (:func:`robrst.diagnose.sensor.repair`).
 
     Returns
     -------
@@ -229,10 +333,9 @@ def build(info: dict, where: dict, tests: dict, traces: dict, cause: str, reason
         if key == OFFSET:           # not an effect: reported beside them, like the re-fit
             offset_alone = es
             continue
-        prev = next((s for s in scores if s.name == es.name), None)
-        if prev is None or es.gap_after < prev.gap_after:
-            scores = [s for s in scores if s.name != es.name] + [es]
-            fit_res[es.name] = sc.residuals
+        if not isinstance(sc, Screened):
+            fit_res.setdefault(es.name, sc.residuals)
+        scores.append(es)
     scores.sort(key=lambda s: s.gap_after)
     findings = [f for f in findings if f]
     for s in scores:
@@ -244,12 +347,22 @@ def build(info: dict, where: dict, tests: dict, traces: dict, cause: str, reason
                                          " held-out gap: it fits the training records only"),
                              "train_gap": s.train_gap, "test_gap": s.gap_after})
     selected, final = [], None
+    ex = explanation
+    removal = ex.removal if ex else {}
+    final_gap = steps[-1][2].gap if steps else None
     for key, gap0, sc in steps:
-        name, form = _key_name(key)
-        p = sc.fit.params().get(name, ({}, {})) if form != "dynamic" else sc.fit.linear_change()
+        name, form = key_name(key)
+        final_fit = steps[-1][2]
+        p = _params(key, final_fit) if form != "dynamic" else final_fit.fit.linear_change()
+        if key == "hysteresis" and getattr(final_fit, "form", "") == "prandtl_ishlinskii":
+            form = "prandtl_ishlinskii"
+        gw = removal.get(key)
         selected.append({"name": name, "form": form, "gap_before": gap0, "gap_after": sc.gap,
                          "shrink": 1 - sc.gap / gap0 if gap0 > 0 else 0.0,
-                         "params": p[0], "params_std": p[1]})
+                         "params": p[0], "params_std": p[1], "gap_without": gw,
+                         "credit": (1 - excess(final_gap, info["floor"]) / excess(gw, info["floor"])
+                                    if gw is not None and excess(gw, info["floor"]) > 0
+                                    else None)})
     if steps:
         sc = steps[-1][2]
         ch, cs = sc.fit.linear_change()
@@ -278,6 +391,14 @@ def build(info: dict, where: dict, tests: dict, traces: dict, cause: str, reason
     gap_extra = {"noise_floor_method": info["method"], "per_record": info["per_record"],
                  "per_level": info.get("per_level", [])}
     extra = {"causes": list(causes), "selected": selected, "final": final,
+             "not_causes": [{"name": key_name(k)[0], "gap_with": a, "gap_without": b}
+                            for k, a, b in (ex.dropped if ex else [])],
+             "alternatives": [{"effect": key_name(k)[0], "alternative": key_name(a)[0],
+                               "gap_alternative": sc.gap}
+                              for k, (a, sc) in (ex.alternatives.items() if ex else [])],
+             "screen": [{"name": key_name(k)[0], "gap": g}
+                        for k, g in (ex.screen_rank if ex else [])],
+             "sensor": sensor,
              "findings": findings, "best_partial": best_partial, "skipped": skipped or {},
              "seconds": time.perf_counter() - info["t_start"], "gap": gap_extra,
              "output_offset": offset_alone.as_dict() if offset_alone else None}

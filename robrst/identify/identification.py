@@ -48,10 +48,15 @@ if TYPE_CHECKING:
     from robrst.data.dataset import Dataset
     from robrst.identify.modal import DiscreteModel
 
-__all__ = ["identify", "Identified", "OrderScore", "ORDER_TOL", "TEMP_TOL_K", "START_NOTE",
-           "nrmse_of", "simulate_record"]
+__all__ = ["identify", "Identified", "OrderScore", "ORDER_TOL", "MAX_ORDER", "MAX_AUTO_ORDER",
+           "TEMP_TOL_K", "START_NOTE", "nrmse_of", "simulate_record"]
 
 ORDER_TOL = 0.05        # choose the smallest order within 5 % of the best held-out NRMSE
+# the largest model order identified (a complex pair counts two), and the largest order
+# --order auto tries (every candidate is a vector fit whose cost grows as order^3; the
+# candidates up to 60 take minutes, --max-order 100000 ran for hours)
+MAX_ORDER = 200
+MAX_AUTO_ORDER = 60
 QUIET = 0.05            # a held-out part whose output varies < 5 % of the record's: settled
 TEMP_TOL_K = 1.0        # records whose mean temperatures differ less share a model
 VF_ITER = 12
@@ -373,7 +378,8 @@ def identify(train: Sequence[Dataset], validate: Sequence[Dataset] | None = None
         ``max_order`` scored on held-out records.
     max_order : int, optional
         Largest order tried by ``"auto"`` (default 12; 40 for periodic records with at
-        least 400 excited lines).
+        least 400 excited lines; at most :data:`MAX_AUTO_ORDER`); ``order`` at most
+        :data:`MAX_ORDER`.
     feedthrough : bool
         Allow a direct term ``D`` (default False: strictly proper, ``y[k]`` depends on
         ``u`` up to ``k - 1``).
@@ -398,8 +404,12 @@ def identify(train: Sequence[Dataset], validate: Sequence[Dataset] | None = None
     _same_temperature_columns(list(train))
     if validate:
         _check(list(train) + list(validate), "validation")
-    if order != "auto" and (isinstance(order, bool) or not isinstance(order, int) or order < 1):
-        raise SpecError(f"order must be 'auto' or an integer >= 1, got {order!r}")
+    if order != "auto" and (isinstance(order, bool) or not isinstance(order, int)
+                            or not 1 <= order <= MAX_ORDER):
+        raise SpecError(f"order must be 'auto' or an integer 1..{MAX_ORDER}, got {order!r}")
+    if max_order is not None and (isinstance(max_order, bool) or not isinstance(max_order, int)
+                                  or not 1 <= max_order <= MAX_AUTO_ORDER):
+        raise SpecError(f"max_order must be an integer 1..{MAX_AUTO_ORDER}, got {max_order!r}")
     groups = _groups(list(train))
     main = max(range(len(groups)), key=lambda i: sum(d.n for d in groups[i][1]))
     with one_blas_thread():

@@ -35,9 +35,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
+import tomlkit
 
 from robrst.base.errors import SpecError
-from robrst.base.fileio import atomic_write_text, check_file_target
+from robrst.base.fileio import atomic_write_text, check_file_target, peek_text, read_utf8
+from robrst.base.tomlwrite import comment_text, document, plain
 from robrst.identify.modal import ModalModel
 from robrst.base.modelformat import FORMAT, read_model_table
 from robrst.base.schema import MAX_MAGNITUDE
@@ -45,73 +47,26 @@ from robrst.base.schema import MAX_MAGNITUDE
 if TYPE_CHECKING:
     from robrst.identify.identification import Identified
 
-__all__ = ["problem_text", "model_text", "toml_string", "write_identified", "check_target", "read_model_data",
+__all__ = ["problem_text", "model_text", "write_identified", "check_target", "read_model_data",
            "modal_models", "MARKER", "FORMAT"]
 
 MARKER = "# written by robrst identify"
 NEGLIGIBLE_LEAD = 1e-9   # a leading numerator term below this share of B up to Nyquist
 
 
-def _num(x):
-    return repr(float(x))
-
-
-_ESCAPES = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n",
-            "\f": "\\f", "\r": "\\r"}
-
-
-def toml_string(text: str) -> str:
-    """``text`` as a TOML basic string, quotes included.
-
-    Every character TOML requires escaped is: quote, backslash, control characters and
-    DEL; an undecodable byte of a file name (a lone surrogate) becomes U+FFFD.
-
-    Parameters
-    ----------
-    text : str
-        Any text (a problem name, a file stem).
-
-    Returns
-    -------
-    str
-        The TOML literal, e.g. ``"a\"b"`` for ``a"b``.
-    """
-    out = []
-    for ch in str(text):
-        if ch in _ESCAPES:
-            out.append(_ESCAPES[ch])
-        elif ord(ch) < 0x20 or ord(ch) == 0x7F:
-            out.append(f"\\u{ord(ch):04X}")
-        elif 0xD800 <= ord(ch) <= 0xDFFF:     # an undecodable byte of a file name
-            out.append("\uFFFD")
-        else:
-            out.append(ch)
-    return '"' + "".join(out) + '"'
-
-
-def _comment(text):
-    """``text`` safe inside a ``#`` comment line (control characters shown escaped,
-    undecodable bytes of a file name as U+FFFD)."""
-    return "".join("\uFFFD" if 0xD800 <= ord(ch) <= 0xDFFF else
-                   ch if ord(ch) >= 0x20 and ord(ch) != 0x7F else repr(ch)[1:-1]
-                   for ch in str(text))
-
-
-def _list(v):
-    return "[" + ", ".join(_num(x) for x in np.ravel(v)) + "]"
-
-
-def _matrix(M):
-    return "[" + ", ".join(_list(row) for row in np.atleast_2d(M)) + "]"
-
-
 def _header(ident, sources, what):
-    lines = [f"{MARKER} ({what})",
-             f"# from {len(sources)} record(s): " + ", ".join(_comment(s) for s in sources[:6])
-             + (" ..." if len(sources) > 6 else ""),
-             f"# order {ident.order} (poles), sampled at {ident.fs:g} Hz, held-out NRMSE"
-             f" {ident.heldout_nrmse:.4g} on " + ", ".join(_comment(h) for h in ident.heldout[:4])]
-    return lines
+    return [f"{MARKER[2:]} ({what})",
+            f"from {len(sources)} record(s): " + ", ".join(str(s) for s in sources[:6])
+            + (" ..." if len(sources) > 6 else ""),
+            f"order {ident.order} (poles), sampled at {ident.fs:g} Hz, held-out NRMSE"
+            f" {ident.heldout_nrmse:.4g} on " + ", ".join(str(h) for h in ident.heldout[:4])]
+
+
+def _commented(value, comment):
+    """A TOML value with a comment after it on its line."""
+    item = tomlkit.item(plain(value))
+    item.comment(comment_text(comment))
+    return item
 
 
 def _readable(plants, order):
@@ -177,7 +132,7 @@ def starting_wn(plants: list, fs: float) -> float:
     return float(f"{max(w, 1e-6):.3g}")
 
 
-def starting_design(plants: list, fs: float) -> list:
+def starting_design(plants: list, fs: float) -> dict:
     """The design tables ``robrst identify`` writes into a file of one input and one output,
     so that ``robrst design`` runs on it as it is: the robust NLP (integral gain, certified
     modulus margin 0.5, |T| <= 1.3 and a reference step overshooting at most 2 %, on the
@@ -193,18 +148,34 @@ def starting_design(plants: list, fs: float) -> list:
 
     Returns
     -------
-    list of str
-        Lines of TOML, commented.
+    dict
+        The tables ``poles``, ``controller``, ``specs`` and ``solver`` (a problem
+        document's values; :func:`problem_text` and :func:`model_text` write them with
+        their comments).
     """
-    wn = _num(starting_wn(plants, fs))
-    return ["", "# A starting design, chosen by robrst identify from the model (edit freely):",
-            "# the robust NLP at the records' sampling rate (the controller runs at it),",
-            "# dominant poles a fifth of the lowest resonance, modulus margin >= 0.5, and a",
-            "# reference path (2-DOF) whose step overshoots at most 2 %.",
-            "[poles]", f"wn = {wn}      # dominant natural frequency [rad/s]", "zeta = 1.0", "",
-            "[controller]", 'T_mode = "reference_model"', f"reference_wn = {wn}", "",
-            "[specs]", "Ms_max = 2.0", "Mt_max = 1.3", "overshoot_max_pct = 2.0",
-            f"sample_rate_hz = {_num(fs)}", "", "[solver]", 'method = "nlp"']
+    wn = starting_wn(plants, fs)
+    return {"poles": {"wn": wn, "zeta": 1.0},
+            "controller": {"T_mode": "reference_model", "reference_wn": wn},
+            "specs": {"Ms_max": 2.0, "Mt_max": 1.3, "overshoot_max_pct": 2.0,
+                      "sample_rate_hz": float(fs)},
+            "solver": {"method": "nlp"}}
+
+
+def _add_starting_design(doc, plants, fs):
+    """:func:`starting_design`'s tables added to ``doc`` with their comments."""
+    tables = starting_design(plants, fs)
+    doc.add(tomlkit.nl())
+    for line in ("A starting design, chosen by robrst identify from the model (edit freely):",
+                 "the robust NLP at the records' sampling rate (the controller runs at it),",
+                 "dominant poles a fifth of the lowest resonance, modulus margin >= 0.5, and a",
+                 "reference path (2-DOF) whose step overshoots at most 2 %."):
+        doc.add(tomlkit.comment(line))
+    poles = tomlkit.table()
+    poles["wn"] = _commented(tables["poles"]["wn"], "dominant natural frequency [rad/s]")
+    poles["zeta"] = tables["poles"]["zeta"]
+    doc["poles"] = poles
+    for name in ("controller", "specs", "solver"):
+        doc[name] = plain(tables[name])
 
 
 def problem_text(ident: Identified, sources: Sequence[str], name: str,
@@ -240,37 +211,42 @@ def problem_text(ident: Identified, sources: Sequence[str], name: str,
     except SpecError:      # the expanded coefficients overflow float64
         plants = None
     _readable(plants, ident.order)
-    lines = _header(ident, sources, "problem file")
+    doc = document(_header(ident, sources, "problem file"))
     desc = f"identified by robrst identify (output y{i + 1} from input u{j + 1})"
-    lines += ["", "[problem]", f"name = {toml_string(name)}",
-              f"description = {toml_string(desc)}",
-              "", "[plant]", f"B = {_list(plants[0].B)}", f"A = {_list(plants[0].A)}"]
+    doc["problem"] = plain({"name": name, "description": desc})
     T0 = ident.models[0].temperature_C
+    plant = {"B": plants[0].B, "A": plants[0].A}
     if T0 is not None:
-        lines.append(f"temperature_C = {_num(T0)}")
-    lines.append(f"source = {toml_string('robrst identify')}")
+        plant["temperature_C"] = float(T0)
+    doc["plant"] = plain({**plant, "source": "robrst identify"})
     law = ident.thermal if (i, j) == (0, 0) else None
     if len(plants) > 1 and law is not None and law.consistent:
         temps = ", ".join(f"{T:g}" for T in law.temperatures_C)
-        lines += ["", "[family]", f"reference_C = {_num(T0)}",
-                  f"temperatures_C = {_list(law.temperatures_C)}",
-                  "source = " + toml_string(f"robrst identify: per-kelvin laws fitted to the"
-                                            f" models at {temps} degC (1-sigma beside each)"),
-                  "", "[family.parametric]"]
-        lines += [f"{k} = {_num(getattr(law, k))}    # +/- {law.std[k]:.3g} (1 sigma)"
-                  for k in ("gain_per_K", "resonance_per_K", "damping_per_K")]
+        family = tomlkit.table()
+        family.update(plain({
+            "reference_C": float(T0), "temperatures_C": law.temperatures_C,
+            "source": f"robrst identify: per-kelvin laws fitted to the models at {temps} degC"
+                      " (1-sigma beside each)"}))
+        parametric = tomlkit.table()
+        for k in ("gain_per_K", "resonance_per_K", "damping_per_K"):
+            parametric[k] = _commented(float(getattr(law, k)),
+                                       f"+/- {law.std[k]:.3g} (1 sigma)")
+        family["parametric"] = parametric
+        doc["family"] = family
     elif len(plants) > 1:
-        why = ("" if law is None or not law.note else
-               f" (robrst's thermal law does not hold: {_comment(law.note)})")
-        lines += ["", "[family]", f"reference_C = {_num(T0)}",
-                  "source = " + toml_string("robrst identify: one model per record temperature")]
-        if why:
-            lines.append(f"# explicit models{why}")
+        family = tomlkit.table()
+        family.update(plain({"reference_C": float(T0),
+                             "source": "robrst identify: one model per record temperature"}))
+        if law is not None and law.note:
+            family.add(tomlkit.comment(comment_text(
+                f"explicit models (robrst's thermal law does not hold: {law.note})")))
+        models = tomlkit.aot()
         for p in plants:
-            lines += ["", "[[family.models]]", f"temperature_C = {_num(p.temperature_C)}",
-                      f"B = {_list(p.B)}", f"A = {_list(p.A)}"]
-    lines += starting_design([m.channel(i, j) for m in ident.models], ident.fs) + [""]
-    return "\n".join(lines)
+            models.append(plain({"temperature_C": float(p.temperature_C), "B": p.B, "A": p.A}))
+        family["models"] = models
+        doc["family"] = family
+    _add_starting_design(doc, [m.channel(i, j) for m in ident.models], ident.fs)
+    return tomlkit.dumps(doc)
 
 
 def model_text(ident: Identified, sources: Sequence[str]) -> str:
@@ -290,31 +266,36 @@ def model_text(ident: Identified, sources: Sequence[str]) -> str:
         temperature.
     """
     m0 = ident.models[0]
-    lines = _header(ident, sources, "model file")
+    header = _header(ident, sources, "model file")
     law = ident.thermal
     if law is not None and law.std:
-        lines += [f"# per-kelvin laws fitted to these models ({'robrst thermal law holds' if law.consistent else _comment(law.note)}): "
-                  + ", ".join(f"{k} = {getattr(law, k):.6g} +/- {law.std[k]:.3g}"
-                              for k in ("gain_per_K", "resonance_per_K", "damping_per_K"))]
-    lines += ["", "[model]", f"format = {toml_string(FORMAT)}", f"inputs = {m0.n_in}",
-              f"outputs = {m0.n_out}", f"order = {ident.order}",
-              f"fs_hz = {_num(ident.fs)}", f"source = {toml_string('robrst identify')}"]
+        header.append(f"per-kelvin laws fitted to these models"
+                      f" ({'robrst thermal law holds' if law.consistent else law.note}): "
+                      + ", ".join(f"{k} = {getattr(law, k):.6g} +/- {law.std[k]:.3g}"
+                                  for k in ("gain_per_K", "resonance_per_K", "damping_per_K")))
+    doc = document(header)
+    model = tomlkit.table()
+    model.update(plain({"format": FORMAT, "inputs": m0.n_in, "outputs": m0.n_out,
+                        "order": ident.order, "fs_hz": float(ident.fs),
+                        "source": "robrst identify"}))
+    at = tomlkit.aot()
     for m in ident.models:
-        lines += ["", "[[model.at]]"]
-        if m.temperature_C is not None:
-            lines.append(f"temperature_C = {_num(m.temperature_C)}")
-        lines += [f"poles_re = {_list(m.poles.real)}", f"poles_im = {_list(m.poles.imag)}",
-                  "residues_re = [" + ", ".join(_matrix(R.real) for R in m.residues) + "]",
-                  "residues_im = [" + ", ".join(_matrix(R.imag) for R in m.residues) + "]",
-                  f"D = {_matrix(m.D)}"]
+        rec = {} if m.temperature_C is None else {"temperature_C": float(m.temperature_C)}
+        rec.update({"poles_re": m.poles.real, "poles_im": m.poles.imag,
+                    "residues_re": [np.atleast_2d(R.real) for R in m.residues],
+                    "residues_im": [np.atleast_2d(R.imag) for R in m.residues],
+                    "D": np.atleast_2d(m.D)})
+        at.append(plain(rec))
+    model["at"] = at
+    doc["model"] = model
     if (m0.n_in, m0.n_out) == (1, 1):
         try:
             plants = [m.channel(0, 0) for m in ident.models]
         except SpecError:      # too high an order for polynomials: no design from this file
             plants = None
         if plants is not None:
-            lines += starting_design(plants, ident.fs)
-    return "\n".join(lines) + "\n"
+            _add_starting_design(doc, plants, ident.fs)
+    return tomlkit.dumps(doc)
 
 
 def check_target(path: str | Path) -> Path:
@@ -341,10 +322,7 @@ def check_target(path: str | Path) -> Path:
                         f" {path / 'model.toml'})")
     check_file_target(path)
     if path.exists():
-        try:
-            first = path.read_text(encoding="utf-8").splitlines()[:1]
-        except (OSError, UnicodeDecodeError):
-            first = []
+        first = (peek_text(path) or "").splitlines()[:1]
         if not first or not first[0].startswith(MARKER):
             raise SpecError(f"{path}: exists and was not written by robrst identify; not"
                             " overwriting it (choose another --out)")
@@ -439,10 +417,9 @@ def read_model_data(path: Path) -> dict:
         An unreadable file or invalid TOML.
     """
     path = Path(path)
+    text = read_utf8(path, "model file", "TOML", SpecError)
     try:
-        return tomllib.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise SpecError(f"{path}: cannot read model file ({exc.strerror})") from None
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SpecError(f"{path}: invalid TOML ({exc})") from None
 

@@ -122,5 +122,7 @@ def problem_document(problem: Problem) -> dict:
     doc["poles"] = _poles(problem.poles)
     doc["controller"] = _table(problem.controller, ControllerStructure)
     doc["specs"] = _table(problem.specs, Specs)
-    doc["solver"] = _table(problem.solver, SolverOptions)
+    # who chose the method is no key of the file: the document names the method that ran
+    doc["solver"] = {k: v for k, v in _table(problem.solver, SolverOptions).items()
+                     if k != "method_source"}
     return doc

@@ -135,9 +135,23 @@ SCHEMA = {
         "step_um": Field("number", 1.0, "reference step for step_u_max_V [µm]", positive=True),
         "step_u_max_V": Field("number", None, "peak |u| for a reference step of step_um [V]",
                               positive=True),
+        "Msd_max": Field("number", None, "bound on the input-disturbance sensitivity"
+                         " |B S/Delta| [µm/V]", positive=True),
+        "Mry_max": Field("number", None, "bound on the reference-to-output |B T/Delta|"
+                         " (Mt_max bounds |B R/Delta|)", positive=True),
+        "damping_min": Field("number", None, "least damping of every closed-loop pole of every"
+                             " model (sampled loop: poles mapped to s by fs ln z); default"
+                             " min(0.1, 0.9 x the plant's least damping), 0: none",
+                             lo=0.0, hi=0.99),
+        "decay_min": Field("number", None, "least decay rate -Re(p) of every closed-loop pole"
+                           " [rad/s]", positive=True, hi=MAX_RATE),
+        "controller_damping_min": Field("number", None, "least damping of the controller's own"
+                                        " poles", lo=0.0, hi=0.99),
     },
     "solver": {
-        "method": Field("str", "analytic", "analytic | nlp | convex", choices=METHODS),
+        "method": Field("str", None, "analytic | nlp | convex; default: nlp (the robust"
+                        " program) when [specs] bounds anything, else analytic",
+                        choices=METHODS),
         "objective": Field("str", "max_integral_gain", "max_integral_gain | min_Ms | feasibility",
                            choices=OBJECTIVES),
         "free_poles": Field("bool", False, "let wn and zeta vary within the bounds"),
@@ -163,6 +177,12 @@ SCHEMA = {
         "homotopy": Field("str", "on_failure", "lower extra_degree solved first: on_failure |"
                           " always (more degrees never certify a worse objective)",
                           choices=HOMOTOPIES),
+        "multistart": Field("bool", True, "nlp: also solve from diverse starts (analytic designs"
+                            " at other poles, free placement, PI/roll-off controllers, more"
+                            " degrees) on 2 processes and keep the best certified answer;"
+                            " off inside sweeps"),
+        "starts": Field("int", 2, "nlp multi-start: how many starts beyond the first",
+                        lo=0, hi=64),
     },
     "spread": {
         "yield": Field("number", 0.95, "share of the actuators the controller must certify on"
@@ -253,6 +273,31 @@ def _same_degrees(path, models):
                             " every model needs the same degrees")
 
 
+PLANT_IN_FAMILY_RTOL = 1e-9   # [plant] beside [[family.models]]: the model at its temperature
+
+
+def _check_plant_in_family(path, nominal, family):
+    """With ``[[family.models]]`` the models are the family's: a ``[plant]`` beside them is
+    not used, so it must be the family's model at its temperature (as ``robrst identify``
+    writes it); a different one would be ignored silently."""
+    from robrst.core.poly import rel_coef_error
+
+    lo, hi = family.range_C
+    T = nominal.temperature_C
+    why = ("[[family.models]] define the models and [plant] is not used beside them: remove"
+           " [plant], or give it as the family's model at its temperature")
+    if not lo <= T <= hi:
+        raise key_error(path, ("plant", "temperature_C"), f"{T:g} °C is outside the models'"
+                        f" range [{lo:g}, {hi:g}] °C; {why}")
+    m = family.at(T)
+    same = len(m.A) == len(nominal.A) and len(m.B) == len(nominal.B) and max(
+        rel_coef_error(nominal.A, m.A), rel_coef_error(nominal.B, m.B)
+    ) <= PLANT_IN_FAMILY_RTOL
+    if not same:
+        raise key_error(path, ("plant",), f"differs from the family's model at {T:g} °C"
+                        f" (B = {list(m.B)}, A = {list(m.A)}); {why}")
+
+
 def _family(path, f, nominal):
     """The family; no ``[plant]``: reference at ``reference_C``, default the coldest model."""
     if f is None:
@@ -286,6 +331,15 @@ def _family(path, f, nominal):
         return parametric_family(nominal, f["temperatures_C"], coeffs)
     except SpecError as exc:
         raise key_error(path, ("family",), str(exc)) from None
+
+
+def _solver(t, specs):
+    """The solver options; no ``method``: the robust program when the specs bound anything
+    (``method_source`` says which rule chose it)."""
+    if t["method"] is None:
+        return SolverOptions(**{**t, "method": "nlp" if specs.bounded else "analytic",
+                                "method_source": "default"})
+    return SolverOptions(**t)
 
 
 def _table(path, v, name):
@@ -388,10 +442,12 @@ def parse_problem(data: dict, path: str | Path = "<problem>", compare: bool = Tr
     explicit = v["plant"] is None and v["family"] is not None and v["family"]["models"]
     nominal = None if explicit else _plant(path, v["plant"])
     family = _family(path, v["family"], nominal)
+    if nominal is not None and v["family"] is not None and v["family"]["models"]:
+        _check_plant_in_family(path, nominal, family)
     poles = pole_spec(path, v["poles"])
     ctrl = ControllerStructure(**_table(path, v, "controller"))
     specs = Specs(**_table(path, v, "specs"))
-    solver = SolverOptions(**_table(path, v, "solver"))
+    solver = _solver(_table(path, v, "solver"), specs)
     for k in ("S_fixed", "R_fixed"):
         if not getattr(ctrl, k) or getattr(ctrl, k)[0] == 0.0:
             raise key_error(path, ("controller", k), "expected polynomial coefficients, highest"

@@ -10,14 +10,19 @@ sees a dict of options or the raw TOML.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from robrst.base.errors import SpecError
 
+if TYPE_CHECKING:
+    from robrst.core.family import PlantFamily
+
 __all__ = ["PoleSpec", "ControllerStructure", "Specs", "SolverOptions", "Problem",
-           "PEAK_SPECS", "METHODS", "OBJECTIVES", "T_MODES", "INITS", "PLACEMENTS",
-           "HOMOTOPIES", "AUX_MIN_FACTOR"]
+           "PEAK_SPECS", "EXTRA_PEAK_SPECS", "METHODS", "OBJECTIVES", "T_MODES", "INITS",
+           "PLACEMENTS", "HOMOTOPIES", "AUX_MIN_FACTOR", "DEFAULT_DAMPING_CAP",
+           "DEFAULT_DAMPING_SHARE", "DEFAULT_OVERSHOOT_WARN_PCT", "plant_damping"]
 
 METHODS = ("analytic", "nlp", "convex")
 OBJECTIVES = ("max_integral_gain", "min_Ms", "feasibility")
@@ -27,6 +32,34 @@ PLACEMENTS = ("auto", "fixed", "free")
 HOMOTOPIES = ("on_failure", "always")
 AUX_MIN_FACTOR = 10.0   # auxiliary poles at least this many times faster than the dominant
 PEAK_SPECS = {"S": "Ms_max", "T": "Mt_max", "U": "Mu_max"}   # sensitivity -> bound attribute
+# closed-loop transfer functions bounded only when asked (robrst.core.rst.closed_loop names):
+# B S / Delta (input disturbance -> y, µm/V) and B T / Delta (reference -> y)
+EXTRA_PEAK_SPECS = {"Sd": "Msd_max", "Tr": "Mry_max"}
+DEFAULT_DAMPING_CAP = 0.1       # default closed-loop damping floor: at most this ...
+DEFAULT_DAMPING_SHARE = 0.9     # ... and at most this share of the plant's least damping
+DEFAULT_OVERSHOOT_WARN_PCT = 20.0   # reference-step overshoot that earns a warning
+
+
+def plant_damping(family: PlantFamily) -> float:
+    """The least damping ``-Re p / |p|`` of a complex pole of any member of ``family``
+    (1.0 when no member has a complex pole).
+
+    Parameters
+    ----------
+    family : PlantFamily
+
+    Returns
+    -------
+    float
+    """
+    out = 1.0
+    for m in family.models:
+        p = np.asarray(m.poles(), complex)
+        w = np.abs(p)
+        cplx = (np.abs(p.imag) > 1e-9 * w) & (w > 0)
+        if np.any(cplx):
+            out = min(out, float(np.min(-p.real[cplx] / w[cplx])))
+    return out
 
 
 @dataclass(frozen=True)
@@ -212,6 +245,20 @@ class Specs:
         The reference step of ``step_u_max_V`` [µm].
     step_u_max_V : float, optional
         Peak ``|u|`` for a reference step of ``step_um`` [V].
+    Msd_max : float, optional
+        Bound on the input-disturbance sensitivity ``|B S / Delta|`` [µm/V].
+    Mry_max : float, optional
+        Bound on the reference-to-output ``|B T / Delta|`` (``Mt_max`` keeps bounding
+        ``|B R / Delta|``).
+    damping_min : float, optional
+        Least damping of every closed-loop pole of every model (the sampled loop's poles
+        mapped back to s by ``fs ln z``), as MATLAB's ``TuningGoal.Poles``.  ``None``: the
+        default floor (:meth:`damping_floor`: ``DEFAULT_DAMPING_SHARE`` of the plant's own
+        least damped resonance, at most ``DEFAULT_DAMPING_CAP``); 0: none.
+    decay_min : float, optional
+        Least decay rate ``-Re p`` of every closed-loop pole [rad/s].
+    controller_damping_min : float, optional
+        Least damping of the controller's own poles.
 
     Attributes
     ----------
@@ -237,6 +284,74 @@ class Specs:
     settling_time_max_s: float = None
     step_um: float = 1.0
     step_u_max_V: float = None
+    Msd_max: float = None
+    Mry_max: float = None
+    damping_min: float = None
+    decay_min: float = None
+    controller_damping_min: float = None
+
+    def damping_floor(self, family: PlantFamily) -> tuple[float | None, str]:
+        """The closed-loop damping floor on ``family``: ``(value, source)``.
+
+        ``source`` is ``"specs"`` (``damping_min`` given; ``value`` ``None`` when it is
+        0, no floor), or ``"default"``: ``min(DEFAULT_DAMPING_CAP, DEFAULT_DAMPING_SHARE
+        * zeta_plant)`` with ``zeta_plant`` the least damping of a complex pole of any
+        family member (:func:`plant_damping`; ``DEFAULT_DAMPING_CAP`` when none has one;
+        no default floor when a member has an unstable resonance).
+
+        Parameters
+        ----------
+        family : PlantFamily
+
+        Returns
+        -------
+        (float or None, str)
+        """
+        if self.damping_min is not None:
+            return (self.damping_min if self.damping_min > 0 else None), "specs"
+        zeta = plant_damping(family)
+        if zeta <= 0:          # an unstable resonance: no default floor below it
+            return None, "default"
+        return min(DEFAULT_DAMPING_CAP, DEFAULT_DAMPING_SHARE * zeta), "default"
+
+    def pole_region(self, family: PlantFamily) -> tuple[float | None, float | None]:
+        """The region the closed-loop poles must meet on ``family``.
+
+        Parameters
+        ----------
+        family : PlantFamily
+            The plant family (the default floor depends on its damping).
+
+        Returns
+        -------
+        (float or None, float or None)
+            The damping floor and the decay rate [rad/s] (``None``: no bound).
+        """
+        floor, _ = self.damping_floor(family)
+        return floor, (self.decay_min if self.decay_min else None)
+
+    def extra_peak_bound(self, name: str) -> float | None:
+        """Bound on the peak of ``Sd`` (``Msd_max``) or ``Tr`` (``Mry_max``).
+
+        Parameters
+        ----------
+        name : {"Sd", "Tr"}
+            The closed-loop transfer function (:func:`robrst.core.rst.closed_loop`'s name).
+
+        Returns
+        -------
+        float or None
+        """
+        return getattr(self, EXTRA_PEAK_SPECS[name])
+
+    @property
+    def bounded(self):
+        """True when any bound is given (a peak, a band, a time-domain or a pole-region spec):
+        what makes the robust program the default method."""
+        keys = ("Ms_max", "Mt_max", "Mu_max", "T_resonance_max", "Mu_hf_max", "Msd_max",
+                "Mry_max", "decay_min", "controller_damping_min")
+        return (any(getattr(self, k) is not None for k in keys) or self.time_domain
+                or bool(self.damping_min))
 
     @property
     def time_domain(self):
@@ -317,6 +432,14 @@ class SolverOptions:
         ``"on_failure"`` solves ``extra_degree - 1`` (recursively) only when the requested
         degree does not certify; ``"always"`` solves every degree from 0 up, each seeded
         with the one below, so more degrees never give a worse certified objective.
+    multistart : bool
+        The robust program also runs from up to ``starts`` diverse starts
+        (:mod:`robrst.synthesis.multistart`) on 2 processes and keeps the best certified
+        answer (off inside sweeps).
+    starts : int
+        How many starts beyond the one asked for.
+    method_source : {"given", "default", "command line"}
+        Who chose ``method`` (see :attr:`method_reason`).
     """
 
     method: str = "analytic"
@@ -335,6 +458,19 @@ class SolverOptions:
     compare_with: str = None
     placement: str = "auto"
     homotopy: str = "on_failure"
+    multistart: bool = True
+    starts: int = 2
+    method_source: str = "given"
+
+    @property
+    def method_reason(self):
+        """Why this method runs, in words."""
+        if self.method_source == "default":
+            return (f"{self.method}: the default ([solver] method not given; the robust program"
+                    " whenever [specs] bounds anything, the analytic design otherwise)")
+        if self.method_source == "command line":
+            return f"{self.method}: as the command line asks (--method)"
+        return f"{self.method}: as the problem asks ([solver] method)"
 
 
 @dataclass(frozen=True, eq=False)

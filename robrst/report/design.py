@@ -16,12 +16,11 @@ from collections.abc import Callable
 from pathlib import Path
 
 from robrst.design import DesignResult
-from robrst.studies.scenarios import twin_step_responses
+from robrst.studies.design_curves import DesignCurves, design_curves
 from robrst.base.fileio import json_text
 from robrst.report import design_figures as figs
 from robrst.report.doc import Doc, write_folder
 from robrst.report.text import sampled_summary
-from robrst.twin.config import default_twin
 
 __all__ = ["design_doc", "write_design_report", "FIGURES"]
 
@@ -61,7 +60,7 @@ def design_doc(result: DesignResult, twin: bool = False) -> Doc:
     d = result.as_dict()
     cert = d["certificate"]
     specs = d["specs"]
-    worst = {k: max(cert["models"], key=lambda m: m[k]) for k in ("Ms", "Mt", "Mu")}
+    worst = {k: result.certificate.worst_model(k) for k in ("Ms", "Mt", "Mu")}
     c = d["controller"]
     blocks = [
         ("p", f"Problem `{d['problem']}`, method **{d['method']}**, certified:"
@@ -75,10 +74,10 @@ def design_doc(result: DesignResult, twin: bool = False) -> Doc:
         ("p", f"{len(cert['models'])} models checked (family and a dense temperature sweep) with"
               f" exact peaks (relative tolerance {cert['rtol']:g}); {len(cert['violations'])}"
               " violations. Worst cases: "
-              + "; ".join(f"{k} = {worst[k][k]:.4g} at {worst[k]['temperature_C']:.1f} °C"
+              + "; ".join(f"{k} = {worst[k].value(k):.4g} at {worst[k].temperature_C:.1f} °C"
                           for k in worst)
               + f"; largest closed-loop spectral abscissa"
-                f" {max(m['spectral_abscissa'] for m in cert['models']):.4g} rad/s."
+                f" {result.certificate.worst('spectral_abscissa'):.4g} rad/s."
               + (f" Sampled loop, same models: {sampled_summary(d).split(': ', 1)[1]}."
                  if sampled_summary(d) else "")),
     ]
@@ -109,7 +108,7 @@ def design_doc(result: DesignResult, twin: bool = False) -> Doc:
 
 def write_design_report(result: DesignResult, out_dir: str | os.PathLike,
                         progress: Callable[[str], None] | None = None,
-                        force: bool = False) -> Path:
+                        force: bool = False, curves: DesignCurves | None = None) -> Path:
     """Write the report folder of ``result``.
 
     Parameters
@@ -123,6 +122,9 @@ def write_design_report(result: DesignResult, out_dir: str | os.PathLike,
         Called with one line of text per stage.
     force : bool
         Write into a folder robrst did not write (only the report's files).
+    curves : DesignCurves, optional
+        The curves to draw (:func:`robrst.studies.design_curves.design_curves`; computed
+        here when not given, with the digital twin's steps for the paper's plant).
 
     Returns
     -------
@@ -144,23 +146,20 @@ def write_design_report(result: DesignResult, out_dir: str | os.PathLike,
     ['bode.png', 'nyquist.png', 'step.png']
     """
     say = progress or (lambda m: None)
-    twin = result.problem.plant_name == "paper"
-    doc = design_doc(result, twin=twin)
+    if curves is None:
+        twin = result.problem.plant_name == "paper"
+        if twin:
+            say("simulating the digital twin for step.png")
+        curves = design_curves(result, twin=twin)
+    doc = design_doc(result, twin=bool(curves.twin))
 
     def draw(tmp):
         say("drawing bode.png")
-        figs.bode_figure(result, tmp / "bode.png")
+        figs.bode_figure(result, curves, tmp / "bode.png")
         say("drawing nyquist.png")
-        figs.nyquist_figure(result, tmp / "nyquist.png")
-        tw = None
-        if twin:
-            say("simulating the digital twin for step.png")
-            fam = result.problem.family.models
-            tw = twin_step_responses(default_twin(), result.controller,
-                                     (fam[0].temperature_C, fam[-1].temperature_C),
-                                     figs.step_horizon(result))
+        figs.nyquist_figure(result, curves, tmp / "nyquist.png")
         say("drawing step.png")
-        figs.step_figure(result, tmp / "step.png", twin=tw)
+        figs.step_figure(result, curves, tmp / "step.png")
 
     text = json_text(result.as_dict(), indent=1) + "\n"
     return write_folder(out_dir, doc, {"result.json": text}, draw, force=force)

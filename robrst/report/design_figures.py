@@ -1,8 +1,10 @@
 """Figures of a design report: Bode of S, T, U; Nyquist with the modulus circle; steps.
 
-Every function takes a :class:`~robrst.design.DesignResult` and a file path and
-writes one PNG (:func:`robrst.report.figure.drawing`: no global matplotlib state).
-Frequencies are in Hz on log axes, magnitudes in dB, time in ms, displacement in µm.
+Every function takes a :class:`~robrst.design.DesignResult`, the curves computed for it
+(:func:`robrst.studies.design_curves.design_curves`) and a file path, and writes one PNG
+(:func:`robrst.report.figure.drawing`: no global matplotlib state).  The figures draw
+what the records carry: nothing is computed here.  Frequencies are in Hz on log axes,
+magnitudes in dB, time in ms, displacement in µm.
 """
 
 from __future__ import annotations
@@ -11,48 +13,46 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from robrst.core import poly
-from robrst.core.analysis import sensitivity, step_response
 from robrst.report.figure import colors as _colors
 from robrst.report.figure import drawing
-from robrst.core.rst import closed_loop
 
 if TYPE_CHECKING:
     from pathlib import Path
+
     from robrst.design import DesignResult
+    from robrst.studies.design_curves import DesignCurves
 
-__all__ = ["bode_figure", "nyquist_figure", "step_figure", "step_horizon"]
-
-_F = np.logspace(0, 4.7, 1500)  # 1 Hz .. 50 kHz
+__all__ = ["bode_figure", "nyquist_figure", "step_figure"]
 
 
 def _db(x):
     return 20 * np.log10(np.maximum(np.abs(x), 1e-300))
 
 
-def bode_figure(result: DesignResult, path: str | Path) -> None:
+def bode_figure(result: DesignResult, curves: DesignCurves, path: str | Path) -> None:
     """``|S|, |T|, |U|`` for every family temperature, spec bounds dashed, peaks marked.
 
     Parameters
     ----------
     result : DesignResult
-        The design (its analyses and certificate are drawn).
+        The design (its analyses' peaks and the specs are drawn).
+    curves : DesignCurves
+        The frequency responses (:func:`robrst.studies.design_curves.design_curves`).
     path : str or pathlib.Path
         The PNG file.
     """
-    fam = result.problem.family.models
-    specs = result.problem.specs
     with drawing(path, (8, 9), 3, 1, sharex=True) as (fig, axes):
-        _bode(result, fam, specs, axes)
+        _bode(result, curves, axes)
 
 
-def _bode(result, fam, specs, axes):
-    cols = _colors(len(fam))
+def _bode(result, curves, axes):
+    specs = result.problem.specs
+    cols = _colors(len(curves.models))
     for (name, key, unit), ax in zip((("S", "Ms_max", "-"), ("T", "Mt_max", "-"),
                                       ("U", "Mu_max", "V/µm")), axes):
-        for m, a, c in zip(fam, result.analyses, cols):
-            ax.semilogx(_F, _db(sensitivity(m, result.controller, name, 2 * np.pi * _F)),
-                        color=c, lw=1.2, label=f"{m.temperature_C:g} °C")
+        for mc, a, c in zip(curves.models, result.analyses, cols):
+            ax.semilogx(curves.freq_hz, _db(getattr(mc, name)), color=c, lw=1.2,
+                        label=f"{mc.temperature_C:g} °C")
             pk = a.peaks[name]
             if pk.freq_rad_s is not None and np.isfinite(pk.freq_rad_s):
                 ax.plot(pk.freq_rad_s / (2 * np.pi), _db(pk.value), "x", color=c, ms=8)
@@ -66,28 +66,26 @@ def _bode(result, fam, specs, axes):
     axes[-1].set_xlabel("frequency f [Hz] (log)")
 
 
-def nyquist_figure(result: DesignResult, path: str | Path) -> None:
+def nyquist_figure(result: DesignResult, curves: DesignCurves, path: str | Path) -> None:
     """Loop L = BR/(AS) per temperature around -1 with the modulus-margin circles.
 
     Parameters
     ----------
     result : DesignResult
         The design.
+    curves : DesignCurves
+        The loops (:func:`robrst.studies.design_curves.design_curves`).
     path : str or pathlib.Path
         The PNG file.
     """
     with drawing(path, (7, 6.5)) as (fig, ax):
-        _nyquist(result, ax)
+        _nyquist(result, curves, ax)
 
 
-def _nyquist(result, ax):
-    fam = result.problem.family.models
-    w = 2 * np.pi * np.logspace(-1, 5, 6000)
-    for m, c in zip(fam, _colors(len(fam))):
-        L = (poly.eval_jw(poly.pmul(m.B, result.controller.R), w)
-             / poly.eval_jw(poly.pmul(m.A, result.controller.S), w))
-        L = np.where(np.abs(L) < 20, L, np.nan)
-        ax.plot(L.real, L.imag, color=c, lw=1.2, label=f"{m.temperature_C:g} °C")
+def _nyquist(result, curves, ax):
+    for mc, c in zip(curves.models, _colors(len(curves.models))):
+        L = np.where(np.abs(mc.L) < 20, mc.L, np.nan)
+        ax.plot(L.real, L.imag, color=c, lw=1.2, label=f"{mc.temperature_C:g} °C")
         ax.plot(L.real, -L.imag, color=c, lw=0.6, ls=":")
     th = np.linspace(0, 2 * np.pi, 400)
     ms_max = result.problem.specs.Ms_max
@@ -109,64 +107,31 @@ def _nyquist(result, ax):
     ax.legend(fontsize=8, loc="lower left")
 
 
-def step_horizon(result: DesignResult, t_max: float = 1.0) -> float:
-    """Three times the slowest 2 % settling time of the reference step [s], 5 ms..1 s.
-
-    (The spectral abscissa would be misleading: a slow pole nearly cancelled by a
-    zero of T hardly shows in the response.)
-
-    Parameters
-    ----------
-    result : DesignResult
-        The design.
-    t_max : float
-        Upper limit [s].
-
-    Returns
-    -------
-    float
-        The time span of the step figure [s].
-    """
-    t = np.linspace(0, t_max, 20001)
-    ts = 0.0
-    for m in result.problem.family.models:
-        cl = closed_loop(m, result.controller)
-        y = step_response(cl.nums["Tr"], cl.Delta, t)
-        final = y[-1] if abs(y[-1]) > 1e-12 else 1.0
-        out = np.flatnonzero(np.abs(y - final) > 0.02 * abs(final))
-        ts = max(ts, t[out[-1]] if out.size else 0.0)
-    return float(np.clip(3 * ts, 5e-3, t_max))
-
-
-def step_figure(result: DesignResult, path: str | Path,
-                twin: dict[str, tuple] | None = None) -> None:
-    """Reference and input-disturbance steps at the extreme temperatures.
+def step_figure(result: DesignResult, curves: DesignCurves, path: str | Path) -> None:
+    """Reference and input-disturbance steps at the extreme temperatures, with the
+    digital twin's reference steps (``curves.twin``: sampled controller, every effect
+    on) drawn on the reference panel.
 
     Parameters
     ----------
     result : DesignResult
         The design.
+    curves : DesignCurves
+        The step responses (:func:`robrst.studies.design_curves.design_curves`).
     path : str or pathlib.Path
         The PNG file.
-    twin : dict, optional
-        Maps a label to ``(t [s], y [µm])`` curves of the digital twin (sampled
-        controller, every effect on), drawn on the reference panel.
     """
-    fam = result.problem.family.models
-    ext = [fam[0], fam[-1]] if len(fam) > 1 else [fam[0]]
-    t = np.linspace(0, step_horizon(result), 2000)
     with drawing(path, (11, 4.2), 1, 2) as (fig, (a1, a2)):
-        _steps(result, ext, t, twin, a1, a2)
+        _steps(curves, a1, a2)
 
 
-def _steps(result, ext, t, twin, a1, a2):
-    for m, c in zip(ext, ("tab:blue", "tab:red")):
-        cl = closed_loop(m, result.controller)
-        a1.plot(t * 1e3, step_response(cl.nums["Tr"], cl.Delta, t), color=c,
-                label=f"linear, {m.temperature_C:g} °C")
-        a2.plot(t * 1e3, step_response(cl.nums["Sd"], cl.Delta, t), color=c,
-                label=f"linear, {m.temperature_C:g} °C")
-    for (label, (tt, yy)), c in zip((twin or {}).items(), ("tab:cyan", "tab:orange")):
+def _steps(curves, a1, a2):
+    for sc, c in zip(curves.steps, ("tab:blue", "tab:red")):
+        a1.plot(sc.t_s * 1e3, sc.reference_um, color=c,
+                label=f"linear, {sc.temperature_C:g} °C")
+        a2.plot(sc.t_s * 1e3, sc.disturbance_um, color=c,
+                label=f"linear, {sc.temperature_C:g} °C")
+    for (label, (tt, yy)), c in zip(curves.twin.items(), ("tab:cyan", "tab:orange")):
         a1.plot(tt * 1e3, yy, color=c, lw=1, ls="--", label=label)
     a1.set_title("reference step 1 µm")
     a1.set_ylabel("displacement y [µm]")

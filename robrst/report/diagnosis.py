@@ -38,6 +38,11 @@ def _focus(diag):
     return n_train + int(np.argmax([np.sum(np.asarray(r) ** 2) for r in res]))
 
 
+def _form(form):
+    return {"dynamic": " (level-dependent)", "prandtl_ishlinskii": " (Prandtl–Ishlinskii)"}.get(
+        form, "")
+
+
 def _first(a):
     a = np.asarray(a)
     return a if a.ndim == 1 else a[:, 0]
@@ -185,18 +190,28 @@ def diagnosis_doc(diag: Diagnosis) -> Doc:
     Doc
     """
     d = diag.as_dict()
-    rows = tuple((e["name"] + (" (dynamic)" if e["form"] == "dynamic" else ""),
+    rows = tuple((e["name"] + _form(e.get("form")), e.get("method") or "fit",
                   f"{e['gap_before']:.4g}", f"{e['gap_after']:.4g}", f"{100 * e['shrink']:.1f} %",
                   ", ".join(f"{k}={v:.4g}" for k, v in list(e["params"].items())[:8]
                             if v is not None))
                  for e in d["effects"] + ([dict(d["linear_refit"], name="linear re-fit")]
                                           if d["linear_refit"] else []))
+    credit = tuple((s["name"] + _form(s.get("form")), f"{s['gap_after']:.4g}",
+                    "—" if s.get("gap_without") is None else f"{s['gap_without']:.4g}",
+                    "—" if s.get("credit") is None else f"{100 * s['credit']:.0f} %")
+                   for s in d["selected"] or [])
+    credit += tuple((f"{n['name']} (not a cause)", f"{n['gap_with']:.4g}",
+                     f"{n['gap_without']:.4g}", "nothing") for n in d.get("not_causes") or [])
     blocks = [("p", f"Cause: **{d['cause']}** — {d['reason']}."),
               ("pre", summary_text(diag)),
               ("h2", "Held-out gap per candidate (each alone)"),
-              ("table", ("candidate", "gap before", "gap after", "shrink", "fitted parameters"),
-               rows),
-              ("h2", "Figures"),
+              ("table", ("candidate", "scored by", "gap before", "gap after", "shrink",
+                         "fitted parameters"), rows)]
+    if credit:
+        blocks += [("h2", "Credit of each effect named: the joint fit without it"),
+                   ("table", ("effect", "held-out gap with it", "without it",
+                              "share of the excess it removes"), credit)]
+    blocks += [("h2", "Figures"),
               ("img", "output.png", "Measured and simulated output on the test record with the"
                                     " largest gap"),
               ("img", "residual.png", "Residual of the simulation model with the localised gap"

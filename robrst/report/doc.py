@@ -12,13 +12,16 @@ from __future__ import annotations
 import html
 import os
 import shutil
+import socket
 import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 from robrst.base.errors import OutputError
-from robrst.base.fileio import atomic_write_bytes, check_folder_target, umask_mode
+from robrst.base.fileio import (atomic_write_bytes, check_folder_target, output_lock,
+                                owner_alive, owner_tag, peek_text, signals_deferred,
+                                umask_mode)
 
 __all__ = ["Doc", "to_markdown", "to_html", "write_folder", "check_report_target", "MARKER"]
 
@@ -140,6 +143,8 @@ def to_html(doc: Doc) -> str:
 
 
 MARKER = ".robrst-report"
+PARTIAL = ".robrst-partial"     # in a report folder being built: "PID HOST" of its writer
+LOCK_WAIT_S = 120.0             # a second writer of one folder waits for the first's swap
 
 
 def check_report_target(out: str | Path, force: bool = False, option: str = "--out",
@@ -174,6 +179,7 @@ def check_report_target(out: str | Path, force: bool = False, option: str = "--o
     hint = f"choose another {option}" + (", or --force to write the report files into it"
                                          " (nothing else is touched)" if can_force else "")
     out = Path(out)
+    check_folder_target(out)             # no symbolic-link loop, no file above it
     resolved = out.resolve()
     cwd = Path.cwd().resolve()
     if resolved == cwd or resolved in cwd.parents:
@@ -211,6 +217,12 @@ def write_folder(out_dir: str | Path, doc: Doc, extra_files: dict[str, str],
     ``force``, which writes the report files into it one by one, atomically, and touches
     nothing else.  A symbolic link to a folder stays a link: the folder it names is written.
 
+    One writer at a time (:func:`robrst.base.fileio.output_lock`): a second run writing
+    the same folder waits for the first's swap (up to :data:`LOCK_WAIT_S`), then replaces
+    its report.  The temporary folder is removed on any exception (the command line turns
+    SIGTERM into one, as Ctrl-C); one left by a killed process is removed by the next
+    writer of the folder.
+
     Parameters
     ----------
     out_dir : str or pathlib.Path
@@ -238,7 +250,7 @@ def write_folder(out_dir: str | Path, doc: Doc, extra_files: dict[str, str],
         When ``render_figures`` did not draw every image the document references.
     """
     given = out = Path(out_dir)
-    mode = check_report_target(out, force)
+    check_report_target(out, force)
     if out.is_symlink():              # a link to a report folder: the folder it names is written
         out = Path(os.path.realpath(out))
     try:
@@ -246,8 +258,9 @@ def write_folder(out_dir: str | Path, doc: Doc, extra_files: dict[str, str],
         tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
     except OSError as exc:
         raise OutputError(f"{out}: cannot write here ({exc.strerror or exc})") from None
-    tmp.chmod(umask_mode(0o777))
     try:
+        (tmp / PARTIAL).write_text(owner_tag() + "\n", encoding="utf-8")
+        tmp.chmod(umask_mode(0o777))
         render_figures(tmp)
         missing = [f for f in doc.images() if not (tmp / f).is_file()]
         if missing:
@@ -256,23 +269,48 @@ def write_folder(out_dir: str | Path, doc: Doc, extra_files: dict[str, str],
                  **extra_files}
         for name, text in texts.items():
             (tmp / name).write_text(text, encoding="utf-8")
-        names = sorted(p.name for p in tmp.iterdir())
+        names = sorted(p.name for p in tmp.iterdir() if p.name != PARTIAL)
         (tmp / MARKER).write_text("\n".join(names) + "\n", encoding="utf-8")
         for p in tmp.iterdir():
             p.chmod(umask_mode())
-        if mode == "merge":
-            for p in sorted(tmp.iterdir()):
-                atomic_write_bytes(out / p.name, p.read_bytes())
-            shutil.rmtree(tmp)
-            return given
-        old = None
-        if mode == "replace":
-            old = out.with_name(f".{out.name}.old.{os.getpid()}")
-            os.replace(out, old)
-        os.replace(tmp, out)
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
+        # one writer at a time: another run writing the same folder finishes its swap first
+        with output_lock(out, wait_s=LOCK_WAIT_S, what="report folder"):
+            _remove_stale(out)
+            mode = check_report_target(given, force)     # again: the folder may have changed
+            (tmp / PARTIAL).unlink()
+            if mode == "merge":
+                for p in sorted(tmp.iterdir()):
+                    atomic_write_bytes(out / p.name, p.read_bytes())
+                shutil.rmtree(tmp)
+                return given
+            with signals_deferred():     # the earlier report or the new one, never neither
+                old = None
+                if mode == "replace":
+                    old = out.with_name(f".{out.name}.old.{os.getpid()}")
+                    os.replace(out, old)
+                os.replace(tmp, out)
+            if old is not None:
+                shutil.rmtree(old, ignore_errors=True)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     return given
+
+
+def _remove_stale(out):
+    """Remove what an earlier writer of ``out`` left when it was killed (SIGKILL, power
+    loss): its temporary siblings ``.NAME.XXXXXXXX`` (marked :data:`PARTIAL` with the
+    owner's process, which no longer runs) and ``.NAME.old.PID`` of a process that no
+    longer runs.  Called with the folder's lock held; nothing else is touched."""
+    for p in out.parent.glob(f".{out.name}.*"):
+        if not p.is_dir() or p.is_symlink():
+            continue
+        mark = p / PARTIAL
+        if mark.is_file():
+            if not owner_alive(peek_text(mark) or ""):
+                shutil.rmtree(p, ignore_errors=True)
+            continue
+        tail = p.name[len(out.name) + 2:]
+        if tail.startswith("old.") and tail[4:].isdigit() and (p / MARKER).is_file() \
+                and not owner_alive(f"{tail[4:]} {socket.gethostname()}"):
+            shutil.rmtree(p, ignore_errors=True)

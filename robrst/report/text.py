@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["margins_table", "sampled_summary", "design_summary", "fleet_summary", "fmt"]
+__all__ = ["margins_table", "sampled_summary", "design_summary", "fleet_summary", "fmt",
+           "spec_table", "controller_lines"]
 
 
 def fmt(x: float | None, spec: str) -> str:
@@ -92,8 +93,113 @@ def sampled_summary(d: dict) -> str | None:
             f" {'all stable' if stable else 'NOT all stable'}")
 
 
+def _num(x, digits=4):
+    """A number for a designer: ``.4g`` with thousands grouped when it is large."""
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "inf" if x is not None and x > 0 else ("-inf" if x is not None else "-")
+    if abs(x) >= 1e4 and abs(x) < 1e12:
+        return f"{x:,.0f}"
+    return format(x, f".{digits}g")
+
+
+def _poly_factors(f, var="s"):
+    """A polynomial's factored form: gain, ``s^k``, ``(s + a)`` and damped pairs."""
+    parts = [] if f["gain"] == 1.0 else [_num(f["gain"])]
+    if f["integrators"]:
+        parts.append(var if f["integrators"] == 1 else f"{var}^{f['integrators']}")
+    for r in f["real"]:
+        parts.append(f"({var} {'+' if r <= 0 else '-'} {_num(abs(r))})")
+    for wn, z in f["pairs"]:
+        parts.append(f"({var}^2 {'+' if z >= 0 else '-'} 2*{abs(z):.3g}*{_num(wn)} {var}"
+                     f" + {_num(wn)}^2)")
+    return " ".join(parts) or "1"
+
+
+def controller_lines(d: dict) -> list[str]:
+    """The controller as factored gain, roots and damped pairs, and its coefficients in the
+    scaled variable (``d["controller_factored"]``).
+
+    Parameters
+    ----------
+    d : dict
+        The design JSON.
+
+    Returns
+    -------
+    list of str
+    """
+    f = d.get("controller_factored")
+    c = d["controller"]
+    if f is None:
+        return [f"  {k}(s) = " + " ".join(f"{v:.6g}" for v in c[k]) for k in "RST"]
+    out = ["controller (factored; pairs as s^2 + 2 zeta wn s + wn^2, wn in rad/s):"]
+    for k in "RST":
+        out.append(f"  {k}(s) = {_poly_factors(f[k])}")
+    w0 = f["w0_rad_s"]
+    out.append(f"  coefficients in x = s/{_num(w0)} (all divided by {_num(w0)}^deg S):")
+    for k in "RST":
+        out.append(f"    {k}: " + " ".join(f"{v:.6g}" for v in f[k]["scaled"]))
+    return out
+
+
+def _objective_line(d):
+    so = d.get("solver", {})
+    obj = so.get("objective")
+    if obj is None:       # the analytic design: no objective optimised
+        return f"objective: none (analytic pole placement); integral gain {_num(d['integral_gain'])}"
+    if obj == "max_integral_gain":
+        val = f"integral gain {_num(d['integral_gain'])} V/(µm s)"
+    elif obj == "min_Ms":
+        ms = [r for r in d.get("specs_achieved", []) if r["spec"] == "Ms_max"]
+        val = (f"worst Ms {_num(ms[0]['achieved'])}" if ms else
+               f"worst Ms {_num(max(m['Ms'] for m in d['certificate']['models']))}")
+    else:
+        val = "feasibility (no objective)"
+    line = f"objective: {obj} -> {val}"
+    st = d.get("starts")
+    if st:
+        sp = st["spread"]
+        if sp.get("certified"):
+            line += (f"; multi-start: {len(st['starts'])} starts, {sp['certified']} certified,"
+                     f" optima {_num(sp['worst'])} .. {_num(sp['best'])}, best from"
+                     f" '{st['winner']}'")
+        else:
+            line += f"; multi-start: {len(st['starts'])} starts, none certified"
+    return line
+
+
+def spec_table(d: dict) -> list[str]:
+    """Each spec: bound, achieved (worst over the certificate's models), slack, where, and
+    whether it binds (``d["specs_achieved"]``).
+
+    Parameters
+    ----------
+    d : dict
+        The design JSON.
+
+    Returns
+    -------
+    list of str
+    """
+    rows = d.get("specs_achieved") or []
+    if not rows:
+        return ["specs: none bounded"]
+    head = f"  {'spec':<24}{'bound':>11}{'achieved':>12}{'slack':>9}  where"
+    out = ["specs (worst over every checked model and temperature; slack = room left):", head]
+    for r in rows:
+        name = r["spec"] + (" (default)" if r.get("source") == "default" else "")
+        where = (r["model"] if r["temperature_C"] is None else
+                 f"{r['model']} ({r['temperature_C']:g} °C"
+                 + (", sampled" if r.get("loop") == "sampled" else "") + ")")
+        out.append(f"  {name:<24}{_num(r['bound']):>11}{_num(r['achieved']):>12}"
+                   f"{100 * r['slack']:>8.1f}%  {where}" + ("  BINDS" if r["binding"] else ""))
+    return out
+
+
 def design_summary(d: dict) -> str:
-    """The text ``robrst design`` prints: controller, margins, certificate, checks.
+    """The text ``robrst design`` prints: what ran and why, the objective, every spec with
+    its achieved value and slack, the binding constraints, notes and warnings, the
+    controller factored, margins, certificate and checks.
 
     Parameters
     ----------
@@ -104,14 +210,31 @@ def design_summary(d: dict) -> str:
     -------
     str
     """
-    out = [f"problem {d['problem']}  method {d['method']}  certified: {d['certified']}"]
-    c = d["controller"]
-    for k in "RST":
-        out.append(f"  {k}(s) = " + " ".join(f"{v:.6g}" for v in c[k]))
+    head = f"problem {d['problem']}  method {d['method']}  certified: {d['certified']}"
+    out = [head]
+    if d.get("method_reason"):
+        out.append(f"method: {d['method_reason']}")
+    out.append(_objective_line(d))
+    out += spec_table(d)
+    so = d.get("solver", {})
+    if so.get("binding"):
+        out.append("binding constraints (the optimiser's multipliers): "
+                   + "; ".join(so["binding"]))
+    if d.get("best_achievable"):
+        out.append(d["best_achievable"])
+    notes = list(so.get("notes") or []) + list((d.get("assessment") or {}).get("notes") or [])
+    for n in notes:
+        out.append(f"note: {n}")
+    for w in (d.get("assessment") or {}).get("warnings") or []:
+        out.append(f"WARNING: {w}")
+    out += controller_lines(d)
     out.append(margins_table(d))
     cert = d["certificate"]
     out.append(f"certificate: {len(cert['models'])} models checked (family + temperature sweep),"
                f" {len(cert['violations'])} violations")
+    region = cert.get("interval", {}).get("pole_region")
+    if region:
+        out.append(f"pole region: {region['statement']}")
     line = sampled_summary(d)
     if line:
         out.append(line)

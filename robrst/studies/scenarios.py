@@ -19,6 +19,7 @@ from robrst.design import analytic_design, run_problem
 from robrst.base.errors import SpecError
 from robrst.core.rst import discretize
 from robrst.problem.files import load_problem
+from robrst.twin.config import run_samples
 from robrst.twin.model import build_model
 from robrst.twin.simulate import Simulator, simulate
 
@@ -61,14 +62,16 @@ def _ds(r, step=1, label=""):
                    yr=None if r.yr is None else r.yr[s], comments=(label,), source="twin")
 
 
-def _temp_profile(fs, up_s, hold_s, down_s, T0=28.0, T1=45.0, T2=28.0):
+def _temp_profile(cfg, up_s, hold_s, down_s, T0=28.0, T1=45.0, T2=28.0):
+    run_samples(cfg, up_s + hold_s + down_s, "the temperature profile")
+    fs = cfg.sample_rate_hz
     n = [int(round(x * fs)) for x in (up_s, hold_s, down_s)]
     return np.concatenate([np.linspace(T0, T1, n[0]), np.full(n[1], T1), np.linspace(T1, T2, n[2])])
 
 
 def fig2(cfg, ctrls, fast=False):
     fs = cfg.sample_rate_hz
-    T = _temp_profile(fs, *((30, 10, 30) if fast else (240, 60, 240)))
+    T = _temp_profile(cfg, *((30, 10, 30) if fast else (240, 60, 240)))
     metrics, ds, curves = {}, {}, {}
     sim = Simulator(build_model(cfg))
     dec = max(1, int(fs / 100))
@@ -136,7 +139,7 @@ def fig3(cfg, ctrls, fast=False):
             curves[f"{f:g} Hz, {T:g} °C"] = (r.u_applied[last][::dec], r.y_true[last][::dec],
                                             "voltage [V]", "displacement [µm]")
         dur = 20.0 if fast else 100.0
-        n = int(dur * fs)
+        n = run_samples(cfg, dur, "the creep run")
         r = simulate(cfg, np.full(n, T), u=np.full(n, 100.0), simulator=sim)
         i1 = int(1.0 * fs)
         metrics["creep"][f"{T:g}C"] = float((r.y_true[-1] - r.y_true[i1]) / r.y_true[i1])
@@ -211,8 +214,9 @@ def controllers() -> dict[str, RSTController]:
 
 def fig7(cfg, ctrls, fast=False):
     fs = cfg.sample_rate_hz
-    T = np.concatenate([np.full(int(0.5 * fs), 28.0), _temp_profile(fs, *((20, 5, 20) if fast else (120, 30, 120)),
-                                                                     T2=30.0)])
+    T = np.concatenate([np.full(int(0.5 * fs), 28.0),
+                        _temp_profile(cfg, *((20, 5, 20) if fast else (120, 30, 120)),
+                                      T2=30.0)])
     yr = np.full(T.size, 20.0)
     metrics, ds, curves = {}, {}, {}
     dec = int(fs / 200)
@@ -309,7 +313,7 @@ def twin_step_responses(cfg: TwinConfig, ctrl: RSTController, temperatures: Sequ
     """
     dc = discretize(ctrl, cfg.sample_rate_hz)
     sim = Simulator(build_model(cfg), dc)
-    n = int(t_end * cfg.sample_rate_hz)
+    n = run_samples(cfg, t_end, "the step response")
     out = {}
     for T in temperatures:
         r = simulate(cfg, np.full(n, T), yr=np.full(n, step_um), dctrl=dc, seed=0, simulator=sim)

@@ -21,6 +21,9 @@ from robrst.synthesis.nlp import grid_blocks
 from robrst.synthesis.outcome import Round, worst_violation
 from robrst.synthesis.parametrize import integral_gain
 from robrst.synthesis.starts import ON_SLOW_POLE, candidates, score
+from robrst.synthesis.polerows import pole_rows, worst_damping_ratio
+from robrst.synthesis.timesamples import (TIME_MARGIN, time_rows, time_specs,
+                                           worst_time_ratio)
 
 if TYPE_CHECKING:
     from robrst.certificate.proof import Certificate
@@ -29,6 +32,7 @@ if TYPE_CHECKING:
     from robrst.synthesis.context import Context
     from robrst.synthesis.nlp import NLPSetup
     from robrst.synthesis.outcome import SolveResult, SynthesisResult
+    from robrst.synthesis.timesamples import TimeSpecs
 
 __all__ = ["Outcome", "Run", "worst_violation", "frequency_certificate", "refine",
            "objective_value", "GAMMA_FLOOR"]
@@ -39,9 +43,12 @@ FREE_BOX, FREE_BOXES, FREE_MAX_ITER = 1.0, 6, 300   # trust regions with freely 
 FREE_EXCHANGE_ROUNDS, FREE_ITER_BUDGET = 10, 800
 RUN_ITER_BUDGET = 2500    # IPOPT iterations per synthesis: then the best certified point found
 FAR_START = 5.0           # a start missing the specs 5x: no objective phase from it
+BOLD_FAR = 20.0           # a bolder start (Run.bolder) may miss them 20x
 WARM_MU = 1e-4           # IPOPT's initial barrier from a previous design of a nearby variant
 WARM_NEAR = 1.05         # ... solved from at once when within 5 % of the specs on the grid
 WARM_START = "previous design"   # the name of that start (robrst.synthesis.robust hands it down)
+TIME_ROUNDS = 8          # reference-step samples: linearise-and-solve rounds per solve
+TIME_BOX = 0.5           # their first trust region (relative to the coefficients)
 
 
 @dataclass(frozen=True, eq=False)
@@ -92,7 +99,7 @@ class Outcome:
             return 0.0
         if v.quantity == "spectral_abscissa" or not v.bound:   # crossing / unresolved: bound 0
             return np.inf
-        return v.value / v.bound
+        return v.ratio
 
 
 def frequency_certificate(problem: Problem, ctrl: RSTController) -> Certificate:
@@ -160,14 +167,15 @@ def refine(problem: Problem, cert: Certificate, models: list,
             nu = np.unique(np.concatenate([nu, [w * f for f in (0.98, 1.0, 1.02)]]))
         elif v.quantity.endswith("peak"):  # peak at infinity: push the grid further out
             nu = np.unique(np.concatenate([nu, [nu.max() * 100.0]]))
-        r = v.value / v.bound if v.bound else np.inf
         k = actuator_of(v.label)[0]
         if k:          # a further actuator's model (problem.scenarios), by identity
-            if not any(m is q for q in models for m in _models_at(problem.families[k],
-                                                                   v.temperature_C)):
-                further[k, v.temperature_C] = max(further.get((k, v.temperature_C), 0.0), r)
-        elif v.temperature_C not in known:
-            new_T[v.temperature_C] = max(new_T.get(v.temperature_C, 0.0), r)
+            if np.isfinite(v.temperature_C) and not any(
+                    m is q for q in models
+                    for m in _models_at(problem.families[k], v.temperature_C)):
+                further[k, v.temperature_C] = max(further.get((k, v.temperature_C), 0.0),
+                                                  v.ratio)
+        elif v.temperature_C not in known and np.isfinite(v.temperature_C):
+            new_T[v.temperature_C] = max(new_T.get(v.temperature_C, 0.0), v.ratio)
     for T in sorted(new_T, key=lambda t: -new_T[t])[:max_new]:
         models.append(problem.family.at(T))
     for k, T in sorted(further, key=lambda kt: -further[kt])[:max_new]:
@@ -181,6 +189,25 @@ def _models_at(family, T):
     else the model :meth:`~robrst.core.family.PlantFamily.at` ``T``."""
     members = [m for m in family.models if m.temperature_C == T]
     return members + [family.at(T)] if members else [family.at(T)]
+
+
+def _stacked(a, b):
+    """Two sets of linear rows as one (either may be ``None``)."""
+    if a is None or b is None:
+        return a if b is None else b
+    return type(a)(A=np.vstack([a.A, b.A]), g=np.concatenate([a.g, b.g]),
+                   c=np.concatenate([a.c, b.c]), keys=a.keys + b.keys,
+                   labels=a.labels + b.labels)
+
+
+class _Timed:
+    """A solve of :meth:`Run.timed` and whether it was the objective's (``phase_ok``)."""
+
+    def __init__(self, res, phase_ok):
+        self.res, self.phase_ok = res, phase_ok
+
+    def __getattr__(self, name):
+        return getattr(self.res, name)
 
 
 def _better(problem, out, others):
@@ -247,6 +274,9 @@ class Run:
         Built solvers by structure.
     warm : SynthesisResult, optional
         A previous design of a nearby variant.
+    budget : int, optional
+        IPOPT iterations of the synthesis (default ``RUN_ITER_BUDGET``); given, a hard stop
+        (an extra start of a multi-start).
 
     Attributes
     ----------
@@ -261,8 +291,10 @@ class Run:
     """
 
     def __init__(self, problem: Problem, say: Callable[[str], None], templates: dict,
-                 warm: SynthesisResult | None = None) -> None:
+                 warm: SynthesisResult | None = None, budget: int | None = None) -> None:
         self.problem, self.say, self.templates, self.warm = problem, say, templates, warm
+        self.budget = RUN_ITER_BUDGET if budget is None else int(budget)
+        self.strict = budget is not None   # an extra start: its budget is a hard stop
         self.rounds, self.notes = [], []
         self.hopeless = False     # set when the specs are provably infeasible
         self.solved = {}          # program key -> result: a repeated program is not re-solved
@@ -282,9 +314,11 @@ class Run:
         bool
         """
         total = sum(r.iterations for r in self.rounds)
-        if placement is None or total > 2 * RUN_ITER_BUDGET:
-            return total > RUN_ITER_BUDGET
-        return sum(r.iterations for r in self.rounds if r.placement == placement) > RUN_ITER_BUDGET
+        if self.strict:
+            return total > self.budget
+        if placement is None or total > 2 * self.budget:
+            return total > self.budget
+        return sum(r.iterations for r in self.rounds if r.placement == placement) > self.budget
 
     def solve(self, ctx: Context, setup: NLPSetup, x0: np.ndarray, phase: Phase, start: str,
               exact: bool = False) -> SolveResult:
@@ -320,9 +354,14 @@ class Run:
             res = self.boxed(ctx, setup, x0, phase, exact)
         elif res is None:
             res = solve_exchange(setup, x0, ipopt, phase, self.templates, exact=exact)
-            if not res.success:   # second chance: IPOPT's adaptive barrier update
+            if not res.success and not self.strict:   # second chance: adaptive barrier
                 res = solve_exchange(setup, x0, {**ctx.ipopt, "mu_strategy": "adaptive"}, phase,
                                      self.templates, exact=exact)
+        spec = time_specs(ctx.problem, setup.w0)
+        floored = setup.region is not None and (setup.region.zeta is not None
+                                                or setup.region.ctrl_zeta is not None)
+        if (spec is not None or floored) and res.success and key not in self.solved:
+            res = self.linearised(ctx, setup, res, phase, exact, spec)
         self.solved[key] = res
         ex = res.exchange
         gamma = float(res.x[-1]) if phase.kind == "soft" else None
@@ -337,6 +376,90 @@ class Run:
                  f" {res.status} in {res.iterations} it, {len(setup.models)} models x"
                  f" {len(setup.nu)} freqs" + (f", worst spec ratio {gamma:.4g}" if gamma else ""))
         return res
+
+    def linearised(self, ctx: Context, setup: NLPSetup, res: SolveResult, phase: Phase,
+                   exact: bool, spec: TimeSpecs | None) -> SolveResult:
+        """The linearised rows: reference-step samples (:mod:`robrst.synthesis.timesamples`,
+        ``spec``) and the roots near a damping floor (:mod:`robrst.synthesis.polerows`).
+
+        While a sample violates its spec or a root lies below its floor, the violated and
+        near ones are linearised at the point and the program is solved again inside a
+        trust region: in the objective phase first a restoration solve (phase ``"time"``:
+        the worst normalised sample minimised, every other spec held), then the objective
+        with the rows as constraints; in the soft phase the samples scale with ``gamma``
+        (the roots' rows never do).  A step is kept when the worst exact ratio improved
+        (the trust region then grows; it is halved otherwise).
+
+        Parameters
+        ----------
+        ctx : Context
+            The problem's context.
+        setup : NLPSetup
+            The program.
+        res : SolveResult
+            The solve to start from.
+        phase : Phase
+            Its phase.
+        exact : bool
+            Exact peak exchange (as the solve).
+        spec : TimeSpecs or None
+            The reference-step specs (``None``: damping floors only).
+
+        Returns
+        -------
+        SolveResult
+            The last accepted solve, ``iterations`` summed.
+        """
+        best, keys, f, iters = res, (), TIME_BOX, res.iterations
+
+        def ratios(x):
+            w_t, fnd = worst_time_ratio(setup, x, spec) if spec is not None else (0.0, {})
+            return max(w_t, worst_damping_ratio(setup, x)), w_t, fnd
+
+        worst, w_time, found = ratios(best.x)
+        restore = (phase.kind == "hard" and not (
+            setup.objective == "min_Ms" and setup.bounds.get("S") is None))
+        for _ in range(TIME_ROUNDS):
+            if self.spent():
+                break
+            kind = "time" if w_time > 1.0 and restore else phase.kind
+            if worst <= 1.0 and (kind != "hard" or best is not res and best.phase_ok):
+                break
+            rows = time_rows(setup, best.x, spec, keys, found) if spec is not None else None
+            keys = rows.keys if rows is not None else keys
+            rows = _stacked(rows, pole_rows(setup, best.x))
+            if rows is None:
+                break
+            c = best.x[:ctx.param.n_x]
+            r = f * (np.abs(c) + 0.05 * np.max(np.abs(c)))
+            x0 = best.x.copy()
+            if kind == "time":
+                x0[-1] = max(w_time, 1.0) * 1.02
+            ipopt = ctx.ipopt if setup.placement != "free" else {   # as the boxed solves
+                **ctx.ipopt, "max_iter": min(ctx.ipopt["max_iter"], FREE_MAX_ITER)}
+            new = solve_exchange(setup, x0, ipopt, Phase(kind, TIME_MARGIN ** 2), self.templates,
+                                 exact=exact, box=(c, r), lin=rows)
+            iters += new.iterations
+            if not new.success:
+                f /= 2
+                continue
+            if np.allclose(new.x[:-1], best.x[:-1], rtol=1e-9, atol=1e-12):
+                break        # no freedom left (e.g. a unique Diophantine solution)
+            w_new, wt_new, f_new = ratios(new.x)
+            if kind == "time":
+                new = replace(new, x=np.concatenate([new.x[:-1], [res.x[-1]]]))
+            if w_new < worst or (w_new <= 1.0 and kind == "hard"):
+                best, worst, w_time, found = new, w_new, wt_new, f_new
+                f = min(2 * f, 4 * TIME_BOX)
+                best = _Timed(best, kind == "hard")
+            else:
+                f /= 2
+        if worst > 1.0:
+            self.notes.append(f"linearised rows (reference-step samples, damping floors): the"
+                              f" worst is {worst:.3g} x its bound after the rounds (the"
+                              " certificate decides)")
+        best = best.res if isinstance(best, _Timed) else best
+        return replace(best, iterations=iters)
 
     def boxed(self, ctx: Context, setup: NLPSetup, x0: np.ndarray, phase: Phase,
               exact: bool) -> SolveResult:
@@ -370,15 +493,16 @@ class Run:
             res = solve_exchange(setup, x, ipopt, phase, self.templates, exact=exact, box=(c, r),
                                  max_rounds=FREE_EXCHANGE_ROUNDS)
             iters += res.iterations
+            cap = min(FREE_ITER_BUDGET, self.budget)
             if not res.success:
-                if f <= FREE_BOX / 4 or iters > FREE_ITER_BUDGET:
+                if f <= FREE_BOX / 4 or iters > cap:
                     break
                 f /= 4
                 continue
             gain = best is None or res.objective < best.objective - 1e-3 * abs(best.objective)
             best, x = res, res.x
             inside = np.all(np.abs(res.x[:ctx.param.n_x] - c) < 0.999 * r)
-            if inside or not gain or iters > FREE_ITER_BUDGET:
+            if inside or not gain or iters > cap:
                 break
             f = min(2 * f, 8 * FREE_BOX)
         return replace(best if best is not None else res, iterations=iters)
@@ -436,7 +560,7 @@ class Run:
         x = np.concatenate([x[:-1], [1.0]])
         for rnd in range(p.solver.max_rounds):
             if rnd and self.spent(placement):
-                self.notes.append(f"iteration budget ({RUN_ITER_BUDGET}) spent: refinement stopped")
+                self.notes.append(f"iteration budget ({self.budget}) spent: refinement stopped")
                 break
             setup = ctx.setup(models, nu, placement)
             res = self.solve(ctx, setup, x, Phase("hard"), name if rnd == 0 else "previous round")
@@ -475,6 +599,52 @@ class Run:
             return soft
         out = self.hard(ctx, placement, res.x, f"soft-goal point from {WARM_START}")
         return out if out is not None and (out.certified or not soft.certified) else soft
+
+    def bolder(self, ctx: Context, setup: NLPSetup, placement: str, starts: Sequence,
+               out: Outcome) -> Outcome | None:
+        """A start beyond the certified ``out`` (a larger integral gain, not meeting the
+        specs on the grid, the nearest to them): brought to the specs by the soft phase,
+        then the objective (free placement only).  A
+        higher-gain basin the boldest feasible start does not reach (a loop that damps a
+        resonance actively crosses over near it).  ``None`` when the
+        objective is not the integral gain, nothing is bolder or the budget is spent.
+
+        Parameters
+        ----------
+        ctx : Context
+            The problem's context.
+        setup : NLPSetup
+            The program on the family's models.
+        placement : str
+            The placement.
+        starts : sequence of Start
+            The scored starts.
+        out : Outcome
+            The certified outcome to beat.
+
+        Returns
+        -------
+        Outcome or None
+        """
+        if (ctx.problem.solver.objective != "max_integral_gain" or placement != "free"
+                or self.spent(placement) or self.hopeless):
+            return None
+        ki = objective_value(ctx.problem, out)
+        cands = []
+        for s in starts:
+            if not s.stable or s.worst <= GAMMA_FLOOR or s.worst > BOLD_FAR:
+                continue
+            k = abs(integral_gain(ctx.controller(ctx.full(s.xc, setup, s.wn, s.zeta))))
+            if np.isfinite(k) and k > ki * (1 + 1e-3):
+                cands.append((s.worst, s))
+        if not cands:
+            return None
+        s = min(cands, key=lambda c: c[0])[1]
+        x0 = ctx.full(s.xc, setup, s.wn, s.zeta, gamma=max(s.worst * 1.02, GAMMA_FLOOR))
+        res = self.solve(ctx, setup, x0, Phase("soft", GAMMA_FLOOR), s.name)
+        if not (res.success and res.x[-1] <= 1.0):
+            return None
+        return self.hard(ctx, placement, res.x, f"soft-goal point from {s.name}")
 
     def attempt(self, ctx: Context, placement: str, seeds: Sequence[tuple]) -> Outcome | None:
         """Hard phase from the preferred start; if that fails, soft phase then hard phase.
@@ -552,11 +722,13 @@ class Run:
                     alt = max(other, key=lambda s: s.gain)
                     outs.append(self.hard(ctx, placement,
                                           ctx.full(alt.xc, setup, alt.wn, alt.zeta), alt.name))
+                outs.append(self.bolder(ctx, setup, placement, starts, out))
                 return _better(ctx.problem, out, outs)
             outs.append(out)
         n_soft = 1 if self.hopeless else SOFT_STARTS   # the best violation is all there is
         for s in [s for s in starts if not (s is first and feasible)][:n_soft]:
-            if self.spent(placement) and any(o is not None and o.certified for o in outs):
+            if self.spent(placement) and (self.strict or any(o is not None and o.certified
+                                                             for o in outs)):
                 break
             x0 = ctx.full(s.xc, setup, s.wn, s.zeta, gamma=max(s.worst * 1.02, GAMMA_FLOOR))
             if s.stable and s.worst <= GAMMA_FLOOR:     # meets the specs already: no soft phase

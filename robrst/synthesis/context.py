@@ -17,7 +17,7 @@ import numpy as np
 
 from robrst.core import poly
 from robrst.core.sampled import warp
-from robrst.synthesis.nlp import NLPSetup, scale_plant
+from robrst.synthesis.nlp import NLPSetup, Region, scale_plant
 from robrst.synthesis.parametrize import (Parametrization, TrackingRule, frequency_grid,
                                           integral_gain)
 
@@ -36,6 +36,7 @@ BOUND_MARGIN = 0.9995   # grid constraints just inside the specs (half the certi
 FREE_MARGIN = 0.98      # freely placed poles: sharp resonances move between the models
 CTRL_POLE_RATIO = 0.1   # max_integral_gain: controller poles at Re s <= -0.1 |slowest dominant|
 CTRL_MAX = 30.0         # free placement: controller poles at Re s >= -30 |fastest start root|
+REGION_MARGIN = 1e-3    # the program's damping floor just inside the certificate's
 
 
 def ipopt_options(so: SolverOptions) -> dict:
@@ -195,6 +196,27 @@ class Context:
         """
         return "dominant" if self.problem.solver.free_poles else "fixed"
 
+    def region(self) -> Region | None:
+        """The pole region of the program.
+
+        Returns
+        -------
+        Region or None
+            The damping floor (the default floor when ``damping_min`` is not given), the
+            scaled decay rate and the controller's damping floor; ``None`` when the specs
+            impose none.
+        """
+        p = self.problem
+        sp = p.specs
+        floor, _ = sp.damping_floor(p.family)
+        zeta = None if not floor else min(0.999, floor + REGION_MARGIN)
+        sigma = sp.decay_min / self.w0 if sp.decay_min else None
+        cz = sp.controller_damping_min
+        cz = min(0.999, cz + REGION_MARGIN) if cz else None
+        if zeta is None and sigma is None and cz is None:
+            return None
+        return Region(zeta=zeta, sigma=sigma, ctrl_zeta=cz)
+
     def setup(self, models: Sequence[Plant], nu: np.ndarray, placement: str) -> NLPSetup:
         """The numeric program data for ``models`` on the grid ``nu`` [rad/s].
 
@@ -215,7 +237,7 @@ class Context:
         sp, so = p.specs, p.solver
         sc, w0 = self.param.scaling, self.w0
         bounds = {"S": sp.Ms_max, "T": sp.Mt_max, "U": sp.Mu_max, "Tband": sp.T_resonance_max,
-                  "Uhf": sp.Mu_hf_max}
+                  "Uhf": sp.Mu_hf_max, "Sd": sp.Msd_max, "Ry": sp.Mry_max}
         margin = FREE_MARGIN if placement == "free" else BOUND_MARGIN
         bounds = {k: (None if v is None else v * margin) for k, v in bounds.items()}
         band = np.zeros(0)
@@ -243,6 +265,7 @@ class Context:
                 if hf.size else hf
             hfs += [warp(hf_s, fs) / w0] * len(sampled)
             models = list(models) + sampled
+        n_cont = len(models) - (len(rates) if sp.sampled else 0)
         ms = tuple((m.label, m.temperature_C, *scale_plant(m, sc)) for m in models)
         pb, domr = None, ()
         if placement == "dominant":
@@ -257,7 +280,23 @@ class Context:
                         rates=rates, placement=placement, hf=tuple(hfs),
                         integrators=self.param.integrators, sign=self.sign,
                         ctrl_shift=self.ctrl_shift, ctrl_max=self.ctrl_max,
-                        grids=tuple(grids))
+                        grids=tuple(grids), T_shape=self.T_shape(),
+                        fs_of=(None,) * n_cont + (sp.sample_rate_hz,) * (len(ms) - n_cont),
+                        region=self.region())
+
+    def T_shape(self) -> np.ndarray:
+        """The scaled feed-forward shape ``T / R(0)`` of the structure.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``T_shape(0) = 1``.
+        """
+        c = self.problem.controller
+        if c.T_mode == "static" or not c.T_zeros:
+            return np.ones(1)
+        Bm = poly.from_roots(c.T_zeros)
+        return self.param.scaling.apply(Bm) / Bm[-1]
 
     def full(self, xc: np.ndarray, setup: NLPSetup, wn: float | None = None,
              zeta: float | None = None, gamma: float = 1.0) -> np.ndarray:

@@ -38,6 +38,7 @@ from robrst.synthesis.template import Structure, Template
 
 if TYPE_CHECKING:
     from robrst.synthesis.nlp import GridBlock, NLPSetup
+    from robrst.synthesis.timesamples import TimeRows
 
 __all__ = ["ExchangeInfo", "Phase", "solve_exchange", "solve_program", "local_maxima",
            "effective_ratios"]
@@ -53,9 +54,12 @@ class Phase:
 
     Parameters
     ----------
-    kind : {"hard", "soft"}
+    kind : {"hard", "soft", "time"}
         ``"soft"``: minimise the worst normalised spec ratio ``gamma`` (systune's soft
-        goals); ``"hard"``: the problem's objective with every spec a constraint.
+        goals); ``"hard"``: the problem's objective with every spec a constraint;
+        ``"time"``: minimise the worst normalised ratio of the reference-step samples
+        alone, every other spec a constraint (the restoration step of
+        :mod:`robrst.synthesis.timesamples`).
     gamma_floor : float
         The soft phase stops minimising below this ``gamma``.
     """
@@ -98,6 +102,8 @@ def _limits(setup, blocks, phase):
     for b in blocks:
         if phase.kind == "soft":
             out.append((b.bound, True))
+        elif phase.kind == "time":
+            out.append((b.bound, False))
         elif setup.objective == "min_Ms" and b.key == "S":
             out.append((1.0, True))
         else:
@@ -137,7 +143,7 @@ def _capacity(n, lo=32):
     return c
 
 
-def _structure(setup, phase, n_slots, ipopt, rows, routh):
+def _structure(setup, phase, n_slots, ipopt, rows, routh, lin=None):
     ctrl = _ctrl(setup, phase)
     deg_eq = len(setup.Am_fixed) - 1 if setup.placement == "fixed" else (
         0 if setup.placement == "free" else rows[setup.ref][0])
@@ -146,7 +152,8 @@ def _structure(setup, phase, n_slots, ipopt, rows, routh):
                      groups=_group_caps([rows[j] for j in routh]),
                      slots=_capacity(n_slots), ipopt=tuple(sorted(ipopt.items())),
                      ctrl_deg=-1 if ctrl is None else ctrl[2] - 1,
-                     ctrl_count=1 if ctrl is None else ctrl[3])
+                     ctrl_count=1 if ctrl is None else ctrl[3],
+                     lin=0 if lin is None or not len(lin.c) else _capacity(len(lin.c), 24))
 
 
 def _ctrl(setup, phase):
@@ -169,7 +176,7 @@ def _group_caps(groups):
     return tuple((d, -(-n // 4) * 4) for d, n in sorted(degs.items()))
 
 
-def _values(setup, st, blocks, limits, active, rows, routh, phase, x_ref):
+def _values(setup, st, blocks, limits, active, rows, routh, phase, x_ref, lin=None):
     """Parameters, constraint bounds and labels of one solve."""
     nx, K = st.nx, st.slots
     v = {k: np.zeros((K, nx)) for k in ("NR", "NI", "DR", "DI")}
@@ -217,6 +224,7 @@ def _values(setup, st, blocks, limits, active, rows, routh, phase, x_ref):
     v.update(r0=r0, q0=q0, q0c=[q0c], xref=np.asarray(x_ref, float)[:nx])
     hard_ki = phase.kind == "hard" and setup.objective == "max_integral_gain"
     lbg += [1e-12, 1e-12] if hard_ki else [-np.inf, -np.inf]
+    scaled = phase.kind in ("soft", "time")      # rows scale with gamma
     ubg += [np.inf, np.inf]
     labels += [("positivity", None, None, 0), ("positivity", None, None, 1)]
     if st.ctrl_deg >= 0:
@@ -225,14 +233,23 @@ def _values(setup, st, blocks, limits, active, rows, routh, phase, x_ref):
         lbg += [ROUTH_MIN] * len(m)
         ubg += [np.inf] * len(m)
         labels += [("controller_routh", None, None, r) for r in range(len(m))]
+    if st.lin:
+        n = len(lin.c)
+        Lm, Lg, Lc = np.zeros((st.lin, nx)), np.zeros(st.lin), np.zeros(st.lin)
+        Lm[:n], Lg[:n], Lc[:n] = lin.A, (lin.g if scaled else 0.0), (
+            lin.c if scaled else lin.c + lin.g)   # hard: gamma is 1
+        v["Lm"], v["Lg"], v["Lc"] = Lm, Lg, Lc
+        lbg += [-np.inf] * st.lin
+        ubg += [0.0] * n + [np.inf] * (st.lin - n)
+        labels += list(lin.labels) + [("unused", None, None, None)] * (st.lin - n)
     # a small proximal term fixes the directions the objective and the active
     # constraints leave free (the Youla parameter's null directions), relative to |x_ref|
     reg = {"soft": 1e-4, "max_integral_gain": 1e-10, "min_Ms": 1e-10, "feasibility": 1e-2}[
-        "soft" if phase.kind == "soft" else setup.objective]
+        "soft" if scaled else setup.objective]
     reg /= 1.0 + float(np.dot(v["xref"], v["xref"]))
     v["coef"] = {"soft": [1.0, 0.0, reg], "max_integral_gain": [0.0, 1.0, reg],
                  "min_Ms": [1.0, 0.0, reg], "feasibility": [0.0, 0.0, reg]}[
-        "soft" if phase.kind == "soft" else setup.objective]
+        "soft" if scaled else setup.objective]
     return v, np.array(lbg), np.array(ubg), tuple(labels)
 
 
@@ -246,7 +263,7 @@ def _var_bounds(setup, st, phase, box=None):
         (wl, wh), (zl, zh) = setup.pole_bounds
         lbx[st.nx:st.nx + 2] = [wl, zl]
         ubx[st.nx:st.nx + 2] = [wh, zh]
-    if phase.kind == "soft":
+    if phase.kind in ("soft", "time"):
         lbx[-1] = phase.gamma_floor
     elif setup.objective == "min_Ms":
         lbx[-1] = 0.0
@@ -261,7 +278,8 @@ def solve_program(setup: NLPSetup, x0: np.ndarray, ipopt: dict, phase: Phase = P
                   blocks: Sequence[GridBlock] | None = None, active: Sequence | None = None,
                   templates: dict | None = None, x_ref: np.ndarray | None = None,
                   box: tuple[np.ndarray, np.ndarray] | None = None,
-                  routh: Sequence[int] | None = None, rows: list | None = None) -> SolveResult:
+                  routh: Sequence[int] | None = None, rows: list | None = None,
+                  lin: TimeRows | None = None) -> SolveResult:
     """Solve the program on the ``active`` grid points of ``blocks`` (default: all).
 
     Parameters
@@ -290,6 +308,9 @@ def solve_program(setup: NLPSetup, x0: np.ndarray, ipopt: dict, phase: Phase = P
     rows : list, optional
         Those rows, if the caller has them
         (:func:`~robrst.synthesis.stability.stability_rows`).
+    lin : TimeRows, optional
+        Linear rows (:class:`~robrst.synthesis.timesamples.TimeRows`: the reference-step
+        samples and the roots near a damping floor).
 
     Returns
     -------
@@ -302,19 +323,20 @@ def solve_program(setup: NLPSetup, x0: np.ndarray, ipopt: dict, phase: Phase = P
     limits = _limits(setup, blocks, phase)
     rows = stability_rows(setup) if rows is None else rows
     routh = tuple(range(len(rows))) if routh is None else tuple(routh)
-    st = _structure(setup, phase, sum(len(a) for a in active), ipopt, rows, routh)
+    st = _structure(setup, phase, sum(len(a) for a in active), ipopt, rows, routh, lin)
     cache = {} if templates is None else templates
     if st not in cache:
         cache[st] = Template(st)
     tpl = cache[st]
     v, lbg, ubg, labels = _values(setup, st, blocks, limits, active, rows, routh, phase,
-                                  x0 if x_ref is None else x_ref)
+                                  x0 if x_ref is None else x_ref, lin)
     lbx, ubx = _var_bounds(setup, st, phase, box)
     x0 = np.clip(x0, lbx, ubx)
     out = tpl.solve(v, x0, lbx, ubx, lbg, ubg)
     return SolveResult(status=out["status"], x=out["x"], objective=out["f"],
                        iterations=out["iterations"], g=out["g"], lbg=lbg, ubg=ubg,
-                       lam_g=out["lam_g"], labels=labels, w0=setup.w0, rates=dict(setup.rates))
+                       lam_g=out["lam_g"], labels=labels, w0=setup.w0, rates=dict(setup.rates),
+                       lam_x=out["lam_x"], lbx=lbx, ubx=ubx, params=v)
 
 
 def _initial_active(ratios, coarse_points, neighbours=True):
@@ -367,7 +389,8 @@ def solve_exchange(setup: NLPSetup, x0: np.ndarray, ipopt: dict, phase: Phase = 
                    templates: dict | None = None, max_rounds: int = 50,
                    coarse_points: int = COARSE_POINTS, exact: bool = False,
                    box: tuple[np.ndarray, np.ndarray] | None = None,
-                   stability: Sequence[int] | None = None) -> SolveResult:
+                   stability: Sequence[int] | None = None,
+                   lin: TimeRows | None = None) -> SolveResult:
     """Solve the program of ``setup`` on its whole grid by constraint exchange.
 
     Parameters
@@ -399,6 +422,8 @@ def solve_exchange(setup: NLPSetup, x0: np.ndarray, ipopt: dict, phase: Phase = 
         The models whose stability rows the first round carries (others join when a
         round's result violates them; :mod:`robrst.synthesis.stability`).  Default: every
         model for freely placed poles, else ``initial_stability``.
+    lin : TimeRows, optional
+        Linear rows imposed in every round (the reference-step samples).
 
     Returns
     -------
@@ -417,18 +442,18 @@ def solve_exchange(setup: NLPSetup, x0: np.ndarray, ipopt: dict, phase: Phase = 
     else:
         first = initial_stability(rows, x0)
     res = _exchange(setup, x0, ipopt, phase, templates, max_rounds, coarse_points, exact, box,
-                    rows, first)
+                    rows, first, lin)
     partial = res.exchange.stability_models < len(rows)
     if not res.success and partial and np.any(~(routh_margins(rows, res.x) >= ROUTH_MIN)):
         # it failed where a row left out does not hold: every row from the first round
         again = _exchange(setup, x0, ipopt, phase, templates, max_rounds, coarse_points, exact,
-                          box, rows, tuple(range(len(rows))))
+                          box, rows, tuple(range(len(rows))), lin)
         res = replace(again, iterations=again.iterations + res.iterations)
     return res
 
 
 def _exchange(setup, x0, ipopt, phase, templates, max_rounds, coarse_points, exact, box, rows,
-              routh):
+              routh, lin=None):
     """The rounds of :func:`solve_exchange` from the stability rows of models ``routh``."""
     x0 = np.asarray(x0, float)
     blocks = list(grid_blocks(setup, x0))
@@ -442,10 +467,10 @@ def _exchange(setup, x0, ipopt, phase, templates, max_rounds, coarse_points, exa
         # later rounds start at the previous optimum: a small initial barrier keeps them there
         opts = ipopt if rnd == 1 else {**ipopt, "mu_init": min(ipopt.get("mu_init", 0.1), 1e-4)}
         res = solve_program(setup, x, opts, phase, blocks, active, templates, x_ref=x0, box=box,
-                            routh=routh, rows=rows)
+                            routh=routh, rows=rows, lin=lin)
         if not res.success and rnd > 1:      # the warm barrier failed: the default one
             res = solve_program(setup, x, ipopt, phase, blocks, active, templates, x_ref=x0,
-                                box=box, routh=routh, rows=rows)
+                                box=box, routh=routh, rows=rows, lin=lin)
         x = res.x
         iters += res.iterations
         ratios = effective_ratios(blocks, limits, x, x[-1])

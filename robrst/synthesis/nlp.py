@@ -30,12 +30,12 @@ if TYPE_CHECKING:
     from robrst.core.plant import Plant
 
 
-__all__ = ["GridBlock", "NLPSetup", "grid_blocks", "conv_matrix", "jw_matrices",
+__all__ = ["GridBlock", "NLPSetup", "Region", "t_map", "grid_blocks", "conv_matrix", "jw_matrices",
            "routh_column", "scale_plant", "closed_loop_maps", "affine_controller",
            "objective_rows", "shift_matrix", "controller_conditions", "local_maxima",
            "PEAK_KEYS"]
 
-PEAK_KEYS = ("S", "T", "U", "Tband", "Uhf")
+PEAK_KEYS = ("S", "T", "U", "Tband", "Uhf", "Sd", "Ry")
 
 
 def conv_matrix(c: ArrayLike, n: int) -> np.ndarray:
@@ -168,7 +168,7 @@ class NLPSetup:
     nu : numpy.ndarray
         Scaled frequency grid.
     bounds : dict
-        ``{"S": Ms, "T": Mt, "U": Mu, "Tband": ..., "Uhf": ...}``.
+        ``{"S": Ms, "T": Mt, "U": Mu, "Tband": ..., "Uhf": ..., "Sd": Msd, "Ry": Mry}``.
     objective : str
         The objective.
     Am_fixed : numpy.ndarray
@@ -203,6 +203,13 @@ class NLPSetup:
         otherwise run off to infinity chasing a PI/PID limit).
     grids : tuple
         Per model, its scaled grid for S, T, U (default: ``nu``).
+    T_shape : numpy.ndarray, optional
+        ``T = R(0) T_shape`` (scaled, ``T_shape(0) = 1``: the feed-forward of the
+        structure's ``T_mode``), for the ``|B T / Delta|`` bound ``"Ry"``.
+    fs_of : tuple
+        Per model, the sample rate of a sampled-loop model (``None``: continuous).
+    region : Region, optional
+        The pole region.
 
     Attributes
     ----------
@@ -236,6 +243,9 @@ class NLPSetup:
     ctrl_shift: float = None
     ctrl_max: float = None
     grids: tuple = ()      # per model, its scaled grid for S, T, U (default: nu)
+    T_shape: np.ndarray = None
+    fs_of: tuple = ()
+    region: object = None
 
     @property
     def n_x(self):
@@ -277,6 +287,46 @@ def _product(c, L, l0, n_out):
     return np.vstack([np.zeros((pad, M.shape[1])), M]), np.concatenate([np.zeros(pad), m0])
 
 
+@dataclass(frozen=True)
+class Region:
+    """The closed-loop pole region imposed in one program (scaled).
+
+    Parameters
+    ----------
+    zeta : float, optional
+        Damping floor of every closed-loop pole (a sampled model's mapped to s by
+        ``fs ln z``; :mod:`robrst.synthesis.polerows`).
+    sigma : float, optional
+        Decay rate (scaled; sampled models: ``|z| < exp(-sigma w0 / fs)``,
+        :mod:`robrst.synthesis.stability`).
+    ctrl_zeta : float, optional
+        Damping floor of the controller's own poles.
+    """
+
+    zeta: float = None
+    sigma: float = None
+    ctrl_zeta: float = None
+
+
+def t_map(setup: NLPSetup, Lr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The feed-forward as an affine map of the controller vector.
+
+    Parameters
+    ----------
+    setup : NLPSetup
+        The program's data (its ``T_shape``).
+    Lr : numpy.ndarray
+        ``R = Lr x`` (:func:`affine_controller`).
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        ``(Lt, t0)`` with ``T = Lt x + t0`` (``T = R(0) T_shape``).
+    """
+    shape = np.ones(1) if setup.T_shape is None else np.asarray(setup.T_shape, float)
+    return np.outer(shape, Lr[-1]), np.zeros(len(shape))
+
+
 def closed_loop_maps(setup: NLPSetup) -> Callable:
     """``closed_loop(a, b) -> ((Dm, Dc), {key: (Nm, Nc)})`` affine maps of ``xc``.
 
@@ -289,9 +339,11 @@ def closed_loop_maps(setup: NLPSetup) -> Callable:
     -------
     callable
         ``closed_loop(a, b)`` for a scaled plant: ``Delta = Dm xc + Dc`` and the
-        numerators of ``"S"``, ``"T"``, ``"U"``, ``"Tband"``, ``"Uhf"`` likewise.
+        numerators of ``"S"``, ``"T"``, ``"U"``, ``"Tband"``, ``"Uhf"``, ``"Sd"`` (``B S``)
+        and ``"Ry"`` (``B T``) likewise.
     """
     Ls, s0, Lr = affine_controller(setup)
+    Lt, t0 = t_map(setup, Lr)
     zero_r = np.zeros(Lr.shape[0])
 
     def closed_loop(a, b):
@@ -299,8 +351,10 @@ def closed_loop_maps(setup: NLPSetup) -> Callable:
         AS = _product(a, Ls, s0, n_out)
         BR = _product(b, Lr, zero_r, n_out)
         AR = _product(a, Lr, zero_r, n_out)
+        BS = _product(b, Ls, s0, n_out)
+        BT = _product(b, Lt, t0, n_out)
         D = (AS[0] + BR[0], AS[1] + BR[1])
-        return D, {"S": AS, "T": BR, "U": AR, "Tband": BR, "Uhf": AR}
+        return D, {"S": AS, "T": BR, "U": AR, "Tband": BR, "Uhf": AR, "Sd": BS, "Ry": BT}
 
     return closed_loop
 

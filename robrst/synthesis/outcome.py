@@ -28,8 +28,10 @@ class Binding:
     Parameters
     ----------
     kind : str
-        ``"S"``, ``"T"``, ``"U"``, ``"Tband"``, ``"Uhf"`` (a peak bound on the grid),
-        ``"routh"`` (stability), ``"positivity"``, ``"gamma"`` or ``"controller_routh"``.
+        ``"S"``, ``"T"``, ``"U"``, ``"Tband"``, ``"Uhf"``, ``"Sd"``, ``"Ry"`` (a peak bound
+        on the grid), ``"routh"`` (stability, or decay with a pole region), ``"sector"``
+        (a root at a damping floor), ``"controller_sector"``, ``"time"`` (a
+        reference-step sample), ``"positivity"``, ``"gamma"`` or ``"controller_routh"``.
     model : str
         The model's label.
     temperature_C : float
@@ -40,6 +42,8 @@ class Binding:
         IPOPT's ``lam_g`` (scaled by the constraint's size).
     violation : float
         How far the constraint is from holding.
+    time_s : float, optional
+        A reference-step sample's time [s].
     """
 
     kind: str
@@ -48,6 +52,7 @@ class Binding:
     freq_rad_s: float
     multiplier: float
     violation: float
+    time_s: float = None     # a reference-step sample's time
 
     def describe(self) -> str:
         """One line, e.g. ``"|S| peak, model T45C (45 °C) at 612 Hz"``.
@@ -58,11 +63,18 @@ class Binding:
         """
         what = {"S": "|S| peak", "T": "|T| peak", "U": "|U| peak", "Tband": "|T| in the band",
                 "Uhf": "|U| above the high-frequency corner",
-                "routh": "closed-loop stability (Routh)",
+                "Sd": "|B S/Delta| peak (input disturbance)",
+                "Ry": "|B T/Delta| peak (reference to output)",
+                "routh": "closed-loop stability or decay (Routh)",
+                "sector": "closed-loop damping floor (a root at the floor)",
+                "controller_sector": "controller pole damping floor",
+                "time": "reference step (time samples)",
                 "controller_routh": "controller poles (stability / integral-gain shift)",
                 "positivity": "sign of the integral gain"}.get(self.kind, self.kind)
         who = "" if self.model is None else f" of model {self.model} ({self.temperature_C:g} °C)"
         at = "" if self.freq_rad_s is None else f" at {self.freq_rad_s / (2 * np.pi):.4g} Hz"
+        if self.time_s is not None:
+            at = f" at t = {self.time_s * 1e3:.4g} ms"
         return f"{what}{who}{at}"
 
 
@@ -93,6 +105,15 @@ class SolveResult:
         How the constraint exchange went, when solved by it.
     rates : dict, optional
         Model label -> sample rate [Hz] of sampled-loop models.
+    lam_x : numpy.ndarray, optional
+        IPOPT's multipliers of the variable bounds (CasADi's sign convention: the
+        Lagrangian is ``f + lam_g' g + lam_x' x``).
+    lbx, ubx : numpy.ndarray, optional
+        The variable bounds of the solve.
+    params : dict, optional
+        The program's parameter blocks (:meth:`robrst.synthesis.template.Template.pack`'s
+        input): with ``x``, ``lam_g`` and ``lam_x`` they let the optimality (KKT) conditions
+        be checked independently of CasADi and IPOPT.
 
     Attributes
     ----------
@@ -112,6 +133,10 @@ class SolveResult:
     w0: float
     exchange: object = None
     rates: dict = None       # model label -> sample rate [Hz] of sampled-loop models
+    lam_x: np.ndarray = None
+    lbx: np.ndarray = None
+    ubx: np.ndarray = None
+    params: dict = None      # the program's parameter blocks (Template.pack's input)
 
     @property
     def success(self):
@@ -128,6 +153,10 @@ class SolveResult:
 
     def _binding_at(self, i, v):
         kind, label, T, where = self.labels[i]
+        if kind == "time":       # a reference-step sample at scaled time ``where``
+            return Binding(kind=kind, model=label, temperature_C=T, freq_rad_s=None,
+                           multiplier=float(self.lam_g[i]), violation=float(v[i]),
+                           time_s=float(where) / self.w0)
         freq = float(where) * self.w0 if isinstance(where, float) else None
         fs = (self.rates or {}).get(label)
         if freq is not None and fs:      # the loop variable of a sampled model -> physical
@@ -355,7 +384,7 @@ def worst_violation(cert: Certificate) -> Violation | None:
     """
     if not cert.violations:
         return None
-    return max(cert.violations, key=lambda v: np.inf if v.bound == 0 else v.value / v.bound)
+    return max(cert.violations, key=lambda v: v.ratio)
 
 
 def best_achievable(cert: Certificate) -> str | None:

@@ -111,6 +111,8 @@ def _synthesize(problem, start, run, extra, lower=None):
     best, seeds = None, []
     warm = _warm_seed(ctx, run.warm) if extra == problem.controller.extra_degree else None
     for placement in placements:
+        if best is not None and run.strict and run.spent():
+            break          # an extra start of a multi-start: its budget is spent
         seeded = seeds + ([("lower-degree optimum", emb.x[:ctx.param.n_x])]
                           if emb is not None and _ORDER[emb.placement] <= _ORDER[placement]
                           else [])
@@ -187,7 +189,8 @@ def _homotopy(problem, start, run):
 
 def robust_synthesis(problem: Problem, start: AnalyticDesign,
                      progress: Callable[[str], None] | None = None, templates: dict | None = None,
-                     warm: SynthesisResult | None = None) -> SynthesisResult:
+                     warm: SynthesisResult | None = None,
+                     budget: int | None = None) -> SynthesisResult:
     """Synthesise, certify and always return a controller; see the module docstring.
 
     Parameters
@@ -204,6 +207,9 @@ def robust_synthesis(problem: Problem, start: AnalyticDesign,
     warm : SynthesisResult, optional
         A previous result of the same controller structure: its controller is the
         preferred start (a batch of nearby variants converges in a few iterations).
+    budget : int, optional
+        IPOPT iterations this synthesis may spend before it returns the best point found
+        (default ``RUN_ITER_BUDGET``; the extra starts of a multi-start get the first's).
 
     Returns
     -------
@@ -211,7 +217,7 @@ def robust_synthesis(problem: Problem, start: AnalyticDesign,
         ``status`` ``"certified"`` or ``"not_certified"`` (then ``best_achievable``).
     """
     say = progress or (lambda m: None)
-    run = Run(problem, say, {} if templates is None else templates, warm)
+    run = Run(problem, say, {} if templates is None else templates, warm, budget)
     t0 = time.perf_counter()
     note = a_priori_note(problem)
     if note:

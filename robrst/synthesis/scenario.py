@@ -397,13 +397,18 @@ class FleetDesign:
 
 
 def _ratio(violations):
-    """Worst ``value / bound`` of violations (``inf``: a crossing or an unstable loop)."""
+    """Worst ratio of violations (:attr:`~robrst.certificate.models.Violation.ratio`:
+    ``value / bound``, ``bound / value`` for a lower bound; ``inf``: a crossing or an
+    unstable loop)."""
     worst, text = 0.0, None
     for v in violations:
         # an unresolved figure by its proved bound (value); a crossing or an instability
         # (bound 0, or no finite value) is infinitely bad
-        r = v.value / v.bound if (v.bound and v.bound > 0 and v.value is not None
-                                  and np.isfinite(v.value)) else np.inf
+        finite = v.value is not None and np.isfinite(v.value)
+        if v.kind == "unresolved":
+            r = v.value / v.bound if finite and v.bound and v.bound > 0 else np.inf
+        else:
+            r = v.ratio if finite else np.inf
         if text is None or r > worst:
             worst, text = r, v.describe()
     return worst, text
@@ -451,8 +456,7 @@ def check_actuators(problem: Problem, ctrl: RSTController, families: Sequence[Pl
             cert = certify(f, ctrl, sp, n_sweep=n_T, rtol=so.cert_tol)
             ratios = cert.ratios()
             r = max(ratios.values(), default=0.0)
-            stable = all(rec["stable"] and rec.get("stable_sampled", True)
-                         for rec in cert.models)
+            stable = all(rec.stable for rec in cert.models)   # every loop checked
             text = _ratio(cert.violations)[1]
             out.append(ActuatorCheck(i, r if stable else np.inf, cert.certified, text))
     return out

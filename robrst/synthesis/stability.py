@@ -9,6 +9,11 @@ the start (:func:`initial_stability`), and a model whose rows a round's result v
 final point, so its multiplier is zero there: the point is a KKT point of the program
 with every row.  Most rows never bind (the peak bounds keep the loops well inside
 stability), and each costs every IPOPT iteration of the round.
+
+With a pole region's decay rate (:class:`~robrst.synthesis.nlp.Region`,
+:mod:`robrst.core.region`) the stability rows are those of the decay-shifted polynomial
+(``Delta(p - sigma)``, or the disc map of a sampled model): decay implies stability.
+Damping floors are linearised rows (:mod:`robrst.synthesis.polerows`).
 """
 
 from __future__ import annotations
@@ -18,6 +23,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from robrst.core import region as pole_region
 from robrst.synthesis.nlp import closed_loop_maps, routh_column
 
 if TYPE_CHECKING:
@@ -31,7 +37,9 @@ ROUTH_FIRST = 4         # stability rows of the first round: models per closed-l
 
 
 def stability_rows(setup: NLPSetup) -> list[tuple]:
-    """Per model ``(deg, Dm, Dc)`` of its closed-loop polynomial.
+    """Per model ``(deg, Dm, Dc)`` of its closed-loop polynomial (decay-shifted with a
+    region's ``sigma``: ``Delta(p - sigma)``, or for a sampled model the disc map,
+    :func:`robrst.core.region.disc_matrix`).
 
     Parameters
     ----------
@@ -44,10 +52,17 @@ def stability_rows(setup: NLPSetup) -> list[tuple]:
         ``Delta = Dm xc + Dc`` of degree ``deg``.
     """
     cl = closed_loop_maps(setup)
+    reg = setup.region
     out = []
-    for label, T, a, b in setup.models:
+    for j, (label, T, a, b) in enumerate(setup.models):
         (Dm, Dc), _ = cl(a, b)
-        out.append((Dm.shape[0] - 1, Dm, Dc))
+        deg = Dm.shape[0] - 1
+        if reg is not None and reg.sigma:
+            fs = setup.fs_of[j] if setup.fs_of else None
+            M = (pole_region.shift_matrix(deg, reg.sigma) if fs is None else
+                 pole_region.disc_matrix(deg, reg.sigma * setup.w0, fs, setup.w0))
+            Dm, Dc = M @ Dm, M @ Dc
+        out.append((deg, Dm, Dc))
     return out
 
 

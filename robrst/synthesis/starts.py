@@ -8,7 +8,9 @@ Candidates (decision vectors of one :class:`~robrst.synthesis.context.Context`):
   of the homotopy, embedded by a common factor);
 * when every coefficient is free: an integral controller ``ki/s`` with fast roll-off
   poles, its gain chosen on a grid (a low-gain integrator is what keeps a stable plant
-  with moving resonances stable; the pole placement cannot reach it);
+  with moving resonances stable; the pole placement cannot reach it), and the analytic
+  design at bandwidths around the plant's resonance (``RESONANCE_STARTS``: a loop that
+  damps the resonance actively crosses over near it);
 * with fixed poles, on demand: the nominal convex (SOCP) design.
 
 :func:`score` rates a start by the worst normalised spec ratio on the grid and the
@@ -28,7 +30,7 @@ from robrst.core.analysis import spectral_abscissa_many
 from robrst.base.errors import RobrstError
 from robrst.synthesis import analytic
 from robrst.synthesis.context import low_frequency_coefficient
-from robrst.synthesis.nlp import closed_loop_maps
+from robrst.synthesis.nlp import closed_loop_maps, objective_rows
 
 if TYPE_CHECKING:
     from robrst.synthesis.context import Context
@@ -39,6 +41,7 @@ __all__ = ["Start", "score", "score_many", "candidates", "abscissa", "ON_SLOW_PO
 ON_SLOW_POLE = "on the plant's slowest pole"   # the name of a PI start with that zero
 
 WN_FACTORS = (1.0, 0.5, 2.0, 0.25)
+RESONANCE_STARTS = ((0.5, 0.7), (1.0, 0.7), (2.0, 0.7), (4.0, 0.7), (1.0, 1.0), (2.0, 1.0))
 ZETAS = (1.0, 0.7)
 KI_GRID = np.geomspace(1e-5, 1.0, 26)     # integral/PI starts: scaled crossover frequencies
 
@@ -74,7 +77,7 @@ class Start:
     abscissa: float
     wn: float = None          # scaled, for the dominant placement
     zeta: float = None
-    gain: float = 0.0         # integral/PI starts: their crossover (scaled)
+    gain: float = 0.0         # the integral gain sign R(0) / (S/s^k)(0) (scaled; 0 if not > 0)
 
     @property
     def stable(self):
@@ -192,8 +195,11 @@ def score_many(setup: NLPSetup, blocks: Sequence[GridBlock],
     # score at a time, to the last bit), their closed-loop roots together
     worst = [max((float(b.ratio(x).max()) for b in blocks), default=0.0) for x in X.T]
     sa = _abscissae(setup, list(X.T))
+    r0, q0, q0c = objective_rows(setup)
+    num, den = r0 @ X, q0 @ X + q0c
+    gain = np.where((num > 0) & (den > 0), num / np.where(den > 0, den, 1.0), 0.0)
     return [Start(name=name, xc=X[:, i].copy(), worst=worst[i], abscissa=sa[i], wn=wn,
-                  zeta=zeta) for i, (name, _, wn, zeta) in enumerate(items)]
+                  zeta=zeta, gain=float(gain[i])) for i, (name, _, wn, zeta) in enumerate(items)]
 
 
 def _analytic(ctx, spec):
@@ -227,7 +233,7 @@ def _integral(ctx, setup, blocks):
     # the slowest stable real pole of the plant: a PI zero on it leaves K P ~ wc / jw above it
     reals = [-r.real / ctx.w0 for r in np.roots(ref.A) if r.imag == 0 and r.real < 0]
     slow = min(reals) if reals and not plant_int else None
-    items, gains = [], []
+    items = []
     for wc in KI_GRID:
         zeros = (None, 1.0, 0.3) + ((slow / wc,) if slow is not None and slow < 0.3 * wc else ())
         for zf in zeros:                               # integral; PI zeros at wc, 0.3 wc, pole
@@ -250,8 +256,14 @@ def _integral(ctx, setup, blocks):
             else:
                 kappa = wc / (dc * gain0)
             items.append((name, np.concatenate([sp[1:], kappa * rp]), None, None))
-            gains.append(float(wc))
-    return [replace(st, gain=g) for st, g in zip(score_many(setup, blocks, items), gains)]
+    return score_many(setup, blocks, items)
+
+
+def _resonance(plant):
+    """The largest natural frequency of the plant's complex poles [rad/s] (``None``: none)."""
+    p = np.roots(plant.A)
+    c = p[np.abs(p.imag) > 1e-9 * np.abs(p)]
+    return float(np.max(np.abs(c))) if c.size else None
 
 
 def _boldest(starts):
@@ -304,6 +316,17 @@ def candidates(ctx: Context, setup: NLPSetup, blocks: Sequence[GridBlock],
                 x = _analytic(ctx, replace(p.poles, wn=wn, zeta=z))
                 if x is not None:
                     items.append((f"analytic wn={wn:.4g} zeta={z:g}", x, wn / ctx.w0, z))
+    if setup.placement == "free" and p.poles.dominant_roots is None:
+        # every coefficient free: the analytic design at bandwidths around the plant's
+        # resonance too (a loop that damps the resonance actively crosses over near it)
+        for f, z in RESONANCE_STARTS:
+            wr = _resonance(p.family.reference_model)
+            if wr is None:
+                break
+            x = _analytic(ctx, replace(p.poles, wn=f * wr, zeta=z, dominant_real=()))
+            if x is not None:
+                items.append((f"analytic wn={f * wr:.4g} zeta={z:g} (resonance x {f:g})", x,
+                              f * wr / ctx.w0, z))
     out = score_many(setup, blocks, items)
     if setup.placement == "free":
         ints = _integral(ctx, setup, blocks)

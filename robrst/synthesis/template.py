@@ -17,7 +17,10 @@ Variables ``X = [xc, (wn, zeta), gamma]``.  Constraints, in order:
 3. Routh first columns of every model's closed-loop polynomial, by degree group;
 4. positivity of ``sign R(0)`` and ``(S/s^k)(0)`` (``max_integral_gain``);
 5. Routh columns of the controller polynomials ``(S/s^k)(p - shift)`` and
-   ``(S/s^k)(-p - ctrl_max)`` (optional: the controller's poles in a strip).
+   ``(S/s^k)(-p - ctrl_max)`` (optional: the controller's poles in a strip);
+6. linear rows ``Lm xc + Lg gamma + Lc <= 0`` (optional: the reference-step samples of
+   :mod:`robrst.synthesis.timesamples` and the roots near a damping floor of
+   :mod:`robrst.synthesis.polerows`, linearised at the round's point).
 
 Objective ``c_gamma gamma + c_ki (-log(sign R(0)) + log((S/s^k)(0))) + c_reg |xc - xref|^2``.
 """
@@ -59,6 +62,8 @@ class Structure:
         Degree of the controller polynomial under Routh (-1: none).
     ipopt : tuple
         IPOPT options as sorted ``(key, value)`` pairs.
+    lin : int
+        Slots of linear rows (reference-step samples, roots near a damping floor).
     ctrl_count : int
         How many controller polynomials are under Routh.
 
@@ -77,6 +82,7 @@ class Structure:
     ctrl_deg: int           # degree of the controller polynomial under Routh, -1: none
     ipopt: tuple            # IPOPT options as sorted (key, value) pairs
     ctrl_count: int = 1     # how many controller polynomials are under Routh
+    lin: int = 0            # slots of linear rows (reference-step samples)
 
     @property
     def n_var(self):
@@ -108,6 +114,8 @@ class Template:
         if st.ctrl_deg >= 0:
             nc = st.ctrl_count * (st.ctrl_deg + 1)
             blocks += [("Cm", (nc, nx)), ("Cc", (nc,))]
+        if st.lin:
+            blocks += [("Lm", (st.lin, nx)), ("Lg", (st.lin,)), ("Lc", (st.lin,))]
         self.layout, off = {}, 0
         for name, shape in blocks:
             size = int(np.prod(shape))
@@ -148,6 +156,8 @@ class Template:
             fn = ca.Function("routh_c", [c], [routh_column(c / c[0])]).map(st.ctrl_count)
             C = ca.mtimes(par("Cm"), xc) + par("Cc")
             g.append(ca.vec(fn(ca.reshape(C, st.ctrl_deg + 1, st.ctrl_count))))
+        if st.lin:
+            g.append(ca.mtimes(par("Lm"), xc) + par("Lg") * gamma + par("Lc"))
         coef = par("coef")
         f = (coef[0] * gamma
              + coef[1] * (-ca.log(ca.fmax(r0, TINY)) + ca.log(ca.fmax(q0, TINY)))
@@ -212,11 +222,13 @@ class Template:
         Returns
         -------
         dict
-            ``status, x, f, g, lam_g, iterations``.
+            ``status, x, f, g, lam_g, lam_x, iterations`` (``lam_g``, ``lam_x``: IPOPT's
+            multipliers of the constraints and of the variable bounds).
         """
         sol = self.solver(x0=x0, p=self.pack(values), lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         stats = self.solver.stats()
         return {"status": stats["return_status"], "x": np.array(sol["x"]).ravel(),
                 "f": float(sol["f"]), "g": np.array(sol["g"]).ravel(),
                 "lam_g": np.array(sol["lam_g"]).ravel(),
+                "lam_x": np.array(sol["lam_x"]).ravel(),
                 "iterations": int(stats.get("iter_count", 0))}

@@ -6,7 +6,10 @@ versus temperature, the plant family's coefficients), ``hysteresis`` (Bouc–Wen
 Hammerstein), ``creep`` (bank of first-order cells, log law growing with
 temperature), ``thermal_drift`` (lagged, saturating, hysteretic in temperature),
 ``delay``, ``saturation`` and ``slew`` (amplifier), ``noise`` and ``quantization``
-(sensor).
+(sensor); and, off in the paper's actuator, ``input_nonlinearity`` (a dead zone and a
+polynomial on the drive), ``output_nonlinearity`` (the sensor's curvature),
+``stiffness_nonlinearity`` (a Duffing-type cubic stiffness of the structure) and
+``pi_hysteresis`` (Prandtl–Ishlinskii: a weighted sum of play operators).
 """
 
 from __future__ import annotations
@@ -24,10 +27,25 @@ from robrst.base.schema import Field, key_error, load_toml, validate
 if TYPE_CHECKING:
     from pathlib import Path
 
-__all__ = ["EFFECTS", "TWIN_SCHEMA", "TwinConfig", "load_twin", "parse_twin", "default_twin"]
+__all__ = ["EFFECTS", "TWIN_SCHEMA", "TwinConfig", "load_twin", "parse_twin", "default_twin",
+           "run_samples", "min_sample_rate_hz", "MAX_RUN_SAMPLES", "MAX_SUBSTEPS", "RK4_STEP"]
+
+# samples of one simulated run (a scenario's profile): 5e7 is 400 MB per signal, 42 min at
+# the paper's 20 kHz (its longest experiment, Fig. 2, is 9 min); a twin at 1e8 Hz asked
+# for 2.4e10 (179 GiB)
+MAX_RUN_SAMPLES = 50_000_000
+# RK4 substeps per sample of the twin's linear part (robrst.twin.model.substeps): each at a
+# scaled step w0 dt / n <= RK4_STEP; the step is unrolled in the generated C, and 64
+# substeps of an order-4 plant compile in seconds (the 42,749 of the paper's plant at 1 Hz
+# made a 50 MB file gcc did not finish)
+RK4_STEP = 0.05
+MAX_SUBSTEPS = 64
 
 EFFECTS = ("thermal_dynamics", "hysteresis", "creep", "thermal_drift", "delay", "saturation",
-           "slew", "noise", "quantization")
+           "slew", "noise", "quantization", "input_nonlinearity", "output_nonlinearity",
+           "stiffness_nonlinearity", "pi_hysteresis")
+
+_OFF = Field("bool", False, "switch the effect on/off (off in the paper's actuator)")
 
 _ON = Field("bool", True, "switch the effect on/off")
 _SRC = Field("str", "", "")
@@ -39,8 +57,9 @@ TWIN_SCHEMA = {
                        " relative to the twin file); with a file, the effects whose tables"
                        " the twin file leaves out are off"),
         "sample_rate_hz": Field("number", None, "simulation and control sampling rate [Hz]"
-                                " (default 20000)", positive=True, hi=1e8),
-        "fs_hz": Field("number", None, "older name of sample_rate_hz", positive=True, hi=1e8),
+                                " (default 20000; at least what the plant's RK4 steps need)",
+                                lo=1e3, hi=1e6),
+        "fs_hz": Field("number", None, "older name of sample_rate_hz", lo=1e3, hi=1e6),
         "reference_C": Field("number", 28.0, "temperature of the nominal model [°C]",
                              lo=-100.0, hi=500.0),
         "source": Field("str", "", "where the defaults come from"),
@@ -81,6 +100,8 @@ TWIN_SCHEMA = {
                    "source": _SRC},
     "slew": {"enabled": _ON,
              "V_per_s": Field("number", 6.0e4, "slew-rate limit [V/s]", positive=True),
+             "V_per_s_down": Field("number", None, "falling slew-rate limit [V/s] (default:"
+                                   " V_per_s, a symmetric limit)", positive=True),
              "source": _SRC},
     "noise": {"enabled": _ON,
               "sigma_um": Field("number", 0.005, "sensor noise std [µm]", lo=0.0),
@@ -88,6 +109,33 @@ TWIN_SCHEMA = {
     "quantization": {"enabled": _ON,
                      "step_um": Field("number", 0.0015, "sensor LSB [µm]", positive=True),
                      "source": _SRC},
+    # effects beyond the paper's actuator (off by default)
+    "input_nonlinearity": {
+        "enabled": _OFF,
+        "dead_zone_V": Field("number", 5.0, "half width of a dead zone about center_V [V]",
+                             lo=0.0),
+        "center_V": Field("number", 0.0, "centre of the dead zone and of the polynomial [V]"),
+        "quadratic_per_V": Field("number", 0.0, "v += quadratic (u - center)^2 [1/V]"),
+        "cubic_per_V2": Field("number", 0.0, "v += cubic (u - center)^3 [1/V^2]"),
+        "source": _SRC},
+    "output_nonlinearity": {
+        "enabled": _OFF,
+        "center_um": Field("number", 0.0, "centre of the sensor's polynomial [µm]"),
+        "quadratic_per_um": Field("number", 0.002, "y += quadratic (y - center)^2 [1/µm]"),
+        "cubic_per_um2": Field("number", 0.0, "y += cubic (y - center)^3 [1/µm^2]"),
+        "source": _SRC},
+    "stiffness_nonlinearity": {
+        "enabled": _OFF,
+        "cubic_per_um2": Field("number", 2e-6, "Duffing: stiffness k (1 + cubic y^2) of the"
+                               " structure, y from rest [1/µm^2]"),
+        "source": _SRC},
+    "pi_hysteresis": {
+        "enabled": _OFF,
+        "thresholds_V": Field("numbers", (5.0, 15.0, 30.0, 50.0), "play thresholds r_i [V]",
+                              lo=0.0),
+        "weights": Field("numbers", (0.06, 0.05, 0.04, 0.03),
+                         "v = u + sum w_i (play_{r_i}(u) - u)"),
+        "source": _SRC},
 }
 DEFAULT_RATE_HZ = 20000.0
 
@@ -236,6 +284,68 @@ class TwinConfig:
         return 1.0 / self.sample_rate_hz
 
 
+def min_sample_rate_hz(w0: float) -> float:
+    """The slowest rate [Hz] at which a plant of natural scale ``w0`` [rad/s] needs at most
+    :data:`MAX_SUBSTEPS` RK4 substeps per sample (:func:`robrst.twin.model.substeps`).
+
+    Parameters
+    ----------
+    w0 : float
+        The plant's natural scale [rad/s].
+
+    Returns
+    -------
+    float
+
+    Examples
+    --------
+    >>> round(min_sample_rate_hz(2137.4), 1)      # the paper's plant
+    667.9
+    """
+    return float(w0) / (RK4_STEP * MAX_SUBSTEPS)
+
+
+def _check_rate(path, key, rate, plant):
+    """Refuse a rate at which the plant's RK4 step would need more substeps per sample than
+    the generated C can hold (:func:`min_sample_rate_hz`)."""
+    from robrst.core.poly import natural_scale
+
+    need = min_sample_rate_hz(natural_scale(plant.A))
+    if rate < need:
+        raise key_error(path, key, f"{rate:g} Hz is too slow for the plant {plant.label!r}"
+                        f" (natural scale {natural_scale(plant.A):.4g} rad/s): the twin's RK4"
+                        f" steps need at least {need:.4g} Hz (at most {MAX_SUBSTEPS} substeps"
+                        " per sample)")
+
+
+def run_samples(config: TwinConfig, seconds: float, what: str = "the run") -> int:
+    """Samples of a run of ``seconds`` at the twin's rate.
+
+    Parameters
+    ----------
+    config : TwinConfig
+    seconds : float
+        Duration of the run [s].
+    what : str
+        The run, for the message.
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    SpecError
+        Naming the twin file and ``[twin.sample_rate_hz]`` beyond :data:`MAX_RUN_SAMPLES`.
+    """
+    n = int(round(float(seconds) * config.sample_rate_hz))
+    if n > MAX_RUN_SAMPLES:
+        raise SpecError(f"{config.path}: [twin.sample_rate_hz] {config.sample_rate_hz:g} Hz:"
+                        f" {what} of {seconds:g} s needs {n:.3g} samples, more than"
+                        f" {MAX_RUN_SAMPLES:.3g}; lower the rate (or use a shorter run)")
+    return n
+
+
 def _plant_file(path, name, plant_loader):
     """``(Plant, reference °C, per-kelvin law or None)`` of ``[twin] plant = name``, a file
     (relative to the twin file) or what ``plant_loader`` knows by name."""
@@ -279,7 +389,8 @@ def parse_twin(data: dict, path: str = "<twin>", plant_loader: object = None) ->
         Naming the file and the key: unknown keys, values out of range, both
         ``sample_rate_hz`` and ``fs_hz``, Bouc–Wen parameters without a loop,
         ``tau_max_s <= tau_min_s``, ``u_max <= u_min``, an unknown plant or a plant file
-        that cannot be read (``[twin.plant]``), a plant with feedthrough.
+        that cannot be read (``[twin.plant]``), a plant with feedthrough, a rate too slow
+        for the plant's RK4 steps (``[twin.sample_rate_hz]``).
     """
     v = validate(path, data, TWIN_SCHEMA)
     tw = v["twin"] or validate(path, {}, TWIN_SCHEMA["twin"], ("twin",))
@@ -313,12 +424,18 @@ def parse_twin(data: dict, path: str = "<twin>", plant_loader: object = None) ->
                         " |Gamma| <= B (bounded, passive loops)")
     if not h["slope_range_V"][0] < h["slope_range_V"][1]:
         raise key_error(path, ("hysteresis", "slope_range_V"), "expected [lo, hi] with lo < hi")
+    pi = effects["pi_hysteresis"]
+    if len(pi["thresholds_V"]) != len(pi["weights"]) or not pi["weights"]:
+        raise key_error(path, ("pi_hysteresis", "weights"), "expected one weight per threshold"
+                        f" ({len(pi['thresholds_V'])} thresholds, {len(pi['weights'])} weights)")
     d = effects["thermal_drift"]
     if d["B"] + d["Gamma"] <= 0 or abs(d["Gamma"]) > d["B"] + 1e-15:
         raise key_error(path, ("thermal_drift",), "needs B + Gamma > 0 and |Gamma| <= B")
     if user and not plant_model.m < plant_model.n:
         raise key_error(path, ("twin", "plant"), "the twin needs a strictly proper plant (no"
                         " feedthrough: y(k) must not depend on u(k))")
+    _check_rate(path, ("twin", "fs_hz" if tw["fs_hz"] is not None else "sample_rate_hz"),
+                rate, plant_model if user else named_plant(tw["plant"]))
     return TwinConfig(name=tw["name"], plant=tw["plant"], sample_rate_hz=rate,
                       reference_C=tw["reference_C"], effects=effects, path=str(path),
                       plant_model=plant_model)

@@ -2,9 +2,11 @@
 
 Signal chain (eq. 2 of the paper, ``y = D_T(s) (v + u_c + u_T)``)::
 
-    u_cmd -> delay -> saturation -> slew -> Bouc–Wen (v = g_h (u_a - h)) -> creep bank (u_c)
+    u_cmd -> delay -> input map -> saturation -> slew -> Bouc–Wen (v = g_h (u_a - h))
+          -> Prandtl–Ishlinskii plays -> creep bank (u_c)
     T_amb -> thermal lag (T_s) -> Bouc–Wen in temperature (u_T)
-    v + u_c + u_T -> D_T(s) [gain, resonance, damping at T_s] -> y -> noise -> quantisation
+    v + u_c + u_T -> D_T(s) [gain, resonance, damping at T_s; cubic stiffness] -> y
+          -> sensor map -> noise -> quantisation
 
 The step maps ``(state, [u_cmd, T_amb, noise], theta) -> (state+, [y_meas, y_true, u_a])``.
 ``theta`` holds every continuous parameter (so identification can free any of them);
@@ -24,8 +26,10 @@ from typing import TYPE_CHECKING
 import casadi as ca
 import numpy as np
 
+from robrst.base.errors import SpecError
 from robrst.core import lti, poly
 from robrst.core.thermal import modal_form, thermal_polynomials
+from robrst.twin.config import MAX_SUBSTEPS, RK4_STEP, min_sample_rate_hz
 
 if TYPE_CHECKING:
     from robrst.core.plant import Plant
@@ -54,7 +58,7 @@ def substeps(w0: float, dt: float) -> int:
     -------
     int
     """
-    return max(N_SUB, int(np.ceil(w0 * dt / 0.05)))
+    return max(N_SUB, int(np.ceil(w0 * dt / RK4_STEP)))
 
 
 @dataclass(frozen=True, eq=False)
@@ -159,12 +163,14 @@ def _exact_step(plant, dt, xl, wtot):
     return ca.mtimes(ca.DM(z.Ad), xl) + ca.DM(z.Bd) * wtot, y_true
 
 
-def _linear_step(plant, w0, dt, xl, wtot, dT_lin, P):
+def _linear_step(plant, w0, dt, xl, wtot, dT_lin, P, cubic=None):
     """RK4 step of ``D_T`` in scaled time; returns (next state, output at this sample).
 
     ``D_T`` comes from the thermal law of :mod:`robrst.core.thermal` with symbolic
     coefficients, realised in controllable form (:func:`robrst.core.lti.companion_parts`)
-    in the scaled time ``p = w0 t``.
+    in the scaled time ``p = w0 t``.  ``cubic`` (symbolic, per µm²): a Duffing-type
+    stiffness ``k (y + cubic y^3)``, i.e. the input reduced by ``cubic y^3 / D(0)`` inside
+    the integration (the output ``y`` of the state at every RK4 stage).
     """
     n = plant.n
     b, a = thermal_polynomials(modal_form(plant), dT_lin, P["gain_per_K"],
@@ -179,10 +185,17 @@ def _linear_step(plant, w0, dt, xl, wtot, dT_lin, P):
     C = ca.horzcat(*c_row)
 
     def f(xl):
-        return w0 * (ca.mtimes(A_c, xl) + B_c * wtot)
+        if cubic is None:
+            return w0 * (ca.mtimes(A_c, xl) + B_c * wtot)
+        y = ca.mtimes(C, xl) + dfeed * wtot
+        return w0 * (ca.mtimes(A_c, xl) + B_c * (wtot - cubic * y ** 3 / plant.dc_gain))
 
     y_true = ca.mtimes(C, xl) + dfeed * wtot   # output at this sample (before the update)
     n_sub = substeps(w0, dt)
+    if n_sub > MAX_SUBSTEPS:
+        raise SpecError(f"the twin runs at {1 / dt:.6g} Hz, but its plant (natural scale"
+                        f" {w0:.4g} rad/s) needs at least {min_sample_rate_hz(w0):.4g} Hz"
+                        f" ({n_sub} RK4 substeps per sample, at most {MAX_SUBSTEPS})")
     hsub = dt / n_sub
     for _ in range(n_sub):
         k1 = f(xl)
@@ -191,6 +204,32 @@ def _linear_step(plant, w0, dt, xl, wtot, dT_lin, P):
         k4 = f(xl + hsub * k3)
         xl = xl + hsub / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
     return xl, y_true
+
+
+# parameters of the effects beyond the paper's actuator (theta after reference_C)
+EXTRA_THETA = ("slew_down_V_per_s", "in_dead_zone_V", "in_center_V", "in_quadratic", "in_cubic",
+               "out_center_um", "out_quadratic", "out_cubic", "stiff_cubic")
+
+
+def _extra_theta(eff):
+    """Values of :data:`EXTRA_THETA` (zeros for effects a config does not carry)."""
+    slew = eff["slew"]
+    down = slew.get("V_per_s_down")
+    vals = [slew["V_per_s"] if down is None else down]
+    i, o, k = (eff.get(e, {}) for e in ("input_nonlinearity", "output_nonlinearity",
+                                         "stiffness_nonlinearity"))
+    vals += [i.get("dead_zone_V", 0.0), i.get("center_V", 0.0), i.get("quadratic_per_V", 0.0),
+             i.get("cubic_per_V2", 0.0), o.get("center_um", 0.0), o.get("quadratic_per_um", 0.0),
+             o.get("cubic_per_um2", 0.0), k.get("cubic_per_um2", 0.0)]
+    return vals
+
+
+def _input_map(u, P):
+    """Static input map: a dead zone of half width ``d`` about ``c``, plus a polynomial."""
+    e = u - P["in_center_V"]
+    d = P["in_dead_zone_V"]
+    return (P["in_center_V"] + ca.fmax(e - d, 0) + ca.fmin(e + d, 0)
+            + P["in_quadratic"] * e ** 2 + P["in_cubic"] * e ** 3)
 
 
 def build_model(config: TwinConfig, plant: Plant | None = None, linear: bool = True) -> TwinModel:
@@ -227,22 +266,26 @@ def build_model(config: TwinConfig, plant: Plant | None = None, linear: bool = T
     nd = int(round(eff["delay"]["seconds"] * config.sample_rate_hz)) if on["delay"] else 0
     h = eff["hysteresis"]
     gh = hysteresis_gain(h["A"], h["B"], h["Gamma"], *h["slope_range_V"]) if on["hysteresis"] else 1.0
+    pi = eff.get("pi_hysteresis", {"enabled": False, "thresholds_V": (), "weights": ()})
+    n_pi = len(pi["thresholds_V"]) if on.get("pi_hysteresis") else 0
     names = ("gain_per_K", "resonance_per_K", "damping_per_K", "bw_A", "bw_B", "bw_Gamma", "bw_gain",
              "creep_per_decade", "creep_per_K", "drift_lag_s", "drift_A", "drift_B",
              "drift_Gamma", "drift_V_per_K", "u_min", "u_max", "slew_V_per_s", "noise_um",
-             "quant_um", "reference_C")
+             "quant_um", "reference_C") + EXTRA_THETA + tuple(f"pi_w{i + 1}" for i in range(n_pi))
     td, dr = eff["thermal_dynamics"], eff["thermal_drift"]
     theta0 = np.array([td["gain_per_K"], td["resonance_per_K"], td["damping_per_K"], h["A"], h["B"],
                        h["Gamma"], gh, eff["creep"]["per_decade"], eff["creep"]["per_K"],
                        dr["lag_s"], dr["A"], dr["B"], dr["Gamma"], dr["gain_V_per_K"],
                        eff["saturation"]["u_min"], eff["saturation"]["u_max"],
                        eff["slew"]["V_per_s"], eff["noise"]["sigma_um"],
-                       eff["quantization"]["step_um"], config.reference_C])
+                       eff["quantization"]["step_um"], config.reference_C,
+                       *_extra_theta(eff), *pi["weights"][:n_pi]])
     th = ca.SX.sym("theta", len(names))
     P = dict(zip(names, ca.vertsplit(th)))
     if not linear and on["thermal_dynamics"]:
         raise ValueError("linear=False needs thermal_dynamics off (it changes D_T)")
-    sizes = {"lin": n if linear else 0, "h": 1, "u_prev": 1, "creep": len(taus), "T_s": 1, "z_T": 1, "delay": nd}
+    sizes = {"lin": n if linear else 0, "h": 1, "u_prev": 1, "creep": len(taus), "T_s": 1, "z_T": 1, "delay": nd,
+             "plays": n_pi}
     slices, k = {}, 0
     for key, m in sizes.items():
         slices[key] = slice(k, k + m)
@@ -270,11 +313,13 @@ def build_model(config: TwinConfig, plant: Plant | None = None, linear: bool = T
         delay_next = ca.vertcat(u_cmd, xs["delay"][:nd - 1])
     else:
         u_del, delay_next = u_cmd, xs["delay"]
+    if on.get("input_nonlinearity"):
+        u_del = _input_map(u_del, P)
     u_s = ca.fmin(ca.fmax(u_del, P["u_min"]), P["u_max"]) if on["saturation"] else u_del
     u_prev = xs["u_prev"]
     if on["slew"]:
-        lim = P["slew_V_per_s"] * dt
-        u_a = u_prev + ca.fmin(ca.fmax(u_s - u_prev, -lim), lim)
+        lim, lim_down = P["slew_V_per_s"] * dt, P["slew_down_V_per_s"] * dt
+        u_a = u_prev + ca.fmin(ca.fmax(u_s - u_prev, -lim_down), lim)
     else:
         u_a = u_s
     # hysteresis (Hammerstein: Bouc–Wen on the applied voltage)
@@ -284,6 +329,14 @@ def build_model(config: TwinConfig, plant: Plant | None = None, linear: bool = T
         v = P["bw_gain"] * (u_a - h_next)
     else:
         h_next, v = xs["h"], u_a
+    # Prandtl–Ishlinskii: play operators (memory at 0 V at rest), weighted
+    if n_pi:
+        r = ca.DM(pi["thresholds_V"][:n_pi])
+        plays_next = ca.fmin(ca.fmax(xs["plays"], v - r), v + r)
+        w = ca.vertcat(*[P[f"pi_w{i + 1}"] for i in range(n_pi)])
+        v = v + ca.dot(w, plays_next - v)
+    else:
+        plays_next = xs["plays"]
     # creep: bank of first-order cells, strength growing with the stack temperature
     dT = T_s - P["reference_C"]
     if len(taus):
@@ -296,16 +349,22 @@ def build_model(config: TwinConfig, plant: Plant | None = None, linear: bool = T
     else:
         c_next, u_c = xs["creep"], 0.0
     wtot = v + u_c + u_T
-    if linear and not on["thermal_dynamics"]:
+    cubic = P["stiff_cubic"] if on.get("stiffness_nonlinearity") else None
+    if linear and not on["thermal_dynamics"] and cubic is None:
         xl, y_true = _exact_step(plant, dt, xs["lin"], wtot)
     elif linear:
-        xl, y_true = _linear_step(plant, w0, dt, xs["lin"], wtot, dT, P)
+        xl, y_true = _linear_step(plant, w0, dt, xs["lin"], wtot,
+                                  dT if on["thermal_dynamics"] else 0.0, P, cubic)
     else:
         xl, y_true = xs["lin"], wtot
-    y_n = y_true + (P["noise_um"] * noise if on["noise"] else 0.0)
+    y_s = y_true
+    if on.get("output_nonlinearity"):
+        e = y_true - P["out_center_um"]
+        y_s = y_true + P["out_quadratic"] * e ** 2 + P["out_cubic"] * e ** 3
+    y_n = y_s + (P["noise_um"] * noise if on["noise"] else 0.0)
     if on["quantization"]:
         y_n = P["quant_um"] * ca.floor(y_n / P["quant_um"] + 0.5)
-    x_next = ca.vertcat(xl, h_next, u_a, c_next, T_s, z_next, delay_next)
+    x_next = ca.vertcat(xl, h_next, u_a, c_next, T_s, z_next, delay_next, plays_next)
     out = ca.vertcat(y_n, y_true, u_a)
     step = ca.Function("twin_step", [x, p, th], [x_next, out], ["x", "p", "theta"], ["x_next", "y"])
     output = ca.Function("twin_output", [x, p, th], [y_n], ["x", "p", "theta"], ["y_meas"])

@@ -20,7 +20,7 @@ import sys
 import pytest
 from bad_inputs import DIR, VARIANTS
 
-from robrst.cli import main
+from robrst.cli import LAST_RESORT, main
 
 # ---------------------------------------------------------------------------- harness
 
@@ -52,6 +52,7 @@ def check_refused(code, out, err, variant, before, after):
     assert len(lines) == 1, f"stderr has {len(lines)} lines: {err!r}"
     line = lines[0]
     assert line.startswith("robrst: error: ")
+    assert LAST_RESORT not in line, f"the last-resort line was reached: {line!r}"
     for s in variant.expect:
         assert s in line, f"{s!r} not in {line!r}"
     assert after == before, "files created, changed or deleted"

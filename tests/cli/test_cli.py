@@ -54,10 +54,10 @@ def test_errors_are_one_line_without_traceback(tmp_path):
 
 
 @pytest.mark.parametrize("name", ["paper_robust_continuous", "repro:relaxed_band_reported_infeasible.toml"])
-def test_design_json_stdout_is_only_json_from_a_real_process(name, shared_dir):
+def test_design_json_stdout_is_only_json_from_a_real_process(name, repro_dir):
     """IPOPT prints from C straight to file descriptor 1: only a real process shows whether
     anything but the JSON object reaches stdout (an NLP design, and one IPOPT struggles with)."""
-    target = str(shared_dir / "repro" / name[6:]) if name.startswith("repro:") else name
+    target = str(repro_dir / name[6:]) if name.startswith("repro:") else name
     r = subprocess.run([sys.executable, "-m", "robrst", "design", target, "--json"],
                        capture_output=True, text=True)
     assert r.returncode in (0, 1), r.stderr

@@ -1,4 +1,4 @@
-"""Amplitude-dependent dynamics (the dynamic form of hysteresis): the level slopes of the
+"""Amplitude-dependent dynamics (``amplitude_dependent_dynamics``): the level slopes of the
 poles and of the residues, fitted on two excitation levels, predict a third.
 
 The truth is a 2-input 2-output modal system whose resonance softens and whose mode
@@ -43,9 +43,11 @@ def _record(level, seed, noise=2e-4):
 def test_level_slopes_fitted_on_two_levels_predict_a_third():
     train = [_record(a, s) for a, s in ((0.1, 1), (0.1, 2), (0.2, 3), (0.2, 4))]
     test = [_record(0.3, 5)]
-    d = diagnose(train, test, plant=_truth(0.0), effects=("hysteresis", "creep"))
+    d = diagnose(train, test, plant=_truth(0.0),
+                 effects=("hysteresis", "creep", "amplitude_dependent_dynamics"))
     assert d.gap_before > 20 * d.noise_floor              # the level matters
-    assert d.cause == "hysteresis", d.reason
+    # the level-dependent linear form has its own name (it was called hysteresis)
+    assert d.cause == "amplitude_dependent_dynamics", d.reason
     after = d.extra["final"]["gap_after"]
     # the pole slopes alone leave 0.086 of the held-out gap (1.17); with the residue
     # slopes it is 0.024: the polish is what brings the third level within 2 %

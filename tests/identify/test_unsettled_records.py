@@ -144,7 +144,8 @@ CLI_CASES = [
     ("order_90_overflows", {"ms.csv": None}, ["--train", "ms.csv", "--out", "m.toml",
                                              "--order", "90"], "--order"),
     ("order_500_too_few_samples", {"r.csv": _csv(_REC)},
-     ["--train", "r.csv", "--out", "m.toml", "--order", "500"], "choose a lower --order"),
+     ["--train", "r.csv", "--out", "m.toml", "--order", "500"], "--order: expected 'auto' or"
+                                                                  " an integer 1..200"),
     ("constant_y", {"c.csv": "t,u,y\n" + "".join(f"{k / FS},{np.sin(k / 9)},3\n"
                                                   for k in range(2000))},
      ["--train", "c.csv", "--out", "m.toml"], "c.csv: column y is constant (3 µm) while u varies"),

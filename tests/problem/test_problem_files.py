@@ -125,7 +125,7 @@ temperature_C = 40.0
 B = [1.2]
 A = [1.0, 2.2, 1.1]
 """
-    text = text.replace('name = "paper"', "B = [1.0]\nA = [1.0, 2.0, 1.0]")
+    text = text.replace('name = "paper"', "B = [1.0]\nA = [1.0, 2.0, 1.0]\ntemperature_C = 30.0")
     pr = load_problem(write(tmp_path, text))
     mid = pr.family.at(35.0)
     np.testing.assert_allclose(mid.A, [1.0, 2.1, 1.05], rtol=1e-15)

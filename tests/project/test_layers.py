@@ -2,7 +2,7 @@
 
 Layers are folders of the package, bottom to top (docs: "Architecture")::
 
-    base          robrst.base: errors, schema, fileio, resources, threads
+    base          robrst.base: errors, schema, tomlwrite, fileio, resources, threads
     maths core    robrst.core: poly, lti, plant, thermal, family, rst, peaks (+ private
                   level-set kernels), analysis, sampled, interval
     problem       robrst.problem: records, files, checks

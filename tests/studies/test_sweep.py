@@ -1,6 +1,7 @@
 """Sweeps in this process: variants against hand-built models, resume, failures, output rules."""
 
 import json
+import math
 import re
 from dataclasses import replace
 
@@ -99,6 +100,31 @@ def test_yield_interval_and_front():
     assert (round(lo, 4), round(hi, 4)) == (0.4902, 0.9433)
     # minimise x, maximise y: (2, 5) dominates (3, 4); (1, 1) and (4, 9) are on the front
     assert pareto_front([3, 2, 1, 4, np.nan], [4, 5, 1, 9, 10]) == [2, 1, 3]
+
+
+def _wilson_closed_form(k, n, z=1.959963984540054):
+    """The Wilson score interval written out (Wilson 1927; Agresti & Coull 1998, eq. 2)."""
+    p = k / n
+    d = 1 + z * z / n
+    c = (p + z * z / (2 * n)) / d
+    h = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / d
+    return (0.0 if k == 0 else max(0.0, c - h)), (1.0 if k == n else min(1.0, c + h))
+
+
+def test_wilson_interval_equals_the_closed_form():
+    """SciPy's interval (what robrst calls) equals the textbook formula to one ulp
+    (2.2e-16 at most, measured), k = 0 and k = n exactly, over every k of n = 1 ... 60
+    and a few large n."""
+    worst = 0.0
+    for n in [*range(1, 61), 100, 999, 10_000, 123_457]:
+        for k in (range(n + 1) if n <= 100 else (0, 1, 2, n // 3, n // 2, n - 1, n)):
+            lo, hi = wilson_interval(k, n)
+            lo0, hi0 = _wilson_closed_form(k, n)
+            worst = max(worst, abs(lo - lo0), abs(hi - hi0))
+            assert 0.0 <= lo <= k / n <= hi <= 1.0
+        assert wilson_interval(0, n)[0] == 0.0 and wilson_interval(n, n)[1] == 1.0
+    assert worst <= 2.3e-16
+    assert wilson_interval(0, 0) == (None, None)
 
 
 def test_interrupted_sweep_resumes_where_it_stopped(tmp_path):

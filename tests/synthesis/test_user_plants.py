@@ -47,7 +47,10 @@ def test_piezo_stage_certifies_at_every_extra_degree(stage_results, extra):
 def test_one_synthesizer_builds_few_programs(stage_results):
     results, syn = stage_results
     assert all(r.certified for r in results.values())
-    assert syn.built <= 12           # one program per structure (degree, phase, capacity)
+    # one program per structure (degree, phase, capacity, IPOPT options): 12 before the
+    # linearised rows (damping floors, reference-step samples) and the bolder start's soft
+    # phase with every coefficient free; 20 measured with them
+    assert syn.built <= 20
 
 
 def test_more_degrees_never_give_a_worse_certified_objective():

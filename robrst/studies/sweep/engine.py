@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from robrst.base.errors import SpecError
+from robrst.base.fileio import output_lock
 from robrst.base.threads import available_cores
 from robrst.studies.sweep import store
 from robrst.studies.sweep.prepare import prepare
@@ -421,6 +422,14 @@ def run_sweep(sweep: Sweep | str | os.PathLike, out: str | os.PathLike,
     plan = chunks(table.n, sweep.chunk_size)
     meta = {"sweep": sweep.name, "kind": sweep.kind, "n": table.n,
             "chunk_size": sweep.chunk_size, "fingerprint": context.fingerprint}
+    with output_lock(out, what="sweep folder"):   # one run at a time writes a folder's parts
+        return _run_locked(sweep, out, workers, scheduler, progress, restart, t0, context,
+                           table, plan, meta, adaptive)
+
+
+def _run_locked(sweep, out, workers, scheduler, progress, restart, t0, context, table, plan,
+                meta, adaptive):
+    """The rest of :func:`run_sweep`, with the output folder's lock held."""
     resumed = store.prepare_folder(out, meta, restart)
     runs = store.previous_runs(out) if resumed else []
     schema = store.arrow_schema(context)

@@ -158,9 +158,9 @@ def status_of(exc: BaseException) -> str:
 
 def _figures(problem, ctrl, cert, member_margins):
     recs = cert.models
-    worst_ms = max(recs, key=lambda r: r["Ms"]) if recs else {}
-    cont = all(r["stable"] for r in recs)
-    samp = all(r.get("stable_sampled", True) for r in recs)
+    worst_ms = max(recs, key=lambda r: r.continuous.Ms) if recs else None
+    cont = all(r.continuous.stable for r in recs)
+    samp = all(r.sampled is None or r.sampled.stable for r in recs)
     stable = cont and samp
     # every bound the certificate checked (peaks, band peaks, sampled loop, time-domain specs,
     # |U| above a corner, violated hook bounds): one source, Certificate.ratios()
@@ -171,17 +171,17 @@ def _figures(problem, ctrl, cert, member_margins):
     gm, pm, dm = member_margins if cont else (None, None, None)
     # the peaks and margins of an unstable loop are no figures of it: none are reported
     c = (lambda q: cert.worst(q)) if cont else (lambda q: None)     # noqa: E731
-    s = (lambda q: cert.worst(q)) if samp else (lambda q: None)     # noqa: E731
+    s = (lambda q: cert.worst(q, "sampled")) if samp else (lambda q: None)     # noqa: E731
     ms = c("Ms")
     return {"certified": bool(cert.certified), "stable": bool(stable),
             "worst_ratio": worst if stable else np.inf, "Ms": ms,
-            "Ms_temperature_C": worst_ms.get("temperature_C") if cont else None, "Mt": c("Mt"),
-            "Mu": c("Mu"), "Mt_band": c("Mt_resonance_band"),
+            "Ms_temperature_C": worst_ms.temperature_C if cont and worst_ms else None,
+            "Mt": c("Mt"), "Mu": c("Mu"), "Mt_band": c("Mt_resonance_band"),
             "modulus_margin": None if not ms else 1.0 / ms, "gain_margin": gm,
             "phase_margin_deg": pm, "delay_margin_s": dm,
             "spectral_abscissa": cert.worst("spectral_abscissa"),
-            "Ms_sampled": s("Ms_sampled"), "Mt_sampled": s("Mt_sampled"),
-            "Mu_sampled": s("Mu_sampled"), "integral_gain": integral_gain(ctrl),
+            "Ms_sampled": s("Ms"), "Mt_sampled": s("Mt"),
+            "Mu_sampled": s("Mu"), "integral_gain": integral_gain(ctrl),
             "violations": len(cert.violations),
             "violation": None if viol is None else viol.describe()}
 
@@ -201,7 +201,7 @@ def _smallest(ms):
 
 def _member_margins(problem, ctrl, cert):
     """Margins of every family model's loop (``Ms`` from ``cert``'s record of the model)."""
-    ms = {r["temperature_C"]: r["Ms"] for r in cert.models}
+    ms = {r.temperature_C: r.continuous.Ms for r in cert.models}
     return [loop_margins(m, ctrl, ms.get(m.temperature_C, cert.worst("Ms")))
             for m in problem.family.models]
 
@@ -217,7 +217,8 @@ def _analysis_row(state, values):
 def _design_row(state, problem):
     with state.lock:   # a cached solver is not re-entrant: one design at a time per worker
         # no analyses (exact peaks to 1e-10): the row's figures are the certificate's
-        result = state.designer(problem, templates=state.templates, analyses=False)
+        result = state.designer(problem, templates=state.templates, analyses=False,
+                                multistart=False)
     cert = result.certificate
     row = _figures(problem, result.controller, cert,
                    _smallest(_member_margins(problem, result.controller, cert)))

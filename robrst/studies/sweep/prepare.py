@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING
 
 from robrst import __version__
 from robrst.base.errors import RobrstError, SolverError, SpecError
+from robrst.base.fileio import MAX_TOML_BYTES, read_utf8
 from robrst.core.rst import RSTController
 from robrst.base.schema import Field, key_error, load_toml, validate
 from robrst.problem.files import parse_problem
@@ -55,12 +56,9 @@ def read_controller(path: str | Path) -> RSTController:
     SpecError
         Naming the file and the key.
     """
+    text = read_utf8(Path(path), "result file", "JSON", SpecError, limit=MAX_TOML_BYTES)
     try:
-        d = json.loads(Path(path).read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise SpecError(f"{path}: result file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SpecError(f"{path}: cannot read the result file ({exc})") from None
+        d = json.loads(text)
     except ValueError as exc:
         raise SpecError(f"{path}: invalid JSON ({exc})") from None
     if not isinstance(d, dict) or "controller" not in d:

@@ -1,0 +1,251 @@
+"""What a certified controller does that the specs did not bound: the warnings of a design.
+
+A certificate proves the bounds the problem lists, nothing else.  A careful engineer also
+looks at what was left unbounded; :func:`assess` computes it on every family member
+(continuous loop, and the sampled loop when the specs name a rate) and says so:
+
+* **damping**: a closed-loop pole less damped than the plant's own least damped
+  resonance (the default floor, :meth:`robrst.problem.records.Specs.damping_floor`, allows
+  ``DEFAULT_DAMPING_SHARE`` of it; below the plant's own it is still worth a line);
+* **reference overshoot**: a reference step overshooting more than
+  ``DEFAULT_OVERSHOOT_WARN_PCT`` when no ``overshoot_max_pct`` is given (the exact step
+  figures of the certificate, :func:`robrst.certificate.steps.check_many`), computed when
+  some closed-loop pole of the loop is damped below ``OVERSHOOT_GATE`` (a second-order
+  mode damped more overshoots less than 20 %; plant zeros could add some: a loop whose
+  poles are all better damped is not stepped, which keeps a continuous design free of the
+  step kernel's SciPy);
+* **input disturbances**: the peak of ``|B S / Delta|`` above the open loop's ``|B / A|``
+  (the controller amplifies input disturbances somewhere) when no ``Msd_max`` is given.
+
+Each warning names the model, the figure, the comparison and the key to set.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from robrst.core import poly, region
+from robrst.core.peaks import peak_gains_many
+from robrst.core.rst import closed_loop
+from robrst.certificate.steps import check_many
+from robrst.problem.records import DEFAULT_OVERSHOOT_WARN_PCT, plant_damping
+
+if TYPE_CHECKING:
+    from robrst.core.rst import RSTController
+    from robrst.problem.records import Problem
+
+__all__ = ["Assessment", "ModelAssessment", "assess", "OVERSHOOT_GATE"]
+
+OVERSHOOT_GATE = 0.46   # a second-order mode damped 0.46 overshoots 19.8 %
+
+
+@dataclass(frozen=True)
+class ModelAssessment:
+    """One family member's unbounded figures.
+
+    Parameters
+    ----------
+    label : str
+        The model.
+    temperature_C : float
+        Its temperature [°C].
+    damping : float
+        Least damping of the continuous closed-loop poles.
+    plant_damping : float
+        Least damping of the plant's complex poles (1: none).
+    overshoot_pct : float or None
+        Reference-step overshoot [%] (``None``: not stepped, see ``OVERSHOOT_GATE``).
+    Msd : float
+        Peak of ``|B S / Delta|`` [µm/V].
+    open_loop_Msd : float
+        Peak of ``|B / A|`` [µm/V] (``inf`` for a plant that is not stable).
+    damping_sampled : float, optional
+        The sampled loop's least damping (poles mapped to s by ``fs ln z``).
+    overshoot_pct_sampled : float, optional
+        The sampled loop's overshoot at the samples [%].
+    """
+
+    label: str
+    temperature_C: float
+    damping: float
+    plant_damping: float
+    overshoot_pct: float
+    Msd: float
+    open_loop_Msd: float
+    damping_sampled: float = None
+    overshoot_pct_sampled: float = None
+
+    def as_dict(self) -> dict:
+        """The JSON form.
+
+        Returns
+        -------
+        dict
+        """
+        return dict(self.__dict__)
+
+
+@dataclass(frozen=True)
+class Assessment:
+    """The figures :func:`assess` computed and the warnings they earn.
+
+    Parameters
+    ----------
+    models : tuple of ModelAssessment
+        One per family member.
+    warnings : tuple of str
+        What the specs left unbounded and a careful engineer would want to know.
+    notes : tuple of str
+        The defaults applied (the damping floor).
+    damping_floor : float, optional
+        The damping floor the certificate checked.
+    damping_source : str, optional
+        ``"specs"`` or ``"default"``.
+    extra : dict
+        Room for further figures.
+    """
+
+    models: tuple
+    warnings: tuple = ()
+    notes: tuple = ()
+    damping_floor: float = None
+    damping_source: str = None
+    extra: dict = field(default_factory=dict)
+
+    def as_dict(self) -> dict:
+        """The JSON form (``design --json`` key ``assessment``).
+
+        Returns
+        -------
+        dict
+        """
+        return {"warnings": list(self.warnings), "notes": list(self.notes),
+                "damping_floor": self.damping_floor, "damping_source": self.damping_source,
+                "models": [m.as_dict() for m in self.models]}
+
+
+def _overshoots(plants, loops, ctrl, specs, fs=None):
+    """Reference-step overshoot [%] of each loop (stable ones), computed together."""
+    if not loops:
+        return []
+    return [float(rec["overshoot_pct"]) for rec, _ in
+            check_many(plants, ctrl, loops, specs, 1e-3, fs)]
+
+
+def _least_damping(D, fs=None):
+    return region.least_damping(region.s_poles(np.roots(poly.trim(D)), fs))
+
+
+def _sampled(problem, m):
+    sp = problem.specs
+    return problem.family.sampled(m, sp.sample_rate_hz, sp.delay_samples)
+
+
+def assess(problem: Problem, ctrl: RSTController) -> Assessment:
+    """The warnings of ``ctrl`` on ``problem``'s family members (module docstring).
+
+    Parameters
+    ----------
+    problem : Problem
+    ctrl : RSTController
+        The final controller (with its reference path).
+
+    Returns
+    -------
+    Assessment
+    """
+    sp = problem.specs
+    fam = problem.family
+    floor, source = sp.damping_floor(fam)
+    zp_all = plant_damping(fam)
+    loops = [closed_loop(m, ctrl) for m in fam.models]
+    pks = peak_gains_many([([cl.nums["Sd"]], cl.Delta, []) for cl in loops]
+                          + [([m.B], m.A, []) for m in fam.models
+                             if np.all(np.roots(m.A).real < 0)])
+    stable_ol = [bool(np.all(np.roots(m.A).real < 0)) for m in fam.models]
+    ol = iter(pks[len(loops):])
+    stable = [bool(np.all(np.roots(poly.trim(cl.Delta)).real < 0))
+              and _least_damping(cl.Delta) < OVERSHOOT_GATE for cl in loops]
+    want = sp.overshoot_max_pct is None    # else the certificate has the step figures
+    steps = _overshoots([m for m, ok in zip(fam.models, stable) if ok and want],
+                        [cl for cl, ok in zip(loops, stable) if ok and want], ctrl, sp)
+    sampled = {}
+    if sp.sampled:
+        ps = [_sampled(problem, m) for m in fam.models]
+        cls = [closed_loop(p, ctrl) for p in ps]
+        ok = [bool(np.all(np.abs(np.roots(poly.trim(c.Delta))) > 0)
+                   and np.all(np.roots(poly.trim(c.Delta)).real < 0))
+              and _least_damping(c.Delta, sp.sample_rate_hz) < OVERSHOOT_GATE for c in cls]
+        st_s = iter(_overshoots([p for p, k in zip(ps, ok) if k and want],
+                                [c for c, k in zip(cls, ok) if k and want], ctrl, sp,
+                                sp.sample_rate_hz))
+        sampled = {i: (_least_damping(c.Delta, sp.sample_rate_hz),
+                       next(st_s) if k and want else None) for i, (c, k) in enumerate(zip(cls, ok))}
+    steps = iter(steps)
+    out = []
+    for i, (m, cl, pk, st) in enumerate(zip(fam.models, loops, pks, stable_ol)):
+        p = np.roots(m.A)
+        cplx = p[np.abs(p.imag) > 1e-9 * np.abs(p)]
+        rec = dict(label=m.label, temperature_C=m.temperature_C,
+                   damping=_least_damping(cl.Delta), plant_damping=region.least_damping(cplx),
+                   overshoot_pct=next(steps) if stable[i] and want else None,
+                   Msd=float(pk[0].value),
+                   open_loop_Msd=float(next(ol)[0].value) if st else np.inf)
+        if sp.sampled:
+            rec["damping_sampled"], rec["overshoot_pct_sampled"] = sampled[i]
+        out.append(ModelAssessment(**rec))
+    return Assessment(models=tuple(out), warnings=tuple(_warnings(problem, out, floor, source)),
+                      notes=tuple(_notes(floor, source, zp_all)), damping_floor=floor,
+                      damping_source=source)
+
+
+def _notes(floor, source, zp):
+    if source == "default" and floor:
+        return [f"default damping floor {floor:.4g} on every closed-loop pole (min(0.1, 0.9 x the"
+                f" plant's least damping {zp:.4g}); set [specs] damping_min to choose it,"
+                " damping_min = 0 for none"]
+    if source == "default":
+        return ["no default damping floor (a family member has an unstable resonance)"]
+    return []
+
+
+def _worst(models, key):
+    vals = [(getattr(m, key), m) for m in models if getattr(m, key) is not None
+            and np.isfinite(getattr(m, key))]
+    return max(vals, key=lambda v: v[0]) if vals else (None, None)
+
+
+def _warnings(problem, models, floor, source):
+    sp = problem.specs
+    out = []
+    low = [m for m in models if m.damping < m.plant_damping * (1 - 1e-3)]
+    if low and not (source == "specs" and floor):
+        m = min(low, key=lambda m: m.damping / m.plant_damping)
+        out.append(f"closed-loop damping {m.damping:.3g} on model {m.label}"
+                   f" ({m.temperature_C:g} °C) is below the plant's own {m.plant_damping:.3g}:"
+                   " a resonance rings longer than open loop (set [specs] damping_min, or try"
+                   " extra_degree + 1 to let the controller damp it)")
+    if sp.overshoot_max_pct is None:
+        keys = ["overshoot_pct"] + (["overshoot_pct_sampled"] if sp.sampled else [])
+        for key in keys:
+            v, m = _worst(models, key)
+            if v is not None and v > DEFAULT_OVERSHOOT_WARN_PCT:
+                loop = " (sampled loop)" if key.endswith("sampled") else ""
+                out.append(f"a reference step overshoots {v:.3g} %{loop} on model {m.label}"
+                           f" ({m.temperature_C:g} °C), above {DEFAULT_OVERSHOOT_WARN_PCT:g} %"
+                           " (no overshoot_max_pct given: set it, a damping_min, or T_mode ="
+                           " \"reference_model\")")
+                break
+    if sp.Msd_max is None:
+        worse = [m for m in models if np.isfinite(m.open_loop_Msd)
+                 and m.Msd > m.open_loop_Msd * (1 + 1e-3)]
+        if worse:
+            m = max(worse, key=lambda m: m.Msd / m.open_loop_Msd)
+            out.append(f"input-disturbance peak |B S/Delta| {m.Msd:.4g} µm/V on model {m.label}"
+                       f" ({m.temperature_C:g} °C) exceeds the open loop's {m.open_loop_Msd:.4g}"
+                       " µm/V: the controller amplifies input disturbances near that frequency"
+                       " (set [specs] Msd_max)")
+    return out

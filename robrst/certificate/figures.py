@@ -1,0 +1,347 @@
+"""The certificate's typed records: the figures of one loop, and of one model.
+
+A model of the family is checked in its continuous loop and, when the specs name a
+sampling rate, in its sampled loop (:mod:`robrst.core.sampled`): one
+:class:`ModelRecord` holds both as two :class:`LoopFigures` (the same record type, used
+twice).  The records carry no suffixed keys; the published names (``"Ms"``,
+``"Ms_sampled"``, ...) of the JSON contract are produced at the edge only:
+:meth:`ModelRecord.as_dict`, :func:`figure_key` (the names of
+:meth:`robrst.certificate.proof.Certificate.ratios` and of the refinement's margins).
+
+A :class:`ModelRecord` is also a read-only mapping of its published form
+(``record["Ms_sampled"]``, ``record.get("stable")``), for callers that read the records
+by name.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields
+from functools import cached_property
+
+__all__ = ["StepFigures", "LoopFigures", "ModelRecord", "LOOPS", "figure_key", "parse_key"]
+
+LOOPS = ("continuous", "sampled")
+_SUFFIX = {"continuous": "", "sampled": "_sampled"}
+
+
+def figure_key(name: str, loop: str = "continuous") -> str:
+    """The published name of figure ``name`` of ``loop`` (``"Ms"``, ``"Ms_sampled"``).
+
+    Parameters
+    ----------
+    name : str
+        A figure of :class:`LoopFigures` (``"Ms"``, ``"overshoot_pct"``, ...).
+    loop : str
+        ``"continuous"`` or ``"sampled"``.
+
+    Returns
+    -------
+    str
+    """
+    return name + _SUFFIX[loop]
+
+
+def parse_key(key: str) -> tuple[str, str]:
+    """``(figure, loop)`` of a published name (the inverse of :func:`figure_key`).
+
+    Parameters
+    ----------
+    key : str
+        A published name (``"Ms_sampled"``).
+
+    Returns
+    -------
+    (str, str)
+
+    Examples
+    --------
+    >>> parse_key("Ms_sampled"), parse_key("Ms")
+    (('Ms', 'sampled'), ('Ms', 'continuous'))
+    """
+    if key.endswith(_SUFFIX["sampled"]):
+        return key[:-len(_SUFFIX["sampled"])], "sampled"
+    return key, "continuous"
+
+
+@dataclass(frozen=True)
+class StepFigures:
+    """Reference-step figures of one loop (proved upper bounds,
+    :mod:`robrst.certificate.steps`).
+
+    Parameters
+    ----------
+    overshoot_pct : float
+        Overshoot [%].
+    settling_time_s : float
+        2 % settling time [s].
+    step_u_peak_V : float
+        The largest ``|u|`` [V] for a reference step of ``specs.step_um``.
+    """
+
+    overshoot_pct: float
+    settling_time_s: float
+    step_u_peak_V: float
+
+    NAMES = ("overshoot_pct", "settling_time_s", "step_u_peak_V")
+
+    def items(self) -> list[tuple[str, float]]:
+        """``(name, value)`` pairs in the published order.
+
+        Returns
+        -------
+        list of (str, float)
+        """
+        return [(k, getattr(self, k)) for k in self.NAMES]
+
+
+@dataclass(frozen=True)
+class LoopFigures:
+    """Every figure the certificate computes for one closed loop of one model.
+
+    Parameters
+    ----------
+    spectral_abscissa : float
+        Largest real part of the closed-loop roots [rad/s] (of the loop's own variable:
+        the bilinear variable for a sampled loop; ``inf`` for a sampled loop that lost
+        degree, a pole at ``z = -1``).
+    stable : bool
+    distance_to_instability : float or None
+        Relative distance of ``A S + B R`` to a polynomial with an imaginary-axis root.
+    closed_loop_degree : int
+    Ms, Mt, Mu : float
+        Exact global peaks of ``|S|``, ``|T|``, ``|U|`` [V/µm].
+    Ms_freq_rad_s, Mt_freq_rad_s, Mu_freq_rad_s : float or None
+        Where they are (physical frequency; ``None``: at infinity).
+    Mt_resonance_band, Mt_resonance_band_freq_rad_s : float or None
+        The peak of ``|T|`` over the resonance band (when the specs bound it).
+    Mu_hf : float or None
+        The peak of ``|U|`` above the corner of ``Mu_hf_max`` (when bounded).
+    step : StepFigures or None
+        Reference-step figures (time-domain specs, stable loops).
+    Msd, Msd_freq_rad_s : float or None
+        Exact peak of the input-disturbance sensitivity ``|B S / Delta|`` [µm/V] (when
+        ``Msd_max`` bounds it).
+    Mry, Mry_freq_rad_s : float or None
+        Exact peak of the reference-to-output ``|B T / Delta|`` (when ``Mry_max`` bounds it).
+    damping, decay_rad_s : float or None
+        Least damping and least decay rate ``-Re p`` [rad/s] of the loop's poles (a sampled
+        loop's mapped to s by ``fs ln z``), when a pole region is checked.
+    """
+
+    spectral_abscissa: float
+    stable: bool
+    distance_to_instability: float | None
+    closed_loop_degree: int
+    Ms: float
+    Ms_freq_rad_s: float | None
+    Mt: float
+    Mt_freq_rad_s: float | None
+    Mu: float
+    Mu_freq_rad_s: float | None
+    Mt_resonance_band: float | None = None
+    Mt_resonance_band_freq_rad_s: float | None = None
+    Mu_hf: float | None = None
+    step: StepFigures | None = None
+    Msd: float | None = None
+    Msd_freq_rad_s: float | None = None
+    Mry: float | None = None
+    Mry_freq_rad_s: float | None = None
+    damping: float | None = None
+    decay_rad_s: float | None = None
+
+    def value(self, name: str) -> float | bool | None:
+        """Figure ``name`` (a field, or a step figure).
+
+        Parameters
+        ----------
+        name : str
+            The figure.
+
+        Returns
+        -------
+        float, bool or None
+            ``None`` when not computed.
+        """
+        if name in StepFigures.NAMES:
+            return None if self.step is None else getattr(self.step, name)
+        return getattr(self, name, None)
+
+    def items(self, loop: str = "continuous", steps: bool = True) -> list[tuple[str, object]]:
+        """``(published name, value)`` pairs of this loop in the published order.
+
+        The continuous loop lists its stability first, then the peaks; the sampled loop
+        its abscissa and peaks first (the order the JSON contract has always had), without
+        the closed-loop degree and the band peak's frequency.  Band peaks and step
+        figures only when computed; ``steps=False`` leaves the step figures out.
+
+        Parameters
+        ----------
+        loop : {"continuous", "sampled"}
+            Which loop this is (its names' suffix and order).
+        steps : bool
+            Include the step figures.
+
+        Returns
+        -------
+        list of (str, object)
+        """
+        if loop == "continuous":
+            names = ["spectral_abscissa", "stable", "distance_to_instability",
+                     "closed_loop_degree", "Ms", "Ms_freq_rad_s", "Mt", "Mt_freq_rad_s", "Mu",
+                     "Mu_freq_rad_s"]
+            if self.Mt_resonance_band is not None:
+                names += ["Mt_resonance_band", "Mt_resonance_band_freq_rad_s"]
+        else:
+            names = ["spectral_abscissa", "stable", "Ms", "Ms_freq_rad_s", "Mt",
+                     "Mt_freq_rad_s", "Mu", "Mu_freq_rad_s"]
+            if self.Mt_resonance_band is not None:
+                names.append("Mt_resonance_band")
+            names.append("distance_to_instability")
+        if self.Mu_hf is not None:
+            names.append("Mu_hf")
+        for k in ("Msd", "Mry"):         # figures of the newer specs, only when checked
+            if getattr(self, k) is not None:
+                names += [k, k + "_freq_rad_s"]
+        names += [k for k in ("damping", "decay_rad_s") if getattr(self, k) is not None]
+        out = [(figure_key(k, loop), getattr(self, k)) for k in names]
+        if steps and self.step is not None:
+            out += [(figure_key(k, loop), v) for k, v in self.step.items()]
+        return out
+
+    def as_dict(self) -> dict:
+        """The published figures of a loop (unsuffixed names).
+
+        Returns
+        -------
+        dict
+        """
+        return dict(self.items())
+
+
+@dataclass(frozen=True, eq=False)
+class ModelRecord(Mapping):
+    """One checked model: its continuous loop and (with a sampling rate) its sampled loop.
+
+    Parameters
+    ----------
+    label : str
+    temperature_C : float
+    continuous : LoopFigures
+    sampled : LoopFigures or None
+        The exact sampled loop's figures (``None``: no sampling rate in the specs).
+    extra : dict
+        Figures of the certificate's extra checks (``checks`` hooks), by name.
+    margins : dict
+        ``{name: (value, limit)}`` of the hooks, refined over the interval like the others.
+    family_member : bool or None
+        True for a member of the family, false for a sweep or refinement point
+        (``None``: a record not placed by :func:`robrst.certificate.proof.certify`).
+    steps_checked_after : bool
+        The step figures were computed after the certificate's sweep, on its checked
+        points (:func:`robrst.design.with_time_domain`); they are published after
+        ``family_member``, where that path has always put them.
+    actuator : int
+        The actuator the model belongs to: 0 the nominal one, ``k`` further actuator ``k``
+        of a fleet design (:func:`robrst.certificate.proof.certify_families`; published
+        as ``"actuator"`` only then).
+    """
+
+    label: str
+    temperature_C: float
+    continuous: LoopFigures
+    sampled: LoopFigures | None = None
+    extra: dict = field(default_factory=dict)
+    margins: dict = field(default_factory=dict)
+    family_member: bool | None = None
+    steps_checked_after: bool = False
+    actuator: int = 0
+
+    def loop(self, loop: str) -> LoopFigures | None:
+        """The figures of ``loop``.
+
+        Parameters
+        ----------
+        loop : {"continuous", "sampled"}
+            Which loop.
+
+        Returns
+        -------
+        LoopFigures or None
+        """
+        return self.continuous if loop == "continuous" else self.sampled
+
+    def loops(self) -> list[tuple[str, LoopFigures]]:
+        """``(loop name, LoopFigures)`` of every loop checked.
+
+        Returns
+        -------
+        list of (str, LoopFigures)
+        """
+        return [(k, lf) for k, lf in (("continuous", self.continuous),
+                                      ("sampled", self.sampled)) if lf is not None]
+
+    @property
+    def stable(self) -> bool:
+        """True when every loop checked is stable."""
+        return all(lf.stable for _, lf in self.loops())
+
+    def value(self, name: str, loop: str = "continuous") -> float | bool | None:
+        """Figure ``name`` of ``loop`` (a hook's figure by its own name).
+
+        Parameters
+        ----------
+        name : str
+            The figure.
+        loop : {"continuous", "sampled"}
+            Which loop.
+
+        Returns
+        -------
+        float, bool or None
+            ``None`` when not computed.
+        """
+        lf = self.loop(loop)
+        got = None if lf is None else lf.value(name)
+        return self.extra.get(figure_key(name, loop)) if got is None else got
+
+    def as_dict(self) -> dict:
+        """The published record (the JSON contract's ``certificate.models[i]``).
+
+        Returns
+        -------
+        dict
+        """
+        return dict(self._published)
+
+    @cached_property
+    def _published(self):
+        late = self.steps_checked_after
+        d = {"label": self.label, "temperature_C": self.temperature_C}
+        for loop, lf in self.loops():
+            d.update(lf.items(loop, steps=not late))
+        d.update(self.extra)
+        if self.margins:
+            d["margins"] = self.margins
+        if self.family_member is not None:
+            d["family_member"] = self.family_member
+        if self.actuator:
+            d["actuator"] = self.actuator
+        if late:
+            for loop, lf in self.loops():
+                if lf.step is not None:
+                    d.update((figure_key(k, loop), v) for k, v in lf.step.items())
+        return d
+
+    def __getitem__(self, key):
+        return self._published[key]
+
+    def __iter__(self):
+        return iter(self._published)
+
+    def __len__(self):
+        return len(self._published)
+
+    def __repr__(self):
+        parts = ", ".join(f"{f.name}={getattr(self, f.name)!r}" for f in fields(self))
+        return f"ModelRecord({parts})"

@@ -1,0 +1,201 @@
+"""Multi-start of the robust program: diverse starts, the best certified answer, the spread.
+
+The robust program is non-convex: one start ends at one local optimum, and a slightly
+different problem may end at a much better one.  :func:`plans` lists the other runs a
+design tries besides the one the problem asks for, most useful first:
+
+* **free placement** (every controller coefficient free, from the analytic design and the
+  integral/PI roll-off starts of :mod:`robrst.synthesis.starts`) when the problem asks for
+  placed poles first;
+* **neighbouring problems**: every peak bound tightened and loosened by
+  ``NEIGHBOUR_STEP``; the answer of the tighter one meets this problem's bounds, the
+  looser one's may (both are certified on *this* problem before they count), so loosening
+  a spec does not end at a worse certified objective than a tighter one found;
+* **other poles**: the analytic design and the fixed-pole program at ``wn`` halved and
+  doubled, and at another damping;
+* **degree homotopy**: every ``extra_degree`` from 0 up, each seeded with the one below.
+
+Every run is a full robust synthesis (:func:`robrst.synthesis.robust.robust_synthesis`);
+:mod:`robrst.design` runs them in parallel (2 processes) and keeps the best certified
+objective.  :class:`MultiStart` reports every start, its outcome and the spread of the
+optima (how global the answer is).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from robrst.problem.records import Problem
+
+__all__ = ["StartPlan", "StartOutcome", "MultiStart", "plans", "NEIGHBOUR_STEP",
+           "PEAK_BOUNDS"]
+
+NEIGHBOUR_STEP = 0.03
+PEAK_BOUNDS = ("Ms_max", "Mt_max", "Mu_max", "T_resonance_max", "Mu_hf_max", "Msd_max",
+               "Mry_max")
+
+
+@dataclass(frozen=True, eq=False)
+class StartPlan:
+    """One run of a multi-start.
+
+    Parameters
+    ----------
+    name : str
+        What the start is.
+    problem : Problem
+        The problem it solves.
+    recheck : bool
+        Its answer must be certified on the original problem (a neighbouring problem's).
+    """
+
+    name: str
+    problem: object
+    recheck: bool = False
+
+
+@dataclass(frozen=True)
+class StartOutcome:
+    """What one start ended with, judged on the original problem.
+
+    Parameters
+    ----------
+    name : str
+        The start.
+    status : {"certified", "not_certified", "failed"}
+        ``"failed"``: an error, named in ``note``.
+    objective : float, optional
+        The certified objective (``None`` when not certified).
+    integral_gain : float, optional
+        Its controller's integral gain [V/(µm s)].
+    worst_ratio : float, optional
+        Its worst violation ratio (0 when certified).
+    placement : str, optional
+        The nominal pole placement it ended with.
+    wall_time_s : float, optional
+        Its wall time [s].
+    note : str, optional
+        Why it failed.
+    """
+
+    name: str
+    status: str
+    objective: float = None
+    integral_gain: float = None
+    worst_ratio: float = None
+    placement: str = None
+    wall_time_s: float = None
+    note: str = None
+
+    def as_dict(self) -> dict:
+        """The JSON form.
+
+        Returns
+        -------
+        dict
+        """
+        return dict(self.__dict__)
+
+
+@dataclass(frozen=True)
+class MultiStart:
+    """Every start of a design and which won (``design --json`` key ``starts``).
+
+    Parameters
+    ----------
+    outcomes : tuple of StartOutcome
+        The problem as asked first, then the other starts.
+    winner : str
+        The start whose answer is returned.
+    objective : str
+        The objective compared.
+    workers : int
+        Processes used.
+    wall_time_s : float
+        Wall time of the multi-start [s].
+    """
+
+    outcomes: tuple
+    winner: str
+    objective: str
+    workers: int
+    wall_time_s: float
+
+    def spread(self) -> dict:
+        """The certified optima: best, median and worst, and ``(best - worst) / |best|``.
+
+        Returns
+        -------
+        dict
+        """
+        vals = [o.objective for o in self.outcomes if o.objective is not None]
+        if not vals:
+            return {"certified": 0}
+        best, worst = max(vals), min(vals)
+        return {"certified": len(vals), "best": best, "median": float(np.median(vals)),
+                "worst": worst,
+                "relative_spread": (best - worst) / abs(best) if best else 0.0}
+
+    def as_dict(self) -> dict:
+        """The JSON form.
+
+        Returns
+        -------
+        dict
+        """
+        return {"winner": self.winner, "objective": self.objective, "workers": self.workers,
+                "wall_time_s": self.wall_time_s, "spread": self.spread(),
+                "starts": [o.as_dict() for o in self.outcomes]}
+
+
+def _scaled_bounds(specs, factor):
+    """``specs`` with every peak bound times ``factor`` (``Ms_max`` at least 1)."""
+    changes = {}
+    for k in PEAK_BOUNDS:
+        v = getattr(specs, k)
+        if v is not None:
+            changes[k] = max(1.0, v * factor) if k == "Ms_max" else v * factor
+    return replace(specs, **changes) if changes else None
+
+
+def plans(problem: Problem, count: int) -> list[StartPlan]:
+    """The other runs of a multi-start of ``problem``, most useful first (module
+    docstring).
+
+    Parameters
+    ----------
+    problem : Problem
+        The problem as asked.
+    count : int
+        At most this many.
+
+    Returns
+    -------
+    list of StartPlan
+    """
+    so, sp, po = problem.solver, problem.specs, problem.poles
+    poles = []
+    if po.dominant_roots is None and po.wn is not None:
+        lo, hi = so.wn_bounds or (0.0, np.inf)
+        for f, z in ((2.0, po.zeta), (0.5, po.zeta), (1.0, 0.7 if po.zeta != 0.7 else 1.0)):
+            wn = min(max(po.wn * f, lo), hi)
+            if (wn, z) != (po.wn, po.zeta):
+                poles.append(StartPlan(f"poles wn = {wn:.4g} rad/s, zeta = {z:g}",
+                                       replace(problem, poles=replace(po, wn=wn, zeta=z))))
+    neighbours = []
+    for name, f in (("looser bounds (neighbour)", 1 + NEIGHBOUR_STEP),
+                    ("tighter bounds (neighbour)", 1 - NEIGHBOUR_STEP)):
+        s2 = _scaled_bounds(sp, f)
+        if s2 is not None:
+            neighbours.append(StartPlan(name, replace(problem, specs=s2), recheck=True))
+    free = ([StartPlan("free placement", replace(problem, solver=replace(so, placement="free")))]
+            if so.placement != "free" else [])
+    homotopy = ([StartPlan("degree homotopy", replace(problem, solver=replace(
+        so, homotopy="always")))] if problem.controller.extra_degree > 0
+        and so.homotopy != "always" else [])
+    out = poles[:1] + neighbours[1:] + poles[2:] + neighbours[:1] + free + poles[1:2] + homotopy
+    return out[:max(0, int(count))]
