@@ -18,7 +18,7 @@ import numpy as np
 from robrst.core import poly
 from robrst.certificate import steps as timespec
 from robrst.core.analysis import analyze_many, spectral_abscissa_many
-from robrst.certificate.proof import Violation, certify, certify_problem
+from robrst.certificate.proof import ACTUATOR, Violation, actuator_of, certify, certify_problem
 from robrst.base.errors import CoprimeError, SpecError
 from robrst.certificate.figures import StepFigures
 from robrst.certificate.models import BOUNDED
@@ -160,6 +160,10 @@ class DesignResult:
         The comparison with ``compare_with``'s analytic design.
     tracking : Tracking, optional
         The 2-DOF reference path (``T_mode = "reference_model"``).
+    fleet : FleetDesign, optional
+        The :class:`~robrst.synthesis.scenario.FleetDesign` of a problem with a
+        ``[spread]`` (then ``problem.scenarios`` are the drawn actuators the program held
+        on).
     assessment : Assessment, optional
         What the specs left unbounded and its warnings
         (:class:`~robrst.certificate.assessment.Assessment`; with the analyses).
@@ -171,7 +175,8 @@ class DesignResult:
     best_achievable : str or None
         What an uncertified design achieves (its worst violation).
     certified : bool
-        The certificate holds over the whole family and sweep.
+        The certificate holds over the whole family and sweep (a fleet design: and on
+        every actuator drawn for it).
     status : str
         ``"certified"`` or ``"not_certified"``.
     integral_gain : float
@@ -188,6 +193,7 @@ class DesignResult:
     analytic_check: AnalyticCheck = None
     comparison: Comparison = None
     tracking: object = None
+    fleet: object = None
     assessment: object = None
     starts: object = None
 
@@ -198,8 +204,9 @@ class DesignResult:
 
     @property
     def certified(self):
-        """True when the certificate holds over the whole family and sweep."""
-        return self.certificate.certified
+        """True when the certificate holds over the whole family and sweep (a fleet
+        design: and on every actuator drawn for it)."""
+        return self.certificate.certified and (self.fleet is None or not self.fleet.violated)
 
     @property
     def status(self):
@@ -305,6 +312,8 @@ class DesignResult:
         if self.comparison is not None:
             out["comparison"] = self.comparison.as_dict()
         out["artefact"] = artefact_record(p)   # what robrst.load_design reads back
+        if self.fleet is not None:
+            out["fleet"] = self.fleet.as_dict()
         return out
 
 
@@ -460,11 +469,14 @@ def with_time_domain(problem: Problem, cert: Certificate, ctrl: RSTController,
     """
     sp = problem.specs
     recs = list(cert.models)
-    models = [problem.family.at(rec.temperature_C) for rec in recs]
+    fams = problem.families      # a record of a further actuator names it (certify_families)
+    acts = [rec.actuator or actuator_of(rec.label)[0] for rec in recs]
+    models = [fams[k].at(rec.temperature_C) for k, rec in zip(acts, recs)]
+    labels = [m.label if not k else f"{ACTUATOR}{k}/{m.label}" for m, k in zip(models, acts)]
     kinds = [(models, None, "continuous")]
     if sp.sampled:
-        kinds.append(([problem.family.sampled(m, sp.sample_rate_hz, sp.delay_samples)
-                       for m in models], sp.sample_rate_hz, "sampled"))
+        kinds.append(([fams[k].sampled(m, sp.sample_rate_hz, sp.delay_samples)
+                       for k, m in zip(acts, models)], sp.sample_rate_hz, "sampled"))
     found = [[] for _ in recs]            # per model, the failed specs of each loop
     added = None if factor is None else spectral_abscissa_many([factor])[0][0]
     for plants, fs, loop in kinds:        # every model's loop of one kind at once
@@ -480,7 +492,7 @@ def with_time_domain(problem: Problem, cert: Certificate, ctrl: RSTController,
                                           sp, cert.rtol, fs)
             for k, (t_rec, failed) in zip(ks, checked):
                 figs[k] = replace(figs[k], step=StepFigures(**t_rec))
-                found[k] += [Violation(models[k].label, models[k].temperature_C, q, v, b, None,
+                found[k] += [Violation(labels[k], models[k].temperature_C, q, v, b, None,
                                        loop, kind) for q, v, b, kind in failed]
         recs = [replace(rec, **{loop: f}) for rec, f in zip(recs, figs)]
     if sp.time_domain:   # figures the certificate did not have are published after it
@@ -610,7 +622,9 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
     multistart : bool, optional
         The robust program (``method = "nlp"``) also runs from the diverse starts of
         :mod:`robrst.synthesis.multistart` on 2 processes and keeps the best certified
-        answer (default: ``problem.solver.multistart``; sweeps pass ``False``).
+        answer (default: ``problem.solver.multistart``; sweeps pass ``False``). A problem
+        with a ``[spread]`` is designed for the fleet (:mod:`robrst.synthesis.scenario`),
+        its rounds warm-started from one another and never multi-started.
 
     Returns
     -------
@@ -631,10 +645,37 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
     if multistart is None:
         multistart = problem.solver.multistart
     with one_blas_thread(problem.needs_scipy):
+        if problem.spread is not None:
+            return _fleet(problem, progress, templates, analyses)
         return _design(problem, progress, templates, analyses, multistart)
 
 
-def _design(problem, progress, templates, analyse, multistart):
+def _fleet(problem, progress, templates, analyse):
+    """A design for the problem's spread (:mod:`robrst.synthesis.scenario`): every round
+    one design warm-started from the previous round's, without comparison or multi-start."""
+    from robrst.synthesis.scenario import scenario_design
+
+    templates = {} if templates is None else templates
+
+    say = progress or (lambda msg: None)
+
+    def one(p, warm):
+        return _design(p, lambda msg: say("  " + msg), templates, False, False, warm,
+                       compare=False)
+
+    result, fleet = scenario_design(problem, one, progress)
+    comp = comparison(result.problem, result.controller, result.certificate)
+    analyses = analyze_many(problem.family.models, result.controller) if analyse else ()
+    assessment = None
+    if analyse:
+        from robrst.certificate.assessment import assess
+
+        assessment = assess(result.problem, result.controller)
+    return replace(result, analyses=analyses, comparison=comp, fleet=fleet,
+                   assessment=assessment)
+
+
+def _design(problem, progress, templates, analyse, multistart, warm=None, compare=True):
     """:func:`run_problem` (its BLAS limited by the caller)."""
     say = progress or (lambda msg: None)
     method = problem.solver.method
@@ -655,9 +696,10 @@ def _design(problem, progress, templates, analyse, multistart):
             (stage, ctrl, trk, cert), starts = _multistart(
                 problem, plans(problem, problem.solver.starts), start, say, templates)
         else:
-            stage, ctrl, trk, cert = _candidate(problem, problem, False, start, say, templates)
+            stage, ctrl, trk, cert = _candidate(problem, problem, False, start, say, templates,
+                                                warm=warm)
         check = analytic_check(problem, stage.controller, stage.Am)
-    comp = None if method == "analytic" else comparison(problem, ctrl, cert)
+    comp = None if method == "analytic" or not compare else comparison(problem, ctrl, cert)
     analyses = analyze_many(problem.family.models, ctrl) if analyse else ()
     assessment = None
     if analyse:
@@ -670,11 +712,13 @@ def _design(problem, progress, templates, analyse, multistart):
                         assessment=assessment, starts=starts)
 
 
-def _candidate(problem, original, recheck, start=None, say=None, templates=None, budget=None):
+def _candidate(problem, original, recheck, start=None, say=None, templates=None, budget=None,
+               warm=None):
     """One synthesis of ``problem`` judged on ``original`` (the same problem, or a
     neighbouring one whose answer is certified on ``original`` when ``recheck``):
     ``(stage, controller, tracking, certificate)`` with the reference path and the
-    time-domain figures completed."""
+    time-domain figures completed; ``warm`` a previous design's synthesis record, the
+    robust synthesis's preferred start (a fleet design's rounds)."""
     from robrst.synthesis.robust import robust_synthesis
 
     start = start if start is not None else analytic_design(problem)
@@ -683,7 +727,7 @@ def _candidate(problem, original, recheck, start=None, say=None, templates=None,
 
         stage = convex_synthesis(problem, start, say)
     else:
-        stage = robust_synthesis(problem, start, say, templates, budget=budget)
+        stage = robust_synthesis(problem, start, say, templates, warm=warm, budget=budget)
     ctrl, trk, cert = stage.controller, None, stage.certificate
     if recheck:
         from robrst.synthesis.attempts import frequency_certificate

@@ -241,6 +241,10 @@ class ModelRecord(Mapping):
         The step figures were computed after the certificate's sweep, on its checked
         points (:func:`robrst.design.with_time_domain`); they are published after
         ``family_member``, where that path has always put them.
+    actuator : int
+        The actuator the model belongs to: 0 the nominal one, ``k`` further actuator ``k``
+        of a fleet design (:func:`robrst.certificate.proof.certify_families`; published
+        as ``"actuator"`` only then).
     """
 
     label: str
@@ -251,6 +255,7 @@ class ModelRecord(Mapping):
     margins: dict = field(default_factory=dict)
     family_member: bool | None = None
     steps_checked_after: bool = False
+    actuator: int = 0
 
     def loop(self, loop: str) -> LoopFigures | None:
         """The figures of ``loop``.
@@ -320,6 +325,8 @@ class ModelRecord(Mapping):
             d["margins"] = self.margins
         if self.family_member is not None:
             d["family_member"] = self.family_member
+        if self.actuator:
+            d["actuator"] = self.actuator
         if late:
             for loop, lf in self.loops():
                 if lf.step is not None:

@@ -59,8 +59,8 @@ if TYPE_CHECKING:
     from robrst.core.family import PlantFamily
     from robrst.problem.records import Specs
 
-__all__ = ["Violation", "Certificate", "certify", "certify_problem", "check_model", "band_peak",
-           "REFINE_RATIO", "RESOLVE_FACTOR"]
+__all__ = ["Violation", "Certificate", "certify", "certify_problem", "certify_families",
+           "actuator_of", "check_model", "band_peak", "REFINE_RATIO", "RESOLVE_FACTOR"]
 
 REFINE_RATIO = 0.5     # halve an interval when a figure moves by more than this x its margin
 MIN_WIDTH = 1.0 / 4096  # resolution floor, as a fraction of the temperature range
@@ -606,6 +606,69 @@ def _region_statement(specs, source, interval):
             "decay_min": specs.decay_min, "proved_between_points": bool(proof and
                                                                           proof["proved"]),
             "statement": f"every closed-loop pole: {what}, {pts}; {between}{samp}"}
+
+
+ACTUATOR = "actuator"   # the published record key (and label prefix) of a further actuator
+
+
+def actuator_of(label: str) -> tuple[int, str]:
+    """``(index, model label)`` of a violation's label.
+
+    Parameters
+    ----------
+    label : str
+        A violation's model label: ``"actuator3/T45C"`` is model ``T45C`` of further
+        actuator 3 (:func:`certify_families`); a plain label is actuator 0's.
+
+    Returns
+    -------
+    (int, str)
+        The actuator's index and the model's own label.
+    """
+    head, sep, tail = str(label).partition("/")
+    if sep and head.startswith(ACTUATOR) and head[len(ACTUATOR):].isdigit():
+        return int(head[len(ACTUATOR):]), tail
+    return 0, label
+
+
+def certify_families(families: Sequence[PlantFamily], ctrl: RSTController, specs: Specs,
+                     n_sweep: int = 35, rtol: float = 1e-3, checks: Sequence[Callable] = (),
+                     max_refine: int | None = None) -> Certificate:
+    """:func:`certify` on every family of ``families`` (several actuators), merged.
+
+    The first family is the nominal actuator: with one family this is :func:`certify`
+    itself.  The records of further actuator ``k`` carry ``actuator = k`` (published as
+    ``"actuator": k``) and its
+    violations the label ``"actuator<k>/<model>"`` (:func:`actuator_of`); the merged
+    certificate holds when every actuator's does, and its ``interval`` is the nominal
+    actuator's with ``"actuators"``, the number of families.
+
+    Parameters
+    ----------
+    families : sequence of PlantFamily
+        The nominal actuator's family first, then the further actuators'.
+    ctrl : RSTController
+        The controller.
+    specs : Specs
+        The specs checked.
+    n_sweep, rtol, checks, max_refine
+        As for :func:`certify` (each family).
+
+    Returns
+    -------
+    Certificate
+    """
+    certs = [certify(f, ctrl, specs, n_sweep, rtol, checks, max_refine) for f in families]
+    if len(certs) == 1:
+        return certs[0]
+    models, viols = list(certs[0].models), list(certs[0].violations)
+    for k, c in enumerate(certs[1:], start=1):
+        models += [replace(rec, actuator=k) for rec in c.models]
+        viols += [replace(v, label=f"{ACTUATOR}{k}/{v.label}") for v in c.violations
+                  if v.label != "controller"]   # the controller's own poles: listed once
+    return replace(certs[0], certified=all(c.certified for c in certs), models=tuple(models),
+                   violations=tuple(viols),
+                   interval={**certs[0].interval, "actuators": len(certs)})
 
 
 def certify_problem(problem: Problem, ctrl: RSTController) -> Certificate:

@@ -7,6 +7,7 @@ same schema (:func:`schema_markdown`).  Built-in problem files ship with the pac
 """
 
 import os
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +21,8 @@ from robrst.core.plant import Plant, named_plant
 from robrst.problem.records import (AUX_MIN_FACTOR, HOMOTOPIES, INITS, METHODS, OBJECTIVES,
                             PLACEMENTS, T_MODES, ControllerStructure, Problem, SolverOptions, Specs)
 from robrst.base.schema import ArrayOf, Field, key_error, load_toml, markdown_rows, validate
+from robrst.problem.spread import (COEF as COEF_NAME, DIST_KEYS, PLANT_PARAMS, RANDOM_DISTS, SPREAD_METHODS,
+                                   THERMAL_KEYS, Param, Spread, check_plant_params)
 from robrst.problem.checks import (MAX_RATE, MIN_RATE, MIN_RATE_HZ, check_combinations, check_generated,
                               check_pairs, check_rates, pole_spec)
 
@@ -180,6 +183,39 @@ SCHEMA = {
                             " off inside sweeps"),
         "starts": Field("int", 2, "nlp multi-start: how many starts beyond the first",
                         lo=0, hi=64),
+    },
+    "spread": {
+        "yield": Field("number", 0.95, "share of the actuators the controller must certify on"
+                       " (the yield target)", lo=0.5, hi=0.9999),
+        "confidence": Field("number", 0.99, "confidence 1 - beta of the scenario guarantee",
+                            lo=0.5, hi=1 - 1e-9),
+        "seed": Field("int", 0, "seed of the drawn actuators (numpy.random.default_rng)", lo=0),
+        "method": Field("str", "scenario", "scenario (drawn actuators, a stated yield) | box"
+                        " (worst case over the parameter box: centre and corners)",
+                        choices=SPREAD_METHODS),
+        "scenarios": Field("int", None, "drawn actuators (default: from the scenario bound of"
+                           " yield, confidence and the decision variables)", lo=1, hi=100_000),
+        "box_sigmas": Field("number", 3.0, "box: half-width of a normal or lognormal"
+                            " parameter in standard deviations (within its truncation)",
+                            positive=True, hi=10.0),
+        "cert_temperatures": Field("int", None, "temperatures of the certificate on each drawn"
+                                   " actuator (default: solver.cert_temperatures)",
+                                   lo=1, hi=10000),
+        "param": ArrayOf({
+            "name": Field("str", None, "gain, resonance, damping, a coefficient factor (A1, B0,"
+                          " ...) or a per-kelvin law (family.parametric.gain_per_K, ...)",
+                          required=True),
+            "dist": Field("str", None, "normal | uniform | lognormal", required=True,
+                          choices=RANDOM_DISTS),
+            "mean": Field("number", None, "normal: mean"),
+            "std": Field("number", None, "normal: standard deviation", positive=True),
+            "median": Field("number", None, "lognormal: median", positive=True),
+            "sigma": Field("number", None, "lognormal: standard deviation of the logarithm",
+                           positive=True),
+            "lo": Field("number", None, "uniform: lower end; normal, lognormal: truncation"),
+            "hi": Field("number", None, "uniform: upper end; normal, lognormal: truncation"),
+            "note": Field("str", "", "where the spread comes from"),
+        }, doc="one parameter of the manufacturing spread", max_items=64),
     },
 }
 
@@ -436,9 +472,55 @@ def parse_problem(data: dict, path: str | Path = "<problem>", compare: bool = Tr
                       solver=solver, path=str(path), description=meta.get("description", ""),
                       plant_name=(v["plant"] or {}).get("name"))
     check_generated(path, problem)
+    if v["spread"] is not None:
+        if solver.method != "nlp":
+            raise key_error(path, ("spread",), "a design for a spread needs [solver] method ="
+                            f" 'nlp' (got '{solver.method}')")
+        problem = replace(problem, spread=_spread(path, v["spread"], family))
     if compare:
         _check_compare_with(path, solver)
     return problem
+
+
+def _spread(path, sp, family):
+    """The :class:`~robrst.problem.spread.Spread` of a validated ``[spread]`` table."""
+    params = []
+    for i, p in enumerate(sp["param"] or ()):
+        key = ("spread", "param", str(i))
+        name, dist = p["name"], p["dist"]
+        if name not in THERMAL_KEYS and name not in ("gain", "resonance", "damping") \
+                and not COEF_NAME.match(name):
+            raise key_error(path, key + ("name",), f"unknown parameter {name!r}: expected gain,"
+                            " resonance, damping, A<i>, B<i> or one of " + ", ".join(THERMAL_KEYS))
+        if name in [q.name for q in params]:
+            raise key_error(path, key + ("name",), f"parameter {name!r} given twice")
+        given = {k for k in ("mean", "std", "median", "sigma", "lo", "hi") if p[k] is not None}
+        need, allowed = DIST_KEYS[dist]
+        for k in sorted(need - given):
+            raise key_error(path, key + (k,), f"missing: dist = '{dist}' needs "
+                            + " and ".join(sorted(need)))
+        for k in sorted(given - need - allowed):
+            raise key_error(path, key + (k,), f"not used by dist = '{dist}'")
+        lo, hi = p["lo"], p["hi"]
+        if lo is not None and hi is not None and not lo < hi:
+            raise key_error(path, key, f"expected lo < hi, got lo = {lo:g}, hi = {hi:g}")
+        if dist == "lognormal" and lo is not None and not lo > 0:
+            raise key_error(path, key + ("lo",), "lognormal truncation needs lo > 0")
+        params.append(Param(name=name, dist=dist, mean=p["mean"], std=p["std"],
+                            median=p["median"], sigma=p["sigma"], lo=lo, hi=hi, note=p["note"]))
+    if not params:
+        raise key_error(path, ("spread", "param"), "a spread needs at least one"
+                        " [[spread.param]] table (what varies between the actuators)")
+    try:
+        check_plant_params(params, family, path)
+    except SpecError as exc:
+        raise key_error(path, ("spread", "param"), str(exc).removeprefix(f"{path}: ")) from None
+    if sp["method"] == "box" and len(params) > 12:
+        raise key_error(path, ("spread", "method"), f"a box of {len(params)} parameters has"
+                        f" {2 ** len(params)} corners; at most 12 parameters")
+    return Spread(params=tuple(params), yield_target=sp["yield"], confidence=sp["confidence"],
+                  seed=sp["seed"], method=sp["method"], scenarios=sp["scenarios"],
+                  box_sigmas=sp["box_sigmas"], cert_temperatures=sp["cert_temperatures"])
 
 
 def resolve_problem_path(name_or_path: str | os.PathLike) -> Path:

@@ -498,9 +498,17 @@ class Problem:
         Free text.
     plant_name : str or None
         The built-in plant the nominal model came from (e.g. ``"paper"``), if any.
+    spread : Spread or None
+        The manufacturing spread the design must hold on, with its yield target
+        (:mod:`robrst.problem.spread`; a problem file's ``[spread]``).
+    scenarios : tuple of PlantFamily
+        Further actuators (each with its temperature family) the synthesis must hold on
+        besides ``family``: the drawn actuators of a fleet design that bind.
 
     Attributes
     ----------
+    families : tuple of PlantFamily
+        ``(family, *scenarios)``: every actuator the synthesis holds on.
     needs_scipy : bool
         Designing or certifying this problem uses SciPy's linear algebra (the sampled
         loop, step responses, a designed reference path).
@@ -523,6 +531,13 @@ class Problem:
     path: str = "<python>"
     description: str = ""
     plant_name: str = None
+    spread: object = None
+    scenarios: tuple = ()
+
+    @property
+    def families(self):
+        """``(family, *scenarios)``: every actuator the synthesis holds on."""
+        return (self.family,) + tuple(self.scenarios)
 
     @property
     def needs_scipy(self):

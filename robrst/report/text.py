@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["margins_table", "sampled_summary", "design_summary", "fmt", "spec_table",
-           "controller_lines"]
+__all__ = ["margins_table", "sampled_summary", "design_summary", "fleet_summary", "fmt",
+           "spec_table", "controller_lines"]
 
 
 def fmt(x: float | None, spec: str) -> str:
@@ -244,4 +244,33 @@ def design_summary(d: dict) -> str:
                    f" -> {'passed' if ac['passed'] else 'FAILED'}")
     if d.get("comparison"):
         out.append(d["comparison"]["table"])
+    if d.get("fleet"):
+        out.append(fleet_summary(d["fleet"]))
     return "\n".join(out)
+
+
+def fleet_summary(f: dict) -> str:
+    """The lines on a fleet design (``robrst design`` of a problem with a ``[spread]``).
+
+    Parameters
+    ----------
+    f : dict
+        The ``fleet`` object of the design's JSON.
+
+    Returns
+    -------
+    str
+    """
+    head = (f"fleet design ({f['method']}): {f['scenarios']} drawn actuators, seed {f['seed']},"
+            f" {len(f['violated'])} violated; {f['rounds']} exchange rounds, compression set"
+            f" {f['compression_size']} (in the program {len(f['support'])}, discarded"
+            f" {len(f['discarded'])})")
+    lines = [head]
+    if f["guaranteed_yield"] is not None:
+        lines.append(f"guaranteed yield {100 * f['guaranteed_yield']:.2f} % at confidence"
+                     f" {100 * f['confidence']:g} % (target {100 * f['yield_target']:g} %:"
+                     f" {'met' if f['target_met'] else 'NOT met'}); {f['bound']}")
+    if f["integral_gain_ratio"] is not None:
+        lines.append(f"integral gain {f['integral_gain']:.5g}, {f['integral_gain_ratio']:.3f}"
+                     f" x the nominal design's {f['nominal_integral_gain']:.5g}")
+    return "\n".join(lines)

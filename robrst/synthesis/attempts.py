@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from robrst.certificate.proof import certify
+from robrst.certificate.proof import actuator_of, certify_families
 from robrst.synthesis.exchange import Phase, solve_exchange
 from robrst.synthesis.nlp import grid_blocks
 from robrst.synthesis.outcome import Round, worst_violation
@@ -103,8 +103,8 @@ class Outcome:
 
 
 def frequency_certificate(problem: Problem, ctrl: RSTController) -> Certificate:
-    """The certificate of ``ctrl`` for the frequency-domain specs (the time-domain ones
-    are checked once the reference path is designed).
+    """The certificate of ``ctrl`` for the frequency-domain specs on every actuator of
+    ``problem`` (the time-domain ones are checked once the reference path is designed).
 
     Parameters
     ----------
@@ -118,8 +118,16 @@ def frequency_certificate(problem: Problem, ctrl: RSTController) -> Certificate:
     Certificate
     """
     so = problem.solver
-    return certify(problem.family, ctrl, problem.specs.without_time_domain(),
-                   n_sweep=so.cert_temperatures, rtol=so.cert_tol)
+    return certify_families(problem.families, ctrl, problem.specs.without_time_domain(),
+                            n_sweep=so.cert_temperatures, rtol=so.cert_tol)
+
+
+def _program_models(problem):
+    """The models the program starts with: every family member, and the models at both
+    ends of the temperature range of every further actuator (``problem.scenarios``; the
+    certificate's refinement adds their other temperatures where they bind)."""
+    ends = [m for f in problem.scenarios for m in (f.models[0], f.models[-1])[:len(f.models)]]
+    return list(problem.family.models) + ends
 
 
 def refine(problem: Problem, cert: Certificate, models: list,
@@ -150,7 +158,7 @@ def refine(problem: Problem, cert: Certificate, models: list,
     """
     known = {m.temperature_C for m in models}
     fs = problem.specs.sample_rate_hz
-    new_T = {}
+    new_T, further = {}, {}
     for v in cert.violations:
         if v.freq_rad_s is not None:
             w = v.freq_rad_s
@@ -159,12 +167,28 @@ def refine(problem: Problem, cert: Certificate, models: list,
             nu = np.unique(np.concatenate([nu, [w * f for f in (0.98, 1.0, 1.02)]]))
         elif v.quantity.endswith("peak"):  # peak at infinity: push the grid further out
             nu = np.unique(np.concatenate([nu, [nu.max() * 100.0]]))
-        if v.temperature_C not in known and np.isfinite(v.temperature_C):
+        k = actuator_of(v.label)[0]
+        if k:          # a further actuator's model (problem.scenarios), by identity
+            if np.isfinite(v.temperature_C) and not any(
+                    m is q for q in models
+                    for m in _models_at(problem.families[k], v.temperature_C)):
+                further[k, v.temperature_C] = max(further.get((k, v.temperature_C), 0.0),
+                                                  v.ratio)
+        elif v.temperature_C not in known and np.isfinite(v.temperature_C):
             new_T[v.temperature_C] = max(new_T.get(v.temperature_C, 0.0), v.ratio)
     for T in sorted(new_T, key=lambda t: -new_T[t])[:max_new]:
         models.append(problem.family.at(T))
+    for k, T in sorted(further, key=lambda kt: -further[kt])[:max_new]:
+        models.append(_models_at(problem.families[k], T)[0])
     models.sort(key=lambda m: m.temperature_C)
     return models, nu
+
+
+def _models_at(family, T):
+    """The member of ``family`` at ``T`` if there is one (both objects a program may hold),
+    else the model :meth:`~robrst.core.family.PlantFamily.at` ``T``."""
+    members = [m for m in family.models if m.temperature_C == T]
+    return members + [family.at(T)] if members else [family.at(T)]
 
 
 def _stacked(a, b):
@@ -536,7 +560,7 @@ class Run:
             The last outcome (``None`` if IPOPT failed in the first round).
         """
         p = ctx.problem
-        models, nu, last = list(p.family.models), ctx.nu, None
+        models, nu, last = _program_models(p), ctx.nu, None
         x = np.concatenate([x[:-1], [1.0]])
         exact, start = False, name
         for rnd in range(p.solver.max_rounds):
@@ -571,6 +595,24 @@ class Run:
             x, start = res.x, "previous round"
             models, nu = refine(p, last.cert, models, nu)
         return last
+
+    def _from_warm(self, ctx, setup, placement, warm):
+        """Soft goals, then the objective, from the previous design ``warm`` (a scored
+        start): in a fleet design's next round the actuators just added move the specs a
+        little, and the boldest start that already meets them may lead to a far worse
+        local optimum.  Returns the certified outcome of the objective, else the soft-goal
+        point (``None`` if nothing was solved)."""
+        if warm.worst > FAR_START or self.spent(placement):
+            return None
+        x0 = ctx.full(warm.xc, setup, warm.wn, warm.zeta,
+                      gamma=max(warm.worst * 1.02, GAMMA_FLOOR) if warm.stable else
+                      max(warm.worst, 1.0) * 2)
+        res = self.solve(ctx, setup, x0, Phase("soft", GAMMA_FLOOR), WARM_START)
+        soft = self.outcome(ctx, setup, res, "soft")
+        if not (res.success and res.x[-1] <= 1.0):
+            return soft
+        out = self.hard(ctx, placement, res.x, f"soft-goal point from {WARM_START}")
+        return out if out is not None and (out.certified or not soft.certified) else soft
 
     def bolder(self, ctx: Context, setup: NLPSetup, placement: str, starts: Sequence,
                out: Outcome) -> Outcome | None:
@@ -642,7 +684,7 @@ class Run:
             The best certified outcome, else the least violating one (``None``: nothing
             solved).
         """
-        setup = ctx.setup(list(ctx.problem.family.models), ctx.nu, placement)
+        setup = ctx.setup(_program_models(ctx.problem), ctx.nu, placement)
         blocks = grid_blocks(setup, np.ones(ctx.param.n_x))   # weights unused by the scores
         warm = next((sd for sd in seeds if sd[0] == WARM_START and sd[1] is not None), None)
         from_warm = None     # the hard phase from the warm start, once run
@@ -650,7 +692,14 @@ class Run:
             # a previous design of a nearby variant near the specs on the grid is the
             # preferred start: solved from at once, the other starts scored only if it fails
             s = score(setup, blocks, *warm)
-            if s.stable and s.worst <= WARM_NEAR:
+            if ctx.problem.scenarios:     # a fleet design's next round: from the previous
+                out = self._from_warm(ctx, setup, placement, s)     # design, soft goals first
+                if out is not None:
+                    # certified, or not: the actuators just added are then out of reach
+                    # near the previous design, and the round ends (the exchange over
+                    # actuators discards one and tries again)
+                    return out
+            elif s.stable and s.worst <= WARM_NEAR:
                 from_warm = self.hard(ctx, placement, ctx.full(s.xc, setup, s.wn, s.zeta),
                                       s.name)
                 if from_warm is not None and from_warm.certified:

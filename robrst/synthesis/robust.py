@@ -174,7 +174,8 @@ def _homotopy(problem, start, run):
         return out
     out = _synthesize(problem, start, run, extra)
     optimised = out.certified and out.phase == "hard"
-    if optimised or extra == 0 or out.badness > NEAR_MISS or a_priori_note(problem) or run.spent():
+    if optimised or extra == 0 or out.badness > NEAR_MISS or a_priori_note(problem) or run.spent() \
+            or problem.scenarios:   # a fleet design's round: the exchange over actuators decides
         return out      # done, or far from the specs: fewer degrees will not meet them either
     run.say(f"extra_degree {extra}: {'objective not optimised' if out.certified else 'not certified'}"
             f"; solving with {extra - 1} first")

@@ -173,10 +173,10 @@ def two_dof(plant: Plant, ctrl: RSTController, wn: float, zeta: float,
 
 
 def _meets(problem, ctrl):
-    """Every family model's loop (and sampled loop) is stable and meets the time-domain
-    specs (the loops of one kind computed together)."""
+    """Every family model's loop (and sampled loop), of every actuator, is stable and meets
+    the time-domain specs (the loops of one kind computed together)."""
     sp = problem.specs
-    models = list(problem.family.models)
+    models = [m for f in problem.families for m in f.models]
     kinds = [(models, None)]
     if sp.sampled:
         kinds.append(([problem.family.sampled(m, sp.sample_rate_hz, sp.delay_samples)

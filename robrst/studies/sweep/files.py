@@ -27,6 +27,7 @@ from robrst.base import resources
 from robrst.base.errors import SpecError
 from robrst.base.schema import ArrayOf, Field, key_error, load_toml, markdown_rows, validate
 from robrst.problem.files import SCHEMA as PROBLEM_SCHEMA
+from robrst.problem.spread import COEF, DIST_KEYS, DISTS, PLANT_PARAMS, Ageing, Param
 from robrst.studies.sweep.variants import grid_values
 
 __all__ = ["Param", "Ageing", "Sweep", "SWEEP_SCHEMA", "PLANT_PARAMS", "KINDS", "DISTS",
@@ -34,17 +35,8 @@ __all__ = ["Param", "Ageing", "Sweep", "SWEEP_SCHEMA", "PLANT_PARAMS", "KINDS", 
            "sweep_schema_markdown"]
 
 KINDS = ("analysis", "design", "fleet")
-DISTS = ("normal", "uniform", "lognormal", "grid")
 FIGURES = ("Ms", "Mt", "Mu", "Mt_band", "modulus_margin", "gain_margin", "phase_margin_deg",
            "delay_margin_s", "integral_gain", "worst_ratio")
-PLANT_PARAMS = {
-    "gain": "static-gain factor of the nominal model (1 = nominal)",
-    "resonance": "natural-frequency factor of every complex pole pair (1 = nominal)",
-    "damping": "damping factor of every complex pole pair (1 = nominal)",
-    "age_years": "age [years]: scales gain, resonance and damping by the [ageing] rates",
-    "temperature_C": "one temperature [°C]: the variant is the single model there",
-}
-COEF = re.compile(r"^([AB])(\d+)$")
 MAX_VARIANTS = 10_000_000
 
 SWEEP_SCHEMA = {
@@ -101,75 +93,7 @@ SWEEP_SCHEMA = {
         "note": Field("str", "", "where the spread comes from"),
     }, doc="one varied parameter", max_items=64),
 }
-# keys each distribution needs / accepts (besides name, dist, note)
-_DIST_KEYS = {"normal": ({"mean", "std"}, {"lo", "hi"}),
-              "uniform": ({"lo", "hi"}, set()),
-              "lognormal": ({"median", "sigma"}, {"lo", "hi"}),
-              "grid": (set(), {"lo", "hi", "steps", "log", "values"})}
-
-
-@dataclass(frozen=True)
-class Param:
-    """One varied parameter: a seeded distribution or a grid of values.
-
-    Parameters
-    ----------
-    name : str
-        A problem-file key path (``specs.Mu_max``) or a plant factor (``gain``,
-        ``resonance``, ``damping``, ``age_years``, ``temperature_C``, ``A1``, ``B0``, ...).
-    dist : {"normal", "uniform", "lognormal", "grid"}
-        The distribution.
-    mean, std : float, optional
-        Normal: mean and standard deviation.
-    median, sigma : float, optional
-        Lognormal: median and standard deviation of the logarithm.
-    lo, hi : float, optional
-        Uniform and grid: the ends; normal and lognormal: truncation.
-    values : tuple of float, optional
-        Grid: the values (or ``lo``, ``hi`` and ``steps`` expanded).
-    note : str
-        Where the spread comes from.
-
-    Attributes
-    ----------
-    random : bool
-        True for a distribution, False for a grid.
-    """
-
-    name: str
-    dist: str
-    mean: float = None
-    std: float = None
-    median: float = None
-    sigma: float = None
-    lo: float = None
-    hi: float = None
-    values: tuple = None
-    note: str = ""
-
-    @property
-    def random(self):
-        """True for a distribution, False for a grid."""
-        return self.dist != "grid"
-
-
-@dataclass(frozen=True)
-class Ageing:
-    """Relative change per year of age of the static gain, natural frequency and damping.
-
-    Parameters
-    ----------
-    gain_per_year : float
-        Relative static-gain change per year.
-    resonance_per_year : float
-        Relative natural-frequency change per year.
-    damping_per_year : float
-        Relative damping change per year.
-    """
-
-    gain_per_year: float = 0.0
-    resonance_per_year: float = 0.0
-    damping_per_year: float = 0.0
+_DIST_KEYS = DIST_KEYS
 
 
 @dataclass(frozen=True, eq=False)

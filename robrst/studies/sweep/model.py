@@ -17,14 +17,10 @@ from collections.abc import Iterable, Sequence
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
-from robrst.base.errors import SpecError
-from robrst.core.family import PlantFamily, explicit_family, parametric_family
-from robrst.core.plant import Plant
 from robrst.problem.files import FAMILY_TABLES, parse_problem
-from robrst.studies.sweep.files import COEF, PLANT_PARAMS, problem_field
-from robrst.core.thermal import modal_form, thermal_polynomials
+from robrst.problem.spread import (check_plant_params, split_plant_values, transform_family,
+                                   transform_plant)
+from robrst.studies.sweep.files import problem_field
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -118,134 +114,7 @@ def split_values(values: dict[str, float]) -> tuple[dict[str, float], dict[str, 
     plant : dict
         Values of plant factors (``gain``, ``resonance``, ``A1``, ``temperature_C``, ...).
     """
-    plant = {k: v for k, v in values.items() if k in PLANT_PARAMS or COEF.match(k)}
-    keys = {k: v for k, v in values.items() if k not in plant}
-    return keys, plant
-
-
-def _factors(plant_values, ageing):
-    age = plant_values.get("age_years", 0.0)
-    return (plant_values.get("gain", 1.0) * (1.0 + ageing.gain_per_year * age),
-            plant_values.get("resonance", 1.0) * (1.0 + ageing.resonance_per_year * age),
-            plant_values.get("damping", 1.0) * (1.0 + ageing.damping_per_year * age))
-
-
-def transform_plant(plant: Plant, plant_values: dict[str, float], ageing: Ageing) -> Plant:
-    """``plant`` with the coefficient, gain, resonance and damping factors of a variant.
-
-    Parameters
-    ----------
-    plant : Plant
-        A model of the base family.
-    plant_values : dict
-        The variant's plant factors (``gain``, ``resonance``, ``damping``, ``age_years``,
-        ``A1``, ``B0``, ...).
-    ageing : Ageing
-        The rates per year of ``age_years``.
-
-    Returns
-    -------
-    Plant
-
-    Raises
-    ------
-    SpecError
-        A factor that is not > 0, or a coefficient index the model does not have.
-    """
-    B, A = plant.B.copy(), plant.A.copy()
-    for k, v in plant_values.items():
-        m = COEF.match(k)
-        if m:
-            c = A if m.group(1) == "A" else B
-            i = int(m.group(2))
-            if i >= len(c):
-                raise SpecError(f"parameter {k}: the model has {len(c)} coefficients in"
-                                f" {m.group(1)} (indices 0..{len(c) - 1})")
-            c[i] *= v
-    g, r, z = _factors(plant_values, ageing)
-    if not (g > 0 and r > 0 and z > 0):
-        raise SpecError(f"plant factors must be > 0: gain {g:.4g}, resonance {r:.4g},"
-                        f" damping {z:.4g}")
-    out = Plant(B, A, label=plant.label, temperature_C=plant.temperature_C, meta=plant.meta)
-    if (g, r, z) != (1.0, 1.0, 1.0):
-        Bt, At = thermal_polynomials(modal_form(out), 1.0, g - 1.0, r - 1.0, z - 1.0)
-        out = Plant(np.asarray(Bt, float), np.asarray(At, float), label=plant.label,
-                    temperature_C=plant.temperature_C, meta=plant.meta)
-    return out
-
-
-def transform_family(family: PlantFamily, plant_values: dict[str, float],
-                     ageing: Ageing) -> PlantFamily:
-    """The family of a variant (see the module docstring).
-
-    Parameters
-    ----------
-    family : PlantFamily
-        The base problem's family.
-    plant_values : dict
-        The variant's plant factors (``temperature_C`` picks one model).
-    ageing : Ageing
-        The rates per year of ``age_years``.
-
-    Returns
-    -------
-    PlantFamily
-        Parametric families: the factors act on the nominal model and the per-kelvin laws
-        generate the temperatures; explicit ones: the factors act on every model.
-    """
-    temps = [m.temperature_C for m in family.models]
-    T = plant_values.get("temperature_C")
-    if family.thermal is not None:
-        nominal = transform_plant(family.nominal, plant_values, ageing)
-        return parametric_family(nominal, [T] if T is not None else temps, family.thermal)
-    models = [transform_plant(m, plant_values, ageing) for m in family.models]
-    if len(models) == 1:
-        fam = PlantFamily(models=tuple(models), reference=0)
-    else:
-        fam = explicit_family(models, family.reference_model.temperature_C)
-    return fam if T is None else PlantFamily(models=(fam.at(T),), reference=0)
-
-
-def check_plant_params(params: Sequence[Param], family: PlantFamily, path: str | Path) -> None:
-    """Refuse plant factors the base family cannot take (one line naming the parameter).
-
-    Parameters
-    ----------
-    params : sequence of Param
-        The sweep's parameters.
-    family : PlantFamily
-        The base problem's family.
-    path : str or pathlib.Path
-        The sweep file, named in errors.
-
-    Raises
-    ------
-    SpecError
-        ``resonance`` or ``damping`` without a complex pole pair, a per-kelvin law on a
-        family without one, a coefficient index out of range, a temperature outside a
-        family without a law.
-    """
-    nominal = family.nominal if family.thermal is not None else family.reference_model
-    for p in params:
-        name = p.name
-        m = COEF.match(name)
-        if m:
-            c = nominal.A if m.group(1) == "A" else nominal.B
-            if int(m.group(2)) >= len(c):
-                raise SpecError(f"{path}: parameter {name}: the base model has {len(c)}"
-                                f" coefficients in {m.group(1)} (indices 0..{len(c) - 1})")
-        if name in ("resonance", "damping") and not modal_form(nominal).pairs:
-            raise SpecError(f"{path}: parameter {name}: the base model has no complex pole pair")
-        if name.startswith("family.parametric.") and family.thermal is None:
-            raise SpecError(f"{path}: parameter {name}: the base problem's family is not"
-                            " parametric (it has no per-kelvin laws)")
-        if name == "temperature_C" and family.thermal is None:
-            lo, hi = family.range_C
-            ends = p.values if not p.random else (p.lo, p.hi)
-            if any(t is None or not lo <= t <= hi for t in ends):
-                raise SpecError(f"{path}: parameter temperature_C: the base family has no"
-                                f" per-kelvin law; its temperatures must lie in [{lo:g}, {hi:g}]"
-                                " °C (a random temperature needs lo and hi there)")
+    return split_plant_values(values)
 
 
 def variant_problem(base: Problem, doc: dict, path: str | Path, values: dict[str, float],
