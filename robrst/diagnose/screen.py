@@ -14,24 +14,23 @@ Gram matrices ``X^T X``, ``X^T r``, ``r^T r`` are accumulated once on every k-th
 (at most :data:`SCREEN_SAMPLES` rows per record), so any set of candidates is fitted and
 scored exactly by a small linear solve, without another pass over the data.  Columns per candidate:
 
-``output_offset``           one constant per output
-``output_nonlinearity``     ``(y_L - c)^2``, ``(y_L - c)^3`` per output (sensor curvature)
-``cross_coupling``          ``L_i(u_j)`` (input mixing) and ``y_L,l`` on output ``i`` (output)
-``input_nonlinearity``      ``L((u - c)^2)``, ``L((u - c)^3)``, hinges ``L(max(u - k, 0))``
-                            at quantiles of ``u`` (dead zones, any static map)
-``saturation``              one or two hinges at extreme quantiles (the best pair)
-``slew``                    ``L(slew_r(u) - u)`` rising and falling, the best rate ``r``
-``hysteresis``              ``L(play_r(u) - u)`` for the play thresholds (a
-                            Prandtl–Ishlinskii operator), or Bouc–Wen's output and
-                            derivatives about three points: the better option tells the
-                            form to fit first
-``creep``                   ``L(S(u))``, ``L(dT+ S(u))`` (the creep cells' sum)
-``thermal_drift``           ``L(lag_tau(T) - T_0)``, the best lag ``tau``
-``thermal_dynamics``        ``dT J_L`` of the gain, the resonances and their damping
-``delay``                   ``L(u(t - d) - u(t))`` with ``d`` by exact search
-``stiffness_nonlinearity``  ``L(y_L^3) / D(0)`` (first order in the cubic stiffness)
-``amplitude_dependent_dynamics``  ``f J_L``, ``f`` the record's level factor (periodic
-                            records, >= 2 levels; the residues' slopes are fitted after)
+* ``output_offset``: one constant per output
+* ``output_nonlinearity``: ``(y_L - c)^2``, ``(y_L - c)^3`` per output (sensor curvature)
+* ``cross_coupling``: ``L_i(u_j)`` (input mixing) and ``y_L,l`` on output ``i`` (output)
+* ``input_nonlinearity``: ``L((u - c)^2)``, ``L((u - c)^3)``, hinges ``L(max(u - k, 0))`` at
+  quantiles of ``u`` (dead zones, any static map)
+* ``saturation``: one or two hinges at extreme quantiles (the best pair)
+* ``slew``: ``L(slew_r(u) - u)`` rising and falling, the best rate ``r``
+* ``hysteresis``: ``L(play_r(u) - u)`` for the play thresholds (a Prandtl–Ishlinskii
+  operator), or Bouc–Wen's output and derivatives about three points: the better option
+  tells the form to fit first
+* ``creep``: ``L(S(u))``, ``L(dT+ S(u))`` (the creep cells' sum)
+* ``thermal_drift``: ``L(lag_tau(T) - T_0)``, the best lag ``tau``
+* ``thermal_dynamics``: ``dT J_L`` of the gain, the resonances and their damping
+* ``delay``: ``L(u(t - d) - u(t))`` with ``d`` by exact search
+* ``stiffness_nonlinearity``: ``L(y_L^3) / D(0)`` (first order in the cubic stiffness)
+* ``amplitude_dependent_dynamics``: ``f J_L``, ``f`` the record's level factor (periodic
+  records, >= 2 levels; the residues' slopes are fitted after)
 
 The screen is exact for the candidates linear in their parameters (offset, sensor
 curvature, cross-coupling, input maps with these knots, Prandtl–Ishlinskii with these
