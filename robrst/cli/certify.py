@@ -2,10 +2,8 @@
 another one (another family, a drawn actuator, an identified model), without designing."""
 
 import argparse
-import sys
 
-from robrst.cli.common import print_json, progress_printer
-from robrst.report.text import design_summary
+from robrst.cli.common import print_result, progress_printer
 
 __all__ = ["add_parsers", "run_certify"]
 
@@ -70,13 +68,4 @@ def run_certify(args: argparse.Namespace) -> int:
         f" {'its own problem' if other is None else path} (no design)")
     result = recertify(design, other, str(path), args.family_only, progress=say,
                        name=args.design)
-    d = result.as_dict()
-    if args.json:
-        print_json(d)
-    else:
-        print(design_summary(d))
-    if not result.certified:
-        for v in result.certificate.violations[:5]:
-            print(f"robrst: not certified: {v.describe()}", file=sys.stderr)
-        return 1
-    return 0
+    return print_result(result, args.json)

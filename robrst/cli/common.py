@@ -10,7 +10,8 @@ from collections.abc import Callable
 
 from robrst.base.fileio import json_text
 
-__all__ = ["progress_printer", "print_json", "is_saved_design", "design_result"]
+__all__ = ["progress_printer", "print_json", "is_saved_design", "design_result",
+           "certified_exit", "print_result"]
 
 
 def progress_printer(quiet: bool) -> Callable[[str], None]:
@@ -95,3 +96,51 @@ def design_result(arg: str, say: Callable[[str], None], problem: object = None,
     if announce:
         say(f"designing {problem.name} ({problem.solver.method})")
     return run_problem(problem, progress=say)
+
+
+def certified_exit(certified: bool, certificate: object) -> int:
+    """The exit code of a certified or not certified answer, the first violations on stderr.
+
+    Parameters
+    ----------
+    certified : bool
+        Whether the answer is certified.
+    certificate : Certificate
+        Its certificate (:class:`~robrst.certificate.proof.Certificate`): up to five of its
+        violations are printed, one line each, when not certified.
+
+    Returns
+    -------
+    int
+        0 certified, 1 not certified.
+    """
+    if certified:
+        return 0
+    for v in certificate.violations[:5]:
+        print(f"robrst: not certified: {v.describe()}", file=sys.stderr)
+    return 1
+
+
+def print_result(result: object, as_json: bool) -> int:
+    """Print a design's result (one JSON object, or the text summary); its exit code.
+
+    Parameters
+    ----------
+    result : DesignResult
+        The design (or re-certified saved design).
+    as_json : bool
+        Print ``result.as_dict()`` as exactly one JSON object instead of the summary.
+
+    Returns
+    -------
+    int
+        0 certified, 1 not certified (:func:`certified_exit`).
+    """
+    from robrst.report.text import design_summary
+
+    d = result.as_dict()
+    if as_json:
+        print_json(d)
+    else:
+        print(design_summary(d))
+    return certified_exit(result.certified, result.certificate)

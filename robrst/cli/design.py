@@ -5,12 +5,10 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import re
-import sys
 from dataclasses import replace
 from pathlib import Path
 
-from robrst.cli.common import design_result, is_saved_design, print_json, progress_printer
-from robrst.report.text import design_summary
+from robrst.cli.common import design_result, is_saved_design, print_result, progress_printer
 from robrst.problem.files import load_problem
 
 if TYPE_CHECKING:
@@ -91,16 +89,7 @@ def run_design(args: argparse.Namespace) -> int:
         result = design_result(args.problem, say, announce=False)
     else:        # an error stays one line
         result = design_result(args.problem, say, _problem(args), announce=False)
-    d = result.as_dict()
-    if args.json:
-        print_json(d)
-    else:
-        print(design_summary(d))
-    if not result.certified:
-        for v in result.certificate.violations[:5]:
-            print(f"robrst: not certified: {v.describe()}", file=sys.stderr)
-        return 1
-    return 0
+    return print_result(result, args.json)
 
 
 def run_report(args: argparse.Namespace) -> int:

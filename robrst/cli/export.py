@@ -7,11 +7,10 @@ from typing import TYPE_CHECKING
 import json
 import math
 import re
-import sys
 from dataclasses import replace
 from pathlib import Path
 
-from robrst.cli.common import is_saved_design, progress_printer
+from robrst.cli.common import certified_exit, is_saved_design, progress_printer
 from robrst.design import run_problem
 from robrst.base.errors import OutputError, SpecError
 from robrst.controller.c_code import c_files
@@ -180,8 +179,4 @@ def run_export(args: argparse.Namespace) -> int:
     if args.out:
         print(f"wrote {args.out} ({args.format}; certified: {exp.certified},"
               f" recommended: {exp.recommended})")
-    if not exp.certified:
-        for v in exp.certificate.violations[:5]:
-            print(f"robrst: not certified: {v.describe()}", file=sys.stderr)
-        return 1
-    return 0
+    return certified_exit(exp.certified, exp.certificate)
