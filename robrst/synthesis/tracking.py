@@ -49,9 +49,10 @@ if TYPE_CHECKING:
     from robrst.problem.records import Problem
 
 __all__ = ["Tracking", "two_dof", "design_tracking", "tracking_candidates", "reference_model",
-           "cancel_thresholds", "CANCEL_FLOOR"]
+           "cancel_thresholds", "centred_factor", "CANCEL_FLOOR", "CENTRE_POINTS"]
 
 SLOWER = (1.0, 0.7, 0.5, 0.35, 0.25)
+CENTRE_POINTS = 9    # grid points of each of the two passes of centred_factor
 CANCEL_FLOOR = 0.2   # never cancel a closed-loop factor less damped than this (resonances)
 
 
@@ -172,16 +173,42 @@ def two_dof(plant: Plant, ctrl: RSTController, wn: float, zeta: float,
                          Delta_wd=wd, Delta_bad=bad, gain=float(c))
 
 
-def _meets(problem, ctrl):
-    """Every family model's loop (and sampled loop), of every actuator, is stable and meets
-    the time-domain specs (the loops of one kind computed together)."""
+def _loops(problem):
+    """The program's loops by kind: ``[(plants, fs), ...]``, every family model of every
+    actuator (and its sampled loop's plant when the specs name a sampling rate)."""
     sp = problem.specs
     models = [m for f in problem.families for m in f.models]
     kinds = [(models, None)]
     if sp.sampled:
         kinds.append(([problem.family.sampled(m, sp.sample_rate_hz, sp.delay_samples)
                        for m in models], sp.sample_rate_hz))
+    return kinds
+
+
+def _worst_time_ratio(problem, ctrl, kinds):
+    """The largest time-domain figure/bound over the loops ``kinds`` (:func:`_loops`),
+    ``inf`` for an unstable loop (a figure not resolved between grid points counts by its
+    proved upper bound, which the record holds)."""
+    sp = problem.specs
+    bounds = [(k, b) for k, b in (("overshoot_pct", sp.overshoot_max_pct),
+                                  ("settling_time_s", sp.settling_time_max_s),
+                                  ("step_u_peak_V", sp.step_u_max_V)) if b is not None]
+    worst = 0.0
     for plants, fs in kinds:
+        cls = [closed_loop(pl, ctrl) for pl in plants]
+        if any(sa >= 0 for sa, _ in spectral_abscissa_many([cl.Delta for cl in cls])):
+            return np.inf
+        for rec, _ in check_many(plants, ctrl, cls, sp, problem.solver.cert_tol, fs):
+            worst = max([worst, *(rec[k] / b if b > 0 else (np.inf if rec[k] > 0 else 0.0)
+                                  for k, b in bounds)])
+    return worst
+
+
+def _meets(problem, ctrl):
+    """Every family model's loop (and sampled loop), of every actuator, is stable and meets
+    the time-domain specs (the loops of one kind computed together)."""
+    sp = problem.specs
+    for plants, fs in _loops(problem):
         cls = [closed_loop(pl, ctrl) for pl in plants]
         if any(sa >= 0 for sa, _ in spectral_abscissa_many([cl.Delta for cl in cls])):
             return False
@@ -189,6 +216,61 @@ def _meets(problem, ctrl):
                                                   problem.solver.cert_tol, fs)):
             return False
     return True
+
+
+def centred_factor(problem: Problem, ctrl: RSTController, min_damping: float) -> float:
+    """The reference bandwidth factor (of ``controller.reference_wn``) with the most room
+    on the time-domain specs over every actuator the program holds.
+
+    A reference path designed for the fleet must hold on actuators the program never
+    saw: the fastest factor that meets the specs on the program's actuators (the
+    nominal rule) sits on a bound — a faster actuator overshoots, a slower one settles
+    late.  This factor minimises the largest time-domain figure/bound over every family
+    model of every actuator in ``problem.families`` (both loops): a grid of
+    :data:`CENTRE_POINTS` factors geometric over ``[SLOWER[-1], 1]``, then the same number
+    between the best point's neighbours.
+
+    Parameters
+    ----------
+    problem : Problem
+        The problem (its ``scenarios``: the actuators the program holds).
+    ctrl : RSTController
+        The feedback design.
+    min_damping : float
+        Nominal closed-loop factors at least this damped are cancelled by T.
+
+    Returns
+    -------
+    float
+        The factor in ``[SLOWER[-1], 1]``.
+    """
+    c = problem.controller
+    ref = _loop_plant(problem)
+    kinds = _loops(problem)
+    seen = {}
+
+    def cost(f):
+        if f not in seen:
+            out, _ = two_dof(ref, ctrl, c.reference_wn * f, c.reference_zeta, min_damping)
+            seen[f] = _worst_time_ratio(problem, out, kinds)
+        return seen[f]
+
+    grid = np.geomspace(SLOWER[-1], 1.0, CENTRE_POINTS)
+    for _ in range(2):
+        costs = [cost(float(f)) for f in grid]
+        i = int(np.argmin(costs))
+        lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, len(grid) - 1)]
+        grid = np.geomspace(lo, hi, CENTRE_POINTS)
+    return min(seen, key=lambda f: (seen[f], -f))
+
+
+def _loop_plant(problem):
+    """The nominal model of the loop that runs (its sampled loop's plant when sampled)."""
+    sp = problem.specs
+    ref = problem.family.reference_model
+    if sp.sampled:
+        ref = problem.family.sampled(ref, sp.sample_rate_hz, sp.delay_samples)
+    return ref
 
 
 def design_tracking(problem: Problem, ctrl: RSTController) -> tuple[RSTController, Tracking]:
@@ -232,12 +314,14 @@ def tracking_candidates(problem: Problem,
     (RSTController, Tracking)
     """
     c = problem.controller
-    sp = problem.specs
-    ref = problem.family.reference_model
-    if sp.sampled:   # the loop that runs: cancel the sampled loop's closed-loop factors
-        ref = problem.family.sampled(ref, sp.sample_rate_hz, sp.delay_samples)
+    ref = _loop_plant(problem)   # the loop that runs: cancel its closed-loop factors
+    fleet = problem.spread is not None and problem.specs.time_domain
     for damping in cancel_thresholds(ref, ctrl, c.T_cancel_damping):
-        for f in SLOWER:
+        factors = SLOWER
+        if fleet:
+            best = centred_factor(problem, ctrl, damping)
+            factors = (best, *(f for f in SLOWER if f < best))
+        for f in factors:
             yield two_dof(ref, ctrl, c.reference_wn * f, c.reference_zeta, damping)
 
 
