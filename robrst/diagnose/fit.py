@@ -621,7 +621,8 @@ def fit_model(name: str, effects: Sequence[str], train: Sequence[Prepared], lin:
               chain: Chain, noise_sigma: float, joint: bool = True, dynamic: bool = False,
               start: dict | None = None, theta: np.ndarray | None = None, max_nfev: int = 40,
               ftol: float = 1e-10, offset: bool = False, curvature: bool = False,
-              mixing: bool = False, pinned: Sequence[int] = ()) -> Fitted:
+              mixing: bool = False, pinned: Sequence[int] = (),
+              prior_center: np.ndarray | None = None, prior_scale: float = 1.0) -> Fitted:
     """Fit ``effects`` (+ linear corrections if ``joint``) on prepared training records.
 
     Parameters
@@ -659,6 +660,11 @@ def fit_model(name: str, effects: Sequence[str], train: Sequence[Prepared], lin:
     pinned : tuple of int
         Linear corrections held at zero (and their level slopes): modes the training
         records do not excite (:func:`robrst.diagnose.linear.unexcited`).
+    prior_center : numpy.ndarray, optional
+        Centre of the linear corrections' priors (default the user's model, zeros; only
+        with ``joint`` and without ``dynamic``).
+    prior_scale : float
+        Multiplies the priors' standard deviations.
 
     Returns
     -------
@@ -690,7 +696,10 @@ def fit_model(name: str, effects: Sequence[str], train: Sequence[Prepared], lin:
             x0[i] = np.clip(start[n], lo[i], hi[i])
     scale = np.sqrt(sum(p.weight ** 2 * float(np.sum((p.Y - p.Y.mean(0)) ** 2)) for p in train))
     scale = scale or 1.0
-    prior_w = noise_sigma / scale / sd
+    prior_w = noise_sigma / scale / (sd * prior_scale)
+    center = np.zeros(nt + ns)
+    if prior_center is not None and joint and not dynamic:
+        center[:nt] = prior_center
     fixed = np.zeros(lin.size) if theta is None else np.asarray(theta, float)
     proto = Fitted(name, tuple(effects), "dynamic" if dynamic else "input", chain, lin, x0,
                    np.zeros_like(x0), joint, slopes, level_ref, 0, 0.0, fixed, no, post)
@@ -702,7 +711,7 @@ def fit_model(name: str, effects: Sequence[str], train: Sequence[Prepared], lin:
     def fun(x):
         r = [(proto.predict_prepared(p, x) - p.Y)[::k].ravel() * (p.weight * np.sqrt(k) / scale)
              for p, k in zip(train, strides)]
-        r.append(prior_w * x[nz:nz + nt + ns])
+        r.append(prior_w * (x[nz:nz + nt + ns] - center))
         out = np.concatenate(r)
         return np.where(np.isfinite(out), out, 1e3)
 
@@ -782,9 +791,18 @@ def fit_by_level(name: str, train: Sequence[Prepared], lin: LinearPart, chain: C
         return fit_model(name, chain.effects, train, lin, chain, noise_sigma, joint=True,
                          dynamic=True, start=start, max_nfev=max_nfev, pinned=pinned)
     level_ref = min(p.level for p in train)
-    fits = [fit_model(name, (), g, lin, chain, noise_sigma, joint=True, start=start,
-                      max_nfev=max_nfev, pinned=pinned) for g in groups]
     F = np.array([level_factor(np.mean([p.level for p in g]), level_ref) for g in groups])
+    # level by level, each from the one below: the change between levels is what the
+    # records demand, its prior that of a slope (sd per unit of level factor), so a
+    # correction the records barely determine does not wander between levels and
+    # become a spurious slope
+    fits = [fit_model(name, (), groups[0], lin, chain, noise_sigma, joint=True, start=start,
+                      max_nfev=max_nfev, pinned=pinned)]
+    for g, df in zip(groups[1:], np.diff(F)):
+        prev = fits[-1].x[:lin.size]
+        fits.append(fit_model(name, (), g, lin, chain, noise_sigma, joint=True,
+                              start=dict(zip(lin.names, prev)), max_nfev=max_nfev,
+                              pinned=pinned, prior_center=prev, prior_scale=float(df)))
     W = np.array([sum(p.weight ** 2 * p.Y.size for p in g) for g in groups], float)
     TH = np.array([f.x[:lin.size] for f in fits])
     A = np.column_stack([np.ones_like(F), F]) * np.sqrt(W)[:, None]

@@ -6,8 +6,13 @@ SISO :class:`~robrst.core.plant.Plant` is converted).  Its corrections ``theta``
 * per mode: the natural frequency (``dlog_freq``, log ratio) and, for a complex pair,
   the damping (``dlog_damping``);
 * a gain: one overall ``gain`` (one input) or one ``input_gain`` per input;
-* optionally (``modal_gains``, used by the dynamic form of hysteresis) a relative gain
-  per mode (``mode_gain``: the mode's participation).
+* optionally (``modal_gains``, used by the amplitude-dependent dynamics) a gain per mode
+  (``mode_gain``: the mode's participation).  With per-mode gains every gain is a *log*
+  ratio (the factor ``exp(t)``, not ``1 + t``): a mode's gain and an input's gain then
+  combine additively, so a correction that moves linearly with the excitation level
+  extrapolates the same whichever of the two carries it (with ``1 + t`` factors their
+  product is not linear in the level, and the split the data leave free changes the
+  extrapolation).
 
 The *zeros* of every channel stay the user's: when poles move, the residues are those
 of the same numerators over the new denominator,
@@ -46,6 +51,7 @@ PRIOR_SD = {"dlog_freq": 0.1, "dlog_damping": 1.0, "gain": 0.2, "input_gain": 0.
 BOUNDS = {"dlog_freq": (-0.5, 0.5), "dlog_damping": (-3.0, 3.0), "gain": (-0.9, 2.0),
           "input_gain": (-0.9, 2.0), "mode_gain": (-0.9, 2.0)}
 FD_STEP = 1e-6
+GAIN_KINDS = ("gain", "input_gain", "mode_gain")
 EXCITED_SHARE = 1e-5     # input power within an octave of a mode that lets the records see it
 
 
@@ -112,6 +118,10 @@ class LinearPart:
         self.kinds = tuple(kinds)
         self.lower = np.array([BOUNDS[k][0] for k, _ in kinds])
         self.upper = np.array([BOUNDS[k][1] for k, _ in kinds])
+        if self.modal_gains:                  # log gains: the same factors 0.1 ... 3
+            gain = np.array([k in GAIN_KINDS for k, _ in kinds])
+            self.lower[gain] = np.log1p(self.lower[gain])
+            self.upper[gain] = np.log1p(self.upper[gain])
         self.prior_sd = np.array([PRIOR_SD[k] for k, _ in kinds])
         self.moves = tuple(i for i, (k, _) in enumerate(kinds)
                            if k in ("dlog_freq", "dlog_damping", "mode_gain"))
@@ -121,12 +131,16 @@ class LinearPart:
     def size(self):
         return len(self.names)
 
+    def _factor(self, t):
+        """The gain factor of a correction ``t``: ``exp(t)`` with per-mode gains, else ``1 + t``."""
+        return np.exp(t) if self.modal_gains else 1.0 + t
+
     def _gains(self, theta):
         """Relative gain per input (the overall gain for one input)."""
         gains = np.ones(self.model.n_in)
         for t, (kind, j) in zip(theta, self.kinds):
             if kind in ("input_gain", "gain"):
-                gains[j] += t
+                gains[j] = self._factor(t)
         return gains
 
     def _poles(self, theta):
@@ -169,7 +183,7 @@ class LinearPart:
             R = ratio[:, None, None] * (R0[:n] + rest)
         for t, (kind, q) in zip(theta, self.kinds):
             if kind == "mode_gain":
-                R[q] = R[q] * (1.0 + t)
+                R[q] = R[q] * self._factor(t)
         return new, R * self._gains(theta)[None, None, :]
 
     def continuous(self, theta: np.ndarray) -> ModalModel:
@@ -347,8 +361,8 @@ class LinearPart:
         cols = np.zeros(total.shape + (self.size,), total.dtype)
         gains = self._gains(theta)
         for i, (kind, q) in enumerate(self.kinds):
-            if kind in ("gain", "input_gain"):
-                cols[..., i] = parts[:, :, q] / gains[q]
+            if kind in ("gain", "input_gain"):       # d exp(t) = exp(t) dt; d (1 + t) = dt
+                cols[..., i] = parts[:, :, q] if self.modal_gains else parts[:, :, q] / gains[q]
         for i in self.moves:
             th = theta.copy()
             th[i] += FD_STEP

@@ -11,8 +11,12 @@ of the input, or output-side signals.  A candidate's screening model is
 fitted on the training records and scored on the held-out records.  Every column is
 computed once per record (simulated over the whole record); the training and held-out
 Gram matrices ``X^T X``, ``X^T r``, ``r^T r`` are accumulated once on every k-th sample
-(at most :data:`SCREEN_SAMPLES` rows per record), so any set of candidates is fitted and
-scored exactly by a small linear solve, without another pass over the data.  Columns per candidate:
+(at most :data:`SCREEN_SAMPLES` rows per record), so any set of candidates is fitted
+exactly by a small linear solve, without another pass over the data.  The held-out records
+need no column of the input side: a candidate's coefficients (fitted on the training
+records) combine its basis signals into one signal per input, and one pass of the linear
+part over that signal gives its held-out prediction exactly (the linear part is linear) —
+one pass per candidate scored instead of one per column.  Columns per candidate:
 
 * ``output_offset``: one constant per output
 * ``output_nonlinearity``: ``(y_L - c)^2``, ``(y_L - c)^3`` per output (sensor curvature)
@@ -54,7 +58,7 @@ from robrst.diagnose.stages import cached_stage
 if TYPE_CHECKING:
     from robrst.diagnose.fit import Fitted
 
-__all__ = ["Screen", "ScreenFit", "build_screen", "SCREEN_SAMPLES"]
+__all__ = ["Screen", "ScreenFit", "HeldOut", "build_screen", "SCREEN_SAMPLES"]
 
 SCREEN_SAMPLES = 100_000      # Gram rows per record (every k-th sample of the whole record)
 SAT_HIGH = (0.8, 0.9, 0.95, 0.98, 0.995)
@@ -66,6 +70,67 @@ BW_RATIOS = (1.0,)            # ... and Gamma / B (its derivative is a column)
 DZ_WIDTHS = (0.01, 0.03, 0.06)   # dead-zone half widths screened / peak-to-peak input
 BATCH = 16                    # input-side columns simulated together
 RIDGE = 1e-9                  # relative ridge on the (normalised) effect columns
+
+
+@dataclass(frozen=True, eq=False)
+class HeldOut:
+    """A held-out record of a screen: what scores any candidate on it by one prediction.
+
+    Parameters
+    ----------
+    rows : slice
+        The screened samples.
+    r : numpy.ndarray
+        The base's residual on them ``(Ns, m)``.
+    direct : dict
+        ``{column: (Ns, m) values}``: the columns computed without the linear part (the
+        base's Jacobian, output-side columns).
+    signals : dict
+        ``{column: (input, (N,) basis signal)}``: the input-side columns' signals.
+    lin : LinearPart
+        The linear part the input-side signals go through.
+    theta : numpy.ndarray
+        Its corrections on this record.
+    periodic : bool
+        Steady state (else from rest).
+    """
+
+    rows: slice
+    r: np.ndarray
+    direct: dict
+    signals: dict
+    lin: object
+    theta: np.ndarray
+    periodic: bool
+
+    def residual_ss(self, cols: Sequence[int], beta: np.ndarray) -> float:
+        """Sum of squares of the residual left by the columns ``cols`` with ``beta``.
+
+        Parameters
+        ----------
+        cols : sequence of int
+            Column indices.
+        beta : numpy.ndarray
+            Their coefficients.
+
+        Returns
+        -------
+        float
+        """
+        pred = np.zeros_like(self.r)
+        V = {}
+        for c, b in zip(cols, beta):
+            if c in self.direct:
+                pred += b * self.direct[c]
+            elif c in self.signals:
+                j, x = self.signals[c]
+                V[j] = V.get(j, 0.0) + b * x
+        if V:
+            js = sorted(V)
+            Y = self.lin.simulate_inputs(self.theta, np.column_stack([V[j] for j in js]), js,
+                                         self.periodic)
+            pred += Y.sum(axis=2)[self.rows]
+        return float(np.sum((self.r - pred) ** 2))
 
 
 @dataclass(frozen=True)
@@ -110,7 +175,7 @@ class Screen:
     base : list of int
         The base columns.
     blocks : dict
-        ``{candidate or "": (column indices, {split: Gram}, {split: X^T r})}``.
+        ``{candidate or "": (column indices, {"train": Gram}, {"train": X^T r})}``.
     c, den : dict
         Per split (``train``, ``test``): ``r^T r`` and the NRMSE denominator.
     ridge : tuple of numpy.ndarray
@@ -119,17 +184,20 @@ class Screen:
         ``{candidate: [start values per option]}``.
     fixed : sequence of int
         Base columns held (pinned corrections).
+    held_out : sequence of HeldOut
+        The held-out records, each scored by one prediction per candidate.
     """
 
     def __init__(self, names: list, groups: dict, base: list, blocks: dict, c: dict,
                  den: dict, ridge: tuple, starts: dict | None = None,
-                 fixed: Sequence[int] = ()) -> None:
+                 fixed: Sequence[int] = (), held_out: Sequence[HeldOut] = ()) -> None:
         self.names = names
+        self.held_out = list(held_out)     # the held-out records (scored by prediction)
         self.fixed = set(fixed)            # base columns held (pinned corrections)
         self.starts = starts or {}         # candidate -> per option: start values by name
         self.groups = groups
         self.base = base
-        self.blocks = blocks               # key -> (idx, {split: Gram}, {split: X^T r})
+        self.blocks = blocks               # key -> (idx, {"train": Gram}, {"train": X^T r})
         self.c, self.den = c, den          # per split: r^T r and the NRMSE denominator
         self.ridge = ridge                 # (diag, centre) on the base columns
         self._cache = {}
@@ -144,7 +212,7 @@ class Screen:
         """
         return [k for k, opts in self.groups.items() if opts and any(opts)]
 
-    def _solve(self, key, cols):
+    def _solve(self, key, cols, test=True):
         cols = [c for c in cols if c not in self.fixed]
         idx, G, b = self.blocks[key]
         pos = np.searchsorted(idx, np.asarray(cols, int))
@@ -157,11 +225,13 @@ class Screen:
         rhs += dd * centre[cc]
         s = np.sqrt(np.maximum(np.diag(A), 1e-300))
         beta = np.linalg.lstsq(A / s[:, None] / s[None, :], rhs / s, rcond=1e-12)[0] / s
-        gaps = {}
-        for split in ("train", "test"):
-            ss = (self.c[split] - 2 * beta @ b[split][pos]
-                  + beta @ G[split][np.ix_(pos, pos)] @ beta)
-            gaps[split] = float(np.sqrt(max(ss, 0.0) / self.den[split]))
+        ss = self.c["train"] - 2 * beta @ b["train"][pos] + beta @ G["train"][np.ix_(
+            pos, pos)] @ beta
+        gaps = {"train": float(np.sqrt(max(ss, 0.0) / self.den["train"]))}
+        if test:
+            ss = sum(h.residual_ss(cols, beta) for h in self.held_out)
+            gaps["test"] = float(np.sqrt(ss / self.den["test"])) if self.den["test"] > 0 \
+                else 0.0
         return beta, gaps
 
     def option(self, key: str) -> int:
@@ -179,7 +249,7 @@ class Screen:
         if key not in self._choice:
             opts = self.groups[key]
             best = min(range(len(opts)), key=lambda i: self._solve(
-                key, list(self.base) + list(opts[i]))[1]["train"])
+                key, list(self.base) + list(opts[i]), test=False)[1]["train"])
             self._choice[key] = best
         return self._choice[key]
 
@@ -496,8 +566,7 @@ def build_screen(setup: "Setup", theta: np.ndarray | None, delays: Sequence[int]
     blk = {}
     for g in keys:
         idx = np.array(sorted(set(base) | {c for o in (groups.get(g) or []) for c in o}), int)
-        blk[g] = (idx, {s: np.zeros((idx.size, idx.size)) for s in ("train", "test")},
-                  {s: np.zeros(idx.size) for s in ("train", "test")})
+        blk[g] = (idx, {"train": np.zeros((idx.size, idx.size))}, {"train": np.zeros(idx.size)})
     c = {s: 0.0 for s in ("train", "test")}
     den = {s: 0.0 for s in ("train", "test")}
     index = {n: i for i, n in enumerate(names)}
@@ -628,6 +697,13 @@ def build_screen(setup: "Setup", theta: np.ndarray | None, delays: Sequence[int]
             f = level_factor(p.level, level_ref)
             for i, n in enumerate(lin.names):
                 X[col(f"amplitude_dependent_dynamics:{n}_per_level")] = f * JL[R, :, i]
+        if split == "test":      # scored by prediction: the input side stays signals
+            sig = {ci: (j, x) for (ci, x), j in zip(sigs, inputs)}
+            direct = {ci: X[ci] for ci in range(P) if ci not in sig and np.any(X[ci])}
+            held_out.append(HeldOut(R, r, direct, sig, lin, th, p.periodic))
+            c[split] += float(np.sum(r * r))
+            den[split] += float(np.sum((p.Y[R] - p.Y.mean(axis=0)) ** 2))
+            return
         for a in range(0, len(sigs), BATCH):       # input-side columns, a batch at a time
             part = sigs[a:a + BATCH]
             Yin = lin.simulate_inputs(th, np.column_stack([x for _, x in part]),
@@ -649,6 +725,7 @@ def build_screen(setup: "Setup", theta: np.ndarray | None, delays: Sequence[int]
         c[split] += float(rf @ rf)
         den[split] += float(np.sum((w * (p.Y[R] - p.Y.mean(axis=0))) ** 2))
 
+    held_out = []
     for p in setup.train:
         record(p, "train")
     for p in setup.test:
@@ -659,4 +736,4 @@ def build_screen(setup: "Setup", theta: np.ndarray | None, delays: Sequence[int]
     if say:
         say(f"screened {len([g for g in groups if groups[g] and any(groups[g])])} candidate(s)"
             f" on {P} exact columns")
-    return Screen(names, groups, base, blk, c, den, ridge, starts, fixed)
+    return Screen(names, groups, base, blk, c, den, ridge, starts, fixed, held_out)

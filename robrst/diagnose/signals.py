@@ -216,6 +216,17 @@ def frequency_band(residuals: Sequence[np.ndarray], fs: float, sigma: float,
     return [float(lo), float(hi)], f, P, level
 
 
+def _segments(X, nper):
+    """Spectra ``(segments, nper // 2 + 1, channels)`` of Welch's segments of ``X`` (N, c):
+    half-overlapping, each detrended by its mean and Hann-windowed (``signal.csd``'s; its
+    density scaling, common to every spectrum, is left out: H1 and the coherence are ratios).
+    """
+    win = signal.get_window("hann", nper)
+    S = np.lib.stride_tricks.sliding_window_view(np.asarray(X, float), nper, axis=0)[::nper // 2]
+    S = S - S.mean(axis=2, keepdims=True)                  # (segments, c, nper)
+    return np.moveaxis(np.fft.rfft(S * win, axis=2), 1, 2)
+
+
 def frf_departure(records: Sequence[Dataset], dmodel: DiscreteModel, fs: float,
                   max_coh: float = 0.999) -> dict:
     """Where the nonparametric FRF (H1, with coherence) departs from the model's.
@@ -245,12 +256,12 @@ def frf_departure(records: Sequence[Dataset], dmodel: DiscreteModel, fs: float,
     n = min(d.n for d in records)
     nper = _nperseg(n, 4096)
     Suu = Suy = Syy = 0.0
-    for d in records:
-        U, Y = d.U - d.U.mean(axis=0), d.Y - d.Y.mean(axis=0)
-        f, a = signal.csd(U[:, :, None], U[:, None, :], fs=fs, nperseg=nper, axis=0)
-        _, b = signal.csd(U[:, :, None], Y[:, None, :], fs=fs, nperseg=nper, axis=0)
-        _, c = signal.csd(Y, Y, fs=fs, nperseg=nper, axis=0)
-        Suu, Suy, Syy = Suu + a, Suy + b, Syy + c.real      # (F, k, k), (F, k, m), (F, m)
+    f = np.fft.rfftfreq(nper, 1.0 / fs)
+    for d in records:       # each signal's segments transformed once (Welch's segments)
+        FU, FY = _segments(d.U, nper), _segments(d.Y, nper)     # (segments, F, k / m)
+        Suu = Suu + np.einsum("sfi,sfj->fij", FU.conj(), FU) / len(FU)
+        Suy = Suy + np.einsum("sfi,sfl->fil", FU.conj(), FY) / len(FU)
+        Syy = Syy + np.mean(np.abs(FY) ** 2, axis=0)         # (F, k, k), (F, k, m), (F, m)
     n_avg = sum(max(1, 2 * d.n // nper - 1) for d in records)
     tr = np.real(np.trace(Suu, axis1=1, axis2=2))
     ok = tr > 1e-12 * np.max(tr)
@@ -280,14 +291,30 @@ def frf_departure(records: Sequence[Dataset], dmodel: DiscreteModel, fs: float,
             "bins": int(np.any(bad, axis=(1, 2)).sum())}
 
 
+def _few_values(x, most):
+    """The distinct values of ``x`` (sorted) when there are at most ``most``, else None.
+
+    Without sorting ``x``: the distinct values of every k-th sample, then one check that
+    ``x`` holds no other (a full ``np.unique`` only when it does and the sample was few).
+    """
+    probe = np.unique(x[::max(1, x.size // 4096)])
+    if probe.size > most:
+        return None
+    idx = np.minimum(np.searchsorted(probe, x), probe.size - 1)
+    if np.array_equal(probe[idx], x):
+        return probe
+    vals = np.unique(x)
+    return vals if vals.size <= most else None
+
+
 def eta2(r, x, bins=10):
     """Correlation ratio: share of the variance of ``r`` explained by bins of ``x``.
 
     Nonparametric (catches residuals that appear only at the extremes of ``x`` or
     flip sign with it); quantile bins, or the distinct values when there are few.
     """
-    vals = np.unique(x)
-    if vals.size <= bins:
+    vals = _few_values(x, bins)
+    if vals is not None:
         idx = np.searchsorted(vals, x)
     else:
         edges = np.unique(np.quantile(x, np.linspace(0, 1, bins + 1)[1:-1]))

@@ -201,9 +201,12 @@ def search_delay(train: Sequence[Prepared], lin: LinearPart, max_delay: int) -> 
     for j in range(k):
         costs = np.zeros(max_delay + 1)
         for p in train:
-            others = p.U.copy()
-            others[:, j] = 0.0
-            rest = p.Y - lin.simulate(th, others, p.periodic)
+            if k > 1:               # the other inputs' response (none with one input)
+                others = p.U.copy()
+                others[:, j] = 0.0
+                rest = p.Y - lin.simulate(th, others, p.periodic)
+            else:
+                rest = p.Y
             yj = lin.simulate_input(th, p.U[:, j], j, p.periodic)
             step = None if p.periodic else lin.simulate_input(th, np.ones(len(p.U)), j)
             u0 = p.U[0, j]
