@@ -239,11 +239,11 @@ def _toml(doc):
 
 
 @pytest.mark.large
-@pytest.mark.parametrize("name, least", [("stage800_fleet", 0.95), ("paper_robust_fleet", 0.85)])
+@pytest.mark.parametrize("name, least", [("stage800_fleet", 0.95), ("paper_robust_fleet", 0.95)])
 def test_shipped_fleet_designs_on_1000_fresh_draws(tmp_path, name, least):
     """The shipped fleet problems, designed and verified on 1,000 fresh actuators on Dask
     (about 15 minutes each on 2 cores): the stage reaches its 95 % target with no unstable
-    loop; paper_robust_fleet reaches 85.6 % (|T| in its resonance band caps it; see the docs)."""
+    loop; so does paper_robust_fleet (996 of 1,000 measured)."""
     from benchmarks.fleet import run
 
     rec = run(name, tmp_path / name, n=1000, workers=2, say=lambda m: None)
