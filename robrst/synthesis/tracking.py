@@ -185,6 +185,18 @@ def _loops(problem):
     return kinds
 
 
+def _step_checks(problem, ctrl, kinds):
+    """Per kind of :func:`_loops`, :func:`robrst.certificate.steps.check_many`'s
+    ``(record, failed)`` of each loop (the loops of one kind computed together), or
+    ``None`` for a kind with an unstable loop."""
+    for plants, fs in kinds:
+        cls = [closed_loop(pl, ctrl) for pl in plants]
+        if any(sa >= 0 for sa, _ in spectral_abscissa_many([cl.Delta for cl in cls])):
+            yield None
+        else:
+            yield check_many(plants, ctrl, cls, problem.specs, problem.solver.cert_tol, fs)
+
+
 def _worst_time_ratio(problem, ctrl, kinds):
     """The largest time-domain figure/bound over the loops ``kinds`` (:func:`_loops`),
     ``inf`` for an unstable loop (a figure not resolved between grid points counts by its
@@ -194,11 +206,10 @@ def _worst_time_ratio(problem, ctrl, kinds):
                                   ("settling_time_s", sp.settling_time_max_s),
                                   ("step_u_peak_V", sp.step_u_max_V)) if b is not None]
     worst = 0.0
-    for plants, fs in kinds:
-        cls = [closed_loop(pl, ctrl) for pl in plants]
-        if any(sa >= 0 for sa, _ in spectral_abscissa_many([cl.Delta for cl in cls])):
+    for checked in _step_checks(problem, ctrl, kinds):
+        if checked is None:
             return np.inf
-        for rec, _ in check_many(plants, ctrl, cls, sp, problem.solver.cert_tol, fs):
+        for rec, _ in checked:
             worst = max([worst, *(rec[k] / b if b > 0 else (np.inf if rec[k] > 0 else 0.0)
                                   for k, b in bounds)])
     return worst
@@ -206,16 +217,9 @@ def _worst_time_ratio(problem, ctrl, kinds):
 
 def _meets(problem, ctrl):
     """Every family model's loop (and sampled loop), of every actuator, is stable and meets
-    the time-domain specs (the loops of one kind computed together)."""
-    sp = problem.specs
-    for plants, fs in _loops(problem):
-        cls = [closed_loop(pl, ctrl) for pl in plants]
-        if any(sa >= 0 for sa, _ in spectral_abscissa_many([cl.Delta for cl in cls])):
-            return False
-        if any(failed for _, failed in check_many(plants, ctrl, cls, sp,
-                                                  problem.solver.cert_tol, fs)):
-            return False
-    return True
+    the time-domain specs."""
+    return all(checked is not None and not any(failed for _, failed in checked)
+               for checked in _step_checks(problem, ctrl, _loops(problem)))
 
 
 def centred_factor(problem: Problem, ctrl: RSTController, min_damping: float) -> float:
