@@ -128,9 +128,9 @@ def test_no_private_name_across_modules():
 
 
 def test_the_package_root_holds_only_the_face():
-    """Every module lives in its layer's folder; the root keeps the face and the pipeline."""
+    """Every module lives in its layer's folder; the root keeps the face."""
     root = sorted(p.name for p in PKG.glob("*.py"))
-    assert root == ["__init__.py", "__main__.py", "design.py", "testing.py"]
+    assert root == ["__init__.py", "__main__.py", "testing.py"]
 
 
 def test_private_modules_stay_in_their_package():
