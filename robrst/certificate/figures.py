@@ -239,7 +239,7 @@ class ModelRecord(Mapping):
         (``None``: a record not placed by :func:`robrst.certificate.proof.certify`).
     steps_checked_after : bool
         The step figures were computed after the certificate's sweep, on its checked
-        points (:func:`robrst.design.with_time_domain`); they are published after
+        points (:func:`robrst.certificate.completion.with_time_domain`); they are published after
         ``family_member``, where that path has always put them.
     actuator : int
         The actuator the model belongs to: 0 the nominal one, ``k`` further actuator ``k``

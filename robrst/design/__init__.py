@@ -1,15 +1,27 @@
 """The design pipeline: a typed problem in, a :class:`DesignResult` out.
 
-:func:`run_problem` runs the method the problem asks for, certifies the controller on the
-whole family, analyses every family model, checks a synthesised controller against the
-closed-form Diophantine solution and compares it with an analytic design
-(:mod:`robrst.design.pipeline`).
+:func:`run_problem` (:mod:`robrst.design.pipeline`) runs the method the problem asks for,
+certifies the controller on the whole family, analyses every family model, checks a
+synthesised controller against the closed-form Diophantine solution and compares it with
+an analytic design.  The modules, bottom to top:
+
+``result``      :class:`DesignResult` and its typed parts (:class:`AnalyticCheck`,
+                :class:`Comparison`)
+``contract``    the JSON contract of ``robrst design --json``, written from the records
+``candidate``   one synthesis -> feedback -> reference path -> certificate; the analytic
+                design, the analytic check and the comparison
+``multistart``  the robust program from diverse starts on worker processes
+``single``      the design of one problem (no spread)
+``fleet``       the scenario loop of a problem with a ``[spread]``
+``pipeline``    :func:`run_problem`
 """
 
-from robrst.design.pipeline import (ARTEFACT_FORMAT, AnalyticCheck, Comparison, DesignResult,
-                                    analytic_check, analytic_design, artefact_record,
-                                    comparison, run_problem, with_time_domain)
+from robrst.certificate.completion import with_time_domain
+from robrst.design.candidate import analytic_check, analytic_design, comparison
+from robrst.design.contract import ARTEFACT_FORMAT, artefact_record, design_json
+from robrst.design.pipeline import run_problem
+from robrst.design.result import AnalyticCheck, Comparison, DesignResult
 
 __all__ = ["DesignResult", "AnalyticCheck", "Comparison", "run_problem", "analytic_design",
            "analytic_check", "comparison", "with_time_domain", "artefact_record",
-           "ARTEFACT_FORMAT"]
+           "design_json", "ARTEFACT_FORMAT"]

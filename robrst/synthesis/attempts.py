@@ -20,6 +20,7 @@ from robrst.synthesis.exchange import Phase, solve_exchange
 from robrst.synthesis.nlp import grid_blocks
 from robrst.synthesis.outcome import Round, worst_violation
 from robrst.synthesis.parametrize import integral_gain
+from robrst.synthesis.objective import objective
 from robrst.synthesis.starts import ON_SLOW_POLE, candidates, score
 from robrst.synthesis.polerows import pole_rows, worst_damping_ratio
 from robrst.synthesis.timesamples import (TIME_MARGIN, time_rows, time_specs,
@@ -233,15 +234,10 @@ def objective_value(problem: Problem, out: Outcome) -> float:
     float
         ``|integral gain|``, ``-worst Ms`` or 0 (feasibility).
     """
-    if out is None or not out.certified:
+    if out is None:
         return -np.inf
-    obj = problem.solver.objective
-    if obj == "max_integral_gain":
-        ki = integral_gain(out.ctrl)
-        return abs(ki) if np.isfinite(ki) else -np.inf
-    if obj == "min_Ms":
-        return -out.cert.worst("Ms")
-    return 0.0
+    value = objective(problem, out.ctrl, out.cert)
+    return -np.inf if value is None else value
 
 
 def _key(obj):
