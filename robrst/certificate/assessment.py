@@ -159,7 +159,7 @@ def assess(problem: Problem, ctrl: RSTController) -> Assessment:
     """
     sp = problem.specs
     fam = problem.family
-    floor, source = sp.damping_floor(fam)
+    floor, source = problem.damping_floor.value, problem.damping_floor.source
     zp_all = plant_damping(fam)
     loops = [closed_loop(m, ctrl) for m in fam.models]
     pks = peak_gains_many([([cl.nums["Sd"]], cl.Delta, []) for cl in loops]

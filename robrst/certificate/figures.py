@@ -127,6 +127,12 @@ class LoopFigures:
     damping, decay_rad_s : float or None
         Least damping and least decay rate ``-Re p`` [rad/s] of the loop's poles (a sampled
         loop's mapped to s by ``fs ln z``), when a pole region is checked.
+    Msd_rel : float or None
+        ``Msd`` over the loop's open-loop peak ``open_loop_peak`` (when ``Msd_rel_max``
+        bounds it).
+    open_loop_peak : float or None
+        The exact peak of the loop's own plant ``|B / A|`` [µm/V] (the zero-order-hold
+        plant's in the sampled loop; ``inf`` for a plant with a pole on the axis).
     """
 
     spectral_abscissa: float
@@ -149,6 +155,8 @@ class LoopFigures:
     Mry_freq_rad_s: float | None = None
     damping: float | None = None
     decay_rad_s: float | None = None
+    Msd_rel: float | None = None
+    open_loop_peak: float | None = None
 
     def value(self, name: str) -> float | bool | None:
         """Figure ``name`` (a field, or a step figure).
@@ -203,6 +211,8 @@ class LoopFigures:
         for k in ("Msd", "Mry"):         # figures of the newer specs, only when checked
             if getattr(self, k) is not None:
                 names += [k, k + "_freq_rad_s"]
+        if self.Msd_rel is not None:
+            names += ["Msd_rel", "open_loop_peak"]
         names += [k for k in ("damping", "decay_rad_s") if getattr(self, k) is not None]
         out = [(figure_key(k, loop), getattr(self, k)) for k in names]
         if steps and self.step is not None:

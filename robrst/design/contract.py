@@ -13,19 +13,20 @@ import numpy as np
 
 from robrst.base.errors import SpecError
 from robrst.core import poly
+from robrst.problem.specs import SPEC_TABLE, bound_specs
 
 if TYPE_CHECKING:
     from robrst.certificate.assessment import Assessment
     from robrst.certificate.proof import Certificate
     from robrst.core.rst import RSTController
-    from robrst.problem.records import Problem
+    from robrst.problem.records import Problem, Specs
     from robrst.synthesis.analytic import AnalyticDesign
     from robrst.synthesis.multistart import MultiStart
     from robrst.synthesis.outcome import SynthesisResult
     from robrst.synthesis.scenario import FleetDesign
     from robrst.synthesis.tracking import Tracking
 
-__all__ = ["design_json", "solver_json", "spec_rows", "controller_factors", "artefact_record",
+__all__ = ["design_json", "specs_json", "solver_json", "spec_rows", "controller_factors", "artefact_record",
            "ARTEFACT_FORMAT", "SPEC_FIGURES", "BINDING_SLACK"]
 
 ARTEFACT_FORMAT = "robrst-design-1"
@@ -91,6 +92,42 @@ class DesignRecord(Protocol):
     best_achievable: str | None
 
 
+def _json_value(row, v):
+    if row.field.type == "bool":
+        return bool(v)
+    return list(v) if isinstance(v, tuple) else v
+
+
+def specs_json(specs: Specs) -> dict:
+    """The ``specs`` object of the design JSON, from the spec table
+    (:data:`robrst.problem.specs.SPEC_TABLE`: each row's ``published`` rule, in table
+    order): the keys published always first, then the sampled loop's, then the others.
+
+    Parameters
+    ----------
+    specs : Specs
+        The problem's specs.
+
+    Returns
+    -------
+    dict
+    """
+    out = {}
+    for row in SPEC_TABLE:
+        if row.published == "always":
+            out[row.key] = _json_value(row, getattr(specs, row.key))
+    if specs.sampled:
+        out.update((row.key, _json_value(row, getattr(specs, row.key))) for row in SPEC_TABLE
+                   if row.published == "sampled")
+    for row in SPEC_TABLE:
+        v = getattr(specs, row.key)
+        if (row.published == "given" and v is not None
+                or row.published == "with" and getattr(specs, row.with_key) is not None
+                or row.published == "time_domain" and specs.time_domain):
+            out[row.key] = _json_value(row, v)
+    return out
+
+
 def solver_json(synthesis: AnalyticDesign | SynthesisResult) -> dict:
     """The ``solver`` object of the design JSON.
 
@@ -131,10 +168,7 @@ def design_json(result: DesignRecord) -> dict:
     p = result.problem
     sp = p.specs
     models = [a.as_dict(m) for a, m in zip(result.analyses, p.family.models)]
-    specs = {"Ms_max": sp.Ms_max, "Mt_max": sp.Mt_max, "Mu_max": sp.Mu_max,
-             "stable_controller": bool(sp.stable_controller)}
-    if sp.sampled:
-        specs.update(sample_rate_hz=sp.sample_rate_hz, delay_samples=sp.delay_samples)
+    specs = specs_json(sp)
     out = {
         "problem": p.name,
         "method": result.method,
@@ -153,18 +187,6 @@ def design_json(result: DesignRecord) -> dict:
         "specs_achieved": spec_rows(p, result.certificate),
         "controller_factored": controller_factors(result.controller),
     }
-    if sp.T_resonance_max is not None:
-        specs.update(T_resonance_max=sp.T_resonance_max,
-                     resonance_band_hz=list(sp.resonance_band_hz))
-    if sp.Mu_hf_max is not None:
-        specs.update(Mu_hf_max=sp.Mu_hf_max, Mu_hf_above_hz=sp.Mu_hf_above_hz)
-    if sp.time_domain:
-        specs.update(overshoot_max_pct=sp.overshoot_max_pct,
-                     settling_time_max_s=sp.settling_time_max_s, step_um=sp.step_um,
-                     step_u_max_V=sp.step_u_max_V)
-    for key in ("Msd_max", "Mry_max", "damping_min", "decay_min", "controller_damping_min"):
-        if getattr(sp, key) is not None:
-            specs[key] = getattr(sp, key)
     out["method_reason"] = p.solver.method_reason
     if result.assessment is not None:
         out["assessment"] = result.assessment.as_dict()
@@ -182,14 +204,8 @@ def design_json(result: DesignRecord) -> dict:
     return out
 
 
-# spec key -> (certificate figure, is a lower bound)
-SPEC_FIGURES = (("Ms_max", "Ms", False), ("Mt_max", "Mt", False), ("Mu_max", "Mu", False),
-                ("T_resonance_max", "Mt_resonance_band", False), ("Mu_hf_max", "Mu_hf", False),
-                ("Msd_max", "Msd", False), ("Mry_max", "Mry", False),
-                ("overshoot_max_pct", "overshoot_pct", False),
-                ("settling_time_max_s", "settling_time_s", False),
-                ("step_u_max_V", "step_u_peak_V", False), ("damping_min", "damping", True),
-                ("decay_min", "decay_rad_s", True))
+# spec key -> (certificate figure, is a lower bound): every bound on a loop's figures
+SPEC_FIGURES = tuple((row.key, row.figure, row.lower) for row in bound_specs())
 BINDING_SLACK = 0.01     # a spec within 1 % of its bound is reported as binding
 
 
@@ -211,7 +227,7 @@ def spec_rows(problem: Problem, cert: Certificate) -> list[dict]:
         ``spec, bound, achieved, slack, model, temperature_C, loop, binding, source``.
     """
     sp = problem.specs
-    floor, source = sp.damping_floor(problem.family)
+    floor, source = problem.damping_floor.value, problem.damping_floor.source
     out = []
     for key, fig, lower in SPEC_FIGURES:
         bound = floor if key == "damping_min" else getattr(sp, key)

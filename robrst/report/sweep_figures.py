@@ -17,6 +17,7 @@ from robrst.report.figure import colors, drawing
 from robrst.studies.sweep.evaluate import problem_of
 from robrst.studies.sweep.summary import front_values, pareto_front, worst_rows
 from robrst.core.rst import RSTController
+from robrst.problem.specs import PEAK_SPECS, spec_columns
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -26,10 +27,7 @@ __all__ = ["histograms_figure", "sensitivity_figure", "front_figure", "fleet_fig
            "worst_bode_figure", "worst_ok_row", "HIST"]
 
 # figure column -> (axis label, scale, spec bound attribute)
-HIST = (("Ms", "worst |S| peak Ms [-]", 1.0, "Ms_max"),
-        ("Mt", "worst |T| peak Mt [-]", 1.0, "Mt_max"),
-        ("Mu", "worst |U| peak Mu [V/µm]", 1.0, "Mu_max"),
-        ("Mt_band", "worst |T| in the resonance band [-]", 1.0, "T_resonance_max"),
+HIST = (*((row.column, row.column_label, 1.0, row.key) for row in spec_columns()),
         ("gain_margin", "smallest gain margin [-]", 1.0, None),
         ("phase_margin_deg", "smallest phase margin [°]", 1.0, None),
         ("delay_margin_s", "smallest delay margin [µs]", 1e6, None),
@@ -248,7 +246,7 @@ def worst_bode_figure(result: SweepResult, path: str | Path) -> None:
     sp = problem.specs
     fam = problem.family.models
     with drawing(path, (8, 9), 3, 1, sharex=True) as (fig, axes):
-        for (name, key), ax in zip((("S", "Ms_max"), ("T", "Mt_max"), ("U", "Mu_max")), axes):
+        for (name, key), ax in zip(PEAK_SPECS.items(), axes):
             for m in base:
                 ax.semilogx(_F, _db(sensitivity(m, ctrl, name, 2 * np.pi * _F)), color="0.7",
                             lw=0.8)
