@@ -15,7 +15,8 @@ looks at what was left unbounded; :func:`assess` computes it on every family mem
   poles are all better damped is not stepped, which keeps a continuous design free of the
   step kernel's SciPy);
 * **input disturbances**: the peak of ``|B S / Delta|`` above the open loop's ``|B / A|``
-  (the controller amplifies input disturbances somewhere) when no ``Msd_max`` is given.
+  (the controller amplifies input disturbances somewhere) when neither ``Msd_max`` nor
+  ``Msd_rel_max`` bounds it.
 
 Each warning names the model, the figure, the comparison and the key to set.
 """
@@ -37,9 +38,27 @@ if TYPE_CHECKING:
     from robrst.core.rst import RSTController
     from robrst.problem.records import Problem
 
-__all__ = ["Assessment", "ModelAssessment", "assess", "OVERSHOOT_GATE"]
+__all__ = ["Assessment", "ModelAssessment", "LoopAssessment", "assess", "OVERSHOOT_GATE"]
 
 OVERSHOOT_GATE = 0.46   # a second-order mode damped 0.46 overshoots 19.8 %
+
+
+@dataclass(frozen=True)
+class LoopAssessment:
+    """One loop's unbounded figures on one family member.
+
+    Parameters
+    ----------
+    damping : float
+        Least damping of the loop's closed-loop poles (the sampled loop's mapped to s by
+        ``fs ln z``).
+    overshoot_pct : float or None
+        Reference-step overshoot [%] (at the samples for the sampled loop; ``None``: not
+        stepped, see ``OVERSHOOT_GATE``).
+    """
+
+    damping: float
+    overshoot_pct: float | None = None
 
 
 @dataclass(frozen=True)
@@ -52,40 +71,39 @@ class ModelAssessment:
         The model.
     temperature_C : float
         Its temperature [°C].
-    damping : float
-        Least damping of the continuous closed-loop poles.
     plant_damping : float
         Least damping of the plant's complex poles (1: none).
-    overshoot_pct : float or None
-        Reference-step overshoot [%] (``None``: not stepped, see ``OVERSHOOT_GATE``).
     Msd : float
         Peak of ``|B S / Delta|`` [µm/V].
     open_loop_Msd : float
         Peak of ``|B / A|`` [µm/V] (``inf`` for a plant that is not stable).
-    damping_sampled : float, optional
-        The sampled loop's least damping (poles mapped to s by ``fs ln z``).
-    overshoot_pct_sampled : float, optional
-        The sampled loop's overshoot at the samples [%].
+    continuous : LoopAssessment
+        The continuous loop's damping and overshoot.
+    sampled : LoopAssessment, optional
+        The sampled loop's (with a sampling rate).
     """
 
     label: str
     temperature_C: float
-    damping: float
     plant_damping: float
-    overshoot_pct: float
     Msd: float
     open_loop_Msd: float
-    damping_sampled: float = None
-    overshoot_pct_sampled: float = None
+    continuous: LoopAssessment
+    sampled: LoopAssessment | None = None
 
-    def as_dict(self) -> dict:
-        """The JSON form.
+    def loop(self, loop: str = "continuous") -> LoopAssessment | None:
+        """The figures of ``loop``.
+
+        Parameters
+        ----------
+        loop : {"continuous", "sampled"}
+            Which loop.
 
         Returns
         -------
-        dict
+        LoopAssessment or None
         """
-        return dict(self.__dict__)
+        return self.continuous if loop == "continuous" else self.sampled
 
 
 @dataclass(frozen=True)
@@ -114,17 +132,6 @@ class Assessment:
     damping_floor: float = None
     damping_source: str = None
     extra: dict = field(default_factory=dict)
-
-    def as_dict(self) -> dict:
-        """The JSON form (``design --json`` key ``assessment``).
-
-        Returns
-        -------
-        dict
-        """
-        return {"warnings": list(self.warnings), "notes": list(self.notes),
-                "damping_floor": self.damping_floor, "damping_source": self.damping_source,
-                "models": [m.as_dict() for m in self.models]}
 
 
 def _overshoots(plants, loops, ctrl, specs, fs=None):
@@ -189,14 +196,13 @@ def assess(problem: Problem, ctrl: RSTController) -> Assessment:
     for i, (m, cl, pk, st) in enumerate(zip(fam.models, loops, pks, stable_ol)):
         p = np.roots(m.A)
         cplx = p[np.abs(p.imag) > 1e-9 * np.abs(p)]
-        rec = dict(label=m.label, temperature_C=m.temperature_C,
-                   damping=_least_damping(cl.Delta), plant_damping=region.least_damping(cplx),
-                   overshoot_pct=next(steps) if stable[i] and want else None,
-                   Msd=float(pk[0].value),
-                   open_loop_Msd=float(next(ol)[0].value) if st else np.inf)
-        if sp.sampled:
-            rec["damping_sampled"], rec["overshoot_pct_sampled"] = sampled[i]
-        out.append(ModelAssessment(**rec))
+        cont = LoopAssessment(damping=_least_damping(cl.Delta),
+                              overshoot_pct=next(steps) if stable[i] and want else None)
+        out.append(ModelAssessment(
+            label=m.label, temperature_C=m.temperature_C,
+            plant_damping=region.least_damping(cplx), Msd=float(pk[0].value),
+            open_loop_Msd=float(next(ol)[0].value) if st else np.inf, continuous=cont,
+            sampled=LoopAssessment(*sampled[i]) if sp.sampled else None))
     return Assessment(models=tuple(out), warnings=tuple(_warnings(problem, out, floor, source)),
                       notes=tuple(_notes(floor, source, zp_all)), damping_floor=floor,
                       damping_source=source)
@@ -212,34 +218,33 @@ def _notes(floor, source, zp):
     return []
 
 
-def _worst(models, key):
-    vals = [(getattr(m, key), m) for m in models if getattr(m, key) is not None
-            and np.isfinite(getattr(m, key))]
+def _worst(models, loop):
+    vals = [(lp.overshoot_pct, m) for m in models if (lp := m.loop(loop)) is not None
+            and lp.overshoot_pct is not None and np.isfinite(lp.overshoot_pct)]
     return max(vals, key=lambda v: v[0]) if vals else (None, None)
 
 
 def _warnings(problem, models, floor, source):
     sp = problem.specs
     out = []
-    low = [m for m in models if m.damping < m.plant_damping * (1 - 1e-3)]
+    low = [m for m in models if m.continuous.damping < m.plant_damping * (1 - 1e-3)]
     if low and not (source == "specs" and floor):
-        m = min(low, key=lambda m: m.damping / m.plant_damping)
-        out.append(f"closed-loop damping {m.damping:.3g} on model {m.label}"
+        m = min(low, key=lambda m: m.continuous.damping / m.plant_damping)
+        out.append(f"closed-loop damping {m.continuous.damping:.3g} on model {m.label}"
                    f" ({m.temperature_C:g} °C) is below the plant's own {m.plant_damping:.3g}:"
                    " a resonance rings longer than open loop (set [specs] damping_min, or try"
                    " extra_degree + 1 to let the controller damp it)")
     if sp.overshoot_max_pct is None:
-        keys = ["overshoot_pct"] + (["overshoot_pct_sampled"] if sp.sampled else [])
-        for key in keys:
-            v, m = _worst(models, key)
+        for loop in ("continuous", "sampled") if sp.sampled else ("continuous",):
+            v, m = _worst(models, loop)
             if v is not None and v > DEFAULT_OVERSHOOT_WARN_PCT:
-                loop = " (sampled loop)" if key.endswith("sampled") else ""
-                out.append(f"a reference step overshoots {v:.3g} %{loop} on model {m.label}"
+                where = " (sampled loop)" if loop == "sampled" else ""
+                out.append(f"a reference step overshoots {v:.3g} %{where} on model {m.label}"
                            f" ({m.temperature_C:g} °C), above {DEFAULT_OVERSHOOT_WARN_PCT:g} %"
                            " (no overshoot_max_pct given: set it, a damping_min, or T_mode ="
                            " \"reference_model\")")
                 break
-    if sp.Msd_max is None:
+    if sp.Msd_max is None and sp.Msd_rel_max is None:
         worse = [m for m in models if np.isfinite(m.open_loop_Msd)
                  and m.Msd > m.open_loop_Msd * (1 + 1e-3)]
         if worse:

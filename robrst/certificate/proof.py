@@ -177,25 +177,6 @@ class Certificate:
                     out[k] = max(out.get(k, -np.inf), v.ratio)
         return out
 
-    def as_dict(self) -> dict:
-        """The ``certificate`` object of the design JSON (fields are only added).
-
-        Returns
-        -------
-        dict
-            ``ratios, certified, rtol, (controller), models, violations, interval,
-            interval_proof, interval_resolution_C``; ``models`` in their published form
-            (:meth:`~robrst.certificate.figures.ModelRecord.as_dict`).
-        """
-        extra = {} if self.controller is None else {"controller": self.controller}
-        return {"ratios": self.ratios(), "certified": self.certified, "rtol": self.rtol,
-                **extra, "models": [m.as_dict() for m in self.models],
-                "violations": [v.__dict__ for v in self.violations],
-                "interval": self.interval,
-                "interval_proof": self.interval.get("stability"),
-                "interval_resolution_C": self.interval.get("max_spacing_C")}
-
-
 
 def _unresolved(ra, rb, specs, rtol, ignore=()):
     """The first figure that moves by more than REFINE_RATIO x its margin across [a, b]."""

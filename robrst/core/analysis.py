@@ -100,41 +100,6 @@ class Analysis:
     peaks: dict
     margins: Margins
 
-    def as_dict(self, plant: Plant) -> dict:
-        """The ``models`` record of the design JSON (infinite figures as ``None``).
-
-        Parameters
-        ----------
-        plant : Plant
-            The analysed plant (its ``A`` and ``B`` are written).
-
-        Returns
-        -------
-        dict
-            ``label, temperature_C, A, B, stable, closed_loop_poles, spectral_abscissa``,
-            the peaks ``Ms, Mt, Mu, Msd`` with their frequencies and the margins.
-        """
-        pk = self.peaks
-        m = self.margins
-        return {
-            "label": self.label,
-            "temperature_C": self.temperature_C,
-            "A": plant.A.tolist(),
-            "B": plant.B.tolist(),
-            "stable": bool(self.stable),
-            "closed_loop_poles": [[float(z.real), float(z.imag)] for z in self.poles],
-            "spectral_abscissa": float(self.spectral_abscissa),
-            "Ms": pk["S"].value, "Ms_freq_rad_s": _fin(pk["S"].freq_rad_s),
-            "Mt": pk["T"].value, "Mt_freq_rad_s": _fin(pk["T"].freq_rad_s),
-            "Mu": pk["U"].value, "Mu_freq_rad_s": _fin(pk["U"].freq_rad_s),
-            "Msd": pk["Sd"].value, "Msd_freq_rad_s": _fin(pk["Sd"].freq_rad_s),
-            "gain_margin": m.gain_margin,
-            "gain_margin_lower": m.gain_margin_lower,
-            "phase_margin_deg": m.phase_margin_deg,
-            "modulus_margin": m.modulus_margin,
-            "delay_margin_s": m.delay_margin_s,
-        }
-
 
 def _fin(x):
     return None if x is None or not np.isfinite(x) else float(x)

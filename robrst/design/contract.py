@@ -13,10 +13,14 @@ import numpy as np
 
 from robrst.base.errors import SpecError
 from robrst.core import poly
+from robrst.certificate.figures import figure_key
 from robrst.problem.specs import SPEC_TABLE, bound_specs
 
 if TYPE_CHECKING:
-    from robrst.certificate.assessment import Assessment
+    from robrst.certificate.assessment import Assessment, ModelAssessment
+    from robrst.certificate.figures import LoopFigures, ModelRecord
+    from robrst.core.analysis import Analysis
+    from robrst.core.plant import Plant
     from robrst.certificate.proof import Certificate
     from robrst.core.rst import RSTController
     from robrst.problem.records import Problem, Specs
@@ -26,10 +30,53 @@ if TYPE_CHECKING:
     from robrst.synthesis.scenario import FleetDesign
     from robrst.synthesis.tracking import Tracking
 
-__all__ = ["design_json", "specs_json", "solver_json", "spec_rows", "controller_factors", "artefact_record",
-           "ARTEFACT_FORMAT", "SPEC_FIGURES", "BINDING_SLACK"]
+__all__ = ["design_json", "certificate_json", "model_record_json", "loop_items",
+           "analysis_json", "assessment_json", "assessment_model_json", "specs_json",
+           "solver_json", "spec_rows", "controller_factors", "artefact_record",
+           "ARTEFACT_FORMAT", "DESIGN_FIELDS", "OPTIONAL_FIELDS", "CERTIFICATE_FIELDS",
+           "VIOLATION_FIELDS", "SPEC_ROW_FIELDS", "ANALYTIC_CHECK_FIELDS", "ANALYSIS_PEAKS",
+           "MARGIN_FIELDS", "LOOP_FIELDS", "OPTIONAL_LOOP_FIGURES", "SPEC_FIGURES",
+           "BINDING_SLACK"]
 
 ARTEFACT_FORMAT = "robrst-design-1"
+
+# The contract's field names and order, declared once (fields are only ever added: at the end
+# of an object, or where an optional field has always been published)
+DESIGN_FIELDS = ("problem", "method", "status", "controller", "target_char_poly", "specs",
+                 "temperature_range_C", "models", "certified", "certificate", "solver",
+                 "integral_gain", "best_achievable", "specs_achieved", "controller_factored",
+                 "method_reason", "assessment", "starts", "tracking", "analytic_check",
+                 "comparison", "artefact", "fleet")
+OPTIONAL_FIELDS = ("assessment", "starts", "tracking", "analytic_check", "comparison", "fleet")
+CERTIFICATE_FIELDS = ("ratios", "certified", "rtol", "controller", "models", "violations",
+                      "interval", "interval_proof", "interval_resolution_C")
+VIOLATION_FIELDS = ("label", "temperature_C", "quantity", "value", "bound", "freq_rad_s",
+                    "loop", "kind")
+SPEC_ROW_FIELDS = ("spec", "bound", "achieved", "slack", "model", "temperature_C", "loop",
+                   "binding", "source")
+ANALYTIC_CHECK_FIELDS = ("kind", "max_rel_coef_error", "passed")
+# a family model's figures in ``models``: (published figure, peak of) and the margins
+ANALYSIS_PEAKS = (("Ms", "S"), ("Mt", "T"), ("Mu", "U"), ("Msd", "Sd"))
+MARGIN_FIELDS = ("gain_margin", "gain_margin_lower", "phase_margin_deg", "modulus_margin",
+                 "delay_margin_s")
+# a checked loop's figures in ``certificate.models``, per loop (the step figures follow)
+LOOP_FIELDS = {
+    "continuous": ("spectral_abscissa", "stable", "distance_to_instability",
+                   "closed_loop_degree", "Ms", "Ms_freq_rad_s", "Mt", "Mt_freq_rad_s", "Mu",
+                   "Mu_freq_rad_s", "Mt_resonance_band", "Mt_resonance_band_freq_rad_s",
+                   "Mu_hf", "Msd", "Msd_freq_rad_s", "Mry", "Mry_freq_rad_s", "Msd_rel",
+                   "open_loop_peak", "damping", "decay_rad_s"),
+    "sampled": ("spectral_abscissa", "stable", "Ms", "Ms_freq_rad_s", "Mt", "Mt_freq_rad_s",
+                "Mu", "Mu_freq_rad_s", "Mt_resonance_band", "distance_to_instability",
+                "Mu_hf", "Msd", "Msd_freq_rad_s", "Mry", "Mry_freq_rad_s", "Msd_rel",
+                "open_loop_peak", "damping", "decay_rad_s"),
+}
+# published only when computed: field -> the figure whose presence decides
+OPTIONAL_LOOP_FIGURES = {
+    "Mt_resonance_band": "Mt_resonance_band",
+    "Mt_resonance_band_freq_rad_s": "Mt_resonance_band", "Mu_hf": "Mu_hf", "Msd": "Msd",
+    "Msd_freq_rad_s": "Msd", "Mry": "Mry", "Mry_freq_rad_s": "Mry", "Msd_rel": "Msd_rel",
+    "open_loop_peak": "Msd_rel", "damping": "damping", "decay_rad_s": "decay_rad_s"}
 
 
 def artefact_record(problem: Problem) -> dict:
@@ -154,6 +201,9 @@ def solver_json(synthesis: AnalyticDesign | SynthesisResult) -> dict:
 def design_json(result: DesignRecord) -> dict:
     """The public JSON contract of ``robrst design --json`` (fields are only added).
 
+    The fields in the order of :data:`DESIGN_FIELDS` (those of
+    :data:`OPTIONAL_FIELDS` only when the design has them), each written from its record.
+
     Parameters
     ----------
     result : DesignResult
@@ -166,42 +216,208 @@ def design_json(result: DesignRecord) -> dict:
         ``docs/reference/design.schema.json``.
     """
     p = result.problem
-    sp = p.specs
-    models = [a.as_dict(m) for a, m in zip(result.analyses, p.family.models)]
-    specs = specs_json(sp)
-    out = {
-        "problem": p.name,
-        "method": result.method,
-        "status": result.status,
-        "controller": result.controller.as_dict(),
-        "target_char_poly": None if result.target_char_poly is None
+    writers = {
+        "problem": lambda: p.name,
+        "method": lambda: result.method,
+        "status": lambda: result.status,
+        "controller": lambda: result.controller.as_dict(),
+        "target_char_poly": lambda: None if result.target_char_poly is None
         else np.asarray(result.target_char_poly).tolist(),
-        "specs": specs,
-        "temperature_range_C": list(p.family.range_C),
-        "models": models,
-        "certified": bool(result.certified),
-        "certificate": result.certificate.as_dict(),
-        "solver": solver_json(result.synthesis),
-        "integral_gain": result.integral_gain,
-        "best_achievable": result.best_achievable,
-        "specs_achieved": spec_rows(p, result.certificate),
-        "controller_factored": controller_factors(result.controller),
+        "specs": lambda: specs_json(p.specs),
+        "temperature_range_C": lambda: list(p.family.range_C),
+        "models": lambda: [analysis_json(a, m) for a, m in zip(result.analyses,
+                                                               p.family.models)],
+        "certified": lambda: bool(result.certified),
+        "certificate": lambda: certificate_json(result.certificate),
+        "solver": lambda: solver_json(result.synthesis),
+        "integral_gain": lambda: result.integral_gain,
+        "best_achievable": lambda: result.best_achievable,
+        "specs_achieved": lambda: spec_rows(p, result.certificate),
+        "controller_factored": lambda: controller_factors(result.controller),
+        "method_reason": lambda: p.solver.method_reason,
+        "assessment": lambda: assessment_json(result.assessment),
+        "starts": lambda: result.starts.as_dict(),
+        "tracking": lambda: result.tracking.as_dict(),
+        "analytic_check": lambda: {k: getattr(result.analytic_check, k)
+                                   for k in ANALYTIC_CHECK_FIELDS},
+        "comparison": lambda: {"rows": result.comparison.rows,
+                               "table": result.comparison.table},
+        "artefact": lambda: artefact_record(p),      # what robrst.load_design reads back
+        "fleet": lambda: result.fleet.as_dict(),
     }
-    out["method_reason"] = p.solver.method_reason
-    if result.assessment is not None:
-        out["assessment"] = result.assessment.as_dict()
-    if result.starts is not None:
-        out["starts"] = result.starts.as_dict()
-    if result.tracking is not None:
-        out["tracking"] = result.tracking.as_dict()
-    if result.analytic_check is not None:
-        out["analytic_check"] = result.analytic_check.as_dict()
-    if result.comparison is not None:
-        out["comparison"] = result.comparison.as_dict()
-    out["artefact"] = artefact_record(p)   # what robrst.load_design reads back
-    if result.fleet is not None:
-        out["fleet"] = result.fleet.as_dict()
+    return {k: writers[k]() for k in DESIGN_FIELDS
+            if k not in OPTIONAL_FIELDS or getattr(result, k) is not None}
+
+
+def certificate_json(cert: Certificate) -> dict:
+    """The ``certificate`` object of the design JSON (fields are only added).
+
+    Parameters
+    ----------
+    cert : Certificate
+        The certificate.
+
+    Returns
+    -------
+    dict
+        :data:`CERTIFICATE_FIELDS` (``controller`` only with ``controller_damping_min``);
+        ``models`` in their published form (:func:`model_record_json`).
+    """
+    writers = {
+        "ratios": cert.ratios,
+        "certified": lambda: cert.certified,
+        "rtol": lambda: cert.rtol,
+        "controller": lambda: cert.controller,
+        "models": lambda: [model_record_json(m) for m in cert.models],
+        "violations": lambda: [{k: getattr(v, k) for k in VIOLATION_FIELDS}
+                               for v in cert.violations],
+        "interval": lambda: cert.interval,
+        "interval_proof": lambda: cert.interval.get("stability"),
+        "interval_resolution_C": lambda: cert.interval.get("max_spacing_C"),
+    }
+    return {k: writers[k]() for k in CERTIFICATE_FIELDS
+            if k != "controller" or cert.controller is not None}
+
+
+def loop_items(lf: LoopFigures, loop: str = "continuous",
+               steps: bool = True) -> list[tuple[str, object]]:
+    """``(published name, value)`` pairs of one loop's figures, in the published order.
+
+    The continuous loop lists its stability first, then the peaks; the sampled loop its
+    abscissa and peaks first (the order the JSON contract has always had), without the
+    closed-loop degree and the band peak's frequency
+    (:data:`LOOP_FIELDS`).  Band peaks and the figures of the newer specs only when
+    computed; ``steps=False`` leaves the step figures out.
+
+    Parameters
+    ----------
+    lf : LoopFigures
+        The loop's figures.
+    loop : {"continuous", "sampled"}
+        Which loop this is (its names' suffix and order).
+    steps : bool
+        Include the step figures.
+
+    Returns
+    -------
+    list of (str, object)
+    """
+    names = [k for k in LOOP_FIELDS[loop]
+             if k not in OPTIONAL_LOOP_FIGURES
+             or getattr(lf, OPTIONAL_LOOP_FIGURES[k]) is not None]
+    out = [(figure_key(k, loop), getattr(lf, k)) for k in names]
+    if steps and lf.step is not None:
+        out += [(figure_key(k, loop), v) for k, v in lf.step.items()]
     return out
+
+
+def model_record_json(rec: ModelRecord) -> dict:
+    """One checked model of the certificate (``certificate.models[i]``), published.
+
+    Parameters
+    ----------
+    rec : ModelRecord
+        The record.
+
+    Returns
+    -------
+    dict
+        ``label, temperature_C``, the continuous then the sampled loop's figures
+        (:func:`loop_items`), the hooks' figures and margins, ``family_member``,
+        ``actuator`` (a further actuator) and, for step figures checked after the sweep,
+        those last.
+    """
+    late = rec.steps_checked_after
+    d = {"label": rec.label, "temperature_C": rec.temperature_C}
+    for loop, lf in rec.loops():
+        d.update(loop_items(lf, loop, steps=not late))
+    d.update(rec.extra)
+    if rec.margins:
+        d["margins"] = rec.margins
+    if rec.family_member is not None:
+        d["family_member"] = rec.family_member
+    if rec.actuator:
+        d["actuator"] = rec.actuator
+    if late:
+        for loop, lf in rec.loops():
+            if lf.step is not None:
+                d.update((figure_key(k, loop), v) for k, v in lf.step.items())
+    return d
+
+
+def analysis_json(analysis: Analysis, plant: Plant) -> dict:
+    """The ``models`` record of the design JSON (infinite frequencies as ``None``).
+
+    Parameters
+    ----------
+    analysis : Analysis
+        The analysis of one family model.
+    plant : Plant
+        The analysed plant (its ``A`` and ``B`` are written).
+
+    Returns
+    -------
+    dict
+        ``label, temperature_C, A, B, stable, closed_loop_poles, spectral_abscissa``,
+        the peaks ``Ms, Mt, Mu, Msd`` with their frequencies and the margins.
+    """
+    pk, m = analysis.peaks, analysis.margins
+    out = {"label": analysis.label, "temperature_C": analysis.temperature_C,
+           "A": plant.A.tolist(), "B": plant.B.tolist(), "stable": bool(analysis.stable),
+           "closed_loop_poles": [[float(z.real), float(z.imag)] for z in analysis.poles],
+           "spectral_abscissa": float(analysis.spectral_abscissa)}
+    for fig, name in ANALYSIS_PEAKS:
+        out[fig] = pk[name].value
+        out[fig + "_freq_rad_s"] = _finite(pk[name].freq_rad_s)
+    out.update((k, getattr(m, k)) for k in MARGIN_FIELDS)
+    return out
+
+
+def assessment_json(assessment: Assessment) -> dict:
+    """The ``assessment`` object of the design JSON.
+
+    Parameters
+    ----------
+    assessment : Assessment
+        What the specs left unbounded.
+
+    Returns
+    -------
+    dict
+        ``warnings, notes, damping_floor, damping_source, models`` (one per family member:
+        ``label, temperature_C``, the continuous loop's damping and overshoot, the plant's
+        damping, ``Msd`` and the open loop's, then the sampled loop's).
+    """
+    return {"warnings": list(assessment.warnings), "notes": list(assessment.notes),
+            "damping_floor": assessment.damping_floor,
+            "damping_source": assessment.damping_source,
+            "models": [assessment_model_json(m) for m in assessment.models]}
+
+
+def assessment_model_json(m: ModelAssessment) -> dict:
+    """One family member of the ``assessment`` (the sampled loop's figures ``None`` without
+    a sampling rate).
+
+    Parameters
+    ----------
+    m : ModelAssessment
+        The member's figures.
+
+    Returns
+    -------
+    dict
+    """
+    out = {"label": m.label, "temperature_C": m.temperature_C,
+           "damping": m.continuous.damping, "plant_damping": m.plant_damping,
+           "overshoot_pct": m.continuous.overshoot_pct, "Msd": m.Msd,
+           "open_loop_Msd": m.open_loop_Msd}
+    out["damping_sampled"] = None if m.sampled is None else m.sampled.damping
+    out["overshoot_pct_sampled"] = None if m.sampled is None else m.sampled.overshoot_pct
+    return out
+
+
+def _finite(x):
+    return None if x is None or not np.isfinite(x) else float(x)
 
 
 # spec key -> (certificate figure, is a lower bound): every bound on a loop's figures
@@ -245,17 +461,14 @@ def spec_rows(problem: Problem, cert: Certificate) -> list[dict]:
         if best is None:
             continue
         ratio, v, m, loop = best
-        out.append({"spec": key, "bound": bound, "achieved": float(v),
-                    "slack": float(1 - ratio), "model": m.label,
-                    "temperature_C": m.temperature_C, "loop": loop,
-                    "binding": bool(1 - ratio <= BINDING_SLACK),
-                    "source": source if key == "damping_min" else "specs"})
+        out.append(dict(zip(SPEC_ROW_FIELDS, (
+            key, bound, float(v), float(1 - ratio), m.label, m.temperature_C, loop,
+            bool(1 - ratio <= BINDING_SLACK), source if key == "damping_min" else "specs"))))
     if cert.controller is not None and sp.controller_damping_min:
         v, b = cert.controller["damping"], sp.controller_damping_min
-        out.append({"spec": "controller_damping_min", "bound": b, "achieved": v,
-                    "slack": 1 - b / v if v > 0 else -np.inf, "model": "controller",
-                    "temperature_C": None, "loop": None,
-                    "binding": bool(v > 0 and 1 - b / v <= BINDING_SLACK), "source": "specs"})
+        out.append(dict(zip(SPEC_ROW_FIELDS, (
+            "controller_damping_min", b, v, 1 - b / v if v > 0 else -np.inf, "controller",
+            None, None, bool(v > 0 and 1 - b / v <= BINDING_SLACK), "specs"))))
     return out
 
 

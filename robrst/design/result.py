@@ -49,16 +49,6 @@ class AnalyticCheck:
     max_rel_coef_error: float
     passed: bool
 
-    def as_dict(self) -> dict:
-        """The ``analytic_check`` object of the design JSON.
-
-        Returns
-        -------
-        dict
-            ``kind, max_rel_coef_error, passed``.
-        """
-        return {"kind": self.kind, "max_rel_coef_error": self.max_rel_coef_error,
-                "passed": self.passed}
 
 
 @dataclass(frozen=True)
@@ -79,15 +69,6 @@ class Comparison:
     table: str
     range_C: tuple
 
-    def as_dict(self) -> dict:
-        """The ``comparison`` object of the design JSON.
-
-        Returns
-        -------
-        dict
-            ``rows, table``.
-        """
-        return {"rows": self.rows, "table": self.table}
 
 
 @dataclass(frozen=True, eq=False)

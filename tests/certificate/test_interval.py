@@ -10,6 +10,8 @@ import pytest
 import random_problems as rp
 from robrst.cli import main
 from robrst.core.interval import segment_crossing
+from robrst.certificate.figures import parse_key
+from robrst.design.contract import certificate_json
 
 
 def _hurwitz(rng, n, lo=0.1, hi=1e3):
@@ -64,10 +66,11 @@ def test_shipped_certificate_interval_record_and_ratios(designs, capsys):
                        ("overshoot_pct", sp.overshoot_max_pct)):
         if bound is None:
             continue
-        worst = max(m[key] for m in cert.models if m.get(key) is not None)
+        name, loop = parse_key(key)
+        worst = max(v for m in cert.models if (v := m.value(name, loop)) is not None)
         assert cert.ratios()[key] == pytest.approx(worst / bound, rel=1e-12)
     assert max(cert.ratios().values()) <= 1 + cert.rtol
-    d = json.loads(json.dumps(cert.as_dict()))
+    d = json.loads(json.dumps(certificate_json(cert)))
     assert set(d) >= {"certified", "rtol", "models", "violations", "interval", "interval_proof",
                       "interval_resolution_C", "ratios"}
 

@@ -211,7 +211,7 @@ def test_convex_and_nlp_agree_on_nominal_shaping(tmp_path):
         f.write_text(SHAPING.format(method=method))
         res[method] = run_problem(load_problem(f))
         assert res[method].analytic_check.passed
-    ms = {k: r.certificate.models[0]["Ms"] for k, r in res.items()}
+    ms = {k: r.certificate.models[0].continuous.Ms for k, r in res.items()}
     # two different solvers (SOCP interior point vs IPOPT) on the same grid: same optimum
     assert ms["nlp"] == pytest.approx(ms["convex"], rel=2e-3)
     # both improve on the analytic design with the same Am
