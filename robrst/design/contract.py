@@ -12,15 +12,16 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 
 from robrst.base.errors import SpecError
-from robrst.core import poly
 from robrst.certificate.figures import figure_key
-from robrst.problem.specs import SPEC_TABLE, bound_specs
+from robrst.design.achieved import SPEC_ROW_FIELDS
+from robrst.problem.specs import SPEC_TABLE
 
 if TYPE_CHECKING:
     from robrst.certificate.assessment import Assessment, ModelAssessment
     from robrst.certificate.figures import LoopFigures, ModelRecord
     from robrst.core.analysis import Analysis
     from robrst.core.plant import Plant
+    from robrst.design.achieved import ControllerFactors
     from robrst.certificate.proof import Certificate
     from robrst.core.rst import RSTController
     from robrst.problem.records import Problem, Specs
@@ -32,11 +33,10 @@ if TYPE_CHECKING:
 
 __all__ = ["design_json", "certificate_json", "model_record_json", "loop_items",
            "analysis_json", "assessment_json", "assessment_model_json", "specs_json",
-           "solver_json", "spec_rows", "controller_factors", "artefact_record",
+           "solver_json", "factors_json", "artefact_record",
            "ARTEFACT_FORMAT", "DESIGN_FIELDS", "OPTIONAL_FIELDS", "CERTIFICATE_FIELDS",
            "VIOLATION_FIELDS", "SPEC_ROW_FIELDS", "ANALYTIC_CHECK_FIELDS", "ANALYSIS_PEAKS",
-           "MARGIN_FIELDS", "LOOP_FIELDS", "OPTIONAL_LOOP_FIGURES", "SPEC_FIGURES",
-           "BINDING_SLACK"]
+           "MARGIN_FIELDS", "LOOP_FIELDS", "OPTIONAL_LOOP_FIGURES"]
 
 ARTEFACT_FORMAT = "robrst-design-1"
 
@@ -52,8 +52,6 @@ CERTIFICATE_FIELDS = ("ratios", "certified", "rtol", "controller", "models", "vi
                       "interval", "interval_proof", "interval_resolution_C")
 VIOLATION_FIELDS = ("label", "temperature_C", "quantity", "value", "bound", "freq_rad_s",
                     "loop", "kind")
-SPEC_ROW_FIELDS = ("spec", "bound", "achieved", "slack", "model", "temperature_C", "loop",
-                   "binding", "source")
 ANALYTIC_CHECK_FIELDS = ("kind", "max_rel_coef_error", "passed")
 # a family model's figures in ``models``: (published figure, peak of) and the margins
 ANALYSIS_PEAKS = (("Ms", "S"), ("Mt", "T"), ("Mu", "U"), ("Msd", "Sd"))
@@ -232,8 +230,10 @@ def design_json(result: DesignRecord) -> dict:
         "solver": lambda: solver_json(result.synthesis),
         "integral_gain": lambda: result.integral_gain,
         "best_achievable": lambda: result.best_achievable,
-        "specs_achieved": lambda: spec_rows(p, result.certificate),
-        "controller_factored": lambda: controller_factors(result.controller),
+        "specs_achieved": lambda: [dict(zip(SPEC_ROW_FIELDS, (getattr(r, k) for k in
+                                                               SPEC_ROW_FIELDS)))
+                                   for r in result.specs_achieved],
+        "controller_factored": lambda: factors_json(result.controller_factored),
         "method_reason": lambda: p.solver.method_reason,
         "assessment": lambda: assessment_json(result.assessment),
         "starts": lambda: result.starts.as_dict(),
@@ -416,90 +416,28 @@ def assessment_model_json(m: ModelAssessment) -> dict:
     return out
 
 
-def _finite(x):
-    return None if x is None or not np.isfinite(x) else float(x)
-
-
-# spec key -> (certificate figure, is a lower bound): every bound on a loop's figures
-SPEC_FIGURES = tuple((row.key, row.figure, row.lower) for row in bound_specs())
-BINDING_SLACK = 0.01     # a spec within 1 % of its bound is reported as binding
-
-
-def spec_rows(problem: Problem, cert: Certificate) -> list[dict]:
-    """Each bounded spec with its worst achieved value over the certificate's models (both
-    loops), the slack ``1 - value/bound`` (``1 - bound/value`` for a lower bound), where it
-    is attained and whether it binds (slack below ``BINDING_SLACK``).
+def factors_json(f: ControllerFactors) -> dict:
+    """The ``controller_factored`` object: ``w0_rad_s`` and per polynomial ``gain,
+    integrators, real, pairs, scaled``.
 
     Parameters
     ----------
-    problem : Problem
-        The problem (its specs and the default damping floor on its family).
-    cert : Certificate
-        The design's certificate.
-
-    Returns
-    -------
-    list of dict
-        ``spec, bound, achieved, slack, model, temperature_C, loop, binding, source``.
-    """
-    sp = problem.specs
-    floor, source = problem.damping_floor.value, problem.damping_floor.source
-    out = []
-    for key, fig, lower in SPEC_FIGURES:
-        bound = floor if key == "damping_min" else getattr(sp, key)
-        if not bound:
-            continue
-        best = None
-        for loop in ("continuous", "sampled"):
-            recs = [(m.value(fig, loop), m) for m in cert.models if m.value(fig, loop) is not None]
-            if not recs:
-                continue
-            v, m = (min if lower else max)(recs, key=lambda r: r[0])
-            ratio = bound / v if lower else v / bound
-            if best is None or ratio > best[0]:
-                best = (ratio, v, m, loop)
-        if best is None:
-            continue
-        ratio, v, m, loop = best
-        out.append(dict(zip(SPEC_ROW_FIELDS, (
-            key, bound, float(v), float(1 - ratio), m.label, m.temperature_C, loop,
-            bool(1 - ratio <= BINDING_SLACK), source if key == "damping_min" else "specs"))))
-    if cert.controller is not None and sp.controller_damping_min:
-        v, b = cert.controller["damping"], sp.controller_damping_min
-        out.append(dict(zip(SPEC_ROW_FIELDS, (
-            "controller_damping_min", b, v, 1 - b / v if v > 0 else -np.inf, "controller",
-            None, None, bool(v > 0 and 1 - b / v <= BINDING_SLACK), "specs"))))
-    return out
-
-
-def controller_factors(ctrl: RSTController) -> dict:
-    """R, S and T as gain, real roots and damped pairs, and their coefficients in the
-    scaled variable ``x = s / w0`` (``w0`` the geometric mean of the root moduli of S and R):
-    ``{"w0_rad_s": w0, "R": {...}, "S": {...}, "T": {...}}`` with per polynomial ``gain``
-    (leading coefficient), ``real`` (roots [rad/s]), ``pairs`` (``[wn rad/s, zeta]``),
-    ``integrators`` (roots at 0) and ``scaled`` (coefficients of ``x``, highest first, all
-    divided by ``w0**deg S``: ``R/S`` unchanged, ``S`` monic with O(1) coefficients).
-
-    Parameters
-    ----------
-    ctrl : RSTController
-        The controller.
+    f : ControllerFactors
+        The factored controller.
 
     Returns
     -------
     dict
     """
-    polys = {k: poly.trim(getattr(ctrl, k)) for k in "RST"}
-    sc = poly.Scaling.natural(polys["S"], polys["R"])
-    out = {"w0_rad_s": float(sc.w0)}
-    for k, c in polys.items():
-        nz = np.flatnonzero(c)
-        zeros_at_0 = len(c) - 1 - int(nz[-1]) if nz.size else 0
-        core = c[:len(c) - zeros_at_0] if zeros_at_0 else c
-        r = np.roots(core) if len(core) > 1 else np.zeros(0, complex)
-        real = sorted(float(x.real) for x in r if abs(x.imag) <= 1e-9 * max(abs(x), 1e-300))
-        pairs = sorted([float(abs(x)), float(-x.real / abs(x))] for x in r
-                       if x.imag > 1e-9 * max(abs(x), 1e-300))
-        out[k] = {"gain": float(c[0]), "integrators": int(zeros_at_0), "real": real,
-                  "pairs": pairs, "scaled": sc.normalize(c, len(polys["S"]) - 1).tolist()}
+    out = {"w0_rad_s": f.w0_rad_s}
+    for k in "RST":
+        pf = getattr(f, k)
+        out[k] = {"gain": pf.gain, "integrators": pf.integrators, "real": list(pf.real),
+                  "pairs": [list(p) for p in pf.pairs], "scaled": list(pf.scaled)}
     return out
+
+
+def _finite(x):
+    return None if x is None or not np.isfinite(x) else float(x)
+
+

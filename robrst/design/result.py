@@ -9,10 +9,14 @@ contract of ``robrst design --json`` is written from it in one place
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from robrst.design.achieved import (ControllerFactors, SolverSummary, SpecRow, StartsSummary,
+                                    controller_factors, solver_summary, spec_rows,
+                                    starts_summary)
 from robrst.synthesis.parametrize import integral_gain
 from robrst.synthesis.robust import best_achievable
 
@@ -120,6 +124,14 @@ class DesignResult:
         ``"certified"`` or ``"not_certified"``.
     integral_gain : float
         ``lim s R/S`` [V/(µm s)] of the controller.
+    specs_achieved : tuple of SpecRow
+        Every bounded spec, its worst achieved value, slack and where it binds.
+    controller_factored : ControllerFactors
+        R, S and T factored.
+    solver_summary : SolverSummary
+        The solver's objective, binding constraints and notes.
+    starts_summary : StartsSummary or None
+        What the multi-start found.
     """
 
     problem: Problem
@@ -156,6 +168,27 @@ class DesignResult:
     def integral_gain(self):
         """``lim s R/S`` [V/(µm s)] of the controller."""
         return integral_gain(self.controller)
+
+    @cached_property
+    def specs_achieved(self) -> tuple[SpecRow, ...]:
+        """Every bounded spec with its worst achieved value, slack and where it binds
+        (:func:`robrst.design.achieved.spec_rows`)."""
+        return spec_rows(self.problem, self.certificate)
+
+    @cached_property
+    def controller_factored(self) -> ControllerFactors:
+        """R, S and T factored (:func:`robrst.design.achieved.controller_factors`)."""
+        return controller_factors(self.controller)
+
+    @cached_property
+    def solver_summary(self) -> SolverSummary:
+        """The solver's objective, binding constraints and notes."""
+        return solver_summary(self.synthesis)
+
+    @cached_property
+    def starts_summary(self) -> StartsSummary | None:
+        """What the multi-start found (``None``: no multi-start)."""
+        return None if self.starts is None else starts_summary(self.starts)
 
     def loops(self, sampled: bool = True) -> dict:
         """Every family model's closed loop as python-control systems, by model label.

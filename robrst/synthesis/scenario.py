@@ -291,6 +291,10 @@ class FleetDesign:
         ``epsilon(k)`` of the compression set (``None`` for a box).
     guaranteed_yield : float or None
         ``1 - epsilon(k)``.
+    target_met : bool or None
+        The guaranteed yield reaches the target (``None`` for a box).
+    bound_statement : str or None
+        The scenario bound the guarantee comes from.
     integral_gain_ratio : float or None
         The integral gain over the nominal design's.
     """
@@ -341,6 +345,21 @@ class FleetDesign:
         return None if e is None else 1.0 - e
 
     @property
+    def target_met(self):
+        """The guaranteed yield reaches the target (``None`` for a box)."""
+        g = self.guaranteed_yield
+        return None if g is None else bool(g >= self.yield_target - 1e-12)
+
+    @property
+    def bound_statement(self):
+        """The scenario bound the guarantee comes from, in words (``None`` for a box)."""
+        if self.method != "scenario":
+            return None
+        return ("Campi, Garatti & Ramponi (2018), Theorem 1: a-posteriori, compression size"
+                f" k = {len(self.compression)}, N = {self.n_scenarios},"
+                f" beta = {1.0 - self.confidence:g}")
+
+    @property
     def integral_gain_ratio(self):
         """The fleet controller's integral gain over the nominal design's."""
         return abs(self.integral_gain) / abs(self.nominal_integral_gain) \
@@ -368,8 +387,6 @@ class FleetDesign:
         -------
         dict
         """
-        beta = 1.0 - self.confidence
-        g = self.guaranteed_yield
         return {
             "method": self.method, "scenarios": self.n_scenarios, "seed": self.seed,
             "parameters": list(self.names),
@@ -378,11 +395,8 @@ class FleetDesign:
             "support": list(self.support), "discarded": list(self.discarded),
             "violated": list(self.violated), "compression_size": len(self.compression),
             "rounds": self.rounds,
-            "epsilon": self.epsilon, "guaranteed_yield": g,
-            "target_met": None if g is None else bool(g >= self.yield_target - 1e-12),
-            "bound": None if self.method != "scenario" else
-            "Campi, Garatti & Ramponi (2018), Theorem 1: a-posteriori, compression size"
-            f" k = {len(self.compression)}, N = {self.n_scenarios}, beta = {beta:g}",
+            "epsilon": self.epsilon, "guaranteed_yield": self.guaranteed_yield,
+            "target_met": self.target_met, "bound": self.bound_statement,
             "n_convex_a_priori": self.n_convex,
             "nominal_integral_gain": self.nominal_integral_gain,
             "integral_gain": self.integral_gain,

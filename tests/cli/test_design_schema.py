@@ -15,8 +15,9 @@ import jsonschema
 import pytest
 
 from robrst.cli import main
+from robrst.design.achieved import SPEC_ROW_FIELDS
 from robrst.design.contract import (ANALYTIC_CHECK_FIELDS, CERTIFICATE_FIELDS, DESIGN_FIELDS,
-                                    OPTIONAL_FIELDS, SPEC_ROW_FIELDS, VIOLATION_FIELDS)
+                                    OPTIONAL_FIELDS, VIOLATION_FIELDS)
 from robrst.problem.records import Specs
 from robrst.problem.specs import SPEC_TABLE
 

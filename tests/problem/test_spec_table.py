@@ -13,7 +13,8 @@ import pytest
 
 from robrst.certificate.figures import LoopFigures
 from robrst.certificate.models import BOUNDED, FIGURE_OF, LOWER_BOUNDED
-from robrst.design.contract import SPEC_FIGURES, specs_json
+from robrst.design.achieved import SPEC_FIGURES
+from robrst.design.contract import specs_json
 from robrst.problem.files import SCHEMA, load_problem
 from robrst.problem.records import Specs
 from robrst.problem.specs import (EXTRA_PEAK_SPECS, PEAK_SPECS, RELATIVE_PEAK_SPECS, SPEC_TABLE,
