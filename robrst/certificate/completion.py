@@ -18,6 +18,7 @@ from robrst.certificate import steps as timespec
 from robrst.certificate.figures import StepFigures
 from robrst.certificate.models import BOUNDED
 from robrst.certificate.proof import ACTUATOR, Violation, actuator_of
+from robrst.certificate.statement import Bound
 from robrst.core.analysis import spectral_abscissa_many
 from robrst.core.rst import closed_loop
 
@@ -93,10 +94,11 @@ def with_time_domain(problem: Problem, cert: Certificate, ctrl: RSTController,
                 else replace(rec, steps_checked_after=True)
                 for rec, old in zip(recs, cert.models)]
     viols = list(cert.violations) + [v for f in found for v in f]
-    bounds = {**cert.bounds, **{key: getattr(sp, attr) for key, attr in BOUNDED
-                                if getattr(sp, attr) is not None}}
+    given = {key: getattr(sp, attr) for key, attr in BOUNDED if getattr(sp, attr) is not None}
+    bounds = tuple(replace(b, value=given.pop(b.figure)) if b.figure in given else b
+                   for b in cert.bounds) + tuple(Bound(k, v) for k, v in given.items())
     return replace(cert, certified=not viols, models=tuple(recs), violations=tuple(viols),
-                   interval={**cert.interval, "time_domain": "checked points"}, bounds=bounds)
+                   interval=replace(cert.interval, time_domain="checked points"), bounds=bounds)
 
 
 def first_tracked(problem: Problem, ctrl: RSTController, cert: Certificate,

@@ -200,7 +200,7 @@ def spec_rows(problem: Problem, cert: Certificate) -> tuple[SpecRow, ...]:
             key, bound, float(v), float(1 - ratio), m.label, m.temperature_C, loop,
             bool(1 - ratio <= BINDING_SLACK), source if key == "damping_min" else "specs")))
     if cert.controller is not None and sp.controller_damping_min:
-        v, b = cert.controller["damping"], sp.controller_damping_min
+        v, b = cert.controller.damping, sp.controller_damping_min
         out.append(SpecRow(*(
             "controller_damping_min", b, v, 1 - b / v if v > 0 else -np.inf, "controller",
             None, None, bool(v > 0 and 1 - b / v <= BINDING_SLACK), "specs")))

@@ -19,6 +19,7 @@ from robrst.problem.specs import SPEC_TABLE
 if TYPE_CHECKING:
     from robrst.certificate.assessment import Assessment, ModelAssessment
     from robrst.certificate.figures import LoopFigures, ModelRecord
+    from robrst.certificate.statement import IntervalProof, IntervalRecord
     from robrst.core.analysis import Analysis
     from robrst.core.plant import Plant
     from robrst.design.achieved import ControllerFactors
@@ -31,10 +32,12 @@ if TYPE_CHECKING:
     from robrst.synthesis.scenario import FleetDesign
     from robrst.synthesis.tracking import Tracking
 
-__all__ = ["design_json", "certificate_json", "model_record_json", "loop_items",
+__all__ = ["design_json", "certificate_json", "interval_json", "proof_json",
+           "model_record_json", "loop_items",
            "analysis_json", "assessment_json", "assessment_model_json", "specs_json",
            "solver_json", "factors_json", "artefact_record",
            "ARTEFACT_FORMAT", "DESIGN_FIELDS", "OPTIONAL_FIELDS", "CERTIFICATE_FIELDS",
+           "INTERVAL_FIELDS", "SWEEP_INTERVAL_FIELDS", "POLE_REGION_FIELDS",
            "VIOLATION_FIELDS", "SPEC_ROW_FIELDS", "ANALYTIC_CHECK_FIELDS", "ANALYSIS_PEAKS",
            "MARGIN_FIELDS", "LOOP_FIELDS", "OPTIONAL_LOOP_FIGURES"]
 
@@ -50,6 +53,13 @@ DESIGN_FIELDS = ("problem", "method", "status", "controller", "target_char_poly"
 OPTIONAL_FIELDS = ("assessment", "starts", "tracking", "analytic_check", "comparison", "fleet")
 CERTIFICATE_FIELDS = ("ratios", "certified", "rtol", "controller", "models", "violations",
                       "interval", "interval_proof", "interval_resolution_C")
+INTERVAL_FIELDS = ("range_C", "stability", "peaks", "points", "max_spacing_C", "min_spacing_C",
+                   "refine_ratio", "sampled", "order_change_C", "guardian", "statement",
+                   "pole_region_proof", "pole_region", "time_domain", "actuators")
+SWEEP_INTERVAL_FIELDS = ("points", "max_spacing_C", "min_spacing_C", "refine_ratio", "sampled",
+                         "order_change_C", "statement")     # given with several models
+POLE_REGION_FIELDS = ("damping_min", "damping_source", "decay_min", "proved_between_points",
+                      "statement")
 VIOLATION_FIELDS = ("label", "temperature_C", "quantity", "value", "bound", "freq_rad_s",
                     "loop", "kind")
 ANALYTIC_CHECK_FIELDS = ("kind", "max_rel_coef_error", "passed")
@@ -267,16 +277,82 @@ def certificate_json(cert: Certificate) -> dict:
         "ratios": cert.ratios,
         "certified": lambda: cert.certified,
         "rtol": lambda: cert.rtol,
-        "controller": lambda: cert.controller,
+        "controller": lambda: {"damping": cert.controller.damping,
+                               "damping_min": cert.controller.damping_min,
+                               "poles_rad_s": [list(p) for p in cert.controller.poles_rad_s]},
         "models": lambda: [model_record_json(m) for m in cert.models],
         "violations": lambda: [{k: getattr(v, k) for k in VIOLATION_FIELDS}
                                for v in cert.violations],
-        "interval": lambda: cert.interval,
-        "interval_proof": lambda: cert.interval.get("stability"),
-        "interval_resolution_C": lambda: cert.interval.get("max_spacing_C"),
+        "interval": lambda: interval_json(cert.interval),
+        "interval_proof": lambda: cert.interval.stability,
+        "interval_resolution_C": lambda: cert.interval.max_spacing_C,
     }
     return {k: writers[k]() for k in CERTIFICATE_FIELDS
             if k != "controller" or cert.controller is not None}
+
+
+def interval_json(rec: IntervalRecord) -> dict:
+    """The certificate's ``interval`` object: :data:`INTERVAL_FIELDS` (those of a sweep,
+    from ``points`` to ``statement``, only with several models; the proofs and the pole
+    region's statement only when made).
+
+    Parameters
+    ----------
+    rec : IntervalRecord
+        The record.
+
+    Returns
+    -------
+    dict
+    """
+    out = {}
+    for k in INTERVAL_FIELDS:
+        v = getattr(rec, k)
+        if k in SWEEP_INTERVAL_FIELDS and rec.points is None or (
+                k not in SWEEP_INTERVAL_FIELDS and k not in ("range_C", "stability", "peaks")
+                and v is None):
+            continue
+        if k in ("guardian", "pole_region_proof"):
+            v = proof_json(v)
+        elif k == "pole_region":
+            v = {f: getattr(v, f) for f in POLE_REGION_FIELDS}
+        elif k == "range_C":
+            v = list(v)
+        elif k == "order_change_C":
+            v = [list(o) for o in v]
+        out[k] = v
+    return out
+
+
+def proof_json(proof: IntervalProof) -> dict:
+    """An interval proof: ``proved``, its ``parts`` (when attempted) and why it was
+    ``skipped``.
+
+    Parameters
+    ----------
+    proof : IntervalProof
+        The proof.
+
+    Returns
+    -------
+    dict
+    """
+    out = {"proved": proof.proved}
+    if proof.parts is not None:
+        out["parts"] = [_segment_json(p) for p in proof.parts]
+    if proof.skipped is not None:
+        out["skipped"] = proof.skipped
+    return out
+
+
+def _segment_json(p):
+    out = {"range_C": list(p.range_C)}
+    if p.test is not None:
+        out["test"] = p.test
+    out["proved"] = p.proved
+    if p.nodes is not None:
+        out["nodes"], out["candidate_C"] = p.nodes, p.candidate_C
+    return out
 
 
 def loop_items(lf: LoopFigures, loop: str = "continuous",

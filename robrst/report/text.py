@@ -237,9 +237,9 @@ def design_summary(result: DesignResult) -> str:
     out.append(margins_table(result))
     out.append(f"certificate: {len(cert.models)} models checked (family + temperature sweep),"
                f" {len(cert.violations)} violations")
-    region = cert.interval.get("pole_region")
-    if region:
-        out.append(f"pole region: {region['statement']}")
+    region = cert.interval.pole_region
+    if region is not None:
+        out.append(f"pole region: {region.statement}")
     line = sampled_summary(result)
     if line:
         out.append(line)

@@ -1,4 +1,4 @@
-"""Design for the fleet: the robust program over drawn actuators, with a stated yield.
+"""The fleet design's scenario theory and records: drawn actuators, a stated yield.
 
 A problem with a ``[spread]`` (:class:`robrst.problem.spread.Spread`) is designed for the
 actuators a factory ships, not for the one identified.  Two methods:
