@@ -88,8 +88,8 @@ class Worse:
 
     model: str
     figure: str
-    golden: object
-    current: object
+    golden: float | bool | None
+    current: float | bool | None
     tolerance: str
 
     def describe(self) -> str:

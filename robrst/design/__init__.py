@@ -5,8 +5,9 @@ certifies the controller on the whole family, analyses every family model, check
 synthesised controller against the closed-form Diophantine solution and compares it with
 an analytic design.  The modules, bottom to top:
 
-``result``      :class:`DesignResult` and its typed parts (:class:`AnalyticCheck`,
-                :class:`Comparison`)
+``achieved``    what a design achieves: the analytic check, the comparison, the achieved
+                specs, the factored controller, the solver's and multi-start's summaries
+``result``      :class:`DesignResult`
 ``contract``    the JSON contract of ``robrst design --json``, written from the records
 ``candidate``   one synthesis -> feedback -> reference path -> certificate; the analytic
                 design, the analytic check and the comparison
@@ -20,7 +21,8 @@ from robrst.certificate.completion import with_time_domain
 from robrst.design.candidate import analytic_check, analytic_design, comparison
 from robrst.design.contract import ARTEFACT_FORMAT, artefact_record, design_json
 from robrst.design.pipeline import run_problem
-from robrst.design.result import AnalyticCheck, Comparison, DesignResult
+from robrst.design.achieved import AnalyticCheck, Comparison
+from robrst.design.result import DesignResult
 
 __all__ = ["DesignResult", "AnalyticCheck", "Comparison", "run_problem", "analytic_design",
            "analytic_check", "comparison", "with_time_domain", "artefact_record",

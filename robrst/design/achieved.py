@@ -24,12 +24,53 @@ if TYPE_CHECKING:
     from robrst.core.rst import RSTController
     from robrst.problem.records import Problem
 
-__all__ = ["SpecRow", "PolyFactors", "ControllerFactors", "SolverSummary", "StartsSummary",
+__all__ = ["AnalyticCheck", "Comparison", "SpecRow", "PolyFactors", "ControllerFactors", "SolverSummary", "StartsSummary",
            "spec_rows", "controller_factors", "solver_summary", "starts_summary",
            "SPEC_FIGURES", "SPEC_ROW_FIELDS", "BINDING_SLACK"]
 
 SPEC_ROW_FIELDS = ("spec", "bound", "achieved", "slack", "model", "temperature_C", "loop",
                    "binding", "source")
+
+
+@dataclass(frozen=True)
+class AnalyticCheck:
+    """A synthesised controller against the closed-form Diophantine solution.
+
+    Parameters
+    ----------
+    kind : {"sylvester_coefficients", "diophantine_residual"}
+        No free degree: the solution is unique and must be reproduced coefficient by
+        coefficient; else the Diophantine residual at the nominal model.
+    max_rel_coef_error : float
+        The largest relative error found.
+    passed : bool
+        ``max_rel_coef_error <= 1e-8``.
+    """
+
+    kind: str
+    max_rel_coef_error: float
+    passed: bool
+
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """Worst-case figures over the family for this design and an analytic one.
+
+    Parameters
+    ----------
+    rows : dict
+        Figure -> ``{"this": value, "analytic": value}``.
+    table : str
+        The comparison as printed.
+    range_C : tuple of float
+        The family's temperature range [°C].
+    """
+
+    rows: dict
+    table: str
+    range_C: tuple
+
 
 
 @dataclass(frozen=True)

@@ -17,7 +17,7 @@ from robrst.base.errors import CoprimeError, SpecError
 from robrst.certificate.completion import first_tracked, with_time_domain
 from robrst.certificate.proof import certify
 from robrst.core import poly
-from robrst.design.result import AnalyticCheck, Comparison
+from robrst.design.achieved import AnalyticCheck, Comparison
 from robrst.synthesis import analytic
 from robrst.synthesis.parametrize import integral_gain
 

@@ -19,12 +19,12 @@ from robrst.problem.specs import SPEC_TABLE
 if TYPE_CHECKING:
     from robrst.certificate.assessment import Assessment, ModelAssessment
     from robrst.certificate.figures import LoopFigures, ModelRecord
+    from robrst.certificate.proof import Certificate
     from robrst.certificate.statement import IntervalProof, IntervalRecord
     from robrst.core.analysis import Analysis
     from robrst.core.plant import Plant
-    from robrst.design.achieved import ControllerFactors
-    from robrst.certificate.proof import Certificate
     from robrst.core.rst import RSTController
+    from robrst.design.achieved import AnalyticCheck, Comparison, ControllerFactors
     from robrst.problem.records import Problem, Specs
     from robrst.synthesis.analytic import AnalyticDesign
     from robrst.synthesis.multistart import MultiStart
@@ -114,6 +114,7 @@ def artefact_record(problem: Problem) -> dict:
         out["note"] = note
     return out
 
+
 class DesignRecord(Protocol):
     """What the contract reads of a design (:class:`robrst.design.result.DesignResult`
     sits above this module and is one).
@@ -126,6 +127,8 @@ class DesignRecord(Protocol):
         Its optional parts (``None`` when absent).
     certified, status, integral_gain, best_achievable
         Its verdict and figures.
+    specs_achieved, controller_factored
+        What it achieves (:mod:`robrst.design.achieved`).
     """
 
     problem: Problem
@@ -135,8 +138,8 @@ class DesignRecord(Protocol):
     analyses: tuple
     certificate: Certificate
     synthesis: AnalyticDesign | SynthesisResult
-    analytic_check: object
-    comparison: object
+    analytic_check: AnalyticCheck | None
+    comparison: Comparison | None
     tracking: Tracking | None
     fleet: FleetDesign | None
     assessment: Assessment | None
@@ -145,6 +148,8 @@ class DesignRecord(Protocol):
     status: str
     integral_gain: float
     best_achievable: str | None
+    specs_achieved: tuple
+    controller_factored: ControllerFactors
 
 
 def _json_value(row, v):

@@ -14,9 +14,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from robrst.design.achieved import (ControllerFactors, SolverSummary, SpecRow, StartsSummary,
-                                    controller_factors, solver_summary, spec_rows,
-                                    starts_summary)
+from robrst.design.achieved import (AnalyticCheck, Comparison, ControllerFactors,
+                                    SolverSummary, SpecRow, StartsSummary, controller_factors,
+                                    solver_summary, spec_rows, starts_summary)
 from robrst.synthesis.parametrize import integral_gain
 from robrst.synthesis.robust import best_achievable
 
@@ -31,48 +31,7 @@ if TYPE_CHECKING:
     from robrst.synthesis.scenario import FleetDesign
     from robrst.synthesis.tracking import Tracking
 
-__all__ = ["DesignResult", "AnalyticCheck", "Comparison"]
-
-
-@dataclass(frozen=True)
-class AnalyticCheck:
-    """A synthesised controller against the closed-form Diophantine solution.
-
-    Parameters
-    ----------
-    kind : {"sylvester_coefficients", "diophantine_residual"}
-        No free degree: the solution is unique and must be reproduced coefficient by
-        coefficient; else the Diophantine residual at the nominal model.
-    max_rel_coef_error : float
-        The largest relative error found.
-    passed : bool
-        ``max_rel_coef_error <= 1e-8``.
-    """
-
-    kind: str
-    max_rel_coef_error: float
-    passed: bool
-
-
-
-@dataclass(frozen=True)
-class Comparison:
-    """Worst-case figures over the family for this design and an analytic one.
-
-    Parameters
-    ----------
-    rows : dict
-        Figure -> ``{"this": value, "analytic": value}``.
-    table : str
-        The comparison as printed.
-    range_C : tuple of float
-        The family's temperature range [°C].
-    """
-
-    rows: dict
-    table: str
-    range_C: tuple
-
+__all__ = ["DesignResult"]
 
 
 @dataclass(frozen=True, eq=False)

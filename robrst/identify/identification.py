@@ -47,6 +47,7 @@ from robrst.base.threads import one_blas_thread
 if TYPE_CHECKING:
     from robrst.data.dataset import Dataset
     from robrst.identify.modal import DiscreteModel
+    from robrst.identify.thermal import ThermalLaw
 
 __all__ = ["identify", "Identified", "OrderScore", "ORDER_TOL", "MAX_ORDER", "MAX_AUTO_ORDER",
            "TEMP_TOL_K", "START_NOTE", "nrmse_of", "simulate_record"]
@@ -137,7 +138,7 @@ class Identified:
     starts: tuple = ()       # RecordStart per non-periodic training record
     notes: tuple = ()        # significant offsets and starts away from rest
     relative_degree: int = 1  # continuous numerator degree = order - this (0: feedthrough)
-    thermal: object = None    # ThermalLaw of a SISO family (several temperatures), or None
+    thermal: ThermalLaw | None = None    # ThermalLaw of a SISO family (several temperatures), or None
 
     @property
     def model(self):

@@ -20,6 +20,7 @@ from robrst.problem.specs import EXTRA_PEAK_SPECS, PEAK_SPECS, RELATIVE_PEAK_SPE
 
 if TYPE_CHECKING:
     from robrst.core.family import PlantFamily
+    from robrst.problem.spread import Spread
 
 __all__ = ["PoleSpec", "ControllerStructure", "Specs", "SolverOptions", "Problem",
            "PEAK_SPECS", "EXTRA_PEAK_SPECS", "METHODS", "OBJECTIVES", "T_MODES", "INITS",
@@ -562,7 +563,7 @@ class Problem:
     """
 
     name: str
-    family: object
+    family: PlantFamily
     poles: PoleSpec = field(default_factory=PoleSpec)
     controller: ControllerStructure = field(default_factory=ControllerStructure)
     specs: Specs = field(default_factory=Specs)
@@ -570,7 +571,7 @@ class Problem:
     path: str = "<python>"
     description: str = ""
     plant_name: str = None
-    spread: object = None
+    spread: Spread | None = None
     scenarios: tuple = ()
 
     @cached_property

@@ -24,7 +24,7 @@ if TYPE_CHECKING:
 __all__ = ["histograms_figure", "sensitivity_figure", "front_figure", "fleet_figure",
            "worst_bode_figure", "HIST"]
 
-# figure column -> (axis label, scale, spec bound attribute)
+# figure column -> (axis label, scale, spec bound attribute); the spec columns from the table
 HIST = (*((row.column, row.column_label, 1.0, row.key) for row in spec_columns()),
         ("gain_margin", "smallest gain margin [-]", 1.0, None),
         ("phase_margin_deg", "smallest phase margin [°]", 1.0, None),
@@ -49,8 +49,14 @@ def histograms_figure(result: SweepResult, path: str | Path) -> None:
     """
     t = ok_rows(result.table)
     specs = result.context.base.specs
-    with drawing(path, (13, 6.5), 2, 4) as (fig, axes):
-        for ax, (name, label, scale, bound) in zip(axes.ravel(), HIST):
+    # the columns of the specs only this sweep's problem bounds (robrst.problem.specs) join
+    panels = HIST + tuple((row.column, row.column_label, 1.0, row.key)
+                          for row in spec_columns(specs) if not row.always_column)
+    cols = (len(panels) + 1) // 2
+    with drawing(path, (13 * cols / 4, 6.5), 2, cols) as (fig, axes):
+        for ax in axes.ravel()[len(panels):]:
+            ax.set_visible(False)
+        for ax, (name, label, scale, bound) in zip(axes.ravel(), panels):
             b = getattr(specs, bound) if bound else (1.0 if name == "worst_ratio" else None)
             v = _values(t, name, scale)
             n_inf = int(np.sum(np.isinf(v)))

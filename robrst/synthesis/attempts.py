@@ -81,13 +81,13 @@ class Outcome:
         The worst violation's ratio to its bound (0 when certified).
     """
 
-    ctrl: object
-    cert: object
-    res: object
+    ctrl: RSTController
+    cert: Certificate
+    res: SolveResult
     phase: str
     placement: str
     x: np.ndarray
-    setup: object
+    setup: NLPSetup
 
     @property
     def certified(self):

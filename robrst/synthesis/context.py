@@ -114,7 +114,7 @@ class Context:
         The frequency scale [rad/s].
     """
 
-    problem: object
+    problem: Problem
     param: Parametrization
     tracking: TrackingRule
     nu: np.ndarray             # physical frequency grid [rad/s]

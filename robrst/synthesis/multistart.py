@@ -55,7 +55,7 @@ class StartPlan:
     """
 
     name: str
-    problem: object
+    problem: Problem
     recheck: bool = False
 
 

@@ -249,7 +249,7 @@ class NLPSetup:
     grids: tuple = ()      # per model, its scaled grid for S, T, U (default: nu)
     T_shape: np.ndarray = None
     fs_of: tuple = ()
-    region: object = None
+    region: Region | None = None
     model_bounds: dict = None   # {key: per model, its own bound (None: none)}
 
     def bound(self, key: str, model: int) -> float | None:

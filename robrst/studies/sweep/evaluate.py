@@ -41,6 +41,9 @@ from robrst.base.threads import one_blas_thread
 if TYPE_CHECKING:
     from robrst.design import DesignResult
     from robrst.problem.records import Problem, Specs
+    from collections.abc import Callable
+    from robrst.core.rst import RSTController
+    from robrst.studies.sweep.files import Sweep
 
 __all__ = ["SweepContext", "WorkerState", "build_state", "evaluate_chunk", "evaluate_variant",
            "problem_of", "fleet_problem", "FIGURE_COLUMNS", "CONTROLLER_COLUMNS", "spec_figure_columns", "status_of",
@@ -84,11 +87,11 @@ class SweepContext:
         What the output folder's results were computed from (resume check).
     """
 
-    sweep: object
+    sweep: Sweep
     names: tuple = ()
-    base: object = None
+    base: Problem | None = None
     doc: dict = None
-    controller: object = None
+    controller: RSTController | None = None
     fleet: tuple = ()
     fingerprint: str = ""
 
@@ -111,7 +114,7 @@ class WorkerState:
     """
 
     context: SweepContext
-    designer: object = None
+    designer: Callable[..., DesignResult] | None = None
     lock: object = field(default_factory=threading.Lock)
     templates: dict = field(default_factory=dict)   # built NLP solvers, shared by the variants
 
