@@ -171,7 +171,7 @@ def _sequential_refine(family, ctrl, specs, rtol, recs, budget, ignore):
         a, b = stack.pop()
         if unresolved(recs[a], recs[b], ignore) is None:
             continue
-        deg = [recs[t].get("closed_loop_degree") for t in (a, b)]
+        deg = [recs[t].continuous.closed_loop_degree for t in (a, b)]
         if b - a <= floor and (deg[0] != deg[1] or
                                unresolved(recs[a], recs[b], (*ignore, *JUMPS)) is None):
             continue
@@ -187,7 +187,8 @@ def _sequential_refine(family, ctrl, specs, rtol, recs, budget, ignore):
                 m = a + 0.5 * floor if low == a else b - 0.5 * floor
         recs[m], v = check_all(family.at(m), ctrl, specs, rtol, (), family)
         viols += v
-        if low is not None and recs[m]["closed_loop_degree"] == recs[low]["closed_loop_degree"]:
+        if low is not None and (recs[m].continuous.closed_loop_degree
+                                == recs[low].continuous.closed_loop_degree):
             walked.add(m)
         budget -= 1
         stack += [(a, m), (m, b)]
@@ -225,7 +226,7 @@ def test_refinement_in_batches_is_the_depth_first_halving(seed):
         ignore += ("damping", "decay_rad_s")
     temps, v_ref, n_unres = _sequential_refine(
         p.family, ctrl, specs, 1e-3, recs, max(4 * n_sweep, 64), ignore)
-    assert [r["temperature_C"] for r in cert.models] == temps
+    assert [r.temperature_C for r in cert.models] == temps
     assert len(temps) > len(models)                      # the refinement did add points
     got = [v for v in cert.violations if "changes too fast" not in v.quantity]
     assert got == viols + v_ref

@@ -171,8 +171,8 @@ def test_interval_record_claims_no_proof_it_did_not_make(seed):
     assert p.family.thermal is None and len(p.family.models) > 1
     ctrl = pole_placement(p.family.reference_model, p.poles, p.controller).controller
     cert = certify(p.family, ctrl, p.specs)
-    members = [r for r in cert.models if r["family_member"]]
-    unstable = [r["temperature_C"] for r in members if not r["stable"]]
+    members = [r for r in cert.models if r.family_member]
+    unstable = [r.temperature_C for r in members if not r.continuous.stable]
     # the independent checker agrees that a member is unstable
     assert unstable and all(
         not rp.stability(rp._strip(rp._add(rp._mul(A, ctrl.S), rp._mul(B, ctrl.R))))[0]
