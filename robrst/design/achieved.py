@@ -24,7 +24,8 @@ if TYPE_CHECKING:
     from robrst.core.rst import RSTController
     from robrst.problem.records import Problem
 
-__all__ = ["AnalyticCheck", "Comparison", "SpecRow", "PolyFactors", "ControllerFactors", "SolverSummary", "StartsSummary",
+__all__ = ["AnalyticCheck", "Comparison", "SpecRow", "PolyFactors", "ControllerFactors",
+           "SolverSummary", "StartsSummary",
            "spec_rows", "controller_factors", "solver_summary", "starts_summary",
            "SPEC_FIGURES", "SPEC_ROW_FIELDS", "BINDING_SLACK"]
 

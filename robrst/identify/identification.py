@@ -138,7 +138,7 @@ class Identified:
     starts: tuple = ()       # RecordStart per non-periodic training record
     notes: tuple = ()        # significant offsets and starts away from rest
     relative_degree: int = 1  # continuous numerator degree = order - this (0: feedthrough)
-    thermal: ThermalLaw | None = None    # ThermalLaw of a SISO family (several temperatures), or None
+    thermal: ThermalLaw | None = None    # of a SISO family (several temperatures), or None
 
     @property
     def model(self):

@@ -24,7 +24,8 @@ if TYPE_CHECKING:
 
 __all__ = ["PoleSpec", "ControllerStructure", "Specs", "SolverOptions", "Problem",
            "PEAK_SPECS", "EXTRA_PEAK_SPECS", "METHODS", "OBJECTIVES", "T_MODES", "INITS",
-           "PLACEMENTS", "HOMOTOPIES", "AUX_MIN_FACTOR", "RELATIVE_PEAK_SPECS", "DampingFloor", "DEFAULT_DAMPING_CAP",
+           "PLACEMENTS", "HOMOTOPIES", "AUX_MIN_FACTOR", "RELATIVE_PEAK_SPECS", "DampingFloor",
+           "DEFAULT_DAMPING_CAP",
            "DEFAULT_DAMPING_SHARE", "DEFAULT_OVERSHOOT_WARN_PCT", "plant_damping"]
 
 METHODS = ("analytic", "nlp", "convex")

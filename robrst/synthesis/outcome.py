@@ -132,7 +132,7 @@ class SolveResult:
     lam_g: np.ndarray
     labels: tuple
     w0: float
-    exchange: object = None   # robrst.synthesis.exchange.ExchangeInfo (that module imports this one)
+    exchange: object = None   # an exchange.ExchangeInfo (that module imports this one)
     rates: dict = None       # model label -> sample rate [Hz] of sampled-loop models
     lam_x: np.ndarray = None
     lbx: np.ndarray = None

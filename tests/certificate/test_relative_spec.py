@@ -111,3 +111,32 @@ def test_the_robust_program_meets_a_binding_relative_bound():
     assert ratio <= bound * (1 + p.solver.cert_tol)
     analytic = analytic_design(p).controller
     assert loopcheck.continuous(m, analytic).Msd / loopcheck._peak(m.B, m.A) > bound
+
+
+def test_the_sampled_robust_program_meets_a_binding_relative_bound():
+    """paper_robust (20 kHz sampled loop, 7 models, 2-DOF): its design's worst ratio is
+    0.082 (sampled loop, 45 °C); a bound of 0.07 binds, and every family member meets it in
+    both loops, checked on the unscaled polynomials and the ZOH plant of control.c2d."""
+    p = load_problem("paper_robust")
+    bound = 0.07
+    p = replace(p, specs=replace(p.specs, Msd_rel_max=bound),
+                solver=replace(p.solver, multistart=False))
+    res = run_problem(p, analyses=False)
+    assert res.certified
+    row = next(r for r in res.specs_achieved if r.spec == "Msd_rel_max")
+    assert row.binding and row.achieved <= bound * (1 + p.solver.cert_tol)
+    fs, k = p.specs.sample_rate_hz, p.specs.delay_samples
+    # B S/Delta depends on the feedback R/S only; the 2-DOF controller's R and S share the
+    # reference model's factor, which control.c2d of the order-8 transfer function does not
+    # cancel to better than ~2 %: the independent check runs on the feedback itself
+    fb = res.synthesis.controller
+    assert np.allclose(np.polymul(fb.R, res.controller.S), np.polymul(res.controller.R, fb.S),
+                       rtol=1e-9, atol=0.0)
+    worst = 0.0
+    for m in p.family.models:
+        ol_c, ol_s = open_loop_peaks(m, fs, k)
+        c = loopcheck.continuous(m, fb, horizon_s=1e-3, n_t=11)
+        s = loopcheck.sampled(m, fb, fs, k, n_samples=10)
+        worst = max(worst, c.Msd / ol_c, s.Msd / ol_s)
+    assert worst <= bound * (1 + p.solver.cert_tol)
+    assert worst == pytest.approx(row.achieved, rel=1e-4)

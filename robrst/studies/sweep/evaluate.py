@@ -46,7 +46,8 @@ if TYPE_CHECKING:
     from robrst.studies.sweep.files import Sweep
 
 __all__ = ["SweepContext", "WorkerState", "build_state", "evaluate_chunk", "evaluate_variant",
-           "problem_of", "fleet_problem", "FIGURE_COLUMNS", "CONTROLLER_COLUMNS", "spec_figure_columns", "status_of",
+           "problem_of", "fleet_problem", "FIGURE_COLUMNS", "CONTROLLER_COLUMNS",
+           "spec_figure_columns", "status_of",
            "failed_row", "design_cause"]
 
 # column -> arrow type name; the same columns for every kind
