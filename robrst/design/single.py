@@ -18,13 +18,14 @@ from robrst.design.result import DesignResult
 from robrst.synthesis.tracking import design_tracking
 
 if TYPE_CHECKING:
+    from robrst.core.rst import RSTController
     from robrst.problem.records import Problem
     from robrst.synthesis.outcome import SynthesisResult
 
 __all__ = ["design_single", "analyse"]
 
 
-def analyse(problem: Problem, ctrl: object) -> tuple:
+def analyse(problem: Problem, ctrl: RSTController) -> tuple:
     """The analyses of every family model and the assessment of what the specs left
     unbounded (:func:`robrst.certificate.assessment.assess`).
 
