@@ -60,7 +60,7 @@ def test_paper_robust_is_certified_and_meets_every_spec(robust_result):
             assert m["overshoot_pct" + sfx] <= sp.overshoot_max_pct * (1 + 1e-3)
             assert m["settling_time_s" + sfx] <= sp.settling_time_max_s
             assert m["step_u_peak_V" + sfx] <= sp.step_u_max_V
-    temps = [m["temperature_C"] for m in r.certificate.models]
+    temps = [m.temperature_C for m in r.certificate.models]
     assert min(temps) == 28.0 and max(temps) == 45.0 and len(temps) >= 30
 
 
