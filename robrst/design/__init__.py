@@ -5,16 +5,16 @@ certifies the controller on the whole family, analyses every family model, check
 synthesised controller against the closed-form Diophantine solution and compares it with
 an analytic design.  The modules, bottom to top:
 
-``achieved``    what a design achieves: the analytic check, the comparison, the achieved
-                specs, the factored controller, the solver's and multi-start's summaries
-``result``      :class:`DesignResult`
-``contract``    the JSON contract of ``robrst design --json``, written from the records
-``candidate``   one synthesis -> feedback -> reference path -> certificate; the analytic
-                design, the analytic check and the comparison
-``multistart``  the robust program from diverse starts on worker processes
-``single``      the design of one problem (no spread)
-``fleet``       the scenario loop of a problem with a ``[spread]``
-``pipeline``    :func:`run_problem`
+* ``achieved``: what a design achieves (the analytic check, the comparison, the achieved
+  specs, the factored controller, the solver's and the multi-start's summaries);
+* ``result``: :class:`DesignResult`;
+* ``contract``: the JSON contract of ``robrst design --json``, written from the records;
+* ``candidate``: one synthesis -> feedback -> reference path -> certificate; the analytic
+  design, the analytic check and the comparison;
+* ``multistart``: the robust program from diverse starts on worker processes;
+* ``single``: the design of one problem (no spread);
+* ``fleet``: the scenario loop of a problem with a ``[spread]``;
+* ``pipeline``: :func:`run_problem`.
 """
 
 from robrst.certificate.completion import with_time_domain
