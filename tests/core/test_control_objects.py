@@ -176,6 +176,6 @@ def test_python_controls_discrete_margins_on_paper_robust_are_documented_as_unre
             cld = robrst.closed_loop_control(m, robust.controller, 20000.0, 1)
             sm = control.stability_margins(cld["L"])[2]
             rec = next(r for r in robust.certificate.models
-                       if r["temperature_C"] == m.temperature_C)
-            worst = max(worst, abs((1 / sm if sm else 0.0) / rec["Ms_sampled"] - 1))
+                       if r.temperature_C == m.temperature_C)
+            worst = max(worst, abs((1 / sm if sm else 0.0) / rec.sampled.Ms - 1))
     assert worst > 0.01
