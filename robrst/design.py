@@ -169,6 +169,12 @@ class DesignResult:
         (:class:`~robrst.certificate.assessment.Assessment`; with the analyses).
     starts : MultiStart, optional
         Every start of a multi-start design (:class:`~robrst.synthesis.multistart.MultiStart`).
+    objective_bound : ObjectiveBound, optional
+        What any linear controller could reach on the family, and this design's share
+        (:func:`robrst.synthesis.bound.objective_bound`; with the analyses).
+    feasibility : FeasibilityVerdict, optional
+        A design that is not certified: infeasible (a proof) or not found (what it misses,
+        what to try) (:func:`robrst.synthesis.feasibility.feasibility_verdict`).
 
     Attributes
     ----------
@@ -196,6 +202,8 @@ class DesignResult:
     fleet: object = None
     assessment: object = None
     starts: object = None
+    objective_bound: object = None
+    feasibility: object = None
 
     @property
     def best_achievable(self):
@@ -314,6 +322,10 @@ class DesignResult:
         out["artefact"] = artefact_record(p)   # what robrst.load_design reads back
         if self.fleet is not None:
             out["fleet"] = self.fleet.as_dict()
+        if self.objective_bound is not None:
+            out["objective_bound"] = self.objective_bound.as_dict()
+        if self.feasibility is not None:
+            out["feasibility"] = self.feasibility.as_dict()
         return out
 
 
@@ -615,10 +627,11 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
         Built NLP solvers by structure, shared between designs of the same structure
         (see :class:`robrst.synthesis.synthesizer.Synthesizer`).
     analyses : bool
-        Analyse every family model (exact peaks to 1e-10, margins) and assess what the
-        specs left unbounded (:func:`robrst.certificate.assessment.assess`: damping,
-        overshoot, input disturbances); off: none (a sweep reads the certificate's figures
-        and computes only the margins).
+        Analyse every family model (exact peaks to 1e-10, margins), assess what the specs
+        left unbounded (:func:`robrst.certificate.assessment.assess`: damping, overshoot,
+        input disturbances) and state the limits (:func:`robrst.synthesis.limits.design_limits`:
+        what any linear controller could reach; infeasible or not found); off: none (a
+        sweep reads the certificate's figures and computes only the margins).
     multistart : bool, optional
         The robust program (``method = "nlp"``) also runs from the diverse starts of
         :mod:`robrst.synthesis.multistart` on 2 processes and keeps the best certified
@@ -645,9 +658,33 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
     if multistart is None:
         multistart = problem.solver.multistart
     with one_blas_thread(problem.needs_scipy):
-        if problem.spread is not None:
-            return _fleet(problem, progress, templates, analyses)
-        return _design(problem, progress, templates, analyses, multistart)
+        proofs = ()
+        if analyses and problem.solver.method != "analytic":
+            from robrst.synthesis.feasibility import prove_infeasible
+
+            proofs = prove_infeasible(problem, list(problem.family.models))
+        if proofs:     # no linear controller meets the specs: the start design is the answer
+            (progress or (lambda msg: None))(
+                "infeasible: " + proofs[0].reason + "; the synthesis is skipped, the analytic"
+                " start design is reported")
+            run = replace(problem, spread=None, solver=replace(
+                problem.solver, method="analytic", method_source="infeasible"))
+            result = replace(_design(run, progress, templates, analyses, False),
+                             problem=problem, method=problem.solver.method)
+        elif problem.spread is not None:
+            result = _fleet(problem, progress, templates, analyses)
+        else:
+            result = _design(problem, progress, templates, analyses, multistart)
+        if analyses:
+            from robrst.synthesis.limits import design_limits
+
+            bound, verdict = design_limits(problem, result.controller, result.certificate,
+                                           result.certified)
+            if proofs and verdict is not None:
+                verdict = replace(verdict, note="the synthesis was skipped (a family member"
+                                  " has no solution); the controller is the analytic start")
+            result = replace(result, objective_bound=bound, feasibility=verdict)
+        return result
 
 
 def _fleet(problem, progress, templates, analyse):

@@ -222,6 +222,10 @@ def design_summary(d: dict) -> str:
                    + "; ".join(so["binding"]))
     if d.get("best_achievable"):
         out.append(d["best_achievable"])
+    if d.get("feasibility"):
+        out += d["feasibility"]["lines"]
+    if d.get("objective_bound"):
+        out.append(d["objective_bound"]["line"])
     notes = list(so.get("notes") or []) + list((d.get("assessment") or {}).get("notes") or [])
     for n in notes:
         out.append(f"note: {n}")

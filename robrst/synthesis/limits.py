@@ -1,0 +1,83 @@
+"""What a design is measured against: the estimate of what any linear controller could
+reach (:mod:`robrst.synthesis.bound`) and, when it is not certified, whether the specs are
+infeasible (:mod:`robrst.synthesis.feasibility`).  One call for the design pipeline."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from robrst.synthesis.bound import ObjectiveBound, objective_bound
+from robrst.synthesis.feasibility import feasibility_verdict
+
+if TYPE_CHECKING:
+    from robrst.certificate.proof import Certificate
+    from robrst.core.rst import RSTController
+    from robrst.problem.records import Problem
+    from robrst.synthesis.feasibility import FeasibilityVerdict
+
+__all__ = ["design_limits", "design_value"]
+
+
+def design_value(problem: Problem, controller: RSTController, cert: Certificate) -> float | None:
+    """The design's figure of the problem's objective: ``|ki|`` [V/(µm s)] or the worst
+    ``Ms`` over both loops (``None`` for ``feasibility`` or an infinite gain).
+
+    Parameters
+    ----------
+    problem : Problem
+    controller : RSTController
+    cert : Certificate
+
+    Returns
+    -------
+    float or None
+    """
+    from robrst.synthesis.parametrize import integral_gain
+
+    obj = problem.solver.objective
+    if obj == "max_integral_gain":
+        ki = integral_gain(controller)
+        return abs(ki) if np.isfinite(ki) else None
+    if obj == "min_Ms":
+        vals = [v for v in (cert.worst("Ms"), cert.worst("Ms", loop="sampled")) if v is not None]
+        return max(vals) if vals else None
+    return None
+
+
+def design_limits(problem: Problem, controller: RSTController, cert: Certificate,
+                  certified: bool) -> tuple[ObjectiveBound | None, FeasibilityVerdict | None]:
+    """The objective's estimate (when ``[solver] bound`` is on, and always for a design that
+    is not certified) and, for a design that is not certified, the feasibility verdict.
+
+    Parameters
+    ----------
+    problem : Problem
+        The problem designed.
+    controller : RSTController
+        The design (its own ``Q`` joins the estimate's programs when certified).
+    cert : Certificate
+        Its certificate.
+    certified : bool
+        The design is certified.
+
+    Returns
+    -------
+    (ObjectiveBound or None, FeasibilityVerdict or None)
+    """
+    bound = verdict = None
+    if not certified:
+        verdict = feasibility_verdict(problem, cert, controller)
+        if verdict.status == "infeasible":
+            p = verdict.proofs[0]
+            bound = ObjectiveBound(
+                objective=problem.solver.objective, status="infeasible", model=p.model,
+                temperature_C=p.temperature_C, loop=p.loop, specs=verdict.expressed,
+                left_out=verdict.not_expressed,
+                reason="no linear controller meets the specs (the proof above)")
+            return bound, verdict
+    if problem.solver.bound or not certified:
+        value = design_value(problem, controller, cert) if certified else None
+        bound = objective_bound(problem, controller, certified=certified, design_value=value)
+    return bound, verdict
