@@ -193,12 +193,7 @@ def _grid(lp, sp, n):
         if wr > 0 and p.imag > 0 and -p.real / wr < 0.1:
             h = max(-p.real / wr, 1e-5)
             pts.append(wr * (1 + h * np.linspace(-20, 20, 81)))
-    edges = []
-    if sp.T_resonance_max is not None:
-        edges += [2 * np.pi * f for f in sp.resonance_band_hz]
-    if sp.Mu_hf_max is not None:
-        edges.append(2 * np.pi * sp.Mu_hf_above_hz)
-    for e in edges:
+    for e in (2 * np.pi * f for f in _edges_hz(sp)):
         pts.append([e, e * (1 - 1e-12), e * (1 + 1e-12)])
     w = np.concatenate(pts)
     w = w[(w > 0) & (w <= top)]
@@ -216,8 +211,11 @@ def _sums(lp, w, sp):
 
 def _refine(lp, sp, w_fail, w_pass):
     """The failing end of ``[w_fail, w_pass]`` moved by bisection towards the passing one
-    (every point kept fails)."""
+    (every point kept fails); not within 1e-9 of the passing point (a spec edge: the grid
+    holds both sides, and rounding decides nothing there)."""
     for _ in range(40):
+        if abs(w_pass - w_fail) <= 1e-9 * max(abs(w_fail), abs(w_pass)):
+            break
         mid = np.sqrt(w_fail * w_pass) if w_fail > 0 and w_pass > 0 else 0.5 * (w_fail + w_pass)
         if not min(w_fail, w_pass) < mid < max(w_fail, w_pass):
             break
@@ -231,6 +229,24 @@ def _refine(lp, sp, w_fail, w_pass):
 
 def _hz(w):
     return float(w) / (2 * np.pi)
+
+
+def _edge_hz(w, sp):
+    """``w`` [rad/s] in Hz, the spec's own number when ``w`` is one of its band edges."""
+    f = _hz(w)
+    for e in _edges_hz(sp):
+        if abs(f - e) <= 1e-12 * e:
+            return float(e)
+    return f
+
+
+def _edges_hz(sp):
+    out = []
+    if sp.T_resonance_max is not None:
+        out += list(sp.resonance_band_hz)
+    if sp.Mu_hf_max is not None:
+        out.append(sp.Mu_hf_above_hz)
+    return out
 
 
 def _loop_proofs(lp, sp, n, integral):
@@ -274,8 +290,9 @@ def _loop_proofs(lp, sp, n, integral):
     reason = (f"{where}, {band}: at {_hz(w[k]):.6g} Hz, |D| = {abs(d.D[k]):.4g} µm/V and"
               f" {radii} leave discs |1 - T| <= {d.r_S[k]:.4g} and |T| <= {d.r_T[k]:.4g} that"
               f" do not meet (radii sum {s[k]:.4g} < 1)")
-    out.append(Infeasibility(lp.label, lp.temperature_C, lp.loop, (_hz(lo), _hz(hi)), keys,
-                             _hz(w[k]), float(s[k]), len(run), _hz(top_checked), reason))
+    out.append(Infeasibility(lp.label, lp.temperature_C, lp.loop,
+                             (_edge_hz(lo, sp), _edge_hz(hi, sp)), keys, _hz(w[k]),
+                             float(s[k]), len(run), _hz(top_checked), reason))
     return out
 
 
