@@ -445,8 +445,9 @@ def youla_bound(lp: LoopPlant, specs: Specs, objective: str = "max_integral_gain
         Integrators the controller must have (1: ``T(0) = 1``; 0: none; more: the integral
         gain is infinite and ``max_integral_gain`` is not applicable).
     grid_per_decade : float
-        Grid frequencies per decade over the basis range (plus points at lightly damped
-        poles, band edges, beyond the range and, for the sampled loop, up to Nyquist).
+        Grid frequencies per decade over the basis range, at least twice the basis's
+        (plus points at lightly damped poles, band edges, beyond the range and, for the
+        sampled loop, up to Nyquist).
     basis : YoulaBasis
         The functions ``Q`` combines.
     controller : RSTController, optional
@@ -480,7 +481,9 @@ def youla_bound(lp: LoopPlant, specs: Specs, objective: str = "max_integral_gain
     if objective == "max_integral_gain" and integrators != 1:
         return LoopBound(status="not_applicable", **base)
     lo, hi = _range(lp, specs, basis)
-    w = _grid(lp, specs, lo, hi, grid_per_decade)
+    # a grid no denser than the basis leaves directions the rows barely see (the
+    # interior-point solver then stalls): at least two points per basis pole
+    w = _grid(lp, specs, lo, hi, max(grid_per_decade, 2 * basis.per_decade))
     d = spec_discs(lp, w, specs, max(rtol, MIN_WIDEN))
     F, f0, df0 = _basis_columns(lp, d.nu, basis, lo, hi)
     D0, dD0 = lp.dc()
@@ -495,6 +498,9 @@ def youla_bound(lp: LoopPlant, specs: Specs, objective: str = "max_integral_gain
             dpsi0 = np.append(dpsi0, got[2])
     prog = _Program(Psi, psi0, dpsi0, d, objective, integrators >= 1)
     status, value, st, rounds = prog.solve(exchange)
+    if status == "failed":          # an interior-point stall: once more the other way
+        status, value, st, more = prog.solve(not exchange)
+        rounds += more
     if value is not None and objective == "max_integral_gain":
         value = 1.0 / (abs(D0) * value)          # |ki| = 1 / (|D(0)| S'(0))
     return LoopBound(status=status, value=value, grid_points=len(w),

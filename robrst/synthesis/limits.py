@@ -77,7 +77,39 @@ def design_limits(problem: Problem, controller: RSTController, cert: Certificate
                 left_out=verdict.not_expressed,
                 reason="no linear controller meets the specs (the proof above)")
             return bound, verdict
+        verdict, probe = _with_evidence(problem, cert, verdict)
+        if problem.solver.objective == "feasibility" and probe is not None:
+            return probe, verdict
+    if certified and problem.solver.objective == "feasibility":
+        return None, verdict       # the certified design answers the question itself
     if problem.solver.bound or not certified:
         value = design_value(problem, controller, cert) if certified else None
         bound = objective_bound(problem, controller, certified=certified, design_value=value)
     return bound, verdict
+
+
+def _with_evidence(problem, cert, verdict):
+    """A "not found" whose violations are all peaks the discs express: the Youla
+    feasibility programs per model and loop (evidence, not a proof) in its suggestion;
+    ``(verdict, their ObjectiveBound or None)``."""
+    from dataclasses import replace
+
+    if any(v.kind != "exceeds" or v.quantity not in _PEAKS for v in cert.violations):
+        return verdict, None
+    probe = replace(problem, solver=replace(problem.solver, objective="feasibility"))
+    b = objective_bound(probe)
+    if b.status == "feasible_on_grid":
+        more = ("on every model alone some linear controller meets the expressed specs on the"
+                f" grid (Youla programs, {len(b.per_loop)} loops; evidence, not a proof): a"
+                " higher order or another start may reach them")
+    elif b.status == "infeasible_on_grid":
+        more = (f"no Q of the programs' basis meets the expressed specs on the grid of model"
+                f" {b.model} ({b.loop} loop) even alone (evidence, not a proof): loosen them")
+    else:
+        return verdict, b
+    return replace(verdict, suggestion=(verdict.suggestion + "; " if verdict.suggestion
+                                        else "") + more), b
+
+
+_PEAKS = ("|S| peak", "|T| peak", "|U| peak", "|T| in resonance band", "|U| above corner",
+          "|B S/Delta| peak")
