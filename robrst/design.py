@@ -662,7 +662,10 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
         if analyses and problem.solver.method != "analytic":
             from robrst.synthesis.feasibility import prove_infeasible
 
-            proofs = prove_infeasible(problem, list(problem.family.models))
+            try:
+                proofs = prove_infeasible(problem, list(problem.family.models))
+            except (ArithmeticError, ValueError, np.linalg.LinAlgError):
+                proofs = ()        # no proof: the synthesis runs, the verdict says the rest
         if proofs:     # no linear controller meets the specs: the start design is the answer
             (progress or (lambda msg: None))(
                 "infeasible: " + proofs[0].reason + "; the synthesis is skipped, the analytic"

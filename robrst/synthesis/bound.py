@@ -300,8 +300,10 @@ class ObjectiveBound:
             out = f"bound: no finite estimate of the integral gain: {self.reason}"
             if self.design_value is not None:
                 out += (f"; this design's {self.design_value:.4g} V/(µm s) is set by its"
-                        " order" + (f" and by what the estimate leaves out"
-                                    f" ({', '.join(self.left_out)})" if self.left_out else ""))
+                        " structure (its order; the robust program keeps the controller's"
+                        " poles off the origin, which excludes such a lag)"
+                        + (f" and by the specs the estimate leaves out"
+                           f" ({', '.join(self.left_out)})" if self.left_out else ""))
             return out
         if self.status == "infeasible":
             return f"bound: none: {self.reason}"

@@ -66,6 +66,17 @@ def design_limits(problem: Problem, controller: RSTController, cert: Certificate
     -------
     (ObjectiveBound or None, FeasibilityVerdict or None)
     """
+    try:
+        return _limits(problem, controller, cert, certified)
+    except (ArithmeticError, ValueError, np.linalg.LinAlgError) as exc:
+        # the design stands without them: say so instead of failing it
+        why = f"the estimate could not be computed ({type(exc).__name__}: {exc})"
+        return ObjectiveBound(objective=problem.solver.objective, status="no_estimate",
+                              reason=why), None
+
+
+def _limits(problem, controller, cert, certified):
+    """:func:`design_limits` (unguarded)."""
     bound = verdict = None
     if not certified:
         verdict = feasibility_verdict(problem, cert, controller)
