@@ -104,6 +104,37 @@ class YoulaBasis:
     fir_taps: int = 2
     span: float = 30.0
 
+    def functions(self, lp: LoopPlant, specs: Specs,
+                  region: tuple | None = None) -> tuple[tuple[str, float], ...]:
+        """The basis of ``lp``'s program as ``(kind, parameter)`` pairs, in order:
+        ``("constant", 1)``, ``("real", a)`` for ``a / (s + a)``, ``("pair_w2", w)`` and
+        ``("pair_ws", w)`` for ``(w^2, w s) / (s^2 + 2 zeta w s + w^2)``, ``("delay", k)`` for
+        ``((1 - s/(2 fs)) / (1 + s/(2 fs)))^k`` (``s`` the loop variable).
+
+        Parameters
+        ----------
+        lp : LoopPlant
+            The loop.
+        specs : Specs
+            The bounds (the range reaches where the ``|T|`` disc allows 1 %).
+        region : (float or None, float or None), optional
+            A pole region (its decay rate raises the slowest pole).
+
+        Returns
+        -------
+        tuple of (str, float)
+        """
+        lo, hi = _span(lp, specs, self, region)
+        out = [("constant", 1.0)]
+        n = max(2, int(np.ceil(self.per_decade * np.log10(hi / lo))) + 1)
+        for a in np.geomspace(lo, hi, n):
+            out.append(("real", float(a)))
+            if self.pair_damping:
+                out += [("pair_w2", float(a)), ("pair_ws", float(a))]
+        if lp.fs is not None:
+            out += [("delay", float(k)) for k in range(1, self.fir_taps + 1)]
+        return tuple(out)
+
     def describe(self, size: int, design: bool) -> str:
         """One phrase, e.g. ``"55 functions: real poles 12/decade, 2 delays (sampled loop)"``.
 
@@ -160,6 +191,9 @@ class LoopBound:
         Clarabel's status (or how the value was found).
     rounds : int
         Constraint-exchange rounds.
+    q : tuple of float
+        The combination found (``feasible_on_grid`` and ``bounded``), in the order of
+        :meth:`YoulaBasis.functions` (the design's own ``Q`` last when it joined).
     """
 
     model: str
@@ -171,6 +205,7 @@ class LoopBound:
     basis_size: int = 0
     solver_status: str = ""
     rounds: int = 0
+    q: tuple = ()
 
     def as_dict(self) -> dict:
         """The ``per_loop`` entry of the JSON.
@@ -298,6 +333,8 @@ class ObjectiveBound:
             return out
         if self.status == "unbounded":
             out = f"bound: no finite estimate of the integral gain: {self.reason}"
+            if self.left_out and self.design_value is None:
+                out += f" (for the specs it expresses; left out: {', '.join(self.left_out)})"
             if self.design_value is not None:
                 out += (f"; this design's {self.design_value:.4g} V/(µm s) is set by its"
                         " structure (its order; the robust program keeps the controller's"
@@ -359,6 +396,15 @@ def _range(lp, specs, basis):
     return rmin / basis.span, hi
 
 
+def _span(lp, specs, basis, region=None):
+    """The basis's pole range ``(lo, hi)`` (a decay rate raises ``lo``)."""
+    lo, hi = _range(lp, specs, basis)
+    if region is not None and region[1]:
+        lo = max(lo, 1.01 * region[1])         # the basis's real poles decay fast enough
+        hi = max(hi, 10 * lo)
+    return lo, hi
+
+
 def _grid(lp, specs, lo, hi, per_decade):
     """Physical grid [rad/s]: ``per_decade`` per decade over the basis range, a few points
     beyond it, dense points at lightly damped poles, band edges; a sampled loop also a
@@ -379,37 +425,67 @@ def _grid(lp, specs, lo, hi, per_decade):
     return loop_grid(lp, n, w_lo, w_hi, edges)
 
 
-def _basis_columns(lp, nu, basis, lo, hi):
-    """Basis functions at ``j nu`` (``inf`` allowed), their values and slopes at 0."""
-    s = 1j * np.where(np.isfinite(nu), nu, 0.0)
-    at_inf = ~np.isfinite(nu)
-    cols, f0, df0 = [np.ones(len(nu), complex)], [1.0], [0.0]
-    n = max(2, int(np.ceil(basis.per_decade * np.log10(hi / lo))) + 1)
-    for a in np.geomspace(lo, hi, n):
-        c = a / (s + a)
-        c[at_inf] = 0.0
-        cols.append(c)
-        f0.append(1.0)
-        df0.append(-1.0 / a)
-        if basis.pair_damping:
-            z = basis.pair_damping
+def _evaluate(funcs, p, fs, zeta):
+    """The basis functions ``funcs`` (:meth:`YoulaBasis.functions`; pairs damped ``zeta``)
+    and their derivatives at points ``p`` of the loop variable (complex; ``inf`` is the
+    limit): two arrays ``(len(p), len(funcs))``, the derivative ``nan`` at ``inf``."""
+    p = np.atleast_1d(np.asarray(p, complex))
+    fin = np.isfinite(p)
+    s = np.where(fin, p, 0.0)
+    vals, ders = [], []
+    for kind, a in funcs:
+        if kind == "constant":
+            v, d, v_inf = np.ones(len(s), complex), np.zeros(len(s), complex), 1.0
+        elif kind == "real":
+            v, d, v_inf = a / (s + a), -a / (s + a) ** 2, 0.0
+        elif kind in ("pair_w2", "pair_ws"):
+            z = zeta
             den = s * s + 2 * z * a * s + a * a
-            c1, c2 = a * a / den, a * s / den
-            c1[at_inf] = 0.0
-            c2[at_inf] = 0.0
-            cols += [c1, c2]
-            f0 += [1.0, 0.0]
-            df0 += [-2 * z / a, 1.0 / a]
-    if lp.fs is not None:
-        q = s / (2 * lp.fs)
-        g = (1 - q) / (1 + q)
-        for k in range(1, basis.fir_taps + 1):
-            c = g ** k
-            c[at_inf] = (-1.0) ** k
-            cols.append(c)
-            f0.append(1.0)
-            df0.append(-k / lp.fs)
-    return np.array(cols).T, np.array(f0), np.array(df0)
+            dden = 2 * s + 2 * z * a
+            num, dnum = (a * a, 0.0) if kind == "pair_w2" else (a * s, a)
+            v, d, v_inf = num / den, dnum / den - num * dden / den ** 2, 0.0
+        else:                                    # a delay z^-k of the sampled loop
+            k = int(a)
+            q = s / (2 * fs)
+            g = (1 - q) / (1 + q)
+            v, d, v_inf = g ** k, k * g ** (k - 1) * (-1.0 / (fs * (1 + q) ** 2)), (-1.0) ** k
+        v, d = np.asarray(v, complex), np.asarray(d, complex)
+        v[~fin], d[~fin] = v_inf, np.nan
+        vals.append(v)
+        ders.append(d)
+    return np.array(vals).T, np.array(ders).T
+
+
+def _interpolation(lp, funcs, zeta, region, ncols):
+    """Rows ``(M, rhs)`` of ``Q(p) = 0, Q'(p) = 1/res`` at every plant pole outside the
+    region (real and imaginary parts); ``None`` for a repeated one (not handled)."""
+    from robrst.core.region import damping_of, s_poles
+
+    floor, decay = region
+    P = lp.plant.poles()
+    ps = s_poles(P, lp.fs)
+    bad = np.zeros(len(P), bool)
+    if floor:
+        bad |= damping_of(ps) < floor
+    if decay:
+        bad |= -ps.real < decay
+    bad &= P.imag >= 0                       # one of each conjugate pair
+    rows, rhs = [], []
+    dA = np.polyder(lp.plant.A)
+    for p in P[bad]:
+        if np.min(np.abs(np.delete(P, np.argmin(np.abs(P - p))) - p)) < 1e-9 * max(abs(p), 1):
+            return None
+        res = np.polyval(lp.plant.B, p) / np.polyval(dA, p)
+        val, der = _evaluate(funcs, p, lp.fs, zeta)
+        v, d = np.zeros(ncols, complex), np.zeros(ncols, complex)
+        v[:val.shape[1]], d[:der.shape[1]] = val[0], der[0]
+        for row, t in ((v, 0.0), (d, 1.0 / res)):
+            rows.append(row.real)
+            rhs.append(complex(t).real)
+            if p.imag > 0:
+                rows.append(row.imag)
+                rhs.append(complex(t).imag)
+    return np.array(rows).reshape(-1, ncols), np.array(rhs)
 
 
 def _design_column(lp, ctrl, nu):
@@ -431,7 +507,8 @@ def _design_column(lp, ctrl, nu):
 def youla_bound(lp: LoopPlant, specs: Specs, objective: str = "max_integral_gain",
                 integrators: int = 1, grid_per_decade: float = GRID_PER_DECADE,
                 basis: YoulaBasis = DEFAULT_BASIS, controller: RSTController | None = None,
-                rtol: float = 0.0, exchange: bool = False) -> LoopBound:
+                rtol: float = 0.0, exchange: bool = False,
+                region: tuple | None = None) -> LoopBound:
     """The Youla program of one loop (see the module docstring).
 
     Parameters
@@ -459,6 +536,13 @@ def youla_bound(lp: LoopPlant, specs: Specs, objective: str = "max_integral_gain
         tolerance: a certified design meets the widened discs).
     exchange : bool
         Impose the grid by constraint exchange (the same optimum, fewer rows per solve).
+    region : (float or None, float or None), optional
+        A pole region ``(damping floor, decay rate [rad/s])`` every closed-loop pole must
+        meet: the basis keeps its poles inside it, and every plant pole outside it (a
+        sampled loop: mapped by ``fs ln z``) is moved, ``Q(p) = 0`` and
+        ``Q'(p) = 1/res_p D`` (``T``, ``S``, ``U`` and ``D S`` without that pole).  A
+        restriction of the region's controllers (their ``Q`` need only have poles inside
+        it), so only evidence either way.
 
     Returns
     -------
@@ -482,12 +566,19 @@ def youla_bound(lp: LoopPlant, specs: Specs, objective: str = "max_integral_gain
         return LoopBound(status="no_estimate", solver_status="unstable loop plant", **base)
     if objective == "max_integral_gain" and integrators != 1:
         return LoopBound(status="not_applicable", **base)
-    lo, hi = _range(lp, specs, basis)
+    lo, hi = _span(lp, specs, basis, region)
     # a grid no denser than the basis leaves directions the rows barely see (the
     # interior-point solver then stalls): at least two points per basis pole
     w = _grid(lp, specs, lo, hi, max(grid_per_decade, 2 * basis.per_decade))
     d = spec_discs(lp, w, specs, max(rtol, MIN_WIDEN))
-    F, f0, df0 = _basis_columns(lp, d.nu, basis, lo, hi)
+    funcs = basis.functions(lp, specs, region)
+    zeta = basis.pair_damping
+    jnu = np.full(len(d.nu), np.inf, complex)
+    fin = np.isfinite(d.nu)
+    jnu[fin] = 1j * d.nu[fin]
+    F, _ = _evaluate(funcs, jnu, lp.fs, zeta)
+    at0, dat0 = _evaluate(funcs, 0.0, lp.fs, zeta)
+    f0, df0 = at0[0].real, dat0[0].real
     D0, dD0 = lp.dc()
     Psi = d.D[:, None] * F                      # T of each basis function
     psi0 = D0 * f0
@@ -498,15 +589,22 @@ def youla_bound(lp: LoopPlant, specs: Specs, objective: str = "max_integral_gain
             Psi = np.column_stack([Psi, got[0]])
             psi0 = np.append(psi0, got[1])
             dpsi0 = np.append(dpsi0, got[2])
-    prog = _Program(Psi, psi0, dpsi0, d, objective, integrators >= 1)
-    status, value, st, rounds = prog.solve(exchange)
+    interp = None
+    if region is not None:
+        interp = _interpolation(lp, funcs, zeta, region, Psi.shape[1])
+        if interp is None:
+            return LoopBound(status="no_estimate", solver_status="a multiple plant pole"
+                             " outside the pole region", grid_points=len(w), **base)
+    prog = _Program(Psi, psi0, dpsi0, d, objective, integrators >= 1, interp)
+    status, value, st, rounds, x = prog.solve(exchange)
     if status == "failed":          # an interior-point stall: once more the other way
-        status, value, st, more = prog.solve(not exchange)
+        status, value, st, more, x = prog.solve(not exchange)
         rounds += more
     if value is not None and objective == "max_integral_gain":
         value = 1.0 / (abs(D0) * value)          # |ki| = 1 / (|D(0)| S'(0))
+    q = () if x is None else tuple(float(v) for v in x[:Psi.shape[1]])
     return LoopBound(status=status, value=value, grid_points=len(w),
-                     basis_size=Psi.shape[1], solver_status=st, rounds=rounds, **base)
+                     basis_size=Psi.shape[1], solver_status=st, rounds=rounds, q=q, **base)
 
 
 class _Program:
@@ -514,8 +612,9 @@ class _Program:
     points (constraint exchange): ``T = Psi q`` with ``|T| <= r_T`` and ``|1 - T| <= r_S``
     (``<= gamma`` for ``min_Ms``, ``Msd_max`` kept apart), ``T(0) = 1``."""
 
-    def __init__(self, Psi, psi0, dpsi0, d, objective, integral):
+    def __init__(self, Psi, psi0, dpsi0, d, objective, integral, interp=None):
         self.Psi, self.d, self.objective, self.integral = Psi, d, objective, integral
+        self.interp = interp
         self.K = Psi.shape[1]
         self.gamma = objective == "min_Ms"
         self.n = self.K + int(self.gamma)
@@ -542,11 +641,11 @@ class _Program:
         return np.nan_to_num(v, nan=np.inf, neginf=-1.0)
 
     def solve(self, exchange):
-        """``(status, value, solver status, rounds)`` on the whole grid."""
+        """``(status, value, solver status, rounds, x)`` on the whole grid."""
         N = len(self.d.nu)
         if not exchange:
             out = self._solve(np.arange(N))
-            return out[0], out[1], out[2], 1
+            return out[0], out[1], out[2], 1, out[3]
         active = np.zeros(N, bool)
         active[::4] = True
         active[-1] = True
@@ -554,11 +653,11 @@ class _Program:
         for k in range(1, EXCHANGE_ROUNDS + 1):
             out = self._solve(np.flatnonzero(active))
             if out[3] is None:
-                return out[0], out[1], out[2], k
+                return out[0], out[1], out[2], k, None
             v = self.violation(out[3])
             bad = (v > EXCHANGE_TOL) & ~active
             if not bad.any():
-                return out[0], out[1], out[2], k
+                return out[0], out[1], out[2], k, out[3]
             # the worst points and every local maximum of the violation
             loc = np.zeros(N, bool)
             loc[1:-1] = (v[1:-1] >= v[:-2]) & (v[1:-1] >= v[2:])
@@ -567,7 +666,7 @@ class _Program:
             worst = np.argsort(-np.where(bad, v, -np.inf))[:20]
             active[worst[bad[worst]]] = True
         out = self._solve(np.arange(N))
-        return out[0], out[1], out[2], EXCHANGE_ROUNDS + 1
+        return out[0], out[1], out[2], EXCHANGE_ROUNDS + 1, out[3]
 
     def _solve(self, idx):
         """Clarabel on the grid points ``idx``: ``(status, value, solver status, x)``."""
@@ -599,6 +698,13 @@ class _Program:
             r = np.zeros(n)
             r[:K] = self.psi0
             eq.append(r)
+        eq_rhs = [1.0] if self.integral else []
+        if self.interp is not None:              # the pole region's interpolation
+            for row, t in zip(*self.interp):
+                r = np.zeros(n)
+                r[:K] = row
+                eq.append(r)
+                eq_rhs.append(t)
         rT, rS = self.rT[idx], self.rS[idx]
         for i in np.flatnonzero(rT == 0):       # T must vanish there
             for part in (Psi[i].real, Psi[i].imag):
@@ -619,8 +725,7 @@ class _Program:
         b_soc = np.concatenate(b) if b else np.zeros(0)
         A_eq = np.array(eq).reshape(-1, n)
         b_eq = np.zeros(len(A_eq))
-        if self.integral:
-            b_eq[0] = 1.0
+        b_eq[:len(eq_rhs)] = eq_rhs
         # an orthonormal basis of what the rows see, x = V y: the basis functions are far
         # from orthogonal (neighbouring poles); directions no row, no objective and no
         # equality sees are dropped
@@ -659,7 +764,8 @@ class _Program:
 def objective_bound(problem: Problem, controller: RSTController | None = None,
                     certified: bool = False, grid_per_decade: float = GRID_PER_DECADE,
                     basis: YoulaBasis = DEFAULT_BASIS, models: list | None = None,
-                    design_value: float | None = None) -> ObjectiveBound:
+                    design_value: float | None = None,
+                    region: tuple | None = None) -> ObjectiveBound:
     """The estimate of the problem's objective on the whole family (module docstring).
 
     Parameters
@@ -680,6 +786,9 @@ def objective_bound(problem: Problem, controller: RSTController | None = None,
     design_value : float, optional
         The design's figure (``|ki|`` or worst ``Ms``); default: ``|ki|`` of a certified
         ``controller`` for ``max_integral_gain``.
+    region : (float or None, float or None), optional
+        With the ``feasibility`` objective: every program also keeps the closed-loop poles
+        in this pole region (:func:`youla_bound`).
 
     Returns
     -------
@@ -759,7 +868,9 @@ def objective_bound(problem: Problem, controller: RSTController | None = None,
         common["includes_design"] = False
     with one_blas_thread():
         runs = tuple(youla_bound(lp, sp, obj, nint, grid_per_decade, basis,
-                                 controller if with_design else None, rtol) for lp in progs)
+                                 controller if with_design else None, rtol,
+                                 region=region if obj == "feasibility" else None)
+                     for lp in progs)
     size = max((r.basis_size for r in runs), default=0)
     common.update(per_loop=runs, basis=basis.describe(size, with_design),
                   grid_points=max((r.grid_points for r in runs), default=0))

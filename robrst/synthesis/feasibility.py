@@ -385,6 +385,7 @@ def _not_found(problem, cert, lost):
         return "", "", ""
     worst = max(viol, key=lambda v: v.ratio)
     misses = "the best controller found: " + worst.describe()
+    unstable = any(v.quantity == "spectral_abscissa" for v in viol)
     region = [v for v in viol if v.kind == "below"]
     mode = ""
     tips = []
@@ -399,21 +400,24 @@ def _not_found(problem, cert, lost):
                   f"the mode at {v.freq_rad_s / (2 * np.pi):.4g} Hz of ")
             loop = " (sampled loop)" if v.loop == "sampled" else ""
             mode = (f"pole region: {at}model {v.label} ({v.temperature_C:g} °C){loop} stays at"
-                    f" damping {v.value:.4g} < {v.bound:.4g}: the best damping found")
-            tips.append(f"damping_min <= {v.value:.3g} (what this order reached)")
+                    f" damping {v.value:.4g} < {v.bound:.4g}: the best damping found"
+                    + (" (an unstable mode)" if v.value <= 0 else ""))
+            if v.value > 0:
+                tips.append(f"damping_min <= {v.value:.3g} (what this order reached)")
         if dec:
             v = min(dec, key=lambda v: v.value)
             mode = (mode + "; " if mode else "pole region: ") + (
                 f"model {v.label} ({v.temperature_C:g} °C) keeps a pole decaying at"
                 f" {v.value:.4g} < {v.bound:.4g} rad/s")
-            tips.append(f"decay_min <= {v.value:.3g} rad/s")
+            if v.value > 0:
+                tips.append(f"decay_min <= {v.value:.3g} rad/s")
     peak = {}
     for v in viol:
         if v.kind == "exceeds" and v.quantity in _SPEC_OF:
             key = _SPEC_OF[v.quantity]
             peak[key] = max(peak.get(key, 0.0), v.value)
-    for key, val in peak.items():
-        tips.append(f"{key} = {val:.4g} (what this design reaches)")
+    for key, val in peak.items() if not unstable else ():     # an unstable loop's peaks
+        tips.append(f"{key} = {val:.4g} (what this design reaches)")   # are no spec values
     out = "try " + "; or ".join(tips[:4])
     if lost:
         out += ("; the proof cannot express " + ", ".join(lost) + ": the specs may still be"

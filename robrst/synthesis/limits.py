@@ -100,27 +100,35 @@ def _limits(problem, controller, cert, certified):
 
 
 def _with_evidence(problem, cert, verdict):
-    """A "not found" whose violations are all peaks the discs express: the Youla
-    feasibility programs per model and loop (evidence, not a proof) in its suggestion;
-    ``(verdict, their ObjectiveBound or None)``."""
+    """A "not found" whose violations are all peaks the discs express or a pole region:
+    the Youla feasibility programs per model and loop (with the region's interpolation
+    conditions; evidence, not a proof) in its suggestion; ``(verdict, their
+    ObjectiveBound or None)``."""
     from dataclasses import replace
 
-    if any(v.kind != "exceeds" or v.quantity not in _PEAKS for v in cert.violations):
+    region = any(v.kind == "below" and v.quantity in _REGION for v in cert.violations)
+    if any(not (v.kind == "exceeds" and v.quantity in _PEAKS + ("spectral_abscissa",))
+           and not (v.kind == "below" and v.quantity in _REGION) for v in cert.violations):
         return verdict, None
     probe = replace(problem, solver=replace(problem.solver, objective="feasibility"))
-    b = objective_bound(probe)
+    b = objective_bound(probe, region=problem.specs.pole_region(problem.family)
+                        if region else None)
+    what = ("the expressed specs with every closed-loop pole in the pole region (Q's poles"
+            " inside it, the plant's modes outside it moved)" if region else
+            "the expressed specs")
     if b.status == "feasible_on_grid":
-        more = ("on every model alone some linear controller meets the expressed specs on the"
-                f" grid (Youla programs, {len(b.per_loop)} loops; evidence, not a proof): a"
-                " higher order or another start may reach them")
+        more = (f"on every model alone some linear controller meets {what} on the grid (Youla"
+                f" programs, {len(b.per_loop)} loops; evidence, not a proof): a higher order"
+                " or another start may reach them")
     elif b.status == "infeasible_on_grid":
-        more = (f"no Q of the programs' basis meets the expressed specs on the grid of model"
-                f" {b.model} ({b.loop} loop) even alone (evidence, not a proof): loosen them")
+        more = (f"no Q of the programs' basis meets {what} on the grid of model {b.model}"
+                f" ({b.loop} loop) even alone (evidence, not a proof): loosen them")
     else:
         return verdict, b
     return replace(verdict, suggestion=(verdict.suggestion + "; " if verdict.suggestion
                                         else "") + more), b
 
 
+_REGION = ("closed-loop damping", "closed-loop decay rate [rad/s]")
 _PEAKS = ("|S| peak", "|T| peak", "|U| peak", "|T| in resonance band", "|U| above corner",
           "|B S/Delta| peak")
