@@ -2,11 +2,11 @@
 
 Every peak spec robrst imposes on a model's loop bounds, at each frequency, one of ``|S|``,
 ``|T|``, ``|U| = |T / D|`` or ``|B S / Delta| = |D S|`` (``D`` the loop's plant), and
-``S = 1 - T``.  At a frequency ``w`` with ``t = T(jw)`` they all read
+``S = 1 - T``.  At a frequency ``w`` with ``t = T(jw)`` they all read::
 
     |1 - t| <= r_S(w) = min(Ms_max, Msd_max / |D(jw)|)
     |t|     <= r_T(w) = min(Mt_max, T_resonance_max (in its band), Mu_max |D(jw)|,
-                           Mu_hf_max |D(jw)| (above its corner)).
+                           Mu_hf_max |D(jw)| (above its corner))
 
 Two discs in the complex plane: the one of radius ``r_S`` around 1 and the one of radius
 ``r_T`` around 0.  They meet iff ``r_S + r_T >= 1``.  :mod:`robrst.synthesis.feasibility`
