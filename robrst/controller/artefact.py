@@ -170,7 +170,8 @@ def design_from_dict(doc: dict, path: str = "<design>", problem: object = None,
     -------
     DesignResult
         The saved controller, a certificate computed now on ``problem`` (default: the saved
-        problem), the analyses of every family model; the saved solver record, analytic
+        problem), the analyses of every family model and the limits
+        (:func:`robrst.synthesis.limits.design_limits`); the saved solver record, analytic
         check, comparison and 2-DOF path as they were written.
     """
     say = progress or (lambda msg: None)
@@ -186,8 +187,10 @@ def design_from_dict(doc: dict, path: str = "<design>", problem: object = None,
                f" (saved: {'certified' if was else 'not certified'}; robrst"
                f" {doc['artefact'].get('versions', {}).get('robrst')} made it)"))
     from robrst.certificate.assessment import assess
+    from robrst.synthesis.limits import design_limits
 
     ac, comp = doc.get("analytic_check"), doc.get("comparison")
+    bound, verdict = design_limits(problem, ctrl, cert, cert.certified)   # as the analyses
     return DesignResult(
         problem=problem, method=str(doc.get("method", "saved")), controller=ctrl,
         target_char_poly=None if doc.get("target_char_poly") is None
@@ -199,7 +202,8 @@ def design_from_dict(doc: dict, path: str = "<design>", problem: object = None,
             rows=comp["rows"], table=comp["table"], range_C=tuple(problem.family.range_C)),
         tracking=None if doc.get("tracking") is None else StoredRecord(doc["tracking"]),
         assessment=assess(problem, ctrl),     # computed again, as the analyses
-        starts=None if doc.get("starts") is None else StoredRecord(doc["starts"]))
+        starts=None if doc.get("starts") is None else StoredRecord(doc["starts"]),
+        objective_bound=bound, feasibility=verdict)
 
 
 def load_design(path: str | os.PathLike,

@@ -27,6 +27,8 @@ if TYPE_CHECKING:
     from robrst.design.achieved import AnalyticCheck, Comparison, ControllerFactors
     from robrst.problem.records import Problem, Specs
     from robrst.synthesis.analytic import AnalyticDesign
+    from robrst.synthesis.bound import ObjectiveBound
+    from robrst.synthesis.feasibility import FeasibilityVerdict
     from robrst.synthesis.multistart import MultiStart
     from robrst.synthesis.outcome import SynthesisResult
     from robrst.synthesis.scenario import FleetDesign
@@ -49,8 +51,9 @@ DESIGN_FIELDS = ("problem", "method", "status", "controller", "target_char_poly"
                  "temperature_range_C", "models", "certified", "certificate", "solver",
                  "integral_gain", "best_achievable", "specs_achieved", "controller_factored",
                  "method_reason", "assessment", "starts", "tracking", "analytic_check",
-                 "comparison", "artefact", "fleet")
-OPTIONAL_FIELDS = ("assessment", "starts", "tracking", "analytic_check", "comparison", "fleet")
+                 "comparison", "artefact", "fleet", "objective_bound", "feasibility")
+OPTIONAL_FIELDS = ("assessment", "starts", "tracking", "analytic_check", "comparison", "fleet",
+                   "objective_bound", "feasibility")
 CERTIFICATE_FIELDS = ("ratios", "certified", "rtol", "controller", "models", "violations",
                       "interval", "interval_proof", "interval_resolution_C")
 INTERVAL_FIELDS = ("range_C", "stability", "peaks", "points", "max_spacing_C", "min_spacing_C",
@@ -123,7 +126,7 @@ class DesignRecord(Protocol):
     ----------
     problem, method, controller, target_char_poly, analyses, certificate, synthesis
         The design's parts (see :class:`~robrst.design.result.DesignResult`).
-    analytic_check, comparison, tracking, fleet, assessment, starts
+    analytic_check, comparison, tracking, fleet, assessment, starts, objective_bound, feasibility
         Its optional parts (``None`` when absent).
     certified, status, integral_gain, best_achievable
         Its verdict and figures.
@@ -144,6 +147,8 @@ class DesignRecord(Protocol):
     fleet: FleetDesign | None
     assessment: Assessment | None
     starts: MultiStart | None
+    objective_bound: ObjectiveBound | None
+    feasibility: FeasibilityVerdict | None
     certified: bool
     status: str
     integral_gain: float
@@ -259,6 +264,8 @@ def design_json(result: DesignRecord) -> dict:
                                "table": result.comparison.table},
         "artefact": lambda: artefact_record(p),      # what robrst.load_design reads back
         "fleet": lambda: result.fleet.as_dict(),
+        "objective_bound": lambda: result.objective_bound.as_dict(),
+        "feasibility": lambda: result.feasibility.as_dict(),
     }
     return {k: writers[k]() for k in DESIGN_FIELDS
             if k not in OPTIONAL_FIELDS or getattr(result, k) is not None}

@@ -13,15 +13,21 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
+from dataclasses import replace
+
+import numpy as np
+
 from robrst.base.threads import one_blas_thread
 from robrst.design.fleet import fleet_design
 from robrst.design.single import design_single
+from robrst.synthesis.feasibility import prove_infeasible
+from robrst.synthesis.limits import design_limits
 
 if TYPE_CHECKING:
     from robrst.design.result import DesignResult
     from robrst.problem.records import Problem
 
-__all__ = ["run_problem"]
+__all__ = ["run_problem", "infeasibility"]
 
 
 def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
@@ -43,10 +49,11 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
         Built NLP solvers by structure, shared between designs of the same structure
         (see :class:`robrst.synthesis.synthesizer.Synthesizer`).
     analyses : bool
-        Analyse every family model (exact peaks to 1e-10, margins) and assess what the
-        specs left unbounded (:func:`robrst.certificate.assessment.assess`: damping,
-        overshoot, input disturbances); off: none (a sweep reads the certificate's figures
-        and computes only the margins).
+        Analyse every family model (exact peaks to 1e-10, margins), assess what the specs
+        left unbounded (:func:`robrst.certificate.assessment.assess`: damping, overshoot,
+        input disturbances) and state the limits (:func:`robrst.synthesis.limits.design_limits`:
+        what any linear controller could reach; infeasible or not found); off: none (a
+        sweep reads the certificate's figures and computes only the margins).
     multistart : bool, optional
         The robust program (``method = "nlp"``) also runs from the diverse starts of
         :mod:`robrst.design.multistart` on 2 processes and keeps the best certified
@@ -73,6 +80,45 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
     if multistart is None:
         multistart = problem.solver.multistart
     with one_blas_thread(problem.needs_scipy):
-        if problem.spread is not None:
-            return fleet_design(problem, progress, templates, analyses)
-        return design_single(problem, progress, templates, analyses, multistart)
+        proofs = infeasibility(problem) if analyses else ()
+        if proofs:     # no linear controller meets the specs: the start design is the answer
+            (progress or (lambda msg: None))(
+                "infeasible: " + proofs[0].reason + "; the synthesis is skipped, the analytic"
+                " start design is reported")
+            run = replace(problem, spread=None, solver=replace(
+                problem.solver, method="analytic", method_source="infeasible"))
+            result = replace(design_single(run, progress, templates, analyses, False),
+                             problem=problem, method=problem.solver.method)
+        elif problem.spread is not None:
+            result = fleet_design(problem, progress, templates, analyses)
+        else:
+            result = design_single(problem, progress, templates, analyses, multistart)
+        if not analyses:
+            return result
+        bound, verdict = design_limits(problem, result.controller, result.certificate,
+                                       result.certified)
+        if proofs and verdict is not None:
+            verdict = replace(verdict, note="the synthesis was skipped (a family member has no"
+                              " solution); the controller is the analytic start")
+        return replace(result, objective_bound=bound, feasibility=verdict)
+
+
+def infeasibility(problem: Problem) -> tuple:
+    """The proofs that no linear controller meets the problem's specs on some family member
+    (:func:`robrst.synthesis.feasibility.prove_infeasible`); none for the analytic method or
+    when the proof's arithmetic fails (the synthesis then runs and the verdict says the rest).
+
+    Parameters
+    ----------
+    problem : Problem
+
+    Returns
+    -------
+    tuple of Infeasibility
+    """
+    if problem.solver.method == "analytic":
+        return ()
+    try:
+        return tuple(prove_infeasible(problem, list(problem.family.models)))
+    except (ArithmeticError, ValueError, np.linalg.LinAlgError):
+        return ()

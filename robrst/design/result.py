@@ -26,6 +26,8 @@ if TYPE_CHECKING:
     from robrst.core.rst import RSTController
     from robrst.problem.records import Problem
     from robrst.synthesis.analytic import AnalyticDesign
+    from robrst.synthesis.bound import ObjectiveBound
+    from robrst.synthesis.feasibility import FeasibilityVerdict
     from robrst.synthesis.multistart import MultiStart
     from robrst.synthesis.outcome import SynthesisResult
     from robrst.synthesis.scenario import FleetDesign
@@ -71,6 +73,12 @@ class DesignResult:
         (:class:`~robrst.certificate.assessment.Assessment`; with the analyses).
     starts : MultiStart, optional
         Every start of a multi-start design (:class:`~robrst.synthesis.multistart.MultiStart`).
+    objective_bound : ObjectiveBound, optional
+        What any linear controller could reach on the family, and this design's share
+        (:func:`robrst.synthesis.bound.objective_bound`; with the analyses).
+    feasibility : FeasibilityVerdict, optional
+        A design that is not certified: infeasible (a proof) or not found (what it misses,
+        what to try) (:func:`robrst.synthesis.feasibility.feasibility_verdict`).
 
     Attributes
     ----------
@@ -106,6 +114,8 @@ class DesignResult:
     fleet: FleetDesign | None = None
     assessment: Assessment | None = None
     starts: MultiStart | None = None
+    objective_bound: ObjectiveBound | None = None
+    feasibility: FeasibilityVerdict | None = None
 
     @property
     def best_achievable(self):

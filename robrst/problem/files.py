@@ -148,6 +148,8 @@ SCHEMA = {
                             " off inside sweeps"),
         "starts": Field("int", 2, "nlp multi-start: how many starts beyond the first",
                         lo=0, hi=64),
+        "bound": Field("bool", True, "state what any linear controller could reach on the"
+                       " family (the objective's estimate; always when not certified)"),
     },
     "spread": {
         "yield": Field("number", 0.95, "share of the actuators the controller must certify on"

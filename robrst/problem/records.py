@@ -477,8 +477,13 @@ class SolverOptions:
         answer (off inside sweeps).
     starts : int
         How many starts beyond the one asked for.
-    method_source : {"given", "default", "command line"}
-        Who chose ``method`` (see :attr:`method_reason`).
+    method_source : {"given", "default", "command line", "infeasible"}
+        Who chose ``method`` (see :attr:`method_reason`; ``"infeasible"``: the pipeline,
+        after a proof that no linear controller meets the specs).
+    bound : bool
+        State the estimate of what any linear controller could reach on the family
+        (:mod:`robrst.synthesis.bound`) beside a certified design (a design that is not
+        certified always gets it, with the feasibility verdict).
     """
 
     method: str = "analytic"
@@ -500,6 +505,7 @@ class SolverOptions:
     multistart: bool = True
     starts: int = 2
     method_source: str = "given"
+    bound: bool = True
 
     @property
     def method_reason(self):
@@ -509,6 +515,9 @@ class SolverOptions:
                     " whenever [specs] bounds anything, the analytic design otherwise)")
         if self.method_source == "command line":
             return f"{self.method}: as the command line asks (--method)"
+        if self.method_source == "infeasible":
+            return (f"{self.method}: the specs are provably infeasible"
+                    " (robrst.synthesis.feasibility), the synthesis is skipped")
         return f"{self.method}: as the problem asks ([solver] method)"
 
 

@@ -228,6 +228,10 @@ def design_summary(result: DesignResult) -> str:
         out.append("binding constraints (the optimiser's multipliers): " + "; ".join(so.binding))
     if result.best_achievable:
         out.append(result.best_achievable)
+    if result.feasibility is not None:
+        out += result.feasibility.lines()
+    if result.objective_bound is not None:
+        out.append(result.objective_bound.describe())
     assessment = result.assessment
     for n in list(so.notes) + list(assessment.notes if assessment else ()):
         out.append(f"note: {n}")
