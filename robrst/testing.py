@@ -43,7 +43,8 @@ if TYPE_CHECKING:
     from robrst.problem.records import Problem
 
 __all__ = ["Worse", "golden_figures", "write_golden", "read_golden", "compare_golden",
-           "assert_margins", "check_golden_fits", "count_figures", "MARKER", "DEFAULT_TOL"]
+           "assert_margins", "check_golden_fits", "count_figures", "figures_line", "MARKER",
+           "DEFAULT_TOL"]
 
 MARKER = "# robrst margins golden"
 FORMAT = 1
@@ -371,6 +372,31 @@ def count_figures(golden: dict) -> int:
     """
     return (sum(len(m) for m in golden["models"].values()) + bool(golden["certified"])
             + (golden["objective"] is not None))
+
+
+def figures_line(golden: dict) -> str:
+    """How many figures a golden checks, and what they are, in words: the count of
+    :func:`count_figures` (``robrst check --update`` and ``robrst check`` print the same).
+
+    Parameters
+    ----------
+    golden : dict
+        As :func:`read_golden` returns it.
+
+    Returns
+    -------
+    str
+        ``"98 figures: 96 model figures over 8 models, certified = true and the objective
+        integral_gain"``.
+    """
+    n_models = sum(len(m) for m in golden["models"].values())
+    parts = [f"{n_models} model figures over {len(golden['models'])} models"]
+    if golden["certified"]:
+        parts.append("certified = true")
+    if golden["objective"] is not None:
+        parts.append(f"the objective {golden['objective'][0]}")
+    tail = ", ".join(parts[:-1]) + " and " + parts[-1] if len(parts) > 1 else parts[0]
+    return f"{count_figures(golden)} figures: {tail}"
 
 
 def check_golden_fits(golden: dict, problem: Problem) -> None:

@@ -70,11 +70,12 @@ class Violation:
         Where (physical frequency [rad/s]), when a frequency applies.
     loop : {"continuous", "sampled"}
         Which loop.
-    kind : {"exceeds", "below", "crossing", "unresolved"}
+    kind : {"exceeds", "below", "crossing", "unresolved", "structure"}
         ``value > bound``; ``value < bound`` (a lower bound: the pole region's damping and
         decay); a closed-loop root reaches the imaginary axis, or a pole-region boundary,
-        between two checked temperatures; or the check could not be decided (nothing is
-        certified then).
+        between two checked temperatures; the check could not be decided (nothing is
+        certified then); or the controller lacks a fixed factor of the problem (label
+        ``"controller"``, :mod:`robrst.certificate.structure`).
     """
 
     label: str
@@ -111,6 +112,8 @@ class Violation:
         """
         at = "" if self.freq_rad_s is None else f" at {self.freq_rad_s / (2 * np.pi):.4g} Hz"
         loop = " in the sampled loop" if self.loop == "sampled" else ""
+        if self.kind == "structure":
+            return self.quantity
         if self.kind not in ("exceeds", "below"):
             return f"model {self.label} ({self.temperature_C:g} °C){loop}: {self.quantity}{at}"
         rel = ">" if self.kind == "exceeds" else "<"

@@ -34,7 +34,11 @@ __all__ = [
     "from_roots",
     "roots_many",
     "rel_coef_error",
+    "origin_roots",
+    "ORIGIN_RTOL",
 ]
+
+ORIGIN_RTOL = 1e-12   # a root within this fraction of the other roots' scale of s = 0 is at 0
 
 
 def as_poly(c: ArrayLike, name: str = "polynomial") -> np.ndarray:
@@ -534,3 +538,45 @@ def rel_coef_error(a: ArrayLike, b: ArrayLike) -> float:
     w0 = natural_scale(b)
     sa, sb = to_scaled(a, w0), to_scaled(b, w0)
     return float(np.max(np.abs(sa - sb)) / np.max(np.abs(sb)))
+
+
+def origin_roots(c: ArrayLike, rtol: float = ORIGIN_RTOL) -> int:
+    """How many roots of ``c`` lie at ``s = 0`` (an integrator's, in a controller's ``S``).
+
+    A trailing coefficient is zero when it is exactly zero, or when it is below ``rtol``
+    times the other coefficients in the variable ``p = s / w`` scaled at the other roots'
+    geometric mean modulus ``w`` (:func:`natural_scale`): the root it leaves is then
+    within ``~rtol w`` of zero, which is what rounding does to a polynomial with a root at
+    0 (a controller read back from a discrete python-control system); a deliberate
+    ``S(0) != 0`` is far larger.
+
+    Parameters
+    ----------
+    c : array_like
+        Coefficients, highest power first.
+    rtol : float
+        Relative size of a trailing coefficient counted as zero.
+
+    Returns
+    -------
+    int
+        The number of roots at ``s = 0`` (0 for a constant).
+
+    Examples
+    --------
+    >>> from robrst.core.poly import origin_roots
+    >>> origin_roots([1.0, 3.0, 0.0]), origin_roots([1.0, 3.0, 1e-3])
+    (1, 0)
+    """
+    c = trim(c)
+    k = 0
+    while k < len(c) - 1:
+        head = c[:len(c) - k]
+        if head[-1] != 0:
+            rest = head[:-1]
+            scaled = to_scaled(head, natural_scale(rest))
+            top = float(np.max(np.abs(scaled[:-1])))
+            if not abs(scaled[-1]) <= rtol * top:
+                break
+        k += 1
+    return k

@@ -129,7 +129,9 @@ SCHEMA = {
                            positive=True),
         "Mu_hf_above_hz": Field("number", None, "where the Mu_hf_max bound starts [Hz]",
                                 positive=True),
-        "overshoot_max_pct": Field("number", None, "overshoot of a reference step [%]", lo=0.0),
+        "overshoot_max_pct": Field("number", None, "overshoot of a reference step [%]; above"
+                                   " 100 the output would more than double the step: a bound"
+                                   " no design means", lo=0.0, hi=100.0),
         "settling_time_max_s": Field("number", None, "2 % settling time of a reference step [s]",
                                      positive=True),
         "step_um": Field("number", 1.0, "reference step for step_u_max_V [µm]", positive=True),
