@@ -492,7 +492,7 @@ def sampled_analysis(plant: Plant, ctrl: RSTController, sample_rate_hz: float,
     >>> import control
     >>> from robrst import analyze, paper_plant, pole_placement, PoleSpec
     >>> ctrl = pole_placement(paper_plant(), PoleSpec(wn=600.0, zeta=1.0)).controller
-    >>> Pz = control.c2d(paper_plant().to_control(), 1 / 20000.0)    # ZOH at 20 kHz
+    >>> Pz = control.c2d(paper_plant().to_tf(), 1 / 20000.0)    # ZOH at 20 kHz
     >>> a = analyze(Pz, ctrl)
     >>> a.sample_rate_hz, bool(a.stable), a.peaks["S"].value > analyze(paper_plant(), ctrl).peaks["S"].value
     (20000.0, True, True)
