@@ -27,6 +27,7 @@ from robrst.core.rst import closed_loop
 from robrst.synthesis import analytic
 from robrst.synthesis.parametrize import integral_gain
 from robrst.synthesis.robust import best_achievable
+from robrst.base.interrupt import offer, stop_pool, worker_signals
 from robrst.base.threads import one_blas_thread
 
 if TYPE_CHECKING:
@@ -698,6 +699,7 @@ def _design(problem, progress, templates, analyse, multistart, warm=None, compar
         else:
             stage, ctrl, trk, cert = _candidate(problem, problem, False, start, say, templates,
                                                 warm=warm)
+            _offer(problem, ctrl, cert)
         check = analytic_check(problem, stage.controller, stage.Am)
     comp = None if method == "analytic" or not compare else comparison(problem, ctrl, cert)
     analyses = analyze_many(problem.family.models, ctrl) if analyse else ()
@@ -753,6 +755,14 @@ def _objective(problem, ctrl, cert):
     return 0.0
 
 
+def _offer(problem, ctrl, cert):
+    """Offer a certified candidate as the answer of a run a signal stops
+    (:func:`robrst.base.interrupt.offer`)."""
+    obj = _objective(problem, ctrl, cert)
+    if obj is not None:
+        offer(obj, (problem, ctrl, cert))
+
+
 def _worst_ratio(cert):
     r = [v.ratio for v in cert.violations]
     return max(r) if r else 0.0
@@ -802,14 +812,22 @@ def _multistart(problem, plans, start, say, templates):
     t1 = time.perf_counter()
     results[0] = (_candidate(problem, problem, False, start, say, templates), None,
                   time.perf_counter() - t1)
+    _offer(problem, results[0][0][1], results[0][0][3])
     first = results[0][0][0]
     budget = max(MIN_START_BUDGET, sum(r.iterations for r in getattr(first, "rounds", ())))
     try:
         ctx = multiprocessing.get_context("fork")
-        with ProcessPoolExecutor(MULTISTART_WORKERS, mp_context=ctx) as pool:
-            futs = [pool.submit(_run_start, p, problem, budget) for p in runs[1:]]
-            for k, f in enumerate(futs, 1):
-                results[k] = f.result()
+        with ProcessPoolExecutor(MULTISTART_WORKERS, mp_context=ctx,
+                                 initializer=worker_signals) as pool:
+            try:
+                futs = [pool.submit(_run_start, p, problem, budget) for p in runs[1:]]
+                for k, f in enumerate(futs, 1):
+                    results[k] = f.result()
+                    if results[k][0] is not None:
+                        _offer(problem, results[k][0][1], results[k][0][3])
+            except KeyboardInterrupt:      # a signal: the workers stop now, not at their end
+                stop_pool(pool)
+                raise
     except (OSError, ValueError, ImportError) as exc:   # no processes here: one at a time
         say(f"multi-start: no worker processes ({exc}); running the starts in turn")
         for k, p in enumerate(runs):

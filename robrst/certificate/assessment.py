@@ -17,6 +17,9 @@ looks at what was left unbounded; :func:`assess` computes it on every family mem
 * **input disturbances**: the peak of ``|B S / Delta|`` above the open loop's ``|B / A|``
   (the controller amplifies input disturbances somewhere) when no ``Msd_max`` is given.
 
+With a sample rate every warning is the **sampled loop's** (the loop that ships: ZOH
+plant, Tustin controller), the continuous loop's figure said beside it.
+
 Each warning names the model, the figure, the comparison and the key to set.
 """
 
@@ -66,6 +69,11 @@ class ModelAssessment:
         The sampled loop's least damping (poles mapped to s by ``fs ln z``).
     overshoot_pct_sampled : float, optional
         The sampled loop's overshoot at the samples [%].
+    Msd_sampled : float, optional
+        The sampled loop's peak of ``|B S / Delta|`` (input disturbance held by the ZOH to
+        the sampled output) [µm/V], up to Nyquist.
+    open_loop_Msd_sampled : float, optional
+        The ZOH plant's own peak up to Nyquist [µm/V] (``inf`` when not stable).
     """
 
     label: str
@@ -77,6 +85,8 @@ class ModelAssessment:
     open_loop_Msd: float
     damping_sampled: float = None
     overshoot_pct_sampled: float = None
+    Msd_sampled: float = None
+    open_loop_Msd_sampled: float = None
 
     def as_dict(self) -> dict:
         """The JSON form.
@@ -182,8 +192,14 @@ def assess(problem: Problem, ctrl: RSTController) -> Assessment:
         st_s = iter(_overshoots([p for p, k in zip(ps, ok) if k and want],
                                 [c for c, k in zip(cls, ok) if k and want], ctrl, sp,
                                 sp.sample_rate_hz))
+        ol_ok = [bool(np.all(np.roots(p.A).real < 0)) for p in ps]
+        pk_s = peak_gains_many([([c.nums["Sd"]], c.Delta, []) for c in cls]
+                               + [([p.B], p.A, []) for p, k in zip(ps, ol_ok) if k])
+        ol_s = iter(pk_s[len(cls):])
         sampled = {i: (_least_damping(c.Delta, sp.sample_rate_hz),
-                       next(st_s) if k and want else None) for i, (c, k) in enumerate(zip(cls, ok))}
+                       next(st_s) if k and want else None, float(pk_s[i][0].value),
+                       float(next(ol_s)[0].value) if ol_ok[i] else np.inf)
+                   for i, (c, k) in enumerate(zip(cls, ok))}
     steps = iter(steps)
     out = []
     for i, (m, cl, pk, st) in enumerate(zip(fam.models, loops, pks, stable_ol)):
@@ -195,7 +211,8 @@ def assess(problem: Problem, ctrl: RSTController) -> Assessment:
                    Msd=float(pk[0].value),
                    open_loop_Msd=float(next(ol)[0].value) if st else np.inf)
         if sp.sampled:
-            rec["damping_sampled"], rec["overshoot_pct_sampled"] = sampled[i]
+            (rec["damping_sampled"], rec["overshoot_pct_sampled"], rec["Msd_sampled"],
+             rec["open_loop_Msd_sampled"]) = sampled[i]
         out.append(ModelAssessment(**rec))
     return Assessment(models=tuple(out), warnings=tuple(_warnings(problem, out, floor, source)),
                       notes=tuple(_notes(floor, source, zp_all)), damping_floor=floor,
@@ -219,33 +236,48 @@ def _worst(models, key):
 
 
 def _warnings(problem, models, floor, source):
+    """The warnings, each on the loop that ships: the sampled loop when the specs name a
+    rate (the continuous loop's figure said beside it), else the continuous loop."""
     sp = problem.specs
+    samp = bool(sp.sampled)
+    shipped = f" in the {sp.sample_rate_hz:g} Hz loop that ships" if samp else ""
     out = []
-    low = [m for m in models if m.damping < m.plant_damping * (1 - 1e-3)]
+
+    def damping(m):
+        return m.damping_sampled if samp and m.damping_sampled is not None else m.damping
+
+    low = [m for m in models if damping(m) < m.plant_damping * (1 - 1e-3)]
     if low and not (source == "specs" and floor):
-        m = min(low, key=lambda m: m.damping / m.plant_damping)
-        out.append(f"closed-loop damping {m.damping:.3g} on model {m.label}"
+        m = min(low, key=lambda m: damping(m) / m.plant_damping)
+        also = f" (continuous loop {m.damping:.3g})" if samp else ""
+        out.append(f"closed-loop damping {damping(m):.3g}{shipped}{also} on model {m.label}"
                    f" ({m.temperature_C:g} °C) is below the plant's own {m.plant_damping:.3g}:"
                    " a resonance rings longer than open loop (set [specs] damping_min, or try"
                    " extra_degree + 1 to let the controller damp it)")
     if sp.overshoot_max_pct is None:
-        keys = ["overshoot_pct"] + (["overshoot_pct_sampled"] if sp.sampled else [])
-        for key in keys:
-            v, m = _worst(models, key)
-            if v is not None and v > DEFAULT_OVERSHOOT_WARN_PCT:
-                loop = " (sampled loop)" if key.endswith("sampled") else ""
-                out.append(f"a reference step overshoots {v:.3g} %{loop} on model {m.label}"
-                           f" ({m.temperature_C:g} °C), above {DEFAULT_OVERSHOOT_WARN_PCT:g} %"
-                           " (no overshoot_max_pct given: set it, a damping_min, or T_mode ="
-                           " \"reference_model\")")
-                break
+        v, m = _worst(models, "overshoot_pct_sampled" if samp else "overshoot_pct")
+        vc, mc = _worst(models, "overshoot_pct")
+        if v is not None and v > DEFAULT_OVERSHOOT_WARN_PCT:
+            also = (f" (continuous loop {vc:.3g} % on {mc.label})" if samp and vc is not None
+                    else "")
+            out.append(f"a reference step overshoots {v:.3g} %{shipped}{also} on model {m.label}"
+                       f" ({m.temperature_C:g} °C), above {DEFAULT_OVERSHOOT_WARN_PCT:g} %"
+                       " (no overshoot_max_pct given: set it, a damping_min, or T_mode ="
+                       " \"reference_model\")")
     if sp.Msd_max is None:
-        worse = [m for m in models if np.isfinite(m.open_loop_Msd)
-                 and m.Msd > m.open_loop_Msd * (1 + 1e-3)]
+        def pair(m):
+            if samp and m.Msd_sampled is not None:
+                return m.Msd_sampled, m.open_loop_Msd_sampled
+            return m.Msd, m.open_loop_Msd
+
+        worse = [m for m in models if np.isfinite(pair(m)[1])
+                 and pair(m)[0] > pair(m)[1] * (1 + 1e-3)]
         if worse:
-            m = max(worse, key=lambda m: m.Msd / m.open_loop_Msd)
-            out.append(f"input-disturbance peak |B S/Delta| {m.Msd:.4g} µm/V on model {m.label}"
-                       f" ({m.temperature_C:g} °C) exceeds the open loop's {m.open_loop_Msd:.4g}"
+            m = max(worse, key=lambda m: pair(m)[0] / pair(m)[1])
+            v, ol = pair(m)
+            also = f" (continuous loop {m.Msd:.4g})" if samp else ""
+            out.append(f"input-disturbance peak |B S/Delta| {v:.4g} µm/V{shipped}{also} on model"
+                       f" {m.label} ({m.temperature_C:g} °C) exceeds the open loop's {ol:.4g}"
                        " µm/V: the controller amplifies input disturbances near that frequency"
                        " (set [specs] Msd_max)")
     return out

@@ -117,8 +117,11 @@ class Violation:
         if self.kind not in ("exceeds", "below"):
             return f"model {self.label} ({self.temperature_C:g} °C){loop}: {self.quantity}{at}"
         rel = ">" if self.kind == "exceeds" else "<"
+        d = 4            # enough digits to tell the value from its bound
+        while d < 17 and f"{self.value:.{d}g}" == f"{self.bound:.{d}g}":
+            d += 1
         return (f"model {self.label} ({self.temperature_C:g} °C): {self.quantity}{loop} ="
-                f" {self.value:.4g} {rel} {self.bound:.4g}{at}")
+                f" {self.value:.{d}g} {rel} {self.bound:.{d}g}{at}")
 
 
 
