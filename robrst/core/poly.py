@@ -543,19 +543,20 @@ def rel_coef_error(a: ArrayLike, b: ArrayLike) -> float:
 def origin_roots(c: ArrayLike, rtol: float = ORIGIN_RTOL) -> int:
     """How many roots of ``c`` lie at ``s = 0`` (an integrator's, in a controller's ``S``).
 
-    A trailing coefficient is zero when it is exactly zero, or when it is below ``rtol``
-    times the other coefficients in the variable ``p = s / w`` scaled at the other roots'
-    geometric mean modulus ``w`` (:func:`natural_scale`): the root it leaves is then
-    within ``~rtol w`` of zero, which is what rounding does to a polynomial with a root at
-    0 (a controller read back from a discrete python-control system); a deliberate
-    ``S(0) != 0`` is far larger.
+    A trailing coefficient is zero when it is exactly zero, or when the root it makes is
+    below ``rtol`` times the next root: ``|c[-1] / c[-2]| <= rtol |c[-2] / c[-3]|`` (the
+    two smallest root moduli, read from the Newton polygon of the last coefficients).
+    That is what rounding does to a polynomial with a root at 0 (a controller read back
+    from a discrete python-control system: ``S(0) = -4e-16``); a deliberate ``S(0) != 0``
+    leaves a root far larger.  A polynomial of degree one has no other root to compare
+    with: only an exact zero counts.
 
     Parameters
     ----------
     c : array_like
         Coefficients, highest power first.
     rtol : float
-        Relative size of a trailing coefficient counted as zero.
+        How much smaller than the next root a root counts as 0.
 
     Returns
     -------
@@ -565,18 +566,17 @@ def origin_roots(c: ArrayLike, rtol: float = ORIGIN_RTOL) -> int:
     Examples
     --------
     >>> from robrst.core.poly import origin_roots
-    >>> origin_roots([1.0, 3.0, 0.0]), origin_roots([1.0, 3.0, 1e-3])
-    (1, 0)
+    >>> origin_roots([1.0, 3.0, 0.0]), origin_roots([1.0, 3.0, 1e-3]), origin_roots([1.0, 3.0, 1e-16])
+    (1, 0, 1)
     """
     c = trim(c)
     k = 0
     while k < len(c) - 1:
         head = c[:len(c) - k]
         if head[-1] != 0:
-            rest = head[:-1]
-            scaled = to_scaled(head, natural_scale(rest))
-            top = float(np.max(np.abs(scaled[:-1])))
-            if not abs(scaled[-1]) <= rtol * top:
+            if len(head) < 3 or head[-2] == 0 or head[-3] == 0:
+                break
+            if not abs(head[-1] / head[-2]) <= rtol * abs(head[-2] / head[-3]):
                 break
         k += 1
     return k
