@@ -15,7 +15,7 @@ figure                                          worse when
 ``phase_margin_deg``                            ``|current| < |value| (1 - rtol) - atol``
 ``gain_margin*`` (every gain margin)            ``|ln current| < |ln value| (1 - rtol) - atol``
 ``certified``                                   ``true`` became ``false``
-``integral_gain`` (objective)                   ``current < value (1 - rtol) - atol``
+``integral_gain`` (objective, its magnitude)    ``current < value (1 - rtol) - atol``
 ``worst_Ms`` (objective ``min_Ms``)             ``current > value (1 + rtol) + atol``
 ==============================================  ===============================================
 
@@ -120,7 +120,8 @@ def _objective(result, d):
         return "worst_Ms", max(m["Ms"] for m in d["certificate"]["models"])
     if kind == "feasibility":
         return None, None
-    return "integral_gain", d.get("integral_gain")
+    ki = d.get("integral_gain")      # the objective is its magnitude (a negative one too)
+    return "integral_gain", None if ki is None else abs(ki)
 
 
 def golden_figures(result: DesignResult | dict) -> dict:
