@@ -179,7 +179,7 @@ def starting_mu(plants: list, u_range: tuple | None = None) -> tuple[float, str]
 def starting_design(plants: list, fs: float, u_range: tuple | None = None) -> dict:
     """The design tables ``robrst identify`` writes into a file of one input and one output,
     so that ``robrst design`` runs on it as it is: the robust NLP (integral gain, certified
-    modulus margin 0.5, |T| <= 1.3, ``|U|`` bounded from the identified gain
+    modulus margin 0.5, ``|T| <= 1.3``, ``|U|`` bounded from the identified gain
     (:func:`starting_mu`) and a reference step overshooting at most 2 %, on the
     sampled loop at the records' rate), a two-degree-of-freedom reference path, the
     dominant poles and the reference model's bandwidth from :func:`starting_wn`.
