@@ -18,6 +18,9 @@ looks at what was left unbounded; :func:`assess` computes it on every family mem
   (the controller amplifies input disturbances somewhere) when neither ``Msd_max`` nor
   ``Msd_rel_max`` bounds it.
 
+With a sample rate every warning is the **sampled loop's** (the loop that ships: ZOH
+plant, Tustin controller), the continuous loop's figure said beside it.
+
 Each warning names the model, the figure, the comparison and the key to set.
 """
 
@@ -55,10 +58,18 @@ class LoopAssessment:
     overshoot_pct : float or None
         Reference-step overshoot [%] (at the samples for the sampled loop; ``None``: not
         stepped, see ``OVERSHOOT_GATE``).
+    Msd : float, optional
+        Peak of ``|B S / Delta|`` [µm/V] (the sampled loop's: the input disturbance held by
+        the ZOH to the sampled output, up to Nyquist).
+    open_loop_Msd : float, optional
+        The plant's own peak [µm/V] (the ZOH plant's for the sampled loop; ``inf`` when
+        not stable).
     """
 
     damping: float
     overshoot_pct: float | None = None
+    Msd: float | None = None
+    open_loop_Msd: float | None = None
 
 
 @dataclass(frozen=True)
@@ -189,19 +200,27 @@ def assess(problem: Problem, ctrl: RSTController) -> Assessment:
         st_s = iter(_overshoots([p for p, k in zip(ps, ok) if k and want],
                                 [c for c, k in zip(cls, ok) if k and want], ctrl, sp,
                                 sp.sample_rate_hz))
+        ol_ok = [bool(np.all(np.roots(p.A).real < 0)) for p in ps]
+        pk_s = peak_gains_many([([c.nums["Sd"]], c.Delta, []) for c in cls]
+                               + [([p.B], p.A, []) for p, k in zip(ps, ol_ok) if k])
+        ol_s = iter(pk_s[len(cls):])
         sampled = {i: (_least_damping(c.Delta, sp.sample_rate_hz),
-                       next(st_s) if k and want else None) for i, (c, k) in enumerate(zip(cls, ok))}
+                       next(st_s) if k and want else None, float(pk_s[i][0].value),
+                       float(next(ol_s)[0].value) if ol_ok[i] else np.inf)
+                   for i, (c, k) in enumerate(zip(cls, ok))}
     steps = iter(steps)
     out = []
     for i, (m, cl, pk, st) in enumerate(zip(fam.models, loops, pks, stable_ol)):
         p = np.roots(m.A)
         cplx = p[np.abs(p.imag) > 1e-9 * np.abs(p)]
         cont = LoopAssessment(damping=_least_damping(cl.Delta),
-                              overshoot_pct=next(steps) if stable[i] and want else None)
+                              overshoot_pct=next(steps) if stable[i] and want else None,
+                              Msd=float(pk[0].value),
+                              open_loop_Msd=float(next(ol)[0].value) if st else np.inf)
         out.append(ModelAssessment(
             label=m.label, temperature_C=m.temperature_C,
-            plant_damping=region.least_damping(cplx), Msd=float(pk[0].value),
-            open_loop_Msd=float(next(ol)[0].value) if st else np.inf, continuous=cont,
+            plant_damping=region.least_damping(cplx), Msd=cont.Msd,
+            open_loop_Msd=cont.open_loop_Msd, continuous=cont,
             sampled=LoopAssessment(*sampled[i]) if sp.sampled else None))
     return Assessment(models=tuple(out), warnings=tuple(_warnings(problem, out, floor, source)),
                       notes=tuple(_notes(floor, source, zp_all)), damping_floor=floor,
@@ -225,32 +244,50 @@ def _worst(models, loop):
 
 
 def _warnings(problem, models, floor, source):
+    """The warnings, each on the loop that ships: the sampled loop when the specs name a
+    rate (the continuous loop's figure said beside it), else the continuous loop."""
     sp = problem.specs
+    samp = bool(sp.sampled)
+    shipped = f" in the {sp.sample_rate_hz:g} Hz loop that ships" if samp else ""
     out = []
-    low = [m for m in models if m.continuous.damping < m.plant_damping * (1 - 1e-3)]
+
+    def shipped_loop(m):
+        return m.sampled if samp and m.sampled is not None else m.continuous
+
+    def damping(m):
+        return shipped_loop(m).damping
+
+    low = [m for m in models if damping(m) < m.plant_damping * (1 - 1e-3)]
     if low and not (source == "specs" and floor):
-        m = min(low, key=lambda m: m.continuous.damping / m.plant_damping)
-        out.append(f"closed-loop damping {m.continuous.damping:.3g} on model {m.label}"
+        m = min(low, key=lambda m: damping(m) / m.plant_damping)
+        also = f" (continuous loop {m.continuous.damping:.3g})" if samp else ""
+        out.append(f"closed-loop damping {damping(m):.3g}{shipped}{also} on model {m.label}"
                    f" ({m.temperature_C:g} °C) is below the plant's own {m.plant_damping:.3g}:"
                    " a resonance rings longer than open loop (set [specs] damping_min, or try"
                    " extra_degree + 1 to let the controller damp it)")
     if sp.overshoot_max_pct is None:
-        for loop in ("continuous", "sampled") if sp.sampled else ("continuous",):
-            v, m = _worst(models, loop)
-            if v is not None and v > DEFAULT_OVERSHOOT_WARN_PCT:
-                where = " (sampled loop)" if loop == "sampled" else ""
-                out.append(f"a reference step overshoots {v:.3g} %{where} on model {m.label}"
-                           f" ({m.temperature_C:g} °C), above {DEFAULT_OVERSHOOT_WARN_PCT:g} %"
-                           " (no overshoot_max_pct given: set it, a damping_min, or T_mode ="
-                           " \"reference_model\")")
-                break
+        v, m = _worst(models, "sampled" if samp else "continuous")
+        vc, mc = _worst(models, "continuous")
+        if v is not None and v > DEFAULT_OVERSHOOT_WARN_PCT:
+            also = (f" (continuous loop {vc:.3g} % on {mc.label})" if samp and vc is not None
+                    else "")
+            out.append(f"a reference step overshoots {v:.3g} %{shipped}{also} on model {m.label}"
+                       f" ({m.temperature_C:g} °C), above {DEFAULT_OVERSHOOT_WARN_PCT:g} %"
+                       " (no overshoot_max_pct given: set it, a damping_min, or T_mode ="
+                       " \"reference_model\")")
     if sp.Msd_max is None and sp.Msd_rel_max is None:
-        worse = [m for m in models if np.isfinite(m.open_loop_Msd)
-                 and m.Msd > m.open_loop_Msd * (1 + 1e-3)]
+        def pair(m):
+            lp = shipped_loop(m)
+            return lp.Msd, lp.open_loop_Msd
+
+        worse = [m for m in models if np.isfinite(pair(m)[1])
+                 and pair(m)[0] > pair(m)[1] * (1 + 1e-3)]
         if worse:
-            m = max(worse, key=lambda m: m.Msd / m.open_loop_Msd)
-            out.append(f"input-disturbance peak |B S/Delta| {m.Msd:.4g} µm/V on model {m.label}"
-                       f" ({m.temperature_C:g} °C) exceeds the open loop's {m.open_loop_Msd:.4g}"
+            m = max(worse, key=lambda m: pair(m)[0] / pair(m)[1])
+            v, ol = pair(m)
+            also = f" (continuous loop {m.Msd:.4g})" if samp else ""
+            out.append(f"input-disturbance peak |B S/Delta| {v:.4g} µm/V{shipped}{also} on model"
+                       f" {m.label} ({m.temperature_C:g} °C) exceeds the open loop's {ol:.4g}"
                        " µm/V: the controller amplifies input disturbances near that frequency"
                        " (set [specs] Msd_max)")
     return out

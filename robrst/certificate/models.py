@@ -71,11 +71,12 @@ class Violation:
         Where (physical frequency [rad/s]), when a frequency applies.
     loop : {"continuous", "sampled"}
         Which loop.
-    kind : {"exceeds", "below", "crossing", "unresolved"}
+    kind : {"exceeds", "below", "crossing", "unresolved", "structure"}
         ``value > bound``; ``value < bound`` (a lower bound: the pole region's damping and
         decay); a closed-loop root reaches the imaginary axis, or a pole-region boundary,
-        between two checked temperatures; or the check could not be decided (nothing is
-        certified then).
+        between two checked temperatures; the check could not be decided (nothing is
+        certified then); or the controller lacks a fixed factor of the problem (label
+        ``"controller"``, :mod:`robrst.certificate.structure`).
     """
 
     label: str
@@ -112,11 +113,16 @@ class Violation:
         """
         at = "" if self.freq_rad_s is None else f" at {self.freq_rad_s / (2 * np.pi):.4g} Hz"
         loop = " in the sampled loop" if self.loop == "sampled" else ""
+        if self.kind == "structure":
+            return self.quantity
         if self.kind not in ("exceeds", "below"):
             return f"model {self.label} ({self.temperature_C:g} °C){loop}: {self.quantity}{at}"
         rel = ">" if self.kind == "exceeds" else "<"
+        d = 4            # enough digits to tell the value from its bound
+        while d < 17 and f"{self.value:.{d}g}" == f"{self.bound:.{d}g}":
+            d += 1
         return (f"model {self.label} ({self.temperature_C:g} °C): {self.quantity}{loop} ="
-                f" {self.value:.4g} {rel} {self.bound:.4g}{at}")
+                f" {self.value:.{d}g} {rel} {self.bound:.{d}g}{at}")
 
 
 

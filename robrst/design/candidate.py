@@ -14,11 +14,13 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from robrst.base.errors import CoprimeError, SpecError
+from robrst.base.interrupt import offer
 from robrst.certificate.completion import first_tracked, with_time_domain
 from robrst.certificate.proof import certify
 from robrst.core import poly
 from robrst.design.achieved import AnalyticCheck, Comparison
 from robrst.synthesis import analytic
+from robrst.synthesis.objective import objective
 from robrst.synthesis.parametrize import integral_gain
 
 if TYPE_CHECKING:
@@ -29,7 +31,7 @@ if TYPE_CHECKING:
     from robrst.problem.records import PoleSpec, Problem
     from robrst.synthesis.analytic import AnalyticDesign
 
-__all__ = ["candidate", "analytic_design", "analytic_check", "comparison"]
+__all__ = ["candidate", "analytic_design", "analytic_check", "comparison", "offer_candidate"]
 
 
 def analytic_design(problem: Problem, poles: PoleSpec | None = None) -> AnalyticDesign:
@@ -226,3 +228,21 @@ def tracked(problem: Problem, ctrl: RSTController, cert: Certificate) -> tuple:
     from robrst.synthesis.tracking import tracking_candidates
 
     return first_tracked(problem, ctrl, cert, tracking_candidates(problem, ctrl))
+
+
+def offer_candidate(problem: Problem, ctrl: RSTController, cert: Certificate) -> None:
+    """Offer a certified candidate as the answer of a run a signal stops
+    (:func:`robrst.base.interrupt.offer`, scored by :func:`robrst.synthesis.objective.objective`).
+
+    Parameters
+    ----------
+    problem : Problem
+        The problem the candidate was judged on.
+    ctrl : RSTController
+        The controller.
+    cert : Certificate
+        Its complete certificate (time-domain figures included).
+    """
+    obj = objective(problem, ctrl, cert)
+    if obj is not None:
+        offer(obj, (problem, ctrl, cert))

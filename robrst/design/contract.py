@@ -501,6 +501,8 @@ def assessment_model_json(m: ModelAssessment) -> dict:
            "open_loop_Msd": m.open_loop_Msd}
     out["damping_sampled"] = None if m.sampled is None else m.sampled.damping
     out["overshoot_pct_sampled"] = None if m.sampled is None else m.sampled.overshoot_pct
+    out["Msd_sampled"] = None if m.sampled is None else m.sampled.Msd
+    out["open_loop_Msd_sampled"] = None if m.sampled is None else m.sampled.open_loop_Msd
     return out
 
 

@@ -13,8 +13,9 @@ from collections.abc import Callable, Sequence
 from dataclasses import replace
 from typing import TYPE_CHECKING
 
+from robrst.base.interrupt import stop_pool, worker_signals
 from robrst.base.threads import one_blas_thread
-from robrst.design.candidate import candidate
+from robrst.design.candidate import candidate, offer_candidate
 from robrst.synthesis.objective import objective
 from robrst.synthesis.parametrize import integral_gain
 
@@ -118,14 +119,22 @@ def multistart(problem: Problem, plans: Sequence[StartPlan], start: AnalyticDesi
     t1 = time.perf_counter()
     results[0] = (candidate(problem, problem, False, start, say, templates), None,
                   time.perf_counter() - t1)
+    offer_candidate(problem, results[0][0][1], results[0][0][3])
     first = results[0][0][0]
     budget = max(MIN_START_BUDGET, sum(r.iterations for r in getattr(first, "rounds", ())))
     try:
         ctx = multiprocessing.get_context("fork")
-        with ProcessPoolExecutor(MULTISTART_WORKERS, mp_context=ctx) as pool:
-            futs = [pool.submit(run_start, p, problem, budget) for p in runs[1:]]
-            for k, f in enumerate(futs, 1):
-                results[k] = f.result()
+        with ProcessPoolExecutor(MULTISTART_WORKERS, mp_context=ctx,
+                                 initializer=worker_signals) as pool:
+            try:
+                futs = [pool.submit(run_start, p, problem, budget) for p in runs[1:]]
+                for k, f in enumerate(futs, 1):
+                    results[k] = f.result()
+                    if results[k][0] is not None:
+                        offer_candidate(problem, results[k][0][1], results[k][0][3])
+            except KeyboardInterrupt:      # a signal: the workers stop now, not at their end
+                stop_pool(pool)
+                raise
     except (OSError, ValueError, ImportError) as exc:   # no processes here: one at a time
         say(f"multi-start: no worker processes ({exc}); running the starts in turn")
         for k, p in enumerate(runs):

@@ -13,7 +13,8 @@ from typing import TYPE_CHECKING
 
 from robrst.certificate.proof import certify_problem
 from robrst.core.analysis import analyze_many
-from robrst.design.candidate import analytic_check, analytic_design, candidate, comparison
+from robrst.design.candidate import (analytic_check, analytic_design, candidate, comparison,
+                                     offer_candidate)
 from robrst.design.result import DesignResult
 from robrst.synthesis.tracking import design_tracking
 
@@ -96,6 +97,7 @@ def design_single(problem: Problem, progress: Callable[[str], None] | None = Non
         else:
             stage, ctrl, trk, cert = candidate(problem, problem, False, start, say, templates,
                                                warm=warm)
+            offer_candidate(problem, ctrl, cert)
         check = analytic_check(problem, stage.controller, stage.Am)
     comp = None if method == "analytic" or not compare else comparison(problem, ctrl, cert)
     found, assessment = analyse(problem, ctrl) if analyses else ((), None)

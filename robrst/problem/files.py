@@ -23,7 +23,8 @@ from robrst.problem.records import (AUX_MIN_FACTOR, HOMOTOPIES, INITS, METHODS, 
 from robrst.problem.specs import specs_schema
 from robrst.base.schema import ArrayOf, Field, key_error, load_toml, markdown_rows, validate
 from robrst.problem.spread import (COEF as COEF_NAME, DIST_KEYS, PLANT_PARAMS, RANDOM_DISTS, SPREAD_METHODS,
-                                   THERMAL_KEYS, Param, Spread, check_plant_params)
+                                   THERMAL_KEYS, Param, Spread, check_plant_params,
+                                   check_truncation)
 from robrst.problem.checks import (MAX_RATE, MIN_RATE, MIN_RATE_HZ, check_combinations, check_generated,
                               check_pairs, check_rates, pole_spec)
 
@@ -473,6 +474,8 @@ def _spread(path, sp, family):
             raise key_error(path, key, f"expected lo < hi, got lo = {lo:g}, hi = {hi:g}")
         if dist == "lognormal" and lo is not None and not lo > 0:
             raise key_error(path, key + ("lo",), "lognormal truncation needs lo > 0")
+        if dist in ("normal", "lognormal") and (lo is not None or hi is not None):
+            check_truncation(path, key, dist, p)     # a truncation holding no probability
         params.append(Param(name=name, dist=dist, mean=p["mean"], std=p["std"],
                             median=p["median"], sigma=p["sigma"], lo=lo, hi=hi, note=p["note"]))
     if not params:

@@ -162,8 +162,9 @@ SPEC_TABLE = (
             scaled=True),
     SpecDef("Mu_hf_above_hz", _f("number", None, "where the Mu_hf_max bound starts [Hz]",
                                  positive=True), published="with", with_key="Mu_hf_max"),
-    SpecDef("overshoot_max_pct", _f("number", None, "overshoot of a reference step [%]",
-                                    lo=0.0),
+    SpecDef("overshoot_max_pct", _f("number", None, "overshoot of a reference step [%]; above"
+                                    " 100 the output would more than double the step: a bound"
+                                    " no design means", lo=0.0, hi=100.0),
             "upper", "overshoot_pct", unit="%", label="overshoot_pct",
             published="time_domain", time_domain=True),
     SpecDef("settling_time_max_s", _f("number", None, "2 % settling time of a reference step"

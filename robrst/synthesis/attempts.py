@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from robrst.base.interrupt import offer
 from robrst.certificate.proof import actuator_of, certify_families
 from robrst.synthesis.exchange import Phase, solve_exchange
 from robrst.synthesis.nlp import grid_blocks
@@ -529,8 +530,13 @@ class Run:
         cert = frequency_certificate(ctx.problem, ctrl)
         if res is not None and self.rounds:
             self.rounds[-1] = replace(self.rounds[-1], violations=len(cert.violations))
-        return Outcome(ctrl=ctrl, cert=cert, res=res, phase=phase, placement=setup.placement,
-                       x=np.asarray(x, float), setup=setup)
+        out = Outcome(ctrl=ctrl, cert=cert, res=res, phase=phase, placement=setup.placement,
+                      x=np.asarray(x, float), setup=setup)
+        p = ctx.problem
+        if cert.certified and not p.specs.time_domain and p.spread is None \
+                and p.controller.T_mode != "reference_model":   # the whole certificate
+            offer(objective_value(p, out), (p, ctrl, cert))      # if a signal stops the run
+        return out
 
     def hard(self, ctx: Context, placement: str, x: np.ndarray, name: str) -> Outcome | None:
         """The objective under hard specs from ``x``, certified, refined round by round.
