@@ -13,16 +13,16 @@ Pipeline (:func:`diagnose`)::
       -> findings (amplitude_dependent, unmodelled_dynamics, output_offset, train_only)
          and verdict: none | <effect> | output_offset | linear | cannot_tell
 
-Verdict rules (constants in :mod:`robrst.diagnose.select` and below): ``none`` when the
-held-out gap is within ``NONE_RATIO`` of the floor (or below ``RESOLVED_GAP``).  An answer
-(the selected effects, or ``linear`` when no effect adds to the linear re-fit) must remove
-``MIN_SHRINK`` of the excess gap (the same 30 % bar for ``linear`` as for effects) *and*
-bring the gap near the floor: within ``NEAR_RATIO`` x the floor, or ``NEAR_EXCESS`` of the
+Verdict rules (constants in :mod:`robrst.diagnose.options`): ``none`` when the held-out
+gap is within ``none_ratio`` of the floor (or below ``resolved_gap``).  An answer (the
+selected effects, or ``linear`` when no effect adds to the linear re-fit) must remove
+``min_shrink`` of the excess gap (the same 30 % bar for ``linear`` as for effects) *and*
+bring the gap near the floor: within ``near_ratio`` x the floor, or ``near_excess`` of the
 excess left.  Otherwise ``cannot_tell``, with the best partial explanation.  A constant
 output offset is a candidate like the effects (:data:`robrst.diagnose.select.OFFSET`):
 when the answer includes it, it is named (``causes``, finding ``output_offset`` with the
 fitted offset); a ``cannot_tell`` whose held-out residual is mostly a constant
-(``OFFSET_SHARE``) names it too instead of searching for missing linear dynamics.  A
+(``offset_share``) names it too instead of searching for missing linear dynamics.  A
 ``none`` whose training records show a gap says so.  The JSON contract
 (:meth:`Diagnosis.as_dict`) only ever gains fields.
 """
@@ -42,12 +42,13 @@ from robrst.diagnose.findings import (amplitude_finding, comparable, floor_of, n
                                       unmodelled_finding)
 from robrst.diagnose.fit import fit_model, prepare
 from robrst.diagnose.linear import LinearPart, as_modal, unexcited
+from robrst.diagnose.options import OPTIONS
 from robrst.diagnose.sensor import repair
 from robrst.diagnose.result import Diagnosis, EffectScore
 from robrst.diagnose.select import (DYNAMIC, OFFSET, Setup, cut, explain, linear_with_offset,
                                     significant)
 from robrst.diagnose.thermal import max_delay, search_delay
-from robrst.diagnose.verdict import NEAR_RATIO, build, decide, unmodelled
+from robrst.diagnose.verdict import build, decide, unmodelled
 from robrst.base.errors import DataError, SpecError
 from robrst.core.plant import Plant, as_plant, paper_plant
 from robrst.identify.modal import ModalModel
@@ -60,14 +61,9 @@ if TYPE_CHECKING:
     from robrst.identify.modal import ModalModel
 
 __all__ = ["Diagnosis", "EffectScore", "diagnose", "check_records", "decompose",
-           "offset_finding", "polynomial_plant", "skipped_effects", "MIN_SAMPLES",
-           "NONE_RATIO"]
+           "offset_finding", "polynomial_plant", "skipped_effects"]
 
-MIN_SAMPLES = 500        # per record
-NONE_RATIO = 1.25        # gap <= 1.25 x noise floor: nothing to explain
-RESOLVED_GAP = 1e-6      # ... or NRMSE below 1e-6 (noise-free records, a floor of rounding)
-OFFSET_SHARE = 0.5       # a constant offset this share of the residual: finding output_offset
-TEMP_EXCITED_K = 0.05    # a temperature range below this does not excite thermal effects
+_REC, _VERDICT = OPTIONS.records, OPTIONS.verdict
 
 
 def check_records(train: Sequence[Dataset], test: Sequence[Dataset], n_in: int | None = None,
@@ -89,7 +85,7 @@ def check_records(train: Sequence[Dataset], test: Sequence[Dataset], n_in: int |
     Raises
     ------
     DataError
-        Naming the file: empty sets, records shorter than ``MIN_SAMPLES``, a constant
+        Naming the file: empty sets, records shorter than ``min_samples``, a constant
         output while the input varies, sampling rates that differ (relative 1e-6) and
         channel counts that differ from each other or from the model's.
     """
@@ -100,9 +96,9 @@ def check_records(train: Sequence[Dataset], test: Sequence[Dataset], n_in: int |
     k, m = (recs[0].n_in, recs[0].n_out) if n_in is None else (n_in, n_out)
     for d in recs:
         name = d.source or "record"
-        if d.n < MIN_SAMPLES:
+        if d.n < _REC.min_samples:
             raise DataError(f"{name}: too short ({d.n} samples); a diagnosis"
-                            f" needs at least {MIN_SAMPLES} samples per record")
+                            f" needs at least {_REC.min_samples} samples per record")
         if (d.n_in, d.n_out) != (k, m):
             raise DataError(f"{name}: {d.n_in} input(s) and {d.n_out} output(s), but the model"
                             f" has {k} and {m}")
@@ -116,7 +112,8 @@ def check_records(train: Sequence[Dataset], test: Sequence[Dataset], n_in: int |
 
 
 def _excited(records):
-    return any(np.ptp(d.U, axis=0).max() > 1e-6 or (d.temp is not None and np.ptp(d.temp) > 1e-6)
+    lim = _REC.excited_ptp
+    return any(np.ptp(d.U, axis=0).max() > lim or (d.temp is not None and np.ptp(d.temp) > lim)
                for d in records)
 
 
@@ -181,7 +178,7 @@ def skipped_effects(train: Sequence[Dataset], test: Sequence[Dataset], effects: 
     t_range = float(np.ptp(np.concatenate(temps))) if temps else 0.0
     siso = (model.n_in, model.n_out) == (1, 1)
     for e in effects:
-        if e in THERMAL and t_range < TEMP_EXCITED_K:
+        if e in THERMAL and t_range < _REC.temp_excited_K:
             out[e] = (f"temperature constant within {t_range:.3g} K on the training records"
                       if temps else "no temperature measured")
         elif e in ("thermal_dynamics", "stiffness_nonlinearity") and not siso:
@@ -202,7 +199,7 @@ def _levels_ok(train, test):
     if not all(d.period and d.periods >= 1 for d in recs):
         return False
     lv = sorted(d.level for d in train)
-    return len(lv) >= 2 and lv[-1] > 1.3 * lv[0]
+    return len(lv) >= 2 and lv[-1] > _REC.level_ratio * lv[0]
 
 
 def diagnose(train: Sequence[Dataset], test: Sequence[Dataset], plant: Plant | ModalModel | None = None,
@@ -306,13 +303,14 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
         return build(info, where, tests, traces, "cannot_tell",
                      f"the {which} records have no excitation (u and temp constant):"
                      " nothing distinguishes one effect from another", skipped=skipped)
-    if before <= NONE_RATIO * floor or before <= RESOLVED_GAP:
+    none_ratio, resolved = _VERDICT.none_ratio, _VERDICT.resolved_gap
+    if before <= none_ratio * floor or before <= resolved:
         amp, info["per_level"] = amplitude_finding(all_recs, base_res, None, sig, n_tr)
-        why = (f"within {NONE_RATIO}x the noise floor {floor:.3g}" if before <= NONE_RATIO * floor
-               else f"below {RESOLVED_GAP:g}: the model reproduces the records to six digits"
+        why = (f"within {none_ratio}x the noise floor {floor:.3g}" if before <= none_ratio * floor
+               else f"below {resolved:g}: the model reproduces the records to six digits"
                     f" (noise floor {floor:.3g}, the records' own rounding)")
         why = f"held-out gap {before:.3g} is {why}"
-        if before_train > NEAR_RATIO * max(floor_train, RESOLVED_GAP):
+        if before_train > _VERDICT.near_ratio * max(floor_train, resolved):
             why += (f"; but the training records show a gap ({before_train:.3g},"
                     f" {before_train / floor_train:.3g}x their noise floor) the test records do"
                     " not: the test records do not excite what causes it (add test records"
@@ -354,7 +352,7 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
         findings.append(off)
         reason += f"; {off['message']}"
     if not off and cause in ("cannot_tell", "linear") and (gap is None
-                                                            or gap > NEAR_RATIO * floor):
+                                                            or gap > _VERDICT.near_ratio * floor):
         # what is left may be linear dynamics the model lacks (a named effect's answer
         # says itself how much it leaves unexplained)
         hi = unmodelled(setup, linear, info)
@@ -402,13 +400,14 @@ def _low_level_refit(setup, train, train_p, preps):
     """Residuals (all records) of a linear re-fit on the lowest training level, or None."""
     recs = list(setup.train_records) + list(setup.test_records)
     low_rec = min(recs, key=lambda d: d.level)
-    if not any(d.level > 1.3 * low_rec.level and comparable(d, low_rec) for d in recs):
+    if not any(d.level > _REC.level_ratio * low_rec.level and comparable(d, low_rec)
+               for d in recs):
         return None
     lowest = min(d.level for d in train)
-    low = [p for p, d in zip(train_p, train) if d.level <= lowest * 1.1]
+    low = [p for p, d in zip(train_p, train) if d.level <= lowest * (1 + OPTIONS.levels.lowest_tol)]
     ch = Chain((), setup.lin.model.n_in, setup.fs, setup.ref, setup.stats, cache=setup.stages)
     fit = fit_model("linear@low", (), low, setup.lin, ch, setup.noise_sigma, joint=True,
-                    max_nfev=30, ftol=1e-8)
+                    max_nfev=OPTIONS.fit.low_level_nfev, ftol=OPTIONS.fit.ftol)
     return [p.Y - fit.predict_prepared(p) for p in preps]
 
 
@@ -486,7 +485,7 @@ def offset_finding(res: Sequence[np.ndarray], fitted: Fitted | None = None) -> d
     With ``fitted`` (the answer's fit, which includes a constant output offset) the
     offset is the fitted one and the finding is always made; its ``share`` is what that
     constant alone is of the held-out residual's mean square.  Without, the finding is
-    made when a constant is most (``OFFSET_SHARE``) of the held-out residual ``res`` (the
+    made when a constant is most (``offset_share``) of the held-out residual ``res`` (the
     dynamic effects and a linear re-fit cannot stand for it).
 
     Parameters
@@ -513,7 +512,7 @@ def offset_finding(res: Sequence[np.ndarray], fitted: Fitted | None = None) -> d
                             " corrections): a sensor zero or bias the model lacks, not a"
                             " dynamic effect")}
     mean, share = _offset(res)
-    if share < OFFSET_SHARE:
+    if share < _VERDICT.offset_share:
         return None
     return {"kind": "output_offset", "offset_um": mean, "share": share,
             "message": (f"the held-out residual is mostly a constant offset ({mean:.4g} µm,"

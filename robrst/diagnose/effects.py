@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy import signal
 
+from robrst.diagnose.options import OPTIONS
 from robrst.diagnose.stages import cached_stage
 from robrst.twin.config import EFFECTS as TWIN_EFFECTS
 from robrst.twin.config import default_twin
@@ -46,14 +47,10 @@ EFFECTS = tuple(e for e in TWIN_EFFECTS if e not in SENSOR_EFFECTS and e not in 
 # need no re-run of them); the twin puts it on the drive, the same map when alone
 ORDER = ("delay", "saturation", "slew", "hysteresis", "pi_hysteresis", "input_nonlinearity",
          "creep", "thermal_drift")
-# play thresholds of the Prandtl–Ishlinskii candidate / peak-to-peak input (log-spaced)
-PI_FRACTIONS = (0.01, 0.02, 0.035, 0.05, 0.075, 0.1, 0.14, 0.19, 0.25, 0.33, 0.42)
-# knots of the static input map's hinges: quantiles of the training inputs (distinct, with
-# samples on both sides: a hinge at the edge of the data is not determined by it)
-KNOT_QUANTILES = (0.02, 0.05, 0.1, 0.2, 0.35, 0.5, 0.65, 0.8, 0.9, 0.95, 0.98)
 INPUT_EFFECTS = ORDER
 THERMAL = ("thermal_drift", "thermal_dynamics")  # need a varying temperature
 LN10 = np.log(10.0)
+_EFF = OPTIONS.effects
 
 
 @dataclass(frozen=True)
@@ -94,13 +91,11 @@ def _drift_d(z):
 def _b_max(s):
     """Upper bound of log10 B [1/V] of Bouc–Wen: 30 / peak-to-peak, and the discrete update
     ``h+ = h (1 - (B +- Gamma) |du|) + A du`` a contraction for the largest step of the data
-    (``(B + |Gamma|) |du| <= 2 BW_STEP_MAX`` with ``|Gamma| <= B``; the first step is from the
+    (``(B + |Gamma|) |du| <= 2 bw_step_max`` with ``|Gamma| <= B``; the first step is from the
     memory's 0 V to the first sample).  Beyond it the loop and its sensitivities diverge: a
     fit of a smooth noise-free sine overflowed into NaN."""
-    return np.log10(min(30.0 / s["u_ptp"], BW_STEP_MAX / max(s["du_max"], 1e-12)))
+    return np.log10(min(30.0 / s["u_ptp"], _EFF.bw_step_max / max(s["du_max"], 1e-12)))
 
-
-BW_STEP_MAX = 0.95       # (B + |Gamma|) |du| / 2 at the largest per-sample step
 
 SPECS = {
     "hysteresis": Spec(
@@ -140,7 +135,7 @@ SPECS = {
 
 
 def _pi_spec(stats):
-    n = len(PI_FRACTIONS)
+    n = len(_EFF.pi_fractions)
     return Spec(names=tuple(f"weight_{i + 1}" for i in range(n)),
                 bounds=lambda s: ((-3.0,) * n, (3.0,) * n), init=lambda s: (0.0,) * n,
                 twin=lambda z: np.asarray(z, float), dtwin=lambda z: np.eye(n),
@@ -149,8 +144,8 @@ def _pi_spec(stats):
 
 def pi_thresholds(stats):
     """Play thresholds [V] of the Prandtl–Ishlinskii candidate: fractions of the input's
-    peak-to-peak range (:data:`PI_FRACTIONS`)."""
-    return tuple(float(f * stats["u_ptp"]) for f in PI_FRACTIONS)
+    peak-to-peak range (``pi_fractions`` of :class:`~robrst.diagnose.options.EffectOptions`)."""
+    return tuple(float(f * stats["u_ptp"]) for f in _EFF.pi_fractions)
 
 
 def _map_spec(stats):
@@ -178,11 +173,12 @@ def spec(effect, stats):
 
 
 def _knots(U):
-    """Distinct knots strictly inside the data: quantiles, at least 1 % of the range apart."""
+    """Distinct knots strictly inside the data: quantiles (``knot_quantiles``), at least 1 % of
+    the range apart (a hinge at the edge of the data is not determined by it)."""
     lo, hi = float(U.min()), float(U.max())
     gap = 0.01 * max(hi - lo, 1e-12)
     out = []
-    for v in np.quantile(U, KNOT_QUANTILES):
+    for v in np.quantile(U, _EFF.knot_quantiles):
         if lo + gap < v < hi - gap and (not out or v > out[-1] + gap):
             out.append(float(v))
     return tuple(out)

@@ -22,7 +22,7 @@ d_il y_l`` on the output side, off-diagonal only)::
 Periodic records are fitted in steady state on their period average (weight: the
 number of periods), the effects warmed up on one extra period.  Records are simulated
 whole; the residual of a long record enters the fit on every k-th sample (at most
-``FIT_ROWS`` rows per record, weighted by sqrt(k)): the cost of each solver step then does
+``fit_rows`` rows per record, weighted by sqrt(k)): the cost of each solver step then does
 not grow with the record.
 """
 
@@ -37,6 +37,7 @@ from scipy import optimize
 
 from robrst.diagnose.effects import Chain
 from robrst.diagnose.linear import parameter_std
+from robrst.diagnose.options import OPTIONS
 
 if TYPE_CHECKING:
     from robrst.data.dataset import Dataset
@@ -46,7 +47,7 @@ __all__ = ["Prepared", "prepare", "Fitted", "fit_model", "fit_by_level", "model_
            "level_factor"]
 
 SLOPE_KINDS = ("dlog_freq", "dlog_damping", "input_gain", "gain", "mode_gain")
-FIT_ROWS = 8192          # residual rows per record in a fit (every k-th sample beyond)
+_FIT = OPTIONS.fit
 
 
 @dataclass(frozen=True, eq=False)
@@ -676,8 +677,8 @@ def fit_model(name: str, effects: Sequence[str], train: Sequence[Prepared], lin:
     post = make_post(train, offset, curvature, mixing)
     no = post.sizes()["offset"] if post else 0
     plo, phi = post.bounds() if post else (np.zeros(0), np.zeros(0))
-    lo = np.concatenate([chain.lower, lin.lower if joint else [], np.full(ns, -5.0), plo])
-    hi = np.concatenate([chain.upper, lin.upper if joint else [], np.full(ns, 5.0), phi])
+    lo = np.concatenate([chain.lower, lin.lower if joint else [], np.full(ns, -_FIT.slope_bound), plo])
+    hi = np.concatenate([chain.upper, lin.upper if joint else [], np.full(ns, _FIT.slope_bound), phi])
     for i in (pinned if joint else ()):
         lo[nz + i], hi[nz + i] = -1e-12, 1e-12
         if i in slopes:
@@ -706,7 +707,7 @@ def fit_model(name: str, effects: Sequence[str], train: Sequence[Prepared], lin:
 
     # residual rows: every k-th sample of a long record (the simulation runs over all of it),
     # weighted by sqrt(k) so the priors keep their weight
-    strides = [max(1, -(-len(p.Y) // FIT_ROWS)) for p in train]
+    strides = [max(1, -(-len(p.Y) // _FIT.fit_rows)) for p in train]
 
     def fun(x):
         r = [(proto.predict_prepared(p, x) - p.Y)[::k].ravel() * (p.weight * np.sqrt(k) / scale)
@@ -742,8 +743,8 @@ def fit_model(name: str, effects: Sequence[str], train: Sequence[Prepared], lin:
 
 
 def fit_by_level(name: str, train: Sequence[Prepared], lin: LinearPart, chain: Chain,
-                 noise_sigma: float, start: dict | None = None, max_nfev: int = 20,
-                 tol: float = 0.1, pinned: Sequence[int] = ()) -> Fitted:
+                 noise_sigma: float, start: dict | None = None, max_nfev: int = _FIT.level_nfev,
+                 tol: float = OPTIONS.levels.level_tol, pinned: Sequence[int] = ()) -> Fitted:
     """Amplitude-dependent dynamics by one linear re-fit per excitation level.
 
     The training records are grouped by level (within ``tol``); the linear corrections are

@@ -20,7 +20,8 @@ of the same numerators over the new denominator,
 conjugates included; no polynomial is expanded).  A re-fit therefore corrects gains,
 resonances and damping (the usual model errors) but cannot imitate a delay or an
 effect by rotating phases.  ``theta = 0`` is the user's model; corrections are bounded
-(:data:`BOUNDS`) and carry Gaussian priors (:data:`PRIOR_SD`): a re-fit is regularised
+(``bounds``) and carry Gaussian priors (``prior_sd``, both in
+:class:`~robrst.diagnose.options.LinearOptions`): a re-fit is regularised
 toward the user's model.  Records are simulated exactly (ZOH,
 :func:`~robrst.core.lti.zoh_modal`) from rest by first-order recursions, or in periodic
 steady state on the DFT grid.  :class:`LinearPart` returns outputs and their Jacobian
@@ -36,6 +37,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy import optimize, signal
 
+from robrst.diagnose.options import OPTIONS
 from robrst.identify.modal import ModalModel, pair_weight
 from robrst.core.lti import zoh_modal
 from robrst.core.plant import Plant
@@ -43,16 +45,11 @@ from robrst.core.plant import Plant
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
-__all__ = ["coefficient_changes", "LinearPart", "LinearSim", "as_modal", "refit_linear", "LinearFit", "PRIOR_SD",
-           "BOUNDS", "parameter_std", "unexcited", "EXCITED_SHARE"]
+__all__ = ["coefficient_changes", "LinearPart", "LinearSim", "as_modal", "refit_linear",
+           "LinearFit", "parameter_std", "unexcited"]
 
-PRIOR_SD = {"dlog_freq": 0.1, "dlog_damping": 1.0, "gain": 0.2, "input_gain": 0.2,
-            "mode_gain": 0.2}
-BOUNDS = {"dlog_freq": (-0.5, 0.5), "dlog_damping": (-3.0, 3.0), "gain": (-0.9, 2.0),
-          "input_gain": (-0.9, 2.0), "mode_gain": (-0.9, 2.0)}
-FD_STEP = 1e-6
 GAIN_KINDS = ("gain", "input_gain", "mode_gain")
-EXCITED_SHARE = 1e-5     # input power within an octave of a mode that lets the records see it
+_LIN = OPTIONS.linear
 
 
 def as_modal(model: ModalModel | Plant) -> ModalModel:
@@ -116,13 +113,13 @@ class LinearPart:
             kinds.append(("gain", 0))
         self.names = tuple(names)
         self.kinds = tuple(kinds)
-        self.lower = np.array([BOUNDS[k][0] for k, _ in kinds])
-        self.upper = np.array([BOUNDS[k][1] for k, _ in kinds])
+        self.lower = np.array([_LIN.bounds[k][0] for k, _ in kinds])
+        self.upper = np.array([_LIN.bounds[k][1] for k, _ in kinds])
         if self.modal_gains:                  # log gains: the same factors 0.1 ... 3
             gain = np.array([k in GAIN_KINDS for k, _ in kinds])
             self.lower[gain] = np.log1p(self.lower[gain])
             self.upper[gain] = np.log1p(self.upper[gain])
-        self.prior_sd = np.array([PRIOR_SD[k] for k, _ in kinds])
+        self.prior_sd = np.array([_LIN.prior_sd[k] for k, _ in kinds])
         self.moves = tuple(i for i, (k, _) in enumerate(kinds)
                            if k in ("dlog_freq", "dlog_damping", "mode_gain"))
         self._cache = {}          # sampled transfers by (theta, N): records share DFT grids
@@ -155,7 +152,7 @@ class LinearPart:
         for q, pole in enumerate(p):
             if pole.imag > 0:
                 wn, zeta = abs(pole), -pole.real / abs(pole)
-                wn, zeta = wn * np.exp(dw[q]), min(zeta * np.exp(dz[q]), 0.999)
+                wn, zeta = wn * np.exp(dw[q]), min(zeta * np.exp(dz[q]), _LIN.max_damping)
                 p[q] = complex(-zeta * wn, wn * np.sqrt(1 - zeta * zeta))
             else:
                 p[q] = pole * np.exp(dw[q])
@@ -365,8 +362,8 @@ class LinearPart:
                 cols[..., i] = parts[:, :, q] if self.modal_gains else parts[:, :, q] / gains[q]
         for i in self.moves:
             th = theta.copy()
-            th[i] += FD_STEP
-            cols[..., i] = (self._parts(th, V, periodic).sum(axis=2) - total) / FD_STEP
+            th[i] += _LIN.fd_step
+            cols[..., i] = (self._parts(th, V, periodic).sum(axis=2) - total) / _LIN.fd_step
         return Y, back(cols)
 
 
@@ -525,7 +522,7 @@ def unexcited(lin: LinearPart, inputs: Sequence[np.ndarray], fs: float) -> tuple
     """Indices of ``lin``'s mode corrections the ``inputs`` do not excite.
 
     A mode's frequency and damping corrections are determined by records only through
-    its own band: when the inputs put less than ``EXCITED_SHARE`` of their power (about
+    its own band: when the inputs put less than ``excited_share`` of their power (about
     their mean) within an octave of the mode's frequency, the records see the mode only
     through side effects (the low-frequency phase), where any other model error would
     pull it; such corrections are held at the user's values.
@@ -555,7 +552,7 @@ def unexcited(lin: LinearPart, inputs: Sequence[np.ndarray], fs: float) -> tuple
             num[q] = num.get(q, 0.0) + float(P[(f >= fq / 2) & (f <= 2 * fq)].sum())
     if den <= 0:
         return ()
-    quiet = {q for q, v in num.items() if v < EXCITED_SHARE * den}
+    quiet = {q for q, v in num.items() if v < _LIN.excited_share * den}
     return tuple(i for i, (kind, q) in enumerate(lin.kinds)
                  if kind in ("dlog_freq", "dlog_damping", "mode_gain") and q in quiet)
 

@@ -24,14 +24,13 @@ import numpy as np
 from scipy import signal
 
 from robrst.diagnose.fit import Fitted, level_factor
+from robrst.diagnose.options import OPTIONS
 from robrst.identify.modal import ModalModel
 
 if TYPE_CHECKING:
     from robrst.diagnose.fit import Prepared
 
-__all__ = ["Polished", "polish_residues", "PRIOR_PER_LEVEL"]
-
-PRIOR_PER_LEVEL = 1.0     # prior sd of dR_p per unit of f, relative to |R_p|
+__all__ = ["Polished", "polish_residues"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -193,7 +192,7 @@ def polish_residues(fit: Fitted, train: Sequence[Prepared], noise_sigma: float) 
         return fit
     ref = fit.lin.continuous(fit.theta_at(fit.level_ref))
     mag = np.array([max(np.max(np.abs(ref.residues[q])), 1e-300) for q, _, _ in index])
-    ridge = noise_sigma / (PRIOR_PER_LEVEL * mag)
+    ridge = noise_sigma / (OPTIONS.fit.prior_per_level * mag)
     A = np.vstack(rows + [np.diag(ridge)])
     B = np.vstack(rhs + [np.zeros((len(index), rhs[0].shape[1]))])
     cs = np.linalg.norm(A, axis=0)

@@ -5,13 +5,13 @@
    linear least-squares fit on precomputed columns, linearised about the user's model
    and about the linear re-fit (the better of the two, on the training records).
 3. Forward selection: at each step the candidates whose screen improves on the current
-   set by ``PROMISING`` (held-out or training gap) are ranked, the best ``REFINE_TOP``
+   set by ``promising`` (held-out or training gap) are ranked, the best ``refine_top``
    are fitted by their own nonlinear models *jointly* with the set so far and the linear
    corrections (:func:`robrst.diagnose.fit.fit_model`, or the standalone fits of
    ``thermal_dynamics`` and ``stiffness_nonlinearity``), and the best is kept if it
-   removes ``MIN_SHRINK`` of the excess held-out gap and beats the current set by
-   ``MARGIN`` (:func:`significant`).  A set's fit starts at the values of the set before
-   it; when the best one's training gap stays ``SHORT_OF_SCREEN`` times above its screen,
+   removes ``min_shrink`` of the excess held-out gap and beats the current set by
+   ``margin`` (:func:`significant`; the constants live in :mod:`robrst.diagnose.options`).  A set's fit starts at the values of the set before
+   it; when the best one's training gap stays ``short_of_screen`` times above its screen,
    it is fitted again from the screens' starts (not from the smaller set's values: an
    effect fitted alone can stretch to stand in for the one still missing, e.g. creep's
    growth with temperature for a thermal drift, and the joint fit cannot leave that
@@ -45,6 +45,7 @@ import numpy as np
 from robrst.diagnose import signals
 from robrst.diagnose.effects import Chain
 from robrst.diagnose.fit import fit_by_level, fit_model
+from robrst.diagnose.options import OPTIONS
 from robrst.diagnose.polish import polish_residues
 from robrst.diagnose.screen import build_screen
 from robrst.diagnose.stiffness import fit_stiffness
@@ -54,28 +55,17 @@ if TYPE_CHECKING:
     from robrst.diagnose.fit import Prepared
 
 __all__ = ["Setup", "Scored", "Explanation", "explain", "excess", "significant",
-           "linear_with_offset", "refit_keys", "MIN_SHRINK", "MARGIN", "MAX_EFFECTS", "OFFSET",
-           "DYNAMIC", "STANDALONE", "PROMISING", "REFINE_TOP", "SHORT_OF_SCREEN"]
+           "linear_with_offset", "refit_keys", "OFFSET", "DYNAMIC", "STANDALONE"]
 
 OFFSET = "output_offset"  # the constant output offset's candidate name
 LONG = ("thermal_drift", "thermal_dynamics")   # follow the whole temperature history
-CUT_SAMPLES = 100_000    # other candidates are screened and fitted on this much of a record
-SECOND_POINT = False     # screen about the linear re-fit too (not only the user's model)
-NEAR_FLOOR = 2.0         # a hysteresis form this close to the floor needs no other form
 DYNAMIC = "amplitude_dependent_dynamics"
 STANDALONE = ("thermal_dynamics", "stiffness_nonlinearity")   # fitted alone, not combined
 CHAIN = ("delay", "input_nonlinearity", "saturation", "slew", "creep", "thermal_drift")
 # special cases of a more general candidate: fitted with it, and named when not worse
 SPECIAL = {"input_nonlinearity": ("saturation",), "output_nonlinearity": ("output_offset",)}
+_SEL, _FIT = OPTIONS.select, OPTIONS.fit
 
-MIN_SHRINK = 0.3         # an explanation must remove >= 30 % of the excess gap it faces
-MARGIN = 1.1             # ... and beat the alternative by 10 % in held-out gap
-MAX_EFFECTS = 3
-REFINE_TOP = 3           # candidates fitted per step (the best by the screen) ...
-SCREEN_SPREAD = 2.0      # ... when their screened gap is within this factor of the best
-PROMISING = 0.97         # a screen must improve on the current set by 3 %
-FINAL_NFEV = 150         # an unconverged joint fit is run on up to this many evaluations
-SHORT_OF_SCREEN = 1.5    # a fit this far above its screen (training) is re-fitted fresh
 
 
 @dataclass(frozen=True, eq=False)
@@ -129,7 +119,7 @@ class Setup:
     pinned, pinned_modal : tuple of int
         Corrections of ``lin`` / ``lin_modal`` the training records do not excite (held).
     train_cut, test_cut : list of Prepared, optional
-        The records cut to ``CUT_SAMPLES`` (from-rest ones) for screens and fits.
+        The records cut to ``cut_samples`` (from-rest ones) for screens and fits.
     """
 
     fs: float
@@ -155,7 +145,7 @@ class Setup:
     stages: dict = field(default_factory=dict)   # compiled effect stages of this diagnosis
     pinned: tuple = ()         # corrections of lin the training records do not excite
     pinned_modal: tuple = ()   # ... of lin_modal
-    train_cut: list = None     # Prepared, from-rest records cut to CUT_SAMPLES (fits)
+    train_cut: list = None     # Prepared, from-rest records cut to cut_samples (fits)
     test_cut: list = None      # ... (screens)
 
 
@@ -301,7 +291,7 @@ def significant(new: float, old: float, floor: float) -> bool:
     -------
     bool
     """
-    return excess(new, floor) <= (1 - MIN_SHRINK) * excess(old, floor) and new * MARGIN <= old
+    return excess(new, floor) <= (1 - _SEL.min_shrink) * excess(old, floor) and new * _SEL.margin <= old
 
 
 def _score(setup, fit, t0, keys=(), form="input"):
@@ -318,7 +308,7 @@ def _chain(setup, effects):
     return ch
 
 
-def cut(records: Sequence[Prepared], n: int = CUT_SAMPLES) -> list:
+def cut(records: Sequence[Prepared], n: int = OPTIONS.screen.cut_samples) -> list:
     """The first ``n`` samples of each from-rest record (periodic ones whole).
 
     Parameters
@@ -336,8 +326,8 @@ def cut(records: Sequence[Prepared], n: int = CUT_SAMPLES) -> list:
         p, U=p.U[:n], Y=p.Y[:n], temp=p.temp[:n]) for p in records]
 
 
-def _fit(setup, name, effects, joint, dynamic=False, start=None, theta=None, max_nfev=40,
-         ftol=1e-8, offset=False, curvature=False, mixing=False, keys=(), form="input"):
+def _fit(setup, name, effects, joint, dynamic=False, start=None, theta=None,
+         max_nfev=_FIT.nfev, ftol=_FIT.ftol, offset=False, curvature=False, mixing=False, keys=(), form="input"):
     t0 = time.perf_counter()
     lin = setup.lin_modal if dynamic else setup.lin
     if setup.train_cut is not None and not any(e in LONG for e in effects):
@@ -393,7 +383,7 @@ def _name(keys):
 
 def refit_keys(setup: Setup, keys: Sequence[str], start: dict | None = None,
                form: str | None = None, theta: np.ndarray | None = None,
-               max_nfev: int = 40) -> Scored:
+               max_nfev: int = _FIT.nfev) -> Scored:
     """The candidates ``keys`` fitted jointly with the linear corrections.
 
     Parameters
@@ -407,7 +397,7 @@ def refit_keys(setup: Setup, keys: Sequence[str], start: dict | None = None,
     form : str, optional
         Of hysteresis: ``"input"`` (Bouc–Wen) or ``"prandtl_ishlinskii"``; ``None`` fits
         the screen's form first and the other when the first leaves more than
-        ``NEAR_FLOOR`` x the floor, keeping the one that predicts the held-out records
+        ``near_floor`` x the floor, keeping the one that predicts the held-out records
         better (two models of one mechanism: the choice does not change what is named).
     theta : numpy.ndarray, optional
         The linear re-fit's corrections: a linear part of ``stiffness_nonlinearity``.
@@ -425,7 +415,7 @@ def refit_keys(setup: Setup, keys: Sequence[str], start: dict | None = None,
         forms = ("input", "prandtl_ishlinskii")
         if prefer in forms:           # the screen's form first; the other when it falls short
             first = refit_keys(setup, keys, start, prefer, theta, max_nfev)
-            if first.gap <= NEAR_FLOOR * setup.floor:
+            if first.gap <= _SEL.near_floor * setup.floor:
                 return first
             other = refit_keys(setup, keys, start, forms[1 - forms.index(prefer)], theta,
                                max_nfev)
@@ -460,7 +450,7 @@ def refit_keys(setup: Setup, keys: Sequence[str], start: dict | None = None,
 
 
 def _converge(setup, sc, theta=None):
-    """``sc`` re-fitted to convergence (up to ``FINAL_NFEV`` evaluations) if it stopped early.
+    """``sc`` re-fitted to convergence (up to ``final_nfev`` evaluations) if it stopped early.
 
     Kept if it fits the training records at least as well (the held-out gap is only
     measured, never used).
@@ -468,7 +458,7 @@ def _converge(setup, sc, theta=None):
     if sc.converged or not hasattr(sc.fit, "chain"):
         return sc
     more = refit_keys(setup, sc.keys, _start(sc), sc.form if "hysteresis" in sc.keys else None,
-                      theta, max_nfev=FINAL_NFEV)
+                      theta, max_nfev=_FIT.final_nfev)
     return more if more.train_gap <= sc.train_gap else sc
 
 
@@ -512,7 +502,7 @@ def explain(setup: Setup, say: Callable[[str], None]) -> Explanation:
     keys = [k for k in setup.effects if k != DYNAMIC or setup.dynamic]
     level_ref = min(p.level for p in setup.train)
     zero = np.zeros(setup.lin.size)
-    points = [zero] + ([theta_l] if SECOND_POINT and np.max(np.abs(theta_l), initial=0.0) > 1e-3
+    points = [zero] + ([theta_l] if _SEL.second_point and np.max(np.abs(theta_l), initial=0.0) > _SEL.second_point_min
                        else [])
     long_keys = [k for k in keys if k in LONG]
     was_cut = setup.train_cut is not None and any(
@@ -561,7 +551,7 @@ def explain(setup: Setup, say: Callable[[str], None]) -> Explanation:
         return fitted[ks]
 
     state, chosen, steps, alternatives = lin, [], [], {}
-    while len(chosen) < MAX_EFFECTS and state.gap > 1.25 * setup.floor:
+    while len(chosen) < _SEL.max_effects and state.gap > OPTIONS.verdict.none_ratio * setup.floor:
         pool = [k for k in alone if _compatible(chosen, k)]
         if not chosen:
             both = {k: screened((k,), with_base=True) for k in pool}
@@ -594,7 +584,7 @@ def explain(setup: Setup, say: Callable[[str], None]) -> Explanation:
         # promising: 3 % better on the held-out or the training records, not worse on both
         # together (the product of the two ratios below 1)
         good = [k for k in ratio if ratio[k] < 1.0 and (
-            r_te[k] <= PROMISING or r_tr[k] <= PROMISING)]
+            r_te[k] <= _SEL.promising or r_tr[k] <= _SEL.promising)]
         if not good:
             break
         # ranked by the product of the held-out and training ratios: an effect a wrong
@@ -606,9 +596,9 @@ def explain(setup: Setup, say: Callable[[str], None]) -> Explanation:
         fl = {k: setup.floor / max(bases[k].gap, 1e-300) for k in good}
         g_best = min(max(r_te[k], fl[k]) for k in good)
         t_best = min(max(r_tr[k], fl[k]) for k in good)
-        tries = [k for k in ranked[:REFINE_TOP]
-                 if max(r_te[k], fl[k]) <= SCREEN_SPREAD * g_best
-                 or max(r_tr[k], fl[k]) <= SCREEN_SPREAD * t_best]
+        tries = [k for k in ranked[:_SEL.refine_top]
+                 if max(r_te[k], fl[k]) <= _SEL.screen_spread * g_best
+                 or max(r_tr[k], fl[k]) <= _SEL.screen_spread * t_best]
         tries += [c for k in tries for c in SPECIAL.get(k, ()) if c in good and c not in tries]
         form = state.form if "hysteresis" in chosen else None    # the form found before
         results = _run([lambda k=k: refine(chosen + [k], {**starts[k], **base}, form)
@@ -622,7 +612,7 @@ def explain(setup: Setup, say: Callable[[str], None]) -> Explanation:
         if best.train_gap < state.train_gap and DYNAMIC not in best.keys:
             best = _converge(setup, best, theta_l)
             fitted[tuple(sorted(chosen + [k_best]))] = best
-        if chosen and best.train_gap > SHORT_OF_SCREEN * max(scr[k_best].train_gap,
+        if chosen and best.train_gap > _SEL.short_of_screen * max(scr[k_best].train_gap,
                                                              setup.floor):
             # stuck where the smaller set's fit left it: fitted again from the screens'
             # starts (every effect's as in the first step), the better on training kept

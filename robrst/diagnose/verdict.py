@@ -2,11 +2,11 @@
 
 Rules (see :mod:`robrst.diagnose.diagnosis`): the answer is the forward-selected set of
 effects, else ``linear`` if the linear re-fit passes the same 30 % bar; it must also
-bring the held-out gap near the floor (``NEAR_RATIO`` x floor, or at most
-``NEAR_EXCESS`` of the excess gap left), else ``cannot_tell`` with the best partial
+bring the held-out gap near the floor (``near_ratio`` x floor, or at most
+``near_excess`` of the excess gap left; :mod:`robrst.diagnose.options`), else ``cannot_tell`` with the best partial
 explanation.  Two effects that explain the gap equally well and do not add up are a
-tie (``cannot_tell``).  A candidate that removes ``MIN_SHRINK`` of the training gap
-but under ``HELD_OUT_MIN`` of the held-out gap is flagged ``overfit`` (finding
+tie (``cannot_tell``).  A candidate that removes ``min_shrink`` of the training gap
+but under ``held_out_min`` of the held-out gap is flagged ``overfit`` (finding
 ``train_only``).
 """
 
@@ -19,7 +19,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from robrst.diagnose.result import Diagnosis, EffectScore
-from robrst.diagnose.select import DYNAMIC, MIN_SHRINK, OFFSET, Screened, excess, significant
+from robrst.diagnose.options import OPTIONS
+from robrst.diagnose.select import DYNAMIC, OFFSET, Screened, excess, significant
 from robrst.identify.vf import fit_data, fit_residues, initial_poles, to_continuous, vector_fit
 from robrst.core.plant import Plant
 
@@ -27,11 +28,9 @@ if TYPE_CHECKING:
     from robrst.diagnose.select import Explanation, Scored, Setup
     from robrst.identify.modal import ModalModel
 
-__all__ = ["decide", "build", "unmodelled", "NEAR_RATIO", "NEAR_EXCESS", "LEVEL_EFFECTS"]
+__all__ = ["decide", "build", "unmodelled", "LEVEL_EFFECTS"]
 
-NEAR_RATIO = 2.0
-NEAR_EXCESS = 0.35
-HELD_OUT_MIN = 0.05
+_V, _SEL = OPTIONS.verdict, OPTIONS.select
 
 
 LEVEL_EFFECTS = ("hysteresis", "amplitude_dependent_dynamics", "stiffness_nonlinearity",
@@ -125,7 +124,7 @@ def decide(info: dict, ex: Explanation, amp: dict | None = None) -> tuple:
     linear = ex.linear
     pct = lambda g: 100 * (1 - g / before)  # noqa: E731
     levels = sorted({round(d, 9) for d in info.get("train_levels", [])})
-    single = len(levels) <= 1 or levels[-1] <= 1.3 * levels[0]
+    single = len(levels) <= 1 or levels[-1] <= OPTIONS.records.level_ratio * levels[0]
     extra = ""
     where = where_text(info)
     if ex.tie:
@@ -134,7 +133,7 @@ def decide(info: dict, ex: Explanation, amp: dict | None = None) -> tuple:
                 "alternative": key_name(b)[0], "alternative_gap": gb}
         return "cannot_tell", (f"{key_name(a)[0]} and {key_name(b)[0]} explain the held-out"
                                f" gap equally well ({ga:.3g} vs {gb:.3g}; neither removes"
-                               f" {100 * MIN_SHRINK:.0f} % more of the excess than the other);"
+                               f" {100 * _SEL.min_shrink:.0f} % more of the excess than the other);"
                                f" {where + '; ' if where else ''}to tell them apart, record"
                                f" {tell_apart(a, b)}"), (), best, None
     if ex.steps:
@@ -153,13 +152,13 @@ def decide(info: dict, ex: Explanation, amp: dict | None = None) -> tuple:
         causes, answer, gap = (), "linear", linear.gap
         what = "the linear re-fit"
         reason = (f"a re-fit of the linear model explains the gap ({before:.3g} -> {gap:.3g};"
-                  f" no effect adds {100 * MIN_SHRINK:.0f} % to it; noise floor {floor:.3g})")
+                  f" no effect adds {100 * _SEL.min_shrink:.0f} % to it; noise floor {floor:.3g})")
         if amp:
             best = {"effects": ["linear"], "gap_after": gap, "shrink": 1 - gap / before}
             return "cannot_tell", (f"a linear re-fit narrows the gap ({before:.3g} ->"
                                    f" {gap:.3g}) but {_levels_text(amp, ex.screen_rank, single, levels)}"
                                    ), (), best, gap
-    elif info["before_train"] <= 1.25 * info.get("floor_train", floor):
+    elif info["before_train"] <= _V.none_ratio * info.get("floor_train", floor):
         return "cannot_tell", (f"the training records show no gap ({info['before_train']:.3g},"
                                " at their noise floor) while the test records do"
                                f" ({before:.3g}): the test records excite something the training"
@@ -169,12 +168,12 @@ def decide(info: dict, ex: Explanation, amp: dict | None = None) -> tuple:
         if amp:
             extra = f"; {_levels_text(amp, ex.screen_rank, single, levels)}"
         return "cannot_tell", (f"no candidate in the library nor a linear re-fit removes"
-                               f" {100 * MIN_SHRINK:.0f} % of the excess held-out gap (linear"
+                               f" {100 * _SEL.min_shrink:.0f} % of the excess held-out gap (linear"
                                f" re-fit {linear.gap:.3g} vs {before:.3g})"
                                f"{'; ' + where if where else ''}{extra}"), (), None, None
-    near = gap <= NEAR_RATIO * floor or excess(gap, floor) <= NEAR_EXCESS * excess(before, floor)
+    near = gap <= _V.near_ratio * floor or excess(gap, floor) <= _V.near_excess * excess(before, floor)
     if near:
-        if gap > NEAR_RATIO * floor:
+        if gap > _V.near_ratio * floor:
             reason += (f"; what is left ({gap:.3g}) is {gap / floor:.3g}x the noise floor:"
                        " part of the gap is still unexplained")
         return answer, reason, causes, None, gap
@@ -190,7 +189,7 @@ def decide(info: dict, ex: Explanation, amp: dict | None = None) -> tuple:
 
 
 def unmodelled(setup: Setup, linear: Scored, info: dict,
-               order_extra: Sequence[int] = (2, 4)) -> tuple[ModalModel, float] | None:
+               order_extra: Sequence[int] = _V.unmodelled_orders) -> tuple[ModalModel, float] | None:
     """Higher-order linear fits on the training records.
 
     Parameters
@@ -216,7 +215,7 @@ def unmodelled(setup: Setup, linear: Scored, info: dict,
         poles0 = np.concatenate([base.discretise(setup.fs).zpoles,
                                  initial_poles(extra, setup.fs, *data.band)])
         try:
-            poles = vector_fit(data, poles0, n_iter=8)
+            poles = vector_fit(data, poles0, n_iter=_V.unmodelled_iterations)
             dm, _ = fit_residues(data, poles)
             cm = to_continuous(dm)
         except Exception:  # noqa: BLE001 - any failure: no finding from this order
@@ -255,8 +254,8 @@ def _score(key, sc, before, before_train):
     params, sds = _params(key, sc)
     if form == "input" and getattr(sc, "form", "input") == "prandtl_ishlinskii":
         form = "prandtl_ishlinskii"
-    overfit = (sc.train_gap <= (1 - MIN_SHRINK) * before_train
-               and sc.gap >= (1 - HELD_OUT_MIN) * before)
+    overfit = (sc.train_gap <= (1 - _SEL.min_shrink) * before_train
+               and sc.gap >= (1 - _V.held_out_min) * before)
     return EffectScore(name=name, gap_before=before, gap_after=sc.gap,
                        shrink=1 - sc.gap / before if before > 0 else 0.0,
                        train_gap=sc.train_gap, params=params, params_std=sds,
