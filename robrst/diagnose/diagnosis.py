@@ -45,8 +45,8 @@ from robrst.diagnose.linear import LinearPart, as_modal, unexcited
 from robrst.diagnose.options import OPTIONS
 from robrst.diagnose.sensor import repair
 from robrst.diagnose.result import Diagnosis, EffectScore
-from robrst.diagnose.select import (DYNAMIC, OFFSET, Setup, cut, explain, linear_with_offset,
-                                    significant)
+from robrst.diagnose.candidates import DYNAMIC, OFFSET, Setup, cut, linear_with_offset
+from robrst.diagnose.select import explain, significant
 from robrst.diagnose.thermal import max_delay, search_delay
 from robrst.diagnose.verdict import build, decide, unmodelled
 from robrst.base.errors import DataError, SpecError
@@ -338,7 +338,10 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
         setup, train, train_p, preps), sig, n_tr)
     info["band"], info["regime"] = where["frequency_band_hz"], where["regime"]
     info["train_levels"] = [d.level for d in train]
-    cause, reason, causes, best, gap = decide(info, ex, amp)
+    info["duration_s"] = max(d.n / fs for d in train)
+    verdict = decide(info, ex, amp)
+    cause, reason, causes, best, gap = (verdict.cause, verdict.reason, verdict.causes,
+                                        verdict.best_partial, verdict.gap)
     findings = [amp, faults]
     off = None
     if OFFSET in causes:            # selected on the same footing as the effects
@@ -356,7 +359,7 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
         # what is left may be linear dynamics the model lacks (a named effect's answer
         # says itself how much it leaves unexplained)
         hi = unmodelled(setup, linear, info)
-        if hi and steps and hi[1] >= gap:
+        if hi and steps and gap is not None and hi[1] >= gap:
             hi = None
         un = unmodelled_finding(hi[0], hi[2], fs, hi[1], linear.gap, before, floor,
                                 [d.U for d in train]) if hi else None
@@ -371,7 +374,8 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
         shares = decompose(base_res[n_tr:], before, floor, linear.residuals)
     return build(info, where, tests, traces, cause, reason, skipped=skipped, findings=findings,
                  linear=linear, singles=ex.singles, steps=steps, causes=causes,
-                 best_partial=best, decomposition=shares, explanation=ex, sensor=sensor)
+                 best_partial=best, decomposition=shares, explanation=ex, sensor=sensor,
+                 ties=verdict.ties)
 
 
 def _sensor_finding(sensor, floor):
