@@ -58,6 +58,11 @@ CASES = {c.name: c for c in (
     Case("creep+thermal_drift", ("creep", "thermal_drift"), ("creep", "thermal_drift"),
          only=True, note="temperature ramps; drift lag 3 s, creep growing with temperature;"
          " nothing else named (a zero delay or a µm-scale offset credited a gap drop before)"),
+    Case("hysteresis+creep+thermal_drift", ("hysteresis",), ("hysteresis",),
+         truth=("hysteresis", "creep", "thermal_drift"),
+         note="three effects, temperature ramps: hysteresis is found first (most of the gap);"
+         " creep and thermal drift may tie for a later slot, which must never drop the"
+         " hysteresis (it answered cannot_tell, hysteresis unsaid)"),
     Case("closed_loop_hysteresis", ("hysteresis",),
          note="records from the RST loop (u is the controller's output)"),
     Case("mismatch_hysteresis", ("hysteresis",), ("hysteresis",),
@@ -190,7 +195,7 @@ def make(name, seed=0, fs=5000.0, duration_s=6.0):
     cfg = _twin(effects, fs, sigma, **over)
     n = int(duration_s * fs)
     t = np.arange(n) / fs
-    ramps = name == "creep+thermal_drift"
+    ramps = name.endswith("creep+thermal_drift")
     bipolar = name == "dead_zone"
     kinds = ["steps", "multisine", "triangle", "steps"] if duration_s > 1 else ["multisine"] * 4
     dctrl = _controller(fs) if name.startswith("closed_loop") else None

@@ -38,10 +38,11 @@ import numpy as np
 from robrst.data.dataset import check_sensor
 from robrst.diagnose import signals
 from robrst.diagnose.effects import EFFECTS, THERMAL, Chain, summary
-from robrst.diagnose.findings import (amplitude_finding, comparable, floor_of, noise_levels,
-                                      unmodelled_finding)
+from robrst.diagnose.findings import (amplitude_finding, comparable, floor_of, noise_estimate,
+                                      noise_levels, unmodelled_finding)
 from robrst.diagnose.fit import fit_model, prepare
 from robrst.diagnose.linear import LinearPart, as_modal, unexcited
+from robrst.diagnose.periodic import with_periods
 from robrst.diagnose.options import OPTIONS
 from robrst.diagnose.sensor import repair
 from robrst.diagnose.result import Diagnosis, EffectScore
@@ -247,12 +248,14 @@ def diagnose(train: Sequence[Dataset], test: Sequence[Dataset], plant: Plant | M
     unknown = [e for e in effects if e not in EFFECTS]
     if unknown:
         raise DataError(f"unknown effect(s) {unknown}; expected {list(EFFECTS)}")
+    train, found = with_periods(train)
+    test, found_test = with_periods(test)
     with one_blas_thread():
-        return _diagnose(list(train), list(test), plant, model, fs, float(ref), tuple(effects),
-                         say, workers, t_start)
+        return _diagnose(train, test, plant, model, fs, float(ref), tuple(effects),
+                         say, workers, t_start, found + found_test)
 
 
-def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start):
+def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start, found=()):
     lin = LinearPart(model, fs)
     th0 = np.zeros(lin.size)
     all_recs = train + test
@@ -269,15 +272,20 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
         base_res = [p.Y - lin.simulate(th0, p.U, p.periodic) for p in preps]
     before = signals.nrmse(test, base_res[n_tr:])
     before_train = signals.nrmse(train, base_res[:n_tr])
-    sig, method = noise_levels(all_recs, base_res, fs)
+    noise = noise_estimate(all_recs, base_res, fs)
+    sig, method = noise.levels, noise.method
     floor = floor_of(test, sig[n_tr:])
     floor_train = floor_of(train, sig[:n_tr])
-    sigma = float(np.sqrt(np.mean(sig ** 2)))
+    sigma = float(np.sqrt(np.mean(noise.upper ** 2)))    # priors and thresholds need a level
     say(f"gap of the simulation model on {len(test)} test record(s): NRMSE {before:.4g}"
         f" (noise floor {floor:.3g}, from {method.replace('_', ' ')})")
     faults = _sensor_finding(sensor, floor)
     if faults:
         say(f"sensor: {faults['message']}")
+    periodic = _periodic_finding(found)
+    if periodic:
+        say(periodic["message"])
+    undetermined = _undetermined_finding(noise, names)
     windows, frac = signals.time_windows(all_recs, base_res, sigma, names)
     band, f, P, level = signals.frequency_band(base_res, fs, sigma)
     dmodel = model.discretise(fs)
@@ -316,7 +324,7 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
                     " not: the test records do not excite what causes it (add test records"
                     " like the training ones to diagnose it)")
         return build(info, where, tests, traces, "none", why, skipped=skipped,
-                     findings=[amp, faults], sensor=sensor)
+                     findings=[amp, faults, periodic, undetermined], sensor=sensor)
     train_p = [prepare(d, ref) for d in train]
     lin_modal = LinearPart(model, fs, modal_gains=True)
     setup = Setup(fs=fs, ref=ref, train=train_p, train_full=preps[:n_tr], test=preps[n_tr:],
@@ -342,7 +350,7 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
     verdict = decide(info, ex, amp)
     cause, reason, causes, best, gap = (verdict.cause, verdict.reason, verdict.causes,
                                         verdict.best_partial, verdict.gap)
-    findings = [amp, faults]
+    findings = [amp, faults, periodic, undetermined]
     off = None
     if OFFSET in causes:            # selected on the same footing as the effects
         off = offset_finding(base_res[n_tr:], fitted=steps[-1][2].fit)
@@ -392,6 +400,31 @@ def _sensor_finding(sensor, floor):
                         " (replaced by the model plus the residual interpolated across them):"
                         f" noise floor {floor:.3g}, {sensor['noise_floor_with_faults']:.3g}"
                         " with them")}
+
+
+def _periodic_finding(found):
+    """``periodic_records`` finding: records without ``period_samples`` whose input repeats."""
+    if not found:
+        return None
+    per = sorted({(f["period_samples"], f["periods"]) for f in found})
+    txt = ", ".join(f"{p} samples ({k} periods)" for p, k in per)
+    return {"kind": "periodic_records", "records": [f["file"] for f in found],
+            "period_samples": [f["period_samples"] for f in found],
+            "message": (f"the input of {len(found)} record(s) without period_samples repeats"
+                        f" every {txt}: they are simulated in periodic steady state and their"
+                        " noise floor comes from the period-to-period differences")}
+
+
+def _undetermined_finding(noise, names):
+    """``noise_undetermined`` finding: records whose input excites every band."""
+    if not noise.undetermined:
+        return None
+    which = [names[i] for i in noise.undetermined]
+    return {"kind": "noise_undetermined", "records": which,
+            "message": (f"the input of {len(which)} record(s) excites every frequency band and"
+                        " they are not periodic: their noise cannot be told from a model error"
+                        " and counts as 0 in the noise floor (periodic records, or a band"
+                        " left unexcited, would give it)")}
 
 
 def _curved(ex, floor):

@@ -1,9 +1,11 @@
 """Noise floor, excitation levels and the diagnosis's findings.
 
-* :func:`noise_levels` — sensor-noise std per record and output: from period-to-period
-  differences of periodic records (``var(y_{p+1} - y_p) / 2``, the true floor even
-  where the plant still has modes), else from the residual spectrum
-  (:func:`robrst.diagnose.signals.noise_sigma`).
+* :func:`noise_estimate` (and :func:`noise_levels`) — sensor-noise std per record and
+  output: from period-to-period differences of periodic records (``var(y_{p+1} - y_p) /
+  2``, the true floor even where the plant still has modes), else from the residual
+  spectrum in the bands the record's input does not excite
+  (:func:`robrst.diagnose.signals.noise_sigma`); a record whose input excites every band
+  has no floor of its own (0: its noise cannot be told from a model error there).
 * :func:`level_groups` — records grouped by excitation level (input RMS within
   ``level_tol`` of :class:`~robrst.diagnose.options.LevelOptions`), and which of them share an excitation shape (input spectrum), so a
   gap can be compared across amplitudes without comparing steps with sines.
@@ -20,6 +22,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -32,22 +35,91 @@ if TYPE_CHECKING:
     from robrst.data.dataset import Dataset
     from robrst.identify.modal import ModalModel
 
-__all__ = ["noise_levels", "level_groups", "comparable", "amplitude_finding",
+__all__ = ["NoiseEstimate", "noise_estimate", "noise_levels", "level_groups", "comparable", "amplitude_finding",
            "unmodelled_finding"]
 
 _LV = OPTIONS.levels
 
 
-def noise_levels(records: Sequence[Dataset], residuals: Sequence[np.ndarray],
-                 fs: float) -> tuple[np.ndarray, str]:
-    """Noise std per record and output ``(records, m)`` [µm] and the method used.
+@dataclass(frozen=True, eq=False)
+class NoiseEstimate:
+    """Noise std per record and output, and how it was found.
+
+    Parameters
+    ----------
+    levels : numpy.ndarray
+        ``(records, m)`` [µm]; 0 for a record whose input excites every band.
+    method : str
+        ``"period_differences"``, ``"spectrum"``, ``"undetermined"`` or several joined by
+        ``+``.
+    undetermined : tuple of int
+        The records whose input excites every band.
+    upper : numpy.ndarray
+        ``levels`` with the undetermined ones from the whole residual spectrum: an upper
+        bound (the weight of priors and the threshold of time windows need a level).
+    """
+
+    levels: np.ndarray
+    method: str
+    undetermined: tuple
+    upper: np.ndarray
+
+
+def noise_estimate(records: Sequence[Dataset], residuals: Sequence[np.ndarray],
+                   fs: float) -> NoiseEstimate:
+    """Noise std per record and output (see the module doc).
 
     Parameters
     ----------
     records : sequence of Dataset
         The records (periodic ones use period-to-period differences).
     residuals : sequence of numpy.ndarray
-        Their residuals (the others use the residual's spectrum).
+        Their residuals (the others use the residual's spectrum where their input does not
+        excite it).
+    fs : float
+        Sampling rate [Hz].
+
+    Returns
+    -------
+    NoiseEstimate
+    """
+    out, upper, methods, undetermined = [], [], set(), []
+    for i, (d, r) in enumerate(zip(records, residuals)):
+        if d.period and d.periods >= 2:
+            Yp = d.Y.reshape(d.periods, d.period, -1)
+            diff = np.diff(Yp, axis=0)
+            lv = np.sqrt(np.mean(diff ** 2, axis=(0, 1)) / 2)
+            out.append(lv)
+            upper.append(lv)
+            methods.add("period_differences")
+            continue
+        R = np.asarray(r, float).reshape(d.n, -1)
+        lv = np.array([signals.noise_sigma(c, fs, d.U) for c in R.T])
+        if np.all(np.isfinite(lv)):
+            methods.add("spectrum")
+            out.append(lv)
+            upper.append(lv)
+            continue
+        methods.add("undetermined")
+        undetermined.append(i)
+        whole = np.array([signals.noise_sigma(c, fs) for c in R.T])
+        out.append(np.where(np.isfinite(lv), lv, 0.0))
+        upper.append(np.where(np.isfinite(lv), lv, whole))
+    return NoiseEstimate(np.array(out), "+".join(sorted(methods)), tuple(undetermined),
+                         np.array(upper))
+
+
+def noise_levels(records: Sequence[Dataset], residuals: Sequence[np.ndarray],
+                 fs: float) -> tuple[np.ndarray, str]:
+    """Noise std per record and output ``(records, m)`` [µm] and the method used
+    (:func:`noise_estimate`'s ``levels`` and ``method``).
+
+    Parameters
+    ----------
+    records : sequence of Dataset
+        The records.
+    residuals : sequence of numpy.ndarray
+        Their residuals.
     fs : float
         Sampling rate [Hz].
 
@@ -55,20 +127,9 @@ def noise_levels(records: Sequence[Dataset], residuals: Sequence[np.ndarray],
     -------
     levels : numpy.ndarray
     method : str
-        ``"period_differences"``, ``"spectrum"`` or both joined by ``+``.
     """
-    out, methods = [], set()
-    for d, r in zip(records, residuals):
-        if d.period and d.periods >= 2:
-            Yp = d.Y.reshape(d.periods, d.period, -1)
-            diff = np.diff(Yp, axis=0)
-            out.append(np.sqrt(np.mean(diff ** 2, axis=(0, 1)) / 2))
-            methods.add("period_differences")
-        else:
-            R = np.asarray(r, float).reshape(d.n, -1)
-            out.append(np.array([signals.noise_sigma(c, fs) for c in R.T]))
-            methods.add("spectrum")
-    return np.array(out), "+".join(sorted(methods))
+    est = noise_estimate(records, residuals, fs)
+    return est.levels, est.method
 
 
 def floor_of(records, sigmas):

@@ -42,12 +42,23 @@ class RecordOptions:
         An input or temperature range above this is an excitation.
     level_ratio : float
         Two excitation levels are distinct when the higher is this factor above the lower.
+    repeat_rtol : float
+        A record without ``period_samples`` is periodic when its input repeats to this
+        share of its RMS (or to two quantisation steps) ...
+    repeat_temp_K : float
+        ... and its temperature to this [K] ...
+    min_period : int
+        ... with a period of at least this many samples.
     """
 
     min_samples: int = 500        # fewer samples hold too little of the slowest mode to fit
     temp_excited_K: float = 0.05  # below the resolution of the drift and thermal laws
     excited_ptp: float = 1e-6     # a constant column written with rounding is not moved
     level_ratio: float = 1.3      # 30 % apart: a level-dependent gap shows over the noise
+    repeat_rtol: float = 2e-3     # a measured multisine repeats to 4e-4 of its RMS; an input
+    # that is not periodic differs by tens of % between two stretches
+    repeat_temp_K: float = 0.01   # a thermocouple's resolution: a ramp is not periodic
+    min_period: int = 32          # shorter "periods" are a constant input's, not an excitation
 
 
 @dataclass(frozen=True)
@@ -58,6 +69,11 @@ class NoiseOptions:
     ----------
     bands : tuple of (float, float)
         Sub-bands (fractions of Nyquist) of the spectral floor; the smallest median wins.
+    excited_rel : float
+        A frequency bin is excited when the input's power there exceeds this share of its
+        largest; excited bins never count as noise.
+    min_unexcited : float
+        A sub-band counts when at least this share of its bins is not excited.
     window_factor : float
         A time window is reported where the moving RMS exceeds this many noise levels.
     max_windows : int
@@ -82,6 +98,9 @@ class NoiseOptions:
 
     bands: tuple = ((0.3, 0.45), (0.45, 0.6), (0.6, 0.75), (0.75, 0.95))  # a mode in one
     # sub-band (or a model error there) does not raise the floor: the least one is noise
+    excited_rel: float = 1e-3     # -30 dB: a multisine's band is flat, steps fall as 1/f^2
+    # (their upper 70 % of the band lies 40 dB or more below their peak)
+    min_unexcited: float = 0.25   # a quarter of a sub-band: its median is not a stray bin's
     window_factor: float = 3.0    # 3 sigma: a window of noise alone rarely passes
     max_windows: int = 12         # a report lists the strongest windows, not every one
     band_factor: float = 4.0      # 4x the white level: Welch's spread stays below it

@@ -27,7 +27,7 @@ if TYPE_CHECKING:
     from robrst.data.dataset import Dataset
     from robrst.identify.modal import DiscreteModel
 
-__all__ = ["nrmse", "noise_sigma", "time_windows", "frequency_band", "frf_departure", "regime",
+__all__ = ["nrmse", "noise_sigma", "excited_bins", "time_windows", "frequency_band", "frf_departure", "regime",
            "whiteness", "cross_correlation", "residual_psd"]
 
 _NOISE = OPTIONS.noise
@@ -65,14 +65,48 @@ def _nperseg(n, cap):
     return int(max(16, min(cap, 2 ** int(np.floor(np.log2(max(n // 8, 16)))))))
 
 
-def noise_sigma(r: np.ndarray, fs: float) -> float:
+def excited_bins(u: np.ndarray, fs: float, nperseg: int) -> tuple[np.ndarray, np.ndarray]:
+    """Frequencies of a Welch estimate and which bins the input excites.
+
+    A bin is excited when the input's power there (summed over the inputs, about their
+    means) exceeds ``excited_rel`` of its largest bin
+    (:class:`~robrst.diagnose.options.NoiseOptions`): a multisine's band is, steps' and
+    sines' upper bands are not.
+
+    Parameters
+    ----------
+    u : numpy.ndarray
+        Inputs ``(N,)`` or ``(N, k)``.
+    fs : float
+        Sampling rate [Hz].
+    nperseg : int
+        Welch's segment length.
+
+    Returns
+    -------
+    f : numpy.ndarray
+        Frequencies [Hz].
+    excited : numpy.ndarray of bool
+    """
+    U = _cols(u)
+    f, P = signal.welch(U - U.mean(axis=0), fs=fs, nperseg=nperseg, axis=0)
+    P = P.sum(axis=1)
+    top = float(P.max()) if P.size else 0.0
+    return f, (P > _NOISE.excited_rel * top) if top > 0 else np.zeros(f.size, bool)
+
+
+def noise_sigma(r: np.ndarray, fs: float, u: np.ndarray | None = None) -> float:
     """Noise std [µm] of a 1-D residual from its spectrum in the upper 70 % of the band.
 
     The one-sided PSD of white noise of std sigma is ``2 sigma^2 / fs``.  The level is
     the smallest of the median levels of four sub-bands (30–45, 45–60, 60–75, 75–95 %
     of Nyquist) of a median-averaged Welch estimate: a plant mode or model error in one
-    sub-band does not raise the floor.  For periodic records the period-to-period
-    differences are better (:func:`robrst.diagnose.findings.noise_levels`).
+    sub-band does not raise the floor.  With the record's input ``u``, the bins it excites
+    (:func:`excited_bins`) never count: a sub-band counts on its other bins, when at least
+    ``min_unexcited`` of them are left, and the level is NaN when no sub-band does (every
+    band of the record is excited: its noise cannot be told from a model error there).
+    For periodic records the period-to-period differences are better
+    (:func:`robrst.diagnose.findings.noise_levels`).
 
     Parameters
     ----------
@@ -80,17 +114,29 @@ def noise_sigma(r: np.ndarray, fs: float) -> float:
         A residual.
     fs : float
         Sampling rate [Hz].
+    u : numpy.ndarray, optional
+        The record's input(s).
 
     Returns
     -------
     float
+        NaN when ``u`` excites every sub-band.
     """
     r = np.asarray(r, float)
-    f, P = signal.welch(r - r.mean(), fs=fs, nperseg=_nperseg(r.size, 1024), average="median")
-    levels = [float(np.median(P[(f >= a * fs / 2) & (f <= b * fs / 2)]))
-              for a, b in _NOISE.bands if np.any((f >= a * fs / 2) & (f <= b * fs / 2))]
-    level = min(levels) if levels else float(np.var(r) * 2 / fs)
-    return float(np.sqrt(level * fs / 2))
+    nper = _nperseg(r.size, 1024)
+    f, P = signal.welch(r - r.mean(), fs=fs, nperseg=nper, average="median")
+    free = np.ones(f.size, bool) if u is None else ~excited_bins(u, fs, nper)[1]
+    levels = []
+    for a, b in _NOISE.bands:
+        band = (f >= a * fs / 2) & (f <= b * fs / 2)
+        if not np.any(band):
+            continue
+        use = band & free
+        if use.sum() >= max(1, _NOISE.min_unexcited * band.sum()):
+            levels.append(float(np.median(P[use])))
+    if not levels:
+        return float("nan") if u is not None else float(np.sqrt(np.var(r)))
+    return float(np.sqrt(min(levels) * fs / 2))
 
 
 def time_windows(records: Sequence[Dataset], residuals: Sequence[np.ndarray], sigma: float,
