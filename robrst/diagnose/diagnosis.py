@@ -357,8 +357,12 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
     elif cause == "cannot_tell" and not _curved(ex, floor):
         # nothing explains the gap and it is mostly a constant: say so (a sensor offset), and
         # do not search for missing dynamics (a higher order imitates a constant badly) --
-        # unless a static output nonlinearity explains it better than a constant
-        off = offset_finding(base_res[n_tr:])
+        # unless a static output nonlinearity explains it better than a constant; measured
+        # on what the best model found leaves, and only a constant of the sensor's
+        held = steps[-1][2] if steps else linear
+        off = offset_finding(held.residuals,
+                             predicted=[p.Y - r for p, r in zip(preps[n_tr:], held.residuals)],
+                             train_res=_train_residuals(setup, held))
     if off:
         findings.append(off)
         reason += f"; {off['message']}"
@@ -425,6 +429,13 @@ def _undetermined_finding(noise, names):
                         " they are not periodic: their noise cannot be told from a model error"
                         " and counts as 0 in the noise floor (periodic records, or a band"
                         " left unexcited, would give it)")}
+
+
+def _train_residuals(setup, sc):
+    """Training residuals (whole records) of a scored candidate, or None."""
+    if not hasattr(sc.fit, "predict_prepared"):
+        return None
+    return [p.Y - sc.fit.predict_prepared(p) for p in setup.train_full]
 
 
 def _curved(ex, floor):
@@ -516,14 +527,31 @@ def _offset(res):
     return mean, (mean ** 2 / ms if ms > 0 else 0.0)
 
 
-def offset_finding(res: Sequence[np.ndarray], fitted: Fitted | None = None) -> dict | None:
+def _gain_share(res, predicted):
+    """The share of the residuals' mean square a constant and a gain (``a + b y``) remove."""
+    r = np.concatenate([np.asarray(x, float).ravel() for x in res])
+    y = np.concatenate([np.asarray(x, float).ravel() for x in predicted])
+    A = np.column_stack([np.ones_like(y), y])
+    coef = np.linalg.lstsq(A, r, rcond=None)[0]
+    ss = float(np.sum(r * r))
+    return 1.0 - float(np.sum((r - A @ coef) ** 2)) / ss if ss > 0 else 0.0
+
+
+def offset_finding(res: Sequence[np.ndarray], fitted: Fitted | None = None,
+                   predicted: Sequence[np.ndarray] | None = None,
+                   train_res: Sequence[np.ndarray] | None = None) -> dict | None:
     """``output_offset`` finding, or None.
 
     With ``fitted`` (the answer's fit, which includes a constant output offset) the
     offset is the fitted one and the finding is always made; its ``share`` is what that
-    constant alone is of the held-out residual's mean square.  Without, the finding is
-    made when a constant is most (``offset_share``) of the held-out residual ``res`` (the
-    dynamic effects and a linear re-fit cannot stand for it).
+    constant alone is of the held-out residual's mean square.  Without, the finding (a
+    sensor zero the records should lose) is made when a constant is most
+    (``offset_share``) of the held-out residual ``res`` of the best model found, *and* it
+    is a sensor's: a gain (the model's output ``predicted`` scaled) does not explain the
+    residual better (a gain change between records moves an output's mean), and the
+    training residual ``train_res`` holds the same constant within a quarter (hysteresis
+    or a drift shifts each record's mean by its own amount; a sensor zero is the same in
+    every record).
 
     Parameters
     ----------
@@ -531,6 +559,10 @@ def offset_finding(res: Sequence[np.ndarray], fitted: Fitted | None = None) -> d
         Held-out residuals per test record.
     fitted : Fitted, optional
         The answer's fit.
+    predicted : sequence of numpy.ndarray, optional
+        The model's held-out outputs (per test record).
+    train_res : sequence of numpy.ndarray, optional
+        The same model's training residuals.
 
     Returns
     -------
@@ -551,6 +583,12 @@ def offset_finding(res: Sequence[np.ndarray], fitted: Fitted | None = None) -> d
     mean, share = _offset(res)
     if share < _VERDICT.offset_share:
         return None
+    if predicted is not None and _gain_share(res, predicted) > share + _VERDICT.gain_share:
+        return None                      # a gain explains it: not a constant of the sensor
+    if train_res is not None:
+        t_mean, _ = _offset(train_res)
+        if abs(t_mean - mean) > _VERDICT.offset_agree * abs(mean):
+            return None                  # not the same in the training records
     return {"kind": "output_offset", "offset_um": mean, "share": share,
             "message": (f"the held-out residual is mostly a constant offset ({mean:.4g} µm,"
                         f" {100 * share:.1f} % of its mean square): a sensor zero or bias the"

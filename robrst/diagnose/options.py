@@ -74,6 +74,10 @@ class NoiseOptions:
         largest; excited bins never count as noise.
     min_unexcited : float
         A sub-band counts when at least this share of its bins is not excited.
+    period_blocks : int
+        Blocks per period of the period differences (the median of their mean squares) ...
+    min_block : int
+        ... of at least this many samples.
     window_factor : float
         A time window is reported where the moving RMS exceeds this many noise levels.
     max_windows : int
@@ -101,6 +105,9 @@ class NoiseOptions:
     excited_rel: float = 1e-3     # -30 dB: a multisine's band is flat, steps fall as 1/f^2
     # (their upper 70 % of the band lies 40 dB or more below their peak)
     min_unexcited: float = 0.25   # a quarter of a sub-band: its median is not a stray bin's
+    period_blocks: int = 16       # a transient in the first blocks of a record is outvoted
+    min_block: int = 256          # the median of 256-sample mean squares is within 0.2 % of
+    # their mean for stationary noise
     window_factor: float = 3.0    # 3 sigma: a window of noise alone rarely passes
     max_windows: int = 12         # a report lists the strongest windows, not every one
     band_factor: float = 4.0      # 4x the white level: Welch's spread stays below it
@@ -376,7 +383,11 @@ class VerdictOptions:
         A candidate removing under this share of the held-out gap (but much of the
         training gap) fits the training records only.
     offset_share : float
-        A constant this share of the held-out residual: finding ``output_offset``.
+        A constant this share of the held-out residual: finding ``output_offset`` ...
+    gain_share : float
+        ... unless a gain explains this much more of it ...
+    offset_agree : float
+        ... or the training residual's constant differs by more than this (relative).
     unmodelled_share : float
         A higher linear order must remove this share of the excess the re-fit leaves.
     unmodelled_orders : tuple of int
@@ -396,6 +407,9 @@ class VerdictOptions:
     near_excess: float = 0.35     # the margin over an effect outside the library
     held_out_min: float = 0.05    # 5 %: within the held-out gap's spread
     offset_share: float = 0.5     # most of the residual: a constant dominates it
+    gain_share: float = 0.1       # a gain change moves a unipolar output's mean: it explains
+    # the rest (a sensor zero leaves nothing to a gain)
+    offset_agree: float = 0.25    # a sensor zero is the same in every record
     unmodelled_share: float = 0.5   # half the excess: more than a re-fit's noise
     unmodelled_orders: tuple = (2, 4)   # one or two missing pairs
     unmodelled_iterations: int = 8      # vector fitting converges in a few

@@ -51,7 +51,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy import signal
 
-from robrst.diagnose.effects import SPECS, creep_cells, pi_thresholds
+from robrst.diagnose.effects import SPECS, creep_cells, creep_per_K_free, pi_thresholds
 from robrst.diagnose.fit import level_factor, model_jacobian
 from robrst.diagnose.options import OPTIONS
 from robrst.diagnose.stages import cached_stage
@@ -388,6 +388,8 @@ class ScreenGrid:
         Thermal-drift lags screened [s].
     thresholds : tuple of float
         Play thresholds of the Prandtl–Ishlinskii columns [V].
+    creep_per_K : bool
+        The records determine creep's growth with temperature (its column is screened).
     """
 
     tried: frozenset
@@ -407,6 +409,7 @@ class ScreenGrid:
     cells: tuple
     lags: list
     thresholds: tuple
+    creep_per_K: bool = True
 
     @classmethod
     def of(cls, setup: Setup) -> ScreenGrid:
@@ -438,7 +441,8 @@ class ScreenGrid:
                    half_y=np.maximum(0.5 * np.ptp(Y_all, axis=0), 1e-12),
                    rates=stats["rate_max"] * np.asarray(_SCR.slew_fractions),
                    cells=creep_cells(setup.fs) if "creep" in tried else None,
-                   lags=lags, thresholds=pi_thresholds(stats))
+                   lags=lags, thresholds=pi_thresholds(stats),
+                   creep_per_K=creep_per_K_free(stats, setup.ref))
 
 
 class ColumnLayout:
@@ -634,7 +638,8 @@ class ColumnLayout:
         if "creep" in self.grid.tried:
             for j in range(self.grid.n_in):
                 self._add("creep", f"cells_u{j + 1}")
-                self._add("creep", f"cells_dT_u{j + 1}")
+                if self.grid.creep_per_K:
+                    self._add("creep", f"cells_dT_u{j + 1}")
 
     def _drift(self):
         """The lagged temperature per input, an option per lag."""
@@ -937,7 +942,8 @@ class RecordColumns:
         dTp = np.maximum(p.temp - g.ref, 0.0)
         for j in range(g.n_in):
             sig.add(f"creep:cells_u{j + 1}", j, acc[:, j])
-            sig.add(f"creep:cells_dT_u{j + 1}", j, acc[:, j] * dTp)
+            if g.creep_per_K:
+                sig.add(f"creep:cells_dT_u{j + 1}", j, acc[:, j] * dTp)
 
     def _drift(self, p, sig):
         g = self.grid

@@ -112,7 +112,11 @@ def find_faults(name: str, y: np.ndarray, y_model: np.ndarray) -> SensorFaults:
     n = r.size
     e = r.copy()
     e[1:-1] -= 0.5 * (r[:-2] + r[2:])
-    e[0], e[-1] = r[0] - r[1], r[-1] - r[-2]
+    if n >= 3:      # the ends: one-sided second differences, scaled as the interior's (a
+        # residual that slopes at a record's end is no outlier; a first difference said so)
+        e[0], e[-1] = 0.5 * (r[0] - 2 * r[1] + r[2]), 0.5 * (r[-1] - 2 * r[-2] + r[-3])
+    else:
+        e[0], e[-1] = r[0] - r[1], r[-1] - r[-2]
     s = 1.4826 * float(np.median(np.abs(e - np.median(e))))
     if not s > 0:
         return SensorFaults(name, np.zeros(0, int), (), n)
