@@ -271,7 +271,7 @@ def start_values(scored: Scored | None) -> dict:
     z, th, s = f.parts()
     out = dict(zip(f.lin.names, th))
     out.update(zip(f.chain.names, z))   # "gain" of hysteresis wins: the linear one is pinned
-    out.update({f"slope{i}": v for i, v in zip(f.slopes, s)})
+    out.update(dict(zip(f.slope_names(), s)))
     if f.post is not None:
         x = f.x[f._post_start:]
         out.update(zip(f.post.names(), x))

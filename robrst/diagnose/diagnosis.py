@@ -343,7 +343,7 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
     linear, steps = ex.linear, ex.steps
     say("amplitude check: a linear model of the lowest training level at every level")
     amp, info["per_level"] = amplitude_finding(all_recs, base_res, _low_level_refit(
-        setup, train, train_p, preps), sig, n_tr)
+        setup, train, train_p, preps, ex.singles.get(DYNAMIC)), sig, n_tr)
     info["band"], info["regime"] = where["frequency_band_hz"], where["regime"]
     info["train_levels"] = [d.level for d in train]
     info["duration_s"] = max(d.n / fs for d in train)
@@ -366,7 +366,9 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
     if off:
         findings.append(off)
         reason += f"; {off['message']}"
-    if not off and cause in ("cannot_tell", "linear") and (gap is None
+    # a linear model of a higher order cannot explain a gap that changes with the level
+    level_dependent = amp is not None or any(k == DYNAMIC for k, _, _ in steps)
+    if not off and not level_dependent and cause in ("cannot_tell", "linear") and (gap is None
                                                             or gap > _VERDICT.near_ratio * floor):
         # what is left may be linear dynamics the model lacks (a named effect's answer
         # says itself how much it leaves unexplained)
@@ -444,13 +446,22 @@ def _curved(ex, floor):
     return a is not None and b is not None and significant(a.gap, b.gap, floor)
 
 
-def _low_level_refit(setup, train, train_p, preps):
-    """Residuals (all records) of a linear re-fit on the lowest training level, or None."""
+def _low_level_refit(setup, train, train_p, preps, dynamic=None):
+    """Residuals (all records) of a linear re-fit on the lowest training level, or None.
+
+    The amplitude-dependent dynamics fitted level by level holds that fit already: its
+    corrections at the lowest level (no second fit of the same records).
+    """
     recs = list(setup.train_records) + list(setup.test_records)
     low_rec = min(recs, key=lambda d: d.level)
     if not any(d.level > _REC.level_ratio * low_rec.level and comparable(d, low_rec)
                for d in recs):
         return None
+    fit = getattr(dynamic, "fit", None)
+    if fit is not None and getattr(fit, "slopes", None) and not fit.chain.size:
+        lin, th = fit.lin, fit.theta_at(fit.level_ref)
+        model = lin.continuous(th).discretise(setup.fs)
+        return [p.Y - model.response(p.U, periodic=p.periodic) for p in preps]
     lowest = min(d.level for d in train)
     low = [p for p, d in zip(train_p, train) if d.level <= lowest * (1 + OPTIONS.levels.lowest_tol)]
     ch = Chain((), setup.lin.model.n_in, setup.fs, setup.ref, setup.stats, cache=setup.stages)

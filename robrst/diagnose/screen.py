@@ -317,7 +317,7 @@ class Screen:
 def _fit_names(fit):
     """Names of a fitted candidate's parameters (chain, linear corrections, slopes, blocks)."""
     names = list(fit.chain.names) + (list(fit.lin.names) if fit.joint else [])
-    names += [f"slope{i}" for i in fit.slopes]
+    names += list(fit.slope_names()) if hasattr(fit, "slope_names") else []
     return names + (fit.post.names() if fit.post is not None else [])
 
 
@@ -711,16 +711,17 @@ def _priors(setup, layout, lin, theta, base_fit):
         centre[base] = -np.asarray(theta, float)
         fixed = [base[i] for i in setup.pinned]
     elif base_fit.joint:
-        nz, nt, ns = base_fit.chain.size, lin.size, len(base_fit.slopes)
+        nz, nt, ns = base_fit.chain.size, lin.size, base_fit.n_slope
         idx = np.asarray(base, int)
         sd[idx[nz:nz + nt]] = (setup.noise_sigma / lin.prior_sd) ** 2
         centre[idx[nz:nz + nt]] = -base_fit.x[nz:nz + nt]
-        sd[idx[nz + nt:nz + nt + ns]] = (setup.noise_sigma
-                                         / lin.prior_sd[list(base_fit.slopes)]) ** 2
+        sd[idx[nz + nt:nz + nt + ns]] = (setup.noise_sigma / base_fit.slope_prior_sd()) ** 2
         centre[idx[nz + nt:nz + nt + ns]] = -base_fit.x[nz + nt:nz + nt + ns]
         pin = setup.pinned_modal if base_fit.form == "dynamic" else setup.pinned
+        nsl = len(base_fit.slopes)
         fixed = [int(idx[nz + i]) for i in pin] + [
-            int(idx[nz + nt + base_fit.slopes.index(i)]) for i in pin if i in base_fit.slopes]
+            int(idx[nz + nt + b * nsl + base_fit.slopes.index(i)]) for i in pin
+            if i in base_fit.slopes for b in range(ns // max(nsl, 1))]
     return (sd, centre), fixed
 
 

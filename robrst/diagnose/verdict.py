@@ -490,6 +490,8 @@ def build(info: dict, where: dict, tests: dict, traces: dict, cause: str, reason
                      for i, (r, d) in enumerate(zip(sc.residuals, traces["records"][n_tr:]))]}
         fit_res["final"] = sc.residuals
     traces["fit_residuals"] = fit_res
+    traces["answer_fit"] = (steps[-1][2].fit if steps else
+                            (linear.fit if linear is not None else None))
     lin_score = _linear_score(linear, before, isinstance(plant, Plant), plant) if linear else None
     data = {"fs_hz": info["fs"], "train": names[:n_tr], "test": names[n_tr:],
             "samples": int(sum(d.n for d in traces["records"])), "noise_sigma_um": info["sigma"],

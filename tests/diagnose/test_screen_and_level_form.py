@@ -12,7 +12,7 @@ from robrst.diagnose.effects import summary
 from robrst.diagnose.fit import prepare
 from robrst.diagnose.linear import LinearPart
 from robrst.diagnose.screen import build_screen
-from robrst.diagnose.select import Setup
+from robrst.diagnose.candidates import Setup
 from robrst.identify.modal import ModalModel
 
 FS = 5000.0
