@@ -125,7 +125,8 @@ SPECS = {
         # creep goes on in the direction of the step (>= 0); its growth with temperature
         # keeps it >= 0 over the records' temperatures (Chain sets the lower bound of
         # per_K, or holds it at 0 when they do not vary above the reference)
-        bounds=lambda s: ((0.0, -1.0), (0.3, 2.0)), init=lambda s: (0.0, 0.0),
+        # (started inside the bound: at it, the trust region crawls along it)
+        bounds=lambda s: ((0.0, -1.0), (0.3, 2.0)), init=lambda s: (0.01, 0.0),
         twin=lambda z: np.asarray(z, float), dtwin=lambda z: np.eye(2),
         report=lambda z: (z[0], z[1])),
     "saturation": Spec(

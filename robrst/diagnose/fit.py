@@ -785,14 +785,24 @@ def fit_model(name: str, effects: Sequence[str], train: Sequence[Prepared], lin:
 
     def blocks(x):
         """The Jacobian's rows, a record at a time (as the residual: a trial point the
-        solver rejects gets zeros)."""
+        solver rejects gets zeros): ``(rows, residual rows they stand for, transform of those
+        residual rows)``.  A periodic record fitted whole by the linear part alone gives its
+        rows as the real and imaginary parts of their spectra, weighted so that the inner
+        products are the time rows' (Parseval): no transform back per column."""
         for p, k in zip(train, strides):
+            c = p.weight * np.sqrt(k) / scale
+            if p.periodic and k == 1 and proto.chain.size == 0 and post is None and joint:
+                J = spectral_jacobian(proto, p, x) * c
+                yield np.where(np.isfinite(J), J, 0.0), p.Y.size, (
+                    lambda rr, n=len(p.Y): parseval_rows(
+                        np.fft.rfft(rr.reshape(n, -1), axis=0), n))
+                continue
             J = model_jacobian(proto, p, x)[1][::k]
-            J = J.reshape(-1, J.shape[2]) * (p.weight * np.sqrt(k) / scale)
-            yield np.where(np.isfinite(J), J, 0.0)
+            J = J.reshape(-1, J.shape[2]) * c
+            yield np.where(np.isfinite(J), J, 0.0), J.shape[0], None
         prior = np.zeros((nt + ns, x.size))
         prior[:, nz:nz + nt + ns] = np.diag(prior_w)
-        yield prior
+        yield prior, nt + ns, None
 
     if x0.size == 0:
         r0 = residual(x0)
@@ -813,6 +823,73 @@ def fit_model(name: str, effects: Sequence[str], train: Sequence[Prepared], lin:
                   level_ref, int(res.nfev), 2 * float(res.cost), fixed, no, post)
 
 
+def parseval_rows(S: np.ndarray, n: int) -> np.ndarray:
+    """Real rows of a real signal's spectrum whose inner products are the signal's.
+
+    ``S`` is ``rfft`` of ``n`` samples along axis 0 (any trailing axes); with ``w = 1`` at
+    DC (and at Nyquist for an even ``n``) and ``w = 2`` elsewhere, ``sum_t a_t b_t =
+    sum_k (w_k / n) Re(A_k conj(B_k))``: the rows are ``sqrt(w_k / n) (Re S_k, Im S_k)``,
+    flattened over the trailing axes but the last when ``S`` has three.
+
+    Parameters
+    ----------
+    S : numpy.ndarray
+        ``(F, ...)`` complex.
+    n : int
+        The signal's length.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(2 F prod(middle axes), last)`` for a 3-D ``S``, else ``(2 F prod(rest),)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from robrst.diagnose.fit import parseval_rows
+    >>> x = np.arange(6.0)
+    >>> r = parseval_rows(np.fft.rfft(x), 6)
+    >>> round(float(r @ r), 9), float(x @ x)
+    (55.0, 55.0)
+    """
+    F = S.shape[0]
+    w = np.full(F, 2.0)
+    w[0] = 1.0
+    if n % 2 == 0:
+        w[-1] = 1.0
+    S = S * np.sqrt(w / n).reshape((F,) + (1,) * (S.ndim - 1))
+    R = np.concatenate([S.real, S.imag], axis=0)
+    return R.reshape(-1, R.shape[-1]) if S.ndim == 3 else R.ravel()
+
+
+def spectral_jacobian(fit: Fitted, p: Prepared, x: np.ndarray) -> np.ndarray:
+    """The Jacobian of a linear-only joint fit on a periodic record as Parseval rows
+    (:func:`parseval_rows` of its spectrum): ``model_jacobian``'s inner products without
+    transforming a column back.
+
+    Parameters
+    ----------
+    fit : Fitted
+        A joint fit without effects or output blocks.
+    p : Prepared
+        A periodic record.
+    x : numpy.ndarray
+        The parameters.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(2 F m, n_x)``.
+    """
+    th = fit.theta_at(p.level, x)
+    _, JL = fit.lin.simulate_jac(th, p.U, True, spectral=True)          # (F, m, size)
+    cols = [JL]
+    if fit.slopes:
+        b = slope_basis(level_factor(p.level, fit.level_ref), fit.level_knots)
+        cols += [JL[:, :, list(fit.slopes)] * v for v in b]
+    return parseval_rows(np.concatenate(cols, axis=2), len(p.U))
+
+
 def compressed(residual: Callable[[np.ndarray], np.ndarray],
                blocks: Callable[[np.ndarray], Iterable[np.ndarray]],
                n: int) -> tuple[Callable, Callable, Callable]:
@@ -822,11 +899,13 @@ def compressed(residual: Callable[[np.ndarray], np.ndarray],
 
     ``fun(x)`` returns ``(||r(x)||, 0, ..., 0)``; ``jac(x)`` a square root ``K`` of the
     Gram matrix of ``[J r]`` (``K^T K = [J r]^T [J r]``, accumulated a block of rows at a
-    time, the full Jacobian never formed; columns scaled to unit norm before the symmetric
-    eigendecomposition that gives ``K``) turned by a Householder reflection ``H`` that maps
-    its last column ``w`` (``||w|| = ||r||``) onto ``||r|| e_1``: then ``M = H K[:, :n]`` has
-    ``M^T M = J^T J`` and ``M^T fun(x) = K^T w = J^T r``, and its column norms are ``J``'s
-    (``x_scale``).
+    time, never stacked; columns scaled to unit norm before the symmetric eigendecomposition
+    that gives ``K``; when that scaled Gram matrix is ill-conditioned — its smallest
+    eigenvalue below ``1e-9`` of its largest, where squaring loses the small directions —
+    ``K`` is the triangular factor of the blocks' QR decomposition instead) turned by a
+    Householder reflection ``H`` that maps its last column ``w`` (``||w|| = ||r||``) onto
+    ``||r|| e_1``: then ``M = H K[:, :n]`` has ``M^T M = J^T J`` and ``M^T fun(x) = K^T w =
+    J^T r``, and its column norms are ``J``'s (``x_scale``).
     The solver's work per step then no longer grows with the records (an SVD of the
     whole Jacobian per iteration was most of a mirror diagnosis).
 
@@ -835,7 +914,10 @@ def compressed(residual: Callable[[np.ndarray], np.ndarray],
     residual : callable
         ``x -> r`` (the full residual vector).
     blocks : callable
-        ``x -> iterable of row blocks of the Jacobian``, in the order of ``r``'s rows.
+        ``x -> iterable of (rows of the Jacobian, how many of r's rows they stand for, a
+        transform of those rows or None)``, in the order of ``r``'s rows (an orthogonal
+        transform, e.g. a record's spectrum: the rows and the residual transformed alike
+        keep every inner product).
     n : int
         Number of parameters.
 
@@ -858,15 +940,24 @@ def compressed(residual: Callable[[np.ndarray], np.ndarray],
     def jac(x, *_):
         x = np.asarray(x, float)
         r = last["r"] if "x" in last and np.array_equal(last["x"], x) else residual(x)
-        G, pos = np.zeros((n + 1, n + 1)), 0
-        for B in blocks(x):
-            A = np.column_stack([B, r[pos:pos + B.shape[0]]])
-            pos += B.shape[0]
+        G, pos, kept = np.zeros((n + 1, n + 1)), 0, []
+        for B, rows, transform in blocks(x):
+            rr = r[pos:pos + rows]
+            pos += rows
+            A = np.column_stack([B, rr if transform is None else transform(rr)])
             G += A.T @ A
+            kept.append(A)
         d = np.sqrt(np.maximum(np.diag(G), 0.0))
         d[d == 0] = 1.0
         lam, V = np.linalg.eigh(G / d[:, None] / d[None, :])
-        K = (np.sqrt(np.maximum(lam, 0.0))[:, None] * V.T) * d[None, :]
+        live = lam[lam > 0]
+        if live.size == lam.size and live.min() >= 1e-9 * live.max():
+            K = (np.sqrt(lam)[:, None] * V.T) * d[None, :]
+        else:                   # squaring would lose the small directions: QR of the blocks
+            K = None
+            for A in kept:
+                K = np.linalg.qr(A if K is None else np.vstack([K, A]), mode="r")
+            K = np.vstack([K, np.zeros((n + 1 - K.shape[0], n + 1))])
         w, M = K[:, n], K[:, :n]
         u = w.copy()
         u[0] -= np.linalg.norm(w)

@@ -411,7 +411,8 @@ class LinearPart:
         return self.simulate_jac(theta, V, periodic, jac=False)[0]
 
     def simulate_jac(self, theta: np.ndarray, V: np.ndarray, periodic: bool = False,
-                     jac: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+                     jac: bool = True,
+                     spectral: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
         """Outputs ``(N, m)`` and, if ``jac``, ``d outputs / d theta`` ``(N, m, size)``.
 
         Parameters
@@ -424,6 +425,9 @@ class LinearPart:
             Steady state of a periodic record (else from rest).
         jac : bool
             Also the Jacobian.
+        spectral : bool
+            A periodic record's outputs and Jacobian as their spectra (``rfft`` along the
+            samples: ``(N//2 + 1, m)`` and ``(N//2 + 1, m, size)``), not transformed back.
 
         Returns
         -------
@@ -436,7 +440,8 @@ class LinearPart:
         Vf = np.fft.rfft(V, axis=0) if periodic and jac else None   # once, not per column
         parts = self._parts(theta, V, periodic, Vf)
         total = parts.sum(axis=2)
-        back = (lambda A: np.fft.irfft(A, n=N, axis=0)) if periodic else (lambda A: A)  # noqa
+        back = (lambda A: np.fft.irfft(A, n=N, axis=0)) if periodic and not spectral else (
+            lambda A: A)
         Y = back(total)
         if not jac:
             return Y, None

@@ -28,7 +28,7 @@ def _problem(seed):
     def blocks(x):
         J = full_jac(x)
         for a in range(0, t.size, 700):          # uneven blocks, as records are
-            yield J[a:a + 700]
+            yield J[a:a + 700], J[a:a + 700].shape[0], None
 
     return residual, full_jac, blocks
 
@@ -54,3 +54,29 @@ def test_compressed_rows_take_the_full_problems_steps(seed):
     assert M.T @ v == pytest.approx(J.T @ r, rel=1e-8, abs=1e-10)
     assert np.linalg.norm(M, axis=0) == pytest.approx(np.linalg.norm(J, axis=0), rel=1e-12)
     assert np.linalg.norm(v) == pytest.approx(np.linalg.norm(r), rel=1e-14)
+
+
+def test_spectral_rows_keep_the_time_rows_inner_products():
+    """A periodic record's Jacobian as Parseval rows of its spectrum: the same Gram matrix
+    and the same product with the residual as the time rows (numpy on both)."""
+    from robrst.core.plant import paper_plant
+    from robrst.diagnose.effects import Chain
+    from robrst.diagnose.fit import Fitted, Prepared, model_jacobian, parseval_rows, \
+        spectral_jacobian
+    from robrst.diagnose.linear import LinearPart
+
+    fs, n = 5000.0, 2048
+    rng = np.random.default_rng(3)
+    u = 60 + 20 * np.sin(2 * np.pi * np.arange(n)[:, None] * np.array([3, 17, 40]) / n).sum(1)
+    lin = LinearPart(paper_plant(), fs)
+    p = Prepared("x", u[:, None], rng.standard_normal((n, 1)), np.full(n, 28.0), True, 0, 1.0,
+                 1.0)
+    ch = Chain((), 1, fs, 28.0, {"u_ptp": 40.0, "knots": ()})
+    x = 0.03 * rng.standard_normal(lin.size)
+    fit = Fitted("lin", (), "input", ch, lin, x, np.zeros_like(x), True, (), 1.0, 0, 0.0)
+    J = model_jacobian(fit, p, x)[1].reshape(n, -1)
+    S = spectral_jacobian(fit, p, x)
+    assert S.T @ S == pytest.approx(J.T @ J, rel=1e-9, abs=1e-9 * np.abs(J.T @ J).max())
+    r = rng.standard_normal(n)
+    rs = parseval_rows(np.fft.rfft(r[:, None], axis=0), n)
+    assert S.T @ rs == pytest.approx(J.T @ r, rel=1e-9, abs=1e-9 * np.abs(J.T @ r).max())
