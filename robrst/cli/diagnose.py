@@ -54,6 +54,11 @@ def run_diagnose(args: argparse.Namespace) -> int:
     -------
     int
         0 for any verdict.
+
+    Raises
+    ------
+    SpecError
+        ``--model-out`` names a file, not a folder.
     """
     from robrst.data.dataset import load_dataset
     from robrst.diagnose import diagnose

@@ -73,6 +73,8 @@ class Polished(Fitted):
         The output-side blocks fitted.
     n_offset : int
         Constant output offsets fitted.
+    level_knots : tuple of float
+        Interior knots of the level coordinate (:class:`~robrst.diagnose.fit.Fitted`).
     dR : numpy.ndarray
         ``(2 + knots, n, m, k)`` complex: the residues' change at the reference level, then
         per function of :func:`slope_basis` (per unit of level factor, and per interior
