@@ -13,10 +13,12 @@ with other work: medians of the per-repeat ratios, wall and CPU).  Goal: 1 M sam
 within 5x the floor.
 
 The harder withheld cases (``tests/diagnosis_cases.py``: several effects at once, thermal
-drift, closed loop, recipe-shaped periodic records) are timed once each; goal: every one
-within 60 s on 2 cores.
+drift, closed loop, recipe-shaped periodic records, the round-five cases) are timed once
+each, CPU of the process and its children (a compiler building a loop counts); goal: every
+one within 60 s of CPU on 2 cores.
 """
 
+import resource
 import sys
 import time
 from pathlib import Path
@@ -34,8 +36,10 @@ from robrst.diagnose.linear import LinearPart
 from robrst.diagnose.validation import make_case
 
 FS = 20000.0
-CASES = ("creep+thermal_drift", "hysteresis+creep", "mismatch_creep", "closed_loop_hysteresis",
-         "creep_20kHz", "hysteresis_outliers", "duffing_levels", "recipe_bouc_wen")
+CASES = ("creep+thermal_drift", "hysteresis+creep", "hysteresis+creep+thermal_drift",
+         "mismatch_creep", "closed_loop_hysteresis", "creep_20kHz", "hysteresis_outliers",
+         "duffing_levels", "recipe_bouc_wen", "gain_change", "creep_constant_temperature",
+         "output_backlash")
 
 
 def _records(duration_s):
@@ -54,10 +58,16 @@ def _floor(train, test, n_candidates, jac=True):
                 lin.simulate_jac(th, p.U, p.periodic, jac=jac)
 
 
+def _cpu():
+    """CPU seconds of this process and its children so far."""
+    s, c = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return s.ru_utime + s.ru_stime + c.ru_utime + c.ru_stime
+
+
 def _timed(f):
-    t0, c0 = time.perf_counter(), time.process_time()
+    t0, c0 = time.perf_counter(), _cpu()
     out = f()
-    return out, time.perf_counter() - t0, time.process_time() - c0
+    return out, time.perf_counter() - t0, _cpu() - c0
 
 
 def _cases():
@@ -108,14 +118,16 @@ def run(tiny=False):
         table += [f"| {a} | {w:.1f} | {c:.1f} | {k} | {'yes' if ok else 'no'} |"
                   for a, w, c, k, ok in rows]
     worst = max((w for _, w, _, _, _ in rows), default=0.0)
+    worst_cpu = max((c for _, _, c, _, _ in rows), default=0.0)
     head = (f"{n} samples, {n_cand} candidates: {np.median(walls):.1f} s wall"
             f" ({np.median(cpus):.1f} s CPU) = {r_wall:.1f}x its floor (CPU {r_cpu:.1f}x);"
-            f" cause {causes[-1]}" + (f"; hard cases at most {worst:.0f} s" if rows else ""))
+            f" cause {causes[-1]}" + (f"; hard cases at most {worst_cpu:.0f} s CPU"
+                                      f" ({worst:.0f} s wall)" if rows else ""))
     return BenchResult(
         name="diagnosis", robrst_path="robrst.diagnose.diagnose",
         baseline="one exact linear pass with its Jacobian per candidate (the floor)",
-        goal="1 M samples <= 5x the floor; every hard case <= 60 s", headline=head,
-        met=bool(not tiny and r_wall <= 5.0 and worst <= 60.0),
+        goal="1 M samples <= 5x the floor; every hard case <= 60 s CPU", headline=head,
+        met=bool(not tiny and r_wall <= 5.0 and worst_cpu <= 60.0),
         figures={"samples": n, "candidates": n_cand, "seconds": float(np.median(walls)),
                  "cpu_s": float(np.median(cpus)), "floor_s": float(np.median(fl_w)),
                  "ratio_wall": r_wall, "ratio_cpu": r_cpu, "ratio_plain": r_plain,

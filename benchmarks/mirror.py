@@ -39,8 +39,8 @@ from robrst.cli import main as robrst
 PUBLISHED = {"linear_100mV_at_300mV": 0.3271, "lfr_all_levels_at_300mV": 0.0419,
              "linear_300mV_at_300mV": 0.0563}
 # the full set (21 MB) where it lies beside the checkout; otherwise the project's compact copy
-# (tests/data/fsm_compact: one realization of the 100 and 200 mV training records and of the
-# 300 mV test record, what --quick reads)
+# (tests/data/fsm_compact: one realization of every level's training and test records, what
+# --quick reads)
 FULL_DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "fsm"
 QUICK_DATA = Path(__file__).resolve().parents[1] / "tests" / "data" / "fsm_compact"
 DATA = FULL_DATA if (FULL_DATA / "u_100mV_train.npy").is_file() else QUICK_DATA

@@ -2,9 +2,8 @@
 
 ``mirror_data_dir()`` returns a folder of ``u_{level}mV_{split}.npy`` / ``y_...`` arrays in
 the data set's own layout, or None when the checkout has none (the tests then skip).  The
-suite ships a compact copy (``tests/data/fsm_compact``: one realization of the 100 and 200
-mV training records and of the 300 mV test record); the tests never read beside the
-checkout.
+suite ships a compact copy (``tests/data/fsm_compact``: one realization of every level's
+training and test records); the tests never read beside the checkout.
 """
 
 from pathlib import Path

@@ -31,6 +31,11 @@ def add_parsers(sub: argparse._SubParsersAction) -> None:
                         " file from `robrst identify` (default: the paper's D(s))")
     g.add_argument("--json", metavar="OUT.json", help="write the result as JSON ('-' = stdout)")
     g.add_argument("--report", metavar="DIR", help="write a report folder (md, html, figures)")
+    g.add_argument("--model-out", metavar="DIR",
+                   help="write the answer's fitted linear model as model files (robrst-modal-1:"
+                        " one per excitation level for amplitude-dependent dynamics; read by"
+                        " design for one input and output, by a twin file's plant, by"
+                        " diagnose --model)")
     g.add_argument("--force", action="store_true",
                    help="write the report into an existing folder that is not a robrst report")
     g.add_argument("--quiet", action="store_true", help="no progress lines")
@@ -49,6 +54,11 @@ def run_diagnose(args: argparse.Namespace) -> int:
     -------
     int
         0 for any verdict.
+
+    Raises
+    ------
+    SpecError
+        ``--model-out`` names a file, not a folder.
     """
     from robrst.data.dataset import load_dataset
     from robrst.diagnose import diagnose
@@ -60,6 +70,13 @@ def run_diagnose(args: argparse.Namespace) -> int:
         check_json_target(args.json)              # bad targets fail before the work
     if args.report:
         check_report_target(args.report, args.force, option="--report")
+    if args.model_out:
+        from pathlib import Path
+
+        from robrst.base.errors import SpecError
+
+        if Path(args.model_out).exists() and not Path(args.model_out).is_dir():
+            raise SpecError(f"--model-out {args.model_out}: is a file; expected a folder")
     say = progress_printer(args.quiet or to_stdout)
     train = [load_dataset(f) for f in args.train]
     test = [load_dataset(f) for f in args.test]
@@ -67,7 +84,15 @@ def run_diagnose(args: argparse.Namespace) -> int:
     if args.model:
         plant, ref = _model(args.model)
     diag = diagnose(train, test, plant=plant, reference_C=ref, progress=say)
-    text = json_text({**diag.as_dict(), WRITTEN_BY: "robrst diagnose"}, indent=1)
+    extra = {}
+    if args.model_out:
+        from robrst.diagnose.modelout import write_models
+
+        files = write_models(diag, args.model_out)
+        extra["model_files"] = files
+        for f in files:
+            say(f"wrote {f['file']}")
+    text = json_text({**diag.as_dict(), **extra, WRITTEN_BY: "robrst diagnose"}, indent=1)
     if args.report:
         from robrst.report.diagnosis import write_diagnosis_report
 

@@ -13,16 +13,16 @@ Pipeline (:func:`diagnose`)::
       -> findings (amplitude_dependent, unmodelled_dynamics, output_offset, train_only)
          and verdict: none | <effect> | output_offset | linear | cannot_tell
 
-Verdict rules (constants in :mod:`robrst.diagnose.select` and below): ``none`` when the
-held-out gap is within ``NONE_RATIO`` of the floor (or below ``RESOLVED_GAP``).  An answer
-(the selected effects, or ``linear`` when no effect adds to the linear re-fit) must remove
-``MIN_SHRINK`` of the excess gap (the same 30 % bar for ``linear`` as for effects) *and*
-bring the gap near the floor: within ``NEAR_RATIO`` x the floor, or ``NEAR_EXCESS`` of the
+Verdict rules (constants in :mod:`robrst.diagnose.options`): ``none`` when the held-out
+gap is within ``none_ratio`` of the floor (or below ``resolved_gap``).  An answer (the
+selected effects, or ``linear`` when no effect adds to the linear re-fit) must remove
+``min_shrink`` of the excess gap (the same 30 % bar for ``linear`` as for effects) *and*
+bring the gap near the floor: within ``near_ratio`` x the floor, or ``near_excess`` of the
 excess left.  Otherwise ``cannot_tell``, with the best partial explanation.  A constant
 output offset is a candidate like the effects (:data:`robrst.diagnose.select.OFFSET`):
 when the answer includes it, it is named (``causes``, finding ``output_offset`` with the
 fitted offset); a ``cannot_tell`` whose held-out residual is mostly a constant
-(``OFFSET_SHARE``) names it too instead of searching for missing linear dynamics.  A
+(``offset_share``) names it too instead of searching for missing linear dynamics.  A
 ``none`` whose training records show a gap says so.  The JSON contract
 (:meth:`Diagnosis.as_dict`) only ever gains fields.
 """
@@ -38,16 +38,18 @@ import numpy as np
 from robrst.data.dataset import check_sensor
 from robrst.diagnose import signals
 from robrst.diagnose.effects import EFFECTS, THERMAL, Chain, summary
-from robrst.diagnose.findings import (amplitude_finding, comparable, floor_of, noise_levels,
-                                      unmodelled_finding)
+from robrst.diagnose.findings import (amplitude_finding, comparable, floor_of, noise_estimate,
+                                      noise_levels, unmodelled_finding)
 from robrst.diagnose.fit import fit_model, prepare
 from robrst.diagnose.linear import LinearPart, as_modal, unexcited
+from robrst.diagnose.periodic import with_periods
+from robrst.diagnose.options import OPTIONS
 from robrst.diagnose.sensor import repair
 from robrst.diagnose.result import Diagnosis, EffectScore
-from robrst.diagnose.select import (DYNAMIC, OFFSET, Setup, cut, explain, linear_with_offset,
-                                    significant)
+from robrst.diagnose.candidates import DYNAMIC, OFFSET, Setup, cut, linear_with_offset
+from robrst.diagnose.select import explain, significant
 from robrst.diagnose.thermal import max_delay, search_delay
-from robrst.diagnose.verdict import NEAR_RATIO, build, decide, unmodelled
+from robrst.diagnose.verdict import build, decide, unmodelled
 from robrst.base.errors import DataError, SpecError
 from robrst.core.plant import Plant, as_plant, paper_plant
 from robrst.identify.modal import ModalModel
@@ -60,14 +62,9 @@ if TYPE_CHECKING:
     from robrst.identify.modal import ModalModel
 
 __all__ = ["Diagnosis", "EffectScore", "diagnose", "check_records", "decompose",
-           "offset_finding", "polynomial_plant", "skipped_effects", "MIN_SAMPLES",
-           "NONE_RATIO"]
+           "offset_finding", "polynomial_plant", "skipped_effects"]
 
-MIN_SAMPLES = 500        # per record
-NONE_RATIO = 1.25        # gap <= 1.25 x noise floor: nothing to explain
-RESOLVED_GAP = 1e-6      # ... or NRMSE below 1e-6 (noise-free records, a floor of rounding)
-OFFSET_SHARE = 0.5       # a constant offset this share of the residual: finding output_offset
-TEMP_EXCITED_K = 0.05    # a temperature range below this does not excite thermal effects
+_REC, _VERDICT = OPTIONS.records, OPTIONS.verdict
 
 
 def check_records(train: Sequence[Dataset], test: Sequence[Dataset], n_in: int | None = None,
@@ -89,7 +86,7 @@ def check_records(train: Sequence[Dataset], test: Sequence[Dataset], n_in: int |
     Raises
     ------
     DataError
-        Naming the file: empty sets, records shorter than ``MIN_SAMPLES``, a constant
+        Naming the file: empty sets, records shorter than ``min_samples``, a constant
         output while the input varies, sampling rates that differ (relative 1e-6) and
         channel counts that differ from each other or from the model's.
     """
@@ -100,9 +97,9 @@ def check_records(train: Sequence[Dataset], test: Sequence[Dataset], n_in: int |
     k, m = (recs[0].n_in, recs[0].n_out) if n_in is None else (n_in, n_out)
     for d in recs:
         name = d.source or "record"
-        if d.n < MIN_SAMPLES:
+        if d.n < _REC.min_samples:
             raise DataError(f"{name}: too short ({d.n} samples); a diagnosis"
-                            f" needs at least {MIN_SAMPLES} samples per record")
+                            f" needs at least {_REC.min_samples} samples per record")
         if (d.n_in, d.n_out) != (k, m):
             raise DataError(f"{name}: {d.n_in} input(s) and {d.n_out} output(s), but the model"
                             f" has {k} and {m}")
@@ -116,7 +113,8 @@ def check_records(train: Sequence[Dataset], test: Sequence[Dataset], n_in: int |
 
 
 def _excited(records):
-    return any(np.ptp(d.U, axis=0).max() > 1e-6 or (d.temp is not None and np.ptp(d.temp) > 1e-6)
+    lim = _REC.excited_ptp
+    return any(np.ptp(d.U, axis=0).max() > lim or (d.temp is not None and np.ptp(d.temp) > lim)
                for d in records)
 
 
@@ -181,7 +179,7 @@ def skipped_effects(train: Sequence[Dataset], test: Sequence[Dataset], effects: 
     t_range = float(np.ptp(np.concatenate(temps))) if temps else 0.0
     siso = (model.n_in, model.n_out) == (1, 1)
     for e in effects:
-        if e in THERMAL and t_range < TEMP_EXCITED_K:
+        if e in THERMAL and t_range < _REC.temp_excited_K:
             out[e] = (f"temperature constant within {t_range:.3g} K on the training records"
                       if temps else "no temperature measured")
         elif e in ("thermal_dynamics", "stiffness_nonlinearity") and not siso:
@@ -202,7 +200,7 @@ def _levels_ok(train, test):
     if not all(d.period and d.periods >= 1 for d in recs):
         return False
     lv = sorted(d.level for d in train)
-    return len(lv) >= 2 and lv[-1] > 1.3 * lv[0]
+    return len(lv) >= 2 and lv[-1] > _REC.level_ratio * lv[0]
 
 
 def diagnose(train: Sequence[Dataset], test: Sequence[Dataset], plant: Plant | ModalModel | None = None,
@@ -250,12 +248,14 @@ def diagnose(train: Sequence[Dataset], test: Sequence[Dataset], plant: Plant | M
     unknown = [e for e in effects if e not in EFFECTS]
     if unknown:
         raise DataError(f"unknown effect(s) {unknown}; expected {list(EFFECTS)}")
+    train, found = with_periods(train)
+    test, found_test = with_periods(test)
     with one_blas_thread():
-        return _diagnose(list(train), list(test), plant, model, fs, float(ref), tuple(effects),
-                         say, workers, t_start)
+        return _diagnose(train, test, plant, model, fs, float(ref), tuple(effects),
+                         say, workers, t_start, found + found_test)
 
 
-def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start):
+def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start, found=()):
     lin = LinearPart(model, fs)
     th0 = np.zeros(lin.size)
     all_recs = train + test
@@ -272,15 +272,20 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
         base_res = [p.Y - lin.simulate(th0, p.U, p.periodic) for p in preps]
     before = signals.nrmse(test, base_res[n_tr:])
     before_train = signals.nrmse(train, base_res[:n_tr])
-    sig, method = noise_levels(all_recs, base_res, fs)
+    noise = noise_estimate(all_recs, base_res, fs)
+    sig, method = noise.levels, noise.method
     floor = floor_of(test, sig[n_tr:])
     floor_train = floor_of(train, sig[:n_tr])
-    sigma = float(np.sqrt(np.mean(sig ** 2)))
+    sigma = float(np.sqrt(np.mean(noise.upper ** 2)))    # priors and thresholds need a level
     say(f"gap of the simulation model on {len(test)} test record(s): NRMSE {before:.4g}"
         f" (noise floor {floor:.3g}, from {method.replace('_', ' ')})")
     faults = _sensor_finding(sensor, floor)
     if faults:
         say(f"sensor: {faults['message']}")
+    periodic = _periodic_finding(found)
+    if periodic:
+        say(periodic["message"])
+    undetermined = _undetermined_finding(noise, names)
     windows, frac = signals.time_windows(all_recs, base_res, sigma, names)
     band, f, P, level = signals.frequency_band(base_res, fs, sigma)
     dmodel = model.discretise(fs)
@@ -306,19 +311,20 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
         return build(info, where, tests, traces, "cannot_tell",
                      f"the {which} records have no excitation (u and temp constant):"
                      " nothing distinguishes one effect from another", skipped=skipped)
-    if before <= NONE_RATIO * floor or before <= RESOLVED_GAP:
+    none_ratio, resolved = _VERDICT.none_ratio, _VERDICT.resolved_gap
+    if before <= none_ratio * floor or before <= resolved:
         amp, info["per_level"] = amplitude_finding(all_recs, base_res, None, sig, n_tr)
-        why = (f"within {NONE_RATIO}x the noise floor {floor:.3g}" if before <= NONE_RATIO * floor
-               else f"below {RESOLVED_GAP:g}: the model reproduces the records to six digits"
+        why = (f"within {none_ratio}x the noise floor {floor:.3g}" if before <= none_ratio * floor
+               else f"below {resolved:g}: the model reproduces the records to six digits"
                     f" (noise floor {floor:.3g}, the records' own rounding)")
         why = f"held-out gap {before:.3g} is {why}"
-        if before_train > NEAR_RATIO * max(floor_train, RESOLVED_GAP):
+        if before_train > _VERDICT.near_ratio * max(floor_train, resolved):
             why += (f"; but the training records show a gap ({before_train:.3g},"
                     f" {before_train / floor_train:.3g}x their noise floor) the test records do"
                     " not: the test records do not excite what causes it (add test records"
                     " like the training ones to diagnose it)")
         return build(info, where, tests, traces, "none", why, skipped=skipped,
-                     findings=[amp, faults], sensor=sensor)
+                     findings=[amp, faults, periodic, undetermined], sensor=sensor)
     train_p = [prepare(d, ref) for d in train]
     lin_modal = LinearPart(model, fs, modal_gains=True)
     setup = Setup(fs=fs, ref=ref, train=train_p, train_full=preps[:n_tr], test=preps[n_tr:],
@@ -337,28 +343,37 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
     linear, steps = ex.linear, ex.steps
     say("amplitude check: a linear model of the lowest training level at every level")
     amp, info["per_level"] = amplitude_finding(all_recs, base_res, _low_level_refit(
-        setup, train, train_p, preps), sig, n_tr)
+        setup, train, train_p, preps, ex.singles.get(DYNAMIC)), sig, n_tr)
     info["band"], info["regime"] = where["frequency_band_hz"], where["regime"]
     info["train_levels"] = [d.level for d in train]
-    cause, reason, causes, best, gap = decide(info, ex, amp)
-    findings = [amp, faults]
+    info["duration_s"] = max(d.n / fs for d in train)
+    verdict = decide(info, ex, amp)
+    cause, reason, causes, best, gap = (verdict.cause, verdict.reason, verdict.causes,
+                                        verdict.best_partial, verdict.gap)
+    findings = [amp, faults, periodic, undetermined]
     off = None
     if OFFSET in causes:            # selected on the same footing as the effects
         off = offset_finding(base_res[n_tr:], fitted=steps[-1][2].fit)
     elif cause == "cannot_tell" and not _curved(ex, floor):
         # nothing explains the gap and it is mostly a constant: say so (a sensor offset), and
         # do not search for missing dynamics (a higher order imitates a constant badly) --
-        # unless a static output nonlinearity explains it better than a constant
-        off = offset_finding(base_res[n_tr:])
+        # unless a static output nonlinearity explains it better than a constant; measured
+        # on what the best model found leaves, and only a constant of the sensor's
+        held = steps[-1][2] if steps else linear
+        off = offset_finding(held.residuals,
+                             predicted=[p.Y - r for p, r in zip(preps[n_tr:], held.residuals)],
+                             train_res=_train_residuals(setup, held))
     if off:
         findings.append(off)
         reason += f"; {off['message']}"
-    if not off and cause in ("cannot_tell", "linear") and (gap is None
-                                                            or gap > NEAR_RATIO * floor):
+    # a linear model of a higher order cannot explain a gap that changes with the level
+    level_dependent = amp is not None or any(k == DYNAMIC for k, _, _ in steps)
+    if not off and not level_dependent and cause in ("cannot_tell", "linear") and (gap is None
+                                                            or gap > _VERDICT.near_ratio * floor):
         # what is left may be linear dynamics the model lacks (a named effect's answer
         # says itself how much it leaves unexplained)
         hi = unmodelled(setup, linear, info)
-        if hi and steps and hi[1] >= gap:
+        if hi and steps and gap is not None and hi[1] >= gap:
             hi = None
         un = unmodelled_finding(hi[0], hi[2], fs, hi[1], linear.gap, before, floor,
                                 [d.U for d in train]) if hi else None
@@ -373,7 +388,8 @@ def _diagnose(train, test, plant, model, fs, ref, effects, say, workers, t_start
         shares = decompose(base_res[n_tr:], before, floor, linear.residuals)
     return build(info, where, tests, traces, cause, reason, skipped=skipped, findings=findings,
                  linear=linear, singles=ex.singles, steps=steps, causes=causes,
-                 best_partial=best, decomposition=shares, explanation=ex, sensor=sensor)
+                 best_partial=best, decomposition=shares, explanation=ex, sensor=sensor,
+                 ties=verdict.ties)
 
 
 def _sensor_finding(sensor, floor):
@@ -392,23 +408,65 @@ def _sensor_finding(sensor, floor):
                         " with them")}
 
 
+def _periodic_finding(found):
+    """``periodic_records`` finding: records without ``period_samples`` whose input repeats."""
+    if not found:
+        return None
+    per = sorted({(f["period_samples"], f["periods"]) for f in found})
+    txt = ", ".join(f"{p} samples ({k} periods)" for p, k in per)
+    return {"kind": "periodic_records", "records": [f["file"] for f in found],
+            "period_samples": [f["period_samples"] for f in found],
+            "message": (f"the input of {len(found)} record(s) without period_samples repeats"
+                        f" every {txt}: they are simulated in periodic steady state and their"
+                        " noise floor comes from the period-to-period differences")}
+
+
+def _undetermined_finding(noise, names):
+    """``noise_undetermined`` finding: records whose input excites every band."""
+    if not noise.undetermined:
+        return None
+    which = [names[i] for i in noise.undetermined]
+    return {"kind": "noise_undetermined", "records": which,
+            "message": (f"the input of {len(which)} record(s) excites every frequency band and"
+                        " they are not periodic: their noise cannot be told from a model error"
+                        " and counts as 0 in the noise floor (periodic records, or a band"
+                        " left unexcited, would give it)")}
+
+
+def _train_residuals(setup, sc):
+    """Training residuals (whole records) of a scored candidate, or None."""
+    if not hasattr(sc.fit, "predict_prepared"):
+        return None
+    return [p.Y - sc.fit.predict_prepared(p) for p in setup.train_full]
+
+
 def _curved(ex, floor):
     """Does a static output nonlinearity explain the held-out gap better than a constant?"""
     a, b = ex.singles.get("output_nonlinearity"), ex.singles.get(OFFSET)
     return a is not None and b is not None and significant(a.gap, b.gap, floor)
 
 
-def _low_level_refit(setup, train, train_p, preps):
-    """Residuals (all records) of a linear re-fit on the lowest training level, or None."""
+def _low_level_refit(setup, train, train_p, preps, dynamic=None):
+    """Residuals (all records) of a linear re-fit on the lowest training level, or None.
+
+    The amplitude-dependent dynamics fitted level by level holds that fit already: its
+    corrections at the lowest level (no second fit of the same records).
+    """
     recs = list(setup.train_records) + list(setup.test_records)
     low_rec = min(recs, key=lambda d: d.level)
-    if not any(d.level > 1.3 * low_rec.level and comparable(d, low_rec) for d in recs):
+    if not any(d.level > _REC.level_ratio * low_rec.level and comparable(d, low_rec)
+               for d in recs):
         return None
+    fit = getattr(dynamic, "fit", None)
+    if fit is not None and getattr(fit, "slopes", None) and not fit.chain.size:
+        lin, th = fit.lin, fit.theta_at(fit.level_ref)
+        model = lin.continuous(th).discretise(setup.fs)
+        return [p.Y - model.response(p.U, periodic=p.periodic) for p in preps]
     lowest = min(d.level for d in train)
-    low = [p for p, d in zip(train_p, train) if d.level <= lowest * 1.1]
+    low = [p for p, d in zip(train_p, train) if d.level <= lowest * (1 + OPTIONS.levels.lowest_tol)]
     ch = Chain((), setup.lin.model.n_in, setup.fs, setup.ref, setup.stats, cache=setup.stages)
     fit = fit_model("linear@low", (), low, setup.lin, ch, setup.noise_sigma, joint=True,
-                    max_nfev=30, ftol=1e-8)
+                    max_nfev=OPTIONS.fit.low_level_nfev, ftol=OPTIONS.fit.ftol)
     return [p.Y - fit.predict_prepared(p) for p in preps]
 
 
@@ -480,14 +538,31 @@ def _offset(res):
     return mean, (mean ** 2 / ms if ms > 0 else 0.0)
 
 
-def offset_finding(res: Sequence[np.ndarray], fitted: Fitted | None = None) -> dict | None:
+def _gain_share(res, predicted):
+    """The share of the residuals' mean square a constant and a gain (``a + b y``) remove."""
+    r = np.concatenate([np.asarray(x, float).ravel() for x in res])
+    y = np.concatenate([np.asarray(x, float).ravel() for x in predicted])
+    A = np.column_stack([np.ones_like(y), y])
+    coef = np.linalg.lstsq(A, r, rcond=None)[0]
+    ss = float(np.sum(r * r))
+    return 1.0 - float(np.sum((r - A @ coef) ** 2)) / ss if ss > 0 else 0.0
+
+
+def offset_finding(res: Sequence[np.ndarray], fitted: Fitted | None = None,
+                   predicted: Sequence[np.ndarray] | None = None,
+                   train_res: Sequence[np.ndarray] | None = None) -> dict | None:
     """``output_offset`` finding, or None.
 
     With ``fitted`` (the answer's fit, which includes a constant output offset) the
     offset is the fitted one and the finding is always made; its ``share`` is what that
-    constant alone is of the held-out residual's mean square.  Without, the finding is
-    made when a constant is most (``OFFSET_SHARE``) of the held-out residual ``res`` (the
-    dynamic effects and a linear re-fit cannot stand for it).
+    constant alone is of the held-out residual's mean square.  Without, the finding (a
+    sensor zero the records should lose) is made when a constant is most
+    (``offset_share``) of the held-out residual ``res`` of the best model found, *and* it
+    is a sensor's: a gain (the model's output ``predicted`` scaled) does not explain the
+    residual better (a gain change between records moves an output's mean), and the
+    training residual ``train_res`` holds the same constant within a quarter (hysteresis
+    or a drift shifts each record's mean by its own amount; a sensor zero is the same in
+    every record).
 
     Parameters
     ----------
@@ -495,6 +570,10 @@ def offset_finding(res: Sequence[np.ndarray], fitted: Fitted | None = None) -> d
         Held-out residuals per test record.
     fitted : Fitted, optional
         The answer's fit.
+    predicted : sequence of numpy.ndarray, optional
+        The model's held-out outputs (per test record).
+    train_res : sequence of numpy.ndarray, optional
+        The same model's training residuals.
 
     Returns
     -------
@@ -513,8 +592,14 @@ def offset_finding(res: Sequence[np.ndarray], fitted: Fitted | None = None) -> d
                             " corrections): a sensor zero or bias the model lacks, not a"
                             " dynamic effect")}
     mean, share = _offset(res)
-    if share < OFFSET_SHARE:
+    if share < _VERDICT.offset_share:
         return None
+    if predicted is not None and _gain_share(res, predicted) > share + _VERDICT.gain_share:
+        return None                      # a gain explains it: not a constant of the sensor
+    if train_res is not None:
+        t_mean, _ = _offset(train_res)
+        if abs(t_mean - mean) > _VERDICT.offset_agree * abs(mean):
+            return None                  # not the same in the training records
     return {"kind": "output_offset", "offset_um": mean, "share": share,
             "message": (f"the held-out residual is mostly a constant offset ({mean:.4g} µm,"
                         f" {100 * share:.1f} % of its mean square): a sensor zero or bias the"

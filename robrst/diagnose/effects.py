@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy import signal
 
+from robrst.diagnose.options import OPTIONS
 from robrst.diagnose.stages import cached_stage
 from robrst.twin.config import EFFECTS as TWIN_EFFECTS
 from robrst.twin.config import default_twin
@@ -34,7 +35,8 @@ from robrst.twin.model import creep_taus
 if TYPE_CHECKING:
     from robrst.data.dataset import Dataset
 
-__all__ = ["EFFECTS", "SENSOR_EFFECTS", "INPUT_EFFECTS", "Chain", "SPECS", "summary"]
+__all__ = ["EFFECTS", "SENSOR_EFFECTS", "INPUT_EFFECTS", "Chain", "SPECS", "summary",
+           "creep_heating", "creep_per_K_free"]
 
 SENSOR_EFFECTS = ("noise", "quantization")      # properties of the measurement, not causes
 FORMS = {"pi_hysteresis": "hysteresis"}          # a twin effect that is a form of another
@@ -46,14 +48,10 @@ EFFECTS = tuple(e for e in TWIN_EFFECTS if e not in SENSOR_EFFECTS and e not in 
 # need no re-run of them); the twin puts it on the drive, the same map when alone
 ORDER = ("delay", "saturation", "slew", "hysteresis", "pi_hysteresis", "input_nonlinearity",
          "creep", "thermal_drift")
-# play thresholds of the Prandtl–Ishlinskii candidate / peak-to-peak input (log-spaced)
-PI_FRACTIONS = (0.01, 0.02, 0.035, 0.05, 0.075, 0.1, 0.14, 0.19, 0.25, 0.33, 0.42)
-# knots of the static input map's hinges: quantiles of the training inputs (distinct, with
-# samples on both sides: a hinge at the edge of the data is not determined by it)
-KNOT_QUANTILES = (0.02, 0.05, 0.1, 0.2, 0.35, 0.5, 0.65, 0.8, 0.9, 0.95, 0.98)
 INPUT_EFFECTS = ORDER
 THERMAL = ("thermal_drift", "thermal_dynamics")  # need a varying temperature
 LN10 = np.log(10.0)
+_EFF = OPTIONS.effects
 
 
 @dataclass(frozen=True)
@@ -94,13 +92,11 @@ def _drift_d(z):
 def _b_max(s):
     """Upper bound of log10 B [1/V] of Bouc–Wen: 30 / peak-to-peak, and the discrete update
     ``h+ = h (1 - (B +- Gamma) |du|) + A du`` a contraction for the largest step of the data
-    (``(B + |Gamma|) |du| <= 2 BW_STEP_MAX`` with ``|Gamma| <= B``; the first step is from the
+    (``(B + |Gamma|) |du| <= 2 bw_step_max`` with ``|Gamma| <= B``; the first step is from the
     memory's 0 V to the first sample).  Beyond it the loop and its sensitivities diverge: a
     fit of a smooth noise-free sine overflowed into NaN."""
-    return np.log10(min(30.0 / s["u_ptp"], BW_STEP_MAX / max(s["du_max"], 1e-12)))
+    return np.log10(min(30.0 / s["u_ptp"], _EFF.bw_step_max / max(s["du_max"], 1e-12)))
 
-
-BW_STEP_MAX = 0.95       # (B + |Gamma|) |du| / 2 at the largest per-sample step
 
 SPECS = {
     "hysteresis": Spec(
@@ -126,7 +122,11 @@ SPECS = {
         report=lambda z: (10 ** z[0], 10 ** z[1])),
     "creep": Spec(
         names=("per_decade", "per_K"),
-        bounds=lambda s: ((-0.3, -1.0), (0.3, 2.0)), init=lambda s: (0.0, 0.0),
+        # creep goes on in the direction of the step (>= 0); its growth with temperature
+        # keeps it >= 0 over the records' temperatures (Chain sets the lower bound of
+        # per_K, or holds it at 0 when they do not vary above the reference)
+        # (started inside the bound: at it, the trust region crawls along it)
+        bounds=lambda s: ((0.0, -1.0), (0.3, 2.0)), init=lambda s: (0.01, 0.0),
         twin=lambda z: np.asarray(z, float), dtwin=lambda z: np.eye(2),
         report=lambda z: (z[0], z[1])),
     "saturation": Spec(
@@ -140,7 +140,7 @@ SPECS = {
 
 
 def _pi_spec(stats):
-    n = len(PI_FRACTIONS)
+    n = len(_EFF.pi_fractions)
     return Spec(names=tuple(f"weight_{i + 1}" for i in range(n)),
                 bounds=lambda s: ((-3.0,) * n, (3.0,) * n), init=lambda s: (0.0,) * n,
                 twin=lambda z: np.asarray(z, float), dtwin=lambda z: np.eye(n),
@@ -149,8 +149,8 @@ def _pi_spec(stats):
 
 def pi_thresholds(stats):
     """Play thresholds [V] of the Prandtl–Ishlinskii candidate: fractions of the input's
-    peak-to-peak range (:data:`PI_FRACTIONS`)."""
-    return tuple(float(f * stats["u_ptp"]) for f in PI_FRACTIONS)
+    peak-to-peak range (``pi_fractions`` of :class:`~robrst.diagnose.options.EffectOptions`)."""
+    return tuple(float(f * stats["u_ptp"]) for f in _EFF.pi_fractions)
 
 
 def _map_spec(stats):
@@ -178,11 +178,12 @@ def spec(effect, stats):
 
 
 def _knots(U):
-    """Distinct knots strictly inside the data: quantiles, at least 1 % of the range apart."""
+    """Distinct knots strictly inside the data: quantiles (``knot_quantiles``), at least 1 % of
+    the range apart (a hinge at the edge of the data is not determined by it)."""
     lo, hi = float(U.min()), float(U.max())
     gap = 0.01 * max(hi - lo, 1e-12)
     out = []
-    for v in np.quantile(U, KNOT_QUANTILES):
+    for v in np.quantile(U, _EFF.knot_quantiles):
         if lo + gap < v < hi - gap and (not out or v > out[-1] + gap):
             out.append(float(v))
     return tuple(out)
@@ -201,7 +202,8 @@ def summary(records: Sequence[Dataset]) -> dict:
     dict
         ``u_ptp``, ``du_max`` (the largest step, from 0 V to the first sample
         included), ``knots`` (of the static input map), ``u_min``, ``u_max``,
-        ``u_scale``, ``rate_max`` [V/s] and ``duration_s``.
+        ``u_scale``, ``rate_max`` [V/s], ``duration_s``, ``temp_min`` and ``temp_max``
+        [°C] (None when no record has a temperature).
     """
     U = np.concatenate([d.U for d in records])
     ptp = float(max(np.ptp(U), 1e-9))
@@ -212,7 +214,55 @@ def summary(records: Sequence[Dataset]) -> dict:
     return {"u_ptp": ptp, "du_max": max(max(steps), first),
             "knots": _knots(U), "u_min": float(U.min()), "u_max": float(U.max()),
             "u_scale": max(float(np.max(np.abs(U))), ptp) / 150.0,
-            "rate_max": max(rate, ptp), "duration_s": float(max(d.t[-1] - d.t[0] for d in records))}
+            "rate_max": max(rate, ptp), "duration_s": float(max(d.t[-1] - d.t[0] for d in records)),
+            "temp_min": min((float(np.min(d.temp)) for d in records if d.temp is not None),
+                            default=None),
+            "temp_max": max((float(np.max(d.temp)) for d in records if d.temp is not None),
+                            default=None)}
+
+
+def creep_heating(stats: dict, reference_C: float) -> tuple[float, float]:
+    """The range of ``max(T - reference, 0)`` over the training records [K]: creep's growth
+    with temperature acts on it.
+
+    Parameters
+    ----------
+    stats : dict
+        :func:`summary` of the training records.
+    reference_C : float
+        The model's temperature [°C].
+
+    Returns
+    -------
+    (float, float)
+        Its least and largest value (records without a temperature are at the reference).
+    """
+    if stats.get("temp_min") is None:
+        return 0.0, 0.0
+    return max(stats["temp_min"] - reference_C, 0.0), max(stats["temp_max"] - reference_C, 0.0)
+
+
+def creep_per_K_free(stats: dict, reference_C: float) -> bool:
+    """Do the training records determine creep's growth with temperature (``per_K``)?
+
+    Only the product ``per_decade (1 + per_K dT)`` shows when ``dT = max(T - reference,
+    0)`` does not vary over the records (every record at one temperature, or below the
+    reference): ``per_K`` is then held at 0 and ``per_decade`` is the creep at their
+    temperature.
+
+    Parameters
+    ----------
+    stats : dict
+        :func:`summary` of the training records.
+    reference_C : float
+        The model's temperature [°C].
+
+    Returns
+    -------
+    bool
+    """
+    lo, hi = creep_heating(stats, reference_C)
+    return hi - lo >= OPTIONS.records.temp_excited_K
 
 
 def creep_cells(fs):
@@ -278,6 +328,16 @@ class Chain:
         self.lower, self.upper = np.array(lo, float), np.array(hi, float)
         self.z0 = np.array(z0, float)
         self.names = tuple(names)
+        self.creep_per_K = "creep" in self.effects and creep_per_K_free(stats, reference_C)
+        if "creep" in self.effects:
+            heat = creep_heating(stats, reference_C)[1]
+            for j in range(n_in):
+                k = self._block("creep", j).start + 1
+                if self.creep_per_K:        # kappa = 1 + per_K dT stays > 0 on the records
+                    self.lower[k] = max(self.lower[k], -0.95 / max(heat, 1e-12))
+                else:                       # not determined by the records: held at 0
+                    self.lower[k], self.upper[k] = -1e-12, 1e-12
+                self.z0[k] = np.clip(self.z0[k], self.lower[k], self.upper[k])
         self.stages = {e: cached_stage(cache, e, fs, reference_C) for e in self.effects
                        if e in ("slew", "hysteresis", "thermal_drift")}
         if "pi_hysteresis" in self.effects:
@@ -362,7 +422,8 @@ class Chain:
                 if jac:
                     dx = dx + creep[:, 1:]
                     dx[:, sl.start] = kappa_unit * acc[:, 0]
-                    dx[:, sl.start + 1] = zz[0] * np.maximum(Ts - self.ref, 0.0) / per * acc[:, 0]
+                    dx[:, sl.start + 1] = (zz[0] * np.maximum(Ts - self.ref, 0.0) / per
+                                           * acc[:, 0]) if self.creep_per_K else 0.0
                 x = x + creep[:, 0]
             elif e == "thermal_drift":
                 st = self.stages[e]
@@ -451,6 +512,15 @@ class Chain:
             for name, v, d in zip(sp.names, rep, sd):
                 vals[f"{name}{suffix}"] = float(v)
                 sds[f"{name}{suffix}"] = float(d)
+        if "creep" in self.effects and not self.creep_per_K:
+            vals, sds = out["creep"]
+            t = self.stats.get("temp_min")
+            for j in range(self.n_in):
+                suffix = f"_u{j + 1}" if self.n_in > 1 else ""
+                sds[f"per_K{suffix}"] = np.inf          # not determined by the records
+                vals[f"per_decade_at_C{suffix}"] = float(self.ref if t is None
+                                                          else max(t, self.ref))
+                sds[f"per_decade_at_C{suffix}"] = 0.0
         if "delay" in self.effects:
             vals, sds = out["delay"]
             for j, d in enumerate(self.delays):

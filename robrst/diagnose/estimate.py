@@ -93,7 +93,7 @@ class EffectEstimate:
 
 def fit_effects(records: Sequence[Dataset], effects: Sequence[str],
                 plant: Plant | ModalModel | None = None, reference_C: float | None = None,
-                joint: bool = False, max_nfev: int = 80) -> EffectEstimate:
+                joint: bool = False, max_nfev: int = 200) -> EffectEstimate:
     """Fit the parameters of ``effects`` on measured records.
 
     Parameters
@@ -113,7 +113,8 @@ def fit_effects(records: Sequence[Dataset], effects: Sequence[str],
     joint : bool
         Also re-fit the linear part's corrections (regularised toward ``plant``).
     max_nfev : int
-        Evaluations allowed to the least-squares solver.
+        Evaluations allowed to the least-squares solver (a converged fit stops earlier; a
+        joint fit of creep and a gain change on minutes of steps takes about 150).
 
     Returns
     -------

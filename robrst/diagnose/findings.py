@@ -1,11 +1,16 @@
 """Noise floor, excitation levels and the diagnosis's findings.
 
-* :func:`noise_levels` — sensor-noise std per record and output: from period-to-period
-  differences of periodic records (``var(y_{p+1} - y_p) / 2``, the true floor even
-  where the plant still has modes), else from the residual spectrum
-  (:func:`robrst.diagnose.signals.noise_sigma`).
+* :func:`noise_estimate` (and :func:`noise_levels`) — sensor-noise std per record and
+  output: from period-to-period differences of periodic records (``var(y_{p+1} - y_p) /
+  2``, the true floor even where the plant still has modes), else from the residual
+  spectrum in the bands the record's input does not excite
+  (:func:`robrst.diagnose.signals.noise_sigma`); a record whose input excites every band
+  has no floor of its own (0: its noise cannot be told from a model error there).
+* :func:`period_noise` — the period differences' level: the median over blocks of their
+  mean square (a transient at a record's start — a play or a creep that has not reached
+  its steady state — or a burst does not raise it; stationary noise is measured to 0.2 %).
 * :func:`level_groups` — records grouped by excitation level (input RMS within
-  ``LEVEL_TOL``), and which of them share an excitation shape (input spectrum), so a
+  ``level_tol`` of :class:`~robrst.diagnose.options.LevelOptions`), and which of them share an excitation shape (input spectrum), so a
   gap can be compared across amplitudes without comparing steps with sines.
 * :func:`amplitude_finding` — ``amplitude_dependent``: a linear model is fitted on the
   lowest level and its gap compared across levels (a linear plant gives the same
@@ -20,35 +25,129 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy import signal
 
 from robrst.diagnose import signals
+from robrst.diagnose.options import OPTIONS
 
 if TYPE_CHECKING:
     from robrst.data.dataset import Dataset
     from robrst.identify.modal import ModalModel
 
-__all__ = ["noise_levels", "level_groups", "comparable", "amplitude_finding",
-           "unmodelled_finding", "LEVEL_TOL", "AMPLITUDE_RATIO"]
+__all__ = ["NoiseEstimate", "noise_estimate", "noise_levels", "period_noise", "level_groups", "comparable", "amplitude_finding",
+           "unmodelled_finding"]
 
-LEVEL_TOL = 0.1          # records within 10 % input RMS share a level
-AMPLITUDE_RATIO = 1.5    # gap ratio across levels that flags amplitude dependence
-SHAPE_TOL = 0.3          # max |log10| difference of band shares for "same excitation shape"
+_LV = OPTIONS.levels
 
 
-def noise_levels(records: Sequence[Dataset], residuals: Sequence[np.ndarray],
-                 fs: float) -> tuple[np.ndarray, str]:
-    """Noise std per record and output ``(records, m)`` [µm] and the method used.
+@dataclass(frozen=True, eq=False)
+class NoiseEstimate:
+    """Noise std per record and output, and how it was found.
+
+    Parameters
+    ----------
+    levels : numpy.ndarray
+        ``(records, m)`` [µm]; 0 for a record whose input excites every band.
+    method : str
+        ``"period_differences"``, ``"spectrum"``, ``"undetermined"`` or several joined by
+        ``+``.
+    undetermined : tuple of int
+        The records whose input excites every band.
+    upper : numpy.ndarray
+        ``levels`` with the undetermined ones from the whole residual spectrum: an upper
+        bound (the weight of priors and the threshold of time windows need a level).
+    """
+
+    levels: np.ndarray
+    method: str
+    undetermined: tuple
+    upper: np.ndarray
+
+
+def noise_estimate(records: Sequence[Dataset], residuals: Sequence[np.ndarray],
+                   fs: float) -> NoiseEstimate:
+    """Noise std per record and output (see the module doc).
 
     Parameters
     ----------
     records : sequence of Dataset
         The records (periodic ones use period-to-period differences).
     residuals : sequence of numpy.ndarray
-        Their residuals (the others use the residual's spectrum).
+        Their residuals (the others use the residual's spectrum where their input does not
+        excite it).
+    fs : float
+        Sampling rate [Hz].
+
+    Returns
+    -------
+    NoiseEstimate
+    """
+    out, upper, methods, undetermined = [], [], set(), []
+    for i, (d, r) in enumerate(zip(records, residuals)):
+        if d.period and d.periods >= 2:
+            lv = period_noise(d)
+            out.append(lv)
+            upper.append(lv)
+            methods.add("period_differences")
+            continue
+        R = np.asarray(r, float).reshape(d.n, -1)
+        lv = np.array([signals.noise_sigma(c, fs, d.U) for c in R.T])
+        if np.all(np.isfinite(lv)):
+            methods.add("spectrum")
+            out.append(lv)
+            upper.append(lv)
+            continue
+        methods.add("undetermined")
+        undetermined.append(i)
+        whole = np.array([signals.noise_sigma(c, fs) for c in R.T])
+        out.append(np.where(np.isfinite(lv), lv, 0.0))
+        upper.append(np.where(np.isfinite(lv), lv, whole))
+    return NoiseEstimate(np.array(out), "+".join(sorted(methods)), tuple(undetermined),
+                         np.array(upper))
+
+
+def period_noise(d: Dataset) -> np.ndarray:
+    """Noise std per output [µm] of a periodic record from its period-to-period differences.
+
+    ``var(y_{p+1} - y_p) / 2`` measured block by block (``period_blocks`` per period, of at
+    least ``min_block`` samples): the median of the blocks' mean squares, so a transient
+    that a part of the record holds (the record does not start in steady state) does not
+    count as noise.
+
+    Parameters
+    ----------
+    d : Dataset
+        A record of at least two whole periods.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(m,)``.
+    """
+    opts = OPTIONS.noise
+    Yp = d.Y[:d.periods * d.period].reshape(d.periods, d.period, -1)
+    D2 = np.diff(Yp, axis=0) ** 2                            # (periods - 1, P, m)
+    nb = int(max(1, min(opts.period_blocks, d.period // opts.min_block)))
+    edges = np.linspace(0, d.period, nb + 1).astype(int)
+    ms = np.array([D2[:, a:b].mean(axis=(0, 1)) for a, b in zip(edges[:-1], edges[1:])])
+    return np.sqrt(np.median(ms, axis=0) / 2)
+
+
+def noise_levels(records: Sequence[Dataset], residuals: Sequence[np.ndarray],
+                 fs: float) -> tuple[np.ndarray, str]:
+    """Noise std per record and output ``(records, m)`` [µm] and the method used
+    (:func:`noise_estimate`'s ``levels`` and ``method``).
+
+    Parameters
+    ----------
+    records : sequence of Dataset
+        The records.
+    residuals : sequence of numpy.ndarray
+        Their residuals.
     fs : float
         Sampling rate [Hz].
 
@@ -56,20 +155,9 @@ def noise_levels(records: Sequence[Dataset], residuals: Sequence[np.ndarray],
     -------
     levels : numpy.ndarray
     method : str
-        ``"period_differences"``, ``"spectrum"`` or both joined by ``+``.
     """
-    out, methods = [], set()
-    for d, r in zip(records, residuals):
-        if d.period and d.periods >= 2:
-            Yp = d.Y.reshape(d.periods, d.period, -1)
-            diff = np.diff(Yp, axis=0)
-            out.append(np.sqrt(np.mean(diff ** 2, axis=(0, 1)) / 2))
-            methods.add("period_differences")
-        else:
-            R = np.asarray(r, float).reshape(d.n, -1)
-            out.append(np.array([signals.noise_sigma(c, fs) for c in R.T]))
-            methods.add("spectrum")
-    return np.array(out), "+".join(sorted(methods))
+    est = noise_estimate(records, residuals, fs)
+    return est.levels, est.method
 
 
 def floor_of(records, sigmas):
@@ -79,7 +167,7 @@ def floor_of(records, sigmas):
     return math.sqrt(num / den) if den > 0 else math.inf
 
 
-def _signature(d, bands=24):
+def _signature(d, bands=_LV.shape_bands):
     """Band shares of the input spectrum, holding fraction and crest factor."""
     U = d.U - d.U.mean(axis=0)
     f, P = signal.welch(U, fs=d.fs, nperseg=min(4096, max(64, d.n // 4)), axis=0)
@@ -109,9 +197,10 @@ def comparable(a: Dataset, b: Dataset) -> bool:
     bool
     """
     (sa, ha, ca), (sb, hb, cb) = _signature(a), _signature(b)
-    big = (sa > 0.01) | (sb > 0.01)
-    spectrum = np.all(np.abs(np.log10((sa[big] + 1e-4) / (sb[big] + 1e-4))) < SHAPE_TOL)
-    return bool(spectrum and abs(ha - hb) < 0.1 and abs(ca - cb) <= 0.35 * max(ca, cb))
+    big = (sa > _LV.shape_share) | (sb > _LV.shape_share)
+    spectrum = np.all(np.abs(np.log10((sa[big] + 1e-4) / (sb[big] + 1e-4))) < _LV.shape_tol)
+    return bool(spectrum and abs(ha - hb) < _LV.hold_tol
+                and abs(ca - cb) <= _LV.crest_tol * max(ca, cb))
 
 
 def level_groups(records: Sequence[Dataset]) -> list[tuple[float, list[int]]]:
@@ -131,7 +220,7 @@ def level_groups(records: Sequence[Dataset]) -> list[tuple[float, list[int]]]:
     groups = []
     for i in order:
         lv = records[i].level
-        if groups and lv <= groups[-1][0] * (1 + LEVEL_TOL):
+        if groups and lv <= groups[-1][0] * (1 + _LV.level_tol):
             groups[-1][1].append(int(i))
         else:
             groups.append([lv, [int(i)]])
@@ -175,12 +264,13 @@ def amplitude_finding(records: Sequence[Dataset], base_res: Sequence[np.ndarray]
               "gap": signals.nrmse([records[i] for i in g], [base_res[i] for i in g]),
               "noise_floor": floor_of([records[i] for i in g], [sigmas[i] for i in g])}
              for lv, g in groups]
-    if len(groups) < 2 or groups[-1][0] < 1.3 * groups[0][0]:
+    ratio_min = OPTIONS.records.level_ratio
+    if len(groups) < 2 or groups[-1][0] < ratio_min * groups[0][0]:
         return None, table
     ref = records[groups[0][1][0]]
     same = [(lv, [i for i in g if comparable(records[i], ref)]) for lv, g in groups]
     same = [(lv, g) for lv, g in same if g]
-    if len(same) < 2 or same[-1][0] < 1.3 * same[0][0]:
+    if len(same) < 2 or same[-1][0] < ratio_min * same[0][0]:
         return None, table
     res = refit_res if refit_res is not None else base_res
     gaps = gaps_per_level(records, res, same)
@@ -188,7 +278,8 @@ def amplitude_finding(records: Sequence[Dataset], base_res: Sequence[np.ndarray]
     base = gaps_per_level(records, base_res, same)
     ratio = gaps[-1] / gaps[0] if gaps[0] > 0 else math.inf
     big = max(gaps[-1], gaps[0])
-    if not (ratio >= AMPLITUDE_RATIO or ratio <= 1 / AMPLITUDE_RATIO) or big < 2 * max(floors):
+    if not (ratio >= _LV.amplitude_ratio or ratio <= 1 / _LV.amplitude_ratio) or \
+            big < _LV.floor_ratio * max(floors):
         return None, table
     lo, hi = same[0][0], same[-1][0]
     return {"kind": "amplitude_dependent",
@@ -238,7 +329,8 @@ def unmodelled_finding(high: ModalModel, refit: ModalModel, fs: float, gap_high:
         "extra_modes_hz", "gap_after", "gap_refit", "gap_before"}``.
     """
     ex = lambda g: math.sqrt(max(g * g - floor * floor, 0.0))  # noqa: E731
-    if not ex(gap_high) <= 0.5 * ex(gap_refit):
+    v = OPTIONS.verdict
+    if not ex(gap_high) <= v.unmodelled_share * ex(gap_refit):
         return None
     f = np.geomspace(fs / 1e5, 0.49 * fs, 800)
     w = 2 * np.pi * f
@@ -246,10 +338,10 @@ def unmodelled_finding(high: ModalModel, refit: ModalModel, fs: float, gap_high:
     if len(inputs):
         fu, pu = signals.residual_psd(list(inputs), fs)         # the inputs' spectrum
         d = d * np.sqrt(np.interp(f, fu[1:], pu[1:]))
-    sel = f[d >= 0.2 * d.max()]
+    sel = f[d >= v.unmodelled_band * d.max()]
     extra = []
     for p in high.poles:
-        if p != 0 and np.min(np.abs(refit.poles - p) / abs(p)) > 0.05:   # pairs and reals
+        if p != 0 and np.min(np.abs(refit.poles - p) / abs(p)) > v.unmodelled_pole_tol:
             extra.append(float(abs(p) / (2 * np.pi)))
     return {"kind": "unmodelled_dynamics",
             "message": (f"a linear model of order {high.order} (the model has {refit.order})"

@@ -22,13 +22,13 @@ d_il y_l`` on the output side, off-diagonal only)::
 Periodic records are fitted in steady state on their period average (weight: the
 number of periods), the effects warmed up on one extra period.  Records are simulated
 whole; the residual of a long record enters the fit on every k-th sample (at most
-``FIT_ROWS`` rows per record, weighted by sqrt(k)): the cost of each solver step then does
+``fit_rows`` rows per record, weighted by sqrt(k)): the cost of each solver step then does
 not grow with the record.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -37,16 +37,17 @@ from scipy import optimize
 
 from robrst.diagnose.effects import Chain
 from robrst.diagnose.linear import parameter_std
+from robrst.diagnose.options import OPTIONS
 
 if TYPE_CHECKING:
     from robrst.data.dataset import Dataset
     from robrst.diagnose.linear import LinearPart
 
 __all__ = ["Prepared", "prepare", "Fitted", "fit_model", "fit_by_level", "model_jacobian",
-           "level_factor"]
+           "level_factor", "slope_basis", "compressed"]
 
 SLOPE_KINDS = ("dlog_freq", "dlog_damping", "input_gain", "gain", "mode_gain")
-FIT_ROWS = 8192          # residual rows per record in a fit (every k-th sample beyond)
+_FIT = OPTIONS.fit
 
 
 @dataclass(frozen=True, eq=False)
@@ -110,6 +111,29 @@ def prepare(d: Dataset, reference_C: float, for_fit: bool = True) -> Prepared:
             U, Y, T, w = d.U, d.Y, temp, 1.0
         return Prepared(d.source, U, Y, T, True, P, w, d.level)
     return Prepared(d.source, d.U, d.Y, temp, False, 0, 1.0, d.level)
+
+
+def slope_basis(f: float, knots: Sequence[float] = ()) -> np.ndarray:
+    """The piecewise-linear level basis at level factor ``f``: ``[f, max(f - k, 0), ...]``.
+
+    Parameters
+    ----------
+    f : float
+        The level factor.
+    knots : sequence of float
+        Interior knots (level factors).
+
+    Returns
+    -------
+    numpy.ndarray
+
+    Examples
+    --------
+    >>> from robrst.diagnose.fit import slope_basis
+    >>> slope_basis(2.0, (1.0,)).tolist()
+    [2.0, 1.0]
+    """
+    return np.array([f] + [max(f - k, 0.0) for k in knots], float)
 
 
 def level_factor(level: float, reference: float) -> float:
@@ -262,6 +286,17 @@ class Fitted:
         Constant output offsets fitted (one per output, or none).
     post : Post, optional
         The output-side blocks fitted (offset, sensor curvature, cross-coupling).
+    level_knots : tuple of float
+        Interior knots of the level coordinate (level factors of the training levels
+        between the lowest and the highest): a correction that varies with the level is
+        piecewise linear in the level factor ``f``, ``s f + sum_k h_k max(f - f_k, 0)``
+        (:func:`slope_basis`; none: a line).  The slopes' parameters are ``s`` for every
+        slope index, then ``h_k`` likewise per knot.
+
+    Attributes
+    ----------
+    n_slope : int
+        Number of level parameters (slopes times the basis functions).
     """
 
     name: str
@@ -279,10 +314,38 @@ class Fitted:
     theta_fixed: np.ndarray = None
     n_offset: int = 0      # constant output offsets fitted (one per output, or none)
     post: Post = None      # output-side blocks (offset, curvature, mixing)
+    level_knots: tuple = ()  # interior knots of the level factor (piecewise-linear levels)
+
+    @property
+    def n_slope(self) -> int:
+        """Number of level parameters (slope indices times the basis functions)."""
+        return len(self.slopes) * (1 + len(self.level_knots))
+
+    def slope_names(self) -> list:
+        """Names of the level parameters, in their order.
+
+        Returns
+        -------
+        list of str
+            ``slope{i}``, then ``slope{i}_above{k}`` per interior knot ``k``.
+        """
+        out = [f"slope{i}" for i in self.slopes]
+        for k in range(len(self.level_knots)):
+            out += [f"slope{i}_above{k + 1}" for i in self.slopes]
+        return out
+
+    def slope_prior_sd(self) -> np.ndarray:
+        """Prior standard deviation of every level parameter (that of its correction).
+
+        Returns
+        -------
+        numpy.ndarray
+        """
+        return np.tile(self.lin.prior_sd[list(self.slopes)], 1 + len(self.level_knots))
 
     @property
     def _post_start(self):
-        return self.chain.size + (self.lin.size if self.joint else 0) + len(self.slopes)
+        return self.chain.size + (self.lin.size if self.joint else 0) + self.n_slope
 
     def parts(self, x: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Effect parameters, linear corrections and level slopes (not the output blocks).
@@ -300,7 +363,7 @@ class Fitted:
         nz, nt = self.chain.size, self.lin.size if self.joint else 0
         fixed = self.theta_fixed if self.theta_fixed is not None else np.zeros(self.lin.size)
         return (x[:nz], (x[nz:nz + nt] if self.joint else fixed),
-                x[nz + nt:nz + nt + len(self.slopes)])
+                x[nz + nt:nz + nt + self.n_slope])
 
     def block(self, key: str, x: np.ndarray | None = None) -> np.ndarray:
         """Parameters of output block ``key``; empty when not fitted.
@@ -355,7 +418,8 @@ class Fitted:
         _, th, s = self.parts(x)
         th = th.copy()
         if self.slopes:
-            th[list(self.slopes)] += s * level_factor(level, self.level_ref)
+            b = slope_basis(level_factor(level, self.level_ref), self.level_knots)
+            th[list(self.slopes)] += b @ s.reshape(b.size, len(self.slopes))
         return th
 
     def effective_input(self, p: Prepared, x: np.ndarray | None = None,
@@ -517,7 +581,8 @@ class Fitted:
         Returns
         -------
         values, sigmas : dict
-            Fixed corrections have sigma NaN; slopes are named ``<name>_per_level``.
+            Fixed corrections have sigma NaN; slopes are named ``<name>_per_level`` (and a
+            change of slope above an interior level ``<name>_per_level_above<k>``).
         """
         nz = self.chain.size
         out, sd = {}, {}
@@ -527,10 +592,12 @@ class Fitted:
         elif np.any(self.parts()[1]):
             for n, v in zip(self.lin.names, self.parts()[1]):
                 out[n], sd[n] = float(v), float("nan")
-        for k, i in enumerate(self.slopes):
-            n = f"{self.lin.names[i]}_per_level"
-            j = nz + (self.lin.size if self.joint else 0) + k
-            out[n], sd[n] = float(self.x[j]), float(self.std[j])
+        j0 = nz + (self.lin.size if self.joint else 0)
+        for b in range(1 + len(self.level_knots)):
+            for k, i in enumerate(self.slopes):
+                n = f"{self.lin.names[i]}_per_level" + (f"_above{b}" if b else "")
+                j = j0 + b * len(self.slopes) + k
+                out[n], sd[n] = float(self.x[j]), float(self.std[j])
         return out, sd
 
 
@@ -589,7 +656,7 @@ def model_jacobian(fit: Fitted, p: Prepared,
     """
     x = fit.x if x is None else np.asarray(x, float)
     lin, chain = fit.lin, fit.chain
-    nz, nt, ns = chain.size, lin.size if fit.joint else 0, len(fit.slopes)
+    nz, nt, ns = chain.size, lin.size if fit.joint else 0, fit.n_slope
     V, dV = fit.effective_input(p, x, jac=True)
     th = fit.theta_at(p.level, x)
     Y0, JL = lin.simulate_jac(th, V, p.periodic)
@@ -601,8 +668,9 @@ def model_jacobian(fit: Fitted, p: Prepared,
     if fit.joint:
         J[:, :, nz:nz + nt] = JL
     if fit.slopes:
-        J[:, :, nz + nt:nz + nt + ns] = (JL[:, :, list(fit.slopes)]
-                                         * level_factor(p.level, fit.level_ref))
+        b = slope_basis(level_factor(p.level, fit.level_ref), fit.level_knots)
+        J[:, :, nz + nt:nz + nt + ns] = np.concatenate(
+            [JL[:, :, list(fit.slopes)] * v for v in b], axis=2)
     post = fit.post
     if post is not None:
         if post.mixing:
@@ -676,8 +744,8 @@ def fit_model(name: str, effects: Sequence[str], train: Sequence[Prepared], lin:
     post = make_post(train, offset, curvature, mixing)
     no = post.sizes()["offset"] if post else 0
     plo, phi = post.bounds() if post else (np.zeros(0), np.zeros(0))
-    lo = np.concatenate([chain.lower, lin.lower if joint else [], np.full(ns, -5.0), plo])
-    hi = np.concatenate([chain.upper, lin.upper if joint else [], np.full(ns, 5.0), phi])
+    lo = np.concatenate([chain.lower, lin.lower if joint else [], np.full(ns, -_FIT.slope_bound), plo])
+    hi = np.concatenate([chain.upper, lin.upper if joint else [], np.full(ns, _FIT.slope_bound), phi])
     for i in (pinned if joint else ()):
         lo[nz + i], hi[nz + i] = -1e-12, 1e-12
         if i in slopes:
@@ -706,44 +774,202 @@ def fit_model(name: str, effects: Sequence[str], train: Sequence[Prepared], lin:
 
     # residual rows: every k-th sample of a long record (the simulation runs over all of it),
     # weighted by sqrt(k) so the priors keep their weight
-    strides = [max(1, -(-len(p.Y) // FIT_ROWS)) for p in train]
+    strides = [max(1, -(-len(p.Y) // _FIT.fit_rows)) for p in train]
 
-    def fun(x):
+    def residual(x):
         r = [(proto.predict_prepared(p, x) - p.Y)[::k].ravel() * (p.weight * np.sqrt(k) / scale)
              for p, k in zip(train, strides)]
         r.append(prior_w * (x[nz:nz + nt + ns] - center))
         out = np.concatenate(r)
         return np.where(np.isfinite(out), out, 1e3)
 
-    def jac(x):
-        rows = []
+    def blocks(x):
+        """The Jacobian's rows, a record at a time (as the residual: a trial point the
+        solver rejects gets zeros): ``(rows, residual rows they stand for, transform of those
+        residual rows)``.  A periodic record fitted whole by the linear part alone gives its
+        rows as the real and imaginary parts of their spectra, weighted so that the inner
+        products are the time rows' (Parseval): no transform back per column."""
         for p, k in zip(train, strides):
+            c = p.weight * np.sqrt(k) / scale
+            if p.periodic and k == 1 and proto.chain.size == 0 and post is None and joint:
+                J = spectral_jacobian(proto, p, x) * c
+                yield np.where(np.isfinite(J), J, 0.0), p.Y.size, (
+                    lambda rr, n=len(p.Y): parseval_rows(
+                        np.fft.rfft(rr.reshape(n, -1), axis=0), n))
+                continue
             J = model_jacobian(proto, p, x)[1][::k]
-            rows.append(J.reshape(-1, J.shape[2]) * (p.weight * np.sqrt(k) / scale))
+            J = J.reshape(-1, J.shape[2]) * c
+            yield np.where(np.isfinite(J), J, 0.0), J.shape[0], None
         prior = np.zeros((nt + ns, x.size))
         prior[:, nz:nz + nt + ns] = np.diag(prior_w)
-        rows.append(prior)
-        J = np.vstack(rows)
-        return np.where(np.isfinite(J), J, 0.0)     # as fun: a trial point the solver rejects
+        yield prior, nt + ns, None
 
     if x0.size == 0:
-        res = optimize.OptimizeResult(x=x0, cost=0.5 * float(np.sum(fun(x0) ** 2)), nfev=1,
-                                      jac=np.zeros((1, 0)), fun=fun(x0))
+        r0 = residual(x0)
+        res = optimize.OptimizeResult(x=x0, cost=0.5 * float(np.sum(r0 ** 2)), nfev=1,
+                                      jac=np.zeros((1, 0)), fun=r0)
+        n_rows = r0.size
     else:
         # trial points may overflow (an effect driven far out): the optimiser
         # rejects them; their floating-point warnings only reach the user
+        fun, jac, n_rows = compressed(residual, blocks, x0.size)
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
             res = optimize.least_squares(fun, x0, jac=jac, bounds=(lo, hi), method="trf",
                                          x_scale="jac", ftol=ftol, xtol=1e-10, gtol=1e-10,
                                          max_nfev=max_nfev)
-    std = parameter_std(res.jac, res.cost, res.fun.size) if x0.size else np.zeros(0)
+        n_rows = n_rows()
+    std = parameter_std(res.jac, res.cost, n_rows) if x0.size else np.zeros(0)
     return Fitted(name, tuple(effects), proto.form, chain, lin, res.x, std, joint, slopes,
                   level_ref, int(res.nfev), 2 * float(res.cost), fixed, no, post)
 
 
+def parseval_rows(S: np.ndarray, n: int) -> np.ndarray:
+    """Real rows of a real signal's spectrum whose inner products are the signal's.
+
+    ``S`` is ``rfft`` of ``n`` samples along axis 0 (any trailing axes); with ``w = 1`` at
+    DC (and at Nyquist for an even ``n``) and ``w = 2`` elsewhere, ``sum_t a_t b_t =
+    sum_k (w_k / n) Re(A_k conj(B_k))``: the rows are ``sqrt(w_k / n) (Re S_k, Im S_k)``,
+    flattened over the trailing axes but the last when ``S`` has three.
+
+    Parameters
+    ----------
+    S : numpy.ndarray
+        ``(F, ...)`` complex.
+    n : int
+        The signal's length.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(2 F prod(middle axes), last)`` for a 3-D ``S``, else ``(2 F prod(rest),)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from robrst.diagnose.fit import parseval_rows
+    >>> x = np.arange(6.0)
+    >>> r = parseval_rows(np.fft.rfft(x), 6)
+    >>> round(float(r @ r), 9), float(x @ x)
+    (55.0, 55.0)
+    """
+    F = S.shape[0]
+    w = np.full(F, 2.0)
+    w[0] = 1.0
+    if n % 2 == 0:
+        w[-1] = 1.0
+    S = S * np.sqrt(w / n).reshape((F,) + (1,) * (S.ndim - 1))
+    R = np.concatenate([S.real, S.imag], axis=0)
+    return R.reshape(-1, R.shape[-1]) if S.ndim == 3 else R.ravel()
+
+
+def spectral_jacobian(fit: Fitted, p: Prepared, x: np.ndarray) -> np.ndarray:
+    """The Jacobian of a linear-only joint fit on a periodic record as Parseval rows
+    (:func:`parseval_rows` of its spectrum): ``model_jacobian``'s inner products without
+    transforming a column back.
+
+    Parameters
+    ----------
+    fit : Fitted
+        A joint fit without effects or output blocks.
+    p : Prepared
+        A periodic record.
+    x : numpy.ndarray
+        The parameters.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(2 F m, n_x)``.
+    """
+    th = fit.theta_at(p.level, x)
+    _, JL = fit.lin.simulate_jac(th, p.U, True, spectral=True)          # (F, m, size)
+    cols = [JL]
+    if fit.slopes:
+        b = slope_basis(level_factor(p.level, fit.level_ref), fit.level_knots)
+        cols += [JL[:, :, list(fit.slopes)] * v for v in b]
+    return parseval_rows(np.concatenate(cols, axis=2), len(p.U))
+
+
+def compressed(residual: Callable[[np.ndarray], np.ndarray],
+               blocks: Callable[[np.ndarray], Iterable[np.ndarray]],
+               n: int) -> tuple[Callable, Callable, Callable]:
+    """A least-squares problem of many rows handed to ``scipy.optimize.least_squares`` on
+    ``n + 1`` rows that give its trust-region solver exactly the same cost, gradient and
+    ``J^T J`` (so the same steps, up to rounding).
+
+    ``fun(x)`` returns ``(||r(x)||, 0, ..., 0)``; ``jac(x)`` a square root ``K`` of the
+    Gram matrix of ``[J r]`` (``K^T K = [J r]^T [J r]``, accumulated a block of rows at a
+    time, never stacked; columns scaled to unit norm before the symmetric eigendecomposition
+    that gives ``K``; when that scaled Gram matrix is ill-conditioned — its smallest
+    eigenvalue below ``1e-9`` of its largest, where squaring loses the small directions —
+    ``K`` is the triangular factor of the blocks' QR decomposition instead) turned by a
+    Householder reflection ``H`` that maps its last column ``w`` (``||w|| = ||r||``) onto
+    ``||r|| e_1``: then ``M = H K[:, :n]`` has ``M^T M = J^T J`` and ``M^T fun(x) = K^T w =
+    J^T r``, and its column norms are ``J``'s (``x_scale``).
+    The solver's work per step then no longer grows with the records (an SVD of the
+    whole Jacobian per iteration was most of a mirror diagnosis).
+
+    Parameters
+    ----------
+    residual : callable
+        ``x -> r`` (the full residual vector).
+    blocks : callable
+        ``x -> iterable of (rows of the Jacobian, how many of r's rows they stand for, a
+        transform of those rows or None)``, in the order of ``r``'s rows (an orthogonal
+        transform, e.g. a record's spectrum: the rows and the residual transformed alike
+        keep every inner product).
+    n : int
+        Number of parameters.
+
+    Returns
+    -------
+    fun, jac : callable
+        For ``least_squares``.
+    rows : callable
+        ``() -> the number of rows of r`` (the degrees of freedom of ``parameter_std``).
+    """
+    last = {}
+
+    def fun(x):
+        r = residual(x)
+        last["x"], last["r"] = np.array(x, float), r
+        v = np.zeros(n + 1)
+        v[0] = float(np.linalg.norm(r))
+        return v
+
+    def jac(x, *_):
+        x = np.asarray(x, float)
+        r = last["r"] if "x" in last and np.array_equal(last["x"], x) else residual(x)
+        G, pos, kept = np.zeros((n + 1, n + 1)), 0, []
+        for B, rows, transform in blocks(x):
+            rr = r[pos:pos + rows]
+            pos += rows
+            A = np.column_stack([B, rr if transform is None else transform(rr)])
+            G += A.T @ A
+            kept.append(A)
+        d = np.sqrt(np.maximum(np.diag(G), 0.0))
+        d[d == 0] = 1.0
+        lam, V = np.linalg.eigh(G / d[:, None] / d[None, :])
+        live = lam[lam > 0]
+        if live.size == lam.size and live.min() >= 1e-9 * live.max():
+            K = (np.sqrt(lam)[:, None] * V.T) * d[None, :]
+        else:                   # squaring would lose the small directions: QR of the blocks
+            K = None
+            for A in kept:
+                K = np.linalg.qr(A if K is None else np.vstack([K, A]), mode="r")
+            K = np.vstack([K, np.zeros((n + 1 - K.shape[0], n + 1))])
+        w, M = K[:, n], K[:, :n]
+        u = w.copy()
+        u[0] -= np.linalg.norm(w)
+        uu = float(u @ u)
+        return M - np.outer(u, (2.0 / uu) * (u @ M)) if uu > 0 else M
+
+    return fun, jac, lambda: int(last["r"].size)
+
+
 def fit_by_level(name: str, train: Sequence[Prepared], lin: LinearPart, chain: Chain,
-                 noise_sigma: float, start: dict | None = None, max_nfev: int = 20,
-                 tol: float = 0.1, pinned: Sequence[int] = ()) -> Fitted:
+                 noise_sigma: float, start: dict | None = None, max_nfev: int = _FIT.level_nfev,
+                 tol: float = OPTIONS.levels.level_tol, pinned: Sequence[int] = ()) -> Fitted:
     """Amplitude-dependent dynamics by one linear re-fit per excitation level.
 
     The training records are grouped by level (within ``tol``); the linear corrections are
@@ -803,16 +1029,21 @@ def fit_by_level(name: str, train: Sequence[Prepared], lin: LinearPart, chain: C
         fits.append(fit_model(name, (), g, lin, chain, noise_sigma, joint=True,
                               start=dict(zip(lin.names, prev)), max_nfev=max_nfev,
                               pinned=pinned, prior_center=prev, prior_scale=float(df)))
+    # piecewise linear through the levels: a knot at every interior level, so each
+    # training level gets its own fit exactly and a level beyond them the nearest segment's
+    knots = tuple(float(f) for f in F[1:-1])
     W = np.array([sum(p.weight ** 2 * p.Y.size for p in g) for g in groups], float)
     TH = np.array([f.x[:lin.size] for f in fits])
-    A = np.column_stack([np.ones_like(F), F]) * np.sqrt(W)[:, None]
-    coef = np.linalg.lstsq(A, TH * np.sqrt(W)[:, None], rcond=None)[0]
-    theta0, slope = coef[0], coef[1]
+    A = np.column_stack([np.ones_like(F)] + [np.array([slope_basis(f, knots)[b] for f in F])
+                                             for b in range(1 + len(knots))])
+    M = np.linalg.pinv(A * np.sqrt(W)[:, None]) * np.sqrt(W)[None, :]     # coef = M @ TH
+    coef = M @ TH
     slopes = tuple(i for i, (k, _) in enumerate(lin.kinds) if k in SLOPE_KINDS)
-    x = np.concatenate([theta0, slope[list(slopes)]])
-    sd = np.array([f.std[:lin.size] for f in fits])
-    std = np.concatenate([sd[0], np.sqrt(np.sum(sd ** 2, axis=0))[list(slopes)]
-                          / max(float(np.ptp(F)), 1e-12)])
+    x = np.concatenate([coef[0]] + [coef[1 + b][list(slopes)] for b in range(1 + len(knots))])
+    sd = np.array([f.std[:lin.size] for f in fits])                # independent level fits
+    var = np.sum(np.where(M[:, :, None] != 0, M[:, :, None] ** 2 * sd[None] ** 2, 0.0), axis=1)
+    std = np.concatenate([np.sqrt(var[0])] + [np.sqrt(var[1 + b])[list(slopes)]
+                                              for b in range(1 + len(knots))])
     return Fitted(name, (), "dynamic", chain, lin, x, std, True, slopes, level_ref,
                   int(max(f.n_eval for f in fits)), float(sum(f.train_cost for f in fits)),
-                  np.zeros(lin.size), 0, None)
+                  np.zeros(lin.size), 0, None, knots)

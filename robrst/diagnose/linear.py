@@ -20,7 +20,8 @@ of the same numerators over the new denominator,
 conjugates included; no polynomial is expanded).  A re-fit therefore corrects gains,
 resonances and damping (the usual model errors) but cannot imitate a delay or an
 effect by rotating phases.  ``theta = 0`` is the user's model; corrections are bounded
-(:data:`BOUNDS`) and carry Gaussian priors (:data:`PRIOR_SD`): a re-fit is regularised
+(``bounds``) and carry Gaussian priors (``prior_sd``, both in
+:class:`~robrst.diagnose.options.LinearOptions`): a re-fit is regularised
 toward the user's model.  Records are simulated exactly (ZOH,
 :func:`~robrst.core.lti.zoh_modal`) from rest by first-order recursions, or in periodic
 steady state on the DFT grid.  :class:`LinearPart` returns outputs and their Jacobian
@@ -36,6 +37,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy import optimize, signal
 
+from robrst.diagnose.options import OPTIONS
 from robrst.identify.modal import ModalModel, pair_weight
 from robrst.core.lti import zoh_modal
 from robrst.core.plant import Plant
@@ -43,16 +45,11 @@ from robrst.core.plant import Plant
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
-__all__ = ["coefficient_changes", "LinearPart", "LinearSim", "as_modal", "refit_linear", "LinearFit", "PRIOR_SD",
-           "BOUNDS", "parameter_std", "unexcited", "EXCITED_SHARE"]
+__all__ = ["coefficient_changes", "LinearPart", "LinearSim", "as_modal", "refit_linear",
+           "LinearFit", "parameter_std", "unexcited"]
 
-PRIOR_SD = {"dlog_freq": 0.1, "dlog_damping": 1.0, "gain": 0.2, "input_gain": 0.2,
-            "mode_gain": 0.2}
-BOUNDS = {"dlog_freq": (-0.5, 0.5), "dlog_damping": (-3.0, 3.0), "gain": (-0.9, 2.0),
-          "input_gain": (-0.9, 2.0), "mode_gain": (-0.9, 2.0)}
-FD_STEP = 1e-6
 GAIN_KINDS = ("gain", "input_gain", "mode_gain")
-EXCITED_SHARE = 1e-5     # input power within an octave of a mode that lets the records see it
+_LIN = OPTIONS.linear
 
 
 def as_modal(model: ModalModel | Plant) -> ModalModel:
@@ -116,16 +113,17 @@ class LinearPart:
             kinds.append(("gain", 0))
         self.names = tuple(names)
         self.kinds = tuple(kinds)
-        self.lower = np.array([BOUNDS[k][0] for k, _ in kinds])
-        self.upper = np.array([BOUNDS[k][1] for k, _ in kinds])
+        self.lower = np.array([_LIN.bounds[k][0] for k, _ in kinds])
+        self.upper = np.array([_LIN.bounds[k][1] for k, _ in kinds])
         if self.modal_gains:                  # log gains: the same factors 0.1 ... 3
             gain = np.array([k in GAIN_KINDS for k, _ in kinds])
             self.lower[gain] = np.log1p(self.lower[gain])
             self.upper[gain] = np.log1p(self.upper[gain])
-        self.prior_sd = np.array([PRIOR_SD[k] for k, _ in kinds])
+        self.prior_sd = np.array([_LIN.prior_sd[k] for k, _ in kinds])
         self.moves = tuple(i for i, (k, _) in enumerate(kinds)
                            if k in ("dlog_freq", "dlog_damping", "mode_gain"))
         self._cache = {}          # sampled transfers by (theta, N): records share DFT grids
+        self._term_cache = {}     # the latest theta's modal terms (finite differences)
 
     @property
     def size(self):
@@ -155,7 +153,7 @@ class LinearPart:
         for q, pole in enumerate(p):
             if pole.imag > 0:
                 wn, zeta = abs(pole), -pole.real / abs(pole)
-                wn, zeta = wn * np.exp(dw[q]), min(zeta * np.exp(dz[q]), 0.999)
+                wn, zeta = wn * np.exp(dw[q]), min(zeta * np.exp(dz[q]), _LIN.max_damping)
                 p[q] = complex(-zeta * wn, wn * np.sqrt(1 - zeta * zeta))
             else:
                 p[q] = pole * np.exp(dw[q])
@@ -163,6 +161,20 @@ class LinearPart:
 
     def _modes(self, theta):
         """New poles and residues (same numerators), input gains applied: ``(n,), (n, m, k)``."""
+        new, R = self._mapped(theta)
+        R = R * self._mode_factors(theta)[:, None, None]
+        return new, R * self._gains(theta)[None, None, :]
+
+    def _mode_factors(self, theta):
+        """The per-mode gain factors (1 without per-mode gains)."""
+        f = np.ones(self.model.poles.size)
+        for t, (kind, q) in zip(theta, self.kinds):
+            if kind == "mode_gain":
+                f[q] = self._factor(t)
+        return f
+
+    def _mapped(self, theta):
+        """New poles and the residues of the same numerators over them (no gains)."""
         m = self.model
         new = self._poles(theta)
         if np.array_equal(new, m.poles):
@@ -181,10 +193,7 @@ class LinearPart:
                 C = np.where(off, (x - P0[:n, None]) / (x - P0[None, :]), 0.0)
             rest = (C @ R0.reshape(P0.size, -1)).reshape((n,) + R0.shape[1:])
             R = ratio[:, None, None] * (R0[:n] + rest)
-        for t, (kind, q) in zip(theta, self.kinds):
-            if kind == "mode_gain":
-                R[q] = R[q] * self._factor(t)
-        return new, R * self._gains(theta)[None, None, :]
+        return new, R
 
     def continuous(self, theta: np.ndarray) -> ModalModel:
         """The corrected model as a :class:`ModalModel`.
@@ -217,11 +226,83 @@ class LinearPart:
             self._cache[key] = H
         return H
 
-    def _parts(self, theta, V, periodic):
-        """Per-input output contributions ``(N or F, m, k)`` (spectra when periodic)."""
+    def _terms(self, theta, N):
+        """Every mode's part of the sampled transfer at ``theta`` (cached, the latest only):
+        ``(new poles, mapped residues, A, B, z)`` with ``A[p] = Rd_p / (z - zp_p)`` and ``B[p]``
+        its conjugate pole's term (zero for a real pole), ``(modes, F, m, k)``."""
+        key = (np.asarray(theta, float).tobytes(), int(N))
+        if self._term_cache.get("key") != key:
+            new, Rm = self._mapped(theta)
+            R = Rm * self._mode_factors(theta)[:, None, None] * self._gains(theta)[None, None, :]
+            zp, Rd = zoh_modal(new, R, self.fs)
+            z = np.exp(2j * np.pi * np.arange(N // 2 + 1) / N)
+            A = Rd[:, None] / (z[None, :, None, None] - zp[:, None, None, None])
+            B = np.where((self.weight == 2.0)[:, None, None, None],
+                         np.conj(Rd)[:, None] / (z[None, :, None, None]
+                                                 - np.conj(zp)[:, None, None, None]), 0.0)
+            self._term_cache = {"key": key, "value": (new, Rm, A, B, z)}
+        return self._term_cache["value"]
+
+    def _H_moves(self, theta, moves, N):
+        """The sampled transfers ``(len(moves), F, m, k)`` with each correction of ``moves``
+        (a mode's frequency or damping) moved by the finite-difference step (cached with
+        the latest theta): only that mode's pole moves, so every other mode's residue is its
+        own times a scalar (the zero-preserving map of one pole, as :meth:`_mapped`
+        composes), one matrix product for every move; only the moved mode's term is new."""
+        key = (np.asarray(theta, float).tobytes(), int(N), tuple(moves))
+        if self._term_cache.get("moves_key") == key:
+            return self._term_cache["moves"]
+        new, Rm, A, B, z = self._terms(theta, N)
+        S = np.zeros((len(moves), new.size), complex)
+        extra = []
+        for r, i in enumerate(moves):
+            th = np.array(theta, float)
+            th[i] += _LIN.fd_step
+            S[r], term = self._moved(new, Rm, th, self.kinds[i][1], z)
+            extra.append(term)
+        F = A.shape[1:]
+        H = (S @ A.reshape(new.size, -1) + np.conj(S) @ B.reshape(new.size, -1)).reshape(
+            (len(moves),) + F) + np.array(extra)
+        self._term_cache["moves_key"], self._term_cache["moves"] = key, H
+        return H
+
+    def _H_moved(self, theta, i, N):
+        """The sampled transfer with correction ``i`` moved (:meth:`_H_moves` of one)."""
+        return self._H_moves(theta, (i,), N)[0]
+
+    def _moved(self, new, Rm, th, q, z):
+        """Scalars of the other modes' residues and the moved mode ``q``'s term (with D) at
+        ``th`` (which moves only mode ``q``'s pole)."""
+        old, nw = new[q], self._poles(th)[q]
+        pair = self.weight[q] == 2.0
+        olds = np.array([old, np.conj(old)] if pair else [old])
+        news = np.array([nw, np.conj(nw)] if pair else [nw])
+        s = np.prod((new[:, None] - olds[None, :]) / (new[:, None] - news[None, :]), axis=1)
+        s[q] = 0.0
+        H = 0.0
+        # the moved mode: its residue re-mapped over the new pole (ratio and sum of _mapped)
+        cj = np.imag(new) > 0
+        P0 = np.concatenate([new, np.conj(new[cj])])
+        R0 = np.concatenate([Rm, np.conj(Rm[cj])])
+        others = np.ones(P0.size, bool)
+        others[q] = False
+        ratio = (nw - np.conj(old)) / (nw - np.conj(nw)) if pair else 1.0
+        rest = np.tensordot((nw - old) / (nw - P0[others]), R0[others], axes=1)
+        Rq = ratio * (Rm[q] + rest) * self._mode_factors(th)[q] * self._gains(th)[None, :]
+        zq, Rdq = zoh_modal(np.array([nw]), Rq[None], self.fs)
+        H += Rdq[0][None] / (z - zq[0])[:, None, None]
+        if pair:
+            H += np.conj(Rdq[0])[None] / (z - np.conj(zq[0]))[:, None, None]
+        return s, H + (self.model.D * self._gains(th)[None, :])[None]
+
+    def _parts(self, theta, V, periodic, Vf=None):
+        """Per-input output contributions ``(N or F, m, k)`` (spectra when periodic; ``Vf``
+        the input's spectrum when known)."""
         N = V.shape[0]
         if periodic:
-            return self._H(theta, N) * np.fft.rfft(V, axis=0)[:, None, :]
+            if Vf is None:
+                Vf = np.fft.rfft(V, axis=0)
+            return self._H(theta, N) * Vf[:, None, :]
         new, R = self._modes(theta)
         zp, Rd = zoh_modal(new, R, self.fs)
         D = self.model.D * self._gains(theta)[None, :]
@@ -330,7 +411,8 @@ class LinearPart:
         return self.simulate_jac(theta, V, periodic, jac=False)[0]
 
     def simulate_jac(self, theta: np.ndarray, V: np.ndarray, periodic: bool = False,
-                     jac: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+                     jac: bool = True,
+                     spectral: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
         """Outputs ``(N, m)`` and, if ``jac``, ``d outputs / d theta`` ``(N, m, size)``.
 
         Parameters
@@ -343,6 +425,9 @@ class LinearPart:
             Steady state of a periodic record (else from rest).
         jac : bool
             Also the Jacobian.
+        spectral : bool
+            A periodic record's outputs and Jacobian as their spectra (``rfft`` along the
+            samples: ``(N//2 + 1, m)`` and ``(N//2 + 1, m, size)``), not transformed back.
 
         Returns
         -------
@@ -352,9 +437,11 @@ class LinearPart:
         theta = np.asarray(theta, float)
         V = np.asarray(V, float).reshape(len(V), -1)
         N = V.shape[0]
-        parts = self._parts(theta, V, periodic)
+        Vf = np.fft.rfft(V, axis=0) if periodic and jac else None   # once, not per column
+        parts = self._parts(theta, V, periodic, Vf)
         total = parts.sum(axis=2)
-        back = (lambda A: np.fft.irfft(A, n=N, axis=0)) if periodic else (lambda A: A)  # noqa
+        back = (lambda A: np.fft.irfft(A, n=N, axis=0)) if periodic and not spectral else (
+            lambda A: A)
         Y = back(total)
         if not jac:
             return Y, None
@@ -363,10 +450,24 @@ class LinearPart:
         for i, (kind, q) in enumerate(self.kinds):
             if kind in ("gain", "input_gain"):       # d exp(t) = exp(t) dt; d (1 + t) = dt
                 cols[..., i] = parts[:, :, q] if self.modal_gains else parts[:, :, q] / gains[q]
+        poles_moves = [i for i in self.moves if periodic
+                       and self.kinds[i][0] in ("dlog_freq", "dlog_damping")]
+        if poles_moves:               # every pole move at once (one matrix product)
+            Hm = self._H_moves(theta, tuple(poles_moves), N)
+            cols[..., poles_moves] = (np.einsum("ifmk,fk->fmi", Hm, Vf)
+                                      - total[..., None]) / _LIN.fd_step
         for i in self.moves:
+            if i in poles_moves:
+                continue
+            kind, q = self.kinds[i]
+            if periodic and kind == "mode_gain":     # that mode's term scales: no new H
+                _, _, A, B, _ = self._terms(theta, N)
+                ratio = self._factor(theta[i] + _LIN.fd_step) / self._factor(theta[i]) - 1.0
+                cols[..., i] = (ratio / _LIN.fd_step) * np.einsum("fmk,fk->fm", A[q] + B[q], Vf)
+                continue
             th = theta.copy()
-            th[i] += FD_STEP
-            cols[..., i] = (self._parts(th, V, periodic).sum(axis=2) - total) / FD_STEP
+            th[i] += _LIN.fd_step
+            cols[..., i] = (self._parts(th, V, periodic, Vf).sum(axis=2) - total) / _LIN.fd_step
         return Y, back(cols)
 
 
@@ -525,7 +626,7 @@ def unexcited(lin: LinearPart, inputs: Sequence[np.ndarray], fs: float) -> tuple
     """Indices of ``lin``'s mode corrections the ``inputs`` do not excite.
 
     A mode's frequency and damping corrections are determined by records only through
-    its own band: when the inputs put less than ``EXCITED_SHARE`` of their power (about
+    its own band: when the inputs put less than ``excited_share`` of their power (about
     their mean) within an octave of the mode's frequency, the records see the mode only
     through side effects (the low-frequency phase), where any other model error would
     pull it; such corrections are held at the user's values.
@@ -555,7 +656,7 @@ def unexcited(lin: LinearPart, inputs: Sequence[np.ndarray], fs: float) -> tuple
             num[q] = num.get(q, 0.0) + float(P[(f >= fq / 2) & (f <= 2 * fq)].sum())
     if den <= 0:
         return ()
-    quiet = {q for q, v in num.items() if v < EXCITED_SHARE * den}
+    quiet = {q for q, v in num.items() if v < _LIN.excited_share * den}
     return tuple(i for i, (kind, q) in enumerate(lin.kinds)
                  if kind in ("dlog_freq", "dlog_damping", "mode_gain") and q in quiet)
 

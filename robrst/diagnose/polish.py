@@ -7,11 +7,15 @@ than another), which per-mode gains cannot follow.  With the poles fixed at each
 level, the outputs are linear in the residues, so their level slopes ``dR`` are a
 linear least-squares problem::
 
-    R_p(a) = R_p(theta(a)) + f(a) dR_p,      f(a) = (a - a_ref) / a_ref
+    R_p(a) = R_p(theta(a)) + dR0_p + f(a) dR_p [+ sum_k max(f(a) - f_k, 0) dH_kp],
+    f(a) = (a - a_ref) / a_ref
 
-solved on the training records only (ridge-regularised toward ``dR = 0`` with a prior
-of one residue magnitude per unit of ``f``), every output at once.  At the reference
-level the model is unchanged; held-out records judge whether the slopes generalise.
+(the knots ``f_k`` at the interior training levels, :func:`robrst.diagnose.fit.slope_basis`)
+solved on the training records only (ridge-regularised toward zero with a prior of one
+residue magnitude, per unit of ``f`` for the slopes), every output at once: the residues
+are re-fitted at the reference level too (the corrections of poles and gains alone left
+the lowest level's shapes as the user's model had them); held-out records judge whether
+the slopes generalise.
 """
 
 from __future__ import annotations
@@ -23,15 +27,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy import signal
 
-from robrst.diagnose.fit import Fitted, level_factor
+from robrst.diagnose.fit import Fitted, level_factor, slope_basis
+from robrst.diagnose.options import OPTIONS
 from robrst.identify.modal import ModalModel
 
 if TYPE_CHECKING:
     from robrst.diagnose.fit import Prepared
 
-__all__ = ["Polished", "polish_residues", "PRIOR_PER_LEVEL"]
-
-PRIOR_PER_LEVEL = 1.0     # prior sd of dR_p per unit of f, relative to |R_p|
+__all__ = ["Polished", "polish_residues"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -70,8 +73,12 @@ class Polished(Fitted):
         The output-side blocks fitted.
     n_offset : int
         Constant output offsets fitted.
+    level_knots : tuple of float
+        Interior knots of the level coordinate (:class:`~robrst.diagnose.fit.Fitted`).
     dR : numpy.ndarray
-        ``(n, m, k)`` complex: the residues' change per unit of level factor.
+        ``(2 + knots, n, m, k)`` complex: the residues' change at the reference level, then
+        per function of :func:`slope_basis` (per unit of level factor, and per interior
+        knot).
     """
 
     dR: np.ndarray = None          # (n, m, k) complex, per unit of level factor
@@ -92,9 +99,11 @@ class Polished(Fitted):
         ModalModel
         """
         cm = self.lin.continuous(self.theta_at(level, x))
-        f = level_factor(level, self.level_ref)
-        return ModalModel(cm.poles, cm.residues + f * self.dR, cm.D, label=cm.label,
-                          temperature_C=cm.temperature_C)
+        b = np.concatenate([[1.0], slope_basis(level_factor(level, self.level_ref),
+                                               self.level_knots)])
+        dR = self.dR.reshape((b.size,) + cm.residues.shape)
+        return ModalModel(cm.poles, cm.residues + np.tensordot(b, dR, axes=1), cm.D,
+                          label=cm.label, temperature_C=cm.temperature_C)
 
     def linear_change(self) -> tuple[dict, dict]:
         """As :meth:`Fitted.linear_change`, plus ``residue_change_per_level``: the largest
@@ -106,7 +115,8 @@ class Polished(Fitted):
         """
         out, sd = super().linear_change()
         R = self.lin.continuous(self.theta_at(self.level_ref)).residues
-        rel = [np.max(np.abs(d)) / max(np.max(np.abs(r)), 1e-300) for d, r in zip(self.dR, R)]
+        dR = self.dR.reshape((-1,) + R.shape)[1]
+        rel = [np.max(np.abs(d)) / max(np.max(np.abs(r)), 1e-300) for d, r in zip(dR, R)]
         out["residue_change_per_level"] = float(max(rel, default=0.0))
         sd["residue_change_per_level"] = float("nan")
         return out, sd
@@ -177,29 +187,33 @@ def polish_residues(fit: Fitted, train: Sequence[Prepared], noise_sigma: float) 
         when the training records span a single level.
     """
     fs = fit.lin.fs
+    knots = getattr(fit, "level_knots", ())
     rows, rhs = [], []
     index = None
     for p in train:
         f = level_factor(p.level, fit.level_ref)
-        if f == 0.0:
-            continue
         V = fit.effective_input(p)[0]
         model = fit.lin.continuous(fit.theta_at(p.level))
         C, index = _columns(model, fs, V, p.periodic)
         base = model.discretise(fs).response(V, periodic=p.periodic)
-        rows.append(C * (f * p.weight))
+        # one block of columns per level function: a change at every level (the reference
+        # level's residues re-fitted too), then the slopes
+        b = np.concatenate([[1.0], slope_basis(f, knots)])
+        rows.append(np.hstack([C * (v * p.weight) for v in b]))
         rhs.append((p.Y - fit.output_side(base)) * p.weight)
-    if not rows:
+    if not rows or all(level_factor(p.level, fit.level_ref) == 0.0 for p in train):
         return fit
+    nb = 2 + len(knots)
     ref = fit.lin.continuous(fit.theta_at(fit.level_ref))
-    mag = np.array([max(np.max(np.abs(ref.residues[q])), 1e-300) for q, _, _ in index])
-    ridge = noise_sigma / (PRIOR_PER_LEVEL * mag)
+    mag = np.array([max(np.max(np.abs(ref.residues[q])), 1e-300) for q, _, _ in index] * nb)
+    ridge = noise_sigma / (OPTIONS.fit.prior_per_level * mag)
     A = np.vstack(rows + [np.diag(ridge)])
-    B = np.vstack(rhs + [np.zeros((len(index), rhs[0].shape[1]))])
+    B = np.vstack(rhs + [np.zeros((ridge.size, rhs[0].shape[1]))])
     cs = np.linalg.norm(A, axis=0)
     cs[cs == 0] = 1.0
-    X = np.linalg.lstsq(A / cs, B, rcond=None)[0] / cs[:, None]      # (c, m)
-    dR = np.zeros_like(ref.residues)
-    for (q, j, unit), xr in zip(index, X):
-        dR[q, :, j] += unit * xr
+    X = np.linalg.lstsq(A / cs, B, rcond=None)[0] / cs[:, None]      # (c nb, m)
+    dR = np.zeros((nb,) + ref.residues.shape, complex)
+    for b in range(nb):
+        for (q, j, unit), xr in zip(index, X[b * len(index):(b + 1) * len(index)]):
+            dR[b, q, :, j] += unit * xr
     return Polished(**{k: getattr(fit, k) for k in fit.__dataclass_fields__}, dR=dR)

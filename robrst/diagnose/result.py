@@ -15,7 +15,10 @@ the answer without that effect, and the share of the excess gap it removes),
 ``not_causes[]`` (effects selected but credited nothing by removal), ``alternatives[]``
 (what could stand in place of each cause, and its held-out gap), ``screen[]`` (every
 candidate's screened held-out gap) and ``sensor{}`` (outliers and dropouts found in the
-records).
+records), and (added) ``ties[]`` (a slot of the selection the records cannot settle:
+``slot``, ``effects``, ``gaps``, ``after``, ``record``, ``message``; the effects of the
+other slots stay in ``causes``), ``selected[].tied_with`` and ``selection[]`` (every
+decision of the forward selection, in order).
 """
 
 from __future__ import annotations
@@ -198,7 +201,8 @@ class Diagnosis:
              "where": self.where, "tests": self.tests, "decomposition": self.decomposition,
              "data": self.data, "model": self.model}
         for k in ("causes", "selected", "final", "findings", "best_partial", "skipped",
-                  "seconds", "output_offset", "not_causes", "alternatives", "screen", "sensor"):
+                  "seconds", "output_offset", "not_causes", "alternatives", "screen", "sensor",
+                  "ties", "selection"):
             d[k] = self.extra.get(k)
         return finite(d)
 

@@ -11,7 +11,7 @@ of the input, or output-side signals.  A candidate's screening model is
 fitted on the training records and scored on the held-out records.  Every column is
 computed once per record (simulated over the whole record); the training and held-out
 Gram matrices ``X^T X``, ``X^T r``, ``r^T r`` are accumulated once on every k-th sample
-(at most :data:`SCREEN_SAMPLES` rows per record), so any set of candidates is fitted
+(at most ``samples`` rows per record, :class:`~robrst.diagnose.options.ScreenOptions`), so any set of candidates is fitted
 exactly by a small linear solve, without another pass over the data.  The held-out records
 need no column of the input side: a candidate's coefficients (fitted on the training
 records) combine its basis signals into one signal per input, and one pass of the linear
@@ -51,25 +51,18 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy import signal
 
-from robrst.diagnose.effects import SPECS, creep_cells, pi_thresholds
+from robrst.diagnose.effects import SPECS, creep_cells, creep_per_K_free, pi_thresholds
 from robrst.diagnose.fit import level_factor, model_jacobian
+from robrst.diagnose.options import OPTIONS
 from robrst.diagnose.stages import cached_stage
 
 if TYPE_CHECKING:
-    from robrst.diagnose.fit import Fitted
+    from robrst.diagnose.fit import Fitted, Prepared
 
-__all__ = ["Screen", "ScreenFit", "HeldOut", "build_screen", "SCREEN_SAMPLES"]
+__all__ = ["Screen", "ScreenFit", "HeldOut", "ScreenGrid", "ColumnLayout", "RecordColumns",
+           "GramAccumulator", "build_screen"]
 
-SCREEN_SAMPLES = 100_000      # Gram rows per record (every k-th sample of the whole record)
-SAT_HIGH = (0.8, 0.9, 0.95, 0.98, 0.995)
-SAT_LOW = (0.005, 0.02, 0.05, 0.1, 0.2)
-DRIFT_LAGS_S = (0.3, 1.0, 3.0, 10.0, 30.0, 100.0)
-SLEW_FRACTIONS = (0.3, 0.1, 0.03, 0.01)   # slew rates / fastest input step
-BW_B_REL = (0.3, 1.0, 3.0)    # Bouc–Wen's B x peak-to-peak input at the screen's points
-BW_RATIOS = (1.0,)            # ... and Gamma / B (its derivative is a column)
-DZ_WIDTHS = (0.01, 0.03, 0.06)   # dead-zone half widths screened / peak-to-peak input
-BATCH = 16                    # input-side columns simulated together
-RIDGE = 1e-9                  # relative ridge on the (normalised) effect columns
+_SCR = OPTIONS.screen
 
 
 @dataclass(frozen=True, eq=False)
@@ -221,7 +214,7 @@ class Screen:
         d, centre = self.ridge
         cc = np.asarray(cols, int)
         dd = d[cc]
-        A[np.diag_indices_from(A)] += dd + RIDGE * np.maximum(np.diag(A), 1e-300)
+        A[np.diag_indices_from(A)] += dd + _SCR.ridge * np.maximum(np.diag(A), 1e-300)
         rhs += dd * centre[cc]
         s = np.sqrt(np.maximum(np.diag(A), 1e-300))
         beta = np.linalg.lstsq(A / s[:, None] / s[None, :], rhs / s, rcond=1e-12)[0] / s
@@ -311,10 +304,20 @@ class Screen:
                 float(np.sqrt(self.c["train"] / self.den["train"])))
 
 
+# --- the screen's builder, in phases ------------------------------------------------------
+#
+#   ScreenGrid        the data's scales and the grids of the options (knots, limits, rates,
+#                     lags, thresholds, Bouc–Wen points)
+#   ColumnLayout      every column's name, the candidates' options (groups) and their starts
+#   _priors           the base columns' ridge (the linear corrections' priors) and pins
+#   RecordColumns     one record: the base prediction, its Jacobian, every candidate's column
+#   GramAccumulator   the training Gram blocks and the held-out records; the Screen
+
+
 def _fit_names(fit):
     """Names of a fitted candidate's parameters (chain, linear corrections, slopes, blocks)."""
     names = list(fit.chain.names) + (list(fit.lin.names) if fit.joint else [])
-    names += [f"slope{i}" for i in fit.slopes]
+    names += list(fit.slope_names()) if hasattr(fit, "slope_names") else []
     return names + (fit.post.names() if fit.post is not None else [])
 
 
@@ -330,8 +333,8 @@ def _bw_starts(stats, n_in=1):
     (symmetric loops only for several inputs: the columns grow with the inputs)."""
     b_max = SPECS["hysteresis"].bounds(stats)[1][1]
     out = []
-    for b_rel in BW_B_REL:
-        for ratio in (BW_RATIOS if n_in == 1 else BW_RATIOS[-1:]):
+    for b_rel in _SCR.bw_b_rel:
+        for ratio in (_SCR.bw_ratios if n_in == 1 else _SCR.bw_ratios[-1:]):
             out.append(np.array([0.4, min(np.log10(b_rel / stats["u_ptp"]), b_max - 0.05),
                                  ratio, 1.0]))
     return out
@@ -355,11 +358,730 @@ def _slew_columns(cache, U, temp, rate, fs, ref, warm):
     return np.column_stack([up - U, dn - U])[warm:]
 
 
-def build_screen(setup: "Setup", theta: np.ndarray | None, delays: Sequence[int] | None = None,
+@dataclass(frozen=True, eq=False)
+class ScreenGrid:
+    """Phase 1: the training data's scales and the options' grids that every column needs.
+
+    Parameters
+    ----------
+    tried : frozenset of str
+        The candidates screened.
+    n_in, n_out : int
+        Inputs and outputs.
+    fs, ref : float
+        Sampling rate [Hz] and the model's temperature [°C].
+    stats : dict
+        Scales of the training data (:func:`robrst.diagnose.effects.summary`).
+    knots : list of tuple
+        Knots of the static input map's hinges, per input.
+    sat_hi, sat_lo : list of numpy.ndarray
+        Saturation limits screened (input quantiles), per input.
+    centre_u, half_u : list of float
+        Centre and half range of each training input.
+    centre_y, half_y : numpy.ndarray
+        Mean and half range of each training output.
+    rates : numpy.ndarray
+        Slew rates screened [V/s].
+    cells : tuple or None
+        The creep cells (poles, cells per decade) when creep is screened.
+    lags : list of float
+        Thermal-drift lags screened [s].
+    thresholds : tuple of float
+        Play thresholds of the Prandtl–Ishlinskii columns [V].
+    creep_per_K : bool
+        The records determine creep's growth with temperature (its column is screened).
+    """
+
+    tried: frozenset
+    n_in: int
+    n_out: int
+    fs: float
+    ref: float
+    stats: dict
+    knots: list
+    sat_hi: list
+    sat_lo: list
+    centre_u: list
+    half_u: list
+    centre_y: np.ndarray
+    half_y: np.ndarray
+    rates: np.ndarray
+    cells: tuple
+    lags: list
+    thresholds: tuple
+    creep_per_K: bool = True
+
+    @classmethod
+    def of(cls, setup: Setup) -> ScreenGrid:
+        """The grid of ``setup``'s training records and candidates.
+
+        Parameters
+        ----------
+        setup : Setup
+            The diagnosis's shared state.
+
+        Returns
+        -------
+        ScreenGrid
+        """
+        lin = setup.lin
+        k, stats = lin.model.n_in, setup.stats
+        tried = frozenset(setup.effects)
+        U_all = np.concatenate([p.U for p in setup.train])
+        Y_all = np.concatenate([p.Y for p in setup.train])
+        duration = max(len(p.U) for p in setup.train) / setup.fs
+        lags = [t for t in _SCR.drift_lags_s if t <= 2 * duration] or [_SCR.drift_lags_s[0]]
+        return cls(tried=tried, n_in=k, n_out=lin.model.n_out, fs=setup.fs, ref=setup.ref,
+                   stats=stats, knots=[stats["knots"]] * k,
+                   sat_hi=[np.quantile(U_all[:, j], _SCR.sat_high) for j in range(k)],
+                   sat_lo=[np.quantile(U_all[:, j], _SCR.sat_low) for j in range(k)],
+                   centre_u=[0.5 * (U_all[:, j].min() + U_all[:, j].max()) for j in range(k)],
+                   half_u=[max(0.5 * np.ptp(U_all[:, j]), 1e-12) for j in range(k)],
+                   centre_y=Y_all.mean(axis=0),
+                   half_y=np.maximum(0.5 * np.ptp(Y_all, axis=0), 1e-12),
+                   rates=stats["rate_max"] * np.asarray(_SCR.slew_fractions),
+                   cells=creep_cells(setup.fs) if "creep" in tried else None,
+                   lags=lags, thresholds=pi_thresholds(stats),
+                   creep_per_K=creep_per_K_free(stats, setup.ref))
+
+
+class ColumnLayout:
+    """Phase 2: the columns' names, the candidates' options and their starting values.
+
+    The layout is the same for every record.  ``names[i]`` is column ``i``
+    (``candidate:column``; the base's ``linear:<correction>`` or ``base:<parameter>``),
+    ``groups[candidate]`` its options (lists of column indices: saturation knots, slew
+    rates, drift lags, hysteresis forms), ``base`` the base columns, ``starts[candidate]``
+    the starting values of each option's nonlinear fit.
+
+    Parameters
+    ----------
+    grid : ScreenGrid
+        The data's scales and grids.
+    lin : LinearPart
+        The linear part of the base.
+    delays : sequence of int
+        Whole-sample delay per input.
+    dynamic_model : bool
+        Lay out the amplitude-dependent dynamics.
+    base_fit : Fitted, optional
+        The fitted candidate screened upon (its parameters are the base columns).
+
+    Attributes
+    ----------
+    names : list of str
+    groups : dict
+    base : list of int
+    starts : dict
+    index : dict
+        Column index by name.
+    dz_grid : list of (float, float)
+        Dead zones screened: (centre, half width) [V].
+    sat_options : list of (float or None, float or None)
+        Saturation options: (upper quantile, lower quantile).
+    bw_points : list of numpy.ndarray
+        Bouc–Wen points of the hysteresis options.
+    delays : tuple of int
+        Whole-sample delay per input.
+    """
+
+    def __init__(self, grid: ScreenGrid, lin: object, delays: Sequence[int],
+                 dynamic_model: bool, base_fit: Fitted | None = None) -> None:
+        self.grid = grid
+        self.names, self.groups, self.base = [], {}, []
+        self.dz_grid, self.sat_options, self.bw_points = [], [], []
+        self.delays = tuple(delays)
+        if base_fit is None:
+            for n in lin.names:
+                self.base.append(len(self.names))
+                self.names.append(f"linear:{n}")
+        else:
+            for n in _fit_names(base_fit):
+                self.base.append(len(self.names))
+                self.names.append(f"base:{n}")
+        self._output_side()
+        self._coupling()
+        self._input_map()
+        self._saturation()
+        self._slew()
+        self._hysteresis()
+        self._creep()
+        self._drift()
+        self._thermal_dynamics()
+        self._delay()
+        self._stiffness()
+        if dynamic_model:
+            for n in lin.names:
+                self._add("amplitude_dependent_dynamics", f"{n}_per_level")
+        self.starts = self._starts()
+        self.index = {n: i for i, n in enumerate(self.names)}
+
+    @property
+    def size(self) -> int:
+        """Number of columns."""
+        return len(self.names)
+
+    def screened(self) -> list:
+        """The candidates with at least one column.
+
+        Returns
+        -------
+        list of str
+        """
+        return [g for g, opts in self.groups.items() if opts and any(opts)]
+
+    def _add(self, key, name, opt=0):
+        self.groups.setdefault(key, [])
+        while len(self.groups[key]) <= opt:
+            self.groups[key].append([])
+        self.groups[key][opt].append(len(self.names))
+        self.names.append(f"{key}:{name}")
+
+    def _output_side(self):
+        """A constant per output; the sensor map's square and cube (its constant shared)."""
+        tried, m = self.grid.tried, self.grid.n_out
+        if "output_offset" in tried:
+            for j in range(m):
+                self._add("output_offset", f"y{j + 1}")
+        if "output_nonlinearity" in tried:
+            for j in range(m):               # the map's constant is the offset's column
+                self.groups.setdefault("output_nonlinearity", [[]])[0].append(
+                    self.names.index(f"output_offset:y{j + 1}") if "output_offset" in tried
+                    else len(self.names))
+                if "output_offset" not in tried:
+                    self.names.append(f"output_nonlinearity:constant_y{j + 1}")
+                self._add("output_nonlinearity", f"quadratic_y{j + 1}")
+                self._add("output_nonlinearity", f"cubic_y{j + 1}")
+
+    def _coupling(self):
+        """Input mixing and output mixing (several inputs or outputs)."""
+        k, m = self.grid.n_in, self.grid.n_out
+        if "cross_coupling" in self.grid.tried and (k > 1 or m > 1):
+            for i in range(k):
+                for j in range(k):
+                    if i != j:
+                        self._add("cross_coupling", f"u{j + 1}_into_u{i + 1}")
+            for i in range(m):
+                for j in range(m):
+                    if i != j:
+                        self._add("cross_coupling", f"y{j + 1}_into_y{i + 1}")
+
+    def _input_map(self):
+        """Square, cube and hinges per input; one input: a dead zone about each knot (options)."""
+        g = self.grid
+        if "input_nonlinearity" not in g.tried:
+            return
+        for j in range(g.n_in):
+            for n in ("quadratic", "cubic") + tuple(f"hinge{q}" for q in range(
+                    len(g.knots[j]))):
+                self._add("input_nonlinearity", f"{n}_u{j + 1}")
+        if g.n_in == 1:             # dead zones about each knot, three widths: one option each
+            shared = list(self.groups["input_nonlinearity"][0])
+            for kn in g.knots[0]:
+                for wd in _SCR.dz_widths:
+                    self.dz_grid.append((float(kn), float(wd * g.stats["u_ptp"])))
+                    self.groups["input_nonlinearity"].append(shared + [len(self.names)])
+                    self.names.append(f"input_nonlinearity:dz{len(self.dz_grid) - 1}_u1")
+
+    def _saturation(self):
+        """A hinge per limit screened; an option per upper, lower and pair of limits."""
+        g = self.grid
+        if "saturation" not in g.tried:
+            return
+        hinge = {}
+        for j in range(g.n_in):
+            for h in _SCR.sat_high:
+                hinge[("high", h, j)] = len(self.names)
+                self.names.append(f"saturation:high{h}_u{j + 1}")
+            for lo in _SCR.sat_low:
+                hinge[("low", lo, j)] = len(self.names)
+                self.names.append(f"saturation:low{lo}_u{j + 1}")
+        self.sat_options = [(h, None) for h in _SCR.sat_high] + [
+            (None, lo) for lo in _SCR.sat_low] + [
+            (h, lo) for h in _SCR.sat_high for lo in _SCR.sat_low]
+        self.groups["saturation"] = [
+            [hinge[("high", h, j)] for j in range(g.n_in) if h is not None]
+            + [hinge[("low", lo, j)] for j in range(g.n_in) if lo is not None]
+            for h, lo in self.sat_options]
+
+    def _slew(self):
+        """Rising and falling limits per rate screened (an option per rate)."""
+        g = self.grid
+        if "slew" in g.tried and np.any(g.rates > 0):
+            for o, r in enumerate(g.rates):
+                for j in range(g.n_in):
+                    self._add("slew", f"rise{r:.4g}_u{j + 1}", o)
+                    self._add("slew", f"fall{r:.4g}_u{j + 1}", o)
+
+    def _hysteresis(self):
+        """Option 0: the play operators (Prandtl–Ishlinskii); then Bouc–Wen about each point."""
+        g = self.grid
+        if "hysteresis" not in g.tried:
+            return
+        plays = []
+        for j in range(g.n_in):
+            for i, _ in enumerate(g.thresholds):
+                plays.append(len(self.names))
+                self.names.append(f"hysteresis:play{i + 1}_u{j + 1}")
+        self.bw_points = _bw_starts(g.stats, g.n_in)
+        self.groups["hysteresis"] = [list(plays)]
+        for o, _ in enumerate(self.bw_points):
+            cols = []
+            for j in range(g.n_in):
+                for n in ("v", "A", "logB", "ratio"):
+                    cols.append(len(self.names))
+                    self.names.append(f"hysteresis:bw{o}_{n}_u{j + 1}")
+            self.groups["hysteresis"].append(cols)
+
+    def _creep(self):
+        """The creep cells' sum and its growth with temperature, per input."""
+        if "creep" in self.grid.tried:
+            for j in range(self.grid.n_in):
+                self._add("creep", f"cells_u{j + 1}")
+                if self.grid.creep_per_K:
+                    self._add("creep", f"cells_dT_u{j + 1}")
+
+    def _drift(self):
+        """The lagged temperature per input, an option per lag."""
+        if "thermal_drift" in self.grid.tried:
+            for o, tau in enumerate(self.grid.lags):
+                for j in range(self.grid.n_in):
+                    self._add("thermal_drift", f"lag{tau:g}_u{j + 1}", o)
+
+    def _thermal_dynamics(self):
+        """Gain, resonances and damping times the temperature change."""
+        if "thermal_dynamics" in self.grid.tried:
+            for n in ("gain", "resonance", "damping"):
+                self._add("thermal_dynamics", n)
+
+    def _delay(self):
+        """The delayed input's difference, per delayed input."""
+        d_in = self.delays
+        if "delay" in self.grid.tried and any(d_in):
+            for j in range(self.grid.n_in):
+                if d_in[j]:
+                    self._add("delay", f"u{j + 1}_{d_in[j]}")
+
+    def _stiffness(self):
+        """The cubed output fed back (one input and output)."""
+        if "stiffness_nonlinearity" in self.grid.tried and (self.grid.n_in,
+                                                            self.grid.n_out) == (1, 1):
+            self._add("stiffness_nonlinearity", "cubic")
+
+    def _starts(self):
+        """Starting values of each option's nonlinear fit, by candidate."""
+        g, k = self.grid, self.grid.n_in
+        sfx = (lambda j: f"_u{j + 1}") if k > 1 else (lambda j: "")
+        starts = {}
+        if "hysteresis" in self.groups:
+            starts["hysteresis"] = [{"form": "prandtl_ishlinskii"}] + [
+                {"form": "input", **{f"{n}{sfx(j)}": float(v) for j in range(k) for n, v in zip(
+                    SPECS["hysteresis"].names, z0)}} for z0 in self.bw_points]
+        if "slew" in self.groups:
+            starts["slew"] = [{f"{n}{sfx(j)}": float(np.log10(r_)) for j in range(k)
+                               for n in SPECS["slew"].names} for r_ in g.rates]
+        if "thermal_drift" in self.groups:
+            starts["thermal_drift"] = [{f"lag_s{sfx(j)}": float(np.log10(t)) for j in range(k)}
+                                       for t in g.lags]
+        if self.dz_grid:
+            starts["input_nonlinearity"] = [{}] + [{"center_V": c, "dead_zone_V": d}
+                                                    for c, d in self.dz_grid]
+        if "saturation" in self.groups:
+            starts["saturation"] = []
+            for h, lo in self.sat_options:
+                st = {}
+                for j in range(k):
+                    if h is not None:
+                        st[f"u_max_V{sfx(j)}"] = float(g.sat_hi[j][_SCR.sat_high.index(h)])
+                    if lo is not None:
+                        st[f"u_min_V{sfx(j)}"] = float(g.sat_lo[j][_SCR.sat_low.index(lo)])
+                starts["saturation"].append(st)
+        return starts
+
+
+def _priors(setup, layout, lin, theta, base_fit):
+    """Phase 3: the base columns' ridge weights and centres (the linear corrections' priors,
+    in the Gram's units) and the base columns held (pinned corrections)."""
+    P, base = layout.size, layout.base
+    sd = np.zeros(P)
+    centre = np.zeros(P)
+    fixed = []
+    if base_fit is None:
+        sd[base] = (setup.noise_sigma / lin.prior_sd) ** 2
+        centre[base] = -np.asarray(theta, float)
+        fixed = [base[i] for i in setup.pinned]
+    elif base_fit.joint:
+        nz, nt, ns = base_fit.chain.size, lin.size, base_fit.n_slope
+        idx = np.asarray(base, int)
+        sd[idx[nz:nz + nt]] = (setup.noise_sigma / lin.prior_sd) ** 2
+        centre[idx[nz:nz + nt]] = -base_fit.x[nz:nz + nt]
+        sd[idx[nz + nt:nz + nt + ns]] = (setup.noise_sigma / base_fit.slope_prior_sd()) ** 2
+        centre[idx[nz + nt:nz + nt + ns]] = -base_fit.x[nz + nt:nz + nt + ns]
+        pin = setup.pinned_modal if base_fit.form == "dynamic" else setup.pinned
+        nsl = len(base_fit.slopes)
+        fixed = [int(idx[nz + i]) for i in pin] + [
+            int(idx[nz + nt + b * nsl + base_fit.slopes.index(i)]) for i in pin
+            if i in base_fit.slopes for b in range(ns // max(nsl, 1))]
+    return (sd, centre), fixed
+
+
+@dataclass(frozen=True, eq=False)
+class Columns:
+    """One record's columns (:meth:`RecordColumns.of`).
+
+    Parameters
+    ----------
+    rows : slice
+        The screened samples.
+    r : numpy.ndarray
+        The base's residual on them ``(Ns, m)``.
+    X : numpy.ndarray
+        ``(P, Ns, m)``: the columns computed without the linear part (the rest zero).
+    signals : list
+        ``[(column, basis signal (N,))]``: the input-side columns' signals ...
+    inputs : list of int
+        ... and the input each drives.
+    theta : numpy.ndarray
+        The base's linear corrections on this record.
+    """
+
+    rows: slice
+    r: np.ndarray
+    X: np.ndarray
+    signals: list
+    inputs: list
+    theta: np.ndarray
+
+
+class _Signals:
+    """A record's input-side basis signals, in column order, and the input each drives."""
+
+    def __init__(self, index):
+        self.index, self.signals, self.inputs = index, [], []
+
+    def add(self, name, j, x):
+        self.inputs.append(j)
+        self.signals.append((self.index[name], x))
+
+
+class RecordColumns:
+    """Phase 4: one record's base prediction, its Jacobian and every candidate's columns.
+
+    Output-side columns and the base's Jacobian are computed directly; input-side columns
+    are basis signals of the input (their outputs through the linear part are simulated
+    later, a batch at a time, or not at all for a held-out record).
+
+    Parameters
+    ----------
+    grid : ScreenGrid
+        The data's scales and grids.
+    layout : ColumnLayout
+        The columns.
+    lin : LinearPart
+        The linear part of the base.
+    theta : numpy.ndarray or None
+        Its corrections (without ``base_fit``).
+    base_fit : Fitted, optional
+        The fitted candidate screened upon.
+    level_ref : float, optional
+        Reference level of the amplitude-dependent dynamics.
+    dynamic_model : bool
+        Columns of the amplitude-dependent dynamics.
+    stages : dict
+        Compiled effect stages of the diagnosis.
+    """
+
+    def __init__(self, grid: ScreenGrid, layout: ColumnLayout, lin: object,
+                 theta: np.ndarray | None, base_fit: Fitted | None, level_ref: float | None,
+                 dynamic_model: bool, stages: dict) -> None:
+        self.grid, self.layout, self.lin = grid, layout, lin
+        self.theta, self.base_fit = theta, base_fit
+        self.level_ref, self.dynamic_model, self.stages = level_ref, dynamic_model, stages
+
+    def of(self, p: Prepared) -> Columns:
+        """The columns of record ``p``.
+
+        Parameters
+        ----------
+        p : Prepared
+            The record.
+
+        Returns
+        -------
+        Columns
+        """
+        N = len(p.U)
+        R = slice(None, None, max(1, -(-N // _SCR.samples)))   # rows of the Gram
+        Ns = len(range(N)[R])
+        X = np.zeros((self.layout.size, Ns, self.grid.n_out))
+        th, yL, JL = self._base(p, R, X)
+        sig = _Signals(self.layout.index)
+        self._output_side(X, yL, R)
+        self._coupling(p, X, yL, R, sig)
+        self._input_map(p, sig)
+        self._saturation(p, sig)
+        self._sequential(p, sig)
+        self._creep(p, sig)
+        self._drift(p, sig)
+        self._thermal_dynamics(p, X, JL, R)
+        self._delay(p, sig)
+        self._stiffness(yL, sig)
+        if self.dynamic_model:
+            f = level_factor(p.level, self.level_ref)
+            for i, n in enumerate(self.lin.names):
+                X[self._col(f"amplitude_dependent_dynamics:{n}_per_level")] = f * JL[R, :, i]
+        return Columns(R, (p.Y - yL)[R], X, sig.signals, sig.inputs, th)
+
+    def _col(self, name):
+        return self.layout.index[name]
+
+    def _warm(self, p):
+        """Inputs and temperature with the warm-up period prepended (periodic records)."""
+        U, T, warm = p.U, p.temp, p.warm
+        if warm:
+            return np.vstack([U[-warm:], U]), np.concatenate([T[-warm:], T])
+        return U, T
+
+    def _base(self, p, R, X):
+        """The base's corrections, prediction and Jacobian (its columns filled in ``X``)."""
+        base, lin, base_fit = self.layout.base, self.lin, self.base_fit
+        if base_fit is None:
+            th = self.theta
+            yL, JL = lin.simulate_jac(th, p.U, p.periodic)
+            X[base] = np.moveaxis(JL[R], 2, 0)
+        else:
+            th = base_fit.theta_at(p.level)
+            yL = base_fit.predict_prepared(p)
+            Jb = model_jacobian(base_fit, p)[1]
+            nz = base_fit.chain.size
+            JL = (Jb[:, :, nz:nz + lin.size] if base_fit.joint
+                  else lin.simulate_jac(th, base_fit.effective_input(p)[0], p.periodic)[1])
+            X[base] = np.moveaxis(Jb[R], 2, 0)
+        return th, yL, JL
+
+    def _output_side(self, X, yL, R):
+        g = self.grid
+        if "output_offset" in g.tried:
+            for j in range(g.n_out):
+                X[self._col(f"output_offset:y{j + 1}"), :, j] = 1.0
+        if "output_nonlinearity" in g.tried:
+            if "output_offset" not in g.tried:
+                for j in range(g.n_out):
+                    X[self._col(f"output_nonlinearity:constant_y{j + 1}"), :, j] = 1.0
+            E = ((yL - g.centre_y[None, :]) / g.half_y[None, :])[R]
+            for j in range(g.n_out):
+                X[self._col(f"output_nonlinearity:quadratic_y{j + 1}"), :, j] = E[:, j] ** 2
+                X[self._col(f"output_nonlinearity:cubic_y{j + 1}"), :, j] = E[:, j] ** 3
+
+    def _coupling(self, p, X, yL, R, sig):
+        k, m = self.grid.n_in, self.grid.n_out
+        if "cross_coupling" in self.layout.groups:
+            for i in range(k):
+                for j in range(k):
+                    if i != j:
+                        sig.add(f"cross_coupling:u{j + 1}_into_u{i + 1}", i, p.U[:, j])
+            for i in range(m):
+                for j in range(m):
+                    if i != j:
+                        X[self._col(f"cross_coupling:y{j + 1}_into_y{i + 1}"), :, i] = yL[R, j]
+
+    def _input_map(self, p, sig):
+        g, U = self.grid, p.U
+        if "input_nonlinearity" not in g.tried:
+            return
+        for j in range(g.n_in):
+            e = (U[:, j] - g.centre_u[j]) / g.half_u[j]
+            s = f"_u{j + 1}"
+            sig.add("input_nonlinearity:quadratic" + s, j, e ** 2)
+            sig.add("input_nonlinearity:cubic" + s, j, e ** 3)
+            for q, kn in enumerate(g.knots[j]):
+                sig.add(f"input_nonlinearity:hinge{q}" + s, j, np.maximum(U[:, j] - kn, 0.0))
+        for o, (cz, dz) in enumerate(self.layout.dz_grid):
+            e = U[:, 0] - cz
+            sig.add(f"input_nonlinearity:dz{o}_u1", 0,
+                      np.maximum(e - dz, 0.0) + np.minimum(e + dz, 0.0) - e)
+
+    def _saturation(self, p, sig):
+        g, U = self.grid, p.U
+        if "saturation" in g.tried:
+            for j in range(g.n_in):
+                for h, kn in zip(_SCR.sat_high, g.sat_hi[j]):
+                    sig.add(f"saturation:high{h}_u{j + 1}", j, np.maximum(U[:, j] - kn, 0.0))
+                for lo, kn in zip(_SCR.sat_low, g.sat_lo[j]):
+                    sig.add(f"saturation:low{lo}_u{j + 1}", j, np.minimum(U[:, j] - kn, 0.0))
+
+    def _sequential(self, p, sig):
+        """Slew limits and hysteresis: the twin's compiled stages on the warmed-up input."""
+        g, st, warm = self.grid, self.stages, p.warm
+        Uw, Tw = self._warm(p)
+        if "slew" in self.layout.groups:
+            for r_ in g.rates:
+                for j in range(g.n_in):
+                    Xs = _slew_columns(st, Uw[:, j], Tw, r_, g.fs, g.ref, warm)
+                    sig.add(f"slew:rise{r_:.4g}_u{j + 1}", j, Xs[:, 0])
+                    sig.add(f"slew:fall{r_:.4g}_u{j + 1}", j, Xs[:, 1])
+        if "hysteresis" in g.tried:
+            for j in range(g.n_in):
+                Xp = _play_columns(st, Uw[:, j], Tw, g.thresholds, g.fs, g.ref, warm)
+                for i in range(len(g.thresholds)):
+                    sig.add(f"hysteresis:play{i + 1}_u{j + 1}", j, Xp[:, i])
+                for o, z0 in enumerate(self.layout.bw_points):
+                    Xb = _bw_columns(st, Uw[:, j], Tw, z0, g.fs, g.ref, warm)
+                    for i, n in enumerate(("v", "A", "logB", "ratio")):
+                        sig.add(f"hysteresis:bw{o}_{n}_u{j + 1}", j, Xb[:, i])
+
+    def _creep(self, p, sig):
+        g = self.grid
+        if "creep" not in g.tried:
+            return
+        Uw, _ = self._warm(p)
+        a, per = g.cells
+        acc = np.zeros((len(Uw), g.n_in))
+        for ai in a:
+            acc += signal.lfilter([1 - ai], [1.0, -ai], Uw, axis=0)
+        acc = acc[p.warm:] / per
+        dTp = np.maximum(p.temp - g.ref, 0.0)
+        for j in range(g.n_in):
+            sig.add(f"creep:cells_u{j + 1}", j, acc[:, j])
+            if g.creep_per_K:
+                sig.add(f"creep:cells_dT_u{j + 1}", j, acc[:, j] * dTp)
+
+    def _drift(self, p, sig):
+        g = self.grid
+        if "thermal_drift" not in g.tried:
+            return
+        _, Tw = self._warm(p)
+        for tau in g.lags:
+            al = np.exp(-1.0 / (g.fs * tau))
+            Ts = signal.lfilter([1 - al], [1.0, -al], Tw, zi=[al * Tw[0]])[0][p.warm:]
+            for j in range(g.n_in):
+                sig.add(f"thermal_drift:lag{tau:g}_u{j + 1}", j, Ts - Tw[0])
+
+    def _thermal_dynamics(self, p, X, JL, R):
+        if "thermal_dynamics" not in self.grid.tried:
+            return
+        lin = self.lin
+        kinds = lin.kinds
+        dT = (p.temp - self.grid.ref)[R, None]
+        pairs = [i for i, (kind, q) in enumerate(kinds)
+                 if kind == "dlog_freq" and lin.model.poles[q].imag > 0]
+        damp = [i for i, (kind, _) in enumerate(kinds) if kind == "dlog_damping"]
+        gi = [i for i, (kind, _) in enumerate(kinds) if kind in ("gain", "input_gain")]
+        X[self._col("thermal_dynamics:gain")] = dT * JL[R][:, :, gi].sum(axis=2)
+        if pairs:
+            X[self._col("thermal_dynamics:resonance")] = dT * JL[R][:, :, pairs].sum(axis=2)
+        if damp:
+            X[self._col("thermal_dynamics:damping")] = dT * JL[R][:, :, damp].sum(axis=2)
+
+    def _delay(self, p, sig):
+        if "delay" not in self.layout.groups:
+            return
+        U = p.U
+        for j in range(self.grid.n_in):
+            d = self.layout.delays[j]
+            if d:
+                x = (np.roll(U[:, j], d) if p.periodic
+                     else np.concatenate([np.full(d, U[0, j]), U[:-d, j]]))
+                sig.add(f"delay:u{j + 1}_{d}", j, x - U[:, j])
+
+    def _stiffness(self, yL, sig):
+        if "stiffness_nonlinearity" in self.layout.groups:
+            sig.add("stiffness_nonlinearity:cubic", 0, -(yL[:, 0] / self.grid.half_y[0]) ** 3)
+
+
+class GramAccumulator:
+    """Phase 5: the training Gram matrices per block and the held-out records.
+
+    A block is the base alone (key ``""``) or the base with one candidate's columns; the
+    training records add ``X^T X``, ``X^T r`` (their input-side columns simulated a batch
+    at a time), the held-out records are kept as :class:`HeldOut` (scored by prediction).
+
+    Parameters
+    ----------
+    layout : ColumnLayout
+        The columns.
+    lin : LinearPart
+        The linear part the input-side signals go through.
+    """
+
+    def __init__(self, layout: ColumnLayout, lin: object) -> None:
+        self.layout, self.lin = layout, lin
+        base, groups = layout.base, layout.groups
+        keys = [""] + layout.screened()
+        self.blocks = {}
+        for g in keys:
+            idx = np.array(sorted(set(base) | {c for o in (groups.get(g) or []) for c in o}),
+                           int)
+            self.blocks[g] = (idx, {"train": np.zeros((idx.size, idx.size))},
+                              {"train": np.zeros(idx.size)})
+        self.c = {s: 0.0 for s in ("train", "test")}
+        self.den = {s: 0.0 for s in ("train", "test")}
+        self.held_out = []
+
+    def add_test(self, p: Prepared, cols: Columns) -> None:
+        """Keep a held-out record (scored later by one prediction per candidate).
+
+        Parameters
+        ----------
+        p : Prepared
+            The record.
+        cols : Columns
+            Its columns.
+        """
+        R, r, X = cols.rows, cols.r, cols.X
+        sig = {ci: (j, x) for (ci, x), j in zip(cols.signals, cols.inputs)}
+        direct = {ci: X[ci] for ci in range(self.layout.size) if ci not in sig and np.any(X[ci])}
+        self.held_out.append(HeldOut(R, r, direct, sig, self.lin, cols.theta, p.periodic))
+        self.c["test"] += float(np.sum(r * r))
+        self.den["test"] += float(np.sum((p.Y[R] - p.Y.mean(axis=0)) ** 2))
+
+    def add_train(self, p: Prepared, cols: Columns) -> None:
+        """Add a training record to every block's Gram matrix.
+
+        Parameters
+        ----------
+        p : Prepared
+            The record.
+        cols : Columns
+            Its columns (the input-side ones simulated here, a batch at a time).
+        """
+        R, r, X = cols.rows, cols.r, cols.X
+        sigs, inputs = cols.signals, cols.inputs
+        for a in range(0, len(sigs), _SCR.batch):       # input-side columns, a batch at a time
+            part = sigs[a:a + _SCR.batch]
+            Yin = self.lin.simulate_inputs(cols.theta, np.column_stack([x for _, x in part]),
+                                           inputs[a:a + _SCR.batch], p.periodic)
+            for (ci, _), cc in zip(part, range(Yin.shape[2])):
+                X[ci] = Yin[R, :, cc]
+        P, Ns, m = X.shape
+        w = p.weight
+        Xf = X.reshape(P, Ns * m)
+        if w != 1.0:
+            Xf *= w
+        rf = r.reshape(-1) * w
+        base = self.layout.base
+        Xb = Xf[base]
+        Gbb = Xb @ Xb.T
+        for idx, Gb, bb in self.blocks.values():
+            nb = len(base)
+            Xg = Xf[idx[nb:]]                  # the block: the base, then the candidate's
+            Gbg = Xb @ Xg.T
+            Gb["train"] += np.block([[Gbb, Gbg], [Gbg.T, Xg @ Xg.T]])
+            bb["train"] += np.concatenate([Xb @ rf, Xg @ rf])
+        self.c["train"] += float(rf @ rf)
+        self.den["train"] += float(np.sum((w * (p.Y[R] - p.Y.mean(axis=0))) ** 2))
+
+
+def build_screen(setup: Setup, theta: np.ndarray | None, delays: Sequence[int] | None = None,
                  level_ref: float | None = None, dynamic_model: bool = False,
                  say: Callable[[str], None] | None = None, stages: dict | None = None,
                  base_fit: Fitted | None = None) -> Screen:
     """The :class:`Screen` of every candidate in ``setup.effects`` around ``theta``.
+
+    Built in phases: the grid of the data (:class:`ScreenGrid`), the column layout
+    (:class:`ColumnLayout`), the base's priors, every record's columns
+    (:class:`RecordColumns`) accumulated into the training Gram blocks and the held-out
+    records (:class:`GramAccumulator`).
 
     Parameters
     ----------
@@ -387,353 +1109,20 @@ def build_screen(setup: "Setup", theta: np.ndarray | None, delays: Sequence[int]
     -------
     Screen
     """
-    lin = setup.lin
     stages = {} if stages is None else stages
-    k, fs, ref = lin.model.n_in, setup.fs, setup.ref
-    stats = setup.stats
-    tried = set(setup.effects)
-    U_all = np.concatenate([p.U for p in setup.train])
-    knots = [stats["knots"]] * k
-    sat_hi = [np.quantile(U_all[:, j], SAT_HIGH) for j in range(k)]
-    sat_lo = [np.quantile(U_all[:, j], SAT_LOW) for j in range(k)]
-    centre_u = [0.5 * (U_all[:, j].min() + U_all[:, j].max()) for j in range(k)]
-    half_u = [max(0.5 * np.ptp(U_all[:, j]), 1e-12) for j in range(k)]
-    Y_all = np.concatenate([p.Y for p in setup.train])
-    centre_y = Y_all.mean(axis=0)
-    half_y = np.maximum(0.5 * np.ptp(Y_all, axis=0), 1e-12)
-    rates = stats["rate_max"] * np.asarray(SLEW_FRACTIONS)
-    cells = creep_cells(fs) if "creep" in tried else None
-    duration = max(len(p.U) for p in setup.train) / fs
-    lags = [t for t in DRIFT_LAGS_S if t <= 2 * duration] or [DRIFT_LAGS_S[0]]
-    thresholds = pi_thresholds(stats)
-    m = lin.model.n_out
-    names, groups = [], {}
-
-    def add(key, name, opt=0):
-        groups.setdefault(key, [])
-        while len(groups[key]) <= opt:
-            groups[key].append([])
-        groups[key][opt].append(len(names))
-        names.append(f"{key}:{name}")
-
-    base = []
-    if base_fit is None:
-        for i, n in enumerate(lin.names):
-            base.append(len(names))
-            names.append(f"linear:{n}")
-    else:
-        bnames = _fit_names(base_fit)
-        theta = base_fit.parts()[1]
-        lin = base_fit.lin
-        for n in bnames:
-            base.append(len(names))
-            names.append(f"base:{n}")
-    kinds = lin.kinds
-    # column layout (the same for every record)
-    if "output_offset" in tried:
-        for j in range(m):
-            add("output_offset", f"y{j + 1}")
-    if "output_nonlinearity" in tried:
-        for j in range(m):               # the map's constant is the offset's column
-            groups.setdefault("output_nonlinearity", [[]])[0].append(
-                names.index(f"output_offset:y{j + 1}") if "output_offset" in tried
-                else len(names))
-            if "output_offset" not in tried:
-                names.append(f"output_nonlinearity:constant_y{j + 1}")
-            add("output_nonlinearity", f"quadratic_y{j + 1}")
-            add("output_nonlinearity", f"cubic_y{j + 1}")
-    if "cross_coupling" in tried and (k > 1 or m > 1):
-        for i in range(k):
-            for j in range(k):
-                if i != j:
-                    add("cross_coupling", f"u{j + 1}_into_u{i + 1}")
-        for i in range(m):
-            for j in range(m):
-                if i != j:
-                    add("cross_coupling", f"y{j + 1}_into_y{i + 1}")
-    dz_grid = []
-    if "input_nonlinearity" in tried:
-        for j in range(k):
-            for n in ("quadratic", "cubic") + tuple(f"hinge{q}" for q in range(
-                    len(knots[j]))):
-                add("input_nonlinearity", f"{n}_u{j + 1}")
-        if k == 1:                  # dead zones about each knot, three widths: one option each
-            shared = list(groups["input_nonlinearity"][0])
-            for kn in knots[0]:
-                for wd in DZ_WIDTHS:
-                    dz_grid.append((float(kn), float(wd * stats["u_ptp"])))
-                    groups["input_nonlinearity"].append(shared + [len(names)])
-                    names.append(f"input_nonlinearity:dz{len(dz_grid) - 1}_u1")
-    if "saturation" in tried:
-        hinge = {}
-        for j in range(k):
-            for h in SAT_HIGH:
-                hinge[("high", h, j)] = len(names)
-                names.append(f"saturation:high{h}_u{j + 1}")
-            for lo in SAT_LOW:
-                hinge[("low", lo, j)] = len(names)
-                names.append(f"saturation:low{lo}_u{j + 1}")
-        opts = [(h, None) for h in SAT_HIGH] + [(None, lo) for lo in SAT_LOW] + [
-            (h, lo) for h in SAT_HIGH for lo in SAT_LOW]
-        groups["saturation"] = [
-            [hinge[("high", h, j)] for j in range(k) if h is not None]
-            + [hinge[("low", lo, j)] for j in range(k) if lo is not None] for h, lo in opts]
-    if "slew" in tried and np.any(rates > 0):
-        for o, r in enumerate(rates):
-            for j in range(k):
-                add("slew", f"rise{r:.4g}_u{j + 1}", o)
-                add("slew", f"fall{r:.4g}_u{j + 1}", o)
-    if "hysteresis" in tried:
-        plays = []
-        for j in range(k):
-            for i, r in enumerate(thresholds):
-                plays.append(len(names))
-                names.append(f"hysteresis:play{i + 1}_u{j + 1}")
-        bw_z = _bw_starts(stats, k)
-        groups["hysteresis"] = [list(plays)]          # option 0: Prandtl–Ishlinskii
-        for o, z0 in enumerate(bw_z):                 # then Bouc–Wen about each point
-            cols = []
-            for j in range(k):
-                for n in ("v", "A", "logB", "ratio"):
-                    cols.append(len(names))
-                    names.append(f"hysteresis:bw{o}_{n}_u{j + 1}")
-            groups["hysteresis"].append(cols)
-    if "creep" in tried:
-        for j in range(k):
-            add("creep", f"cells_u{j + 1}")
-            add("creep", f"cells_dT_u{j + 1}")
-    if "thermal_drift" in tried:
-        for o, tau in enumerate(lags):
-            for j in range(k):
-                add("thermal_drift", f"lag{tau:g}_u{j + 1}", o)
-    if "thermal_dynamics" in tried:
-        for n in ("gain", "resonance", "damping"):
-            add("thermal_dynamics", n)
-    d_in = tuple(delays or (0,) * k)
-    if "delay" in tried and any(d_in):
-        for j in range(k):
-            if d_in[j]:
-                add("delay", f"u{j + 1}_{d_in[j]}")
-    if "stiffness_nonlinearity" in tried and (k, m) == (1, 1):
-        add("stiffness_nonlinearity", "cubic")
-    if dynamic_model:
-        for i, n in enumerate(lin.names):
-            add("amplitude_dependent_dynamics", f"{n}_per_level")
-    sfx = (lambda j: f"_u{j + 1}") if k > 1 else (lambda j: "")
-    starts = {}
-    if "hysteresis" in groups:
-        starts["hysteresis"] = [{"form": "prandtl_ishlinskii"}] + [
-            {"form": "input", **{f"{n}{sfx(j)}": float(v) for j in range(k) for n, v in zip(
-                SPECS["hysteresis"].names, z0)}} for z0 in bw_z]
-    if "slew" in groups:
-        starts["slew"] = [{f"{n}{sfx(j)}": float(np.log10(r_)) for j in range(k)
-                           for n in SPECS["slew"].names} for r_ in rates]
-    if "thermal_drift" in groups:
-        starts["thermal_drift"] = [{f"lag_s{sfx(j)}": float(np.log10(t)) for j in range(k)}
-                                   for t in lags]
-    if dz_grid:
-        starts["input_nonlinearity"] = [{}] + [{"center_V": c, "dead_zone_V": d}
-                                                for c, d in dz_grid]
-    if "saturation" in groups:
-        starts["saturation"] = []
-        for h, lo in opts:
-            st = {}
-            for j in range(k):
-                if h is not None:
-                    st[f"u_max_V{sfx(j)}"] = float(sat_hi[j][SAT_HIGH.index(h)])
-                if lo is not None:
-                    st[f"u_min_V{sfx(j)}"] = float(sat_lo[j][SAT_LOW.index(lo)])
-            starts["saturation"].append(st)
-    P = len(names)
-    sd = np.zeros(P)
-    centre = np.zeros(P)
-    fixed = []
-    if base_fit is None:
-        sd[base] = (setup.noise_sigma / lin.prior_sd) ** 2
-        centre[base] = -np.asarray(theta, float)
-        fixed = [base[i] for i in setup.pinned]
-    elif base_fit.joint:
-        nz, nt, ns = base_fit.chain.size, lin.size, len(base_fit.slopes)
-        idx = np.asarray(base, int)
-        sd[idx[nz:nz + nt]] = (setup.noise_sigma / lin.prior_sd) ** 2
-        centre[idx[nz:nz + nt]] = -base_fit.x[nz:nz + nt]
-        sd[idx[nz + nt:nz + nt + ns]] = (setup.noise_sigma / lin.prior_sd[list(base_fit.slopes)]) ** 2
-        centre[idx[nz + nt:nz + nt + ns]] = -base_fit.x[nz + nt:nz + nt + ns]
-        pin = setup.pinned_modal if base_fit.form == "dynamic" else setup.pinned
-        fixed = [int(idx[nz + i]) for i in pin] + [
-            int(idx[nz + nt + base_fit.slopes.index(i)]) for i in pin if i in base_fit.slopes]
-    keys = [""] + [g for g, opts in groups.items() if opts and any(opts)]
-    blk = {}
-    for g in keys:
-        idx = np.array(sorted(set(base) | {c for o in (groups.get(g) or []) for c in o}), int)
-        blk[g] = (idx, {"train": np.zeros((idx.size, idx.size))}, {"train": np.zeros(idx.size)})
-    c = {s: 0.0 for s in ("train", "test")}
-    den = {s: 0.0 for s in ("train", "test")}
-    index = {n: i for i, n in enumerate(names)}
-
-    def record(p, split):
-        N = len(p.U)
-        R = slice(None, None, max(1, -(-N // SCREEN_SAMPLES)))   # rows of the Gram
-        Ns = len(range(N)[R])
-        w = p.weight if split == "train" else 1.0
-        U, T = p.U, p.temp
-        warm = p.warm
-        Uw, Tw = (np.vstack([U[-warm:], U]), np.concatenate([T[-warm:], T])) if warm else (U, T)
-        if base_fit is None:
-            th = theta
-            yL, JL = lin.simulate_jac(th, U, p.periodic)
-            X = np.zeros((P, Ns, m))
-            X[base] = np.moveaxis(JL[R], 2, 0)
-        else:
-            th = base_fit.theta_at(p.level)
-            yL = base_fit.predict_prepared(p)
-            Jb = model_jacobian(base_fit, p)[1]
-            nz = base_fit.chain.size
-            JL = (Jb[:, :, nz:nz + lin.size] if base_fit.joint
-                  else lin.simulate_jac(th, base_fit.effective_input(p)[0], p.periodic)[1])
-            X = np.zeros((P, Ns, m))
-            X[base] = np.moveaxis(Jb[R], 2, 0)
-        r = (p.Y - yL)[R]
-
-        def col(name):
-            return index[name]
-
-        inputs, sigs = [], []          # input-side basis signals (simulated in one batch)
-
-        def inp(name, j, x):
-            inputs.append(j)
-            sigs.append((col(name), x))
-
-        if "output_offset" in tried:
-            for j in range(m):
-                X[col(f"output_offset:y{j + 1}"), :, j] = 1.0
-        if "output_nonlinearity" in tried:
-            if "output_offset" not in tried:
-                for j in range(m):
-                    X[col(f"output_nonlinearity:constant_y{j + 1}"), :, j] = 1.0
-            E = ((yL - centre_y[None, :]) / half_y[None, :])[R]
-            for j in range(m):
-                X[col(f"output_nonlinearity:quadratic_y{j + 1}"), :, j] = E[:, j] ** 2
-                X[col(f"output_nonlinearity:cubic_y{j + 1}"), :, j] = E[:, j] ** 3
-        if "cross_coupling" in groups:
-            for i in range(k):
-                for j in range(k):
-                    if i != j:
-                        inp(f"cross_coupling:u{j + 1}_into_u{i + 1}", i, U[:, j])
-            for i in range(m):
-                for j in range(m):
-                    if i != j:
-                        X[col(f"cross_coupling:y{j + 1}_into_y{i + 1}"), :, i] = yL[R, j]
-        if "input_nonlinearity" in tried:
-            for j in range(k):
-                e = (U[:, j] - centre_u[j]) / half_u[j]
-                s = f"_u{j + 1}"
-                inp("input_nonlinearity:quadratic" + s, j, e ** 2)
-                inp("input_nonlinearity:cubic" + s, j, e ** 3)
-                for q, kn in enumerate(knots[j]):
-                    inp(f"input_nonlinearity:hinge{q}" + s, j, np.maximum(U[:, j] - kn, 0.0))
-            for o, (cz, dz) in enumerate(dz_grid):
-                e = U[:, 0] - cz
-                inp(f"input_nonlinearity:dz{o}_u1", 0,
-                    np.maximum(e - dz, 0.0) + np.minimum(e + dz, 0.0) - e)
-        if "saturation" in tried:
-            for j in range(k):
-                for h, kn in zip(SAT_HIGH, sat_hi[j]):
-                    inp(f"saturation:high{h}_u{j + 1}", j, np.maximum(U[:, j] - kn, 0.0))
-                for lo, kn in zip(SAT_LOW, sat_lo[j]):
-                    inp(f"saturation:low{lo}_u{j + 1}", j, np.minimum(U[:, j] - kn, 0.0))
-        if "slew" in groups:
-            for r_ in rates:
-                for j in range(k):
-                    Xs = _slew_columns(stages, Uw[:, j], Tw, r_, fs, ref, warm)
-                    inp(f"slew:rise{r_:.4g}_u{j + 1}", j, Xs[:, 0])
-                    inp(f"slew:fall{r_:.4g}_u{j + 1}", j, Xs[:, 1])
-        if "hysteresis" in tried:
-            for j in range(k):
-                Xp = _play_columns(stages, Uw[:, j], Tw, thresholds, fs, ref, warm)
-                for i in range(len(thresholds)):
-                    inp(f"hysteresis:play{i + 1}_u{j + 1}", j, Xp[:, i])
-                for o, z0 in enumerate(bw_z):
-                    Xb = _bw_columns(stages, Uw[:, j], Tw, z0, fs, ref, warm)
-                    for i, n in enumerate(("v", "A", "logB", "ratio")):
-                        inp(f"hysteresis:bw{o}_{n}_u{j + 1}", j, Xb[:, i])
-        if "creep" in tried:
-            a, per = cells
-            acc = np.zeros((len(Uw), k))
-            for ai in a:
-                acc += signal.lfilter([1 - ai], [1.0, -ai], Uw, axis=0)
-            acc = acc[warm:] / per
-            dTp = np.maximum(T - ref, 0.0)
-            for j in range(k):
-                inp(f"creep:cells_u{j + 1}", j, acc[:, j])
-                inp(f"creep:cells_dT_u{j + 1}", j, acc[:, j] * dTp)
-        if "thermal_drift" in tried:
-            for tau in lags:
-                al = np.exp(-1.0 / (fs * tau))
-                Ts = signal.lfilter([1 - al], [1.0, -al], Tw, zi=[al * Tw[0]])[0][warm:]
-                for j in range(k):
-                    inp(f"thermal_drift:lag{tau:g}_u{j + 1}", j, Ts - Tw[0])
-        if "thermal_dynamics" in tried:
-            dT = (T - ref)[R, None]
-            pairs = [i for i, (kind, q) in enumerate(kinds)
-                     if kind == "dlog_freq" and lin.model.poles[q].imag > 0]
-            damp = [i for i, (kind, _) in enumerate(kinds) if kind == "dlog_damping"]
-            gi = [i for i, (kind, _) in enumerate(kinds) if kind in ("gain", "input_gain")]
-            X[col("thermal_dynamics:gain")] = dT * JL[R][:, :, gi].sum(axis=2)
-            if pairs:
-                X[col("thermal_dynamics:resonance")] = dT * JL[R][:, :, pairs].sum(axis=2)
-            if damp:
-                X[col("thermal_dynamics:damping")] = dT * JL[R][:, :, damp].sum(axis=2)
-        if "delay" in groups:
-            for j in range(k):
-                d = d_in[j]
-                if d:
-                    x = (np.roll(U[:, j], d) if p.periodic
-                         else np.concatenate([np.full(d, U[0, j]), U[:-d, j]]))
-                    inp(f"delay:u{j + 1}_{d}", j, x - U[:, j])
-        if "stiffness_nonlinearity" in groups:
-            inp("stiffness_nonlinearity:cubic", 0, -(yL[:, 0] / half_y[0]) ** 3)
-        if dynamic_model:
-            f = level_factor(p.level, level_ref)
-            for i, n in enumerate(lin.names):
-                X[col(f"amplitude_dependent_dynamics:{n}_per_level")] = f * JL[R, :, i]
-        if split == "test":      # scored by prediction: the input side stays signals
-            sig = {ci: (j, x) for (ci, x), j in zip(sigs, inputs)}
-            direct = {ci: X[ci] for ci in range(P) if ci not in sig and np.any(X[ci])}
-            held_out.append(HeldOut(R, r, direct, sig, lin, th, p.periodic))
-            c[split] += float(np.sum(r * r))
-            den[split] += float(np.sum((p.Y[R] - p.Y.mean(axis=0)) ** 2))
-            return
-        for a in range(0, len(sigs), BATCH):       # input-side columns, a batch at a time
-            part = sigs[a:a + BATCH]
-            Yin = lin.simulate_inputs(th, np.column_stack([x for _, x in part]),
-                                      inputs[a:a + BATCH], p.periodic)
-            for (ci, _), cc in zip(part, range(Yin.shape[2])):
-                X[ci] = Yin[R, :, cc]
-        Xf = X.reshape(P, Ns * m)
-        if w != 1.0:
-            Xf *= w
-        rf = r.reshape(-1) * w
-        Xb = Xf[base]
-        Gbb = Xb @ Xb.T
-        for idx, Gb, bb in blk.values():
-            nb = len(base)
-            Xg = Xf[idx[nb:]]                  # the block: the base, then the candidate's
-            Gbg = Xb @ Xg.T
-            Gb[split] += np.block([[Gbb, Gbg], [Gbg.T, Xg @ Xg.T]])
-            bb[split] += np.concatenate([Xb @ rf, Xg @ rf])
-        c[split] += float(rf @ rf)
-        den[split] += float(np.sum((w * (p.Y[R] - p.Y.mean(axis=0))) ** 2))
-
-    held_out = []
+    grid = ScreenGrid.of(setup)
+    lin = setup.lin if base_fit is None else base_fit.lin
+    layout = ColumnLayout(grid, lin, tuple(delays or (0,) * grid.n_in), dynamic_model,
+                          base_fit)
+    ridge, fixed = _priors(setup, layout, lin, theta, base_fit)
+    columns = RecordColumns(grid, layout, lin, theta, base_fit, level_ref, dynamic_model,
+                            stages)
+    acc = GramAccumulator(layout, lin)
     for p in setup.train:
-        record(p, "train")
+        acc.add_train(p, columns.of(p))
     for p in setup.test:
-        record(p, "test")
-    # the training ridge: priors of the linear corrections (in the Gram's units)
-    scale = 1.0
-    ridge = (sd * scale, centre)
+        acc.add_test(p, columns.of(p))
     if say:
-        say(f"screened {len([g for g in groups if groups[g] and any(groups[g])])} candidate(s)"
-            f" on {P} exact columns")
-    return Screen(names, groups, base, blk, c, den, ridge, starts, fixed, held_out)
+        say(f"screened {len(layout.screened())} candidate(s) on {layout.size} exact columns")
+    return Screen(layout.names, layout.groups, layout.base, acc.blocks, acc.c, acc.den, ridge,
+                  layout.starts, fixed, acc.held_out)

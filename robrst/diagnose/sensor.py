@@ -6,13 +6,14 @@ see it) and can hide a clear effect.  Before the diagnosis, each record's residu
 ``r = y - y_model`` (the model under diagnosis) is tested:
 
 * **outliers** — samples where ``e = r - (r[k-1] + r[k+1]) / 2`` (what the neighbours do
-  not predict) exceeds ``OUTLIER_Z`` robust standard deviations of ``e`` (1.4826 x its
-  median absolute deviation) *and* ``ISOLATION`` times ``|e|`` two to four samples either
+  not predict) exceeds ``outlier_z`` robust standard deviations of ``e`` (1.4826 x its
+  median absolute deviation) *and* ``isolation`` times ``|e|`` two to four samples either
   side: a spike stands alone, while a model error (a ringing resonance, the residual of a
   delay or a rate limit at a step) spreads over its neighbours;
-* **dropouts** — runs of at least ``MIN_RUN`` identical readings (a held or zeroed
+* **dropouts** — runs of at least ``min_run`` identical readings (a held or zeroed
   sensor) whose residual departs from the residual around them by more than
-  ``OUTLIER_Z`` robust standard deviations.
+  ``outlier_z`` robust standard deviations (the constants:
+  :class:`~robrst.diagnose.options.SensorOptions`).
 
 Flagged samples are replaced by the model's output plus the residual interpolated
 linearly across them: the gap, the noise floor and every fit then see the plant, not
@@ -27,15 +28,14 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from robrst.diagnose.options import OPTIONS
+
 if TYPE_CHECKING:
     from robrst.data.dataset import Dataset
 
-__all__ = ["SensorFaults", "find_faults", "repair", "OUTLIER_Z", "MIN_RUN"]
+__all__ = ["SensorFaults", "find_faults", "repair"]
 
-OUTLIER_Z = 10.0         # robust standard deviations
-MIN_RUN = 5              # identical readings that make a dropout
-ISOLATION = 4.0          # an outlier's |e| over its neighbours' (2 to 4 samples away)
-MAX_SHARE = 0.02         # more than 2 % flagged: not isolated faults, leave the record alone
+_S = OPTIONS.sensor
 
 
 @dataclass(frozen=True)
@@ -112,19 +112,23 @@ def find_faults(name: str, y: np.ndarray, y_model: np.ndarray) -> SensorFaults:
     n = r.size
     e = r.copy()
     e[1:-1] -= 0.5 * (r[:-2] + r[2:])
-    e[0], e[-1] = r[0] - r[1], r[-1] - r[-2]
+    if n >= 3:      # the ends: one-sided second differences, scaled as the interior's (a
+        # residual that slopes at a record's end is no outlier; a first difference said so)
+        e[0], e[-1] = 0.5 * (r[0] - 2 * r[1] + r[2]), 0.5 * (r[-1] - 2 * r[-2] + r[-3])
+    else:
+        e[0], e[-1] = r[0] - r[1], r[-1] - r[-2]
     s = 1.4826 * float(np.median(np.abs(e - np.median(e))))
     if not s > 0:
         return SensorFaults(name, np.zeros(0, int), (), n)
     a = np.abs(e)
     pad = np.concatenate([np.zeros(4), a, np.zeros(4)])
     near = np.max([pad[4 + j:4 + j + n] for j in (-4, -3, -2, 2, 3, 4)], axis=0)
-    big = (a > OUTLIER_Z * s) & (a > ISOLATION * near)
+    big = (a > _S.outlier_z * s) & (a > _S.isolation * near)
     drops = []
-    for a, b in _runs(y, MIN_RUN):
+    for a, b in _runs(y, _S.min_run):
         L = b - a
         around = np.concatenate([r[max(0, a - L):a], r[b:b + L]])
-        if around.size and abs(np.median(r[a:b]) - np.median(around)) > OUTLIER_Z * s:
+        if around.size and abs(np.median(r[a:b]) - np.median(around)) > _S.outlier_z * s:
             drops.append((a, b))
             big[a:b] = False
     return SensorFaults(name, np.flatnonzero(big), tuple(drops), n)
@@ -161,7 +165,7 @@ def repair(records: Sequence[Dataset], models: Sequence[np.ndarray],
             found.append(f)
             mask |= f.mask
         n_all += d.n
-        if not mask.any() or mask.mean() > MAX_SHARE:
+        if not mask.any() or mask.mean() > _S.max_share:
             out.append(d)
             continue
         good = np.flatnonzero(~mask)

@@ -21,14 +21,16 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy import signal, stats
 
+from robrst.diagnose.options import OPTIONS
+
 if TYPE_CHECKING:
     from robrst.data.dataset import Dataset
     from robrst.identify.modal import DiscreteModel
 
-__all__ = ["nrmse", "noise_sigma", "time_windows", "frequency_band", "frf_departure", "regime",
+__all__ = ["nrmse", "noise_sigma", "excited_bins", "time_windows", "frequency_band", "frf_departure", "regime",
            "whiteness", "cross_correlation", "residual_psd"]
 
-MAX_LAG = 25
+_NOISE = OPTIONS.noise
 
 
 def nrmse(records: Sequence[Dataset], residuals: Sequence[np.ndarray]) -> float:
@@ -63,17 +65,48 @@ def _nperseg(n, cap):
     return int(max(16, min(cap, 2 ** int(np.floor(np.log2(max(n // 8, 16)))))))
 
 
-NOISE_BANDS = ((0.3, 0.45), (0.45, 0.6), (0.6, 0.75), (0.75, 0.95))   # fractions of Nyquist
+def excited_bins(u: np.ndarray, fs: float, nperseg: int) -> tuple[np.ndarray, np.ndarray]:
+    """Frequencies of a Welch estimate and which bins the input excites.
+
+    A bin is excited when the input's power there (summed over the inputs, about their
+    means) exceeds ``excited_rel`` of its largest bin
+    (:class:`~robrst.diagnose.options.NoiseOptions`): a multisine's band is, steps' and
+    sines' upper bands are not.
+
+    Parameters
+    ----------
+    u : numpy.ndarray
+        Inputs ``(N,)`` or ``(N, k)``.
+    fs : float
+        Sampling rate [Hz].
+    nperseg : int
+        Welch's segment length.
+
+    Returns
+    -------
+    f : numpy.ndarray
+        Frequencies [Hz].
+    excited : numpy.ndarray of bool
+    """
+    U = _cols(u)
+    f, P = signal.welch(U - U.mean(axis=0), fs=fs, nperseg=nperseg, axis=0)
+    P = P.sum(axis=1)
+    top = float(P.max()) if P.size else 0.0
+    return f, (P > _NOISE.excited_rel * top) if top > 0 else np.zeros(f.size, bool)
 
 
-def noise_sigma(r: np.ndarray, fs: float) -> float:
+def noise_sigma(r: np.ndarray, fs: float, u: np.ndarray | None = None) -> float:
     """Noise std [µm] of a 1-D residual from its spectrum in the upper 70 % of the band.
 
     The one-sided PSD of white noise of std sigma is ``2 sigma^2 / fs``.  The level is
     the smallest of the median levels of four sub-bands (30–45, 45–60, 60–75, 75–95 %
     of Nyquist) of a median-averaged Welch estimate: a plant mode or model error in one
-    sub-band does not raise the floor.  For periodic records the period-to-period
-    differences are better (:func:`robrst.diagnose.findings.noise_levels`).
+    sub-band does not raise the floor.  With the record's input ``u``, the bins it excites
+    (:func:`excited_bins`) never count: a sub-band counts on its other bins, when at least
+    ``min_unexcited`` of them are left, and the level is NaN when no sub-band does (every
+    band of the record is excited: its noise cannot be told from a model error there).
+    For periodic records the period-to-period differences are better
+    (:func:`robrst.diagnose.findings.noise_levels`).
 
     Parameters
     ----------
@@ -81,22 +114,34 @@ def noise_sigma(r: np.ndarray, fs: float) -> float:
         A residual.
     fs : float
         Sampling rate [Hz].
+    u : numpy.ndarray, optional
+        The record's input(s).
 
     Returns
     -------
     float
+        NaN when ``u`` excites every sub-band.
     """
     r = np.asarray(r, float)
-    f, P = signal.welch(r - r.mean(), fs=fs, nperseg=_nperseg(r.size, 1024), average="median")
-    levels = [float(np.median(P[(f >= a * fs / 2) & (f <= b * fs / 2)]))
-              for a, b in NOISE_BANDS if np.any((f >= a * fs / 2) & (f <= b * fs / 2))]
-    level = min(levels) if levels else float(np.var(r) * 2 / fs)
-    return float(np.sqrt(level * fs / 2))
+    nper = _nperseg(r.size, 1024)
+    f, P = signal.welch(r - r.mean(), fs=fs, nperseg=nper, average="median")
+    free = np.ones(f.size, bool) if u is None else ~excited_bins(u, fs, nper)[1]
+    levels = []
+    for a, b in _NOISE.bands:
+        band = (f >= a * fs / 2) & (f <= b * fs / 2)
+        if not np.any(band):
+            continue
+        use = band & free
+        if use.sum() >= max(1, _NOISE.min_unexcited * band.sum()):
+            levels.append(float(np.median(P[use])))
+    if not levels:
+        return float("nan") if u is not None else float(np.sqrt(np.var(r)))
+    return float(np.sqrt(min(levels) * fs / 2))
 
 
 def time_windows(records: Sequence[Dataset], residuals: Sequence[np.ndarray], sigma: float,
-                 names: Sequence[str], max_windows: int = 12,
-                 factor: float = 3.0) -> tuple[list[dict], float]:
+                 names: Sequence[str], max_windows: int = _NOISE.max_windows,
+                 factor: float = _NOISE.window_factor) -> tuple[list[dict], float]:
     """Intervals where the moving RMS of the residual exceeds ``factor`` x noise.
 
     Parameters
@@ -182,7 +227,8 @@ def residual_psd(residuals: Sequence[np.ndarray], fs: float) -> tuple[np.ndarray
 
 
 def frequency_band(residuals: Sequence[np.ndarray], fs: float, sigma: float,
-                   factor: float = 4.0) -> tuple[list[float] | None, np.ndarray, np.ndarray, float]:
+                   factor: float = _NOISE.band_factor
+                   ) -> tuple[list[float] | None, np.ndarray, np.ndarray, float]:
     """Band [Hz] holding 95 % of the residual energy that exceeds the noise floor.
 
     Parameters
@@ -211,8 +257,9 @@ def frequency_band(residuals: Sequence[np.ndarray], fs: float, sigma: float,
     if excess.sum() <= 0:
         return None, f, P, level
     cum = np.cumsum(excess) / excess.sum()
-    lo = f[int(np.searchsorted(cum, 0.025))]
-    hi = f[min(int(np.searchsorted(cum, 0.975)), len(f) - 1)]
+    q_lo, q_hi = _NOISE.band_quantiles
+    lo = f[int(np.searchsorted(cum, q_lo))]
+    hi = f[min(int(np.searchsorted(cum, q_hi)), len(f) - 1)]
     return [float(lo), float(hi)], f, P, level
 
 
@@ -228,7 +275,7 @@ def _segments(X, nper):
 
 
 def frf_departure(records: Sequence[Dataset], dmodel: DiscreteModel, fs: float,
-                  max_coh: float = 0.999) -> dict:
+                  max_coh: float = _NOISE.max_coherence) -> dict:
     """Where the nonparametric FRF (H1, with coherence) departs from the model's.
 
     ``dmodel`` is compared at ``z = exp(j 2 pi f / fs)``.  With several inputs H1 is the
@@ -281,8 +328,8 @@ def frf_departure(records: Sequence[Dataset], dmodel: DiscreteModel, fs: float,
     rel = np.abs(H1 - Hm) / peak[None]
     se = np.sqrt((1 - g2) / (2 * n_avg * np.maximum(g2, 1e-12)))[:, :, None] * (
         np.abs(Hm) / peak[None] + 1e-3)
-    use = (ok & (f > 0))[:, None, None] & (g2 > 0.5)[:, :, None]
-    bad = use & (rel > 3 * se + 1e-3)
+    use = (ok & (f > 0))[:, None, None] & (g2 > _NOISE.min_coherence)[:, :, None]
+    bad = use & (rel > _NOISE.frf_sigmas * se + 1e-3)
     if not bad.any():
         return {"band_hz": None, "max_rel_error": float(np.max(rel[use])) if use.any() else None,
                 "bins": 0}
@@ -307,7 +354,7 @@ def _few_values(x, most):
     return vals if vals.size <= most else None
 
 
-def eta2(r, x, bins=10):
+def eta2(r, x, bins=_NOISE.regime_bins):
     """Correlation ratio: share of the variance of ``r`` explained by bins of ``x``.
 
     Nonparametric (catches residuals that appear only at the extremes of ``x`` or
@@ -379,10 +426,10 @@ def regime(records: Sequence[Dataset], residuals: Sequence[np.ndarray],
 
 
 def _bound(n, m):
-    return float(stats.norm.ppf(1 - 0.005 / m) / np.sqrt(n))
+    return float(stats.norm.ppf(1 - _NOISE.test_level / 2 / m) / np.sqrt(n))
 
 
-def whiteness(residuals: Sequence[np.ndarray], max_lag: int = MAX_LAG) -> dict:
+def whiteness(residuals: Sequence[np.ndarray], max_lag: int = _NOISE.max_lag) -> dict:
     """Autocorrelation test of the residual at lags 1..max_lag (99 %, Bonferroni).
 
     Parameters
@@ -409,7 +456,7 @@ def whiteness(residuals: Sequence[np.ndarray], max_lag: int = MAX_LAG) -> dict:
 
 
 def cross_correlation(records: Sequence[Dataset], residuals: Sequence[np.ndarray],
-                      max_lag: int = MAX_LAG) -> dict:
+                      max_lag: int = _NOISE.max_lag) -> dict:
     """Residual-input cross-correlation test at lags 0..max_lag (input leading).
 
     Pooled over every (input, output) pair of every record.

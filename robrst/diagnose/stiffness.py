@@ -19,6 +19,7 @@ import numpy as np
 from scipy import optimize
 
 from robrst.diagnose.linear import parameter_std
+from robrst.diagnose.options import OPTIONS
 from robrst.diagnose.stages import cached_stage
 
 if TYPE_CHECKING:
@@ -28,7 +29,6 @@ if TYPE_CHECKING:
 __all__ = ["StiffnessFit", "fit_stiffness", "NAMES"]
 
 NAMES = ("cubic_per_um2", "gain")
-MAX_STIFFENING = 0.5        # |c| y_max^2 at most this (the stiffness changes by 50 %)
 FD_GAIN = 1e-6
 
 
@@ -132,7 +132,7 @@ class StiffnessFit:
 
 
 def fit_stiffness(train: Sequence[Prepared], plant: Plant, fs: float, reference_C: float,
-                  max_nfev: int = 25, start: Sequence[float] = (0.0, 0.0),
+                  max_nfev: int = OPTIONS.fit.standalone_nfev, start: Sequence[float] = (0.0, 0.0),
                   cache: dict | None = None) -> StiffnessFit:
     """Fit the cubic stiffness and an input gain on prepared SISO training records.
 
@@ -157,7 +157,7 @@ def fit_stiffness(train: Sequence[Prepared], plant: Plant, fs: float, reference_
     """
     st = cached_stage(cache, "stiffness_nonlinearity", fs, reference_C, plant=plant)
     y_max = max(float(np.max(np.abs(p.Y))) for p in train) or 1.0
-    c_max = MAX_STIFFENING / y_max ** 2
+    c_max = OPTIONS.fit.max_stiffening / y_max ** 2
     lo, hi = np.array([-c_max, -0.5]), np.array([c_max, 1.0])
     scale = np.sqrt(sum(p.weight ** 2 * float(np.sum((p.Y - p.Y.mean(0)) ** 2))
                         for p in train)) or 1.0

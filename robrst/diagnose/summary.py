@@ -64,6 +64,9 @@ def summary_text(diag: Diagnosis) -> str:
                    else "")
         out.append(f"selected {s['name']} ({s['form']}): gap {s['gap_before']:.4g} ->"
                    f" {s['gap_after']:.4g}{without}; {ps}")
+    for t in d.get("ties") or []:
+        after = f" after {' + '.join(t['after'])}" if t["after"] else ""
+        out.append(f"tie in slot {t['slot']}{after}: {t['message']}")
     for n in d.get("not_causes") or []:
         out.append(f"not a cause: {n['name']} (the joint fit without it leaves"
                    f" {n['gap_without']:.4g}, with it {n['gap_with']:.4g})")

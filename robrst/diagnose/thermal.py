@@ -16,6 +16,7 @@ import numpy as np
 from scipy import optimize
 
 from robrst.diagnose.linear import parameter_std
+from robrst.diagnose.options import OPTIONS
 from robrst.diagnose.stages import stage
 
 if TYPE_CHECKING:
@@ -24,7 +25,7 @@ if TYPE_CHECKING:
     from robrst.diagnose.linear import LinearPart
 
 __all__ = ["ThermalFit", "fit_thermal_dynamics", "search_delay", "search_saturation",
-           "max_delay", "MAX_DELAY_S"]
+           "max_delay"]
 
 BOUNDS = (np.array([-0.05, -0.01, -0.2]), np.array([0.05, 0.01, 0.2]))
 NAMES = ("gain_per_K", "resonance_per_K", "damping_per_K")
@@ -105,7 +106,7 @@ class ThermalFit:
 
 
 def fit_thermal_dynamics(train: Sequence[Prepared], plant: Plant, fs: float, reference_C: float,
-                         max_nfev: int = 25) -> ThermalFit:
+                         max_nfev: int = OPTIONS.fit.standalone_nfev) -> ThermalFit:
     """Fit the three thermal coefficients on prepared SISO training records.
 
     Parameters
@@ -154,9 +155,6 @@ def fit_thermal_dynamics(train: Sequence[Prepared], plant: Plant, fs: float, ref
     return ThermalFit("thermal_dynamics", st, res.x, std, int(res.nfev), 2 * float(res.cost))
 
 
-MAX_DELAY_S = 5e-3       # whole-sample delays are searched up to 5 ms ...
-MAX_DELAY_SAMPLES = 200  # ... and at most 200 samples
-REFINE_EVALS = 8         # golden-section evaluations refining a saturation limit
 
 
 def max_delay(fs: float) -> int:
@@ -171,7 +169,7 @@ def max_delay(fs: float) -> int:
     -------
     int
     """
-    return int(max(1, min(round(MAX_DELAY_S * fs), MAX_DELAY_SAMPLES)))
+    return int(max(1, min(round(OPTIONS.fit.max_delay_s * fs), OPTIONS.fit.max_delay_samples)))
 
 
 def search_delay(train: Sequence[Prepared], lin: LinearPart, max_delay: int) -> tuple[int, ...]:
@@ -267,7 +265,7 @@ def search_saturation(train: Sequence[Prepared], lin: LinearPart,
             # refined between the neighbouring quantiles: a limit that clips only the last
             # few % of the samples lies between the extreme and the next quantile
             a, b = cands[max(i - 1, 0)], cands[min(i + 1, len(cands) - 1)]
-            pick, val = _golden(f, min(a, b), max(a, b), REFINE_EVALS)
+            pick, val = _golden(f, min(a, b), max(a, b), OPTIONS.fit.refine_evals)
             pick = pick if val < vals[i] else float(cands[i])
             if which == "hi":
                 best_hi = pick if pick < hi else best_hi

@@ -12,7 +12,7 @@ from robrst.diagnose.effects import summary
 from robrst.diagnose.fit import prepare
 from robrst.diagnose.linear import LinearPart
 from robrst.diagnose.screen import build_screen
-from robrst.diagnose.select import Setup
+from robrst.diagnose.candidates import Setup
 from robrst.identify.modal import ModalModel
 
 FS = 5000.0
@@ -135,7 +135,7 @@ def test_held_out_screen_scores_equal_explicit_columns():
 
 def _basis(setup, screen, key, col, u, j):
     """The basis signal of a screen column, rebuilt from its definition."""
-    from robrst.diagnose.screen import SAT_HIGH, SAT_LOW
+    from robrst.diagnose.options import OPTIONS
     U_all = np.concatenate([p.U for p in setup.train])
     if col.startswith("high"):
         q = float(col[4:].split("_")[0])
@@ -153,4 +153,5 @@ def _basis(setup, screen, key, col, u, j):
     if col.startswith("hinge"):
         q = int(col[5:].split("_")[0])
         return np.maximum(u - setup.stats["knots"][q], 0.0)
-    raise AssertionError(f"unexpected column {col} ({SAT_HIGH}, {SAT_LOW})")
+    raise AssertionError(f"unexpected column {col} ({OPTIONS.screen.sat_high},"
+                         f" {OPTIONS.screen.sat_low})")

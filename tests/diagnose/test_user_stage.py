@@ -89,8 +89,15 @@ def test_saturation_lower_limit_at_zero_volts():
     p = next(e for e in dg.effects if e.name == "saturation").params
     assert p["u_min_V"] == pytest.approx(0.0, abs=0.5)
     assert p["u_max_V"] == pytest.approx(70.0, abs=0.5)
-    gap = dg.as_dict()["gap"]
-    assert gap["after"] <= 2.0 * gap["noise_floor"]
+    d = dg.as_dict()
+    gap = d["gap"]
+    # the held-out record's white input excites every band: its noise floor is not
+    # determined from it (said as a finding), so what is left is judged against the noise
+    # the records were written with (0.005 µm RMS over the test output's RMS)
+    assert any(f["kind"] == "noise_undetermined" and "s3" in f["records"]
+               for f in d["findings"])
+    noise = 0.005 / np.std(recs[3].y)
+    assert gap["after"] <= 1.2 * noise, (gap["after"], noise)
 
 
 def test_noise_free_records_of_the_exact_model_are_none(tmp_path):

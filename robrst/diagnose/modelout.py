@@ -1,0 +1,176 @@
+"""The answer's model as files: what a diagnosis fitted, for ``design``, ``simulate`` and others.
+
+:func:`answer_models` evaluates the linear part of the diagnosis's answer (the selected
+set's final fit, or the linear re-fit) as continuous-time modal models: one at the
+model's reference for a level-independent answer, one per excitation level for the
+amplitude-dependent dynamics (the training and test records' levels, grouped within
+``level_tol``).  :func:`write_models` writes each as a model file of the format
+``robrst-modal-1`` (:mod:`robrst.base.modelformat`), the file ``robrst identify`` writes:
+``robrst diagnose --model``, ``robrst identify``'s readers and a twin file's ``[twin]
+plant`` read it; a model of one input and one output also carries the starting design
+tables of ``robrst identify`` (:func:`robrst.identify.modelfile.starting_design`), so
+``robrst design`` reads it as it is.  The input-side effects the answer names are reported
+in the diagnosis (a twin file switches them on); the files hold the linear part.
+
+Files are written atomically and never over a file robrst diagnose did not write.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+import tomlkit
+
+from robrst.base.errors import SpecError
+from robrst.base.fileio import atomic_write_text, peek_text
+from robrst.base.modelformat import FORMAT
+from robrst.base.tomlwrite import document, plain
+from robrst.diagnose.findings import level_groups
+from robrst.identify.modelfile import starting_design
+
+if TYPE_CHECKING:
+    from robrst.diagnose.result import Diagnosis
+    from robrst.identify.modal import ModalModel
+
+__all__ = ["AnswerModel", "answer_models", "write_models", "model_file_text", "MARKER"]
+
+MARKER = "# written by robrst diagnose"
+
+
+@dataclass(frozen=True, eq=False)
+class AnswerModel:
+    """The answer's linear part at one excitation level.
+
+    Parameters
+    ----------
+    model : ModalModel
+        The continuous-time modal model.
+    level_V : float or None
+        The excitation level it holds at [V rms] (None: every level).
+    name : str
+        The file's stem.
+    """
+
+    model: object
+    level_V: float
+    name: str
+
+
+def answer_models(diag: Diagnosis) -> list:
+    """The linear part of ``diag``'s answer, as modal models (see the module doc).
+
+    Parameters
+    ----------
+    diag : Diagnosis
+        A diagnosis (its ``traces`` hold the answer's fit).
+
+    Returns
+    -------
+    list of AnswerModel
+        Empty for an answer without a fitted linear part (``none``, a ``cannot_tell``
+        without a partial explanation).
+    """
+    fit = diag.traces.get("answer_fit")
+    if fit is None or not hasattr(fit, "lin"):
+        return []
+    if getattr(fit, "slopes", ()):
+        recs = diag.traces["records"]
+        out = []
+        for lv, _ in level_groups(recs):
+            m = fit.model_at(lv) if hasattr(fit, "model_at") else fit.lin.continuous(
+                fit.theta_at(lv))
+            out.append(AnswerModel(m, float(lv), f"model_{lv:.4g}Vrms"))
+        return out
+    return [AnswerModel(fit.lin.continuous(fit.parts()[1]), None, "model")]
+
+
+def model_file_text(model: ModalModel, fs: float, header: list) -> str:
+    """The text of a model file (``robrst-modal-1``) holding ``model``.
+
+    Parameters
+    ----------
+    model : ModalModel
+        The model.
+    fs : float
+        The records' sampling rate [Hz].
+    header : list of str
+        Comment lines after the marker line.
+
+    Returns
+    -------
+    str
+    """
+    doc = document([MARKER[2:] + " (model file)"] + list(header))
+    table = tomlkit.table()
+    table.update(plain({"format": FORMAT, "inputs": model.n_in, "outputs": model.n_out,
+                        "order": model.order, "fs_hz": float(fs), "source": "robrst diagnose"}))
+    at = tomlkit.aot()
+    rec = {} if model.temperature_C is None else {"temperature_C": float(model.temperature_C)}
+    rec.update({"poles_re": model.poles.real, "poles_im": model.poles.imag,
+                "residues_re": [np.atleast_2d(R.real) for R in model.residues],
+                "residues_im": [np.atleast_2d(R.imag) for R in model.residues],
+                "D": np.atleast_2d(model.D)})
+    at.append(plain(rec))
+    table["at"] = at
+    doc["model"] = table
+    if (model.n_in, model.n_out) == (1, 1):
+        try:
+            plant = model.channel(0, 0)
+        except SpecError:            # too high an order for polynomials: no design tables
+            plant = None
+        if plant is not None:
+            doc.add(tomlkit.nl())
+            doc.add(tomlkit.comment("A starting design (as robrst identify writes it; edit"
+                                    " freely): robrst design reads this file as it is."))
+            for k, v in starting_design([plant], fs).items():
+                doc[k] = plain(v)
+    return tomlkit.dumps(doc)
+
+
+def write_models(diag: Diagnosis, folder: str | Path) -> list:
+    """Write the answer's models (:func:`answer_models`) into ``folder``.
+
+    Parameters
+    ----------
+    diag : Diagnosis
+        The diagnosis.
+    folder : str or Path
+        Created when missing; a file of the same name that robrst diagnose did not write
+        is never overwritten.
+
+    Returns
+    -------
+    list of dict
+        ``{"file", "level_V", "order"}`` per file written.
+
+    Raises
+    ------
+    SpecError
+        Naming a file in the way (written by something else), or a folder path that is a
+        file.
+    """
+    folder = Path(folder)
+    if folder.exists() and not folder.is_dir():
+        raise SpecError(f"{folder}: is a file; --model-out needs a folder")
+    models = answer_models(diag)
+    fs = float(diag.data["fs_hz"])
+    out = []
+    for am in models:
+        path = folder / f"{am.name}.toml"
+        if path.exists():
+            first = (peek_text(path) or "").splitlines()[:1]
+            if not first or not first[0].startswith(MARKER):
+                raise SpecError(f"{path}: exists and was not written by robrst diagnose; not"
+                                " overwriting it (choose another --model-out)")
+        where = ("at every excitation level" if am.level_V is None
+                 else f"at the excitation level {am.level_V:.6g} V rms")
+        header = [f"the linear part of the answer '{diag.cause}'"
+                  f" ({' + '.join(diag.causes) or 'linear corrections'}) {where}",
+                  f"records: {', '.join(map(str, diag.data['train']))[:200]}"]
+        folder.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(path, model_file_text(am.model, fs, header))
+        out.append({"file": str(path), "level_V": am.level_V, "order": int(am.model.order)})
+    return out

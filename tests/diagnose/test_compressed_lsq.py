@@ -1,0 +1,82 @@
+"""The compressed least-squares problem (``robrst.diagnose.fit.compressed``) takes the same
+steps as the full one: on a random exponential-fit problem with bounds, scipy's trust-region
+solver on the ``n + 1`` compressed rows ends where it ends on the full rows (same point, cost
+and evaluations), and the compressed Jacobian keeps ``J^T J``, ``J^T r`` and the column
+norms (checked against the full Jacobian with numpy)."""
+
+import numpy as np
+import pytest
+from scipy import optimize
+
+from robrst.diagnose.fit import compressed
+
+
+def _problem(seed):
+    rng = np.random.default_rng(seed)
+    t = np.linspace(0, 4, 3000)
+    truth = np.array([1.5, -0.7, 0.3, 2.0])
+    y = truth[0] * np.exp(truth[1] * t) + truth[2] * np.sin(truth[3] * t)
+    y = y + 0.01 * rng.standard_normal(t.size)
+
+    def residual(x):
+        return x[0] * np.exp(x[1] * t) + x[2] * np.sin(x[3] * t) - y
+
+    def full_jac(x):
+        return np.column_stack([np.exp(x[1] * t), x[0] * t * np.exp(x[1] * t),
+                                np.sin(x[3] * t), x[2] * t * np.cos(x[3] * t)])
+
+    def blocks(x):
+        J = full_jac(x)
+        for a in range(0, t.size, 700):          # uneven blocks, as records are
+            yield J[a:a + 700], J[a:a + 700].shape[0], None
+
+    return residual, full_jac, blocks
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_compressed_rows_take_the_full_problems_steps(seed):
+    residual, full_jac, blocks = _problem(seed)
+    x0 = np.array([1.0, -0.3, 0.1, 1.7])
+    bounds = (np.array([0.0, -2.0, -1.0, 1.0]), np.array([3.0, 0.0, 1.0, 3.0]))
+    kw = dict(bounds=bounds, method="trf", x_scale="jac", ftol=1e-8, xtol=1e-10, gtol=1e-10,
+              max_nfev=50)
+    a = optimize.least_squares(residual, x0, jac=full_jac, **kw)
+    fun, jac, rows = compressed(residual, blocks, 4)
+    b = optimize.least_squares(fun, x0, jac=jac, **kw)
+    assert b.x == pytest.approx(a.x, rel=1e-6, abs=1e-8)
+    assert b.cost == pytest.approx(a.cost, rel=1e-8)
+    assert abs(b.nfev - a.nfev) <= 1 and rows() == 3000     # the last step: rounding
+    # the compressed Jacobian's invariants, against numpy on the full one
+    x = a.x
+    J, r = full_jac(x), residual(x)
+    v, M = fun(x), jac(x)
+    assert M.T @ M == pytest.approx(J.T @ J, rel=1e-10)
+    assert M.T @ v == pytest.approx(J.T @ r, rel=1e-8, abs=1e-10)
+    assert np.linalg.norm(M, axis=0) == pytest.approx(np.linalg.norm(J, axis=0), rel=1e-12)
+    assert np.linalg.norm(v) == pytest.approx(np.linalg.norm(r), rel=1e-14)
+
+
+def test_spectral_rows_keep_the_time_rows_inner_products():
+    """A periodic record's Jacobian as Parseval rows of its spectrum: the same Gram matrix
+    and the same product with the residual as the time rows (numpy on both)."""
+    from robrst.core.plant import paper_plant
+    from robrst.diagnose.effects import Chain
+    from robrst.diagnose.fit import Fitted, Prepared, model_jacobian, parseval_rows, \
+        spectral_jacobian
+    from robrst.diagnose.linear import LinearPart
+
+    fs, n = 5000.0, 2048
+    rng = np.random.default_rng(3)
+    u = 60 + 20 * np.sin(2 * np.pi * np.arange(n)[:, None] * np.array([3, 17, 40]) / n).sum(1)
+    lin = LinearPart(paper_plant(), fs)
+    p = Prepared("x", u[:, None], rng.standard_normal((n, 1)), np.full(n, 28.0), True, 0, 1.0,
+                 1.0)
+    ch = Chain((), 1, fs, 28.0, {"u_ptp": 40.0, "knots": ()})
+    x = 0.03 * rng.standard_normal(lin.size)
+    fit = Fitted("lin", (), "input", ch, lin, x, np.zeros_like(x), True, (), 1.0, 0, 0.0)
+    J = model_jacobian(fit, p, x)[1].reshape(n, -1)
+    S = spectral_jacobian(fit, p, x)
+    assert S.T @ S == pytest.approx(J.T @ J, rel=1e-9, abs=1e-9 * np.abs(J.T @ J).max())
+    r = rng.standard_normal(n)
+    rs = parseval_rows(np.fft.rfft(r[:, None], axis=0), n)
+    assert S.T @ rs == pytest.approx(J.T @ r, rel=1e-9, abs=1e-9 * np.abs(J.T @ r).max())
