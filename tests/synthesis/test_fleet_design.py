@@ -147,7 +147,10 @@ def test_yield_collapses_when_the_spread_is_dropped():
     problem = parse_problem(STAGE, "stage800_small_fleet.toml")
     fleet = run_problem(problem, analyses=False)
     nominal = run_problem(replace(problem, spread=None), analyses=False)
-    assert fleet.fleet.n_scenarios == 20 and not fleet.fleet.violated
+    # an actuator the final controller violates is one the program discarded (it counts in
+    # the guarantee): never a silent violation
+    assert fleet.fleet.n_scenarios == 20
+    assert set(fleet.fleet.violated) <= set(fleet.fleet.discarded)
     rows = draw_rows(problem.spread.params, 60, FRESH_SEED)
     fleet_yield = np.mean([_stage_certifies(fleet.controller, r) for r in rows])
     nominal_yield = np.mean([_stage_certifies(nominal.controller, r) for r in rows])

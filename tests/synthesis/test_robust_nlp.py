@@ -148,26 +148,28 @@ def _variant(tmp_path, problems_dir, name, **repl):
 
 
 def test_a_priori_infeasible_specs_still_give_the_best_controller(tmp_path, problems_dir):
-    """|T(0)| = 1 > Mt_max: provably infeasible; the answer is the best controller, not_certified,
-    the proof in the notes and what it achieves in best_achievable."""
+    """|T(0)| = 1 > Mt_max: provably infeasible; the synthesis is skipped, the answer is the
+    analytic start (a controller, not_certified), the proof in ``feasibility`` and what the
+    controller achieves in best_achievable."""
     pr = _variant(tmp_path, problems_dir, "tight_t.toml", **{"Mt_max = 1.3": "Mt_max = 0.5"})
     res = run_problem(replace(pr, solver=replace(pr.solver, placement="fixed", max_iter=100)))
     assert res.status == "not_certified" and not res.certified
-    assert any("specs infeasible: |T(0)| = 1 > 0.5 for model T28C" in n
-               for n in res.synthesis.notes)
+    assert res.feasibility.status == "infeasible"
+    reason = res.feasibility.proofs[0].reason
+    assert "model T28C" in reason and "T(0) = 1" in reason and "Mt_max = 0.5" in reason
+    assert len({p.model for p in res.feasibility.proofs}) == len(pr.family.models)
     assert res.best_achievable.startswith("best achievable: model ")
-    # named from the controller's own certificate; which spec binds depends on how far the
-    # soft phase gets in max_iter = 100 (|T|, from the start's 3.26, or |U|), but the answer
-    # is never farther from the specs than the analytic start (itself a candidate answer)
     worst = worst_violation(res.certificate)
     assert res.best_achievable == "best achievable: " + worst.describe()
-    start = worst_violation(certify_problem(pr, analytic_design(pr).controller))
-    assert worst.value / worst.bound <= start.value / start.bound * (1 + 1e-12)
+    # the controller reported is the analytic start, certified independently here
+    start_ctrl = analytic_design(pr).controller
+    for a, b in ((res.controller.R, start_ctrl.R), (res.controller.S, start_ctrl.S)):
+        assert np.allclose(a, b, rtol=1e-9, atol=0)
+    start = worst_violation(certify_problem(pr, start_ctrl))
     assert start.quantity == "|T| peak" and start.value / start.bound > 3.2
     d = res.as_dict()
     assert d["status"] == "not_certified" and d["best_achievable"] == res.best_achievable
-    assert d["solver"]["binding"]            # named from the multipliers
-    assert not any(w in " ".join(d["solver"]["binding"]) for w in ("Infeasible", "Restoration"))
+    assert d["feasibility"]["status"] == "infeasible"
 
 
 def test_unreachable_specs_give_the_best_controller_and_the_binding_constraints(tmp_path,
