@@ -152,7 +152,7 @@ def run(tiny=False, repeats=5):
     slower_inner = float(np.median(np.array(inner["2"]) - np.array(inner["0"])))
     met = total <= 60.0 and err <= 1e-9 and slower <= 2.0 and all(v in (0, 1) for v in
                                                                     rcs.values())
-    table = [f"Flow CPU (user + sys, fresh processes): " + ", ".join(
+    table = ["Flow CPU (user + sys, fresh processes): " + ", ".join(
                  f"{k} {v:.2f} s" for k, v in cpu.items()) + f"; total {total:.1f} s"
              f" (wall {sum(wall.values()):.1f} s); exit codes {rcs}.",
              f"Exported controller (C, double) in the twin vs python-control's sampled loop:"

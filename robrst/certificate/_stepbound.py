@@ -89,7 +89,7 @@ class StepBounds:
             matrix is not Hurwitz).
         """
         r = self.r
-        K, n = r.A.shape[0], r.A.shape[-1]
+        n = r.A.shape[-1]
         D = r.A - np.eye(n) if r.discrete else r.A
         eps = np.finfo(float).eps
         with np.errstate(all="ignore"):

@@ -2,11 +2,9 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import Any
-
 import sys
 from collections.abc import Callable
+from typing import Any
 
 from robrst.base.fileio import json_text
 

@@ -14,6 +14,8 @@ from robrst.problem.files import load_problem
 if TYPE_CHECKING:
     import argparse
 
+    from robrst.problem.records import Problem
+
 __all__ = ["add_parsers", "run_design", "run_report"]
 
 

@@ -32,7 +32,6 @@ from robrst.diagnose.thermal import fit_thermal_dynamics, search_saturation
 
 if TYPE_CHECKING:
     from robrst.diagnose.fit import Prepared
-    from robrst.diagnose.screen import ScreenFit
 
 __all__ = ["Setup", "Scored", "Screened", "CandidateFits", "cut", "start_values",
            "linear_with_offset", "refit_keys", "OFFSET", "DYNAMIC", "STANDALONE", "SPECIAL",

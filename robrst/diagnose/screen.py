@@ -412,7 +412,7 @@ class ScreenGrid:
     creep_per_K: bool = True
 
     @classmethod
-    def of(cls, setup: Setup) -> ScreenGrid:
+    def of(cls, setup: Setup) -> ScreenGrid:      # noqa: F821  (candidates.Setup: it imports this module)
         """The grid of ``setup``'s training records and candidates.
 
         Parameters
@@ -1072,7 +1072,8 @@ class GramAccumulator:
         self.den["train"] += float(np.sum((w * (p.Y[R] - p.Y.mean(axis=0))) ** 2))
 
 
-def build_screen(setup: Setup, theta: np.ndarray | None, delays: Sequence[int] | None = None,
+def build_screen(setup: Setup, theta: np.ndarray | None,  # noqa: F821  (candidates.Setup)
+                 delays: Sequence[int] | None = None,
                  level_ref: float | None = None, dynamic_model: bool = False,
                  say: Callable[[str], None] | None = None, stages: dict | None = None,
                  base_fit: Fitted | None = None) -> Screen:

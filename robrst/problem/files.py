@@ -22,7 +22,7 @@ from robrst.problem.records import (AUX_MIN_FACTOR, HOMOTOPIES, INITS, METHODS, 
                             PLACEMENTS, T_MODES, ControllerStructure, Problem, SolverOptions, Specs)
 from robrst.problem.specs import specs_schema
 from robrst.base.schema import ArrayOf, Field, key_error, load_toml, markdown_rows, validate
-from robrst.problem.spread import (COEF as COEF_NAME, DIST_KEYS, PLANT_PARAMS, RANDOM_DISTS, SPREAD_METHODS,
+from robrst.problem.spread import (COEF as COEF_NAME, DIST_KEYS, RANDOM_DISTS, SPREAD_METHODS,
                                    THERMAL_KEYS, Param, Spread, check_plant_params,
                                    check_truncation)
 from robrst.problem.checks import (MAX_RATE, MIN_RATE, MIN_RATE_HZ, check_combinations, check_generated,

@@ -42,7 +42,7 @@ error; the RMS error, the command's range), written like the paper's scenarios.
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np

@@ -673,7 +673,7 @@ class _Program:
         import clarabel
         from scipy import sparse
 
-        K, n, d = self.K, self.n, self.d
+        K, n = self.K, self.n
         Psi = self.Psi[idx]
         rows, b, cones = [], [], []
 

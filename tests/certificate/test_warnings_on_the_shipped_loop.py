@@ -8,7 +8,6 @@ discrete reference step at the samples, ``|B S/Delta|`` on a dense unit-circle g
 the ZOH plant's own peak on the same grid.
 """
 
-import numpy as np
 import pytest
 
 import loopcheck

@@ -5,7 +5,6 @@ import re
 
 import pytest
 
-import robrst.cli.check
 from robrst.cli import main
 from robrst.base.errors import SpecError
 from robrst.testing import compare_golden, read_golden

@@ -11,7 +11,7 @@ import pytest
 from stages import FS, stage_tf
 
 import robrst
-from robrst import (ControllerStructure, PlantFamily, PoleSpec, Problem, RSTController, Specs,
+from robrst import (ControllerStructure, PlantFamily, PoleSpec, RSTController, Specs,
                     SpecError)
 from robrst.core.rst import feedback_part, tustin_polynomials
 

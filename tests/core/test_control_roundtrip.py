@@ -5,7 +5,6 @@ python-control is the independent party: its ``stability_margins``, ``step_respo
 robrst's figures.
 """
 
-import warnings
 
 import control
 import numpy as np

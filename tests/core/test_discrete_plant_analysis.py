@@ -37,7 +37,6 @@ def _truth(P, ctrl, fs, delay=0):
     if delay:
         Pz = Pz * control.tf([1.0], [1.0] + [0.0] * delay, 1 / fs)
     Kz = control.c2d(control.tf(ctrl.R, ctrl.S), 1 / fs, "tustin")
-    z = np.exp(1j * pcloop.GRID)
     L = lambda z: pcloop.resp(Pz, z) * pcloop.resp(Kz, z)       # noqa: E731
     gm, pm, sm, wpc, wgc, wms = control.stability_margins(Pz * Kz)
     return {"Ms": pcloop.unit_circle_max(lambda z: 1 / (1 + L(z))),

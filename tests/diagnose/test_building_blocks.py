@@ -228,7 +228,6 @@ def test_fit_effects_names_bad_requests():
 def test_fit_effects_joint_recovers_effect_and_model_error():
     """Creep on a plant whose gain is 6 % above the user's model: fitted jointly, both found."""
     plant = paper_plant()
-    true = Plant(np.asarray(plant.B) * 1.06, plant.A)
     cfg = replace(default_twin().with_effects(only=["creep"], creep={"per_decade": 0.02}),
                   sample_rate_hz=FS)
     recs = []

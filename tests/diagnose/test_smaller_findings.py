@@ -19,7 +19,7 @@
 import numpy as np
 import pytest
 
-from diagnosis_cases import _play, _recipe, make
+from diagnosis_cases import _recipe, make
 from robrst.core.plant import paper_plant
 from robrst.data.dataset import Dataset
 from robrst.diagnose.diagnosis import offset_finding

@@ -17,7 +17,6 @@ import subprocess
 import sys
 import tomllib
 
-import numpy as np
 import pytest
 
 from linear_law_stages import REF_C, law, records

@@ -11,7 +11,6 @@ import tomllib
 
 import control
 import numpy as np
-import pytest
 
 from robrst.cli import main
 from robrst.data.dataset import Dataset, save_dataset

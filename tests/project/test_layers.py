@@ -25,7 +25,6 @@ Every ``import`` of a robrst module counts, at module level or inside a function
 import ast
 from pathlib import Path
 
-import pytest
 
 PKG = Path(__file__).resolve().parents[2] / "robrst"
 

@@ -5,7 +5,6 @@ scenario files (steps, ramps, multisines, temperature) and their validation.  Tr
 python-control's ``c2d`` (ZOH) and ``forced_response`` (tests/stages.py's stage)."""
 
 import json
-import os
 from dataclasses import replace
 
 import control
@@ -18,7 +17,7 @@ from robrst import ControllerStructure, PlantFamily, PoleSpec, Problem, Specs
 from robrst.cli import main
 from robrst.studies.closedloop import controller_of_c_file, controller_of_design, run_closed_loop
 from robrst.studies.twins import load_twin, twin_of_design
-from robrst.studies.user_scenario import load_scenario, parse_scenario, scenario_signals
+from robrst.studies.user_scenario import parse_scenario, scenario_signals
 from robrst.twin.compiled import compiler
 
 HAVE_CC = compiler() is not None

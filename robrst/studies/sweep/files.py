@@ -17,9 +17,7 @@ coefficient factors ``A1``, ``B0``, ...  Every key is declared in :data:`SWEEP_S
 
 from __future__ import annotations
 
-import math
 import os
-import re
 from dataclasses import dataclass
 from pathlib import Path
 

@@ -26,7 +26,7 @@ if TYPE_CHECKING:
     from pathlib import Path
 
     from robrst.problem.records import Problem
-    from robrst.studies.sweep.files import Ageing, Param
+    from robrst.studies.sweep.files import Ageing
 
 __all__ = ["set_key", "apply_overrides", "split_values", "variant_problem", "transform_plant",
            "transform_family", "merge_documents", "check_plant_params"]
