@@ -11,16 +11,17 @@ Kinds: ``problem`` (:func:`robrst.problem.files.schema_markdown`), ``sweep``
 (:data:`robrst.twin.config.TWIN_SCHEMA`) and ``scenario``
 (:func:`robrst.studies.user_scenario.scenario_schema_markdown`).
 
-The API reference is generated too: at ``builder-inited`` one page per public module is
-written to ``api/generated/`` (reST: ``automodule``, then ``autoclass``/``autofunction`` of the functions and classes its
-``__all__`` defines, and a table of the names it re-exports), and ``robrst-face`` renders
-the table of ``robrst.__all__``.  "Public" is what ``tests/project/test_docstrings.py``
-checks: every module whose dotted path has no part starting with ``_``.
+The API reference is generated too, grouped by task (as python-control's function list
+is): :data:`API_PAGES` names each page's objects as users import them (``robrst.Plant``,
+not ``robrst.core.plant.Plant``); at ``builder-inited`` each page is written to
+``api/<page>.rst`` (``autoclass``/``autofunction`` of its names), and ``robrst-face``
+renders the table of ``robrst.__all__``.  Every function and class of ``robrst.__all__``
+is on exactly one page (``tests/project/test_docs.py`` checks it); the modules behind the
+face are described in the architecture page.
 """
 
 import importlib
 import inspect
-import pkgutil
 from pathlib import Path
 
 from docutils import nodes
@@ -63,91 +64,112 @@ class SchemaTable(SphinxDirective):
         return box.children
 
 
-def public_modules():
-    """Dotted names of robrst's public modules (no part starts with ``_``), sorted."""
-    import robrst
-    names = ["robrst"]
-    for info in pkgutil.walk_packages(robrst.__path__, "robrst."):
-        parts = info.name.split(".")
-        if any(p.startswith("_") for p in parts[1:]) or info.name.startswith("robrst.problems"):
+# The API reference: (file, title, what the page is for, names as users import them).
+API_PAGES = (
+    ("problems", "Problems and specs",
+     "A problem file or record in: the plant family, the specs, the solver's options; and "
+     "the errors robrst raises on bad input.",
+     ["robrst.load_problem", "robrst.parse_problem", "robrst.Problem", "robrst.Specs",
+      "robrst.PoleSpec", "robrst.ControllerStructure", "robrst.SolverOptions",
+      "robrst.RobrstError", "robrst.SpecError", "robrst.DegreeError", "robrst.CoprimeError",
+      "robrst.DataError", "robrst.SolverError", "robrst.InfeasibleError",
+      "robrst.OutputError"]),
+    ("plants", "Plants, controllers and analysis",
+     "Plants and their thermal families, the RST controller, pole placement and the "
+     "analysis of one loop.",
+     ["robrst.Plant", "robrst.paper_plant", "robrst.PlantFamily", "robrst.parametric_family",
+      "robrst.explicit_family", "robrst.ThermalCoefficients", "robrst.sampled_plant",
+      "robrst.RSTController", "robrst.pole_placement", "robrst.discretize",
+      "robrst.tustin_polynomials", "robrst.closed_loop_control", "robrst.analyze",
+      "robrst.peak_gain"]),
+    ("design", "Design",
+     "The design pipeline: a problem in, a certified design (or the best controller found "
+     "and what binds) out.",
+     ["robrst.run_problem", "robrst.DesignResult", "robrst.design.analytic_design",
+      "robrst.design.with_time_domain", "robrst.Synthesizer"]),
+    ("certificate", "Certificates",
+     "What a certificate proves over the temperature interval, and saved designs certified "
+     "again.",
+     ["robrst.certify", "robrst.certify_problem", "robrst.certificate.proof.Certificate",
+      "robrst.step_metrics", "robrst.load_design", "robrst.recertify"]),
+    ("controller", "The controller out",
+     "The digital controller that goes to hardware: sections, C, Python and JSON.",
+     ["robrst.digital_controller", "robrst.DigitalController", "robrst.export_controller",
+      "robrst.ExportedController"]),
+    ("twin", "Twin and records",
+     "The digital twin of the actuator (every effect switchable) and the record format.",
+     ["robrst.default_twin", "robrst.load_twin", "robrst.simulate",
+      "robrst.twin.TwinConfig", "robrst.twin.SimResult", "robrst.Dataset",
+      "robrst.load_dataset", "robrst.save_dataset"]),
+    ("identify", "Identification and diagnosis",
+     "Linear models from records, and the diagnosis of the gap between the twin and the "
+     "bench.",
+     ["robrst.identify.identification.identify", "robrst.diagnose.diagnose",
+      "robrst.diagnose.Diagnosis"]),
+    ("studies", "Sweeps and fleets",
+     "Monte Carlo, trade-offs and fleets on Dask.",
+     ["robrst.load_sweep", "robrst.Sweep", "robrst.run_sweep", "robrst.SweepResult",
+      "robrst.studies.fleet.verify_fleet"]),
+    ("testing", "Regression tests and reports",
+     "Margin regression tests in your CI, and the reports.",
+     ["robrst.assert_margins", "robrst.testing.write_golden", "robrst.testing.compare_golden",
+      "robrst.write_design_report", "robrst.write_sweep_report",
+      "robrst.write_diagnosis_report"]),
+)
+
+
+def resolve(dotted):
+    """The object a dotted name imports (``robrst.Plant``, ``robrst.diagnose.diagnose``)."""
+    parts = dotted.split(".")
+    for cut in range(len(parts) - 1, 0, -1):
+        try:
+            obj = importlib.import_module(".".join(parts[:cut]))
+        except ImportError:
             continue
-        names.append(info.name)
-    return sorted(names)
+        for p in parts[cut:]:
+            obj = getattr(obj, p)
+        return obj
+    raise ImportError(dotted)
 
 
-def _callables(module):
-    """``(defined here, re-exported)``: the functions and classes of ``module.__all__``."""
-    own, other = [], []
-    for name in getattr(module, "__all__", ()):
-        obj = getattr(module, name)
-        if not (inspect.isfunction(obj) or inspect.isclass(obj)):
-            continue
-        (own if obj.__module__ == module.__name__ else other).append((name, obj))
-    return own, other
-
-
-LAYER_ORDER = ("robrst.base", "robrst.core", "robrst.problem", "robrst.certificate",
-               "robrst.synthesis", "robrst.design", "robrst.controller", "robrst.data",
-               "robrst.twin", "robrst.identify", "robrst.diagnose", "robrst.studies",
-               "robrst.report", "robrst.cli", "robrst.testing", "robrst")
-
-
-def layer_key(name):
-    """Sort key: the layer (bottom first, as the architecture page lists them), then the name."""
-    for i, pre in enumerate(LAYER_ORDER):
-        if name == pre or name.startswith(pre + "."):
-            return (i, name)
-    return (len(LAYER_ORDER), name)
-
-
-def module_page(name):
-    """The reStructuredText source of one module's API page (autodoc is reST-native)."""
-    module = importlib.import_module(name)
-    own, other = _callables(module)
-    lines = [name, "=" * len(name), "", f".. automodule:: {name}", "   :no-members:", ""]
-    if own:
-        lines += [".. autosummary::", "", *(f"   {n}" for n, _ in own), ""]
-        for n, obj in own:
-            if inspect.isclass(obj):
-                lines += [f".. autoclass:: {name}.{n}", "   :members:", ""]
-            else:
-                lines += [f".. autofunction:: {name}.{n}", ""]
-    if other:
-        lines += ["Re-exported here:", "",
-                  *(f"* :py:obj:`{n} <{obj.__module__}.{obj.__qualname__}>`" for n, obj in other),
-                  ""]
+def api_page(title, intro, names):
+    """The reStructuredText source of one task page (autodoc is reST-native)."""
+    lines = [title, "=" * len(title), "", intro, "", ".. autosummary::", "",
+             *(f"   {n}" for n in names), ""]
+    for n in names:
+        obj = resolve(n)
+        if inspect.isclass(obj):
+            lines += [f".. autoclass:: {n}", "   :members:", ""]
+        else:
+            lines += [f".. autofunction:: {n}", ""]
     return "\n".join(lines)
 
 
 def write_api_pages(app):
-    """Write ``api/generated/<module>.api.rst`` for every public module (only when changed)."""
-    out = Path(app.srcdir) / "api" / "generated"
+    """Write ``api/<page>.rst`` for every task page (only when changed)."""
+    out = Path(app.srcdir) / "api"
     out.mkdir(parents=True, exist_ok=True)
-    wanted = {f"{m}.api.rst": module_page(m) for m in public_modules()}
-    for old in out.iterdir():
-        if old.name not in wanted:
-            old.unlink()
-    for fname, text in wanted.items():
-        path = out / fname
+    for fname, title, intro, names in API_PAGES:
+        path = out / f"{fname}.rst"
+        text = api_page(title, intro, names)
         if not path.exists() or path.read_text(encoding="utf-8") != text:
             path.write_text(text, encoding="utf-8")
 
 
-class Modules(SphinxDirective):
-    """``{robrst-modules}``: the toctree of the generated module pages, bottom layer first."""
+class Pages(SphinxDirective):
+    """``{robrst-api-pages}``: the toctree of the task pages."""
 
     has_content = False
 
     def run(self):
-        names = sorted(public_modules(), key=layer_key)
-        text = ["```{toctree}", ":maxdepth: 1", "", *(f"generated/{m}.api" for m in names), "```"]
-        box = nodes.container(classes=["robrst-modules"])
-        self.state.nested_parse(StringList(text, "<robrst-modules>"), self.content_offset, box)
+        text = ["```{toctree}", ":maxdepth: 1", "", *(f for f, *_ in API_PAGES), "```"]
+        box = nodes.container(classes=["robrst-api-pages"])
+        self.state.nested_parse(StringList(text, "<robrst-api-pages>"), self.content_offset, box)
         return box.children
 
 
 class Face(SphinxDirective):
-    """``{robrst-face}``: a summary table of ``robrst.__all__``, linked to where each is defined."""
+    """``{robrst-face}``: a summary table of ``robrst.__all__``, linked to its task page."""
 
     has_content = False
 
@@ -157,7 +179,7 @@ class Face(SphinxDirective):
         for name in robrst.__all__:
             obj = getattr(robrst, name)
             if inspect.isfunction(obj) or inspect.isclass(obj):
-                rows.append(f"{obj.__module__}.{obj.__qualname__}")
+                rows.append(f"robrst.{name}")
         box = nodes.container(classes=["robrst-face"])
         text = ["```{eval-rst}", ".. autosummary::", "", *(f"   {r}" for r in rows), "```"]
         self.state.nested_parse(StringList(text, "<robrst-face>"), self.content_offset, box)
@@ -167,6 +189,6 @@ class Face(SphinxDirective):
 def setup(app):
     app.add_directive("robrst-schema", SchemaTable)
     app.add_directive("robrst-face", Face)
-    app.add_directive("robrst-modules", Modules)
+    app.add_directive("robrst-api-pages", Pages)
     app.connect("builder-inited", write_api_pages)
     return {"parallel_read_safe": True, "parallel_write_safe": True}

@@ -212,3 +212,32 @@ def test_the_references_render_as_tables(tmp_path):
         want = [[re.sub(r"`|\\(?=\|)", "", c).strip() for c in r.strip("|").split(" | ")]
                 for r in schema_rows(kind)]
         assert cells == want, kind
+
+
+# -- the API reference: a few pages by task, every name of the face on exactly one -----------
+
+def test_the_api_reference_is_a_few_task_pages_covering_the_face():
+    """At most ten API pages (the index and the task pages); every function and class of
+    ``robrst.__all__`` documented on exactly one, by the name users import it with; no
+    object documented twice (Sphinx would warn of a duplicate description)."""
+    import importlib
+    import inspect
+    import runpy
+
+    import robrst
+
+    ext = runpy.run_path(str(DOCS / "_ext" / "robrst_docs.py"), run_name="robrst_docs_check") \
+        if importlib.util.find_spec("sphinx") else None
+    if ext is None:
+        pytest.skip("the docs extension imports Sphinx (the docs extra)")
+    pages = ext["API_PAGES"]
+    assert 1 + len(pages) <= 10
+    listed = [n for *_, names in pages for n in names]
+    objs = [ext["resolve"](n) for n in listed]
+    assert len({id(o) for o in objs}) == len(objs)          # each object once
+    face = {f"robrst.{n}" for n in robrst.__all__
+            if inspect.isfunction(getattr(robrst, n)) or inspect.isclass(getattr(robrst, n))}
+    assert face - set(listed) == set()
+    # a subpackage name is never the same object as a face name (it would be shown twice)
+    face_ids = {id(getattr(robrst, n.split(".", 1)[1])) for n in face}
+    assert not [n for n, o in zip(listed, objs) if n not in face and id(o) in face_ids]
