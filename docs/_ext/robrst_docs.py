@@ -15,13 +15,18 @@ The API reference is generated too, grouped by task (as python-control's functio
 is): :data:`API_PAGES` names each page's objects as users import them (``robrst.Plant``,
 not ``robrst.core.plant.Plant``); at ``builder-inited`` each page is written to
 ``api/<page>.rst`` (``autoclass``/``autofunction`` of its names), and ``robrst-face``
-renders the table of ``robrst.__all__``.  Every function and class of ``robrst.__all__``
+renders the table of ``robrst.__all__``.  ``robrst-output`` shows a command's output,
+run at build time.  Every function and class of ``robrst.__all__``
 is on exactly one page (``tests/project/test_docs.py`` checks it); the modules behind the
 face are described in the architecture page.
 """
 
+import contextlib
 import importlib
 import inspect
+import io
+import os
+import shlex
 from pathlib import Path
 
 from docutils import nodes
@@ -186,7 +191,37 @@ class Face(SphinxDirective):
         return box.children
 
 
+class Output(SphinxDirective):
+    """``{robrst-output} design my_stage.toml``: the command run at build time, its standard
+    output shown as a text block (so a shown output cannot go stale).  It runs in
+    ``docs/examples`` (``:cwd:`` relative to the docs' source folder); exit codes 0 and 1
+    (certified or not) are outputs, 2 (an error) fails the build."""
+
+    required_arguments = 1
+    final_argument_whitespace = True
+    option_spec = {"cwd": str}
+
+    def run(self):
+        from robrst.cli import main
+
+        args = shlex.split(self.arguments[0])
+        cwd = Path(self.env.srcdir) / self.options.get("cwd", "examples")
+        out, here = io.StringIO(), Path.cwd()
+        try:
+            os.chdir(cwd)
+            with contextlib.redirect_stdout(out), contextlib.redirect_stderr(io.StringIO()):
+                code = main(args)
+        finally:
+            os.chdir(here)
+        if code not in (0, 1):
+            raise self.error(f"robrst {self.arguments[0]} exited {code}")
+        block = nodes.literal_block(out.getvalue(), out.getvalue().rstrip("\n"))
+        block["language"] = "text"
+        return [block]
+
+
 def setup(app):
+    app.add_directive("robrst-output", Output)
     app.add_directive("robrst-schema", SchemaTable)
     app.add_directive("robrst-face", Face)
     app.add_directive("robrst-api-pages", Pages)
