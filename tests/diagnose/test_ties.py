@@ -1,6 +1,6 @@
 """Ties in the forward selection never crash and never discard what was found.
 
-1. The reproducer (``robrst diagnose`` on periodic two-level records of a hardening
+1. The reproducer (repro diagnose_tie_crash: ``robrst diagnose`` on periodic two-level records of a hardening
    Duffing mode, seed 41: a ``TypeError`` at ``hi[1] >= gap`` with ``gap`` None after a
    tie): stated answer before the run — an answer, the stiffness effect or
    ``cannot_tell``, exit code 0, never a crash.
