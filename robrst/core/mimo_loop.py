@@ -18,6 +18,8 @@ name      transfer                        from -> to
 ``U``     ``K S_o`` (controller sens.)    output disturbance ``d_o`` -> ``-u``
 ``Sd``    ``S_o G``                       input disturbance ``d_i`` -> ``y``
 ``Tr``    ``S_o G W diag(T_i / S_i)``     reference ``r`` -> ``y`` (tracking, crosstalk)
+``Ti``    ``K G (I + K G)^-1``            input disturbance ``d_i`` -> ``-u`` (input
+                                          complementary sensitivity: input-gain sector)
 ========  ==============================  =========================================
 
 Every computation is on the state space (physical time); the closed loop's stability is
@@ -44,7 +46,7 @@ if TYPE_CHECKING:
 __all__ = ["MimoController", "MimoLoop", "mimo_loop", "LOOP_TRANSFERS", "WELL_POSED_COND"]
 
 #: the closed-loop transfer matrices of :class:`MimoLoop`
-LOOP_TRANSFERS = ("S", "T", "U", "Sd", "Tr")
+LOOP_TRANSFERS = ("S", "T", "U", "Sd", "Tr", "Ti")
 #: ``I + D_K D_G`` with a condition number above this is not a well-posed loop
 WELL_POSED_COND = 1e12
 
@@ -306,7 +308,7 @@ class MimoLoop:
 
         Parameters
         ----------
-        name : {"S", "T", "U", "Sd", "Tr"}
+        name : {"S", "T", "U", "Sd", "Tr", "Ti"}
             See the module docstring.
         i, j : int, optional
             Output and input of one entry (0-based).
@@ -321,7 +323,7 @@ class MimoLoop:
             An unknown name.
         """
         where = {"S": ("do", "y", 1.0), "T": ("n", "y", -1.0), "U": ("do", "u", -1.0),
-                 "Sd": ("di", "y", 1.0), "Tr": ("r", "y", 1.0)}
+                 "Sd": ("di", "y", 1.0), "Tr": ("r", "y", 1.0), "Ti": ("di", "u", -1.0)}
         if name not in where:
             raise ValueError(f"unknown closed-loop transfer {name!r}; expected one of"
                              f" {', '.join(LOOP_TRANSFERS)}")

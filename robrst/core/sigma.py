@@ -257,6 +257,8 @@ def _polish(A, B, C, D, grid, k, g, nu, lo, hi):
     neighbours, in log frequency when positive); returns the better ``(value, nu)``."""
     a = grid[k - 1] if k > 0 else lo
     b = grid[k + 1] if k + 1 < len(grid) else (hi if np.isfinite(hi) else 2.0 * nu + 1.0)
+    if not np.isfinite(b):
+        b = 2.0 * nu + 1.0
     a, b = max(a, lo), min(b, hi)
     if not (np.isfinite(nu) and b > a):
         return g, nu
