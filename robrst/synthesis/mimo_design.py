@@ -254,7 +254,8 @@ class _Grid:
             if f is None or not np.isfinite(f) or f <= 0:
                 continue
             top = np.pi * self.loops[k].fs * 0.9995 if self.loops[k].fs else np.inf
-            ws.append(np.minimum([f * 0.998, f, f * 1.002], top))
+            ws.append(np.minimum(f * np.array([0.99, 0.996, 0.999, 1.0, 1.001, 1.004, 1.01]),
+                                 top))
         self.w[k] = np.unique(np.concatenate(ws))
 
     @property
@@ -262,8 +263,8 @@ class _Grid:
         return int(sum(len(w) for w in self.w))
 
 
-GRID_MARGIN = 0.01      # the program holds the bounds 1 % tighter than the certificate
-EXCHANGES = 3           # row exchanges within one round (points violated but not selected)
+GRID_MARGIN = 0.02      # the program holds the bounds 2 % tighter than the certificate
+EXCHANGES = 4           # row exchanges within one round (points violated but not selected)
 
 
 def _objective(axes, x, signs):
@@ -285,14 +286,39 @@ def _rounds(name, models, specs, axes, W, T_mode, names, x0, signs, so, progress
     band = specs.crosstalk_band_rad_s
     allm = list(models) + list(extra_models)
     loops = loop_plants(allm, specs)
-    # with a rate the program holds the sampled loops (the one that runs); the continuous
-    # loops start from a coarse grid and gain the points where the exact check finds a peak
+    # with a rate the sampled loops (the one that runs) get the full grid, the continuous
+    # loops fewer log-spaced points (their resonances all the same); both gain the points
+    # where the exact check finds a peak
     grid = _Grid(loops, [program_grid(allm[lp.model], lp.fs, w_design, so.n_freq)
                          if lp.fs or not specs.sampled else
-                         program_grid(allm[lp.model], None, w_design, max(10, so.n_freq // 4),
-                                      resonances=False) for lp in loops])
+                         program_grid(allm[lp.model], None, w_design, max(10, so.n_freq // 4))
+                         for lp in loops])
     ipopt = {"max_iter": so.max_iter, "tol": so.ipopt_tol, "print_level": 0, "sb": "yes",
              "acceptable_tol": 1e-5, "acceptable_iter": 5}
+    # the validation grid: every candidate is evaluated there (numerically, cheap) and the
+    # points it exceeds the bounds at join the program's grid before the exact check
+    dense = []
+    for lp in loops:
+        w = program_grid(allm[lp.model], lp.fs, w_design, 4 * so.n_freq, dense=True)
+        nu = nu_of(w, lp.fs)
+        dense.append((w, GridRows(axes, nu, lp.plant.freqresp(nu), _w_response(W, nu),
+                                  bounds or {"sigma_S": 1e6}, xt_bound,
+                                  (w >= band[0]) & (w <= band[1]))))
+
+    def misses(x, limit):
+        """Validation points above ``limit`` (local maxima, a few per loop) or out of the
+        half-plane: ``{loop index: frequencies}``."""
+        out = {}
+        for k, (w, dr) in enumerate(dense):
+            r = dr.ratios(x)
+            worst = np.max(np.stack([v.reshape(dr.K, -1).max(1) for v in r.values()]), 0)
+            hp = dr.halfplane(x)
+            bad = np.flatnonzero((worst > limit * (1 + 0.25 * GRID_MARGIN))
+                                 | (hp < 0.5 * NYQUIST_FLOOR))
+            if bad.size:
+                order = bad[np.argsort(-worst[bad])][:8]
+                out[k] = list(w[order])
+        return out
 
     def check(x):
         recs, viols = check_models(allm, ctrl_of(x), specs, so.cert_tol)
@@ -316,6 +342,8 @@ def _rounds(name, models, specs, axes, W, T_mode, names, x0, signs, so, progress
         phase = "hard" if t_start <= 1.0 + 2 * GRID_MARGIN else "soft"
         if stable:
             rows.set_reference(x)
+            for _, dr in dense:
+                dr.set_reference(x)
         rows.select(x)
         cand, sol = x, None
         for _ in range(EXCHANGES):
@@ -326,9 +354,20 @@ def _rounds(name, models, specs, axes, W, T_mode, names, x0, signs, so, progress
             limit = 1.0 if phase == "hard" else sol["t"]
             hp = rows.halfplane(cand)
             out = [("nyquist", int(k)) for k in np.flatnonzero(hp < 0.999 * NYQUIST_FLOOR)]
-            if rows.worst(cand) <= limit * (1 + 1e-6) and not out:
+            miss = misses(cand, limit)
+            if rows.worst(cand) <= limit * (1 + 1e-6) and not out and not miss:
                 break
-            rows.select(cand, floor=0.9 * limit, keep=list(rows.rows) + out)
+            if miss:          # new points: the rows of a grown grid
+                for k, fr in miss.items():
+                    grid.add(k, fr)
+                nu, G, Wr, xt = grid.arrays(W, band)
+                old_rows = rows
+                rows = GridRows(axes, nu, G, Wr, bounds or {"sigma_S": 1e6}, xt_bound, xt)
+                if old_rows.d0 is not None:
+                    rows.set_reference(x)
+                rows.select(cand, floor=0.3)
+            else:
+                rows.select(cand, floor=0.9 * limit, keep=list(rows.rows) + out)
         c_stable, c_recs, c_viols = check(cand)
         if not c_stable:
             # pull back towards the last stable controller; the unstable poles'
@@ -354,7 +393,9 @@ def _rounds(name, models, specs, axes, W, T_mode, names, x0, signs, so, progress
                                     len(nu), time.perf_counter() - t0))
         progress(f"  {name} round {r + 1}: {phase} {sol['status']} ({sol['iterations']}"
                  f" iterations, {len(rows.rows)} rows, {rows.K} points), t = {sol['t']:.4g}, {'stable' if c_stable else 'UNSTABLE'},"
-                 f" {len(c_viols)} violation(s)")
+                 f" {len(c_viols)} violation(s)" + ("" if not c_viols else
+                                                    " (worst " + max(c_viols, key=lambda v: v.ratio
+                                                                     ).describe() + ")"))
         moved = not np.array_equal(cand, x)
         x, stable, viols = cand, c_stable, c_viols
         if stable and (best is None or _better(axes, x, viols, best, signs)):

@@ -36,8 +36,9 @@ half-plane), and ``sign_i R_i(0) > 0`` (the integral gain's sign).
 
 **Objective.**  With ``k_i = sign_i R_i(0) / S_i'(0)`` the axes' scaled integral gains:
 ``c_t t - c_k (z + TIE_BREAK sum_i log k_i) + c_reg |x - x_ref|^2`` with ``z <= log k_i``
-for every axis: the soft phase minimises ``t`` (the worst normalised spec), the hard
-phase (``t = 1``) maximises the least integral gain (the axes balanced).
+for every axis: the soft phase minimises ``t`` down to 1 (the worst normalised spec: the
+bounds reached, the gains then kept), the hard phase (``t = 1``) maximises the least
+integral gain (the axes balanced).
 
 Nothing here proves anything: the certificate (:mod:`robrst.certificate.mimo`) checks the
 result on the exact loop.
@@ -667,8 +668,8 @@ class MimoProgram:
         lbx, ubx = np.full(nx + 2, -np.inf), np.full(nx + 2, np.inf)
         if phase == "hard":
             lbx[nx] = ubx[nx] = 1.0
-        else:
-            lbx[nx] = 0.0
+        else:                   # down to the bounds, then the gains (not more robustness)
+            lbx[nx] = 1.0
         ks = [np.asarray(signs, float)[i] * self.grid.axes[i].integral_gain(
             x0[self.grid.offsets[i]:self.grid.offsets[i + 1]]) for i in range(self.grid.m)]
         z0 = float(np.log(max(min(ks), 1e-300))) - 1e-6

@@ -151,7 +151,7 @@ def design_scale(plant: MimoPlant, specs: MimoSpecs, bandwidth_hz: float | None)
 
 
 def program_grid(plant: MimoPlant, fs: float | None, w_design: float, n: int,
-                 resonances: bool = True) -> np.ndarray:
+                 resonances: bool = True, dense: bool = False) -> np.ndarray:
     """Physical frequencies [rad/s] of one loop's program points.
 
     ``n`` log-spaced points from ``w_design / 200`` to Nyquist (sampled loop, its end
@@ -170,6 +170,9 @@ def program_grid(plant: MimoPlant, fs: float | None, w_design: float, n: int,
         Log-spaced points.
     resonances : bool
         Add the points across the resonances.
+    dense : bool
+        33 points across each resonance (within 8 dampings) instead of 11: the grid the
+        program's candidates are validated on.
 
     Returns
     -------
@@ -182,9 +185,11 @@ def program_grid(plant: MimoPlant, fs: float | None, w_design: float, n: int,
     hi = 0.9995 * np.pi * fs if fs else 30.0 * max(float(mag.max()) if mag.size else 0.0,
                                                     w_design)
     w = list(np.geomspace(lo, hi, n))
-    for pk in ([] if not resonances else p)[(p.imag > 0) & (-p.real < RESONANT_DAMPING * mag)]:
+    res = p[(p.imag > 0) & (-p.real < RESONANT_DAMPING * mag)] if resonances else []
+    for pk in res:
         wn, z = abs(pk), -pk.real / abs(pk)
-        for k in (-6.0, -4.0, -2.5, -1.5, -0.75, 0.0, 0.75, 1.5, 2.5, 4.0, 6.0):
+        for k in (np.linspace(-8.0, 8.0, 33) if dense else
+                  (-6.0, -4.0, -2.5, -1.5, -0.75, 0.0, 0.75, 1.5, 2.5, 4.0, 6.0)):
             x = wn * (1.0 + k * max(z, 1e-4))
             if lo < x < hi:
                 w.append(x)
