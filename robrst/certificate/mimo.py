@@ -33,6 +33,7 @@ stable, every peak is verified and every segment's stability is proved.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
@@ -662,7 +663,7 @@ def _segment(family, i, ctrl, specs, rtol, points, budget, members):
                                                       for lp in loops} for k in ends}}
 
 
-def check_models(models, ctrl: MimoController, specs: MimoSpecs, rtol: float = 1e-3,
+def check_models(models: Sequence[MimoPlant], ctrl: MimoController, specs: MimoSpecs, rtol: float = 1e-3,
                  full: bool = False) -> tuple[list[MimoModelRecord], list[MimoViolation]]:
     """The figures and violations of each model (no interval check): the program's rounds.
 

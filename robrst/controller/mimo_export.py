@@ -181,7 +181,8 @@ def export_mimo(result: MimoDesignResult, controller: MimoController | None = No
         Another controller of the same problem (a comparison design); its certificate is
         then not the result's and the summary says ``certified: null``.
     u_range : (float, float), optional
-        The amplifier range [V] (default: the twin's).
+        The amplifier range [V] (default ``(-inf, inf)``: a bipolar amplifier, no
+        saturation; the single-loop default, the paper's 0-150 V, is not a mirror's).
 
     Returns
     -------
@@ -211,7 +212,9 @@ def export_mimo(result: MimoDesignResult, controller: MimoController | None = No
                if controller is None else {"certified": None, "note": "not the design's answer;"
                                            " see its own certificate"})
     return MimoExported(result.problem.name, tuple(ctrl.names), axes, W, Wd, fs,
-                        specs.delay_samples, check_u_range(u_range), summary)
+                        specs.delay_samples,
+                        check_u_range((-np.inf, np.inf) if u_range is None else u_range),
+                        summary)
 
 
 def _lit(v):

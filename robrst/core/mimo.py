@@ -109,10 +109,12 @@ class MimoPlant:
         A = _matrix(self.A, f"plant {self.label!r}: A")
         n = A.shape[0] if A.size else 0
         A = A if n else np.zeros((0, 0))
-        B = _matrix(self.B, f"plant {self.label!r}: B", (n, k)).reshape(n, -1) if n else \
-            np.zeros((0, k))
-        C = _matrix(self.C, f"plant {self.label!r}: C", (m, n)).reshape(m, -1) if n else \
-            np.zeros((m, 0))
+        B = _matrix(self.B, f"plant {self.label!r}: B", (n, k)) if n else np.zeros((0, k))
+        C = _matrix(self.C, f"plant {self.label!r}: C", (m, n)) if n else np.zeros((m, 0))
+        if n and B.shape == (1, n) and k == 1:
+            B = B.T                           # one input given as a row
+        if n and C.shape == (n, 1) and m == 1:
+            C = C.T
         if A.shape != (n, n) or B.shape != (n, k) or C.shape != (m, n):
             raise SpecError(f"plant {self.label!r}: inconsistent state space: A {A.shape},"
                             f" B {B.shape}, C {C.shape}, D {D.shape}; expected (n, n),"

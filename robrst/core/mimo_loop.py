@@ -224,6 +224,35 @@ class MimoController:
         Wj = MimoPlant(Aw, Bw, Cw, Dw, "decoupler").freqresp(w)
         return Wj * kd[:, None, :]
 
+    @classmethod
+    def from_dict(cls, d: dict) -> MimoController:
+        """The controller of :meth:`as_dict` (a saved design's ``controller``).
+
+        Parameters
+        ----------
+        d : dict
+            ``axes`` (each ``name, R, S, T``) and ``decoupler``.
+
+        Returns
+        -------
+        MimoController
+
+        Raises
+        ------
+        SpecError
+            A malformed dict.
+        """
+        try:
+            axes = [RSTController(a["R"], a["S"], a["T"]) for a in d["axes"]]
+            names = tuple(a.get("name", f"axis{i + 1}") for i, a in enumerate(d["axes"]))
+            dec = d.get("decoupler", {"kind": "static", "W": np.eye(len(axes)).tolist()})
+            if dec.get("kind") == "dynamic":
+                return cls(axes, decoupler_ss=tuple(dec[k] for k in "ABCD"), names=names)
+            return cls(axes, dec["W"], names=names)
+        except (KeyError, TypeError) as exc:
+            raise SpecError(f"not a multi-axis controller ({exc!r} missing or malformed)"
+                            ) from None
+
     def as_dict(self) -> dict:
         """The controller as JSON-ready lists.
 

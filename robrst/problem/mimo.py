@@ -222,9 +222,9 @@ class MimoStructure:
         Where the static decoupler inverts the plant [Hz].
     W : array_like, optional
         The given static decoupler (``inputs x axes``).
-    decoupler_ss : tuple, optional
-        A given dynamic decoupler ``(A, B, C, D)`` (stable; python-control accepted in
-        the API).
+    decoupler_ss : tuple or control.StateSpace, optional
+        A given dynamic decoupler ``(A, B, C, D)`` (continuous, stable; a python-control
+        system accepted).
     extra_degree : int
         Degree of ``S_i'`` per axis beyond the integrator (room for the program).
     relative_degree : int
@@ -269,6 +269,15 @@ class MimoStructure:
                             " only with decoupler = 'given'")
         if self.W is not None:
             object.__setattr__(self, "W", np.atleast_2d(np.asarray(self.W, float)))
+        ss = self.decoupler_ss
+        if ss is not None and type(ss).__module__.split(".")[0] == "control":
+            if getattr(ss, "dt", 0) not in (0, None):
+                raise SpecError("decoupler: a continuous python-control system expected"
+                                " (robrst implements it by Tustin at the controller's rate)")
+            import control
+
+            ss = control.ss(ss)
+            object.__setattr__(self, "decoupler_ss", (ss.A, ss.B, ss.C, ss.D))
         if not 0 <= self.extra_degree <= 12 or not 0 <= self.relative_degree <= 4:
             raise SpecError("extra_degree must be in [0, 12] and relative_degree in [0, 4]")
         if (self.roll_off_order > 0) != (self.roll_off_hz is not None):
@@ -304,6 +313,11 @@ class MimoSolverOptions:
         IPOPT iterations per solve.
     ipopt_tol : float
         IPOPT tolerance.
+
+    Raises
+    ------
+    SpecError
+        An unknown method.
     """
 
     method: str = "nlp"
@@ -374,6 +388,18 @@ class MimoProblem:
         if W is not None and W.shape != (m, m):
             raise SpecError(f"{self.path}: the decoupler W is {W.shape[0]} x {W.shape[1]};"
                             f" expected {m} x {m}")
+        if self.structure.decoupler_ss is not None:     # shapes and stability, named
+            from robrst.core.mimo_loop import MimoController
+            from robrst.core.rst import RSTController
+
+            try:
+                K = MimoController([RSTController([1.0], [1.0, 0.0], [1.0])] * m,
+                                   decoupler_ss=self.structure.decoupler_ss)
+            except SpecError as exc:
+                raise SpecError(f"{self.path}: {exc}") from None
+            if K.n_inputs != fam.n_in:
+                raise SpecError(f"{self.path}: the decoupler drives {K.n_inputs} inputs; the"
+                                f" plant has {fam.n_in}")
 
     @property
     def axes(self) -> tuple[str, ...]:

@@ -139,7 +139,7 @@ def run_twin(family: MimoFamily, ctrl: MimoExported, r: np.ndarray,
 
 
 def step_tests(family: MimoFamily, ctrl: MimoExported, step_um: float = 1.0,
-               duration_s: float = 0.15, **kw) -> dict:
+               duration_s: float = 0.15, **kw: float) -> dict:
     """Step each axis's reference in turn (the others held at 0); tracking and crosstalk.
 
     Parameters

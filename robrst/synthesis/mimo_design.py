@@ -36,7 +36,7 @@ import numpy as np
 from robrst.certificate.mimo import MimoCertificate, certify_mimo, check_models
 from robrst.core.mimo import MimoFamily, MimoPlant, combination
 from robrst.core.mimo_loop import MimoController
-from robrst.problem.mimo import MimoProblem, MimoSpecs
+from robrst.problem.mimo import MimoProblem, MimoSolverOptions, MimoSpecs
 from robrst.synthesis.mimo_program import (NYQUIST_FLOOR, PROGRAM_FIGURES, AxisParam, GridRows,
                                            MimoProgram)
 from robrst.synthesis.mimo_start import (LoopPlant, axis_plant, design_scale, loop_plants,
@@ -202,7 +202,8 @@ def _controller(axes: Sequence[AxisParam], x: np.ndarray, W, T_mode: str,
     return MimoController(laws, np.asarray(W, float), names=tuple(names))
 
 
-def per_axis_controller(axes: Sequence[AxisParam], xs: Sequence[np.ndarray], W,
+def per_axis_controller(axes: Sequence[AxisParam], xs: Sequence[np.ndarray],
+                        W: np.ndarray | tuple,
                         T_mode: str, names: Sequence[str]) -> MimoController:
     """The controller of per-axis decision vectors and a decoupler.
 
@@ -460,8 +461,8 @@ def _unstable_frequencies(recs, models, ctrl, specs):
     return out
 
 
-def design_axes(models: Sequence[MimoPlant], W, specs: MimoSpecs, axis: AxisParam,
-                so, names: Sequence[str], T_mode: str, progress: Callable[[str], None],
+def design_axes(models: Sequence[MimoPlant], W: np.ndarray | tuple, specs: MimoSpecs,
+                axis: AxisParam, so: MimoSolverOptions, names: Sequence[str], T_mode: str, progress: Callable[[str], None],
                 w_design: float, rounds_out: list,
                 optimize: bool = True) -> tuple[list[np.ndarray], list[float]]:
     """Every axis designed alone on its diagonal channel ``(G W)_ii`` over the models.

@@ -46,6 +46,7 @@ result on the exact loop.
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -284,13 +285,15 @@ class GridRows:
     xt_mask : numpy.ndarray
         ``(K,)``: the points inside the crosstalk band.
 
-    Attributes
-    ----------
-    rows : list of tuple
-        The selected rows: ``(figure, point)`` or ``("crosstalk", point, i, j)``.
+    Notes
+    -----
+    ``rows`` holds the selected rows: ``(figure, point)``, ``("crosstalk", point, i, j)``
+    or ``("nyquist", point)``.
     """
 
-    def __init__(self, axes, nu, G, W, bounds, crosstalk, xt_mask):
+    def __init__(self, axes: Sequence[AxisParam], nu: np.ndarray, G: np.ndarray,
+                 W: np.ndarray, bounds: dict, crosstalk: float | None,
+                 xt_mask: np.ndarray) -> None:
         self.axes = tuple(axes)
         self.m = m = len(self.axes)
         self.offsets = np.cumsum([0] + [a.n_x for a in self.axes])
@@ -360,14 +363,15 @@ class GridRows:
                 out["crosstalk"] = T / self.crosstalk
         return {k: np.where(np.isfinite(v), v, np.inf) for k, v in out.items()}
 
-    def _N(self, f, R, S):
+    def _N(self, f, R, S, ks=slice(None)):
+        """The numerator of figure ``f`` at the points ``ks`` (``R, S`` of those points)."""
         num = PROGRAM_FIGURES[f][0]
         m = self.m
         if num == "S":
             return np.eye(m)[None] * S[:, None, :]
         if num == "MR":
-            return self.M * R[:, None, :]
-        return self.W * R[:, None, :]
+            return self.M[ks] * R[:, None, :]
+        return self.W[ks] * R[:, None, :]
 
     def worst(self, x: np.ndarray) -> float:
         """The largest ratio over every point and figure.
@@ -383,7 +387,8 @@ class GridRows:
         r = self.ratios(x)
         return float(max((np.max(v) for v in r.values()), default=0.0))
 
-    def select(self, x: np.ndarray | None, floor: float = 0.3, keep=()) -> int:
+    def select(self, x: np.ndarray | None, floor: float = 0.3,
+               keep: Iterable[tuple] = ()) -> int:
         """Choose the rows of the next solve: every point whose ratio is at least
         ``floor`` (``x = None``: every point), and the rows ``keep``.
 
@@ -509,7 +514,7 @@ class GridRows:
             b = self.bounds[f]
             prime = PROGRAM_FIGURES[f][1]
             Pk = P[ks]
-            Nk = self._N(f, R[ks], S[ks])
+            Nk = self._N(f, R[ks], S[ks], ks)
             num = PROGRAM_FIGURES[f][0]
             dPk = dP[ks]
             if prime:
