@@ -15,7 +15,7 @@ figure                                          worse when
 ``phase_margin_deg``                            ``|current| < |value| (1 - rtol) - atol``
 ``gain_margin*`` (every gain margin)            ``|ln current| < |ln value| (1 - rtol) - atol``
 ``certified``                                   ``true`` became ``false``
-``integral_gain`` (objective)                   ``current < value (1 - rtol) - atol``
+``integral_gain`` (objective, its magnitude)    ``current < value (1 - rtol) - atol``
 ``worst_Ms`` (objective ``min_Ms``)             ``current > value (1 + rtol) + atol``
 ==============================================  ===============================================
 
@@ -43,7 +43,8 @@ if TYPE_CHECKING:
     from robrst.problem.records import Problem
 
 __all__ = ["Worse", "golden_figures", "write_golden", "read_golden", "compare_golden",
-           "assert_margins", "check_golden_fits", "count_figures", "MARKER", "DEFAULT_TOL"]
+           "assert_margins", "check_golden_fits", "count_figures", "figures_line", "MARKER",
+           "DEFAULT_TOL"]
 
 MARKER = "# robrst margins golden"
 FORMAT = 1
@@ -88,8 +89,8 @@ class Worse:
 
     model: str
     figure: str
-    golden: object
-    current: object
+    golden: float | bool | None
+    current: float | bool | None
     tolerance: str
 
     def describe(self) -> str:
@@ -119,7 +120,8 @@ def _objective(result, d):
         return "worst_Ms", max(m["Ms"] for m in d["certificate"]["models"])
     if kind == "feasibility":
         return None, None
-    return "integral_gain", d.get("integral_gain")
+    ki = d.get("integral_gain")      # the objective is its magnitude (a negative one too)
+    return "integral_gain", None if ki is None else abs(ki)
 
 
 def golden_figures(result: DesignResult | dict) -> dict:
@@ -371,6 +373,31 @@ def count_figures(golden: dict) -> int:
     """
     return (sum(len(m) for m in golden["models"].values()) + bool(golden["certified"])
             + (golden["objective"] is not None))
+
+
+def figures_line(golden: dict) -> str:
+    """How many figures a golden checks, and what they are, in words: the count of
+    :func:`count_figures` (``robrst check --update`` and ``robrst check`` print the same).
+
+    Parameters
+    ----------
+    golden : dict
+        As :func:`read_golden` returns it.
+
+    Returns
+    -------
+    str
+        ``"98 figures: 96 model figures over 8 models, certified = true and the objective
+        integral_gain"``.
+    """
+    n_models = sum(len(m) for m in golden["models"].values())
+    parts = [f"{n_models} model figures over {len(golden['models'])} models"]
+    if golden["certified"]:
+        parts.append("certified = true")
+    if golden["objective"] is not None:
+        parts.append(f"the objective {golden['objective'][0]}")
+    tail = ", ".join(parts[:-1]) + " and " + parts[-1] if len(parts) > 1 else parts[0]
+    return f"{count_figures(golden)} figures: {tail}"
 
 
 def check_golden_fits(golden: dict, problem: Problem) -> None:

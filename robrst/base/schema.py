@@ -23,6 +23,7 @@ __all__ = ["Field", "ArrayOf", "validate", "key_error", "load_toml", "markdown_r
 
 MAX_LIST = 10_000   # longest list of numbers any robrst file may hold
 MAX_MAGNITUDE = 1e100   # any number in a robrst file: 0 or 1e-100 <= |x| <= 1e100
+SHORT_TABLE = 8         # an unknown key of a table this small lists its keys
 TYPE_NAMES = {"number": "number", "numbers": "list of numbers", "int": "int", "str": "str",
               "bool": "bool"}
 
@@ -231,8 +232,14 @@ def validate(path: str | Path, data: dict, schema: dict, key: tuple = ()) -> dic
     for k in data:
         if k not in schema:
             close = difflib.get_close_matches(k, list(schema), n=1, cutoff=0.5)
-            hint = f"; did you mean '{close[0]}'?" if close else ""
-            raise key_error(path, key + (k,), f"unknown key{hint} (valid: {', '.join(schema)})")
+            if close:          # the nearest key is enough: the file's reference lists the rest
+                hint = f"; did you mean '{close[0]}'?"
+            elif len(schema) <= SHORT_TABLE:
+                hint = f"; expected one of {', '.join(schema)}"
+            else:
+                hint = (f"; no key of this {'table' if key else 'file'} is close (its"
+                        f" {len(schema)} keys are in the file's reference)")
+            raise key_error(path, key + (k,), f"unknown key{hint}")
     out = {}
     for k, spec in schema.items():
         if isinstance(spec, dict):

@@ -23,7 +23,7 @@ import numpy as np
 from robrst.certificate._stepcurvature import Curvature, interval_max
 
 __all__ = ["StepBounds", "SETTLING_BAND", "EXTREME_SUB", "SETTLING_SUB", "REFINE_SUB",
-           "LEVELS", "MAX_PIECES", "RESOLUTION"]
+           "LEVELS", "MAX_PIECES", "RESOLUTION", "MAX_MORE"]
 
 SETTLING_BAND = 0.02
 EXTREME_SUB = 64       # first cut of an interval that may hold an extreme
@@ -32,6 +32,7 @@ REFINE_SUB = 16        # further cuts
 LEVELS = 6             # levels of cuts before a figure is left unresolved
 MAX_PIECES = 100_000   # pieces of one level beyond which the cuts stop (unresolved)
 RESOLUTION = 5e-9      # an extreme is proved to this fraction of the response's largest |y|
+MAX_MORE = 48.0        # most e-folds a grid is extended by for the response after it
 _CHECK = 8             # grid points between two evaluations of the curvature bound
 
 
@@ -67,6 +68,44 @@ class StepBounds:
         self.M = {}         # per output row: the curvature bound on each grid interval
         # no bound without a Hurwitz matrix: nothing is proved for such a loop
         self.bad = ~np.isfinite(self.curv.slack).all(axis=1)
+        self.final, self.after = self.tail()
+        # per loop: the e-folds more its grid needs for a figure the tail left undecided
+        self.more = np.zeros(len(self.all))
+
+    def tail(self):
+        """The final value of every output of every loop and a bound of ``|y - final|`` at
+        every time after the grid's last point: what the response does once the grid stops.
+
+        From the last state's deviation ``x - x_inf`` from the steady state (``D x_inf + B
+        = 0``, ``D = A``, or ``Ad - I`` sampled), the Gramian bound of
+        :class:`robrst.certificate._stepcurvature.Curvature` (``first = 0``): a proof,
+        whatever the slow modes' residues, with a first-order rounding slack (the solve
+        for ``x_inf``: its residual's correction, twice; the sums of ``C x + d``).
+
+        Returns
+        -------
+        final, after : ndarray
+            Shape ``(K, r)``: ``C x_inf + d`` and the bound (``inf`` for a loop whose
+            matrix is not Hurwitz).
+        """
+        r = self.r
+        K, n = r.A.shape[0], r.A.shape[-1]
+        D = r.A - np.eye(n) if r.discrete else r.A
+        eps = np.finfo(float).eps
+        with np.errstate(all="ignore"):
+            x_inf = np.linalg.solve(D, -r.B)                        # (K, n, 1)
+            fix = np.linalg.solve(D, D @ x_inf + r.B)               # its error, first order
+            last = r.X[self.all, :, r.length - 1][:, :, None]       # (K, n, 1)
+            bound = Curvature(r, first=0).sup_all(last - x_inf)[..., 0]      # (K, r)
+            final = (r.C @ x_inf)[..., 0] + r.d
+            aC = np.abs(r.C)
+            slack = (2 * (aC @ np.abs(fix))[..., 0]
+                     + 4 * n * eps * ((aC @ (np.abs(x_inf) + np.abs(last)))[..., 0]
+                                      + np.abs(r.d)))
+            after = bound + slack
+        after = np.where(np.isfinite(after), after, np.inf)
+        after[self.bad] = np.inf
+        return final, after
 
     def _grid_curvature(self, row):
         """The curvature bound of output ``row`` on each grid interval: the one at the last
@@ -156,8 +195,31 @@ class StepBounds:
         resolved = np.ones((Q, K), dtype=bool)
         np.maximum.at(upper, (q, k), Uo)                  # undecided: the conservative side
         resolved[q, k] = False
+        # after the grid: the response tends to its final value (a lower bound of the
+        # supremum, approached at the end) and stays within the tail bound of it
+        fin = sgn[..., 0] * self.final[:, rows].T
+        fin = np.where(absolute, np.abs(fin), fin)
+        top = fin + self.after[:, rows].T
+        end = r.t[self.all, r.length - 1]
+        rises = fin > best
+        best = np.where(rises, fin, best)
+        when = np.where(rises, end[None, :], when)
+        beyond = top > upper
+        upper = np.maximum(upper, top)
+        short = beyond & (upper > best + tol) & ~self.bad[None, :]
+        resolved &= ~short
+        self._need(short, self.after[:, rows].T, best + tol - fin)
         upper[:, self.bad], resolved[:, self.bad] = np.inf, False
         return list(zip(upper, when, best, resolved))
+
+    def _need(self, short, after, room):
+        """Record in :attr:`more` the e-folds of the slowest mode that would bring the tail
+        bound ``after`` below ``room`` where ``short`` (shape ``(Q, K)``): ``ln(after /
+        room)`` and one more."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            need = np.where(short, np.log(after / np.maximum(room, 1e-300)) + 1.0, 0.0)
+        need = np.where(np.isfinite(need), need, MAX_MORE)
+        self.more = np.maximum(self.more, need.max(axis=0))
 
     def _upper(self, ya, yb, da, db, M, h, absolute):
         """:func:`robrst.certificate._stepcurvature.interval_max` of ``y``, or of ``|y|`` where
@@ -277,6 +339,11 @@ class StepBounds:
         resolved = np.ones(K, dtype=bool)
         np.maximum.at(upper, k, iv.t0 + iv.h)             # undecided: the conservative side
         resolved[k] = False
+        # after the grid: back in the band for good unless the tail bound could leave it
+        room = tol - np.abs(self.final[:, row] - final)
+        leaves = self.after[:, row] > room
+        upper[leaves], resolved[leaves] = np.inf, False
+        self._need(leaves[None, :] & ~self.bad[None, :], self.after[None, :, row], room[None, :])
         upper[self.bad], resolved[self.bad] = np.inf, False
         return upper, np.maximum(lower, 0.0), resolved
 

@@ -81,15 +81,24 @@ class Curvature:
     """Bounds of ``|y''|`` (continuous) or of the second differences (sampled) of each
     output of the loops of ``r``, valid at every time after the state they start from.
 
+    With ``first = 0`` the same bound one derivative lower: of ``|y - y_inf|`` at every
+    time after a state, from its deviation ``x - x_inf`` from the steady state (``w = C
+    e^{A s} (x - x_inf)`` dies out: ``w**2 <= 2 ||w||_2 ||w'||_2``, the Gramians of ``(A, C)``
+    and ``(A, C A)``; sampled, of ``(Ad, C)`` and ``(Ad, C (Ad - I))``): the response after
+    the end of its grid (:meth:`robrst.certificate._stepbound.StepBounds.tail`).
+
     Parameters
     ----------
     r : StepResponses
+    first : int
+        The derivative bounded (2: ``y''`` from the velocity; 0: ``y - y_inf`` from the
+        deviation); the Gramians are those of ``C D**(first - 1)`` and ``C D**first``.
     """
 
-    def __init__(self, r):
+    def __init__(self, r, first=2):
         n = r.A.shape[-1]
         D = r.A - np.eye(n) if r.discrete else r.A
-        U1 = r.C @ D
+        U1 = r.C @ D if first == 2 else r.C
         U = np.stack([U1, U1 @ D], axis=2).reshape(len(r.A), -1, n)   # per row: u1, u2
         if r.discrete:       # the discrete Gramians from the bilinear variable's Lyapunov
             ch = (2 / r.h_sample)[:, None, None]

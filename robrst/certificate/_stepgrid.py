@@ -58,22 +58,25 @@ def bilinear(A, B, C, d, h):
     return Ad, Bd, Cd, d + (C @ Bd)[..., 0] / 2
 
 
-def segments(decay, speed, unit=None):
+def segments(decay, speed, unit=None, folds=DECAY):
     """``[(t_end, step), ...]``: per stretch of time, a step resolving every live mode.
 
     Parameters
     ----------
     decay, speed : ndarray
         Each mode's decay rate and ``|log|`` rate (per time unit); a mode is live until
-        ``DECAY / decay``.
+        ``folds / decay``.
     unit : float, optional
         With ``unit`` (discrete time) steps are whole multiples of it.
+    folds : float
+        The e-folds a mode lives (``DECAY``; more where the response after the grid must
+        be smaller, :meth:`robrst.certificate._stepbound.StepBounds.tail`).
 
     Returns
     -------
     list of (float, float)
     """
-    life = (DECAY / np.maximum(decay, 1e-300)).tolist()
+    life = (folds / np.maximum(decay, 1e-300)).tolist()
     speed = speed.tolist()               # a handful of modes: plain floats
     merged = []
     for t in sorted(set(life)):          # merge ends within a factor 4 (fewer segments)
@@ -148,21 +151,25 @@ class StepResponses:
         ``(K, r)``.
     h_sample : array_like, optional
         Shape ``(K,)``: each loop's sampling period in its scaled time (discrete loops).
+    folds : array_like, optional
+        Shape ``(K,)``: the e-folds each loop's modes live on its grid (default ``DECAY``).
     """
 
-    def __init__(self, A, B, C, d, h_sample=None):
+    def __init__(self, A, B, C, d, h_sample=None, folds=None):
         self.discrete = h_sample is not None
         self.generator = A
+        folds = np.full(A.shape[0], DECAY) if folds is None else np.asarray(folds, float)
         if self.discrete:
             self.h_sample = np.asarray(h_sample, float)
             A, B, C, d = bilinear(A, B, C, d, self.h_sample)
             z = np.linalg.eigvals(A).astype(complex)
             logz = np.log(z)
-            segs = [segments(-lz.real, np.abs(lz), unit=1) for lz in logz]
+            segs = [segments(-lz.real, np.abs(lz), unit=1, folds=f)
+                    for lz, f in zip(logz, folds.tolist())]
             self.rates = np.abs(2 / self.h_sample[:, None] * (z - 1) / (z + 1))
         else:
             lam = np.linalg.eigvals(A)
-            segs = [segments(-lm.real, np.abs(lm)) for lm in lam]
+            segs = [segments(-lm.real, np.abs(lm), folds=f) for lm, f in zip(lam, folds.tolist())]
             self.rates = np.abs(lam)
         self.A, self.B, self.C, self.d = A, B, C, d
         K, n = A.shape[0], A.shape[-1]

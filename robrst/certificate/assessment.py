@@ -15,7 +15,11 @@ looks at what was left unbounded; :func:`assess` computes it on every family mem
   poles are all better damped is not stepped, which keeps a continuous design free of the
   step kernel's SciPy);
 * **input disturbances**: the peak of ``|B S / Delta|`` above the open loop's ``|B / A|``
-  (the controller amplifies input disturbances somewhere) when no ``Msd_max`` is given.
+  (the controller amplifies input disturbances somewhere) when neither ``Msd_max`` nor
+  ``Msd_rel_max`` bounds it.
+
+With a sample rate every warning is the **sampled loop's** (the loop that ships: ZOH
+plant, Tustin controller), the continuous loop's figure said beside it.
 
 Each warning names the model, the figure, the comparison and the key to set.
 """
@@ -37,9 +41,35 @@ if TYPE_CHECKING:
     from robrst.core.rst import RSTController
     from robrst.problem.records import Problem
 
-__all__ = ["Assessment", "ModelAssessment", "assess", "OVERSHOOT_GATE"]
+__all__ = ["Assessment", "ModelAssessment", "LoopAssessment", "assess", "OVERSHOOT_GATE"]
 
 OVERSHOOT_GATE = 0.46   # a second-order mode damped 0.46 overshoots 19.8 %
+
+
+@dataclass(frozen=True)
+class LoopAssessment:
+    """One loop's unbounded figures on one family member.
+
+    Parameters
+    ----------
+    damping : float
+        Least damping of the loop's closed-loop poles (the sampled loop's mapped to s by
+        ``fs ln z``).
+    overshoot_pct : float or None
+        Reference-step overshoot [%] (at the samples for the sampled loop; ``None``: not
+        stepped, see ``OVERSHOOT_GATE``).
+    Msd : float, optional
+        Peak of ``|B S / Delta|`` [µm/V] (the sampled loop's: the input disturbance held by
+        the ZOH to the sampled output, up to Nyquist).
+    open_loop_Msd : float, optional
+        The plant's own peak [µm/V] (the ZOH plant's for the sampled loop; ``inf`` when
+        not stable).
+    """
+
+    damping: float
+    overshoot_pct: float | None = None
+    Msd: float | None = None
+    open_loop_Msd: float | None = None
 
 
 @dataclass(frozen=True)
@@ -52,40 +82,39 @@ class ModelAssessment:
         The model.
     temperature_C : float
         Its temperature [°C].
-    damping : float
-        Least damping of the continuous closed-loop poles.
     plant_damping : float
         Least damping of the plant's complex poles (1: none).
-    overshoot_pct : float or None
-        Reference-step overshoot [%] (``None``: not stepped, see ``OVERSHOOT_GATE``).
     Msd : float
         Peak of ``|B S / Delta|`` [µm/V].
     open_loop_Msd : float
         Peak of ``|B / A|`` [µm/V] (``inf`` for a plant that is not stable).
-    damping_sampled : float, optional
-        The sampled loop's least damping (poles mapped to s by ``fs ln z``).
-    overshoot_pct_sampled : float, optional
-        The sampled loop's overshoot at the samples [%].
+    continuous : LoopAssessment
+        The continuous loop's damping and overshoot.
+    sampled : LoopAssessment, optional
+        The sampled loop's (with a sampling rate).
     """
 
     label: str
     temperature_C: float
-    damping: float
     plant_damping: float
-    overshoot_pct: float
     Msd: float
     open_loop_Msd: float
-    damping_sampled: float = None
-    overshoot_pct_sampled: float = None
+    continuous: LoopAssessment
+    sampled: LoopAssessment | None = None
 
-    def as_dict(self) -> dict:
-        """The JSON form.
+    def loop(self, loop: str = "continuous") -> LoopAssessment | None:
+        """The figures of ``loop``.
+
+        Parameters
+        ----------
+        loop : {"continuous", "sampled"}
+            Which loop.
 
         Returns
         -------
-        dict
+        LoopAssessment or None
         """
-        return dict(self.__dict__)
+        return self.continuous if loop == "continuous" else self.sampled
 
 
 @dataclass(frozen=True)
@@ -114,17 +143,6 @@ class Assessment:
     damping_floor: float = None
     damping_source: str = None
     extra: dict = field(default_factory=dict)
-
-    def as_dict(self) -> dict:
-        """The JSON form (``design --json`` key ``assessment``).
-
-        Returns
-        -------
-        dict
-        """
-        return {"warnings": list(self.warnings), "notes": list(self.notes),
-                "damping_floor": self.damping_floor, "damping_source": self.damping_source,
-                "models": [m.as_dict() for m in self.models]}
 
 
 def _overshoots(plants, loops, ctrl, specs, fs=None):
@@ -159,7 +177,7 @@ def assess(problem: Problem, ctrl: RSTController) -> Assessment:
     """
     sp = problem.specs
     fam = problem.family
-    floor, source = sp.damping_floor(fam)
+    floor, source = problem.damping_floor.value, problem.damping_floor.source
     zp_all = plant_damping(fam)
     loops = [closed_loop(m, ctrl) for m in fam.models]
     pks = peak_gains_many([([cl.nums["Sd"]], cl.Delta, []) for cl in loops]
@@ -182,21 +200,28 @@ def assess(problem: Problem, ctrl: RSTController) -> Assessment:
         st_s = iter(_overshoots([p for p, k in zip(ps, ok) if k and want],
                                 [c for c, k in zip(cls, ok) if k and want], ctrl, sp,
                                 sp.sample_rate_hz))
+        ol_ok = [bool(np.all(np.roots(p.A).real < 0)) for p in ps]
+        pk_s = peak_gains_many([([c.nums["Sd"]], c.Delta, []) for c in cls]
+                               + [([p.B], p.A, []) for p, k in zip(ps, ol_ok) if k])
+        ol_s = iter(pk_s[len(cls):])
         sampled = {i: (_least_damping(c.Delta, sp.sample_rate_hz),
-                       next(st_s) if k and want else None) for i, (c, k) in enumerate(zip(cls, ok))}
+                       next(st_s) if k and want else None, float(pk_s[i][0].value),
+                       float(next(ol_s)[0].value) if ol_ok[i] else np.inf)
+                   for i, (c, k) in enumerate(zip(cls, ok))}
     steps = iter(steps)
     out = []
     for i, (m, cl, pk, st) in enumerate(zip(fam.models, loops, pks, stable_ol)):
         p = np.roots(m.A)
         cplx = p[np.abs(p.imag) > 1e-9 * np.abs(p)]
-        rec = dict(label=m.label, temperature_C=m.temperature_C,
-                   damping=_least_damping(cl.Delta), plant_damping=region.least_damping(cplx),
-                   overshoot_pct=next(steps) if stable[i] and want else None,
-                   Msd=float(pk[0].value),
-                   open_loop_Msd=float(next(ol)[0].value) if st else np.inf)
-        if sp.sampled:
-            rec["damping_sampled"], rec["overshoot_pct_sampled"] = sampled[i]
-        out.append(ModelAssessment(**rec))
+        cont = LoopAssessment(damping=_least_damping(cl.Delta),
+                              overshoot_pct=next(steps) if stable[i] and want else None,
+                              Msd=float(pk[0].value),
+                              open_loop_Msd=float(next(ol)[0].value) if st else np.inf)
+        out.append(ModelAssessment(
+            label=m.label, temperature_C=m.temperature_C,
+            plant_damping=region.least_damping(cplx), Msd=cont.Msd,
+            open_loop_Msd=cont.open_loop_Msd, continuous=cont,
+            sampled=LoopAssessment(*sampled[i]) if sp.sampled else None))
     return Assessment(models=tuple(out), warnings=tuple(_warnings(problem, out, floor, source)),
                       notes=tuple(_notes(floor, source, zp_all)), damping_floor=floor,
                       damping_source=source)
@@ -212,40 +237,57 @@ def _notes(floor, source, zp):
     return []
 
 
-def _worst(models, key):
-    vals = [(getattr(m, key), m) for m in models if getattr(m, key) is not None
-            and np.isfinite(getattr(m, key))]
+def _worst(models, loop):
+    vals = [(lp.overshoot_pct, m) for m in models if (lp := m.loop(loop)) is not None
+            and lp.overshoot_pct is not None and np.isfinite(lp.overshoot_pct)]
     return max(vals, key=lambda v: v[0]) if vals else (None, None)
 
 
 def _warnings(problem, models, floor, source):
+    """The warnings, each on the loop that ships: the sampled loop when the specs name a
+    rate (the continuous loop's figure said beside it), else the continuous loop."""
     sp = problem.specs
+    samp = bool(sp.sampled)
+    shipped = f" in the {sp.sample_rate_hz:g} Hz loop that ships" if samp else ""
     out = []
-    low = [m for m in models if m.damping < m.plant_damping * (1 - 1e-3)]
+
+    def shipped_loop(m):
+        return m.sampled if samp and m.sampled is not None else m.continuous
+
+    def damping(m):
+        return shipped_loop(m).damping
+
+    low = [m for m in models if damping(m) < m.plant_damping * (1 - 1e-3)]
     if low and not (source == "specs" and floor):
-        m = min(low, key=lambda m: m.damping / m.plant_damping)
-        out.append(f"closed-loop damping {m.damping:.3g} on model {m.label}"
+        m = min(low, key=lambda m: damping(m) / m.plant_damping)
+        also = f" (continuous loop {m.continuous.damping:.3g})" if samp else ""
+        out.append(f"closed-loop damping {damping(m):.3g}{shipped}{also} on model {m.label}"
                    f" ({m.temperature_C:g} °C) is below the plant's own {m.plant_damping:.3g}:"
                    " a resonance rings longer than open loop (set [specs] damping_min, or try"
                    " extra_degree + 1 to let the controller damp it)")
     if sp.overshoot_max_pct is None:
-        keys = ["overshoot_pct"] + (["overshoot_pct_sampled"] if sp.sampled else [])
-        for key in keys:
-            v, m = _worst(models, key)
-            if v is not None and v > DEFAULT_OVERSHOOT_WARN_PCT:
-                loop = " (sampled loop)" if key.endswith("sampled") else ""
-                out.append(f"a reference step overshoots {v:.3g} %{loop} on model {m.label}"
-                           f" ({m.temperature_C:g} °C), above {DEFAULT_OVERSHOOT_WARN_PCT:g} %"
-                           " (no overshoot_max_pct given: set it, a damping_min, or T_mode ="
-                           " \"reference_model\")")
-                break
-    if sp.Msd_max is None:
-        worse = [m for m in models if np.isfinite(m.open_loop_Msd)
-                 and m.Msd > m.open_loop_Msd * (1 + 1e-3)]
+        v, m = _worst(models, "sampled" if samp else "continuous")
+        vc, mc = _worst(models, "continuous")
+        if v is not None and v > DEFAULT_OVERSHOOT_WARN_PCT:
+            also = (f" (continuous loop {vc:.3g} % on {mc.label})" if samp and vc is not None
+                    else "")
+            out.append(f"a reference step overshoots {v:.3g} %{shipped}{also} on model {m.label}"
+                       f" ({m.temperature_C:g} °C), above {DEFAULT_OVERSHOOT_WARN_PCT:g} %"
+                       " (no overshoot_max_pct given: set it, a damping_min, or T_mode ="
+                       " \"reference_model\")")
+    if sp.Msd_max is None and sp.Msd_rel_max is None:
+        def pair(m):
+            lp = shipped_loop(m)
+            return lp.Msd, lp.open_loop_Msd
+
+        worse = [m for m in models if np.isfinite(pair(m)[1])
+                 and pair(m)[0] > pair(m)[1] * (1 + 1e-3)]
         if worse:
-            m = max(worse, key=lambda m: m.Msd / m.open_loop_Msd)
-            out.append(f"input-disturbance peak |B S/Delta| {m.Msd:.4g} µm/V on model {m.label}"
-                       f" ({m.temperature_C:g} °C) exceeds the open loop's {m.open_loop_Msd:.4g}"
+            m = max(worse, key=lambda m: pair(m)[0] / pair(m)[1])
+            v, ol = pair(m)
+            also = f" (continuous loop {m.Msd:.4g})" if samp else ""
+            out.append(f"input-disturbance peak |B S/Delta| {v:.4g} µm/V{shipped}{also} on model"
+                       f" {m.label} ({m.temperature_C:g} °C) exceeds the open loop's {ol:.4g}"
                        " µm/V: the controller amplifies input disturbances near that frequency"
                        " (set [specs] Msd_max)")
     return out

@@ -3,21 +3,16 @@
 A model of the family is checked in its continuous loop and, when the specs name a
 sampling rate, in its sampled loop (:mod:`robrst.core.sampled`): one
 :class:`ModelRecord` holds both as two :class:`LoopFigures` (the same record type, used
-twice).  The records carry no suffixed keys; the published names (``"Ms"``,
-``"Ms_sampled"``, ...) of the JSON contract are produced at the edge only:
-:meth:`ModelRecord.as_dict`, :func:`figure_key` (the names of
+twice).  The records carry no suffixed keys: a loop is a field (``record.sampled.Ms``) or an
+argument (``record.value("Ms", "sampled")``).  The published names (``"Ms"``,
+``"Ms_sampled"``, ...) of the JSON contract are produced at the edge only
+(:mod:`robrst.design.contract`; :func:`figure_key` names the keys of
 :meth:`robrst.certificate.proof.Certificate.ratios` and of the refinement's margins).
-
-A :class:`ModelRecord` is also a read-only mapping of its published form
-(``record["Ms_sampled"]``, ``record.get("stable")``), for callers that read the records
-by name.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from dataclasses import dataclass, field, fields
-from functools import cached_property
+from dataclasses import dataclass, field
 
 __all__ = ["StepFigures", "LoopFigures", "ModelRecord", "LOOPS", "figure_key", "parse_key"]
 
@@ -127,6 +122,12 @@ class LoopFigures:
     damping, decay_rad_s : float or None
         Least damping and least decay rate ``-Re p`` [rad/s] of the loop's poles (a sampled
         loop's mapped to s by ``fs ln z``), when a pole region is checked.
+    Msd_rel : float or None
+        ``Msd`` over the loop's open-loop peak ``open_loop_peak`` (when ``Msd_rel_max``
+        bounds it).
+    open_loop_peak : float or None
+        The exact peak of the loop's own plant ``|B / A|`` [µm/V] (the zero-order-hold
+        plant's in the sampled loop; ``inf`` for a plant with a pole on the axis).
     """
 
     spectral_abscissa: float
@@ -149,6 +150,8 @@ class LoopFigures:
     Mry_freq_rad_s: float | None = None
     damping: float | None = None
     decay_rad_s: float | None = None
+    Msd_rel: float | None = None
+    open_loop_peak: float | None = None
 
     def value(self, name: str) -> float | bool | None:
         """Figure ``name`` (a field, or a step figure).
@@ -167,60 +170,9 @@ class LoopFigures:
             return None if self.step is None else getattr(self.step, name)
         return getattr(self, name, None)
 
-    def items(self, loop: str = "continuous", steps: bool = True) -> list[tuple[str, object]]:
-        """``(published name, value)`` pairs of this loop in the published order.
-
-        The continuous loop lists its stability first, then the peaks; the sampled loop
-        its abscissa and peaks first (the order the JSON contract has always had), without
-        the closed-loop degree and the band peak's frequency.  Band peaks and step
-        figures only when computed; ``steps=False`` leaves the step figures out.
-
-        Parameters
-        ----------
-        loop : {"continuous", "sampled"}
-            Which loop this is (its names' suffix and order).
-        steps : bool
-            Include the step figures.
-
-        Returns
-        -------
-        list of (str, object)
-        """
-        if loop == "continuous":
-            names = ["spectral_abscissa", "stable", "distance_to_instability",
-                     "closed_loop_degree", "Ms", "Ms_freq_rad_s", "Mt", "Mt_freq_rad_s", "Mu",
-                     "Mu_freq_rad_s"]
-            if self.Mt_resonance_band is not None:
-                names += ["Mt_resonance_band", "Mt_resonance_band_freq_rad_s"]
-        else:
-            names = ["spectral_abscissa", "stable", "Ms", "Ms_freq_rad_s", "Mt",
-                     "Mt_freq_rad_s", "Mu", "Mu_freq_rad_s"]
-            if self.Mt_resonance_band is not None:
-                names.append("Mt_resonance_band")
-            names.append("distance_to_instability")
-        if self.Mu_hf is not None:
-            names.append("Mu_hf")
-        for k in ("Msd", "Mry"):         # figures of the newer specs, only when checked
-            if getattr(self, k) is not None:
-                names += [k, k + "_freq_rad_s"]
-        names += [k for k in ("damping", "decay_rad_s") if getattr(self, k) is not None]
-        out = [(figure_key(k, loop), getattr(self, k)) for k in names]
-        if steps and self.step is not None:
-            out += [(figure_key(k, loop), v) for k, v in self.step.items()]
-        return out
-
-    def as_dict(self) -> dict:
-        """The published figures of a loop (unsuffixed names).
-
-        Returns
-        -------
-        dict
-        """
-        return dict(self.items())
-
 
 @dataclass(frozen=True, eq=False)
-class ModelRecord(Mapping):
+class ModelRecord:
     """One checked model: its continuous loop and (with a sampling rate) its sampled loop.
 
     Parameters
@@ -239,7 +191,7 @@ class ModelRecord(Mapping):
         (``None``: a record not placed by :func:`robrst.certificate.proof.certify`).
     steps_checked_after : bool
         The step figures were computed after the certificate's sweep, on its checked
-        points (:func:`robrst.design.with_time_domain`); they are published after
+        points (:func:`robrst.certificate.completion.with_time_domain`); they are published after
         ``family_member``, where that path has always put them.
     actuator : int
         The actuator the model belongs to: 0 the nominal one, ``k`` further actuator ``k``
@@ -304,44 +256,3 @@ class ModelRecord(Mapping):
         lf = self.loop(loop)
         got = None if lf is None else lf.value(name)
         return self.extra.get(figure_key(name, loop)) if got is None else got
-
-    def as_dict(self) -> dict:
-        """The published record (the JSON contract's ``certificate.models[i]``).
-
-        Returns
-        -------
-        dict
-        """
-        return dict(self._published)
-
-    @cached_property
-    def _published(self):
-        late = self.steps_checked_after
-        d = {"label": self.label, "temperature_C": self.temperature_C}
-        for loop, lf in self.loops():
-            d.update(lf.items(loop, steps=not late))
-        d.update(self.extra)
-        if self.margins:
-            d["margins"] = self.margins
-        if self.family_member is not None:
-            d["family_member"] = self.family_member
-        if self.actuator:
-            d["actuator"] = self.actuator
-        if late:
-            for loop, lf in self.loops():
-                if lf.step is not None:
-                    d.update((figure_key(k, loop), v) for k, v in lf.step.items())
-        return d
-
-    def __getitem__(self, key):
-        return self._published[key]
-
-    def __iter__(self):
-        return iter(self._published)
-
-    def __len__(self):
-        return len(self._published)
-
-    def __repr__(self):
-        parts = ", ".join(f"{f.name}={getattr(self, f.name)!r}" for f in fields(self))
-        return f"ModelRecord({parts})"

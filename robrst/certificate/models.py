@@ -27,7 +27,8 @@ from robrst.core.analysis import spectral_abscissa_many
 from robrst.core.peaks import peak_gain, peak_gains_many
 from robrst.core.interval import distance_to_instability_many
 from robrst.core import region
-from robrst.problem.records import EXTRA_PEAK_SPECS, PEAK_SPECS
+from robrst.problem.specs import (EXTRA_PEAK_SPECS, PEAK_SPECS, RELATIVE_PEAK_SPECS,
+                                  bound_specs, spec)
 from robrst.core.rst import closed_loop
 from robrst.core.sampled import sampled_plant, unwarp, warp_band
 
@@ -70,11 +71,12 @@ class Violation:
         Where (physical frequency [rad/s]), when a frequency applies.
     loop : {"continuous", "sampled"}
         Which loop.
-    kind : {"exceeds", "below", "crossing", "unresolved"}
+    kind : {"exceeds", "below", "crossing", "unresolved", "structure"}
         ``value > bound``; ``value < bound`` (a lower bound: the pole region's damping and
         decay); a closed-loop root reaches the imaginary axis, or a pole-region boundary,
-        between two checked temperatures; or the check could not be decided (nothing is
-        certified then).
+        between two checked temperatures; the check could not be decided (nothing is
+        certified then); or the controller lacks a fixed factor of the problem (label
+        ``"controller"``, :mod:`robrst.certificate.structure`).
     """
 
     label: str
@@ -111,11 +113,16 @@ class Violation:
         """
         at = "" if self.freq_rad_s is None else f" at {self.freq_rad_s / (2 * np.pi):.4g} Hz"
         loop = " in the sampled loop" if self.loop == "sampled" else ""
+        if self.kind == "structure":
+            return self.quantity
         if self.kind not in ("exceeds", "below"):
             return f"model {self.label} ({self.temperature_C:g} °C){loop}: {self.quantity}{at}"
         rel = ">" if self.kind == "exceeds" else "<"
+        d = 4            # enough digits to tell the value from its bound
+        while d < 17 and f"{self.value:.{d}g}" == f"{self.bound:.{d}g}":
+            d += 1
         return (f"model {self.label} ({self.temperature_C:g} °C): {self.quantity}{loop} ="
-                f" {self.value:.4g} {rel} {self.bound:.4g}{at}")
+                f" {self.value:.{d}g} {rel} {self.bound:.{d}g}{at}")
 
 
 
@@ -193,7 +200,12 @@ def _check_loops(loops, ctrl, specs, rtol):
     loops = [_Loop(plant, ctrl, specs, fs) for plant, fs in loops]
     for lp, (sa, rho, roots) in zip(loops, _stability(loops)):
         lp.sa, lp.rho, lp.roots = sa, rho, roots
-    pks = peak_gains_many([(lp.nums, lp.cl.Delta, lp.bands) for lp in loops])
+    # the loops' peaks, and the open-loop peaks |B/A| a relative bound needs, in one batch
+    opens = [k for k, lp in enumerate(loops) if lp.relative]
+    pks = peak_gains_many([(lp.nums, lp.cl.Delta, lp.bands) for lp in loops]
+                          + [loops[k].open_loop_job() for k in opens])
+    for k, pk in zip(opens, pks[len(loops):]):
+        loops[k].open_pk = pk[0]
     steps = _steps(loops, ctrl, specs, rtol)
     return [lp.finish(pk, specs, rtol, st) for lp, pk, st in zip(loops, pks, steps)]
 
@@ -223,7 +235,12 @@ class _Loop:
         self.plant, self.ctrl, self.fs = plant, ctrl, fs
         self.cl = cl = closed_loop(plant, ctrl)
         self.sa = self.rho = self.roots = None      # set by _stability
-        self.extra = [k for k in EXTRA_PEAK_SPECS if specs.extra_peak_bound(k) is not None]
+        # further transfer functions whose peak a spec bounds (absolutely or relative to
+        # the open loop's own peak |B/A|, robrst.problem.specs)
+        self.relative = [k for k in EXTRA_PEAK_SPECS if specs.relative_peak_bound(k) is not None]
+        self.extra = [k for k in EXTRA_PEAK_SPECS if specs.extra_peak_bound(k) is not None
+                      or k in self.relative]
+        self.open_pk = None          # the open loop's peak (set by _check_loops)
         self.nums = [cl.nums[k] for k in PEAK_SPECS] + [cl.nums[k] for k in self.extra]
         self.bands = bands = []        # frequency-limited peaks, computed with the global ones
         if specs.T_resonance_max is not None:
@@ -236,6 +253,10 @@ class _Loop:
             if fs is not None:        # up to Nyquist (nu = inf) included
                 lo = warp_band(min(lo, np.pi * fs), np.pi * fs, fs)[0]
             bands.append((list(PEAK_SPECS).index("U"), (float(lo), np.inf)))
+
+    def open_loop_job(self):
+        """The peak job of the plant's own ``|B/A|`` (``inf`` for a pole on the axis)."""
+        return ([self.plant.B], self.plant.A, [])
 
     def phys(self, w):
         """Physical frequency [rad/s] of a loop frequency (unwarped for a sampled loop)."""
@@ -264,15 +285,16 @@ class _Loop:
         for name, pk in zip(self.extra, pks[len(PEAK_SPECS):]):    # B S/Delta, B T/Delta
             freq = (self.phys(float(pk.freq_rad_s))
                     if fs is not None or np.isfinite(pk.freq_rad_s) else None)
-            key = _EXTRA_FIGURE[name]
-            fig[key], fig[key + "_freq_rad_s"] = pk.value, freq
+            row = spec(EXTRA_PEAK_SPECS[name])
+            fig[row.figure], fig[row.figure + "_freq_rad_s"] = pk.value, freq
             bound = specs.extra_peak_bound(name)
-            what = _EXTRA_QUANTITY[name]
-            if pk.value > bound * (1 + rtol):
-                add(f"{what} peak", pk.value, bound, freq)
-            elif not pk.verified:
-                add(f"{what} peak not verified: the closed-loop poles span more than 12"
+            if bound is not None and pk.value > bound * (1 + rtol):
+                add(row.label, pk.value, bound, freq)
+            elif bound is not None and not pk.verified:
+                add(f"{row.label} not verified: the closed-loop poles span more than 12"
                     " decades", pk.value, bound, freq, kind="unresolved")
+            if name in self.relative:
+                self.relative_figures(name, pk, freq, fig, specs, rtol, add)
         if (specs.damping_min or specs.decay_min) and self.roots is not None:
             fig.update(self.region(specs, rtol, add))
         for name, pk in zip(PEAK_SPECS, pks):
@@ -311,6 +333,22 @@ class _Loop:
             for q, v, b, kind in failed:
                 add(q, v, b, kind=kind)
         return LoopFigures(**fig), viol
+
+    def relative_figures(self, name, pk, freq, fig, specs, rtol, add):
+        """The peak ``pk`` of ``name`` over the open loop's own peak (``Msd_rel``), its
+        bound checked; an unverified peak (either) leaves it unresolved."""
+        key = RELATIVE_PEAK_SPECS[name]
+        row, bound = spec(key), getattr(specs, key)
+        ol = self.open_pk
+        open_peak = np.inf if ol is None else float(ol.value)
+        ratio = float(pk.value) / open_peak if open_peak > 0 else np.inf
+        fig[row.figure], fig["open_loop_peak"] = ratio, open_peak
+        verified = pk.verified and (ol is None or ol.verified)
+        if ratio > bound * (1 + rtol):
+            add(row.label, ratio, bound, freq)
+        elif not verified:
+            add(f"{row.label} not verified: the poles span more than 12 decades", ratio,
+                bound, freq, kind="unresolved")
 
     def region(self, specs, rtol, add):
         """The pole-region figures ``{"damping": .., "decay_rad_s": ..}`` of this loop (its
@@ -358,19 +396,10 @@ class _Loop:
         return out
 
 
-_EXTRA_FIGURE = {"Sd": "Msd", "Tr": "Mry"}
-_EXTRA_QUANTITY = {"Sd": "|B S/Delta|", "Tr": "|B T/Delta|"}
-
-
-BOUNDED = (("Ms", "Ms_max"), ("Mt", "Mt_max"), ("Mu", "Mu_max"),
-           ("Mt_resonance_band", "T_resonance_max"), ("Mu_hf", "Mu_hf_max"),
-           ("overshoot_pct", "overshoot_max_pct"), ("settling_time_s", "settling_time_max_s"),
-           ("step_u_peak_V", "step_u_max_V"), ("Msd", "Msd_max"), ("Mry", "Mry_max"))
-LOWER_BOUNDED = (("damping", "damping_min"), ("decay_rad_s", "decay_min"))   # figure >= bound
-FIGURE_OF = {"|S| peak": "Ms", "|T| peak": "Mt", "|U| peak": "Mu",   # violation -> record
-             "|T| in resonance band": "Mt_resonance_band", "|U| above corner": "Mu_hf",
-             "|B S/Delta| peak": "Msd", "|B T/Delta| peak": "Mry",
-             "closed-loop damping": "damping", "closed-loop decay rate [rad/s]": "decay_rad_s"}
+# (figure, spec key) of every bound on a loop's figures (robrst.problem.specs), figure <= bound
+BOUNDED = tuple((s.figure, s.key) for s in bound_specs("upper"))
+LOWER_BOUNDED = tuple((s.figure, s.key) for s in bound_specs("lower"))   # figure >= bound
+FIGURE_OF = {s.label: s.figure for s in bound_specs()}    # violation quantity -> figure
 JUMPS = tuple(figure_key("settling_time_s", loop) for loop in LOOPS)   # piecewise continuous
 
 

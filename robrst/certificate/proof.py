@@ -39,17 +39,20 @@ record's ``extra``.  A check may put ``{name: (value, limit)}`` pairs in
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from robrst.core.interval import parameter_crossing, segment_crossing
 from robrst.certificate.figures import LOOPS, ModelRecord, figure_key, parse_key
+from robrst.certificate.statement import (Bound, ControllerPoles, IntervalProof, IntervalRecord,
+                                          PoleRegionStatement, SegmentProof)
 from robrst.certificate.models import (BOUNDED, FIGURE_OF, JUMPS, LOWER_BOUNDED, RESOLVE_FACTOR,
                                        Violation, band_peak, check_all, check_all_many,
                                        check_model, margins)
 from robrst.core import poly, region
+from robrst.certificate.structure import structure_violations
 from robrst.problem.records import Problem
 from robrst.core.rst import RSTController, as_controller, closed_loop
 from robrst.core.thermal import modal_form
@@ -84,14 +87,13 @@ class Certificate:
         Every violation found.
     rtol : float
         Relative tolerance on the bounds.
-    interval : dict
+    interval : IntervalRecord
         What was proved between the checked temperatures and at what resolution (fields
         in the documentation's *What a certificate proves*; ``pole_region`` with a
         damping or decay bound).
-    bounds : dict
-        ``{figure: bound}`` of every bound checked (lower bounds: ``damping``,
-        ``decay_rad_s``).
-    controller : dict or None
+    bounds : tuple of Bound
+        Every bound checked (lower bounds: ``damping``, ``decay_rad_s``).
+    controller : ControllerPoles or None
         The controller's own poles and their least damping (with
         ``controller_damping_min``).
     """
@@ -100,9 +102,23 @@ class Certificate:
     models: tuple
     violations: tuple
     rtol: float
-    interval: dict = field(default_factory=dict)
-    bounds: dict = field(default_factory=dict)   # {figure: bound} of every bound checked
-    controller: dict = None      # the controller's own poles (controller_damping_min)
+    interval: IntervalRecord
+    bounds: tuple = ()
+    controller: ControllerPoles | None = None
+
+    def bound(self, figure: str) -> Bound | None:
+        """The bound checked on ``figure`` (``None``: none).
+
+        Parameters
+        ----------
+        figure : str
+            A figure (``"Ms"``, ``"damping"``, ...).
+
+        Returns
+        -------
+        Bound or None
+        """
+        return next((b for b in self.bounds if b.figure == figure), None)
 
     def worst(self, key: str, loop: str | None = None) -> float | None:
         """Largest figure ``key`` over the models (``None`` if no record has it).
@@ -161,12 +177,12 @@ class Certificate:
             return b / v if v > 0 else np.inf
 
         out = {}
-        for key, b in self.bounds.items():
-            r = lower if key in _LOWER else ratio
+        for bd in self.bounds:
+            r = lower if bd.lower else ratio
             for loop in LOOPS:
-                vals = [v for m in self.models if (v := m.value(key, loop)) is not None]
+                vals = [v for m in self.models if (v := m.value(bd.figure, loop)) is not None]
                 if vals:
-                    out[figure_key(key, loop)] = max(r(float(v), b) for v in vals)
+                    out[figure_key(bd.figure, loop)] = max(r(float(v), bd.value) for v in vals)
         for m in self.models:
             for k, (v, lim) in m.margins.items():
                 out[k] = max(out.get(k, -np.inf), ratio(v, lim))
@@ -176,25 +192,6 @@ class Certificate:
                 if k not in out:
                     out[k] = max(out.get(k, -np.inf), v.ratio)
         return out
-
-    def as_dict(self) -> dict:
-        """The ``certificate`` object of the design JSON (fields are only added).
-
-        Returns
-        -------
-        dict
-            ``ratios, certified, rtol, (controller), models, violations, interval,
-            interval_proof, interval_resolution_C``; ``models`` in their published form
-            (:meth:`~robrst.certificate.figures.ModelRecord.as_dict`).
-        """
-        extra = {} if self.controller is None else {"controller": self.controller}
-        return {"ratios": self.ratios(), "certified": self.certified, "rtol": self.rtol,
-                **extra, "models": [m.as_dict() for m in self.models],
-                "violations": [v.__dict__ for v in self.violations],
-                "interval": self.interval,
-                "interval_proof": self.interval.get("stability"),
-                "interval_resolution_C": self.interval.get("max_spacing_C")}
-
 
 
 def _unresolved(ra, rb, specs, rtol, ignore=()):
@@ -236,7 +233,7 @@ def _guardian(family, ctrl, specs, rtol, checks, recs, viols):
     """Parametric families: the guardian-map proof on each side of the reference (where
     the creep law has its kink); a candidate crossing is checked and refined around."""
     if not all(r.continuous.stable for r in recs.values()):
-        return {"proved": False, "parts": [], "skipped": "a checked model is unstable"}
+        return IntervalProof(False, parts=(), skipped="a checked model is unstable")
     lo, hi = family.range_C
     ref = family.thermal.reference_C
     c = family.thermal
@@ -245,8 +242,8 @@ def _guardian(family, ctrl, specs, rtol, checks, recs, viols):
     parts, out = [p for p in ((lo, min(ref, hi)), (max(ref, lo), hi)) if p[1] > p[0]], []
     for a, b in parts:
         pr = parameter_crossing(lambda T: closed_loop(family.at(T), ctrl).Delta, a, b, deg_T)
-        out.append({"range_C": [a, b], "proved": pr.proved, "nodes": pr.nodes,
-                    "candidate_C": pr.candidate_T})
+        out.append(SegmentProof(range_C=(a, b), proved=pr.proved, nodes=pr.nodes,
+                                candidate_C=pr.candidate_T))
         if pr.candidate_T is not None:   # check the candidate and its neighbours
             for T in (pr.candidate_T, pr.candidate_T - 1e-6 * (b - a),
                       pr.candidate_T + 1e-6 * (b - a)):
@@ -254,7 +251,7 @@ def _guardian(family, ctrl, specs, rtol, checks, recs, viols):
                     rec, v = check_all(family.at(T), ctrl, specs, rtol, checks, family)
                     recs[T] = replace(rec, family_member=False)
                     viols.extend(v)
-    return {"proved": all(p["proved"] for p in out), "parts": out}
+    return IntervalProof(all(p.proved for p in out), parts=tuple(out))
 
 
 def _refine(family, ctrl, specs, rtol, checks, recs, viols, budget, orders, ignore=()):
@@ -370,7 +367,6 @@ def _split(a, b, recs, floor, walked):
     return (a + 0.5 * floor if low == a else b - 0.5 * floor), low
 
 
-_LOWER = {key for key, _ in LOWER_BOUNDED}
 REGION_WIDE = 3.0      # no interval proof of the pole region when every pole is this far inside
 _REGION_FIGURES = ("damping", "decay_rad_s")     # the continuous loop's, by published name
 
@@ -411,14 +407,14 @@ def _region_interval(family, ctrl, specs, rtol, checks, recs, viols):
     if not tests or len(family.models) < 2:
         return None
     if not all(r.continuous.stable for r in recs.values()):
-        return {"proved": False, "skipped": "a checked model is unstable"}
+        return IntervalProof(False, parts=None, skipped="a checked model is unstable")
     wide = [(specs.damping_min, "damping"), (specs.decay_min, "decay_rad_s")]
     if all(not b or min(r.continuous.value(k) for r in recs.values()) >= REGION_WIDE * b
            for b, k in wide):
         # every checked pole far inside the region: the refinement, which halves an
         # interval whose figure moves by half its margin, decides (no proof needed there)
-        return {"proved": False, "skipped": f"every checked pole beyond {REGION_WIDE:g} x its"
-                " bound: refined sweep"}
+        return IntervalProof(False, parts=None, skipped=f"every checked pole beyond"
+                             f" {REGION_WIDE:g} x its bound: refined sweep")
     explicit = family.thermal is None
     if explicit:
         ms = family.models
@@ -443,7 +439,7 @@ def _region_interval(family, ctrl, specs, rtol, checks, recs, viols):
             else:
                 Da, Db = (poly.trim(D) for D in ends)
                 if len(Da) != len(Db):
-                    out.append({"range_C": [a, b], "test": name, "proved": False})
+                    out.append(SegmentProof(range_C=(a, b), proved=False, test=name))
                     continue
 
                 def at(lam, f=f, Da=Da, Db=Db):
@@ -452,15 +448,15 @@ def _region_interval(family, ctrl, specs, rtol, checks, recs, viols):
             cand = pr.candidate_T
             if cand is not None and ends is not None:
                 cand = a + cand * (b - a)
-            out.append({"range_C": [a, b], "test": name, "proved": pr.proved, "nodes": pr.nodes,
-                        "candidate_C": cand})
+            out.append(SegmentProof(range_C=(a, b), proved=pr.proved, test=name,
+                                    nodes=pr.nodes, candidate_C=cand))
             if cand is not None:   # check the candidate and its neighbours
                 for T in (cand, cand - 1e-6 * (b - a), cand + 1e-6 * (b - a)):
                     if a <= T <= b and T not in recs:
                         rec, v = check_all(family.at(T), ctrl, specs, rtol, checks, family)
                         recs[T] = replace(rec, family_member=False)
                         viols.extend(v)
-    return {"proved": all(p["proved"] for p in out), "parts": out}
+    return IntervalProof(all(p.proved for p in out), parts=tuple(out))
 
 
 def _positive(c):
@@ -476,8 +472,8 @@ def _controller_poles(ctrl, specs, rtol):
     Q = S[:nz[-1] + 1] if nz.size else S
     roots = np.roots(Q) if len(Q) > 1 else np.zeros(0, complex)
     zeta = region.least_damping(roots)
-    rec = {"damping": zeta, "damping_min": specs.controller_damping_min,
-           "poles_rad_s": [[float(r.real), float(r.imag)] for r in roots]}
+    rec = ControllerPoles(damping=zeta, damping_min=specs.controller_damping_min,
+                          poles_rad_s=tuple((float(r.real), float(r.imag)) for r in roots))
     viol = []
     b = specs.controller_damping_min
     if b and zeta < b * (1 - rtol):
@@ -524,7 +520,7 @@ def certify(family: PlantFamily, ctrl: RSTController, specs: Specs, n_sweep: int
         recs[m.temperature_C] = replace(rec, family_member=m.temperature_C in known)
         viols.extend(v)
     lo, hi = family.range_C
-    interval = {"range_C": [lo, hi], "stability": "single_model", "peaks": "single_model"}
+    interval = IntervalRecord(range_C=(lo, hi), stability="single_model", peaks="single_model")
     if len(family.models) > 1:
         explicit = family.thermal is None
         proof, tested = None, False
@@ -534,7 +530,7 @@ def certify(family: PlantFamily, ctrl: RSTController, specs: Specs, n_sweep: int
             proved = tested and not crossings
         else:
             proof = _guardian(family, ctrl, specs, rtol, checks, recs, viols)
-            proved = proof["proved"]
+            proved = proof.proved
         region_proof = _region_interval(family, ctrl, specs, rtol, checks, recs, viols)
         budget = max(4 * n_sweep, 64) if max_refine is None else max_refine
         orders = []
@@ -542,45 +538,40 @@ def certify(family: PlantFamily, ctrl: RSTController, specs: Specs, n_sweep: int
         # continuous spectral abscissa (it still watches every bounded figure and the
         # sampled loop, whose stability no proof covers); likewise the pole region
         ignore = ("spectral_abscissa",) if proved else ()
-        if region_proof is not None and region_proof["proved"]:
+        if region_proof is not None and region_proof.proved:
             ignore += _REGION_FIGURES
         viols += _refine(family, ctrl, specs, rtol, checks, recs, viols, budget, orders,
                          ignore=ignore)
         temps = np.array(sorted(recs))
-        interval = {
-            "range_C": [lo, hi],
-            "stability": ("segment_crossing" if explicit and tested else
-                          "guardian_map" if proved else "refined_sweep"),
-            "peaks": "refined_sweep",
-            "points": int(len(temps)),
-            "max_spacing_C": float(np.max(np.diff(temps))),
-            "min_spacing_C": float(np.min(np.diff(temps))),
-            "refine_ratio": REFINE_RATIO,
-            "sampled": "refined_sweep" if specs.sampled else None,
-            "order_change_C": sorted(orders),
-            **({} if proof is None else {"guardian": proof}),
-            "statement": _statement(explicit, tested, proved),
-        }
-        if region_proof is not None:
-            interval["pole_region_proof"] = region_proof
+        interval = IntervalRecord(
+            range_C=(lo, hi),
+            stability=("segment_crossing" if explicit and tested else
+                       "guardian_map" if proved else "refined_sweep"),
+            peaks="refined_sweep", points=int(len(temps)),
+            max_spacing_C=float(np.max(np.diff(temps))),
+            min_spacing_C=float(np.min(np.diff(temps))), refine_ratio=REFINE_RATIO,
+            sampled="refined_sweep" if specs.sampled else None,
+            order_change_C=tuple(tuple(o) for o in sorted(orders)), guardian=proof,
+            statement=_statement(explicit, tested, proved), pole_region_proof=region_proof)
     if specs.damping_min or specs.decay_min:
-        interval["pole_region"] = _region_statement(specs, damping_source, interval)
+        interval = replace(interval, pole_region=_region_statement(specs, damping_source,
+                                                                   interval))
     ctrl_rec = None
     if specs.controller_damping_min is not None:
         ctrl_rec, v = _controller_poles(ctrl, specs, rtol)
         viols += v
     recs_sorted = tuple(recs[T] for T in sorted(recs))
-    bounds = {key: getattr(specs, attr) for key, attr in BOUNDED
-              if getattr(specs, attr) is not None}
-    bounds.update({key: getattr(specs, attr) for key, attr in LOWER_BOUNDED
-                   if getattr(specs, attr)})
+    bounds = tuple(Bound(key, getattr(specs, attr)) for key, attr in BOUNDED
+                   if getattr(specs, attr) is not None)
+    bounds += tuple(Bound(key, getattr(specs, attr), lower=True) for key, attr in LOWER_BOUNDED
+                    if getattr(specs, attr))
     return Certificate(certified=not viols, models=recs_sorted, violations=tuple(viols),
                        rtol=rtol, interval=interval, bounds=bounds, controller=ctrl_rec)
 
 
 def _region_statement(specs, source, interval):
     """What the certificate established about the closed-loop pole region."""
-    proof = interval.get("pole_region_proof")
+    proof = interval.pole_region_proof
     parts = []
     if specs.damping_min:
         parts.append(f"damping >= {specs.damping_min:.4g}"
@@ -592,8 +583,8 @@ def _region_statement(specs, source, interval):
            " from the roots of the closed-loop polynomial (a root within its rounding error"
            " of the boundary is 'unresolved')")
     if proof is None:
-        between = "a single model" if "points" not in interval else "no proof between points"
-    elif proof["proved"]:
+        between = "a single model" if interval.points is None else "no proof between points"
+    elif proof.proved:
         between = ("proved between them for the continuous loop: no closed-loop root crosses"
                    " the region's boundary (guardian map of the shifted and the rotated"
                    " closed-loop polynomials along the thermal law or the interpolation)")
@@ -602,10 +593,10 @@ def _region_statement(specs, source, interval):
                    " could not be validated)")
     samp = ("; the sampled loop's poles (mapped to s by fs ln z) on the refined sweep"
             if specs.sampled else "")
-    return {"damping_min": specs.damping_min or None, "damping_source": source,
-            "decay_min": specs.decay_min, "proved_between_points": bool(proof and
-                                                                          proof["proved"]),
-            "statement": f"every closed-loop pole: {what}, {pts}; {between}{samp}"}
+    return PoleRegionStatement(
+        damping_min=specs.damping_min or None, damping_source=source,
+        decay_min=specs.decay_min, proved_between_points=bool(proof and proof.proved),
+        statement=f"every closed-loop pole: {what}, {pts}; {between}{samp}")
 
 
 ACTUATOR = "actuator"   # the published record key (and label prefix) of a further actuator
@@ -668,7 +659,7 @@ def certify_families(families: Sequence[PlantFamily], ctrl: RSTController, specs
                   if v.label != "controller"]   # the controller's own poles: listed once
     return replace(certs[0], certified=all(c.certified for c in certs), models=tuple(models),
                    violations=tuple(viols),
-                   interval={**certs[0].interval, "actuators": len(certs)})
+                   interval=replace(certs[0].interval, actuators=len(certs)))
 
 
 def certify_problem(problem: Problem, ctrl: RSTController) -> Certificate:
@@ -691,8 +682,11 @@ def certify_problem(problem: Problem, ctrl: RSTController) -> Certificate:
     -------
     Certificate
         ``certified`` is true when nothing is violated or unresolved (relative tolerance
-        ``problem.solver.cert_tol``); ``violations`` names every failed check and
-        ``interval`` what was proved over the temperature interval.
+        ``problem.solver.cert_tol``) and the controller has the problem's fixed factors
+        (:func:`robrst.certificate.structure.structure_violations`: the integrator of
+        ``S_fixed``, the roll-off, ``R_fixed``; a controller read back from a file need
+        not); ``violations`` names every failed check and ``interval`` what was proved
+        over the temperature interval.
 
     Examples
     --------
@@ -705,5 +699,9 @@ def certify_problem(problem: Problem, ctrl: RSTController) -> Certificate:
     """
     so = problem.solver
     with one_blas_thread(problem.needs_scipy):
-        return certify(problem.family, ctrl, problem.specs, n_sweep=so.cert_temperatures,
+        cert = certify(problem.family, ctrl, problem.specs, n_sweep=so.cert_temperatures,
                        rtol=so.cert_tol)
+    lacks = structure_violations(problem.controller, as_controller(ctrl))
+    if not lacks:
+        return cert
+    return replace(cert, certified=False, violations=tuple(lacks) + cert.violations)

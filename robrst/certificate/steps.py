@@ -36,8 +36,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from robrst.core import lti, poly
-from robrst.certificate._stepbound import SETTLING_BAND, StepBounds
-from robrst.certificate._stepgrid import StepResponses
+from robrst.certificate._stepbound import MAX_MORE, SETTLING_BAND, StepBounds
+from robrst.certificate._stepgrid import DECAY, StepResponses
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -50,6 +50,7 @@ __all__ = ["StepMetrics", "step_metrics", "step_metrics_many", "check", "check_m
            "SETTLING_BAND"]
 
 KEYS = ("overshoot_pct", "settling_time_s", "step_u_peak_V")
+RETRIES = 2      # longer grids for a response whose tail left a figure undecided
 
 
 @dataclass(frozen=True)
@@ -94,16 +95,37 @@ def _overshoot_pct(peak, final):
     return 100.0 * max(0.0, (peak - abs(final)) / abs(final)) if final != 0 else np.inf
 
 
-def _responses(Ns, Ds, fs):
+def _responses(Ns, Ds, fs, folds=None):
     """The step responses of loops of one degree: per loop, its trimmed numerators ``Ns[k]``
-    over its trimmed ``Ds[k]`` (one realisation per loop), and the factors from their time
-    units to seconds."""
+    over its trimmed ``Ds[k]`` (one realisation per loop; its modes live ``folds[k]``
+    e-folds on its grid), and the factors from their time units to seconds."""
     scs = [poly.Scaling.natural(D) for D in Ds]
     w0 = np.array([sc.w0 for sc in scs])
     A, B, C, d = lti.companion_outputs_many(Ns, Ds, scs)
     if fs is None:
-        return StepBounds(StepResponses(A, B, C, d)), 1.0 / w0
-    return StepBounds(StepResponses(A, B, C, d, w0 / fs)), np.full(len(Ds), 1.0 / fs)
+        return StepBounds(StepResponses(A, B, C, d, folds=folds)), 1.0 / w0
+    return (StepBounds(StepResponses(A, B, C, d, w0 / fs, folds=folds)),
+            np.full(len(Ds), 1.0 / fs))
+
+
+def _figures(Ns, Ds, fs, figures):
+    """``figures(bounds, to_s, ks)`` of loops of one degree (a list, one entry per loop of
+    ``ks``), the loops whose response after the grid left a figure undecided computed again
+    on longer grids (:attr:`robrst.certificate._stepbound.StepBounds.more`: the e-folds
+    each needs, at most ``MAX_MORE`` beyond ``DECAY``; ``RETRIES`` times)."""
+    K = len(Ds)
+    out, folds, todo = [None] * K, np.full(K, DECAY), list(range(K))
+    for attempt in range(RETRIES + 1):
+        b, to_s = _responses([Ns[k] for k in todo], [Ds[k] for k in todo], fs, folds[todo])
+        for k, res in zip(todo, figures(b, to_s, todo)):
+            out[k] = res
+        more = dict(zip(todo, b.more.tolist()))
+        todo = [k for k in todo if more[k] > 0 and folds[k] < DECAY + MAX_MORE]
+        if not todo or attempt == RETRIES:
+            break
+        for k in todo:
+            folds[k] = min(folds[k] + more[k], DECAY + MAX_MORE)
+    return out
 
 
 def _by_degree(Ds):
@@ -158,21 +180,25 @@ def step_metrics_many(Ns: Sequence[ArrayLike], D: ArrayLike,
     list of StepMetrics
     """
     Ns, D = [poly.trim(N) for N in Ns], poly.trim(D)
-    b, to_s = _responses([Ns], [D], fs)
-    to_s = float(to_s[0])
-    out = []
-    for row, N in enumerate(Ns):
-        final = float(N[-1] / D[-1])
-        sgn = 1.0 if final >= 0 else -1.0
-        (peak, tp, _, ok_hi), (low, _, _, ok_lo) = b.extremes([(row, sgn), (row, -sgn)])
-        settle, _, ok_s = b.settling(row, [final])
-        peak, low = float(peak[0]), float(low[0])
-        out.append(StepMetrics(final=final, peak=sgn * peak, peak_time_s=float(tp[0]) * to_s,
-                               overshoot_pct=_overshoot_pct(peak, final),
-                               settling_time_s=float(settle[0]) * to_s,
-                               max_abs=max(abs(peak), abs(low)),
-                               resolved=bool(ok_hi[0] and ok_lo[0] and ok_s[0])))
-    return out
+
+    def figures(b, to_s, ks):
+        to_s = float(to_s[0])
+        out = []
+        for row, N in enumerate(Ns):
+            final = float(N[-1] / D[-1])
+            sgn = 1.0 if final >= 0 else -1.0
+            (peak, tp, _, ok_hi), (low, _, _, ok_lo) = b.extremes([(row, sgn), (row, -sgn)])
+            settle, _, ok_s = b.settling(row, [final])
+            peak, low = float(peak[0]), float(low[0])
+            out.append(StepMetrics(final=final, peak=sgn * peak,
+                                   peak_time_s=float(tp[0]) * to_s,
+                                   overshoot_pct=_overshoot_pct(peak, final),
+                                   settling_time_s=float(settle[0]) * to_s,
+                                   max_abs=max(abs(peak), abs(low)),
+                                   resolved=bool(ok_hi[0] and ok_lo[0] and ok_s[0])))
+        return [out]
+
+    return _figures([Ns], [D], fs, figures)[0]
 
 
 def check(plant: Plant, ctrl: RSTController, cl: ClosedLoop, specs: Specs, rtol: float,
@@ -239,15 +265,15 @@ def check_many(plants: Sequence[Plant], ctrl: RSTController, cls: Sequence[Close
           for p, cl in zip(plants, cls)]
     Ds = [poly.trim(cl.Delta) for cl in cls]
     out = [None] * len(Ds)
-    for ks in _by_degree(Ds):
+    def figures(b, to_s, ks, Ns, Ds):
         # one realisation for y and u; only the figures checked: y's peak and settling
-        # time, the largest |u|
-        b, to_s = _responses([Ns[k] for k in ks], [Ds[k] for k in ks], fs)
+        # time, the largest |u| (ks: the loops of Ns, Ds computed)
         final = np.array([Ns[k][0][-1] / Ds[k][-1] for k in ks])
         (peak, _, peak_lo, ok_p), (u_max, _, u_found, ok_u) = b.extremes(
             [(0, np.where(final >= 0, 1.0, -1.0)), (1, 0.0)])
         settle, settle_lo, ok_s = b.settling(0, final)
-        for i, k in enumerate(ks):
+        res = []
+        for i in range(len(ks)):
             rec = {"overshoot_pct": _overshoot_pct(float(peak[i]), float(final[i])),
                    "settling_time_s": float(settle[i] * to_s[i]),
                    "step_u_peak_V": float(u_max[i]) * specs.step_um}
@@ -255,7 +281,14 @@ def check_many(plants: Sequence[Plant], ctrl: RSTController, cls: Sequence[Close
                                        ok_p[i]),
                      "settling_time_s": (float(settle_lo[i] * to_s[i]), ok_s[i]),
                      "step_u_peak_V": (float(u_found[i]) * specs.step_um, ok_u[i])}
-            out[k] = rec, _failed(rec, found, specs, rtol)
+            res.append((rec, _failed(rec, found, specs, rtol)))
+        return res
+
+    for ks in _by_degree(Ds):
+        gN, gD = [Ns[k] for k in ks], [Ds[k] for k in ks]
+        done = _figures(gN, gD, fs, lambda b, to_s, js: figures(b, to_s, js, gN, gD))
+        for k, res in zip(ks, done):
+            out[k] = res
     return out
 
 

@@ -10,9 +10,7 @@ from __future__ import annotations
 
 import argparse
 import os
-import signal
 import sys
-import threading
 import warnings
 from collections.abc import Sequence
 
@@ -27,6 +25,7 @@ from robrst import __version__
 from robrst.cli import (certify, check, convert, design, diagnose, export, identify, simulate,
                         sweep)
 from robrst.base.errors import RobrstError
+from robrst.base.interrupt import Interrupted, interruptible
 
 __all__ = ["main", "build_parser", "Terminated", "LAST_RESORT"]
 
@@ -80,11 +79,10 @@ def _negative_numbers(argv):
 
 class Terminated(BaseException):
     """SIGTERM, raised in the main thread like Ctrl-C's KeyboardInterrupt: every cleanup
-    (temporary report folders, partial files, a sweep's Dask cluster) runs."""
-
-
-def _on_sigterm(signum, frame):
-    raise Terminated()
+    (temporary report folders, partial files, a sweep's Dask cluster) runs.  Kept for
+    code that catches it; the command line now raises
+    :class:`robrst.base.interrupt.Interrupted` (a ``KeyboardInterrupt``) for SIGINT and
+    SIGTERM alike."""
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -105,17 +103,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     -------
     int
         0 certified (or nothing worse), 1 not certified (or something worse), 2 error
-        (one line on stderr, never a traceback), 130 a sweep interrupted.
+        (one line on stderr, never a traceback), 130 interrupted (SIGINT, Ctrl-C), 143
+        terminated (SIGTERM): the run stops within a second; ``robrst design`` prints the
+        best certified answer found so far with the status ``interrupted``.
     """
     parser = build_parser()
     args = parser.parse_args(_negative_numbers(sys.argv[1:] if argv is None else argv))
-    if threading.current_thread() is not threading.main_thread():
+    with interruptible():      # SIGINT, SIGTERM: stop within a second (robrst.base.interrupt)
         return _main(args)
-    previous = signal.signal(signal.SIGTERM, _on_sigterm)
-    try:
-        return _main(args)
-    finally:
-        signal.signal(signal.SIGTERM, previous)
 
 
 def _main(args):
@@ -141,6 +136,12 @@ def _run(args):
     except RobrstError as exc:
         print(f"robrst: error: {exc}", file=sys.stderr)
         return 2
+    except Interrupted as exc:      # a signal: the best answer so far, one line, 130 / 143
+        from robrst.cli.interrupted import show_best
+
+        show_best(args, exc)
+        print(f"robrst: {exc.word}", file=sys.stderr)
+        return exc.exit_code
     except KeyboardInterrupt:
         print("robrst: interrupted", file=sys.stderr)
         return 130

@@ -7,8 +7,8 @@ from typing import TYPE_CHECKING
 from robrst.cli.common import design_result, is_saved_design, progress_printer
 from robrst.base.fileio import check_file_target
 from robrst.problem.files import load_problem
-from robrst.testing import (check_golden_fits, compare_golden, count_figures, golden_figures,
-                            read_golden, write_golden)
+from robrst.testing import (check_golden_fits, compare_golden, count_figures, figures_line,
+                            golden_figures, read_golden, write_golden)
 
 if TYPE_CHECKING:
     import argparse
@@ -65,8 +65,8 @@ def run_check(args: argparse.Namespace) -> int:
     if args.update:                                 # exit code as `design`: 1 not certified
         write_golden(result, args.golden)
         g = golden_figures(result)
-        n = sum(len(m) - 1 for m in g["models"].values())
-        print(f"wrote {args.golden}: {n} figures over {len(g['models'])} models"
+        # the count the next check reads: the file as written (a peak of inf is not written)
+        print(f"wrote {args.golden}: {figures_line(read_golden(args.golden))}"
               f" (certified: {g['certified']})")
         return 0 if g["certified"] else 1
     worse = compare_golden(result, golden)
@@ -74,5 +74,6 @@ def run_check(args: argparse.Namespace) -> int:
         print(w.describe())
     n = count_figures(golden)
     print(f"robrst check: {len(worse)} of {n} figures worse than {args.golden}"
-          if worse else f"robrst check: no figure worse than {args.golden} ({n} figures)")
+          if worse else f"robrst check: no figure worse than {args.golden}"
+          f" ({figures_line(golden)})")
     return 1 if worse else 0

@@ -129,18 +129,20 @@ def print_result(result: object, as_json: bool) -> int:
     result : DesignResult
         The design (or re-certified saved design).
     as_json : bool
-        Print ``result.as_dict()`` as exactly one JSON object instead of the summary.
+        Print the design's JSON (:func:`robrst.design.contract.design_json`) as exactly one
+        object instead of the summary (:func:`robrst.report.text.design_summary`).
 
     Returns
     -------
     int
         0 certified, 1 not certified (:func:`certified_exit`).
     """
-    from robrst.report.text import design_summary
-
-    d = result.as_dict()
     if as_json:
-        print_json(d)
+        from robrst.design.contract import design_json
+
+        print_json(design_json(result))
     else:
-        print(design_summary(d))
+        from robrst.report.text import design_summary
+
+        print(design_summary(result))
     return certified_exit(result.certified, result.certificate)

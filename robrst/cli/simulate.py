@@ -158,12 +158,15 @@ def run_simulate(args: argparse.Namespace) -> int:
         say(f"simulating {args.scenario} on twin {cfg.name} ({cfg.sample_rate_hz:g} Hz) -> {out}")
         res = run_scenario(args.scenario, cfg, fast=args.fast, ctrls=ctrls)
     write_scenario(res, out, force=args.force)
-    d = {"scenario": res.name, "claim": res.claim, "metrics": res.metrics, "out": str(out),
+    d = {"scenario": res.name, "claim": res.claim, "notes": list(res.notes),
+         "metrics": res.metrics, "out": str(out),
          "datasets": sorted(f"{k}.csv" for k in res.datasets), "figure": f"{res.name}.png"}
     if args.json:
         print_json(d)
     else:
         print(f"{res.name}: {res.claim}")
+        for n in res.notes:
+            print(f"WARNING: {n}")
         print(json_text(res.metrics, indent=2))
         print(f"wrote {len(res.datasets)} datasets and {res.name}.png to {out}")
     return 0

@@ -82,13 +82,19 @@ def is_design_file(path: str | os.PathLike) -> bool:
     Returns
     -------
     bool
-        True for a JSON object with a ``controller`` and a ``certificate`` (maybe of an
-        older robrst: :func:`read_design` says so).  Problem files are TOML; any other JSON
-        is left to the problem reader (an invalid TOML file).
+        True for a file named ``*.json`` (whatever it holds: every command reads it as
+        JSON, and :func:`read_design` names what is wrong with it, "not valid JSON" for a
+        truncated file), and for a JSON object with a ``controller`` and a ``certificate``
+        under another name (maybe of an older robrst: :func:`read_design` says so).
+        Problem files are TOML; any other file is left to the problem reader.
     """
     p = Path(path)
     try:
-        if not p.is_file() or p.stat().st_size > MAX_BYTES:
+        if not p.is_file():
+            return False
+        if p.suffix.lower() == ".json":
+            return True
+        if p.stat().st_size > MAX_BYTES:
             return False
         with open(p, "rb") as fh:
             if not fh.read(4096).lstrip().startswith(b"{"):
@@ -170,8 +176,12 @@ def design_from_dict(doc: dict, path: str = "<design>", problem: object = None,
     -------
     DesignResult
         The saved controller, a certificate computed now on ``problem`` (default: the saved
-        problem), the analyses of every family model; the saved solver record, analytic
-        check, comparison and 2-DOF path as they were written.
+        problem), the analyses of every family model and the limits
+        (:func:`robrst.synthesis.limits.design_limits`); the saved solver record, starts,
+        analytic check, comparison and 2-DOF path as they were written.  On another
+        ``problem`` only the 2-DOF path is kept (it is the controller's); the solver record
+        says where the controller was designed, and there are no starts, analytic check or
+        comparison (they belong to the saved problem).
     """
     say = progress or (lambda msg: None)
     ctrl = _controller(path, doc["controller"])
@@ -186,20 +196,31 @@ def design_from_dict(doc: dict, path: str = "<design>", problem: object = None,
                f" (saved: {'certified' if was else 'not certified'}; robrst"
                f" {doc['artefact'].get('versions', {}).get('robrst')} made it)"))
     from robrst.certificate.assessment import assess
+    from robrst.synthesis.limits import design_limits
 
     ac, comp = doc.get("analytic_check"), doc.get("comparison")
+    bound, verdict = design_limits(problem, ctrl, cert, cert.certified)   # as the analyses
+    solver = dict(doc.get("solver") or {"name": "saved"})
+    if not saved:        # the synthesis record and the starts belong to the saved problem
+        solver = {"name": "saved", "objective": problem.solver.objective,
+                  "designed_on": str(doc.get("problem")),
+                  "notes": [f"the controller of the saved design {path}, designed on problem"
+                            f" {doc.get('problem')!r} and certified here on {problem.name!r}"
+                            " without designing: that design's solver record and starts"
+                            " are not this problem's and are not repeated"]}
     return DesignResult(
         problem=problem, method=str(doc.get("method", "saved")), controller=ctrl,
         target_char_poly=None if doc.get("target_char_poly") is None
         else np.asarray(doc["target_char_poly"], float),
         analyses=analyze_many(problem.family.models, ctrl), certificate=cert,
-        synthesis=StoredRecord(dict(doc.get("solver") or {"name": "saved"})),
+        synthesis=StoredRecord(solver),
         analytic_check=None if not saved or ac is None else AnalyticCheck(**ac),
         comparison=None if not saved or comp is None else Comparison(
             rows=comp["rows"], table=comp["table"], range_C=tuple(problem.family.range_C)),
         tracking=None if doc.get("tracking") is None else StoredRecord(doc["tracking"]),
         assessment=assess(problem, ctrl),     # computed again, as the analyses
-        starts=None if doc.get("starts") is None else StoredRecord(doc["starts"]))
+        starts=None if not saved or doc.get("starts") is None else StoredRecord(doc["starts"]),
+        objective_bound=bound, feasibility=verdict)
 
 
 def load_design(path: str | os.PathLike,

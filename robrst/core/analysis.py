@@ -23,7 +23,8 @@ from robrst.core.rst import RSTController, as_controller, closed_loop
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
-__all__ = ["Margins", "Analysis", "analyze", "sensitivity", "crossovers", "loop_value",
+__all__ = ["Margins", "Analysis", "analyze", "sampled_analysis", "sensitivity", "crossovers",
+           "loop_value",
            "bracketed_root",
            "step_response", "spectral_abscissa", "spectral_abscissa_many", "analyze_many"]
 
@@ -90,6 +91,13 @@ class Analysis:
         ``"S"``, ``"T"``, ``"U"``, ``"Sd"`` -> exact :class:`~robrst.core.peaks.Peak`.
     margins : Margins
         Gain, phase, modulus and delay margins.
+    sample_rate_hz : float, optional
+        ``None``: the continuous loop.  Else the analysis is the sampled loop's at this
+        rate (ZOH plant, Tustin controller, ``delay_samples``; :func:`analyze` of a discrete
+        plant): peaks and crossovers at physical frequencies up to Nyquist, poles mapped
+        to ``s = fs ln z``, the delay margin in seconds.
+    delay_samples : int
+        The sampled loop's computation delay [samples].
     """
 
     label: str
@@ -99,41 +107,8 @@ class Analysis:
     spectral_abscissa: float
     peaks: dict
     margins: Margins
-
-    def as_dict(self, plant: Plant) -> dict:
-        """The ``models`` record of the design JSON (infinite figures as ``None``).
-
-        Parameters
-        ----------
-        plant : Plant
-            The analysed plant (its ``A`` and ``B`` are written).
-
-        Returns
-        -------
-        dict
-            ``label, temperature_C, A, B, stable, closed_loop_poles, spectral_abscissa``,
-            the peaks ``Ms, Mt, Mu, Msd`` with their frequencies and the margins.
-        """
-        pk = self.peaks
-        m = self.margins
-        return {
-            "label": self.label,
-            "temperature_C": self.temperature_C,
-            "A": plant.A.tolist(),
-            "B": plant.B.tolist(),
-            "stable": bool(self.stable),
-            "closed_loop_poles": [[float(z.real), float(z.imag)] for z in self.poles],
-            "spectral_abscissa": float(self.spectral_abscissa),
-            "Ms": pk["S"].value, "Ms_freq_rad_s": _fin(pk["S"].freq_rad_s),
-            "Mt": pk["T"].value, "Mt_freq_rad_s": _fin(pk["T"].freq_rad_s),
-            "Mu": pk["U"].value, "Mu_freq_rad_s": _fin(pk["U"].freq_rad_s),
-            "Msd": pk["Sd"].value, "Msd_freq_rad_s": _fin(pk["Sd"].freq_rad_s),
-            "gain_margin": m.gain_margin,
-            "gain_margin_lower": m.gain_margin_lower,
-            "phase_margin_deg": m.phase_margin_deg,
-            "modulus_margin": m.modulus_margin,
-            "delay_margin_s": m.delay_margin_s,
-        }
+    sample_rate_hz: float = None
+    delay_samples: int = 0
 
 
 def _fin(x):
@@ -411,6 +386,12 @@ def margins(plant, ctrl, Ms):
 def analyze(plant: Plant, ctrl: RSTController, rtol: float = 1e-10) -> Analysis:
     """Full closed-loop analysis of ``plant`` under ``ctrl``.
 
+    A **discrete** plant (a python-control system with ``dt > 0``, or a :class:`Plant`
+    read from one, whose ``meta`` carries ``sample_rate_hz``) is what a controller at
+    ``fs = 1/dt`` sees: the analysis is then the **sampled loop's** (the ZOH plant it is,
+    the Tustin controller at ``fs``, its delay samples), exactly as the certificate
+    computes it (:mod:`robrst.core.sampled`): ``Analysis.sample_rate_hz`` says so.
+
     Parameters
     ----------
     plant : Plant or control.TransferFunction or control.StateSpace
@@ -423,7 +404,8 @@ def analyze(plant: Plant, ctrl: RSTController, rtol: float = 1e-10) -> Analysis:
     Returns
     -------
     Analysis
-        Stability, closed-loop poles, exact peaks of S, T, U, Sd, and the margins.
+        Stability, closed-loop poles, exact peaks of S, T, U, Sd, and the margins (of the
+        sampled loop for a discrete plant).
 
     Examples
     --------
@@ -433,7 +415,87 @@ def analyze(plant: Plant, ctrl: RSTController, rtol: float = 1e-10) -> Analysis:
     >>> bool(a.stable), round(float(a.margins.phase_margin_deg), 1)
     (True, 86.7)
     """
-    return analyze_many([plant], ctrl, rtol)[0]
+    plant = as_plant(plant)
+    fs = plant.meta.get("sample_rate_hz")
+    if fs is None:
+        return analyze_many([plant], ctrl, rtol)[0]
+    return sampled_analysis(plant, ctrl, fs, int(plant.meta.get("delay_samples", 0)), rtol)
+
+
+def sampled_analysis(plant: Plant, ctrl: RSTController, sample_rate_hz: float,
+                     delay_samples: int = 0, rtol: float = 1e-10) -> Analysis:
+    """:func:`analyze` of the sampled loop: ``plant`` behind a ZOH, ``ctrl`` by Tustin at
+    ``sample_rate_hz``, ``delay_samples`` of computation delay.
+
+    The loop in the bilinear variable (:func:`robrst.core.sampled.sampled_plant`) has the
+    sampled loop's stability, peaks and margins at warped frequencies; they are reported
+    at physical frequencies (:func:`robrst.core.sampled.unwarp`; Nyquist is ``pi fs``).
+
+    Parameters
+    ----------
+    plant : Plant or control.TransferFunction or control.StateSpace
+        The continuous plant (a discrete python-control plant: its continuous pre-image).
+    ctrl : RSTController or control.TransferFunction or control.StateSpace
+        The controller.
+    sample_rate_hz : float
+        The controller's rate [Hz].
+    delay_samples : int
+        Whole samples of computation delay.
+    rtol : float
+        Relative accuracy of the exact peaks.
+
+    Returns
+    -------
+    Analysis
+        ``stable`` (every closed-loop pole inside the unit circle), ``poles`` mapped to
+        ``s = fs ln z`` [rad/s] and their spectral abscissa, the peaks and margins of the
+        sampled loop (``delay_margin_s``: the extra delay it tolerates, in seconds), and
+        ``sample_rate_hz``, ``delay_samples``.
+
+    Examples
+    --------
+    >>> import control
+    >>> from robrst import analyze, paper_plant, pole_placement, PoleSpec
+    >>> ctrl = pole_placement(paper_plant(), PoleSpec(wn=600.0, zeta=1.0)).controller
+    >>> Pz = control.c2d(paper_plant().to_tf(), 1 / 20000.0)    # ZOH at 20 kHz
+    >>> a = analyze(Pz, ctrl)
+    >>> a.sample_rate_hz, bool(a.stable), a.peaks["S"].value > analyze(paper_plant(), ctrl).peaks["S"].value
+    (20000.0, True, True)
+    """
+    from dataclasses import replace
+
+    from robrst.core import region
+    from robrst.core.sampled import sampled_plant, unwarp
+
+    plant, ctrl = as_plant(plant), as_controller(ctrl)
+    fs, k = float(sample_rate_hz), int(delay_samples)
+    pw = sampled_plant(plant, fs, k)
+    a = analyze_many([pw], ctrl, rtol)[0]
+    Delta = poly.trim(closed_loop(pw, ctrl).Delta)
+    lost = len(Delta) < pw.n + len(poly.trim(ctrl.S))   # a pole at z = -1 (Nyquist)
+    poles = region.s_poles(a.poles, fs)
+    sa = float(np.max(poles.real)) if poles.size else -np.inf
+    stable = bool(a.stable and not lost)
+    if not stable:
+        sa = max(sa, 0.0)
+
+    def phys(w):
+        return float(unwarp(w, fs))
+
+    peaks = {k_: replace(pk, freq_rad_s=phys(pk.freq_rad_s)) for k_, pk in a.peaks.items()}
+    m = a.margins
+    num, den = poly.pmul(pw.B, ctrl.R), poly.pmul(pw.A, ctrl.S)
+    dms = []
+    for nu in m.gain_crossover_rad_s:
+        if 0 < nu < np.inf:
+            arg = float(np.degrees(np.angle(loop_value(num, den, nu))))
+            dms.append(np.radians((arg + 180.0) % 360.0) / phys(nu))
+    margins = replace(m, gain_crossover_rad_s=tuple(phys(w) for w in m.gain_crossover_rad_s),
+                      phase_crossover_rad_s=tuple(phys(w) for w in m.phase_crossover_rad_s),
+                      delay_margin_s=None if not dms else max(0.0, float(min(dms))))
+    return Analysis(label=plant.label, temperature_C=plant.temperature_C, stable=stable,
+                    poles=poles, spectral_abscissa=sa, peaks=peaks, margins=margins,
+                    sample_rate_hz=fs, delay_samples=k)
 
 
 def analyze_many(plants: Sequence[Plant], ctrl: RSTController,

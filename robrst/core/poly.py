@@ -34,7 +34,11 @@ __all__ = [
     "from_roots",
     "roots_many",
     "rel_coef_error",
+    "origin_roots",
+    "ORIGIN_RTOL",
 ]
+
+ORIGIN_RTOL = 1e-12   # a root within this fraction of the other roots' scale of s = 0 is at 0
 
 
 def as_poly(c: ArrayLike, name: str = "polynomial") -> np.ndarray:
@@ -534,3 +538,45 @@ def rel_coef_error(a: ArrayLike, b: ArrayLike) -> float:
     w0 = natural_scale(b)
     sa, sb = to_scaled(a, w0), to_scaled(b, w0)
     return float(np.max(np.abs(sa - sb)) / np.max(np.abs(sb)))
+
+
+def origin_roots(c: ArrayLike, rtol: float = ORIGIN_RTOL) -> int:
+    """How many roots of ``c`` lie at ``s = 0`` (an integrator's, in a controller's ``S``).
+
+    A trailing coefficient is zero when it is exactly zero, or when the root it makes is
+    below ``rtol`` times the next root: ``|c[-1] / c[-2]| <= rtol |c[-2] / c[-3]|`` (the
+    two smallest root moduli, read from the Newton polygon of the last coefficients).
+    That is what rounding does to a polynomial with a root at 0 (a controller read back
+    from a discrete python-control system: ``S(0) = -4e-16``); a deliberate ``S(0) != 0``
+    leaves a root far larger.  A polynomial of degree one has no other root to compare
+    with: only an exact zero counts.
+
+    Parameters
+    ----------
+    c : array_like
+        Coefficients, highest power first.
+    rtol : float
+        How much smaller than the next root a root counts as 0.
+
+    Returns
+    -------
+    int
+        The number of roots at ``s = 0`` (0 for a constant).
+
+    Examples
+    --------
+    >>> from robrst.core.poly import origin_roots
+    >>> origin_roots([1.0, 3.0, 0.0]), origin_roots([1.0, 3.0, 1e-3]), origin_roots([1.0, 3.0, 1e-16])
+    (1, 0, 1)
+    """
+    c = trim(c)
+    k = 0
+    while k < len(c) - 1:
+        head = c[:len(c) - k]
+        if head[-1] != 0:
+            if len(head) < 3 or head[-2] == 0 or head[-3] == 0:
+                break
+            if not abs(head[-1] / head[-2]) <= rtol * abs(head[-2] / head[-3]):
+                break
+        k += 1
+    return k

@@ -39,7 +39,8 @@ import numpy as np
 from robrst.data.dataset import check_sensor
 from robrst.base.errors import DataError, SpecError
 from robrst.identify.free import fit_free, record_starts
-from robrst.identify.thermal import modal_parameters, thermal_law
+from robrst.identify.thermal import MAX_ORDER as MAX_LAW_ORDER
+from robrst.identify.thermal import modal_parameters, polish_fit, thermal_law
 from robrst.identify.vf import (fit_data, fit_residues, initial_poles, relative_degree,
                                 to_continuous, vector_fit)
 from robrst.base.threads import one_blas_thread
@@ -47,6 +48,7 @@ from robrst.base.threads import one_blas_thread
 if TYPE_CHECKING:
     from robrst.data.dataset import Dataset
     from robrst.identify.modal import DiscreteModel
+    from robrst.identify.thermal import ThermalLaw
 
 __all__ = ["identify", "Identified", "OrderScore", "ORDER_TOL", "MAX_ORDER", "MAX_AUTO_ORDER",
            "TEMP_TOL_K", "START_NOTE", "nrmse_of", "simulate_record"]
@@ -119,6 +121,9 @@ class Identified:
     thermal : ThermalLaw or None
         The per-kelvin laws of a family of one input and output at several temperatures
         (:func:`robrst.identify.thermal.thermal_law`).
+    u_range_V : tuple of float or None
+        The smallest and largest input of the training records [V] (the starting design's
+        ``Mu_max`` is stated against it, :func:`robrst.identify.modelfile.starting_design`).
 
     Attributes
     ----------
@@ -137,7 +142,8 @@ class Identified:
     starts: tuple = ()       # RecordStart per non-periodic training record
     notes: tuple = ()        # significant offsets and starts away from rest
     relative_degree: int = 1  # continuous numerator degree = order - this (0: feedthrough)
-    thermal: object = None    # ThermalLaw of a SISO family (several temperatures), or None
+    thermal: ThermalLaw | None = None    # of a SISO family (several temperatures), or None
+    u_range_V: tuple | None = None   # (min, max) of the training records' inputs [V]
 
     @property
     def model(self):
@@ -475,6 +481,10 @@ def identify(train: Sequence[Dataset], validate: Sequence[Dataset] | None = None
             if markov:
                 dm = fit_residues(data, dm.zpoles, feedthrough, markov=markov)[0]
             label = "identified" if T is None else f"identified_T{T:g}C"
+            law_fit = (T is not None and len(fits) > 1 and (data.n_in, data.n_out) == (1, 1)
+                       and int(np.sum(np.where(dm.zpoles.imag > 0, 2, 1))) <= MAX_LAW_ORDER)
+            if law_fit:         # the thermal law's covariance holds at the optimum
+                dm = polish_fit(data, dm, feedthrough, markov)
             out.append(to_continuous(dm, label=label, temperature_C=T))
             if T is not None and len(fits) > 1 and (data.n_in, data.n_out) == (1, 1):
                 params.append(modal_parameters(data, dm, T, feedthrough, markov))
@@ -490,7 +500,10 @@ def identify(train: Sequence[Dataset], validate: Sequence[Dataset] | None = None
                 f"{k} = {getattr(law, k):.4g} ± {law.std[k]:.2g}"
                 for k in ("gain_per_K", "resonance_per_K", "damping_per_K"))
             if law.consistent else f"explicit models ({law.note})"))
+    us = np.concatenate([np.asarray(d.U, float).ravel() for d in train])
+    u_range = (float(np.min(us)), float(np.max(us))) if us.size else None
     return Identified(models=tuple(out), order=chosen.order, feedthrough=feedthrough, fs=fs,
+                      u_range_V=u_range,
                       scores=tuple(scores), heldout=held_names,
                       train=tuple(d.source or "record" for d in train),
                       heldout_nrmse=chosen.heldout_nrmse, starts=tuple(starts), notes=notes,

@@ -48,7 +48,7 @@ if TYPE_CHECKING:
     from robrst.identify.identification import Identified
 
 __all__ = ["problem_text", "model_text", "write_identified", "check_target", "read_model_data",
-           "modal_models", "MARKER", "FORMAT"]
+           "modal_models", "starting_wn", "starting_mu", "starting_design", "MARKER", "FORMAT"]
 
 MARKER = "# written by robrst identify"
 NEGLIGIBLE_LEAD = 1e-9   # a leading numerator term below this share of B up to Nyquist
@@ -132,10 +132,55 @@ def starting_wn(plants: list, fs: float) -> float:
     return float(f"{max(w, 1e-6):.3g}")
 
 
-def starting_design(plants: list, fs: float) -> dict:
+MU_STROKE_SHARE = 0.1   # an error of this share of the stroke may ask the whole voltage range
+
+
+def starting_mu(plants: list, u_range: tuple | None = None) -> tuple[float, str] | None:
+    """The ``|U|`` bound of a first design and why: ``Mu_max = 1 / (MU_STROKE_SHARE k)``.
+
+    ``|U| = |K S|`` is the voltage the controller asks per µm of measurement noise or
+    error.  With ``k`` the identified static gain, the records' voltage range ``W`` moves
+    the stage over ``k W`` µm; ``Mu_max = 10 / k`` means an error of a tenth of that stroke
+    never asks for more than the whole range ``W`` (the README's example stage, 0.1 µm/V,
+    gets 100 V/µm).  Below ``1 / k`` no loop can track (``|U| = |T| / k`` at low
+    frequency).
+
+    Parameters
+    ----------
+    plants : list of Plant
+        The identified models (the largest static gain over them: the tightest bound).
+    u_range : (float, float), optional
+        The records' smallest and largest input [V] (said in the reason).
+
+    Returns
+    -------
+    (float, str) or None
+        The bound [V/µm] (three significant digits) and the reason; ``None`` for a plant
+        whose static gain is not finite and non-zero (an integrator: no stroke per volt).
+    """
+    gains = []
+    for p in plants:
+        A0, B0 = float(p.A[-1]), float(p.B[-1])
+        if A0 == 0 or B0 == 0 or not np.isfinite(B0 / A0):
+            return None
+        gains.append(abs(B0 / A0))
+    k = max(gains)
+    mu = float(f"{1.0 / (MU_STROKE_SHARE * k):.3g}")
+    why = (f"1/({MU_STROKE_SHARE:g} k), k = {k:.3g} um/V the identified static gain:"
+           f" an error of {MU_STROKE_SHARE:g} of the stroke never asks for more than the"
+           " records' voltage range")
+    if u_range is not None and u_range[1] > u_range[0]:
+        W = u_range[1] - u_range[0]
+        why += (f" ({W:.3g} V, {u_range[0]:.3g} .. {u_range[1]:.3g} V: a stroke of"
+                f" {k * W:.3g} um)")
+    return mu, why
+
+
+def starting_design(plants: list, fs: float, u_range: tuple | None = None) -> dict:
     """The design tables ``robrst identify`` writes into a file of one input and one output,
     so that ``robrst design`` runs on it as it is: the robust NLP (integral gain, certified
-    modulus margin 0.5, |T| <= 1.3 and a reference step overshooting at most 2 %, on the
+    modulus margin 0.5, ``|T| <= 1.3``, ``|U|`` bounded from the identified gain
+    (:func:`starting_mu`) and a reference step overshooting at most 2 %, on the
     sampled loop at the records' rate), a two-degree-of-freedom reference path, the
     dominant poles and the reference model's bandwidth from :func:`starting_wn`.
 
@@ -145,6 +190,8 @@ def starting_design(plants: list, fs: float) -> dict:
         The identified models.
     fs : float
         The records' rate [Hz].
+    u_range : (float, float), optional
+        The records' input range [V] (:attr:`robrst.identify.identification.Identified.u_range_V`).
 
     Returns
     -------
@@ -154,21 +201,27 @@ def starting_design(plants: list, fs: float) -> dict:
         their comments).
     """
     wn = starting_wn(plants, fs)
+    specs = {"Ms_max": 2.0, "Mt_max": 1.3}
+    mu = starting_mu(plants, u_range)
+    if mu is not None:
+        specs.update(Mu_max=mu[0], Mu_reason=mu[1])
+    specs.update(overshoot_max_pct=2.0, sample_rate_hz=float(fs))
     return {"poles": {"wn": wn, "zeta": 1.0},
             "controller": {"T_mode": "reference_model", "reference_wn": wn},
-            "specs": {"Ms_max": 2.0, "Mt_max": 1.3, "overshoot_max_pct": 2.0,
-                      "sample_rate_hz": float(fs)},
+            "specs": specs,
             "solver": {"method": "nlp"}}
 
 
-def _add_starting_design(doc, plants, fs):
+def _add_starting_design(doc, plants, fs, u_range=None):
     """:func:`starting_design`'s tables added to ``doc`` with their comments."""
-    tables = starting_design(plants, fs)
+    tables = starting_design(plants, fs, u_range)
     doc.add(tomlkit.nl())
+    mu = ("" if "Mu_max" not in tables["specs"] else
+          f" |U| <= {tables['specs']['Mu_max']:g} V/um (Mu_reason says why),")
     for line in ("A starting design, chosen by robrst identify from the model (edit freely):",
                  "the robust NLP at the records' sampling rate (the controller runs at it),",
-                 "dominant poles a fifth of the lowest resonance, modulus margin >= 0.5, and a",
-                 "reference path (2-DOF) whose step overshoots at most 2 %."):
+                 "dominant poles a fifth of the lowest resonance, modulus margin >= 0.5,"
+                 + mu, "and a reference path (2-DOF) whose step overshoots at most 2 %."):
         doc.add(tomlkit.comment(line))
     poles = tomlkit.table()
     poles["wn"] = _commented(tables["poles"]["wn"], "dominant natural frequency [rad/s]")
@@ -245,7 +298,8 @@ def problem_text(ident: Identified, sources: Sequence[str], name: str,
             models.append(plain({"temperature_C": float(p.temperature_C), "B": p.B, "A": p.A}))
         family["models"] = models
         doc["family"] = family
-    _add_starting_design(doc, [m.channel(i, j) for m in ident.models], ident.fs)
+    _add_starting_design(doc, [m.channel(i, j) for m in ident.models], ident.fs,
+                         ident.u_range_V)
     return tomlkit.dumps(doc)
 
 
@@ -294,7 +348,7 @@ def model_text(ident: Identified, sources: Sequence[str]) -> str:
         except SpecError:      # too high an order for polynomials: no design from this file
             plants = None
         if plants is not None:
-            _add_starting_design(doc, plants, ident.fs)
+            _add_starting_design(doc, plants, ident.fs, ident.u_range_V)
     return tomlkit.dumps(doc)
 
 

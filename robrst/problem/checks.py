@@ -20,6 +20,7 @@ import numpy as np
 from robrst.base.errors import SpecError
 from robrst.problem.records import AUX_MIN_FACTOR, PoleSpec
 from robrst.base.schema import MAX_MAGNITUDE, key_error
+from robrst.problem.specs import MAX_RATE, MIN_RATE, MIN_RATE_HZ
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -30,9 +31,6 @@ if TYPE_CHECKING:
 __all__ = ["MAX_RATE", "MIN_RATE", "MIN_RATE_HZ", "MAX_ORDER", "check_delay_order", "check_rates", "pole_spec", "check_pairs",
            "check_combinations", "check_generated", "pair_rates"]
 
-MAX_RATE = 1e9      # fastest pole, zero or frequency [rad/s] (160 MHz)
-MIN_RATE = 1e-6     # slowest pole a design places [rad/s] (a period of 72 days)
-MIN_RATE_HZ = 1.6e-7   # MIN_RATE / 2 pi, rounded up: slowest corner or sampling rate [Hz]
 MAX_ORDER = 30      # degree of a plant model's denominator (Sylvester matrices < 100 x 100)
 
 

@@ -20,9 +20,11 @@ from robrst.core.family import PlantFamily, ThermalCoefficients, explicit_family
 from robrst.core.plant import Plant, named_plant
 from robrst.problem.records import (AUX_MIN_FACTOR, HOMOTOPIES, INITS, METHODS, OBJECTIVES,
                             PLACEMENTS, T_MODES, ControllerStructure, Problem, SolverOptions, Specs)
+from robrst.problem.specs import specs_schema
 from robrst.base.schema import ArrayOf, Field, key_error, load_toml, markdown_rows, validate
 from robrst.problem.spread import (COEF as COEF_NAME, DIST_KEYS, PLANT_PARAMS, RANDOM_DISTS, SPREAD_METHODS,
-                                   THERMAL_KEYS, Param, Spread, check_plant_params)
+                                   THERMAL_KEYS, Param, Spread, check_plant_params,
+                                   check_truncation)
 from robrst.problem.checks import (MAX_RATE, MIN_RATE, MIN_RATE_HZ, check_combinations, check_generated,
                               check_pairs, check_rates, pole_spec)
 
@@ -111,43 +113,7 @@ SCHEMA = {
                             " (within 1e9 rad/s)", lo=AUX_MIN_FACTOR, hi=1e4),
         "aux_roots": Field("numbers", None, "explicit real auxiliary roots [rad/s]", **RATE),
     },
-    "specs": {
-        "Ms_max": Field("number", None, "bound on |S| (modulus margin >= 1/Ms_max)", lo=1.0),
-        "Mt_max": Field("number", None, "bound on |T|", positive=True),
-        "Mu_max": Field("number", None, "bound on |U| [V/µm]", positive=True),
-        "Mu_reason": Field("str", "", "why this Mu bound"),
-        "T_resonance_max": Field("number", None, "bound on |T| over the resonance band",
-                                 positive=True),
-        "resonance_band_hz": Field("numbers", None, "[f_lo, f_hi] band for T_resonance_max", **BAND),
-        "stable_controller": Field("bool", False, "require S/s Hurwitz"),
-        "sample_rate_hz": Field("number", None, "also certify (nlp: also design) the sampled loop:"
-                                " ZOH plant, Tustin controller at this rate [Hz]",
-                                lo=MIN_RATE_HZ, hi=1e9),
-        "delay_samples": Field("int", 0, "computation delay of the sampled loop [samples]; plant"
-                               " order + delay <= 30", lo=0, hi=1000),
-        "Mu_hf_max": Field("number", None, "bound on |U| above Mu_hf_above_hz [V/µm]",
-                           positive=True),
-        "Mu_hf_above_hz": Field("number", None, "where the Mu_hf_max bound starts [Hz]",
-                                positive=True),
-        "overshoot_max_pct": Field("number", None, "overshoot of a reference step [%]", lo=0.0),
-        "settling_time_max_s": Field("number", None, "2 % settling time of a reference step [s]",
-                                     positive=True),
-        "step_um": Field("number", 1.0, "reference step for step_u_max_V [µm]", positive=True),
-        "step_u_max_V": Field("number", None, "peak |u| for a reference step of step_um [V]",
-                              positive=True),
-        "Msd_max": Field("number", None, "bound on the input-disturbance sensitivity"
-                         " |B S/Delta| [µm/V]", positive=True),
-        "Mry_max": Field("number", None, "bound on the reference-to-output |B T/Delta|"
-                         " (Mt_max bounds |B R/Delta|)", positive=True),
-        "damping_min": Field("number", None, "least damping of every closed-loop pole of every"
-                             " model (sampled loop: poles mapped to s by fs ln z); default"
-                             " min(0.1, 0.9 x the plant's least damping), 0: none",
-                             lo=0.0, hi=0.99),
-        "decay_min": Field("number", None, "least decay rate -Re(p) of every closed-loop pole"
-                           " [rad/s]", positive=True, hi=MAX_RATE),
-        "controller_damping_min": Field("number", None, "least damping of the controller's own"
-                                        " poles", lo=0.0, hi=0.99),
-    },
+    "specs": specs_schema(),       # one row per spec: robrst.problem.specs
     "solver": {
         "method": Field("str", None, "analytic | nlp | convex; default: nlp (the robust"
                         " program) when [specs] bounds anything, else analytic",
@@ -183,6 +149,8 @@ SCHEMA = {
                             " off inside sweeps"),
         "starts": Field("int", 2, "nlp multi-start: how many starts beyond the first",
                         lo=0, hi=64),
+        "bound": Field("bool", True, "state what any linear controller could reach on the"
+                       " family (the objective's estimate; always when not certified)"),
     },
     "spread": {
         "yield": Field("number", 0.95, "share of the actuators the controller must certify on"
@@ -506,6 +474,8 @@ def _spread(path, sp, family):
             raise key_error(path, key, f"expected lo < hi, got lo = {lo:g}, hi = {hi:g}")
         if dist == "lognormal" and lo is not None and not lo > 0:
             raise key_error(path, key + ("lo",), "lognormal truncation needs lo > 0")
+        if dist in ("normal", "lognormal") and (lo is not None or hi is not None):
+            check_truncation(path, key, dist, p)     # a truncation holding no probability
         params.append(Param(name=name, dist=dist, mean=p["mean"], std=p["std"],
                             median=p["median"], sigma=p["sigma"], lo=lo, hi=hi, note=p["note"]))
     if not params:

@@ -10,18 +10,22 @@ sees a dict of options or the raw TOML.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from robrst.base.errors import SpecError
+from robrst.problem.specs import EXTRA_PEAK_SPECS, PEAK_SPECS, RELATIVE_PEAK_SPECS, bound_specs
 
 if TYPE_CHECKING:
     from robrst.core.family import PlantFamily
+    from robrst.problem.spread import Spread
 
 __all__ = ["PoleSpec", "ControllerStructure", "Specs", "SolverOptions", "Problem",
            "PEAK_SPECS", "EXTRA_PEAK_SPECS", "METHODS", "OBJECTIVES", "T_MODES", "INITS",
-           "PLACEMENTS", "HOMOTOPIES", "AUX_MIN_FACTOR", "DEFAULT_DAMPING_CAP",
+           "PLACEMENTS", "HOMOTOPIES", "AUX_MIN_FACTOR", "RELATIVE_PEAK_SPECS", "DampingFloor",
+           "DEFAULT_DAMPING_CAP",
            "DEFAULT_DAMPING_SHARE", "DEFAULT_OVERSHOOT_WARN_PCT", "plant_damping"]
 
 METHODS = ("analytic", "nlp", "convex")
@@ -31,10 +35,6 @@ INITS = ("analytic", "convex")
 PLACEMENTS = ("auto", "fixed", "free")
 HOMOTOPIES = ("on_failure", "always")
 AUX_MIN_FACTOR = 10.0   # auxiliary poles at least this many times faster than the dominant
-PEAK_SPECS = {"S": "Ms_max", "T": "Mt_max", "U": "Mu_max"}   # sensitivity -> bound attribute
-# closed-loop transfer functions bounded only when asked (robrst.core.rst.closed_loop names):
-# B S / Delta (input disturbance -> y, µm/V) and B T / Delta (reference -> y)
-EXTRA_PEAK_SPECS = {"Sd": "Msd_max", "Tr": "Mry_max"}
 DEFAULT_DAMPING_CAP = 0.1       # default closed-loop damping floor: at most this ...
 DEFAULT_DAMPING_SHARE = 0.9     # ... and at most this share of the plant's least damping
 DEFAULT_OVERSHOOT_WARN_PCT = 20.0   # reference-step overshoot that earns a warning
@@ -60,6 +60,23 @@ def plant_damping(family: PlantFamily) -> float:
         if np.any(cplx):
             out = min(out, float(np.min(-p.real[cplx] / w[cplx])))
     return out
+
+
+@dataclass(frozen=True)
+class DampingFloor:
+    """The closed-loop damping floor of a problem, resolved once
+    (:attr:`Problem.damping_floor`, from :meth:`Specs.damping_floor`).
+
+    Parameters
+    ----------
+    value : float or None
+        The floor (``None``: no floor).
+    source : {"specs", "default"}
+        Given by ``damping_min``, or the default on the family's own damping.
+    """
+
+    value: float | None
+    source: str
 
 
 @dataclass(frozen=True)
@@ -250,6 +267,11 @@ class Specs:
     Mry_max : float, optional
         Bound on the reference-to-output ``|B T / Delta|`` (``Mt_max`` keeps bounding
         ``|B R / Delta|``).
+    Msd_rel_max : float, optional
+        Bound on the input-disturbance peak ``|B S / Delta|`` relative to the same
+        model's open-loop peak ``|B / A|`` (in the sampled loop: its zero-order-hold
+        plant's own peak); 1: the controller never amplifies input disturbances beyond
+        what the bare actuator does.
     damping_min : float, optional
         Least damping of every closed-loop pole of every model (the sampled loop's poles
         mapped back to s by ``fs ln z``), as MATLAB's ``TuningGoal.Poles``.  ``None``: the
@@ -286,6 +308,7 @@ class Specs:
     step_u_max_V: float = None
     Msd_max: float = None
     Mry_max: float = None
+    Msd_rel_max: float = None
     damping_min: float = None
     decay_min: float = None
     controller_damping_min: float = None
@@ -344,14 +367,30 @@ class Specs:
         """
         return getattr(self, EXTRA_PEAK_SPECS[name])
 
+    def relative_peak_bound(self, name: str) -> float | None:
+        """Bound on the peak of ``name`` relative to the model's open-loop peak
+        (``Msd_rel_max`` for ``Sd``).
+
+        Parameters
+        ----------
+        name : {"Sd"}
+            The closed-loop transfer function.
+
+        Returns
+        -------
+        float or None
+        """
+        key = RELATIVE_PEAK_SPECS.get(name)
+        return None if key is None else getattr(self, key)
+
     @property
     def bounded(self):
         """True when any bound is given (a peak, a band, a time-domain or a pole-region spec):
-        what makes the robust program the default method."""
-        keys = ("Ms_max", "Mt_max", "Mu_max", "T_resonance_max", "Mu_hf_max", "Msd_max",
-                "Mry_max", "decay_min", "controller_damping_min")
-        return (any(getattr(self, k) is not None for k in keys) or self.time_domain
-                or bool(self.damping_min))
+        what makes the robust program the default method (every bound of
+        :data:`robrst.problem.specs.SPEC_TABLE`; a damping floor of 0 is none)."""
+        return any(bool(self.damping_min) if s.key == "damping_min"
+                   else getattr(self, s.key) is not None
+                   for s in bound_specs(loop_figures=False))
 
     @property
     def time_domain(self):
@@ -438,8 +477,13 @@ class SolverOptions:
         answer (off inside sweeps).
     starts : int
         How many starts beyond the one asked for.
-    method_source : {"given", "default", "command line"}
-        Who chose ``method`` (see :attr:`method_reason`).
+    method_source : {"given", "default", "command line", "infeasible"}
+        Who chose ``method`` (see :attr:`method_reason`; ``"infeasible"``: the pipeline,
+        after a proof that no linear controller meets the specs).
+    bound : bool
+        State the estimate of what any linear controller could reach on the family
+        (:mod:`robrst.synthesis.bound`) beside a certified design (a design that is not
+        certified always gets it, with the feasibility verdict).
     """
 
     method: str = "analytic"
@@ -461,6 +505,7 @@ class SolverOptions:
     multistart: bool = True
     starts: int = 2
     method_source: str = "given"
+    bound: bool = True
 
     @property
     def method_reason(self):
@@ -470,6 +515,9 @@ class SolverOptions:
                     " whenever [specs] bounds anything, the analytic design otherwise)")
         if self.method_source == "command line":
             return f"{self.method}: as the command line asks (--method)"
+        if self.method_source == "infeasible":
+            return (f"{self.method}: the specs are provably infeasible"
+                    " (robrst.synthesis.feasibility), the synthesis is skipped")
         return f"{self.method}: as the problem asks ([solver] method)"
 
 
@@ -507,6 +555,8 @@ class Problem:
 
     Attributes
     ----------
+    damping_floor : DampingFloor
+        The closed-loop damping floor on ``family``, resolved once.
     families : tuple of PlantFamily
         ``(family, *scenarios)``: every actuator the synthesis holds on.
     needs_scipy : bool
@@ -523,7 +573,7 @@ class Problem:
     """
 
     name: str
-    family: object
+    family: PlantFamily
     poles: PoleSpec = field(default_factory=PoleSpec)
     controller: ControllerStructure = field(default_factory=ControllerStructure)
     specs: Specs = field(default_factory=Specs)
@@ -531,8 +581,14 @@ class Problem:
     path: str = "<python>"
     description: str = ""
     plant_name: str = None
-    spread: object = None
+    spread: Spread | None = None
     scenarios: tuple = ()
+
+    @cached_property
+    def damping_floor(self) -> DampingFloor:
+        """The closed-loop damping floor on this problem's family, resolved once
+        (:meth:`Specs.damping_floor`)."""
+        return DampingFloor(*self.specs.damping_floor(self.family))
 
     @property
     def families(self):

@@ -24,6 +24,7 @@ The one owner of what a sweep file's ``[[param]]`` tables and a problem file's
 
 from __future__ import annotations
 
+import math
 import os
 import re
 from collections.abc import Sequence
@@ -32,6 +33,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from robrst.base.errors import SpecError
+from robrst.base.schema import key_error
 from robrst.core.family import PlantFamily, explicit_family, parametric_family
 from robrst.core.plant import Plant
 from robrst.core.thermal import modal_form, thermal_polynomials
@@ -39,7 +41,7 @@ from robrst.core.thermal import modal_form, thermal_polynomials
 __all__ = ["Param", "Ageing", "Spread", "DISTS", "RANDOM_DISTS", "DIST_KEYS", "PLANT_PARAMS",
            "THERMAL_KEYS", "COEF", "DRAW_BLOCK", "SPREAD_METHODS", "draw", "draw_rows",
            "transform_plant", "transform_family", "actuator_family", "check_plant_params",
-           "split_plant_values"]
+           "split_plant_values", "check_truncation", "MIN_TRUNCATED_MASS"]
 
 DISTS = ("normal", "uniform", "lognormal", "grid")
 RANDOM_DISTS = DISTS[:3]
@@ -495,3 +497,54 @@ class Spread:
         k = len(box)
         grid = np.array([[box[j][(i >> j) & 1] for j in range(k)] for i in range(2 ** k)])
         return np.vstack([np.clip(centre, [b[0] for b in box], [b[1] for b in box]), grid])
+
+
+MIN_TRUNCATED_MASS = 1e-9   # a truncated normal keeps at least this share of its probability
+
+
+def check_truncation(path: str, key: tuple, dist: str, p: dict) -> None:
+    """Refuse a truncation ``[lo, hi]`` that holds (almost) none of the distribution's
+    probability: every draw would land on an end (drawn by the inverse CDF, whose
+    resolution is that of ``CDF(hi) - CDF(lo)`` in double precision).
+
+    Parameters
+    ----------
+    path : str
+        The file (named in the error).
+    key : tuple of str
+        The parameter's table (``("spread", "param", "0")``).
+    dist : {"normal", "lognormal"}
+        The distribution.
+    p : dict
+        The table: ``mean, std`` or ``median, sigma``, and ``lo``, ``hi`` (``None``: open).
+
+    Raises
+    ------
+    SpecError
+        Naming the file and the table: the truncation holds less than
+        ``MIN_TRUNCATED_MASS`` of the probability.
+    """
+    from scipy.special import ndtr
+
+    if dist == "normal":
+        loc, scale, tr, what = p["mean"], p["std"], (lambda x: x), (
+            f"normal (mean {p['mean']:g}, std {p['std']:g})")
+    else:
+        loc, scale, tr, what = math.log(p["median"]), p["sigma"], math.log, (
+            f"lognormal (median {p['median']:g}, sigma {p['sigma']:g})")
+    za = -math.inf if p["lo"] is None else (tr(p["lo"]) - loc) / scale
+    zb = math.inf if p["hi"] is None else (tr(p["hi"]) - loc) / scale
+    drawn = float(ndtr(zb)) - float(ndtr(za))         # what the inverse-CDF draw resolves
+    if not drawn > MIN_TRUNCATED_MASS:
+        mass = float(ndtr(-za) - ndtr(-zb)) if za > 0 else float(ndtr(zb) - ndtr(za))
+        where = (f"lo is {za:.3g} std above" if za > 0 else f"hi is {-zb:.3g} std below")
+        if dist == "lognormal":
+            where = where.replace("std", "sigma (in log)")
+        rng = f"[{'-inf' if p['lo'] is None else format(p['lo'], 'g')}, " \
+              f"{'inf' if p['hi'] is None else format(p['hi'], 'g')}]"
+        raise key_error(path, key, f"the {what} has probability {mass:.3g} in {rng}"
+                        f" ({where} the {'mean' if dist == 'normal' else 'median'}): every"
+                        f" draw (variant, actuator) would get the same end value; widen lo, hi"
+                        f" or move the"
+                        f" {'mean' if dist == 'normal' else 'median'} into them (at least"
+                        f" {MIN_TRUNCATED_MASS:g} of the probability)")

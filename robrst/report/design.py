@@ -16,6 +16,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from robrst.design import DesignResult
+from robrst.design.contract import design_json
 from robrst.studies.design_curves import DesignCurves, design_curves
 from robrst.base.fileio import json_text
 from robrst.report import design_figures as figs
@@ -33,13 +34,15 @@ def _f(x, spec=".3f"):
     return format(x, spec)
 
 
-def _margins_rows(d):
+def _margins_rows(result):
     rows = []
-    for m in d["models"]:
-        dm = None if m["delay_margin_s"] is None else m["delay_margin_s"] * 1e6
-        rows.append((m["label"], _f(m["temperature_C"], ".1f"), "yes" if m["stable"] else "NO",
-                     _f(m["Ms"]), _f(m["Mt"]), _f(m["Mu"], ".1f"), _f(m["gain_margin"], ".2f"),
-                     _f(m["phase_margin_deg"], ".1f"), _f(m["modulus_margin"]), _f(dm, ".1f")))
+    for a in result.analyses:
+        m, pk = a.margins, a.peaks
+        dm = None if m.delay_margin_s is None else m.delay_margin_s * 1e6
+        rows.append((a.label, _f(a.temperature_C, ".1f"), "yes" if a.stable else "NO",
+                     _f(pk["S"].value), _f(pk["T"].value), _f(pk["U"].value, ".1f"),
+                     _f(m.gain_margin, ".2f"), _f(m.phase_margin_deg, ".1f"),
+                     _f(m.modulus_margin), _f(dm, ".1f")))
     return rows
 
 
@@ -57,41 +60,41 @@ def design_doc(result: DesignResult, twin: bool = False) -> Doc:
     -------
     Doc
     """
-    d = result.as_dict()
-    cert = d["certificate"]
-    specs = d["specs"]
-    worst = {k: result.certificate.worst_model(k) for k in ("Ms", "Mt", "Mu")}
-    c = d["controller"]
+    p, cert, specs = result.problem, result.certificate, result.problem.specs
+    worst = {k: cert.worst_model(k) for k in ("Ms", "Mt", "Mu")}
+    c = result.controller
+    sampled = sampled_summary(result)
     blocks = [
-        ("p", f"Problem `{d['problem']}`, method **{d['method']}**, certified:"
-              f" **{str(d['certified']).lower()}**."
-              f" Specs: Ms ≤ {specs['Ms_max']}, Mt ≤ {specs['Mt_max']}, Mu ≤ {specs['Mu_max']} V/µm."),
-        ("pre", "\n".join(f"{k}(s) = " + " ".join(f"{v:.6g}" for v in c[k]) for k in "RST")),
+        ("p", f"Problem `{p.name}`, method **{result.method}**, certified:"
+              f" **{str(bool(result.certified)).lower()}**."
+              f" Specs: Ms ≤ {specs.Ms_max}, Mt ≤ {specs.Mt_max}, Mu ≤ {specs.Mu_max} V/µm."),
+        ("pre", "\n".join(f"{k}(s) = " + " ".join(f"{v:.6g}" for v in getattr(c, k))
+                          for k in "RST")),
         ("h2", "Margins per temperature"),
         ("table", ("model", "T [°C]", "stable", "Ms", "Mt", "Mu [V/µm]", "GM", "PM [°]", "MM",
-                   "DM [µs]"), tuple(_margins_rows(d))),
+                   "DM [µs]"), tuple(_margins_rows(result))),
         ("h2", "Certificate"),
-        ("p", f"{len(cert['models'])} models checked (family and a dense temperature sweep) with"
-              f" exact peaks (relative tolerance {cert['rtol']:g}); {len(cert['violations'])}"
+        ("p", f"{len(cert.models)} models checked (family and a dense temperature sweep) with"
+              f" exact peaks (relative tolerance {cert.rtol:g}); {len(cert.violations)}"
               " violations. Worst cases: "
               + "; ".join(f"{k} = {worst[k].value(k):.4g} at {worst[k].temperature_C:.1f} °C"
                           for k in worst)
               + f"; largest closed-loop spectral abscissa"
-                f" {result.certificate.worst('spectral_abscissa'):.4g} rad/s."
-              + (f" Sampled loop, same models: {sampled_summary(d).split(': ', 1)[1]}."
-                 if sampled_summary(d) else "")),
+                f" {cert.worst('spectral_abscissa'):.4g} rad/s."
+              + (f" Sampled loop, same models: {sampled.split(': ', 1)[1]}."
+                 if sampled else "")),
     ]
-    if cert["violations"]:
+    if cert.violations:
         blocks.append(("table", ("model", "quantity", "value", "bound", "ω [rad/s]"),
-                       tuple((v["label"], v["quantity"], _f(v["value"], ".4g"), _f(v["bound"], ".4g"),
-                              _f(v["freq_rad_s"], ".4g")) for v in cert["violations"][:20])))
-    if d.get("analytic_check"):
-        ac = d["analytic_check"]
+                       tuple((v.label, v.quantity, _f(v.value, ".4g"), _f(v.bound, ".4g"),
+                              _f(v.freq_rad_s, ".4g")) for v in cert.violations[:20])))
+    if result.analytic_check is not None:
+        ac = result.analytic_check
         blocks.append(("p", f"Analytic check: max relative coefficient error"
-                            f" {ac['max_rel_coef_error']:.2e} → {'passed' if ac['passed'] else 'FAILED'}."))
-    if d.get("comparison"):
+                            f" {ac.max_rel_coef_error:.2e} → {'passed' if ac.passed else 'FAILED'}."))
+    if result.comparison is not None:
         blocks += [("h2", "Analytic pole placement vs this design (worst case over the family)"),
-                   ("pre", d["comparison"]["table"])]
+                   ("pre", result.comparison.table)]
     blocks += [
         ("h2", "Figures"),
         ("img", "bode.png", "Bode magnitude of S, T and U per temperature; dashed: spec bounds;"
@@ -103,7 +106,7 @@ def design_doc(result: DesignResult, twin: bool = False) -> Doc:
                                                     " controller, every effect on, 10 µm step / 10)"
                                                     if twin else "")),
     ]
-    return Doc(title=f"robrst design report: {d['problem']}", blocks=tuple(blocks))
+    return Doc(title=f"robrst design report: {p.name}", blocks=tuple(blocks))
 
 
 def write_design_report(result: DesignResult, out_dir: str | os.PathLike,
@@ -161,5 +164,5 @@ def write_design_report(result: DesignResult, out_dir: str | os.PathLike,
         say("drawing step.png")
         figs.step_figure(result, curves, tmp / "step.png")
 
-    text = json_text(result.as_dict(), indent=1) + "\n"
+    text = json_text(design_json(result), indent=1) + "\n"
     return write_folder(out_dir, doc, {"result.json": text}, draw, force=force)

@@ -15,6 +15,7 @@ import numpy as np
 
 from robrst.report.figure import colors as _colors
 from robrst.report.figure import drawing
+from robrst.problem.specs import PEAK_SPECS, spec
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -48,8 +49,8 @@ def bode_figure(result: DesignResult, curves: DesignCurves, path: str | Path) ->
 def _bode(result, curves, axes):
     specs = result.problem.specs
     cols = _colors(len(curves.models))
-    for (name, key, unit), ax in zip((("S", "Ms_max", "-"), ("T", "Mt_max", "-"),
-                                      ("U", "Mu_max", "V/µm")), axes):
+    for (name, key), ax in zip(PEAK_SPECS.items(), axes):     # robrst.problem.specs
+        unit = spec(key).unit or "-"
         for mc, a, c in zip(curves.models, result.analyses, cols):
             ax.semilogx(curves.freq_hz, _db(getattr(mc, name)), color=c, lw=1.2,
                         label=f"{mc.temperature_C:g} °C")

@@ -13,10 +13,8 @@ from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy import signal
-
 from robrst.base.fileio import json_text
-from robrst.identify.identification import simulate_record
+from robrst.identify.curves import IdentificationCurves, identification_curves
 from robrst.report.doc import Doc, write_folder
 from robrst.report.figure import drawing
 
@@ -30,29 +28,9 @@ __all__ = ["write_identification_report", "identification_doc", "FIGURES"]
 FIGURES = ("frf.png", "orders.png", "output.png")
 
 
-def _h1(records, fs):
-    n = min(d.n for d in records)
-    nper = int(min(4096, 2 ** int(np.log2(max(n // 4, 64)))))
-    Suu = Suy = 0.0
-    for d in records:
-        U, Y = d.U - d.U.mean(axis=0), d.Y - d.Y.mean(axis=0)
-        f, a = signal.csd(U[:, :, None], U[:, None, :], fs=fs, nperseg=nper, axis=0)
-        _, b = signal.csd(U[:, :, None], Y[:, None, :], fs=fs, nperseg=nper, axis=0)
-        Suu, Suy = Suu + a, Suy + b
-    H = np.full((f.size, Suy.shape[2], Suy.shape[1]), np.nan, complex)
-    for i in range(1, f.size):
-        try:
-            H[i] = np.linalg.solve(Suu[i].T, Suy[i]).T
-        except np.linalg.LinAlgError:
-            pass
-    return f, H
-
-
-def _frf_fig(ident, records, path):
+def _frf_fig(ident, curves, path):
     m = ident.models[0]
-    f, H = _h1(records, ident.fs)
-    fm = np.geomspace(max(f[1], 1e-3), ident.fs / 2, 600)
-    G = m.freqresp(2 * np.pi * fm)
+    f, H, fm, G = curves.f_h1, curves.h1, curves.f_model, curves.model
     size = (3.2 * m.n_in + 1, 2.4 * m.n_out + 1)
     with drawing(path, size, m.n_out, m.n_in, squeeze=False) as (fig, axes):
         for i in range(m.n_out):
@@ -84,17 +62,14 @@ def _orders_fig(ident, path):
         ax.legend(fontsize=8)
 
 
-def _output_fig(ident, records, path):
-    d = records[-1]
-    dm = ident.models[0].discretise(ident.fs)
-    Yh = simulate_record(dm, d, free=True)     # with the record's offset and initial state
-    n = d.period or min(d.n, 4000)
+def _output_fig(curves, path):
     with drawing(path, (10, 3.8)) as (fig, ax):
-        ax.plot(d.t[:n], d.Y[:n, 0], color="k", lw=1, label="measured (output 1)")
-        ax.plot(d.t[:n], Yh[:n, 0], color="tab:blue", lw=1, ls="--", label="identified model")
+        ax.plot(curves.t, curves.measured, color="k", lw=1, label="measured (output 1)")
+        ax.plot(curves.t, curves.simulated, color="tab:blue", lw=1, ls="--",
+                label="identified model")
         ax.set_xlabel("time t [s]")
         ax.set_ylabel("y [µm]")
-        ax.set_title(f"measured vs simulated: {d.source or 'record'}")
+        ax.set_title(f"measured vs simulated: {curves.source}")
         ax.legend(fontsize=8)
 
 
@@ -131,7 +106,8 @@ def identification_doc(ident: Identified) -> Doc:
 
 def write_identification_report(ident: Identified, records: Sequence[Dataset],
                                 out_dir: str | Path,
-                                progress: Callable[[str], None] | None = None) -> Path:
+                                progress: Callable[[str], None] | None = None,
+                                curves: IdentificationCurves | None = None) -> Path:
     """Write the identification report folder; returns its path.
 
     Parameters
@@ -144,6 +120,9 @@ def write_identification_report(ident: Identified, records: Sequence[Dataset],
         A new folder or an earlier robrst report.
     progress : callable, optional
         Called with one line of text per stage.
+    curves : IdentificationCurves, optional
+        The curves to draw (:func:`robrst.identify.curves.identification_curves`; computed
+        when not given).
 
     Returns
     -------
@@ -155,12 +134,14 @@ def write_identification_report(ident: Identified, records: Sequence[Dataset],
         A folder robrst did not write, or one the system refuses.
     """
     say = progress or (lambda m: None)
+    if curves is None:
+        curves = identification_curves(ident, records)
 
     def draw(tmp):
         say("drawing the identification figures")
-        _frf_fig(ident, records, tmp / "frf.png")
+        _frf_fig(ident, curves, tmp / "frf.png")
         _orders_fig(ident, tmp / "orders.png")
-        _output_fig(ident, records, tmp / "output.png")
+        _output_fig(curves, tmp / "output.png")
 
     text = json_text(ident.as_dict(), indent=1) + "\n"
     return write_folder(out_dir, identification_doc(ident), {"identified.json": text}, draw)

@@ -7,6 +7,8 @@ from __future__ import annotations
 import json
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from robrst.data.dataset import save_dataset
 from robrst.base.fileio import jsonable
 from robrst.report.doc import Doc, write_folder
@@ -16,7 +18,9 @@ if TYPE_CHECKING:
     from pathlib import Path
     from robrst.studies.scenarios import ScenarioResult
 
-__all__ = ["write_scenario"]
+__all__ = ["write_scenario", "DRAWABLE"]
+
+DRAWABLE = 1e300     # matplotlib's tick locator overflows on spans near the largest float
 
 
 def write_scenario(res: ScenarioResult, out_dir: str | Path, force: bool = False) -> Path:
@@ -44,8 +48,9 @@ def write_scenario(res: ScenarioResult, out_dir: str | Path, force: bool = False
     """
     figure = f"{res.name}.png"
     metrics = json.dumps(jsonable(res.metrics), indent=2, allow_nan=False)
+    notes = tuple(("p", f"**Warning:** {n}") for n in res.notes)
     doc = Doc(title=f"Simulation {res.name}", blocks=(
-        ("p", res.claim), ("img", figure, f"{res.name}: {res.claim}"),
+        ("p", res.claim), *notes, ("img", figure, f"{res.name}: {res.claim}"),
         ("h2", "Metrics"), ("pre", metrics),
         ("p", "Datasets: " + ", ".join(sorted(f"{k}.csv" for k in res.datasets)) + ".")))
 
@@ -54,7 +59,10 @@ def write_scenario(res: ScenarioResult, out_dir: str | Path, force: bool = False
             save_dataset(d, tmp / f"{k}.csv")
         with drawing(tmp / figure, (8, 5), dpi=110, tight=False) as (fig, ax):
             for label, (x, y, xl, yl) in res.curves.items():
-                ax.plot(x, y, label=label, lw=1)
+                x, y = np.asarray(x, float), np.asarray(y, float)
+                with np.errstate(invalid="ignore"):     # what is finite (and drawable)
+                    ok = np.isfinite(x) & (np.abs(y) <= DRAWABLE)
+                ax.plot(np.where(ok, x, np.nan), np.where(ok, y, np.nan), label=label, lw=1)
                 ax.set_xlabel(xl)
                 ax.set_ylabel(yl)
             ax.set_title(f"{res.name}: {res.claim}", fontsize=10)

@@ -10,36 +10,26 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
-import pyarrow as pa
 
-from robrst.core.analysis import sensitivity
 from robrst.report.figure import colors, drawing
-from robrst.studies.sweep.evaluate import problem_of
-from robrst.studies.sweep.summary import front_values, pareto_front, worst_rows
-from robrst.core.rst import RSTController
+from robrst.studies.sweep.curves import ok_rows
+from robrst.studies.sweep.summary import front_values, pareto_front
+from robrst.problem.specs import PEAK_SPECS, spec_columns
 
 if TYPE_CHECKING:
     from pathlib import Path
+    from robrst.studies.sweep.curves import WorstCaseCurves
     from robrst.studies.sweep.engine import SweepResult
 
 __all__ = ["histograms_figure", "sensitivity_figure", "front_figure", "fleet_figure",
-           "worst_bode_figure", "worst_ok_row", "HIST"]
+           "worst_bode_figure", "HIST"]
 
-# figure column -> (axis label, scale, spec bound attribute)
-HIST = (("Ms", "worst |S| peak Ms [-]", 1.0, "Ms_max"),
-        ("Mt", "worst |T| peak Mt [-]", 1.0, "Mt_max"),
-        ("Mu", "worst |U| peak Mu [V/µm]", 1.0, "Mu_max"),
-        ("Mt_band", "worst |T| in the resonance band [-]", 1.0, "T_resonance_max"),
+# figure column -> (axis label, scale, spec bound attribute); the spec columns from the table
+HIST = (*((row.column, row.column_label, 1.0, row.key) for row in spec_columns()),
         ("gain_margin", "smallest gain margin [-]", 1.0, None),
         ("phase_margin_deg", "smallest phase margin [°]", 1.0, None),
         ("delay_margin_s", "smallest delay margin [µs]", 1e6, None),
         ("worst_ratio", "worst figure / bound [-]", 1.0, None))
-_F = np.logspace(0, 4.7, 1200)   # 1 Hz .. 50 kHz
-
-
-def _ok(table):
-    keep = [i for i, s in enumerate(table.column("status").to_pylist()) if s == "ok"]
-    return table.take(pa.array(keep, type=pa.int64()))   # typed: an empty list has no type
 
 
 def _values(table, name, scale=1.0):
@@ -57,10 +47,16 @@ def histograms_figure(result: SweepResult, path: str | Path) -> None:
     path : str or pathlib.Path
         The PNG file.
     """
-    t = _ok(result.table)
+    t = ok_rows(result.table)
     specs = result.context.base.specs
-    with drawing(path, (13, 6.5), 2, 4) as (fig, axes):
-        for ax, (name, label, scale, bound) in zip(axes.ravel(), HIST):
+    # the columns of the specs only this sweep's problem bounds (robrst.problem.specs) join
+    panels = HIST + tuple((row.column, row.column_label, 1.0, row.key)
+                          for row in spec_columns(specs) if not row.always_column)
+    cols = (len(panels) + 1) // 2
+    with drawing(path, (13 * cols / 4, 6.5), 2, cols) as (fig, axes):
+        for ax in axes.ravel()[len(panels):]:
+            ax.set_visible(False)
+        for ax, (name, label, scale, bound) in zip(axes.ravel(), panels):
             b = getattr(specs, bound) if bound else (1.0 if name == "worst_ratio" else None)
             v = _values(t, name, scale)
             n_inf = int(np.sum(np.isinf(v)))
@@ -109,7 +105,7 @@ def sensitivity_figure(result: SweepResult, path: str | Path) -> None:
     path : str or pathlib.Path
         The PNG file.
     """
-    t = _ok(result.table)
+    t = ok_rows(result.table)
     names = list(result.context.names)[:8]
     ncols = min(4, max(1, len(names)))
     nrows = max(1, -(-len(names) // ncols))
@@ -138,7 +134,7 @@ def front_figure(result: SweepResult, path: str | Path) -> None:
     path : str or pathlib.Path
         The PNG file.
     """
-    t = _ok(result.table)
+    t = ok_rows(result.table)
     x_name, y_name = result.sweep.front
     names = list(result.context.names)
     cert = np.array(t.column("certified").to_pylist(), bool)
@@ -208,53 +204,24 @@ def fleet_figure(result: SweepResult, path: str | Path) -> None:
         a2.set_xticks(pos, files, rotation=30, ha="right", fontsize=8)
 
 
-def worst_ok_row(result: SweepResult) -> dict | None:
-    """The worst variant evaluated without error (a dict), or ``None``.
-
-    Parameters
-    ----------
-    result : SweepResult
-        The sweep.
-
-    Returns
-    -------
-    dict or None
-        Its row of ``results.parquet``.
-    """
-    t = _ok(result.table)
-    rows = worst_rows(t, 1)
-    return t.slice(rows[0], 1).to_pylist()[0] if rows else None
-
-
-def worst_bode_figure(result: SweepResult, path: str | Path) -> None:
+def worst_bode_figure(curves: WorstCaseCurves, path: str | Path) -> None:
     """``|S|, |T|, |U|`` of the worst variant per temperature; thin grey: the base family.
 
     Parameters
     ----------
-    result : SweepResult
-        The sweep.
+    curves : WorstCaseCurves
+        The worst variant's responses (:func:`robrst.studies.sweep.curves.worst_case_curves`).
     path : str or pathlib.Path
         The PNG file.
     """
-    row = worst_ok_row(result)
-    ctx = result.context
-    values = {k: row[k] for k in ctx.names}
-    problem = problem_of(ctx, row["index"], values)
-    if ctx.controller is not None:
-        ctrl = ctx.controller
-    else:
-        ctrl = RSTController(row["R"], row["S"], row["T"])
-    base = ctx.base.family.models if ctx.base is not None and ctx.sweep.kind == "analysis" else ()
-    sp = problem.specs
-    fam = problem.family.models
+    sp, f = curves.specs, curves.freq_hz
     with drawing(path, (8, 9), 3, 1, sharex=True) as (fig, axes):
-        for (name, key), ax in zip((("S", "Ms_max"), ("T", "Mt_max"), ("U", "Mu_max")), axes):
-            for m in base:
-                ax.semilogx(_F, _db(sensitivity(m, ctrl, name, 2 * np.pi * _F)), color="0.7",
-                            lw=0.8)
-            for m, c in zip(fam, colors(len(fam))):
-                ax.semilogx(_F, _db(sensitivity(m, ctrl, name, 2 * np.pi * _F)), color=c,
-                            lw=1.2, label=f"{m.temperature_C:g} °C")
+        for k, ((name, key), ax) in enumerate(zip(PEAK_SPECS.items(), axes)):
+            for mc in curves.base:
+                ax.semilogx(f, _db(mc.responses[k]), color="0.7", lw=0.8)
+            for mc, c in zip(curves.models, colors(len(curves.models))):
+                ax.semilogx(f, _db(mc.responses[k]), color=c, lw=1.2,
+                            label=f"{mc.temperature_C:g} °C")
             b = getattr(sp, key)
             if b is not None:
                 ax.axhline(_db(b), color="k", ls="--", lw=1, label=f"{key} = {b:g}")
@@ -265,9 +232,9 @@ def worst_bode_figure(result: SweepResult, path: str | Path) -> None:
         axes[0].legend(fontsize=7, ncol=4, loc="lower right")
         axes[1].legend(fontsize=7, loc="lower left")
         axes[-1].set_xlabel("frequency f [Hz] (log)")
-        what = f"file {row['file']}" if "file" in row else f"variant {row['index']}"
-        axes[0].set_title(f"worst case: {what}, worst figure/bound {row['worst_ratio']:.4g}"
-                          + (" (grey: nominal family)" if base else ""), fontsize=9)
+        axes[0].set_title(f"worst case: {curves.what}, worst figure/bound"
+                          f" {curves.worst_ratio:.4g}"
+                          + (" (grey: nominal family)" if curves.base else ""), fontsize=9)
 
 
 def _db(x):

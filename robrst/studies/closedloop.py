@@ -19,6 +19,7 @@ import re
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -32,6 +33,10 @@ __all__ = ["LoopController", "controller_of_design", "controller_of_c_file",
            "run_closed_loop", "PRECISIONS"]
 
 PRECISIONS = {"float64": ("double", np.float64), "float32": ("float", np.float32)}
+
+if TYPE_CHECKING:
+    from robrst.controller.export import ExportedController
+
 
 
 @dataclass(frozen=True, eq=False)
@@ -67,7 +72,7 @@ class LoopController:
     sample_rate_hz: float
     delay_samples: int
     py_step: Callable = None
-    exported: object = None
+    exported: ExportedController | None = None
     source: str = ""
     meta: dict = field(default_factory=dict)
 

@@ -22,11 +22,11 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
-import numpy as np
 
 from robrst.certificate.proof import certify_problem
-from robrst.design import DesignResult, run_problem, with_time_domain
-from robrst.synthesis.parametrize import integral_gain
+from robrst.certificate.completion import with_time_domain
+from robrst.design import DesignResult, run_problem
+from robrst.synthesis.objective import objective
 
 if TYPE_CHECKING:
     from robrst.problem.records import Problem
@@ -55,18 +55,6 @@ class ScanPoint:
     result: DesignResult
     objective: float
     source: str
-
-
-def _objective(problem, ctrl, cert):
-    if not cert.certified:
-        return None
-    obj = problem.solver.objective
-    if obj == "max_integral_gain":
-        ki = integral_gain(ctrl)
-        return abs(ki) if np.isfinite(ki) else None
-    if obj == "min_Ms":
-        return -cert.worst("Ms")
-    return 0.0
 
 
 def _on(problem, result):
@@ -106,10 +94,10 @@ def bound_scan(problem: Problem, key: str, values: Sequence[float],
     points = []
     for i, (v, p) in enumerate(zip(vals, probs)):      # tight -> loose
         res = run_problem(p, analyses=False, multistart=multistart)
-        best = ScanPoint(v, res, _objective(p, res.controller, res.certificate), "designed")
+        best = ScanPoint(v, res, objective(p, res.controller, res.certificate), "designed")
         if points and points[-1].objective is not None:
             prev = _on(p, points[-1].result)
-            obj = _objective(p, prev.controller, prev.certificate)
+            obj = objective(p, prev.controller, prev.certificate)
             if obj is not None and (best.objective is None or obj > best.objective):
                 best = ScanPoint(v, prev, obj, f"{key} = {points[-1].value:g}")
         say(f"scan {key} = {v:g}: objective {best.objective} ({best.source})")
@@ -120,7 +108,7 @@ def bound_scan(problem: Problem, key: str, values: Sequence[float],
                                                and points[j].objective <= points[i].objective):
                 continue
             cand = _on(probs[i], points[j].result)
-            obj = _objective(probs[i], cand.controller, cand.certificate)
+            obj = objective(probs[i], cand.controller, cand.certificate)
             if obj is not None and (points[i].objective is None or obj > points[i].objective):
                 points[i] = ScanPoint(vals[i], cand, obj, points[j].source if
                                       points[j].source != "designed" else

@@ -9,7 +9,7 @@ decimated for the slow thermal experiments) and the curves of its figure
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -28,7 +28,7 @@ if TYPE_CHECKING:
     from robrst.twin.config import TwinConfig
 
 __all__ = ["SCENARIOS", "ScenarioResult", "run_scenario", "controllers", "twin_step_responses",
-           "loop_width"]
+           "loop_width", "divergence_notes", "DIVERGED_UM"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -47,6 +47,9 @@ class ScenarioResult:
         Name -> :class:`~robrst.data.dataset.Dataset` of the simulated records.
     curves : dict
         Name -> ``(x, y, xlabel, ylabel)`` for the figure.
+    notes : tuple of str
+        What the numbers do not say by themselves (an output that diverges:
+        :func:`divergence_notes`).
     """
 
     name: str
@@ -54,6 +57,38 @@ class ScenarioResult:
     metrics: dict
     datasets: dict = field(default_factory=dict)   # name -> Dataset
     curves: dict = field(default_factory=dict)     # name -> (x, y, xlabel, ylabel) for the figure
+    notes: tuple = ()
+
+
+DIVERGED_UM = 1e6     # an output beyond a metre is no stage's: the simulation diverged
+
+
+def divergence_notes(datasets: dict) -> tuple[str, ...]:
+    """One line per dataset whose output diverges: not finite, or beyond ``DIVERGED_UM``.
+
+    Parameters
+    ----------
+    datasets : dict
+        Name -> :class:`~robrst.data.dataset.Dataset`.
+
+    Returns
+    -------
+    tuple of str
+        When it leaves the range and why it may (an unstable open loop, a closed loop that
+        is not stable); empty when every output stays finite and in range.
+    """
+    out = []
+    for name, d in datasets.items():
+        y = np.asarray(d.y, float).reshape(len(d.t), -1)
+        with np.errstate(invalid="ignore"):
+            bad = ~(np.abs(y) <= DIVERGED_UM).all(axis=1)
+        if bad.any():
+            i = int(np.argmax(bad))
+            out.append(f"{name}: the output diverges (|y| beyond {DIVERGED_UM:g} µm, or not"
+                       f" finite, from t = {float(d.t[i]):.4g} s on): the twin's plant is"
+                       " unstable in open loop, or the closed loop is not stable; the metrics"
+                       " that need it are not numbers and the figure draws the finite part")
+    return tuple(out)
 
 
 def _ds(r, step=1, label=""):
@@ -81,15 +116,17 @@ def fig2(cfg, ctrls, fast=False):
         drift = r.y_true - y0
         n_up = int(np.argmax(T))
         q = max(1, n_up // 5)
-        early = (drift[q] - drift[0]) / (T[q] - T[0])
-        late = (drift[n_up] - drift[n_up - q]) / (T[n_up] - T[n_up - q])
+        with np.errstate(invalid="ignore", over="ignore"):    # a diverging output: nan
+            early = (drift[q] - drift[0]) / (T[q] - T[0])
+            late = (drift[n_up] - drift[n_up - q]) / (T[n_up] - T[n_up - q])
         # hysteresis vs temperature: drift gap between heating and cooling at mid temperature
         Tm = 0.5 * (T.min() + T.max())
         i_up = int(np.argmin(np.abs(T[:n_up] - Tm)))
         i_dn = n_up + int(np.argmin(np.abs(T[n_up:] - Tm)))
-        metrics[f"{V:g}V"] = {"drift_at_max_um": float(drift[n_up]),
-                              "slope_ratio_late_early": float(late / early) if early else None,
-                              "hysteresis_gap_um": float(drift[i_dn] - drift[i_up])}
+        with np.errstate(invalid="ignore", over="ignore"):
+            metrics[f"{V:g}V"] = {"drift_at_max_um": float(drift[n_up]),
+                                  "slope_ratio_late_early": float(late / early) if early else None,
+                                  "hysteresis_gap_um": float(drift[i_dn] - drift[i_up])}
         ds[f"fig2_{V:g}V"] = _ds(r, dec, f"Fig. 2: temperature ramp at {V:g} V")
         curves[f"{V:g} V"] = (r.temp[::dec], drift[::dec], "temperature [°C]", "drift [µm]")
     return ScenarioResult("fig2", "temperature drifts the output until saturation, with"
@@ -286,7 +323,9 @@ def run_scenario(name: str, cfg: TwinConfig, fast: bool = False,
     if name not in SCENARIOS:
         raise SpecError(f"unknown scenario {name!r}; expected one of {', '.join(SCENARIOS)}")
     needs = name in ("fig7", "fig8")
-    return SCENARIOS[name](cfg, (ctrls or controllers()) if needs else None, fast)
+    res = SCENARIOS[name](cfg, (ctrls or controllers()) if needs else None, fast)
+    notes = divergence_notes(res.datasets)
+    return replace(res, notes=res.notes + notes) if notes else res
 
 
 def twin_step_responses(cfg: TwinConfig, ctrl: RSTController, temperatures: Sequence[float],

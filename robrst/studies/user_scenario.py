@@ -50,7 +50,7 @@ import numpy as np
 from robrst.base.errors import SpecError
 from robrst.base.schema import ArrayOf, Field, key_error, load_toml, markdown_rows, validate
 from robrst.data.dataset import Dataset
-from robrst.studies.scenarios import ScenarioResult
+from robrst.studies.scenarios import ScenarioResult, divergence_notes
 from robrst.twin.simulate import simulate
 
 __all__ = ["SCENARIO_SCHEMA", "UserScenario", "load_scenario", "parse_scenario",
@@ -421,4 +421,5 @@ def run_user_scenario(sc: UserScenario, twin: object, controller: object = None,
                  source="twin")
     claim = (f"{'closed loop' if sc.closed_loop else 'open loop'} on twin {twin.name}"
              + (f" with {r.meta['controller']} ({sc.precision})" if sc.closed_loop else ""))
-    return ScenarioResult(sc.name, claim, metrics, {sc.name: ds}, curves)
+    return ScenarioResult(sc.name, claim, metrics, {sc.name: ds}, curves,
+                          notes=divergence_notes({sc.name: ds}))

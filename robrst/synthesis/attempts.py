@@ -15,11 +15,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from robrst.base.interrupt import offer
 from robrst.certificate.proof import actuator_of, certify_families
 from robrst.synthesis.exchange import Phase, solve_exchange
 from robrst.synthesis.nlp import grid_blocks
 from robrst.synthesis.outcome import Round, worst_violation
 from robrst.synthesis.parametrize import integral_gain
+from robrst.synthesis.objective import objective
 from robrst.synthesis.starts import ON_SLOW_POLE, candidates, score
 from robrst.synthesis.polerows import pole_rows, worst_damping_ratio
 from robrst.synthesis.timesamples import (TIME_MARGIN, time_rows, time_specs,
@@ -80,13 +82,13 @@ class Outcome:
         The worst violation's ratio to its bound (0 when certified).
     """
 
-    ctrl: object
-    cert: object
-    res: object
+    ctrl: RSTController
+    cert: Certificate
+    res: SolveResult
     phase: str
     placement: str
     x: np.ndarray
-    setup: object
+    setup: NLPSetup
 
     @property
     def certified(self):
@@ -233,15 +235,10 @@ def objective_value(problem: Problem, out: Outcome) -> float:
     float
         ``|integral gain|``, ``-worst Ms`` or 0 (feasibility).
     """
-    if out is None or not out.certified:
+    if out is None:
         return -np.inf
-    obj = problem.solver.objective
-    if obj == "max_integral_gain":
-        ki = integral_gain(out.ctrl)
-        return abs(ki) if np.isfinite(ki) else -np.inf
-    if obj == "min_Ms":
-        return -out.cert.worst("Ms")
-    return 0.0
+    value = objective(problem, out.ctrl, out.cert)
+    return -np.inf if value is None else value
 
 
 def _key(obj):
@@ -533,8 +530,13 @@ class Run:
         cert = frequency_certificate(ctx.problem, ctrl)
         if res is not None and self.rounds:
             self.rounds[-1] = replace(self.rounds[-1], violations=len(cert.violations))
-        return Outcome(ctrl=ctrl, cert=cert, res=res, phase=phase, placement=setup.placement,
-                       x=np.asarray(x, float), setup=setup)
+        out = Outcome(ctrl=ctrl, cert=cert, res=res, phase=phase, placement=setup.placement,
+                      x=np.asarray(x, float), setup=setup)
+        p = ctx.problem
+        if cert.certified and not p.specs.time_domain and p.spread is None \
+                and p.controller.T_mode != "reference_model":   # the whole certificate
+            offer(objective_value(p, out), (p, ctrl, cert))      # if a signal stops the run
+        return out
 
     def hard(self, ctx: Context, placement: str, x: np.ndarray, name: str) -> Outcome | None:
         """The objective under hard specs from ``x``, certified, refined round by round.

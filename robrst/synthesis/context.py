@@ -16,8 +16,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from robrst.core import poly
+from robrst.core.peaks import peak_gain
 from robrst.core.sampled import warp
-from robrst.synthesis.nlp import NLPSetup, Region, scale_plant
+from robrst.problem.specs import SPEC_TABLE
+from robrst.synthesis.nlp import PEAK_KEYS, NLPSetup, Region, scale_plant
 from robrst.synthesis.parametrize import (Parametrization, TrackingRule, frequency_grid,
                                           integral_gain)
 
@@ -112,7 +114,7 @@ class Context:
         The frequency scale [rad/s].
     """
 
-    problem: object
+    problem: Problem
     param: Parametrization
     tracking: TrackingRule
     nu: np.ndarray             # physical frequency grid [rad/s]
@@ -208,7 +210,7 @@ class Context:
         """
         p = self.problem
         sp = p.specs
-        floor, _ = sp.damping_floor(p.family)
+        floor = p.damping_floor.value
         zeta = None if not floor else min(0.999, floor + REGION_MARGIN)
         sigma = sp.decay_min / self.w0 if sp.decay_min else None
         cz = sp.controller_damping_min
@@ -236,10 +238,13 @@ class Context:
         p = self.problem
         sp, so = p.specs, p.solver
         sc, w0 = self.param.scaling, self.w0
-        bounds = {"S": sp.Ms_max, "T": sp.Mt_max, "U": sp.Mu_max, "Tband": sp.T_resonance_max,
-                  "Uhf": sp.Mu_hf_max, "Sd": sp.Msd_max, "Ry": sp.Mry_max}
         margin = FREE_MARGIN if placement == "free" else BOUND_MARGIN
-        bounds = {k: (None if v is None else v * margin) for k, v in bounds.items()}
+        # every absolute peak bound of the table (robrst.problem.specs) on its program block
+        bounds = {key: None for key in PEAK_KEYS}
+        for row in SPEC_TABLE:
+            v = getattr(sp, row.key)
+            if row.program is not None and row.relative_to is None and v is not None:
+                bounds[row.program] = v * margin
         band = np.zeros(0)
         if sp.resonance_band_hz is not None:
             band = np.geomspace(*(2 * np.pi * np.asarray(sp.resonance_band_hz)), 25)
@@ -266,6 +271,12 @@ class Context:
             hfs += [warp(hf_s, fs) / w0] * len(sampled)
             models = list(models) + sampled
         n_cont = len(models) - (len(rates) if sp.sampled else 0)
+        own = {}         # relative bounds: the ratio times each model's own open-loop peak
+        for row in SPEC_TABLE:
+            v = getattr(sp, row.key)
+            if row.relative_to == "open_loop_peak" and v is not None:
+                peaks = [peak_gain(m.B, m.A).value for m in models]
+                own[row.program] = tuple(v * pk * margin for pk in peaks)
         ms = tuple((m.label, m.temperature_C, *scale_plant(m, sc)) for m in models)
         pb, domr = None, ()
         if placement == "dominant":
@@ -282,7 +293,7 @@ class Context:
                         ctrl_shift=self.ctrl_shift, ctrl_max=self.ctrl_max,
                         grids=tuple(grids), T_shape=self.T_shape(),
                         fs_of=(None,) * n_cont + (sp.sample_rate_hz,) * (len(ms) - n_cont),
-                        region=self.region())
+                        region=self.region(), model_bounds=own or None)
 
     def T_shape(self) -> np.ndarray:
         """The scaled feed-forward shape ``T / R(0)`` of the structure.

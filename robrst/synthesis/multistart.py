@@ -28,6 +28,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from robrst.problem.specs import SPEC_TABLE, SPECS_BY_KEY
+
 if TYPE_CHECKING:
     from robrst.problem.records import Problem
 
@@ -35,8 +37,7 @@ __all__ = ["StartPlan", "StartOutcome", "MultiStart", "plans", "NEIGHBOUR_STEP",
            "PEAK_BOUNDS"]
 
 NEIGHBOUR_STEP = 0.03
-PEAK_BOUNDS = ("Ms_max", "Mt_max", "Mu_max", "T_resonance_max", "Mu_hf_max", "Msd_max",
-               "Mry_max")
+PEAK_BOUNDS = tuple(s.key for s in SPEC_TABLE if s.scaled)   # robrst.problem.specs
 
 
 @dataclass(frozen=True, eq=False)
@@ -54,7 +55,7 @@ class StartPlan:
     """
 
     name: str
-    problem: object
+    problem: Problem
     recheck: bool = False
 
 
@@ -153,12 +154,13 @@ class MultiStart:
 
 
 def _scaled_bounds(specs, factor):
-    """``specs`` with every peak bound times ``factor`` (``Ms_max`` at least 1)."""
+    """``specs`` with every peak bound times ``factor`` (each at least its row's ``floor``:
+    ``Ms_max`` at least 1)."""
     changes = {}
     for k in PEAK_BOUNDS:
-        v = getattr(specs, k)
+        v, floor = getattr(specs, k), SPECS_BY_KEY[k].floor
         if v is not None:
-            changes[k] = max(1.0, v * factor) if k == "Ms_max" else v * factor
+            changes[k] = v * factor if floor is None else max(floor, v * factor)
     return replace(specs, **changes) if changes else None
 
 

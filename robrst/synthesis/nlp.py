@@ -210,6 +210,10 @@ class NLPSetup:
         Per model, the sample rate of a sampled-loop model (``None``: continuous).
     region : Region, optional
         The pole region.
+    model_bounds : dict, optional
+        ``{key: (bound of model 0, ...)}``: a block's bound that differs per model (the
+        ``|B S / Delta|`` bound of ``Msd_rel_max``: the ratio times each model's own
+        open-loop peak), combined with ``bounds`` by :meth:`bound`.
 
     Attributes
     ----------
@@ -245,7 +249,30 @@ class NLPSetup:
     grids: tuple = ()      # per model, its scaled grid for S, T, U (default: nu)
     T_shape: np.ndarray = None
     fs_of: tuple = ()
-    region: object = None
+    region: Region | None = None
+    model_bounds: dict = None   # {key: per model, its own bound (None: none)}
+
+    def bound(self, key: str, model: int) -> float | None:
+        """The bound of block ``key`` on model ``model``: the smaller of ``bounds[key]``
+        and the model's own (``model_bounds``; a relative spec such as ``Msd_rel_max``).
+
+        Parameters
+        ----------
+        key : str
+            The block (:data:`PEAK_KEYS`).
+        model : int
+            Index into ``models``.
+
+        Returns
+        -------
+        float or None
+        """
+        b = self.bounds.get(key)
+        own = (self.model_bounds or {}).get(key)
+        m = None if own is None else own[model]
+        if m is None or not np.isfinite(m):
+            return b
+        return m if b is None else min(b, m)
 
     @property
     def n_x(self):
@@ -545,7 +572,7 @@ def grid_blocks(setup: NLPSetup, x_ref: np.ndarray,
             nu = {"Tband": setup.bands[j] if setup.bands else (),
                   "Uhf": setup.hf[j] if setup.hf else ()}.get(
                 key, setup.grids[j] if setup.grids else setup.nu)
-            bound = setup.bounds.get(key)
+            bound = setup.bound(key, j)
             if key == "S" and bound is None and setup.objective == "min_Ms" and min_ms_unbounded:
                 bound = 1.0
             if bound is None or len(nu) == 0:

@@ -14,6 +14,7 @@ from robrst.synthesis.parametrize import integral_gain
 if TYPE_CHECKING:
     from robrst.certificate.models import Violation
     from robrst.certificate.proof import Certificate
+    from robrst.core.rst import RSTController
 
 __all__ = ["OK_STATUS", "Binding", "SolveResult", "Round", "SynthesisResult", "worst_violation",
            "best_achievable"]
@@ -131,7 +132,7 @@ class SolveResult:
     lam_g: np.ndarray
     labels: tuple
     w0: float
-    exchange: object = None
+    exchange: object = None   # an exchange.ExchangeInfo (that module imports this one)
     rates: dict = None       # model label -> sample rate [Hz] of sampled-loop models
     lam_x: np.ndarray = None
     lbx: np.ndarray = None
@@ -318,14 +319,14 @@ class SynthesisResult:
         The certificate holds.
     """
 
-    controller: object
+    controller: RSTController
     Am: np.ndarray
-    certificate: object
+    certificate: Certificate
     status: str
     objective: str
     w0: float
     rounds: tuple = ()
-    solve: object = None
+    solve: SolveResult | None = None
     wall_time_s: float = None
     wn_rad_s: float = None
     zeta: float = None

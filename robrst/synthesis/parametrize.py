@@ -227,15 +227,22 @@ class TrackingRule:
 def integral_gain(ctrl: RSTController) -> float:
     """``lim_{s->0} s R/S`` [V/(µm s)]: the low-frequency disturbance-rejection gain.
 
+    Computed from its definition: with ``k`` roots of ``S`` and ``m`` of ``R`` at ``s = 0``
+    (:func:`robrst.core.poly.origin_roots`), ``s R/S`` behaves as ``s**(1 + m - k)`` near
+    0.  One integrator more in ``S`` than in ``R`` gives the ratio of their lowest
+    non-zero coefficients; a controller **without an integrator** (``S(0) != 0``) gives
+    **0** (it rejects no constant disturbance); more integrators give ``inf``.
+
     Parameters
     ----------
     ctrl : RSTController
-        A controller with (at least) one integrator.
+        The controller.
 
     Returns
     -------
     float
-        ``inf`` when ``S`` has more than one root at ``s = 0`` (JSON: ``null``).
+        0 without an integrator; ``inf`` when ``S`` has more roots at ``s = 0`` than ``R``
+        plus one (JSON: ``null``).
 
     Examples
     --------
@@ -243,9 +250,18 @@ def integral_gain(ctrl: RSTController) -> float:
     >>> from robrst.synthesis.parametrize import integral_gain
     >>> integral_gain(RSTController([3.0, 6.0], [1.0, 2.0, 0.0], [6.0]))   # (3s + 6)/(s^2 + 2s)
     3.0
+    >>> integral_gain(RSTController([3.0, 6.0], [1.0, 2.0, 5.0], [6.0]))   # no integrator
+    0.0
     """
-    Sq = poly.trim(ctrl.S)[:-1]
-    return float(ctrl.R[-1] / Sq[-1]) if Sq[-1] != 0 else float("inf")
+    R, S = poly.trim(ctrl.R), poly.trim(ctrl.S)
+    if not np.any(R):
+        return 0.0
+    k, m = poly.origin_roots(S), poly.origin_roots(R)
+    if 1 + m - k > 0:
+        return 0.0
+    if 1 + m - k < 0:
+        return float("inf")
+    return float(R[len(R) - 1 - m] / S[len(S) - 1 - k])
 
 
 RESONANCE_DAMPING = 0.1     # poles less damped than this get a dense grid around them

@@ -1,4 +1,4 @@
-"""Design for the fleet: the robust program over drawn actuators, with a stated yield.
+"""The fleet design's scenario theory and records: drawn actuators, a stated yield.
 
 A problem with a ``[spread]`` (:class:`robrst.problem.spread.Spread`) is designed for the
 actuators a factory ships, not for the one identified.  Two methods:
@@ -9,7 +9,7 @@ controller must certify on every one of them — the *scenario constraint* of ac
 ``i`` is the certificate (:func:`robrst.certificate.proof.certify`, every spec of the
 problem, continuous and sampled loop, time-domain specs included) on its family over the
 whole temperature interval.  The program sees only the actuators that bind: a
-**constraint exchange over actuators** (:func:`scenario_design`) designs for the nominal
+**constraint exchange over actuators** (:func:`robrst.design.fleet.scenario_design`) designs for the nominal
 actuator, checks all ``N`` (first their family members in one batched call,
 :func:`robrst.certificate.models.check_all_many`, then the full certificate on each),
 hands the ``ADD_PER_ROUND`` most violated to the program as further family models
@@ -67,9 +67,8 @@ optimization and decision making", IEEE Trans. Automat. Control 63(12):4067-4078
 from __future__ import annotations
 
 import math
-import time
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -85,7 +84,7 @@ if TYPE_CHECKING:
     from robrst.core.rst import RSTController
     from robrst.problem.records import Problem
 
-__all__ = ["FleetDesign", "ActuatorCheck", "scenario_design", "scenario_count", "gain_edges",
+__all__ = ["FleetDesign", "ActuatorCheck", "scenario_count", "gain_edges",
            "convex_scenario_count", "convex_confidence", "nonconvex_epsilon",
            "check_actuators", "ADD_PER_ROUND", "MAX_ROUNDS"]
 
@@ -292,6 +291,10 @@ class FleetDesign:
         ``epsilon(k)`` of the compression set (``None`` for a box).
     guaranteed_yield : float or None
         ``1 - epsilon(k)``.
+    target_met : bool or None
+        The guaranteed yield reaches the target (``None`` for a box).
+    bound_statement : str or None
+        The scenario bound the guarantee comes from.
     integral_gain_ratio : float or None
         The integral gain over the nominal design's.
     """
@@ -342,6 +345,21 @@ class FleetDesign:
         return None if e is None else 1.0 - e
 
     @property
+    def target_met(self):
+        """The guaranteed yield reaches the target (``None`` for a box)."""
+        g = self.guaranteed_yield
+        return None if g is None else bool(g >= self.yield_target - 1e-12)
+
+    @property
+    def bound_statement(self):
+        """The scenario bound the guarantee comes from, in words (``None`` for a box)."""
+        if self.method != "scenario":
+            return None
+        return ("Campi, Garatti & Ramponi (2018), Theorem 1: a-posteriori, compression size"
+                f" k = {len(self.compression)}, N = {self.n_scenarios},"
+                f" beta = {1.0 - self.confidence:g}")
+
+    @property
     def integral_gain_ratio(self):
         """The fleet controller's integral gain over the nominal design's."""
         return abs(self.integral_gain) / abs(self.nominal_integral_gain) \
@@ -369,8 +387,6 @@ class FleetDesign:
         -------
         dict
         """
-        beta = 1.0 - self.confidence
-        g = self.guaranteed_yield
         return {
             "method": self.method, "scenarios": self.n_scenarios, "seed": self.seed,
             "parameters": list(self.names),
@@ -379,11 +395,8 @@ class FleetDesign:
             "support": list(self.support), "discarded": list(self.discarded),
             "violated": list(self.violated), "compression_size": len(self.compression),
             "rounds": self.rounds,
-            "epsilon": self.epsilon, "guaranteed_yield": g,
-            "target_met": None if g is None else bool(g >= self.yield_target - 1e-12),
-            "bound": None if self.method != "scenario" else
-            "Campi, Garatti & Ramponi (2018), Theorem 1: a-posteriori, compression size"
-            f" k = {len(self.compression)}, N = {self.n_scenarios}, beta = {beta:g}",
+            "epsilon": self.epsilon, "guaranteed_yield": self.guaranteed_yield,
+            "target_met": self.target_met, "bound": self.bound_statement,
             "n_convex_a_priori": self.n_convex,
             "nominal_integral_gain": self.nominal_integral_gain,
             "integral_gain": self.integral_gain,
@@ -519,125 +532,3 @@ def gain_edges(problem: Problem, ctrl: RSTController, names: Sequence[str],
                         crossings.append(([i, j], a.temperature_C, loop))
     return {"edges": edges, "segments": segments, "crossings": crossings,
             "proved": edges > 0 and not crossings}
-
-
-def scenario_design(problem: Problem, design: Callable, progress: Callable | None = None,
-                    families: Sequence[PlantFamily] | None = None,
-                    values: np.ndarray | None = None,
-                    n_scenarios: int | None = None) -> tuple:
-    """Design ``problem`` for its spread (module docstring): an exchange over actuators.
-
-    Parameters
-    ----------
-    problem : Problem
-        With ``spread`` (its method, yield target, confidence and seed).
-    design : callable
-        ``design(problem, warm) -> DesignResult``: one design of a problem whose
-        ``scenarios`` are the actuators handed to the program (``warm``: the previous
-        round's synthesis record, or ``None``).
-    progress : callable, optional
-        Called with one line of text per round.
-    families, values : optional
-        The actuators (and their parameter rows) to design for, instead of the spread's
-        draws (tests; the box method's corners).
-    n_scenarios : int, optional
-        Drawn actuators (default: ``spread.scenarios``, else :func:`scenario_count`).
-
-    Returns
-    -------
-    (DesignResult, FleetDesign)
-        The last round's design (its certificate covers the nominal actuator and the
-        actuators handed to the program) and the fleet record.
-    """
-    from robrst.synthesis.analytic import pole_placement
-    from robrst.synthesis.context import Context
-
-    say = progress or (lambda m: None)
-    t0 = time.perf_counter()
-    spread = problem.spread
-    beta = 1.0 - spread.confidence
-    eps = 1.0 - spread.yield_target
-    start = pole_placement(problem.family.reference_model, problem.poles, problem.controller)
-    ctx = Context.of(problem, start)
-    d = ctx.param.n_x + (2 if problem.solver.free_poles else 0)
-    n_convex = convex_scenario_count(eps, beta, d)
-    if families is None:
-        if spread.method == "box":
-            values = spread.corners()
-        else:
-            n = n_scenarios or spread.scenarios or scenario_count(eps, beta, d)
-            values = spread.draws(n)
-        families = spread.actuators(problem.family, values)
-    N = len(families)
-    say(f"fleet design ({spread.method}): {N} actuators, {d} decision variables"
-        + (f", yield {spread.yield_target:g} at confidence {spread.confidence:g}"
-           if spread.method == "scenario" else ""))
-    base = replace(problem, scenarios=())
-    support, discarded, added = [], [], []
-    warm, result, nominal_ki, checks, last = None, None, None, [], None
-    spent = {"design": 0.0, "check": 0.0}
-
-    def timed(kind, f, *args, **kw):
-        t = time.perf_counter()
-        try:
-            return f(*args, **kw)
-        finally:
-            spent[kind] += time.perf_counter() - t
-
-    for rnd in range(1, MAX_ROUNDS + 1):
-        p = replace(base, scenarios=tuple(families[i] for i in support))
-        out = timed("design", design, p, warm)
-        if nominal_ki is None:
-            nominal_ki = out.integral_gain
-        if not out.certified and last is not None:
-            # the program cannot meet the actuators just added together with the others:
-            # the most violated of them is discarded (it counts in the guarantee), the
-            # previous controller stands, and the others are tried without it
-            worst = added[0]
-            discarded.append(worst)
-            support.remove(worst)
-            added = added[1:]
-            say(f"round {rnd}: design {out.status} with {len(support) + 1} actuators in the"
-                f" program: actuator {worst} discarded")
-            if added:
-                continue
-            result, checks = last
-        else:
-            result = out
-            warm = out.synthesis
-            checks = timed("check", check_actuators, problem, result.controller, families,
-                           full=False)
-            stage = "members"
-            if all(c.certified for c in checks):
-                checks = timed("check", check_actuators, problem, result.controller, families,
-                               full=True)
-                stage = "certificate"
-            last = (result, checks)
-            say(f"round {rnd}: {len(support)} actuators in the program, integral gain"
-                f" {result.integral_gain:.5g}, design {result.status};"
-                f" {sum(not c.certified for c in checks)} of {N} violated ({stage})")
-        bad = sorted((c for c in checks if not c.certified and c.index not in support
-                      and c.index not in discarded), key=lambda c: (-c.ratio, c.index))
-        if not bad:
-            break
-        say(f"  worst: actuator {bad[0].index}: {bad[0].violation}")
-        added = [c.index for c in bad[:ADD_PER_ROUND]]
-        support += added
-    edges = None
-    if spread.method == "box":
-        edges = gain_edges(problem, result.controller, spread.names, values,
-                           families)
-        if edges is not None:
-            say(f"box: stability along {edges['edges']} gain edges"
-                f" {'proved' if edges['proved'] else 'NOT proved'}"
-                f" ({edges['segments']} segments, {len(edges['crossings'])} crossings)")
-    fleet = FleetDesign(method=spread.method, edges=edges, names=spread.names, values=np.asarray(values),
-                        n_scenarios=N, decision_variables=d, yield_target=spread.yield_target,
-                        confidence=spread.confidence, support=tuple(support),
-                        discarded=tuple(discarded),
-                        checks=tuple(checks), rounds=rnd, nominal_integral_gain=nominal_ki,
-                        integral_gain=result.integral_gain,
-                        wall_time_s=time.perf_counter() - t0, seed=spread.seed,
-                        design_time_s=spent["design"], check_time_s=spent["check"],
-                        n_convex=n_convex if spread.method == "scenario" else None)
-    return result, fleet

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from robrst.base.interrupt import requested, solver_call
 from robrst.core import poly
 from robrst.synthesis.nlp import routh_column
 
@@ -87,6 +88,48 @@ class Structure:
     @property
     def n_var(self):
         return self.nx + (2 if self.placement == "dominant" else 0) + 1
+
+
+class _StopWhenAsked(ca.Callback):
+    """IPOPT's iteration callback: asks it to stop (``User_Requested_Stop``) once a signal
+    asked the run to (:func:`robrst.base.interrupt.requested`), so that Ctrl-C or ``kill``
+    ends a solve at its next iteration instead of its last.
+
+    Parameters
+    ----------
+    nx, ng : int
+        The program's variables and constraints.
+    """
+
+    def __init__(self, nx: int, ng: int) -> None:
+        ca.Callback.__init__(self)
+        self.nx, self.ng = nx, ng
+        self.construct("stop_when_asked", {})
+
+    def get_n_in(self) -> int:
+        return ca.nlpsol_n_out()
+
+    def get_n_out(self) -> int:
+        return 1
+
+    def get_name_in(self, i: int) -> str:
+        return ca.nlpsol_out(i)
+
+    def get_name_out(self, i: int) -> str:
+        return "stop"
+
+    def get_sparsity_in(self, i: int) -> ca.Sparsity:
+        name = ca.nlpsol_out(i)
+        if name == "f":
+            return ca.Sparsity.scalar()
+        if name in ("x", "lam_x"):
+            return ca.Sparsity.dense(self.nx)
+        if name in ("g", "lam_g"):
+            return ca.Sparsity.dense(self.ng)
+        return ca.Sparsity(0, 0)
+
+    def eval(self, arg: list) -> list:
+        return [1 if requested() else 0]
 
 
 class Template:
@@ -163,8 +206,11 @@ class Template:
              + coef[1] * (-ca.log(ca.fmax(r0, TINY)) + ca.log(ca.fmax(q0, TINY)))
              + coef[2] * ca.sumsqr(xc - par("xref")))
         self.n_g = int(sum(e.numel() for e in g))
+        # a signal stops IPOPT at its next iteration (robrst.base.interrupt)
+        self.stop = _StopWhenAsked(int(X.numel()), self.n_g)
         opts = {"ipopt": dict(st.ipopt), "print_time": False, "show_eval_warnings": False,
-                "calc_lam_p": False}     # parameter multipliers: unused (and noisy on failure)
+                "calc_lam_p": False,     # parameter multipliers: unused (and noisy on failure)
+                "iteration_callback": self.stop}
         self.solver = ca.nlpsol("rst", "ipopt", {"x": X, "p": P, "f": f, "g": ca.vertcat(*g)},
                                 opts)
 
@@ -225,7 +271,8 @@ class Template:
             ``status, x, f, g, lam_g, lam_x, iterations`` (``lam_g``, ``lam_x``: IPOPT's
             multipliers of the constraints and of the variable bounds).
         """
-        sol = self.solver(x0=x0, p=self.pack(values), lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+        with solver_call():     # a signal inside stops IPOPT, then raises Interrupted
+            sol = self.solver(x0=x0, p=self.pack(values), lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         stats = self.solver.stats()
         return {"status": stats["return_status"], "x": np.array(sol["x"]).ravel(),
                 "f": float(sol["f"]), "g": np.array(sol["g"]).ravel(),

@@ -26,6 +26,7 @@ from robrst.base.schema import Field, key_error, load_toml, validate
 
 if TYPE_CHECKING:
     from pathlib import Path
+    from robrst.core.plant import Plant
 
 __all__ = ["EFFECTS", "TWIN_SCHEMA", "TwinConfig", "load_twin", "parse_twin", "default_twin",
            "run_samples", "min_sample_rate_hz", "MAX_RUN_SAMPLES", "MAX_SUBSTEPS", "RK4_STEP"]
@@ -179,7 +180,7 @@ class TwinConfig:
     reference_C: float = 28.0
     effects: dict = field(default_factory=dict)
     path: str = "<default>"
-    plant_model: object = None
+    plant_model: Plant | None = None
 
     @property
     def linear_plant(self):

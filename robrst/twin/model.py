@@ -91,7 +91,7 @@ class TwinModel:
         The plant has no feedthrough.
     """
 
-    config: object
+    config: TwinConfig
     step: ca.Function          # (x, p, theta) -> (x_next, out)
     output: ca.Function        # (x, p, theta) -> y_meas at this sample (strictly proper plants)
     theta_names: tuple

@@ -137,8 +137,13 @@ def _check_starting_design(data, text, ident):
     wn = starting_wn([m.channel(0, 0) for m in ident.models], ident.fs)
     assert data["poles"] == {"wn": wn, "zeta": 1.0}
     assert data["controller"] == {"T_mode": "reference_model", "reference_wn": wn}
-    assert data["specs"] == {"Ms_max": 2.0, "Mt_max": 1.3, "overshoot_max_pct": 2.0,
-                             "sample_rate_hz": 20000.0}
+    # |U| bounded from the largest identified static gain k: 10 / k (Mu_reason says why)
+    k = max(abs(float(p.B[-1] / p.A[-1])) for p in (m.channel(0, 0) for m in ident.models))
+    mu = float(f"{10.0 / k:.3g}")
+    assert data["specs"] == {"Ms_max": 2.0, "Mt_max": 1.3, "Mu_max": mu,
+                             "Mu_reason": data["specs"]["Mu_reason"],
+                             "overshoot_max_pct": 2.0, "sample_rate_hz": 20000.0}
+    assert f"k = {k:.3g} um/V the identified static gain" in data["specs"]["Mu_reason"]
     assert data["solver"] == {"method": "nlp"}
     assert f"wn = {wn!r} # dominant natural frequency [rad/s]" in text
     assert "# A starting design, chosen by robrst identify" in text

@@ -17,6 +17,7 @@ from robrst.core.analysis import spectral_abscissa_many
 from robrst.certificate.proof import certify_problem
 from robrst.core.peaks import peak_gain, peak_gains, peak_gains_many
 from robrst.core.interval import distance_to_instability_many
+from robrst.design.contract import model_record_json
 from robrst.certificate.models import check_all, check_all_many
 from robrst.core.poly import roots_many
 from robrst.problem.files import load_problem
@@ -139,9 +140,10 @@ def test_check_all_many_is_one_model_at_a_time(name):
     for m, (rec, viol) in zip(models, batch):
         rec1, viol1 = check_all(m, ctrl, specs, 1e-3, (), p.family)
         assert viol == viol1
-        assert rec.keys() == rec1.keys()
-        for k in rec:
-            assert rec[k] == rec1[k] or (rec[k] != rec[k] and rec1[k] != rec1[k]), k
+        a, b = model_record_json(rec), model_record_json(rec1)     # every published figure
+        assert a.keys() == b.keys()
+        for k in a:
+            assert a[k] == b[k] or (a[k] != a[k] and b[k] != b[k]), k
     cert = certify_problem(p, ctrl)
     assert len(cert.models) >= len(p.family.models) + 9
 
@@ -169,7 +171,7 @@ def _sequential_refine(family, ctrl, specs, rtol, recs, budget, ignore):
         a, b = stack.pop()
         if unresolved(recs[a], recs[b], ignore) is None:
             continue
-        deg = [recs[t].get("closed_loop_degree") for t in (a, b)]
+        deg = [recs[t].continuous.closed_loop_degree for t in (a, b)]
         if b - a <= floor and (deg[0] != deg[1] or
                                unresolved(recs[a], recs[b], (*ignore, *JUMPS)) is None):
             continue
@@ -185,7 +187,8 @@ def _sequential_refine(family, ctrl, specs, rtol, recs, budget, ignore):
                 m = a + 0.5 * floor if low == a else b - 0.5 * floor
         recs[m], v = check_all(family.at(m), ctrl, specs, rtol, (), family)
         viols += v
-        if low is not None and recs[m]["closed_loop_degree"] == recs[low]["closed_loop_degree"]:
+        if low is not None and (recs[m].continuous.closed_loop_degree
+                                == recs[low].continuous.closed_loop_degree):
             walked.add(m)
         budget -= 1
         stack += [(a, m), (m, b)]
@@ -206,10 +209,11 @@ def test_refinement_in_batches_is_the_depth_first_halving(seed):
     # certify checks the specs with the damping floor resolved on the family (the default
     # floor when damping_min is not given): the sequential halving checks the same
     specs = resolved_specs(p.specs, p.family)[0]
-    assert not cert.interval.get("guardian", {}).get("parts") or all(
-        q["candidate_C"] is None for q in cert.interval["guardian"]["parts"])
+    guardian = cert.interval.guardian
+    assert guardian is None or not guardian.parts or all(
+        q.candidate_C is None for q in guardian.parts)
     # a stability proof over the interval: the continuous spectral abscissa is not watched
-    proved = cert.interval["stability"] in ("segment_crossing", "guardian_map")
+    proved = cert.interval.stability in ("segment_crossing", "guardian_map")
     models = list(p.family.models)
     known = {m.temperature_C for m in models}
     models += [m for m in p.family.sweep(n_sweep) if m.temperature_C not in known]
@@ -218,11 +222,11 @@ def test_refinement_in_batches_is_the_depth_first_halving(seed):
         recs[m.temperature_C], v = check_all(m, ctrl, specs, 1e-3, (), p.family)
         viols += v
     ignore = ("spectral_abscissa",) if proved else ()
-    if cert.interval.get("pole_region_proof", {}).get("proved"):
+    if cert.interval.pole_region_proof is not None and cert.interval.pole_region_proof.proved:
         ignore += ("damping", "decay_rad_s")
     temps, v_ref, n_unres = _sequential_refine(
         p.family, ctrl, specs, 1e-3, recs, max(4 * n_sweep, 64), ignore)
-    assert [r["temperature_C"] for r in cert.models] == temps
+    assert [r.temperature_C for r in cert.models] == temps
     assert len(temps) > len(models)                      # the refinement did add points
     got = [v for v in cert.violations if "changes too fast" not in v.quantity]
     assert got == viols + v_ref

@@ -66,9 +66,9 @@ def test_hinf_peak_missed(repro_dir):
     assert rp.stability(Delta)[0]
     ref, w = rp.dense_peak(AS, Delta)
     assert ref == pytest.approx(1.0000845, abs=2e-7) and w == pytest.approx(5826, rel=2e-3)
-    rec = next(m for m in cert.models if m["temperature_C"] == T2)
-    assert rec["Ms"] == pytest.approx(ref, rel=1e-9) and rec["Ms"] >= ref * (1 - 1e-12)
-    assert rec["Ms_freq_rad_s"] == pytest.approx(w, rel=1e-3)
+    rec = next(m for m in cert.models if m.temperature_C == T2).continuous
+    assert rec.Ms == pytest.approx(ref, rel=1e-9) and rec.Ms >= ref * (1 - 1e-12)
+    assert rec.Ms_freq_rad_s == pytest.approx(w, rel=1e-3)
     assert not cert.certified                           # Ms_max = 1.000078 < 1.0000845
     assert any(v.quantity == "|S| peak" and v.temperature_C == T2 for v in cert.violations)
 
@@ -90,7 +90,7 @@ def test_sweep_gap_unstable(repro_dir):
     assert stable(20.0) and stable(20.59) and bad.size     # the checker sees the gap
     assert not res.certified
     cert = res.certificate
-    assert cert.interval["stability"] == "segment_crossing"
+    assert cert.interval.stability == "segment_crossing"
     cross = [v for v in cert.violations if v.kind == "crossing"]
     assert cross and bad.min() - 0.02 <= cross[0].temperature_C <= bad.max() + 0.02
 
@@ -105,8 +105,8 @@ def test_sampled_false_unstable(repro_dir):
     ref = rp.sampled_figures(B, A, res.controller, pr.specs.sample_rate_hz, 0)
     assert ref["stable"] and ref["Ms"] == pytest.approx(381.5, abs=0.1)
     rec = res.certificate.models[0]
-    assert rec["stable_sampled"]
-    assert rec["Ms_sampled"] == pytest.approx(ref["Ms"], rel=1e-5)
+    assert rec.sampled.stable
+    assert rec.sampled.Ms == pytest.approx(ref["Ms"], rel=1e-5)
     assert res.certified
 
 
@@ -119,7 +119,7 @@ def test_sampled_peak_misreported(repro_dir):
     ref = rp.sampled_figures(B, A, res.controller, pr.specs.sample_rate_hz, 0)
     assert ref["stable"] and ref["Ms"] == pytest.approx(1.506, abs=1e-3)
     rec = res.certificate.models[0]
-    assert rec["Ms_sampled"] == pytest.approx(ref["Ms"], rel=1e-6)
+    assert rec.sampled.Ms == pytest.approx(ref["Ms"], rel=1e-6)
     assert not res.certified                            # Ms_max = 1.4
     assert res.certificate.ratios()["Ms_sampled"] == pytest.approx(ref["Ms"] / 1.4, rel=1e-6)
 
@@ -134,7 +134,7 @@ def test_sampled_nan_crash(repro_dir, capsys):
     cont = rp.stability(rp._strip(rp._add(rp._mul(A, ctrl.S), rp._mul(B, ctrl.R))))[0]
     samp = rp.sampled_figures(B, A, ctrl, pr.specs.sample_rate_hz, 0)["stable"]
     rec = res.certificate.models[0]
-    assert rec["stable"] == cont and rec["stable_sampled"] == samp
+    assert rec.continuous.stable == cont and rec.sampled.stable == samp
     assert res.certified == (cont and samp)
     rc = main(["design", str(path), "--json"])
     assert rc in (0, 1) and "Traceback" not in capsys.readouterr().err

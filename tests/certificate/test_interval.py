@@ -10,6 +10,8 @@ import pytest
 import random_problems as rp
 from robrst.cli import main
 from robrst.core.interval import segment_crossing
+from robrst.certificate.figures import parse_key
+from robrst.design.contract import certificate_json
 
 
 def _hurwitz(rng, n, lo=0.1, hi=1e3):
@@ -53,21 +55,22 @@ def test_shipped_certificate_interval_record_and_ratios(designs, capsys):
     res = designs("paper_robust")
     cert = res.certificate
     iv = cert.interval
-    assert iv["range_C"] == [28.0, 45.0] and iv["stability"] == "guardian_map"
-    assert iv["guardian"]["proved"] and iv["sampled"] == "refined_sweep"
-    temps = sorted(m["temperature_C"] for m in cert.models)
-    assert iv["points"] == len(temps) and temps[0] == 28.0 and temps[-1] == 45.0
-    assert iv["max_spacing_C"] == pytest.approx(np.max(np.diff(temps)))
+    assert iv.range_C == (28.0, 45.0) and iv.stability == "guardian_map"
+    assert iv.guardian.proved and iv.sampled == "refined_sweep"
+    temps = sorted(m.temperature_C for m in cert.models)
+    assert iv.points == len(temps) and temps[0] == 28.0 and temps[-1] == 45.0
+    assert iv.max_spacing_C == pytest.approx(np.max(np.diff(temps)))
     sp = res.problem.specs
     # ratios() by hand from the model records
     for key, bound in (("Ms", sp.Ms_max), ("Mt_resonance_band_sampled", sp.T_resonance_max),
                        ("overshoot_pct", sp.overshoot_max_pct)):
         if bound is None:
             continue
-        worst = max(m[key] for m in cert.models if m.get(key) is not None)
+        name, loop = parse_key(key)
+        worst = max(v for m in cert.models if (v := m.value(name, loop)) is not None)
         assert cert.ratios()[key] == pytest.approx(worst / bound, rel=1e-12)
     assert max(cert.ratios().values()) <= 1 + cert.rtol
-    d = json.loads(json.dumps(cert.as_dict()))
+    d = json.loads(json.dumps(certificate_json(cert)))
     assert set(d) >= {"certified", "rtol", "models", "violations", "interval", "interval_proof",
                       "interval_resolution_C", "ratios"}
 
@@ -118,9 +121,9 @@ def test_parametric_guardian_proof_agrees_with_the_independent_family_law():
             B, A = rp.model_at(case.data, T)
             if not rp.stability(rp._strip(rp._add(rp._mul(A, ctrl.S), rp._mul(B, ctrl.R))))[0]:
                 unstable.append(T)
-        proved = cert.interval["stability"] == "guardian_map"
+        proved = cert.interval.stability == "guardian_map"
         assert not (proved and unstable), (case.seed, unstable[:3])
-        assert proved or unstable, (case.seed, cert.interval.get("guardian"))
+        assert proved or unstable, (case.seed, cert.interval.guardian)
         seen["proved" if proved else "unstable"] += 1
     assert seen["proved"] >= 1 and seen["unstable"] >= 1, seen
 
@@ -137,10 +140,10 @@ def test_refinement_isolates_the_order_change_and_stays_sound(designs):
     lo, hi = pr.family.range_C
     floor = (hi - lo) / 4096
     iv = cert.interval
-    assert cert.certified and iv["stability"] == "guardian_map"
-    assert iv["order_change_C"] and all(a == lo and 0 < b - a <= floor
-                                        for a, b in iv["order_change_C"])
-    temps = sorted(m["temperature_C"] for m in cert.models)
+    assert cert.certified and iv.stability == "guardian_map"
+    assert iv.order_change_C and all(a == lo and 0 < b - a <= floor
+                                     for a, b in iv.order_change_C)
+    temps = sorted(m.temperature_C for m in cert.models)
     assert len([T for T in temps if lo < T < lo + 0.05 * (hi - lo)]) <= 2, temps[:8]
     dense = np.unique(np.concatenate([np.linspace(lo, hi, 41)[1:],
                                       lo + (hi - lo) * np.geomspace(1e-6, 0.05, 15)]))
@@ -168,12 +171,12 @@ def test_interval_record_claims_no_proof_it_did_not_make(seed):
     assert p.family.thermal is None and len(p.family.models) > 1
     ctrl = pole_placement(p.family.reference_model, p.poles, p.controller).controller
     cert = certify(p.family, ctrl, p.specs)
-    members = [r for r in cert.models if r["family_member"]]
-    unstable = [r["temperature_C"] for r in members if not r["stable"]]
+    members = [r for r in cert.models if r.family_member]
+    unstable = [r.temperature_C for r in members if not r.continuous.stable]
     # the independent checker agrees that a member is unstable
     assert unstable and all(
         not rp.stability(rp._strip(rp._add(rp._mul(A, ctrl.S), rp._mul(B, ctrl.R))))[0]
         for B, A in (rp.model_at(data, T) for T in unstable))
     assert not cert.certified
-    assert cert.interval["stability"] == "refined_sweep"
-    assert "proved" not in cert.interval["statement"]
+    assert cert.interval.stability == "refined_sweep"
+    assert "proved" not in cert.interval.statement

@@ -78,14 +78,14 @@ def test_default_floor_is_the_plant_damping_share(stage):
     zeta = min(loopcheck.plant_damping(m) for m in p.family.models)
     assert source == "default" and floor == pytest.approx(min(0.1, 0.9 * zeta), rel=1e-12)
     cert = certify_problem(p, RINGING)
-    region = cert.interval["pole_region"]
-    assert region["damping_source"] == "default"
-    assert region["damping_min"] == pytest.approx(floor)
-    assert "damping >=" in region["statement"]
+    region = cert.interval.pole_region
+    assert region.damping_source == "default"
+    assert region.damping_min == pytest.approx(floor)
+    assert "damping >=" in region.statement
     off = replace(stage, specs=replace(stage.specs, damping_min=0.0))
     assert off.specs.damping_floor(off.family) == (None, "specs")
-    assert "pole_region" not in certify_problem(off, RINGING).interval or \
-        certify_problem(off, RINGING).interval["pole_region"]["damping_min"] is None
+    region = certify_problem(off, RINGING).interval.pole_region
+    assert region is None or region.damping_min is None
 
 
 def test_region_proof_between_temperatures_against_a_dense_sweep(stage):
@@ -93,9 +93,9 @@ def test_region_proof_between_temperatures_against_a_dense_sweep(stage):
     401 temperatures (python-control) finds every pole in the region too."""
     p = replace(stage, specs=replace(stage.specs, damping_min=0.009, decay_min=40.0))
     cert = certify_problem(p, RINGING)
-    proof = cert.interval.get("pole_region_proof")
-    assert proof is not None and proof["proved"]
-    assert cert.interval["pole_region"]["proved_between_points"]
+    proof = cert.interval.pole_region_proof
+    assert proof is not None and proof.proved
+    assert cert.interval.pole_region.proved_between_points
     for T in np.linspace(15.0, 45.0, 401):
         c = loopcheck.continuous(p.family.at(T), RINGING, horizon_s=1e-3, n_t=11)
         assert c.damping >= 0.009 * (1 - 1e-3) and c.decay >= 40.0 * (1 - 1e-3), T

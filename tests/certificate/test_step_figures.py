@@ -72,9 +72,10 @@ def test_continuous_loop_against_python_control(designs, T):
     assert my.overshoot_pct == pytest.approx(over, abs=2e-4)
     assert my.settling_time_s == pytest.approx(ts, abs=2 * (t[1] - t[0]))
     assert mu.max_abs == pytest.approx(np.max(np.abs(u)), rel=1e-4)
-    rec = next(m for m in res.certificate.models if m["temperature_C"] == T)
-    assert rec["overshoot_pct"] == pytest.approx(my.overshoot_pct, rel=1e-9, abs=1e-12)
-    assert rec["step_u_peak_V"] == pytest.approx(mu.max_abs * res.problem.specs.step_um, rel=1e-9)
+    rec = next(m for m in res.certificate.models if m.temperature_C == T)
+    assert rec.value("overshoot_pct") == pytest.approx(my.overshoot_pct, rel=1e-9, abs=1e-12)
+    assert rec.value("step_u_peak_V") == pytest.approx(mu.max_abs * res.problem.specs.step_um,
+                                                      rel=1e-9)
 
 
 def _sampled_steps(plant, ctrl, n, fs=FS):

@@ -21,13 +21,15 @@ pytestmark = pytest.mark.skipif(compiler() is None, reason="no C compiler")
 
 def _no_design(monkeypatch):
     import robrst.design as design
+    import robrst.design.pipeline  # noqa: F401  (the module patched below)
     import robrst.synthesis.robust as robust
 
     def boom(*a, **k):
         raise AssertionError("designed again")
 
     monkeypatch.setattr(design, "run_problem", boom)
-    monkeypatch.setattr(design, "_design", boom)
+    monkeypatch.setattr(design.pipeline, "design_single", boom)
+    monkeypatch.setattr(design.pipeline, "fleet_design", boom)
     monkeypatch.setattr(robust, "robust_synthesis", boom)
 
 

@@ -24,13 +24,15 @@ from robrst.problem.files import parse_problem
 def _no_design(monkeypatch):
     """Every way to design raises: a command that designs fails the test."""
     import robrst.design as design
+    import robrst.design.pipeline  # noqa: F401  (the module patched below)
     import robrst.synthesis.robust as robust
 
     def boom(*a, **k):
         raise AssertionError("designed again")
 
     monkeypatch.setattr(design, "run_problem", boom)
-    monkeypatch.setattr(design, "_design", boom)
+    monkeypatch.setattr(design.pipeline, "design_single", boom)
+    monkeypatch.setattr(design.pipeline, "fleet_design", boom)
     monkeypatch.setattr(robust, "robust_synthesis", boom)
 
 
@@ -174,14 +176,15 @@ def test_files_that_are_no_saved_design_are_one_line(tmp_path, capsys):
     old.write_text(json.dumps({"problem": "p", "controller": {}, "certificate": {}}))
     bad = tmp_path / "bad.json"
     bad.write_text("{ not json")
-    for path, words, certify_words in ((old, "design it again", "design it again"),
-                                       (bad, "invalid TOML", "not valid JSON")):
+    # a .json argument is read as JSON by every command: "not valid JSON", never "invalid
+    # TOML" (turn 4: export said "invalid TOML" where certify said "not valid JSON")
+    for path, words in ((old, "design it again"), (bad, "not valid JSON")):
         for cmd in (["export", str(path)], ["check", str(path), "--golden",
                                             str(tmp_path / "g.toml"), "--update"],
-                    ["certify", str(path)], ["report", str(path), "--out", str(tmp_path / "r")]):
+                    ["certify", str(path)], ["report", str(path), "--out", str(tmp_path / "r")],
+                    ["design", str(path)]):
             assert main(cmd) == 2
             err = capsys.readouterr().err.strip().splitlines()
-            want = certify_words if cmd[0] == "certify" else words
-            assert len(err) == 1 and str(path) in err[0] and want in err[0], (cmd, err)
+            assert len(err) == 1 and str(path) in err[0] and words in err[0], (cmd, err)
     with pytest.raises(robrst.SpecError, match="design it again"):
         read_design(old)

@@ -38,7 +38,7 @@ def _check_against_python_control(exp, problem):
     """
     d = exp.as_dict()
     fs, k = d["sample_rate_hz"], d["delay_samples"]
-    recs = {m["temperature_C"]: m for m in exp.certificate.models}
+    recs = {m.temperature_C: m for m in exp.certificate.models}
     mu = exp.implementation["direct_form_float64"]["mu_y"]
     slack = {"sections": 1e-6, "direct": 1e-6 + 4 * mu * d["certificate"]["Ms_sampled"]}
     for m in problem.family.models:
@@ -47,8 +47,9 @@ def _check_against_python_control(exp, problem):
         for form, tol in slack.items():
             f = loop_figures(m, feedback_law(exp, dt, form), fs, k)
             for key in ("Ms", "Mt", "Mu"):
-                assert f[key] == pytest.approx(rec[f"{key}_sampled"], rel=tol), (m.label, form, key)
-            assert (f["spectral_radius"] < 1) == rec["stable_sampled"]
+                assert f[key] == pytest.approx(rec.value(key, "sampled"), rel=tol), \
+                    (m.label, form, key)
+            assert (f["spectral_radius"] < 1) == rec.sampled.stable
     # the radius: robrst's per-model sampled loops give the max; python-control checks the
     # family members and the model attaining it (each to 1e-8, the direct form to 1e-6)
     models = [problem.family.at(T) for T in recs] if len(recs) > 1 else problem.family.models
@@ -73,7 +74,7 @@ def test_exported_law_gives_the_certified_sampled_loop(exports, designs, name):
     _check_against_python_control(exp, problem)
     d = exp.as_dict()
     assert d["S_z"][0] == 1.0 and len(d["R_z"]) == len(d["S_z"]) == len(d["T_z"])
-    worst = max(m["Ms_sampled"] for m in exp.certificate.models)
+    worst = max(m.sampled.Ms for m in exp.certificate.models)
     assert d["certificate"]["Ms_sampled"] == worst
 
 

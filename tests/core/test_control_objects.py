@@ -152,8 +152,8 @@ def test_sampled_margins_through_the_w_plane(robust):
         cld = robrst.closed_loop_control(m, robust.controller, fs, k)
         assert clw["L"].dt == 0
         gm, pm, sm, wpc, wgc, _ = control.stability_margins(clw["L"])
-        rec = next(r for r in robust.certificate.models if r["temperature_C"] == m.temperature_C)
-        assert 1 / sm == pytest.approx(rec["Ms_sampled"], rel=1e-9)
+        rec = next(r for r in robust.certificate.models if r.temperature_C == m.temperature_C)
+        assert 1 / sm == pytest.approx(rec.sampled.Ms, rel=1e-9)
         z = lambda nu: np.exp(2j * np.arctan(nu / (2 * fs))) # noqa: E731  (w-plane -> z)
         Lg = complex(np.ravel(cld["L"](z(wgc)))[0])
         Lp = complex(np.ravel(cld["L"](z(wpc)))[0])
@@ -176,6 +176,6 @@ def test_python_controls_discrete_margins_on_paper_robust_are_documented_as_unre
             cld = robrst.closed_loop_control(m, robust.controller, 20000.0, 1)
             sm = control.stability_margins(cld["L"])[2]
             rec = next(r for r in robust.certificate.models
-                       if r["temperature_C"] == m.temperature_C)
-            worst = max(worst, abs((1 / sm if sm else 0.0) / rec["Ms_sampled"] - 1))
+                       if r.temperature_C == m.temperature_C)
+            worst = max(worst, abs((1 / sm if sm else 0.0) / rec.sampled.Ms - 1))
     assert worst > 0.01

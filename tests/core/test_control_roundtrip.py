@@ -89,7 +89,7 @@ def test_a_problem_built_from_a_discrete_plant_certifies_that_plant(designs):
     Ptf = control.tf(Pd)
     L = lambda z: np.ravel(Ptf(z)) * np.ravel(K(z))                       # noqa: E731
     ms = unit_circle_max(lambda z: 1 / (1 + L(z)))
-    assert ms == pytest.approx(exp.certificate.models[0]["Ms_sampled"], rel=1e-6)
+    assert ms == pytest.approx(exp.certificate.models[0].sampled.Ms, rel=1e-6)
     assert np.max(np.abs(control.feedback(Pd, K).poles())) < 1 and exp.certified
 
 

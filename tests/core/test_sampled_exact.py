@@ -120,15 +120,15 @@ def test_near_integrator_reproducer_is_not_certified(repro_dir):
     ref = rp.sampled_figures(B, A, res.controller, 100.0, 0, n_grid=40000)
     assert ref["stable"] and ref["Ms"] == pytest.approx(1.37344, abs=1e-5)
     rec = res.certificate.models[0]
-    assert rec["Ms_sampled"] == pytest.approx(ref["Ms"], rel=1e-7)
+    assert rec.sampled.Ms == pytest.approx(ref["Ms"], rel=1e-7)
     assert not res.certified
     # the exact ZOH at the reported frequency gives the same |S|
     z = rp.ExactZOH(B, A, 100.0)
-    th = rec["Ms_freq_rad_s_sampled"] / 100.0
+    th = rec.sampled.Ms_freq_rad_s / 100.0
     c = res.controller
     q = np.exp(1j * th)
     K = np.polyval(c.R, 200.0 * (q - 1) / (q + 1)) / np.polyval(c.S, 200.0 * (q - 1) / (q + 1))
-    assert abs(1 / (1 + z.at([th])[0] * K)) == pytest.approx(rec["Ms_sampled"], rel=1e-9)
+    assert abs(1 / (1 + z.at([th])[0] * K)) == pytest.approx(rec.sampled.Ms, rel=1e-9)
 
 
 # ---------------------------------------------------------------- bands up to Nyquist
@@ -177,7 +177,7 @@ def test_band_containing_nyquist_is_checked_at_nyquist(repro_dir):
     assert ref["Mt_band"] == pytest.approx(truth, rel=1e-9)
     cert = certify_problem(pr, ctrl)
     rec = cert.models[0]
-    assert rec["Mt_resonance_band_sampled"] == pytest.approx(truth, rel=1e-9)
+    assert rec.sampled.Mt_resonance_band == pytest.approx(truth, rel=1e-9)
     assert not cert.certified
     assert any(v.quantity == "|T| in resonance band" and v.loop == "sampled"
                and v.freq_rad_s == pytest.approx(np.pi * fs) for v in cert.violations)

@@ -98,16 +98,16 @@ def test_sampled_problem_is_certified_and_agrees_with_python_control(designs):
     assert res.certified
     sp = res.problem.specs
     recs = res.certificate.models
-    assert all(m["stable_sampled"] and m["spectral_abscissa_sampled"] < 0 for m in recs)
+    assert all(m.sampled.stable and m.sampled.spectral_abscissa < 0 for m in recs)
     for m in recs:
-        assert m["Ms_sampled"] <= sp.Ms_max * (1 + 1e-3)
-        assert m["Mt_sampled"] <= sp.Mt_max * (1 + 1e-3)
-        assert m["Mu_sampled"] <= sp.Mu_max * (1 + 1e-3)
-        assert m["Mt_resonance_band_sampled"] <= sp.T_resonance_max * (1 + 1e-3)
+        assert m.sampled.Ms <= sp.Ms_max * (1 + 1e-3)
+        assert m.sampled.Mt <= sp.Mt_max * (1 + 1e-3)
+        assert m.sampled.Mu <= sp.Mu_max * (1 + 1e-3)
+        assert m.sampled.Mt_resonance_band <= sp.T_resonance_max * (1 + 1e-3)
     for T in (28.0, 45.0):
-        rec = next(m for m in recs if m["temperature_C"] == T)
+        rec = next(m for m in recs if m.temperature_C == T)
         L, poles = python_control_loop(res.problem.family.at(T), res.controller, FS, 0)
-        assert rec["Ms_sampled"] == pytest.approx(unit_circle_peak(L, FS), rel=1e-6)
+        assert rec.sampled.Ms == pytest.approx(unit_circle_peak(L, FS), rel=1e-6)
         assert np.max(np.abs(poles)) < 1
     # the continuous-only robust design spends the amplifier at Nyquist once sampled:
     # |U| = |K_d / (1 + L)| at z = -1 beyond the bound; the sampled design's K_d(-1) = 0

@@ -5,10 +5,13 @@ Layers are folders of the package, bottom to top (docs: "Architecture")::
     base          robrst.base: errors, schema, tomlwrite, fileio, resources, threads
     maths core    robrst.core: poly, lti, plant, thermal, family, rst, peaks (+ private
                   level-set kernels), analysis, sampled, interval
-    problem       robrst.problem: records, files, checks
-    certificate   robrst.certificate: proof, models, steps (+ private step kernels)
-    synthesis     robrst.synthesis
-    design        robrst.design (the pipeline)
+    problem       robrst.problem: specs (the spec table), records, files, checks, documents,
+                  spread
+    certificate   robrst.certificate: figures, statement, models, proof, steps (+ private
+                  step kernels), completion, assessment
+    synthesis     robrst.synthesis (synthesis records only: no DesignResult)
+    design        robrst.design: achieved, result, contract, candidate, multistart, single,
+                  fleet, pipeline
     modelling     robrst.data, robrst.twin, robrst.identify, robrst.diagnose
                   (on base + maths core only)
     controller    robrst.controller: digital sections, implementation, export (C, Python)
@@ -128,9 +131,36 @@ def test_no_private_name_across_modules():
 
 
 def test_the_package_root_holds_only_the_face():
-    """Every module lives in its layer's folder; the root keeps the face and the pipeline."""
+    """Every module lives in its layer's folder; the root keeps the face."""
     root = sorted(p.name for p in PKG.glob("*.py"))
-    assert root == ["__init__.py", "__main__.py", "design.py", "testing.py"]
+    assert root == ["__init__.py", "__main__.py", "testing.py"]
+
+
+def test_no_synthesis_module_knows_the_design_record():
+    """Synthesis modules return synthesis records: none imports the design layer."""
+    bad = [f"{mod}:{line} imports {t}" for mod in MODULES if layer_of(mod) == "synthesis"
+           for t, line in imports_of(mod) if layer_of(t) == "design"]
+    assert bad == []
+
+
+def test_the_architecture_page_lists_every_module():
+    """docs/background/architecture.md's tree names every module of the package."""
+    page = (PKG.parent / "docs" / "background" / "architecture.md").read_text(encoding="utf-8")
+    tree = page.split("## Every module", 1)[1].split("```", 2)[1]
+    listed, stack = set(), []
+    for line in tree.splitlines():
+        if not line.strip() or line.strip() == "robrst/":
+            continue
+        name = line.split()[0]
+        depth = (len(line) - len(line.lstrip())) // 2 - 1
+        stack = stack[:depth]
+        if name.endswith("/"):
+            stack.append(name[:-1])
+            listed.add(".".join(["robrst", *stack]))
+        else:
+            listed.add(".".join(["robrst", *stack, name[:-3]]))
+    assert sorted(set(MODULES) - listed - {"robrst"}) == []
+    assert sorted(listed - set(MODULES)) == []
 
 
 def test_private_modules_stay_in_their_package():

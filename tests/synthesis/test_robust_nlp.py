@@ -50,17 +50,18 @@ def test_paper_robust_is_certified_and_meets_every_spec(robust_result):
     sp = r.problem.specs
     assert sp.sampled and sp.time_domain and sp.Mu_hf_max is not None
     for m in r.certificate.models:
-        for sfx in ("", "_sampled"):
-            assert m["stable" + sfx] and m["spectral_abscissa" + sfx] < 0
-            assert m["Ms" + sfx] <= sp.Ms_max * (1 + 1e-3)
-            assert m["Mt" + sfx] <= sp.Mt_max * (1 + 1e-3)
-            assert m["Mu" + sfx] <= sp.Mu_max * (1 + 1e-3)
-            assert m["Mt_resonance_band" + sfx] <= 1.0 * (1 + 1e-3)
-            assert m["Mu_hf" + sfx] <= sp.Mu_hf_max * (1 + 1e-3)
-            assert m["overshoot_pct" + sfx] <= sp.overshoot_max_pct * (1 + 1e-3)
-            assert m["settling_time_s" + sfx] <= sp.settling_time_max_s
-            assert m["step_u_peak_V" + sfx] <= sp.step_u_max_V
-    temps = [m["temperature_C"] for m in r.certificate.models]
+        for loop in ("continuous", "sampled"):
+            v = lambda k: m.value(k, loop)                  # noqa: E731
+            assert v("stable") and v("spectral_abscissa") < 0
+            assert v("Ms") <= sp.Ms_max * (1 + 1e-3)
+            assert v("Mt") <= sp.Mt_max * (1 + 1e-3)
+            assert v("Mu") <= sp.Mu_max * (1 + 1e-3)
+            assert v("Mt_resonance_band") <= 1.0 * (1 + 1e-3)
+            assert v("Mu_hf") <= sp.Mu_hf_max * (1 + 1e-3)
+            assert v("overshoot_pct") <= sp.overshoot_max_pct * (1 + 1e-3)
+            assert v("settling_time_s") <= sp.settling_time_max_s
+            assert v("step_u_peak_V") <= sp.step_u_max_V
+    temps = [m.temperature_C for m in r.certificate.models]
     assert min(temps) == 28.0 and max(temps) == 45.0 and len(temps) >= 30
 
 
@@ -72,7 +73,7 @@ def test_certificate_independent_recomputation(robust_result):
     fam = r.problem.family
     w = np.logspace(-1, 7, 100_001)
     for rec in r.certificate.models[::4]:
-        plant = fam.at(rec["temperature_C"])
+        plant = fam.at(rec.temperature_C)
         cl = closed_loop(plant, r.controller)
         for name, key in (("S", "Ms"), ("T", "Mt"), ("U", "Mu")):
             N, D = cl.tf(name)
@@ -82,16 +83,16 @@ def test_certificate_independent_recomputation(robust_result):
             f = lambda x: -abs(np.polyval(N, 1j * np.exp(x)) / np.polyval(D, 1j * np.exp(x)))  # noqa: E731
             ref = max(g[i], -minimize_scalar(f, bounds=(lw - 0.01, lw + 0.01), method="bounded",
                                              options={"xatol": 1e-12}).fun)
-            if rec[f"{key}_freq_rad_s"] is None:  # peak at infinity: the limit |N/D|(inf)
+            if rec.value(f"{key}_freq_rad_s") is None:  # peak at infinity: |N/D|(inf)
                 ref = max(ref, abs(N[0] / D[0]) if len(N) == len(D) else 0.0)
-            assert rec[key] == pytest.approx(ref, rel=1e-6)
+            assert rec.value(key) == pytest.approx(ref, rel=1e-6)
         # stability from the companion eigenvalues, not np.roots
         Dn = cl.Delta / cl.Delta[0]
         w0 = poly.natural_scale(Dn)
         C = np.diag(np.ones(len(Dn) - 2), -1)
         Ds = poly.to_scaled(Dn, w0)
         C[0, :] = -(Ds / Ds[0])[1:]
-        assert np.max(np.linalg.eigvals(C).real) * w0 == pytest.approx(rec["spectral_abscissa"],
+        assert np.max(np.linalg.eigvals(C).real) * w0 == pytest.approx(rec.continuous.spectral_abscissa,
                                                                        rel=1e-6, abs=1e-9)
 
 
@@ -104,9 +105,9 @@ def test_two_dof_spectral_abscissae_are_those_of_the_whole_loops(robust_result):
     fam, sp = r.problem.family, r.problem.specs
     assert r.tracking is not None and len(r.tracking.Am_ref) >= 3
     for rec in r.certificate.models[::3]:
-        plant = fam.at(rec["temperature_C"])
-        for pl, sfx in ((plant, ""), (fam.sampled(plant, sp.sample_rate_hz, sp.delay_samples),
-                                      "_sampled")):
+        plant = fam.at(rec.temperature_C)
+        for pl, loop in ((plant, "continuous"),
+                         (fam.sampled(plant, sp.sample_rate_hz, sp.delay_samples), "sampled")):
             Dn = closed_loop(pl, r.controller).Delta
             Dn = Dn / Dn[0]
             w0 = poly.natural_scale(Dn)
@@ -114,7 +115,7 @@ def test_two_dof_spectral_abscissae_are_those_of_the_whole_loops(robust_result):
             C = np.diag(np.ones(len(Dn) - 2), -1)
             C[0, :] = -(Ds / Ds[0])[1:]
             assert np.max(np.linalg.eigvals(C).real) * w0 == pytest.approx(
-                rec["spectral_abscissa" + sfx], rel=1e-6, abs=1e-9), (rec["temperature_C"], sfx)
+                rec.value("spectral_abscissa", loop), rel=1e-6, abs=1e-9), (rec.temperature_C, loop)
     # a factor slower than every loop pole (-0.5 rad/s): each abscissa becomes its root,
     # given as the factor or found in each closed-loop polynomial
     f = np.array([1.0, 0.5])
@@ -123,8 +124,8 @@ def test_two_dof_spectral_abscissae_are_those_of_the_whole_loops(robust_result):
     for cert in (with_time_domain(r.problem, r.certificate, slow, factor=f),
                  with_time_domain(r.problem, r.certificate, slow)):
         for rec in cert.models:
-            for sfx in ("", "_sampled"):
-                assert rec["spectral_abscissa" + sfx] == pytest.approx(-0.5, rel=1e-9)
+            for loop in ("continuous", "sampled"):
+                assert rec.value("spectral_abscissa", loop) == pytest.approx(-0.5, rel=1e-9)
 
 
 def test_robust_beats_analytic_on_integral_gain(robust_result):
@@ -211,7 +212,7 @@ def test_convex_and_nlp_agree_on_nominal_shaping(tmp_path):
         f.write_text(SHAPING.format(method=method))
         res[method] = run_problem(load_problem(f))
         assert res[method].analytic_check.passed
-    ms = {k: r.certificate.models[0]["Ms"] for k, r in res.items()}
+    ms = {k: r.certificate.models[0].continuous.Ms for k, r in res.items()}
     # two different solvers (SOCP interior point vs IPOPT) on the same grid: same optimum
     assert ms["nlp"] == pytest.approx(ms["convex"], rel=2e-3)
     # both improve on the analytic design with the same Am

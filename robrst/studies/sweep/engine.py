@@ -38,6 +38,7 @@ if TYPE_CHECKING:
     from robrst.studies.sweep.cluster import DaskExecutor
     from robrst.studies.sweep.evaluate import SweepContext
     from robrst.studies.sweep.variants import Chunk
+    import pyarrow as pa
 
 __all__ = ["Task", "Progress", "SweepResult", "SequentialExecutor", "execute", "run_sweep",
            "check_scheduler", "ADDRESS"]
@@ -64,7 +65,7 @@ class Task:
         The first variant's index.
     """
 
-    chunk: object
+    chunk: Chunk
     indices: np.ndarray
     values: np.ndarray
     single: bool = False
@@ -133,8 +134,8 @@ class SweepResult:
 
     sweep: Sweep
     out: Path
-    context: object
-    table: object
+    context: SweepContext
+    table: pa.Table
     summary: dict
 
     @property

@@ -33,23 +33,31 @@ from robrst.core.analysis import margins as loop_margins
 from robrst.certificate.proof import certify_problem
 from robrst.base.errors import InfeasibleError, RobrstError, SolverError, SpecError
 from robrst.problem.files import parse_problem
+from robrst.problem.specs import LOOPS, spec_columns
 from robrst.studies.sweep.model import merge_documents, variant_problem
 from robrst.synthesis.parametrize import integral_gain
 from robrst.base.threads import one_blas_thread
 
 if TYPE_CHECKING:
     from robrst.design import DesignResult
-    from robrst.problem.records import Problem
+    from robrst.problem.records import Problem, Specs
+    from collections.abc import Callable
+    from robrst.core.rst import RSTController
+    from robrst.studies.sweep.files import Sweep
 
 __all__ = ["SweepContext", "WorkerState", "build_state", "evaluate_chunk", "evaluate_variant",
-           "problem_of", "fleet_problem", "FIGURE_COLUMNS", "CONTROLLER_COLUMNS", "status_of",
+           "problem_of", "fleet_problem", "FIGURE_COLUMNS", "CONTROLLER_COLUMNS",
+           "spec_figure_columns", "status_of",
            "failed_row", "design_cause"]
 
 # column -> arrow type name; the same columns for every kind
 FIGURE_COLUMNS = {
     "status": "string", "message": "string", "certified": "bool_", "stable": "bool_",
-    "worst_ratio": "float64", "Ms": "float64", "Ms_temperature_C": "float64", "Mt": "float64",
-    "Mu": "float64", "Mt_band": "float64", "modulus_margin": "float64",
+    "worst_ratio": "float64",
+    # the worst figure of every spec with a column (robrst.problem.specs), Ms with its place
+    **{k: "float64" for row in spec_columns()
+       for k in ((row.column, "Ms_temperature_C") if row.column == "Ms" else (row.column,))},
+    "modulus_margin": "float64",
     "gain_margin": "float64", "phase_margin_deg": "float64", "delay_margin_s": "float64",
     "spectral_abscissa": "float64", "Ms_sampled": "float64", "Mt_sampled": "float64",
     "Mu_sampled": "float64", "integral_gain": "float64", "violations": "int64",
@@ -80,11 +88,11 @@ class SweepContext:
         What the output folder's results were computed from (resume check).
     """
 
-    sweep: object
+    sweep: Sweep
     names: tuple = ()
-    base: object = None
+    base: Problem | None = None
     doc: dict = None
-    controller: object = None
+    controller: RSTController | None = None
     fleet: tuple = ()
     fingerprint: str = ""
 
@@ -107,7 +115,7 @@ class WorkerState:
     """
 
     context: SweepContext
-    designer: object = None
+    designer: Callable[..., DesignResult] | None = None
     lock: object = field(default_factory=threading.Lock)
     templates: dict = field(default_factory=dict)   # built NLP solvers, shared by the variants
 
@@ -174,9 +182,11 @@ def _figures(problem, ctrl, cert, member_margins):
     s = (lambda q: cert.worst(q, "sampled")) if samp else (lambda q: None)     # noqa: E731
     ms = c("Ms")
     return {"certified": bool(cert.certified), "stable": bool(stable),
-            "worst_ratio": worst if stable else np.inf, "Ms": ms,
+            "worst_ratio": worst if stable else np.inf,
+            **{row.column: c(row.figure) for row in spec_columns()},
+            **{row.column: _worst_of_loops(cert, row.figure, cont, samp)
+               for row in spec_columns(problem.specs) if not row.always_column},
             "Ms_temperature_C": worst_ms.temperature_C if cont and worst_ms else None,
-            "Mt": c("Mt"), "Mu": c("Mu"), "Mt_band": c("Mt_resonance_band"),
             "modulus_margin": None if not ms else 1.0 / ms, "gain_margin": gm,
             "phase_margin_deg": pm, "delay_margin_s": dm,
             "spectral_abscissa": cert.worst("spectral_abscissa"),
@@ -184,6 +194,30 @@ def _figures(problem, ctrl, cert, member_margins):
             "Mu_sampled": s("Mu"), "integral_gain": integral_gain(ctrl),
             "violations": len(cert.violations),
             "violation": None if viol is None else viol.describe()}
+
+
+def _worst_of_loops(cert, figure, cont, samp):
+    """The worst ``figure`` over both loops (``None``: an unstable loop, or not computed)."""
+    if not (cont and samp):
+        return None
+    vals = [v for loop in LOOPS if (v := cert.worst(figure, loop)) is not None]
+    return max(vals) if vals else None
+
+
+def spec_figure_columns(specs: Specs | None) -> dict[str, str]:
+    """The columns of the specs that only a sweep whose problem bounds them has
+    (``Msd_rel``: :func:`robrst.problem.specs.spec_columns`), with their arrow types.
+
+    Parameters
+    ----------
+    specs : Specs or None
+        The sweep problem's specs.
+
+    Returns
+    -------
+    dict
+    """
+    return {row.column: "float64" for row in spec_columns(specs) if not row.always_column}
 
 
 def _inf(x):

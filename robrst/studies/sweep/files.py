@@ -27,7 +27,8 @@ from robrst.base import resources
 from robrst.base.errors import SpecError
 from robrst.base.schema import ArrayOf, Field, key_error, load_toml, markdown_rows, validate
 from robrst.problem.files import SCHEMA as PROBLEM_SCHEMA
-from robrst.problem.spread import COEF, DIST_KEYS, DISTS, PLANT_PARAMS, Ageing, Param
+from robrst.problem.spread import (COEF, DIST_KEYS, DISTS, PLANT_PARAMS, Ageing, Param,
+                                   check_truncation)
 from robrst.studies.sweep.variants import grid_values
 
 __all__ = ["Param", "Ageing", "Sweep", "SWEEP_SCHEMA", "PLANT_PARAMS", "KINDS", "DISTS",
@@ -247,41 +248,9 @@ def _param(path, i, p):
     if dist == "lognormal" and lo is not None and not lo > 0:
         raise key_error(path, key + ("lo",), "lognormal truncation needs lo > 0")
     if dist in ("normal", "lognormal") and (lo is not None or hi is not None):
-        _check_truncation(path, key, dist, p)
+        check_truncation(path, key, dist, p)
     return Param(name=name, dist=dist, mean=p["mean"], std=p["std"], median=p["median"],
                  sigma=p["sigma"], lo=lo, hi=hi, values=values, note=p["note"])
-
-
-MIN_TRUNCATED_MASS = 1e-9   # a truncated normal keeps at least this share of its probability
-
-
-def _check_truncation(path, key, dist, p):
-    """Refuse a truncation ``[lo, hi]`` that holds (almost) none of the distribution's
-    probability: every draw would land on an end (drawn by the inverse CDF, whose
-    resolution is that of ``CDF(hi) - CDF(lo)`` in double precision)."""
-    from scipy.special import ndtr
-
-    if dist == "normal":
-        loc, scale, tr, what = p["mean"], p["std"], (lambda x: x), (
-            f"normal (mean {p['mean']:g}, std {p['std']:g})")
-    else:
-        loc, scale, tr, what = math.log(p["median"]), p["sigma"], math.log, (
-            f"lognormal (median {p['median']:g}, sigma {p['sigma']:g})")
-    za = -math.inf if p["lo"] is None else (tr(p["lo"]) - loc) / scale
-    zb = math.inf if p["hi"] is None else (tr(p["hi"]) - loc) / scale
-    drawn = float(ndtr(zb)) - float(ndtr(za))         # what the inverse-CDF draw resolves
-    if not drawn > MIN_TRUNCATED_MASS:
-        mass = float(ndtr(-za) - ndtr(-zb)) if za > 0 else float(ndtr(zb) - ndtr(za))
-        where = (f"lo is {za:.3g} std above" if za > 0 else f"hi is {-zb:.3g} std below")
-        if dist == "lognormal":
-            where = where.replace("std", "sigma (in log)")
-        rng = f"[{'-inf' if p['lo'] is None else format(p['lo'], 'g')}, " \
-              f"{'inf' if p['hi'] is None else format(p['hi'], 'g')}]"
-        raise key_error(path, key, f"the {what} has probability {mass:.3g} in {rng}"
-                        f" ({where} the {'mean' if dist == 'normal' else 'median'}): every"
-                        f" variant would get the same end value; widen lo, hi or move the"
-                        f" {'mean' if dist == 'normal' else 'median'} into them (at least"
-                        f" {MIN_TRUNCATED_MASS:g} of the probability)")
 
 
 def _overrides(path, data, schema, key=("set",)):

@@ -14,6 +14,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from robrst.problem.specs import spec_columns
+from robrst.studies.sweep.evaluate import spec_figure_columns
+
 if TYPE_CHECKING:
     import pyarrow as pa
     from numpy.typing import ArrayLike
@@ -23,7 +26,7 @@ if TYPE_CHECKING:
 __all__ = ["wilson_interval", "pareto_front", "front_values", "figure_stats", "worst_rows",
            "summarise", "STAT_FIGURES"]
 
-STAT_FIGURES = ("Ms", "Mt", "Mu", "Mt_band", "modulus_margin", "gain_margin",
+STAT_FIGURES = (*(row.column for row in spec_columns()), "modulus_margin", "gain_margin",
                 "phase_margin_deg", "delay_margin_s", "spectral_abscissa", "integral_gain",
                 "worst_ratio", "seconds", "cpu_s")
 
@@ -245,14 +248,16 @@ def summarise(context: SweepContext, table: pa.Table, n: int, workers: int, wall
            "failed": done - counts.get("ok", 0), "statuses": counts, "workers": workers,
            "wall_s": wall_s, "cpu_s": cpu, "cpu_s_per_variant": cpu / done if done else None,
            "chunk_size": sw.chunk_size, "seed": sw.seed, "params": list(context.names),
-           "fingerprint": context.fingerprint, "figures": figure_stats(table), "worst": worst,
+           "fingerprint": context.fingerprint,
+           "figures": figure_stats(table, STAT_FIGURES + tuple(spec_figure_columns(
+               None if context.base is None else context.base.specs))), "worst": worst,
            "results": "results.parquet", "report": "report", "unstable": unstable}
     if context.controller is not None:
         out["controller"] = context.controller.as_dict()
     if context.base is not None:
         sp = context.base.specs
-        out["specs"] = {"Ms_max": sp.Ms_max, "Mt_max": sp.Mt_max, "Mu_max": sp.Mu_max,
-                        "T_resonance_max": sp.T_resonance_max}
+        # the bound of every spec with a sweep column (robrst.problem.specs)
+        out["specs"] = {row.key: getattr(sp, row.key) for row in spec_columns(sp)}
         out["temperature_range_C"] = list(context.base.family.range_C)
     if sw.kind != "analysis" and rows is not None:
         x, y = sw.front
