@@ -139,7 +139,7 @@ def run(data=None, out=Path("reports/mirror_mimo"), quick=False):
     from robrst.problem.mimo_files import load_mimo_problem
     from robrst.report.mimo import mimo_summary
     from robrst.studies.mimo_twin import step_tests
-    from robrst.synthesis.mimo_design import design_mimo
+    from robrst.design.mimo import design_mimo
 
     c0, w0 = time.process_time(), time.perf_counter()
     if data is None:
@@ -186,7 +186,7 @@ def run(data=None, out=Path("reports/mirror_mimo"), quick=False):
     naive = result.comparisons.get("ignoring_coupling")
     twin_naive = None
     if naive is not None:
-        twin_naive = step_tests(problem.family, export_mimo(result, naive["controller"]),
+        twin_naive = step_tests(problem.family, export_mimo(result, naive.controller),
                                 step_um=1.0, duration_s=0.1)
     times["twin_s"] = time.process_time() - t
     cert = result.certificate
@@ -199,9 +199,9 @@ def run(data=None, out=Path("reports/mirror_mimo"), quick=False):
         "bandwidth_hz_sampled": {m.label: list(m.sampled.bandwidth_hz) for m in members},
         "interval": cert.interval.get("statement"),
         "binding": result.binding,
-        "comparisons": {k: {"certified": v["certificate"].certified,
-                            "ratios": v["certificate"].ratios(),
-                            "unstable_on": sorted({x.label for x in v["certificate"].violations
+        "comparisons": {k: {"certified": v.certificate.certified,
+                            "ratios": v.certificate.ratios(),
+                            "unstable_on": sorted({x.label for x in v.certificate.violations
                                                    if x.kind == "unstable"})}
                         for k, v in result.comparisons.items()},
         "twin": twin, "twin_ignoring_coupling": twin_naive,

@@ -37,7 +37,7 @@ def run_mimo_design(args: argparse.Namespace) -> int:
 
     from robrst.problem.mimo_files import load_mimo_problem
     from robrst.report.mimo import mimo_summary
-    from robrst.synthesis.mimo_design import design_mimo
+    from robrst.design.mimo import design_mimo
 
     problem = load_mimo_problem(args.problem)
     method = getattr(args, "method", None)

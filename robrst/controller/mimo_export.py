@@ -31,14 +31,14 @@ import numpy as np
 from robrst import __version__
 from robrst.base.errors import SpecError
 from robrst.controller.c_code import check_prefix
-from robrst.controller.digital import DigitalController, digital_controller
+from robrst.controller.digital import digital_controller
 from robrst.controller.export import check_u_range
 
 if TYPE_CHECKING:
     from collections.abc import Callable
 
     from robrst.core.mimo_loop import MimoController
-    from robrst.synthesis.mimo_design import MimoDesignResult
+    from robrst.design.mimo import MimoDesignResult
 
 __all__ = ["MimoExported", "export_mimo", "mimo_c_files", "mimo_python_module"]
 

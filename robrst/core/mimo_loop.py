@@ -29,7 +29,6 @@ the spectrum of its ``A``.  The loop is well posed when ``I + D_K D_G`` is inver
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 

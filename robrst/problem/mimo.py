@@ -18,7 +18,7 @@ from robrst.base.errors import SpecError
 from robrst.core.mimo import MimoFamily
 
 if TYPE_CHECKING:
-    from numpy.typing import ArrayLike
+    pass
 
 __all__ = ["MimoSpec", "MIMO_SPECS", "MimoSpecs", "MimoStructure", "MimoSolverOptions",
            "MimoProblem", "DECOUPLERS", "MIMO_METHODS", "MIMO_T_MODES", "spec_row"]

@@ -1,49 +1,42 @@
-"""The multi-axis design pipeline: per-axis starts, the joint robust program, the certificate.
+"""The multi-axis synthesis: per-axis designs, the decoupler, the joint program's rounds.
 
-:func:`design_mimo` takes a :class:`~robrst.problem.mimo.MimoProblem` to a
-:class:`MimoDesignResult`:
+The pieces :func:`robrst.design.mimo.design_mimo` assembles (that module's docstring
+gives the whole pipeline):
 
-1. **Decoupler** (``static``: :func:`robrst.synthesis.mimo_start.static_decoupler` of the
-   reference model; ``given``; ``none``).
-2. **Per-axis designs** (the start): each axis designed alone on its diagonal channel
-   ``(G W)_ii`` over every model and loop of the family (:func:`design_axes`): a rolled-off
-   integral law scanned to the largest stable gain that meets the bounds; with method
-   ``per_axis`` (and for the comparison below) the same program in its 1 x 1 form then
-   maximises each axis's integral gain.
-3. **The joint program** (method ``nlp``, :mod:`robrst.synthesis.mimo_program`): every
-   axis, the coupling and every model at once.  Rounds: solve on the grid; check the
-   models exactly (:func:`robrst.certificate.mimo.check_models`); a violated figure's
-   frequency joins the grid, an unstable candidate is pulled back towards the last
-   stable controller (halving the step) and the unstable poles' frequencies join the
-   grid; then the full certificate, whose violated points between models join the program
-   as further models.
-4. **Always an answer**: the best certified controller, else the best found, with its
-   certificate and the binding figure (the largest ratio to its bound) named.
-5. **The comparison**: the per-axis designs certified on the whole loop, and (``compare``)
-   the three loops designed one by one on ``G_ii`` ignoring the coupling (no decoupler),
-   on the same certificate.
+* :func:`decoupler_of`: the problem's decoupler (``static``:
+  :func:`robrst.synthesis.mimo_start.static_decoupler` of the reference model; ``given``;
+  ``none``);
+* :func:`design_axes`: each axis designed alone on its diagonal channel ``(G W)_ii`` over
+  every model and loop of the family: a rolled-off integral law scanned to the largest
+  stable gain that meets the bounds; with ``optimize`` the program in its 1 x 1 form then
+  maximises each axis's integral gain;
+* :func:`program_rounds`: the joint program (:mod:`robrst.synthesis.mimo_program`), every
+  axis, the coupling and every model at once.  Rounds: solve on the grid; check the models
+  exactly (:func:`robrst.certificate.mimo.check_models`); a violated figure's frequency
+  joins the grid, an unstable candidate is pulled back towards the last stable controller
+  (halving the step) and the unstable poles' frequencies join the grid;
+* :func:`per_axis_controller`, :func:`controller_of`: decision vectors -> controller.
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
 
 import numpy as np
 
-from robrst.certificate.mimo import MimoCertificate, certify_mimo, check_models
-from robrst.core.mimo import MimoFamily, MimoPlant, combination
+from robrst.certificate.mimo import check_models
+from robrst.core.mimo import MimoPlant
 from robrst.core.mimo_loop import MimoController
 from robrst.problem.mimo import MimoProblem, MimoSolverOptions, MimoSpecs
 from robrst.synthesis.mimo_program import (NYQUIST_FLOOR, PROGRAM_FIGURES, AxisParam, GridRows,
                                            MimoProgram)
-from robrst.synthesis.mimo_start import (LoopPlant, axis_plant, design_scale, loop_plants,
+from robrst.synthesis.mimo_start import (axis_plant, loop_plants,
                                          nu_of, program_grid, start_gain, static_decoupler)
 
-__all__ = ["MimoRound", "MimoDesignResult", "design_mimo", "design_axes", "decoupler_of",
-           "per_axis_controller"]
+__all__ = ["MimoRound", "design_axes", "decoupler_of", "per_axis_controller", "controller_of",
+           "program_rounds"]
 
 
 
@@ -81,97 +74,6 @@ class MimoRound:
     seconds: float
 
 
-@dataclass(frozen=True, eq=False)
-class MimoDesignResult:
-    """What :func:`design_mimo` returns (always an answer).
-
-    Parameters
-    ----------
-    problem : MimoProblem
-    controller : MimoController
-        The answer: the best certified controller, else the best found.
-    certificate : MimoCertificate
-        Its certificate over the whole family.
-    binding : dict
-        The figure with the largest ratio to its bound: ``figure, ratio, model, loop``.
-    rounds : tuple of MimoRound
-    start : MimoController
-        The per-axis designs with the decoupler (the program's start).
-    comparisons : dict
-        ``{name: {"controller", "certificate", "note"}}``: the per-axis start and (with
-        ``compare``) the per-axis designs that ignore the coupling.
-    w_design : float
-        The start's crossover [rad/s].
-    seconds : float
-        Wall time.
-
-    Attributes
-    ----------
-    certified : bool
-    """
-
-    problem: MimoProblem
-    controller: MimoController
-    certificate: MimoCertificate
-    binding: dict
-    rounds: tuple
-    start: MimoController
-    comparisons: dict = field(default_factory=dict)
-    w_design: float = 0.0
-    seconds: float = 0.0
-
-    @property
-    def certified(self) -> bool:
-        return self.certificate.certified
-
-    def integral_gains(self) -> list[float]:
-        """Every axis's integral gain ``lim s R_i/S_i`` [V/(µm s)] (before the decoupler).
-
-        Returns
-        -------
-        list of float
-        """
-        out = []
-        for c in self.controller.axes:
-            S = np.trim_zeros(c.S, "b")
-            out.append(float(c.R[-1] / S[-1]) if len(S) < len(c.S) else 0.0)
-        return out
-
-    def as_dict(self) -> dict:
-        """The design as one JSON-ready object.
-
-        Returns
-        -------
-        dict
-            ``kind = "mimo"``, ``problem``, ``certified``, ``controller``, ``certificate``,
-            ``binding``, ``integral_gains``, ``rounds``, ``comparisons`` (their certified
-            flag, ratios and violations), ``seconds``.
-        """
-        p = self.problem
-        return {
-            "kind": "mimo", "problem": p.name, "certified": self.certified,
-            "axes": list(p.axes), "parameter": p.family.parameter, "unit": p.family.unit,
-            "models": [m.label for m in p.family.models],
-            "values": [m.value for m in p.family.models],
-            "specs": p.specs.as_dict(), "method": p.solver.method,
-            "controller": self.controller.as_dict(),
-            "integral_gains": self.integral_gains(),
-            "w_design_rad_s": self.w_design,
-            "binding": self.binding,
-            "certificate": self.certificate.as_dict(),
-            "rounds": [r.__dict__ for r in self.rounds],
-            "comparisons": {k: {"certified": v["certificate"].certified,
-                                "note": v["note"],
-                                "ratios": v["certificate"].ratios(),
-                                "controller": v["controller"].as_dict(),
-                                "violations": [x.as_dict() for x in
-                                               v["certificate"].violations[:20]],
-                                "members": [m.as_dict() for m in v["certificate"].members()]}
-                            for k, v in self.comparisons.items()},
-            "seconds": self.seconds,
-        }
-
-
 def decoupler_of(problem: MimoProblem) -> MimoController:
     """An identity-axis controller carrying only the problem's decoupler (its ``W``).
 
@@ -193,8 +95,24 @@ def decoupler_of(problem: MimoProblem) -> MimoController:
     return st.W if st.W is not None else st.decoupler_ss
 
 
-def _controller(axes: Sequence[AxisParam], x: np.ndarray, W, T_mode: str,
-                names: Sequence[str]) -> MimoController:
+def controller_of(axes: Sequence[AxisParam], x: np.ndarray, W: np.ndarray | tuple,
+                  T_mode: str, names: Sequence[str]) -> MimoController:
+    """The controller of the joint decision vector (every axis's, stacked) and a decoupler.
+
+    Parameters
+    ----------
+    axes : sequence of AxisParam
+    x : numpy.ndarray
+        The axes' decision vectors, concatenated.
+    W : numpy.ndarray or tuple
+        Static decoupler, or a dynamic one ``(A, B, C, D)``.
+    T_mode : str
+    names : sequence of str
+
+    Returns
+    -------
+    MimoController
+    """
     offs = np.cumsum([0] + [a.n_x for a in axes])
     laws = [a.controller(x[offs[i]:offs[i + 1]], T_mode) for i, a in enumerate(axes)]
     if isinstance(W, tuple):
@@ -221,7 +139,7 @@ def per_axis_controller(axes: Sequence[AxisParam], xs: Sequence[np.ndarray],
     -------
     MimoController
     """
-    return _controller(axes, np.concatenate(xs), W, T_mode, names)
+    return controller_of(axes, np.concatenate(xs), W, T_mode, names)
 
 
 def _w_response(W, nu):
@@ -275,11 +193,50 @@ def _objective(axes, x, signs):
     return float(np.log(min(ks))) if min(ks) > 0 else -np.inf
 
 
-def _rounds(name, models, specs, axes, W, T_mode, names, x0, signs, so, progress,
-            w_design, rounds_out, extra_models=()):
-    """The program's rounds on ``models`` (module docstring, step 3); returns the best
-    decision vector found, whether its models check out, and its violations."""
-    ctrl_of = lambda x: _controller(axes, x, W, T_mode, names)   # noqa: E731
+def program_rounds(name: str, models: Sequence[MimoPlant], specs: MimoSpecs,
+                   axes: Sequence[AxisParam], W: np.ndarray | tuple, T_mode: str,
+                   names: Sequence[str], x0: np.ndarray, signs: Sequence[float],
+                   so: MimoSolverOptions, progress: Callable[[str], None], w_design: float,
+                   rounds_out: list, extra_models: Sequence[MimoPlant] = ()
+                   ) -> tuple[np.ndarray, bool, list]:
+    """The program's rounds on ``models`` (module docstring, step 3).
+
+    Parameters
+    ----------
+    name : str
+        The design's name in the rounds' records.
+    models : sequence of MimoPlant
+    specs : MimoSpecs
+    axes : sequence of AxisParam
+    W : numpy.ndarray or tuple
+        The decoupler.
+    T_mode : str
+    names : sequence of str
+        The axes' names.
+    x0 : numpy.ndarray
+        The start (every axis's decision vector, stacked).
+    signs : sequence of float
+        Every axis's integral-gain sign.
+    so : MimoSolverOptions
+    progress : callable
+        Receives progress lines.
+    w_design : float
+        The crossover scale [rad/s].
+    rounds_out : list
+        Receives a :class:`MimoRound` per solve.
+    extra_models : sequence of MimoPlant
+        Further models (points between members the certificate found violated).
+
+    Returns
+    -------
+    x : numpy.ndarray
+        The best decision vector found.
+    ok : bool
+        Whether its models check out.
+    violations : list
+        Its violations at the models.
+    """
+    ctrl_of = lambda x: controller_of(axes, x, W, T_mode, names)   # noqa: E731
     bounds = {f: b / (1 + GRID_MARGIN) for f, b in specs.bounded.items()
               if f in PROGRAM_FIGURES}
     xt_bound = specs.bounded.get("crosstalk") if T_mode == "feedback" else None
@@ -513,146 +470,8 @@ def design_axes(models: Sequence[MimoPlant], W: np.ndarray | tuple, specs: MimoS
         x = axis.start(gain)
         progress(f"  {nm}: integral-gain scan, scaled gain {gain:.4g}")
         if optimize:
-            x, _, _ = _rounds(nm, chan, one, [axis], np.eye(1), T_mode, [nm], x, [sign], so,
+            x, _, _ = program_rounds(nm, chan, one, [axis], np.eye(1), T_mode, [nm], x, [sign], so,
                               progress, w_design, rounds_out)
         xs.append(x)
         signs.append(sign)
     return xs, signs
-
-
-def _binding(cert: MimoCertificate) -> dict:
-    """The figure with the largest ratio to its bound (or the first violation's)."""
-    best = None
-    for rec in cert.models:
-        for loop in ("continuous", "sampled"):
-            lf = rec.loop(loop)
-            if lf is None:
-                continue
-            if not lf.stable:
-                return {"figure": "stability", "ratio": np.inf, "model": rec.label,
-                        "loop": loop}
-            for fig, b in cert.bounds.items():
-                v = lf.value(fig)
-                if v is not None and (best is None or v / b > best["ratio"]):
-                    best = {"figure": fig, "ratio": v / b, "model": rec.label, "loop": loop}
-    if best is None and cert.violations:
-        v = cert.violations[0]
-        best = {"figure": v.quantity, "ratio": v.ratio, "model": v.label, "loop": v.loop}
-    return best or {}
-
-
-def design_mimo(problem: MimoProblem, progress: Callable[[str], None] | None = None,
-                compare: bool = True) -> MimoDesignResult:
-    """Design and certify a decentralised multi-axis controller (module docstring).
-
-    Parameters
-    ----------
-    problem : MimoProblem
-    progress : callable, optional
-        Receives progress lines.
-    compare : bool
-        Also design the axes one by one ignoring the coupling (no decoupler) and certify
-        them on the same family and specs.
-
-    Returns
-    -------
-    MimoDesignResult
-        Always an answer (module docstring, step 4).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from robrst.core.mimo import MimoFamily, MimoPlant
-    >>> from robrst.problem.mimo import MimoProblem, MimoSpecs, MimoSolverOptions
-    >>> G = MimoPlant(-100.0 * np.eye(2), 100.0 * np.eye(2), [[1.0, 0.2], [0.1, 1.0]],
-    ...               np.zeros((2, 2)))
-    >>> pr = MimoProblem("stage", MimoFamily((G,)), specs=MimoSpecs(sigma_S_max=2.0),
-    ...                  solver=MimoSolverOptions(max_rounds=2))
-    >>> design_mimo(pr, compare=False).certified
-    True
-    """
-    say = progress or (lambda msg: None)
-    t0 = time.perf_counter()
-    st, specs, so = problem.structure, problem.specs, problem.solver
-    fam = problem.family
-    names = problem.axes
-    W = decoupler_of(problem)
-    w_design = design_scale(fam.reference_model, specs, so.bandwidth_hz)
-    axis = AxisParam.of(w_design, st.extra_degree, st.relative_degree, st.roll_off_order,
-                        st.roll_off_hz)
-    rounds = []
-    models = list(fam.models)
-    say(f"designing {problem.name}: {fam.n_out} axes, {len(models)} model(s) over"
-        f" {fam.parameter}, crossover scale {w_design / (2 * np.pi):.4g} Hz")
-    # the start: each axis alone on (G W)_ii, its integral-gain scan (the per-axis method:
-    # the program's rounds too)
-    xs, signs = design_axes(models, W, specs, axis, so, names, st.T_mode, say, w_design,
-                            rounds, optimize=so.method == "per_axis")
-    axes = [axis] * len(names)
-    start = per_axis_controller(axes, xs, W, st.T_mode, names)
-    comparisons = {"per_axis_start": {"controller": start, "note":
-                                      "each axis designed alone on (G W)_ii with the"
-                                      " decoupler; the joint program's start"}}
-    best_ctrl = start
-    if so.method == "nlp":
-        x0 = np.concatenate(xs)
-        recs, viols = check_models(models, start, specs, so.cert_tol)
-        shrink = 1.0
-        while not all(r.continuous.stable and (r.sampled is None or r.sampled.stable)
-                      for r in recs) and shrink > 1e-3:
-            shrink *= 0.5       # the coupling destabilises the per-axis start: less gain
-            x0 = np.concatenate([np.concatenate([x[:axis.d], shrink * x[axis.d:]])
-                                 for x in xs])
-            recs, viols = check_models(models, per_axis_controller(
-                axes, [x0[i * axis.n_x:(i + 1) * axis.n_x] for i in range(len(xs))], W,
-                st.T_mode, names), specs, so.cert_tol)
-        extra = []
-        for attempt in range(3):
-            x, _, _ = _rounds("joint", models, specs, axes, W, st.T_mode, names, x0, signs,
-                              so, say, w_design, rounds, extra)
-            ctrl = _controller(axes, x, W, st.T_mode, names)
-            say("certifying the joint design over the whole family")
-            cert = certify_mimo(fam, ctrl, specs, so.cert_tol, so.cert_points)
-            best_ctrl = ctrl
-            if cert.certified:
-                break
-            bad = [v for v in cert.violations if v.kind in ("exceeds", "unstable")
-                   and v.value_param is not None
-                   and not any(v.label == m.label for m in models)]
-            new = []
-            for v in bad:
-                plant = fam.at(v.value_param)
-                if not any(plant.value == e.value for e in extra):
-                    new.append(plant)
-            if not new:
-                break
-            say(f"  {len(new)} point(s) between models violated: added to the program")
-            extra += new[:4]
-            x0 = x
-        certificate = cert
-    else:
-        say("certifying the per-axis designs over the whole family")
-        certificate = certify_mimo(fam, start, specs, so.cert_tol, so.cert_points)
-    if so.method == "nlp":
-        say("certifying the per-axis start over the whole family")
-        comparisons["per_axis_start"]["certificate"] = certify_mimo(
-            fam, start, specs, so.cert_tol, so.cert_points)
-        if not certificate.certified and comparisons["per_axis_start"]["certificate"].certified:
-            best_ctrl, certificate = start, comparisons["per_axis_start"]["certificate"]
-    else:
-        comparisons["per_axis_start"]["certificate"] = certificate
-    if compare and fam.n_out > 1:
-        say("designing the axes one by one on G_ii, ignoring the coupling (no decoupler)")
-        ident = np.eye(fam.n_out)
-        xs2, _ = design_axes(models, ident, specs, axis, replace(so, max_rounds=min(
-            so.max_rounds, 3)), names, st.T_mode, say, w_design, rounds)
-        naive = per_axis_controller(axes, xs2, ident, st.T_mode, names)
-        say("certifying them on the coupled plant")
-        comparisons["ignoring_coupling"] = {
-            "controller": naive, "certificate": certify_mimo(fam, naive, specs, so.cert_tol,
-                                                             so.cert_points),
-            "note": "each axis designed alone on G_ii (no decoupler), the coupling ignored"}
-    return MimoDesignResult(problem=problem, controller=best_ctrl, certificate=certificate,
-                            binding=_binding(certificate), rounds=tuple(rounds), start=start,
-                            comparisons=comparisons, w_design=w_design,
-                            seconds=time.perf_counter() - t0)

@@ -15,7 +15,7 @@ from mimo_stages import random_stage, refined_max, sigma_grid
 from robrst.base.errors import SpecError
 from robrst.core.mimo import MimoFamily, MimoPlant
 from robrst.problem.mimo import MimoProblem, MimoSolverOptions, MimoSpecs, MimoStructure
-from robrst.synthesis.mimo_design import design_mimo
+from robrst.design.mimo import design_mimo
 
 FS = 20000.0
 
@@ -61,6 +61,7 @@ def _check_independently(models_tf, values, result, fs):
                 assert worst <= bound * (1 + rtol), (rec.label, loop, worst, bound)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [0, 3])
 def test_certified_design_holds_on_python_controls_loop(seed):
     ga, gb = random_stage(seed, 2, spread=0.04)
@@ -92,18 +93,22 @@ def test_certified_three_axis_design_holds_on_python_controls_loop():
 
 
 def test_an_answer_even_when_the_specs_cannot_be_met():
-    """sigma_max(S) <= 1.05 is out of reach: the best controller found, not certified, its
-    binding figure named."""
+    """sigma_max(T) <= 0.9 is out of reach of any controller with integral action
+    (T(0) = I, so sigma_max(T) >= 1): the best controller found, not certified, its
+    binding figure named.  (sigma_max(S) <= 1.05 alone is reachable by a slow loop: a
+    design certified at 1.0296 was confirmed by python-control's loop.)"""
     g, = random_stage(1, 2)
     P = MimoPlant.from_control(g, "stage", 20.0)
     problem = MimoProblem("tight", MimoFamily((P,)), MimoStructure(extra_degree=1),
-                          MimoSpecs(sigma_S_max=1.05, sample_rate_hz=FS),
+                          MimoSpecs(sigma_S_max=2.0, sigma_T_max=0.9, sample_rate_hz=FS),
                           MimoSolverOptions(max_rounds=2, n_freq=40))
     result = design_mimo(problem, compare=False)
     assert not result.certified
-    assert result.binding["figure"] in ("sigma_S", "stability")
+    assert result.binding["figure"] in ("sigma_T", "stability")
     assert result.controller.n_axes == 2
     assert result.as_dict()["certified"] is False
+    S, T = _pc_S(g, result.controller)          # independent: T(0) is the identity
+    assert np.allclose(sigma_grid(T, np.array([1e-3])), 1.0, atol=1e-3)
 
 
 def test_refusals():
