@@ -42,7 +42,11 @@ import numpy as np
 
 from robrst.cli import main as robrst
 
-FULL_DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "fsm"
+#: the full data set beside the checkout (``../shared/data/fsm``; a worktree one level deeper
+#: finds it one level up)
+FULL_DATA = next((p / "shared" / "data" / "fsm" for p in Path(__file__).resolve().parents[2:4]
+                  if (p / "shared" / "data" / "fsm" / "u_100mV_train.npy").is_file()),
+                 Path(__file__).resolve().parents[2] / "shared" / "data" / "fsm")
 QUICK_DATA = Path(__file__).resolve().parents[1] / "tests" / "data" / "fsm_compact"
 LEVELS = (100, 200, 300)
 FS = 6400.0
@@ -71,6 +75,8 @@ sample_rate_hz = {fs}        # the loop that runs: ZOH plant, Tustin controller
 
 [mimo.solver]
 max_rounds = {rounds}
+max_iter = 100               # IPOPT iterations per solve: the hard phase stops early,
+                             # every iterate is checked on the exact loop anyway
 """
 
 

@@ -9,7 +9,8 @@ declarations the readers validate with (so the reference cannot drift from the c
 Kinds: ``problem`` (:func:`robrst.problem.files.schema_markdown`), ``sweep``
 (:func:`robrst.studies.sweep.files.sweep_schema_markdown`), ``twin``
 (:data:`robrst.twin.config.TWIN_SCHEMA`) and ``scenario``
-(:func:`robrst.studies.user_scenario.scenario_schema_markdown`).
+(:func:`robrst.studies.user_scenario.scenario_schema_markdown`) and ``mimo``
+(:func:`robrst.problem.mimo_files.mimo_schema_markdown`).
 
 The API reference is generated too: at ``builder-inited`` one page per public module is
 written to ``api/generated/`` (reST: ``automodule``, then ``autoclass``/``autofunction`` of the functions and classes its
@@ -46,7 +47,11 @@ def schema_rows(kind):
     if kind == "scenario":
         from robrst.studies.user_scenario import scenario_schema_markdown
         return scenario_schema_markdown()
-    raise ValueError(f"unknown schema {kind!r}: expected problem, sweep, twin or scenario")
+    if kind == "mimo":
+        from robrst.problem.mimo_files import mimo_schema_markdown
+        return mimo_schema_markdown()
+    raise ValueError(f"unknown schema {kind!r}: expected problem, sweep, twin, scenario or"
+                     " mimo")
 
 
 class SchemaTable(SphinxDirective):
