@@ -220,6 +220,64 @@ class MimoPlant:
         return MimoPlant(self.A, self.B, self.C, self.D, label,
                          self.value if value is None else value, dict(self.meta))
 
+    def without_modes_below(self, w_rad_s: float) -> MimoPlant:
+        """The model with its modes slower than ``w_rad_s`` removed (truncated).
+
+        A mode below the lowest frequency a record excites is not identified: its pole and
+        residue are an extrapolation that sets the static gain (identified models of the
+        measured mirror carry a real pole at 0.3-5 rad/s whose DC gain changes sign from
+        one level to the next, while the responses agree across the excited band).
+        Removing it keeps the response wherever the other modes dominate; the static gain
+        becomes that of the remaining modes.
+
+        The poles are separated by an ordered real Schur form (slow ones first) and a
+        Sylvester equation that decouples the two blocks (no eigenvectors: defective or
+        clustered poles are fine); the fast block is returned, ``D`` unchanged.
+
+        Parameters
+        ----------
+        w_rad_s : float
+            Modes with ``|pole| < w_rad_s`` are removed.
+
+        Returns
+        -------
+        MimoPlant
+            Same label, value and meta (``meta["removed_poles"]`` lists what went).
+
+        Raises
+        ------
+        SpecError
+            A negative ``w_rad_s``.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> G = MimoPlant(np.diag([-0.5, -1000.0]), np.ones((2, 1)), np.ones((1, 2)),
+        ...               np.zeros((1, 1)))
+        >>> [round(float(p.real), 6) for p in G.without_modes_below(10.0).poles()]
+        [-1000.0]
+        """
+        import scipy.linalg as sla
+
+        if not w_rad_s >= 0:
+            raise SpecError(f"plant {self.label!r}: modes below {w_rad_s!r} rad/s: a"
+                            " frequency >= 0 expected")
+        n = self.n_states
+        slow = np.abs(self.poles()) < w_rad_s if n else np.zeros(0, bool)
+        if not slow.any():
+            return self
+        sc = self.w0
+        T, Q, ns = sla.schur(self.A / sc, output="real",
+                             sort=lambda re, im: np.hypot(re, im) < w_rad_s / sc)
+        T11, T12, T22 = T[:ns, :ns], T[:ns, ns:], T[ns:, ns:]
+        X = sla.solve_sylvester(T11, -T22, -T12)         # T11 X - X T22 = -T12
+        QB, CQ = Q.T @ self.B, self.C @ Q
+        A2 = T22 * sc
+        B2 = QB[ns:]
+        C2 = CQ[:, :ns] @ X + CQ[:, ns:]
+        meta = dict(self.meta, removed_poles=[complex(p) for p in self.poles()[slow]])
+        return MimoPlant(A2, B2, C2, self.D, self.label, self.value, meta)
+
     def to_control(self) -> control.StateSpace:
         """The model as a continuous python-control ``StateSpace``.
 

@@ -78,6 +78,9 @@ MIMO_SCHEMA = {
         "unit": Field("str", None, "the parameter's unit (default °C for temperatures)"),
         "reference": Field("number", None, "the nominal model's parameter value (default"
                            " the first)"),
+        "drop_modes_below_hz": Field("number", None, "remove every model's modes slower than"
+                                     " this [Hz] (below the records' lowest excited line"
+                                     " they are not identified)", positive=True, hi=1e9),
         "models": ArrayOf({
             "file": Field("str", None, "a model file of robrst identify (relative to this"
                           " file)"),
@@ -323,6 +326,9 @@ def parse_mimo(data: dict, path: str | Path = "<problem>") -> MimoProblem:
         raise key_error(path, ("mimo", "models"), "expected an array of tables [[mimo.models]]")
     parameter = m["parameter"]
     models = _models(path, entries, parameter)
+    if m["drop_modes_below_hz"] is not None:
+        models = [mdl.without_modes_below(2 * np.pi * m["drop_modes_below_hz"])
+                  for mdl in models]
     unit = m["unit"] if m["unit"] is not None else PARAMETERS[parameter]
     ref = 0
     if m["reference"] is not None:

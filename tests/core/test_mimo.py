@@ -128,3 +128,29 @@ def test_refusals():
         MimoFamily((g2, g3.with_label("b", 2.0)))
     with pytest.raises(SpecError, match="inconsistent"):
         MimoPlant(np.eye(2), np.ones((3, 1)), np.ones((1, 2)), [[0.0]])
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_modes_below_a_frequency_are_removed(seed):
+    """The truncated model against the partial-fraction sum of the kept modes, computed
+    independently from numpy's eigenvectors of the unscaled A (python-control stage plus
+    two slow modes: a real pole and a lightly damped pair)."""
+    g, = random_stage(seed, 3)
+    G = control.ss(g)
+    rng = np.random.default_rng(seed)
+    slow = control.ss(control.tf([[[rng.uniform(0.5, 2.0)] for _ in range(3)]
+                                  for _ in range(3)], [[[1.0, 0.4]] * 3] * 3))
+    pair = control.ss(control.tf([[[1.0]] * 3] * 3, [[[1.0, 0.2, 4.0]] * 3] * 3))
+    full = control.parallel(control.parallel(G, slow), pair)
+    P = MimoPlant.from_control(full, "p")
+    fast = P.without_modes_below(2 * np.pi * 1.0)          # 1 Hz
+    lam, V = np.linalg.eig(full.A)
+    keep = np.abs(lam) >= 2 * np.pi
+    CV, WB = full.C @ V, np.linalg.solve(V, full.B)
+    w = np.geomspace(0.01, 1e5, 300)
+    ref = np.array([(CV[:, keep] / (1j * x - lam[keep])) @ WB[keep] + full.D for x in w])
+    got = fast.freqresp(w)
+    assert fast.n_states == int(keep.sum()) == P.n_states - int((~keep).sum())
+    assert np.max(np.abs(got - ref)) <= 1e-8 * np.max(np.abs(ref))
+    assert len(fast.meta["removed_poles"]) == int((~keep).sum())
+    assert P.without_modes_below(1e-3) is P                # nothing below: unchanged

@@ -156,3 +156,19 @@ def test_cli_design_json(tmp_path):
     d = json.loads(r.stdout)
     assert d["kind"] == "mimo" and r.returncode == (0 if d["certified"] else 1)
     assert set(d["certificate"]) >= {"certified", "models", "violations", "interval"}
+
+
+def test_modes_below_a_frequency_are_dropped_from_every_model(tmp_path):
+    """``drop_modes_below_hz = 104`` (653 rad/s): the 600 rad/s mode of the state space and
+    the 650 rad/s transfer matrix go, the 700 rad/s mode and the resonances stay."""
+    (tmp_path / "m100.toml").write_text(MODEL)
+    p = tmp_path / "stage.toml"
+    p.write_text(PROBLEM.format(extra="").replace('unit = "mV"\n',
+                                                  'unit = "mV"\ndrop_modes_below_hz = 104.0\n'))
+    fam = load_mimo_problem(p).family
+    assert [m.n_states for m in fam.models] == [8, 1, 0]     # residues of rank 2
+    w = np.array([0.0, 100.0, 1e4])
+    C, B = np.array([[0.1, 0.01], [0.02, 0.1]]), np.array([[600.0, 0.0], [0.0, 700.0]])
+    ref = [np.outer(C[:, 1], B[1]) / (1j * x + 700.0) for x in w]
+    assert np.allclose(fam.models[1].freqresp(w), ref, rtol=1e-12, atol=1e-15)
+    assert np.allclose(fam.models[2].freqresp(w), 0.0)
