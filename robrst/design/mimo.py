@@ -12,7 +12,10 @@
    every model at once; then the full certificate, whose violated points between models
    join the program as further models.
 4. **Always an answer**: the best certified controller, else the best found, with its
-   certificate and the binding figure (the largest ratio to its bound) named.
+   certificate and the binding figure (the largest ratio to its bound) named.  When
+   neither the joint design nor the per-axis start is certified, the per-axis start with
+   every axis's feedback gain backed off (``R_i`` scaled by :data:`BACK_OFF`) is
+   certified in turn, and the first certified one is the answer.
 5. **The comparison**: the per-axis designs certified on the whole loop, and (``compare``)
    the loops designed one by one on ``G_ii`` ignoring the coupling (no decoupler), on the
    same certificate.
@@ -34,7 +37,10 @@ from robrst.synthesis.mimo_design import (decoupler_of, design_axes, per_axis_co
 from robrst.synthesis.mimo_program import AxisParam
 from robrst.synthesis.mimo_start import design_scale
 
-__all__ = ["MimoComparison", "MimoDesignResult", "design_mimo"]
+__all__ = ["MimoComparison", "MimoDesignResult", "design_mimo", "BACK_OFF"]
+
+#: the gain factors of the last resort (module docstring, step 4)
+BACK_OFF = (0.9, 0.75, 0.5)
 
 
 @dataclass(frozen=True, eq=False)
@@ -273,6 +279,20 @@ def design_mimo(problem: MimoProblem, progress: Callable[[str], None] | None = N
     else:
         start_cert = certificate
     comparisons = {"per_axis_start": MimoComparison(start, start_cert, start_note)}
+    if not certificate.certified:
+        # nothing certified: the per-axis start with every axis's feedback gain backed off
+        # (R_i scaled), certified each time; the first certified one is the answer
+        for factor in BACK_OFF:
+            xb = [np.concatenate([x[:axis.d], factor * x[axis.d:]]) for x in xs]
+            ctrl = per_axis_controller(axes, xb, W, st.T_mode, names)
+            say(f"certifying the per-axis start at {factor:g} x its gain")
+            cert = certify_mimo(fam, ctrl, specs, so.cert_tol, so.cert_points)
+            if cert.certified:
+                best_ctrl, certificate = ctrl, cert
+                comparisons["per_axis_start"] = MimoComparison(
+                    start, start_cert, start_note + f"; the answer is it at {factor:g} x"
+                    " its gain")
+                break
     if compare and fam.n_out > 1:
         say("designing the axes one by one on G_ii, ignoring the coupling (no decoupler)")
         ident = np.eye(fam.n_out)
