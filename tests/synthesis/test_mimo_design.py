@@ -92,6 +92,7 @@ def test_certified_three_axis_design_holds_on_python_controls_loop():
     assert "ignoring_coupling" in result.comparisons
 
 
+@pytest.mark.slow
 def test_an_answer_even_when_the_specs_cannot_be_met():
     """sigma_max(T) <= 0.9 is out of reach of any controller with integral action
     (T(0) = I, so sigma_max(T) >= 1): the best controller found, not certified, its
