@@ -244,7 +244,8 @@ def _twin_rows(tw):
 def _markdown(s, text):
     head = ["| axis | overshoot | 2 % settling | crosstalk (other axes) | peak u |",
             "|---|---|---|---|---|"]
-    lines = [f"# The measured mirror: certified multi-axis control ({'quick' if s['quick'] else 'full'})",
+    kind = "quick" if s["quick"] else "full"
+    lines = [f"# The measured mirror: certified multi-axis control ({kind})",
              "", f"Data: {s['data']}.", "",
              f"Certified: **{s['certified']}**; worst sigma_max(S) {s['sigma_S_worst']:.4g}"
              f" (continuous), {s['sigma_S_worst_sampled']:.4g} (sampled at 6.4 kHz); worst"

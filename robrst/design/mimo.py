@@ -1,4 +1,6 @@
-"""The multi-axis design: a :class:`~robrst.problem.mimo.MimoProblem` in, a :class:`MimoDesignResult` out.
+"""The multi-axis design: a MimoProblem in, a MimoDesignResult out.
+
+:class:`~robrst.problem.mimo.MimoProblem` in, :class:`MimoDesignResult` out.
 
 :func:`design_mimo`:
 
@@ -246,8 +248,8 @@ def design_mimo(problem: MimoProblem, progress: Callable[[str], None] | None = N
                 st.T_mode, names), specs, so.cert_tol)
         extra = []
         for attempt in range(3):
-            x, _, _ = program_rounds("joint", models, specs, axes, W, st.T_mode, names, x0, signs,
-                              so, say, w_design, rounds, extra)
+            x, _, _ = program_rounds("joint", models, specs, axes, W, st.T_mode, names, x0,
+                                     signs, so, say, w_design, rounds, extra)
             ctrl = controller_of(axes, x, W, st.T_mode, names)
             say("certifying the joint design over the whole family")
             cert = certify_mimo(fam, ctrl, specs, so.cert_tol, so.cert_points)

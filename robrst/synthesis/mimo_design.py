@@ -350,7 +350,8 @@ def program_rounds(name: str, models: Sequence[MimoPlant], specs: MimoSpecs,
                                     float(sol["t"]), bool(c_stable), len(c_viols),
                                     len(nu), time.perf_counter() - t0))
         progress(f"  {name} round {r + 1}: {phase} {sol['status']} ({sol['iterations']}"
-                 f" iterations, {len(rows.rows)} rows, {rows.K} points), t = {sol['t']:.4g}, {'stable' if c_stable else 'UNSTABLE'},"
+                 f" iterations, {len(rows.rows)} rows, {rows.K} points), t = {sol['t']:.4g},"
+                 f" {'stable' if c_stable else 'UNSTABLE'},"
                  f" {len(c_viols)} violation(s)" + ("" if not c_viols else
                                                     " (worst " + max(c_viols, key=lambda v: v.ratio
                                                                      ).describe() + ")"))
@@ -419,7 +420,8 @@ def _unstable_frequencies(recs, models, ctrl, specs):
 
 
 def design_axes(models: Sequence[MimoPlant], W: np.ndarray | tuple, specs: MimoSpecs,
-                axis: AxisParam, so: MimoSolverOptions, names: Sequence[str], T_mode: str, progress: Callable[[str], None],
+                axis: AxisParam, so: MimoSolverOptions, names: Sequence[str], T_mode: str,
+                progress: Callable[[str], None],
                 w_design: float, rounds_out: list,
                 optimize: bool = True) -> tuple[list[np.ndarray], list[float]]:
     """Every axis designed alone on its diagonal channel ``(G W)_ii`` over the models.
