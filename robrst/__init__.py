@@ -11,9 +11,10 @@ Plants and controllers (:class:`Plant`, :class:`RSTController`, :func:`pole_plac
 analysis (:func:`analyze`, :func:`certify`), the digital controller out
 (:func:`export_controller`), margin regression tests (:func:`assert_margins`), the digital
 twin (:func:`simulate`), the gap diagnosis (``robrst.diagnose.diagnose``), sweeps
-(:func:`load_sweep`, :func:`run_sweep`: Monte Carlo, trade-offs and fleets on Dask) and the
-reports.  Names are loaded on first use, so
-``import robrst`` stays cheap.
+(:func:`load_sweep`, :func:`run_sweep`: Monte Carlo, trade-offs and fleets on Dask),
+multi-axis actuators (:func:`load_mimo_problem`, :func:`design_mimo`,
+:func:`export_mimo`) and the reports.  Names are loaded on first use, so ``import robrst``
+stays cheap.
 """
 
 import importlib
@@ -58,6 +59,13 @@ _EXPORTS = {
     # sweeps
     "Sweep": "robrst.studies.sweep.files", "load_sweep": "robrst.studies.sweep.files",
     "run_sweep": "robrst.studies.sweep.engine", "SweepResult": "robrst.studies.sweep.engine",
+    # multi-axis actuators (MIMO plants, decentralised RST with a decoupler)
+    "MimoPlant": "robrst.core.mimo", "MimoFamily": "robrst.core.mimo",
+    "MimoController": "robrst.core.mimo_loop", "MimoProblem": "robrst.problem.mimo",
+    "MimoSpecs": "robrst.problem.mimo", "MimoStructure": "robrst.problem.mimo",
+    "MimoSolverOptions": "robrst.problem.mimo", "load_mimo_problem": "robrst.problem.mimo_files",
+    "certify_mimo": "robrst.certificate.mimo", "design_mimo": "robrst.design.mimo",
+    "MimoDesignResult": "robrst.design.mimo", "export_mimo": "robrst.controller.mimo_export",
     # reports
     "write_design_report": "robrst.report.design",
     "write_sweep_report": "robrst.report.sweep",

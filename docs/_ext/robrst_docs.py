@@ -9,7 +9,8 @@ declarations the readers validate with (so the reference cannot drift from the c
 Kinds: ``problem`` (:func:`robrst.problem.files.schema_markdown`), ``sweep``
 (:func:`robrst.studies.sweep.files.sweep_schema_markdown`), ``twin``
 (:data:`robrst.twin.config.TWIN_SCHEMA`) and ``scenario``
-(:func:`robrst.studies.user_scenario.scenario_schema_markdown`).
+(:func:`robrst.studies.user_scenario.scenario_schema_markdown`) and ``mimo``
+(:func:`robrst.problem.mimo_files.mimo_schema_markdown`).
 
 The API reference is generated too, grouped by task (as python-control's function list
 is): :data:`API_PAGES` names each page's objects as users import them (``robrst.Plant``,
@@ -52,7 +53,11 @@ def schema_rows(kind):
     if kind == "scenario":
         from robrst.studies.user_scenario import scenario_schema_markdown
         return scenario_schema_markdown()
-    raise ValueError(f"unknown schema {kind!r}: expected problem, sweep, twin or scenario")
+    if kind == "mimo":
+        from robrst.problem.mimo_files import mimo_schema_markdown
+        return mimo_schema_markdown()
+    raise ValueError(f"unknown schema {kind!r}: expected problem, sweep, twin, scenario or"
+                     " mimo")
 
 
 class SchemaTable(SphinxDirective):
@@ -92,15 +97,20 @@ API_PAGES = (
      "and what binds) out.",
      ["robrst.run_problem", "robrst.DesignResult", "robrst.design.analytic_design",
       "robrst.design.with_time_domain", "robrst.Synthesizer"]),
-    ("certificate", "Certificates",
-     "What a certificate proves over the temperature interval, and saved designs certified "
-     "again.",
+    ("certificate", "Certificates and the controller out",
+     "What a certificate proves over the temperature interval, saved designs certified "
+     "again, and the digital controller that goes to hardware (sections, C, Python, JSON).",
      ["robrst.certify", "robrst.certify_problem", "robrst.certificate.proof.Certificate",
-      "robrst.step_metrics", "robrst.load_design", "robrst.recertify"]),
-    ("controller", "The controller out",
-     "The digital controller that goes to hardware: sections, C, Python and JSON.",
-     ["robrst.digital_controller", "robrst.DigitalController", "robrst.export_controller",
+      "robrst.step_metrics", "robrst.load_design", "robrst.recertify",
+      "robrst.digital_controller", "robrst.DigitalController", "robrst.export_controller",
       "robrst.ExportedController"]),
+    ("multi-axis", "Multi-axis actuators",
+     "Coupled stacks: MIMO plants and families, the decentralised controller with its "
+     "decoupler, designed jointly and certified on the largest singular values.",
+     ["robrst.load_mimo_problem", "robrst.MimoProblem", "robrst.MimoPlant",
+      "robrst.MimoFamily", "robrst.MimoSpecs", "robrst.MimoStructure",
+      "robrst.MimoSolverOptions", "robrst.MimoController", "robrst.design_mimo",
+      "robrst.MimoDesignResult", "robrst.certify_mimo", "robrst.export_mimo"]),
     ("twin", "Twin and records",
      "The digital twin of the actuator (every effect switchable) and the record format.",
      ["robrst.default_twin", "robrst.load_twin", "robrst.simulate",
@@ -154,6 +164,10 @@ def write_api_pages(app):
     """Write ``api/<page>.rst`` for every task page (only when changed)."""
     out = Path(app.srcdir) / "api"
     out.mkdir(parents=True, exist_ok=True)
+    wanted = {f"{f}.rst" for f, *_ in API_PAGES}
+    for old in out.glob("*.rst"):          # a page a former table wrote (all are generated)
+        if old.name not in wanted:
+            old.unlink()
     for fname, title, intro, names in API_PAGES:
         path = out / f"{fname}.rst"
         text = api_page(title, intro, names)

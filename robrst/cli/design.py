@@ -86,6 +86,10 @@ def run_design(args: argparse.Namespace) -> int:
     int
         0 certified, 1 not certified.
     """
+    from robrst.cli.mimo import is_mimo_file, run_mimo_design   # multi-axis problems
+
+    if is_mimo_file(args.problem):
+        return run_mimo_design(args)
     say = progress_printer(args.quiet or args.json)
     if is_saved_design(args.problem):
         result = design_result(args.problem, say, announce=False)

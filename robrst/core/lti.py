@@ -290,15 +290,16 @@ def zoh_matrices(A: np.ndarray, B: np.ndarray, h: float | np.ndarray,
     ``Ad = exp(A h)``, ``Gamma = int_0^h exp(A t) dt``, ``Bd = Gamma B``, from one matrix
     exponential of ``[[A h, I h, B h], [0, 0, 0]]``; with ``gamma=False`` ``Gamma`` is
     ``None`` and the exponential is the smaller ``[[A h, B h], [0, 0]]``.  Stacks too:
-    ``A`` of shape ``(..., n, n)``, ``B`` ``(..., n, 1)`` and ``h`` a scalar or of shape
-    ``(...)`` give stacked results, slice by slice the same as one call each.
+    ``A`` of shape ``(..., n, n)``, ``B`` ``(..., n, k)`` and ``h`` a scalar or of shape
+    ``(...)`` give stacked results, slice by slice the same as one call each.  ``B`` may
+    have several columns (several inputs, each held over the step).
 
     Parameters
     ----------
     A : numpy.ndarray
         ``(..., n, n)``.
     B : numpy.ndarray
-        ``(..., n, 1)``.
+        ``(..., n, k)``, usually ``k = 1``.
     h : float or numpy.ndarray
         The step, in the time unit of ``A``.
     gamma : bool
@@ -312,16 +313,16 @@ def zoh_matrices(A: np.ndarray, B: np.ndarray, h: float | np.ndarray,
     """
     from scipy.linalg import expm   # scipy.linalg only where used: 0.3 s to import
 
-    n = A.shape[-1]
-    k = 2 * n + 1 if gamma else n + 1
+    n, m = A.shape[-1], B.shape[-1]
+    k = 2 * n + m if gamma else n + m
     h = np.asarray(h, float)[..., None, None]
     M = np.zeros(A.shape[:-2] + (k, k))
     M[..., :n, :n] = A * h
     if gamma:
         M[..., :n, n:2 * n] = np.eye(n) * h
-    M[..., :n, k - 1:] = B * h
+    M[..., :n, k - m:] = B * h
     E = expm(M)
-    return E[..., :n, :n], (E[..., :n, n:2 * n] if gamma else None), E[..., :n, k - 1:]
+    return E[..., :n, :n], (E[..., :n, n:2 * n] if gamma else None), E[..., :n, k - m:]
 
 
 def zoh_modal(poles: ArrayLike, residues: ArrayLike,

@@ -30,7 +30,7 @@ from robrst.core.plant import Plant
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
-__all__ = ["sampled_plant", "warp", "unwarp", "warp_band"]
+__all__ = ["sampled_plant", "warp", "unwarp", "warp_band", "w_plane_matrices"]
 
 # an irregular point of the scaled plane where the gain of P_w is matched
 _GAIN_POINT = 0.3719 + 0.8537j
@@ -137,20 +137,48 @@ def _binomial(k, sign):
 
 
 def _w_plane(dss):
-    """State space of ``P_d((1 + q)/(1 - q))`` in the scaled variable, from the ZOH model.
+    """State space of ``P_d((1 + q)/(1 - q))`` in the scaled variable, from the ZOH model
+    (:func:`w_plane_matrices` of one input and one output)."""
+    Aw, Bw, Cw, Dw = w_plane_matrices(dss.A, dss.Gamma, dss.Ad, dss.Bd, dss.C,
+                                      np.array([[dss.d]]), dss.h)
+    return Aw, Bw, Cw, float(Dw[0, 0])
 
-    With ``q = p h / 2``: ``Aw = (2/h)(I + Ad)^-1 (Ad - I)`` where ``Ad - I = A Gamma``
-    is computed without cancellation; ``P_w(p) = Cw (pI - Aw)^-1 Bw + dw``.
+
+def w_plane_matrices(A: np.ndarray, Gamma: np.ndarray, Ad: np.ndarray, Bd: np.ndarray,
+                     C: np.ndarray, D: np.ndarray,
+                     h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The w-plane state space of a ZOH-sampled system (any number of inputs and outputs).
+
+    With ``q = p h / 2``, ``P_d((1 + q)/(1 - q)) = Cw (pI - Aw)^-1 Bw + Dw`` where
+    ``Aw = (2/h)(I + Ad)^-1 (Ad - I)``, ``Ad - I = A Gamma`` computed without
+    cancellation (:func:`robrst.core.lti.zoh_matrices` gives ``Ad, Gamma, Bd``).
+
+    Parameters
+    ----------
+    A : numpy.ndarray
+        ``(n, n)``: the continuous matrix, in the time unit of ``h``.
+    Gamma : numpy.ndarray
+        ``(n, n)``: ``int_0^h exp(A t) dt``.
+    Ad, Bd : numpy.ndarray
+        ``(n, n)``, ``(n, k)``: the ZOH model.
+    C, D : numpy.ndarray
+        ``(m, n)``, ``(m, k)``.
+    h : float
+        The sampling period in the time unit of ``A``.
+
+    Returns
+    -------
+    Aw, Bw, Cw, Dw : numpy.ndarray
+        The w-plane realisation (``Cw = C``), in the frequency unit of ``A``.
     """
-    n = dss.A.shape[0]
-    h = dss.h
-    Ipad = np.eye(n) + dss.Ad
-    AG = dss.A @ dss.Gamma                                   # Ad - I, accurately
+    n = A.shape[0]
+    Ipad = np.eye(n) + Ad
+    AG = A @ Gamma                                           # Ad - I, accurately
     Aw = (2.0 / h) * np.linalg.solve(Ipad, AG)
-    Bw1 = (2.0 / h) * np.linalg.solve(Ipad, dss.Bd)
+    Bw1 = (2.0 / h) * np.linalg.solve(Ipad, Bd)
     Bw = Bw1 - (h / 2.0) * (Aw @ Bw1)
-    dw = float(dss.d - (h / 2.0) * (dss.C @ Bw1).item())
-    return Aw, Bw, dss.C, dw
+    Dw = np.asarray(D, float) - (h / 2.0) * (C @ Bw1)
+    return Aw, Bw, C, Dw
 
 
 # physical frequencies (fractions of the sampling rate, rad/sample) where the polynomials of

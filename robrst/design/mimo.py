@@ -1,0 +1,311 @@
+"""The multi-axis design: a MimoProblem in, a MimoDesignResult out.
+
+:class:`~robrst.problem.mimo.MimoProblem` in, :class:`MimoDesignResult` out.
+
+:func:`design_mimo`:
+
+1. **Decoupler** (:func:`robrst.synthesis.mimo_design.decoupler_of`).
+2. **Per-axis designs** (the start): each axis designed alone on its diagonal channel
+   ``(G W)_ii`` over every model and loop of the family
+   (:func:`robrst.synthesis.mimo_design.design_axes`); with method ``per_axis`` they are
+   the answer.
+3. **The joint program** (method ``nlp``,
+   :func:`robrst.synthesis.mimo_design.program_rounds`): every axis, the coupling and
+   every model at once; then the full certificate, whose violated points between models
+   join the program as further models.
+4. **Always an answer**: the best certified controller, else the best found, with its
+   certificate and the binding figure (the largest ratio to its bound) named.  When
+   neither the joint design nor the per-axis start is certified, the per-axis start with
+   every axis's feedback gain backed off (``R_i`` scaled by :data:`BACK_OFF`) is
+   certified in turn, and the first certified one is the answer.
+5. **The comparison**: the per-axis designs certified on the whole loop, and (``compare``)
+   the loops designed one by one on ``G_ii`` ignoring the coupling (no decoupler), on the
+   same certificate.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from robrst.certificate.mimo import MimoCertificate, certify_mimo, check_models
+from robrst.core.mimo_loop import MimoController
+from robrst.problem.mimo import MimoProblem
+from robrst.synthesis.mimo_design import (decoupler_of, design_axes, per_axis_controller,
+                                          program_rounds, controller_of)
+from robrst.synthesis.mimo_program import AxisParam
+from robrst.synthesis.mimo_start import design_scale
+
+__all__ = ["MimoComparison", "MimoDesignResult", "design_mimo", "BACK_OFF"]
+
+#: the gain factors of the last resort (module docstring, step 4)
+BACK_OFF = (0.9, 0.75, 0.5)
+
+
+@dataclass(frozen=True, eq=False)
+class MimoComparison:
+    """Another controller of the same problem on the same certificate.
+
+    Parameters
+    ----------
+    controller : MimoController
+    certificate : MimoCertificate
+    note : str
+        What the controller is.
+    """
+
+    controller: MimoController
+    certificate: MimoCertificate
+    note: str
+
+    def as_dict(self) -> dict:
+        """The comparison as JSON-ready fields.
+
+        Returns
+        -------
+        dict
+            ``certified, note, ratios, controller``, the first 20 ``violations`` and the
+            ``members``' figures.
+        """
+        c = self.certificate
+        return {"certified": c.certified, "note": self.note, "ratios": c.ratios(),
+                "controller": self.controller.as_dict(),
+                "violations": [x.as_dict() for x in c.violations[:20]],
+                "members": [m.as_dict() for m in c.members()]}
+
+
+@dataclass(frozen=True, eq=False)
+class MimoDesignResult:
+    """What :func:`design_mimo` returns (always an answer).
+
+    Parameters
+    ----------
+    problem : MimoProblem
+    controller : MimoController
+        The answer: the best certified controller, else the best found.
+    certificate : MimoCertificate
+        Its certificate over the whole family.
+    binding : dict
+        The figure with the largest ratio to its bound: ``figure, ratio, model, loop``.
+    rounds : tuple of MimoRound
+    start : MimoController
+        The per-axis designs with the decoupler (the program's start).
+    comparisons : dict of str to MimoComparison
+        ``per_axis_start`` and (with ``compare``) ``ignoring_coupling``, the per-axis
+        designs that ignore the coupling.
+    w_design : float
+        The start's crossover [rad/s].
+    seconds : float
+        Wall time.
+
+    Attributes
+    ----------
+    certified : bool
+    """
+
+    problem: MimoProblem
+    controller: MimoController
+    certificate: MimoCertificate
+    binding: dict
+    rounds: tuple
+    start: MimoController
+    comparisons: dict = field(default_factory=dict)
+    w_design: float = 0.0
+    seconds: float = 0.0
+
+    @property
+    def certified(self) -> bool:
+        return self.certificate.certified
+
+    def integral_gains(self) -> list[float]:
+        """Every axis's integral gain ``lim s R_i/S_i`` [V/(µm s)] (before the decoupler).
+
+        Returns
+        -------
+        list of float
+        """
+        out = []
+        for c in self.controller.axes:
+            S = np.trim_zeros(c.S, "b")
+            out.append(float(c.R[-1] / S[-1]) if len(S) < len(c.S) else 0.0)
+        return out
+
+    def as_dict(self) -> dict:
+        """The design as one JSON-ready object.
+
+        Returns
+        -------
+        dict
+            ``kind = "mimo"``, ``problem``, ``certified``, ``controller``, ``certificate``,
+            ``binding``, ``integral_gains``, ``rounds``, ``comparisons`` (their certified
+            flag, ratios and violations), ``seconds``.
+        """
+        p = self.problem
+        return {
+            "kind": "mimo", "problem": p.name, "certified": self.certified,
+            "axes": list(p.axes), "parameter": p.family.parameter, "unit": p.family.unit,
+            "models": [m.label for m in p.family.models],
+            "values": [m.value for m in p.family.models],
+            "specs": p.specs.as_dict(), "method": p.solver.method,
+            "controller": self.controller.as_dict(),
+            "integral_gains": self.integral_gains(),
+            "w_design_rad_s": self.w_design,
+            "binding": self.binding,
+            "certificate": self.certificate.as_dict(),
+            "rounds": [r.__dict__ for r in self.rounds],
+            "comparisons": {k: v.as_dict() for k, v in self.comparisons.items()},
+            "seconds": self.seconds,
+        }
+
+
+def _binding(cert: MimoCertificate) -> dict:
+    """The figure with the largest ratio to its bound (or the first violation's)."""
+    best = None
+    for rec in cert.models:
+        for loop in ("continuous", "sampled"):
+            lf = rec.loop(loop)
+            if lf is None:
+                continue
+            if not lf.stable:
+                return {"figure": "stability", "ratio": np.inf, "model": rec.label,
+                        "loop": loop}
+            for fig, b in cert.bounds.items():
+                v = lf.value(fig)
+                if v is not None and (best is None or v / b > best["ratio"]):
+                    best = {"figure": fig, "ratio": v / b, "model": rec.label, "loop": loop}
+    if best is None and cert.violations:
+        v = cert.violations[0]
+        best = {"figure": v.quantity, "ratio": v.ratio, "model": v.label, "loop": v.loop}
+    return best or {}
+
+
+def design_mimo(problem: MimoProblem, progress: Callable[[str], None] | None = None,
+                compare: bool = True) -> MimoDesignResult:
+    """Design and certify a decentralised multi-axis controller (module docstring).
+
+    Parameters
+    ----------
+    problem : MimoProblem
+    progress : callable, optional
+        Receives progress lines.
+    compare : bool
+        Also design the axes one by one ignoring the coupling (no decoupler) and certify
+        them on the same family and specs.
+
+    Returns
+    -------
+    MimoDesignResult
+        Always an answer (module docstring, step 4).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from robrst.core.mimo import MimoFamily, MimoPlant
+    >>> from robrst.problem.mimo import MimoProblem, MimoSpecs, MimoSolverOptions
+    >>> G = MimoPlant(-100.0 * np.eye(2), 100.0 * np.eye(2), [[1.0, 0.2], [0.1, 1.0]],
+    ...               np.zeros((2, 2)))
+    >>> pr = MimoProblem("stage", MimoFamily((G,)), specs=MimoSpecs(sigma_S_max=2.0),
+    ...                  solver=MimoSolverOptions(max_rounds=2))
+    >>> design_mimo(pr, compare=False).certified
+    True
+    """
+    say = progress or (lambda msg: None)
+    t0 = time.perf_counter()
+    st, specs, so = problem.structure, problem.specs, problem.solver
+    fam = problem.family
+    names = problem.axes
+    W = decoupler_of(problem)
+    w_design = design_scale(fam.reference_model, specs, so.bandwidth_hz)
+    axis = AxisParam.of(w_design, st.extra_degree, st.relative_degree, st.roll_off_order,
+                        st.roll_off_hz)
+    rounds = []
+    models = list(fam.models)
+    say(f"designing {problem.name}: {fam.n_out} axes, {len(models)} model(s) over"
+        f" {fam.parameter}, crossover scale {w_design / (2 * np.pi):.4g} Hz")
+    # the start: each axis alone on (G W)_ii, its integral-gain scan (the per-axis method:
+    # the program's rounds too)
+    xs, signs = design_axes(models, W, specs, axis, so, names, st.T_mode, say, w_design,
+                            rounds, optimize=so.method == "per_axis")
+    axes = [axis] * len(names)
+    start = per_axis_controller(axes, xs, W, st.T_mode, names)
+    start_note = ("each axis designed alone on (G W)_ii with the decoupler; the joint"
+                  " program's start")
+    best_ctrl = start
+    if so.method == "nlp":
+        x0 = np.concatenate(xs)
+        recs, viols = check_models(models, start, specs, so.cert_tol)
+        shrink = 1.0
+        while not all(r.continuous.stable and (r.sampled is None or r.sampled.stable)
+                      for r in recs) and shrink > 1e-3:
+            shrink *= 0.5       # the coupling destabilises the per-axis start: less gain
+            x0 = np.concatenate([np.concatenate([x[:axis.d], shrink * x[axis.d:]])
+                                 for x in xs])
+            recs, viols = check_models(models, per_axis_controller(
+                axes, [x0[i * axis.n_x:(i + 1) * axis.n_x] for i in range(len(xs))], W,
+                st.T_mode, names), specs, so.cert_tol)
+        extra = []
+        for attempt in range(3):
+            x, _, _ = program_rounds("joint", models, specs, axes, W, st.T_mode, names, x0,
+                                     signs, so, say, w_design, rounds, extra)
+            ctrl = controller_of(axes, x, W, st.T_mode, names)
+            say("certifying the joint design over the whole family")
+            cert = certify_mimo(fam, ctrl, specs, so.cert_tol, so.cert_points)
+            best_ctrl = ctrl
+            if cert.certified:
+                break
+            bad = [v for v in cert.violations if v.kind in ("exceeds", "unstable")
+                   and v.value_param is not None
+                   and not any(v.label == m.label for m in models)]
+            new = []
+            for v in bad:
+                plant = fam.at(v.value_param)
+                if not any(plant.value == e.value for e in extra):
+                    new.append(plant)
+            if not new:
+                break
+            say(f"  {len(new)} point(s) between models violated: added to the program")
+            extra += new[:4]
+            x0 = x
+        certificate = cert
+    else:
+        say("certifying the per-axis designs over the whole family")
+        certificate = certify_mimo(fam, start, specs, so.cert_tol, so.cert_points)
+    if so.method == "nlp":
+        say("certifying the per-axis start over the whole family")
+        start_cert = certify_mimo(fam, start, specs, so.cert_tol, so.cert_points)
+        if not certificate.certified and start_cert.certified:
+            best_ctrl, certificate = start, start_cert
+    else:
+        start_cert = certificate
+    comparisons = {"per_axis_start": MimoComparison(start, start_cert, start_note)}
+    if not certificate.certified:
+        # nothing certified: the per-axis start with every axis's feedback gain backed off
+        # (R_i scaled), certified each time; the first certified one is the answer
+        for factor in BACK_OFF:
+            xb = [np.concatenate([x[:axis.d], factor * x[axis.d:]]) for x in xs]
+            ctrl = per_axis_controller(axes, xb, W, st.T_mode, names)
+            say(f"certifying the per-axis start at {factor:g} x its gain")
+            cert = certify_mimo(fam, ctrl, specs, so.cert_tol, so.cert_points)
+            if cert.certified:
+                best_ctrl, certificate = ctrl, cert
+                comparisons["per_axis_start"] = MimoComparison(
+                    start, start_cert, start_note + f"; the answer is it at {factor:g} x"
+                    " its gain")
+                break
+    if compare and fam.n_out > 1:
+        say("designing the axes one by one on G_ii, ignoring the coupling (no decoupler)")
+        ident = np.eye(fam.n_out)
+        xs2, _ = design_axes(models, ident, specs, axis, replace(so, max_rounds=min(
+            so.max_rounds, 3)), names, st.T_mode, say, w_design, rounds)
+        naive = per_axis_controller(axes, xs2, ident, st.T_mode, names)
+        say("certifying them on the coupled plant")
+        comparisons["ignoring_coupling"] = MimoComparison(
+            naive, certify_mimo(fam, naive, specs, so.cert_tol, so.cert_points),
+            "each axis designed alone on G_ii (no decoupler), the coupling ignored")
+    return MimoDesignResult(problem=problem, controller=best_ctrl, certificate=certificate,
+                            binding=_binding(certificate), rounds=tuple(rounds), start=start,
+                            comparisons=comparisons, w_design=w_design,
+                            seconds=time.perf_counter() - t0)
