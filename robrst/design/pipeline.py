@@ -39,7 +39,9 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
 
     A synthesis always ends with a controller: when the specs cannot be met the result
     is the best controller found, ``status == "not_certified"``, with
-    :attr:`DesignResult.best_achievable` and the binding constraints.
+    :attr:`DesignResult.best_achievable` and the binding constraints.  The default specs
+    of a bounded problem (:func:`robrst.problem.records.with_defaults`) are resolved
+    first: the result's problem states them.
 
     Parameters
     ----------
@@ -68,9 +70,6 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
         Polled once per generation of the global phase and per certification round
         (default :func:`robrst.base.interrupt.requested`): true ends the design with the
         best point found so far (certified for what it achieves).
-
-    The default specs of a bounded problem (:func:`robrst.problem.records.with_defaults`)
-    are resolved first: the result's problem states them.
 
     Returns
     -------

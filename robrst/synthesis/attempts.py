@@ -129,7 +129,17 @@ def frequency_certificate(problem: Problem, ctrl: RSTController) -> Certificate:
 def program_models(problem: Problem) -> list:
     """The models the program starts with: every family member, and the models at both
     ends of the temperature range of every further actuator (``problem.scenarios``; the
-    certificate's refinement adds their other temperatures where they bind)."""
+    certificate's refinement adds their other temperatures where they bind).
+
+    Parameters
+    ----------
+    problem : Problem
+        The problem.
+
+    Returns
+    -------
+    list of Plant
+    """
     ends = [m for f in problem.scenarios for m in (f.models[0], f.models[-1])[:len(f.models)]]
     return list(problem.family.models) + ends
 

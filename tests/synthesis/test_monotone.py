@@ -12,7 +12,8 @@ above that problem's own answer.
 import pytest
 
 from robrst.certificate.proof import certify_problem
-from robrst.design import run_problem, with_time_domain
+from robrst.certificate.completion import with_time_domain
+from robrst.design import run_problem
 from robrst.problem.files import parse_problem
 from robrst.problem.records import with_defaults
 
