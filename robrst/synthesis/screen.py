@@ -7,7 +7,8 @@ the population, the models and the frequency grid:
 * **peaks on the grid**: the controller's ``S(j nu)`` and ``R(j nu)`` are evaluated once on
   every grid point of the program (the models share them: a model only multiplies them by
   its own ``a(j nu)``, ``b(j nu)``), then ``|N| / (M |Delta|)`` for every bound of every
-  model (|S|, |T|, |U|, the band and high-frequency bounds, ``Msd``, ``Mry``) — the same
+  model (``|S|``, ``|T|``, ``|U|``, the band and high-frequency bounds, ``Msd``,
+  ``Mry``) — the same
   grids and bounds as the program's rows (:func:`robrst.synthesis.nlp.grid_blocks`);
 * **stability** of every model's closed loop by the Routh test of its polynomial (the
   program's stability rows, :func:`robrst.synthesis.stability.stability_rows`, so a decay
@@ -391,7 +392,7 @@ class Screen:
         X : numpy.ndarray
             ``(K, n_x)``.
         worst_s : numpy.ndarray, optional
-            ``min_Ms``: the worst |S| (else unused).
+            ``min_Ms``: the worst ``|S|`` (else unused).
 
         Returns
         -------
@@ -457,7 +458,7 @@ class Screen:
         return np.clip(out, 0.0, 100.0)
 
     def _worst_s(self, X):
-        """The worst |S| (``min_Ms``'s objective) over the grid."""
+        """The worst ``|S|`` (``min_Ms``'s objective) over the grid."""
         K = X.shape[0]
         out = np.zeros(K)
         lead = np.concatenate([np.ones((K, 1)), X[:, :self.ks]], axis=1)
