@@ -545,7 +545,6 @@ class Screen:
         model adds its poles, spread apart by a few per cent so the modal sum holds).
         """
         ts = self.time
-        K = X.shape[0]
         js = [j for j in self.cont if Ds[j].shape[1] == Ds[self.cont[0]].shape[1]]
         D = np.stack([Ds[j] for j in js], axis=1)                   # (K, M, d + 1)
         p = np.stack([roots[j] for j in js], axis=1)                # (K, M, d)
