@@ -390,11 +390,13 @@ def robust_synthesis(problem: Problem, start: AnalyticDesign,
 
 def _tried(problem, tried):
     """``(name, status, objective, integral gain, worst ratio, placement)`` of what the
-    global phase tried."""
+    global phase tried: ``"certified"`` (with its objective) only when the reference step
+    also meets the time-domain specs, as the answer must."""
     out = []
     for name, o in tried:
-        obj = objective_value(problem, o)
-        out.append((name, "certified" if o.certified else "not_certified",
+        ok = o.certified and meets_time_specs(problem, o.ctrl)
+        obj = objective_value(problem, o) if ok else np.nan
+        out.append((name, "certified" if ok else "not_certified",
                     float(obj) if np.isfinite(obj) else None, integral_gain(o.ctrl),
                     float(o.badness) if np.isfinite(o.badness) else None, o.placement))
     return out
