@@ -637,7 +637,8 @@ def with_defaults(problem: Problem) -> Problem:
       closed-loop pole to be damped as much as it is);
     * ``Msd_rel_max`` = 1: the input-disturbance peak ``|B S/Delta|`` of every model at
       most the model's own open-loop peak ``|B/A|`` (only when every family member is
-      stable: an unstable plant has no open-loop peak).
+      stable: an unstable plant has no open-loop peak; not when the problem gives its own
+      ``Msd_max``).
 
     Parameters
     ----------
@@ -668,7 +669,8 @@ def with_defaults(problem: Problem) -> Problem:
         stable = None
         for row in SPEC_TABLE:
             if (row.default_bound is None or getattr(sp, row.key) is not None
-                    or row.key in sp.off):
+                    or row.key in sp.off
+                    or any(getattr(sp, k) is not None for k in row.default_unless)):
                 continue
             if row.default_bound == "plant_damping":
                 value, _ = sp.damping_floor(problem.family)

@@ -103,6 +103,9 @@ class SpecDef:
         off).
     default_note : str
         What the default asks, for the design's notes (``{value}``: its value).
+    default_unless : tuple of str
+        Keys that replace the default when the problem gives them (``Msd_max`` for
+        ``Msd_rel_max``: the user chose the disturbance bound).
 
     Attributes
     ----------
@@ -130,6 +133,7 @@ class SpecDef:
     time_domain: bool = False
     default_bound: float | str | None = None
     default_note: str = ""
+    default_unless: tuple = ()
 
     @property
     def lower(self):
@@ -204,12 +208,13 @@ SPEC_TABLE = (
                               " relative to the same model's open-loop peak |B/A| (the ZOH"
                               " plant's in the sampled loop); 1: the controller never"
                               " amplifies input disturbances beyond the bare actuator;"
-                              " default 1 when [specs] bounds anything and every model is"
-                              " stable, false: none", positive=True, allow_off=True),
+                              " default 1 when [specs] bounds anything, every model is"
+                              " stable and no Msd_max is given; false: none", positive=True,
+                              allow_off=True),
             "upper", "Msd_rel", "Sd", label="|B S/Delta| peak / open-loop |B/A| peak",
             program="Sd", scaled=True, column="Msd_rel", always_column=False,
             column_label="worst |B S/Delta| peak / open-loop peak [-]",
-            relative_to="open_loop_peak", default_bound=1.0,
+            relative_to="open_loop_peak", default_bound=1.0, default_unless=("Msd_max",),
             default_note="input-disturbance peak |B S/Delta| <= {value:g} x the model's"
                          " open-loop peak |B/A| ([specs] Msd_rel_max = false: none)"),
     SpecDef("damping_min", _f("number", None, "least damping of every closed-loop pole of every"
