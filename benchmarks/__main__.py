@@ -8,8 +8,8 @@ from pathlib import Path
 
 from benchmarks.harness import write_reports
 
-BENCHES = ("analytic", "synthesis", "variants", "scaling", "peaks", "twin", "diagnosis", "sweep",
-           "userflow")
+BENCHES = ("analytic", "synthesis", "global", "variants", "scaling", "peaks", "twin", "diagnosis",
+           "sweep", "userflow")
 
 
 def available():

@@ -262,6 +262,7 @@ FLOOR_MODULES = "numpy, scipy.linalg, casadi"   # what robrst design truly needs
 
 
 def _child_cpu(cmd, env):
+    """CPU of ``cmd`` and of every process it waited for (workers included)."""
     before = os.times()
     subprocess.run(cmd, check=False, capture_output=True, env=env)
     after = os.times()

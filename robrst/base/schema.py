@@ -50,6 +50,8 @@ class Field:
         Strictly greater than zero.
     length : int, optional
         Exact length of a list.
+    allow_off : bool
+        ``false`` is also accepted (and returned as ``False``): a default switched off.
     """
 
     type: str
@@ -61,6 +63,7 @@ class Field:
     hi: float = None
     positive: bool = False
     length: int = None
+    allow_off: bool = False
 
     def describe(self) -> str:
         """The accepted values in words (for error messages).
@@ -82,7 +85,8 @@ class Field:
             rng.append(f"<= {self.hi:g}")
         if self.length is not None:
             what += f" of length {self.length}"
-        return what + (f" {' and '.join(rng)}" if rng else "")
+        return what + (f" {' and '.join(rng)}" if rng else "") + (
+            " (or false: off)" if self.allow_off else "")
 
 
 @dataclass(frozen=True)
@@ -161,6 +165,8 @@ def _check_range(path, key, field, v):
 
 def _check_value(path, key, field, value):
     t = field.type
+    if field.allow_off and value is False:
+        return False
     if t == "number":
         if not _is_number(value) or _finite_float(value) is None:
             raise key_error(path, key, f"expected a finite number, got {_shown(value)}")

@@ -35,7 +35,7 @@ from robrst.core import poly, region
 from robrst.core.peaks import peak_gains_many
 from robrst.core.rst import closed_loop
 from robrst.certificate.steps import check_many
-from robrst.problem.records import DEFAULT_OVERSHOOT_WARN_PCT, plant_damping
+from robrst.problem.records import DEFAULT_OVERSHOOT_WARN_PCT, default_notes, plant_damping
 
 if TYPE_CHECKING:
     from robrst.core.rst import RSTController
@@ -223,11 +223,16 @@ def assess(problem: Problem, ctrl: RSTController) -> Assessment:
             open_loop_Msd=cont.open_loop_Msd, continuous=cont,
             sampled=LoopAssessment(*sampled[i]) if sp.sampled else None))
     return Assessment(models=tuple(out), warnings=tuple(_warnings(problem, out, floor, source)),
-                      notes=tuple(_notes(floor, source, zp_all)), damping_floor=floor,
+                      notes=tuple(_notes(sp, floor, source, zp_all)), damping_floor=floor,
                       damping_source=source)
 
 
-def _notes(floor, source, zp):
+def _notes(specs, floor, source, zp):
+    if specs.resolved:
+        out = default_notes(specs)
+        if source == "default" and not floor:
+            out.append("no default damping floor (a family member has an unstable resonance)")
+        return out
     if source == "default" and floor:
         return [f"default damping floor {floor:.4g} on every closed-loop pole (min(0.1, 0.9 x the"
                 f" plant's least damping {zp:.4g}); set [specs] damping_min to choose it,"

@@ -697,6 +697,9 @@ def certify_problem(problem: Problem, ctrl: RSTController) -> Certificate:
     >>> certify_problem(problem, ctrl).certified
     True
     """
+    from robrst.problem.records import with_defaults
+
+    problem = with_defaults(problem)
     so = problem.solver
     with one_blas_thread(problem.needs_scipy):
         cert = certify(problem.family, ctrl, problem.specs, n_sweep=so.cert_temperatures,

@@ -55,7 +55,8 @@ def _method_options(p: argparse.ArgumentParser) -> None:
                    help="override [solver] method (default: the file's, else nlp when [specs]"
                         " bounds anything)")
     p.add_argument("--starts", type=int, metavar="N",
-                   help="nlp multi-start: N starts beyond the one asked for (0: single start)")
+                   help="nlp global phase: N distinct candidates polished beyond the best"
+                        " (0: no global phase, a single local run)")
 
 
 def _problem(args: argparse.Namespace) -> Problem:

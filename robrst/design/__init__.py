@@ -11,7 +11,8 @@ an analytic design.  The modules, bottom to top:
 * ``contract``: the JSON contract of ``robrst design --json``, written from the records;
 * ``candidate``: one synthesis -> feedback -> reference path -> certificate; the analytic
   design, the analytic check and the comparison;
-* ``multistart``: the robust program from diverse starts on worker processes;
+* ``multistart``: the robust program from diverse starts on worker processes (no longer
+  the default path: the robust synthesis's global phase runs in process);
 * ``single``: the design of one problem (no spread);
 * ``fleet``: the scenario loop of a problem with a ``[spread]``;
 * ``pipeline``: :func:`run_problem`.

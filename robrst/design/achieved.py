@@ -189,6 +189,12 @@ class StartsSummary:
         The best and worst certified objectives.
     winner : str
         The start whose answer was kept.
+    search_method : str or None
+        The global phase's method (``None``: a multi-start without it).
+    evaluations : int or None
+        Candidates the global phase screened.
+    dimension : int or None
+        The dimension of its search space.
     """
 
     starts: int
@@ -196,6 +202,9 @@ class StartsSummary:
     best: float | None
     worst: float | None
     winner: str
+    search_method: str | None = None
+    evaluations: int | None = None
+    dimension: int | None = None
 
 
 # spec key -> (certificate figure, is a lower bound): every bound on a loop's figures
@@ -240,7 +249,8 @@ def spec_rows(problem: Problem, cert: Certificate) -> tuple[SpecRow, ...]:
         ratio, v, m, loop = best
         out.append(SpecRow(*(
             key, bound, float(v), float(1 - ratio), m.label, m.temperature_C, loop,
-            bool(1 - ratio <= BINDING_SLACK), source if key == "damping_min" else "specs")))
+            bool(1 - ratio <= BINDING_SLACK),
+            "default" if key in sp.defaults else source if key == "damping_min" else "specs")))
     if cert.controller is not None and sp.controller_damping_min:
         v, b = cert.controller.damping, sp.controller_damping_min
         out.append(SpecRow(*(
@@ -322,12 +332,11 @@ def starts_summary(starts: object) -> StartsSummary:
     -------
     StartsSummary
     """
-    from robrst.synthesis.multistart import MultiStart
 
-    if isinstance(starts, MultiStart):
-        spread, n, winner = starts.spread(), len(starts.outcomes), starts.winner
-    else:
-        d = starts.as_dict()
-        spread, n, winner = d["spread"], len(d["starts"]), d["winner"]
+    d = starts.as_dict()          # a MultiStart's, or a saved record's as it was written
+    spread, n, winner = d["spread"], len(d["starts"]), d["winner"]
+    gs = d.get("global_search") or {}
     return StartsSummary(starts=n, certified=int(spread.get("certified", 0)),
-                         best=spread.get("best"), worst=spread.get("worst"), winner=winner)
+                         best=spread.get("best"), worst=spread.get("worst"), winner=winner,
+                         search_method=gs.get("method"), evaluations=gs.get("evaluations"),
+                         dimension=gs.get("dimension"))

@@ -153,7 +153,8 @@ def comparison(problem: Problem, ctrl: RSTController, cert: Certificate) -> Comp
 def candidate(problem: Problem, original: Problem, recheck: bool = False,
               start: AnalyticDesign | None = None, say: Callable[[str], None] | None = None,
               templates: dict | None = None, budget: int | None = None,
-              warm: object = None) -> tuple:
+              warm: object = None, global_phase: bool = False,
+              stop: Callable[[], bool] | None = None) -> tuple:
     """One synthesis of ``problem`` judged on ``original``, its reference path and its
     certificate completed by the time-domain figures.
 
@@ -178,6 +179,13 @@ def candidate(problem: Problem, original: Problem, recheck: bool = False,
     warm : SynthesisResult, optional
         A previous design's synthesis record: the robust synthesis's preferred start (the
         rounds of a fleet design).
+    global_phase : bool
+        The robust synthesis searches every controller of the structure first
+        (:mod:`robrst.synthesis.search`) and polishes its best distinct candidates.
+    stop : callable, optional
+        Polled once per generation of the global phase and per certification round
+        (default :func:`robrst.base.interrupt.requested`): true ends the synthesis with
+        the best point found so far.
 
     Returns
     -------
@@ -193,7 +201,8 @@ def candidate(problem: Problem, original: Problem, recheck: bool = False,
 
         stage = convex_synthesis(problem, start, say)
     else:
-        stage = robust_synthesis(problem, start, say, templates, warm=warm, budget=budget)
+        stage = robust_synthesis(problem, start, say, templates, warm=warm, budget=budget,
+                                 global_phase=global_phase, stop=stop)
     ctrl, trk, cert = stage.controller, None, stage.certificate
     if recheck:
         from robrst.synthesis.attempts import frequency_certificate

@@ -37,7 +37,7 @@ if TYPE_CHECKING:
 __all__ = ["design_json", "certificate_json", "interval_json", "proof_json",
            "model_record_json", "loop_items",
            "analysis_json", "assessment_json", "assessment_model_json", "specs_json",
-           "solver_json", "factors_json", "artefact_record",
+           "solver_json", "factors_json", "artefact_record", "SPECS_DEFAULT_FIELDS",
            "ARTEFACT_FORMAT", "DESIGN_FIELDS", "OPTIONAL_FIELDS", "CERTIFICATE_FIELDS",
            "INTERVAL_FIELDS", "SWEEP_INTERVAL_FIELDS", "POLE_REGION_FIELDS",
            "VIOLATION_FIELDS", "SPEC_ROW_FIELDS", "ANALYTIC_CHECK_FIELDS", "ANALYSIS_PEAKS",
@@ -52,6 +52,8 @@ DESIGN_FIELDS = ("problem", "method", "status", "controller", "target_char_poly"
                  "integral_gain", "best_achievable", "specs_achieved", "controller_factored",
                  "method_reason", "assessment", "starts", "tracking", "analytic_check",
                  "comparison", "artefact", "fleet", "objective_bound", "feasibility")
+# the specs object's fields after the table's keys (robrst.problem.specs)
+SPECS_DEFAULT_FIELDS = ("defaults", "defaults_off")
 OPTIONAL_FIELDS = ("assessment", "starts", "tracking", "analytic_check", "comparison", "fleet",
                    "objective_bound", "feasibility")
 CERTIFICATE_FIELDS = ("ratios", "certified", "rtol", "controller", "models", "violations",
@@ -166,7 +168,9 @@ def _json_value(row, v):
 def specs_json(specs: Specs) -> dict:
     """The ``specs`` object of the design JSON, from the spec table
     (:data:`robrst.problem.specs.SPEC_TABLE`: each row's ``published`` rule, in table
-    order): the keys published always first, then the sampled loop's, then the others.
+    order): the keys published always first, then the sampled loop's, then the others;
+    then ``defaults`` (:data:`SPECS_DEFAULT_FIELDS`: the keys whose value is a default,
+    :func:`robrst.problem.records.with_defaults`, and those the problem switched off).
 
     Parameters
     ----------
@@ -190,6 +194,9 @@ def specs_json(specs: Specs) -> dict:
                 or row.published == "with" and getattr(specs, row.with_key) is not None
                 or row.published == "time_domain" and specs.time_domain):
             out[row.key] = _json_value(row, v)
+    defaults, off = SPECS_DEFAULT_FIELDS
+    out[defaults] = list(specs.defaults)      # the keys above whose value is a default
+    out[off] = list(specs.off)                # defaults the problem switched off
     return out
 
 

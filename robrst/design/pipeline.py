@@ -20,6 +20,7 @@ import numpy as np
 from robrst.base.threads import one_blas_thread
 from robrst.design.fleet import fleet_design
 from robrst.design.single import design_single
+from robrst.problem.records import with_defaults
 from robrst.synthesis.feasibility import prove_infeasible
 from robrst.synthesis.limits import design_limits
 
@@ -32,12 +33,15 @@ __all__ = ["run_problem", "infeasibility"]
 
 def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
                 templates: dict | None = None, analyses: bool = True,
-                multistart: bool | None = None) -> DesignResult:
+                multistart: bool | None = None,
+                stop: Callable[[], bool] | None = None) -> DesignResult:
     """Run the design the problem asks for, certify it, analyse every family model.
 
     A synthesis always ends with a controller: when the specs cannot be met the result
     is the best controller found, ``status == "not_certified"``, with
-    :attr:`DesignResult.best_achievable` and the binding constraints.
+    :attr:`DesignResult.best_achievable` and the binding constraints.  The default specs
+    of a bounded problem (:func:`robrst.problem.records.with_defaults`) are resolved
+    first: the result's problem states them.
 
     Parameters
     ----------
@@ -55,11 +59,17 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
         what any linear controller could reach; infeasible or not found); off: none (a
         sweep reads the certificate's figures and computes only the margins).
     multistart : bool, optional
-        The robust program (``method = "nlp"``) also runs from the diverse starts of
-        :mod:`robrst.design.multistart` on 2 processes and keeps the best certified
-        answer (default: ``problem.solver.multistart``; sweeps pass ``False``). A problem
-        with a ``[spread]`` is designed for the fleet (:mod:`robrst.design.fleet`),
-        its rounds warm-started from one another and never multi-started.
+        The robust program (``method = "nlp"``) runs its global phase: every controller
+        of the structure searched (:mod:`robrst.synthesis.search`), the best distinct
+        candidates polished and certified, the best certified answer kept, all in this
+        process (default: ``problem.solver.multistart and problem.solver.starts > 0``;
+        sweeps pass ``False``: one local run from the problem's start). A problem with a
+        ``[spread]`` is designed for the fleet (:mod:`robrst.design.fleet`), its rounds
+        warm-started from one another, without the global phase.
+    stop : callable, optional
+        Polled once per generation of the global phase and per certification round
+        (default :func:`robrst.base.interrupt.requested`): true ends the design with the
+        best point found so far (certified for what it achieves).
 
     Returns
     -------
@@ -79,6 +89,7 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
     """
     if multistart is None:
         multistart = problem.solver.multistart
+    problem = with_defaults(problem)
     with one_blas_thread(problem.needs_scipy):
         proofs = infeasibility(problem) if analyses else ()
         if proofs:     # no linear controller meets the specs: the start design is the answer
@@ -92,7 +103,8 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
         elif problem.spread is not None:
             result = fleet_design(problem, progress, templates, analyses)
         else:
-            result = design_single(problem, progress, templates, analyses, multistart)
+            result = design_single(problem, progress, templates, analyses, multistart,
+                                   stop=stop)
         if not analyses:
             return result
         bound, verdict = design_limits(problem, result.controller, result.certificate,

@@ -1,13 +1,14 @@
 """The design of one problem (no spread): method -> candidate -> certificate -> analyses.
 
 :func:`design_single` runs the analytic design, or the robust program (multi-started when
-asked, :mod:`robrst.design.multistart`) or the convex one
+asked: its global phase, :mod:`robrst.synthesis.search`) or the convex one
 (:func:`robrst.design.candidate.candidate`), then the analytic check, the comparison and
 the analyses of every family model, into one :class:`~robrst.design.result.DesignResult`.
 """
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
@@ -16,6 +17,7 @@ from robrst.core.analysis import analyze_many
 from robrst.design.candidate import (analytic_check, analytic_design, candidate, comparison,
                                      offer_candidate)
 from robrst.design.result import DesignResult
+from robrst.synthesis.multistart import multistart_record
 from robrst.synthesis.tracking import design_tracking
 
 if TYPE_CHECKING:
@@ -49,7 +51,7 @@ def analyse(problem: Problem, ctrl: RSTController) -> tuple:
 def design_single(problem: Problem, progress: Callable[[str], None] | None = None,
                   templates: dict | None = None, analyses: bool = True,
                   multistart: bool = False, warm: SynthesisResult | None = None,
-                  compare: bool = True) -> DesignResult:
+                  compare: bool = True, stop: Callable[[], bool] | None = None) -> DesignResult:
     """:func:`robrst.design.run_problem` of a problem without a spread (its BLAS limited
     by the caller).
 
@@ -64,11 +66,16 @@ def design_single(problem: Problem, progress: Callable[[str], None] | None = Non
     analyses : bool
         Analyse every family model and assess the design.
     multistart : bool
-        Multi-start the robust program (``problem.solver.starts`` other starts).
+        Run the robust program's global phase (:mod:`robrst.synthesis.search`: every
+        controller of the structure searched in this process, ``1 + problem.solver.starts``
+        distinct candidates polished; ``starts = 0``: one local run).
     warm : SynthesisResult, optional
         A previous design's synthesis record: the robust synthesis's preferred start.
     compare : bool
         Compare with ``compare_with``'s analytic design.
+    stop : callable, optional
+        Polled once per generation of the global phase and per certification round
+        (default :func:`robrst.base.interrupt.requested`).
 
     Returns
     -------
@@ -88,16 +95,13 @@ def design_single(problem: Problem, progress: Callable[[str], None] | None = Non
                      else (start.controller, None))
         cert = certify_problem(problem, ctrl)
     else:
-        if method == "nlp" and multistart and problem.solver.starts > 0:
-            from robrst.design.multistart import multistart as run_starts
-            from robrst.synthesis.multistart import plans
-
-            (stage, ctrl, trk, cert), starts = run_starts(
-                problem, plans(problem, problem.solver.starts), start, say, templates)
-        else:
-            stage, ctrl, trk, cert = candidate(problem, problem, False, start, say, templates,
-                                               warm=warm)
-            offer_candidate(problem, ctrl, cert)
+        glob = method == "nlp" and multistart and problem.solver.starts > 0
+        t0 = time.perf_counter()
+        stage, ctrl, trk, cert = candidate(problem, problem, False, start, say, templates,
+                                           warm=warm, global_phase=glob, stop=stop)
+        if glob:
+            starts = multistart_record(stage, time.perf_counter() - t0)
+        offer_candidate(problem, ctrl, cert)
         check = analytic_check(problem, stage.controller, stage.Am)
     comp = None if method == "analytic" or not compare else comparison(problem, ctrl, cert)
     found, assessment = analyse(problem, ctrl) if analyses else ((), None)

@@ -32,6 +32,17 @@ def _table(record, cls):
             if getattr(record, f.name) is not None}
 
 
+def _specs(sp):
+    """The ``[specs]`` table as the user stated it: defaults left out (they apply again when
+    read), a default switched off written ``false``."""
+    out = {k: v for k, v in _table(sp, Specs).items()
+           if k not in ("off", "defaults", "resolved") and k not in sp.defaults}
+    for k in sp.off:
+        if k != "damping_min":
+            out[k] = False
+    return out
+
+
 def _plant(plant):
     return {"B": [float(c) for c in plant.B], "A": [float(c) for c in plant.A]}
 
@@ -121,7 +132,7 @@ def problem_document(problem: Problem) -> dict:
         doc["plant"] = plant
     doc["poles"] = _poles(problem.poles)
     doc["controller"] = _table(problem.controller, ControllerStructure)
-    doc["specs"] = _table(problem.specs, Specs)
+    doc["specs"] = _specs(problem.specs)
     # who chose the method is no key of the file: the document names the method that ran
     doc["solver"] = {k: v for k, v in _table(problem.solver, SolverOptions).items()
                      if k != "method_source"}

@@ -20,7 +20,7 @@ from robrst.core.family import PlantFamily, ThermalCoefficients, explicit_family
 from robrst.core.plant import Plant, named_plant
 from robrst.problem.records import (AUX_MIN_FACTOR, HOMOTOPIES, INITS, METHODS, OBJECTIVES,
                             PLACEMENTS, T_MODES, ControllerStructure, Problem, SolverOptions, Specs)
-from robrst.problem.specs import specs_schema
+from robrst.problem.specs import DEFAULTED, specs_schema
 from robrst.base.schema import ArrayOf, Field, key_error, load_toml, markdown_rows, validate
 from robrst.problem.spread import (COEF as COEF_NAME, DIST_KEYS, RANDOM_DISTS, SPREAD_METHODS,
                                    THERMAL_KEYS, Param, Spread, check_plant_params,
@@ -138,17 +138,17 @@ SCHEMA = {
         "compare_with": Field("str", None, "problem file (relative) whose analytic design is"
                               " compared"),
         "placement": Field("str", "auto", "nominal closed-loop poles: fixed (as [poles] and"
-                           " free_poles ask) | free (every coefficient free) | auto (fixed, freed"
-                           " when the specs cannot be met)", choices=PLACEMENTS),
+                           " free_poles ask) | free (every coefficient free: the global phase)"
+                           " | auto (both, the better certified answer)", choices=PLACEMENTS),
         "homotopy": Field("str", "on_failure", "lower extra_degree solved first: on_failure |"
                           " always (more degrees never certify a worse objective)",
                           choices=HOMOTOPIES),
-        "multistart": Field("bool", True, "nlp: also solve from diverse starts (analytic designs"
-                            " at other poles, free placement, PI/roll-off controllers, more"
-                            " degrees) on 2 processes and keep the best certified answer;"
-                            " off inside sweeps"),
-        "starts": Field("int", 2, "nlp multi-start: how many starts beyond the first",
-                        lo=0, hi=64),
+        "multistart": Field("bool", True, "nlp: run the global phase (every controller of the"
+                            " structure searched by CMA-ES, the best distinct candidates"
+                            " polished and certified, in process); false: one local run from"
+                            " the problem's start (sweeps)"),
+        "starts": Field("int", 2, "nlp global phase: distinct candidates polished beyond the"
+                        " best (0: no global phase, one local run)", lo=0, hi=64),
         "bound": Field("bool", True, "state what any linear controller could reach on the"
                        " family (the objective's estimate; always when not certified)"),
     },
@@ -414,7 +414,7 @@ def parse_problem(data: dict, path: str | Path = "<problem>", compare: bool = Tr
         _check_plant_in_family(path, nominal, family)
     poles = pole_spec(path, v["poles"])
     ctrl = ControllerStructure(**_table(path, v, "controller"))
-    specs = Specs(**_table(path, v, "specs"))
+    specs = _specs(_table(path, v, "specs"))
     solver = _solver(_table(path, v, "solver"), specs)
     for k in ("S_fixed", "R_fixed"):
         if not getattr(ctrl, k) or getattr(ctrl, k)[0] == 0.0:
@@ -448,6 +448,16 @@ def parse_problem(data: dict, path: str | Path = "<problem>", compare: bool = Tr
     if compare:
         _check_compare_with(path, solver)
     return problem
+
+
+def _specs(table):
+    """The :class:`Specs` of a validated ``[specs]`` table: a default switched off by
+    ``false`` is named in ``off`` (``damping_min``: also 0)."""
+    off = tuple(k for k in DEFAULTED if table.get(k) is False)
+    table = {k: (None if k in off else v) for k, v in table.items()}
+    if "damping_min" in off:
+        table["damping_min"] = 0.0
+    return Specs(**table, off=off)
 
 
 def _spread(path, sp, family):

@@ -16,7 +16,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from robrst.base.errors import SpecError
-from robrst.problem.specs import EXTRA_PEAK_SPECS, PEAK_SPECS, RELATIVE_PEAK_SPECS, bound_specs
+from robrst.problem.specs import (EXTRA_PEAK_SPECS, PEAK_SPECS, RELATIVE_PEAK_SPECS, SPEC_TABLE,
+                                  SPECS_BY_KEY, bound_specs)
 
 if TYPE_CHECKING:
     from robrst.core.family import PlantFamily
@@ -24,9 +25,9 @@ if TYPE_CHECKING:
 
 __all__ = ["PoleSpec", "ControllerStructure", "Specs", "SolverOptions", "Problem",
            "PEAK_SPECS", "EXTRA_PEAK_SPECS", "METHODS", "OBJECTIVES", "T_MODES", "INITS",
-           "PLACEMENTS", "HOMOTOPIES", "AUX_MIN_FACTOR", "RELATIVE_PEAK_SPECS", "DampingFloor",
-           "DEFAULT_DAMPING_CAP",
-           "DEFAULT_DAMPING_SHARE", "DEFAULT_OVERSHOOT_WARN_PCT", "plant_damping"]
+           "PLACEMENTS", "HOMOTOPIES", "AUX_MIN_FACTOR", "DEFAULT_DAMPING_CAP",
+           "DEFAULT_DAMPING_SHARE", "DEFAULT_OVERSHOOT_WARN_PCT", "RELATIVE_PEAK_SPECS",
+           "DampingFloor", "plant_damping", "with_defaults", "default_notes"]
 
 METHODS = ("analytic", "nlp", "convex")
 OBJECTIVES = ("max_integral_gain", "min_Ms", "feasibility")
@@ -36,7 +37,7 @@ PLACEMENTS = ("auto", "fixed", "free")
 HOMOTOPIES = ("on_failure", "always")
 AUX_MIN_FACTOR = 10.0   # auxiliary poles at least this many times faster than the dominant
 DEFAULT_DAMPING_CAP = 0.1       # default closed-loop damping floor: at most this ...
-DEFAULT_DAMPING_SHARE = 0.9     # ... and at most this share of the plant's least damping
+DEFAULT_DAMPING_SHARE = 1.0     # ... and at most this share of the plant's least damping
 DEFAULT_OVERSHOOT_WARN_PCT = 20.0   # reference-step overshoot that earns a warning
 
 
@@ -275,12 +276,19 @@ class Specs:
     damping_min : float, optional
         Least damping of every closed-loop pole of every model (the sampled loop's poles
         mapped back to s by ``fs ln z``), as MATLAB's ``TuningGoal.Poles``.  ``None``: the
-        default floor (:meth:`damping_floor`: ``DEFAULT_DAMPING_SHARE`` of the plant's own
-        least damped resonance, at most ``DEFAULT_DAMPING_CAP``); 0: none.
+        default floor (:meth:`damping_floor`: the plant's own least damped resonance,
+        at most ``DEFAULT_DAMPING_CAP``); 0: none.
     decay_min : float, optional
         Least decay rate ``-Re p`` of every closed-loop pole [rad/s].
     controller_damping_min : float, optional
         Least damping of the controller's own poles.
+    off : tuple of str
+        Defaults switched off (``false`` in the problem file;
+        :data:`robrst.problem.specs.DEFAULTED`).
+    defaults : tuple of str
+        The specs whose value is a default (:func:`with_defaults`).
+    resolved : bool
+        The defaults are resolved (:func:`with_defaults` ran).
 
     Attributes
     ----------
@@ -312,6 +320,9 @@ class Specs:
     damping_min: float = None
     decay_min: float = None
     controller_damping_min: float = None
+    off: tuple = ()
+    defaults: tuple = ()
+    resolved: bool = False
 
     def damping_floor(self, family: PlantFamily) -> tuple[float | None, str]:
         """The closed-loop damping floor on ``family``: ``(value, source)``.
@@ -331,7 +342,10 @@ class Specs:
         (float or None, str)
         """
         if self.damping_min is not None:
-            return (self.damping_min if self.damping_min > 0 else None), "specs"
+            source = "default" if "damping_min" in self.defaults else "specs"
+            return (self.damping_min if self.damping_min > 0 else None), source
+        if "damping_min" in self.off:
+            return None, "specs"
         zeta = plant_damping(family)
         if zeta <= 0:          # an unstable resonance: no default floor below it
             return None, "default"
@@ -464,17 +478,17 @@ class SolverOptions:
         A problem file (relative) whose analytic design is compared.
     placement : {"auto", "fixed", "free"}
         ``"fixed"`` keeps the nominal closed-loop poles the [poles] table (and
-        ``free_poles``) asks for; ``"free"`` lets every controller coefficient move (the
-        pole placement is only a start); ``"auto"`` starts as ``"fixed"`` and frees the
-        poles when the specs cannot be met with them.
+        ``free_poles``) asks for; ``"free"`` searches every controller of the structure
+        (the global phase, :mod:`robrst.synthesis.search`; the pole placement is only a
+        start); ``"auto"`` solves both and keeps the better certified answer.
     homotopy : {"on_failure", "always"}
         ``"on_failure"`` solves ``extra_degree - 1`` (recursively) only when the requested
         degree does not certify; ``"always"`` solves every degree from 0 up, each seeded
         with the one below, so more degrees never give a worse certified objective.
     multistart : bool
-        The robust program also runs from up to ``starts`` diverse starts
-        (:mod:`robrst.synthesis.multistart`) on 2 processes and keeps the best certified
-        answer (off inside sweeps).
+        The robust program runs its global phase (every controller of the structure
+        searched, the best distinct candidates polished and certified, in process); off:
+        one local run from the problem's start (sweeps).
     starts : int
         How many starts beyond the one asked for.
     method_source : {"given", "default", "command line", "infeasible"}
@@ -484,6 +498,10 @@ class SolverOptions:
         State the estimate of what any linear controller could reach on the family
         (:mod:`robrst.synthesis.bound`) beside a certified design (a design that is not
         certified always gets it, with the feasibility verdict).
+        Distinct candidates of the global phase polished beyond the best (0: no global
+        phase).
+    method_source : {"given", "default", "command line"}
+        Who chose ``method`` (see :attr:`method_reason`).
     """
 
     method: str = "analytic"
@@ -602,3 +620,87 @@ class Problem:
         path) and the balanced realisations they are computed from."""
         return (self.specs.sampled or self.specs.time_domain
                 or self.controller.T_mode == "reference_model")
+
+
+def with_defaults(problem: Problem) -> Problem:
+    """``problem`` with its default specs resolved, once (idempotent).
+
+    A problem whose specs bound anything (:attr:`Specs.bounded`) must also give a
+    controller an engineer accepts, so every spec with a ``default_bound`` in
+    :data:`robrst.problem.specs.SPEC_TABLE` applies unless the problem gives its own value
+    or switches it off (``false``; 0 for ``damping_min``):
+
+    * ``overshoot_max_pct`` = 20 %: the reference step;
+    * ``damping_min`` = the plant's least damping (of any family member's resonance), at
+      most ``DEFAULT_DAMPING_CAP`` (:meth:`Specs.damping_floor`): no closed-loop pole
+      rings longer than the bare actuator (the cap: a well-damped plant does not ask every
+      closed-loop pole to be damped as much as it is);
+    * ``Msd_rel_max`` = 1: the input-disturbance peak ``|B S/Delta|`` of every model at
+      most the model's own open-loop peak ``|B/A|`` (only when every family member is
+      stable: an unstable plant has no open-loop peak; not when the problem gives its own
+      ``Msd_max``).
+
+    Parameters
+    ----------
+    problem : Problem
+        The problem as read.
+
+    Returns
+    -------
+    Problem
+        ``specs.defaults`` names the specs that took their default value,
+        ``specs.resolved`` is true.
+
+    Examples
+    --------
+    >>> from robrst import load_problem
+    >>> from robrst.problem.records import with_defaults
+    >>> sp = with_defaults(load_problem("paper")).specs
+    >>> sp.overshoot_max_pct, sp.Msd_rel_max, sp.defaults
+    (20.0, 1.0, ('overshoot_max_pct', 'Msd_rel_max', 'damping_min'))
+    """
+    from dataclasses import replace
+
+    sp = problem.specs
+    if sp.resolved:
+        return problem
+    changes, used = {"resolved": True}, []
+    if sp.bounded:
+        stable = None
+        for row in SPEC_TABLE:
+            if (row.default_bound is None or getattr(sp, row.key) is not None
+                    or row.key in sp.off
+                    or any(getattr(sp, k) is not None for k in row.default_unless)):
+                continue
+            if row.default_bound == "plant_damping":
+                value, _ = sp.damping_floor(problem.family)
+                changes[row.key] = value or 0.0
+                if not value:
+                    continue
+            else:
+                if row.relative_to == "open_loop_peak":
+                    if stable is None:
+                        stable = all(np.all(np.roots(m.A).real < 0)
+                                     for f in problem.families for m in f.models)
+                    if not stable:
+                        continue
+                changes[row.key] = float(row.default_bound)
+            used.append(row.key)
+    changes["defaults"] = tuple(used)
+    return replace(problem, specs=replace(sp, **changes))
+
+
+def default_notes(specs: Specs) -> list[str]:
+    """One line per default spec that applied (:func:`with_defaults`), with its off switch.
+
+    Parameters
+    ----------
+    specs : Specs
+        Resolved specs.
+
+    Returns
+    -------
+    list of str
+    """
+    return ["default: " + SPECS_BY_KEY[k].default_note.format(value=getattr(specs, k))
+            for k in specs.defaults]

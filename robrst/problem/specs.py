@@ -14,6 +14,8 @@ its schema (type, range, description).  From the table come
   ``LOWER_BOUNDED``, ``FIGURE_OF``);
 * the synthesis's bounds (:meth:`robrst.synthesis.context.Context.setup`) and the
   multi-start's scaled bounds (:data:`robrst.synthesis.multistart.PEAK_BOUNDS`);
+* the default constraints of a bounded problem (:data:`DEFAULTED`, resolved by
+  :func:`robrst.problem.records.with_defaults`);
 * the JSON's ``specs`` and ``specs_achieved`` (:mod:`robrst.design.contract`), the sweep's
   columns and the report labels.
 
@@ -28,7 +30,7 @@ from dataclasses import dataclass
 from robrst.base.schema import Field
 
 __all__ = ["SpecDef", "SPEC_TABLE", "SPECS_BY_KEY", "PEAK_SPECS", "EXTRA_PEAK_SPECS",
-           "RELATIVE_PEAK_SPECS", "bound_specs", "spec", "specs_schema", "LOOPS",
+           "RELATIVE_PEAK_SPECS", "DEFAULTED", "bound_specs", "spec", "specs_schema", "LOOPS",
            "BAND_FIELD", "spec_columns", "MAX_RATE", "MIN_RATE", "MIN_RATE_HZ"]
 
 LOOPS = ("continuous", "sampled")
@@ -93,6 +95,17 @@ class SpecDef:
         ``T_resonance_max``).
     time_domain : bool
         A reference-step spec (:attr:`~robrst.problem.records.Specs.time_domain`).
+    default_bound : float or str or None
+        The bound the spec takes by default when the problem bounds anything else
+        (:func:`robrst.problem.records.with_defaults`): a number, or ``"plant_damping"``
+        (the damping floor of :meth:`~robrst.problem.records.Specs.damping_floor`);
+        ``None``: no default.  Such a key also accepts ``false`` (the default switched
+        off).
+    default_note : str
+        What the default asks, for the design's notes (``{value}``: its value).
+    default_unless : tuple of str
+        Keys that replace the default when the problem gives them (``Msd_max`` for
+        ``Msd_rel_max``: the user chose the disturbance bound).
 
     Attributes
     ----------
@@ -118,6 +131,9 @@ class SpecDef:
     published: str = "given"
     with_key: str | None = None
     time_domain: bool = False
+    default_bound: float | str | None = None
+    default_note: str = ""
+    default_unless: tuple = ()
 
     @property
     def lower(self):
@@ -164,9 +180,13 @@ SPEC_TABLE = (
                                  positive=True), published="with", with_key="Mu_hf_max"),
     SpecDef("overshoot_max_pct", _f("number", None, "overshoot of a reference step [%]; above"
                                     " 100 the output would more than double the step: a bound"
-                                    " no design means", lo=0.0, hi=100.0),
+                                    " no design means; default 20 when [specs] bounds"
+                                    " anything, false: none", lo=0.0, hi=100.0,
+                                    allow_off=True),
             "upper", "overshoot_pct", unit="%", label="overshoot_pct",
-            published="time_domain", time_domain=True),
+            published="time_domain", time_domain=True, default_bound=20.0,
+            default_note="reference-step overshoot <= {value:g} % ([specs] overshoot_max_pct"
+                         " = false: none)"),
     SpecDef("settling_time_max_s", _f("number", None, "2 % settling time of a reference step"
                                       " [s]", positive=True),
             "upper", "settling_time_s", unit="s", label="settling_time_s",
@@ -187,17 +207,23 @@ SPEC_TABLE = (
     SpecDef("Msd_rel_max", _f("number", None, "bound on the input-disturbance peak |B S/Delta|"
                               " relative to the same model's open-loop peak |B/A| (the ZOH"
                               " plant's in the sampled loop); 1: the controller never"
-                              " amplifies input disturbances beyond the bare actuator",
-                              positive=True),
+                              " amplifies input disturbances beyond the bare actuator;"
+                              " default 1 when [specs] bounds anything, every model is"
+                              " stable and no Msd_max is given; false: none", positive=True,
+                              allow_off=True),
             "upper", "Msd_rel", "Sd", label="|B S/Delta| peak / open-loop |B/A| peak",
             program="Sd", scaled=True, column="Msd_rel", always_column=False,
             column_label="worst |B S/Delta| peak / open-loop peak [-]",
-            relative_to="open_loop_peak"),
+            relative_to="open_loop_peak", default_bound=1.0, default_unless=("Msd_max",),
+            default_note="input-disturbance peak |B S/Delta| <= {value:g} x the model's"
+                         " open-loop peak |B/A| ([specs] Msd_rel_max = false: none)"),
     SpecDef("damping_min", _f("number", None, "least damping of every closed-loop pole of every"
                               " model (sampled loop: poles mapped to s by fs ln z); default"
-                              " min(0.1, 0.9 x the plant's least damping), 0: none",
-                              lo=0.0, hi=0.99),
-            "lower", "damping", label="closed-loop damping"),
+                              " min(0.1, the plant's least damping), 0 or false: none",
+                              lo=0.0, hi=0.99, allow_off=True),
+            "lower", "damping", label="closed-loop damping", default_bound="plant_damping",
+            default_note="closed-loop damping >= {value:.4g} on every pole, the plant's least"
+                         " damping (at most 0.1; [specs] damping_min = 0: none)"),
     SpecDef("decay_min", _f("number", None, "least decay rate -Re(p) of every closed-loop pole"
                             " [rad/s]", positive=True, hi=MAX_RATE),
             "lower", "decay_rad_s", unit="rad/s", label="closed-loop decay rate [rad/s]"),
@@ -215,6 +241,8 @@ PEAK_SPECS = {s.transfer: s.key for s in SPEC_TABLE
 EXTRA_PEAK_SPECS = {s.transfer: s.key for s in SPEC_TABLE
                     if s.transfer not in ("S", "T", "U", None) and s.relative_to is None}
 RELATIVE_PEAK_SPECS = {s.transfer: s.key for s in SPEC_TABLE if s.relative_to is not None}
+# the specs a problem that bounds anything gets by default, each switched off by false
+DEFAULTED = tuple(s.key for s in SPEC_TABLE if s.default_bound is not None)
 
 
 def spec(key: str) -> SpecDef:

@@ -168,12 +168,14 @@ def _objective_line(result):
     line = f"objective: {obj} -> {val}"
     st = result.starts_summary
     if st:
+        what = (f"global phase: {st.evaluations} candidates screened ({st.search_method},"
+                f" {st.dimension} dimensions), {st.starts} tried"
+                if st.search_method else f"multi-start: {st.starts} starts")
         if st.certified:
-            line += (f"; multi-start: {st.starts} starts, {st.certified} certified,"
-                     f" optima {_num(st.worst)} .. {_num(st.best)}, best from"
-                     f" '{st.winner}'")
+            line += (f"; {what}, {st.certified} certified, optima {_num(st.worst)} .."
+                     f" {_num(st.best)}, best from '{st.winner}'")
         else:
-            line += f"; multi-start: {st.starts} starts, none certified"
+            line += f"; {what}, none certified"
     return line
 
 

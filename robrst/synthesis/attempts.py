@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from robrst.base.interrupt import offer
+from robrst.base.interrupt import offer, requested
 from robrst.certificate.proof import actuator_of, certify_families
 from robrst.synthesis.exchange import Phase, solve_exchange
 from robrst.synthesis.nlp import grid_blocks
@@ -34,10 +34,10 @@ if TYPE_CHECKING:
     from robrst.synthesis.context import Context
     from robrst.synthesis.nlp import NLPSetup
     from robrst.synthesis.outcome import SolveResult, SynthesisResult
-    from robrst.synthesis.timesamples import TimeSpecs
+    from robrst.synthesis.timesamples import TimeRows, TimeSpecs
 
 __all__ = ["Outcome", "Run", "worst_violation", "frequency_certificate", "refine",
-           "objective_value", "GAMMA_FLOOR"]
+           "objective_value", "program_models", "GAMMA_FLOOR"]
 
 GAMMA_FLOOR = 0.97       # the soft phase stops once every spec holds with 3 % to spare
 SOFT_STARTS = 3          # soft-phase attempts (best starts first)
@@ -49,8 +49,10 @@ BOLD_FAR = 20.0           # a bolder start (Run.bolder) may miss them 20x
 WARM_MU = 1e-4           # IPOPT's initial barrier from a previous design of a nearby variant
 WARM_NEAR = 1.05         # ... solved from at once when within 5 % of the specs on the grid
 WARM_START = "previous design"   # the name of that start (robrst.synthesis.robust hands it down)
+GLOBAL_START = "global run"      # the global phase's candidates (near-optimal starts)
 TIME_ROUNDS = 8          # reference-step samples: linearise-and-solve rounds per solve
 TIME_BOX = 0.5           # their first trust region (relative to the coefficients)
+ROWS_FIRST_NEAR = 0.3    # a polish's first solve: samples above this share of their bound
 
 
 @dataclass(frozen=True, eq=False)
@@ -124,10 +126,20 @@ def frequency_certificate(problem: Problem, ctrl: RSTController) -> Certificate:
                             n_sweep=so.cert_temperatures, rtol=so.cert_tol)
 
 
-def _program_models(problem):
+def program_models(problem: Problem) -> list:
     """The models the program starts with: every family member, and the models at both
     ends of the temperature range of every further actuator (``problem.scenarios``; the
-    certificate's refinement adds their other temperatures where they bind)."""
+    certificate's refinement adds their other temperatures where they bind).
+
+    Parameters
+    ----------
+    problem : Problem
+        The problem.
+
+    Returns
+    -------
+    list of Plant
+    """
     ends = [m for f in problem.scenarios for m in (f.models[0], f.models[-1])[:len(f.models)]]
     return list(problem.family.models) + ends
 
@@ -285,16 +297,33 @@ class Run:
         Set when the specs are provably infeasible.
     solved : dict
         Program key -> result: a repeated program is not solved again.
+    stop : callable
+        Checked by :meth:`spent`: true ends every loop of the synthesis with the best
+        point found so far (an interrupted design).
+    search : GlobalSearch or None
+        The global phase's record, once run (:mod:`robrst.synthesis.search`).
+    tried : list of (str, Outcome)
+        The global phase's candidates and the problem's own placement, as they ended.
+    global_phase : bool
+        The freely placed poles are searched globally (:mod:`robrst.synthesis.robust`).
+    rows_first : bool
+        The linearised rows (reference-step samples, roots near a floor) join the first
+        solve with freely placed poles (a polish from a near-optimal start).
     """
 
     def __init__(self, problem: Problem, say: Callable[[str], None], templates: dict,
-                 warm: SynthesisResult | None = None, budget: int | None = None) -> None:
+                 warm: SynthesisResult | None = None, budget: int | None = None,
+                 stop: Callable[[], bool] | None = None) -> None:
         self.problem, self.say, self.templates, self.warm = problem, say, templates, warm
         self.budget = RUN_ITER_BUDGET if budget is None else int(budget)
         self.strict = budget is not None   # an extra start: its budget is a hard stop
         self.rounds, self.notes = [], []
         self.hopeless = False     # set when the specs are provably infeasible
         self.solved = {}          # program key -> result: a repeated program is not re-solved
+        self.stop = stop or requested      # a signal (robrst.base.interrupt) stops too
+        self.search, self.tried = None, []
+        self.global_phase = False
+        self.rows_first = False
 
     def spent(self, placement: str | None = None) -> bool:
         """True once the synthesis has used its IPOPT iteration budget: ``RUN_ITER_BUDGET``
@@ -309,7 +338,10 @@ class Run:
         Returns
         -------
         bool
+            Also true once :attr:`stop` says so.
         """
+        if self.stop():
+            return True
         total = sum(r.iterations for r in self.rounds)
         if self.strict:
             return total > self.budget
@@ -341,22 +373,31 @@ class Run:
         SolveResult
         """
         ipopt = ctx.ipopt
-        if start == WARM_START:   # a near-optimal start: a small barrier keeps it near
-            ipopt = {**ipopt, "mu_init": WARM_MU}
+        if start == WARM_START or start.startswith(GLOBAL_START):
+            ipopt = {**ipopt, "mu_init": WARM_MU}   # a near-optimal start: a small barrier
         # the homotopy may pose the very same program again (same data, start and options):
         # the solves are deterministic, so its result is reused
         key = _key((setup, np.asarray(x0, float), ipopt, phase, exact))
         res = self.solved.get(key)
+        spec = time_specs(ctx.problem, setup.w0)
+        floored = setup.region is not None and (setup.region.zeta is not None
+                                                or setup.region.ctrl_zeta is not None)
         if res is None and setup.placement == "free" and phase.kind == "hard":
-            res = self.boxed(ctx, setup, x0, phase, exact)
+            lin = None
+            if self.rows_first and (spec is not None or floored):
+                # a near-optimal start (the global phase's): its reference-step samples and
+                # roots near their floor linearised from the first solve on, so the
+                # objective does not first run out of the time specs
+                found = (worst_time_ratio(setup, x0, spec, ROWS_FIRST_NEAR)[1]
+                         if spec is not None else {})
+                rows = time_rows(setup, x0, spec, (), found) if spec is not None else None
+                lin = _stacked(rows, pole_rows(setup, x0))
+            res = self.boxed(ctx, setup, x0, phase, exact, ipopt, lin)
         elif res is None:
             res = solve_exchange(setup, x0, ipopt, phase, self.templates, exact=exact)
             if not res.success and not self.strict:   # second chance: adaptive barrier
                 res = solve_exchange(setup, x0, {**ctx.ipopt, "mu_strategy": "adaptive"}, phase,
                                      self.templates, exact=exact)
-        spec = time_specs(ctx.problem, setup.w0)
-        floored = setup.region is not None and (setup.region.zeta is not None
-                                                or setup.region.ctrl_zeta is not None)
         if (spec is not None or floored) and res.success and key not in self.solved:
             res = self.linearised(ctx, setup, res, phase, exact, spec)
         self.solved[key] = res
@@ -417,7 +458,7 @@ class Run:
         restore = (phase.kind == "hard" and not (
             setup.objective == "min_Ms" and setup.bounds.get("S") is None))
         for _ in range(TIME_ROUNDS):
-            if self.spent():
+            if self.spent() or (self.strict and iters > self.budget):
                 break
             kind = "time" if w_time > 1.0 and restore else phase.kind
             if worst <= 1.0 and (kind != "hard" or best is not res and best.phase_ok):
@@ -459,7 +500,8 @@ class Run:
         return replace(best, iterations=iters)
 
     def boxed(self, ctx: Context, setup: NLPSetup, x0: np.ndarray, phase: Phase,
-              exact: bool) -> SolveResult:
+              exact: bool, ipopt: dict | None = None, lin: TimeRows | None = None
+              ) -> SolveResult:
         """Trust-region solves for freely placed poles (free coefficients move resonances
         and slow poles far in one step; IPOPT alone wanders): a box around the point,
         re-centred and doubled while the solution lands on it, halved after a failure.
@@ -476,19 +518,23 @@ class Run:
             Soft goals or the objective.
         exact : bool
             Also impose each block's exact peak frequency once the grid holds.
+        ipopt : dict, optional
+            IPOPT options (default the context's).
+        lin : TimeRows, optional
+            Linear rows imposed in every box.
 
         Returns
         -------
         SolveResult
             The best box's result, ``iterations`` summed.
         """
-        ipopt = {**ctx.ipopt, "max_iter": min(ctx.ipopt["max_iter"], FREE_MAX_ITER)}
+        ipopt = {**(ipopt or ctx.ipopt), "max_iter": min(ctx.ipopt["max_iter"], FREE_MAX_ITER)}
         best, x, iters, res, f = None, np.asarray(x0, float), 0, None, FREE_BOX
         for _ in range(FREE_BOXES):
             c = x[:ctx.param.n_x]
             r = f * np.abs(c) + 0.05 * np.max(np.abs(c))
             res = solve_exchange(setup, x, ipopt, phase, self.templates, exact=exact, box=(c, r),
-                                 max_rounds=FREE_EXCHANGE_ROUNDS)
+                                 max_rounds=FREE_EXCHANGE_ROUNDS, lin=lin)
             iters += res.iterations
             cap = min(FREE_ITER_BUDGET, self.budget)
             if not res.success:
@@ -562,7 +608,7 @@ class Run:
             The last outcome (``None`` if IPOPT failed in the first round).
         """
         p = ctx.problem
-        models, nu, last = _program_models(p), ctx.nu, None
+        models, nu, last = program_models(p), ctx.nu, None
         x = np.concatenate([x[:-1], [1.0]])
         exact, start = False, name
         for rnd in range(p.solver.max_rounds):
@@ -582,6 +628,13 @@ class Run:
             if not res.success:
                 self.notes.append(f"objective phase ({placement} poles, from {name}) ended with"
                                   f" IPOPT {res.status}")
+                if res.x is not None and np.all(np.isfinite(res.x)) and (
+                        last is None or not last.certified):
+                    # the last iterate may still be a better controller: the certificate
+                    # judges it (an answer, not an optimum: phase "start")
+                    it = self.outcome(ctx, setup, res, "start")
+                    if it.certified or last is None:
+                        last = it
                 break
             last = self.outcome(ctx, setup, res, "hard")
             if last.certified:
@@ -662,7 +715,8 @@ class Run:
             return None
         return self.hard(ctx, placement, res.x, f"soft-goal point from {s.name}")
 
-    def attempt(self, ctx: Context, placement: str, seeds: Sequence[tuple]) -> Outcome | None:
+    def attempt(self, ctx: Context, placement: str, seeds: Sequence[tuple],
+                soft: bool = True) -> Outcome | None:
         """Hard phase from the preferred start; if that fails, soft phase then hard phase.
 
         A previous design of a nearby variant (``warm``) within ``WARM_NEAR`` of the specs
@@ -679,6 +733,9 @@ class Run:
             The nominal pole placement.
         seeds : sequence of tuple
             Starts handed down (the homotopy's lower degree, a fixed placement's result).
+        soft : bool
+            Run the soft-goal phase when the preferred start does not meet the specs (off:
+            the global phase follows and searches further).
 
         Returns
         -------
@@ -686,7 +743,7 @@ class Run:
             The best certified outcome, else the least violating one (``None``: nothing
             solved).
         """
-        setup = ctx.setup(_program_models(ctx.problem), ctx.nu, placement)
+        setup = ctx.setup(program_models(ctx.problem), ctx.nu, placement)
         blocks = grid_blocks(setup, np.ones(ctx.param.n_x))   # weights unused by the scores
         warm = next((sd for sd in seeds if sd[0] == WARM_START and sd[1] is not None), None)
         from_warm = None     # the hard phase from the warm start, once run
@@ -742,6 +799,7 @@ class Run:
                 return _better(ctx.problem, out, outs)
             outs.append(out)
         n_soft = 1 if self.hopeless else SOFT_STARTS   # the best violation is all there is
+        n_soft = n_soft if soft else 0
         for s in [s for s in starts if not (s is first and feasible)][:n_soft]:
             if self.spent(placement) and (self.strict or any(o is not None and o.certified
                                                              for o in outs)):

@@ -10,7 +10,7 @@ decision-vector parametrisation, the frequency grid, the sampled-loop plants, an
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -107,6 +107,9 @@ class Context:
         IPOPT options.
     extra_degree : int
         The degree of this context (the homotopy's lower degrees have their own).
+    free_margin : float
+        The grid constraints' share of the bounds with every coefficient free
+        (``FREE_MARGIN``; the global phase polishes at ``BOUND_MARGIN``).
 
     Attributes
     ----------
@@ -124,6 +127,7 @@ class Context:
     ctrl_max: float            # scaled: controller poles no faster than this (free placement)
     ipopt: dict
     extra_degree: int = 0
+    free_margin: float = FREE_MARGIN
 
     @classmethod
     def of(cls, problem: Problem, start: AnalyticDesign, extra_degree: int | None = None) -> Context:
@@ -173,6 +177,31 @@ class Context:
     @property
     def w0(self):
         return self.param.scaling.w0
+
+    def around(self, ctrl: RSTController) -> Context:
+        """This context rescaled around the controller ``ctrl``: its scaling and grid from
+        ``ctrl``'s nominal closed-loop polynomial, the same program otherwise (the
+        controller strip kept in rad/s).  A program polished from a point far from the
+        start (a global-phase candidate) is then well scaled there.
+
+        Parameters
+        ----------
+        ctrl : RSTController
+            A controller of this context's structure.
+
+        Returns
+        -------
+        Context
+        """
+        p = self.problem
+        ref = p.family.reference_model
+        Am = poly.trim(poly.padd(poly.pmul(ref.A, ctrl.S), poly.pmul(ref.B, ctrl.R)))
+        sc = poly.Scaling.natural(Am)
+        f = self.w0 / sc.w0
+        param = Parametrization.of(p.controller, ref, sc, self.extra_degree)
+        return replace(self, param=param, nu=frequency_grid(p.family, Am, p.solver.n_freq),
+                       Am=poly.monic(Am), ctrl_shift=self.ctrl_shift * f,
+                       ctrl_max=self.ctrl_max * f)
 
     def sampled(self, model: Plant) -> Plant:
         """The sampled-loop plant of ``model`` (the family's memo).
@@ -238,7 +267,7 @@ class Context:
         p = self.problem
         sp, so = p.specs, p.solver
         sc, w0 = self.param.scaling, self.w0
-        margin = FREE_MARGIN if placement == "free" else BOUND_MARGIN
+        margin = self.free_margin if placement == "free" else BOUND_MARGIN
         # every absolute peak bound of the table (robrst.problem.specs) on its program block
         bounds = {key: None for key in PEAK_KEYS}
         for row in SPEC_TABLE:

@@ -19,6 +19,14 @@ Every run is a full robust synthesis (:func:`robrst.synthesis.robust.robust_synt
 :mod:`robrst.design` runs them in parallel (2 processes) and keeps the best certified
 objective.  :class:`MultiStart` reports every start, its outcome and the spread of the
 optima (how global the answer is).
+
+By default a design no longer runs these plans: its global phase
+(:mod:`robrst.synthesis.search`, run by :func:`robrst.synthesis.robust.robust_synthesis`)
+searches every controller of the structure in the design's own process, certifies its best
+distinct candidates as they are and polishes them by the program, and solves the problem's
+own pole placement too; :func:`multistart_record` reports each of them as a start
+(``design --json`` key ``starts``) with the global search itself
+(``starts.global_search``).
 """
 
 from __future__ import annotations
@@ -32,9 +40,10 @@ from robrst.problem.specs import SPEC_TABLE, SPECS_BY_KEY
 
 if TYPE_CHECKING:
     from robrst.problem.records import Problem
+    from robrst.synthesis.outcome import SynthesisResult
 
-__all__ = ["StartPlan", "StartOutcome", "MultiStart", "plans", "NEIGHBOUR_STEP",
-           "PEAK_BOUNDS"]
+__all__ = ["StartPlan", "StartOutcome", "MultiStart", "plans", "multistart_record",
+           "NEIGHBOUR_STEP", "PEAK_BOUNDS"]
 
 NEIGHBOUR_STEP = 0.03
 PEAK_BOUNDS = tuple(s.key for s in SPEC_TABLE if s.scaled)   # robrst.problem.specs
@@ -115,9 +124,11 @@ class MultiStart:
     objective : str
         The objective compared.
     workers : int
-        Processes used.
+        Processes used (1: everything runs in the design's process).
     wall_time_s : float
         Wall time of the multi-start [s].
+    search : GlobalSearch, optional
+        The global phase (:class:`~robrst.synthesis.search.GlobalSearch`).
     """
 
     outcomes: tuple
@@ -125,6 +136,7 @@ class MultiStart:
     objective: str
     workers: int
     wall_time_s: float
+    search: object = None
 
     def spread(self) -> dict:
         """The certified optima: best, median and worst, and ``(best - worst) / |best|``.
@@ -148,9 +160,12 @@ class MultiStart:
         -------
         dict
         """
-        return {"winner": self.winner, "objective": self.objective, "workers": self.workers,
-                "wall_time_s": self.wall_time_s, "spread": self.spread(),
-                "starts": [o.as_dict() for o in self.outcomes]}
+        out = {"winner": self.winner, "objective": self.objective, "workers": self.workers,
+               "wall_time_s": self.wall_time_s, "spread": self.spread(),
+               "starts": [o.as_dict() for o in self.outcomes]}
+        if self.search is not None:
+            out["global_search"] = self.search.as_dict()
+        return out
 
 
 def _scaled_bounds(specs, factor):
@@ -201,3 +216,32 @@ def plans(problem: Problem, count: int) -> list[StartPlan]:
         and so.homotopy != "always" else [])
     out = poles[:1] + neighbours[1:] + poles[2:] + neighbours[:1] + free + poles[1:2] + homotopy
     return out[:max(0, int(count))]
+
+
+def multistart_record(stage: SynthesisResult, wall_time_s: float) -> MultiStart:
+    """The :class:`MultiStart` of a synthesis with the global phase.
+
+    Parameters
+    ----------
+    stage : SynthesisResult
+        The synthesis (its ``tried`` and ``search``).
+    wall_time_s : float
+        Wall time of the synthesis [s].
+
+    Returns
+    -------
+    MultiStart
+        The winner is the certified outcome with the best objective (else the one with the
+        smallest worst violation).
+    """
+    outs = tuple(StartOutcome(name, status, objective=obj, integral_gain=ki,
+                              worst_ratio=ratio, placement=placement)
+                 for name, status, obj, ki, ratio, placement in stage.tried)
+    winner = None
+    if outs:
+        ok = [o for o in outs if o.objective is not None]
+        win = (max(ok, key=lambda o: o.objective) if ok
+               else min(outs, key=lambda o: o.worst_ratio))
+        winner = win.name
+    return MultiStart(outcomes=outs, winner=winner, objective=stage.objective, workers=1,
+                      wall_time_s=wall_time_s, search=stage.search)

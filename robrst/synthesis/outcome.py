@@ -310,6 +310,12 @@ class SynthesisResult:
         One line on what an uncertified controller achieves.
     notes : tuple of str
         What the pipeline had to do (fallbacks, relaxations).
+    search : GlobalSearch, optional
+        The global phase's record (:mod:`robrst.synthesis.search`).
+    tried : tuple
+        What the global phase tried: ``(name, status, objective, integral gain, worst
+        ratio, placement)`` per candidate (as screened, polished) and the problem's own
+        placement.
 
     Attributes
     ----------
@@ -336,6 +342,8 @@ class SynthesisResult:
     phase: str = "hard"
     best_achievable: str = None
     notes: tuple = ()
+    search: object = None
+    tried: tuple = ()
 
     @property
     def integral_gain(self):
@@ -368,6 +376,8 @@ class SynthesisResult:
              "best_achievable": self.best_achievable, "notes": list(self.notes)}
         if self.wn_rad_s is not None:
             d["wn_rad_s"], d["zeta"] = self.wn_rad_s, self.zeta
+        if self.search is not None:
+            d["global_search"] = self.search.as_dict()
         return d
 
 

@@ -42,9 +42,15 @@ import numpy as np
 
 from robrst.core import poly
 from robrst.base.errors import RobrstError
-from robrst.synthesis.attempts import WARM_START, Outcome, Run, objective_value
+from robrst.synthesis.attempts import (WARM_START, Outcome, Run, objective_value,
+                                       program_models)
 from robrst.synthesis.context import BOUND_MARGIN, Context
 from robrst.synthesis.outcome import SynthesisResult, best_achievable, worst_violation
+from robrst.synthesis.parametrize import integral_gain
+from robrst.synthesis.screen import Screen
+from robrst.synthesis.search import PoleSpace, global_search
+from robrst.synthesis.timesamples import TimeSpecs, time_specs
+from robrst.synthesis.tracking import CANCEL_FLOOR, meets_time_specs
 
 if TYPE_CHECKING:
     from robrst.problem.records import Problem
@@ -102,7 +108,12 @@ _ORDER = {"fixed": 0, "dominant": 1, "free": 2}
 
 
 def _synthesize(problem, start, run, extra, lower=None):
-    """Every placement the problem allows, seeded with the embedded ``lower`` outcome."""
+    """Every placement the problem allows, seeded with the embedded ``lower`` outcome.
+
+    With the global phase (``run.global_phase``, the requested degree) the freely placed
+    poles are searched by :func:`_global`, and with ``placement = "auto"`` both the
+    problem's own placement and the global phase always run: the better certified
+    objective is the answer, whatever the bounds (a bound-independent search space)."""
     ctx = Context.of(problem, start, extra)
     so = problem.solver
     default = ctx.default_placement()
@@ -110,6 +121,7 @@ def _synthesize(problem, start, run, extra, lower=None):
     emb = _embedded(ctx, lower) if lower is not None and lower.certified else None
     best, seeds = None, []
     warm = _warm_seed(ctx, run.warm) if extra == problem.controller.extra_degree else None
+    glob = run.global_phase and extra == problem.controller.extra_degree
     for placement in placements:
         if best is not None and run.strict and run.spent():
             break          # an extra start of a multi-start: its budget is spent
@@ -118,18 +130,27 @@ def _synthesize(problem, start, run, extra, lower=None):
                           else [])
         if warm is not None and _ORDER[warm[0]] <= _ORDER[placement]:
             seeded = [warm[1]] + seeded
-        out = run.attempt(ctx, placement, seeded)
+        if glob and placement == "free":
+            out = _global(ctx, run, seeded, best, start)
+        else:
+            # with the global phase to follow, the problem's own placement gets no soft phase
+            out = run.attempt(ctx, placement, seeded,
+                              soft=not (glob and "free" in placements))
+            if glob and out is not None:
+                run.tried.append((f"the problem's poles ({placement})", out))
         if out is None:
             continue
         if out.certified:
             if best is None or not best.certified or (
-                    objective_value(problem, out) > objective_value(problem, best)):
+                    _rank(problem, out, glob) > _rank(problem, best, glob)):
                 best = out
-            if out.phase == "hard" or so.objective == "feasibility":
+            if (out.phase == "hard" or so.objective == "feasibility") and not (
+                    glob and "free" in placements):
                 break          # optimised under the specs (or nothing to optimise)
             seeds = [("best point so far", best.x[:ctx.param.n_x])]
-            run.notes.append(f"the objective could not be optimised with {placement} nominal"
-                             " poles (a certified start or soft-goal point)")
+            if out.phase != "hard":
+                run.notes.append(f"the objective could not be optimised with {placement}"
+                                 " nominal poles (a certified start or soft-goal point)")
             continue
         if best is None or (not best.certified and out.badness < best.badness):
             best = out
@@ -141,6 +162,121 @@ def _synthesize(problem, start, run, extra, lower=None):
                          " with a common factor (the same controller)")
         return emb
     return best
+
+
+def _rank(problem, out, timed):
+    """Sort key of a certified outcome: (meets the time-domain specs, when ``timed``;
+    objective)."""
+    ok = meets_time_specs(problem, out.ctrl) if timed else True
+    return (ok, objective_value(problem, out))
+
+
+RESCALE = True
+POLISH_ITER = 500      # IPOPT iterations of one polish (then its best certified point)
+POLISH_SHARE = 0.9     # a further candidate screened below this share of the best certified,
+POLISH_DISTINCT = 0.1  # or nearer than this (box units) to one polished, is not polished
+
+
+def _global(ctx, run, seeds, best, start):
+    """The global phase (:mod:`robrst.synthesis.search`) with every coefficient free: the
+    search, then its best distinct candidates certified as they are and polished by the
+    program (``1 + solver.starts`` of them, each within ``POLISH_ITER`` IPOPT iterations,
+    from the program rescaled at the candidate with the certificate's bounds; a further
+    one only when the previous polish improved on its candidate, and not when screened
+    below ``POLISH_SHARE`` of the best certified objective so far or within
+    ``POLISH_DISTINCT`` of one polished); the best certified outcome whose reference step meets the
+    time-domain specs, else the best certified one, else the least violating one.  Falls back to :meth:`Run.attempt` when the space cannot be
+    parametrised or nothing screened feasible."""
+    p = ctx.problem
+    ctx = replace(ctx, free_margin=BOUND_MARGIN)   # the certificate's bounds, not 2 % inside
+    setup = ctx.setup(program_models(p), ctx.nu, "free")
+    space = PoleSpace.of(ctx, setup)
+    if space is None:
+        run.notes.append("global phase skipped: the nominal closed loop's leading"
+                         " coefficient depends on the controller")
+        return run.attempt(ctx, "free", seeds)
+    screen = Screen(setup, *_screened_steps(p, ctx.w0))
+    named = [(sd[0], sd[1]) for sd in seeds if sd[1] is not None]
+    try:
+        named.append(("analytic", ctx.param.vector(start.controller)))
+    except RobrstError:
+        pass
+    if best is not None:
+        named.append((f"the problem's poles ({best.placement})", best.x[:ctx.param.n_x]))
+    res = global_search(screen, space, named, stop=run.stop, say=run.say)
+    run.search = res
+    run.say(f"global phase: {res.evaluations} candidates in {res.generations} generations"
+            f" ({res.cpu_s:.2g} s CPU), {len(res.candidates)} distinct")
+    feasible = [c for c in res.candidates if c.violation == 0]
+    if not feasible:
+        run.notes.append("global phase: no candidate met the specs on the grid; the soft"
+                         " phase from its best points")
+        return run.attempt(ctx, "free", seeds + [(c.name, c.xc) for c in
+                                                 res.candidates[:SOFT_SEEDS]])
+    outs, polished, gained = [], [], False
+    ref = objective_value(p, best) if best is not None and best.certified else -np.inf
+    for c in feasible[:1 + max(0, p.solver.starts)]:
+        if run.spent("free") and outs:
+            break
+        x = ctx.full(c.xc, setup)
+        as_is = run.outcome(ctx, setup, None, "start", x=x)
+        run.tried.append((f"{c.name}, as screened", as_is))
+        outs.append(as_is)
+        if as_is.certified:
+            ref = max(ref, objective_value(p, as_is))
+        if polished and (not gained or _screened_value(p, ctx, c) < POLISH_SHARE * ref
+                         or min(np.max(np.abs(c.theta - t)) for t in polished)
+                         < POLISH_DISTINCT):
+            continue          # polishing did not pay, below the best so far, or polished
+        polished.append(c.theta)
+        near = ctx.around(as_is.ctrl) if RESCALE else ctx    # scaled at the candidate
+        xr = near.full(near.param.vector(as_is.ctrl), near.setup(program_models(p), near.nu,
+                                                                  "free"))
+        sub = Run(p, run.say, run.templates, None, POLISH_ITER, run.stop)   # its own budget
+        sub.rows_first = True
+        out = sub.hard(near, "free", xr, c.name)
+        run.rounds += sub.rounds
+        run.notes += sub.notes
+        gained = out is not None and out.certified and (
+            objective_value(p, out) > objective_value(p, as_is))
+        if out is not None:
+            run.tried.append((f"{c.name}, polished", out))
+            outs.append(out)
+            if out.certified:
+                ref = max(ref, objective_value(p, out))
+    certified = sorted((o for o in outs if o.certified),
+                       key=lambda o: -objective_value(p, o))
+    for o in certified:        # the best whose reference step meets the time specs
+        if meets_time_specs(p, o.ctrl):
+            return o
+    if certified:
+        run.notes.append("global phase: no certified candidate met the time-domain specs")
+        return certified[0]
+    return min(outs, key=lambda o: o.badness)
+
+
+SOFT_SEEDS = 3
+
+
+def _screened_steps(problem, w0):
+    """``(time specs, two_dof)`` the screen checks: the program's own time specs, or with a
+    reference model designed afterwards its specs and ``(bandwidth, damping, cancel)``
+    (scaled; :mod:`robrst.synthesis.tracking`)."""
+    sp, c = problem.specs, problem.controller
+    if c.T_mode != "reference_model" or not sp.time_domain:
+        return time_specs(problem, w0), None
+    ts = TimeSpecs(overshoot=None if sp.overshoot_max_pct is None else sp.overshoot_max_pct / 100,
+                   settling=None if sp.settling_time_max_s is None else sp.settling_time_max_s * w0,
+                   u_max=sp.step_u_max_V, step_um=sp.step_um, w0=w0)
+    return ts, (c.reference_wn / w0, c.reference_zeta, CANCEL_FLOOR)
+
+
+def _screened_value(problem, ctx, cand):
+    """A candidate's screened objective in the units of :func:`objective_value`."""
+    if problem.solver.objective == "max_integral_gain":
+        ki = integral_gain(ctx.controller(cand.xc))
+        return abs(ki) if np.isfinite(ki) else -np.inf
+    return cand.objective
 
 
 def _warm_seed(ctx, warm):
@@ -173,7 +309,8 @@ def _homotopy(problem, start, run):
             out = _synthesize(pe, se, run, e, out)
         return out
     out = _synthesize(problem, start, run, extra)
-    optimised = out.certified and out.phase == "hard"
+    # with the global phase a certified answer is the search's: no lower degree to try
+    optimised = out.certified and (out.phase == "hard" or run.global_phase)
     if optimised or extra == 0 or out.badness > NEAR_MISS or a_priori_note(problem) or run.spent() \
             or problem.scenarios:   # a fleet design's round: the exchange over actuators decides
         return out      # done, or far from the specs: fewer degrees will not meet them either
@@ -190,7 +327,8 @@ def _homotopy(problem, start, run):
 def robust_synthesis(problem: Problem, start: AnalyticDesign,
                      progress: Callable[[str], None] | None = None, templates: dict | None = None,
                      warm: SynthesisResult | None = None,
-                     budget: int | None = None) -> SynthesisResult:
+                     budget: int | None = None, global_phase: bool = False,
+                     stop: Callable[[], bool] | None = None) -> SynthesisResult:
     """Synthesise, certify and always return a controller; see the module docstring.
 
     Parameters
@@ -210,6 +348,13 @@ def robust_synthesis(problem: Problem, start: AnalyticDesign,
     budget : int, optional
         IPOPT iterations this synthesis may spend before it returns the best point found
         (default ``RUN_ITER_BUDGET``; the extra starts of a multi-start get the first's).
+    global_phase : bool
+        Search every controller of the requested degree globally before polishing
+        (:mod:`robrst.synthesis.search`); with ``placement = "auto"`` the problem's own
+        placement is solved too and the better certified objective kept.
+    stop : callable, optional
+        Checked once per generation of the global phase and per certification round:
+        true returns the best point found so far.
 
     Returns
     -------
@@ -217,7 +362,8 @@ def robust_synthesis(problem: Problem, start: AnalyticDesign,
         ``status`` ``"certified"`` or ``"not_certified"`` (then ``best_achievable``).
     """
     say = progress or (lambda m: None)
-    run = Run(problem, say, {} if templates is None else templates, warm, budget)
+    run = Run(problem, say, {} if templates is None else templates, warm, budget, stop)
+    run.global_phase = global_phase
     t0 = time.perf_counter()
     note = a_priori_note(problem)
     if note:
@@ -238,4 +384,19 @@ def robust_synthesis(problem: Problem, start: AnalyticDesign,
                            rounds=tuple(run.rounds), solve=out.res,
                            wall_time_s=time.perf_counter() - t0, wn_rad_s=wn, zeta=zeta,
                            placement=out.placement, phase=out.phase,
-                           best_achievable=best_achievable(cert), notes=tuple(run.notes))
+                           best_achievable=best_achievable(cert), notes=tuple(run.notes),
+                           search=run.search, tried=tuple(_tried(problem, run.tried)))
+
+
+def _tried(problem, tried):
+    """``(name, status, objective, integral gain, worst ratio, placement)`` of what the
+    global phase tried: ``"certified"`` (with its objective) only when the reference step
+    also meets the time-domain specs, as the answer must."""
+    out = []
+    for name, o in tried:
+        ok = o.certified and meets_time_specs(problem, o.ctrl)
+        obj = objective_value(problem, o) if ok else np.nan
+        out.append((name, "certified" if ok else "not_certified",
+                    float(obj) if np.isfinite(obj) else None, integral_gain(o.ctrl),
+                    float(o.badness) if np.isfinite(o.badness) else None, o.placement))
+    return out

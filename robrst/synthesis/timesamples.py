@@ -220,26 +220,26 @@ def _peaks(r):
     return np.flatnonzero(left & right)
 
 
-def _candidates(spec, tau, y, u):
+def _candidates(spec, tau, y, u, near=NEAR):
     """The samples to impose on one model: ``[(kind, tau, sign, ratio)]``."""
     out = []
     if spec.overshoot is not None:
         r = (y - 1.0) / max(spec.overshoot, 1e-9)
         ks = _peaks(r)
-        ks = ks[r[ks] > NEAR]
+        ks = ks[r[ks] > near]
         out += [("overshoot", tau[k], 1.0, r[k]) for k in ks[np.argsort(-r[ks])][:PER_SPEC]]
     if spec.settling is not None:
         late = tau >= spec.settling
         for sign in (1.0, -1.0):
             r = np.where(late, sign * (y - 1.0) / SETTLING_BAND, -np.inf)
             ks = _peaks(r)
-            ks = ks[r[ks] > NEAR]
+            ks = ks[r[ks] > near]
             out += [("settling", tau[k], sign, r[k]) for k in ks[np.argsort(-r[ks])][:PER_SPEC]]
     if spec.u_max is not None:
         for sign in (1.0, -1.0):
             r = sign * u * spec.step_um / spec.u_max
             ks = _peaks(r)
-            ks = ks[r[ks] > NEAR]
+            ks = ks[r[ks] > near]
             out += [("u", tau[k], sign, r[k]) for k in ks[np.argsort(-r[ks])][:PER_SPEC]]
     return out
 
@@ -253,7 +253,8 @@ def _row_of(kind, sign, spec, y, u):
     return sign * u * spec.step_um, spec.u_max * TIME_MARGIN
 
 
-def worst_time_ratio(setup: NLPSetup, x: np.ndarray, spec: TimeSpecs) -> tuple[float, dict]:
+def worst_time_ratio(setup: NLPSetup, x: np.ndarray, spec: TimeSpecs,
+                     near: float = NEAR) -> tuple[float, dict]:
     """The worst sample ratio (value over bound) on a dense grid of every model.
 
     Parameters
@@ -264,6 +265,8 @@ def worst_time_ratio(setup: NLPSetup, x: np.ndarray, spec: TimeSpecs) -> tuple[f
         The point.
     spec : TimeSpecs
         The specs.
+    near : float
+        A local extremum above this share of its bound is a candidate sample.
 
     Returns
     -------
@@ -282,7 +285,7 @@ def worst_time_ratio(setup: NLPSetup, x: np.ndarray, spec: TimeSpecs) -> tuple[f
             continue
         if not (np.all(np.isfinite(y)) and np.all(np.isfinite(u))):
             continue
-        cands = _candidates(spec, tau, y, u)
+        cands = _candidates(spec, tau, y, u, near)
         if cands:
             found[j] = cands
             worst = max(worst, max(c[3] for c in cands))

@@ -49,7 +49,8 @@ if TYPE_CHECKING:
     from robrst.problem.records import Problem
 
 __all__ = ["Tracking", "two_dof", "design_tracking", "tracking_candidates", "reference_model",
-           "cancel_thresholds", "centred_factor", "CANCEL_FLOOR", "CENTRE_POINTS"]
+           "cancel_thresholds", "centred_factor", "meets_time_specs", "CANCEL_FLOOR",
+           "CENTRE_POINTS"]
 
 SLOWER = (1.0, 0.7, 0.5, 0.35, 0.25)
 CENTRE_POINTS = 9    # grid points of each of the two passes of centred_factor
@@ -220,6 +221,29 @@ def _meets(problem, ctrl):
     the time-domain specs."""
     return all(checked is not None and not any(failed for _, failed in checked)
                for checked in _step_checks(problem, ctrl, _loops(problem)))
+
+
+def meets_time_specs(problem: Problem, ctrl: RSTController) -> bool:
+    """The controller meets the time-domain specs on every family model (both loops), its
+    reference path as the problem designs it (:func:`design_tracking` with a reference
+    model, else the controller's own ``T``).
+
+    Parameters
+    ----------
+    problem : Problem
+    ctrl : RSTController
+        The feedback (its ``T`` used unless ``T_mode = "reference_model"``).
+
+    Returns
+    -------
+    bool
+        True also when the problem has no time-domain spec.
+    """
+    if not problem.specs.time_domain:
+        return True
+    if problem.controller.T_mode == "reference_model":
+        ctrl = design_tracking(problem, ctrl)[0]
+    return _meets(problem, ctrl)
 
 
 def centred_factor(problem: Problem, ctrl: RSTController, min_damping: float) -> float:

@@ -81,7 +81,9 @@ def test_design_json_publishes_it_from_its_row():
     p = load_problem("paper")
     p = replace(p, specs=replace(p.specs, Msd_rel_max=1.0))
     d = design_json(run_problem(p, analyses=False))
-    assert list(d["specs"])[-1] == "Msd_rel_max" and d["specs"]["Msd_rel_max"] == 1.0
+    # the table's keys, then the defaults' bookkeeping (given here: not a default)
+    assert list(d["specs"])[-2:] == ["defaults", "defaults_off"]
+    assert d["specs"]["Msd_rel_max"] == 1.0 and "Msd_rel_max" not in d["specs"]["defaults"]
     row = next(r for r in d["specs_achieved"] if r["spec"] == "Msd_rel_max")
     ol = loopcheck._peak(p.family.models[0].B, p.family.models[0].A)
     msd = loopcheck.continuous(p.family.models[0], run_problem(p, analyses=False).controller).Msd
@@ -91,9 +93,16 @@ def test_design_json_publishes_it_from_its_row():
     assert model["Msd_rel"] == row["achieved"] and model["open_loop_peak"] > 0
 
 
-def test_off_by_default_and_the_contract_unchanged_without_it():
+def test_a_default_of_a_bounded_problem_and_the_contract_unchanged_without_it():
+    """A problem that bounds anything gets ``Msd_rel_max = 1`` by default (named in
+    ``specs.defaults``); switched off (``false``) nothing of it is published."""
     d = design_json(run_problem(load_problem("paper"), analyses=False))
-    assert "Msd_rel_max" not in d["specs"]
+    assert d["specs"]["Msd_rel_max"] == 1.0 and "Msd_rel_max" in d["specs"]["defaults"]
+    assert "Msd_rel" in d["certificate"]["models"][0]
+    p = load_problem("paper")
+    p = replace(p, specs=replace(p.specs, off=("Msd_rel_max",)))
+    d = design_json(run_problem(p, analyses=False))
+    assert "Msd_rel_max" not in d["specs"] and d["specs"]["defaults_off"] == ["Msd_rel_max"]
     assert "Msd_rel" not in d["certificate"]["models"][0]
 
 

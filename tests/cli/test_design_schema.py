@@ -17,7 +17,7 @@ import pytest
 from robrst.cli import main
 from robrst.design.achieved import SPEC_ROW_FIELDS
 from robrst.design.contract import (ANALYTIC_CHECK_FIELDS, CERTIFICATE_FIELDS, DESIGN_FIELDS,
-                                    OPTIONAL_FIELDS, VIOLATION_FIELDS)
+                                    OPTIONAL_FIELDS, SPECS_DEFAULT_FIELDS, VIOLATION_FIELDS)
 from robrst.problem.records import Specs
 from robrst.problem.specs import SPEC_TABLE
 
@@ -65,7 +65,7 @@ def test_the_schema_declares_the_contract_in_its_order():
     assert list(props["specs_achieved"]["items"]["properties"]) == list(SPEC_ROW_FIELDS)
     assert list(props["analytic_check"]["properties"]) == list(ANALYTIC_CHECK_FIELDS)
     published = [s.key for s in SPEC_TABLE if s.published != "never"]
-    assert list(props["specs"]["properties"]) == published
+    assert list(props["specs"]["properties"]) == published + list(SPECS_DEFAULT_FIELDS)
     assert set(published) <= {f.name for f in fields(Specs)}
 
 

@@ -24,7 +24,9 @@ from robrst.synthesis.nlp import PEAK_KEYS
 
 
 def test_the_table_is_the_specs_record():
-    assert [s.key for s in SPEC_TABLE] == [f.name for f in fields(Specs)]
+    # then the record's bookkeeping of the default specs (robrst.problem.records.with_defaults)
+    assert [s.key for s in SPEC_TABLE] + ["off", "defaults", "resolved"] == [
+        f.name for f in fields(Specs)]
     assert list(SCHEMA["specs"]) == [s.key for s in SPEC_TABLE]
     for s in SPEC_TABLE:       # the record's default is the schema's
         assert getattr(Specs(), s.key) == s.field.default or (
@@ -85,10 +87,11 @@ def test_the_json_specs_of_the_shipped_problems():
         ("sample_rate_hz", 20000.0), ("delay_samples", 0), ("T_resonance_max", 1.0),
         ("resonance_band_hz", [560.0, 680.0]), ("Mu_hf_max", 50.0), ("Mu_hf_above_hz", 2000.0),
         ("overshoot_max_pct", 0.2), ("settling_time_max_s", 0.01), ("step_um", 10.0),
-        ("step_u_max_V", 150.0)]
+        ("step_u_max_V", 150.0), ("defaults", []), ("defaults_off", [])]
     sp = replace(Specs(), Msd_max=1.0, Mry_max=2.0, damping_min=0.0, Msd_rel_max=0.9)
     assert list(specs_json(sp)) == ["Ms_max", "Mt_max", "Mu_max", "stable_controller",
-                                    "Msd_max", "Mry_max", "Msd_rel_max", "damping_min"]
+                                    "Msd_max", "Mry_max", "Msd_rel_max", "damping_min",
+                                    "defaults", "defaults_off"]
 
 
 def test_the_problem_carries_its_resolved_damping_floor():

@@ -15,7 +15,7 @@ def test_an_overshoot_bound_above_100_pct_is_refused(repro_dir, capsys):
     assert main(["design", str(path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err == [f"robrst: error: {path}: [specs.overshoot_max_pct] expected number >= 0"
-                   " and <= 100, got 150.0"]
+                   " and <= 100 (or false: off), got 150.0"]
 
 
 def test_an_unknown_key_names_the_nearest_key_only(repro_dir, tmp_path):

@@ -6,8 +6,8 @@ independent search is ``scipy.optimize.differential_evolution`` over ``(ki, a, w
 (``R = ki a (s^2/wz^2 + 2 zeta_z s/wz + 1)``), feasibility judged on a dense frequency grid
 of the unscaled polynomials (|S|, |T|, |U| at 7 temperatures) and the roots of ``A S + B R``
 (stability and the default damping floor); its best point is then certified by robrst's
-certificate (the feasibility test of record).  robrst's answer (multi-start, as a user runs
-it) must reach that certified optimum to 1 %.
+certificate (the feasibility test of record).  robrst's answer (the default design with its
+global phase, as a user runs it) must reach that certified optimum to 1 %.
 """
 
 import numpy as np
@@ -25,7 +25,11 @@ DOC = {"problem": {"name": "small"},
        "family": {"temperatures_C": [15.0, 30.0, 45.0],
                   "parametric": {"resonance_per_K": -0.001}},
        "poles": {"wn": 600.0, "zeta": 1.0},
-       "specs": {"Ms_max": 2.0, "Mt_max": 1.3, "Mu_max": 150.0},
+       "specs": {"Ms_max": 2.0, "Mt_max": 1.3, "Mu_max": 150.0,
+                 # the default step and disturbance specs off: this search judges |S|, |T|,
+                 # |U| and the damping floor (tests/synthesis/test_monotone.py
+                 # compares with the defaults on)
+                 "overshoot_max_pct": False, "Msd_rel_max": False},
        "solver": {"method": "nlp", "placement": "free"}}
 GRID = np.geomspace(1.0, 1e6, 4000)
 
@@ -54,7 +58,7 @@ def _violation(v, models, floor):
 
 @pytest.fixture(scope="module")
 def searched():
-    """robrst's answer (multi-start) and the global search's certified optimum."""
+    """robrst's answer (default design) and the global search's certified optimum."""
     p = parse_problem(DOC, "<small>")
     models = [(m.A, m.B) for m in (p.family.at(T) for T in np.linspace(15, 45, 7))]
     floor, _ = p.specs.damping_floor(p.family)
@@ -82,17 +86,16 @@ def searched():
 
 @pytest.mark.slow
 def test_robust_program_is_within_reach_of_the_global_search(searched):
-    """What the multi-start reaches today: certified, and at least 55 % of the global
-    search's certified optimum (measured: 118,440 against 194,573, 61 %; one start alone
-    90,683)."""
+    """The default design (its global phase) is certified and reaches at least 95 % of the
+    global search's certified optimum (the process-pool multi-start before it: 118,440
+    against 194,573, 61 %)."""
     res, ki_de = searched
     assert res.certified
-    assert res.integral_gain >= 0.55 * ki_de
+    assert res.integral_gain >= 0.95 * ki_de
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="the robust program's starts do not reach the global"
-                   " optimum of this stage (61 % of it): the known gap, measured")
 def test_robust_program_reaches_the_global_search_optimum(searched):
+    """Within 1 % of it (measured: 194,216 against 194,711, 99.7 %)."""
     res, ki_de = searched
     assert res.integral_gain >= 0.99 * ki_de

@@ -49,8 +49,9 @@ def test_one_synthesizer_builds_few_programs(stage_results):
     assert all(r.certified for r in results.values())
     # one program per structure (degree, phase, capacity, IPOPT options): 12 before the
     # linearised rows (damping floors, reference-step samples) and the bolder start's soft
-    # phase with every coefficient free; 20 measured with them
-    assert syn.built <= 20
+    # phase with every coefficient free; 20 measured with them; 21 measured once every
+    # bounded problem carries the default specs (overshoot, damping floor, |B S/Delta|)
+    assert syn.built <= 21
 
 
 def test_more_degrees_never_give_a_worse_certified_objective():
@@ -111,7 +112,7 @@ def test_synthesizer_reuses_its_programs_across_variants():
     for Ms in (2.0, 1.9):
         pr = replace(base, specs=replace(base.specs, Ms_max=Ms))
         res = syn.solve(pr, warm=prev)
-        alone = run_problem(pr)
+        alone = run_problem(pr, multistart=False)     # the same local run (no global phase)
         assert res.certified and alone.certified
         assert res.integral_gain == pytest.approx(alone.integral_gain, rel=1e-5)
         prev = res

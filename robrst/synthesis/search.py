@@ -1,0 +1,466 @@
+"""The global phase of the robust synthesis: search the controller space, then polish.
+
+The robust program is non-convex: a local solver from one start ends at one local
+optimum, and which one depends on the start, on the bounds and on luck.  The global phase
+searches the whole space of controllers of the structure *before* the local program
+polishes:
+
+1. **A well-scaled space that covers every controller.**  A controller is named by the
+   nominal closed-loop poles it places and its free Youla degrees (:class:`PoleSpace`):
+   the poles as pairs ``p^2 + 2 zeta w p + w^2`` (log ``w`` over the frequencies of the
+   plant and the start, log ``zeta`` from the damping floor to 30: ``zeta > 1`` is a pair
+   of real poles) and one real pole for an odd degree; the Diophantine equation at the
+   nominal model (the scaled Sylvester map, :func:`robrst.synthesis.nlp.closed_loop_maps`)
+   gives the controller with those poles, and the Youla degrees move along its null
+   space, relative to the size of that controller.  Every controller that stabilises the
+   nominal model has exactly one such name; every name stabilises the nominal model.
+2. **A population method.**  A CMA-ES (:mod:`robrst.synthesis.cmaes`) from the problem's
+   own design, then from seeded random means with a population ``GROWTH`` times larger
+   (IPOP-CMA-ES: a larger population is more global; ``RESTARTS`` runs in all); every
+   population judged at once by :class:`~robrst.synthesis.screen.Screen`
+   (the program's constraints on its grid and modes, every model at once) and ranked by
+   Deb's feasibility rules (feasible candidates by objective, the others by violation).
+3. **Polish and certify.**  The best distinct candidates are certified as they are and
+   polished by the robust program with every coefficient free
+   (:meth:`robrst.synthesis.attempts.Run.hard`: IPOPT, constraint exchange, certification
+   rounds); the best certified objective is kept.
+
+Why this method (see the synthesis background page for the references): HIFOO and
+systune run a local non-smooth (or smooth, here IPOPT) method from a few random starts;
+the starts are the weak point — a handful of them missed optima 1.5-300x better on the
+stages tried.  Karimi's convex iterations are local too (a convex inner approximation
+around a stabilising start).  An evolution strategy explores the whole space with a
+population whose evaluations vectorise (a generation costs about as much as one IPOPT
+iteration), needs no gradients of the non-smooth peak figures, and ranks instead of
+weighting penalties, so it does not care how the objective or the constraint violations
+are scaled; its covariance adapts to the coupling of the poles.  The local program then
+does what it does well: converge to the exact KKT point of the constraints that bind.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from robrst.synthesis.attempts import GLOBAL_START
+from robrst.synthesis.cmaes import CMAES
+from robrst.synthesis.nlp import closed_loop_maps
+
+if TYPE_CHECKING:
+    from robrst.synthesis.context import Context
+    from robrst.synthesis.nlp import NLPSetup
+    from robrst.synthesis.screen import Screen
+
+__all__ = ["PoleSpace", "Candidate", "GlobalSearch", "global_search", "RESTARTS",
+           "GENERATIONS", "SEARCH_SEED", "ZETA_MAX"]
+
+SEARCH_SEED = 20261128   # the global phase's random numbers (numpy.random.default_rng)
+RESTARTS = 3             # CMA-ES runs: from the problem's design, then from random means
+GENERATIONS = 200        # at most per run
+STALL = 40               # a run stops after this many generations without progress
+MIN_SPREAD = 2e-4        # ... or when its distribution is this narrow (box units)
+POPSIZE = 14             # population of the first run (at least 4 + 3 ln d); the random
+GROWTH = 2               # runs' is this times larger (IPOP-CMA-ES: more global)
+ZETA_MIN, ZETA_MAX = 0.005, 30.0   # damping range of a pole pair (zeta > 1: two real poles)
+YOULA_RANGE = 30.0       # Youla degrees within +- this times |controller| ...
+YOULA_SHAPE = 4.0        # ... on a sinh scale: |v| <= 1.3 |controller| over half the box
+DISTINCT = 0.02          # candidates closer than this in the box are the same
+FREQ_PAD = 30.0          # pole frequencies within the plant's and start's / and x this
+
+
+@dataclass(frozen=True, eq=False)
+class PoleSpace:
+    """Nominal closed-loop poles and Youla degrees -> controller vectors (module docstring).
+
+    Use :meth:`of` to build it.
+
+    Parameters
+    ----------
+    n_pairs : int
+        Pole pairs.
+    n_real : int
+        Real poles (0 or 1).
+    n_youla : int
+        Free Youla degrees.
+    log_w : tuple of float
+        ``(lo, hi)`` of ``log w`` (scaled).
+    log_zeta : tuple of float
+        ``(lo, hi)`` of ``log zeta``.
+    lead : float
+        The nominal closed-loop polynomial's leading coefficient.
+    pinv : numpy.ndarray
+        Minimum-norm solution of the Diophantine rows.
+    null : numpy.ndarray
+        Their null space (columns).
+    Dm, Dc : numpy.ndarray
+        The nominal closed loop ``Delta = Dm x + Dc``.
+
+    Attributes
+    ----------
+    dim : int
+        Dimension of the search box.
+    """
+
+    n_pairs: int
+    n_real: int
+    n_youla: int
+    log_w: tuple
+    log_zeta: tuple
+    lead: float
+    pinv: np.ndarray
+    null: np.ndarray
+    Dm: np.ndarray
+    Dc: np.ndarray
+
+    @classmethod
+    def of(cls, ctx: Context, setup: NLPSetup) -> PoleSpace | None:
+        """The space of ``setup``'s controllers (``None`` when the nominal closed loop's
+        leading coefficient depends on the controller, e.g. a biproper plant).
+
+        Parameters
+        ----------
+        ctx : Context
+            The synthesis's context (the plant family and the start).
+        setup : NLPSetup
+            The program with every coefficient free.
+
+        Returns
+        -------
+        PoleSpace or None
+        """
+        (Dm, Dc), _ = closed_loop_maps(setup)(*setup.models[setup.ref][2:])
+        if np.any(Dm[0] != 0) or Dc[0] == 0:
+            return None
+        M = Dm[1:]
+        _, sv, Vt = np.linalg.svd(M)
+        rank = int(np.sum(sv > 1e-10 * sv[0])) if sv.size else 0
+        if rank < M.shape[0]:        # not coprime: some closed-loop polynomials unreachable
+            return None
+        N = M.shape[0]
+        freqs = [np.abs(np.roots(ctx.Am)) / ctx.w0]
+        for m in ctx.problem.family.models:
+            freqs.append(np.abs(m.poles()) / ctx.w0)
+            if m.m:
+                freqs.append(np.abs(m.zeros()) / ctx.w0)
+        f = np.concatenate(freqs)
+        f = f[(f > 0) & np.isfinite(f)]
+        lo, hi = (f.min() / FREQ_PAD, f.max() * FREQ_PAD) if f.size else (1e-2, 1e2)
+        reg = setup.region
+        zlo = max(ZETA_MIN, reg.zeta if reg is not None and reg.zeta else 0.0)
+        return cls(n_pairs=N // 2, n_real=N % 2, n_youla=setup.n_x - rank,
+                   log_w=(float(np.log(lo)), float(np.log(hi))),
+                   log_zeta=(float(np.log(zlo)), float(np.log(ZETA_MAX))),
+                   lead=float(Dc[0]), pinv=np.linalg.pinv(M), null=Vt[rank:].T, Dm=Dm, Dc=Dc)
+
+    @property
+    def dim(self):
+        """Dimension of the search box."""
+        return 2 * self.n_pairs + self.n_real + self.n_youla
+
+    def _w(self, u):
+        return np.exp(self.log_w[0] + (self.log_w[1] - self.log_w[0]) * u)
+
+    def poles(self, theta: np.ndarray) -> np.ndarray:
+        """The monic nominal closed-loop polynomials of the points ``theta``.
+
+        Parameters
+        ----------
+        theta : numpy.ndarray
+            ``(K, dim)`` in ``[0, 1]``.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(K, N + 1)`` coefficients (scaled), highest power first.
+        """
+        K = theta.shape[0]
+        out = np.ones((K, 1))
+        zl, zh = self.log_zeta
+        for i in range(self.n_pairs):
+            w = self._w(theta[:, 2 * i])
+            z = np.exp(zl + (zh - zl) * theta[:, 2 * i + 1])
+            new = np.zeros((K, out.shape[1] + 2))
+            new[:, :-2] += out
+            new[:, 1:-1] += out * (2 * z * w)[:, None]
+            new[:, 2:] += out * (w * w)[:, None]
+            out = new
+        if self.n_real:
+            w = self._w(theta[:, 2 * self.n_pairs])
+            new = np.zeros((K, out.shape[1] + 1))
+            new[:, :-1] += out
+            new[:, 1:] += out * w[:, None]
+            out = new
+        return out
+
+    def controllers(self, theta: np.ndarray) -> np.ndarray:
+        """The decision vectors of the points ``theta``.
+
+        Parameters
+        ----------
+        theta : numpy.ndarray
+            ``(K, dim)`` in ``[0, 1]``.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(K, n_x)``.
+        """
+        am = self.poles(theta)
+        X = (self.lead * am[:, 1:] - self.Dc[1:]) @ self.pinv.T
+        if self.n_youla:
+            size = np.linalg.norm(X, axis=1, keepdims=True)
+            u = 2.0 * theta[:, -self.n_youla:] - 1.0
+            v = np.sinh(YOULA_SHAPE * u) / np.sinh(YOULA_SHAPE) * YOULA_RANGE * size
+            X = X + v @ self.null.T
+        return X
+
+    def point(self, xc: np.ndarray) -> np.ndarray | None:
+        """The point of the box nearest to the controller ``xc`` (its nominal poles paired,
+        its Youla degrees; clipped to the box), or ``None`` if its nominal closed loop is
+        not stable.
+
+        Parameters
+        ----------
+        xc : numpy.ndarray
+            A decision vector.
+
+        Returns
+        -------
+        numpy.ndarray or None
+        """
+        D = self.Dm @ np.asarray(xc, float)[:self.Dm.shape[1]] + self.Dc
+        if not np.all(np.isfinite(D)) or D[0] == 0:
+            return None
+        r = np.roots(D)
+        if np.any(r.real >= 0):
+            return None
+        cplx = sorted([v for v in r if v.imag > 1e-9 * abs(v)], key=abs)
+        reals = sorted(-v.real for v in r if abs(v.imag) <= 1e-9 * abs(v))
+        pairs = [(abs(v), -v.real / abs(v)) for v in cplx]
+        need = self.n_pairs - len(pairs)
+        if need < 0 or len(reals) != 2 * need + self.n_real:
+            return None
+        best = None
+        for extra, single in _pairings(reals, need, self.n_real):
+            th = self._theta(pairs + extra, single)
+            miss = float(np.sum(np.abs(th - np.clip(th, 0.0, 1.0))))
+            if best is None or miss < best[0]:
+                best = (miss, th)
+        th = list(np.clip(best[1], 0.0, 1.0))
+        if self.n_youla:
+            base = self.controllers(np.array([th + [0.5] * self.n_youla]))[0]
+            size = max(np.linalg.norm(base), 1e-300)
+            v = self.null.T @ (np.asarray(xc, float)[:len(base)] - base) / (YOULA_RANGE * size)
+            u = np.arcsinh(v * np.sinh(YOULA_SHAPE)) / YOULA_SHAPE
+            th += list((u + 1.0) / 2.0)
+        return np.clip(np.array(th, float), 0.0, 1.0)
+
+    def _theta(self, pairs, reals):
+        """The box coordinates (unclipped) of pole pairs ``(w, zeta)`` and real poles."""
+        (wl, wh), (zl, zh) = self.log_w, self.log_zeta
+        th = []
+        for w, z in sorted(pairs):
+            th += [(np.log(w) - wl) / (wh - wl), (np.log(max(z, 1e-300)) - zl) / (zh - zl)]
+        th += [(np.log(w) - wl) / (wh - wl) for w in reals]
+        return np.array(th, float)
+
+
+def _pairings(reals, pairs, singles):
+    """Every way to group the real poles ``reals`` into ``pairs`` pairs (as ``(w, zeta)``)
+    and ``singles`` single poles (at most a few hundred ways for the degrees met)."""
+    if not reals:
+        yield [], []
+        return
+    if len(reals) > 9:            # too many to enumerate: consecutive pairs
+        out = [(np.sqrt(a * b), (a + b) / (2 * np.sqrt(a * b)))
+               for a, b in zip(reals[:2 * pairs:2], reals[1:2 * pairs:2])]
+        yield out, list(reals[2 * pairs:])
+        return
+    first, rest = reals[0], reals[1:]
+    if singles and len(rest) >= 2 * pairs:
+        for p, s in _pairings(rest, pairs, singles - 1):
+            yield p, [first] + s
+    if pairs:
+        for i, b in enumerate(rest):
+            w = np.sqrt(first * b)
+            for p, s in _pairings(rest[:i] + rest[i + 1:], pairs - 1, singles):
+                yield [(w, (first + b) / (2 * w))] + p, s
+
+
+@dataclass(frozen=True, eq=False)
+class Candidate:
+    """A point the global phase found.
+
+    Parameters
+    ----------
+    name : str
+        Where it came from.
+    xc : numpy.ndarray
+        Its decision vector.
+    theta : numpy.ndarray
+        Its point of the search box.
+    objective : float
+        Its screened objective (larger is better).
+    violation : float
+        Its screened violation (0: feasible on the grid and the modes).
+    """
+
+    name: str
+    xc: np.ndarray
+    theta: np.ndarray
+    objective: float
+    violation: float
+
+
+@dataclass(frozen=True, eq=False)
+class GlobalSearch:
+    """What the global phase did (``design --json``: ``starts.global_search``).
+
+    Parameters
+    ----------
+    candidates : tuple of Candidate
+        The distinct best points, best first.
+    method : str
+        The method.
+    dimension : int
+        Dimension of the search box.
+    evaluations : int
+        Candidates judged.
+    generations : int
+        Generations over every run.
+    runs : int
+        CMA-ES runs.
+    cpu_s : float
+        CPU time of the search [s] (the polish not included).
+    stopped : bool
+        The search was asked to stop before its end.
+    """
+
+    candidates: tuple
+    method: str
+    dimension: int
+    evaluations: int
+    generations: int
+    runs: int
+    cpu_s: float
+    stopped: bool = False
+
+    def as_dict(self) -> dict:
+        """The JSON form.
+
+        Returns
+        -------
+        dict
+        """
+        return {"method": self.method, "dimension": self.dimension,
+                "evaluations": self.evaluations, "generations": self.generations,
+                "runs": self.runs, "cpu_s": self.cpu_s, "stopped": self.stopped,
+                "candidates": [{"name": c.name, "screened_objective": c.objective,
+                                "screened_violation": c.violation} for c in self.candidates]}
+
+
+def _key(figs, i):
+    obj = figs.objective[i]
+    return (float(figs.violation[i]), -(float(obj) if np.isfinite(obj) else -np.inf))
+
+
+def global_search(screen: Screen, space: PoleSpace, starts: Sequence[tuple] = (),
+                  seed: int = SEARCH_SEED, runs: int = RESTARTS,
+                  stop: Callable[[], bool] | None = None,
+                  say: Callable[[str], None] | None = None) -> GlobalSearch:
+    """Search ``space`` for the best point by ``screen``'s figures (module docstring).
+
+    Parameters
+    ----------
+    screen : Screen
+        Rates populations of decision vectors.
+    space : PoleSpace
+        The search box.
+    starts : sequence of (str, numpy.ndarray)
+        Named decision vectors: the first run starts from the best of them (the others
+        join the first population).
+    seed : int
+        Seed of the random numbers.
+    runs : int
+        CMA-ES runs before the local one.
+    stop : callable, optional
+        Checked once per generation: true ends the search with what it has.
+    say : callable, optional
+        Progress (one line per run).
+
+    Returns
+    -------
+    GlobalSearch
+    """
+    t0 = time.process_time()
+    rng = np.random.default_rng(seed)
+    say = say or (lambda msg: None)
+    stop = stop or (lambda: False)
+    d = space.dim
+    lam = max(POPSIZE, 4 + int(3 * np.log(d)))
+    evals = gens = 0
+    stopped = False
+    found = []            # (key, theta, name)
+    seeds = [(name, space.point(x)) for name, x in starts]
+    seeds = [(n, th) for n, th in seeds if th is not None]
+    if seeds:
+        X = space.controllers(np.array([th for _, th in seeds]))
+        figs = screen.rate(X)
+        evals += len(seeds)
+        k = int(figs.order()[0])
+        first, first_name = seeds[k][1], seeds[k][0]
+        for i, (n, th) in enumerate(seeds):
+            found.append((_key(figs, i), th, n))
+    else:
+        first, first_name = rng.uniform(0.2, 0.8, d), None
+    plan = [(first, 0.15, f"from {first_name}" if first_name else "random mean", lam)]
+    plan += [(rng.uniform(0.1, 0.9, d), 0.3, "random mean", GROWTH * lam)
+             for _ in range(runs - 1)]
+    for r in range(len(plan)):
+        mean, sigma, what, size = plan[r]
+        limit = GENERATIONS
+        es = CMAES(mean, sigma, rng, size)
+        run_best, last_gain = None, 0
+        for g in range(limit):
+            if stop():
+                stopped = True
+                break
+            TH = es.ask()
+            figs = screen.rate(space.controllers(TH))
+            evals += len(TH)
+            gens += 1
+            order = figs.order()
+            es.tell(TH, order)
+            k = int(order[0])
+            key = _key(figs, k)
+            if run_best is None or key < run_best[0]:
+                gain = run_best is None or key[0] < run_best[0][0] or \
+                    key[1] < run_best[0][1] - 1e-4
+                run_best = (key, TH[k].copy())
+                if gain:
+                    last_gain = g
+            if g - last_gain > STALL or es.spread < MIN_SPREAD:
+                break
+        if run_best is not None:
+            name = f"{GLOBAL_START} {r + 1} ({what})"
+            found.append((run_best[0], run_best[1], name))
+            v, o = run_best[0]
+            say(f"global phase: run {r + 1} ({what}): {es.generation} generations, best"
+                + (f" screened objective {-o:.5g}" if v == 0 else f" violation {v:.3g}"))
+        if stopped:
+            break
+    found.sort(key=lambda f: f[0])
+    cands = []
+    for key, th, name in found:
+        if any(np.max(np.abs(th - c.theta)) < DISTINCT for c in cands):
+            continue
+        xc = space.controllers(th[None])[0]
+        cands.append(Candidate(name=name, xc=xc, theta=th, objective=-key[1],
+                               violation=key[0]))
+    return GlobalSearch(candidates=tuple(cands), method="CMA-ES", dimension=d,
+                        evaluations=evals, generations=gens, runs=len(plan),
+                        cpu_s=time.process_time() - t0, stopped=stopped)

@@ -1,0 +1,151 @@
+"""The global phase's parts, each against an independent computation: the batched roots
+and Routh test, the pole space (the nominal closed-loop poles it names are the poles of
+``A S + B R`` on the unscaled polynomials), the screen's figures (a dense grid of the
+unscaled loop, python-control's step), the CMA-ES on functions whose minimum is known."""
+
+import numpy as np
+import pytest
+
+from robrst.design import analytic_design
+from robrst.problem.files import parse_problem
+from robrst.problem.records import with_defaults
+from robrst.synthesis.attempts import program_models
+from robrst.synthesis.cmaes import CMAES
+from robrst.synthesis.context import Context
+from robrst.synthesis.screen import Screen, batch_roots, routh_columns
+from robrst.synthesis.search import PoleSpace, global_search
+from robrst.synthesis.timesamples import time_specs
+
+W = 2 * np.pi * 1300.0
+DOC = {"problem": {"name": "g"},
+       "plant": {"B": [0.05 * W * W], "A": [1.0, 2 * 0.015 * W, W * W], "temperature_C": 25.0},
+       "family": {"temperatures_C": [15.0, 32.5, 50.0],
+                  "parametric": {"resonance_per_K": -0.0002}},
+       "controller": {"extra_degree": 1},
+       "poles": {"wn": 1633.6, "zeta": 1.0},
+       "specs": {"Ms_max": 2.0, "Mt_max": 1.3, "Mu_max": 200.0},
+       "solver": {"method": "nlp"}}
+
+
+def _setup(doc=DOC):
+    p = with_defaults(parse_problem(doc, "<g>"))
+    start = analytic_design(p)
+    ctx = Context.of(p, start)
+    return p, ctx, ctx.setup(program_models(p), ctx.nu, "free"), start
+
+
+def test_batch_roots_and_routh_agree_with_numpy():
+    rng = np.random.default_rng(3)
+    C = rng.normal(size=(40, 6))
+    C[:, 0] = np.abs(C[:, 0]) + 0.1
+    r = batch_roots(C)
+    for c, mine in zip(C, r):
+        ref = np.roots(c)
+        assert np.allclose(np.sort_complex(mine), np.sort_complex(ref), atol=1e-8)
+    hurwitz = np.all(routh_columns(C) > 0, axis=1)
+    assert np.array_equal(hurwitz, np.array([np.all(np.roots(c).real < 0) for c in C]))
+    assert np.isinf(batch_roots(np.array([[0.0, 1.0, 2.0]]))).all()   # a lost degree
+
+
+def test_pole_space_places_the_nominal_poles():
+    """Every point of the box names a controller whose nominal closed loop, computed on the
+    unscaled polynomials, has exactly the poles the point says; ``point`` inverts it."""
+    p, ctx, setup, _ = _setup()
+    sp = PoleSpace.of(ctx, setup)
+    assert sp.dim == setup.n_x == 6 and sp.n_youla == 1
+    th = np.random.default_rng(0).uniform(size=(5, sp.dim))
+    X = sp.controllers(th)
+    am = sp.poles(th)
+    ref = p.family.reference_model
+    for x, a, t in zip(X, am, th):
+        c = ctx.controller(x)
+        D = np.polyadd(np.polymul(ref.A, c.S), np.polymul(ref.B, c.R))
+        want = np.sort_complex(np.roots(a) * ctx.w0)
+        got = np.sort_complex(np.roots(D))
+        assert np.allclose(got, want, rtol=1e-6)
+        back = sp.point(x)
+        assert back is not None
+        assert np.allclose(sp.controllers(back[None])[0], x, rtol=1e-6, atol=1e-9)
+
+
+def _dense_worst(p, ctx, setup, x):
+    """The worst peak ratio on a dense grid of the unscaled continuous loops (the screen's
+    bounds: the program's, with its margin)."""
+    c = ctx.controller(x)
+    w = np.geomspace(1.0, 1e7, 200_000)
+    s = 1j * w
+    worst = 0.0
+    for m in p.family.models:
+        D = np.polyval(np.polyadd(np.polymul(m.A, c.S), np.polymul(m.B, c.R)), s)
+        for key, N in (("S", np.polymul(m.A, c.S)), ("T", np.polymul(m.B, c.R)),
+                       ("U", np.polymul(m.A, c.R))):
+            worst = max(worst, np.max(np.abs(np.polyval(N, s) / D)) / setup.bounds[key])
+    return worst
+
+
+def test_screen_figures_against_a_dense_grid_and_python_control():
+    """The screen's worst peak ratio is at most the dense grid's and close to it; its
+    stability verdict is that of the roots; its overshoot that of python-control."""
+    import control
+
+    p, ctx, setup, start = _setup()
+    cont = [m for m in setup.models if True][: len(p.family.models)]
+    setup_c = ctx.setup(program_models(p), ctx.nu, "free")
+    scr = Screen(setup_c, time_specs(p, ctx.w0))
+    sp = PoleSpace.of(ctx, setup_c)
+    base = sp.point(ctx.param.vector(start.controller))
+    th = np.clip(base + 0.05 * np.random.default_rng(1).standard_normal((12, sp.dim)), 0, 1)
+    X = sp.controllers(th)
+    f = scr.rate(X)
+    assert len(cont) == 3
+    for k in range(len(X)):
+        c = ctx.controller(X[k])
+        stable = all(np.all(np.roots(np.polyadd(np.polymul(m.A, c.S), np.polymul(m.B, c.R))).real
+                            < 0) for m in p.family.models)
+        if not stable:
+            continue
+        dense = _dense_worst(p, ctx, setup_c, X[k])
+        assert f.worst[k] <= dense * (1 + 1e-9) or f.worst[k] > 1.0   # sampled loops count too
+        if f.examined[k] and np.isfinite(f.overshoot[k]):
+            over = 0.0
+            for m in p.family.models:
+                D = np.polyadd(np.polymul(m.A, c.S), np.polymul(m.B, c.R))
+                sysy = control.tf(np.polymul(m.B, [c.R[-1]]), D)
+                t = np.linspace(0, 40.0 / np.min(-np.roots(D).real), 40001)
+                y = np.asarray(control.step_response(sysy, T=t).outputs).ravel()
+                over = max(over, y.max() / y[-1] - 1.0)
+            assert f.overshoot[k] == pytest.approx(over, abs=0.02)
+
+
+def test_cmaes_finds_known_minima():
+    """A shifted ellipsoid and Rosenbrock's function in the unit box (minimum known)."""
+    for fun, opt in ((lambda x: np.sum(np.arange(1, 6) ** 2 * (x - 0.3) ** 2, axis=1),
+                      np.full(5, 0.3)),
+                     (lambda x: np.sum(100 * (0.5 * x[:, 1:] - (0.5 * x[:, :-1]) ** 2) ** 2
+                                       + (1 - 0.5 * x[:, :-1]) ** 2, axis=1) + 0.0,
+                      np.full(4, 2.0))):
+        es = CMAES(np.full(len(opt), 0.5), 0.3, np.random.default_rng(7), 12)
+        best = np.inf
+        for _ in range(600):
+            X = es.ask()
+            v = fun(X)
+            best = min(best, v.min())
+            es.tell(X, np.argsort(v))
+        if opt[0] <= 1.0:
+            assert np.allclose(es.mean, opt, atol=1e-3)
+        else:          # Rosenbrock's minimum (x = 2 in the box's units) is outside: a face
+            assert best < fun(np.full((1, len(opt)), 0.5))[0]
+
+
+def test_search_is_seeded_and_reports():
+    p, ctx, setup, start = _setup()
+    scr = Screen(setup, time_specs(p, ctx.w0))
+    sp = PoleSpace.of(ctx, setup)
+    runs = [global_search(scr, sp, [("analytic", ctx.param.vector(start.controller))], seed=5,
+                          runs=1) for _ in range(2)]
+    a, b = (r.candidates[0] for r in runs)
+    assert np.array_equal(a.xc, b.xc) and a.objective == b.objective
+    d = runs[0].as_dict()
+    assert d["method"] == "CMA-ES" and d["evaluations"] > 0 and d["candidates"]
+    stopped = global_search(scr, sp, [], seed=5, stop=lambda: True)
+    assert stopped.stopped and stopped.evaluations == 0
