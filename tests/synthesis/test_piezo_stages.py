@@ -31,9 +31,12 @@ def _check(seed, order, multistart):
     return res
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed,order", [(1, 2), (2, 4)])
 def test_piezo_stages_certify_and_meet_their_specs(seed, order):
-    _check(seed, order, multistart=False)
+    """The default path (the global phase): the local run alone from the problem's poles
+    leaves stage 1 at 20.6 % overshoot against its 10 %."""
+    _check(seed, order, multistart=None)
 
 
 @pytest.mark.large
