@@ -35,7 +35,8 @@ from robrst.core import poly, region
 from robrst.core.peaks import peak_gains_many
 from robrst.core.rst import closed_loop
 from robrst.certificate.steps import check_many
-from robrst.problem.records import DEFAULT_OVERSHOOT_WARN_PCT, default_notes, plant_damping
+from robrst.problem.records import (DEFAULT_OVERSHOOT_WARN_PCT, RESONANT_DAMPING, default_notes,
+                                   plant_damping)
 
 if TYPE_CHECKING:
     from robrst.core.rst import RSTController
@@ -262,7 +263,8 @@ def _warnings(problem, models, floor, source):
     def damping(m):
         return shipped_loop(m).damping
 
-    low = [m for m in models if damping(m) < m.plant_damping * (1 - 1e-3)]
+    low = [m for m in models if m.plant_damping < RESONANT_DAMPING   # a resonance to ring
+           and damping(m) < m.plant_damping * (1 - 1e-3)]
     if low and not (source == "specs" and floor):
         m = min(low, key=lambda m: damping(m) / m.plant_damping)
         also = f" (continuous loop {m.continuous.damping:.3g})" if samp else ""

@@ -26,7 +26,8 @@ if TYPE_CHECKING:
 __all__ = ["PoleSpec", "ControllerStructure", "Specs", "SolverOptions", "Problem",
            "PEAK_SPECS", "EXTRA_PEAK_SPECS", "METHODS", "OBJECTIVES", "T_MODES", "INITS",
            "PLACEMENTS", "HOMOTOPIES", "AUX_MIN_FACTOR", "DEFAULT_DAMPING_CAP",
-           "DEFAULT_DAMPING_SHARE", "DEFAULT_OVERSHOOT_WARN_PCT", "RELATIVE_PEAK_SPECS",
+           "DEFAULT_DAMPING_SHARE", "DEFAULT_OVERSHOOT_WARN_PCT", "RESONANT_DAMPING",
+           "RELATIVE_PEAK_SPECS",
            "DampingFloor", "plant_damping", "with_defaults", "default_notes"]
 
 METHODS = ("analytic", "nlp", "convex")
@@ -39,6 +40,7 @@ AUX_MIN_FACTOR = 10.0   # auxiliary poles at least this many times faster than t
 DEFAULT_DAMPING_CAP = 0.1       # default closed-loop damping floor: at most this ...
 DEFAULT_DAMPING_SHARE = 1.0     # ... and at most this share of the plant's least damping
 DEFAULT_OVERSHOOT_WARN_PCT = 20.0   # reference-step overshoot that earns a warning
+RESONANT_DAMPING = 2 ** -0.5    # a mode damped less than this has a resonant peak in |B/A|
 
 
 def plant_damping(family: PlantFamily) -> float:
@@ -637,8 +639,10 @@ def with_defaults(problem: Problem) -> Problem:
       closed-loop pole to be damped as much as it is);
     * ``Msd_rel_max`` = 1: the input-disturbance peak ``|B S/Delta|`` of every model at
       most the model's own open-loop peak ``|B/A|`` (only when every family member is
-      stable: an unstable plant has no open-loop peak; not when the problem gives its own
-      ``Msd_max``).
+      stable, an unstable plant having no open-loop peak, and some member has a resonance,
+      a mode damped below ``RESONANT_DAMPING``: without one the open-loop peak is the static
+      gain, and integral action with a bandwidth below the plant's poles lifts ``|B S/Delta|``
+      above it without any ringing; not when the problem gives its own ``Msd_max``).
 
     Parameters
     ----------
@@ -681,7 +685,8 @@ def with_defaults(problem: Problem) -> Problem:
                 if row.relative_to == "open_loop_peak":
                     if stable is None:
                         stable = all(np.all(np.roots(m.A).real < 0)
-                                     for f in problem.families for m in f.models)
+                                     for f in problem.families for m in f.models) and \
+                            any(plant_damping(f) < RESONANT_DAMPING for f in problem.families)
                     if not stable:
                         continue
                 changes[row.key] = float(row.default_bound)

@@ -76,7 +76,7 @@ def test_default_floor_is_the_plant_damping_share(stage):
     p = replace(stage, specs=replace(stage.specs, damping_min=None))
     floor, source = p.specs.damping_floor(p.family)
     zeta = min(loopcheck.plant_damping(m) for m in p.family.models)
-    assert source == "default" and floor == pytest.approx(min(0.1, 0.9 * zeta), rel=1e-12)
+    assert source == "default" and floor == pytest.approx(min(0.1, zeta), rel=1e-12)
     cert = certify_problem(p, RINGING)
     region = cert.interval.pole_region
     assert region.damping_source == "default"
