@@ -726,7 +726,7 @@ def certify_mimo(family: MimoFamily, ctrl: MimoController, specs: MimoSpecs,
     >>> K = MimoController([RSTController([1.0], [1.0, 0.0], [1.0])] * 2)
     >>> cert = certify_mimo(MimoFamily((G,)), K, MimoSpecs(sigma_S_max=2.0))
     >>> cert.certified, round(cert.worst("sigma_S"), 4)
-    (True, 1.0)
+    (True, 1.541)
     """
     with one_blas_thread():
         recs, viols = [], []

