@@ -56,7 +56,10 @@ def test_random_certificates_hold_under_the_independent_checker():
     out = [run_seed(seed, n_temps=17, n_grid=8000, method=m) for seed, m in SMALL]
     print("\n".join(reliability_table(out)))
     assert not [o for o in out if o.status in ("wrong", "failed")], out
-    assert sum(o.status == "certified" for o in out) >= 9
+    # enough certified answers for the check to bite: 7 of the 17 (9 before the default
+    # constraints -- overshoot, damping, |B S/Delta| -- joined every bounded problem; the
+    # others are answered not certified, none wrongly)
+    assert sum(o.status == "certified" for o in out) >= 7
     kinds = [o.kind for o in out]
     for cls in ("near_integrator", "near_cancellation", "band_to_nyquist"):
         assert any(k.get(cls) for k in kinds), cls
