@@ -21,15 +21,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import numpy as np
 import tomlkit
 
 from robrst.base.errors import SpecError
 from robrst.base.fileio import atomic_write_text, peek_text
-from robrst.base.modelformat import FORMAT
 from robrst.base.tomlwrite import document, plain
 from robrst.diagnose.findings import level_groups
-from robrst.identify.modelfile import starting_design
+from robrst.identify.modelfile import modal_model_table, starting_design
 
 if TYPE_CHECKING:
     from robrst.diagnose.result import Diagnosis
@@ -104,18 +102,7 @@ def model_file_text(model: ModalModel, fs: float, header: list) -> str:
     str
     """
     doc = document([MARKER[2:] + " (model file)"] + list(header))
-    table = tomlkit.table()
-    table.update(plain({"format": FORMAT, "inputs": model.n_in, "outputs": model.n_out,
-                        "order": model.order, "fs_hz": float(fs), "source": "robrst diagnose"}))
-    at = tomlkit.aot()
-    rec = {} if model.temperature_C is None else {"temperature_C": float(model.temperature_C)}
-    rec.update({"poles_re": model.poles.real, "poles_im": model.poles.imag,
-                "residues_re": [np.atleast_2d(R.real) for R in model.residues],
-                "residues_im": [np.atleast_2d(R.imag) for R in model.residues],
-                "D": np.atleast_2d(model.D)})
-    at.append(plain(rec))
-    table["at"] = at
-    doc["model"] = table
+    doc["model"] = modal_model_table([model], model.order, fs, "robrst diagnose")
     if (model.n_in, model.n_out) == (1, 1):
         try:
             plant = model.channel(0, 0)

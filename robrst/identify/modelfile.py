@@ -47,7 +47,7 @@ from robrst.base.schema import MAX_MAGNITUDE
 if TYPE_CHECKING:
     from robrst.identify.identification import Identified
 
-__all__ = ["problem_text", "model_text", "write_identified", "check_target", "read_model_data",
+__all__ = ["problem_text", "model_text", "modal_model_table", "write_identified", "check_target", "read_model_data",
            "modal_models", "starting_wn", "starting_mu", "starting_design", "MARKER", "FORMAT"]
 
 MARKER = "# written by robrst identify"
@@ -303,6 +303,42 @@ def problem_text(ident: Identified, sources: Sequence[str], name: str,
     return tomlkit.dumps(doc)
 
 
+def modal_model_table(models: Sequence[ModalModel], order: int, fs: float,
+                      source: str) -> tomlkit.items.Table:
+    """The ``[model]`` table of a ``robrst-modal-1`` file: its header and one ``[[model.at]]``
+    record per model (poles, residues and ``D``; the temperature when known).
+
+    Parameters
+    ----------
+    models : sequence of ModalModel
+        Of one shape (inputs, outputs).
+    order : int
+        The models' order.
+    fs : float
+        The records' sampling rate [Hz].
+    source : str
+        The command that wrote the file.
+
+    Returns
+    -------
+    tomlkit.items.Table
+    """
+    m0 = models[0]
+    table = tomlkit.table()
+    table.update(plain({"format": FORMAT, "inputs": m0.n_in, "outputs": m0.n_out,
+                        "order": order, "fs_hz": float(fs), "source": source}))
+    at = tomlkit.aot()
+    for m in models:
+        rec = {} if m.temperature_C is None else {"temperature_C": float(m.temperature_C)}
+        rec.update({"poles_re": m.poles.real, "poles_im": m.poles.imag,
+                    "residues_re": [np.atleast_2d(R.real) for R in m.residues],
+                    "residues_im": [np.atleast_2d(R.imag) for R in m.residues],
+                    "D": np.atleast_2d(m.D)})
+        at.append(plain(rec))
+    table["at"] = at
+    return table
+
+
 def model_text(ident: Identified, sources: Sequence[str]) -> str:
     """The model-file text (modal form, every channel).
 
@@ -328,20 +364,7 @@ def model_text(ident: Identified, sources: Sequence[str]) -> str:
                       + ", ".join(f"{k} = {getattr(law, k):.6g} +/- {law.std[k]:.3g}"
                                   for k in ("gain_per_K", "resonance_per_K", "damping_per_K")))
     doc = document(header)
-    model = tomlkit.table()
-    model.update(plain({"format": FORMAT, "inputs": m0.n_in, "outputs": m0.n_out,
-                        "order": ident.order, "fs_hz": float(ident.fs),
-                        "source": "robrst identify"}))
-    at = tomlkit.aot()
-    for m in ident.models:
-        rec = {} if m.temperature_C is None else {"temperature_C": float(m.temperature_C)}
-        rec.update({"poles_re": m.poles.real, "poles_im": m.poles.imag,
-                    "residues_re": [np.atleast_2d(R.real) for R in m.residues],
-                    "residues_im": [np.atleast_2d(R.imag) for R in m.residues],
-                    "D": np.atleast_2d(m.D)})
-        at.append(plain(rec))
-    model["at"] = at
-    doc["model"] = model
+    doc["model"] = modal_model_table(ident.models, ident.order, ident.fs, "robrst identify")
     if (m0.n_in, m0.n_out) == (1, 1):
         try:
             plants = [m.channel(0, 0) for m in ident.models]
