@@ -241,7 +241,8 @@ def multistart_record(stage: SynthesisResult, wall_time_s: float) -> MultiStart:
     if outs:
         ok = [o for o in outs if o.objective is not None]
         win = (max(ok, key=lambda o: o.objective) if ok
-               else min(outs, key=lambda o: o.worst_ratio))
+               else min(outs, key=lambda o: (o.worst_ratio is None,    # None: unstable
+                                             o.worst_ratio or 0.0)))
         winner = win.name
     return MultiStart(outcomes=outs, winner=winner, objective=stage.objective, workers=1,
                       wall_time_s=wall_time_s, search=stage.search)

@@ -48,8 +48,8 @@ from robrst.synthesis.context import BOUND_MARGIN, Context
 from robrst.synthesis.outcome import SynthesisResult, best_achievable, worst_violation
 from robrst.synthesis.parametrize import integral_gain
 from robrst.synthesis.screen import Screen
-from robrst.synthesis.search import PoleSpace, global_search
-from robrst.synthesis.timesamples import TimeSpecs, time_specs
+from robrst.synthesis.search import PoleSpace, global_search, move_inside
+from robrst.synthesis.timesamples import TIME_MARGIN, TimeSpecs, time_specs
 from robrst.synthesis.tracking import CANCEL_FLOOR, meets_time_specs
 
 if TYPE_CHECKING:
@@ -173,20 +173,28 @@ def _rank(problem, out, timed):
 
 RESCALE = True
 POLISH_ITER = 500      # IPOPT iterations of one polish (then its best certified point)
+INSIDE_MARGIN = 0.99   # a candidate the certificate refuses is moved 1 % inside the specs
+BACKOFF_NEAR = 1.05    # a polish missing the certificate by less than this ratio ...
+BACKOFFS = 2           # ... is solved again this many times, its violated bounds tightened
+BACKOFF_ITER = 150     # by the miss, within this many IPOPT iterations each
 POLISH_SHARE = 0.9     # a further candidate screened below this share of the best certified,
 POLISH_DISTINCT = 0.1  # or nearer than this (box units) to one polished, is not polished
 
 
 def _global(ctx, run, seeds, best, start):
     """The global phase (:mod:`robrst.synthesis.search`) with every coefficient free: the
-    search, then its best distinct candidates certified as they are and polished by the
-    program (``1 + solver.starts`` of them, each within ``POLISH_ITER`` IPOPT iterations,
-    from the program rescaled at the candidate with the certificate's bounds; a further
-    one only when the previous polish improved on its candidate, and not when screened
-    below ``POLISH_SHARE`` of the best certified objective so far or within
-    ``POLISH_DISTINCT`` of one polished); the best certified outcome whose reference step meets the
-    time-domain specs, else the best certified one, else the least violating one.  Falls back to :meth:`Run.attempt` when the space cannot be
-    parametrised or nothing screened feasible."""
+    search, then its best distinct candidates certified as they are (one the certificate
+    refuses, a peak or a step sample between the screen's points, moved inside the specs
+    by :func:`~robrst.synthesis.search.move_inside`: ``INSIDE_MARGIN`` on the peaks,
+    ``TIME_MARGIN ** 2`` on the steps, as the program's rows) and polished by the program
+    (``1 + solver.starts`` of them, each within ``POLISH_ITER`` IPOPT iterations, from the
+    program rescaled at the candidate with the certificate's bounds, backed off by its
+    miss when it ends just outside them; a further one only when the previous polish
+    improved on its candidate, and not when screened below ``POLISH_SHARE`` of the best
+    certified objective so far or within ``POLISH_DISTINCT`` of one polished); the best
+    certified outcome whose reference step meets the time-domain specs, else the best
+    certified one, else the least violating one.  Falls back to :meth:`Run.attempt` when
+    the space cannot be parametrised or nothing screened feasible."""
     p = ctx.problem
     ctx = replace(ctx, free_margin=BOUND_MARGIN)   # the certificate's bounds, not 2 % inside
     setup = ctx.setup(program_models(p), ctx.nu, "free")
@@ -195,7 +203,9 @@ def _global(ctx, run, seeds, best, start):
         run.notes.append("global phase skipped: the nominal closed loop's leading"
                          " coefficient depends on the controller")
         return run.attempt(ctx, "free", seeds)
-    screen = Screen(setup, *_screened_steps(p, ctx.w0))
+    steps, two_dof = _screened_steps(p, ctx.w0)
+    screen = Screen(setup, steps, two_dof)
+    inside = []           # the screen inside the specs, built once needed
     named = [(sd[0], sd[1]) for sd in seeds if sd[1] is not None]
     try:
         named.append(("analytic", ctx.param.vector(start.controller)))
@@ -222,6 +232,14 @@ def _global(ctx, run, seeds, best, start):
         as_is = run.outcome(ctx, setup, None, "start", x=x)
         run.tried.append((f"{c.name}, as screened", as_is))
         outs.append(as_is)
+        base = as_is          # the polish starts from a point that meets the specs
+        if not (as_is.certified and meets_time_specs(p, as_is.ctrl)) and not run.stop():
+            moved = _moved_inside(ctx, run, setup, space, inside, c, steps, two_dof)
+            if moved is not None:
+                run.tried.append((f"{c.name}, moved inside", moved))
+                outs.append(moved)
+                ref = max(ref, objective_value(p, moved))
+                base = moved
         if as_is.certified:
             ref = max(ref, objective_value(p, as_is))
         if polished and (not gained or _screened_value(p, ctx, c) < POLISH_SHARE * ref
@@ -229,16 +247,12 @@ def _global(ctx, run, seeds, best, start):
                          < POLISH_DISTINCT):
             continue          # polishing did not pay, below the best so far, or polished
         polished.append(c.theta)
-        near = ctx.around(as_is.ctrl) if RESCALE else ctx    # scaled at the candidate
-        xr = near.full(near.param.vector(as_is.ctrl), near.setup(program_models(p), near.nu,
-                                                                  "free"))
-        sub = Run(p, run.say, run.templates, None, POLISH_ITER, run.stop)   # its own budget
-        sub.rows_first = True
-        out = sub.hard(near, "free", xr, c.name)
-        run.rounds += sub.rounds
-        run.notes += sub.notes
+        near = ctx.around(base.ctrl) if RESCALE else ctx     # scaled at the candidate
+        xr = near.full(near.param.vector(base.ctrl), near.setup(program_models(p), near.nu,
+                                                                 "free"))
+        out = _polish(near, run, p, xr, c.name)
         gained = out is not None and out.certified and (
-            objective_value(p, out) > objective_value(p, as_is))
+            objective_value(p, out) > objective_value(p, base))
         if out is not None:
             run.tried.append((f"{c.name}, polished", out))
             outs.append(out)
@@ -258,6 +272,57 @@ def _global(ctx, run, seeds, best, start):
 SOFT_SEEDS = 3
 
 
+def _polish(ctx, run, problem, xa, name):
+    """One polish of a candidate (its vector ``xa`` in ``ctx``'s scaling): the program from
+    it within ``POLISH_ITER`` iterations, its reference-step rows and floored roots
+    linearised from the first solve on, backed off when it ends just outside the
+    certificate."""
+    sub = Run(problem, run.say, run.templates, None, POLISH_ITER, run.stop)   # own budget
+    sub.rows_first = True
+    out = sub.hard(ctx, "free", xa, name)
+    run.rounds += sub.rounds
+    run.notes += sub.notes
+    return _backoff(ctx, run, out, name)
+
+
+def _backoff(ctx, run, out, name):
+    """A polish that ends just outside the certificate (its last round's peaks between the
+    exchange's frequencies, its budget spent) solved again from where it ended with the
+    program's bounds tightened by the miss (constraint back-off, ``BACKOFFS`` times,
+    ``BACKOFF_ITER`` IPOPT iterations each): the optimum moves inside by the grid's error
+    instead of the polish being lost.  Returns the first certified outcome, else ``out``."""
+    margin = ctx.free_margin
+    for _ in range(BACKOFFS):
+        if out is None or out.certified or not 1.0 < out.badness <= BACKOFF_NEAR or run.stop():
+            return out
+        margin /= out.badness ** 2
+        sub = Run(ctx.problem, run.say, run.templates, None, BACKOFF_ITER, run.stop)
+        sub.rows_first = True
+        again = sub.hard(replace(ctx, free_margin=margin), "free", out.x,
+                         f"{name}, backed off")
+        run.rounds += sub.rounds
+        if again is None:
+            return out
+        out = again
+    return out
+
+
+def _moved_inside(ctx, run, setup, space, inside, cand, steps, two_dof):
+    """The candidate ``cand``, which the certificate (or the time-domain check) refused,
+    moved inside the specs by the screen (:func:`~robrst.synthesis.search.move_inside`)
+    and certified; ``None`` when nothing inside was found or it does not certify either.
+    ``inside`` memoises the inner screen."""
+    if not inside:
+        tight = replace(ctx, free_margin=INSIDE_MARGIN).setup(program_models(ctx.problem),
+                                                              ctx.nu, "free")
+        inside.append(Screen(tight, _inside(steps, TIME_MARGIN ** 2), two_dof))
+    moved = move_inside(inside[0], space, cand)
+    if moved is None:
+        return None
+    out = run.outcome(ctx, setup, None, "start", x=ctx.full(moved.xc, setup))
+    return out if out.certified and meets_time_specs(ctx.problem, out.ctrl) else None
+
+
 def _screened_steps(problem, w0):
     """``(time specs, two_dof)`` the screen checks: the program's own time specs, or with a
     reference model designed afterwards its specs and ``(bandwidth, damping, cancel)``
@@ -269,6 +334,15 @@ def _screened_steps(problem, w0):
                    settling=None if sp.settling_time_max_s is None else sp.settling_time_max_s * w0,
                    u_max=sp.step_u_max_V, step_um=sp.step_um, w0=w0)
     return ts, (c.reference_wn / w0, c.reference_zeta, CANCEL_FLOOR)
+
+
+def _inside(ts, margin):
+    """The time specs ``ts`` tightened by ``margin`` (``None`` stays ``None``)."""
+    if ts is None:
+        return None
+    tight = {k: getattr(ts, k) * margin for k in ("overshoot", "settling", "u_max")
+             if getattr(ts, k) is not None}
+    return replace(ts, **tight)
 
 
 def _screened_value(problem, ctx, cand):

@@ -19,8 +19,9 @@ the population, the models and the frequency grid:
   closed-loop roots** of every model, their least damping against the floor (a sampled
   model's roots mapped to s by ``fs ln z``), the peaks at the resonant frequencies of the
   lightly damped ones (a sharp peak between grid points), and the **reference step** of the
-  continuous models from the modal sum of the step response (overshoot, 2 % settling time
-  and peak voltage against the time-domain specs).
+  continuous models and of the sampled loops (at their samples) from the modal sum of the
+  step response (overshoot, 2 % settling time and peak voltage against the time-domain
+  specs).
 
 The figures are those of the grid and of the modes, not a certificate: the global phase
 only ranks candidates with them; every answer is certified exactly afterwards
@@ -534,18 +535,39 @@ class Screen:
         return out
 
     def _steps(self, X, Ds, roots):
-        """Excess of the screened reference steps of the continuous models over the time
-        specs, and the largest overshoot (fraction).
+        """Excess of the screened reference steps over the time specs, and the largest
+        overshoot (fraction): the continuous models, and with the structure's own ``T`` the
+        sampled loops at their samples too (the certificate checks both, and a sampled loop
+        overshoots more than its continuous model by the hold's phase lag).
 
         The step of ``N / (s D)`` is the modal sum ``N(0)/D(0) + sum_i c_i exp(p_i t)``,
-        ``c_i = N(p_i) / (p_i D'(p_i))`` over the poles ``p_i`` of the loop.  With the
-        structure's ``T`` the loop is ``B T / Delta``; with a reference model (``two_dof``)
-        it is ``B Delta_wd / (Delta Am_ref)`` (:mod:`robrst.synthesis.tracking`: ``T``
-        cancels the nominal closed-loop roots damped at least ``cancel``, the reference
-        model adds its poles, spread apart by a few per cent so the modal sum holds).
+        ``c_i = N(p_i) / (p_i D'(p_i))`` over the poles ``p_i`` of the loop.  A sampled
+        loop's plant is the bilinear (w-plane) equivalent: its step at sample ``k`` is
+        ``N(0)/D(0) + sum_i c_i / (1 - p_i h / 2) z_i^k`` with ``z_i = (1 + p_i h/2) /
+        (1 - p_i h/2)`` and ``h`` the sample period (the residues of ``H(z) z / (z - 1)``).
+        With the structure's ``T`` the loop is ``B T / Delta``; with a reference model
+        (``two_dof``) it is ``B Delta_wd / (Delta Am_ref)`` (:mod:`robrst.synthesis.tracking`:
+        ``T`` cancels the nominal closed-loop roots damped at least ``cancel``, the reference
+        model adds its poles, spread apart by a few per cent so the modal sum holds), screened
+        on the continuous models.
         """
+        groups = [(None, self.cont)]
+        if self.two_dof is None:
+            for f in sorted({f for f in self.fs if f is not None}):
+                groups.append((self.setup.w0 / f, [j for j, g in enumerate(self.fs) if g == f]))
+        excess, over = np.zeros(X.shape[0]), np.full(X.shape[0], -np.inf)
+        for h, js in groups:
+            js = [j for j in js if Ds[j].shape[1] == Ds[js[0]].shape[1]] if js else js
+            if not js:
+                continue
+            e, o = self._group_steps(X, Ds, roots, js, h)
+            excess, over = excess + e, np.maximum(over, o)
+        return excess, over
+
+    def _group_steps(self, X, Ds, roots, js, h):
+        """:meth:`_steps` of the models ``js`` (one degree; ``h``: their sample period,
+        scaled, ``None`` for continuous models)."""
         ts = self.time
-        js = [j for j in self.cont if Ds[j].shape[1] == Ds[self.cont[0]].shape[1]]
         D = np.stack([Ds[j] for j in js], axis=1)                   # (K, M, d + 1)
         p = np.stack([roots[j] for j in js], axis=1)                # (K, M, d)
         A = np.stack([_pad(self.setup.models[j][2], D.shape[2]) for j in js])
@@ -574,8 +596,7 @@ class Screen:
             poles = np.concatenate([p, np.broadcast_to(ref, p.shape[:2] + ref.shape)], axis=2)
             fy = lambda z: _horner_rows(B, z) * delta_wd(z)             # noqa: E731
             fu = lambda z: _horner_rows(A, z) * delta_wd(z)             # noqa: E731
-        excess, over = _modal_steps(poles, lead, fy, fu, ts)
-        return excess, over
+        return _modal_steps(poles, lead, fy, fu, ts, h)
 
 
 def _reference_roots(wn, zeta, degree):
@@ -586,10 +607,12 @@ def _reference_roots(wn, zeta, degree):
     return np.concatenate([pair, reals.astype(complex)])
 
 
-def _modal_steps(poles, lead, fy, fu, ts):
+def _modal_steps(poles, lead, fy, fu, ts, h=None):
     """Excess over the time specs ``ts`` of the steps ``N/(s D)`` (modal sums; ``poles``
     ``(K, M, n)`` of ``D``, its leading coefficient ``lead``, ``fy``/``fu`` the output's and
-    the voltage's numerators at given points) and the largest overshoot, per candidate.
+    the voltage's numerators at given points) and the largest overshoot, per candidate;
+    with a sample period ``h`` (scaled) the discrete loops' steps at their samples, ``D``
+    and ``N`` being their bilinear (w-plane) equivalents (:meth:`Screen._steps`).
 
     The voltage is scaled by the output's final value (a unit output step)."""
     K, M, n = poles.shape
@@ -603,10 +626,17 @@ def _modal_steps(poles, lead, fy, fu, ts):
         zero = np.zeros((K, M, 1), complex)
         y_inf = (fy(zero)[..., 0] / d0).real
         cy = fy(poles) / (poles * dprime)
-        sig = np.min(-poles.real, axis=2)
+        rate = poles                  # continuous: exp(p t); sampled: z^k = exp(log(z) k)
+        if h is not None:
+            hold = 1.0 - 0.5 * h * poles
+            cy = cy / hold
+            rate = np.log((1.0 + 0.5 * h * poles) / hold) / h
+        sig = np.min(-rate.real, axis=2)
         t_end = np.minimum(STEP_HORIZON / np.maximum(sig, 1e-9), 1e4)
         tau = t_end[..., None] * tgrid                                  # (K, M, T)
-        e = np.exp(poles[..., None] * tau[..., None, :])                # (K, M, n, T)
+        if h is not None:                                               # at the samples
+            tau = np.round(tau / h) * h
+        e = np.exp(rate[..., None] * tau[..., None, :])                 # (K, M, n, T)
         y = (y_inf[..., None] + np.einsum("kmd,kmdt->kmt", cy, e).real) / y_inf[..., None]
         ok = np.all(np.isfinite(y), axis=2)
         o = np.where(ok, y.max(axis=2) - 1.0, 0.0)
@@ -621,7 +651,7 @@ def _modal_steps(poles, lead, fy, fu, ts):
             excess += np.where(ok, np.maximum(last / ts.settling - 1.0, 0.0), 0.0).sum(1)
         if ts.u_max is not None:
             u_inf = (fu(zero)[..., 0] / d0).real
-            cu = fu(poles) / (poles * dprime)
+            cu = fu(poles) / (poles * dprime) / (1.0 if h is None else hold)
             u = (u_inf[..., None] + np.einsum("kmd,kmdt->kmt", cu, e).real) / y_inf[..., None]
             pk = np.abs(u).max(axis=2).max(axis=1) * ts.step_um
             excess += np.where(np.isfinite(pk), np.maximum(pk / ts.u_max - 1.0, 0.0), 0.0)

@@ -13,7 +13,7 @@ from robrst.synthesis.attempts import program_models
 from robrst.synthesis.cmaes import CMAES
 from robrst.synthesis.context import Context
 from robrst.synthesis.screen import Screen, batch_roots, routh_columns
-from robrst.synthesis.search import PoleSpace, global_search
+from robrst.synthesis.search import PoleSpace, global_search, move_inside
 from robrst.synthesis.timesamples import time_specs
 
 W = 2 * np.pi * 1300.0
@@ -149,3 +149,84 @@ def test_search_is_seeded_and_reports():
     assert d["method"] == "CMA-ES" and d["evaluations"] > 0 and d["candidates"]
     stopped = global_search(scr, sp, [], seed=5, stop=lambda: True)
     assert stopped.stopped and stopped.evaluations == 0
+
+
+def test_screen_overshoot_of_the_sampled_loop_against_python_control():
+    """With a sampling rate, the screen's overshoot covers the sampled loop at its samples:
+    python-control's discrete loop (ZOH plant behind a sample of delay, Tustin controller)
+    simulated sample by sample. The sampled loop overshoots more than the continuous one
+    on some of these candidates, so the figure cannot come from the continuous models alone
+    (the screen samples each step at 120 instants: it may miss the peak by a little)."""
+    import control
+
+    fs, k = 20000.0, 1
+    doc = {**DOC, "specs": {**DOC["specs"], "sample_rate_hz": fs, "delay_samples": k}}
+    p, ctx, setup, start = _setup(doc)
+    scr = Screen(setup, time_specs(p, ctx.w0))
+    sp = PoleSpace.of(ctx, setup)
+    found = global_search(scr, sp, [("analytic", ctx.param.vector(start.controller))], seed=5,
+                          runs=1)
+    base = found.candidates[0].theta      # near the specs: the steps are examined
+    th = np.clip(base + 0.005 * np.random.default_rng(2).standard_normal((16, sp.dim)), 0, 1)
+    X = sp.controllers(th)
+    f = scr.rate(X)
+    z = control.tf([1.0, 0.0], [1.0], 1.0 / fs)
+    checked = above = 0
+    for i in range(len(X)):
+        if not (f.examined[i] and np.isfinite(f.overshoot[i])):
+            continue
+        c = ctx.controller(X[i])
+        over_c = over_d = 0.0
+        for m in p.family.models:
+            D = np.polyadd(np.polymul(m.A, c.S), np.polymul(m.B, c.R))
+            horizon = 40.0 / np.min(-np.roots(D).real)
+            t = np.linspace(0, horizon, 8001)
+            y = np.asarray(control.step_response(control.tf(np.polymul(m.B, [c.R[-1]]), D),
+                                                 T=t).outputs).ravel()
+            over_c = max(over_c, y.max() / y[-1] - 1.0)
+            Pd = control.c2d(control.tf(list(m.B), list(m.A)), 1.0 / fs, "zoh") * (1 / z) ** k
+            Kr = control.c2d(control.tf(list(c.R), list(c.S)), 1.0 / fs, "tustin")
+            Kt = control.c2d(control.tf([c.R[-1]], list(c.S)), 1.0 / fs, "tustin")
+            loop = control.minreal(Kt * control.feedback(Pd, Kr), verbose=False)
+            n = int(np.ceil(horizon * fs))
+            yd = np.asarray(control.step_response(loop, T=np.arange(n) / fs).outputs).ravel()
+            over_d = max(over_d, yd.max() / yd[-1] - 1.0)
+        assert f.overshoot[i] == pytest.approx(max(over_c, over_d), abs=0.01)
+        checked += 1
+        above += over_d > over_c + 0.002
+    assert checked >= 4 and above >= 2
+
+
+def test_move_inside_brings_a_boundary_candidate_inside_the_specs():
+    """A candidate the search leaves on the boundary of the specs, moved inside a screen
+    3 % tighter (peaks and reference step): on a dense grid of the unscaled loops its worst
+    peak is then inside the tightened specs, and so is python-control's overshoot, its
+    integral gain close to the candidate's."""
+    from dataclasses import replace
+
+    import control
+
+    p, ctx, setup, start = _setup()
+    ctx = replace(ctx, free_margin=1.0)
+    setup = ctx.setup(program_models(p), ctx.nu, "free")
+    ts = time_specs(p, ctx.w0)
+    scr = Screen(setup, ts)
+    sp = PoleSpace.of(ctx, setup)
+    found = global_search(scr, sp, [("analytic", ctx.param.vector(start.controller))], seed=5,
+                          runs=1)
+    cand = found.candidates[0]
+    tight = Screen(replace(ctx, free_margin=0.97).setup(program_models(p), ctx.nu, "free"),
+                   replace(ts, overshoot=0.97 * ts.overshoot))
+    assert cand.violation == 0 and tight.rate(cand.xc[None]).violation[0] > 0
+    moved = move_inside(tight, sp, cand)
+    assert moved is not None and moved.violation == 0
+    assert _dense_worst(p, ctx, setup, moved.xc) < 0.97 * 1.002
+    c = ctx.controller(moved.xc)
+    for m in p.family.models:
+        D = np.polyadd(np.polymul(m.A, c.S), np.polymul(m.B, c.R))
+        t = np.linspace(0, 40.0 / np.min(-np.roots(D).real), 20001)
+        y = np.asarray(control.step_response(control.tf(np.polymul(m.B, [c.R[-1]]), D),
+                                             T=t).outputs).ravel()
+        assert y.max() / y[-1] - 1.0 < 0.97 * ts.overshoot + 0.003
+    ki = [abs(ctx.controller(x).R[-1] / ctx.controller(x).S[-2]) for x in (cand.xc, moved.xc)]
+    assert ki[1] > 0.8 * ki[0]
