@@ -60,7 +60,7 @@ __all__ = ["PoleSpace", "Candidate", "GlobalSearch", "global_search", "move_insi
 
 SEARCH_SEED = 20261128   # the global phase's random numbers (numpy.random.default_rng)
 RESTARTS = 3             # CMA-ES runs: from the problem's design, then from random means
-GENERATIONS = 200        # at most per run
+GENERATIONS = 400        # at most per run (a run stops earlier once it stalls: STALL)
 STALL = 40               # a run stops after this many generations without progress
 MIN_SPREAD = 2e-4        # ... or when its distribution is this narrow (box units)
 POPSIZE = 14             # population of the first run (at least 4 + 3 ln d); the random

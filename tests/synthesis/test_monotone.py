@@ -39,16 +39,49 @@ def _on(problem, ctrl):
     return with_time_domain(p, cert, ctrl) if p.specs.time_domain else cert
 
 
+@pytest.fixture(scope="module")
+def scans():
+    """The scans of the seeded stages, each computed once for the module's two tests."""
+    done = {}
+
+    def of(seed, order):
+        if (seed, order) not in done:
+            done[seed, order] = _scan(stage_doc(seed, order=order))
+        return done[seed, order]
+    return of
+
+
+COLLAPSE = 0.5     # the weaker property that holds: never below half a tighter answer
+
+
 @pytest.mark.slow
-@pytest.mark.xfail(strict=False, reason="not monotone yet: the global phase's search and polish"
-                   " depend on the bound (stage 11 measured 388,712 / 221,279 / 473,458 /"
-                   " 16,574 / 400,683 for Ms_max 1.5 ... 2.5; the 1.3 kHz stage of"
-                   " tests/repro/turn4/a_ms2.0.toml 3.42 M at 1.5, 2.61 M at 1.7, 4.07 M at"
-                   " 2.0, 1.84 M at 2.1, and its 2.0 design certifies at 2.1-2.5): the known"
-                   " gap, measured")
+@pytest.mark.parametrize("seed,order", [(11, 2), (12, 2)])
+def test_a_looser_bound_never_collapses(scans, seed, order):
+    """The weaker property the global phase now has: loosening Ms_max never returns less
+    than half of a tighter bound's certified answer (before the screen checked the sampled
+    loops' steps and refused candidates were moved inside the specs, stage 11 at Ms 2.25
+    answered 16,574 against 473,458 at 2.0: 29x below)."""
+    scan = scans(seed, order)
+    best = None
+    for v, _, _, ki in scan:
+        assert ki is not None, v
+        if best is not None:
+            assert ki >= COLLAPSE * best, (v, ki, best)
+        best = ki if best is None else max(best, ki)
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=False, reason="not monotone within 1 % yet: the polish by the local"
+                   " program from a screened candidate often ends at a worse point or outside"
+                   " the reference-step specs (then the candidate itself is the answer), so the"
+                   " answer depends on which candidates the bound lets the search find. Measured"
+                   " (integral gain at Ms_max 1.5 / 1.75 / 2.0 / 2.25 / 2.5): stage 11 711 k /"
+                   " 829 k / 718 k / 829 k / 828 k (was 389 k / 221 k / 473 k / 16.6 k / 401 k);"
+                   " stage 12 1.10 M / 1.33 M / 1.50 M / 1.49 M / 1.50 M (monotone within 1 %);"
+                   " stage 13 (4th order) 19.0 k / 13.2 k / 225 k / 254 k / 214 k")
 @pytest.mark.parametrize("seed,order", [(11, 2), (12, 2), (13, 4)])
-def test_ms_scan_is_monotone(seed, order):
-    scan = _scan(stage_doc(seed, order=order))
+def test_ms_scan_is_monotone(scans, seed, order):
+    scan = scans(seed, order)
     print(f"\nstage {seed}: " + ", ".join(f"{v}: {ki}" for v, _, _, ki in scan))
     best = None
     for v, p, r, ki in scan:
