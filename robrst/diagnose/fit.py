@@ -44,7 +44,7 @@ if TYPE_CHECKING:
     from robrst.diagnose.linear import LinearPart
 
 __all__ = ["Prepared", "prepare", "Fitted", "fit_model", "fit_by_level", "model_jacobian",
-           "level_factor", "slope_basis", "compressed"]
+           "level_factor", "slope_basis", "compressed", "Pooled", "pool_periodic"]
 
 SLOPE_KINDS = ("dlog_freq", "dlog_damping", "input_gain", "gain", "mode_gain")
 _FIT = OPTIONS.fit
@@ -111,6 +111,104 @@ def prepare(d: Dataset, reference_C: float, for_fit: bool = True) -> Prepared:
             U, Y, T, w = d.U, d.Y, temp, 1.0
         return Prepared(d.source, U, Y, T, True, P, w, d.level)
     return Prepared(d.source, d.U, d.Y, temp, False, 0, 1.0, d.level)
+
+
+@dataclass(frozen=True, eq=False)
+class Pooled:
+    """Periodic records of one linear model pooled into as many records as it has inputs.
+
+    For a linear model ``H`` on the DFT grid the training cost of ``R`` periodic records is
+    ``sum_r ||Y_r - H U_r||^2``; per frequency it depends on the records only through
+    ``S = sum_r U_r U_r^H`` (``k x k``) and ``T = sum_r Y_r U_r^H`` (``m x k``).  With ``S =
+    L L^H`` (``L = V Lambda^(1/2)`` from ``S``'s eigendecomposition) and ``Y~ = T V
+    Lambda^(-1/2)``, the ``k`` records whose spectra are ``L``'s and ``Y~``'s columns have
+    ``sum_c ||Y~_c - H L_c||^2 = sum_r ||Y_r - H U_r||^2 - constant`` for every ``H``: the
+    same minimiser, gradient and ``J^T J``, from ``k`` records instead of ``R`` (a mirror
+    level: 6 records of 3 inputs -> 3; every level of a linear re-fit: 18 -> 3).  The
+    records' weights are folded in (the pooled ones weigh 1).
+
+    Parameters
+    ----------
+    records : list of Prepared
+        The pooled records (and the records that could not be pooled, as they were).
+    constant : float
+        ``sum_r w_r^2 ||Y_r||^2 - sum_c ||Y~_c||^2``: what the pooled cost lacks.
+    rows : int
+        The residual rows of the original records.
+    """
+
+    records: list
+    constant: float
+    rows: int
+
+
+def pool_periodic(train: Sequence[Prepared], by_level: bool = False) -> Pooled:
+    """Pool periodic records that one linear model simulates (see :class:`Pooled`).
+
+    Records are grouped by length (and by level with ``by_level``: the dynamic form's model
+    changes with it); a group is pooled when it holds more records than inputs.  A record
+    that is not periodic, or too long for a fit's rows (:data:`~robrst.diagnose.options`
+    ``fit_rows``: its residual is subsampled), stays as it is.
+
+    Parameters
+    ----------
+    train : sequence of Prepared
+        The training records.
+    by_level : bool
+        Records of different excitation levels are not pooled together.
+
+    Returns
+    -------
+    Pooled
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from robrst.diagnose.fit import Prepared, pool_periodic
+    >>> rng = np.random.default_rng(0)
+    >>> recs = [Prepared("r", rng.normal(size=(64, 1)), rng.normal(size=(64, 1)), np.zeros(64),
+    ...                  True, 64, 1.0, 1.0) for _ in range(4)]
+    >>> pooled = pool_periodic(recs)
+    >>> len(pooled.records), pooled.rows
+    (1, 256)
+    """
+    groups = {}
+    kept = []
+    for p in train:
+        if p.periodic and len(p.Y) <= _FIT.fit_rows:
+            groups.setdefault((len(p.Y), p.level if by_level else None), []).append(p)
+        else:
+            kept.append(p)
+    out, constant = [], 0.0
+    for (n, _), g in groups.items():
+        k = g[0].U.shape[1]
+        if len(g) <= k:
+            out += g
+            continue
+        Uf = np.stack([np.fft.rfft(p.U * p.weight, axis=0) for p in g], axis=2)   # (F, k, R)
+        Yf = np.stack([np.fft.rfft(p.Y * p.weight, axis=0) for p in g], axis=2)   # (F, m, R)
+        S = Uf @ np.conj(np.swapaxes(Uf, 1, 2))
+        T = Yf @ np.conj(np.swapaxes(Uf, 1, 2))
+        real = [0] + ([n // 2] if n % 2 == 0 else [])   # DC and Nyquist: real spectra
+        S[real], T[real] = S[real].real, T[real].real
+        lam, V = np.linalg.eigh(S)
+        for b in real:                    # real eigenvectors there (irfft keeps real parts)
+            lam[b], V[b] = np.linalg.eigh(S[b].real)
+        top = np.max(lam, axis=1, keepdims=True)
+        live = lam > 1e-12 * np.maximum(top, 1e-300)
+        root = np.sqrt(np.where(live, lam, 0.0))
+        L = V * root[:, None, :]
+        Yt = (T @ V) * np.where(live, 1.0 / np.where(live, root, 1.0), 0.0)[:, None, :]
+        ref = g[0]
+        for c in range(k):
+            u = np.fft.irfft(L[:, :, c], n=n, axis=0)
+            y = np.fft.irfft(Yt[:, :, c], n=n, axis=0)
+            out.append(Prepared(f"{ref.name} (pooled {c + 1} of {k})", u, y,
+                                np.mean([p.temp for p in g], axis=0), True, ref.warm, 1.0,
+                                float(np.mean([p.level for p in g]))))
+            constant -= float(np.sum(y * y))
+        constant += float(sum(p.weight ** 2 * np.sum(p.Y * p.Y) for p in g))
+    return Pooled(out + kept, max(constant, 0.0), int(sum(p.Y.size for p in train)))
 
 
 def slope_basis(f: float, knots: Sequence[float] = ()) -> np.ndarray:
@@ -772,13 +870,17 @@ def fit_model(name: str, effects: Sequence[str], train: Sequence[Prepared], lin:
     proto = Fitted(name, tuple(effects), "dynamic" if dynamic else "input", chain, lin, x0,
                    np.zeros_like(x0), joint, slopes, level_ref, 0, 0.0, fixed, no, post)
 
+    # a linear model alone on periodic records: their sufficient statistics (Pooled)
+    pooled = pool_periodic(train, by_level=bool(slopes)) if (
+        chain.size == 0 and post is None and joint) else None
+    rows_of = train if pooled is None else pooled.records
     # residual rows: every k-th sample of a long record (the simulation runs over all of it),
     # weighted by sqrt(k) so the priors keep their weight
-    strides = [max(1, -(-len(p.Y) // _FIT.fit_rows)) for p in train]
+    strides = [max(1, -(-len(p.Y) // _FIT.fit_rows)) for p in rows_of]
 
     def residual(x):
         r = [(proto.predict_prepared(p, x) - p.Y)[::k].ravel() * (p.weight * np.sqrt(k) / scale)
-             for p, k in zip(train, strides)]
+             for p, k in zip(rows_of, strides)]
         r.append(prior_w * (x[nz:nz + nt + ns] - center))
         out = np.concatenate(r)
         return np.where(np.isfinite(out), out, 1e3)
@@ -789,7 +891,7 @@ def fit_model(name: str, effects: Sequence[str], train: Sequence[Prepared], lin:
         residual rows)``.  A periodic record fitted whole by the linear part alone gives its
         rows as the real and imaginary parts of their spectra, weighted so that the inner
         products are the time rows' (Parseval): no transform back per column."""
-        for p, k in zip(train, strides):
+        for p, k in zip(rows_of, strides):
             c = p.weight * np.sqrt(k) / scale
             if p.periodic and k == 1 and proto.chain.size == 0 and post is None and joint:
                 J = spectral_jacobian(proto, p, x) * c
@@ -818,9 +920,13 @@ def fit_model(name: str, effects: Sequence[str], train: Sequence[Prepared], lin:
                                          x_scale="jac", ftol=ftol, xtol=1e-10, gtol=1e-10,
                                          max_nfev=max_nfev)
         n_rows = n_rows()
-    std = parameter_std(res.jac, res.cost, n_rows) if x0.size else np.zeros(0)
+    cost = float(res.cost)
+    if pooled is not None:        # the cost and the rows of the records themselves
+        cost += 0.5 * pooled.constant / scale ** 2
+        n_rows = pooled.rows + nt + ns
+    std = parameter_std(res.jac, cost, n_rows) if x0.size else np.zeros(0)
     return Fitted(name, tuple(effects), proto.form, chain, lin, res.x, std, joint, slopes,
-                  level_ref, int(res.nfev), 2 * float(res.cost), fixed, no, post)
+                  level_ref, int(res.nfev), 2 * cost, fixed, no, post)
 
 
 def parseval_rows(S: np.ndarray, n: int) -> np.ndarray:

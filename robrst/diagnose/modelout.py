@@ -4,20 +4,28 @@
 set's final fit, or the linear re-fit) as continuous-time modal models: one at the
 model's reference for a level-independent answer, one per excitation level for the
 amplitude-dependent dynamics (the training and test records' levels, grouped within
-``level_tol``).  :func:`write_models` writes each as a model file of the format
-``robrst-modal-1`` (:mod:`robrst.base.modelformat`), the file ``robrst identify`` writes:
-``robrst diagnose --model``, ``robrst identify``'s readers and a twin file's ``[twin]
-plant`` read it; a model of one input and one output also carries the starting design
-tables of ``robrst identify`` (:func:`robrst.identify.modelfile.starting_design`), so
-``robrst design`` reads it as it is.  The input-side effects the answer names are reported
-in the diagnosis (a twin file switches them on); the files hold the linear part.
+``level_tol``).  A ``stiffness_nonlinearity`` answer changes the linear part itself
+(a cubic stiffness inside the loop, :mod:`robrst.diagnose.stiffness`): its model is the
+fitted plant at small amplitude (with the fitted input gain), and the stiffness is the
+twin's effect of the same name.  :func:`write_models` writes each as a model file of the
+format ``robrst-modal-1`` (:mod:`robrst.base.modelformat`), the file ``robrst identify``
+writes (:func:`robrst.identify.modelfile.modal_model_table`, the one writer of the
+table): ``robrst diagnose --model``, ``robrst identify``'s readers and a twin file's
+``[twin] plant`` read it; a model of one input and one output also carries the starting
+design tables of ``robrst identify`` (:func:`robrst.identify.modelfile.starting_design`),
+so ``robrst design`` reads it as it is.  When the answer names an effect the twin
+simulates from its fitted parameters (the cubic stiffness), a twin file ``twin.toml``
+beside the model switches it on over that model (``[twin] plant = "model.toml"``, the
+records' rate and the model's temperature): ``robrst simulate --twin DIR/twin.toml``
+runs the answer.  The input-side effects of other answers are reported in the diagnosis
+(``selected[].params``; a twin file switches them on); their files hold the linear part.
 
 Files are written atomically and never over a file robrst diagnose did not write.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -27,13 +35,14 @@ from robrst.base.errors import SpecError
 from robrst.base.fileio import atomic_write_text, peek_text
 from robrst.base.tomlwrite import document, plain
 from robrst.diagnose.findings import level_groups
+from robrst.identify.modal import ModalModel
 from robrst.identify.modelfile import modal_model_table, starting_design
 
 if TYPE_CHECKING:
     from robrst.diagnose.result import Diagnosis
-    from robrst.identify.modal import ModalModel
 
-__all__ = ["AnswerModel", "answer_models", "write_models", "model_file_text", "MARKER"]
+__all__ = ["AnswerModel", "answer_models", "write_models", "model_file_text", "twin_file_text",
+           "MARKER"]
 
 MARKER = "# written by robrst diagnose"
 
@@ -50,11 +59,18 @@ class AnswerModel:
         The excitation level it holds at [V rms] (None: every level).
     name : str
         The file's stem.
+    twin : dict
+        The twin file's effect tables that put the answer's effect back over the model
+        (empty: the model is the whole answer, or its effects are reported only).
+    reference_C : float or None
+        The temperature the fit holds at [°C] (the twin file's ``reference_C``).
     """
 
     model: object
     level_V: float
     name: str
+    twin: dict = field(default_factory=dict)
+    reference_C: float = None
 
 
 def answer_models(diag: Diagnosis) -> list:
@@ -72,6 +88,10 @@ def answer_models(diag: Diagnosis) -> list:
         without a partial explanation).
     """
     fit = diag.traces.get("answer_fit")
+    if fit is not None and hasattr(fit, "twin_tables"):     # the stiffness: the plant itself
+        plant = fit.linear_plant()
+        return [AnswerModel(ModalModel.from_plant(plant), None, "model", fit.twin_tables(),
+                            float(fit.stage.model.config.reference_C))]
     if fit is None or not hasattr(fit, "lin"):
         return []
     if getattr(fit, "slopes", ()):
@@ -117,6 +137,45 @@ def model_file_text(model: ModalModel, fs: float, header: list) -> str:
     return tomlkit.dumps(doc)
 
 
+def twin_file_text(model_file: str, fs: float, reference_C: float | None, tables: dict,
+                   header: list) -> str:
+    """The text of a twin file that runs a model file with the answer's effect switched on.
+
+    Parameters
+    ----------
+    model_file : str
+        The model file, relative to the twin file (``[twin] plant``).
+    fs : float
+        The records' sampling rate [Hz] (``[twin] sample_rate_hz``).
+    reference_C : float or None
+        The temperature the fit holds at [°C] (``[twin] reference_C``).
+    tables : dict
+        The effects' tables (``{"stiffness_nonlinearity": {...}}``).
+    header : list of str
+        Comment lines after the marker line.
+
+    Returns
+    -------
+    str
+    """
+    doc = document([MARKER[2:] + " (twin file)"] + list(header))
+    twin = {"name": "diagnosis answer", "plant": model_file, "sample_rate_hz": float(fs)}
+    if reference_C is not None:
+        twin["reference_C"] = float(reference_C)
+    doc["twin"] = plain(twin)
+    for k, v in tables.items():
+        doc[k] = plain(v)
+    return tomlkit.dumps(doc)
+
+
+def _refuse_foreign(path):
+    if path.exists():
+        first = (peek_text(path) or "").splitlines()[:1]
+        if not first or not first[0].startswith(MARKER):
+            raise SpecError(f"{path}: exists and was not written by robrst diagnose; not"
+                            " overwriting it (choose another --model-out)")
+
+
 def write_models(diag: Diagnosis, folder: str | Path) -> list:
     """Write the answer's models (:func:`answer_models`) into ``folder``.
 
@@ -131,7 +190,8 @@ def write_models(diag: Diagnosis, folder: str | Path) -> list:
     Returns
     -------
     list of dict
-        ``{"file", "level_V", "order"}`` per file written.
+        ``{"file", "level_V", "order"}`` per file written, and ``"twin_file"`` (the twin
+        file that runs it with the answer's effect, or None).
 
     Raises
     ------
@@ -144,20 +204,31 @@ def write_models(diag: Diagnosis, folder: str | Path) -> list:
         raise SpecError(f"{folder}: is a file; --model-out needs a folder")
     models = answer_models(diag)
     fs = float(diag.data["fs_hz"])
+    for am in models:             # every target checked before anything is written
+        _refuse_foreign(folder / f"{am.name}.toml")
+        if am.twin:
+            _refuse_foreign(folder / "twin.toml")
     out = []
     for am in models:
         path = folder / f"{am.name}.toml"
-        if path.exists():
-            first = (peek_text(path) or "").splitlines()[:1]
-            if not first or not first[0].startswith(MARKER):
-                raise SpecError(f"{path}: exists and was not written by robrst diagnose; not"
-                                " overwriting it (choose another --model-out)")
-        where = ("at every excitation level" if am.level_V is None
-                 else f"at the excitation level {am.level_V:.6g} V rms")
+        where = ("at small amplitude" if am.twin else "at every excitation level"
+                 if am.level_V is None else f"at the excitation level {am.level_V:.6g} V rms")
         header = [f"the linear part of the answer '{diag.cause}'"
                   f" ({' + '.join(diag.causes) or 'linear corrections'}) {where}",
                   f"records: {', '.join(map(str, diag.data['train']))[:200]}"]
+        if am.twin:
+            header.append("twin.toml beside it switches the answer's "
+                          + ", ".join(am.twin) + " on over it (robrst simulate --twin)")
         folder.mkdir(parents=True, exist_ok=True)
         atomic_write_text(path, model_file_text(am.model, fs, header))
-        out.append({"file": str(path), "level_V": am.level_V, "order": int(am.model.order)})
+        twin = None
+        if am.twin:
+            twin = folder / "twin.toml"
+            params = ", ".join(f"{k} = {v:.6g}" for t in am.twin.values() for k, v in t.items()
+                               if k != "enabled")
+            atomic_write_text(twin, twin_file_text(
+                path.name, fs, am.reference_C, am.twin,
+                [f"the answer '{diag.cause}' ({params}) over {path.name}"]))
+        out.append({"file": str(path), "level_V": am.level_V, "order": int(am.model.order),
+                    "twin_file": None if twin is None else str(twin)})
     return out

@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy import signal
 
-from robrst.diagnose.fit import Fitted, level_factor, slope_basis
+from robrst.diagnose.fit import Fitted, level_factor, pool_periodic, slope_basis
 from robrst.diagnose.options import OPTIONS
 from robrst.identify.modal import ModalModel
 
@@ -190,6 +190,8 @@ def polish_residues(fit: Fitted, train: Sequence[Prepared], noise_sigma: float) 
     knots = getattr(fit, "level_knots", ())
     rows, rhs = [], []
     index = None
+    if fit.chain.size == 0 and fit.post is None:    # linear in the records: pool them
+        train = pool_periodic(train, by_level=True).records
     for p in train:
         f = level_factor(p.level, fit.level_ref)
         V = fit.effective_input(p)[0]

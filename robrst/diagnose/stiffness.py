@@ -12,7 +12,7 @@ fitted with it (the linear re-fit's gain absorbs part of a stiffness).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -54,6 +54,8 @@ class StiffnessFit:
         ``("stiffness_nonlinearity",)``.
     form : str
         ``"input"``.
+    plant : Plant, optional
+        The linear model ``D(s)`` of the step (the user's or the re-fitted one).
     """
 
     name: str
@@ -64,6 +66,32 @@ class StiffnessFit:
     train_cost: float
     effects: tuple = ("stiffness_nonlinearity",)
     form: str = "input"
+    plant: object = None     # D(s) of the step
+
+    def linear_plant(self) -> Plant:
+        """The fitted model at small amplitude: ``D(s)`` times the fitted input gain.
+
+        The stiffness acts inside the loop as ``v = (1 + g) u - c y^3 / D(0)``; with the
+        gain in the plant, ``(1 + g) D(s)`` and ``c y^3 / ((1 + g) D(0))`` give the same
+        ``v``: the twin with this plant and the fitted ``c`` is the fit.
+
+        Returns
+        -------
+        Plant
+        """
+        g = 1.0 + float(self.x[1])
+        return replace(self.plant, B=self.plant.B * g, label=f"{self.plant.label}_stiffness")
+
+    def twin_tables(self) -> dict:
+        """The twin file's tables that switch the fitted effect on.
+
+        Returns
+        -------
+        dict
+            ``{"stiffness_nonlinearity": {"enabled": True, "cubic_per_um2": c}}``.
+        """
+        return {"stiffness_nonlinearity": {"enabled": True,
+                                           "cubic_per_um2": float(self.x[0])}}
 
     def run(self, p: Prepared, x: np.ndarray | None = None,
             jac: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
@@ -186,4 +214,4 @@ def fit_stiffness(train: Sequence[Prepared], plant: Plant, fs: float, reference_
                                      max_nfev=max_nfev)
     std = parameter_std(res.jac, res.cost, res.fun.size, rtol=1e-6)
     return StiffnessFit("stiffness_nonlinearity", st, res.x, std, int(res.nfev),
-                        2 * float(res.cost))
+                        2 * float(res.cost), plant=plant)

@@ -9,6 +9,16 @@ reader takes it as a problem (its design tables included) and a twin file's ``[t
 takes it; a file in the way that robrst diagnose did not write is refused (exit 2, one
 line).  On periodic records at two levels, the amplitude-dependent answer writes one file
 per excitation level.
+
+The stiffness answer (the mirror recipe's records from a hardening spring, cubic stiffness
+3e-6 /µm²) writes ``model.toml`` (the plant at small amplitude with the fitted gain: its
+response, read with ``tomllib`` and built with python-control, is the paper's D(s) times
+``1 + gain``) and ``twin.toml`` (that model with the fitted stiffness switched on):
+``robrst design``'s reader takes the model, ``robrst simulate``'s reader takes the twin
+file, and the twin run on the held-out record (one period of warm-up, as the diagnosis
+simulates a periodic record) gives the held-out NRMSE the answer printed, recomputed here
+with numpy (to 1e-6 relative); its static output at a held voltage solves ``y + c y^3 =
+k u`` (numpy's roots), the Duffing law the file states.
 """
 
 import json
@@ -19,10 +29,12 @@ import numpy as np
 import pytest
 
 from robrst.cli import main as robrst
+from robrst.core.plant import paper_plant
 from robrst.data.dataset import save_dataset
 from robrst.diagnose.validation import make_case
 from robrst.problem.files import load_problem
 from robrst.studies.twins import load_twin
+from robrst.twin.simulate import simulate
 
 
 def _files(tmp_path, train, test):
@@ -86,9 +98,63 @@ def test_amplitude_dependent_answer_writes_a_model_per_level(tmp_path, capsys):
         assert len(files) == 3 and all(f["level_V"] for f in files)   # 8, 16, 24 V rms
         gains = [load_problem(f["file"]).family.reference_model.dc_gain for f in files]
         assert len(set(np.round(gains, 12))) == 3        # the model changes with the level
-    elif "stiffness_nonlinearity" in (d["final"] or {}).get("effects", []) and not files:
-        # the hardening recipe is answered stiffness_nonlinearity (right: the mode hardens);
-        # that standalone fit keeps no modal linear part, so nothing is written yet
-        pytest.xfail("a stiffness_nonlinearity answer writes no model file yet")
-    else:
+    else:                        # stiffness_nonlinearity (right: the mode hardens), or one model
         assert len(files) == 1
+
+
+def _modal_tf(at):
+    """python-control's transfer function of a [[model.at]] table read with tomllib."""
+    p = np.array(at["poles_re"]) + 1j * np.array(at["poles_im"])
+    r = np.array(at["residues_re"])[:, 0, 0] + 1j * np.array(at["residues_im"])[:, 0, 0]
+    terms = [control.tf([2 * ri.real, -2 * (ri * np.conj(pi)).real],
+                        [1, -2 * pi.real, abs(pi) ** 2]) if pi.imag > 0
+             else control.tf([ri.real], [1, -pi.real]) for pi, ri in zip(p, r)]
+    return sum(terms[1:], terms[0]) + at["D"][0][0]
+
+
+def test_stiffness_answer_writes_a_model_and_a_twin_that_reproduce_it(tmp_path, capsys):
+    import sys
+    from pathlib import Path
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    from diagnosis_cases import make
+
+    train, test, _, _ = make("recipe_hardening", 0)
+    tr, te = _files(tmp_path, train, test)
+    out = tmp_path / "answer"
+    code = robrst(["diagnose", "--train", *tr, "--test", *te, "--json", str(tmp_path / "d.json"),
+                   "--model-out", str(out), "--quiet"])
+    assert code == 0, capsys.readouterr().err
+    d = json.loads((tmp_path / "d.json").read_text())
+    assert d["cause"] == "stiffness_nonlinearity"
+    params = d["selected"][0]["params"]
+    c, gain = params["cubic_per_um2"], params["gain"]
+    assert c == pytest.approx(3e-6, rel=0.01)
+    assert d["model_files"] == [{"file": str(out / "model.toml"), "level_V": None, "order": 3,
+                                 "twin_file": str(out / "twin.toml")}]
+    # the model: D(s) (1 + gain), checked with python-control on a dense grid
+    at = tomllib.loads((out / "model.toml").read_text())["model"]["at"][0]
+    g = _modal_tf(at)
+    ref = paper_plant()
+    w = np.logspace(1, np.log10(np.pi * 5000.0), 400)
+    want = (1 + gain) * np.polyval(ref.B, 1j * w) / np.polyval(ref.A, 1j * w)
+    assert np.max(np.abs(g(1j * w) - want) / np.abs(want)) < 1e-9
+    assert load_problem(out / "model.toml").family.reference_model.dc_gain == pytest.approx(
+        float(np.real(control.dcgain(g))), rel=1e-9)          # what robrst design reads
+    # the twin file: what robrst simulate reads, the stiffness on with the fitted c
+    cfg = load_twin(out / "twin.toml")
+    assert [k for k in cfg.effects if cfg.enabled(k)] == ["stiffness_nonlinearity"]
+    assert cfg.effects["stiffness_nonlinearity"]["cubic_per_um2"] == pytest.approx(c, rel=1e-12)
+    assert cfg.sample_rate_hz == 5000.0
+    # the held-out error of the answer, recomputed: the twin on the test record in steady state
+    rec = test[0]
+    P = rec.period
+    u = np.concatenate([rec.u[-P:], rec.u])
+    y = simulate(cfg, np.full(u.size, 30.0), u=u).y_true[P:]
+    nrmse = np.linalg.norm(rec.y - y) / np.linalg.norm(rec.y - rec.y.mean())
+    assert nrmse == pytest.approx(d["gap"]["after"], rel=1e-6)
+    assert nrmse < 2 * d["gap"]["noise_floor"]
+    # the Duffing law at a held voltage: y + c y^3 = k u (k the file's static gain)
+    k = float(np.real(control.dcgain(g)))
+    y_hold = simulate(cfg, np.full(20000, 30.0), u=np.full(20000, 100.0)).y_true[-1]
+    root = np.roots([c, 0.0, 1.0, -k * 100.0])
+    assert y_hold == pytest.approx(float(root[np.isreal(root)].real[0]), rel=1e-6)
