@@ -29,6 +29,7 @@ def sequential(tmp_path_factory, robust_result):
     return path, run_sweep(path, folder / "out", workers=0)
 
 
+@pytest.mark.slow
 def test_cluster_rows_equal_the_sequential_run(sequential, scheduler, tmp_path):
     path, seq = sequential
     res = run_sweep(path, tmp_path / "out", scheduler=scheduler)
@@ -41,6 +42,7 @@ def test_cluster_rows_equal_the_sequential_run(sequential, scheduler, tmp_path):
             assert res.summary[k] == seq.summary[k]
 
 
+@pytest.mark.slow
 def test_a_killed_worker_loses_only_its_chunk_which_is_retried(sequential, scheduler,
                                                                  tmp_path):
     from distributed import Client
