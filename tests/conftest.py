@@ -14,6 +14,18 @@ REPRO = ROOT / "tests" / "repro"
 # the reproducers are data (problem files, a script that writes a record), not test modules
 collect_ignore = ["repro"]
 
+# the package's doctests that design, sweep or simulate (8-15 s each) run with -m slow
+SLOW_DOCTESTS = {"robrst.report.sweep.write_sweep_report",
+                 "robrst.report.design.write_design_report",
+                 "robrst.design.mimo.design_mimo"}
+
+
+def pytest_collection_modifyitems(config, items):
+    """Mark the slow doctests (a docstring cannot carry a pytest mark)."""
+    for item in items:
+        if item.name in SLOW_DOCTESTS:
+            item.add_marker(pytest.mark.slow)
+
 
 @pytest.fixture(scope="session")
 def root():

@@ -60,7 +60,6 @@ __all__ = ["MimoLoopFigures", "MimoModelRecord", "MimoViolation", "MimoCertifica
 REFINE_RATIO = 0.5      # halve an interval when a figure moves by more than this x its margin
 LOOPS = ("continuous", "sampled")
 PEAK_RTOL = 1e-9        # the accuracy of every exact peak
-SIGMA_FIGURES = tuple(r.figure for r in MIMO_SPECS if r.kind in ("sigma", "sector"))
 BANDWIDTH_LEVEL = 1.0 / np.sqrt(2.0)
 
 

@@ -414,14 +414,6 @@ def _named(plant, viol):
     return [replace(v, label=plant.label) for v in viol]
 
 
-def check_sampled(plant, ctrl, specs, rtol, family=None):
-    """:func:`check_model` of the sampled loop of ``plant`` (its sampled plant from
-    ``family``'s memo when given), violations naming ``plant``."""
-    ps, fs = _sampled_loop(plant, specs, family)
-    figs, viol = check_model(ps, ctrl, specs, rtol, fs=fs)
-    return figs, _named(plant, viol)
-
-
 def check_all(m: Plant, ctrl: RSTController, specs: Specs, rtol: float,
               checks: Sequence[Callable],
               family: PlantFamily | None = None) -> tuple[ModelRecord, list[Violation]]:

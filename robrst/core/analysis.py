@@ -111,10 +111,6 @@ class Analysis:
     delay_samples: int = 0
 
 
-def _fin(x):
-    return None if x is None or not np.isfinite(x) else float(x)
-
-
 def sensitivity(plant: Plant, ctrl: RSTController, name: str, w: ArrayLike) -> np.ndarray:
     """Complex frequency response of sensitivity ``name`` in S, T, U, Sd, Tr at ``w`` [rad/s].
 

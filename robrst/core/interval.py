@@ -32,9 +32,6 @@ __all__ = ["SegmentCrossing", "segment_crossing", "distance_to_instability",
            "distance_to_instability_many", "hurwitz_guardian", "ParameterProof",
            "parameter_crossing"]
 
-EPS = np.finfo(float).eps
-
-
 @dataclass(frozen=True)
 class SegmentCrossing:
     """Result of :func:`segment_crossing`.

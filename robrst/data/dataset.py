@@ -35,7 +35,6 @@ __all__ = ["Dataset", "load_dataset", "save_dataset", "check_dataset", "check_se
            "PLAUSIBLE"]
 
 COLUMNS = ("t", "u", "y")          # required (u/y or u1..uk/y1..ym)
-OPTIONAL = ("temp", "yr")
 # plausible ranges per kind of column (units s, V, µm, °C)
 PLAUSIBLE = {"u": (-1000.0, 1000.0, "V"), "y": (-1.0e4, 1.0e4, "µm"), "yr": (-1.0e4, 1.0e4, "µm"),
              "temp": (-60.0, 200.0, "°C")}

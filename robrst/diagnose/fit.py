@@ -617,22 +617,6 @@ class Fitted:
         V, _ = self.effective_input(p, x)
         return self.output_side(self.linear_output(p, V, x), x)
 
-    def predict(self, d: Dataset, reference_C: float) -> np.ndarray:
-        """Simulated outputs ``(N, m)`` of record ``d`` (steady state when periodic).
-
-        Parameters
-        ----------
-        d : Dataset
-            The record.
-        reference_C : float
-            The temperature of a record without one [°C].
-
-        Returns
-        -------
-        numpy.ndarray
-        """
-        return self.predict_prepared(prepare(d, reference_C, for_fit=False))
-
     def params(self) -> dict:
         """Reported effect parameters and 1-sigma (delta method): ``{effect: (values, sds)}``.
 

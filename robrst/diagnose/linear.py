@@ -266,10 +266,6 @@ class LinearPart:
         self._term_cache["moves_key"], self._term_cache["moves"] = key, H
         return H
 
-    def _H_moved(self, theta, i, N):
-        """The sampled transfer with correction ``i`` moved (:meth:`_H_moves` of one)."""
-        return self._H_moves(theta, (i,), N)[0]
-
     def _moved(self, new, Rm, th, q, z):
         """Scalars of the other modes' residues and the moved mode ``q``'s term (with D) at
         ``th`` (which moves only mode ``q``'s pole)."""

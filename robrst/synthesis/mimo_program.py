@@ -235,36 +235,6 @@ class AxisParam:
         R[-1] = gain * Sp[-1]
         return np.concatenate([Sp[1:], R])
 
-    def from_controller(self, ctrl: RSTController) -> np.ndarray:
-        """``x`` of an RST law of this structure (``S = s F S'`` up to rounding).
-
-        Parameters
-        ----------
-        ctrl : RSTController
-
-        Returns
-        -------
-        numpy.ndarray
-
-        Raises
-        ------
-        ValueError
-            When ``S`` is not of this structure.
-        """
-        sc = poly.Scaling(self.w0)
-        Ss, Rs = sc.apply(ctrl.S), sc.apply(ctrl.R)
-        lead = Ss[0] / self.F[0]
-        Ss, Rs = Ss / lead, Rs / lead
-        q, r = np.polydiv(Ss, poly.pprod(np.array([1.0, 0.0]), self.F))
-        if len(q) != self.d + 1 or np.max(np.abs(r), initial=0.0) > 1e-8 * np.max(np.abs(Ss)):
-            raise ValueError("the controller's S is not of this axis's structure")
-        R = np.zeros(self.deg_r + 1)
-        Rs = poly.trim(Rs)
-        if len(Rs) > len(R):
-            raise ValueError("the controller's R has a higher degree than the structure")
-        R[len(R) - len(Rs):] = Rs
-        return np.concatenate([q[1:] / q[0], R])
-
 
 class GridRows:
     """The grid rows of the program, evaluated in numpy with their exact Jacobian.

@@ -19,7 +19,6 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from robrst.base import resources
 from robrst.base.errors import SpecError
 from robrst.core.plant import NAMED_PLANTS, Plant, as_plant, named_plant
 from robrst.base.schema import Field, key_error, load_toml, validate
@@ -474,7 +473,3 @@ def default_twin() -> TwinConfig:
     """
     return parse_twin({}, "<default twin>")
 
-
-def paper_twin_file():
-    """Path of the shipped twin file of the paper's actuator (same values, with sources)."""
-    return resources.builtin_twin()

@@ -195,7 +195,8 @@ def _sequential_refine(family, ctrl, specs, rtol, recs, budget, ignore):
     return sorted(recs), viols, n_unresolved
 
 
-@pytest.mark.parametrize("seed", [42, 116, 127])
+@pytest.mark.parametrize("seed", [42, pytest.param(116, marks=pytest.mark.slow),
+                                  pytest.param(127, marks=pytest.mark.slow)])
 def test_refinement_in_batches_is_the_depth_first_halving(seed):
     import random_problems as rp
     from robrst.certificate.proof import certify

@@ -172,6 +172,7 @@ def test_unclear_messages_name_the_cause_the_key_and_the_file(repro_dir, capsys,
     assert "not coprime" not in err[0]
 
 
+@pytest.mark.slow
 def test_certified_ringing_stage_certificate_holds(repro_dir):
     """certified_ringing_stage.toml: a certified controller that notches the resonance (a
     local optimum; the damping and step specs that steer the design away from it are the

@@ -104,6 +104,7 @@ def _parametric_cases(n):
         yield case, pr, ctrl
 
 
+@pytest.mark.slow
 def test_parametric_guardian_proof_agrees_with_the_independent_family_law():
     """Parametric families: 'guardian_map' (stability proved over the interval) only when
     the checker's own thermal law finds every one of 401 temperatures stable; every stable
@@ -128,6 +129,7 @@ def test_parametric_guardian_proof_agrees_with_the_independent_family_law():
     assert seen["proved"] >= 1 and seen["unstable"] >= 1, seen
 
 
+@pytest.mark.slow
 def test_refinement_isolates_the_order_change_and_stays_sound(designs):
     """paper_robust's creep pair cancels exactly at the 28 °C reference (the closed-loop
     degree drops there): one probe within the resolution floor isolates it, instead of
@@ -158,7 +160,7 @@ def test_refinement_isolates_the_order_change_and_stays_sound(designs):
                 assert rp.dense_peak(N, Delta, n_grid=4000)[0] <= bound * (1 + cert.rtol), (T, name)
 
 
-@pytest.mark.parametrize("seed", [0, 4, 14])
+@pytest.mark.parametrize("seed", [0, pytest.param(4, marks=pytest.mark.slow), 14])
 def test_interval_record_claims_no_proof_it_did_not_make(seed):
     """An explicit family with an unstable member: that segment cannot be tested, so the
     record must not say the zero-crossing test proved stability over the interval (it did

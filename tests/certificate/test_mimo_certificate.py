@@ -19,6 +19,7 @@ from robrst.problem.mimo import MimoSpecs
 
 FS = 20000.0
 CASES = [(seed, 2) for seed in range(4)] + [(seed, 3) for seed in range(10, 13)]
+FAST_CASES = [(2, 2), (3, 2)]      # the others take 7-13 s each: -m slow
 
 
 def _controller(g, seed):
@@ -46,7 +47,8 @@ def _pc_loops(g, axes, W, fs=None):
             "U": control.feedback(K, G)}
 
 
-@pytest.mark.parametrize("seed,m", CASES)
+@pytest.mark.parametrize("seed,m", [c if c in FAST_CASES else pytest.param(*c, marks=pytest.mark.slow)
+                                    for c in CASES])
 def test_certified_peaks_agree_with_a_dense_grid(seed, m):
     g, = random_stage(seed, m)
     P = MimoPlant.from_control(g, "stage", 20.0)
@@ -87,7 +89,7 @@ def test_certified_peaks_agree_with_a_dense_grid(seed, m):
     assert "sampled" in checked      # the case is not vacuous: the loop runs stable
 
 
-@pytest.mark.parametrize("seed", [1, 11])
+@pytest.mark.parametrize("seed", [1, pytest.param(11, marks=pytest.mark.slow)])
 def test_stability_between_members_holds_where_proved(seed):
     """Two models 8 % apart: where the certificate proves stability on the segment, every
     convex combination python-control closes (41 of them) is stable."""

@@ -34,7 +34,7 @@ def stage():
                                     overshoot_max_pct=100.0))
 
 
-@pytest.mark.parametrize("which", ["ringing", "analytic"])
+@pytest.mark.parametrize("which", [pytest.param("ringing", marks=pytest.mark.slow), "analytic"])
 def test_figures_match_python_control(stage, which):
     ctrl = RINGING if which == "ringing" else analytic_design(stage).controller
     cert = certify_problem(stage, ctrl)
@@ -88,6 +88,7 @@ def test_default_floor_is_the_plant_damping_share(stage):
     assert region is None or region.damping_min is None
 
 
+@pytest.mark.slow
 def test_region_proof_between_temperatures_against_a_dense_sweep(stage):
     """When the certificate proves the pole region between its points, a dense sweep of
     401 temperatures (python-control) finds every pole in the region too."""

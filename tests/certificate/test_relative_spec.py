@@ -46,6 +46,7 @@ def cert(stage):
     return certify_problem(stage, analytic_design(stage).controller)
 
 
+@pytest.mark.slow
 def test_relative_figures_match_an_independent_computation(stage, cert):
     ctrl = analytic_design(stage).controller
     fs, k = stage.specs.sample_rate_hz, stage.specs.delay_samples
@@ -122,6 +123,7 @@ def test_the_robust_program_meets_a_binding_relative_bound():
     assert loopcheck.continuous(m, analytic).Msd / loopcheck._peak(m.B, m.A) > bound
 
 
+@pytest.mark.slow
 def test_the_sampled_robust_program_meets_a_binding_relative_bound():
     """paper_robust (20 kHz sampled loop, 7 models, 2-DOF): its design's worst ratio is
     0.082 (sampled loop, 45 °C); a bound of 0.07 binds, and every family member meets it in

@@ -299,6 +299,7 @@ def _report_cmd(out, *extra):
             *extra]
 
 
+@pytest.mark.slow
 def test_two_reports_into_one_folder_at_once(tmp_path):
     """Two `robrst report` runs with the same --out at once: both succeed (the second waits
     for the first's swap), the folder is one whole report, nothing else is left."""
@@ -340,6 +341,7 @@ def _whole_report(folder):
     return listed == {p.name for p in folder.iterdir()} - {".robrst-report"}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig, code, word", [(signal.SIGTERM, 143, "terminated"),
                                              (signal.SIGINT, 130, "interrupted")])
 def test_a_stopped_report_leaves_no_temporary_folder(tmp_path, sig, code, word):
@@ -364,6 +366,7 @@ def test_a_stopped_report_leaves_no_temporary_folder(tmp_path, sig, code, word):
                                                              if k.endswith(".png")}
 
 
+@pytest.mark.slow
 def test_a_stopped_diagnosis_report_leaves_no_temporary_folder(tmp_path):
     """SIGTERM during `robrst diagnose --report` left .rep.XXXXXXXX (1 of 3 runs)."""
     k = np.arange(4000)
@@ -377,6 +380,7 @@ def test_a_stopped_diagnosis_report_leaves_no_temporary_folder(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.csv"]
 
 
+@pytest.mark.slow
 def test_a_temporary_folder_of_a_killed_writer_is_removed_by_the_next(tmp_path):
     """SIGKILL cannot be caught: the next writer of the folder removes what the killed one
     left (its mark names a process that no longer runs), and nothing else."""

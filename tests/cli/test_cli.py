@@ -54,6 +54,7 @@ def test_errors_are_one_line_without_traceback(tmp_path):
     assert "bad.toml: [poles.wobble] unknown key" in lines[0]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["paper_robust_continuous", "repro:relaxed_band_reported_infeasible.toml"])
 def test_design_json_stdout_is_only_json_from_a_real_process(name, repro_dir):
     """IPOPT prints from C straight to file descriptor 1: only a real process shows whether

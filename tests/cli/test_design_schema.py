@@ -69,6 +69,7 @@ def test_the_schema_declares_the_contract_in_its_order():
     assert set(published) <= {f.name for f in fields(Specs)}
 
 
+@pytest.mark.slow
 def test_real_outputs_validate(capsys, tmp_path):
     """A certified, a not-certified and a sampled 2-DOF design, and certify of a saved one."""
     certified = run_json(capsys, "design", "paper")

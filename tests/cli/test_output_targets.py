@@ -73,6 +73,7 @@ def _snapshot(root):
     return {p.relative_to(root): p.read_bytes() for p in root.rglob("*") if p.is_file()}
 
 
+@pytest.mark.slow
 def test_simulate_never_writes_into_a_users_folder(tmp_path, capsys):
     """A folder holding the user's own fig2_0V.csv: refused before the simulation (it was
     overwritten); --force writes the scenario's files and touches nothing else."""
@@ -118,6 +119,7 @@ def test_export_owns_only_files_it_wrote(tmp_path, capsys):
     capsys.readouterr()
 
 
+@pytest.mark.slow
 def test_a_linked_report_folder_stays_a_link(tmp_path, capsys):
     """`report --out LINK` (LINK -> an earlier report): the folder it names is replaced, the
     link kept (it was renamed to .LINK.old.PID and left behind)."""
@@ -137,6 +139,7 @@ def test_a_linked_report_folder_stays_a_link(tmp_path, capsys):
     capsys.readouterr()
 
 
+@pytest.mark.slow
 def test_names_cannot_lead_outside_the_output_folder(tmp_path, capsys, monkeypatch):
     """A problem named '../../escaped' reports under reports/, a convert --name with a folder
     part is refused (both wrote outside the intended folder)."""

@@ -55,6 +55,7 @@ def test_a_sweep_whose_every_variant_is_invalid_still_reports(tmp_path, first_or
     assert "computation failed" not in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_sweep_report_folder_is_checked_before_any_work(tmp_path, first_order, capsys):
     """A file of the user's in OUT/report: refused at once, results untouched (it used to
     recompute and rewrite the results, then fail, suggesting a --force sweep did not have);

@@ -33,6 +33,7 @@ def _no_design(monkeypatch):
     monkeypatch.setattr(robust, "robust_synthesis", boom)
 
 
+@pytest.mark.slow
 def test_records_to_hardware_on_a_users_stage(tmp_path, capsys, monkeypatch):
     recs = write_records(tmp_path)
     stage = tmp_path / "stage.toml"

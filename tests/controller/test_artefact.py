@@ -104,6 +104,7 @@ def test_load_design_gives_the_saved_controller_and_its_certificate_again(saved,
         assert a["Ms"] == b["Ms"] and a["gain_margin"] == b["gain_margin"]
 
 
+@pytest.mark.slow
 def test_the_commands_take_a_saved_design_without_designing(saved, tmp_path, monkeypatch,
                                                              capsys, designs):
     _no_design(monkeypatch)
@@ -126,6 +127,7 @@ def test_the_commands_take_a_saved_design_without_designing(saved, tmp_path, mon
     assert main(["certify", str(saved), "--quiet"]) == 0
 
 
+@pytest.mark.slow
 def test_export_of_a_saved_design_at_another_rate_certifies_that_loop(saved, monkeypatch,
                                                                       capsys, designs):
     """No re-design at another --fs (a problem file would be re-designed): the saved

@@ -17,12 +17,6 @@ from robrst.core.rst import RSTController, tustin_polynomials
 FS = 20000.0
 
 
-@pytest.fixture(scope="module")
-def controllers(designs):
-    return {name: designs(name).controller
-            for name in ("paper", "paper_robust", "paper_robust_continuous")}
-
-
 def _python_control_tustin(ctrl, fs):
     """``R_z, S_z, T_z`` from ``control.c2d(..., 'tustin')`` of the time-scaled R/S, T/S."""
     w0 = 1e4                                          # any O(1)-making scale
@@ -54,9 +48,14 @@ def random_controller(rng, n_real=2, n_pairs=1, integrators=1, spread=3.0, bipro
     return RSTController(R, S, T)
 
 
-@pytest.mark.parametrize("name", ["paper", "paper_robust", "paper_robust_continuous"])
-def test_direct_form_matches_python_control_tustin(controllers, name):
-    ctrl = controllers[name]
+# the continuous-only robust design (10-20 s, no other default test needs it): -m slow
+SHIPPED = ["paper", "paper_robust",
+           pytest.param("paper_robust_continuous", marks=pytest.mark.slow)]
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_direct_form_matches_python_control_tustin(designs, name):
+    ctrl = designs(name).controller
     R_z, S_z, T_z = tustin_polynomials(ctrl, FS)
     R_pc, S_pc, T_pc = _python_control_tustin(ctrl, FS)
     assert S_z[0] == 1.0
@@ -65,10 +64,10 @@ def test_direct_form_matches_python_control_tustin(controllers, name):
     assert abs(np.sum(S_z)) < 1e-12                  # the integrator: S_z(1) = 0
 
 
-@pytest.mark.parametrize("name", ["paper", "paper_robust", "paper_robust_continuous"])
-def test_sections_reproduce_the_controller(controllers, name):
+@pytest.mark.parametrize("name", SHIPPED)
+def test_sections_reproduce_the_controller(designs, name):
     """Sections vs the polynomials at the Tustin points: relative 1e-12 on both channels."""
-    ctrl = controllers[name]
+    ctrl = designs(name).controller
     dc = digital_controller(ctrl, FS)
     th = frequency_grid(2000)
     # up to 1e-4 below Nyquist, where theta itself is known to 1e-12 relative in pi - theta

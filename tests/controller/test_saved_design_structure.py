@@ -64,6 +64,7 @@ def test_integral_gain_is_the_limit_of_s_R_over_S(good, tmp_path):
     assert bad.integral_gain == 0.0 and bad.as_dict()["integral_gain"] == 0.0
 
 
+@pytest.mark.slow
 def test_a_controller_without_the_integrator_is_not_certified(good, tmp_path, capsys):
     path = _edited(good, tmp_path)
     res = load_design(path)

@@ -116,7 +116,7 @@ def test_python_control_margins_on_the_returned_loop(loops, name):
     assert sm == pytest.approx(a.margins.modulus_margin, rel=1e-7)   # |S| peak at finite w
 
 
-@pytest.mark.parametrize("name", ["paper", "paper_robust"])
+@pytest.mark.parametrize("name", ["paper", pytest.param("paper_robust", marks=pytest.mark.slow)])
 def test_python_control_feedback_and_step_on_the_returned_objects(loops, name):
     r, m, cl, cld = loops[name]
     ctrl = r.controller

@@ -183,6 +183,7 @@ def test_band_containing_nyquist_is_checked_at_nyquist(repro_dir):
                and v.freq_rad_s == pytest.approx(np.pi * fs) for v in cert.violations)
 
 
+@pytest.mark.slow
 def test_band_top_sweep_is_not_certified(repro_dir, tmp_path, capsys, monkeypatch):
     """`robrst sweep sampled_band_top_unchecked/sweep.toml --workers 0`: exit 1 (was 0)."""
     folder, _, _ = _band_top(repro_dir)

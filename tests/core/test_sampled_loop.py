@@ -21,11 +21,6 @@ from robrst.problem.files import load_problem
 FS = 20000.0
 
 
-@pytest.fixture(scope="module")
-def controllers(designs):
-    return {name: designs(name).controller for name in ("paper", "paper_robust_continuous")}
-
-
 def _scaled_tf(num, den, w0, dt=None):
     """``num(w0 p)/den(w0 p)`` with O(1) coefficients (numerator padded to deg den)."""
     n = len(den) - 1
@@ -68,10 +63,11 @@ def test_warp_round_trip():
 
 
 @pytest.mark.parametrize("delay", [0, 1, 2])
-@pytest.mark.parametrize("name", ["paper", "paper_robust_continuous"])
-def test_sampled_peak_matches_python_control_discrete_loop(controllers, name, delay):
+@pytest.mark.parametrize("name", [     # the robust design takes 10-20 s: -m slow
+    "paper", pytest.param("paper_robust_continuous", marks=pytest.mark.slow)])
+def test_sampled_peak_matches_python_control_discrete_loop(designs, name, delay):
     """Exact Ms of the warped loop vs python-control's discrete loop on the unit circle."""
-    ctrl = controllers[name]
+    ctrl = designs(name).controller
     for plant in (paper_plant(), load_problem("paper_robust").family.at(45.0)):
         cl = closed_loop(sampled_plant(plant, FS, delay), ctrl)
         exact = peak_gain(cl.nums["S"], cl.Delta).value
@@ -81,8 +77,8 @@ def test_sampled_peak_matches_python_control_discrete_loop(controllers, name, de
 
 
 @pytest.mark.parametrize("delay", [0, 1])
-def test_sampled_closed_loop_poles_map_to_the_discrete_ones(controllers, delay):
-    plant, ctrl = paper_plant(), controllers["paper"]
+def test_sampled_closed_loop_poles_map_to_the_discrete_ones(designs, delay):
+    plant, ctrl = paper_plant(), designs("paper").controller
     _, z = python_control_loop(plant, ctrl, FS, delay)
     q = 2 * FS * (z - 1) / (z + 1)
     cl = closed_loop(sampled_plant(plant, FS, delay), ctrl)
@@ -109,8 +105,13 @@ def test_sampled_problem_is_certified_and_agrees_with_python_control(designs):
         L, poles = python_control_loop(res.problem.family.at(T), res.controller, FS, 0)
         assert rec.sampled.Ms == pytest.approx(unit_circle_peak(L, FS), rel=1e-6)
         assert np.max(np.abs(poles)) < 1
-    # the continuous-only robust design spends the amplifier at Nyquist once sampled:
-    # |U| = |K_d / (1 + L)| at z = -1 beyond the bound; the sampled design's K_d(-1) = 0
+
+
+@pytest.mark.slow      # the continuous-only robust design: 10-20 s
+def test_only_the_sampled_design_rolls_off_at_nyquist(designs):
+    """The continuous-only robust design spends the amplifier at Nyquist once sampled:
+    |U| = |K_d / (1 + L)| at z = -1 beyond the bound; the sampled design's K_d(-1) = 0."""
+    sp = designs("paper_robust").problem.specs
     for name, bad in (("paper_robust_continuous", True), ("paper_robust", False)):
         ctrl = designs(name).controller
         L, _ = python_control_loop(paper_plant(), ctrl, FS, 0)

@@ -11,6 +11,7 @@ jointly), so the third level is predicted to 2 % of its signal, not to the noise
 
 import control
 import numpy as np
+import pytest
 
 from robrst.data.dataset import Dataset
 from robrst.diagnose import diagnose
@@ -40,6 +41,7 @@ def _record(level, seed, noise=2e-4):
                    source=f"a{level:g}_{seed}")
 
 
+@pytest.mark.slow
 def test_level_slopes_fitted_on_two_levels_predict_a_third():
     train = [_record(a, s) for a, s in ((0.1, 1), (0.1, 2), (0.2, 3), (0.2, 4))]
     test = [_record(0.3, 5)]

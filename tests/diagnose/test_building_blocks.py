@@ -225,6 +225,7 @@ def test_fit_effects_names_bad_requests():
         fit_effects([_ds(u[:100], u[:100], name="a.csv")], ["creep"])
 
 
+@pytest.mark.slow
 def test_fit_effects_joint_recovers_effect_and_model_error():
     """Creep on a plant whose gain is 6 % above the user's model: fitted jointly, both found."""
     plant = paper_plant()

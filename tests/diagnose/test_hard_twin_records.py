@@ -78,6 +78,7 @@ def test_a_pure_sensor_offset_is_named_not_hysteresis():
     assert sh["linear_model_error"] + sh["unexplained_by_linear"] < 2e-5
 
 
+@pytest.mark.slow
 def test_a_hysteresis_under_an_offset_names_both():
     """Hysteresis + 2 µm: was `hysteresis` alone (81x the floor left), the offset unnamed."""
     dg = diagnose(*_records(("hysteresis",), 0, offset=OFFSET_UM))
@@ -108,6 +109,7 @@ def test_b_decomposition_is_a_partition_when_an_effect_moves_the_mean():
     assert sh["noise"] == pytest.approx((dg.noise_floor / dg.gap_before) ** 2, rel=1e-12)
 
 
+@pytest.mark.slow
 def test_c_creep_hidden_behind_saturation_is_named():
     """Creep + saturation (drive to 170 V, temperature ramps): creep alone did not improve
     on the model (0.1039 -> 0.1038) and was never tried; only saturation was named with

@@ -43,12 +43,15 @@ def _twin(effect, over, lo=5.0, hi=145.0, n=30000, seeds=(5, 6)):
 
 
 @pytest.mark.parametrize("effect,over,names,kw", [
-    ("input_nonlinearity", {"dead_zone_V": 8.0, "center_V": 0.0, "quadratic_per_V": 1e-3},
-     {"dead_zone_V": 8.0, "center_V": 0.0, "quadratic_per_V": 1e-3}, {"lo": -70, "hi": 70}),
+    pytest.param("input_nonlinearity",
+                 {"dead_zone_V": 8.0, "center_V": 0.0, "quadratic_per_V": 1e-3},
+                 {"dead_zone_V": 8.0, "center_V": 0.0, "quadratic_per_V": 1e-3},
+                 {"lo": -70, "hi": 70}, marks=pytest.mark.slow),
     ("output_nonlinearity", {"center_um": 40.0, "quadratic_per_um": 2e-3, "cubic_per_um2": -1e-5},
      {}, {}),
     ("slew", {"V_per_s": 2e4, "V_per_s_down": 8e3}, {"V_per_s": 2e4, "V_per_s_down": 8e3}, {}),
-    ("stiffness_nonlinearity", {"cubic_per_um2": 3e-6}, {"cubic_per_um2": 3e-6}, {}),
+    pytest.param("stiffness_nonlinearity", {"cubic_per_um2": 3e-6}, {"cubic_per_um2": 3e-6},
+                 {}, marks=pytest.mark.slow),
 ])
 def test_round_trip(effect, over, names, kw):
     recs = _twin(effect, over, **kw)
@@ -82,6 +85,7 @@ def test_prandtl_ishlinskii_round_trip_on_the_grid_thresholds():
     np.testing.assert_allclose(got, w, rtol=0, atol=1e-4)
 
 
+@pytest.mark.slow
 def test_cross_coupling_round_trip_two_channels():
     """Two stages simulated by python-control, input 2 driving stage 1 at 15 %, output 1
     leaking into output 2 at -8 %; the model is diagonal."""

@@ -43,6 +43,7 @@ def _files(tmp_path, train, test):
     return tr, te
 
 
+@pytest.mark.slow
 def test_model_out_writes_a_model_design_and_simulate_read(tmp_path, capsys):
     train, test, _ = make_case("hysteresis", 1)
     tr, te = _files(tmp_path, train, test)

@@ -38,6 +38,7 @@ def _write_reproducer(path, n=3000):
     return path
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("n", [3000, 4000])
 def test_noise_free_sine_is_diagnosed_not_a_crash(tmp_path, capsys, n):
     rec = _write_reproducer(tmp_path / "sine.csv", n)

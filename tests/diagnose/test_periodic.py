@@ -79,6 +79,7 @@ def test_plain_mirror_files_are_found_periodic_with_the_period_floor(tmp_path):
     assert est.method == "undetermined" and est.levels.max() == 0.0
 
 
+@pytest.mark.slow
 def test_twin_records_of_every_kind_are_not_periodic():
     for case in ("hysteresis", "creep", "thermal_drift", "delay", "slew", "none"):
         for seed in (1, 2):

@@ -6,9 +6,12 @@ with one clear line, never the last resort."""
 
 import runpy
 
+import pytest
+
 from robrst.cli import LAST_RESORT, main
 
 
+@pytest.mark.slow
 def test_noise_free_sine_record_is_diagnosed(repro_dir, tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     runpy.run_path(str(repro_dir / "diagnose_noise_free_sine" / "make.py"))

@@ -88,6 +88,7 @@ def test_frf_departure_is_welchs_h1():
     assert out["max_rel_error"] >= 0.5 * np.max(rel[use])
 
 
+@pytest.mark.slow
 def test_held_out_screen_scores_equal_explicit_columns():
     """A candidate's held-out gap from one prediction per record equals the gap of the same
     coefficients applied to every column simulated on its own (python-control)."""

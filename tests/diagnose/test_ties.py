@@ -118,6 +118,7 @@ BRANCHES = ("selected", "stop: the largest set", "stop: at the noise floor",
             "dropped", "tie")
 
 
+@pytest.mark.slow
 def test_the_seeded_worlds_drive_every_branch_of_the_selection():
     seen, verdicts, tie_slots = set(), set(), set()
     for seed in range(400):

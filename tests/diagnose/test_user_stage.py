@@ -71,6 +71,7 @@ def test_thermal_dynamics_across_records_at_constant_temperatures():
     assert p["damping_per_K"] == pytest.approx(0.005, rel=0.1)
 
 
+@pytest.mark.slow
 def test_saturation_lower_limit_at_zero_volts():
     """A drive clipped to 0..70 V; commands: white 50 +- 25 V (2.5 % of the samples below
     0 V), a chirp and steps within 25..75 V.  The lower limit used to stay at the data

@@ -49,6 +49,7 @@ def test_the_temperature_family_is_the_fitted_thermal_law_with_its_uncertainty(r
         assert 0 < law.std[k] < 0.2 * abs(v)
 
 
+@pytest.mark.slow
 def test_the_problem_and_model_files_read_back_and_diagnose(records, tmp_path, capsys):
     out = tmp_path / "stage.toml"
     assert main(["identify", "--train", *map(str, records[1]), "--validate",

@@ -11,6 +11,7 @@ import tomllib
 
 import control
 import numpy as np
+import pytest
 
 from robrst.cli import main
 from robrst.data.dataset import Dataset, save_dataset
@@ -86,6 +87,7 @@ def test_too_few_excited_lines_are_a_note_not_a_crash():
     assert res.order <= 4
 
 
+@pytest.mark.slow
 def test_single_step_record_chooses_the_order_on_the_whole_record():
     """One 50 V step, 0.5 s: the last 30 % has settled and cannot tell orders apart (every
     order scored ~1 there and order 1 was chosen, missing the resonance)."""
@@ -98,6 +100,7 @@ def test_single_step_record_chooses_the_order_on_the_whole_record():
     assert _frf_error(res.model, sys_c, 10.0, 2000.0) < 0.02
 
 
+@pytest.mark.slow
 def test_validation_records_are_scored_at_their_own_temperature():
     """A family at 20/45/70 °C (resonance 800/700/600 Hz) validated on records at those
     temperatures: each record against its own temperature's model (all were scored against
@@ -118,6 +121,7 @@ def test_validation_records_are_scored_at_their_own_temperature():
     assert res.order == 2 and res.heldout_nrmse < 0.05
 
 
+@pytest.mark.slow
 def test_problem_file_reproduces_the_identified_model_at_high_order(tmp_path):
     """Order 8 (two resonances + spare poles): the written B, A reproduce the identified
     model to the expansion's rounding (B's high powers used to be zeroed after unscaling:

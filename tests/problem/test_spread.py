@@ -6,6 +6,9 @@ set, the plant factors on it), and a hand-built model (the resonance and damping
 pole pairs scaled from its roots, the laws applied by hand) at one temperature.
 """
 
+import json
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -22,6 +25,17 @@ def _fleet_doc(problems_dir):
     return load_toml(problems_dir / "paper_robust_fleet.toml", "problem file")
 
 
+@pytest.fixture(scope="module")
+def montecarlo(tmp_path_factory):
+    """``paper_montecarlo`` prepared by the sweep engine (:func:`prepare`), its controller
+    read from a result file instead of designed: the draws and the variant problems do not
+    depend on the controller (the design of paper_robust would take 20 s)."""
+    folder = tmp_path_factory.mktemp("montecarlo")
+    result = folder / "result.json"
+    result.write_text(json.dumps({"controller": {"R": [1.0], "S": [1.0, 0.0], "T": [1.0]}}))
+    return prepare(replace(load_sweep("paper_montecarlo"), controller=str(result)))
+
+
 def test_shipped_fleet_problem_states_the_montecarlo_spread(problems_dir):
     """paper_robust_fleet's spread is paper_montecarlo's, parameter by parameter."""
     p = load_problem("paper_robust_fleet")
@@ -30,10 +44,10 @@ def test_shipped_fleet_problem_states_the_montecarlo_spread(problems_dir):
     assert (p.spread.yield_target, p.spread.confidence) == (0.95, 0.99)
 
 
-def test_drawn_actuators_equal_the_sweep_variants_of_the_same_values(problems_dir):
+def test_drawn_actuators_equal_the_sweep_variants_of_the_same_values(montecarlo):
     """Same values -> the same models, bit for bit, as the sweep's variant problems."""
     p = load_problem("paper_robust_fleet")
-    ctx, table = prepare(load_sweep("paper_montecarlo"))
+    ctx, table = montecarlo
     rows = table.values[:6]
     fams = p.spread.actuators(p.family, rows)
     for row, fam in zip(rows, fams):
@@ -45,10 +59,10 @@ def test_drawn_actuators_equal_the_sweep_variants_of_the_same_values(problems_di
             np.testing.assert_array_equal(a.A, b.A)
 
 
-def test_draws_are_the_sweep_engines_draws_for_the_same_seed(problems_dir):
+def test_draws_are_the_sweep_engines_draws_for_the_same_seed(montecarlo):
     """One owner of the draws: the spread's rows are the sweep table's for the same seed."""
     p = load_problem("paper_robust_fleet")
-    _, table = prepare(load_sweep("paper_montecarlo"))
+    _, table = montecarlo
     np.testing.assert_array_equal(draw_rows(p.spread.params, 1000, 2026), table.values)
     assert not np.array_equal(p.spread.draws(50), table.values[:50])   # its own seed
 

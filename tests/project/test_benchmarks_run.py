@@ -7,7 +7,13 @@ import pytest
 from benchmarks.__main__ import available, main
 
 
-@pytest.mark.parametrize("name,mod", available(), ids=[n for n, _ in available()])
+# the tiny runs that design with the NLP or diagnose (4-130 s each) run with -m slow
+SLOW = {"global", "synthesis", "userflow", "peaks", "variants", "diagnosis", "sweep"}
+
+
+@pytest.mark.parametrize("name,mod", [
+    pytest.param(n, m, id=n, marks=[pytest.mark.slow] if n in SLOW else [])
+    for n, m in available()])
 def test_benchmark_runs_tiny(name, mod):
     r = mod.run(tiny=True)
     assert r.name and r.headline and isinstance(r.met, bool)

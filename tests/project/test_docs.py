@@ -114,13 +114,22 @@ CHECKS = {
 }
 SETUP = {"guide/ci.md": setup_ci}
 RUNNABLE = [p for p in PAGES if python_blocks(p)]
+# the pages whose examples design with the NLP, identify or diagnose (7-80 s each) run with
+# -m slow (.ci/run)
+SLOW_PAGES = {"guide/export.md", "guide/python.md", "guide/multi-axis.md",
+              "guide/poles-and-degrees.md", "guide/design.md", "guide/identify.md",
+              "guide/diagnose.md"}
 
 
 def test_every_runnable_page_has_a_check():
     assert sorted(str(p.relative_to(DOCS)) for p in RUNNABLE) == sorted(CHECKS)
+    assert SLOW_PAGES <= set(CHECKS)
 
 
-@pytest.mark.parametrize("page", RUNNABLE, ids=lambda p: str(p.relative_to(DOCS)))
+@pytest.mark.parametrize("page", [
+    pytest.param(p, id=str(p.relative_to(DOCS)),
+                 marks=[pytest.mark.slow] if str(p.relative_to(DOCS)) in SLOW_PAGES else [])
+    for p in RUNNABLE])
 def test_the_examples_of_a_page_run(page, tmp_path, monkeypatch):
     name = str(page.relative_to(DOCS))
     monkeypatch.chdir(tmp_path)

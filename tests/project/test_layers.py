@@ -23,6 +23,7 @@ Every ``import`` of a robrst module counts, at module level or inside a function
 """
 
 import ast
+import functools
 from pathlib import Path
 
 
@@ -65,9 +66,16 @@ def layer_of(mod):
     return best[0] if best else None
 
 
+@functools.cache
+def tree_of(mod):
+    """The syntax tree of ``mod``, parsed once for every check of the file."""
+    return ast.parse(MODULES[mod].read_text(encoding="utf-8"))
+
+
+@functools.cache
 def imports_of(mod):
     """robrst modules imported by ``mod`` (anywhere in the file), with line numbers."""
-    tree = ast.parse(MODULES[mod].read_text(encoding="utf-8"))
+    tree = tree_of(mod)
     out = []
     for node in ast.walk(tree):
         if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
@@ -81,7 +89,7 @@ def imports_of(mod):
                 out.append((node.module, node.lineno))
         elif isinstance(node, ast.Import):
             out += [(a.name, node.lineno) for a in node.names if a.name.split(".")[0] == "robrst"]
-    return [(t, line) for t, line in out if t != mod and not mod.startswith(t + ".")]
+    return tuple((t, line) for t, line in out if t != mod and not mod.startswith(t + "."))
 
 
 def test_every_module_has_a_layer():
@@ -120,8 +128,8 @@ def test_no_import_cycle():
 
 def test_no_private_name_across_modules():
     bad = []
-    for mod, path in MODULES.items():
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+    for mod in MODULES:
+        for node in ast.walk(tree_of(mod)):
             if isinstance(node, ast.ImportFrom) and node.module and node.level == 0 \
                     and node.module.startswith("robrst"):
                 bad += [f"{mod} takes {node.module}.{a.name}" for a in node.names

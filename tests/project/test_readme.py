@@ -5,6 +5,7 @@ import tomllib
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 ROOT = Path(__file__).parents[2]
 README = (ROOT / "README.md").read_text(encoding="utf-8")
@@ -33,6 +34,7 @@ def test_the_readme_is_a_front_page():
     assert targets and [t for t in targets if not (ROOT / t).exists()] == []
 
 
+@pytest.mark.slow
 def test_the_python_tour_runs(tmp_path, monkeypatch):
     """The README's one Python block: about 20 lines, and it does what its comments say."""
     (code,) = blocks("python")
@@ -53,6 +55,7 @@ def stage_problem():
     return parse_problem(tomllib.loads(text), "my_stage.toml")
 
 
+@pytest.mark.slow
 def test_the_stage_file_designs_and_certifies():
     """The annotated stage of "Your own stage" certifies with the figures the README states,
     re-checked independently: the integral gain from the controller's coefficients, Ms of

@@ -41,6 +41,7 @@ def _check_scan(problem, values):
     return points
 
 
+@pytest.mark.slow
 def test_ms_scan_is_monotone_on_a_random_stage():
     doc = piezo_stages.stage_doc(11, order=2)
     p = parse_problem(doc, "<stage11>")

@@ -8,12 +8,27 @@ import pytest
 from robrst.cli import main
 from robrst.data.dataset import load_dataset
 from robrst.twin import default_twin
+from robrst.design import analytic_design
+from robrst.problem.files import load_problem
 from robrst.studies.scenarios import controllers, run_scenario
 
 
 @pytest.fixture(scope="module")
-def ctrls():
-    return controllers()
+def ctrls(designs):
+    """:func:`controllers`' two controllers, the robust one from the session's design of
+    paper_robust (shared with the other test files) rather than a design of its own."""
+    return {"analytic": analytic_design(load_problem("paper")).controller,
+            "robust": designs("paper_robust").controller}
+
+
+@pytest.mark.slow
+def test_the_scenarios_controllers_are_the_shipped_designs(ctrls):
+    """controllers() (what robrst simulate fig7/fig8 run) designs the fixture's two."""
+    got = controllers()
+    for name in ("analytic", "robust"):
+        for k in "RST":
+            np.testing.assert_allclose(getattr(got[name], k), getattr(ctrls[name], k),
+                                       rtol=1e-9, err_msg=f"{name} {k}")
 
 
 def test_fig2_drift_saturates_and_is_hysteretic():
@@ -31,7 +46,7 @@ def test_fig3_hysteresis_stable_creep_grows():
     assert m["loop_width"]["28C_50Hz"] > m["loop_width"]["28C_0.1Hz"]  # rate dependent
 
 
-def test_fig45_dynamics_barely_change(ctrls):
+def test_fig45_dynamics_barely_change():
     m = run_scenario("fig45", default_twin(), fast=True).metrics
     assert m["step_difference_between_temperatures"] < 0.10
     assert m["overshoot_28C"] > 0.1                      # the badly damped resonance rings

@@ -1,12 +1,13 @@
-"""Sweeps on a 2-worker local Dask cluster (one per test session): same rows as in process,
-and a worker killed mid-sweep loses nothing."""
+"""Sweeps on a 2-worker local Dask cluster (one per test session, -m slow): same rows as in
+process, and a worker killed mid-sweep loses nothing; by default, the same comparison on a
+cheap sweep and a one-worker cluster in this process."""
 
 import logging
 import os
 import signal
 
 import pytest
-from sweep_files import columns_equal, mc_file
+from sweep_files import columns_equal, fast_file, mc_file
 
 from robrst.studies.sweep import run_sweep
 
@@ -29,6 +30,22 @@ def sequential(tmp_path_factory, robust_result):
     return path, run_sweep(path, folder / "out", workers=0)
 
 
+def test_cluster_rows_equal_the_sequential_run_on_a_cheap_sweep(tmp_path):
+    """The scheduler path (client, chunks submitted and gathered, rows written) on a
+    one-worker cluster of threads in this process: the rows of the in-process run."""
+    distributed = pytest.importorskip("distributed")
+    path = fast_file(tmp_path, n=12, chunk=3)
+    seq = run_sweep(path, tmp_path / "seq", workers=0)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=None, silence_logs=logging.ERROR) as cl:
+        res = run_sweep(path, tmp_path / "out", scheduler=cl.scheduler_address)
+    assert res.summary["executor"] == "scheduler" and res.summary["workers"] == 1
+    assert res.complete and res.summary["n"] == 12
+    columns_equal(res.table, seq.table)
+    assert res.summary["statuses"] == seq.summary["statuses"]
+
+
+@pytest.mark.slow
 def test_cluster_rows_equal_the_sequential_run(sequential, scheduler, tmp_path):
     path, seq = sequential
     res = run_sweep(path, tmp_path / "out", scheduler=scheduler)
@@ -41,6 +58,7 @@ def test_cluster_rows_equal_the_sequential_run(sequential, scheduler, tmp_path):
             assert res.summary[k] == seq.summary[k]
 
 
+@pytest.mark.slow
 def test_a_killed_worker_loses_only_its_chunk_which_is_retried(sequential, scheduler,
                                                                  tmp_path):
     from distributed import Client

@@ -27,6 +27,7 @@ def sweep(tmp_path, rel=None):
     return run_sweep(parse_sweep(doc), tmp_path / ("rel" if rel else "plain"), workers=0)
 
 
+@pytest.mark.slow
 def test_the_column_of_a_bounded_relative_spec(tmp_path):
     res = sweep(tmp_path, rel=0.5)
     table = res.table

@@ -4,6 +4,7 @@ ties on the trade-off front, and inputs that must be one clear line (never a tra
 import shutil
 
 import numpy as np
+import pytest
 import pyarrow.parquet as pq
 from sweep_files import columns_equal, fast_file, load_json
 
@@ -11,6 +12,7 @@ from robrst.cli import main
 from robrst.studies.sweep import run_sweep
 
 
+@pytest.mark.slow
 def test_a_part_copied_over_another_chunk_is_computed_again(tmp_path, capsys):
     """Same row count, other variants: resume must not take it for chunk 2's rows."""
     path = fast_file(tmp_path, n=12, chunk=3)
@@ -47,6 +49,7 @@ std = 0.05
 """
 
 
+@pytest.mark.slow
 def test_ctrl_c_on_a_local_cluster_is_one_line_and_exit_130(tmp_path):
     """Ctrl-C reaches the whole process group (driver and worker processes): the workers
     must not print tracebacks; the driver closes the cluster and says one line."""
@@ -185,6 +188,7 @@ def test_bad_sweep_inputs_are_one_line_naming_what_was_expected(tmp_path, capsys
         assert "computation failed" not in err[0] and not out.exists()
 
 
+@pytest.mark.slow
 def test_variants_far_outside_leak_no_numpy_warnings(tmp_path, capsys):
     """Poles at 1e-6 rad/s (the lowest a file may state; 1e-90 is refused by the sweep file
     check) fail on the way to their rows: the rows say so, and `sweep --json` prints its

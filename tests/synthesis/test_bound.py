@@ -278,6 +278,7 @@ def test_pole_region_program_moves_the_plant_modes():
     assert abs(D(0.0) * Q(0.0) - 1) < 1e-6                              # integral action
 
 
+@pytest.mark.slow
 def test_the_programs_agree_that_the_paper_problem_has_room():
     """The Youla program of ``paper_robust``'s warmest model (both loops), run although the
     room at 0 Hz already settles it, reaches ``S'(0) <= 0`` on the grid: a second

@@ -183,6 +183,7 @@ def test_b_damp_not_found_names_the_mode_and_what_to_try():
     assert abs(abs(r[k].imag) - worst.freq_rad_s) < 0.01 * worst.freq_rad_s
 
 
+@pytest.mark.slow
 def test_design_of_infeasible_specs_answers_within_60_s(tmp_path):
     """``robrst design --json`` on specs no linear controller meets: exit 1 within 60 s,
     the proof in the JSON (model, band, specs) and in the text."""

@@ -84,6 +84,7 @@ def test_fleet_design_certifies_on_every_drawn_actuator(designs):
     assert d["compression_size"] == len(f.compression) and d["guaranteed_yield"] == 1 - f.epsilon
 
 
+@pytest.mark.slow
 def test_yield_on_fresh_actuators_is_at_least_the_nominal_designs(designs):
     """python-control on 40 fresh actuators: the fleet design certifies on >= 90 % of them,
     and on at least as many as the nominal design (spread dropped).  On this tiny stage the
@@ -137,6 +138,7 @@ def _stage_certifies(ctrl, row, rtol=1e-3):
     return True
 
 
+@pytest.mark.slow
 def test_yield_collapses_when_the_spread_is_dropped():
     """The 800 Hz stage (gain 5 %, resonance 2 %, damping lognormal 0.4; continuous loop,
     15 and 45 °C), designed for its spread over 20 drawn actuators and with the spread
@@ -185,6 +187,7 @@ def test_result_json_is_a_controller_a_sweep_file_analyses(designs, tmp_path):
     assert res.summary["certified"] == sum(_certifies(fleet.controller, r) for r in rows)
 
 
+@pytest.mark.slow
 def test_box_design_certifies_on_every_corner():
     """method = "box": the centre and the 4 corners of gain x resonance (2 sigma) are
     actuators the design certifies on, checked with python-control."""

@@ -59,6 +59,7 @@ def test_integrating_plant_certifies_with_a_pi_like_controller():
     assert res.as_dict()["integral_gain"] > 0      # the sign of (s D)(0) > 0
 
 
+@pytest.mark.slow
 def test_integrating_plant_sampled_loop_has_the_right_sign():
     """800 Hz, zeta 0.03, behind an integrator, 20 kHz: the answer was certified with a
     negative integral gain (-0.32) and a right-half-plane controller pole, where a PI gives

@@ -26,6 +26,9 @@ import loopcheck
 from robrst.design import run_problem
 from robrst.problem.files import load_problem
 
+# every test designs the stage with the NLP (30-90 s each): the file runs with -m slow
+pytestmark = pytest.mark.slow
+
 STAGE = Path(__file__).resolve().parents[1] / "repro" / "certified_ringing_stage.toml"
 TEMPS = np.linspace(15.0, 45.0, 31)
 
@@ -45,8 +48,14 @@ def stage():
     return load_problem(STAGE)
 
 
-def test_as_filed_meets_the_default_floor_and_says_what_rings(stage):
-    res = run_problem(stage, multistart=False)
+@pytest.fixture(scope="module")
+def single_start(stage):
+    """The file as it is, designed without the global phase (two tests read it)."""
+    return run_problem(stage, multistart=False)
+
+
+def test_as_filed_meets_the_default_floor_and_says_what_rings(stage, single_start):
+    res = single_start
     assert res.certified and res.method == "nlp"
     floor, source = stage.specs.damping_floor(stage.family)
     assert source == "default" and floor == pytest.approx(0.01)
@@ -87,8 +96,8 @@ def test_disturbance_and_damping_specs_are_met(stage):
         assert c.damping >= 0.05 * (1 - 1e-3) and s.damping >= 0.05 * (1 - 1e-3), T
 
 
-def test_multistart_is_at_least_the_single_start(stage):
-    one = run_problem(stage, multistart=False)
+def test_multistart_is_at_least_the_single_start(stage, single_start):
+    one = single_start
     many = run_problem(stage)
     assert many.certified and many.starts is not None
     d = many.as_dict()["starts"]

@@ -96,6 +96,7 @@ def test_certificate_independent_recomputation(robust_result):
                                                                        rel=1e-6, abs=1e-9)
 
 
+@pytest.mark.slow
 def test_two_dof_spectral_abscissae_are_those_of_the_whole_loops(robust_result):
     """The 2-DOF controller's R and S carry the reference model: every closed-loop
     polynomial gained its roots.  The certificate's abscissae (the feedback's, joined by
@@ -172,6 +173,7 @@ def test_a_priori_infeasible_specs_still_give_the_best_controller(tmp_path, prob
     assert d["feasibility"]["status"] == "infeasible"
 
 
+@pytest.mark.slow
 def test_unreachable_specs_give_the_best_controller_and_the_binding_constraints(tmp_path,
                                                                               problems_dir):
     """Mu_max = 1.6 V/µm cannot be met: exit 1, the best controller, binding constraints named."""

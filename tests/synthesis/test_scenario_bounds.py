@@ -71,7 +71,9 @@ def test_nonconvex_epsilon_grows_with_k_and_is_one_at_N():
     assert nonconvex_epsilon(300, 300, 0.01) == 1.0
 
 
-@pytest.mark.parametrize("eps, beta, d", [(0.05, 0.01, 12), (0.05, 0.01, 4), (0.1, 0.001, 8)])
+@pytest.mark.parametrize("eps, beta, d", [pytest.param(0.05, 0.01, 12, marks=pytest.mark.slow),
+                                          pytest.param(0.05, 0.01, 4, marks=pytest.mark.slow),
+                                          (0.1, 0.001, 8)])
 def test_scenario_count_is_the_smallest_N_meeting_the_target_at_d(eps, beta, d):
     N = scenario_count(eps, beta, d)
     assert float(_mp_epsilon(d, N, beta)) <= eps < float(_mp_epsilon(d, N - 1, beta))

@@ -14,6 +14,7 @@ def _repro(repro_dir, name):
     return repro_dir / name
 
 
+@pytest.mark.slow
 def test_relaxed_band_certifies_and_is_no_worse_than_the_tighter_one(repro_dir, designs):
     """|T| <= 1.1 over 500-800 Hz was 'infeasible' while |T| <= 1.0 certified."""
     res = run_problem(load_problem(_repro(repro_dir, "relaxed_band_reported_infeasible.toml")))

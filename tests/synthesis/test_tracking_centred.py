@@ -14,6 +14,7 @@ from dataclasses import replace
 
 import control
 import numpy as np
+import pytest
 
 from robrst.design import analytic_design
 from robrst.problem.files import parse_problem
@@ -51,6 +52,7 @@ def _worst(problem, feedback, factor):
     return worst
 
 
+@pytest.mark.slow
 def test_centred_reference_bandwidth_has_the_most_room_over_the_actuators():
     problem = parse_problem(DOC, "tiny_reference.toml")
     feedback = analytic_design(problem).controller

@@ -91,6 +91,7 @@ def test_creep_log_law_and_growth_with_temperature():
     assert per[45.0] / per[28.0] > 1.5                 # creep grows with temperature
 
 
+@pytest.mark.slow
 def test_thermal_drift_saturates_with_hysteresis_vs_temperature():
     cfg = default_twin().with_effects(only=["thermal_drift"])
     up = np.linspace(28, 45, int(240 * FS))
