@@ -151,6 +151,7 @@ def test_search_is_seeded_and_reports():
     assert stopped.stopped and stopped.evaluations == 0
 
 
+@pytest.mark.slow
 def test_screen_overshoot_of_the_sampled_loop_against_python_control():
     """With a sampling rate, the screen's overshoot covers the sampled loop at its samples:
     python-control's discrete loop (ZOH plant behind a sample of delay, Tustin controller)
@@ -197,6 +198,7 @@ def test_screen_overshoot_of_the_sampled_loop_against_python_control():
     assert checked >= 4 and above >= 2
 
 
+@pytest.mark.slow
 def test_move_inside_brings_a_boundary_candidate_inside_the_specs():
     """A candidate the search leaves on the boundary of the specs, moved inside a screen
     3 % tighter (peaks and reference step): on a dense grid of the unscaled loops its worst
