@@ -277,12 +277,21 @@ def _polish(ctx, run, problem, xa, name):
     it within ``POLISH_ITER`` iterations, its reference-step rows and floored roots
     linearised from the first solve on, backed off when it ends just outside the
     certificate."""
-    sub = Run(problem, run.say, run.templates, None, POLISH_ITER, run.stop)   # own budget
-    sub.rows_first = True
-    out = sub.hard(ctx, "free", xa, name)
-    run.rounds += sub.rounds
-    run.notes += sub.notes
+    out, notes = _hard_from(ctx, run, xa, name, POLISH_ITER)
+    run.notes += notes
     return _backoff(ctx, run, out, name)
+
+
+def _hard_from(ctx, run, x, name, budget):
+    """The objective phase with every coefficient free from the near-optimal point ``x``,
+    in a run of its own with ``budget`` IPOPT iterations (its reference-step rows and
+    floored roots linearised from the first solve on); its rounds join ``run``'s.  Returns
+    the outcome and the run's notes."""
+    sub = Run(ctx.problem, run.say, run.templates, None, budget, run.stop)
+    sub.rows_first = True
+    out = sub.hard(ctx, "free", x, name)
+    run.rounds += sub.rounds
+    return out, sub.notes
 
 
 def _backoff(ctx, run, out, name):
@@ -296,11 +305,8 @@ def _backoff(ctx, run, out, name):
         if out is None or out.certified or not 1.0 < out.badness <= BACKOFF_NEAR or run.stop():
             return out
         margin /= out.badness ** 2
-        sub = Run(ctx.problem, run.say, run.templates, None, BACKOFF_ITER, run.stop)
-        sub.rows_first = True
-        again = sub.hard(replace(ctx, free_margin=margin), "free", out.x,
-                         f"{name}, backed off")
-        run.rounds += sub.rounds
+        again, _ = _hard_from(replace(ctx, free_margin=margin), run, out.x,
+                              f"{name}, backed off", BACKOFF_ITER)
         if again is None:
             return out
         out = again

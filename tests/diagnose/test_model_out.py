@@ -43,15 +43,21 @@ def _files(tmp_path, train, test):
     return tr, te
 
 
-@pytest.mark.slow
-def test_model_out_writes_a_model_design_and_simulate_read(tmp_path, capsys):
-    train, test, _ = make_case("hysteresis", 1)
+
+def _diagnosed(tmp_path, capsys, train, test):
+    """``robrst diagnose ... --model-out`` on the records: ``(train files, test files, model
+    folder, the JSON)``."""
     tr, te = _files(tmp_path, train, test)
     out = tmp_path / "answer"
     code = robrst(["diagnose", "--train", *tr, "--test", *te, "--json", str(tmp_path / "d.json"),
                    "--model-out", str(out), "--quiet"])
     assert code == 0, capsys.readouterr().err
-    d = json.loads((tmp_path / "d.json").read_text())
+    return tr, te, out, json.loads((tmp_path / "d.json").read_text())
+
+@pytest.mark.slow
+def test_model_out_writes_a_model_design_and_simulate_read(tmp_path, capsys):
+    train, test, _ = make_case("hysteresis", 1)
+    tr, te, out, d = _diagnosed(tmp_path, capsys, train, test)
     assert d["cause"] == "hysteresis"
     assert [f["file"] for f in d["model_files"]] == [str(out / "model.toml")]
     doc = tomllib.loads((out / "model.toml").read_text())
@@ -120,12 +126,7 @@ def test_stiffness_answer_writes_a_model_and_a_twin_that_reproduce_it(tmp_path, 
     from diagnosis_cases import make
 
     train, test, _, _ = make("recipe_hardening", 0)
-    tr, te = _files(tmp_path, train, test)
-    out = tmp_path / "answer"
-    code = robrst(["diagnose", "--train", *tr, "--test", *te, "--json", str(tmp_path / "d.json"),
-                   "--model-out", str(out), "--quiet"])
-    assert code == 0, capsys.readouterr().err
-    d = json.loads((tmp_path / "d.json").read_text())
+    tr, te, out, d = _diagnosed(tmp_path, capsys, train, test)
     assert d["cause"] == "stiffness_nonlinearity"
     params = d["selected"][0]["params"]
     c, gain = params["cubic_per_um2"], params["gain"]

@@ -11,12 +11,11 @@ grid's largest value, and python-control's step responses of the loop polynomial
 the state space has O(1) coefficients.
 """
 
-from contextlib import contextmanager
-from pathlib import Path
 
 import control
 import numpy as np
 import pytest
+from drawn import drawn
 from scipy.optimize import minimize_scalar
 
 from robrst.base.resources import problems_dir
@@ -40,21 +39,9 @@ def report(tmp_path_factory):
                                     "damping_per_K": 0.005, "creep_per_K": 0.004,
                                     "creep_at_ref": 0.0, "creep_tau_s": 0.5}}
     result = run_problem(parse_problem(doc, "paper_three_temperatures.toml"))
-    figures, real = {}, design_figures.drawing
-
-    @contextmanager
-    def keep(path, *args, **kw):
-        with real(path, *args, **kw) as (fig, axes):
-            figures[Path(path).name] = fig
-            yield fig, axes
-
-    mp = pytest.MonkeyPatch()
-    mp.setattr(design_figures, "drawing", keep)
-    try:
+    with drawn(design_figures) as figures:
         folder = write_design_report(result, tmp_path_factory.mktemp("r") / "report",
                                      curves=design_curves(result))
-    finally:
-        mp.undo()
     return result, figures, folder
 
 

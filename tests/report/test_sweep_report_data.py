@@ -12,13 +12,13 @@ bound), and D(s) of the paper with the variant's gain and damping put in by hand
 
 import json
 import math
-from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
 from sweep_files import fast_file
+from drawn import drawn
 
 from robrst.problem.files import load_problem
 from robrst.report import sweep_figures
@@ -31,20 +31,8 @@ def sweep(tmp_path_factory):
     """``(result, rows of results.parquet, figures by file name, report folder)``."""
     folder = tmp_path_factory.mktemp("sweep")
     result = run_sweep(fast_file(folder, n=40, chunk=10, std=0.5), folder / "out", workers=0)
-    figures, real = {}, sweep_figures.drawing
-
-    @contextmanager
-    def keep(path, *args, **kw):
-        with real(path, *args, **kw) as (fig, axes):
-            figures[Path(path).name] = fig
-            yield fig, axes
-
-    mp = pytest.MonkeyPatch()
-    mp.setattr(sweep_figures, "drawing", keep)
-    try:
+    with drawn(sweep_figures) as figures:
         report = write_sweep_report(result)
-    finally:
-        mp.undo()
     rows = pq.read_table(folder / "out" / "results.parquet").to_pylist()
     return result, rows, figures, report
 
