@@ -898,11 +898,28 @@ def fit_model(name: str, effects: Sequence[str], train: Sequence[Prepared], lin:
     else:
         # trial points may overflow (an effect driven far out): the optimiser
         # rejects them; their floating-point warnings only reach the user
+        # a parameter held by a box of zero width (pinned, or not determined by the
+        # records) leaves the solver's variables: inside the trust-region reflective
+        # method a box that narrow cuts every step that touches it to nothing
+        free = hi - lo > _FIT.held_width
+        x0 = np.clip(x0, lo, hi)
         fun, jac, n_rows = compressed(residual, blocks, x0.size)
+
+        def whole(xf):
+            x = x0.copy()
+            x[free] = xf
+            return x
+
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-            res = optimize.least_squares(fun, x0, jac=jac, bounds=(lo, hi), method="trf",
-                                         x_scale="jac", ftol=ftol, xtol=1e-10, gtol=1e-10,
-                                         max_nfev=max_nfev)
+            res = optimize.least_squares(
+                lambda xf: fun(whole(xf)), x0[free],
+                jac=lambda xf, *_: jac(whole(xf))[:, free],
+                bounds=(lo[free], hi[free]), method="trf", x_scale="jac", ftol=ftol,
+                xtol=1e-10, gtol=1e-10, max_nfev=max_nfev)
+        res.x = whole(res.x)
+        if not free.all():          # the 1-sigma as before: every parameter's column
+            fun(res.x)
+            res.jac = jac(res.x)
         n_rows = n_rows()
     cost = float(res.cost)
     if pooled is not None:        # the cost and the rows of the records themselves

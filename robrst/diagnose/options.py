@@ -266,6 +266,8 @@ class FitOptions:
         ... and at most this many samples.
     refine_evals : int
         Golden-section evaluations refining a saturation limit.
+    held_width : float
+        A parameter whose bounds are closer than this is held, not fitted.
     """
 
     fit_rows: int = 8192          # the cost of a step then does not grow with the record
@@ -281,6 +283,7 @@ class FitOptions:
     max_delay_s: float = 5e-3     # transport and computation delays of a lab rig
     max_delay_samples: int = 200  # the search is exact per delay: bound its cost
     refine_evals: int = 8         # to 2 % of the bracket between two quantiles
+    held_width: float = 1e-10     # pins are boxes of width 2e-12
 
 
 @dataclass(frozen=True)
