@@ -39,6 +39,7 @@ FREE_MARGIN = 0.98      # freely placed poles: sharp resonances move between the
 CTRL_POLE_RATIO = 0.1   # max_integral_gain: controller poles at Re s <= -0.1 |slowest dominant|
 CTRL_MAX = 30.0         # free placement: controller poles at Re s >= -30 |fastest start root|
 REGION_MARGIN = 1e-3    # the program's damping floor just inside the certificate's
+HF_POINTS = 40          # points of the high-frequency |U| band up to the grid's end (and to Nyquist)
 
 
 def ipopt_options(so: SolverOptions) -> dict:
@@ -280,7 +281,9 @@ class Context:
         hf = np.zeros(0)
         if sp.Mu_hf_above_hz is not None:
             lo = 2 * np.pi * sp.Mu_hf_above_hz
-            hf = np.geomspace(lo, max(lo, nu.max()) * 1e3, 40)
+            top = max(lo, nu.max())     # dense up to the grid's end, sparse beyond
+            hf = np.unique(np.concatenate([np.geomspace(lo, top, HF_POINTS),
+                                           np.geomspace(top, top * 1e3, 10)]))
         ref_T = p.family.reference_model.temperature_C
         ref = [m.temperature_C for m in models].index(ref_T)
         bands, hfs, rates = [band / w0] * len(models), [hf / w0] * len(models), ()
@@ -295,7 +298,9 @@ class Context:
                                                nu[nu >= nyq] * 1e2]))
             grids += [grid_s / w0] * len(sampled)
             bands += [warp(np.minimum(band, 0.999 * nyq), fs) / w0] * len(sampled)
-            hf_s = np.unique(np.concatenate([hf[hf < nyq], [0.99 * nyq, 0.9999 * nyq]])) \
+            # the sampled loop's |U| rises to Nyquist: as dense below it as the continuous
+            hf_s = np.unique(np.concatenate([
+                hf[hf < nyq], np.geomspace(min(hf[0], 0.99 * nyq), 0.9999 * nyq, HF_POINTS)])) \
                 if hf.size else hf
             hfs += [warp(hf_s, fs) / w0] * len(sampled)
             models = list(models) + sampled
