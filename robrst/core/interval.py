@@ -301,6 +301,10 @@ def parameter_crossing(delta_at: Callable[[float], ArrayLike], a: float, b: floa
     """
     mid = delta_at(0.5 * (a + b))
     sc = poly.Scaling.natural(mid)
+    # one normalisation for every T: the guardian of coefficients polynomial in T is a
+    # polynomial in T (normalised at each T by its largest coefficient, it is not when
+    # that coefficient varies with T: a leading coefficient that vanishes at an end)
+    norm = float(np.max(np.abs(sc.apply(poly.trim(mid)))))
     n_s = len(poly.trim(mid))
     N = (n_s - 1) * int(deg_T) + 1
     for _ in range(max_doublings + 1):
@@ -313,7 +317,7 @@ def parameter_crossing(delta_at: Callable[[float], ArrayLike], a: float, b: floa
             if len(d) != n_s or d[0] <= 0:
                 return ParameterProof(False, float(0.5 * (a + b) + 0.5 * (b - a) * t), N)
             ds = sc.apply(d)
-            g.append(hurwitz_guardian(ds / np.max(np.abs(ds))))
+            g.append(hurwitz_guardian(ds / norm))
         g = np.array(g)
         coef = np.polynomial.chebyshev.chebfit(x, g[:N], N - 1)
         fit = np.polynomial.chebyshev.chebval(xm, coef)
