@@ -18,13 +18,13 @@ import numpy as np
 from robrst.base.interrupt import offer, requested
 from robrst.certificate.proof import actuator_of, certify_families
 from robrst.synthesis.exchange import Phase, solve_exchange
-from robrst.synthesis.nlp import grid_blocks
+from robrst.synthesis.nlp import grid_blocks, objective_rows
 from robrst.synthesis.outcome import Round, worst_violation
 from robrst.synthesis.parametrize import integral_gain
 from robrst.synthesis.objective import objective
 from robrst.synthesis.starts import ON_SLOW_POLE, candidates, score
 from robrst.synthesis.polerows import pole_rows, worst_damping_ratio
-from robrst.synthesis.timesamples import (TIME_MARGIN, time_rows, time_specs,
+from robrst.synthesis.timesamples import (TIME_MARGIN, TimeRows, time_rows, time_specs,
                                            worst_time_ratio)
 
 if TYPE_CHECKING:
@@ -34,7 +34,7 @@ if TYPE_CHECKING:
     from robrst.synthesis.context import Context
     from robrst.synthesis.nlp import NLPSetup
     from robrst.synthesis.outcome import SolveResult, SynthesisResult
-    from robrst.synthesis.timesamples import TimeRows, TimeSpecs
+    from robrst.synthesis.timesamples import TimeSpecs
 
 __all__ = ["Outcome", "Run", "worst_violation", "frequency_certificate", "refine",
            "objective_value", "program_models", "GAMMA_FLOOR"]
@@ -309,6 +309,11 @@ class Run:
     rows_first : bool
         The linearised rows (reference-step samples, roots near a floor) join the first
         solve with freely placed poles (a polish from a near-optimal start).
+    floor : float or None
+        A polish's objective floor: the scaled integral gain its solves with freely placed
+        poles keep (a linear row ``R(0) >= floor (S/s^k)(0)``), so a polish improves on the
+        point it starts from or ends where no better point was found, never in a worse
+        basin its restoration wandered to.
     """
 
     def __init__(self, problem: Problem, say: Callable[[str], None], templates: dict,
@@ -324,6 +329,7 @@ class Run:
         self.search, self.tried = None, []
         self.global_phase = False
         self.rows_first = False
+        self.floor = None
 
     def spent(self, placement: str | None = None) -> bool:
         """True once the synthesis has used its IPOPT iteration budget: ``RUN_ITER_BUDGET``
@@ -392,7 +398,8 @@ class Run:
                          if spec is not None else {})
                 rows = time_rows(setup, x0, spec, (), found) if spec is not None else None
                 lin = _stacked(rows, pole_rows(setup, x0))
-            res = self.boxed(ctx, setup, x0, phase, exact, ipopt, lin)
+            res = self.boxed(ctx, setup, x0, phase, exact, ipopt,
+                             _stacked(lin, self.floor_row(setup)))
         elif res is None:
             res = solve_exchange(setup, x0, ipopt, phase, self.templates, exact=exact)
             if not res.success and not self.strict:   # second chance: adaptive barrier
@@ -468,6 +475,7 @@ class Run:
             rows = _stacked(rows, pole_rows(setup, best.x))
             if rows is None:
                 break
+            rows = _stacked(rows, self.floor_row(setup))
             c = best.x[:ctx.param.n_x]
             r = f * (np.abs(c) + 0.05 * np.max(np.abs(c)))
             x0 = best.x.copy()
@@ -498,6 +506,28 @@ class Run:
                               " certificate decides)")
         best = best.res if isinstance(best, _Timed) else best
         return replace(best, iterations=iters)
+
+    def floor_row(self, setup: NLPSetup) -> TimeRows | None:
+        """The objective floor as a linear row of ``setup``'s program (:attr:`floor`), or
+        ``None`` (no floor, another objective, fixed poles).
+
+        Parameters
+        ----------
+        setup : NLPSetup
+            The program's data.
+
+        Returns
+        -------
+        TimeRows or None
+        """
+        if (self.floor is None or setup.objective != "max_integral_gain"
+                or setup.placement != "free"):
+            return None
+        r0, q0, q0c = objective_rows(setup)
+        g = self.floor
+        return TimeRows(A=(g * q0 - r0)[None], g=np.zeros(1), c=np.array([g * q0c]),
+                        keys=(("objective_floor", 0, 0.0, 1.0),),
+                        labels=(("objective_floor", None, None, 0),))
 
     def boxed(self, ctx: Context, setup: NLPSetup, x0: np.ndarray, phase: Phase,
               exact: bool, ipopt: dict | None = None, lin: TimeRows | None = None

@@ -168,7 +168,8 @@ class SolveResult:
     def binding(self, count: int = 3) -> tuple[Binding, ...]:
         """The inequality constraints that bind, strongest first (by ``|multiplier|``).
 
-        The Diophantine equality is structural and never named; multipliers below 1e-4
+        The Diophantine equality is structural and never named, nor a polish's objective
+        floor (a row of the program, not a spec); multipliers below 1e-4
         of the largest are an interior point's inactive constraints, not binding ones.
         When IPOPT ended on an infeasible point, the violated constraints come first.
 
@@ -182,7 +183,8 @@ class SolveResult:
         tuple of Binding
         """
         v = self.violations()
-        ineq = np.array([lab[0] not in ("diophantine", "unused") for lab in self.labels], bool)
+        ineq = np.array([lab[0] not in ("diophantine", "unused", "objective_floor")
+                         for lab in self.labels], bool)
         order = []
         bad = np.flatnonzero(ineq & (v > 1e-6))
         order += list(bad[np.argsort(-v[bad])])

@@ -45,12 +45,13 @@ from robrst.base.errors import RobrstError
 from robrst.synthesis.attempts import (WARM_START, Outcome, Run, objective_value,
                                        program_models)
 from robrst.synthesis.context import BOUND_MARGIN, Context
+from robrst.synthesis.nlp import objective_rows
 from robrst.synthesis.outcome import SynthesisResult, best_achievable, worst_violation
 from robrst.synthesis.parametrize import integral_gain
 from robrst.synthesis.screen import Screen
 from robrst.synthesis.search import PoleSpace, global_search, move_inside
 from robrst.synthesis.timesamples import TIME_MARGIN, TimeSpecs, time_specs
-from robrst.synthesis.tracking import CANCEL_FLOOR, meets_time_specs
+from robrst.synthesis.tracking import CANCEL_FLOOR, meets_time_specs, time_spec_ratio
 
 if TYPE_CHECKING:
     from robrst.problem.records import Problem
@@ -173,6 +174,7 @@ def _rank(problem, out, timed):
 
 RESCALE = True
 POLISH_ITER = 500      # IPOPT iterations of one polish (then its best certified point)
+SEARCH_MARGIN = 0.995  # the search screens 0.5 % inside the peaks' bounds (the steps as the program)
 INSIDE_MARGIN = 0.99   # a candidate the certificate refuses is moved 1 % inside the specs
 BACKOFF_NEAR = 1.05    # a polish missing the certificate by less than this ratio ...
 BACKOFFS = 2           # ... is solved again this many times, its violated bounds tightened
@@ -183,7 +185,9 @@ POLISH_DISTINCT = 0.1  # or nearer than this (box units) to one polished, is not
 
 def _global(ctx, run, seeds, best, start):
     """The global phase (:mod:`robrst.synthesis.search`) with every coefficient free: the
-    search, then its best distinct candidates certified as they are (one the certificate
+    search (on a screen ``SEARCH_MARGIN`` inside the peaks' bounds, the steps at the
+    program's ``TIME_MARGIN ** 2``: its best candidates certify as they are and start the
+    polish inside the program), then its best distinct candidates certified as they are (one the certificate
     refuses, a peak or a step sample between the screen's points, moved inside the specs
     by :func:`~robrst.synthesis.search.move_inside`: ``INSIDE_MARGIN`` on the peaks,
     ``TIME_MARGIN ** 2`` on the steps, as the program's rows) and polished by the program
@@ -204,7 +208,8 @@ def _global(ctx, run, seeds, best, start):
                          " coefficient depends on the controller")
         return run.attempt(ctx, "free", seeds)
     steps, two_dof = _screened_steps(p, ctx.w0)
-    screen = Screen(setup, steps, two_dof)
+    searched = replace(ctx, free_margin=SEARCH_MARGIN).setup(program_models(p), ctx.nu, "free")
+    screen = Screen(searched, _inside(steps, TIME_MARGIN ** 2), two_dof)
     inside = []           # the screen inside the specs, built once needed
     named = [(sd[0], sd[1]) for sd in seeds if sd[1] is not None]
     try:
@@ -250,7 +255,7 @@ def _global(ctx, run, seeds, best, start):
         near = ctx.around(base.ctrl) if RESCALE else ctx     # scaled at the candidate
         xr = near.full(near.param.vector(base.ctrl), near.setup(program_models(p), near.nu,
                                                                  "free"))
-        out = _polish(near, run, p, xr, c.name)
+        out = _polish(near, run, p, xr, c.name, keep=base.certified)
         gained = out is not None and out.certified and (
             objective_value(p, out) > objective_value(p, base))
         if out is not None:
@@ -272,45 +277,80 @@ def _global(ctx, run, seeds, best, start):
 SOFT_SEEDS = 3
 
 
-def _polish(ctx, run, problem, xa, name):
-    """One polish of a candidate (its vector ``xa`` in ``ctx``'s scaling): the program from
-    it within ``POLISH_ITER`` iterations, its reference-step rows and floored roots
-    linearised from the first solve on, backed off when it ends just outside the
-    certificate."""
-    out, notes = _hard_from(ctx, run, xa, name, POLISH_ITER)
+FLOOR_SLACK = 1e-3     # a polish keeps its start's integral gain but for this share
+
+
+def _polish(ctx, run, problem, xa, name, keep=True):
+    """One polish of a candidate (its vector ``xa`` in ``ctx``'s scaling, a certified
+    point): the program from it within ``POLISH_ITER`` iterations, its reference-step rows
+    and floored roots linearised from the first solve on, backed off when it ends just
+    outside the certificate; with ``max_integral_gain`` and ``keep`` (the start certified)
+    every solve keeps the start's
+    integral gain (:attr:`~robrst.synthesis.attempts.Run.floor`, less ``FLOOR_SLACK``): a
+    polish is an improvement or nothing, never a worse basin reached through IPOPT's
+    restoration."""
+    floor = None
+    if keep and problem.solver.objective == "max_integral_gain":
+        setup = ctx.setup(program_models(problem), ctx.nu, "free")
+        r0, q0, q0c = objective_rows(setup)
+        num, den = float(r0 @ xa[:r0.size]), float(q0 @ xa[:q0.size] + q0c)
+        if num > 0 and den > 0:
+            floor = (1.0 - FLOOR_SLACK) * num / den
+    out, notes = _hard_from(ctx, run, xa, name, POLISH_ITER, floor)
     run.notes += notes
-    return _backoff(ctx, run, out, name)
+    return _backoff(ctx, run, out, name, floor)
 
 
-def _hard_from(ctx, run, x, name, budget):
+def _hard_from(ctx, run, x, name, budget, floor=None):
     """The objective phase with every coefficient free from the near-optimal point ``x``,
     in a run of its own with ``budget`` IPOPT iterations (its reference-step rows and
-    floored roots linearised from the first solve on); its rounds join ``run``'s.  Returns
-    the outcome and the run's notes."""
+    floored roots linearised from the first solve on; ``floor``: the scaled integral gain
+    it keeps, :attr:`Run.floor`); its rounds join ``run``'s.  Returns the outcome and the
+    run's notes."""
     sub = Run(ctx.problem, run.say, run.templates, None, budget, run.stop)
     sub.rows_first = True
+    sub.floor = floor
     out = sub.hard(ctx, "free", x, name)
     run.rounds += sub.rounds
     return out, sub.notes
 
 
-def _backoff(ctx, run, out, name):
-    """A polish that ends just outside the certificate (its last round's peaks between the
-    exchange's frequencies, its budget spent) solved again from where it ended with the
-    program's bounds tightened by the miss (constraint back-off, ``BACKOFFS`` times,
-    ``BACKOFF_ITER`` IPOPT iterations each): the optimum moves inside by the grid's error
-    instead of the polish being lost.  Returns the first certified outcome, else ``out``."""
-    margin = ctx.free_margin
+def _backoff(ctx, run, out, name, floor=None):
+    """A polish that ends just outside the specs solved again from where it ended with the
+    program tightened by the miss (constraint back-off, ``BACKOFFS`` times,
+    ``BACKOFF_ITER`` IPOPT iterations each): outside the certificate (its last round's
+    peaks between the exchange's frequencies, its budget spent) the program's bounds, or
+    certified but outside the reference-step specs (its linearised step samples missed the
+    sampled loop's peak) the time-domain specs the program holds.  The optimum moves
+    inside by the miss instead of the polish being lost.  Returns the first outcome that
+    meets every spec, else the last one."""
+    margin, problem = ctx.free_margin, ctx.problem
     for _ in range(BACKOFFS):
-        if out is None or out.certified or not 1.0 < out.badness <= BACKOFF_NEAR or run.stop():
+        if out is None or run.stop():
             return out
-        margin /= out.badness ** 2
+        if out.certified:
+            miss = time_spec_ratio(problem, out.ctrl)
+            if not 1.0 < miss <= BACKOFF_NEAR:
+                return out
+            ctx = replace(ctx, problem=_tightened(ctx.problem, miss ** 2))
+        elif 1.0 < out.badness <= BACKOFF_NEAR:
+            margin /= out.badness ** 2
+        else:
+            return out
         again, _ = _hard_from(replace(ctx, free_margin=margin), run, out.x,
-                              f"{name}, backed off", BACKOFF_ITER)
+                              f"{name}, backed off", BACKOFF_ITER, floor)
         if again is None:
             return out
         out = again
     return out
+
+
+def _tightened(problem, factor):
+    """``problem`` with its reference-step specs divided by ``factor``."""
+    sp = problem.specs
+    tight = {k: getattr(sp, k) / factor for k in ("overshoot_max_pct", "settling_time_max_s",
+                                                 "step_u_max_V") if getattr(sp, k) is not None}
+    return replace(problem, specs=replace(sp, **tight))
 
 
 def _moved_inside(ctx, run, setup, space, inside, cand, steps, two_dof):

@@ -15,13 +15,15 @@ the population, the models and the frequency grid:
   rate is included);
 * **the controller's poles** (the strip the program imposes, a stable controller, the
   controller's damping floor) from their roots;
-* for the candidates that pass those (the others are ranked by them already): **the
-  closed-loop roots** of every model, their least damping against the floor (a sampled
+* for every stable candidate: **the closed-loop roots** of every model, their least damping against the floor (a sampled
   model's roots mapped to s by ``fs ln z``), the peaks at the resonant frequencies of the
   lightly damped ones (a sharp peak between grid points), and the **reference step** of the
   continuous models and of the sampled loops (at their samples) from the modal sum of the
   step response (overshoot, 2 % settling time and peak voltage against the time-domain
-  specs).
+  specs).  Every stable candidate is examined so: a screen that examined only those near
+  the specs on the grid ranked a candidate just outside that circle (its grid peaks only)
+  ahead of one just inside it (the grid peaks, the resonant peaks and the steps), and the
+  search stalled on the circle's edge.
 
 The figures are those of the grid and of the modes, not a certificate: the global phase
 only ranks candidates with them; every answer is certified exactly afterwards
@@ -48,7 +50,6 @@ __all__ = ["Screen", "Figures", "batch_roots", "routh_columns", "RESONANT_DAMPIN
 RESONANT_DAMPING = 0.3   # closed-loop roots damped less than this add their frequency
 STEP_POINTS = 120        # samples of each screened reference step (quadratically spaced)
 STEP_HORIZON = 10.0      # ... up to this many time constants of the slowest mode
-NEAR = 0.5               # candidates within this violation are examined in full
 UNSTABLE = 1e3           # the violation of an unstable loop (plus its count, its abscissa)
 
 
@@ -440,7 +441,7 @@ class Screen:
             viol += np.where(np.isfinite(obj), 0.0, UNSTABLE)
         viol = np.where(finite, np.nan_to_num(viol, nan=1e6, posinf=1e6), 1e6)
         damping, over = np.full(K, np.nan), np.full(K, np.nan)
-        near = (viol <= NEAR) & (unstable == 0) & finite
+        near = (unstable == 0) & finite
         if near.any():
             extra, damping[near], over[near], w_res = self._modes(X[near])
             viol[near] += extra

@@ -16,14 +16,17 @@ polishes:
    nominal model has exactly one such name; every name stabilises the nominal model.
 2. **A population method.**  A CMA-ES (:mod:`robrst.synthesis.cmaes`) from the problem's
    own design, then from seeded random means with a population ``GROWTH`` times larger
-   (IPOP-CMA-ES: a larger population is more global; ``RESTARTS`` runs in all); every
+   (IPOP-CMA-ES: a larger population is more global; ``RESTARTS`` runs in all, each with
+   its own random stream spawned from the seed, so one run's length never changes
+   another's samples); every
    population judged at once by :class:`~robrst.synthesis.screen.Screen`
    (the program's constraints on its grid and modes, every model at once) and ranked by
    Deb's feasibility rules (feasible candidates by objective, the others by violation).
 3. **Polish and certify.**  The best distinct candidates are certified as they are and
    polished by the robust program with every coefficient free
    (:meth:`robrst.synthesis.attempts.Run.hard`: IPOPT, constraint exchange, certification
-   rounds); the best certified objective is kept.
+   rounds; a polish keeps its start's integral gain); the best certified objective is
+   kept.
 
 Why this method (see the synthesis background page for the references): HIFOO and
 systune run a local non-smooth (or smooth, here IPOPT) method from a few random starts;
@@ -397,7 +400,9 @@ def global_search(screen: Screen, space: PoleSpace, starts: Sequence[tuple] = ()
     GlobalSearch
     """
     t0 = time.process_time()
-    rng = np.random.default_rng(seed)
+    # one random stream per run (and one for the first mean): a run's length never
+    # changes another run's samples
+    streams = [np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(runs + 1)]
     say = say or (lambda msg: None)
     stop = stop or (lambda: False)
     d = space.dim
@@ -416,14 +421,14 @@ def global_search(screen: Screen, space: PoleSpace, starts: Sequence[tuple] = ()
         for i, (n, th) in enumerate(seeds):
             found.append((_key(figs, i), th, n))
     else:
-        first, first_name = rng.uniform(0.2, 0.8, d), None
+        first, first_name = streams[-1].uniform(0.2, 0.8, d), None
     plan = [(first, 0.15, f"from {first_name}" if first_name else "random mean", lam)]
-    plan += [(rng.uniform(0.1, 0.9, d), 0.3, "random mean", GROWTH * lam)
-             for _ in range(runs - 1)]
+    plan += [(streams[r].uniform(0.1, 0.9, d), 0.3, "random mean", GROWTH * lam)
+             for r in range(1, runs)]
     for r in range(len(plan)):
         mean, sigma, what, size = plan[r]
         limit = GENERATIONS
-        es = CMAES(mean, sigma, rng, size)
+        es = CMAES(mean, sigma, streams[r], size)
         run_best, last_gain = None, 0
         for g in range(limit):
             if stop():

@@ -49,7 +49,8 @@ if TYPE_CHECKING:
     from robrst.problem.records import Problem
 
 __all__ = ["Tracking", "two_dof", "design_tracking", "tracking_candidates", "reference_model",
-           "cancel_thresholds", "centred_factor", "meets_time_specs", "CANCEL_FLOOR",
+           "cancel_thresholds", "centred_factor", "meets_time_specs", "time_spec_ratio",
+           "CANCEL_FLOOR",
            "CENTRE_POINTS"]
 
 SLOWER = (1.0, 0.7, 0.5, 0.35, 0.25)
@@ -244,6 +245,29 @@ def meets_time_specs(problem: Problem, ctrl: RSTController) -> bool:
     if problem.controller.T_mode == "reference_model":
         ctrl = design_tracking(problem, ctrl)[0]
     return _meets(problem, ctrl)
+
+
+def time_spec_ratio(problem: Problem, ctrl: RSTController) -> float:
+    """The largest time-domain figure over its bound on every family model (both loops),
+    the reference path as :func:`meets_time_specs` takes it.
+
+    Parameters
+    ----------
+    problem : Problem
+    ctrl : RSTController
+        The feedback.
+
+    Returns
+    -------
+    float
+        At most 1 when the specs are met (0 without a time-domain spec), ``inf`` for an
+        unstable loop.
+    """
+    if not problem.specs.time_domain:
+        return 0.0
+    if problem.controller.T_mode == "reference_model":
+        ctrl = design_tracking(problem, ctrl)[0]
+    return _worst_time_ratio(problem, ctrl, _loops(problem))
 
 
 def centred_factor(problem: Problem, ctrl: RSTController, min_damping: float) -> float:

@@ -271,3 +271,57 @@ def test_screen_sees_the_sampled_loops_high_frequency_control_effort():
         assert got[k] >= 0.99 * exact, (k, got[k], exact)
         checked += 1
     assert checked >= 5
+
+
+def test_a_polishs_objective_floor_is_the_integral_gain_of_the_unscaled_controller():
+    """The polish keeps its start's integral gain by one linear row of the scaled program
+    (``R(0) >= floor (S/s^k)(0)``): on controllers around the start, the row holds exactly
+    where the unscaled controller's integral gain (``lim s R/S`` of its polynomials) is at
+    least the floor's share of the start's."""
+    from robrst.synthesis.attempts import Run
+    from robrst.synthesis.nlp import objective_rows
+    from robrst.synthesis.parametrize import integral_gain
+
+    p, ctx, setup, start = _setup()
+    x0 = ctx.param.vector(start.controller)
+    r0, q0, q0c = objective_rows(setup)
+    run = Run(p, lambda m: None, {})
+    run.floor = 0.9 * float(r0 @ x0) / float(q0 @ x0 + q0c)
+    row = run.floor_row(setup)
+    assert row is not None and row.A.shape == (1, x0.size)
+    ki0 = integral_gain(ctx.controller(x0))
+    rng = np.random.default_rng(7)
+    sides = set()
+    for _ in range(200):
+        x = x0 * (1 + 0.1 * rng.standard_normal(x0.size))
+        if not float(q0 @ x + q0c) > 0:
+            continue
+        holds = float(row.A[0] @ x + row.c[0]) <= 0
+        ki = integral_gain(ctx.controller(x))
+        if abs(ki / (0.9 * ki0) - 1) < 1e-9:
+            continue
+        assert holds == (ki >= 0.9 * ki0), (ki, ki0)
+        sides.add(holds)
+    assert sides == {True, False}
+    run.floor = None
+    assert run.floor_row(setup) is None
+
+
+@pytest.mark.slow
+def test_each_run_has_its_own_random_stream():
+    """A run's samples do not depend on the runs before it: the second run's best point is
+    the same whether the first run started from the problem's design or from a random
+    mean (it shared one stream with the first run, whose length moved every later sample)."""
+    p, ctx, setup, start = _setup()
+    scr = Screen(setup, time_specs(p, ctx.w0))
+    sp = PoleSpace.of(ctx, setup)
+    named = global_search(scr, sp, [("analytic", ctx.param.vector(start.controller))],
+                          seed=5, runs=2)
+    blind = global_search(scr, sp, [], seed=5, runs=2)
+
+    def second(res):
+        return next(c for c in res.candidates if c.name.startswith("global run 2"))
+    assert np.array_equal(second(named).theta, second(blind).theta)
+    first = [next(c for c in r.candidates if c.name.startswith("global run 1"))
+             for r in (named, blind)]
+    assert not np.array_equal(first[0].theta, first[1].theta)
