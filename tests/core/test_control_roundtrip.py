@@ -169,8 +169,9 @@ def test_controller_objects_agree_with_each_other(loops):
     w = np.geomspace(1, 6e4, 50)
     # reference: the stored polynomials in s at s (continuous) or at Tustin's s(z) (sampled)
     # the expanded z-polynomials of to_tf(fs) have nine roots near z = 1 at 20 kHz: 3.7e-5
-    # relative error at 1 rad/s; the state space stays at rounding level
-    for a, b, tol_tf in ((ctrl.to_tf(), ctrl.to_ss(), 1e-10), (ctrl.to_tf(FS), ctrl.to_ss(FS), 1e-4)):
+    # to 1.7e-4 relative error at 1 rad/s (as the design changes); the state space stays at
+    # rounding level
+    for a, b, tol_tf in ((ctrl.to_tf(), ctrl.to_ss(), 1e-10), (ctrl.to_tf(FS), ctrl.to_ss(FS), 1e-3)):
         x = 1j * w if a.dt == 0 else np.exp(1j * w / FS)
         s = x if a.dt == 0 else 2 * FS * (x - 1) / (x + 1)
         ref = np.array([[np.polyval(ctrl.T, v), -np.polyval(ctrl.R, v)] for v in s])
