@@ -51,7 +51,8 @@ from robrst.synthesis.parametrize import integral_gain
 from robrst.synthesis.screen import Screen
 from robrst.synthesis.search import PoleSpace, global_search, move_inside
 from robrst.synthesis.timesamples import TIME_MARGIN, TimeSpecs, time_specs
-from robrst.synthesis.tracking import CANCEL_FLOOR, meets_time_specs, time_spec_ratio
+from robrst.synthesis.tracking import (CANCEL_FLOOR, certified_with_steps, meets_time_specs,
+                                      time_spec_ratio)
 
 if TYPE_CHECKING:
     from robrst.problem.records import Problem
@@ -174,6 +175,7 @@ def _rank(problem, out, timed):
 
 RESCALE = True
 POLISH_ITER = 500      # IPOPT iterations of one polish (then its best certified point)
+SCREEN_SLACK = 0.02    # candidates screened this close to the specs are certified too
 SEARCH_MARGIN = 0.995  # the search screens 0.5 % inside the peaks' bounds (the steps as the program)
 INSIDE_MARGIN = 0.99   # a candidate the certificate refuses is moved 1 % inside the specs
 BACKOFF_NEAR = 1.05    # a polish missing the certificate by less than this ratio ...
@@ -222,7 +224,9 @@ def _global(ctx, run, seeds, best, start):
     run.search = res
     run.say(f"global phase: {res.evaluations} candidates in {res.generations} generations"
             f" ({res.cpu_s:.2g} s CPU), {len(res.candidates)} distinct")
-    feasible = [c for c in res.candidates if c.violation == 0]
+    # within the search's own margins of the specs (a start that meets them exactly, the
+    # problem's PI) the certificate decides too
+    feasible = [c for c in res.candidates if c.violation <= SCREEN_SLACK]
     if not feasible:
         run.notes.append("global phase: no candidate met the specs on the grid; the soft"
                          " phase from its best points")
@@ -266,7 +270,7 @@ def _global(ctx, run, seeds, best, start):
     certified = sorted((o for o in outs if o.certified),
                        key=lambda o: -objective_value(p, o))
     for o in certified:        # the best whose reference step meets the time specs
-        if meets_time_specs(p, o.ctrl):
+        if meets_time_specs(p, o.ctrl) and certified_with_steps(p, o.ctrl, o.cert):
             return o
     if certified:
         run.notes.append("global phase: no certified candidate met the time-domain specs")
@@ -288,7 +292,8 @@ def _polish(ctx, run, problem, xa, name, keep=True):
     every solve keeps the start's
     integral gain (:attr:`~robrst.synthesis.attempts.Run.floor`, less ``FLOOR_SLACK``): a
     polish is an improvement or nothing, never a worse basin reached through IPOPT's
-    restoration."""
+    restoration.  A floored polish that ends uncertified is solved once more without the
+    floor (the caller keeps the best certified outcome, so a worse one is never chosen)."""
     floor = None
     if keep and problem.solver.objective == "max_integral_gain":
         setup = ctx.setup(program_models(problem), ctx.nu, "free")
@@ -298,7 +303,16 @@ def _polish(ctx, run, problem, xa, name, keep=True):
             floor = (1.0 - FLOOR_SLACK) * num / den
     out, notes = _hard_from(ctx, run, xa, name, POLISH_ITER, floor)
     run.notes += notes
-    return _backoff(ctx, run, out, name, floor)
+    out = _backoff(ctx, run, out, name, floor)
+    if floor is None or (out is not None and out.certified) or run.stop():
+        return out
+    # the floor held IPOPT where the program has no feasible point (the start meets the
+    # certificate, not every row of the program): once more without it, a restoration
+    # free to leave; the caller keeps the best certified outcome, never a worse one
+    free, notes = _hard_from(ctx, run, xa, f"{name}, without the floor", POLISH_ITER)
+    run.notes += notes
+    free = _backoff(ctx, run, free, name)
+    return free if free is not None and (free.certified or out is None) else out
 
 
 def _hard_from(ctx, run, x, name, budget, floor=None):

@@ -42,14 +42,16 @@ import numpy as np
 from robrst.core import poly
 from robrst.core.analysis import spectral_abscissa_many
 from robrst.core.rst import RSTController, closed_loop
+from robrst.certificate.completion import first_tracked, with_time_domain
 from robrst.certificate.steps import check_many
 
 if TYPE_CHECKING:
+    from robrst.certificate.proof import Certificate
     from robrst.core.plant import Plant
     from robrst.problem.records import Problem
 
 __all__ = ["Tracking", "two_dof", "design_tracking", "tracking_candidates", "reference_model",
-           "cancel_thresholds", "centred_factor", "meets_time_specs", "time_spec_ratio",
+           "cancel_thresholds", "centred_factor", "meets_time_specs", "time_spec_ratio", "certified_with_steps",
            "CANCEL_FLOOR",
            "CENTRE_POINTS"]
 
@@ -245,6 +247,32 @@ def meets_time_specs(problem: Problem, ctrl: RSTController) -> bool:
     if problem.controller.T_mode == "reference_model":
         ctrl = design_tracking(problem, ctrl)[0]
     return _meets(problem, ctrl)
+
+
+def certified_with_steps(problem: Problem, ctrl: RSTController, cert: Certificate) -> bool:
+    """Does the feedback ``ctrl``, which ``cert`` certifies, keep its certificate once the
+    time-domain figures join it as the design completes it: its reference path as the
+    problem designs it, checked on every model of ``cert`` (the interval's sweep and
+    refinement points too, not only the family's models; a figure the step grid cannot
+    resolve below its bound fails)?
+
+    Parameters
+    ----------
+    problem : Problem
+    ctrl : RSTController
+        The feedback.
+    cert : Certificate
+        Its frequency-domain certificate.
+
+    Returns
+    -------
+    bool
+    """
+    if not cert.certified or not problem.specs.time_domain:
+        return bool(cert.certified)
+    if problem.controller.T_mode == "reference_model":
+        return first_tracked(problem, ctrl, cert, tracking_candidates(problem, ctrl))[2].certified
+    return with_time_domain(problem, cert, ctrl).certified
 
 
 def time_spec_ratio(problem: Problem, ctrl: RSTController) -> float:
