@@ -189,17 +189,19 @@ def _global(ctx, run, seeds, best, start):
     """The global phase (:mod:`robrst.synthesis.search`) with every coefficient free: the
     search (on a screen ``SEARCH_MARGIN`` inside the peaks' bounds, the steps at the
     program's ``TIME_MARGIN ** 2``: its best candidates certify as they are and start the
-    polish inside the program), then its best distinct candidates certified as they are (one the certificate
-    refuses, a peak or a step sample between the screen's points, moved inside the specs
-    by :func:`~robrst.synthesis.search.move_inside`: ``INSIDE_MARGIN`` on the peaks,
+    polish inside the program), then its best distinct candidates (those screened within
+    ``SCREEN_SLACK`` of the specs) certified as they are (one the certificate refuses, a
+    peak or a step sample between the screen's points, moved inside the specs by
+    :func:`~robrst.synthesis.search.move_inside`: ``INSIDE_MARGIN`` on the peaks,
     ``TIME_MARGIN ** 2`` on the steps, as the program's rows) and polished by the program
     (``1 + solver.starts`` of them, each within ``POLISH_ITER`` IPOPT iterations, from the
-    program rescaled at the candidate with the certificate's bounds, backed off by its
-    miss when it ends just outside them; a further one only when the previous polish
-    improved on its candidate, and not when screened below ``POLISH_SHARE`` of the best
-    certified objective so far or within ``POLISH_DISTINCT`` of one polished); the best
-    certified outcome whose reference step meets the time-domain specs, else the best
-    certified one, else the least violating one.  Falls back to :meth:`Run.attempt` when
+    program rescaled at the candidate with the certificate's bounds, keeping its integral
+    gain, backed off by its miss when it ends just outside the specs; a further one only
+    when the previous polish improved on its candidate, and not when screened below
+    ``POLISH_SHARE`` of the best certified objective so far or within ``POLISH_DISTINCT``
+    of one polished); the best certified outcome whose reference step meets the
+    time-domain specs on every model of its certificate, else the best certified one,
+    else the least violating one.  Falls back to :meth:`Run.attempt` when
     the space cannot be parametrised or nothing screened feasible."""
     p = ctx.problem
     ctx = replace(ctx, free_margin=BOUND_MARGIN)   # the certificate's bounds, not 2 % inside
@@ -289,10 +291,9 @@ def _polish(ctx, run, problem, xa, name, keep=True):
     point): the program from it within ``POLISH_ITER`` iterations, its reference-step rows
     and floored roots linearised from the first solve on, backed off when it ends just
     outside the certificate; with ``max_integral_gain`` and ``keep`` (the start certified)
-    every solve keeps the start's
-    integral gain (:attr:`~robrst.synthesis.attempts.Run.floor`, less ``FLOOR_SLACK``): a
-    polish is an improvement or nothing, never a worse basin reached through IPOPT's
-    restoration.  A floored polish that ends uncertified is solved once more without the
+    every solve keeps the start's integral gain
+    (:attr:`~robrst.synthesis.attempts.Run.floor`, less ``FLOOR_SLACK``): a polish is an
+    improvement or nothing, never a worse basin reached through IPOPT's restoration.  A floored polish that ends uncertified is solved once more without the
     floor (the caller keeps the best certified outcome, so a worse one is never chosen)."""
     floor = None
     if keep and problem.solver.objective == "max_integral_gain":
