@@ -15,7 +15,6 @@ from typing import TYPE_CHECKING
 
 from robrst.base.errors import CoprimeError, SpecError
 from robrst.base.interrupt import offer
-from robrst.certificate.completion import first_tracked, with_time_domain
 from robrst.certificate.proof import certify
 from robrst.core import poly
 from robrst.design.achieved import AnalyticCheck, Comparison
@@ -194,6 +193,7 @@ def candidate(problem: Problem, original: Problem, recheck: bool = False,
         path's record and the certificate.
     """
     from robrst.synthesis.robust import robust_synthesis
+    from robrst.synthesis.tracking import with_steps
 
     start = start if start is not None else analytic_design(problem)
     if problem.solver.method == "convex":
@@ -203,40 +203,13 @@ def candidate(problem: Problem, original: Problem, recheck: bool = False,
     else:
         stage = robust_synthesis(problem, start, say, templates, warm=warm, budget=budget,
                                  global_phase=global_phase, stop=stop)
-    ctrl, trk, cert = stage.controller, None, stage.certificate
+    ctrl, cert = stage.controller, stage.certificate
     if recheck:
         from robrst.synthesis.attempts import frequency_certificate
 
         cert = frequency_certificate(original, ctrl)
-    if original.controller.T_mode == "reference_model":
-        ctrl, trk, cert = tracked(original, ctrl, cert)
-    elif original.specs.time_domain:
-        cert = with_time_domain(original, cert, ctrl)
+    ctrl, trk, cert = with_steps(original, ctrl, cert)
     return stage, ctrl, trk, cert
-
-
-def tracked(problem: Problem, ctrl: RSTController, cert: Certificate) -> tuple:
-    """The 2-DOF controller of the feedback ``ctrl``: the first reference path
-    (:func:`robrst.synthesis.tracking.tracking_candidates`) whose loops on every model of
-    ``cert`` are stable and meet the time-domain specs, else the first one
-    (:func:`robrst.certificate.completion.first_tracked`).
-
-    Parameters
-    ----------
-    problem : Problem
-        The problem.
-    ctrl : RSTController
-        The feedback.
-    cert : Certificate
-        Its certificate.
-
-    Returns
-    -------
-    (RSTController, Tracking, Certificate)
-    """
-    from robrst.synthesis.tracking import tracking_candidates
-
-    return first_tracked(problem, ctrl, cert, tracking_candidates(problem, ctrl))
 
 
 def offer_candidate(problem: Problem, ctrl: RSTController, cert: Certificate) -> None:

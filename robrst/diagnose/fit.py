@@ -918,7 +918,6 @@ def fit_model(name: str, effects: Sequence[str], train: Sequence[Prepared], lin:
                 xtol=1e-10, gtol=1e-10, max_nfev=max_nfev)
         res.x = whole(res.x)
         if not free.all():          # the 1-sigma as before: every parameter's column
-            fun(res.x)
             res.jac = jac(res.x)
         n_rows = n_rows()
     cost = float(res.cost)

@@ -51,8 +51,8 @@ from robrst.synthesis.parametrize import integral_gain
 from robrst.synthesis.screen import Screen
 from robrst.synthesis.search import PoleSpace, global_search, move_inside
 from robrst.synthesis.timesamples import TIME_MARGIN, TimeSpecs, time_specs
-from robrst.synthesis.tracking import (CANCEL_FLOOR, certified_with_steps, meets_time_specs,
-                                      time_spec_ratio)
+from robrst.synthesis.tracking import (CANCEL_FLOOR, meets_time_specs, time_spec_ratio,
+                                      with_steps)
 
 if TYPE_CHECKING:
     from robrst.problem.records import Problem
@@ -259,9 +259,10 @@ def _global(ctx, run, seeds, best, start):
             continue          # polishing did not pay, below the best so far, or polished
         polished.append(c.theta)
         near = ctx.around(base.ctrl) if RESCALE else ctx     # scaled at the candidate
-        xr = near.full(near.param.vector(base.ctrl), near.setup(program_models(p), near.nu,
-                                                                 "free"))
-        out = _polish(near, run, p, xr, c.name, keep=base.certified)
+        polished_setup = near.setup(program_models(p), near.nu, "free")
+        xr = near.full(near.param.vector(base.ctrl), polished_setup)
+        floor = _floor(p, polished_setup, xr) if base.certified else None
+        out = _polish(near, run, xr, c.name, floor)
         gained = out is not None and out.certified and (
             objective_value(p, out) > objective_value(p, base))
         if out is not None:
@@ -272,7 +273,7 @@ def _global(ctx, run, seeds, best, start):
     certified = sorted((o for o in outs if o.certified),
                        key=lambda o: -objective_value(p, o))
     for o in certified:        # the best whose reference step meets the time specs
-        if meets_time_specs(p, o.ctrl) and certified_with_steps(p, o.ctrl, o.cert):
+        if meets_time_specs(p, o.ctrl) and with_steps(p, o.ctrl, o.cert)[2].certified:
             return o
     if certified:
         run.notes.append("global phase: no certified candidate met the time-domain specs")
@@ -286,22 +287,25 @@ SOFT_SEEDS = 3
 FLOOR_SLACK = 1e-3     # a polish keeps its start's integral gain but for this share
 
 
-def _polish(ctx, run, problem, xa, name, keep=True):
-    """One polish of a candidate (its vector ``xa`` in ``ctx``'s scaling, a certified
-    point): the program from it within ``POLISH_ITER`` iterations, its reference-step rows
-    and floored roots linearised from the first solve on, backed off when it ends just
-    outside the certificate; with ``max_integral_gain`` and ``keep`` (the start certified)
-    every solve keeps the start's integral gain
-    (:attr:`~robrst.synthesis.attempts.Run.floor`, less ``FLOOR_SLACK``): a polish is an
-    improvement or nothing, never a worse basin reached through IPOPT's restoration.  A floored polish that ends uncertified is solved once more without the
-    floor (the caller keeps the best certified outcome, so a worse one is never chosen)."""
-    floor = None
-    if keep and problem.solver.objective == "max_integral_gain":
-        setup = ctx.setup(program_models(problem), ctx.nu, "free")
-        r0, q0, q0c = objective_rows(setup)
-        num, den = float(r0 @ xa[:r0.size]), float(q0 @ xa[:q0.size] + q0c)
-        if num > 0 and den > 0:
-            floor = (1.0 - FLOOR_SLACK) * num / den
+def _floor(problem, setup, x):
+    """The polish's objective floor at ``x`` (``setup``'s scaling): its scaled integral
+    gain less ``FLOOR_SLACK`` (``None`` for another objective or a non-positive gain)."""
+    if problem.solver.objective != "max_integral_gain":
+        return None
+    r0, q0, q0c = objective_rows(setup)
+    num, den = float(r0 @ x[:r0.size]), float(q0 @ x[:q0.size] + q0c)
+    return (1.0 - FLOOR_SLACK) * num / den if num > 0 and den > 0 else None
+
+
+def _polish(ctx, run, xa, name, floor=None):
+    """One polish of a candidate (its vector ``xa`` in ``ctx``'s scaling): the program from
+    it within ``POLISH_ITER`` iterations, its reference-step rows and floored roots
+    linearised from the first solve on, backed off when it ends just outside the
+    certificate; with a ``floor`` (:func:`_floor` of a certified start) every solve keeps
+    the start's integral gain (:attr:`~robrst.synthesis.attempts.Run.floor`): a polish is
+    an improvement or nothing, never a worse basin reached through IPOPT's restoration.  A
+    floored polish that ends uncertified is solved once more without the floor (the caller
+    keeps the best certified outcome, so a worse one is never chosen)."""
     out, notes = _hard_from(ctx, run, xa, name, POLISH_ITER, floor)
     run.notes += notes
     out = _backoff(ctx, run, out, name, floor)

@@ -51,7 +51,7 @@ if TYPE_CHECKING:
     from robrst.problem.records import Problem
 
 __all__ = ["Tracking", "two_dof", "design_tracking", "tracking_candidates", "reference_model",
-           "cancel_thresholds", "centred_factor", "meets_time_specs", "time_spec_ratio", "certified_with_steps",
+           "cancel_thresholds", "centred_factor", "meets_time_specs", "time_spec_ratio", "with_steps",
            "CANCEL_FLOOR",
            "CENTRE_POINTS"]
 
@@ -249,12 +249,14 @@ def meets_time_specs(problem: Problem, ctrl: RSTController) -> bool:
     return _meets(problem, ctrl)
 
 
-def certified_with_steps(problem: Problem, ctrl: RSTController, cert: Certificate) -> bool:
-    """Does the feedback ``ctrl``, which ``cert`` certifies, keep its certificate once the
-    time-domain figures join it as the design completes it: its reference path as the
-    problem designs it, checked on every model of ``cert`` (the interval's sweep and
-    refinement points too, not only the family's models; a figure the step grid cannot
-    resolve below its bound fails)?
+def with_steps(problem: Problem, ctrl: RSTController,
+               cert: Certificate) -> tuple[RSTController, Tracking | None, Certificate]:
+    """The feedback ``ctrl`` and its certificate ``cert`` completed as a design completes
+    them: with ``T_mode = "reference_model"`` the first reference path whose loops on every
+    model of ``cert`` meet the time-domain specs
+    (:func:`robrst.certificate.completion.first_tracked`), else the time-domain figures of
+    ``ctrl`` itself on every model of ``cert`` (the interval's sweep and refinement points
+    too; a figure the step grid cannot resolve below its bound fails).
 
     Parameters
     ----------
@@ -266,13 +268,14 @@ def certified_with_steps(problem: Problem, ctrl: RSTController, cert: Certificat
 
     Returns
     -------
-    bool
+    (RSTController, Tracking or None, Certificate)
+        The controller (with its reference path), the path's record, the certificate.
     """
-    if not cert.certified or not problem.specs.time_domain:
-        return bool(cert.certified)
     if problem.controller.T_mode == "reference_model":
-        return first_tracked(problem, ctrl, cert, tracking_candidates(problem, ctrl))[2].certified
-    return with_time_domain(problem, cert, ctrl).certified
+        return first_tracked(problem, ctrl, cert, tracking_candidates(problem, ctrl))
+    if problem.specs.time_domain:
+        return ctrl, None, with_time_domain(problem, cert, ctrl)
+    return ctrl, None, cert
 
 
 def time_spec_ratio(problem: Problem, ctrl: RSTController) -> float:
