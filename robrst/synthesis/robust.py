@@ -50,6 +50,7 @@ from robrst.synthesis.outcome import SynthesisResult, best_achievable, worst_vio
 from robrst.synthesis.parametrize import integral_gain
 from robrst.synthesis.screen import Screen
 from robrst.synthesis.search import PoleSpace, global_search, move_inside
+from robrst.synthesis.starts import integral_seeds
 from robrst.synthesis.timesamples import TIME_MARGIN, TimeSpecs, time_specs
 from robrst.synthesis.tracking import (CANCEL_FLOOR, meets_time_specs, time_spec_ratio,
                                       with_steps)
@@ -222,6 +223,7 @@ def _global(ctx, run, seeds, best, start):
         pass
     if best is not None:
         named.append((f"the problem's poles ({best.placement})", best.x[:ctx.param.n_x]))
+    named += integral_seeds(ctx)     # the classical loops: a PI may sit on the optimum
     res = global_search(screen, space, named, stop=run.stop, say=run.say)
     run.search = res
     run.say(f"global phase: {res.evaluations} candidates in {res.generations} generations"

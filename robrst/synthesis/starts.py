@@ -36,7 +36,8 @@ if TYPE_CHECKING:
     from robrst.synthesis.context import Context
     from robrst.synthesis.nlp import GridBlock, NLPSetup
 
-__all__ = ["Start", "score", "score_many", "candidates", "abscissa", "ON_SLOW_POLE"]
+__all__ = ["Start", "score", "score_many", "candidates", "abscissa", "integral_seeds",
+           "ON_SLOW_POLE"]
 
 ON_SLOW_POLE = "on the plant's slowest pole"   # the name of a PI start with that zero
 
@@ -213,11 +214,28 @@ def _analytic(ctx, spec):
 
 
 def _integral(ctx, setup, blocks):
-    """Integral and PI controllers with roll-off poles at ``p = -c`` (scaled), scored.
+    """:func:`integral_seeds` scored on ``blocks``."""
+    return score_many(setup, blocks, [(n, x, None, None) for n, x in integral_seeds(ctx)])
+
+
+def integral_seeds(ctx: Context) -> list[tuple[str, np.ndarray]]:
+    """Integral and PI controllers with roll-off poles at ``p = -c`` (scaled), named.
 
     ``K = kappa (p + z) (p + c)^(kr-1) / (p Sf' (p + c)^ks)``: an integrator (``z``
-    far above the crossover) or a PI with its zero at ``z``, the gain set by the loop
-    crossover ``wc`` (``K(jw) P(0) ~ wc / jw`` at low frequency).
+    far above the crossover) or a PI with its zero at ``z`` (at the crossover, at 0.3 of
+    it, or on the plant's slowest stable real pole), the gain set by the loop crossover
+    ``wc`` (``K(jw) P(0) ~ wc / jw`` at low frequency), for every ``wc`` of ``KI_GRID``.
+
+    Parameters
+    ----------
+    ctx : Context
+        The synthesis's context (its parametrisation and scaling).
+
+    Returns
+    -------
+    list of (str, numpy.ndarray)
+        ``(name, xc)`` in this context's parametrisation; empty unless the controller has
+        one integrator and the plant at most one.
     """
     par = ctx.param
     if par.integrators != 1:
@@ -255,8 +273,8 @@ def _integral(ctx, setup, blocks):
                 kappa = np.sign(dc * gain0) / abs(k1 * p1)
             else:
                 kappa = wc / (dc * gain0)
-            items.append((name, np.concatenate([sp[1:], kappa * rp]), None, None))
-    return score_many(setup, blocks, items)
+            items.append((name, np.concatenate([sp[1:], kappa * rp])))
+    return items
 
 
 def _resonance(plant):
