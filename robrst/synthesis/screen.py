@@ -49,6 +49,7 @@ __all__ = ["Screen", "Figures", "batch_roots", "routh_columns", "RESONANT_DAMPIN
 
 RESONANT_DAMPING = 0.3   # closed-loop roots damped less than this add their frequency
 STEP_POINTS = 120        # samples of each screened reference step (quadratically spaced)
+PEAK_SAMPLES = 256       # ... and, of a sampled loop, every one of its first samples
 STEP_HORIZON = 10.0      # ... up to this many time constants of the slowest mode
 UNSTABLE = 1e3           # the violation of an unstable loop (plus its count, its abscissa)
 
@@ -640,7 +641,13 @@ def _modal_steps(poles, lead, fy, fu, ts, h=None):
         e = np.exp(rate[..., None] * tau[..., None, :])                 # (K, M, n, T)
         y = (y_inf[..., None] + np.einsum("kmd,kmdt->kmt", cy, e).real) / y_inf[..., None]
         ok = np.all(np.isfinite(y), axis=2)
-        o = np.where(ok, y.max(axis=2) - 1.0, 0.0)
+        peak = y.max(axis=2)
+        if h is not None:     # every one of the first samples: the peak of a loop that rings
+            tr = h * np.arange(PEAK_SAMPLES)                   # near Nyquist falls between
+            yr = (y_inf[..., None] + np.einsum("kmd,kmdt->kmt", cy, np.exp(
+                rate[..., None] * tr)).real) / y_inf[..., None]     # the grid's samples
+            peak = np.maximum(peak, yr.max(axis=2))
+        o = np.where(ok, peak - 1.0, 0.0)
         over = o.max(axis=1)
         if ts.overshoot is not None:
             excess += np.maximum(over - ts.overshoot, 0.0) / max(ts.overshoot, 0.01)

@@ -68,6 +68,8 @@ STALL = 40               # a run stops after this many generations without progr
 MIN_SPREAD = 2e-4        # ... or when its distribution is this narrow (box units)
 POPSIZE = 14             # population of the first run (at least 4 + 3 ln d); the random
 GROWTH = 2               # runs' is this times larger (IPOP-CMA-ES: more global)
+SEED_SIGMA = 0.05        # the first run's step size: local around its seed (BIPOP's local
+                         # regime; the random runs' is 0.3)
 ZETA_MIN, ZETA_MAX = 0.005, 30.0   # damping range of a pole pair (zeta > 1: two real poles)
 YOULA_RANGE = 30.0       # Youla degrees within +- this times |controller| ...
 YOULA_SHAPE = 4.0        # ... on a sinh scale: |v| <= 1.3 |controller| over half the box
@@ -422,7 +424,7 @@ def global_search(screen: Screen, space: PoleSpace, starts: Sequence[tuple] = ()
             found.append((_key(figs, i), th, n))
     else:
         first, first_name = streams[-1].uniform(0.2, 0.8, d), None
-    plan = [(first, 0.15, f"from {first_name}" if first_name else "random mean", lam)]
+    plan = [(first, SEED_SIGMA, f"from {first_name}" if first_name else "random mean", lam)]
     plan += [(streams[r].uniform(0.1, 0.9, d), 0.3, "random mean", GROWTH * lam)
              for r in range(1, runs)]
     for r in range(len(plan)):
