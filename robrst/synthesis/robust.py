@@ -305,21 +305,10 @@ def _polish(ctx, run, xa, name, floor=None):
     linearised from the first solve on, backed off when it ends just outside the
     certificate; with a ``floor`` (:func:`_floor` of a certified start) every solve keeps
     the start's integral gain (:attr:`~robrst.synthesis.attempts.Run.floor`): a polish is
-    an improvement or nothing, never a worse basin reached through IPOPT's restoration.  A
-    floored polish that ends uncertified is solved once more without the floor (the caller
-    keeps the best certified outcome, so a worse one is never chosen)."""
+    an improvement or nothing, never a worse basin reached through IPOPT's restoration."""
     out, notes = _hard_from(ctx, run, xa, name, POLISH_ITER, floor)
     run.notes += notes
-    out = _backoff(ctx, run, out, name, floor)
-    if floor is None or (out is not None and out.certified) or run.stop():
-        return out
-    # the floor held IPOPT where the program has no feasible point (the start meets the
-    # certificate, not every row of the program): once more without it, a restoration
-    # free to leave; the caller keeps the best certified outcome, never a worse one
-    free, notes = _hard_from(ctx, run, xa, f"{name}, without the floor", POLISH_ITER)
-    run.notes += notes
-    free = _backoff(ctx, run, free, name)
-    return free if free is not None and (free.certified or out is None) else out
+    return _backoff(ctx, run, out, name, floor)
 
 
 def _hard_from(ctx, run, x, name, budget, floor=None):
