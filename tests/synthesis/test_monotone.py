@@ -71,13 +71,11 @@ def test_a_looser_bound_never_collapses(scans, seed, order):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=False, reason="not monotone within 1 % yet: a polish now keeps its"
+@pytest.mark.xfail(strict=False, reason="not monotone within 1 % yet: a polish keeps its"
                    " start's integral gain, but which basin the CMA-ES runs find moves with the"
-                   " bound (stage 11 at 2.25: runs at 524-586 k, polished to 606 k; at 2.0 a run"
-                   " found the 829 k basin). Measured (integral gain at Ms_max 1.5 / 1.75 / 2.0 /"
-                   " 2.25 / 2.5): stage 11 457 k / 829 k / 829 k / 606 k / 606 k; stage 12 1.10 M"
-                   " / 1.43 M / 1.50 M / 1.49 M / 1.28 M; stage 13 (4th order) 22.8 k / 172 k /"
-                   " 176 k / 178 k / 222 k")
+                   " bound. Measured (integral gain at Ms_max 1.5 / 2.0 / 2.5): stage 11 757 k /"
+                   " 829 k / 829 k (passes); stage 12 1.10 M / 1.50 M / 1.28 M; stage 13 (4th"
+                   " order) 26.8 k / 230 k / 207 k")
 @pytest.mark.parametrize("seed,order", [(11, 2), (12, 2), (13, 4)])
 def test_ms_scan_is_monotone(scans, seed, order):
     scan = scans(seed, order)
