@@ -638,15 +638,17 @@ def _modal_steps(poles, lead, fy, fu, ts, h=None):
         tau = t_end[..., None] * tgrid                                  # (K, M, T)
         if h is not None:                                               # at the samples
             tau = np.round(tau / h) * h
+        def output(e):        # the unit step's output at the modes' values e (K, M, n, T)
+            return (y_inf[..., None] + np.einsum("kmd,kmdt->kmt", cy, e).real) / y_inf[..., None]
+
         e = np.exp(rate[..., None] * tau[..., None, :])                 # (K, M, n, T)
-        y = (y_inf[..., None] + np.einsum("kmd,kmdt->kmt", cy, e).real) / y_inf[..., None]
+        y = output(e)
         ok = np.all(np.isfinite(y), axis=2)
         peak = y.max(axis=2)
         if h is not None:     # every one of the first samples: the peak of a loop that rings
-            tr = h * np.arange(PEAK_SAMPLES)                   # near Nyquist falls between
-            yr = (y_inf[..., None] + np.einsum("kmd,kmdt->kmt", cy, np.exp(
-                rate[..., None] * tr)).real) / y_inf[..., None]     # the grid's samples
-            peak = np.maximum(peak, yr.max(axis=2))
+            # near Nyquist falls between the grid's samples
+            peak = np.maximum(peak, output(np.exp(rate[..., None]
+                                                  * (h * np.arange(PEAK_SAMPLES)))).max(axis=2))
         o = np.where(ok, peak - 1.0, 0.0)
         over = o.max(axis=1)
         if ts.overshoot is not None:
