@@ -639,7 +639,7 @@ def _modal_steps(poles, lead, fy, fu, ts, h=None):
         if h is not None:                                               # at the samples
             tau = np.round(tau / h) * h
         def output(e):        # the unit step's output at the modes' values e (K, M, n, T)
-            return (y_inf[..., None] + np.einsum("kmd,kmdt->kmt", cy, e).real) / y_inf[..., None]
+            return (y_inf[..., None] + _weigh(cy, e)) / y_inf[..., None]
 
         e = np.exp(rate[..., None] * tau[..., None, :])                 # (K, M, n, T)
         y = output(e)
@@ -647,8 +647,11 @@ def _modal_steps(poles, lead, fy, fu, ts, h=None):
         peak = y.max(axis=2)
         if h is not None:     # every one of the first samples: the peak of a loop that rings
             # near Nyquist falls between the grid's samples
-            peak = np.maximum(peak, output(np.exp(rate[..., None]
-                                                  * (h * np.arange(PEAK_SAMPLES)))).max(axis=2))
+            zk = np.empty(rate.shape + (PEAK_SAMPLES,), complex)   # z_i^k, k < PEAK_SAMPLES
+            zk[..., 0] = 1.0
+            zk[..., 1:] = np.exp(rate * h)[..., None]
+            np.cumprod(zk, axis=-1, out=zk)
+            peak = np.maximum(peak, output(zk).max(axis=2))
         o = np.where(ok, peak - 1.0, 0.0)
         over = o.max(axis=1)
         if ts.overshoot is not None:
@@ -662,10 +665,16 @@ def _modal_steps(poles, lead, fy, fu, ts, h=None):
         if ts.u_max is not None:
             u_inf = (fu(zero)[..., 0] / d0).real
             cu = fu(poles) / (poles * dprime) / (1.0 if h is None else hold)
-            u = (u_inf[..., None] + np.einsum("kmd,kmdt->kmt", cu, e).real) / y_inf[..., None]
+            u = (u_inf[..., None] + _weigh(cu, e)) / y_inf[..., None]
             pk = np.abs(u).max(axis=2).max(axis=1) * ts.step_um
             excess += np.where(np.isfinite(pk), np.maximum(pk / ts.u_max - 1.0, 0.0), 0.0)
     return excess, over
+
+
+def _weigh(c, e):
+    """``Re sum_i c_i e_i(t)``: the modal sum of the weights ``c`` ``(K, M, n)`` over the
+    modes' values ``e`` ``(K, M, n, T)`` (a batched product, not an ``einsum`` loop)."""
+    return np.matmul(c[..., None, :], e)[..., 0, :].real
 
 
 def _pad(c, n):
