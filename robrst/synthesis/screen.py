@@ -314,20 +314,19 @@ class Screen:
             for A, B, keys, Vs, Vr, Vt, _ in self.groups:
                 S = lead @ Vs.T                                   # (K, F)
                 R = X[:, self.ks:self.nx] @ Vr.T
-                aS, bR = A[None] * S[:, None], B[None] * R[:, None]   # (K, M, F)
-                D = np.abs(aS + bR)
+                inv = 1.0 / np.abs(A[None] * S[:, None] + B[None] * R[:, None])  # 1/|Delta|
+                # every numerator is a product of magnitudes: |a||S|, |b||R|, |a||R|, ...
+                mag = {"A": np.abs(A), "B": np.abs(B)}
+                per = {"S": ("A", np.abs(S)), "R": ("B", np.abs(R))}
+                per["U"] = ("A", per["R"][1])
+                per["Sd"] = ("B", per["S"][1])
+                per["Ry"] = ("B", np.abs(Vt[None] * r0[:, None]))
                 for key, (idx, bound) in keys.items():
-                    if key == "S":
-                        N = np.abs(aS[:, idx])
-                    elif key in ("T", "Tband"):
-                        N = np.abs(bR[:, idx])
-                    elif key in ("U", "Uhf"):
-                        N = np.abs(A[None, idx] * R[:, None])
-                    elif key == "Sd":
-                        N = np.abs(B[None, idx] * S[:, None])
-                    else:                                         # Ry: B T / Delta
-                        N = np.abs(B[None, idx] * (Vt[None] * r0[:, None])[:, None])
-                    r = (N / (bound[None, :, None] * D[:, idx])).max(axis=(1, 2))
+                    which = {"T": "R", "Tband": "R", "Uhf": "U"}.get(key, key)
+                    model, ctrl = per[which]
+                    N = mag[model][None, idx] * ctrl[:, None]     # (K, m, F)
+                    r = (N * inv[:, idx]).max(axis=2) / bound[None, :]
+                    r = r.max(axis=1)
                     worst = np.maximum(worst, np.where(np.isnan(r), np.inf, r))
         return worst
 

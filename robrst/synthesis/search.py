@@ -15,8 +15,9 @@ polishes:
    space, relative to the size of that controller.  Every controller that stabilises the
    nominal model has exactly one such name; every name stabilises the nominal model.
 2. **A population method.**  A CMA-ES (:mod:`robrst.synthesis.cmaes`) from the problem's
-   own design, then from seeded random means with a population ``GROWTH`` times larger
-   (IPOP-CMA-ES: a larger population is more global; ``RESTARTS`` runs in all, each with
+   own design, then from seeded random means, each run's population ``GROWTH`` times the
+   previous one's (IPOP-CMA-ES, Auger and Hansen 2005: a larger population smooths a
+   multimodal landscape and finds the global structure; ``RESTARTS`` runs in all, each with
    its own random stream spawned from the seed, so one run's length never changes
    another's samples); every
    population judged at once by :class:`~robrst.synthesis.screen.Screen`
@@ -62,12 +63,12 @@ __all__ = ["PoleSpace", "Candidate", "GlobalSearch", "global_search", "move_insi
            "GENERATIONS", "SEARCH_SEED", "ZETA_MAX"]
 
 SEARCH_SEED = 20261128   # the global phase's random numbers (numpy.random.default_rng)
-RESTARTS = 3             # CMA-ES runs: from the problem's design, then from random means
+RESTARTS = 4             # CMA-ES runs: from the problem's design, then from random means
 GENERATIONS = 400        # at most per run (a run stops earlier once it stalls: STALL)
 STALL = 40               # a run stops after this many generations without progress
 MIN_SPREAD = 2e-4        # ... or when its distribution is this narrow (box units)
 POPSIZE = 14             # population of the first run (at least 4 + 3 ln d); the random
-GROWTH = 2               # runs' is this times larger (IPOP-CMA-ES: more global)
+GROWTH = 2               # run r's is GROWTH ** r times larger (IPOP-CMA-ES: more global)
 SEED_SIGMA = 0.05        # the first run's step size: local around its seed (BIPOP's local
                          # regime; the random runs' is 0.3)
 ZETA_MIN, ZETA_MAX = 0.005, 30.0   # damping range of a pole pair (zeta > 1: two real poles)
@@ -425,7 +426,7 @@ def global_search(screen: Screen, space: PoleSpace, starts: Sequence[tuple] = ()
     else:
         first, first_name = streams[-1].uniform(0.2, 0.8, d), None
     plan = [(first, SEED_SIGMA, f"from {first_name}" if first_name else "random mean", lam)]
-    plan += [(streams[r].uniform(0.1, 0.9, d), 0.3, "random mean", GROWTH * lam)
+    plan += [(streams[r].uniform(0.1, 0.9, d), 0.3, "random mean", GROWTH ** r * lam)
              for r in range(1, runs)]
     for r in range(len(plan)):
         mean, sigma, what, size = plan[r]

@@ -112,7 +112,10 @@ def test_python_control_margins_on_the_returned_loop(loops, name):
     gm, pm, sm, *_ = control.stability_margins(cl["L"])
     # the phase margin of the crossover closest to -1 (robrst: either sign, python-control: signed)
     assert abs(pm) == pytest.approx(abs(a.margins.phase_margin_deg), abs=1e-6)
-    assert gm == pytest.approx(a.margins.gain_margin, rel=1e-7)
+    if a.margins.gain_margin is None:      # no phase crossover: robrst null, python-control inf
+        assert gm == np.inf and not a.margins.phase_crossover_rad_s
+    else:
+        assert gm == pytest.approx(a.margins.gain_margin, rel=1e-7)
     assert sm == pytest.approx(a.margins.modulus_margin, rel=1e-7)   # |S| peak at finite w
 
 
@@ -178,7 +181,11 @@ def test_controller_objects_agree_with_each_other(loops):
         ref /= np.array([np.polyval(ctrl.S, v) for v in s])[:, None]
         fa = np.array([np.asarray(a(v)).ravel() for v in x])
         fb = np.array([np.asarray(b(v)).ravel() for v in x])
-        assert np.max(np.abs(fb - ref) / np.abs(ref)) < 1e-10
+        # relative to the value, or to a millionth of its column's peak where the
+        # controller has rolled off (|T/S| ~ 1e-6 at the top of the band: rounding of
+        # the realisation is absolute there)
+        scale = np.maximum(np.abs(ref), 1e-6 * np.max(np.abs(ref), axis=0))
+        assert np.max(np.abs(fb - ref) / scale) < 1e-10
         assert np.max(np.abs(fa - ref) / np.abs(ref)) < tol_tf
         assert a.input_labels == ["yr", "y"] and b.output_labels == ["u"]
     assert ctrl.to_tf(FS).dt == 1 / FS
