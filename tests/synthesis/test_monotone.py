@@ -70,13 +70,14 @@ def test_a_looser_bound_never_collapses(scans, seed, order):
         best = ki if best is None else max(best, ki)
 
 
+STAGE13 = pytest.mark.xfail(strict=False, reason="not monotone within 1 % yet on the 4th-order"
+                            " stage: which basin the restarts find still moves with the bound."
+                            " Measured (integral gain at Ms_max 1.5 / 1.75 / 2.0 / 2.25 / 2.5):"
+                            " 172 k / 182 k / 279 k / 183 k / 315 k")
+
+
 @pytest.mark.slow
-@pytest.mark.xfail(strict=False, reason="not monotone within 1 % yet: a polish keeps its"
-                   " start's integral gain, but which basin the CMA-ES runs find moves with the"
-                   " bound. Measured (integral gain at Ms_max 1.5 / 2.0 / 2.5): stage 11 757 k /"
-                   " 829 k / 829 k (passes); stage 12 1.10 M / 1.50 M / 1.28 M; stage 13 (4th"
-                   " order) 26.8 k / 230 k / 207 k")
-@pytest.mark.parametrize("seed,order", [(11, 2), (12, 2), (13, 4)])
+@pytest.mark.parametrize("seed,order", [(11, 2), (12, 2), pytest.param(13, 4, marks=STAGE13)])
 def test_ms_scan_is_monotone(scans, seed, order):
     scan = scans(seed, order)
     print(f"\nstage {seed}: " + ", ".join(f"{v}: {ki}" for v, _, _, ki in scan))
