@@ -214,16 +214,6 @@ def _stacked(a, b):
                    labels=a.labels + b.labels)
 
 
-class _Timed:
-    """A solve of :meth:`Run.timed` and whether it was the objective's (``phase_ok``)."""
-
-    def __init__(self, res, phase_ok):
-        self.res, self.phase_ok = res, phase_ok
-
-    def __getattr__(self, name):
-        return getattr(self.res, name)
-
-
 def _better(problem, out, others):
     """``out`` (certified), or a certified outcome of ``others`` with a larger objective (a
     hard phase from another start may end at a worse local optimum than a start that
@@ -402,7 +392,8 @@ class Run:
                              _stacked(lin, self.floor_row(setup)))
         elif res is None:
             res = solve_exchange(setup, x0, ipopt, phase, self.templates, exact=exact)
-            if not res.success and not self.strict:   # second chance: adaptive barrier
+            if not res.success and not self.strict and not self.spent():
+                # second chance (adaptive barrier), within the run's budget only
                 res = solve_exchange(setup, x0, {**ctx.ipopt, "mu_strategy": "adaptive"}, phase,
                                      self.templates, exact=exact)
         if (spec is not None or floored) and res.success and key not in self.solved:
@@ -456,6 +447,7 @@ class Run:
             The last accepted solve, ``iterations`` summed.
         """
         best, keys, f, iters = res, (), TIME_BOX, res.iterations
+        hard_step = False     # the accepted step was the objective's (a hard solve)
 
         def ratios(x):
             w_t, fnd = worst_time_ratio(setup, x, spec) if spec is not None else (0.0, {})
@@ -468,7 +460,7 @@ class Run:
             if self.spent() or (self.strict and iters > self.budget):
                 break
             kind = "time" if w_time > 1.0 and restore else phase.kind
-            if worst <= 1.0 and (kind != "hard" or best is not res and best.phase_ok):
+            if worst <= 1.0 and (kind != "hard" or hard_step):
                 break
             rows = time_rows(setup, best.x, spec, keys, found) if spec is not None else None
             keys = rows.keys if rows is not None else keys
@@ -497,14 +489,13 @@ class Run:
             if w_new < worst or (w_new <= 1.0 and kind == "hard"):
                 best, worst, w_time, found = new, w_new, wt_new, f_new
                 f = min(2 * f, 4 * TIME_BOX)
-                best = _Timed(best, kind == "hard")
+                hard_step = kind == "hard"
             else:
                 f /= 2
         if worst > 1.0:
             self.notes.append(f"linearised rows (reference-step samples, damping floors): the"
                               f" worst is {worst:.3g} x its bound after the rounds (the"
                               " certificate decides)")
-        best = best.res if isinstance(best, _Timed) else best
         return replace(best, iterations=iters)
 
     def floor_row(self, setup: NLPSetup) -> TimeRows | None:
