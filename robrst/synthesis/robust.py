@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -60,7 +60,7 @@ if TYPE_CHECKING:
     from robrst.synthesis.analytic import AnalyticDesign
 
 __all__ = ["robust_synthesis", "a_priori_note", "BOUND_MARGIN", "worst_violation",
-           "best_achievable"]
+           "best_achievable", "PolishOptions", "POLISH"]
 
 NEAR_MISS = 1.5   # on failure, lower degrees are tried when the specs are missed by <= 50 %
 
@@ -174,36 +174,76 @@ def _rank(problem, out, timed):
     return (ok, objective_value(problem, out))
 
 
-RESCALE = True
-POLISH_ITER = 500      # IPOPT iterations of one polish (then its best certified point)
-SCREEN_SLACK = 0.02    # candidates screened this close to the specs are certified too
-SEARCH_MARGIN = 0.995  # the search screens 0.5 % inside the peaks' bounds (the steps as the program)
-INSIDE_MARGIN = 0.99   # a candidate the certificate refuses is moved 1 % inside the specs
-BACKOFF_NEAR = 1.05    # a polish missing the certificate by less than this ratio ...
-BACKOFFS = 2           # ... is solved again this many times, its violated bounds tightened
-BACKOFF_ITER = 150     # by the miss, within this many IPOPT iterations each
-POLISH_SHARE = 0.9     # a further candidate screened below this share of the best certified,
-POLISH_DISTINCT = 0.1  # or nearer than this (box units) to one polished, is not polished
+@dataclass(frozen=True)
+class PolishOptions:
+    """The global phase's polish and its safeguards (:func:`_global`), each with why.
+
+    Attributes
+    ----------
+    rescale : bool
+        Each polish's program is scaled at its candidate (``Context.around``): the
+        candidate's coefficients, not the analytic design's, set the scales.
+    iterations : int
+        IPOPT iterations of one polish, then its best certified point.
+    screen_slack : float
+        Candidates screened this close to the specs are certified too (the screen's grid
+        is coarser than the certificate's).
+    search_margin : float
+        The search screens this far inside the peaks' bounds (the steps as the program).
+    inside_margin : float
+        A candidate the certificate refuses is moved this far inside the specs.
+    backoff_near : float
+        A polish missing the certificate by less than this ratio ...
+    backoffs : int
+        ... is solved again this many times, its violated bounds tightened by the miss ...
+    backoff_iter : int
+        ... within this many IPOPT iterations each.
+    share : float
+        A further candidate screened below this share of the best certified objective ...
+    distinct : float
+        ... or nearer than this (box units) to one polished is not polished.
+    soft_seeds : int
+        With no candidate inside the specs, the soft phase starts from this many of the
+        best.
+    floor_slack : float
+        A polish keeps its start's integral gain but for this share (rounding).
+    """
+
+    rescale: bool = True
+    iterations: int = 500
+    screen_slack: float = 0.02
+    search_margin: float = 0.995
+    inside_margin: float = 0.99
+    backoff_near: float = 1.05
+    backoffs: int = 2
+    backoff_iter: int = 150
+    share: float = 0.9
+    distinct: float = 0.1
+    soft_seeds: int = 3
+    floor_slack: float = 1e-3
+
+
+POLISH = PolishOptions()
 
 
 def _global(ctx, run, seeds, best, start):
-    """The global phase (:mod:`robrst.synthesis.search`) with every coefficient free: the
-    search (on a screen ``SEARCH_MARGIN`` inside the peaks' bounds, the steps at the
-    program's ``TIME_MARGIN ** 2``: its best candidates certify as they are and start the
-    polish inside the program), then its best distinct candidates (those screened within
-    ``SCREEN_SLACK`` of the specs) certified as they are (one the certificate refuses, a
-    peak or a step sample between the screen's points, moved inside the specs by
-    :func:`~robrst.synthesis.search.move_inside`: ``INSIDE_MARGIN`` on the peaks,
-    ``TIME_MARGIN ** 2`` on the steps, as the program's rows) and polished by the program
-    (``1 + solver.starts`` of them, each within ``POLISH_ITER`` IPOPT iterations, from the
-    program rescaled at the candidate with the certificate's bounds, keeping its integral
-    gain, backed off by its miss when it ends just outside the specs; a further one only
-    when the previous polish improved on its candidate, and not when screened below
-    ``POLISH_SHARE`` of the best certified objective so far or within ``POLISH_DISTINCT``
-    of one polished); the best certified outcome whose reference step meets the
-    time-domain specs on every model of its certificate, else the best certified one,
-    else the least violating one.  Falls back to :meth:`Run.attempt` when
-    the space cannot be parametrised or nothing screened feasible."""
+    """The global phase (:mod:`robrst.synthesis.search`) with every coefficient free
+    (settings: :class:`PolishOptions`): the search (on a screen ``search_margin`` inside
+    the peaks' bounds, the steps at the program's ``TIME_MARGIN ** 2``: its best
+    candidates certify as they are and start the polish inside the program), then its best
+    distinct candidates (those screened within ``screen_slack`` of the specs) certified as
+    they are (one the certificate refuses, a peak or a step sample between the screen's
+    points, moved inside the specs by :func:`~robrst.synthesis.search.move_inside`:
+    ``inside_margin`` on the peaks, ``TIME_MARGIN ** 2`` on the steps, as the program's
+    rows) and polished by the program (``1 + solver.starts`` of them, each within
+    ``iterations`` IPOPT iterations, from the program rescaled at the candidate with the
+    certificate's bounds, keeping its integral gain, backed off by its miss when it ends
+    just outside the specs; a further one only when the previous polish improved on its
+    candidate, and not when screened below ``share`` of the best certified objective so
+    far or within ``distinct`` of one polished); the best certified outcome whose
+    reference step meets the time-domain specs on every model of its certificate, else the
+    best certified one, else the least violating one.  Falls back to :meth:`Run.attempt`
+    when the space cannot be parametrised or nothing screened feasible."""
     p = ctx.problem
     ctx = replace(ctx, free_margin=BOUND_MARGIN)   # the certificate's bounds, not 2 % inside
     setup = ctx.setup(program_models(p), ctx.nu, "free")
@@ -213,7 +253,8 @@ def _global(ctx, run, seeds, best, start):
                          " coefficient depends on the controller")
         return run.attempt(ctx, "free", seeds)
     steps, two_dof = _screened_steps(p, ctx.w0)
-    searched = replace(ctx, free_margin=SEARCH_MARGIN).setup(program_models(p), ctx.nu, "free")
+    searched = replace(ctx, free_margin=POLISH.search_margin).setup(program_models(p), ctx.nu,
+                                                                    "free")
     screen = Screen(searched, _inside(steps, TIME_MARGIN ** 2), two_dof)
     inside = []           # the screen inside the specs, built once needed
     named = [(sd[0], sd[1]) for sd in seeds if sd[1] is not None]
@@ -230,12 +271,12 @@ def _global(ctx, run, seeds, best, start):
             f" ({res.cpu_s:.2g} s CPU), {len(res.candidates)} distinct")
     # within the search's own margins of the specs (a start that meets them exactly, the
     # problem's PI) the certificate decides too
-    feasible = [c for c in res.candidates if c.violation <= SCREEN_SLACK]
+    feasible = [c for c in res.candidates if c.violation <= POLISH.screen_slack]
     if not feasible:
         run.notes.append("global phase: no candidate met the specs on the grid; the soft"
                          " phase from its best points")
         return run.attempt(ctx, "free", seeds + [(c.name, c.xc) for c in
-                                                 res.candidates[:SOFT_SEEDS]])
+                                                 res.candidates[:POLISH.soft_seeds]])
     outs, polished, gained = [], [], False
     ref = objective_value(p, best) if best is not None and best.certified else -np.inf
     for c in feasible[:1 + max(0, p.solver.starts)]:
@@ -255,12 +296,12 @@ def _global(ctx, run, seeds, best, start):
                 base = moved
         if as_is.certified:
             ref = max(ref, objective_value(p, as_is))
-        if polished and (not gained or _screened_value(p, ctx, c) < POLISH_SHARE * ref
+        if polished and (not gained or _screened_value(p, ctx, c) < POLISH.share * ref
                          or min(np.max(np.abs(c.theta - t)) for t in polished)
-                         < POLISH_DISTINCT):
+                         < POLISH.distinct):
             continue          # polishing did not pay, below the best so far, or polished
         polished.append(c.theta)
-        near = ctx.around(base.ctrl) if RESCALE else ctx     # scaled at the candidate
+        near = ctx.around(base.ctrl) if POLISH.rescale else ctx     # scaled at the candidate
         polished_setup = near.setup(program_models(p), near.nu, "free")
         xr = near.full(near.param.vector(base.ctrl), polished_setup)
         floor = _floor(p, polished_setup, xr) if base.certified else None
@@ -283,30 +324,24 @@ def _global(ctx, run, seeds, best, start):
     return min(outs, key=lambda o: o.badness)
 
 
-SOFT_SEEDS = 3
-
-
-FLOOR_SLACK = 1e-3     # a polish keeps its start's integral gain but for this share
-
-
 def _floor(problem, setup, x):
     """The polish's objective floor at ``x`` (``setup``'s scaling): its scaled integral
-    gain less ``FLOOR_SLACK`` (``None`` for another objective or a non-positive gain)."""
+    gain less ``POLISH.floor_slack`` (``None`` for another objective or a non-positive gain)."""
     if problem.solver.objective != "max_integral_gain":
         return None
     r0, q0, q0c = objective_rows(setup)
     num, den = float(r0 @ x[:r0.size]), float(q0 @ x[:q0.size] + q0c)
-    return (1.0 - FLOOR_SLACK) * num / den if num > 0 and den > 0 else None
+    return (1.0 - POLISH.floor_slack) * num / den if num > 0 and den > 0 else None
 
 
 def _polish(ctx, run, xa, name, floor=None):
     """One polish of a candidate (its vector ``xa`` in ``ctx``'s scaling): the program from
-    it within ``POLISH_ITER`` iterations, its reference-step rows and floored roots
+    it within ``POLISH.iterations`` iterations, its reference-step rows and floored roots
     linearised from the first solve on, backed off when it ends just outside the
     certificate; with a ``floor`` (:func:`_floor` of a certified start) every solve keeps
     the start's integral gain (:attr:`~robrst.synthesis.attempts.Run.floor`): a polish is
     an improvement or nothing, never a worse basin reached through IPOPT's restoration."""
-    out, notes = _hard_from(ctx, run, xa, name, POLISH_ITER, floor)
+    out, notes = _hard_from(ctx, run, xa, name, POLISH.iterations, floor)
     run.notes += notes
     return _backoff(ctx, run, out, name, floor)
 
@@ -327,28 +362,28 @@ def _hard_from(ctx, run, x, name, budget, floor=None):
 
 def _backoff(ctx, run, out, name, floor=None):
     """A polish that ends just outside the specs solved again from where it ended with the
-    program tightened by the miss (constraint back-off, ``BACKOFFS`` times,
-    ``BACKOFF_ITER`` IPOPT iterations each): outside the certificate (its last round's
+    program tightened by the miss (constraint back-off, ``POLISH.backoffs`` times,
+    ``POLISH.backoff_iter`` IPOPT iterations each): outside the certificate (its last round's
     peaks between the exchange's frequencies, its budget spent) the program's bounds, or
     certified but outside the reference-step specs (its linearised step samples missed the
     sampled loop's peak) the time-domain specs the program holds.  The optimum moves
     inside by the miss instead of the polish being lost.  Returns the first outcome that
     meets every spec, else the last one."""
     margin, problem = ctx.free_margin, ctx.problem
-    for _ in range(BACKOFFS):
+    for _ in range(POLISH.backoffs):
         if out is None or run.stop():
             return out
         if out.certified:
             miss = time_spec_ratio(problem, out.ctrl)
-            if not 1.0 < miss <= BACKOFF_NEAR:
+            if not 1.0 < miss <= POLISH.backoff_near:
                 return out
             ctx = replace(ctx, problem=_tightened(ctx.problem, miss ** 2))
-        elif 1.0 < out.badness <= BACKOFF_NEAR:
+        elif 1.0 < out.badness <= POLISH.backoff_near:
             margin /= out.badness ** 2
         else:
             return out
         again, _ = _hard_from(replace(ctx, free_margin=margin), run, out.x,
-                              f"{name}, backed off", BACKOFF_ITER, floor)
+                              f"{name}, backed off", POLISH.backoff_iter, floor)
         if again is None:
             return out
         out = again
@@ -369,8 +404,8 @@ def _moved_inside(ctx, run, setup, space, inside, cand, steps, two_dof):
     and certified; ``None`` when nothing inside was found or it does not certify either.
     ``inside`` memoises the inner screen."""
     if not inside:
-        tight = replace(ctx, free_margin=INSIDE_MARGIN).setup(program_models(ctx.problem),
-                                                              ctx.nu, "free")
+        tight = replace(ctx, free_margin=POLISH.inside_margin).setup(
+            program_models(ctx.problem), ctx.nu, "free")
         inside.append(Screen(tight, _inside(steps, TIME_MARGIN ** 2), two_dof))
     moved = move_inside(inside[0], space, cand)
     if moved is None:

@@ -15,12 +15,12 @@ polishes:
    space, relative to the size of that controller.  Every controller that stabilises the
    nominal model has exactly one such name; every name stabilises the nominal model.
 2. **A population method.**  A CMA-ES (:mod:`robrst.synthesis.cmaes`) from the problem's
-   own design, then from seeded random means, each run's population ``GROWTH`` times the
-   previous one's (IPOP-CMA-ES, Auger and Hansen 2005: a larger population smooths a
-   multimodal landscape and finds the global structure; ``RESTARTS`` runs in all, each with
-   its own random stream spawned from the seed, so one run's length never changes
-   another's samples); every
-   population judged at once by :class:`~robrst.synthesis.screen.Screen`
+   own design, then from seeded random means (:class:`SearchOptions`), each run's
+   population ``growth`` times the previous one's (IPOP-CMA-ES, Auger and Hansen 2005: a
+   larger population smooths a multimodal landscape and finds the global structure;
+   ``restarts`` runs in all, each with its own random stream spawned from the seed, so
+   one run's length never changes another's samples); every population judged at once
+   by :class:`~robrst.synthesis.screen.Screen`
    (the program's constraints on its grid and modes, every model at once) and ranked by
    Deb's feasibility rules (feasible candidates by objective, the others by violation).
 3. **Polish and certify.**  The best distinct candidates are certified as they are and
@@ -59,22 +59,68 @@ if TYPE_CHECKING:
     from robrst.synthesis.nlp import NLPSetup
     from robrst.synthesis.screen import Screen
 
-__all__ = ["PoleSpace", "Candidate", "GlobalSearch", "global_search", "move_inside", "RESTARTS",
-           "GENERATIONS", "SEARCH_SEED", "ZETA_MAX"]
+__all__ = ["PoleSpace", "Candidate", "GlobalSearch", "global_search", "move_inside",
+           "SearchOptions", "SEARCH", "ZETA_MAX"]
 
-SEARCH_SEED = 20261128   # the global phase's random numbers (numpy.random.default_rng)
-RESTARTS = 4             # CMA-ES runs: from the problem's design, then from random means
-GENERATIONS = 400        # at most per run (a run stops earlier once it stalls: STALL)
-STALL = 40               # a run stops after this many generations without progress
-MIN_SPREAD = 2e-4        # ... or when its distribution is this narrow (box units)
-POPSIZE = 14             # population of the first run (at least 4 + 3 ln d); the random
-GROWTH = 2               # run r's is GROWTH ** r times larger (IPOP-CMA-ES: more global)
-SEED_SIGMA = 0.05        # the first run's step size: local around its seed (BIPOP's local
-                         # regime; the random runs' is 0.3)
+@dataclass(frozen=True)
+class SearchOptions:
+    """The global phase's settings, each with why (:func:`global_search`,
+    :func:`move_inside`).
+
+    Attributes
+    ----------
+    seed : int
+        The random numbers (``numpy.random.SeedSequence``): one stream per run spawned
+        from it, so a design is reproducible and one run's length never changes another's.
+    restarts : int
+        CMA-ES runs: the first from the problem's design, then from random means (four
+        runs: populations 14, 28, 56 and 112; on the stages tried five runs of 28 found
+        nothing more, two of 84 less).
+    generations : int
+        At most per run; a run stops earlier once it stalls (``stall``) or narrows
+        (``min_spread``).
+    stall : int
+        Generations without progress that end a run.
+    min_spread : float
+        A run's distribution this narrow (box units) has converged.
+    popsize : int
+        The first run's population (at least ``4 + 3 ln d``, Hansen's default).
+    growth : int
+        Run ``r``'s population is ``growth ** r`` times the first's (IPOP-CMA-ES, Auger and
+        Hansen 2005: a larger population smooths a multimodal landscape).
+    seed_sigma : float
+        The first run's step size: local around its seed (BIPOP's local regime).
+    random_sigma : float
+        The random runs' step size: a third of the box.
+    distinct : float
+        Candidates closer than this (box units) are the same.
+    inside_sigma : float
+        :func:`move_inside`: a narrow distribution around the candidate ...
+    inside_generations : int
+        ... for at most this many generations ...
+    inside_stall : int
+        ... or this many without progress once inside.
+    """
+
+    seed: int = 20261128
+    restarts: int = 4
+    generations: int = 400
+    stall: int = 40
+    min_spread: float = 2e-4
+    popsize: int = 14
+    growth: int = 2
+    seed_sigma: float = 0.05
+    random_sigma: float = 0.3
+    distinct: float = 0.02
+    inside_sigma: float = 0.01
+    inside_generations: int = 60
+    inside_stall: int = 10
+
+
+SEARCH = SearchOptions()   # the defaults: robrst.synthesis.robust's global phase
 ZETA_MIN, ZETA_MAX = 0.005, 30.0   # damping range of a pole pair (zeta > 1: two real poles)
 YOULA_RANGE = 30.0       # Youla degrees within +- this times |controller| ...
 YOULA_SHAPE = 4.0        # ... on a sinh scale: |v| <= 1.3 |controller| over half the box
-DISTINCT = 0.02          # candidates closer than this in the box are the same
 FREQ_PAD = 30.0          # pole frequencies within the plant's and start's / and x this
 
 
@@ -375,7 +421,7 @@ def _key(figs, i):
 
 
 def global_search(screen: Screen, space: PoleSpace, starts: Sequence[tuple] = (),
-                  seed: int = SEARCH_SEED, runs: int = RESTARTS,
+                  options: SearchOptions = SEARCH,
                   stop: Callable[[], bool] | None = None,
                   say: Callable[[str], None] | None = None) -> GlobalSearch:
     """Search ``space`` for the best point by ``screen``'s figures (module docstring).
@@ -389,10 +435,8 @@ def global_search(screen: Screen, space: PoleSpace, starts: Sequence[tuple] = ()
     starts : sequence of (str, numpy.ndarray)
         Named decision vectors: the first run starts from the best of them (the others
         join the first population).
-    seed : int
-        Seed of the random numbers.
-    runs : int
-        CMA-ES runs before the local one.
+    options : SearchOptions
+        Seed, runs, populations and stopping rules.
     stop : callable, optional
         Checked once per generation: true ends the search with what it has.
     say : callable, optional
@@ -405,11 +449,13 @@ def global_search(screen: Screen, space: PoleSpace, starts: Sequence[tuple] = ()
     t0 = time.process_time()
     # one random stream per run (and one for the first mean): a run's length never
     # changes another run's samples
-    streams = [np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(runs + 1)]
+    o = options
+    streams = [np.random.default_rng(s)
+               for s in np.random.SeedSequence(o.seed).spawn(o.restarts + 1)]
     say = say or (lambda msg: None)
     stop = stop or (lambda: False)
     d = space.dim
-    lam = max(POPSIZE, 4 + int(3 * np.log(d)))
+    lam = max(o.popsize, 4 + int(3 * np.log(d)))
     evals = gens = 0
     stopped = False
     found = []            # (key, theta, name)
@@ -425,20 +471,19 @@ def global_search(screen: Screen, space: PoleSpace, starts: Sequence[tuple] = ()
             found.append((_key(figs, i), th, n))
     else:
         first, first_name = streams[-1].uniform(0.2, 0.8, d), None
-    plan = [(first, SEED_SIGMA, f"from {first_name}" if first_name else "random mean", lam)]
-    plan += [(streams[r].uniform(0.1, 0.9, d), 0.3, "random mean", GROWTH ** r * lam)
-             for r in range(1, runs)]
+    plan = [(first, o.seed_sigma, f"from {first_name}" if first_name else "random mean", lam)]
+    plan += [(streams[r].uniform(0.1, 0.9, d), o.random_sigma, "random mean",
+              o.growth ** r * lam) for r in range(1, o.restarts)]
     for r in range(len(plan)):
         mean, sigma, what, size = plan[r]
-        limit = GENERATIONS
         es = CMAES(mean, sigma, streams[r], size)
         run_best, last_gain = None, 0
-        for g in range(limit):
+        for g in range(o.generations):
             if stop():
                 stopped = True
                 break
             TH = es.ask()
-            figs = screen.rate(space.controllers(TH))
+            figs = screen.rate(space.controllers(TH), top=es.mu)   # it recombines mu
             evals += len(TH)
             gens += 1
             order = figs.order()
@@ -451,20 +496,20 @@ def global_search(screen: Screen, space: PoleSpace, starts: Sequence[tuple] = ()
                 run_best = (key, TH[k].copy())
                 if gain:
                     last_gain = g
-            if g - last_gain > STALL or es.spread < MIN_SPREAD:
+            if g - last_gain > o.stall or es.spread < o.min_spread:
                 break
         if run_best is not None:
             name = f"{GLOBAL_START} {r + 1} ({what})"
             found.append((run_best[0], run_best[1], name))
-            v, o = run_best[0]
+            v, ob = run_best[0]
             say(f"global phase: run {r + 1} ({what}): {es.generation} generations, best"
-                + (f" screened objective {-o:.5g}" if v == 0 else f" violation {v:.3g}"))
+                + (f" screened objective {-ob:.5g}" if v == 0 else f" violation {v:.3g}"))
         if stopped:
             break
     found.sort(key=lambda f: f[0])
     cands = []
     for key, th, name in found:
-        if any(np.max(np.abs(th - c.theta)) < DISTINCT for c in cands):
+        if any(np.max(np.abs(th - c.theta)) < o.distinct for c in cands):
             continue
         xc = space.controllers(th[None])[0]
         cands.append(Candidate(name=name, xc=xc, theta=th, objective=-key[1],
@@ -474,13 +519,8 @@ def global_search(screen: Screen, space: PoleSpace, starts: Sequence[tuple] = ()
                         cpu_s=time.process_time() - t0, stopped=stopped)
 
 
-INSIDE_SIGMA = 0.01      # move_inside: a narrow distribution around the candidate ...
-INSIDE_GENERATIONS = 60  # ... for at most this many generations
-INSIDE_STALL = 10        # ... or this many without progress once inside
-
-
 def move_inside(screen: Screen, space: PoleSpace, cand: Candidate,
-                seed: int = SEARCH_SEED) -> Candidate | None:
+                options: SearchOptions = SEARCH) -> Candidate | None:
     """The candidate ``cand`` moved inside the specs of ``screen`` (a screen with tightened
     bounds): a narrow CMA-ES from its point, ranked by Deb's rules, so the nearest points
     that meet the tightened specs are found and then the best of them.
@@ -497,21 +537,22 @@ def move_inside(screen: Screen, space: PoleSpace, cand: Candidate,
         The search box.
     cand : Candidate
         The candidate.
-    seed : int
-        Seed of the random numbers.
+    options : SearchOptions
+        Its seed, population and narrow runs' settings.
 
     Returns
     -------
     Candidate or None
         ``None`` when no point inside was found.
     """
-    rng = np.random.default_rng(seed)
-    lam = max(POPSIZE, 4 + int(3 * np.log(space.dim)))
+    o = options
+    rng = np.random.default_rng(o.seed)
+    lam = max(o.popsize, 4 + int(3 * np.log(space.dim)))
     figs = screen.rate(space.controllers(cand.theta[None]))
     best = (_key(figs, 0), cand.theta.copy())
-    es = CMAES(cand.theta, INSIDE_SIGMA, rng, lam)
+    es = CMAES(cand.theta, o.inside_sigma, rng, lam)
     last = 0
-    for g in range(INSIDE_GENERATIONS):
+    for g in range(o.inside_generations):
         TH = es.ask()
         figs = screen.rate(space.controllers(TH))
         order = figs.order()
@@ -520,7 +561,7 @@ def move_inside(screen: Screen, space: PoleSpace, cand: Candidate,
         key = _key(figs, k)
         if key < best[0]:
             best, last = (key, TH[k].copy()), g
-        if best[0][0] == 0 and g - last > INSIDE_STALL:
+        if best[0][0] == 0 and g - last > o.inside_stall:
             break
     if best[0][0] > 0:
         return None
