@@ -413,13 +413,22 @@ class Screen:
             return -worst_s
         return np.zeros(X.shape[0])
 
-    def rate(self, X: np.ndarray) -> Figures:
+    def rate(self, X: np.ndarray, top: int | None = None) -> Figures:
         """Every screened figure of each row of ``X`` (module docstring).
 
         Parameters
         ----------
         X : numpy.ndarray
             ``(K, n_x)`` decision vectors.
+        top : int, optional
+            Only the first ``top`` places of :meth:`Figures.order` are needed (a CMA-ES
+            recombines its best ``mu``): the roots and steps, the costly part, are examined
+            only for candidates that can reach them.  The figures without them bound a
+            candidate's violation from below (the objective is exact), so once the
+            examined (the best bounds first) fill place ``top`` with a better key than
+            every bound left, the rest are skipped: their violation stays that bound,
+            ``examined`` false.  The first ``top`` places are exactly those of the full
+            rating.
 
         Returns
         -------
@@ -442,12 +451,37 @@ class Screen:
         viol = np.where(finite, np.nan_to_num(viol, nan=1e6, posinf=1e6), 1e6)
         damping, over = np.full(K, np.nan), np.full(K, np.nan)
         near = (unstable == 0) & finite
-        if near.any():
-            extra, damping[near], over[near], w_res = self._modes(X[near])
-            viol[near] += extra
-            worst[near] = np.maximum(worst[near], w_res)
+        examined = np.zeros(K, bool)
+
+        def examine(idx):
+            if idx.size:
+                extra, damping[idx], over[idx], w_res = self._modes(X[idx])
+                viol[idx] += extra
+                worst[idx] = np.maximum(worst[idx], w_res)
+                examined[idx] = True
+
+        idx = np.flatnonzero(near)
+        if top is None or idx.size <= top:
+            examine(idx)
+        else:
+            # the ranking's key (violation, -objective): the objective is exact, the
+            # violation without the modes a lower bound; the best bounds first, in batches
+            # of top, until every bound left ranks after place top of the examined
+            neg = -np.where(np.isfinite(obj), obj, -np.inf)
+            idx = idx[np.lexsort((neg[idx], viol[idx]))]
+            done = ~near
+            while idx.size:
+                examine(idx[:top])
+                done[idx[:top]] = True
+                idx = idx[top:]
+                d = np.flatnonzero(done)
+                if d.size < top or not idx.size:
+                    continue
+                k = d[np.lexsort((neg[d], viol[d]))[top - 1]]     # at place top
+                v, n = viol[idx], neg[idx]
+                idx = idx[(v < viol[k]) | ((v == viol[k]) & (n <= neg[k]))]
         return Figures(objective=obj, violation=viol, worst=worst, stable=unstable == 0,
-                       damping=damping, overshoot=over, examined=near)
+                       damping=damping, overshoot=over, examined=examined)
 
     def _abscissa(self, X):
         """The largest real part of the closed-loop roots over the models (scaled; the

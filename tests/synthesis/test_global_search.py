@@ -13,7 +13,7 @@ from robrst.synthesis.attempts import program_models
 from robrst.synthesis.cmaes import CMAES
 from robrst.synthesis.context import Context
 from robrst.synthesis.screen import Screen, batch_roots, routh_columns
-from robrst.synthesis.search import PoleSpace, global_search, move_inside
+from robrst.synthesis.search import PoleSpace, SearchOptions, global_search, move_inside
 from robrst.synthesis.timesamples import time_specs
 
 W = 2 * np.pi * 1300.0
@@ -117,6 +117,35 @@ def test_screen_figures_against_a_dense_grid_and_python_control():
             assert f.overshoot[k] == pytest.approx(over, abs=0.02)
 
 
+@pytest.mark.parametrize("spread", [0.02, 0.1, 0.3])
+def test_rating_only_the_first_places_ranks_them_as_the_full_rating(spread):
+    """``rate(X, top=mu)`` skips the roots and steps of candidates that cannot reach the
+    first ``mu`` places: those places (what the CMA-ES recombines) are those of the full
+    rating, in the same order; a skipped candidate's violation is at most its full one and
+    ranks after place ``mu``."""
+    p, ctx, setup, start = _setup()
+    scr = Screen(setup, time_specs(p, ctx.w0))
+    sp = PoleSpace.of(ctx, setup)
+    base = sp.point(ctx.param.vector(start.controller))
+    rng = np.random.default_rng(11)
+    skipped = 0
+    for lam in (14, 28, 56):
+        th = np.clip(base + spread * rng.standard_normal((lam, sp.dim)), 0, 1)
+        X = sp.controllers(th)
+        full, lazy = scr.rate(X), scr.rate(X, top=lam // 2)
+        mu = lam // 2
+        assert np.array_equal(full.order()[:mu], lazy.order()[:mu])
+        assert np.all(lazy.violation <= full.violation)
+        assert np.array_equal(lazy.objective, full.objective)
+        gone = full.examined & ~lazy.examined
+        skipped += int(gone.sum())
+        assert not np.isin(np.flatnonzero(gone), full.order()[:mu]).any()
+        same = lazy.examined
+        assert np.array_equal(lazy.violation[same], full.violation[same])
+    if spread >= 0.1:
+        assert skipped > 0          # the wide populations: some candidates were skipped
+
+
 def test_cmaes_finds_known_minima():
     """A shifted ellipsoid and Rosenbrock's function in the unit box (minimum known)."""
     for fun, opt in ((lambda x: np.sum(np.arange(1, 6) ** 2 * (x - 0.3) ** 2, axis=1),
@@ -141,13 +170,14 @@ def test_search_is_seeded_and_reports():
     p, ctx, setup, start = _setup()
     scr = Screen(setup, time_specs(p, ctx.w0))
     sp = PoleSpace.of(ctx, setup)
-    runs = [global_search(scr, sp, [("analytic", ctx.param.vector(start.controller))], seed=5,
-                          runs=1) for _ in range(2)]
+    one = SearchOptions(seed=5, restarts=1)
+    runs = [global_search(scr, sp, [("analytic", ctx.param.vector(start.controller))],
+                          options=one) for _ in range(2)]
     a, b = (r.candidates[0] for r in runs)
     assert np.array_equal(a.xc, b.xc) and a.objective == b.objective
     d = runs[0].as_dict()
     assert d["method"] == "CMA-ES" and d["evaluations"] > 0 and d["candidates"]
-    stopped = global_search(scr, sp, [], seed=5, stop=lambda: True)
+    stopped = global_search(scr, sp, [], options=SearchOptions(seed=5), stop=lambda: True)
     assert stopped.stopped and stopped.evaluations == 0
 
 
@@ -165,8 +195,8 @@ def test_screen_overshoot_of_the_sampled_loop_against_python_control():
     p, ctx, setup, start = _setup(doc)
     scr = Screen(setup, time_specs(p, ctx.w0))
     sp = PoleSpace.of(ctx, setup)
-    found = global_search(scr, sp, [("analytic", ctx.param.vector(start.controller))], seed=5,
-                          runs=1)
+    found = global_search(scr, sp, [("analytic", ctx.param.vector(start.controller))],
+                          options=SearchOptions(seed=5, restarts=1))
     base = found.candidates[0].theta      # near the specs: the steps are examined
     th = np.clip(base + 0.005 * np.random.default_rng(2).standard_normal((16, sp.dim)), 0, 1)
     X = sp.controllers(th)
@@ -218,8 +248,8 @@ def test_move_inside_brings_a_boundary_candidate_inside_the_specs():
     ts = time_specs(p, ctx.w0)
     scr = Screen(setup, ts)
     sp = PoleSpace.of(ctx, setup)
-    found = global_search(scr, sp, [("analytic", ctx.param.vector(start.controller))], seed=5,
-                          runs=1)
+    found = global_search(scr, sp, [("analytic", ctx.param.vector(start.controller))],
+                          options=SearchOptions(seed=5, restarts=1))
     cand = found.candidates[0]
     tight = Screen(replace(ctx, free_margin=0.97).setup(program_models(p), ctx.nu, "free"),
                    replace(ts, overshoot=0.97 * ts.overshoot))
@@ -320,8 +350,8 @@ def test_each_run_has_its_own_random_stream():
     scr = Screen(setup, time_specs(p, ctx.w0))
     sp = PoleSpace.of(ctx, setup)
     named = global_search(scr, sp, [("analytic", ctx.param.vector(start.controller))],
-                          seed=5, runs=2)
-    blind = global_search(scr, sp, [], seed=5, runs=2)
+                          options=SearchOptions(seed=5, restarts=2))
+    blind = global_search(scr, sp, [], options=SearchOptions(seed=5, restarts=2))
 
     def second(res):
         return next(c for c in res.candidates if c.name.startswith("global run 2"))
