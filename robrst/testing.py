@@ -22,6 +22,13 @@ figure                                          worse when
 Figures are read by name from ``DesignResult.as_dict()["models"]`` (and the certificate's
 family-member records for ``*_sampled``); fields added later are ignored until a golden
 names them.  ``null``/missing margins are infinite (``inf`` in the golden).
+
+A multi-axis design (a ``[mimo]`` problem, :func:`robrst.design.mimo.design_mimo`) records
+per family member the certificate's peaks, larger being worse: the largest singular values
+``sigma_S``, ``sigma_T``, ``sigma_U``, ``sigma_Sd`` (and ``sigma_Ti``), the worst axis's
+``axis_S`` and ``axis_T``, the largest off-diagonal ``crosstalk``, each also as
+``*_sampled`` for the sampled loop; its objective is the least integral gain over the axes
+(``integral_gain``: what the joint program maximises).
 """
 
 from __future__ import annotations
@@ -40,6 +47,7 @@ from robrst.base.schema import load_toml
 
 if TYPE_CHECKING:
     from robrst.design import DesignResult
+    from robrst.design.mimo import MimoDesignResult
     from robrst.problem.records import Problem
 
 __all__ = ["Worse", "golden_figures", "write_golden", "read_golden", "compare_golden",
@@ -50,6 +58,8 @@ MARKER = "# robrst margins golden"
 FORMAT = 1
 PEAKS = ("Ms", "Mt", "Mu", "Msd")
 SAMPLED = ("Ms_sampled", "Mt_sampled", "Mu_sampled")
+MIMO_PEAKS = ("sigma_S", "sigma_T", "sigma_U", "sigma_Sd", "sigma_Ti", "axis_S", "axis_T",
+              "crosstalk")
 DEFAULT_TOL = {"rtol": 1e-4, "phase_atol_deg": 1e-2}
 OBJECTIVES = {"integral_gain": "smaller", "worst_Ms": "larger"}   # name -> which way is worse
 _GAIN = re.compile(r"^gain_margins?(_[a-z]+)?$")
@@ -57,7 +67,7 @@ _GAIN = re.compile(r"^gain_margins?(_[a-z]+)?$")
 
 def direction(name):
     """Which way figure ``name`` gets worse: ``larger``, ``smaller``, ``abs``, ``log`` or None."""
-    if name in PEAKS or name in SAMPLED:
+    if name in PEAKS or name in SAMPLED or name.removesuffix("_sampled") in MIMO_PEAKS:
         return "larger"
     if name in ("modulus_margin", "delay_margin_s"):
         return "smaller"
@@ -124,13 +134,13 @@ def _objective(result, d):
     return "integral_gain", None if ki is None else abs(ki)
 
 
-def golden_figures(result: DesignResult | dict) -> dict:
+def golden_figures(result: DesignResult | MimoDesignResult | dict) -> dict:
     """The figures of ``result`` (a DesignResult or its ``as_dict()``) a golden records.
 
     Parameters
     ----------
-    result : DesignResult or dict
-        A design or its JSON.
+    result : DesignResult, MimoDesignResult or dict
+        A design (one loop or multi-axis) or its JSON.
 
     Returns
     -------
@@ -139,6 +149,8 @@ def golden_figures(result: DesignResult | dict) -> dict:
         {"temperature_C": T, figure: value, ...}}}``.
     """
     d = _as_dict(result)
+    if d.get("kind") == "mimo":
+        return _mimo_figures(d)
     sampled = {m["label"]: m for m in d.get("certificate", {}).get("models", [])
                if m.get("family_member", True)}
     models = {}
@@ -151,6 +163,33 @@ def golden_figures(result: DesignResult | dict) -> dict:
         models[m["label"]] = {"temperature_C": m.get("temperature_C"), **figs}
     return {"problem": d["problem"], "certified": bool(d["certified"]),
             "objective": _objective(result, d), "models": models}
+
+
+def _sampled_figure(name):
+    """A figure of the sampled loop (``Ms_sampled``, ``sigma_S_sampled``, ...)."""
+    return name in SAMPLED or name.endswith("_sampled")
+
+
+def _mimo_figures(d):
+    """:func:`golden_figures` of a multi-axis design's JSON: every family member's peaks
+    (an axis-wise figure: its worst axis), both loops; the least axis's integral gain."""
+    models = {}
+    for m in d["certificate"]["models"]:
+        if not m.get("member", True):
+            continue
+        figs = {}
+        for loop in ("continuous", "sampled"):
+            rec = m.get(loop) or {}
+            for f in MIMO_PEAKS:
+                v = rec.get(f)
+                if v is None:
+                    continue
+                val = max(p["value"] for p in v) if isinstance(v, list) else v["value"]
+                figs[f if loop == "continuous" else f"{f}_sampled"] = val
+        models[m["label"]] = {"temperature_C": None, **figs}
+    gains = [abs(k) for k in d.get("integral_gains") or []]
+    return {"problem": d["problem"], "certified": bool(d["certified"]),
+            "objective": ("integral_gain", min(gains) if gains else None), "models": models}
 
 
 def _unchecked(way, value):
@@ -420,7 +459,7 @@ def check_golden_fits(golden: dict, problem: Problem) -> None:
     if golden["problem"] != problem.name:
         raise SpecError(f"{path}: [golden.problem] golden is for problem {golden['problem']!r},"
                         f" not {problem.name!r}")
-    kind = problem.solver.objective
+    kind = getattr(problem.solver, "objective", "max_integral_gain")   # multi-axis: the gain
     want = {"min_Ms": "worst_Ms", "feasibility": None}.get(kind, "integral_gain")
     if golden["objective"] is not None and golden["objective"][0] != want:
         raise _bad(path, "design.objective", f"golden objective {golden['objective'][0]!r}, the"
@@ -428,7 +467,7 @@ def check_golden_fits(golden: dict, problem: Problem) -> None:
     if problem.specs.sample_rate_hz is None:
         for label, figs in golden["models"].items():
             for k in figs:
-                if k in SAMPLED:
+                if _sampled_figure(k):
                     raise _bad(path, f"models.{label}.{k}", "a sampled-loop figure, but the"
                                " problem has no [specs] sample_rate_hz")
 

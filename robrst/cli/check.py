@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from robrst.cli.common import design_result, is_saved_design, progress_printer
+from robrst.cli.mimo import is_mimo_file
 from robrst.base.fileio import check_file_target
 from robrst.problem.files import load_problem
 from robrst.testing import (check_golden_fits, compare_golden, count_figures, figures_line,
@@ -26,8 +27,9 @@ def add_parsers(sub: argparse._SubParsersAction) -> None:
     """
     c = sub.add_parser("check", help="compare a design's margins with a golden file"
                                      " (exit 0 nothing worse, 1 something worse, 2 error)")
-    c.add_argument("problem", help="problem file (TOML), a built-in problem by name, or a saved"
-                                   " design (DESIGN.json: its controller, not designed again)")
+    c.add_argument("problem", help="problem file (TOML; a multi-axis [mimo] problem too), a"
+                                   " built-in problem by name, or a saved design (DESIGN.json:"
+                                   " its controller, not designed again)")
     c.add_argument("--golden", required=True, metavar="FILE", help="golden margins (TOML)")
     c.add_argument("--update", action="store_true",
                    help="write the golden from this design instead of comparing (exit 0"
@@ -55,11 +57,21 @@ def run_check(args: argparse.Namespace) -> int:
     if args.update:
         check_file_target(args.golden)
     problem = None
-    if not is_saved_design(args.problem):
-        problem = load_problem(args.problem)
+    if is_mimo_file(args.problem):                  # a multi-axis problem: its joint design
+        from robrst.design.mimo import design_mimo
+        from robrst.problem.mimo_files import load_mimo_problem
+
+        problem = load_mimo_problem(args.problem)
         if golden is not None:
-            check_golden_fits(golden, problem)      # before the design
-    result = design_result(args.problem, say, problem)
+            check_golden_fits(golden, problem)
+        say(f"designing {problem.name} ({problem.solver.method}, {len(problem.axes)} axes)")
+        result = design_mimo(problem, progress=say)
+    else:
+        if not is_saved_design(args.problem):
+            problem = load_problem(args.problem)
+            if golden is not None:
+                check_golden_fits(golden, problem)      # before the design
+        result = design_result(args.problem, say, problem)
     if problem is None and golden is not None:
         check_golden_fits(golden, result.problem)
     if args.update:                                 # exit code as `design`: 1 not certified
