@@ -469,12 +469,10 @@ class Screen:
             # of top, until every bound left ranks after place top of the examined
             neg = -np.where(np.isfinite(obj), obj, -np.inf)
             idx = idx[np.lexsort((neg[idx], viol[idx]))]
-            done = ~near
             while idx.size:
                 examine(idx[:top])
-                done[idx[:top]] = True
                 idx = idx[top:]
-                d = np.flatnonzero(done)
+                d = np.flatnonzero(~near | examined)      # every final violation
                 if d.size < top or not idx.size:
                     continue
                 k = d[np.lexsort((neg[d], viol[d]))[top - 1]]     # at place top
