@@ -13,6 +13,13 @@ import numpy as np
 def random_stage(seed, m, spread=0.0):
     """``(tf, models)``: the stage's python-control transfer matrix and, with ``spread``,
     a second model whose resonances sit ``spread`` higher (a family of two)."""
+    return (stage_tf(seed, m), stage_tf(seed, m, 1.0 + spread)) if spread else (
+        stage_tf(seed, m),)
+
+
+def stage_tf(seed, m, scale=1.0, gains=None):
+    """The transfer matrix of stage ``seed`` with every resonance times ``scale`` and
+    actuator ``j``'s gain times ``gains[j]`` (built entry by entry)."""
     rng = np.random.default_rng(seed)
     f = rng.uniform(300.0, 3000.0, m)
     z = rng.uniform(0.01, 0.05, m)
@@ -21,13 +28,11 @@ def random_stage(seed, m, spread=0.0):
     np.fill_diagonal(C, 0.0)
     M = np.eye(m) + C
 
-    def tf(scale):
-        w = 2 * np.pi * f * scale
-        num = [[[M[i, j] * k[j] * w[j] ** 2] for j in range(m)] for i in range(m)]
-        den = [[[1.0, 2 * z[j] * w[j], w[j] ** 2] for j in range(m)] for i in range(m)]
-        return control.tf(num, den)
-
-    return (tf(1.0), tf(1.0 + spread)) if spread else (tf(1.0),)
+    g = np.ones(m) if gains is None else np.asarray(gains, float)
+    w = 2 * np.pi * f * scale
+    num = [[[M[i, j] * k[j] * g[j] * w[j] ** 2] for j in range(m)] for i in range(m)]
+    den = [[[1.0, 2 * z[j] * w[j], w[j] ** 2] for j in range(m)] for i in range(m)]
+    return control.tf(num, den)
 
 
 def sigma_grid(sys, w):

@@ -59,20 +59,21 @@ def figure_files(result: SweepResult) -> list[tuple[str, str]]:
     else:
         out.append(("fleet.png", "Each fleet member's design: worst figure/bound and integral"
                     " gain"))
-    if worst_ok_row(result) is not None:
+    if not result.context.mimo and worst_ok_row(result) is not None:
         out.append(("worst_bode.png", "|S|, |T| and |U| of the worst variant evaluated, per"
                     " temperature; dashed: the specs"))
     return out
 
 
 def _worst_table(s):
+    figs = ("sigma_S", "sigma_T", "sigma_U") if "axes" in s else ("Ms", "Mt", "Mu")
     rows = []
     for w in s["worst"]:
         params = ", ".join(f"{k}={v:.4g}" for k, v in w["params"].items())
         rows.append((w.get("file", w["index"]), w["status"], _f(w["worst_ratio"]),
-                     _f(w["Ms"]), _f(w["Mt"]), _f(w["Mu"]),
+                     *(_f(w.get(k)) for k in figs),
                      w["violation"] or w["message"] or "", params))
-    return ("variant", "status", "figure/bound", "Ms", "Mt", "Mu", "worst violation or error",
+    return ("variant", "status", "figure/bound", *figs, "worst violation or error",
             "parameters"), tuple(rows)
 
 
@@ -109,8 +110,10 @@ def sweep_doc(result: SweepResult) -> Doc:
     ]
     if "controller" in s:
         c = s["controller"]
-        blocks.append(("pre", "\n".join(f"{k}(s) = " + " ".join(f"{v:.6g}" for v in c[k])
-                                        for k in "RST")))
+        axes = c["axes"] if "axes" in c else [{"name": "", **c}]
+        blocks.append(("pre", "\n".join(
+            f"{k}{'_' + a['name'] if a['name'] else ''}(s) = "
+            + " ".join(f"{v:.6g}" for v in a[k]) for a in axes for k in "RST")))
     if "front" in s:
         f = s["front"]
         blocks += [("h2", f"Pareto front ({f['x']} minimised, {f['y']} maximised)"),
@@ -208,10 +211,12 @@ def sweep_text(summary: dict) -> str:
     if s.get("unstable"):
         lines.append(f"unstable: {s['unstable']} of {s['done']} (a loop unstable on some model:"
                      " no peaks or margins for it, figure/bound inf)")
-    for k in ("Ms", "Mt", "Mu", "Mt_band", "integral_gain"):
+    for k in ("Ms", "Mt", "Mu", "Mt_band", "sigma_S", "sigma_T", "sigma_U", "crosstalk",
+              "bandwidth_hz", "integral_gain"):
         if k in s["figures"]:
             v = s["figures"][k]
-            tail = (f"range {_f(v['min'])}..{_f(v['max'])}" if k == "integral_gain"
+            tail = (f"range {_f(v['min'])}..{_f(v['max'])}" if k in ("integral_gain",
+                                                                      "bandwidth_hz")
                     else f"95 % {_f(v['p95'])}, worst {_f(v['max'])}")   # the gain: no worst
             lines.append(f"  {k:<14} median {_f(v['median'])}, {tail}")
     for w in s["worst"][:5]:

@@ -14,6 +14,7 @@ import numpy as np
 from robrst.report.figure import colors, drawing
 from robrst.studies.sweep.curves import ok_rows
 from robrst.studies.sweep.summary import front_values, pareto_front
+from robrst.problem.mimo import MIMO_SPECS
 from robrst.problem.specs import PEAK_SPECS, spec_columns
 
 if TYPE_CHECKING:
@@ -49,15 +50,19 @@ def histograms_figure(result: SweepResult, path: str | Path) -> None:
     """
     t = ok_rows(result.table)
     specs = result.context.base.specs
-    # the columns of the specs only this sweep's problem bounds (robrst.problem.specs) join
-    panels = HIST + tuple((row.column, row.column_label, 1.0, row.key)
-                          for row in spec_columns(specs) if not row.always_column)
+    if result.context.mimo:
+        panels = _mimo_panels(specs)
+    else:
+        # the columns of the specs only this sweep's problem bounds (robrst.problem.specs)
+        panels = HIST + tuple((row.column, row.column_label, 1.0, row.key)
+                              for row in spec_columns(specs) if not row.always_column)
     cols = (len(panels) + 1) // 2
     with drawing(path, (13 * cols / 4, 6.5), 2, cols) as (fig, axes):
         for ax in axes.ravel()[len(panels):]:
             ax.set_visible(False)
         for ax, (name, label, scale, bound) in zip(axes.ravel(), panels):
-            b = getattr(specs, bound) if bound else (1.0 if name == "worst_ratio" else None)
+            b = (bound if isinstance(bound, float) else getattr(specs, bound) if bound
+                 else (1.0 if name == "worst_ratio" else None))
             v = _values(t, name, scale)
             n_inf = int(np.sum(np.isinf(v)))
             title = label + (f" (∞: {n_inf})" if n_inf else "")
@@ -66,6 +71,18 @@ def histograms_figure(result: SweepResult, path: str | Path) -> None:
             ax.set_ylabel("variants")
         fig.suptitle(f"{result.sweep.name}: {t.num_rows} variants evaluated of"
                      f" {result.summary['done']}, yield {result.summary['yield']:.3f}")
+
+
+def _mimo_panels(specs):
+    """A multi-axis sweep's histogram panels: the singular-value peaks of S, T and U and
+    every bounded figure, the least tracking bandwidth, the worst figure/bound."""
+    bounded = specs.bounded
+    rows = [r for r in MIMO_SPECS if r.figure in bounded or r.kind == "sigma"
+            and r.figure != "sigma_Sd"]
+    return (*((r.figure, f"worst {r.figure}" + (f" [{r.unit}]" if r.unit else " [-]"), 1.0,
+               bounded.get(r.figure)) for r in rows),
+            ("bandwidth_hz", "least tracking bandwidth [Hz]", 1.0, None),
+            ("worst_ratio", "worst figure / bound [-]", 1.0, None))
 
 
 def _histogram(ax, fin, bound):

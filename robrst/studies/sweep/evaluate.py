@@ -21,6 +21,7 @@ violated; ``inf``: unstable).
 
 from __future__ import annotations
 
+import json
 import threading
 import time
 import warnings
@@ -30,10 +31,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from robrst.core.analysis import margins as loop_margins
+from robrst.certificate.mimo import certify_mimo_problem
 from robrst.certificate.proof import certify_problem
 from robrst.base.errors import InfeasibleError, RobrstError, SolverError, SpecError
 from robrst.problem.files import parse_problem
 from robrst.problem.specs import LOOPS, spec_columns
+from robrst.problem.mimo_files import MIMO_SCHEMA
+from robrst.studies.sweep.files import problem_field
+from robrst.studies.sweep.mimo import MIMO_COLUMNS, mimo_figures, mimo_variant
 from robrst.studies.sweep.model import merge_documents, variant_problem
 from robrst.synthesis.parametrize import integral_gain
 from robrst.base.threads import one_blas_thread
@@ -42,6 +47,7 @@ if TYPE_CHECKING:
     from robrst.design import DesignResult
     from robrst.problem.records import Problem, Specs
     from collections.abc import Callable
+    from robrst.core.mimo_loop import MimoController
     from robrst.core.rst import RSTController
     from robrst.studies.sweep.files import Sweep
 
@@ -92,9 +98,43 @@ class SweepContext:
     names: tuple = ()
     base: Problem | None = None
     doc: dict = None
-    controller: RSTController | None = None
+    controller: RSTController | MimoController | None = None
     fleet: tuple = ()
     fingerprint: str = ""
+
+    @property
+    def mimo(self) -> bool:
+        """The base problem is a multi-axis problem (:mod:`robrst.studies.sweep.mimo`)."""
+        return self.sweep.mimo
+
+    def figure_columns(self) -> dict[str, str]:
+        """The figure columns of this sweep's rows, with their arrow types.
+
+        Returns
+        -------
+        dict
+            :data:`FIGURE_COLUMNS` and the columns of the specs only this sweep's problem
+            bounds; a multi-axis sweep's :data:`robrst.studies.sweep.mimo.MIMO_COLUMNS`.
+        """
+        if self.mimo:
+            return dict(MIMO_COLUMNS)
+        return {**FIGURE_COLUMNS,
+                **spec_figure_columns(None if self.base is None else self.base.specs)}
+
+    def controller_columns(self) -> dict[str, str]:
+        """The controller columns of a design or fleet row (none for an analysis).
+
+        Returns
+        -------
+        dict
+            ``R, S, T`` (lists of floats); a multi-axis design's ``controller`` (JSON text
+            of :meth:`robrst.core.mimo_loop.MimoController.as_dict`).
+        """
+        if self.sweep.kind == "analysis":
+            return {}
+        if self.mimo:
+            return {"controller": "string"}
+        return {k: "list" for k in CONTROLLER_COLUMNS}
 
 
 @dataclass(frozen=True, eq=False)
@@ -133,6 +173,11 @@ def build_state(context: SweepContext) -> WorkerState:
     WorkerState
     """
     designer = None
+    if context.mimo:
+        from robrst.design.mimo import design_mimo
+
+        designer = design_mimo if context.sweep.kind == "design" else None
+        return WorkerState(context=context, designer=designer)
     if context.sweep.kind in ("design", "fleet"):
         from robrst.design import run_problem
 
@@ -240,6 +285,23 @@ def _member_margins(problem, ctrl, cert):
             for m in problem.family.models]
 
 
+def _mimo_analysis_row(state, values):
+    ctx = state.context
+    problem = problem_of(ctx, None, values)
+    return mimo_figures(certify_mimo_problem(problem, ctx.controller), ctx.controller)
+
+
+def _mimo_design_row(state, problem):
+    result = state.designer(problem, compare=False)
+    row = mimo_figures(result.certificate, result.controller)
+    row["controller"] = json.dumps(result.controller.as_dict())
+    if not result.certified:
+        b = result.binding
+        row["message"] = (f"not certified: binding {b['figure']} at {b['ratio']:.4g} x its"
+                          f" bound on model {b['model']} ({b['loop']} loop)" if b else None)
+    return row
+
+
 def _analysis_row(state, values):
     ctx = state.context
     problem = problem_of(ctx, None, values)
@@ -307,8 +369,17 @@ def problem_of(context: SweepContext, index: int, values: dict[str, float]) -> P
     """
     if context.sweep.kind == "fleet":
         return fleet_problem(context, index)
+    if context.mimo:
+        return mimo_variant(context.base, context.doc, context.sweep.problem, values,
+                            _int_keys(context.names))
     return variant_problem(context.base, context.doc, context.base.path, values,
                            context.sweep.ageing)
+
+
+def _int_keys(names):
+    """The key paths among ``names`` that a multi-axis problem file takes as integers."""
+    return tuple(n for n in names if (f := problem_field(n, MIMO_SCHEMA)) is not None
+                 and f.type == "int")
 
 
 def fleet_problem(ctx: SweepContext, index: int) -> Problem:
@@ -361,7 +432,10 @@ def evaluate_variant(state: WorkerState, index: int, values: dict[str, float]) -
     t0, c0 = time.perf_counter(), time.process_time()
     try:
         kind = ctx.sweep.kind
-        if kind == "analysis":
+        if ctx.mimo:
+            row = (_mimo_analysis_row(state, values) if kind == "analysis" else
+                   _mimo_design_row(state, problem_of(ctx, index, values)))
+        elif kind == "analysis":
             row = _analysis_row(state, values)
         else:
             row = _design_row(state, problem_of(ctx, index, values))

@@ -25,8 +25,10 @@ from robrst.base import resources
 from robrst.base.errors import SpecError
 from robrst.base.schema import ArrayOf, Field, key_error, load_toml, markdown_rows, validate
 from robrst.problem.files import SCHEMA as PROBLEM_SCHEMA
+from robrst.problem.mimo_files import MIMO_SCHEMA, is_mimo_file
 from robrst.problem.spread import (COEF, DIST_KEYS, DISTS, PLANT_PARAMS, Ageing, Param,
                                    check_truncation)
+from robrst.studies.sweep.mimo import MIMO_FRONT_FIGURES, MIMO_PLANT_PARAMS, is_mimo_plant_param
 from robrst.studies.sweep.variants import grid_values
 
 __all__ = ["Param", "Ageing", "Sweep", "SWEEP_SCHEMA", "PLANT_PARAMS", "KINDS", "DISTS",
@@ -37,6 +39,7 @@ KINDS = ("analysis", "design", "fleet")
 FIGURES = ("Ms", "Mt", "Mu", "Mt_band", "modulus_margin", "gain_margin", "phase_margin_deg",
            "delay_margin_s", "integral_gain", "worst_ratio")
 MAX_VARIANTS = 10_000_000
+_FRONT = tuple(dict.fromkeys(FIGURES + MIMO_FRONT_FIGURES))
 
 SWEEP_SCHEMA = {
     "sweep": {
@@ -59,9 +62,10 @@ SWEEP_SCHEMA = {
                          " temperatures (about 3 ms each)"),
     },
     "design": {
-        "front_x": Field("str", "Mu", "figure minimised on the trade-off front", choices=FIGURES),
-        "front_y": Field("str", "integral_gain", "figure maximised on the trade-off front",
-                         choices=FIGURES),
+        "front_x": Field("str", None, "figure minimised on the trade-off front (default Mu;"
+                         " multi-axis: sigma_U)", choices=_FRONT),
+        "front_y": Field("str", None, "figure maximised on the trade-off front (default"
+                         " integral_gain)", choices=_FRONT),
     },
     "fleet": {
         "folder": Field("str", None, "folder of problem or model files, relative to the sweep"
@@ -136,6 +140,9 @@ class Sweep:
         Fleet: the folder of problem or model files.
     pattern : str
         Fleet: the file-name pattern.
+    mimo : bool
+        The base problem is a multi-axis file (``[mimo]``,
+        :mod:`robrst.studies.sweep.mimo`).
 
     Attributes
     ----------
@@ -162,6 +169,7 @@ class Sweep:
     front: tuple = ("Mu", "integral_gain")
     folder: str = None
     pattern: str = "*.toml"
+    mimo: bool = False
 
     @property
     def grid(self):
@@ -188,20 +196,22 @@ def sweep_schema_markdown() -> list[str]:
         " problem file |"]
 
 
-def problem_field(name: str) -> Field | None:
+def problem_field(name: str, schema: dict = PROBLEM_SCHEMA) -> Field | None:
     """The problem-file :class:`Field` a key path names, or ``None``.
 
     Parameters
     ----------
     name : str
         A key path (``"specs.Mu_max"``).
+    schema : dict
+        The problem files' schema (multi-axis files: ``MIMO_SCHEMA``).
 
     Returns
     -------
     Field or None
         The field when the path names a number or integer of the problem file.
     """
-    node = PROBLEM_SCHEMA
+    node = schema
     for part in name.split("."):
         if not isinstance(node, dict) or part not in node:
             return None
@@ -209,12 +219,21 @@ def problem_field(name: str) -> Field | None:
     return node if isinstance(node, Field) and node.type in ("number", "int") else None
 
 
-def _param(path, i, p):
+def _param(path, i, p, mimo=False):
     key = ("param", str(i))
     name, dist = p["name"], p["dist"]
-    field = problem_field(name)
-    m = COEF.match(name)
-    if field is None and name not in PLANT_PARAMS and not m:
+    if mimo:
+        field = problem_field(name, MIMO_SCHEMA)
+        if field is None and not is_mimo_plant_param(name):
+            raise key_error(path, key + ("name",), f"unknown parameter {name!r} of a"
+                            " multi-axis sweep: expected a number of the problem file by its"
+                            " key path (e.g. mimo.specs.sigma_S_max) or one of "
+                            + ", ".join(MIMO_PLANT_PARAMS))
+        m = None
+    else:
+        field = problem_field(name)
+        m = COEF.match(name)
+    if field is None and not mimo and name not in PLANT_PARAMS and not m:
         raise key_error(path, key + ("name",), f"unknown parameter {name!r}: expected a number"
                         " of the problem file by its key path (e.g. specs.Mu_max,"
                         " family.parametric.gain_per_K) or one of "
@@ -312,7 +331,7 @@ def parse_sweep(data: dict, path: str | Path = "<sweep>") -> Sweep:
     ('analysis', 10, True)
     """
     data = dict(data)
-    overrides = _overrides(path, data.pop("set", {}), PROBLEM_SCHEMA)
+    raw_set = data.pop("set", {})
     v = validate(path, data, SWEEP_SCHEMA)
     sw = v["sweep"]
     if sw is None:
@@ -321,7 +340,15 @@ def parse_sweep(data: dict, path: str | Path = "<sweep>") -> Sweep:
     for tab in ("analysis", "design", "fleet"):
         if v[tab] is not None and tab != kind:
             raise key_error(path, (tab,), f"only for kind = '{tab}' (this sweep is '{kind}')")
-    params = tuple(_param(path, i, p) for i, p in enumerate(v["param"] or ()))
+    if kind != "fleet" and sw["problem"] is None:
+        raise key_error(path, ("sweep", "problem"), f"missing: a {kind} sweep needs a base problem")
+    base = None if sw["problem"] is None else _resolve_base(path, sw["problem"])
+    mimo = base is not None and is_mimo_file(base)
+    if mimo and kind == "fleet":
+        raise key_error(path, ("sweep", "kind"), "a fleet of multi-axis problems is not"
+                        " supported: sweep their parameters (kind = 'design' or 'analysis')")
+    overrides = _overrides(path, raw_set, MIMO_SCHEMA if mimo else PROBLEM_SCHEMA)
+    params = tuple(_param(path, i, p, mimo) for i, p in enumerate(v["param"] or ()))
     names = [p.name for p in params]
     for i, n in enumerate(names):
         if n in names[:i]:
@@ -336,9 +363,6 @@ def parse_sweep(data: dict, path: str | Path = "<sweep>") -> Sweep:
                         " folder = the folder of its problem or model files")
     if kind == "fleet" and params:
         raise key_error(path, ("param",), "a fleet sweep varies files, not parameters")
-    if kind != "fleet" and sw["problem"] is None:
-        raise key_error(path, ("sweep", "problem"), f"missing: a {kind} sweep needs a base problem")
-    base = None if sw["problem"] is None else _resolve_base(path, sw["problem"])
     if kind != "fleet" and not params:
         raise key_error(path, ("param",), f"a {kind} sweep needs at least one [[param]] table"
                         " (what varies between the variants)")
@@ -351,6 +375,7 @@ def parse_sweep(data: dict, path: str | Path = "<sweep>") -> Sweep:
     if total > MAX_VARIANTS:
         raise key_error(path, ("sweep",), f"{total} variants; at most {MAX_VARIANTS}")
     an, de, fl = v["analysis"] or {}, v["design"] or {}, v["fleet"] or {}
+    front = _front(path, de, mimo)
     chunk = sw["chunk_size"] or {"analysis": 10, "design": 2, "fleet": 1}[kind]
     return Sweep(
         name=sw["name"] or Path(str(path)).stem, kind=kind, path=str(path),
@@ -359,8 +384,20 @@ def parse_sweep(data: dict, path: str | Path = "<sweep>") -> Sweep:
         worst=sw["worst"], params=params, overrides=tuple(overrides),
         ageing=ageing, controller=an.get("controller", "design"),
         margins=an.get("margins", True),
-        front=(de.get("front_x", "Mu"), de.get("front_y", "integral_gain")),
-        folder=fl.get("folder"), pattern=fl.get("pattern", "*.toml"))
+        front=front, folder=fl.get("folder"), pattern=fl.get("pattern", "*.toml"), mimo=mimo)
+
+
+def _front(path, de, mimo):
+    """The trade-off front's figures, the defaults by kind of problem, each checked."""
+    front = (de.get("front_x") or ("sigma_U" if mimo else "Mu"),
+             de.get("front_y") or "integral_gain")
+    allowed = MIMO_FRONT_FIGURES if mimo else FIGURES
+    for k, f in zip(("front_x", "front_y"), front):
+        if f not in allowed:
+            raise key_error(path, ("design", k), f"{f!r} is no figure of a"
+                            f" {'multi-axis' if mimo else 'single-axis'} sweep: expected one"
+                            f" of {', '.join(allowed)}")
+    return front
 
 
 def resolve_sweep_path(name_or_path: str | os.PathLike) -> Path:

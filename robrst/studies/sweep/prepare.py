@@ -22,10 +22,12 @@ from typing import TYPE_CHECKING
 from robrst import __version__
 from robrst.base.errors import RobrstError, SolverError, SpecError
 from robrst.base.fileio import MAX_TOML_BYTES, read_utf8
+from robrst.core.mimo_loop import MimoController
 from robrst.core.rst import RSTController
 from robrst.base.schema import Field, key_error, load_toml, validate
 from robrst.problem.files import parse_problem
 from robrst.studies.sweep.evaluate import SweepContext
+from robrst.studies.sweep.mimo import check_mimo_params
 from robrst.studies.sweep.model import apply_overrides, check_plant_params
 from robrst.studies.sweep.variants import variant_table
 
@@ -33,7 +35,8 @@ if TYPE_CHECKING:
     from robrst.studies.sweep.files import Sweep
     from robrst.studies.sweep.variants import VariantTable
 
-__all__ = ["prepare", "read_controller", "fingerprint", "member_document"]
+__all__ = ["prepare", "read_controller", "read_mimo_controller", "fingerprint",
+           "member_document"]
 
 _RST = {k: Field("numbers", None, f"{k} coefficients, highest power first", required=True)
         for k in "RST"}
@@ -56,12 +59,8 @@ def read_controller(path: str | Path) -> RSTController:
     SpecError
         Naming the file and the key.
     """
-    text = read_utf8(Path(path), "result file", "JSON", SpecError, limit=MAX_TOML_BYTES)
-    try:
-        d = json.loads(text)
-    except ValueError as exc:
-        raise SpecError(f"{path}: invalid JSON ({exc})") from None
-    if not isinstance(d, dict) or "controller" not in d:
+    d = _result(path)
+    if "controller" not in d:
         raise key_error(path, ("controller",), "missing: expected the JSON of robrst design"
                         " --json with controller{R, S, T}")
     c = validate(path, d["controller"], _RST, ("controller",))
@@ -75,6 +74,46 @@ def read_controller(path: str | Path) -> RSTController:
         raise key_error(path, ("controller",), str(exc)) from None
 
 
+def read_mimo_controller(path: str | Path) -> MimoController:
+    """The multi-axis controller of a result file (``robrst design FILE --json`` of a
+    ``[mimo]`` problem).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The JSON file.
+
+    Returns
+    -------
+    MimoController
+
+    Raises
+    ------
+    SpecError
+        Naming the file and the key.
+    """
+    d = _result(path)
+    if d.get("kind") != "mimo" or "controller" not in d:
+        raise key_error(path, ("controller",), "expected the JSON of robrst design --json on"
+                        " a multi-axis problem (kind = \"mimo\", controller{axes, decoupler})")
+    try:
+        return MimoController.from_dict(d["controller"])
+    except (SpecError, ValueError) as exc:
+        raise key_error(path, ("controller",), str(exc)) from None
+
+
+def _result(path):
+    """The JSON object of a result file (an error naming the file otherwise)."""
+    text = read_utf8(Path(path), "result file", "JSON", SpecError, limit=MAX_TOML_BYTES)
+    try:
+        d = json.loads(text)
+    except ValueError as exc:
+        raise SpecError(f"{path}: invalid JSON ({exc})") from None
+    if not isinstance(d, dict):
+        raise SpecError(f"{path}: expected a JSON object (the output of robrst design --json)")
+    return d
+
+
 def _no_compare(doc):
     """A sweep never runs the analytic comparison of ``compare_with``."""
     doc = copy.deepcopy(doc)
@@ -83,11 +122,20 @@ def _no_compare(doc):
     return doc
 
 
+def _parse(sweep, doc):
+    """The base problem of ``doc``: a multi-axis or a single-axis problem file's."""
+    if sweep.mimo:
+        from robrst.problem.mimo_files import parse_mimo
+
+        return parse_mimo(doc, sweep.problem)
+    return parse_problem(doc, sweep.problem)
+
+
 def _base(sweep):
     original = _no_compare(load_toml(sweep.problem, "problem file"))
     doc = apply_overrides(original, sweep.overrides)
     try:
-        base = parse_problem(doc, sweep.problem)
+        base = _parse(sweep, doc)
     except SpecError as exc:
         if not sweep.overrides:
             raise
@@ -97,15 +145,20 @@ def _base(sweep):
 
 def _controller(sweep, original):
     if sweep.controller == "design":
-        from robrst.design import run_problem
-
         try:
+            if sweep.mimo:
+                from robrst.design.mimo import design_mimo
+
+                return design_mimo(_parse(sweep, original), compare=False).controller
+            from robrst.design import run_problem
+
             return run_problem(parse_problem(original, sweep.problem)).controller
         except RobrstError as exc:
             raise SolverError(f"{sweep.path}: the design of the base problem failed, so there"
                               f" is no controller to analyse: {exc}") from None
+    read = read_mimo_controller if sweep.mimo else read_controller
     try:
-        return read_controller(Path(sweep.path).parent / sweep.controller)
+        return read(Path(sweep.path).parent / sweep.controller)
     except SpecError as exc:
         raise key_error(sweep.path, ("analysis", "controller"), str(exc)) from None
 
@@ -207,7 +260,9 @@ def fingerprint(sweep: Sweep, files: Iterable[str | Path], names: Iterable[str] 
         The hex digest; a folder computed from another fingerprint is not resumed.
     """
     d = asdict(sweep)
-    for k in ("path", "description", "problem", "worst"):
+    # "mimo" follows from the base problem's bytes (hashed below): the fingerprints of the
+    # sweeps made before it was a field stay the same
+    for k in ("path", "description", "problem", "worst", "mimo"):
         d.pop(k)
     h = hashlib.sha256(json.dumps(_stable(d), sort_keys=True, default=str).encode())
     for f in files:
@@ -240,7 +295,10 @@ def prepare(sweep: Sweep) -> tuple[SweepContext, VariantTable]:
     fleet, labels, broken = (), (), ()
     if sweep.problem:
         original, doc, base = _base(sweep)
-        check_plant_params(sweep.params, base.family, sweep.path)
+        if sweep.mimo:
+            check_mimo_params(sweep.params, base.family, sweep.path)
+        else:
+            check_plant_params(sweep.params, base.family, sweep.path)
     if sweep.kind == "analysis":
         if sweep.controller != "design":
             files.append(Path(sweep.path).parent / sweep.controller)

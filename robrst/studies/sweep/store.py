@@ -25,8 +25,6 @@ from typing import TYPE_CHECKING
 
 from robrst.base.errors import OutputError
 from robrst.base.fileio import atomic_write_bytes, atomic_write_text, json_text
-from robrst.studies.sweep.evaluate import (CONTROLLER_COLUMNS, FIGURE_COLUMNS,
-                                           spec_figure_columns)
 
 if TYPE_CHECKING:
     import pyarrow as pa
@@ -60,12 +58,9 @@ def arrow_schema(context: SweepContext) -> pa.Schema:
     if context.sweep.kind == "fleet":
         fields.append(pa.field("file", pa.string()))
     fields += [pa.field(n, pa.float64()) for n in context.names]
-    fields += [pa.field(k, getattr(pa, t)()) for k, t in FIGURE_COLUMNS.items()]
-    base = context.base
-    fields += [pa.field(k, getattr(pa, t)()) for k, t in
-               spec_figure_columns(None if base is None else base.specs).items()]
-    if context.sweep.kind != "analysis":
-        fields += [pa.field(k, pa.list_(pa.float64())) for k in CONTROLLER_COLUMNS]
+    fields += [pa.field(k, getattr(pa, t)()) for k, t in context.figure_columns().items()]
+    fields += [pa.field(k, pa.list_(pa.float64()) if t == "list" else getattr(pa, t)())
+               for k, t in context.controller_columns().items()]
     return pa.schema(fields)
 
 

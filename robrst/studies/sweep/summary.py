@@ -16,6 +16,7 @@ import numpy as np
 
 from robrst.problem.specs import spec_columns
 from robrst.studies.sweep.evaluate import spec_figure_columns
+from robrst.studies.sweep.mimo import MIMO_STAT_FIGURES, MIMO_WORST_KEYS
 
 if TYPE_CHECKING:
     import pyarrow as pa
@@ -24,7 +25,7 @@ if TYPE_CHECKING:
     from robrst.studies.sweep.evaluate import SweepContext
 
 __all__ = ["wilson_interval", "pareto_front", "front_values", "figure_stats", "worst_rows",
-           "summarise", "STAT_FIGURES"]
+           "summarise", "STAT_FIGURES", "WORST_KEYS", "FRONT_KEYS", "MIMO_FRONT_KEYS"]
 
 STAT_FIGURES = (*(row.column for row in spec_columns()), "modulus_margin", "gain_margin",
                 "phase_margin_deg", "delay_margin_s", "spectral_abscissa", "integral_gain",
@@ -181,6 +182,11 @@ WORST_KEYS = ("status", "certified", "worst_ratio", "Ms", "Ms_temperature_C", "M
               "spectral_abscissa", "integral_gain", "violation", "message")
 
 
+#: what a point of the trade-off front holds besides its two figures
+FRONT_KEYS = ("Ms", "Mt", "Mu", "integral_gain")
+MIMO_FRONT_KEYS = ("sigma_S", "sigma_T", "sigma_U", "crosstalk", "integral_gain")
+
+
 def worst_rows(table: pa.Table, count: int) -> list[int]:
     """Row indices (in ``table``) of the ``count`` worst variants: failed first, then by ratio.
 
@@ -237,9 +243,10 @@ def summarise(context: SweepContext, table: pa.Table, n: int, workers: int, wall
     unstable = sum(s is False for s in table.column("stable").to_pylist()) if done else 0
     cpu = float(np.nansum(_col(table, "cpu_s"))) if done else 0.0
     rows = table.to_pylist() if done <= 200_000 else None
+    mimo = context.mimo
     worst = []
     if rows is not None:
-        worst = [_record(rows[i], context.names, WORST_KEYS)
+        worst = [_record(rows[i], context.names, MIMO_WORST_KEYS if mimo else WORST_KEYS)
                  for i in worst_rows(table, sw.worst)]
     out = {"sweep": sw.name, "kind": sw.kind,
            "problem": None if context.base is None else context.base.name, "n": n, "done": done,
@@ -249,12 +256,20 @@ def summarise(context: SweepContext, table: pa.Table, n: int, workers: int, wall
            "wall_s": wall_s, "cpu_s": cpu, "cpu_s_per_variant": cpu / done if done else None,
            "chunk_size": sw.chunk_size, "seed": sw.seed, "params": list(context.names),
            "fingerprint": context.fingerprint,
-           "figures": figure_stats(table, STAT_FIGURES + tuple(spec_figure_columns(
-               None if context.base is None else context.base.specs))), "worst": worst,
+           "figures": figure_stats(table, MIMO_STAT_FIGURES if mimo else STAT_FIGURES + tuple(
+               spec_figure_columns(None if context.base is None else context.base.specs))),
+           "worst": worst,
            "results": "results.parquet", "report": "report", "unstable": unstable}
     if context.controller is not None:
         out["controller"] = context.controller.as_dict()
-    if context.base is not None:
+    if mimo:
+        fam = context.base.family
+        out["specs"] = context.base.specs.as_dict()
+        out.update(axes=list(context.base.axes), parameter=fam.parameter, unit=fam.unit,
+                   parameter_range=list(fam.range))
+        if fam.parameter == "temperature_C":
+            out["temperature_range_C"] = list(fam.range)
+    elif context.base is not None:
         sp = context.base.specs
         # the bound of every spec with a sweep column (robrst.problem.specs)
         out["specs"] = {row.key: getattr(sp, row.key) for row in spec_columns(sp)}
@@ -266,7 +281,8 @@ def summarise(context: SweepContext, table: pa.Table, n: int, workers: int, wall
         ys = front_values(y, [_finite(rows[i][y]) for i in ok])
         out["front"] = {"x": x, "y": y, "y_ranked": "magnitude" if y == "integral_gain"
                         else "value", "points": [
-            _record(rows[ok[j]], context.names, (x, y, "Ms", "Mt", "Mu", "integral_gain"))
+            _record(rows[ok[j]], context.names,
+                    tuple(dict.fromkeys((x, y) + (MIMO_FRONT_KEYS if mimo else FRONT_KEYS))))
             for j in pareto_front(xs, ys)]}
     return out
 
