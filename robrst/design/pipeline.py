@@ -21,14 +21,18 @@ from robrst.base.threads import one_blas_thread
 from robrst.design.fleet import fleet_design
 from robrst.design.single import design_single
 from robrst.problem.records import with_defaults
-from robrst.synthesis.feasibility import prove_infeasible
+from robrst.synthesis.feasibility import feasibility_verdict, prove_infeasible
 from robrst.synthesis.limits import design_limits
 
 if TYPE_CHECKING:
     from robrst.design.result import DesignResult
     from robrst.problem.records import Problem
 
-__all__ = ["run_problem", "infeasibility"]
+__all__ = ["run_problem", "infeasibility", "SKIPPED"]
+
+#: what the pipeline did about a proof that no linear controller meets the specs
+SKIPPED = ("the synthesis was skipped (a family member has no solution); the controller is the"
+           " analytic start")
 
 
 def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
@@ -57,13 +61,15 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
         left unbounded (:func:`robrst.certificate.assessment.assess`: damping, overshoot,
         input disturbances) and state the limits (:func:`robrst.synthesis.limits.design_limits`:
         what any linear controller could reach; infeasible or not found); off: none (a
-        sweep reads the certificate's figures and computes only the margins).
+        sweep reads the certificate's figures and computes only the margins).  Either way
+        specs that no linear controller meets are proved so first (milliseconds), the
+        synthesis is then skipped and ``feasibility`` holds the proof.
     multistart : bool, optional
         The robust program (``method = "nlp"``) runs its global phase: every controller
         of the structure searched (:mod:`robrst.synthesis.search`), the best distinct
         candidates polished and certified, the best certified answer kept, all in this
         process (default: ``problem.solver.multistart and problem.solver.starts > 0``;
-        sweeps pass ``False``: one local run from the problem's start). A problem with a
+        ``False``: one local run from the problem's start). A problem with a
         ``[spread]`` is designed for the fleet (:mod:`robrst.design.fleet`), its rounds
         warm-started from one another, without the global phase.
     stop : callable, optional
@@ -91,7 +97,7 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
         multistart = problem.solver.multistart
     problem = with_defaults(problem)
     with one_blas_thread(problem.needs_scipy):
-        proofs = infeasibility(problem) if analyses else ()
+        proofs = infeasibility(problem)
         if proofs:     # no linear controller meets the specs: the start design is the answer
             (progress or (lambda msg: None))(
                 "infeasible: " + proofs[0].reason + "; the synthesis is skipped, the analytic"
@@ -106,12 +112,14 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
             result = design_single(problem, progress, templates, analyses, multistart,
                                    stop=stop)
         if not analyses:
+            if proofs:   # the proof stands without the analyses (the limits are not stated)
+                return replace(result, feasibility=replace(feasibility_verdict(
+                    problem, result.certificate, result.controller), note=SKIPPED))
             return result
         bound, verdict = design_limits(problem, result.controller, result.certificate,
                                        result.certified)
         if proofs and verdict is not None:
-            verdict = replace(verdict, note="the synthesis was skipped (a family member has no"
-                              " solution); the controller is the analytic start")
+            verdict = replace(verdict, note=SKIPPED)
         return replace(result, objective_bound=bound, feasibility=verdict)
 
 

@@ -312,9 +312,10 @@ def _analysis_row(state, values):
 
 def _design_row(state, problem):
     with state.lock:   # a cached solver is not re-entrant: one design at a time per worker
-        # no analyses (exact peaks to 1e-10): the row's figures are the certificate's
-        result = state.designer(problem, templates=state.templates, analyses=False,
-                                multistart=False)
+        # no analyses (exact peaks to 1e-10): the row's figures are the certificate's.  The
+        # design is robrst design's, global phase included ([solver] multistart, in this
+        # process): a trade-off front of local optima understated the CLI's answers 50x
+        result = state.designer(problem, templates=state.templates, analyses=False)
     cert = result.certificate
     row = _figures(problem, result.controller, cert,
                    _smallest(_member_margins(problem, result.controller, cert)))
@@ -338,6 +339,9 @@ def design_cause(result: DesignResult) -> str | None:
     str or None
         One line.
     """
+    verdict = result.feasibility
+    if verdict is not None and verdict.status == "infeasible":
+        return f"infeasible: {verdict.proofs[0].reason} ({verdict.note})"
     syn = result.synthesis
     notes = getattr(syn, "notes", ())
     proof = [n for n in notes if "infeasible" in n]
