@@ -251,11 +251,21 @@ def integral_seeds(ctx: Context) -> list[tuple[str, np.ndarray]]:
     # the slowest stable real pole of the plant: a PI zero on it leaves K P ~ wc / jw above it
     reals = [-r.real / ctx.w0 for r in np.roots(ref.A) if r.imag == 0 and r.real < 0]
     slow = min(reals) if reals and not plant_int else None
+    # a pure integrator when R may have as many free roots as S' (kr > ks: the integral
+    # start (p + c)^kr / (p (p + c)^ks) would be a PI with its zero at c, whose
+    # proportional gain excites a lightly damped resonance): R's leading coefficients zero
+    pure = par.kr > par.ks
     items = []
     for wc in KI_GRID:
         zeros = (None, 1.0, 0.3) + ((slow / wc,) if slow is not None and slow < 0.3 * wc else ())
+        zeros = (("pure",) if pure else ()) + zeros
         for zf in zeros:                               # integral; PI zeros at wc, 0.3 wc, pole
-            if zf is None or par.kr < 1:
+            if zf == "pure":
+                if plant_int:
+                    continue
+                rp = np.concatenate([np.zeros(par.kr - par.ks), sp])
+                name = f"integrator (crossover {wc * ctx.w0:.3g} rad/s)"
+            elif zf is None or par.kr < 1:
                 if plant_int:                          # I on an integrator: no phase margin
                     continue
                 rp = np.poly(-c * np.ones(par.kr)) if par.kr else np.ones(1)
