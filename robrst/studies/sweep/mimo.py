@@ -113,9 +113,10 @@ def check_mimo_params(params: Iterable[Param], family: MimoFamily, path: str | P
         if m and m.group(1) and int(m.group(1)) > family.n_in:
             raise key_error(path, ("param", str(i), "name"), f"{p.name}: the plant has"
                             f" {family.n_in} actuators (gain_1 .. gain_{family.n_in})")
-        if p.name in ("gain", "resonance") or (m and m.group(1)):
+        if m:
             lo = min(p.values) if p.values else p.lo
-            if p.dist == "normal" and lo is None or lo is not None and not lo > 0:
+            unbounded = p.dist == "normal" and lo is None    # a normal draw may go negative
+            if unbounded or (lo is not None and lo <= 0):
                 raise key_error(path, ("param", str(i)), f"{p.name} is a factor: it must stay"
                                 " positive (a normal distribution needs lo > 0)")
 
