@@ -253,12 +253,16 @@ def write_folder(out_dir: str | Path, doc: Doc, extra_files: dict[str, str],
     check_report_target(out, force)
     if out.is_symlink():              # a link to a report folder: the folder it names is written
         out = Path(os.path.realpath(out))
+    tmp = None
     try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
-    except OSError as exc:
-        raise OutputError(f"{out}: cannot write here ({exc.strerror or exc})") from None
-    try:
+        # the folder and its name together: a signal between them (a SIGTERM the moment the
+        # folder appears, seen under load) left it behind, unnamed, never removed
+        with signals_deferred():
+            try:
+                out.parent.mkdir(parents=True, exist_ok=True)
+                tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+            except OSError as exc:
+                raise OutputError(f"{out}: cannot write here ({exc.strerror or exc})") from None
         (tmp / PARTIAL).write_text(owner_tag() + "\n", encoding="utf-8")
         tmp.chmod(umask_mode(0o777))
         render_figures(tmp)
@@ -292,7 +296,8 @@ def write_folder(out_dir: str | Path, doc: Doc, extra_files: dict[str, str],
             if old is not None:
                 shutil.rmtree(old, ignore_errors=True)
     except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
+        if tmp is not None:
+            shutil.rmtree(tmp, ignore_errors=True)
         raise
     return given
 

@@ -592,7 +592,8 @@ class Run:
             The program's data.
         starts : sequence of Start
             The scored starts (with freely placed poles every integral and PI seed of
-            :func:`robrst.synthesis.starts.integral_seeds` joins them).
+            :func:`robrst.synthesis.starts.integral_seeds`, pure integrators included,
+            joins them).
 
         Returns
         -------
@@ -603,7 +604,7 @@ class Run:
         if setup.placement == "free":     # the integral seeds place no nominal poles
             blocks = grid_blocks(setup, np.ones(ctx.param.n_x))
             every += score_many(setup, blocks, [(n, x, None, None)
-                                                for n, x in integral_seeds(ctx)])
+                                                for n, x in integral_seeds(ctx, pure=True)])
         near = [s for s in every if s.stable and s.worst <= NEAR_START]
         kinds = {}
         for s in near:      # the families of starts: a kind over its crossover grid

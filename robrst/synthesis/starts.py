@@ -218,7 +218,7 @@ def _integral(ctx, setup, blocks):
     return score_many(setup, blocks, [(n, x, None, None) for n, x in integral_seeds(ctx)])
 
 
-def integral_seeds(ctx: Context) -> list[tuple[str, np.ndarray]]:
+def integral_seeds(ctx: Context, pure: bool = False) -> list[tuple[str, np.ndarray]]:
     """Integral and PI controllers with roll-off poles at ``p = -c`` (scaled), named.
 
     ``K = kappa (p + z) (p + c)^(kr-1) / (p Sf' (p + c)^ks)``: an integrator (``z``
@@ -230,6 +230,10 @@ def integral_seeds(ctx: Context) -> list[tuple[str, np.ndarray]]:
     ----------
     ctx : Context
         The synthesis's context (its parametrisation and scaling).
+    pure : bool
+        Also the pure integrators ``kappa / p`` (R's leading coefficients zero) when ``R``
+        may have as many free roots as ``S'`` (there the integral start above is a PI with
+        its zero at ``c``, whose proportional gain excites a lightly damped resonance).
 
     Returns
     -------
@@ -251,10 +255,7 @@ def integral_seeds(ctx: Context) -> list[tuple[str, np.ndarray]]:
     # the slowest stable real pole of the plant: a PI zero on it leaves K P ~ wc / jw above it
     reals = [-r.real / ctx.w0 for r in np.roots(ref.A) if r.imag == 0 and r.real < 0]
     slow = min(reals) if reals and not plant_int else None
-    # a pure integrator when R may have as many free roots as S' (kr > ks: the integral
-    # start (p + c)^kr / (p (p + c)^ks) would be a PI with its zero at c, whose
-    # proportional gain excites a lightly damped resonance): R's leading coefficients zero
-    pure = par.kr > par.ks
+    pure = pure and par.kr > par.ks
     items = []
     for wc in KI_GRID:
         zeros = (None, 1.0, 0.3) + ((slow / wc,) if slow is not None and slow < 0.3 * wc else ())

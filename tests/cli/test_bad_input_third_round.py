@@ -329,9 +329,11 @@ def _terminate_when_building(cmd, cwd, prefix, sig):
             pytest.skip("the command ended before it could be stopped")
         proc.send_signal(sig)
         _, err = proc.communicate(timeout=120)
-        if proc.returncode == 0 and not err.strip():
+        if proc.returncode == 0:
             # under load the command can finish between the folder's sighting and the
-            # signal: a race of the test, not a stopped command (its exit code says so)
+            # signal: a race of the test, not a stopped command (its exit code says so;
+            # a signal landing during the interpreter's shutdown prints "Exception
+            # ignored" and changes nothing)
             pytest.skip("the command ended before the signal landed")
     finally:
         if proc.poll() is None:
