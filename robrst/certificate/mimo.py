@@ -27,6 +27,12 @@ the unscaled loop (:mod:`robrst.core.mimo_loop`).
     while a bounded figure changes across it by more than half its margin to the bound
     (:data:`REFINE_RATIO`); still unresolved at the budget's end: a violation.
 
+With ``input_gain_deviation`` (a sector of input gains ``[1 - delta, 1 + delta]``) every
+record also holds ``sector_S``, ``sector_T`` and ``sector_U``: small-gain bounds on the
+peaks of ``S``, ``T`` and ``K S`` for every gain in the sector (:func:`sector_figures`),
+so performance, not only stability, is stated under hysteresis and creep taken as a gain
+deviation; ``sector_*_max`` bound them.
+
 A controller is certified when no figure exceeds its bound beyond ``rtol``, every loop is
 stable, every peak is verified and every segment's stability is proved.
 """
@@ -54,7 +60,7 @@ if TYPE_CHECKING:
 
 __all__ = ["MimoLoopFigures", "MimoModelRecord", "MimoViolation", "MimoCertificate",
            "certify_mimo", "certify_mimo_problem", "check_models", "loop_figures",
-           "stability_radius",
+           "sector_figures", "stability_radius",
            "REFINE_RATIO", "LOOPS"]
 
 REFINE_RATIO = 0.5      # halve an interval when a figure moves by more than this x its margin
@@ -443,12 +449,17 @@ def loop_figures(lp: MimoLoop, specs: MimoSpecs, loop: str, full: bool = True,
     if not stable:
         return fig
     bounded = specs.bounded
+    delta = specs.input_gain_deviation
+    robust = delta is not None and (full or any(
+        r.figure in bounded for r in MIMO_SPECS if r.kind == "robust"))
     peaks = {}
     for row in MIMO_SPECS:
-        if row.kind in ("sigma", "sector") and (row.figure in bounded or (
+        if row.kind in ("sigma", "sector") and (row.figure in bounded or robust or (
                 full and row.kind == "sigma")):
             A, B, C, D = lp.transfer(row.transfer)
             peaks[row.figure] = _peak(A, B, C, D, None, fs)
+    if robust:
+        peaks.update(sector_figures(peaks, delta))
     axis = {}
     for name in ("S", "T"):
         if full or f"axis_{name}" in bounded:
@@ -463,6 +474,50 @@ def loop_figures(lp: MimoLoop, specs: MimoSpecs, loop: str, full: bool = True,
     radius = None if perturbation is None else stability_radius(lp, *perturbation)
     return MimoLoopFigures(loop, stable, sa, peaks, axis, xt,
                            _bandwidths(lp, fs) if full else None, radius, pole_radius)
+
+
+def sector_figures(peaks: dict, delta: float) -> dict:
+    """The peaks of ``S``, ``T`` and ``K S`` for every input gain in the sector.
+
+    With the actuator's input ``(I + Delta) u``, ``Delta`` any operator of ``L2`` gain at
+    most ``delta`` (time-varying gains per input, or a memoryless nonlinearity in that
+    sector: hysteresis and creep as a gain deviation), ``I + G (I + Delta) K = (I + G K)
+    (I + S G Delta K)`` gives, by the push-through identity,
+
+    ``S' = S - S G (I + Delta Ti)^-1 Delta K S``,  ``T' = I - S'`` and
+    ``K S' = (I - Ti (I + Delta Ti)^-1 Delta) K S``, bounded as
+
+    ``||S'|| <= ||S|| + ||S G|| ||K S|| g``, ``||T'|| <= ||T|| + ||S G|| ||K S|| g``,
+    ``||K S'|| <= ||K S|| / (1 - delta ||Ti||)``, with ``g = delta / (1 - delta ||Ti||)``
+
+    (``||.||``: the peak of the largest singular value, the ``L2``-induced norm; the same
+    with the sampled loop's peaks and ``l2``).  A bound, not the worst case: it is
+    conservative by the product of two peaks at different frequencies.  Where ``delta
+    ||Ti|| >= 1`` the small-gain theorem proves nothing and every figure is ``inf``.
+
+    Parameters
+    ----------
+    peaks : dict
+        ``{figure: Peak}`` holding ``sigma_S``, ``sigma_T``, ``sigma_U``, ``sigma_Sd`` and
+        ``sigma_Ti`` of one loop.
+    delta : float
+        The sector's half-width (``input_gain_deviation``).
+
+    Returns
+    -------
+    dict
+        ``{"sector_S": Peak, "sector_T": Peak, "sector_U": Peak}``, each at the frequency
+        of its nominal peak, verified when every peak it uses is.
+    """
+    S, T, U, Sd, Ti = (peaks[f"sigma_{k}"] for k in ("S", "T", "U", "Sd", "Ti"))
+    ok = all(p.verified for p in (S, T, U, Sd, Ti))
+    loop = delta * Ti.value
+    g = delta / (1.0 - loop) if loop < 1.0 else np.inf
+    cross = Sd.value * U.value * g if g < np.inf else np.inf
+    return {"sector_S": Peak(S.value + cross, S.freq_rad_s, ok),
+            "sector_T": Peak(T.value + cross, T.freq_rad_s, ok),
+            "sector_U": Peak(U.value / (1.0 - loop) if loop < 1.0 else np.inf,
+                             U.freq_rad_s, ok)}
 
 
 def stability_radius(lp: MimoLoop, dC: np.ndarray, dD: np.ndarray) -> float:

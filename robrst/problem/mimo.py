@@ -39,7 +39,9 @@ class MimoSpec:
     kind : {"sigma", "axis", "crosstalk", "sector"}
         ``sigma``: the peak of the largest singular value; ``axis``: every diagonal
         entry's peak; ``crosstalk``: every off-diagonal entry's peak over a band;
-        ``sector``: ``sigma_max(Ti) * delta < 1`` (the input-gain deviation ``delta``).
+        ``sector``: ``sigma_max(Ti) * delta < 1`` (the input-gain deviation ``delta``);
+        ``robust``: the ``sigma`` figure of ``transfer`` for every input gain in the
+        sector (a small-gain bound, :func:`robrst.certificate.mimo.sector_figures`).
     unit : str
         The bound's unit.
     label : str
@@ -69,6 +71,15 @@ MIMO_SPECS = (
     MimoSpec("input_gain_deviation", "sigma_Ti", "Ti", "sector", "",
              "input gains anywhere in [1 - delta, 1 + delta] (a sector): sigma_max(Ti) <"
              " 1/delta"),
+    MimoSpec("sector_S_max", "sector_S", "S", "robust", "",
+             "largest singular value of S for every input gain in the sector (needs"
+             " input_gain_deviation)"),
+    MimoSpec("sector_T_max", "sector_T", "T", "robust", "",
+             "largest singular value of T for every input gain in the sector (needs"
+             " input_gain_deviation)"),
+    MimoSpec("sector_U_max", "sector_U", "U", "robust", "V/µm",
+             "largest singular value of K S for every input gain in the sector (needs"
+             " input_gain_deviation)"),
 )
 
 
@@ -117,6 +128,10 @@ class MimoSpecs:
     input_gain_deviation : float, optional
         ``delta`` in ``(0, 1)``: the loop must stay stable for input gains anywhere in
         ``[1 - delta, 1 + delta]`` (time-varying, per input): ``sigma_max(Ti) < 1/delta``.
+    sector_S_max, sector_T_max, sector_U_max : float, optional
+        Bounds on the largest singular values of ``S``, ``T`` and ``K S`` for every input
+        gain in that sector (needs ``input_gain_deviation``; the certificate's small-gain
+        bounds, :func:`robrst.certificate.mimo.sector_figures`).
     sample_rate_hz : float, optional
         Also certify (and design) the sampled loop: ZOH plant, Tustin controller.
     delay_samples : int
@@ -134,7 +149,7 @@ class MimoSpecs:
     ------
     SpecError
         A bound that is not a positive number, ``input_gain_deviation`` outside
-        ``(0, 1)``, a band that is not ``0 <= lo < hi``.
+        ``(0, 1)``, a sector bound without it, a band that is not ``0 <= lo < hi``.
     """
 
     sigma_S_max: float | None = None
@@ -146,6 +161,9 @@ class MimoSpecs:
     crosstalk_max: float | None = None
     crosstalk_band_hz: tuple | None = None
     input_gain_deviation: float | None = None
+    sector_S_max: float | None = None
+    sector_T_max: float | None = None
+    sector_U_max: float | None = None
     sample_rate_hz: float | None = None
     delay_samples: int = 0
 
@@ -157,6 +175,10 @@ class MimoSpecs:
         d = self.input_gain_deviation
         if d is not None and not d < 1:
             raise SpecError(f"input_gain_deviation: expected 0 < delta < 1, got {d}")
+        robust = [r.key for r in MIMO_SPECS if r.kind == "robust" and getattr(self, r.key)]
+        if robust and d is None:
+            raise SpecError(f"{robust[0]}: a bound for every input gain in a sector needs"
+                            f" input_gain_deviation (the sector's delta)")
         if self.crosstalk_band_hz is not None:
             b = tuple(float(x) for x in self.crosstalk_band_hz)
             if len(b) != 2 or not 0 <= b[0] < b[1]:
