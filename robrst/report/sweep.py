@@ -101,6 +101,15 @@ def sweep_doc(result: SweepResult) -> Doc:
               + f". {s['workers']} workers, {s['wall_s']:.1f} s wall,"
                 f" {_f(s['cpu_s_per_variant'], '.3g')} s CPU per variant."),
         ("table", ("status", "variants"), tuple(sorted(s["statuses"].items()))),
+    ]
+    env = s.get("envelope")
+    if env and env["rows"]:
+        blocks.append(("p", f"Monotone envelope: {env['rows']} of {s['done']} variants keep"
+                            " the better design of a variant whose bounds are all at least"
+                            " as tight, certified on their own problem (their own design"
+                            " reached less): "
+                       + ", ".join(f"{i} ← {j}" for i, j in env["design_of"].items()) + "."))
+    blocks += [
         ("h2", "Spread of the figures"),
         ("table", ("figure", "min", "5 %", "median", "95 %", "max"),
          tuple((k, *(_f(v[q]) for q in ("min", "p05", "median", "p95", "max")))

@@ -25,6 +25,7 @@ if TYPE_CHECKING:
 __all__ = ["histograms_figure", "sensitivity_figure", "front_figure", "fleet_figure",
            "worst_bode_figure", "HIST"]
 
+LOG_SPAN = 100.0     # a front whose maximised figure spans more than this ratio: log axes
 # figure column -> (axis label, scale, spec bound attribute); the spec columns from the table
 HIST = (*((row.column, row.column_label, 1.0, row.key) for row in spec_columns()),
         ("gain_margin", "smallest gain margin [-]", 1.0, None),
@@ -192,6 +193,10 @@ def front_figure(result: SweepResult, path: str | Path) -> None:
         a2.set_xlabel(f"{x_name} (achieved, minimised)")
         a2.set_ylabel(f"{y_name} (maximised)")
         a2.legend(fontsize=8)
+        pos = y[np.isfinite(y)]
+        if pos.size and pos.min() > 0 and pos.max() > LOG_SPAN * pos.min():
+            a1.set_yscale("log")          # values over decades: each one readable
+            a2.set_yscale("log")
 
 
 def fleet_figure(result: SweepResult, path: str | Path) -> None:

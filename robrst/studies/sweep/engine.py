@@ -8,7 +8,9 @@ bounded window of chunks is in flight; each finished chunk is written at once.  
 that fails as a whole (its worker died repeatedly) is split into single variants, so only
 the variant that kills its worker is lost — as a row with status ``worker_lost``.  On any
 stop (done, error, Ctrl-C) the finished rows are gathered into ``results.parquet`` and
-``summary.json``.
+``summary.json``; a finished design sweep over spec bounds gets its monotone envelope there
+(:mod:`robrst.studies.sweep.envelope`: a variant keeps a tighter variant's better design,
+certified on its own problem).
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ from robrst.base.fileio import output_lock
 from robrst.base.threads import available_cores
 from robrst.studies.sweep import store
 from robrst.studies.sweep.prepare import prepare
+from robrst.studies.sweep.envelope import monotone_envelope
 from robrst.studies.sweep.evaluate import build_state, evaluate_chunk, failed_row, status_of
 from robrst.studies.sweep.files import Sweep, load_sweep
 from robrst.studies.sweep.summary import summarise
@@ -492,6 +495,8 @@ def _run_locked(sweep, out, workers, scheduler, progress, restart, t0, context, 
         if executor is not None:
             executor.close()
         results = store.read_results(out, [c for c in plan if c.index in done], schema)
+        if context.sweep.kind == "design" and not context.mimo:
+            results = monotone_envelope(context, results, complete=len(done) == len(plan))
         store.write_results(out, results)
         runs = (runs + [{"workers": n_workers, "wall_s": time.perf_counter() - t0,
                          "startup_s": t_ready - t0, "computed": count["done"] - before}])[-100:]

@@ -44,6 +44,7 @@ from robrst.synthesis.parametrize import integral_gain
 from robrst.base.threads import one_blas_thread
 
 if TYPE_CHECKING:
+    from robrst.certificate.proof import Certificate
     from robrst.design import DesignResult
     from robrst.problem.records import Problem, Specs
     from collections.abc import Callable
@@ -53,7 +54,7 @@ if TYPE_CHECKING:
 
 __all__ = ["SweepContext", "WorkerState", "build_state", "evaluate_chunk", "evaluate_variant",
            "problem_of", "fleet_problem", "FIGURE_COLUMNS", "CONTROLLER_COLUMNS",
-           "spec_figure_columns", "status_of",
+           "spec_figure_columns", "status_of", "design_row",
            "failed_row", "design_cause"]
 
 # column -> arrow type name; the same columns for every kind
@@ -316,12 +317,32 @@ def _design_row(state, problem):
         # design is robrst design's, global phase included ([solver] multistart, in this
         # process): a trade-off front of local optima understated the CLI's answers 50x
         result = state.designer(problem, templates=state.templates, analyses=False)
-    cert = result.certificate
-    row = _figures(problem, result.controller, cert,
-                   _smallest(_member_margins(problem, result.controller, cert)))
-    row.update({k: getattr(result.controller, k).tolist() for k in CONTROLLER_COLUMNS})
+    row = design_row(problem, result.controller, result.certificate)
     if not result.certified:
         row["message"] = design_cause(result)
+    return row
+
+
+def design_row(problem: Problem, ctrl: RSTController, cert: Certificate) -> dict:
+    """The figures and controller columns of a design row: ``ctrl`` with its certificate
+    ``cert`` on ``problem`` (margins of every family model).
+
+    Parameters
+    ----------
+    problem : Problem
+        The variant's problem.
+    ctrl : RSTController
+        The controller.
+    cert : Certificate
+        Its certificate on ``problem``.
+
+    Returns
+    -------
+    dict
+        The row's figure columns and ``R, S, T``.
+    """
+    row = _figures(problem, ctrl, cert, _smallest(_member_margins(problem, ctrl, cert)))
+    row.update({k: getattr(ctrl, k).tolist() for k in CONTROLLER_COLUMNS})
     return row
 
 

@@ -16,6 +16,7 @@ import numpy as np
 
 from robrst.problem.specs import spec_columns
 from robrst.studies.sweep.evaluate import spec_figure_columns
+from robrst.studies.sweep.envelope import ENVELOPE_COLUMN
 from robrst.studies.sweep.mimo import MIMO_STAT_FIGURES, MIMO_WORST_KEYS
 
 if TYPE_CHECKING:
@@ -274,6 +275,10 @@ def summarise(context: SweepContext, table: pa.Table, n: int, workers: int, wall
         # the bound of every spec with a sweep column (robrst.problem.specs)
         out["specs"] = {row.key: getattr(sp, row.key) for row in spec_columns(sp)}
         out["temperature_range_C"] = list(context.base.family.range_C)
+    if ENVELOPE_COLUMN in table.column_names:
+        kept = [(r["index"], r[ENVELOPE_COLUMN]) for r in rows or ()
+                if r[ENVELOPE_COLUMN] is not None]
+        out["envelope"] = {"rows": len(kept), "design_of": {str(i): j for i, j in kept}}
     if sw.kind != "analysis" and rows is not None:
         x, y = sw.front
         ok = [i for i, r in enumerate(rows) if r["certified"]]
