@@ -75,6 +75,10 @@ PINNED = 1e-6              # r_T(0) within this of 1: T(0) = 1 is on the disc's 
 EXCHANGE_TOL = 1e-7        # a grid point violated by more than this (relative) joins
 EXCHANGE_ROUNDS = 12
 SV_CUT = 1e-9              # directions the grid rows see less than this (relative) are dropped
+# Clarabel's settings tried in turn when a solve stalls numerically (its own row
+# equilibration on top of the orthonormal basis, then the other direct solver: on a
+# degenerate program, T(0) = 1 on the edge of the |T| disc, one stalled where the other did not)
+CLARABEL_RETRIES = ({}, {"equilibrate_enable": False}, {"direct_solve_method": "faer"})
 
 
 @dataclass(frozen=True)
@@ -739,13 +743,23 @@ class _Program:
         cs = cs / (np.max(np.abs(cs)) or 1.0)
         A = sparse.csc_matrix(full @ V)
         cone_list = ([clarabel.ZeroConeT(len(A_eq))] if len(A_eq) else []) + cones
-        settings = clarabel.DefaultSettings()
-        settings.verbose = False
-        settings.max_iter = 200
         P = sparse.csc_matrix((V.shape[1], V.shape[1]))
-        sol = clarabel.DefaultSolver(P, cs, A, np.concatenate([b_eq, b_soc]), cone_list,
-                                     settings).solve()
-        st = str(sol.status).split(".")[-1]
+        for retry in CLARABEL_RETRIES:     # a numerical stall: the same program set up anew
+            settings = clarabel.DefaultSettings()
+            settings.verbose = False
+            settings.max_iter = 200
+            try:
+                for k, v in retry.items():
+                    setattr(settings, k, v)
+                sol = clarabel.DefaultSolver(P, cs, A, np.concatenate([b_eq, b_soc]),
+                                             cone_list, settings).solve()
+            except Exception:     # noqa: BLE001 — a setting this Clarabel build lacks
+                if not retry:
+                    raise
+                continue
+            st = str(sol.status).split(".")[-1]
+            if st not in ("NumericalError", "InsufficientProgress", "MaxIterations"):
+                break
         if st in ("PrimalInfeasible", "AlmostPrimalInfeasible"):
             return "infeasible_on_grid", None, st, None
         if st in ("DualInfeasible", "AlmostDualInfeasible"):

@@ -67,6 +67,7 @@ class CMAES:
         self.C, self.pc, self.ps = np.eye(d), np.zeros(d), np.zeros(d)
         self.generation = 0
         self._B, self._D = np.eye(d), np.ones(d)
+        self._root = np.eye(d)
 
     def ask(self) -> np.ndarray:
         """A population, ``(lambda, d)`` in ``[0, 1]^d`` (reflected at the faces).
@@ -76,7 +77,11 @@ class CMAES:
         numpy.ndarray
         """
         z = self.rng.standard_normal((self.lam, self.d))
-        x = self.mean + self.sigma * (z * self._D) @ self._B.T
+        # the symmetric square root B D B' of the covariance, not B D: the same distribution,
+        # but unique where eigenvalues repeat (C = I at first, and after a rank-mu update
+        # most of its eigenvalues are equal), so the samples do not hang on which
+        # eigenvectors the LAPACK build returns for a repeated eigenvalue
+        x = self.mean + self.sigma * z @ self._root
         x = np.abs(x) % 2.0
         return np.where(x > 1.0, 2.0 - x, x)
 
@@ -110,6 +115,7 @@ class CMAES:
         self.C = (self.C + self.C.T) / 2
         ev, self._B = np.linalg.eigh(self.C)
         self._D = np.sqrt(np.maximum(ev, 1e-20))
+        self._root = (self._B * self._D) @ self._B.T
 
     @property
     def spread(self) -> float:

@@ -45,13 +45,19 @@ if TYPE_CHECKING:
     from robrst.synthesis.timesamples import TimeSpecs
 
 __all__ = ["Screen", "Figures", "batch_roots", "routh_columns", "RESONANT_DAMPING",
-           "STEP_POINTS"]
+           "STEP_POINTS", "RANK_BITS", "RANK_VIOLATION_BITS", "RANK_VIOLATION",
+           "OBJECTIVE_NOISE"]
 
+RANK_BITS = 30           # the objective ranks on this many mantissa bits (1e-9 relative) ...
+RANK_VIOLATION_BITS = 20  # ... the violation on this many (1e-6: an unstable candidate's
+#                           violation is its roots' abscissa, a few digits on every build) ...
+RANK_VIOLATION = 1e-9    # ... and below this it is 0: rounding error never ranks
+OBJECTIVE_NOISE = 1e-9   # R(0), (S/s^k)(0) this small against their terms have no sign
 RESONANT_DAMPING = 0.3   # closed-loop roots damped less than this add their frequency
 STEP_POINTS = 120        # samples of each screened reference step (quadratically spaced)
 PEAK_SAMPLES = 256       # ... and, of a sampled loop, every one of its first samples
 STEP_HORIZON = 10.0      # ... up to this many time constants of the slowest mode
-UNSTABLE = 1e3           # the violation of an unstable loop (plus its count, its abscissa)
+UNSTABLE = 1e3           # the violation of an unstable loop (plus its abscissa)
 
 
 def batch_roots(C: np.ndarray) -> np.ndarray:
@@ -170,16 +176,42 @@ class Figures:
     overshoot: np.ndarray
     examined: np.ndarray
 
+    def keys(self) -> tuple[np.ndarray, np.ndarray]:
+        """The ranking keys ``(violation, objective)``, rounded (:data:`RANK_BITS` bits of
+        the objective's mantissa, :data:`RANK_VIOLATION_BITS` of the violation's, a
+        violation below :data:`RANK_VIOLATION` 0): candidates
+        whose figures differ only by rounding error rank by their order in the population,
+        so the search takes the same path whatever the BLAS or LAPACK build (a last-bit
+        difference in a peak would otherwise reorder two near-equal candidates and send
+        every later generation elsewhere).
+
+        Returns
+        -------
+        (numpy.ndarray, numpy.ndarray)
+        """
+        obj = np.where(np.isfinite(self.objective), self.objective, -np.inf)
+        m, e = np.frexp(obj)
+        scale = float(2 ** RANK_BITS)
+        with np.errstate(invalid="ignore"):
+            obj = np.where(np.isfinite(obj), np.ldexp(np.round(m * scale) / scale, e), obj)
+        viol = np.asarray(self.violation, float)
+        m, e = np.frexp(viol)
+        scale = float(2 ** RANK_VIOLATION_BITS)
+        viol = np.where(viol < RANK_VIOLATION, 0.0, np.ldexp(np.round(m * scale) / scale, e))
+        # Deb's rules rank a candidate outside the specs by its violation alone
+        return viol, np.where(viol > 0, -np.inf, obj)
+
     def order(self) -> np.ndarray:
         """Indices from the best candidate to the worst: feasible ones first by objective,
-        then the others by violation (Deb's feasibility rules).
+        then the others by violation (Deb's feasibility rules), on the rounded
+        :meth:`keys` (ties: population order).
 
         Returns
         -------
         numpy.ndarray
         """
-        obj = np.where(np.isfinite(self.objective), self.objective, -np.inf)
-        return np.lexsort((-obj, self.violation))
+        viol, obj = self.keys()
+        return np.lexsort((np.arange(obj.size), -obj, viol))
 
 
 class Screen:
@@ -405,7 +437,10 @@ class Screen:
         obj = self.setup.objective
         if obj == "max_integral_gain":
             num, den = X @ self.r0, X @ self.q0 + self.q0c
-            ok = (num > 0) & (den > 0)
+            # positive beyond rounding error (a sum of terms that cancel to 1e-16 of their
+            # size has no sign: the same verdict on every numerical build)
+            ok = ((num > OBJECTIVE_NOISE * (np.abs(X) @ np.abs(self.r0)))
+                  & (den > OBJECTIVE_NOISE * (np.abs(X) @ np.abs(self.q0) + abs(self.q0c))))
             with np.errstate(all="ignore"):
                 return np.where(ok, np.log(np.where(ok, num, 1.0) / np.where(ok, den, 1.0)),
                                 -np.inf)
@@ -444,10 +479,12 @@ class Screen:
         viol = np.maximum(worst - 1.0, 0.0) + self.controller_excess(X)
         bad = unstable > 0
         if bad.any():      # unstable: behind every stable candidate, graded by how unstable
-            viol[bad] = UNSTABLE + unstable[bad] + self._abscissa(X[bad])
+            # (by the largest real part of the roots, not by how many models are unstable:
+            # a model's verdict on a wild candidate turns on rounding error)
+            viol[bad] = UNSTABLE + self._abscissa(X[bad])
         obj = self.objective(X, self._worst_s(X) if st.objective == "min_Ms" else None)
-        if st.objective == "max_integral_gain":
-            viol += np.where(np.isfinite(obj), 0.0, UNSTABLE)
+        if st.objective == "max_integral_gain":   # (an unstable one is behind already)
+            viol += np.where(np.isfinite(obj) | bad, 0.0, UNSTABLE)
         viol = np.where(finite, np.nan_to_num(viol, nan=1e6, posinf=1e6), 1e6)
         damping, over = np.full(K, np.nan), np.full(K, np.nan)
         near = (unstable == 0) & finite
