@@ -198,7 +198,7 @@ def test_screen_overshoot_of_the_sampled_loop_against_python_control():
     found = global_search(scr, sp, [("analytic", ctx.param.vector(start.controller))],
                           options=SearchOptions(seed=5, restarts=1))
     base = found.candidates[0].theta      # near the specs: the steps are examined
-    th = np.clip(base + 0.005 * np.random.default_rng(2).standard_normal((16, sp.dim)), 0, 1)
+    th = np.clip(base + 0.02 * np.random.default_rng(2).standard_normal((16, sp.dim)), 0, 1)
     X = sp.controllers(th)
     f = scr.rate(X)
     z = control.tf([1.0, 0.0], [1.0], 1.0 / fs)
@@ -225,6 +225,7 @@ def test_screen_overshoot_of_the_sampled_loop_against_python_control():
         assert f.overshoot[i] == pytest.approx(max(over_c, over_d), abs=0.01)
         checked += 1
         above += over_d > over_c + 0.002
+    print(f"checked {checked}, sampled above continuous {above}")
     assert checked >= 4 and above >= 2
 
 
