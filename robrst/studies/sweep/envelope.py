@@ -10,7 +10,7 @@ bounds too.  A trade-off front drawn from such rows is not a front.
 of ``u`` at least as tight as ``v``'s (an upper bound no larger, a lower bound no smaller,
 :data:`robrst.problem.specs.SPEC_TABLE` gives the direction) and every other swept
 parameter equal — and whose certified objective is better than ``v``'s.  The best of them
-is certified on ``v``'s own problem (:func:`robrst.certificate.proof.certify_problem`, the
+(then the next, :data:`ENVELOPE_TRIES` at most) is certified on ``v``'s own problem (:func:`robrst.certificate.proof.certify_problem`, the
 default specs resolved, the time-domain figures completed as the design's certificate is);
 when it certifies there, ``v``'s row becomes that controller's row on ``v``'s problem, its
 column ``design_of`` names ``u`` and its message what ``v``'s own design reached.  So, over
@@ -45,10 +45,14 @@ if TYPE_CHECKING:
 
     from robrst.studies.sweep.evaluate import SweepContext
 
-__all__ = ["monotone_envelope", "bound_directions", "dominates", "ENVELOPE_COLUMN"]
+__all__ = ["monotone_envelope", "bound_directions", "dominates", "ENVELOPE_COLUMN",
+           "ENVELOPE_TRIES"]
 
 #: the column of ``results.parquet`` naming the variant whose design a row holds
 ENVELOPE_COLUMN = "design_of"
+#: dominating designs certified on a variant at most (the best first): a tighter design
+#: meets a looser variant's bounds, so the first almost always certifies there
+ENVELOPE_TRIES = 3
 
 
 def bound_directions(names: tuple) -> tuple:
@@ -150,7 +154,7 @@ def monotone_envelope(context: SweepContext, table: pa.Table,
                          and (objs[j] is None or objs[i] > objs[j])
                          and dominates(values[i], values[j], directions)),
                         key=lambda i: -objs[i])
-        for i in better:
+        for i in better[:ENVELOPE_TRIES]:
             vals = dict(zip(context.names, (float(x) for x in values[j])))
             try:
                 raw = problem_of(context, index[j], vals)
