@@ -87,15 +87,27 @@ def test_sector_bounds_hold_for_every_gain_python_control_closes(seed, m):
 
 
 def test_a_sector_bound_is_certified_and_refused():
+    """A ``sector_S_max`` makes the certificate tighten the product bound by the scaled
+    small-gain test: never above it, never below what python-control's loops through
+    constant gains in the sector reach; certified just above, refused just below."""
     g, = random_stage(2, 2)
-    ctrl, _, _ = _controller(g, 2)
+    ctrl, axes, W = _controller(g, 2)
     fam = MimoFamily((MimoPlant.from_control(g, "stage", 20.0),))
-    base = certify_mimo(fam, ctrl, MimoSpecs(input_gain_deviation=0.2))
-    v = base.worst("sector_S")
-    assert v > base.worst("sigma_S")
-    assert certify_mimo(fam, ctrl, MimoSpecs(input_gain_deviation=0.2,
+    delta = 0.2
+    base = certify_mimo(fam, ctrl, MimoSpecs(input_gain_deviation=delta))
+    product = base.worst("sector_S")
+    assert product > base.worst("sigma_S")
+    asked = certify_mimo(fam, ctrl, MimoSpecs(input_gain_deviation=delta, sector_S_max=1e9))
+    v = asked.worst("sector_S")
+    assert v <= product
+    m = g.noutputs
+    G, K = control.ss(g), _pc_K(axes, W)
+    for c in np.array(np.meshgrid(*[[-delta, delta]] * m)).reshape(m, -1).T:
+        lp = _loops(G * control.ss([], [], [], np.eye(m) + np.diag(c)), K)
+        assert _peak(lp["S"]) <= v * (1 + 1e-6)
+    assert certify_mimo(fam, ctrl, MimoSpecs(input_gain_deviation=delta,
                                              sector_S_max=1.01 * v)).certified
-    bad = certify_mimo(fam, ctrl, MimoSpecs(input_gain_deviation=0.2, sector_S_max=0.99 * v))
+    bad = certify_mimo(fam, ctrl, MimoSpecs(input_gain_deviation=delta, sector_S_max=0.99 * v))
     assert not bad.certified and [x.quantity for x in bad.violations] == ["sector_S"]
 
 
