@@ -47,6 +47,7 @@ import numpy as np
 
 from robrst.base.threads import one_blas_thread
 from robrst.core.mimo import MimoPlant, combination, sampled_mimo
+from robrst.core.minimize import golden_section
 from robrst.core.mimo_loop import MimoLoop, mimo_loop
 from robrst.core.peaks import Peak
 from robrst.core.sampled import unwarp, warp, warp_band
@@ -609,21 +610,15 @@ def scaled_sector_peak(lp: MimoLoop, delta: float, which: str, lo: float,
     best = vals[i]
     if best >= hi:
         return hi
-    a, b = grid[max(i - 1, 0)], grid[min(i + 1, len(grid) - 1)]
-    r = (np.sqrt(5.0) - 1.0) / 2.0
-    x1, x2 = b - r * (b - a), a + r * (b - a)
-    f1, f2 = least(x1), least(x2)
-    for _ in range(SCALE_STEPS):
-        best = min(best, f1, f2)
-        if f1 <= f2:
-            b, x2, f2 = x2, x1, f1
-            x1 = b - r * (b - a)
-            f1 = least(x1)
-        else:
-            a, x1, f1 = x1, x2, f2
-            x2 = a + r * (b - a)
-            f2 = least(x2)
-    best = min(best, f1, f2)
+    seen = []
+
+    def recorded(x):
+        seen.append(least(x))
+        return seen[-1]
+
+    golden_section(recorded, grid[max(i - 1, 0)], grid[min(i + 1, len(grid) - 1)],
+                   SCALE_STEPS + 2)
+    best = min([best] + seen)
     return min(best, hi)
 
 

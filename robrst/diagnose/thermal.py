@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy import optimize
 
+from robrst.core.minimize import golden_section
 from robrst.diagnose.linear import parameter_std
 from robrst.diagnose.options import OPTIONS
 from robrst.diagnose.stages import stage
@@ -265,7 +266,7 @@ def search_saturation(train: Sequence[Prepared], lin: LinearPart,
             # refined between the neighbouring quantiles: a limit that clips only the last
             # few % of the samples lies between the extreme and the next quantile
             a, b = cands[max(i - 1, 0)], cands[min(i + 1, len(cands) - 1)]
-            pick, val = _golden(f, min(a, b), max(a, b), OPTIONS.fit.refine_evals)
+            pick, val = golden_section(f, min(a, b), max(a, b), OPTIONS.fit.refine_evals)
             pick = pick if val < vals[i] else float(cands[i])
             if which == "hi":
                 best_hi = pick if pick < hi else best_hi
@@ -273,20 +274,3 @@ def search_saturation(train: Sequence[Prepared], lin: LinearPart,
                 best_lo = pick if pick > lo else best_lo
         out.append((best_lo, best_hi))
     return out
-
-
-def _golden(f, a, b, n):
-    """Golden-section search of ``f`` on ``[a, b]`` with ``n`` evaluations: ``(x, f(x))``."""
-    r = (np.sqrt(5.0) - 1.0) / 2.0
-    x1, x2 = b - r * (b - a), a + r * (b - a)
-    f1, f2 = f(x1), f(x2)
-    for _ in range(max(n - 2, 0)):
-        if f1 <= f2:
-            b, x2, f2 = x2, x1, f1
-            x1 = b - r * (b - a)
-            f1 = f(x1)
-        else:
-            a, x1, f1 = x1, x2, f2
-            x2 = a + r * (b - a)
-            f2 = f(x2)
-    return (float(x1), f1) if f1 <= f2 else (float(x2), f2)

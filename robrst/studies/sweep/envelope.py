@@ -154,18 +154,23 @@ def monotone_envelope(context: SweepContext, table: pa.Table,
                          and (objs[j] is None or objs[i] > objs[j])
                          and dominates(values[i], values[j], directions)),
                         key=lambda i: -objs[i])
+        if not better:
+            continue
+        try:          # variant j's problem, once for every design tried on it
+            raw = problem_of(context, index[j],
+                             dict(zip(context.names, (float(x) for x in values[j]))))
+            problem = with_defaults(raw)
+        except RobrstError:       # a variant that cannot be set up keeps its own row
+            continue
         for i in better[:ENVELOPE_TRIES]:
-            vals = dict(zip(context.names, (float(x) for x in values[j])))
+            r = rows[i]
+            ctrl = RSTController(r["R"], r["S"], r["T"])
             try:
-                raw = problem_of(context, index[j], vals)
-                problem = with_defaults(raw)
-                r = rows[i]
-                ctrl = RSTController(r["R"], r["S"], r["T"])
                 cert = certify_problem(problem, ctrl)
                 if problem.specs.time_domain and problem.controller.T_mode != "reference_model":
                     cert = with_time_domain(problem, cert, ctrl)
-            except RobrstError:       # a variant that cannot be set up keeps its own row
-                break
+            except RobrstError:
+                continue
             got = objective(problem, ctrl, cert)
             if got is None or (objs[j] is not None and got <= objs[j]):
                 continue
