@@ -361,6 +361,8 @@ class Candidate:
         Its screened objective (larger is better).
     violation : float
         Its screened violation (0: feasible on the grid and the modes).
+    run : int
+        The CMA-ES run whose best it is (from 1; 0: a start or a point moved inside).
     """
 
     name: str
@@ -368,6 +370,7 @@ class Candidate:
     theta: np.ndarray
     objective: float
     violation: float
+    run: int = 0
 
 
 @dataclass(frozen=True, eq=False)
@@ -460,7 +463,7 @@ def global_search(screen: Screen, space: PoleSpace, starts: Sequence[tuple] = ()
     lam = max(o.popsize, 4 + int(3 * np.log(d)))
     evals = gens = 0
     stopped = False
-    found = []            # (key, theta, name)
+    found = []            # (key, theta, name, run)
     seeds = [(name, space.point(x)) for name, x in starts]
     seeds = [(n, th) for n, th in seeds if th is not None]
     if seeds:
@@ -473,7 +476,7 @@ def global_search(screen: Screen, space: PoleSpace, starts: Sequence[tuple] = ()
         first = np.round(seeds[k][1] / SEED_GRID) * SEED_GRID
         first_name = seeds[k][0]
         for i, (n, th) in enumerate(seeds):
-            found.append((_key(figs, i), th, n))
+            found.append((_key(figs, i), th, n, 0))
     else:
         first, first_name = streams[-1].uniform(0.2, 0.8, d), None
     plan = [(first, o.seed_sigma, f"from {first_name}" if first_name else "random mean", lam)]
@@ -505,7 +508,7 @@ def global_search(screen: Screen, space: PoleSpace, starts: Sequence[tuple] = ()
                 break
         if run_best is not None:
             name = f"{GLOBAL_START} {r + 1} ({what})"
-            found.append((run_best[0], run_best[1], name))
+            found.append((run_best[0], run_best[1], name, r + 1))
             v, ob = run_best[0]
             say(f"global phase: run {r + 1} ({what}): {es.generation} generations, best"
                 + (f" screened objective {-ob:.5g}" if v == 0 else f" violation {v:.3g}"))
@@ -513,12 +516,12 @@ def global_search(screen: Screen, space: PoleSpace, starts: Sequence[tuple] = ()
             break
     found.sort(key=lambda f: f[0])
     cands = []
-    for key, th, name in found:
+    for key, th, name, run in found:
         if any(np.max(np.abs(th - c.theta)) < o.distinct for c in cands):
             continue
         xc = space.controllers(th[None])[0]
         cands.append(Candidate(name=name, xc=xc, theta=th, objective=-key[1],
-                               violation=key[0]))
+                               violation=key[0], run=run))
     return GlobalSearch(candidates=tuple(cands), method="CMA-ES", dimension=d,
                         evaluations=evals, generations=gens, runs=len(plan),
                         cpu_s=time.process_time() - t0, stopped=stopped)

@@ -51,16 +51,17 @@ def scans():
     return of
 
 
-COLLAPSE = 0.5     # the weaker property that holds: never below half a tighter answer
+COLLAPSE = 0.9     # the weaker property that holds: never 10 % below a tighter answer
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("seed,order", [(11, 2), (12, 2)])
 def test_a_looser_bound_never_collapses(scans, seed, order):
     """The weaker property the global phase now has: loosening Ms_max never returns less
-    than half of a tighter bound's certified answer (before the screen checked the sampled
+    than 90 % of a tighter bound's certified answer (before the screen checked the sampled
     loops' steps and refused candidates were moved inside the specs, stage 11 at Ms 2.25
-    answered 16,574 against 473,458 at 2.0: 29x below)."""
+    answered 16,574 against 473,458 at 2.0: 29x below; before each run's best was
+    polished, 627 k at Ms 2.0 against 773 k at 1.75)."""
     scan = scans(seed, order)
     best = None
     for v, _, _, ki in scan:
@@ -73,13 +74,13 @@ def test_a_looser_bound_never_collapses(scans, seed, order):
 STAGE13 = pytest.mark.xfail(strict=False, reason="not monotone within 1 % yet on the 4th-order"
                             " stage: which basin the restarts find still moves with the bound."
                             " Measured (integral gain at Ms_max 1.5 / 1.75 / 2.0 / 2.25 / 2.5):"
-                            " 172 k / 182 k / 279 k / 183 k / 315 k")
+                            " 115 k / 224 k / 270 k / 245 k / 253 k")
 
 
-STAGE11 = pytest.mark.xfail(strict=False, reason="not monotone within 1 % on stage 11 either"
-                            " since the search takes the same path on every BLAS build (it"
-                            " passed on one machine's path): 743 k / 773 k / 627 k / 828 k /"
-                            " 828 k at Ms_max 1.5 / 1.75 / 2.0 / 2.25 / 2.5")
+STAGE11 = pytest.mark.xfail(strict=False, reason="within 1.3 % but not 1 % on stage 11: two"
+                            " local optima of the polish (each a KKT point) at Ms_max 1.75 and"
+                            " 2.0: 743 k / 829 k / 818 k / 828 k / 828 k at Ms_max 1.5 / 1.75 /"
+                            " 2.0 / 2.25 / 2.5")
 
 
 @pytest.mark.slow
