@@ -44,14 +44,14 @@ from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
+from scipy import optimize
 
 from robrst.base.threads import one_blas_thread
 from robrst.core.mimo import MimoPlant, combination, sampled_mimo
-from robrst.core.minimize import golden_section
 from robrst.core.mimo_loop import MimoLoop, mimo_loop
 from robrst.core.peaks import Peak
 from robrst.core.sampled import unwarp, warp, warp_band
-from robrst.core.sigma import sigma_max, sigma_peak
+from robrst.core.sigma import frequency_response, sigma_max, sigma_peak
 from robrst.problem.mimo import MIMO_SPECS, MimoSpecs
 
 if TYPE_CHECKING:
@@ -493,10 +493,9 @@ def sector_figures(peaks: dict, delta: float, lp: MimoLoop | None = None) -> dic
 
     (``||.||``: the peak of the largest singular value, the ``L2``-induced norm; the same
     with the sampled loop's peaks and ``l2``).  Two peaks at different frequencies
-    multiply there; with the loop ``lp`` each bound is then tightened by a constant
-    scaling ``d`` between the two channels (:func:`scaled_sector_peak`: robust
-    performance against one full block, time-varying or nonlinear included), the least
-    bound kept.  Where ``delta ||Ti|| >= 1`` the small-gain theorem proves nothing and
+    multiply there; with the loop ``lp`` each bound is then tightened by constant
+    scalings, one per input (:func:`scaled_sector_peak`: robust performance against one
+    deviation per input, time-varying or nonlinear included), the least bound kept.  Where ``delta ||Ti|| >= 1`` the small-gain theorem proves nothing and
     every figure is ``inf``.
 
     Parameters
@@ -530,28 +529,37 @@ def sector_figures(peaks: dict, delta: float, lp: MimoLoop | None = None) -> dic
     return {fig: Peak(v, nom.freq_rad_s, ok) for fig, (nom, v) in out.items()}
 
 
-SCALE_DECADES = 3.0     # the scaling d searched this many decades each way ...
-SCALE_GRID = 49         # ... on this many points (an eighth of a decade apart), then ...
-SCALE_STEPS = 8         # ... this many golden-section steps around the best ...
-GAMMA_STEPS = 12        # ... each d with this many bisection steps on the bound
+SCALE_POINTS = 300      # the scalings are searched on this many frequencies (and the
+#                         system's own), the proof then exact ...
+SCALE_RETRIES = 2       # ... a grid that missed the scaled peak gets its frequency and again
+ACTIVE = 16             # the search's active frequencies at first ...
+ACTIVE_ROUNDS = 6       # ... grown by the grid's worst this many times at most
+GAMMA_STEPS = 12        # bisection steps on the bound
 
 
 def scaled_sector_peak(lp: MimoLoop, delta: float, which: str, lo: float,
                        hi: float, d0: float = 1.0) -> float:
     """A bound on the peak of ``S'``, ``T'`` or ``K S'`` over the sector, by a scaled
-    small-gain test.
+    small-gain test with one scaling per input.
 
-    The loop with the deviation is ``[z; e] = M [w; v]``: ``z`` the controller output the
-    deviation acts on, ``w = Delta z`` entering at the plant input, ``v -> e`` the
+    The loop with the deviation is ``[z; e] = M [w; v]``: ``z`` the controller outputs the
+    deviation acts on, ``w = Delta z`` entering at the plant inputs, ``v -> e`` the
     performance channel (``d_o -> y`` for ``S``, ``n -> -y`` for ``T``, ``d_o -> -u``
-    for ``K S``).  If ``||[[delta M_zw, delta d M_zv], [M_ew / (d gamma), M_ev / gamma]]||
-    < 1`` for some ``d > 0`` then, for every ``Delta`` of gain at most ``delta`` (a
-    nonlinear one too: ``d Delta(. / d)`` has the same gain), ``||e|| < gamma ||v||``.
-    ``d`` on a grid of ``log d`` around ``d0`` (:data:`SCALE_GRID` points over
-    :data:`SCALE_DECADES` decades each way: the scalings that prove anything form a
-    window), refined by a golden-section search around the best; the least ``gamma`` for
-    each ``d`` by bisection between the nominal peak and the product bound (each test on
-    the upper end of the exact peak's bracket).
+    for ``K S``).  The deviation is one per input, ``Delta = diag(Delta_1, ..., Delta_k)``,
+    each of gain at most ``delta`` (a gain varying in time or a memoryless nonlinearity of
+    that sector: each actuator's hysteresis acts on its own input).  If, for a positive
+    diagonal ``D``, ``||diag(D, I) N_gamma diag(D^-1, I)|| < 1`` with ``N_gamma =
+    [[delta M_zw, delta M_zv], [M_ew / gamma, M_ev / gamma]]``, then ``||e|| < gamma ||v||``
+    for every such ``Delta`` (``D Delta D^-1 = Delta``: constant scalings, so nonlinear
+    and time-varying deviations too).
+
+    For each ``gamma`` of a bisection between the nominal peak and the product bound, the
+    scaling minimises the largest singular value over a frequency grid — a convex function
+    of ``log D`` (Sezginer and Overton 1990), so its local minimum (Nelder-Mead from the
+    previous step's scaling) is the grid's best — and the bound is proved only by the exact
+    peak of the scaled system (its upper bracket below 1); a grid that missed the scaled
+    peak gets that frequency and is searched again.  A scalar ``D = d I`` is a special
+    case: the bound is never above the best scalar scaling the grid finds.
 
     Parameters
     ----------
@@ -564,8 +572,8 @@ def scaled_sector_peak(lp: MimoLoop, delta: float, which: str, lo: float,
     lo, hi : float
         The nominal peak of that channel and a valid bound (the product bound).
     d0 : float
-        The centre of the search (``sqrt(||S G|| / (delta ||K S|| lo))`` balances the
-        off-diagonal blocks).
+        The first scaling, every input's (``sqrt(||S G|| / (delta ||K S|| lo))`` balances
+        the off-diagonal blocks).
 
     Returns
     -------
@@ -584,42 +592,86 @@ def scaled_sector_peak(lp: MimoLoop, delta: float, which: str, lo: float,
     else:
         Ce, Dew, Dev = Cz, Dzw, Dzv
     k = Bw.shape[1]
-
-    def below_one(d, gamma):
-        B = np.hstack([Bw / d, Bv])
-        C = np.vstack([delta * d * Cz, Ce / gamma])
-        D = np.block([[delta * Dzw, delta * d * Dzv], [Dew / (d * gamma), Dev / gamma]])
-        pk = sigma_peak(A, B, C, D, rtol=PEAK_RTOL)
-        return pk.verified and pk.value * (1 + 2 * PEAK_RTOL) < 1.0
-
-    def least(logd):
-        d = float(np.exp(logd))
-        if not below_one(d, hi):
-            return hi
-        a, b = np.log(max(lo, 1e-300)), np.log(hi)
-        for _ in range(GAMMA_STEPS):
-            mid = 0.5 * (a + b)
-            a, b = (a, mid) if below_one(d, float(np.exp(mid))) else (mid, b)
-        return float(np.exp(b))
-
     if not np.isfinite(hi) or k == 0:
         return hi
-    grid = np.log(d0) + np.linspace(-SCALE_DECADES, SCALE_DECADES, SCALE_GRID) * np.log(10.0)
-    vals = [least(x) for x in grid]
-    i = int(np.argmin(vals))
-    best = vals[i]
-    if best >= hi:
+    B, C = np.hstack([Bw, Bv]), np.vstack([Cz, Ce])
+    D = np.block([[Dzw, Dzv], [Dew, Dev]])
+    ne, nv = Ce.shape[0], Bv.shape[1]
+
+    def scales(logd, gamma):
+        d = np.exp(logd)
+        return (np.concatenate([delta * d, np.full(ne, 1.0 / gamma)]),
+                np.concatenate([1.0 / d, np.ones(nv)]))
+
+    def exact(logd, gamma):
+        rows, cols = scales(logd, gamma)
+        return sigma_peak(A, B * cols, rows[:, None] * C, rows[:, None] * D * cols,
+                          rtol=PEAK_RTOL)
+
+    lam = np.linalg.eigvals(A) if A.size else np.zeros(0)
+    mag = np.abs(lam[lam != 0]) if np.any(lam != 0) else np.ones(1)
+    w = np.concatenate([[0.0, np.inf], np.abs(lam.imag),      # the system's own frequencies
+                        np.geomspace(mag.min() / 10, mag.max() * 10, SCALE_POINTS)])
+    H = frequency_response(A, B, C, D, w)
+    if not np.all(np.isfinite(H)):
         return hi
-    seen = []
 
-    def recorded(x):
-        seen.append(least(x))
-        return seen[-1]
+    def sigmas(logd, gamma, idx):
+        rows, cols = scales(logd, gamma)
+        return np.linalg.svd(H[idx] * rows[:, None] * cols, compute_uv=False)[:, 0]
 
-    golden_section(recorded, grid[max(i - 1, 0)], grid[min(i + 1, len(grid) - 1)],
-                   SCALE_STEPS + 2)
-    best = min([best] + seen)
-    return min(best, hi)
+    # the scaling is searched on an active set of the grid's frequencies: those where the
+    # scaled value is largest, grown by the grid's worst ones until none lies above
+    active = list(np.argsort(sigmas(np.full(k, np.log(d0)), hi, slice(None)))[-ACTIVE:])
+
+    def least(gamma, x0):
+        """The grid's best scaling for ``gamma`` and the grid's largest value there."""
+        for _ in range(ACTIVE_ROUNDS):
+            simplex = x0 + np.vstack([np.zeros(k), 0.5 * np.eye(k)])
+            res = optimize.minimize(lambda x: float(np.max(sigmas(x, gamma, active))), x0,
+                                    method="Nelder-Mead",
+                                    options={"initial_simplex": simplex, "xatol": 1e-3,
+                                             "fatol": 1e-4, "maxfev": 200 * k})
+            full = sigmas(res.x, gamma, slice(None))
+            above = [int(i) for i in np.argsort(full)[-3:]
+                     if full[i] > res.fun and int(i) not in active]
+            if not above:
+                break
+            active.extend(above)
+            x0 = res.x
+        return res.x, float(np.max(full))
+
+    def proved(gamma, x0):
+        """The scaling that proves ``gamma`` (``None``: none found)."""
+        nonlocal H, w
+        for _ in range(SCALE_RETRIES + 1):
+            x, top = least(gamma, x0)
+            if top >= 1.0:
+                return None
+            pk = exact(x, gamma)
+            if pk.verified and pk.value * (1 + 2 * PEAK_RTOL) < 1.0:
+                return x
+            if not np.isfinite(pk.freq_rad_s) and not np.isfinite(pk.value):
+                return None
+            w = np.append(w, pk.freq_rad_s)       # the grid missed the scaled peak
+            H = np.concatenate([H, frequency_response(A, B, C, D, [pk.freq_rad_s])])
+            active.append(len(w) - 1)
+            x0 = x
+        return None
+
+    x = np.full(k, float(np.log(d0)))
+    found = proved(hi, x)
+    if found is None:
+        return hi
+    x, a, b = found, np.log(max(lo, 1e-300)), np.log(hi)
+    for _ in range(GAMMA_STEPS):
+        mid = 0.5 * (a + b)
+        got = proved(float(np.exp(mid)), x)
+        if got is None:
+            a = mid
+        else:
+            x, b = got, mid
+    return min(float(np.exp(b)), hi)
 
 
 def stability_radius(lp: MimoLoop, dC: np.ndarray, dD: np.ndarray) -> float:

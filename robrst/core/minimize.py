@@ -1,8 +1,7 @@
 """One-dimensional minimisation without derivatives: golden-section search.
 
 Used where a scalar function is cheap to bracket but has no gradient: the refinement of a
-clipping limit (:mod:`robrst.diagnose.thermal`) and the scaling of the sector bounds
-(:func:`robrst.certificate.mimo.scaled_sector_peak`).
+clipping limit (:mod:`robrst.diagnose.thermal`).
 """
 
 from __future__ import annotations

@@ -44,7 +44,7 @@ from robrst.core.peaks import Peak
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
-__all__ = ["sigma_peak", "sigma_max", "natural_scale", "Peak", "LOOSE"]
+__all__ = ["frequency_response", "sigma_peak", "sigma_max", "natural_scale", "Peak", "LOOSE"]
 
 _GOLDEN = 0.5 * (3.0 - np.sqrt(5.0))
 _POLISH = 24        # golden-section steps that refine the best midpoint
@@ -91,23 +91,50 @@ def sigma_max(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike,
     return _sv(A, B, C, D, np.atleast_1d(np.asarray(w, float)))
 
 
-def _sv(A, B, C, D, nu):
+def frequency_response(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike,
+                       w: ArrayLike) -> np.ndarray:
+    """``G(jw) = C (jwI - A)^-1 B + D`` at the frequencies ``w`` [rad/s] (``inf``: ``D``).
+
+    Parameters
+    ----------
+    A, B, C, D : array_like
+        The state space, in the frequency unit of ``w``.
+    w : array_like
+        Frequencies.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(len(w), outputs, inputs)``, complex (``inf`` entries at an eigenvalue of ``A`` on
+        the axis).
+    """
+    A, B, C, D = (np.atleast_2d(np.asarray(x, float)) for x in (A, B, C, D))
+    return _response(A, B, C, D, np.atleast_1d(np.asarray(w, float)))
+
+
+def _response(A, B, C, D, nu):
     n = A.shape[0]
-    out = np.empty(nu.size)
+    out = np.empty((nu.size,) + D.shape, complex)
     eye = np.eye(n)
     for i, v in enumerate(nu):
-        if not np.isfinite(v):
-            out[i] = np.linalg.norm(D, 2) if D.size else 0.0
+        if not np.isfinite(v) or not n:
+            out[i] = D
             continue
-        if n:
-            try:
-                G = C @ np.linalg.solve(1j * v * eye - A, B) + D
-            except np.linalg.LinAlgError:
-                out[i] = np.inf
-                continue
-        else:
-            G = D.astype(complex)
-        out[i] = np.linalg.norm(G, 2) if G.size else 0.0
+        try:
+            out[i] = C @ np.linalg.solve(1j * v * eye - A, B) + D
+        except np.linalg.LinAlgError:
+            out[i] = np.inf
+    return out
+
+
+def _sv(A, B, C, D, nu):
+    G = _response(A, B, C, D, nu)
+    if not G[0].size:
+        return np.zeros(nu.size)
+    out = np.full(nu.size, np.inf)
+    ok = np.all(np.isfinite(G), axis=(1, 2))
+    if np.any(ok):
+        out[ok] = np.linalg.svd(G[ok], compute_uv=False)[:, 0]
     out[np.isnan(out)] = np.inf
     return out
 
