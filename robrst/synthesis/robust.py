@@ -199,10 +199,12 @@ class PolishOptions:
     backoff_iter : int
         ... within this many IPOPT iterations each.
     distinct : float
-        A further candidate nearer than this (box units) to one polished is not polished.
-        Its screened objective does not decide: on the seeded stages a run's best screened
-        at 0.79 of another's polished to 1.30 of it (455 k -> 818 k against 578 k ->
-        627 k), so each run's best is polished.
+        A further candidate nearer than this (box units) to one polished is not polished ...
+    share : float
+        ... nor one screened below this share of the best screened objective.  Between
+        those the screened objective does not decide: on the seeded stages a run's best
+        screened at 0.79 of another's polished to 1.30 of it (455 k -> 818 k against
+        578 k -> 627 k); no polish gained 2x.
     soft_seeds : int
         With no candidate inside the specs, the soft phase starts from this many of the
         best.
@@ -219,6 +221,7 @@ class PolishOptions:
     backoffs: int = 2
     backoff_iter: int = 150
     distinct: float = 0.1
+    share: float = 0.5
     soft_seeds: int = 3
     floor_slack: float = 1e-3
 
@@ -239,7 +242,8 @@ def _global(ctx, run, seeds, best, start):
     run's best: each within ``iterations`` IPOPT iterations, from the program rescaled at
     the candidate with the certificate's bounds, keeping its integral gain, backed off by
     its miss when it ends just outside the specs; not one within ``distinct`` of one
-    polished: which basin polishes best, the screened objective does not tell); the best
+    polished or screened below ``share`` of the best: which basin polishes best, the
+    screened objective does not tell); the best
     certified outcome whose
     reference step meets the time-domain specs on every model of its certificate, else the
     best certified one, else the least violating one.  Falls back to :meth:`Run.attempt`
@@ -279,14 +283,18 @@ def _global(ctx, run, seeds, best, start):
                                                  res.candidates[:POLISH.soft_seeds]])
     outs, polished = [], []
     n_top = 1 + max(0, p.solver.starts)
-    # the best few, then each run's best
-    chosen = feasible[:n_top] + [c for c in feasible[n_top:] if c.run]
-    for i, c in enumerate(chosen):
+    # the best few, then each run's best, each screened within share of the best (an
+    # objective that is a positive size)
+    top = _screened_value(p, ctx, feasible[0])
+    floor = POLISH.share * top if p.solver.objective == "max_integral_gain" else -np.inf
+    chosen = [(i < n_top, c) for i, c in enumerate(feasible) if i == 0 or (
+        (i < n_top or c.run) and _screened_value(p, ctx, c) >= floor)]
+    for first, c in chosen:
         if run.spent("free") and outs:
             break
         seen = bool(polished) and min(np.max(np.abs(c.theta - t)) for t in polished) \
             < POLISH.distinct
-        if i >= n_top and seen:
+        if not first and seen:
             continue          # a run's best in a basin already polished
         x = ctx.full(c.xc, setup)
         as_is = run.outcome(ctx, setup, None, "start", x=x)
@@ -319,6 +327,14 @@ def _global(ctx, run, seeds, best, start):
         run.notes.append("global phase: no certified candidate met the time-domain specs")
         return certified[0]
     return min(outs, key=lambda o: o.badness)
+
+
+def _screened_value(problem, ctx, cand):
+    """A candidate's screened objective in the units of :func:`objective_value`."""
+    if problem.solver.objective == "max_integral_gain":
+        ki = integral_gain(ctx.controller(cand.xc))
+        return abs(ki) if np.isfinite(ki) else -np.inf
+    return cand.objective
 
 
 def _floor(problem, setup, x):
