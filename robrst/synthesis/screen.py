@@ -299,7 +299,16 @@ class Screen:
             Vr = _powers(nu, self.kr) * np.polyval(setup.Rf, 1j * nu)[:, None]
             shape = np.ones(1) if setup.T_shape is None else np.asarray(setup.T_shape, float)
             Vt = np.polyval(shape, 1j * nu)
-            self.groups.append((A, B, keys, Vs, Vr, Vt, models))
+            # every bound is |plant factor| |controller factor| / (bound |Delta|): per
+            # controller factor (|S|, |R|, the reference's |Vt r0|) one weight per model
+            # and frequency, the largest plant factor / bound over the keys it enters
+            mag = {"A": np.abs(A), "B": np.abs(B)}
+            weights = {}
+            for key, (idx, bound) in keys.items():
+                model, ctrl = _FACTORS[key]
+                w = weights.setdefault(ctrl, np.zeros(A.shape))
+                w[idx] = np.maximum(w[idx], mag[model][idx] / bound[:, None])
+            self.groups.append((A, B, keys, Vs, Vr, Vt, models, weights))
 
     def controllers(self, X: np.ndarray, nu: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``S(j nu)`` and ``R(j nu)`` (scaled) of each row of ``X`` at its own frequencies.
@@ -343,22 +352,13 @@ class Screen:
         lead = np.concatenate([np.ones((K, 1)), X[:, :self.ks]], axis=1)
         r0 = X @ self.Lr0
         with np.errstate(all="ignore"):
-            for A, B, keys, Vs, Vr, Vt, _ in self.groups:
+            for A, B, _, Vs, Vr, Vt, _, weights in self.groups:
                 S = lead @ Vs.T                                   # (K, F)
                 R = X[:, self.ks:self.nx] @ Vr.T
                 inv = 1.0 / np.abs(A[None] * S[:, None] + B[None] * R[:, None])  # 1/|Delta|
-                # every numerator is a product of magnitudes: |a||S|, |b||R|, |a||R|, ...
-                mag = {"A": np.abs(A), "B": np.abs(B)}
-                per = {"S": ("A", np.abs(S)), "R": ("B", np.abs(R))}
-                per["U"] = ("A", per["R"][1])
-                per["Sd"] = ("B", per["S"][1])
-                per["Ry"] = ("B", np.abs(Vt[None] * r0[:, None]))
-                for key, (idx, bound) in keys.items():
-                    which = {"T": "R", "Tband": "R", "Uhf": "U"}.get(key, key)
-                    model, ctrl = per[which]
-                    N = mag[model][None, idx] * ctrl[:, None]     # (K, m, F)
-                    r = (N * inv[:, idx]).max(axis=2) / bound[None, :]
-                    r = r.max(axis=1)
+                ctrl = {"S": S, "R": R, "Ry": Vt[None] * r0[:, None]}
+                for c, w in weights.items():
+                    r = (w[None] * (np.abs(ctrl[c])[:, None] * inv)).max(axis=(1, 2))
                     worst = np.maximum(worst, np.where(np.isnan(r), np.inf, r))
         return worst
 
@@ -534,7 +534,7 @@ class Screen:
         out = np.zeros(K)
         lead = np.concatenate([np.ones((K, 1)), X[:, :self.ks]], axis=1)
         with np.errstate(all="ignore"):
-            for A, B, keys, Vs, Vr, Vt, _ in self.groups:
+            for A, B, keys, Vs, Vr, Vt, _, _ in self.groups:
                 if "S" not in keys:
                     continue
                 idx, bound = keys["S"]
@@ -667,6 +667,11 @@ class Screen:
             fy = lambda z: _horner_rows(B, z) * delta_wd(z)             # noqa: E731
             fu = lambda z: _horner_rows(A, z) * delta_wd(z)             # noqa: E731
         return _modal_steps(poles, lead, fy, fu, ts, h)
+
+
+# each bound's plant factor and controller factor: |a S|, |b R|, |a R|, |b S|, |b Vt r0|
+_FACTORS = {"S": ("A", "S"), "T": ("B", "R"), "Tband": ("B", "R"), "U": ("A", "R"),
+            "Uhf": ("A", "R"), "Sd": ("B", "S"), "Ry": ("B", "Ry")}
 
 
 def _reference_roots(wn, zeta, degree):
