@@ -243,10 +243,9 @@ def _global(ctx, run, seeds, best, start):
     the candidate with the certificate's bounds, keeping its integral gain, backed off by
     its miss when it ends just outside the specs; not one within ``distinct`` of one
     polished or screened below ``share`` of the best: which basin polishes best, the
-    screened objective does not tell); the best
-    certified outcome whose
-    reference step meets the time-domain specs on every model of its certificate, else the
-    best certified one, else the least violating one.  Falls back to :meth:`Run.attempt`
+    screened objective does not tell); the best certified outcome whose reference step
+    meets the time-domain specs on every model of its certificate, else the best
+    certified one, else the least violating one.  Falls back to :meth:`Run.attempt`
     when the space cannot be parametrised or nothing screened feasible."""
     p = ctx.problem
     ctx = replace(ctx, free_margin=BOUND_MARGIN)   # the certificate's bounds, not 2 % inside
@@ -285,10 +284,10 @@ def _global(ctx, run, seeds, best, start):
     n_top = 1 + max(0, p.solver.starts)
     # the best few, then each run's best, each screened within share of the best (an
     # objective that is a positive size)
-    top = _screened_value(p, ctx, feasible[0])
-    floor = POLISH.share * top if p.solver.objective == "max_integral_gain" else -np.inf
+    least = (POLISH.share * _screened_value(p, ctx, feasible[0])
+             if p.solver.objective == "max_integral_gain" else -np.inf)
     chosen = [(i < n_top, c) for i, c in enumerate(feasible) if i == 0 or (
-        (i < n_top or c.run) and _screened_value(p, ctx, c) >= floor)]
+        (i < n_top or c.run) and _screened_value(p, ctx, c) >= least)]
     for first, c in chosen:
         if run.spent("free") and outs:
             break
