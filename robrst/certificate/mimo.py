@@ -44,7 +44,6 @@ from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy import optimize
 
 from robrst.base.threads import one_blas_thread
 from robrst.core.mimo import MimoPlant, combination, sampled_mimo
@@ -580,6 +579,8 @@ def scaled_sector_peak(lp: MimoLoop, delta: float, which: str, lo: float,
     float
         The least bound proved, ``hi`` when no scaling proves less.
     """
+    from scipy import optimize           # SciPy loads with the first sector bound asked
+
     A, Bw, Cz, Dzw = lp.transfer("Ti")
     _, Bv, _, Dzv = lp.transfer("U")          # z = -u: the rows of U and Ti
     if which == "S":
