@@ -494,8 +494,9 @@ def sector_figures(peaks: dict, delta: float, lp: MimoLoop | None = None) -> dic
     with the sampled loop's peaks and ``l2``).  Two peaks at different frequencies
     multiply there; with the loop ``lp`` each bound is then tightened by constant
     scalings, one per input (:func:`scaled_sector_peak`: robust performance against one
-    deviation per input, time-varying or nonlinear included), the least bound kept.  Where ``delta ||Ti|| >= 1`` the small-gain theorem proves nothing and
-    every figure is ``inf``.
+    deviation per input, time-varying or nonlinear included), the least bound kept.
+    Where ``delta ||Ti|| >= 1`` the small-gain theorem proves nothing and every figure is
+    ``inf``.
 
     Parameters
     ----------
@@ -611,9 +612,9 @@ def scaled_sector_peak(lp: MimoLoop, delta: float, which: str, lo: float,
 
     lam = np.linalg.eigvals(A) if A.size else np.zeros(0)
     mag = np.abs(lam[lam != 0]) if np.any(lam != 0) else np.ones(1)
-    w = np.concatenate([[0.0, np.inf], np.abs(lam.imag),      # the system's own frequencies
-                        np.geomspace(mag.min() / 10, mag.max() * 10, SCALE_POINTS)])
-    H = frequency_response(A, B, C, D, w)
+    H = frequency_response(A, B, C, D, np.concatenate([
+        [0.0, np.inf], np.abs(lam.imag),                      # the system's own frequencies
+        np.geomspace(mag.min() / 10, mag.max() * 10, SCALE_POINTS)]))
     if not np.all(np.isfinite(H)):
         return hi
 
@@ -644,7 +645,7 @@ def scaled_sector_peak(lp: MimoLoop, delta: float, which: str, lo: float,
 
     def proved(gamma, x0):
         """The scaling that proves ``gamma`` (``None``: none found)."""
-        nonlocal H, w
+        nonlocal H
         for _ in range(SCALE_RETRIES + 1):
             x, top = least(gamma, x0)
             if top >= 1.0:
@@ -654,9 +655,9 @@ def scaled_sector_peak(lp: MimoLoop, delta: float, which: str, lo: float,
                 return x
             if not np.isfinite(pk.freq_rad_s) and not np.isfinite(pk.value):
                 return None
-            w = np.append(w, pk.freq_rad_s)       # the grid missed the scaled peak
+            # the grid missed the scaled peak: its frequency joins the grid, active
             H = np.concatenate([H, frequency_response(A, B, C, D, [pk.freq_rad_s])])
-            active.append(len(w) - 1)
+            active.append(len(H) - 1)
             x0 = x
         return None
 

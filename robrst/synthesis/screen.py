@@ -58,6 +58,9 @@ STEP_POINTS = 120        # samples of each screened reference step (quadraticall
 PEAK_SAMPLES = 256       # ... and, of a sampled loop, every one of its first samples
 STEP_HORIZON = 10.0      # ... up to this many time constants of the slowest mode
 UNSTABLE = 1e3           # the violation of an unstable loop (plus its abscissa)
+# each bound's plant factor and controller factor: |a S|, |b R|, |a R|, |b S|, |b Vt r0|
+_FACTORS = {"S": ("A", "S"), "T": ("B", "R"), "Tband": ("B", "R"), "U": ("A", "R"),
+            "Uhf": ("A", "R"), "Sd": ("B", "S"), "Ry": ("B", "Ry")}
 
 
 def batch_roots(C: np.ndarray) -> np.ndarray:
@@ -667,11 +670,6 @@ class Screen:
             fy = lambda z: _horner_rows(B, z) * delta_wd(z)             # noqa: E731
             fu = lambda z: _horner_rows(A, z) * delta_wd(z)             # noqa: E731
         return _modal_steps(poles, lead, fy, fu, ts, h)
-
-
-# each bound's plant factor and controller factor: |a S|, |b R|, |a R|, |b S|, |b Vt r0|
-_FACTORS = {"S": ("A", "S"), "T": ("B", "R"), "Tband": ("B", "R"), "U": ("A", "R"),
-            "Uhf": ("A", "R"), "Sd": ("B", "S"), "Ry": ("B", "Ry")}
 
 
 def _reference_roots(wn, zeta, degree):
