@@ -468,8 +468,10 @@ def _exchange(setup, x0, ipopt, phase, templates, max_rounds, coarse_points, exa
         opts = ipopt if rnd == 1 else {**ipopt, "mu_init": min(ipopt.get("mu_init", 0.1), 1e-4)}
         res = solve_program(setup, x, opts, phase, blocks, active, templates, x_ref=x0, box=box,
                             routh=routh, rows=rows, lin=lin)
-        if not res.success and rnd > 1:      # the warm barrier failed: the default one
-            res = solve_program(setup, x, ipopt, phase, blocks, active, templates, x_ref=x0,
+        if not res.success and rnd > 1:      # the warm barrier failed: IPOPT's default one
+            # (a start far inside gets its warm barrier from the caller: not this one too)
+            cold = {k: v for k, v in ipopt.items() if k != "mu_init"}
+            res = solve_program(setup, x, cold, phase, blocks, active, templates, x_ref=x0,
                                 box=box, routh=routh, rows=rows, lin=lin)
         x = res.x
         iters += res.iterations
