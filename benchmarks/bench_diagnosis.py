@@ -29,8 +29,8 @@ from benchmarks.harness import BenchResult
 from robrst.base.threads import one_blas_thread
 from robrst.core.plant import paper_plant
 from robrst.diagnose import diagnose
-from robrst.diagnose.diagnosis import skipped_effects
-from robrst.diagnose.effects import EFFECTS
+from robrst.diagnose._diagnosis import skipped_effects
+from robrst.diagnose._effects import EFFECTS
 from robrst.diagnose.fit import prepare
 from robrst.diagnose.linear import LinearPart
 from robrst.diagnose.validation import make_case

@@ -40,7 +40,7 @@ from robrst.problem.files import parse_problem
 from robrst.synthesis import robust
 from robrst.synthesis.analytic import characteristic_polynomial
 from robrst.synthesis.context import BOUND_MARGIN, Context
-from robrst.synthesis.nlp import conv_matrix, scale_plant
+from robrst.synthesis._nlp import conv_matrix, scale_plant
 from robrst.synthesis.parametrize import (Parametrization, TrackingRule, frequency_grid,
                                           integral_gain)
 
@@ -163,7 +163,7 @@ def slsqp_numpy_solve(problem, maxiter=300):
     """The strongest honest baseline: the same SLSQP program, vectorised in numpy.
 
     Everything is evaluated in the scaled variable ``p = s / w0`` (every ratio |S|, |T|,
-    |U| is unchanged by it, see :mod:`robrst.synthesis.nlp`), where the controller's
+    |U| is unchanged by it, see :mod:`robrst.synthesis._nlp`), where the controller's
     coefficients are affine in the decision vector: ``s(j nu)`` and ``r(j nu)`` are one
     matrix-vector product each, the plants' ``a(j nu)``, ``b(j nu)`` on both grids are
     computed once, |S|, |T|, |U| of every model are one array expression, and the

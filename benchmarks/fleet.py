@@ -11,7 +11,7 @@
 3. the price of yield: the same fleet design for each yield target (N from the scenario
    bound at the target) and the nominal design (no spread), each verified on
    ``tradeoff-n`` fresh draws -> ``DIR/fleet.json`` ``tradeoff``;
-4. the report (``robrst.report.fleet``: draws the records, computes nothing) -> ``DIR``.
+4. the report (``robrst.report._fleet``: draws the records, computes nothing) -> ``DIR``.
 """
 
 import argparse
@@ -107,7 +107,7 @@ def run(path, out, n=1000, workers=2, targets=(), tradeoff_n=200, say=print, reu
                                     "yield_ci95": list(v.yield_ci95), "n": v.n,
                                     "design_wall_s": nominal_wall})
     atomic_write_text(out / "fleet.json", json_text(records))
-    from robrst.report.fleet import write_fleet_report
+    from robrst.report._fleet import write_fleet_report
 
     write_fleet_report(records, out)
     return records

@@ -76,7 +76,7 @@ class Violation:
         decay); a closed-loop root reaches the imaginary axis, or a pole-region boundary,
         between two checked temperatures; the check could not be decided (nothing is
         certified then); or the controller lacks a fixed factor of the problem (label
-        ``"controller"``, :mod:`robrst.certificate.structure`).
+        ``"controller"``, :mod:`robrst.certificate._structure`).
     """
 
     label: str

@@ -52,7 +52,7 @@ from robrst.certificate.models import (BOUNDED, FIGURE_OF, JUMPS, LOWER_BOUNDED,
                                        Violation, band_peak, check_all, check_all_many,
                                        check_model, margins)
 from robrst.core import poly, region
-from robrst.certificate.structure import structure_violations
+from robrst.certificate._structure import structure_violations
 from robrst.problem.records import Problem
 from robrst.core.rst import RSTController, as_controller, closed_loop
 from robrst.core.thermal import modal_form
@@ -683,7 +683,7 @@ def certify_problem(problem: Problem, ctrl: RSTController) -> Certificate:
     Certificate
         ``certified`` is true when nothing is violated or unresolved (relative tolerance
         ``problem.solver.cert_tol``) and the controller has the problem's fixed factors
-        (:func:`robrst.certificate.structure.structure_violations`: the integrator of
+        (:func:`robrst.certificate._structure.structure_violations`: the integrator of
         ``S_fixed``, the roll-off, ``R_fixed``; a controller read back from a file need
         not); ``violations`` names every failed check and ``interval`` what was proved
         over the temperature interval.

@@ -22,8 +22,15 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 from robrst import __version__
-from robrst.cli import (certify, check, convert, design, diagnose, export, identify, simulate,
-                        sweep)
+import robrst.cli._certify as certify
+import robrst.cli._check as check
+import robrst.cli._convert as convert
+import robrst.cli._design as design
+import robrst.cli._diagnose as diagnose
+import robrst.cli._export as export
+import robrst.cli._identify as identify
+import robrst.cli._simulate as simulate
+import robrst.cli._sweep as sweep
 from robrst.base.errors import RobrstError
 from robrst.base.interrupt import Interrupted, interruptible
 
@@ -137,7 +144,7 @@ def _run(args):
         print(f"robrst: error: {exc}", file=sys.stderr)
         return 2
     except Interrupted as exc:      # a signal: the best answer so far, one line, 130 / 143
-        from robrst.cli.interrupted import show_best
+        from robrst.cli._interrupted import show_best
 
         show_best(args, exc)
         print(f"robrst: {exc.word}", file=sys.stderr)

@@ -1,7 +1,7 @@
 """One-dimensional minimisation without derivatives: golden-section search.
 
 Used where a scalar function is cheap to bracket but has no gradient: the refinement of a
-clipping limit (:mod:`robrst.diagnose.thermal`).
+clipping limit (:mod:`robrst.diagnose._thermal`).
 """
 
 from __future__ import annotations

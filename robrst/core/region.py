@@ -24,7 +24,7 @@ the damping, which the certificate proves between temperatures (guardian map,
 
 The sector of the sampled loop has no polynomial test in ``w`` (its image is bounded by
 logarithmic spirals): the certificate checks the mapped roots, and the synthesis
-linearises the roots near the floor (:mod:`robrst.synthesis.polerows`).
+linearises the roots near the floor (:mod:`robrst.synthesis._polerows`).
 """
 
 from __future__ import annotations

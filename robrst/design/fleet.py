@@ -4,7 +4,7 @@
 :func:`scenario_design` runs the constraint exchange over drawn actuators (or the box's
 corners) described in :mod:`robrst.synthesis.scenario` (the scenario bounds, the
 actuator checks and the :class:`~robrst.synthesis.scenario.FleetDesign` record live
-there), every round one design of :func:`robrst.design.single.design_single`; then the
+there), every round one design of :func:`robrst.design._single.design_single`; then the
 comparison and the analyses of the final controller.
 """
 
@@ -19,7 +19,7 @@ import numpy as np
 
 from robrst.design.candidate import comparison
 from robrst.design.result import DesignResult
-from robrst.design.single import analyse, design_single
+from robrst.design._single import analyse, design_single
 from robrst.synthesis.scenario import (ADD_PER_ROUND, MAX_ROUNDS, FleetDesign, check_actuators,
                                        convex_scenario_count, gain_edges, scenario_count)
 
@@ -64,7 +64,7 @@ def scenario_design(problem: Problem, progress: Callable[[str], None] | None = N
                     values: np.ndarray | None = None,
                     n_scenarios: int | None = None) -> tuple[DesignResult, FleetDesign]:
     """Design ``problem`` for its spread (:mod:`robrst.synthesis.scenario`): an exchange over
-    actuators, every round one design (:func:`robrst.design.single.design_single`) of a
+    actuators, every round one design (:func:`robrst.design._single.design_single`) of a
     problem whose ``scenarios`` are the actuators handed to the program, warm-started from
     the previous round's synthesis record, without comparison or multi-start.
 

@@ -3,8 +3,8 @@
 :class:`Setup` holds what every candidate's fit shares (built once per diagnosis);
 :func:`refit_keys` fits a set of candidates jointly with the linear corrections and scores
 it on the held-out records (:class:`Scored`); :class:`CandidateFits` is what the forward
-selection (:mod:`robrst.diagnose.select`) asks of the records — the linear re-fit, the
-exact screens (:mod:`robrst.diagnose.screen`) about the user's model and on top of a
+selection (:mod:`robrst.diagnose._select`) asks of the records — the linear re-fit, the
+exact screens (:mod:`robrst.diagnose._screen`) about the user's model and on top of a
 fitted set, and cached fits of sets of candidates — so the selection's logic runs on any
 object with the same methods (the property tests give it synthetic gaps).
 
@@ -21,14 +21,14 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from robrst.diagnose import signals
-from robrst.diagnose.effects import Chain
+import robrst.diagnose._signals as signals
+from robrst.diagnose._effects import Chain
 from robrst.diagnose.fit import fit_by_level, fit_model
 from robrst.diagnose.options import OPTIONS
-from robrst.diagnose.polish import polish_residues
-from robrst.diagnose.screen import build_screen
-from robrst.diagnose.stiffness import fit_stiffness
-from robrst.diagnose.thermal import fit_thermal_dynamics, search_saturation
+from robrst.diagnose._polish import polish_residues
+from robrst.diagnose._screen import build_screen
+from robrst.diagnose._stiffness import fit_stiffness
+from robrst.diagnose._thermal import fit_thermal_dynamics, search_saturation
 
 if TYPE_CHECKING:
     from robrst.diagnose.fit import Prepared

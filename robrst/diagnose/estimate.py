@@ -2,10 +2,10 @@
 
 :func:`fit_effects` answers "my actuator has hysteresis and creep: what are their
 parameters?" without a held-out comparison.  It uses the diagnosis's own fits: the
-whole-sample delay by exact search (:func:`~robrst.diagnose.thermal.search_delay`),
+whole-sample delay by exact search (:func:`~robrst.diagnose._thermal.search_delay`),
 saturation limits started by a quantile search, the input-side effects by bounded
 least squares with the exact Jacobian (:func:`~robrst.diagnose.fit.fit_model`),
-``thermal_dynamics`` by :func:`~robrst.diagnose.thermal.fit_thermal_dynamics`.
+``thermal_dynamics`` by :func:`~robrst.diagnose._thermal.fit_thermal_dynamics`.
 Standard deviations are the delta-method 1-sigma of the fit; a parameter the records
 do not determine (e.g. the split of the drift's ``B`` and ``Gamma`` on a one-way
 temperature ramp) gets ``inf``.
@@ -19,14 +19,14 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from robrst.diagnose import signals
-from robrst.diagnose.diagnosis import check_records
-from robrst.diagnose.effects import EFFECTS, FORMS, INPUT_EFFECTS, Chain, summary
-from robrst.diagnose.findings import noise_levels
+import robrst.diagnose._signals as signals
+from robrst.diagnose._diagnosis import check_records
+from robrst.diagnose._effects import EFFECTS, FORMS, INPUT_EFFECTS, Chain, summary
+from robrst.diagnose._findings import noise_levels
 from robrst.diagnose.fit import fit_model, prepare
 from robrst.diagnose.linear import LinearPart, as_modal
-from robrst.diagnose.stiffness import fit_stiffness
-from robrst.diagnose.thermal import (fit_thermal_dynamics, max_delay, search_delay,
+from robrst.diagnose._stiffness import fit_stiffness
+from robrst.diagnose._thermal import (fit_thermal_dynamics, max_delay, search_delay,
                                      search_saturation)
 from robrst.base.errors import DataError
 from robrst.core.plant import paper_plant
@@ -101,7 +101,7 @@ def fit_effects(records: Sequence[Dataset], effects: Sequence[str],
     records : list of Dataset
         Records of the actuator (one sampling rate; the model's channel counts).
     effects : sequence of str
-        Effects from :data:`~robrst.diagnose.effects.EFFECTS` (``hysteresis`` is
+        Effects from :data:`~robrst.diagnose._effects.EFFECTS` (``hysteresis`` is
         Bouc–Wen; ``pi_hysteresis`` its Prandtl–Ishlinskii form) and ``output_offset``.
         ``thermal_dynamics`` and ``stiffness_nonlinearity`` are fitted alone (they change
         the linear part; one input and one output); ``amplitude_dependent_dynamics`` is

@@ -1,7 +1,7 @@
 """Joint fits: effects and the linear part's corrections, by bounded least squares.
 
 A candidate model is ``y = L_theta(v)``, ``v = Chain_z(u)``: effect parameters ``z``
-(:mod:`robrst.diagnose.effects`) and linear corrections ``theta``
+(:mod:`robrst.diagnose._effects`) and linear corrections ``theta``
 (:mod:`robrst.diagnose.linear`), fitted together on the training records by
 ``scipy.optimize.least_squares`` (trust-region reflective, bounds) with the exact
 Jacobian.  ``theta`` carries Gaussian priors, so it moves only as far as the data
@@ -35,7 +35,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy import optimize
 
-from robrst.diagnose.effects import Chain
+from robrst.diagnose._effects import Chain
 from robrst.diagnose.linear import parameter_std
 from robrst.diagnose.options import OPTIONS
 

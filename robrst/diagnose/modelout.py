@@ -5,7 +5,7 @@ set's final fit, or the linear re-fit) as continuous-time modal models: one at t
 model's reference for a level-independent answer, one per excitation level for the
 amplitude-dependent dynamics (the training and test records' levels, grouped within
 ``level_tol``).  A ``stiffness_nonlinearity`` answer changes the linear part itself
-(a cubic stiffness inside the loop, :mod:`robrst.diagnose.stiffness`): its model is the
+(a cubic stiffness inside the loop, :mod:`robrst.diagnose._stiffness`): its model is the
 fitted plant at small amplitude (with the fitted input gain), and the stiffness is the
 twin's effect of the same name.  :func:`write_models` writes each as a model file of the
 format ``robrst-modal-1`` (:mod:`robrst.base.modelformat`), the file ``robrst identify``
@@ -34,7 +34,7 @@ import tomlkit
 from robrst.base.errors import SpecError
 from robrst.base.fileio import atomic_write_text, peek_text
 from robrst.base.tomlwrite import document, plain
-from robrst.diagnose.findings import level_groups
+from robrst.diagnose._findings import level_groups
 from robrst.identify.modal import ModalModel
 from robrst.identify.modelfile import modal_model_table, starting_design
 

@@ -122,7 +122,7 @@ class NoiseOptions:
 
 @dataclass(frozen=True)
 class SensorOptions:
-    """Outliers and dropouts of the sensor (:mod:`robrst.diagnose.sensor`).
+    """Outliers and dropouts of the sensor (:mod:`robrst.diagnose._sensor`).
 
     Attributes
     ----------
@@ -214,7 +214,7 @@ class LinearOptions:
 @dataclass(frozen=True)
 class EffectOptions:
     """The effect library's data-derived grids and stability bounds
-    (:mod:`robrst.diagnose.effects`).
+    (:mod:`robrst.diagnose._effects`).
 
     Attributes
     ----------
@@ -288,7 +288,7 @@ class FitOptions:
 
 @dataclass(frozen=True)
 class ScreenOptions:
-    """The exact linear screen's columns and grids (:mod:`robrst.diagnose.screen`).
+    """The exact linear screen's columns and grids (:mod:`robrst.diagnose._screen`).
 
     Attributes
     ----------
@@ -330,7 +330,7 @@ class ScreenOptions:
 
 @dataclass(frozen=True)
 class SelectOptions:
-    """The forward selection, credit by removal and ties (:mod:`robrst.diagnose.select`).
+    """The forward selection, credit by removal and ties (:mod:`robrst.diagnose._select`).
 
     Attributes
     ----------
@@ -370,7 +370,7 @@ class SelectOptions:
 
 @dataclass(frozen=True)
 class VerdictOptions:
-    """The verdict's bars and the findings (:mod:`robrst.diagnose.verdict`).
+    """The verdict's bars and the findings (:mod:`robrst.diagnose._verdict`).
 
     Attributes
     ----------

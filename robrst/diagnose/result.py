@@ -94,7 +94,7 @@ class EffectScore:
 
 @dataclass(frozen=True, eq=False)
 class Diagnosis:
-    """Result of :func:`~robrst.diagnose.diagnosis.diagnose`; :meth:`as_dict` is the contract.
+    """Result of :func:`~robrst.diagnose._diagnosis.diagnose`; :meth:`as_dict` is the contract.
 
     Parameters
     ----------

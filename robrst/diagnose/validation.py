@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from robrst.diagnose.effects import FORMS, SENSOR_EFFECTS
+from robrst.diagnose._effects import FORMS, SENSOR_EFFECTS
 from robrst.twin.config import EFFECTS as TWIN_EFFECTS
 from robrst.twin.config import default_twin
 from robrst.twin.simulate import simulate
@@ -228,7 +228,7 @@ def confusion(pairs: Iterable[tuple[str, str]],
 
 def run_suite(seeds, cases=CASES, progress=None):
     """Diagnose every (case, seed); return rows ``{case, seed, cause, shrink, ...}``."""
-    from robrst.diagnose.diagnosis import diagnose
+    from robrst.diagnose._diagnosis import diagnose
 
     rows = []
     for case in cases:

@@ -19,11 +19,11 @@ than ``TEMP_TOL_K``) give one model per temperature: a temperature family.
 
 Non-periodic records need not start at rest: each one's constant output offset and the
 free response of its initial state are estimated with the model (nuisance terms, see
-:mod:`robrst.identify.free`), in the fit and in every score (on the fit part of a split
+:mod:`robrst.identify._free`), in the fit and in every score (on the fit part of a split
 record, on the first ``HELD_HEAD`` of a held-out one).  The estimates are reported per training record
 (:attr:`Identified.starts`) and noted when above ``START_NOTE`` of the output's RMS
 variation.  A record on which they are not significant (they lower its residual by no
-more than noise would, see :func:`robrst.identify.free.record_starts`) is taken to start
+more than noise would, see :func:`robrst.identify._free.record_starts`) is taken to start
 at rest with no offset in the final fit: no information is spent on them.
 """
 
@@ -38,9 +38,9 @@ import numpy as np
 
 from robrst.data.dataset import check_sensor
 from robrst.base.errors import DataError, SpecError
-from robrst.identify.free import fit_free, record_starts
-from robrst.identify.thermal import MAX_ORDER as MAX_LAW_ORDER
-from robrst.identify.thermal import modal_parameters, polish_fit, thermal_law
+from robrst.identify._free import fit_free, record_starts
+from robrst.identify._thermal import MAX_ORDER as MAX_LAW_ORDER
+from robrst.identify._thermal import modal_parameters, polish_fit, thermal_law
 from robrst.identify.vf import (fit_data, fit_residues, initial_poles, relative_degree,
                                 to_continuous, vector_fit)
 from robrst.base.threads import one_blas_thread
@@ -48,7 +48,7 @@ from robrst.base.threads import one_blas_thread
 if TYPE_CHECKING:
     from robrst.data.dataset import Dataset
     from robrst.identify.modal import DiscreteModel
-    from robrst.identify.thermal import ThermalLaw
+    from robrst.identify._thermal import ThermalLaw
 
 __all__ = ["identify", "Identified", "OrderScore", "ORDER_TOL", "MAX_ORDER", "MAX_AUTO_ORDER",
            "TEMP_TOL_K", "START_NOTE", "nrmse_of", "simulate_record"]
@@ -120,7 +120,7 @@ class Identified:
         support (:func:`robrst.identify.vf.relative_degree`).
     thermal : ThermalLaw or None
         The per-kelvin laws of a family of one input and output at several temperatures
-        (:func:`robrst.identify.thermal.thermal_law`).
+        (:func:`robrst.identify._thermal.thermal_law`).
     u_range_V : tuple of float or None
         The smallest and largest input of the training records [V] (the starting design's
         ``Mu_max`` is stated against it, :func:`robrst.identify.modelfile.starting_design`).

@@ -15,7 +15,7 @@ Data are either spectra at excited DFT lines of periodic records (averaged over
 periods; exact steady state) or time signals (the basis is then applied by filtering
 from rest).  A time record need not start at rest (``fit_data(..., free=True)``): its
 constant output offset and the free response of its initial state, in the current
-poles (:mod:`robrst.identify.free`), are then nuisance terms of every least-squares
+poles (:mod:`robrst.identify._free`), are then nuisance terms of every least-squares
 problem, eliminated record by record (each record's equations projected onto the
 orthogonal complement of its nuisance columns).  Both are weighted so a residual's squared norm is the
 time-domain output-error energy (Parseval), and they may be mixed.  Finally the
@@ -35,7 +35,7 @@ import numpy as np
 from scipy import linalg, signal
 
 from robrst.base.errors import SpecError
-from robrst.identify.free import SIGNIFICANT_SIGMAS, free_columns
+from robrst.identify._free import SIGNIFICANT_SIGMAS, free_columns
 from robrst.identify.modal import DiscreteModel, ModalModel, pair_weight
 from robrst.core.lti import d2c_modal
 

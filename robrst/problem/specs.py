@@ -69,14 +69,14 @@ class SpecDef:
         The figure in words, for reports (``"|S| peak"``); a violation of the bound is
         named by it (:class:`~robrst.certificate.models.Violation` ``quantity``).
     program : str or None
-        The robust program's constraint block (:data:`robrst.synthesis.nlp.PEAK_KEYS`).
+        The robust program's constraint block (:data:`robrst.synthesis._nlp.PEAK_KEYS`).
     scaled : bool
         The multi-start's relaxed and tightened plans scale it
         (:mod:`robrst.synthesis.multistart`).
     floor : float or None
         The least value a scaled bound may take (``Ms_max`` >= 1).
     column : str or None
-        The sweep's column of the worst figure (:mod:`robrst.studies.sweep.evaluate`).
+        The sweep's column of the worst figure (:mod:`robrst.studies.sweep._evaluate`).
     always_column : bool
         That column is in every sweep's results (else only in a sweep whose problem
         bounds it).

@@ -19,7 +19,7 @@ from robrst.design import DesignResult
 from robrst.design.contract import design_json
 from robrst.studies.design_curves import DesignCurves, design_curves
 from robrst.base.fileio import json_text
-from robrst.report import design_figures as figs
+import robrst.report._design_figures as figs
 from robrst.report.doc import Doc, write_folder
 from robrst.report.text import sampled_summary
 

@@ -19,7 +19,7 @@ import numpy as np
 from robrst.diagnose.summary import summary_text
 from robrst.base.fileio import json_text
 from robrst.report.doc import Doc, write_folder
-from robrst.report.figure import drawing
+from robrst.report._figure import drawing
 
 if TYPE_CHECKING:
     from pathlib import Path

@@ -16,7 +16,7 @@ import numpy as np
 from robrst.base.fileio import json_text
 from robrst.identify.curves import IdentificationCurves, identification_curves
 from robrst.report.doc import Doc, write_folder
-from robrst.report.figure import drawing
+from robrst.report._figure import drawing
 
 if TYPE_CHECKING:
     from pathlib import Path

@@ -12,7 +12,7 @@ import numpy as np
 from robrst.data.dataset import save_dataset
 from robrst.base.fileio import jsonable
 from robrst.report.doc import Doc, write_folder
-from robrst.report.figure import drawing
+from robrst.report._figure import drawing
 
 if TYPE_CHECKING:
     from pathlib import Path

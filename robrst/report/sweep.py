@@ -16,7 +16,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from robrst.base.fileio import json_text
-from robrst.report import sweep_figures as figs
+import robrst.report._sweep_figures as figs
 from robrst.report.doc import Doc, write_folder
 from robrst.studies.sweep.curves import worst_case_curves, worst_ok_row
 from robrst.studies.sweep.engine import SweepResult

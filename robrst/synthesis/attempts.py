@@ -18,14 +18,14 @@ import numpy as np
 from robrst.base.interrupt import offer, requested
 from robrst.certificate.proof import actuator_of, certify_families
 from robrst.synthesis.exchange import Phase, solve_exchange
-from robrst.synthesis.nlp import grid_blocks, objective_rows
+from robrst.synthesis._nlp import grid_blocks, objective_rows
 from robrst.synthesis.outcome import Round, worst_violation
 from robrst.synthesis.parametrize import integral_gain
 from robrst.synthesis.objective import objective
 from robrst.synthesis.starts import ON_SLOW_POLE, candidates, integral_seeds, score, score_many
-from robrst.synthesis.polerows import pole_rows, worst_damping_ratio
+from robrst.synthesis._polerows import pole_rows, worst_damping_ratio
 from robrst.synthesis.tracking import meets_time_specs
-from robrst.synthesis.timesamples import (TIME_MARGIN, TimeRows, time_rows, time_specs,
+from robrst.synthesis._timesamples import (TIME_MARGIN, TimeRows, time_rows, time_specs,
                                            worst_time_ratio)
 
 if TYPE_CHECKING:
@@ -33,9 +33,9 @@ if TYPE_CHECKING:
     from robrst.core.rst import RSTController
     from robrst.problem.records import Problem
     from robrst.synthesis.context import Context
-    from robrst.synthesis.nlp import NLPSetup
+    from robrst.synthesis._nlp import NLPSetup
     from robrst.synthesis.outcome import SolveResult, SynthesisResult
-    from robrst.synthesis.timesamples import TimeSpecs
+    from robrst.synthesis._timesamples import TimeSpecs
 
 __all__ = ["Outcome", "Run", "worst_violation", "frequency_certificate", "refine",
            "objective_value", "program_models", "GAMMA_FLOOR"]
@@ -417,8 +417,8 @@ class Run:
 
     def linearised(self, ctx: Context, setup: NLPSetup, res: SolveResult, phase: Phase,
                    exact: bool, spec: TimeSpecs | None) -> SolveResult:
-        """The linearised rows: reference-step samples (:mod:`robrst.synthesis.timesamples`,
-        ``spec``) and the roots near a damping floor (:mod:`robrst.synthesis.polerows`).
+        """The linearised rows: reference-step samples (:mod:`robrst.synthesis._timesamples`,
+        ``spec``) and the roots near a damping floor (:mod:`robrst.synthesis._polerows`).
 
         While a sample violates its spec or a root lies below its floor, the violated and
         near ones are linearised at the point and the program is solved again inside a

@@ -4,7 +4,7 @@
 homotopy): the frequency scaling ``w0`` (of the start's closed-loop polynomial), the
 decision-vector parametrisation, the frequency grid, the sampled-loop plants, and
 :meth:`Context.setup` turns a list of models and a grid into the numeric
-:class:`~robrst.synthesis.nlp.NLPSetup` of one program.
+:class:`~robrst.synthesis._nlp.NLPSetup` of one program.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from robrst.core import poly
 from robrst.core.peaks import peak_gain
 from robrst.core.sampled import warp
 from robrst.problem.specs import SPEC_TABLE
-from robrst.synthesis.nlp import PEAK_KEYS, NLPSetup, Region, scale_plant
+from robrst.synthesis._nlp import PEAK_KEYS, NLPSetup, Region, scale_plant
 from robrst.synthesis.parametrize import (Parametrization, TrackingRule, frequency_grid,
                                           integral_gain)
 

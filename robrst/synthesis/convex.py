@@ -18,7 +18,7 @@ import numpy as np
 from robrst.core import poly
 from robrst.certificate.proof import certify_problem
 from robrst.base.errors import SolverError, SpecError
-from robrst.synthesis.nlp import conv_matrix, jw_matrices, scale_plant
+from robrst.synthesis._nlp import conv_matrix, jw_matrices, scale_plant
 from robrst.synthesis.parametrize import Parametrization, TrackingRule, frequency_grid
 from robrst.synthesis.outcome import SynthesisResult, best_achievable
 

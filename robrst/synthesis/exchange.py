@@ -29,7 +29,7 @@ import numpy as np
 
 from robrst.certificate.proof import band_peak
 from robrst.core.peaks import peak_gain
-from robrst.synthesis.nlp import (controller_conditions, grid_blocks, local_maxima,
+from robrst.synthesis._nlp import (controller_conditions, grid_blocks, local_maxima,
                                   objective_rows)
 from robrst.synthesis.outcome import SolveResult
 from robrst.synthesis.stability import (ROUTH_MIN, initial_stability, joined, routh_margins,
@@ -37,8 +37,8 @@ from robrst.synthesis.stability import (ROUTH_MIN, initial_stability, joined, ro
 from robrst.synthesis.template import Structure, Template
 
 if TYPE_CHECKING:
-    from robrst.synthesis.nlp import GridBlock, NLPSetup
-    from robrst.synthesis.timesamples import TimeRows
+    from robrst.synthesis._nlp import GridBlock, NLPSetup
+    from robrst.synthesis._timesamples import TimeRows
 
 __all__ = ["ExchangeInfo", "Phase", "solve_exchange", "solve_program", "local_maxima",
            "effective_ratios"]
@@ -59,7 +59,7 @@ class Phase:
         goals); ``"hard"``: the problem's objective with every spec a constraint;
         ``"time"``: minimise the worst normalised ratio of the reference-step samples
         alone, every other spec a constraint (the restoration step of
-        :mod:`robrst.synthesis.timesamples`).
+        :mod:`robrst.synthesis._timesamples`).
     gamma_floor : float
         The soft phase stops minimising below this ``gamma``.
     """
@@ -293,7 +293,7 @@ def solve_program(setup: NLPSetup, x0: np.ndarray, ipopt: dict, phase: Phase = P
     phase : Phase
         Soft goals or the objective.
     blocks : sequence of GridBlock, optional
-        The grid constraints (default :func:`~robrst.synthesis.nlp.grid_blocks` at
+        The grid constraints (default :func:`~robrst.synthesis._nlp.grid_blocks` at
         ``x_ref``).
     active : sequence, optional
         Per block, the indices of its grid points imposed (default: all).
@@ -309,7 +309,7 @@ def solve_program(setup: NLPSetup, x0: np.ndarray, ipopt: dict, phase: Phase = P
         Those rows, if the caller has them
         (:func:`~robrst.synthesis.stability.stability_rows`).
     lin : TimeRows, optional
-        Linear rows (:class:`~robrst.synthesis.timesamples.TimeRows`: the reference-step
+        Linear rows (:class:`~robrst.synthesis._timesamples.TimeRows`: the reference-step
         samples and the roots near a damping floor).
 
     Returns

@@ -55,7 +55,7 @@ import numpy as np
 
 from robrst.core import poly
 from robrst.core.rst import RSTController
-from robrst.synthesis.nlp import routh_column, shift_matrix
+from robrst.synthesis._nlp import routh_column, shift_matrix
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike

@@ -45,13 +45,13 @@ from robrst.base.errors import RobrstError
 from robrst.synthesis.attempts import (WARM_START, Outcome, Run, objective_value,
                                        program_models)
 from robrst.synthesis.context import BOUND_MARGIN, Context
-from robrst.synthesis.nlp import objective_rows
+from robrst.synthesis._nlp import objective_rows
 from robrst.synthesis.outcome import SynthesisResult, best_achievable, worst_violation
 from robrst.synthesis.parametrize import integral_gain
-from robrst.synthesis.screen import Screen
+from robrst.synthesis._screen import Screen
 from robrst.synthesis.search import PoleSpace, global_search, move_inside
 from robrst.synthesis.starts import integral_seeds
-from robrst.synthesis.timesamples import TIME_MARGIN, TimeSpecs, time_specs
+from robrst.synthesis._timesamples import TIME_MARGIN, TimeSpecs, time_specs
 from robrst.synthesis.tracking import (CANCEL_FLOOR, meets_time_specs, time_spec_ratio,
                                       with_steps)
 

@@ -10,17 +10,17 @@ polishes:
    the poles as pairs ``p^2 + 2 zeta w p + w^2`` (log ``w`` over the frequencies of the
    plant and the start, log ``zeta`` from the damping floor to 30: ``zeta > 1`` is a pair
    of real poles) and one real pole for an odd degree; the Diophantine equation at the
-   nominal model (the scaled Sylvester map, :func:`robrst.synthesis.nlp.closed_loop_maps`)
+   nominal model (the scaled Sylvester map, :func:`robrst.synthesis._nlp.closed_loop_maps`)
    gives the controller with those poles, and the Youla degrees move along its null
    space, relative to the size of that controller.  Every controller that stabilises the
    nominal model has exactly one such name; every name stabilises the nominal model.
-2. **A population method.**  A CMA-ES (:mod:`robrst.synthesis.cmaes`) from the problem's
+2. **A population method.**  A CMA-ES (:mod:`robrst.synthesis._cmaes`) from the problem's
    own design, then from seeded random means (:class:`SearchOptions`), each run's
    population ``growth`` times the previous one's (IPOP-CMA-ES, Auger and Hansen 2005: a
    larger population smooths a multimodal landscape and finds the global structure;
    ``restarts`` runs in all, each with its own random stream spawned from the seed, so
    one run's length never changes another's samples); every population judged at once
-   by :class:`~robrst.synthesis.screen.Screen`
+   by :class:`~robrst.synthesis._screen.Screen`
    (the program's constraints on its grid and modes, every model at once) and ranked by
    Deb's feasibility rules (feasible candidates by objective, the others by violation).
 3. **Polish and certify.**  The best distinct candidates are certified as they are and
@@ -51,13 +51,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from robrst.synthesis.attempts import GLOBAL_START
-from robrst.synthesis.cmaes import CMAES
-from robrst.synthesis.nlp import closed_loop_maps
+from robrst.synthesis._cmaes import CMAES
+from robrst.synthesis._nlp import closed_loop_maps
 
 if TYPE_CHECKING:
     from robrst.synthesis.context import Context
-    from robrst.synthesis.nlp import NLPSetup
-    from robrst.synthesis.screen import Screen
+    from robrst.synthesis._nlp import NLPSetup
+    from robrst.synthesis._screen import Screen
 
 __all__ = ["PoleSpace", "Candidate", "GlobalSearch", "global_search", "move_inside",
            "SearchOptions", "SEARCH", "ZETA_MAX"]

@@ -2,7 +2,7 @@
 
 Every model's closed-loop polynomial ``Delta = Dm xc + Dc`` must be Hurwitz: the program
 imposes the first column of its Routh array (normalised by its leading coefficient,
-:func:`robrst.synthesis.nlp.routh_column`) ``>= ROUTH_MIN``.  Like the grid points, these
+:func:`robrst.synthesis._nlp.routh_column`) ``>= ROUTH_MIN``.  Like the grid points, these
 rows are exchanged: the first round carries those of the models nearest to instability at
 the start (:func:`initial_stability`), and a model whose rows a round's result violates
 (:func:`routh_margins`) joins before the next.  A row left out holds strictly at the
@@ -10,10 +10,10 @@ final point, so its multiplier is zero there: the point is a KKT point of the pr
 with every row.  Most rows never bind (the peak bounds keep the loops well inside
 stability), and each costs every IPOPT iteration of the round.
 
-With a pole region's decay rate (:class:`~robrst.synthesis.nlp.Region`,
+With a pole region's decay rate (:class:`~robrst.synthesis._nlp.Region`,
 :mod:`robrst.core.region`) the stability rows are those of the decay-shifted polynomial
 (``Delta(p - sigma)``, or the disc map of a sampled model): decay implies stability.
-Damping floors are linearised rows (:mod:`robrst.synthesis.polerows`).
+Damping floors are linearised rows (:mod:`robrst.synthesis._polerows`).
 """
 
 from __future__ import annotations
@@ -24,10 +24,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from robrst.core import region as pole_region
-from robrst.synthesis.nlp import closed_loop_maps, routh_column
+from robrst.synthesis._nlp import closed_loop_maps, routh_column
 
 if TYPE_CHECKING:
-    from robrst.synthesis.nlp import NLPSetup
+    from robrst.synthesis._nlp import NLPSetup
 
 __all__ = ["ROUTH_MIN", "ROUTH_FIRST", "stability_rows", "routh_margins", "initial_stability",
            "joined"]
@@ -68,7 +68,7 @@ def stability_rows(setup: NLPSetup) -> list[tuple]:
 
 def routh_margins(rows: Sequence[tuple], x: np.ndarray) -> list[float]:
     """Per model, the least entry of the Routh column of its closed-loop polynomial at
-    ``x`` (normalised as the program's rows, :func:`robrst.synthesis.nlp.routh_column`);
+    ``x`` (normalised as the program's rows, :func:`robrst.synthesis._nlp.routh_column`);
     ``-inf`` where it is undefined.
 
     Parameters

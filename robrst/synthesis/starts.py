@@ -30,11 +30,11 @@ from robrst.core.analysis import spectral_abscissa_many
 from robrst.base.errors import RobrstError
 from robrst.synthesis import analytic
 from robrst.synthesis.context import low_frequency_coefficient
-from robrst.synthesis.nlp import closed_loop_maps, objective_rows
+from robrst.synthesis._nlp import closed_loop_maps, objective_rows
 
 if TYPE_CHECKING:
     from robrst.synthesis.context import Context
-    from robrst.synthesis.nlp import GridBlock, NLPSetup
+    from robrst.synthesis._nlp import GridBlock, NLPSetup
 
 __all__ = ["Start", "score", "score_many", "candidates", "abscissa", "integral_seeds",
            "ON_SLOW_POLE"]

@@ -1,7 +1,7 @@
 """The robust RST program as one CasADi/IPOPT solver, built once per structure.
 
 Everything that depends on the plants, the grid, the bounds and the phase enters as a
-*parameter* (the numeric rows of :mod:`robrst.synthesis.nlp`), so one built solver
+*parameter* (the numeric rows of :mod:`robrst.synthesis._nlp`), so one built solver
 serves every certification round, every exchange round, both phases (soft goals and
 hard specs) and every variant of a problem with the same degrees: only the
 :class:`Structure` (degrees, how many constraint slots, which constraint families)
@@ -19,8 +19,8 @@ Variables ``X = [xc, (wn, zeta), gamma]``.  Constraints, in order:
 5. Routh columns of the controller polynomials ``(S/s^k)(p - shift)`` and
    ``(S/s^k)(-p - ctrl_max)`` (optional: the controller's poles in a strip);
 6. linear rows ``Lm xc + Lg gamma + Lc <= 0`` (optional: the reference-step samples of
-   :mod:`robrst.synthesis.timesamples` and the roots near a damping floor of
-   :mod:`robrst.synthesis.polerows`, linearised at the round's point).
+   :mod:`robrst.synthesis._timesamples` and the roots near a damping floor of
+   :mod:`robrst.synthesis._polerows`, linearised at the round's point).
 
 Objective ``c_gamma gamma + c_ki (-log(sign R(0)) + log((S/s^k)(0))) + c_reg |xc - xref|^2``.
 """
@@ -34,7 +34,7 @@ import numpy as np
 
 from robrst.base.interrupt import requested, solver_call
 from robrst.core import poly
-from robrst.synthesis.nlp import routh_column
+from robrst.synthesis._nlp import routh_column
 
 __all__ = ["Structure", "Template", "TINY"]
 

@@ -17,7 +17,7 @@ from robrst.base.tomlwrite import comment_text, document, inline, plain
 from robrst.identify.identification import Identified
 from robrst.identify.modal import ModalModel
 from robrst.identify.modelfile import model_text, problem_text, starting_wn
-from robrst.identify.thermal import ThermalLaw
+from robrst.identify._thermal import ThermalLaw
 from robrst.testing import MARKER, read_golden, write_golden
 
 HOSTILE = ['a"b', "back\\slash", "tab\there", "new\nline", "cr\rlf", "\x00\x01\x1f\x7f",

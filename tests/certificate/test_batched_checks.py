@@ -242,7 +242,7 @@ def test_start_scores_together_are_one_at_a_time(name):
     closed-loop polynomial."""
     from robrst.design import analytic_design
     from robrst.synthesis.context import Context
-    from robrst.synthesis.nlp import closed_loop_maps, grid_blocks
+    from robrst.synthesis._nlp import closed_loop_maps, grid_blocks
     from robrst.synthesis.starts import candidates, score, score_many
 
     p = load_problem(name)

@@ -426,7 +426,7 @@ def test_an_undecided_figure_is_conservative_and_unresolved(monkeypatch):
     settling time is the end of the latest undecided interval (never early), flagged; a
     bound between what was found and that conservative value is an "unresolved" failure,
     one below what was found an "exceeds" failure, one above it none."""
-    from robrst.certificate import _stepbound as stepbound
+    import robrst.certificate._stepbound as stepbound
 
     models, ctrl = _random_loops(2)
     plant, cl = _stable_loops(models, ctrl)[3]

@@ -105,13 +105,13 @@ def test_numpy_warnings_never_print_raw(monkeypatch, capsys):
     not numpy's two-line warning; a command that fails prints only its error line."""
     import numpy as np
 
-    import robrst.cli.check
+    import robrst.cli._check
 
     def overflowing(args, code=1):
         np.float64(1e308) * np.float64(10.0)    # RuntimeWarning: overflow
         return code
 
-    monkeypatch.setattr(robrst.cli.check, "run_check", overflowing)
+    monkeypatch.setattr(robrst.cli._check, "run_check", overflowing)
     assert main(["check", "paper", "--golden", "g.toml"]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("robrst: note: 1 floating-point warning"), err
@@ -120,7 +120,7 @@ def test_numpy_warnings_never_print_raw(monkeypatch, capsys):
         overflowing(args)
         raise SpecError("x.toml: [a] bad")
 
-    monkeypatch.setattr(robrst.cli.check, "run_check", failing)
+    monkeypatch.setattr(robrst.cli._check, "run_check", failing)
     assert main(["check", "paper", "--golden", "g.toml"]) == 2
     assert capsys.readouterr().err.strip().splitlines() == ["robrst: error: x.toml: [a] bad"]
 

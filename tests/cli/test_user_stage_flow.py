@@ -21,7 +21,7 @@ pytestmark = pytest.mark.skipif(compiler() is None, reason="no C compiler")
 
 def _no_design(monkeypatch):
     import robrst.design as design
-    import robrst.design.pipeline  # noqa: F401  (the module patched below)
+    import robrst.design._pipeline  # noqa: F401  (the module patched below)
     import robrst.synthesis.robust as robust
 
     def boom(*a, **k):

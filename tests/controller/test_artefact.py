@@ -24,15 +24,15 @@ from robrst.problem.files import parse_problem
 def _no_design(monkeypatch):
     """Every way to design raises: a command that designs fails the test."""
     import robrst.design as design
-    import robrst.design.pipeline  # noqa: F401  (the module patched below)
+    import robrst.design._pipeline  # noqa: F401  (the module patched below)
     import robrst.synthesis.robust as robust
 
     def boom(*a, **k):
         raise AssertionError("designed again")
 
     monkeypatch.setattr(design, "run_problem", boom)
-    monkeypatch.setattr(design.pipeline, "design_single", boom)
-    monkeypatch.setattr(design.pipeline, "fleet_design", boom)
+    monkeypatch.setattr(design._pipeline, "design_single", boom)
+    monkeypatch.setattr(design._pipeline, "fleet_design", boom)
     monkeypatch.setattr(robust, "robust_synthesis", boom)
 
 

@@ -19,7 +19,7 @@ import mpmath
 import numpy as np
 import pytest
 
-from robrst.certificate.structure import structure_violations
+from robrst.certificate._structure import structure_violations
 from robrst.cli import main
 from robrst.controller.artefact import load_design
 from robrst.core import poly

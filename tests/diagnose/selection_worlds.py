@@ -1,6 +1,6 @@
 """Synthetic worlds for the forward selection: the gap of any set of candidates, by
-construction, so the selection's logic (:func:`robrst.diagnose.select.select_effects`) and
-the verdict (:func:`robrst.diagnose.verdict.decide`) run in milliseconds on seeded
+construction, so the selection's logic (:func:`robrst.diagnose._select.select_effects`) and
+the verdict (:func:`robrst.diagnose._verdict.decide`) run in milliseconds on seeded
 multi-effect cases.
 
 A world has a noise floor, a linear model error the linear re-fit removes, and *true*
@@ -57,7 +57,7 @@ class World:
         return float(np.sqrt(self.gap((), what, 0.0) ** 2 + self.linear_error ** 2))
 
     def info(self):
-        """What :func:`robrst.diagnose.verdict.decide` reads of a diagnosis."""
+        """What :func:`robrst.diagnose._verdict.decide` reads of a diagnosis."""
         return {"before": self.before(), "floor": self.floor,
                 "before_train": self.before("train"), "floor_train": self.floor,
                 "band": None, "regime": {}, "train_levels": [], "duration_s": 6.0}

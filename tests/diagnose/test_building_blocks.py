@@ -10,7 +10,7 @@ import pytest
 from robrst.cli import main
 from robrst.data.dataset import Dataset, save_dataset
 from robrst.diagnose import diagnose
-from robrst.diagnose import signals
+import robrst.diagnose._signals as signals
 from robrst.diagnose.estimate import fit_effects
 from robrst.diagnose.linear import LinearSim, refit_linear
 from robrst.base.errors import DataError

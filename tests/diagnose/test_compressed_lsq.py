@@ -60,7 +60,7 @@ def test_spectral_rows_keep_the_time_rows_inner_products():
     """A periodic record's Jacobian as Parseval rows of its spectrum: the same Gram matrix
     and the same product with the residual as the time rows (numpy on both)."""
     from robrst.core.plant import paper_plant
-    from robrst.diagnose.effects import Chain
+    from robrst.diagnose._effects import Chain
     from robrst.diagnose.fit import Fitted, Prepared, model_jacobian, parseval_rows, \
         spectral_jacobian
     from robrst.diagnose.linear import LinearPart

@@ -15,9 +15,9 @@ import pytest
 
 from robrst.core.plant import paper_plant
 from robrst.data.dataset import Dataset
-from robrst.diagnose.effects import pi_thresholds, summary
+from robrst.diagnose._effects import pi_thresholds, summary
 from robrst.diagnose.estimate import fit_effects
-from robrst.diagnose.sensor import find_faults, repair
+from robrst.diagnose._sensor import find_faults, repair
 from robrst.identify.modal import ModalModel
 from robrst.twin.config import default_twin
 from robrst.twin.simulate import simulate
@@ -117,7 +117,7 @@ def test_cross_coupling_round_trip_two_channels():
 def test_screen_gaps_are_exact_least_squares():
     """The Gram-based screen of a candidate equals an explicit least-squares fit of the
     same columns (numpy lstsq on the stacked training columns, scored on the test ones)."""
-    from robrst.diagnose.diagnosis import diagnose
+    from robrst.diagnose._diagnosis import diagnose
 
     recs = _twin("output_nonlinearity", {"center_um": 40.0, "quadratic_per_um": 2e-3},
                  seeds=(5, 6, 7))

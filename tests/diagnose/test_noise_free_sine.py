@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 
 from robrst.cli import main
-from robrst.diagnose.effects import Chain, summary
+from robrst.diagnose._effects import Chain, summary
 from robrst.data.dataset import Dataset
 
 

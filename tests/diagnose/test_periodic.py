@@ -25,9 +25,9 @@ from diagnosis_cases import make
 from mirror_data import mirror_data_dir
 from robrst.data.convert import records_from_arrays
 from robrst.data.dataset import Dataset, load_dataset, save_dataset
-from robrst.diagnose import diagnose, signals
-from robrst.diagnose.findings import floor_of, noise_estimate
-from robrst.diagnose.periodic import find_period, with_periods
+from robrst.diagnose import diagnose, _signals as signals
+from robrst.diagnose._findings import floor_of, noise_estimate
+from robrst.diagnose._periodic import find_period, with_periods
 from robrst.diagnose.validation import make_case
 
 MIRROR = mirror_data_dir()

@@ -15,7 +15,7 @@ import pytest
 from scipy.linalg import block_diag
 
 import robrst.diagnose.fit as fitmod
-from robrst.diagnose.effects import Chain
+from robrst.diagnose._effects import Chain
 from robrst.diagnose.fit import Prepared, fit_model, pool_periodic
 from robrst.diagnose.linear import LinearPart
 from robrst.identify.modal import ModalModel

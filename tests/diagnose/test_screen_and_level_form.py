@@ -7,11 +7,11 @@ import pytest
 from scipy import signal
 
 from robrst.data.dataset import Dataset
-from robrst.diagnose import signals
-from robrst.diagnose.effects import summary
+import robrst.diagnose._signals as signals
+from robrst.diagnose._effects import summary
 from robrst.diagnose.fit import prepare
 from robrst.diagnose.linear import LinearPart
-from robrst.diagnose.screen import build_screen
+from robrst.diagnose._screen import build_screen
 from robrst.diagnose.candidates import Setup
 from robrst.identify.modal import ModalModel
 

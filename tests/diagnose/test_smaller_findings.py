@@ -22,11 +22,11 @@ import pytest
 from diagnosis_cases import _recipe, make
 from robrst.core.plant import paper_plant
 from robrst.data.dataset import Dataset
-from robrst.diagnose.diagnosis import offset_finding
-from robrst.diagnose.effects import Chain, creep_per_K_free, summary
-from robrst.diagnose.findings import period_noise
+from robrst.diagnose._diagnosis import offset_finding
+from robrst.diagnose._effects import Chain, creep_per_K_free, summary
+from robrst.diagnose._findings import period_noise
 from robrst.diagnose.linear import LinearPart
-from robrst.diagnose.sensor import find_faults, repair
+from robrst.diagnose._sensor import find_faults, repair
 from robrst.diagnose.validation import make_case
 
 

@@ -29,8 +29,8 @@ from hypothesis import strategies as st
 
 from robrst.cli import main as robrst
 from robrst.diagnose.options import OPTIONS
-from robrst.diagnose.select import select_effects
-from robrst.diagnose.verdict import decide
+from robrst.diagnose._select import select_effects
+from robrst.diagnose._verdict import decide
 from selection_worlds import FakeFits, World, random_world
 
 DATA = Path(__file__).resolve().parent / "data" / "tie_crash.npz"

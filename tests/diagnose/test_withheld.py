@@ -11,7 +11,7 @@ wider library (static input and output maps, cubic stiffness, Prandtl–Ishlinsk
 
 import pytest
 
-from robrst.diagnose.effects import EFFECTS
+from robrst.diagnose._effects import EFFECTS
 from robrst.diagnose.validation import ANSWER, CASES
 
 SEEDS = (1, 2)

@@ -20,7 +20,7 @@ from robrst.problem.records import Specs
 from robrst.problem.specs import (EXTRA_PEAK_SPECS, PEAK_SPECS, RELATIVE_PEAK_SPECS, SPEC_TABLE,
                                   spec_columns)
 from robrst.synthesis.multistart import PEAK_BOUNDS
-from robrst.synthesis.nlp import PEAK_KEYS
+from robrst.synthesis._nlp import PEAK_KEYS
 
 
 def test_the_table_is_the_specs_record():

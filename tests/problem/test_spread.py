@@ -17,8 +17,8 @@ from robrst.base.schema import load_toml
 from robrst.problem.files import load_problem, parse_problem
 from robrst.problem.spread import actuator_family, draw_rows
 from robrst.studies.sweep import load_sweep
-from robrst.studies.sweep.model import variant_problem
-from robrst.studies.sweep.prepare import prepare
+from robrst.studies.sweep._model import variant_problem
+from robrst.studies.sweep._prepare import prepare
 
 
 def _fleet_doc(problems_dir):
@@ -132,7 +132,7 @@ def test_the_verification_sweep_file_draws_the_verified_actuators(tmp_path):
     """The sweep file written beside a fleet report is the verification's sweep: same
     parameters, seed and draws."""
     from robrst.studies.fleet import FRESH_SEED_OFFSET, fleet_sweep, verification_toml
-    from robrst.studies.sweep.variants import variant_table
+    from robrst.studies.sweep._variants import variant_table
 
     p = load_problem("paper_robust_fleet")
     seed = p.spread.seed + FRESH_SEED_OFFSET

@@ -10,8 +10,8 @@ Layers are folders of the package, bottom to top (docs: "Architecture")::
     certificate   robrst.certificate: figures, statement, models, proof, steps (+ private
                   step kernels), completion, assessment
     synthesis     robrst.synthesis (synthesis records only: no DesignResult)
-    design        robrst.design: achieved, result, contract, candidate, multistart, single,
-                  fleet, pipeline
+    design        robrst.design: achieved, result, contract, candidate, multistart, _single,
+                  fleet, _pipeline
     modelling     robrst.data, robrst.twin, robrst.identify, robrst.diagnose
                   (on base + maths core only)
     controller    robrst.controller: digital sections, implementation, export (C, Python)
@@ -171,15 +171,44 @@ def test_the_architecture_page_lists_every_module():
 
 
 def test_private_modules_stay_in_their_package():
-    """A ``_kernel`` module is imported only by modules of its own folder."""
+    """A ``_kernel`` module is imported only by modules of its own folder (its package's
+    ``__init__`` included: public by re-export)."""
     bad = []
     for mod in MODULES:
         for target, line in imports_of(mod):
             leaf = target.rsplit(".", 1)[-1]
             if leaf.startswith("_") and not leaf.startswith("__") \
-                    and target.rsplit(".", 1)[0] != mod.rsplit(".", 1)[0]:
+                    and target.rsplit(".", 1)[0] not in (mod.rsplit(".", 1)[0], mod):
                 bad.append(f"{mod}:{line} imports {target}")
     assert bad == []
+
+
+def _public_by_use():
+    """Public modules (not packages) that nothing outside their folder uses: no other
+    folder imports them, the face does not re-export from them, no guide, reference page
+    or the README names them."""
+    docs = [p for p in (PKG.parent / "docs").rglob("*") if p.suffix in (".md", ".rst", ".py")
+            and "_build" not in p.relative_to(PKG.parent / "docs").parts]
+    text = "\n".join(p.read_text(encoding="utf-8") for p in docs + [PKG.parent / "README.md"])
+    face = (PKG / "__init__.py").read_text(encoding="utf-8")
+    used = {t for m in MODULES for t, _ in imports_of(m)
+            if t.rsplit(".", 1)[0] not in (m.rsplit(".", 1)[0], m)}
+    out = []
+    for mod, path in MODULES.items():
+        leaf = mod.rsplit(".", 1)[-1]
+        if path.name == "__init__.py" or leaf.startswith("_") or mod == "robrst.testing":
+            continue
+        named = any(f"{mod}{end}" in text for end in (".", "`", " ", ":", ")", ",", "\n")) or \
+            str(path.relative_to(PKG.parent)) in text or f'"{mod}"' in face
+        if mod not in used and not named:
+            out.append(mod)
+    return out
+
+
+def test_modules_are_private_by_default():
+    """A module used only inside its own folder (and named by no page) is a ``_kernel``:
+    the face is what other layers, the docs and ``import robrst`` use."""
+    assert _public_by_use() == []
 
 
 def test_the_layering_test_can_fail():

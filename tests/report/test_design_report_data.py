@@ -3,7 +3,7 @@ step.png, the certified peaks it marks and its margins table, against python-con
 
 The design: the paper's analytic RST controller on a three-member family of D(s) over
 28-45 °C (the laws of paper_robust), so the figures hold several temperatures.  The
-figures are captured as drawn (``robrst.report.design_figures.drawing`` wrapped, the PNGs
+figures are captured as drawn (``robrst.report._design_figures.drawing`` wrapped, the PNGs
 still written); the independent references are the unscaled polynomials' values on the
 figures' grids (``S = A S/Delta``, ``T = B R/Delta``, ``U = A R/Delta``, products formed with
 numpy), python-control's loop ``L = P K`` and margins, peaks refined by scipy around a dense
@@ -22,7 +22,7 @@ from robrst.base.resources import problems_dir
 from robrst.base.schema import load_toml
 from robrst.design import run_problem
 from robrst.problem.files import parse_problem
-from robrst.report import design_figures
+import robrst.report._design_figures as design_figures
 from robrst.report.design import write_design_report
 from robrst.studies.design_curves import design_curves
 

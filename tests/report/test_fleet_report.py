@@ -1,6 +1,6 @@
 """The fleet report draws the records it is given (and computes nothing)."""
 
-from robrst.report.fleet import write_fleet_report
+from robrst.report._fleet import write_fleet_report
 
 
 def _records():

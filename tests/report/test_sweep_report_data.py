@@ -4,7 +4,7 @@ unscaled polynomials of a hand-built plant.
 
 The sweep: 40 variants of the paper's analytic design (gain ~ N(1, 0.5), damping ~
 U(0.5, 2), tests/sweep_files.py), in this process; the figures are captured as drawn
-(``robrst.report.sweep_figures.drawing`` wrapped, the PNGs still written).  The references
+(``robrst.report._sweep_figures.drawing`` wrapped, the PNGs still written).  The references
 are computed here: counts, the Wilson interval's closed form, the inverted-CDF quantiles
 (each a data point), the order of the worst rows (failed first, then the largest figure /
 bound), and D(s) of the paper with the variant's gain and damping put in by hand.
@@ -21,7 +21,7 @@ from sweep_files import fast_file
 from drawn import drawn
 
 from robrst.problem.files import load_problem
-from robrst.report import sweep_figures
+import robrst.report._sweep_figures as sweep_figures
 from robrst.report.sweep import write_sweep_report
 from robrst.studies.sweep import run_sweep
 

@@ -15,11 +15,11 @@ from robrst.cli import main
 from robrst.base.errors import OutputError
 from robrst.studies.sweep import load_sweep, run_sweep
 from robrst.problem.files import load_problem
-from robrst.studies.sweep.prepare import prepare
+from robrst.studies.sweep._prepare import prepare
 from robrst.studies.sweep.engine import SequentialExecutor, Task, execute
 from robrst.studies.sweep.summary import pareto_front, wilson_interval
 from robrst.studies.sweep.files import Param
-from robrst.studies.sweep.variants import chunks, draw, variant_table
+from robrst.studies.sweep._variants import chunks, draw, variant_table
 
 
 def dense_peak(N, D, lo=1.0, hi=1e7, n=200_001):
@@ -347,7 +347,7 @@ def test_bad_arguments_are_one_line(tmp_path, capsys):
 def test_committed_sweep_examples_are_not_stale(root, name):
     """The committed report was made from the shipped sweep and base problem as they are now
     (regenerate with python -m robrst.report.sweep_examples)."""
-    from robrst.studies.sweep.prepare import fingerprint
+    from robrst.studies.sweep._prepare import fingerprint
 
     sweep = load_sweep(name)
     folder = root / "reports" / name
@@ -368,8 +368,8 @@ def test_a_worker_loads_scipy_linear_algebra_once_with_its_state():
 
     code = ("import sys\n"
             "from robrst.studies.sweep import parse_sweep\n"
-            "from robrst.studies.sweep.prepare import prepare\n"
-            "from robrst.studies.sweep.evaluate import build_state\n"
+            "from robrst.studies.sweep._prepare import prepare\n"
+            "from robrst.studies.sweep._evaluate import build_state\n"
             "doc = {'sweep': {'name': 's', 'kind': 'design', 'problem': '%s'},\n"
             "       'param': [{'name': 'specs.Mu_max', 'dist': 'grid', 'values': [150.0]}]}\n"
             "ctx, _ = prepare(parse_sweep(doc))\n"
@@ -392,7 +392,7 @@ def test_a_variant_keeps_the_base_family_unless_a_family_key_changes(monkeypatch
     import robrst.core.family as fam
     from robrst.design import run_problem
     from robrst.studies.sweep import parse_sweep
-    from robrst.studies.sweep.evaluate import build_state, evaluate_variant, problem_of
+    from robrst.studies.sweep._evaluate import build_state, evaluate_variant, problem_of
 
     doc = {"sweep": {"name": "s", "kind": "design", "problem": "paper_robust"},
            "set": {"solver": {"multistart": False}},

@@ -12,7 +12,7 @@ from robrst.problem.records import with_defaults
 from robrst.studies.sweep import run_sweep
 from robrst.studies.sweep.envelope import ENVELOPE_COLUMN, bound_directions, dominates, \
     monotone_envelope
-from robrst.studies.sweep.evaluate import design_row, problem_of
+from robrst.studies.sweep._evaluate import design_row, problem_of
 from robrst.certificate.proof import certify_problem
 from robrst.synthesis.analytic import pole_placement
 

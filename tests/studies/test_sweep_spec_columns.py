@@ -16,7 +16,7 @@ from robrst.certificate.proof import certify_problem
 from robrst.report.sweep import write_sweep_report
 from robrst.studies.sweep import parse_sweep
 from robrst.studies.sweep.engine import run_sweep
-from robrst.studies.sweep.evaluate import problem_of
+from robrst.studies.sweep._evaluate import problem_of
 
 
 def sweep(tmp_path, rel=None):

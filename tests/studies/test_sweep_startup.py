@@ -9,10 +9,10 @@ import logging
 import numpy as np
 import pytest
 
-from robrst.cli.sweep import progress_bar
+from robrst.cli._sweep import progress_bar
 from robrst.report.sweep import sweep_text
 from robrst.studies.sweep import parse_sweep, run_sweep
-from robrst.studies.sweep.cluster import quiet_shutdown
+from robrst.studies.sweep._cluster import quiet_shutdown
 from robrst.studies.sweep.engine import MARGIN_S, STARTUP_S, Progress, cluster_pays
 
 

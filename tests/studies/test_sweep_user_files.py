@@ -215,7 +215,7 @@ def test_variant_table_is_drawn_in_blocks_without_copies(monkeypatch):
     itself (10 million variants used ~700 MB for a 160 MB table)."""
     import tracemalloc
 
-    import robrst.studies.sweep.variants as variants
+    import robrst.studies.sweep._variants as variants
     from robrst.studies.sweep.files import parse_sweep
 
     sweep = parse_sweep({"sweep": {"kind": "analysis", "problem": "paper", "seed": 5, "n": 50},

@@ -10,11 +10,11 @@ from robrst.design import analytic_design
 from robrst.problem.files import parse_problem
 from robrst.problem.records import with_defaults
 from robrst.synthesis.attempts import program_models
-from robrst.synthesis.cmaes import CMAES
+from robrst.synthesis._cmaes import CMAES
 from robrst.synthesis.context import Context
-from robrst.synthesis.screen import Screen, batch_roots, routh_columns
+from robrst.synthesis._screen import Screen, batch_roots, routh_columns
 from robrst.synthesis.search import PoleSpace, SearchOptions, global_search, move_inside
-from robrst.synthesis.timesamples import time_specs
+from robrst.synthesis._timesamples import time_specs
 
 W = 2 * np.pi * 1300.0
 DOC = {"problem": {"name": "g"},
@@ -314,7 +314,7 @@ def test_a_polishs_objective_floor_is_the_integral_gain_of_the_unscaled_controll
     where the unscaled controller's integral gain (``lim s R/S`` of its polynomials) is at
     least the floor's share of the start's."""
     from robrst.synthesis.attempts import Run
-    from robrst.synthesis.nlp import objective_rows
+    from robrst.synthesis._nlp import objective_rows
     from robrst.synthesis.parametrize import integral_gain
 
     p, ctx, setup, start = _setup()

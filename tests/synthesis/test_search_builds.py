@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from robrst.synthesis.cmaes import CMAES
+from robrst.synthesis._cmaes import CMAES
 
 ROOT = Path(__file__).resolve().parents[2]
 

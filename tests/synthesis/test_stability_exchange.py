@@ -18,7 +18,7 @@ from robrst.base.resources import problems_dir
 from robrst.problem.files import parse_problem
 from robrst.synthesis import exchange, stability
 from robrst.synthesis.context import Context
-from robrst.synthesis.nlp import routh_column
+from robrst.synthesis._nlp import routh_column
 
 IPOPT = {"max_iter": 500, "tol": 1e-10, "print_level": 0, "sb": "yes",
          "mu_strategy": "monotone", "nlp_scaling_method": "none"}

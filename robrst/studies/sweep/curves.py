@@ -3,7 +3,7 @@
 :func:`worst_case_curves` gives the frequency responses ``|S|, |T|, |U|`` of the worst
 variant's loops at every temperature of its family (and, for an analysis, of the base
 family), with the bounds and the title it is drawn with: the report
-(:func:`robrst.report.sweep_figures.worst_bode_figure`) draws the record, it computes
+(:func:`robrst.report._sweep_figures.worst_bode_figure`) draws the record, it computes
 nothing.
 """
 
@@ -17,7 +17,7 @@ import numpy as np
 from robrst.core.analysis import sensitivity
 from robrst.core.rst import RSTController
 from robrst.problem.specs import PEAK_SPECS
-from robrst.studies.sweep.evaluate import problem_of
+from robrst.studies.sweep._evaluate import problem_of
 from robrst.studies.sweep.summary import worst_rows
 
 if TYPE_CHECKING:

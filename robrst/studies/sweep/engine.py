@@ -1,8 +1,8 @@
 """``run_sweep``: plan the chunks, run them (Dask or in process), write, summarise.
 
-The driver prepares the context (:mod:`robrst.studies.sweep.prepare`), opens the output folder
-(:mod:`robrst.studies.sweep.store`: a folder of the same sweep is resumed), and hands the chunks
-not yet finished to an executor — a Dask cluster (:mod:`robrst.studies.sweep.cluster`; local
+The driver prepares the context (:mod:`robrst.studies.sweep._prepare`), opens the output folder
+(:mod:`robrst.studies.sweep._store`: a folder of the same sweep is resumed), and hands the chunks
+not yet finished to an executor — a Dask cluster (:mod:`robrst.studies.sweep._cluster`; local
 processes by default, or a running scheduler) or, with ``workers=0``, this process.  A
 bounded window of chunks is in flight; each finished chunk is written at once.  A chunk
 that fails as a whole (its worker died repeatedly) is split into single variants, so only
@@ -29,18 +29,18 @@ import numpy as np
 from robrst.base.errors import SpecError
 from robrst.base.fileio import output_lock
 from robrst.base.threads import available_cores
-from robrst.studies.sweep import store
-from robrst.studies.sweep.prepare import prepare
+import robrst.studies.sweep._store as store
+from robrst.studies.sweep._prepare import prepare
 from robrst.studies.sweep.envelope import monotone_envelope
-from robrst.studies.sweep.evaluate import build_state, evaluate_chunk, failed_row, status_of
+from robrst.studies.sweep._evaluate import build_state, evaluate_chunk, failed_row, status_of
 from robrst.studies.sweep.files import Sweep, load_sweep
 from robrst.studies.sweep.summary import summarise
-from robrst.studies.sweep.variants import chunks
+from robrst.studies.sweep._variants import chunks
 
 if TYPE_CHECKING:
-    from robrst.studies.sweep.cluster import DaskExecutor
-    from robrst.studies.sweep.evaluate import SweepContext
-    from robrst.studies.sweep.variants import Chunk
+    from robrst.studies.sweep._cluster import DaskExecutor
+    from robrst.studies.sweep._evaluate import SweepContext
+    from robrst.studies.sweep._variants import Chunk
     import pyarrow as pa
 
 __all__ = ["Task", "Progress", "SweepResult", "SequentialExecutor", "execute", "run_sweep",
@@ -353,7 +353,7 @@ def cluster_pays(remaining_s: float, workers: int, startup_s: float = STARTUP_S)
 def _executor(context, workers, scheduler, pending):
     if workers == 0:
         return SequentialExecutor(context)
-    from robrst.studies.sweep.cluster import DaskExecutor, default_workers
+    from robrst.studies.sweep._cluster import DaskExecutor, default_workers
 
     if scheduler is None:
         workers = min(workers or default_workers(), pending)

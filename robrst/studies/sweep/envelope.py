@@ -37,13 +37,13 @@ from robrst.certificate.proof import certify_problem
 from robrst.core.rst import RSTController
 from robrst.problem.records import with_defaults
 from robrst.problem.specs import SPECS_BY_KEY
-from robrst.studies.sweep.evaluate import design_row, problem_of
+from robrst.studies.sweep._evaluate import design_row, problem_of
 from robrst.synthesis.objective import objective
 
 if TYPE_CHECKING:
     import pyarrow as pa
 
-    from robrst.studies.sweep.evaluate import SweepContext
+    from robrst.studies.sweep._evaluate import SweepContext
 
 __all__ = ["monotone_envelope", "bound_directions", "dominates", "ENVELOPE_COLUMN",
            "ENVELOPE_TRIES"]

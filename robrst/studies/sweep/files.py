@@ -28,8 +28,8 @@ from robrst.problem.files import SCHEMA as PROBLEM_SCHEMA
 from robrst.problem.mimo_files import MIMO_SCHEMA, is_mimo_file
 from robrst.problem.spread import (COEF, DIST_KEYS, DISTS, PLANT_PARAMS, Ageing, Param,
                                    check_truncation)
-from robrst.studies.sweep.mimo import MIMO_FRONT_FIGURES, MIMO_PLANT_PARAMS, is_mimo_plant_param
-from robrst.studies.sweep.variants import grid_values
+from robrst.studies.sweep._mimo import MIMO_FRONT_FIGURES, MIMO_PLANT_PARAMS, is_mimo_plant_param
+from robrst.studies.sweep._variants import grid_values
 
 __all__ = ["Param", "Ageing", "Sweep", "SWEEP_SCHEMA", "PLANT_PARAMS", "KINDS", "DISTS",
            "FIGURES", "problem_field", "load_sweep", "parse_sweep", "resolve_sweep_path",
@@ -142,7 +142,7 @@ class Sweep:
         Fleet: the file-name pattern.
     mimo : bool
         The base problem is a multi-axis file (``[mimo]``,
-        :mod:`robrst.studies.sweep.mimo`).
+        :mod:`robrst.studies.sweep._mimo`).
 
     Attributes
     ----------

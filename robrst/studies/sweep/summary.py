@@ -15,15 +15,15 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from robrst.problem.specs import spec_columns
-from robrst.studies.sweep.evaluate import spec_figure_columns
+from robrst.studies.sweep._evaluate import spec_figure_columns
 from robrst.studies.sweep.envelope import ENVELOPE_COLUMN
-from robrst.studies.sweep.mimo import MIMO_STAT_FIGURES, MIMO_WORST_KEYS
+from robrst.studies.sweep._mimo import MIMO_STAT_FIGURES, MIMO_WORST_KEYS
 
 if TYPE_CHECKING:
     import pyarrow as pa
     from numpy.typing import ArrayLike
 
-    from robrst.studies.sweep.evaluate import SweepContext
+    from robrst.studies.sweep._evaluate import SweepContext
 
 __all__ = ["wilson_interval", "pareto_front", "front_values", "figure_stats", "worst_rows",
            "summarise", "STAT_FIGURES", "WORST_KEYS", "FRONT_KEYS", "MIMO_FRONT_KEYS"]
