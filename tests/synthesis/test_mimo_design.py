@@ -112,6 +112,33 @@ def test_an_answer_even_when_the_specs_cannot_be_met():
     assert np.allclose(sigma_grid(T, np.array([1e-3])), 1.0, atol=1e-3)
 
 
+def test_with_nothing_certified_the_answer_is_the_least_violating_tried():
+    """A sector performance bound the program does not target (one axis, a lightly damped
+    resonance, ``sector_S_max = 3`` under a 30 % input-gain sector): nothing certifies.
+    The answer was the joint program's last point, outside the sector's own stability
+    (sigma_max(T_i) 4.4 > 1 / delta, its per-axis start at 1.0); now the least violating
+    controller tried.  Checked with python-control: the answer's loop is stable and its
+    sigma_max(T_i) on a dense grid stays below 1 / delta, so the sector's small-gain
+    stability holds for it."""
+    g = control.tf([2e7], [1, 300, 2e7])
+    delta = 0.3
+    problem = MimoProblem("one axis", MimoFamily((MimoPlant.from_control(g, "cold", 20.0),)),
+                          specs=MimoSpecs(sigma_S_max=2.0, input_gain_deviation=delta,
+                                          sector_S_max=3.0, sample_rate_hz=FS))
+    result = design_mimo(problem, compare=False)
+    assert not result.certified
+    assert result.binding["figure"] == "sector_S"
+    assert np.isfinite(result.binding["ratio"])
+    start = result.comparisons["per_axis_start"]
+    assert "least violating" in start.note or start.controller is result.controller
+    ctrl = result.controller
+    num, den = [[list(ctrl.axes[0].R)]], [[list(ctrl.axes[0].S)]]
+    K = control.ss([], [], [], ctrl.decoupler) * control.ss(control.tf(num, den))
+    Ti = control.feedback(K * control.ss(g), control.ss([], [], [], np.eye(1)))
+    assert np.all(np.real(control.poles(Ti)) < 0)
+    assert refined_max(Ti, 0.5, 1e6)[0] < 1 / delta
+
+
 def test_refusals():
     g = MimoPlant(-np.eye(2), np.ones((2, 3)), np.eye(2), np.zeros((2, 3)), "wide", 1.0)
     with pytest.raises(SpecError, match="square"):
