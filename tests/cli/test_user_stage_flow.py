@@ -28,8 +28,8 @@ def _no_design(monkeypatch):
         raise AssertionError("designed again")
 
     monkeypatch.setattr(design, "run_problem", boom)
-    monkeypatch.setattr(design.pipeline, "design_single", boom)
-    monkeypatch.setattr(design.pipeline, "fleet_design", boom)
+    monkeypatch.setattr(design._pipeline, "design_single", boom)
+    monkeypatch.setattr(design._pipeline, "fleet_design", boom)
     monkeypatch.setattr(robust, "robust_synthesis", boom)
 
 
