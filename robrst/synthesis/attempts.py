@@ -38,23 +38,73 @@ if TYPE_CHECKING:
     from robrst.synthesis._timesamples import TimeSpecs
 
 __all__ = ["Outcome", "Run", "worst_violation", "frequency_certificate", "refine",
-           "objective_value", "program_models", "GAMMA_FLOOR"]
+           "objective_value", "program_models", "RunOptions", "RUN"]
 
-GAMMA_FLOOR = 0.97       # the soft phase stops once every spec holds with 3 % to spare
-SOFT_STARTS = 3          # soft-phase attempts (best starts first)
-FREE_BOX, FREE_BOXES, FREE_MAX_ITER = 1.0, 6, 300   # trust regions with freely placed poles
-FREE_EXCHANGE_ROUNDS, FREE_ITER_BUDGET = 10, 800
-RUN_ITER_BUDGET = 2500    # IPOPT iterations per synthesis: then the best certified point found
-FAR_START = 5.0           # a start missing the specs 5x: no objective phase from it
-NEAR_START = 1.05         # a start within 5 % of the specs on the grid: the certificate judges it
-BOLD_FAR = 20.0           # a bolder start (Run.bolder) may miss them 20x
-WARM_MU = 1e-4           # IPOPT's initial barrier from a previous design of a nearby variant
-WARM_NEAR = 1.05         # ... solved from at once when within 5 % of the specs on the grid
 WARM_START = "previous design"   # the name of that start (robrst.synthesis.robust hands it down)
 GLOBAL_START = "global run"      # the global phase's candidates (near-optimal starts)
-TIME_ROUNDS = 8          # reference-step samples: linearise-and-solve rounds per solve
-TIME_BOX = 0.5           # their first trust region (relative to the coefficients)
-ROWS_FIRST_NEAR = 0.3    # a polish's first solve: samples above this share of their bound
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """The synthesis's tuning constants, each with why (:class:`Run`).
+
+    Attributes
+    ----------
+    gamma_floor : float
+        The soft phase stops once every spec holds with 3 % to spare.
+    soft_starts : int
+        Soft-phase attempts (the best starts first).
+    free_box : float
+        The first trust region with freely placed poles, relative to the coefficients
+        (free coefficients move resonances and slow poles far in one step) ...
+    free_boxes : int
+        ... re-centred or halved at most this many times ...
+    free_max_iter : int
+        ... each solve within this many IPOPT iterations ...
+    free_exchange_rounds : int
+        ... and this many exchange rounds ...
+    free_iter_budget : int
+        ... all of them within this many IPOPT iterations.
+    iter_budget : int
+        IPOPT iterations of one synthesis: then the best certified point found.
+    far_start : float
+        A start missing the specs this many times on the grid gets no objective phase.
+    near_start : float
+        A start within this ratio of the specs on the grid: the certificate judges it.
+    bold_far : float
+        A bolder start (:meth:`Run.bolder`) may miss them this many times.
+    warm_mu : float
+        IPOPT's initial barrier from a previous design of a nearby variant (and from a
+        global-phase candidate): a small barrier keeps a near-optimal start near ...
+    warm_near : float
+        ... solved from at once when within this ratio of the specs on the grid.
+    time_rounds : int
+        Reference-step samples: linearise-and-solve rounds per solve.
+    time_box : float
+        Their first trust region (relative to the coefficients).
+    rows_first_near : float
+        A polish's first solve carries the step samples above this share of their bound.
+    """
+
+    gamma_floor: float = 0.97
+    soft_starts: int = 3
+    free_box: float = 1.0
+    free_boxes: int = 6
+    free_max_iter: int = 300
+    free_exchange_rounds: int = 10
+    free_iter_budget: int = 800
+    iter_budget: int = 2500
+    far_start: float = 5.0
+    near_start: float = 1.05
+    bold_far: float = 20.0
+    warm_mu: float = 1e-4
+    warm_near: float = 1.05
+    time_rounds: int = 8
+    time_box: float = 0.5
+    rows_first_near: float = 0.3
+
+
+RUN = RunOptions()
 
 
 @dataclass(frozen=True, eq=False)
@@ -276,7 +326,7 @@ class Run:
     warm : SynthesisResult, optional
         A previous design of a nearby variant.
     budget : int, optional
-        IPOPT iterations of the synthesis (default ``RUN_ITER_BUDGET``); given, a hard stop
+        IPOPT iterations of the synthesis (default ``RUN.iter_budget``); given, a hard stop
         (an extra start of a multi-start).
 
     Attributes
@@ -312,7 +362,7 @@ class Run:
                  warm: SynthesisResult | None = None, budget: int | None = None,
                  stop: Callable[[], bool] | None = None) -> None:
         self.problem, self.say, self.templates, self.warm = problem, say, templates, warm
-        self.budget = RUN_ITER_BUDGET if budget is None else int(budget)
+        self.budget = RUN.iter_budget if budget is None else int(budget)
         self.strict = budget is not None   # an extra start: its budget is a hard stop
         self.rounds, self.notes = [], []
         self.hopeless = False     # set when the specs are provably infeasible
@@ -324,7 +374,7 @@ class Run:
         self.floor = None
 
     def spent(self, placement: str | None = None) -> bool:
-        """True once the synthesis has used its IPOPT iteration budget: ``RUN_ITER_BUDGET``
+        """True once the synthesis has used its IPOPT iteration budget: ``RUN.iter_budget``
         for the rounds of ``placement`` (the fixed poles' rounds do not take the budget of
         the free search that follows them), twice that over all rounds.
 
@@ -372,7 +422,7 @@ class Run:
         """
         ipopt = ctx.ipopt
         if start == WARM_START or start.startswith(GLOBAL_START):
-            ipopt = {**ipopt, "mu_init": WARM_MU}   # a near-optimal start: a small barrier
+            ipopt = {**ipopt, "mu_init": RUN.warm_mu}   # a near-optimal start: a small barrier
         # the homotopy may pose the very same program again (same data, start and options):
         # the solves are deterministic, so its result is reused
         key = _key((setup, np.asarray(x0, float), ipopt, phase, exact))
@@ -386,7 +436,7 @@ class Run:
                 # a near-optimal start (the global phase's): its reference-step samples and
                 # roots near their floor linearised from the first solve on, so the
                 # objective does not first run out of the time specs
-                found = (worst_time_ratio(setup, x0, spec, ROWS_FIRST_NEAR)[1]
+                found = (worst_time_ratio(setup, x0, spec, RUN.rows_first_near)[1]
                          if spec is not None else {})
                 rows = time_rows(setup, x0, spec, (), found) if spec is not None else None
                 lin = _stacked(rows, pole_rows(setup, x0))
@@ -448,7 +498,7 @@ class Run:
         SolveResult
             The last accepted solve, ``iterations`` summed.
         """
-        best, keys, f, iters = res, (), TIME_BOX, res.iterations
+        best, keys, f, iters = res, (), RUN.time_box, res.iterations
         hard_step = False     # the accepted step was the objective's (a hard solve)
 
         def ratios(x):
@@ -458,7 +508,7 @@ class Run:
         worst, w_time, found = ratios(best.x)
         restore = (phase.kind == "hard" and not (
             setup.objective == "min_Ms" and setup.bounds.get("S") is None))
-        for _ in range(TIME_ROUNDS):
+        for _ in range(RUN.time_rounds):
             if self.spent() or (self.strict and iters > self.budget):
                 break
             kind = "time" if w_time > 1.0 and restore else phase.kind
@@ -476,7 +526,7 @@ class Run:
             if kind == "time":
                 x0[-1] = max(w_time, 1.0) * 1.02
             ipopt = ctx.ipopt if setup.placement != "free" else {   # as the boxed solves
-                **ctx.ipopt, "max_iter": min(ctx.ipopt["max_iter"], FREE_MAX_ITER)}
+                **ctx.ipopt, "max_iter": min(ctx.ipopt["max_iter"], RUN.free_max_iter)}
             new = solve_exchange(setup, x0, ipopt, Phase(kind, TIME_MARGIN ** 2), self.templates,
                                  exact=exact, box=(c, r), lin=rows)
             iters += new.iterations
@@ -490,7 +540,7 @@ class Run:
                 new = replace(new, x=np.concatenate([new.x[:-1], [res.x[-1]]]))
             if w_new < worst or (w_new <= 1.0 and kind == "hard"):
                 best, worst, w_time, found = new, w_new, wt_new, f_new
-                f = min(2 * f, 4 * TIME_BOX)
+                f = min(2 * f, 4 * RUN.time_box)
                 hard_step = kind == "hard"
             else:
                 f /= 2
@@ -551,17 +601,18 @@ class Run:
         SolveResult
             The best box's result, ``iterations`` summed.
         """
-        ipopt = {**(ipopt or ctx.ipopt), "max_iter": min(ctx.ipopt["max_iter"], FREE_MAX_ITER)}
-        best, x, iters, res, f = None, np.asarray(x0, float), 0, None, FREE_BOX
-        for _ in range(FREE_BOXES):
+        ipopt = {**(ipopt or ctx.ipopt),
+                 "max_iter": min(ctx.ipopt["max_iter"], RUN.free_max_iter)}
+        best, x, iters, res, f = None, np.asarray(x0, float), 0, None, RUN.free_box
+        for _ in range(RUN.free_boxes):
             c = x[:ctx.param.n_x]
             r = f * np.abs(c) + 0.05 * np.max(np.abs(c))
             res = solve_exchange(setup, x, ipopt, phase, self.templates, exact=exact, box=(c, r),
-                                 max_rounds=FREE_EXCHANGE_ROUNDS, lin=lin)
+                                 max_rounds=RUN.free_exchange_rounds, lin=lin)
             iters += res.iterations
-            cap = min(FREE_ITER_BUDGET, self.budget)
+            cap = min(RUN.free_iter_budget, self.budget)
             if not res.success:
-                if f <= FREE_BOX / 4 or iters > cap:
+                if f <= RUN.free_box / 4 or iters > cap:
                     break
                 f /= 4
                 continue
@@ -570,12 +621,12 @@ class Run:
             inside = np.all(np.abs(res.x[:ctx.param.n_x] - c) < 0.999 * r)
             if inside or not gain or iters > cap:
                 break
-            f = min(2 * f, 8 * FREE_BOX)
+            f = min(2 * f, 8 * RUN.free_box)
         return replace(best if best is not None else res, iterations=iters)
 
     def near_start(self, ctx: Context, setup: NLPSetup, starts: Sequence) -> Outcome | None:
         """The best start the exact certificate accepts among those near the specs on the
-        grid (``worst <= NEAR_START``): per kind of start, the boldest one by bisection.
+        grid (``worst <= RUN.near_start``): per kind of start, the boldest one by bisection.
 
         A spec a zero-gain loop meets exactly (the default damping floor is the plant's own
         least damping, the default ``Msd_rel_max`` its open-loop peak) puts every low-gain
@@ -605,7 +656,7 @@ class Run:
             blocks = grid_blocks(setup, np.ones(ctx.param.n_x))
             every += score_many(setup, blocks, [(n, x, None, None)
                                                 for n, x in integral_seeds(ctx, pure=True)])
-        near = [s for s in every if s.stable and s.worst <= NEAR_START]
+        near = [s for s in every if s.stable and s.worst <= RUN.near_start]
         kinds = {}
         for s in near:      # the families of starts: a kind over its crossover grid
             kinds.setdefault(s.name.split(" (")[0], []).append(s)
@@ -706,7 +757,8 @@ class Run:
             res = self.solve(ctx, setup, x, Phase("hard"), start, exact=exact)
             if not res.success and rnd > 0:   # the refined program: back to the specs first
                 x0 = np.concatenate([x[:-1], [max(last.badness, 1.0) * 1.02]])
-                soft = self.solve(ctx, setup, x0, Phase("soft", GAMMA_FLOOR), "previous round")
+                soft = self.solve(ctx, setup, x0, Phase("soft", RUN.gamma_floor),
+                                  "previous round")
                 if soft.success and soft.x[-1] <= 1.0:
                     res = self.solve(ctx, setup, soft.x, Phase("hard"), "soft-goal point",
                                      exact=exact)
@@ -744,12 +796,12 @@ class Run:
         little, and the boldest start that already meets them may lead to a far worse
         local optimum.  Returns the certified outcome of the objective, else the soft-goal
         point (``None`` if nothing was solved)."""
-        if warm.worst > FAR_START or self.spent(placement):
+        if warm.worst > RUN.far_start or self.spent(placement):
             return None
         x0 = ctx.full(warm.xc, setup, warm.wn, warm.zeta,
-                      gamma=max(warm.worst * 1.02, GAMMA_FLOOR) if warm.stable else
+                      gamma=max(warm.worst * 1.02, RUN.gamma_floor) if warm.stable else
                       max(warm.worst, 1.0) * 2)
-        res = self.solve(ctx, setup, x0, Phase("soft", GAMMA_FLOOR), WARM_START)
+        res = self.solve(ctx, setup, x0, Phase("soft", RUN.gamma_floor), WARM_START)
         soft = self.outcome(ctx, setup, res, "soft")
         if not (res.success and res.x[-1] <= 1.0):
             return soft
@@ -788,7 +840,7 @@ class Run:
         ki = objective_value(ctx.problem, out)
         cands = []
         for s in starts:
-            if not s.stable or s.worst <= GAMMA_FLOOR or s.worst > BOLD_FAR:
+            if not s.stable or s.worst <= RUN.gamma_floor or s.worst > RUN.bold_far:
                 continue
             k = abs(integral_gain(ctx.controller(ctx.full(s.xc, setup, s.wn, s.zeta))))
             if np.isfinite(k) and k > ki * (1 + 1e-3):
@@ -796,8 +848,8 @@ class Run:
         if not cands:
             return None
         s = min(cands, key=lambda c: c[0])[1]
-        x0 = ctx.full(s.xc, setup, s.wn, s.zeta, gamma=max(s.worst * 1.02, GAMMA_FLOOR))
-        res = self.solve(ctx, setup, x0, Phase("soft", GAMMA_FLOOR), s.name)
+        x0 = ctx.full(s.xc, setup, s.wn, s.zeta, gamma=max(s.worst * 1.02, RUN.gamma_floor))
+        res = self.solve(ctx, setup, x0, Phase("soft", RUN.gamma_floor), s.name)
         if not (res.success and res.x[-1] <= 1.0):
             return None
         return self.hard(ctx, placement, res.x, f"soft-goal point from {s.name}")
@@ -806,7 +858,7 @@ class Run:
                 soft: bool = True) -> Outcome | None:
         """Hard phase from the preferred start; if that fails, soft phase then hard phase.
 
-        A previous design of a nearby variant (``warm``) within ``WARM_NEAR`` of the specs
+        A previous design of a nearby variant (``warm``) within ``RUN.warm_near`` of the specs
         on the grid is solved from first, before the other starts are scored; when that
         does not certify, or otherwise, the preferred start is the best one when it already
         meets the specs on the grid, else a seed handed down, else the analytic design at
@@ -845,7 +897,7 @@ class Run:
                     # near the previous design, and the round ends (the exchange over
                     # actuators discards one and tries again)
                     return out
-            elif s.stable and s.worst <= WARM_NEAR:
+            elif s.stable and s.worst <= RUN.warm_near:
                 from_warm = self.hard(ctx, placement, ctx.full(s.xc, setup, s.wn, s.zeta),
                                       s.name)
                 if from_warm is not None and from_warm.certified:
@@ -855,17 +907,17 @@ class Run:
         if not starts:
             return None
         named = {s.name: s for s in starts}
-        ok = [s for s in starts if s.stable and s.worst <= GAMMA_FLOOR]
+        ok = [s for s in starts if s.stable and s.worst <= RUN.gamma_floor]
         if ctx.problem.solver.objective == "min_Ms":   # the most robust feasible start
             first = min(ok, key=lambda s: s.worst) if ok else starts[0]
         else:                                           # the boldest feasible start
             first = max(ok, key=lambda s: s.gain) if ok else starts[0]
-        feasible = first.stable and first.worst <= GAMMA_FLOOR
+        feasible = first.stable and first.worst <= RUN.gamma_floor
         if not feasible or convex:
             prefer = "convex (nominal SOCP)" if convex else "analytic"
             first = next((named[sd[0]] for sd in seeds if sd[0] in named),
                          named.get(prefer, named.get("analytic", starts[0])))
-            feasible = first.stable and first.worst <= GAMMA_FLOOR
+            feasible = first.stable and first.worst <= RUN.gamma_floor
         outs = []
         if feasible:   # a start that meets the specs on the grid: certified, it is the fallback
             outs.append(self.outcome(ctx, setup, None, "start",
@@ -876,7 +928,7 @@ class Run:
                 if ctx.problem.solver.objective == "feasibility":
                     return near     # certified: the question is answered
                 outs.append(near)
-        if first.worst <= FAR_START and not self.spent(placement) and not self.hopeless:
+        if first.worst <= RUN.far_start and not self.spent(placement) and not self.hopeless:
             out = from_warm if from_warm is not None and first.name == WARM_START else \
                 self.hard(ctx, placement, ctx.full(first.xc, setup, first.wn, first.zeta),
                           first.name)
@@ -891,19 +943,20 @@ class Run:
                 outs.append(self.bolder(ctx, setup, placement, starts, out))
                 return _better(ctx.problem, out, outs)
             outs.append(out)
-        n_soft = 1 if self.hopeless else SOFT_STARTS   # the best violation is all there is
+        n_soft = 1 if self.hopeless else RUN.soft_starts   # the best violation is all there is
         n_soft = n_soft if soft else 0
         for s in [s for s in starts if not (s is first and feasible)][:n_soft]:
             if self.spent(placement) and (self.strict or any(o is not None and o.certified
                                                              for o in outs)):
                 break
-            x0 = ctx.full(s.xc, setup, s.wn, s.zeta, gamma=max(s.worst * 1.02, GAMMA_FLOOR))
-            if s.stable and s.worst <= GAMMA_FLOOR:     # meets the specs already: no soft phase
+            x0 = ctx.full(s.xc, setup, s.wn, s.zeta,
+                          gamma=max(s.worst * 1.02, RUN.gamma_floor))
+            if s.stable and s.worst <= RUN.gamma_floor:    # meets the specs: no soft phase
                 soft, name = self.outcome(ctx, setup, None, "start", x=x0), s.name
             else:
                 if not s.stable:
                     x0[-1] = max(s.worst, 1.0) * 2
-                res = self.solve(ctx, setup, x0, Phase("soft", GAMMA_FLOOR), s.name)
+                res = self.solve(ctx, setup, x0, Phase("soft", RUN.gamma_floor), s.name)
                 soft = self.outcome(ctx, setup, res, "soft")
                 name = f"soft-goal point from {s.name}"
                 if not (res.success and res.x[-1] <= 1.0):

@@ -516,7 +516,7 @@ def robust_synthesis(problem: Problem, start: AnalyticDesign,
         preferred start (a batch of nearby variants converges in a few iterations).
     budget : int, optional
         IPOPT iterations this synthesis may spend before it returns the best point found
-        (default ``RUN_ITER_BUDGET``; the extra starts of a multi-start get the first's).
+        (default ``RUN.iter_budget``, :class:`~robrst.synthesis.attempts.RunOptions`; the extra starts of a multi-start get the first's).
     global_phase : bool
         Search every controller of the requested degree globally before polishing
         (:mod:`robrst.synthesis.search`); with ``placement = "auto"`` the problem's own
