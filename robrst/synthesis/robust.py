@@ -151,7 +151,11 @@ def _synthesize(problem, start, run, extra, lower=None):
                     glob and "free" in placements):
                 break          # optimised under the specs (or nothing to optimise)
             seeds = [("best point so far", best.x[:ctx.param.n_x])]
-            if out.phase != "hard":
+            if out.phase != "hard" and glob and placement == "free":
+                name = next((n for n, o in run.tried if o is out), "a candidate")
+                run.notes.append(f"global phase: its answer is {name} (certified as the"
+                                 " search found it: no polish improved on it)")
+            elif out.phase != "hard":
                 run.notes.append(f"the objective could not be optimised with {placement}"
                                  " nominal poles (a certified start or soft-goal point)")
             continue
@@ -280,7 +284,7 @@ def _global(ctx, run, seeds, best, start):
                          " phase from its best points")
         return run.attempt(ctx, "free", seeds + [(c.name, c.xc) for c in
                                                  res.candidates[:POLISH.soft_seeds]])
-    outs, polished = [], []
+    outs, polished, polishes = [], [], []
     n_top = 1 + max(0, p.solver.starts)
     # the best few, then each run's best, each screened within share of the best (an
     # objective that is a positive size)
@@ -313,10 +317,14 @@ def _global(ctx, run, seeds, best, start):
         polished_setup = near.setup(program_models(p), near.nu, "free")
         xr = near.full(near.param.vector(base.ctrl), polished_setup)
         floor = _floor(p, polished_setup, xr) if base.certified else None
-        out = _polish(near, run, xr, c.name, floor)
+        out, notes = _polish(near, run, xr, c.name, floor)
+        gained = out is not None and out.certified and (
+            not base.certified or objective_value(p, out) > objective_value(p, base))
+        polishes.append((c.name, gained, notes))
         if out is not None:
             run.tried.append((f"{c.name}, polished", out))
             outs.append(out)
+    run.notes += _polish_notes(polishes)
     certified = sorted((o for o in outs if o.certified),
                        key=lambda o: -objective_value(p, o))
     for o in certified:        # the best whose reference step meets the time specs
@@ -326,6 +334,25 @@ def _global(ctx, run, seeds, best, start):
         run.notes.append("global phase: no certified candidate met the time-domain specs")
         return certified[0]
     return min(outs, key=lambda o: o.badness)
+
+
+def _polish_notes(polishes):
+    """The polishes' notes: those of a polish that improved on its candidate as they are,
+    the others in one line (their solver statuses counted: a polish that does not improve
+    leaves its candidate as the search found it, which is an answer, not a failure)."""
+    notes = [n for _, gained, ns in polishes if gained for n in ns]
+    idle = [(name, ns) for name, gained, ns in polishes if not gained]
+    if idle:
+        ended = {}
+        for _, ns in idle:
+            for n in ns:
+                if " ended with IPOPT " in n:
+                    st = n.rsplit(" ended with IPOPT ", 1)[1]
+                    ended[st] = ended.get(st, 0) + 1
+        how = ", ".join(f"{st} x{k}" if k > 1 else st for st, k in sorted(ended.items()))
+        notes.append(f"global phase: {len(idle)} of {len(polishes)} polishes did not improve"
+                     f" on their candidate" + (f" (IPOPT: {how})" if how else ""))
+    return notes
 
 
 def _screened_value(problem, ctx, cand):
@@ -352,10 +379,10 @@ def _polish(ctx, run, xa, name, floor=None):
     linearised from the first solve on, backed off when it ends just outside the
     certificate; with a ``floor`` (:func:`_floor` of a certified start) every solve keeps
     the start's integral gain (:attr:`~robrst.synthesis.attempts.Run.floor`): a polish is
-    an improvement or nothing, never a worse basin reached through IPOPT's restoration."""
+    an improvement or nothing, never a worse basin reached through IPOPT's restoration.
+    Returns the outcome (``None``: nothing solved) and the polish's notes."""
     out, notes = _hard_from(ctx, run, xa, name, POLISH.iterations, floor)
-    run.notes += notes
-    return _backoff(ctx, run, out, name, floor)
+    return _backoff(ctx, run, out, name, floor), notes
 
 
 def _hard_from(ctx, run, x, name, budget, floor=None):
