@@ -41,10 +41,42 @@ from robrst.synthesis.mimo_design import (decoupler_of, design_axes, per_axis_co
 from robrst.synthesis.mimo_program import AxisParam
 from robrst.synthesis.mimo_start import design_scale
 
-__all__ = ["MimoComparison", "MimoDesignResult", "design_mimo", "BACK_OFF"]
+__all__ = ["Binding", "MimoComparison", "MimoDesignResult", "design_mimo", "BACK_OFF"]
 
 #: the gain factors of the last resort (module docstring, step 4)
 BACK_OFF = (0.9, 0.75, 0.5)
+
+
+@dataclass(frozen=True)
+class Binding:
+    """The figure nearest to (or furthest beyond) its bound.
+
+    Parameters
+    ----------
+    figure : str
+        The figure (``"stability"`` for an unstable loop).
+    ratio : float
+        Its ratio to its bound (``inf`` for an unstable loop).
+    model : str
+        The model's label.
+    loop : str
+        ``"continuous"`` or ``"sampled"``.
+    """
+
+    figure: str
+    ratio: float
+    model: str
+    loop: str
+
+    def as_dict(self) -> dict:
+        """The JSON form: ``figure, ratio, model, loop``.
+
+        Returns
+        -------
+        dict
+        """
+        return {"figure": self.figure, "ratio": self.ratio, "model": self.model,
+                "loop": self.loop}
 
 
 @dataclass(frozen=True, eq=False)
@@ -90,8 +122,8 @@ class MimoDesignResult:
         The answer: the best certified controller, else the best found.
     certificate : MimoCertificate
         Its certificate over the whole family.
-    binding : dict
-        The figure with the largest ratio to its bound: ``figure, ratio, model, loop``.
+    binding : Binding or None
+        The figure with the largest ratio to its bound (``None``: nothing bounded).
     rounds : tuple of MimoRound
     start : MimoController
         The per-axis designs with the decoupler (the program's start).
@@ -111,7 +143,7 @@ class MimoDesignResult:
     problem: MimoProblem
     controller: MimoController
     certificate: MimoCertificate
-    binding: dict
+    binding: Binding | None
     rounds: tuple
     start: MimoController
     comparisons: dict = field(default_factory=dict)
@@ -155,7 +187,7 @@ class MimoDesignResult:
             "controller": self.controller.as_dict(),
             "integral_gains": self.integral_gains(),
             "w_design_rad_s": self.w_design,
-            "binding": self.binding,
+            "binding": {} if self.binding is None else self.binding.as_dict(),
             "certificate": self.certificate.as_dict(),
             "rounds": [r.__dict__ for r in self.rounds],
             "comparisons": {k: v.as_dict() for k, v in self.comparisons.items()},
@@ -163,7 +195,7 @@ class MimoDesignResult:
         }
 
 
-def _binding(cert: MimoCertificate) -> dict:
+def _binding(cert: MimoCertificate) -> Binding | None:
     """The figure with the largest ratio to its bound (or the first violation's)."""
     best = None
     for rec in cert.models:
@@ -172,23 +204,23 @@ def _binding(cert: MimoCertificate) -> dict:
             if lf is None:
                 continue
             if not lf.stable:
-                return {"figure": "stability", "ratio": np.inf, "model": rec.label,
-                        "loop": loop}
+                return Binding("stability", np.inf, rec.label, loop)
             for fig, b in cert.bounds.items():
                 v = lf.value(fig)
-                if v is not None and (best is None or v / b > best["ratio"]):
-                    best = {"figure": fig, "ratio": v / b, "model": rec.label, "loop": loop}
+                if v is not None and (best is None or v / b > best.ratio):
+                    best = Binding(fig, v / b, rec.label, loop)
     if best is None and cert.violations:
         v = cert.violations[0]
-        best = {"figure": v.quantity, "ratio": v.ratio, "model": v.label, "loop": v.loop}
-    return best or {}
+        best = Binding(v.quantity, v.ratio, v.label, v.loop)
+    return best
 
 
 def _miss(cert: MimoCertificate) -> float:
     """How far ``cert``'s controller is from the specs: its binding ratio (infinite when
     a loop is unstable or a figure unbounded)."""
-    r = _binding(cert).get("ratio", np.inf)
-    return float(r) if r is not None and np.isfinite(r) else np.inf
+    b = _binding(cert)
+    r = np.inf if b is None or b.ratio is None else b.ratio
+    return float(r) if np.isfinite(r) else np.inf
 
 
 def design_mimo(problem: MimoProblem, progress: Callable[[str], None] | None = None,

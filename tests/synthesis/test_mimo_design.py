@@ -105,7 +105,7 @@ def test_an_answer_even_when_the_specs_cannot_be_met():
                           MimoSolverOptions(max_rounds=2, n_freq=40))
     result = design_mimo(problem, compare=False)
     assert not result.certified
-    assert result.binding["figure"] in ("sigma_T", "stability")
+    assert result.binding.figure in ("sigma_T", "stability")
     assert result.controller.n_axes == 2
     assert result.as_dict()["certified"] is False
     S, T = _pc_S(g, result.controller)          # independent: T(0) is the identity
@@ -127,8 +127,8 @@ def test_with_nothing_certified_the_answer_is_the_least_violating_tried():
                                           sector_S_max=3.0, sample_rate_hz=FS))
     result = design_mimo(problem, compare=False)
     assert not result.certified
-    assert result.binding["figure"] == "sector_S"
-    assert np.isfinite(result.binding["ratio"])
+    assert result.binding.figure == "sector_S"
+    assert np.isfinite(result.binding.ratio)
     start = result.comparisons["per_axis_start"]
     assert "least violating" in start.note or start.controller is result.controller
     ctrl = result.controller

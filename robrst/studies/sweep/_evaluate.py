@@ -298,8 +298,8 @@ def _mimo_design_row(state, problem):
     row["controller"] = json.dumps(result.controller.as_dict())
     if not result.certified:
         b = result.binding
-        row["message"] = (f"not certified: binding {b['figure']} at {b['ratio']:.4g} x its"
-                          f" bound on model {b['model']} ({b['loop']} loop)" if b else None)
+        row["message"] = (f"not certified: binding {b.figure} at {b.ratio:.4g} x its"
+                          f" bound on model {b.model} ({b.loop} loop)" if b else None)
     return row
 
 
