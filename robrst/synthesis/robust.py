@@ -154,7 +154,7 @@ def _synthesize(problem, start, run, extra, lower=None):
             if out.phase != "hard" and glob and placement == "free":
                 name = next((n for n, o in run.tried if o is out), "a candidate")
                 run.notes.append(f"global phase: its answer is {name} (certified as the"
-                                 " search found it: no polish improved on it)")
+                                 " global phase left it: no polish improved on it)")
             elif out.phase != "hard":
                 run.notes.append(f"the objective could not be optimised with {placement}"
                                  " nominal poles (a certified start or soft-goal point)")
@@ -543,7 +543,8 @@ def robust_synthesis(problem: Problem, start: AnalyticDesign,
         preferred start (a batch of nearby variants converges in a few iterations).
     budget : int, optional
         IPOPT iterations this synthesis may spend before it returns the best point found
-        (default ``RUN.iter_budget``, :class:`~robrst.synthesis.attempts.RunOptions`; the extra starts of a multi-start get the first's).
+        (default ``RUN.iter_budget``, :class:`~robrst.synthesis.attempts.RunOptions`; the
+        extra starts of a multi-start get the first's).
     global_phase : bool
         Search every controller of the requested degree globally before polishing
         (:mod:`robrst.synthesis.search`); with ``placement = "auto"`` the problem's own
