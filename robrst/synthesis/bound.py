@@ -59,6 +59,7 @@ from robrst.synthesis.discs import (LoopPlant, expressed_specs, integrators_of, 
                                     loop_plants, spec_discs)
 
 if TYPE_CHECKING:
+    from robrst.certificate.proof import Certificate
     from robrst.core.rst import RSTController
     from robrst.problem.records import Problem, Specs
 
@@ -983,11 +984,11 @@ class LagWitness:
         The certificate holds.
     """
 
-    controller: object
+    controller: RSTController
     a_rad_s: float
     b_rad_s: float
     factor: float
-    certificate: object
+    certificate: Certificate
 
     @property
     def certified(self):

@@ -41,6 +41,7 @@ from robrst.problem.specs import SPEC_TABLE, SPECS_BY_KEY
 if TYPE_CHECKING:
     from robrst.problem.records import Problem
     from robrst.synthesis.outcome import SynthesisResult
+    from robrst.synthesis.search import GlobalSearch
 
 __all__ = ["StartPlan", "StartOutcome", "MultiStart", "plans", "multistart_record",
            "NEIGHBOUR_STEP", "PEAK_BOUNDS"]
@@ -136,7 +137,7 @@ class MultiStart:
     objective: str
     workers: int
     wall_time_s: float
-    search: object = None
+    search: GlobalSearch | None = None
 
     def spread(self) -> dict:
         """The certified optima: best, median and worst, and ``(best - worst) / |best|``.

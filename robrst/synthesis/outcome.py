@@ -132,7 +132,7 @@ class SolveResult:
     lam_g: np.ndarray
     labels: tuple
     w0: float
-    exchange: object = None   # an exchange.ExchangeInfo (that module imports this one)
+    exchange: ExchangeInfo | None = None   # noqa: F821  (exchange imports this module)
     rates: dict = None       # model label -> sample rate [Hz] of sampled-loop models
     lam_x: np.ndarray = None
     lbx: np.ndarray = None
@@ -344,7 +344,7 @@ class SynthesisResult:
     phase: str = "hard"
     best_achievable: str = None
     notes: tuple = ()
-    search: object = None
+    search: GlobalSearch | None = None   # noqa: F821  (search imports this module)
     tried: tuple = ()
 
     @property

@@ -157,7 +157,7 @@ class WorkerState:
 
     context: SweepContext
     designer: Callable[..., DesignResult] | None = None
-    lock: object = field(default_factory=threading.Lock)
+    lock: threading.Lock = field(default_factory=threading.Lock)
     templates: dict = field(default_factory=dict)   # built NLP solvers, shared by the variants
 
 
