@@ -30,8 +30,8 @@ from robrst.certificate.mimo import check_models
 from robrst.core.mimo import MimoPlant
 from robrst.core.mimo_loop import MimoController
 from robrst.problem.mimo import MimoProblem, MimoSolverOptions, MimoSpecs
-from robrst.synthesis.mimo_program import (NYQUIST_FLOOR, PROGRAM_FIGURES, AxisParam, GridRows,
-                                           MimoProgram)
+from robrst.synthesis.mimo_program import (NYQUIST_FLOOR, PROGRAM_FIGURES, SECTOR_FIGURES,
+                                           AxisParam, GridRows, MimoProgram, Sector)
 from robrst.synthesis.mimo_start import (axis_plant, loop_plants,
                                          nu_of, program_grid, start_gain, static_decoupler)
 
@@ -167,6 +167,10 @@ class _Grid:
         return (np.concatenate(nus), np.concatenate(Gs), np.concatenate(Ws),
                 np.concatenate(xt))
 
+    def segments(self):
+        """``(K,)``: the loop of every point of :meth:`arrays`."""
+        return np.repeat(np.arange(len(self.w)), [len(w) for w in self.w])
+
     def add(self, k, freqs):
         ws = [self.w[k]]
         for f in freqs:
@@ -184,6 +188,7 @@ class _Grid:
 
 GRID_MARGIN = 0.02      # the program holds the bounds 2 % tighter than the certificate
 EXCHANGES = 4           # row exchanges within one round (points violated but not selected)
+SECTOR_LOW = 1e-5       # with sector rows, a point this far below the crossover scale
 
 
 def _objective(axes, x, signs):
@@ -242,8 +247,19 @@ def program_rounds(name: str, models: Sequence[MimoPlant], specs: MimoSpecs,
     xt_bound = specs.bounded.get("crosstalk") if T_mode == "feedback" else None
     xt_bound = None if xt_bound is None else xt_bound / (1 + GRID_MARGIN)
     band = specs.crosstalk_band_rad_s
+    # the sector's figures: the scaled small-gain rows (one scaling per loop and figure,
+    # found at each round's start on the program's points, shared with the validation grid)
+    sector = {f: b / (1 + GRID_MARGIN) for f, b in specs.bounded.items()
+              if f in SECTOR_FIGURES}
+    delta = specs.input_gain_deviation
     allm = list(models) + list(extra_models)
     loops = loop_plants(allm, specs)
+
+    def grid_rows():
+        nu, G, Wr, xt = grid.arrays(W, band)
+        sec = Sector(delta, sector, grid.segments()) if sector and delta else None
+        return GridRows(axes, nu, G, Wr, bounds or {"sigma_S": 1e6}, xt_bound, xt, sec)
+
     # with a rate the sampled loops (the one that runs) get the full grid, the continuous
     # loops fewer log-spaced points (their resonances all the same); both gain the points
     # where the exact check finds a peak
@@ -251,6 +267,10 @@ def program_rounds(name: str, models: Sequence[MimoPlant], specs: MimoSpecs,
                          if lp.fs or not specs.sampled else
                          program_grid(allm[lp.model], None, w_design, max(10, so.n_freq // 4))
                          for lp in loops])
+    if sector:
+        # the sector's rows hold delta Ti and delta U, flat below the crossover at their
+        # values at 0 (T_i(0) = I with integral action): a point far below it
+        grid.w = [np.unique(np.concatenate([[SECTOR_LOW * w_design], w])) for w in grid.w]
     ipopt = {"max_iter": so.max_iter, "tol": so.ipopt_tol, "print_level": 0, "sb": "yes",
              "acceptable_tol": 1e-5, "acceptable_iter": 5}
     # the validation grid: every candidate is evaluated there (numerically, cheap) and the
@@ -258,10 +278,13 @@ def program_rounds(name: str, models: Sequence[MimoPlant], specs: MimoSpecs,
     dense = []
     for lp in loops:
         w = program_grid(allm[lp.model], lp.fs, w_design, 4 * so.n_freq, dense=True)
+        if sector:
+            w = np.concatenate([[SECTOR_LOW * w_design], w])
         nu = nu_of(w, lp.fs)
+        sec = Sector(delta, sector, np.zeros(len(nu), int)) if sector and delta else None
         dense.append((w, GridRows(axes, nu, lp.plant.freqresp(nu), _w_response(W, nu),
                                   bounds or {"sigma_S": 1e6}, xt_bound,
-                                  (w >= band[0]) & (w <= band[1]))))
+                                  (w >= band[0]) & (w <= band[1]), sec)))
 
     def misses(x, limit):
         """Validation points above ``limit`` (local maxima, a few per loop) or out of the
@@ -290,12 +313,15 @@ def program_rounds(name: str, models: Sequence[MimoPlant], specs: MimoSpecs,
     feasible = x if stable and not viols else None
     for r in range(so.max_rounds):
         t0 = time.perf_counter()
-        nu, G, Wr, xt = grid.arrays(W, band)
-        rows = GridRows(axes, nu, G, Wr, bounds or {"sigma_S": 1e6}, xt_bound, xt)
+        rows = grid_rows()
+        nu = rows.nu
         if viols and feasible is not None:
             # the last candidate missed a peak between points (now on the grid): solve again
             # from the last controller the exact check passed
             x, stable, viols = feasible, True, []
+        rows.set_scaling(x)
+        for k, (_, dr) in enumerate(dense):
+            dr.set_scaling(scales={f: v[k:k + 1] for f, v in rows.scales.items()})
         t_start = rows.worst(x)
         phase = "hard" if t_start <= 1.0 + 2 * GRID_MARGIN else "soft"
         if stable:
@@ -309,6 +335,8 @@ def program_rounds(name: str, models: Sequence[MimoPlant], specs: MimoSpecs,
                                                  phase)
             if np.all(np.isfinite(sol["x"])):
                 cand = sol["x"]
+            for k, (_, dr) in enumerate(dense):       # the solve's sector scalings
+                dr.set_scaling(scales={f: v[k:k + 1] for f, v in rows.scales.items()})
             limit = 1.0 if phase == "hard" else sol["t"]
             hp = rows.halfplane(cand)
             out = [("nyquist", int(k)) for k in np.flatnonzero(hp < 0.999 * NYQUIST_FLOOR)]
@@ -318,9 +346,10 @@ def program_rounds(name: str, models: Sequence[MimoPlant], specs: MimoSpecs,
             if miss:          # new points: the rows of a grown grid
                 for k, fr in miss.items():
                     grid.add(k, fr)
-                nu, G, Wr, xt = grid.arrays(W, band)
                 old_rows = rows
-                rows = GridRows(axes, nu, G, Wr, bounds or {"sigma_S": 1e6}, xt_bound, xt)
+                rows = grid_rows()
+                nu = rows.nu
+                rows.set_scaling(scales=old_rows.scales)
                 if old_rows.d0 is not None:
                     rows.set_reference(x)
                 rows.select(cand, floor=0.3)

@@ -17,7 +17,26 @@ singular triplet ``(sigma, u, v)``::
     d sigma = Re(u^H dN w) - sigma Re(v^H dP w),   w = P^-1 v,
 
 and crosstalk (``T_mode = "feedback"``: ``Tr = T``) the rows ``|T_ij| / c - t <= 0``,
-``i != j``, over its band.  The rows are evaluated in numpy (:class:`GridRows`, every
+``i != j``, over its band.
+
+**The sector's figures** (``sector_S``, ``sector_T``, ``sector_U`` of
+:func:`robrst.certificate.mimo.sector_figures`: the peaks for every input gain in
+``[1 - delta, 1 + delta]``, the deviation any causal operator of gain ``<= delta`` per
+input).  The certificate proves ``sector_X <= gamma`` when ``sigma_max(N) < 1`` at every
+frequency for one constant positive diagonal ``D`` (:func:`robrst.certificate.mimo.
+scaled_sector_peak`), ``N = diag(D, I) N_gamma diag(D^-1, I)`` with ``N_gamma = [[delta Ti,
+delta U], [E_w / gamma, E_v / gamma]]`` (``E_w, E_v = Sd, S`` for ``S``; ``-Sd, T`` for
+``T``; ``Ti, U`` for ``K S``).  Every block is ``. P^-1 .``, so ``N = L P^-1 Q + E`` with
+``L = [delta D W diag(R); B]`` (``B = diag(S)``, ``-diag(S)``, ``W diag(R)``, over
+``gamma``) affine in ``x``, ``Q = [G D^-1, I]`` numeric and ``E`` constant (``T = I - S``:
+``E`` holds ``I / gamma`` in its last block, zero otherwise).  The row is ``sigma_max(N) -
+t <= 0`` (``gamma`` the bound), its gradient ``Re(u^H dL a) - Re(b^H dP a)`` with ``a =
+P^-1 Q v`` and ``b^H = u^H L P^-1``.  ``D`` is one per loop and figure, and its logarithms
+are program variables beside ``x`` (a scaling fixed while the controller moves, as in D-K
+iteration, stalls where the two must move together): ``d sigma / d log D_i = sigma (|u_i|^2
+- |v_i|^2)``.  :meth:`GridRows.set_scaling` starts them at each round, minimising the
+loop's largest ``sigma_max(N)`` over its points (convex in ``log D``, Sezginer and Overton
+1990).  The rows are evaluated in numpy (:class:`GridRows`, every
 point at once) and enter IPOPT through a CasADi callback with its exact Jacobian;
 IPOPT's Hessian is its limited-memory approximation.  Only the points whose figure is
 near its bound enter a solve (:meth:`GridRows.select`); the caller checks the whole grid
@@ -60,12 +79,14 @@ from robrst.synthesis._nlp import routh_column, shift_matrix
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
-__all__ = ["AxisParam", "GridRows", "MimoProgram", "PROGRAM_FIGURES", "TINY", "CTRL_DECAY",
-           "NYQUIST_FLOOR"]
+__all__ = ["AxisParam", "GridRows", "MimoProgram", "PROGRAM_FIGURES", "SECTOR_FIGURES",
+           "Sector", "TINY", "CTRL_DECAY", "NYQUIST_FLOOR"]
 
 #: the figures the program constrains: their numerator, and whether ``P' = G^-1 P``
 PROGRAM_FIGURES = {"sigma_S": ("S", False), "sigma_T": ("MR", False),
                    "sigma_U": ("WR", False), "sigma_Sd": ("S", True), "sigma_Ti": ("WR", True)}
+#: the sector's figures the program bounds (module docstring), each with its bottom block
+SECTOR_FIGURES = {"sector_S": "S", "sector_T": "-S", "sector_U": "WR"}
 TINY = 1e-20
 #: every axis's own poles (roots of ``S_i'``) have ``Re p <= -CTRL_DECAY w0``: the integral
 #: gain ``R(0)/S'(0)`` cannot grow by pushing a pole of ``S'`` to the origin (a second
@@ -78,6 +99,33 @@ NYQUIST_FLOOR = 0.05
 #: the half-plane rows of a solve: points where a figure is at least this share of its
 #: bound (the others join by exchange when a solution leaves the half-plane there)
 HALFPLANE_NEAR = 0.5
+#: a solve moves the sector's scalings by at most this factor's logarithm (a trust region:
+#: far from the start a scaling can only make the rows' singular values overflow)
+LOG_SCALE_STEP = np.log(30.0)
+
+
+@dataclass(frozen=True, eq=False)
+class Sector:
+    """The sector's rows of a grid (:class:`GridRows`, module docstring).
+
+    Parameters
+    ----------
+    delta : float
+        The sector's half-width (``input_gain_deviation``).
+    bounds : dict
+        ``{figure: gamma}``: the bounded figures of :data:`SECTOR_FIGURES`.
+    segments : numpy.ndarray
+        ``(K,)``: the loop of every point (one scaling ``D`` per loop and figure).
+    """
+
+    delta: float
+    bounds: dict
+    segments: np.ndarray
+
+    @property
+    def loops(self) -> int:
+        """How many loops (segments) the points belong to."""
+        return int(np.max(self.segments)) + 1 if len(self.segments) else 0
 
 
 @dataclass(frozen=True)
@@ -254,16 +302,19 @@ class GridRows:
         The crosstalk bound (``T_mode = "feedback"`` only).
     xt_mask : numpy.ndarray
         ``(K,)``: the points inside the crosstalk band.
+    sector : Sector, optional
+        The sector's figures and the points' loops (their rows' bound is 1: ``gamma`` is
+        inside the matrix).
 
     Notes
     -----
     ``rows`` holds the selected rows: ``(figure, point)``, ``("crosstalk", point, i, j)``
-    or ``("nyquist", point)``.
+    or ``("nyquist", point)``; ``scales`` the sector's ``D``: ``{figure: (loops, m)}``.
     """
 
     def __init__(self, axes: Sequence[AxisParam], nu: np.ndarray, G: np.ndarray,
                  W: np.ndarray, bounds: dict, crosstalk: float | None,
-                 xt_mask: np.ndarray) -> None:
+                 xt_mask: np.ndarray, sector: Sector | None = None) -> None:
         self.axes = tuple(axes)
         self.m = m = len(self.axes)
         self.offsets = np.cumsum([0] + [a.n_x for a in self.axes])
@@ -276,6 +327,12 @@ class GridRows:
         self.bounds = dict(bounds)
         self.crosstalk = crosstalk if m > 1 else None
         self.xt_mask = np.asarray(xt_mask, bool)
+        self.sector = sector if sector is not None and sector.bounds else None
+        self.scales = ({} if self.sector is None else
+                       {f: np.ones((self.sector.loops, m)) for f in self.sector.bounds})
+        #: the program's variables: ``x``, then the sector's ``log D`` (loop by loop, per
+        #: figure in :attr:`scales`' order)
+        self.nd = sum(v.size for v in self.scales.values())
         self.bases = [a.basis(self.nu) for a in self.axes]
         self.K = len(self.nu)
         self.d0 = None
@@ -331,7 +388,95 @@ class GridRows:
                 T = (self.M * R[:, None, :]) @ Pi
                 T = np.abs(T) * (1 - np.eye(m))[None] * self.xt_mask[:, None, None]
                 out["crosstalk"] = T / self.crosstalk
+            for f in self.scales:
+                L, Q, E = self._sector(f, R, S)
+                out[f] = np.linalg.norm(L @ Pi @ Q + E, 2, axis=(1, 2))
         return {k: np.where(np.isfinite(v), v, np.inf) for k, v in out.items()}
+
+    def _sector(self, f, R, S, ks=slice(None), scales=None):
+        """``L (n, 2m, m)``, ``Q (n, m, 2m)`` and ``E (2m, 2m)`` of the sector figure
+        ``f``'s matrix ``N = L P^-1 Q + E`` at the points ``ks`` (``R, S`` of those points;
+        ``scales``: ``(n, m)`` instead of the points' own ``D``)."""
+        m, sec = self.m, self.sector
+        gamma = sec.bounds[f]
+        D = self.scales[f][sec.segments[ks]] if scales is None else scales
+        WR = self.W[ks] * R[:, None, :]
+        Sm = np.eye(m)[None] * S[:, None, :]
+        bottom = {"S": Sm, "-S": -Sm, "WR": WR}[SECTOR_FIGURES[f]] / gamma
+        L = np.concatenate([sec.delta * D[:, :, None] * WR, bottom], axis=1)
+        Q = np.concatenate([self.G[ks] / D[:, None, :],
+                            np.broadcast_to(np.eye(m), (len(D), m, m))], axis=2)
+        E = np.zeros((2 * m, 2 * m))
+        if SECTOR_FIGURES[f] == "-S":
+            E[m:, m:] = np.eye(m) / gamma
+        return L, Q, E
+
+    @property
+    def log_scales(self) -> np.ndarray:
+        """``(nd,)``: the sector's ``log D`` as program variables."""
+        return np.concatenate([np.log(v).ravel() for v in self.scales.values()] or
+                              [np.zeros(0)])
+
+    def _unpack(self, logd):
+        """:attr:`scales` of program variables ``log D``."""
+        out, pos = {}, 0
+        for f, v in self.scales.items():
+            out[f] = np.exp(np.asarray(logd[pos:pos + v.size], float)).reshape(v.shape)
+            pos += v.size
+        return out
+
+    def set_scaling(self, x: np.ndarray | None = None, scales: dict | None = None) -> None:
+        """The sector's ``D``, one per loop and figure: given (``scales``, as
+        :attr:`scales`), or minimising each loop's largest ``sigma_max(N)`` over its points
+        at ``x`` (Nelder-Mead in ``log D`` from the blocks' balance: the function is convex
+        in ``log D``).
+
+        Parameters
+        ----------
+        x : numpy.ndarray, optional
+        scales : dict, optional
+        """
+        if self.sector is None:
+            return
+        self._cache = (None, None)
+        if scales is not None:
+            self.scales = {f: np.array(scales[f], float) for f in self.scales}
+            return
+        from scipy import optimize      # SciPy loads with the first sector row asked
+
+        R, S = self._parts(x)
+        P = self.M * R[:, None, :] + np.eye(self.m)[None] * S[:, None, :]
+        with np.errstate(all="ignore"):
+            Pi = np.linalg.inv(P)
+        m = self.m
+        for f in self.scales:
+            for seg in range(self.sector.loops):
+                ks = np.flatnonzero(self.sector.segments == seg)
+                if not ks.size:
+                    continue
+                Rk, Sk, Pk = R[ks], S[ks], Pi[ks]
+                L, Q, E = self._sector(f, Rk, Sk, ks, np.ones((len(ks), m)))
+                N = L @ Pk @ Q + E
+                # the blocks' balance: |top right| D = |bottom left| / D
+                tr = np.linalg.norm(N[:, :m, m:], 2, axis=(1, 2))
+                bl = np.linalg.norm(N[:, m:, :m], 2, axis=(1, 2))
+                ok = np.isfinite(tr) & np.isfinite(bl)
+                if not np.any(ok) or np.max(tr[ok]) <= 0 or np.max(bl[ok]) <= 0:
+                    continue
+                d0 = 0.5 * np.log(np.max(bl[ok]) / np.max(tr[ok]))
+
+                def worst(logd):
+                    D = np.broadcast_to(np.exp(logd), (len(ks), m))
+                    Lk, Qk, Ek = self._sector(f, Rk, Sk, ks, D)
+                    v = np.linalg.norm(Lk[ok] @ Pk[ok] @ Qk[ok] + Ek, 2, axis=(1, 2))
+                    return float(np.max(v))
+
+                x0 = np.full(m, d0)
+                res = optimize.minimize(worst, x0, method="Nelder-Mead",
+                                        options={"initial_simplex": x0 + np.vstack(
+                                            [np.zeros(m), 0.5 * np.eye(m)]),
+                                            "xatol": 1e-3, "fatol": 1e-4, "maxfev": 200 * m})
+                self.scales[f][seg] = np.exp(res.x)
 
     def _N(self, f, R, S, ks=slice(None)):
         """The numerator of figure ``f`` at the points ``ks`` (``R, S`` of those points)."""
@@ -378,7 +523,7 @@ class GridRows:
         """
         rows = {k for k in keep if k[0] != "nyquist"}
         r = None if x is None else self.ratios(x)
-        for f in self.bounds:
+        for f in list(self.bounds) + list(self.scales):
             idx = range(self.K) if r is None else np.flatnonzero(r[f] >= floor)
             rows.update((f, int(k)) for k in idx)
         if self.crosstalk is not None:
@@ -425,11 +570,12 @@ class GridRows:
         return np.array([0.0 if r[0] == "nyquist" else 1.0 for r in self.rows])
 
     def evaluate(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The selected rows' ratios and their Jacobian ``(rows, nx)``.
+        """The selected rows' ratios and their Jacobian ``(rows, nx + nd)``.
 
         Parameters
         ----------
         x : numpy.ndarray
+            ``x``, then the sector's ``log D`` (``nd`` of them; :attr:`scales` is set).
 
         Returns
         -------
@@ -439,6 +585,9 @@ class GridRows:
         if self._cache[0] == key:
             return self._cache[1]
         m, nx = self.m, self.nx
+        if self.nd:
+            self.scales = self._unpack(x[nx:])
+            x = x[:nx]
         R, S = self._parts(x)
         P = self.M * R[:, None, :] + np.eye(m)[None] * S[:, None, :]
         with np.errstate(all="ignore"):
@@ -454,7 +603,7 @@ class GridRows:
         eye = np.eye(m)
         dP = self.M[:, None] * dR[:, :, None, :] + eye[None, None] * dS[:, :, None, :]
         g = np.zeros(len(self.rows))
-        J = np.zeros((len(self.rows), nx))
+        J = np.zeros((len(self.rows), nx + self.nd))
         by = {}
         for n, row in enumerate(self.rows):
             by.setdefault(row[0], []).append(n)
@@ -464,7 +613,7 @@ class GridRows:
                 r = np.linalg.det(P[ks]) / self.d0[ks]
                 tr = np.einsum("kji,klij->kl", Pi[ks], dP[ks])
                 g[ns] = NYQUIST_FLOOR - r.real
-                J[ns] = -(r[:, None] * tr).real
+                J[ns, :nx] = -(r[:, None] * tr).real
                 continue
             if f == "crosstalk":
                 Mk, Rk, Pik = self.M[ks], R[ks], Pi[ks]
@@ -479,7 +628,14 @@ class GridRows:
                 mag = np.abs(xij)
                 g[ns] = mag / self.crosstalk
                 ph = np.conj(xij) / np.where(mag > 0, mag, 1.0)
-                J[ns] = (ph[:, None] * dX[a, :, ii, jj]).real / self.crosstalk
+                J[ns, :nx] = (ph[:, None] * dX[a, :, ii, jj]).real / self.crosstalk
+                continue
+            if f in self.scales:
+                g[ns], J[ns, :nx], dd = self._sector_rows(f, ks, R, S, Pi, dR, dS, dP)
+                # d sigma / d log D: the column of the point's loop and input
+                first = self._offset(f) + self.sector.segments[ks] * m
+                for i in range(m):
+                    J[ns, nx + first + i] = dd[:, i]
                 continue
             b = self.bounds[f]
             prime = PROGRAM_FIGURES[f][1]
@@ -506,11 +662,46 @@ class GridRows:
             t1 = np.einsum("ki,klij,kj->kl", np.conj(u), dN, w)
             t2 = np.einsum("ki,klij,kj->kl", np.conj(v), dPk, w)
             g[ns] = sig / b
-            J[ns] = (t1 - sig[:, None] * t2).real / b
+            J[ns, :nx] = (t1 - sig[:, None] * t2).real / b
         g = np.where(np.isfinite(g), g, 1e6)
         J = np.where(np.isfinite(J), J, 0.0)
         self._cache = (key, (g, J))
         return g, J
+
+    def _sector_rows(self, f, ks, R, S, Pi, dR, dS, dP):
+        """The sector figure ``f``'s rows at the points ``ks``: ``sigma_max(N)`` and its
+        gradient (module docstring)."""
+        m = self.m
+        Rk, Sk, X = R[ks], S[ks], Pi[ks]
+        L, Q, E = self._sector(f, Rk, Sk, ks)
+        U, sv, Vh = np.linalg.svd(L @ X @ Q + E)
+        u, sig, v = U[:, :, 0], sv[:, 0], np.conj(Vh[:, 0, :])
+        a = np.einsum("kij,kj->ki", X, np.einsum("kij,kj->ki", Q, v))     # P^-1 Q v
+        b = np.einsum("ki,kij,kjl->kl", np.conj(u), L, X)                 # u^H L P^-1
+        sec = self.sector
+        D = self.scales[f][sec.segments[ks]]
+        WdR = self.W[ks][:, None] * dR[ks][:, :, None, :]                # (n, nx, m, m)
+        kind = SECTOR_FIGURES[f]
+        if kind == "WR":
+            bottom = WdR
+        else:
+            bottom = (1.0 if kind == "S" else -1.0) * np.eye(m)[None, None] \
+                * dS[ks][:, :, None, :]
+        dL = np.concatenate([sec.delta * D[:, None, :, None] * WdR,
+                             bottom / sec.bounds[f]], axis=2)            # (n, nx, 2m, m)
+        t1 = np.einsum("ki,klij,kj->kl", np.conj(u), dL, a)
+        t2 = np.einsum("ki,klij,kj->kl", b, dP[ks], a)
+        dlogd = sig[:, None] * (np.abs(u[:, :m]) ** 2 - np.abs(v[:, :m]) ** 2)
+        return sig, (t1 - t2).real, dlogd
+
+    def _offset(self, f):
+        """Where figure ``f``'s ``log D`` start among the sector's variables."""
+        pos = 0
+        for g, v in self.scales.items():
+            if g == f:
+                return pos
+            pos += v.size
+        raise KeyError(f)
 
 
 class _Rows(ca.Callback):
@@ -528,7 +719,7 @@ class _Rows(ca.Callback):
         return 1
 
     def get_sparsity_in(self, i):
-        return ca.Sparsity.dense(self.grid.nx, 1)
+        return ca.Sparsity.dense(self.grid.nx + self.grid.nd, 1)
 
     def get_sparsity_out(self, i):
         return ca.Sparsity.dense(self.n, 1)
@@ -559,10 +750,11 @@ class _RowsJacobian(ca.Callback):
         return 1
 
     def get_sparsity_in(self, i):
-        return ca.Sparsity.dense(self.grid.nx, 1) if i == 0 else ca.Sparsity.dense(self.n, 1)
+        return (ca.Sparsity.dense(self.grid.nx + self.grid.nd, 1) if i == 0
+                else ca.Sparsity.dense(self.n, 1))
 
     def get_sparsity_out(self, i):
-        return ca.Sparsity.dense(self.n, self.grid.nx)
+        return ca.Sparsity.dense(self.n, self.grid.nx + self.grid.nd)
 
     def eval(self, arg):
         return [self.grid.evaluate(np.array(arg[0], float).ravel())[1]]
@@ -581,9 +773,9 @@ class MimoProgram:
 
     def __init__(self, grid: GridRows, ipopt: dict) -> None:
         self.grid = grid
-        nx, m = grid.nx, grid.m
-        X = ca.MX.sym("X", nx + 2)
-        x, t, z = X[:nx], X[nx], X[nx + 1]
+        nx, nd, m = grid.nx, grid.nd, grid.m
+        X = ca.MX.sym("X", nx + nd + 2)
+        x, t, z = X[:nx], X[nx + nd], X[nx + nd + 1]
         self._rows = _Rows(grid)
         coef = ca.MX.sym("coef", 3)
         signs = ca.MX.sym("sign", m)
@@ -605,7 +797,7 @@ class MimoProgram:
             obj -= coef[1] * TIE_BREAK * logk
         self.n_extra = int(sum(e.numel() for e in extra))
         self.n_rows = len(grid.rows)
-        g = ca.vertcat(self._rows(x) - t * ca.DM(grid.spec_mask), *extra)
+        g = ca.vertcat(self._rows(X[:nx + nd]) - t * ca.DM(grid.spec_mask), *extra)
         ip = {"hessian_approximation": "limited-memory",
               "limited_memory_initialization": "constant", "limited_memory_init_val": 1e-4,
               **dict(ipopt)}
@@ -633,24 +825,29 @@ class MimoProgram:
         Returns
         -------
         dict
-            ``status, x, t, f, iterations``.
+            ``status, x, t, f, iterations``; the sector's scalings at the solution are
+            the grid's (:attr:`GridRows.scales`).
         """
-        nx = self.grid.nx
+        nx, nd = self.grid.nx, self.grid.nd
         coef = np.array([1.0, 1e-3, reg]) if phase == "soft" else np.array([0.0, 1.0, reg])
         p = np.concatenate([coef, np.asarray(signs, float), x0])
         lbg = np.concatenate([np.full(self.n_rows, -np.inf), np.full(self.n_extra, 1e-9)])
         ubg = np.concatenate([np.zeros(self.n_rows), np.full(self.n_extra, np.inf)])
-        lbx, ubx = np.full(nx + 2, -np.inf), np.full(nx + 2, np.inf)
+        lbx, ubx = np.full(nx + nd + 2, -np.inf), np.full(nx + nd + 2, np.inf)
+        logd = self.grid.log_scales
+        lbx[nx:nx + nd], ubx[nx:nx + nd] = logd - LOG_SCALE_STEP, logd + LOG_SCALE_STEP
         if phase == "hard":
-            lbx[nx] = ubx[nx] = 1.0
+            lbx[nx + nd] = ubx[nx + nd] = 1.0
         else:                   # down to the bounds, then the gains (not more robustness)
-            lbx[nx] = 1.0
+            lbx[nx + nd] = 1.0
         ks = [np.asarray(signs, float)[i] * self.grid.axes[i].integral_gain(
             x0[self.grid.offsets[i]:self.grid.offsets[i + 1]]) for i in range(self.grid.m)]
         z0 = float(np.log(max(min(ks), 1e-300))) - 1e-6
-        X0 = np.concatenate([x0, [1.0 if phase == "hard" else t0, z0]])
+        X0 = np.concatenate([x0, logd, [1.0 if phase == "hard" else t0, z0]])
         sol = self.solver(x0=X0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         st = self.solver.stats()
         X = np.array(sol["x"]).ravel()
-        return {"status": st["return_status"], "x": X[:nx], "t": float(X[nx]),
+        if nd:
+            self.grid.set_scaling(scales=self.grid._unpack(X[nx:nx + nd]))
+        return {"status": st["return_status"], "x": X[:nx], "t": float(X[nx + nd]),
                 "f": float(sol["f"]), "iterations": int(st.get("iter_count", 0))}

@@ -113,30 +113,86 @@ def test_an_answer_even_when_the_specs_cannot_be_met():
 
 
 def test_with_nothing_certified_the_answer_is_the_least_violating_tried():
-    """A sector performance bound the program does not target (one axis, a lightly damped
-    resonance, ``sector_S_max = 3`` under a 30 % input-gain sector): nothing certifies.
-    The answer was the joint program's last point, outside the sector's own stability
-    (sigma_max(T_i) 4.4 > 1 / delta, its per-axis start at 1.0); now the least violating
-    controller tried.  Checked with python-control: the answer's loop is stable and its
-    sigma_max(T_i) on a dense grid stays below 1 / delta, so the sector's small-gain
-    stability holds for it."""
+    """A sector performance bound no controller meets (one axis, a lightly damped
+    resonance, ``sector_S_max = 1`` under a 30 % input-gain sector: ``S`` tends to 1 at
+    high frequency and peaks above it): nothing certifies.  The answer was once the joint
+    program's last point, outside the sector's own stability bound (``sigma_max(T_i)``
+    4.4 > 1 / delta); it is the least violating controller tried.  Checked with
+    python-control: the answer's loop is stable and its ``sigma_max(T_i)`` on a dense grid
+    stays below 1 / delta, so the sector's small-gain stability holds for it."""
     g = control.tf([2e7], [1, 300, 2e7])
     delta = 0.3
     problem = MimoProblem("one axis", MimoFamily((MimoPlant.from_control(g, "cold", 20.0),)),
                           specs=MimoSpecs(sigma_S_max=2.0, input_gain_deviation=delta,
-                                          sector_S_max=3.0, sample_rate_hz=FS))
+                                          sector_S_max=1.0, sample_rate_hz=FS))
     result = design_mimo(problem, compare=False)
     assert not result.certified
     assert result.binding.figure == "sector_S"
     assert np.isfinite(result.binding.ratio)
-    start = result.comparisons["per_axis_start"]
-    assert "least violating" in start.note or start.controller is result.controller
     ctrl = result.controller
     num, den = [[list(ctrl.axes[0].R)]], [[list(ctrl.axes[0].S)]]
     K = control.ss([], [], [], ctrl.decoupler) * control.ss(control.tf(num, den))
     Ti = control.feedback(K * control.ss(g), control.ss([], [], [], np.eye(1)))
     assert np.all(np.real(control.poles(Ti)) < 0)
     assert refined_max(Ti, 0.5, 1e6)[0] < 1 / delta
+
+
+def _gains_check(g, ctrl, delta, bound, n=5):
+    """python-control's loops with constant input gains in the sector (every corner of
+    ``[1 - delta, 1 + delta]^m`` and ``n`` seeded draws): stable, and ``sigma_max(S)`` on a
+    dense grid (continuous loop) within the sector bound.  Constant gains are a special
+    case of the deviations the sector figures cover, so this can only refute them."""
+    m = g.ninputs
+    axes, W = ctrl.axes, ctrl.decoupler
+    num = [[list(axes[j].R) if i == j else [0.0] for j in range(m)] for i in range(m)]
+    den = [[list(axes[j].S) if i == j else [1.0] for j in range(m)] for i in range(m)]
+    K = control.ss([], [], [], W) * control.ss(control.tf(num, den))
+    rng = np.random.default_rng(7)
+    corners = np.array(np.meshgrid(*[[1 - delta, 1 + delta]] * m)).reshape(m, -1).T
+    worst = 0.0
+    for k in np.vstack([corners, rng.uniform(1 - delta, 1 + delta, (n, m))]):
+        Gk = control.ss(g) * control.ss([], [], [], np.diag(k))
+        S = control.feedback(control.ss([], [], [], np.eye(m)), Gk * K)
+        assert np.all(np.real(S.poles()) < 0), k
+        worst = max(worst, refined_max(S, 0.5, 1e6)[0])
+    assert worst <= bound * 1.001, (worst, bound)
+    return worst
+
+
+def test_the_program_holds_a_sector_bound():
+    """``sector_S_max`` targeted by the joint program (its scaled small-gain rows, the
+    scalings program variables): one axis, a lightly damped resonance, a 30 % sector.
+    Before the rows, ``sector_S <= 3`` did not certify (the answer: 5.96); now 2 does, and
+    python-control's loops at gains across the sector stay within it."""
+    g = control.tf([2e7], [1, 300, 2e7])
+    delta = 0.3
+    problem = MimoProblem("one axis", MimoFamily((MimoPlant.from_control(g, "cold", 20.0),)),
+                          specs=MimoSpecs(sigma_S_max=2.0, input_gain_deviation=delta,
+                                          sector_S_max=2.0, sample_rate_hz=FS))
+    result = design_mimo(problem, compare=False)
+    assert result.certified, [v.describe() for v in result.certificate.violations]
+    assert result.binding.figure == "sector_S" and result.binding.ratio > 0.9
+    _gains_check(g, result.controller, delta, 2.0)
+
+
+@pytest.mark.slow
+def test_a_coupled_stage_meets_its_sector_bound():
+    """Two coupled axes over two models, a 20 % sector per input and ``sector_S_max =
+    2.5``: certified (sector_S binding), and python-control's loops with the input gains
+    at the sector's corners and between them stay within the bound."""
+    ga, gb = random_stage(0, 2, spread=0.04)
+    problem = MimoProblem(
+        "stage0", MimoFamily((MimoPlant.from_control(ga, "cold", 20.0),
+                              MimoPlant.from_control(gb, "hot", 40.0))),
+        MimoStructure(extra_degree=1),
+        MimoSpecs(sigma_S_max=2.0, input_gain_deviation=0.2, sector_S_max=2.5,
+                  sample_rate_hz=FS),
+        MimoSolverOptions(max_rounds=4, n_freq=60))
+    result = design_mimo(problem, compare=False)
+    assert result.certified, [v.describe() for v in result.certificate.violations]
+    assert result.binding.figure == "sector_S"
+    for gm in (ga, gb):
+        _gains_check(gm, result.controller, 0.2, 2.5)
 
 
 def test_refusals():
