@@ -207,7 +207,7 @@ def run(data=None, out=Path("reports/mirror_mimo"), quick=False):
             cert.worst("sigma_S", "sampled"),
         "crosstalk_worst_sampled": cert.worst("crosstalk", "sampled"),
         "bandwidth_hz_sampled": {m.label: list(m.sampled.bandwidth_hz) for m in members},
-        "interval": cert.interval.get("statement"),
+        "interval": cert.interval.statement,
         "binding": result.binding and result.binding.as_dict(),
         "comparisons": {k: {"certified": v.certificate.certified,
                             "ratios": v.certificate.ratios(),

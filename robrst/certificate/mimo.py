@@ -59,6 +59,7 @@ if TYPE_CHECKING:
     from robrst.problem.mimo import MimoProblem
 
 __all__ = ["MimoLoopFigures", "MimoModelRecord", "MimoViolation", "MimoCertificate",
+           "MimoInterval", "MimoSegment", "SegmentLoopProof",
            "certify_mimo", "certify_mimo_problem", "check_models", "loop_figures",
            "sector_figures", "scaled_sector_peak", "stability_radius",
            "REFINE_RATIO", "LOOPS"]
@@ -279,6 +280,104 @@ class MimoViolation:
                 "loop": self.loop, "kind": self.kind}
 
 
+@dataclass(frozen=True)
+class SegmentLoopProof:
+    """What was proved of one loop between two neighbouring models.
+
+    Parameters
+    ----------
+    stability : {"small_gain", "not_proved"}
+        Every combination stable (the small-gain intervals of the checked points cover
+        the segment), or not proved.
+    gaps_lam : tuple of (float, float)
+        Where no interval reaches (``lam`` in ``[0, 1]``).
+    """
+
+    stability: str
+    gaps_lam: tuple = ()
+
+    def as_dict(self) -> dict:
+        """``{"stability", "gaps_lam"}``.
+
+        Returns
+        -------
+        dict
+        """
+        return {"stability": self.stability, "gaps_lam": [list(g) for g in self.gaps_lam]}
+
+
+@dataclass(frozen=True)
+class MimoSegment:
+    """The check between two neighbouring models of the family.
+
+    Parameters
+    ----------
+    between : tuple of str
+        The two models' labels.
+    range : tuple of float
+        Their parameter values.
+    points : int
+        Points checked on the segment, its ends included.
+    proof : dict
+        ``{loop: SegmentLoopProof}``.
+    radius_start, radius_end : dict
+        ``{loop: stability radius}`` at the two ends (``lam`` 0 and 1).
+    """
+
+    between: tuple
+    range: tuple
+    points: int
+    proof: dict
+    radius_start: dict
+    radius_end: dict
+
+    def as_dict(self) -> dict:
+        """The JSON's segment: ``between, range, points, proof, radius_at_ends``.
+
+        Returns
+        -------
+        dict
+        """
+        return {"between": list(self.between), "range": list(self.range),
+                "points": self.points,
+                "proof": {k: v.as_dict() for k, v in self.proof.items()},
+                "radius_at_ends": {"0.0": dict(self.radius_start),
+                                   "1.0": dict(self.radius_end)}}
+
+
+@dataclass(frozen=True)
+class MimoInterval:
+    """What the certificate established between the family's models.
+
+    Parameters
+    ----------
+    parameter : str
+        What the family runs over.
+    range : tuple of float
+        The family's range.
+    segments : tuple of MimoSegment
+        One per pair of neighbouring models (none when they were not checked).
+    statement : str
+        The verdict in one sentence.
+    """
+
+    parameter: str = "temperature_C"
+    range: tuple = ()
+    segments: tuple = ()
+    statement: str = ""
+
+    def as_dict(self) -> dict:
+        """The JSON's ``interval``: ``parameter, range, segments, statement``.
+
+        Returns
+        -------
+        dict
+        """
+        return {"parameter": self.parameter, "range": list(self.range),
+                "segments": [g.as_dict() for g in self.segments],
+                "statement": self.statement}
+
+
 @dataclass(frozen=True, eq=False)
 class MimoCertificate:
     """What was checked and proved (module docstring).
@@ -292,7 +391,7 @@ class MimoCertificate:
     bounds : dict
         ``{figure: bound}`` (the sector as ``1/delta`` on ``sigma_Ti``).
     rtol : float
-    interval : dict
+    interval : MimoInterval
         Per segment and loop: the points checked and what was proved.
     parameter, unit : str
         What the family runs over.
@@ -303,7 +402,7 @@ class MimoCertificate:
     violations: tuple
     bounds: dict
     rtol: float
-    interval: dict = field(default_factory=dict)
+    interval: MimoInterval = field(default_factory=MimoInterval)
     parameter: str = "temperature_C"
     unit: str = ""
 
@@ -359,7 +458,7 @@ class MimoCertificate:
                 "ratios": self.ratios(), "parameter": self.parameter, "unit": self.unit,
                 "models": [m.as_dict() for m in self.models],
                 "violations": [v.as_dict() for v in self.violations],
-                "interval": self.interval}
+                "interval": self.interval.as_dict()}
 
 
 def _physical(nu, fs):
@@ -849,8 +948,8 @@ def _segment(family, i, ctrl, specs, rtol, points, budget, members):
     for loop in loops:
         g = [(lo, hi) for lo, hi in gaps()]
         ok = not g and all(recs[lam].loop(loop).stable for lam in recs)
-        proof[loop] = {"stability": "small_gain" if ok else "not_proved",
-                       "gaps_lam": [[float(lo), float(hi)] for lo, hi in g]}
+        proof[loop] = SegmentLoopProof("small_gain" if ok else "not_proved",
+                                       tuple((float(lo), float(hi)) for lo, hi in g))
         if not ok and all(recs[lam].loop(loop).stable for lam in recs):
             viols.append(MimoViolation(f"{a.label}..{b.label}", None, "stability between"
                                        f" {a.value:g} and {b.value:g} {family.unit} not proved"
@@ -866,11 +965,9 @@ def _segment(family, i, ctrl, specs, rtol, points, budget, members):
     inner = [replace(r, member=False) for lam, r in sorted(recs.items())
              if lam not in (0.0, 1.0)]
     # the radius of the members' own points, for the record
-    ends = {lam: recs[lam] for lam in (0.0, 1.0)}
-    return inner, viols, {"between": [a.label, b.label], "range": [a.value, b.value],
-                          "points": len(recs), "proof": proof,
-                          "radius_at_ends": {str(k): {lp: ends[k].loop(lp).radius
-                                                      for lp in loops} for k in ends}}
+    radius = {lam: {lp: recs[lam].loop(lp).radius for lp in loops} for lam in (0.0, 1.0)}
+    return inner, viols, MimoSegment((a.label, b.label), (a.value, b.value), len(recs),
+                                     proof, radius[0.0], radius[1.0])
 
 
 def check_models(models: Sequence[MimoPlant], ctrl: MimoController, specs: MimoSpecs, rtol: float = 1e-3,
@@ -944,8 +1041,7 @@ def certify_mimo(family: MimoFamily, ctrl: MimoController, specs: MimoSpecs,
             rec = _record(mdl, ctrl, specs, True, True)
             recs.append(rec)
             viols += _violations(rec, specs, rtol)
-        info = {"parameter": family.parameter, "range": list(family.range),
-                "segments": []}
+        segments, statement = [], ""
         if len(family.models) > 1 and interval:
             members = list(recs)
             for i in range(len(family.models) - 1):
@@ -953,23 +1049,25 @@ def certify_mimo(family: MimoFamily, ctrl: MimoController, specs: MimoSpecs,
                                          members)
                 recs += inner
                 viols += v
-                info["segments"].append(seg)
-            info["statement"] = (
+                segments.append(seg)
+            statement = (
                 "closed-loop stability proved for every convex combination of neighbouring"
                 " models (small-gain theorem around every checked point, the intervals"
                 " covering each segment); peaks exact at every checked point, on a sweep"
                 f" refined until no bounded figure changes by more than {REFINE_RATIO:g} x"
                 " its margin between neighbouring points")
         elif len(family.models) > 1:
-            info["statement"] = "the family's models only; nothing checked between them"
+            statement = "the family's models only; nothing checked between them"
             viols.append(MimoViolation("family", None, "not checked between the models"
                                        " (interval = False)", 0.0, 0.0, None, "continuous",
                                        "unresolved"))
         else:
-            info["statement"] = "a single model"
+            statement = "a single model"
         recs.sort(key=lambda r: (r.value if r.value is not None else 0.0, not r.member))
     return MimoCertificate(certified=not viols, models=tuple(recs), violations=tuple(viols),
-                           bounds=specs.bounded, rtol=rtol, interval=info,
+                           bounds=specs.bounded, rtol=rtol,
+                           interval=MimoInterval(family.parameter, tuple(family.range),
+                                                 tuple(segments), statement),
                            parameter=family.parameter, unit=family.unit)
 
 

@@ -99,10 +99,10 @@ def test_stability_between_members_holds_where_proved(seed):
     ctrl, axes, W = _controller(ga, seed)
     cert = certify_mimo(MimoFamily((a, b)), ctrl, MimoSpecs(sigma_S_max=10.0,
                                                             sample_rate_hz=FS))
-    proof = cert.interval["segments"][0]["proof"]
-    assert "small_gain" in {p["stability"] for p in proof.values()}   # not vacuous
+    proof = cert.interval.segments[0].proof
+    assert "small_gain" in {p.stability for p in proof.values()}   # not vacuous
     for loop, fs in (("continuous", None), ("sampled", FS)):
-        if proof[loop]["stability"] != "small_gain":
+        if proof[loop].stability != "small_gain":
             continue
         for lam in np.linspace(0.0, 1.0, 41):
             g = control.parallel((1 - lam) * control.ss(ga), lam * control.ss(gb))
