@@ -28,6 +28,7 @@ from robrst.diagnose.candidates import DYNAMIC, OFFSET, Screened
 from robrst.diagnose._select import excess, significant
 from robrst.identify.vf import fit_data, fit_residues, initial_poles, to_continuous, vector_fit
 from robrst.core.plant import Plant
+from robrst.twin.model import hysteresis_sector
 
 if TYPE_CHECKING:
     from robrst.diagnose.candidates import Scored, Setup
@@ -342,6 +343,17 @@ def unmodelled(setup: Setup, linear: Scored, info: dict,
     return best
 
 
+def _sector(params, records):
+    """The fitted Bouc–Wen map's input-gain sector over the training records' voltage
+    range (:func:`robrst.twin.model.hysteresis_sector`), as the JSON holds it."""
+    u = np.concatenate([np.ravel(d.u) for d in records])
+    lo, hi = float(np.min(u)), float(np.max(u))
+    if not hi > lo:
+        return None
+    return hysteresis_sector(params["A"], params["B_per_V"], params["Gamma_per_V"],
+                             params["gain"], lo, hi).as_dict()
+
+
 def _params(key, sc):
     """Reported parameters of candidate ``key`` in the fit ``sc`` (values, 1-sigma)."""
     name, form = key_name(key)
@@ -478,6 +490,9 @@ def build(info: dict, where: dict, tests: dict, traces: dict, cause: str, reason
                          "credit": (1 - excess(final_gap, info["floor"]) / excess(gw, info["floor"])
                                     if gw is not None and excess(gw, info["floor"]) > 0
                                     else None)})
+        if key == "hysteresis" and form == "input" and p[0]:
+            # the hysteresis as the design's input-gain sector over the records' voltages
+            selected[-1]["input_gain_sector"] = _sector(p[0], traces["records"][:n_tr])
     if steps:
         sc = steps[-1][2]
         ch, cs = sc.fit.linear_change()

@@ -18,7 +18,9 @@ candidate's screened held-out gap) and ``sensor{}`` (outliers and dropouts found
 records), and (added) ``ties[]`` (a slot of the selection the records cannot settle:
 ``slot``, ``effects``, ``gaps``, ``after``, ``record``, ``message``; the effects of the
 other slots stay in ``causes``), ``selected[].tied_with`` and ``selection[]`` (every
-decision of the forward selection, in order).
+decision of the forward selection, in order), and (added) ``selected[].input_gain_sector``
+(a Bouc–Wen hysteresis's ``nominal, delta, slopes, range_V``:
+:func:`robrst.twin.model.hysteresis_sector`).
 """
 
 from __future__ import annotations

@@ -35,7 +35,8 @@ if TYPE_CHECKING:
     from robrst.core.plant import Plant
     from robrst.twin.config import TwinConfig
 
-__all__ = ["TwinModel", "build_model", "hysteresis_gain", "creep_taus", "substeps"]
+__all__ = ["TwinModel", "build_model", "hysteresis_gain", "hysteresis_sector", "GainSector",
+           "creep_taus", "substeps"]
 
 N_SUB = 4  # RK4 substeps per sample for the linear dynamics (error ~1e-6 of the peak)
 
@@ -121,6 +122,19 @@ def creep_taus(c: dict) -> np.ndarray:
     return np.geomspace(c["tau_min_s"], c["tau_max_s"], n)
 
 
+def _bouc_wen_cycle(A, B, G, lo, hi, n):
+    """``u`` and ``u - h`` over the last of three triangle cycles ``lo..hi`` (periodic by
+    then), the Bouc–Wen state driven from 0 as the twin's step drives it."""
+    u = np.concatenate([np.linspace(lo, hi, n), np.linspace(hi, lo, n)] * 3)
+    du = np.diff(u, prepend=u[0])
+    h, hs = 0.0, np.empty_like(u)
+    for k, d in enumerate(du):
+        h = h + A * d - B * abs(d) * h - G * d * abs(h)
+        hs[k] = h
+    last = slice(4 * n, 6 * n)
+    return u[last], (u - hs)[last]
+
+
 def hysteresis_gain(A: float, B: float, G: float, lo: float, hi: float, n: int = 4000) -> float:
     """``g_h`` making the mean slope of ``g_h (u - h)`` over a ``lo..hi`` cycle equal 1.
 
@@ -141,16 +155,91 @@ def hysteresis_gain(A: float, B: float, G: float, lo: float, hi: float, n: int =
     -------
     float
     """
-    u = np.concatenate([np.linspace(lo, hi, n), np.linspace(hi, lo, n)] * 3)
-    du = np.diff(u, prepend=u[0])
-    h, hs = 0.0, np.empty_like(u)
-    for k, d in enumerate(du):
-        h = h + A * d - B * abs(d) * h - G * d * abs(h)
-        hs[k] = h
-    v = u - hs
-    last = slice(4 * n, 6 * n)
-    slope = (np.max(v[last]) - np.min(v[last])) / (hi - lo)
+    _, v = _bouc_wen_cycle(A, B, G, lo, hi, n)
+    slope = (np.max(v) - np.min(v)) / (hi - lo)
     return float(1.0 / slope)
+
+
+@dataclass(frozen=True)
+class GainSector:
+    """A hysteresis as an input-gain sector: its incremental slopes over a voltage cycle.
+
+    The map ``v = g (u - h)`` changes ``v`` by ``dv = kappa(t) du`` with ``kappa`` between
+    the least and largest slope of the periodic cycle.  With ``kappa = nominal (1 +
+    Delta(t))``, ``|Delta| <= delta``, the loop's increments (``du/dt``, ``dv/dt``, ``dy/dt``:
+    differentiation commutes with the linear plant and controller) close through ``G
+    nominal (I + Delta) K``: the multi-axis problem's ``input_gain_deviation = delta`` on a
+    model whose gain carries ``nominal`` certifies them (small gain, a time-varying
+    ``Delta``).
+
+    Parameters
+    ----------
+    nominal : float
+        The slopes' centre: the gain the design model should carry.
+    delta : float
+        Their half-width relative to ``nominal`` (``inf`` when a slope is not positive:
+        no sector).
+    slopes : tuple of float
+        The least and largest slope ``dv/du``.
+    range_V : tuple of float
+        The cycle.
+    """
+
+    nominal: float
+    delta: float
+    slopes: tuple
+    range_V: tuple
+
+    def as_dict(self) -> dict:
+        """``{"nominal", "delta", "slopes", "range_V"}`` (``delta`` None for no sector).
+
+        Returns
+        -------
+        dict
+        """
+        return {"nominal": self.nominal,
+                "delta": self.delta if np.isfinite(self.delta) else None,
+                "slopes": list(self.slopes), "range_V": list(self.range_V)}
+
+
+def hysteresis_sector(A: float, B: float, G: float, gain: float, lo: float, hi: float,
+                      n: int = 4000) -> GainSector:
+    """The input-gain sector of the Bouc–Wen map ``v = gain (u - h)`` over a ``lo..hi``
+    cycle (:class:`GainSector`): the incremental slopes of the periodic cycle, ``n``
+    samples per branch (a slope changes by ``(B + |G|) |h| dh``-order between samples).
+
+    Parameters
+    ----------
+    A, B, G : float
+        Bouc–Wen ``A``, ``beta`` [1/V] and ``gamma`` [1/V].
+    gain : float
+        The map's gain ``g`` (the twin's ``bw_gain``, a diagnosis's ``gain``).
+    lo, hi : float
+        The voltage cycle [V] (the records' range).
+    n : int
+        Samples per branch.
+
+    Returns
+    -------
+    GainSector
+
+    Examples
+    --------
+    >>> from robrst.twin.model import hysteresis_sector
+    >>> s = hysteresis_sector(0.3, 0.0, 0.0, 2.0, 0.0, 100.0)   # no loop: h = 0.3 u
+    >>> round(s.nominal, 9), round(s.delta, 9)
+    (1.4, 0.0)
+    """
+    if not hi > lo:
+        raise SpecError(f"hysteresis_sector: expected lo < hi, got {lo}, {hi}")
+    u, v = _bouc_wen_cycle(A, B, G, lo, hi, n)
+    du, dv = np.diff(u), np.diff(v)
+    k = np.abs(du) > 0
+    slope = gain * dv[k] / du[k]
+    s_lo, s_hi = float(np.min(slope)), float(np.max(slope))
+    nominal = 0.5 * (s_lo + s_hi)
+    delta = (s_hi - s_lo) / (s_hi + s_lo) if s_lo > 0 else np.inf
+    return GainSector(nominal, float(delta), (s_lo, s_hi), (float(lo), float(hi)))
 
 
 def _exact_step(plant, dt, xl, wtot):

@@ -37,6 +37,20 @@ from robrst.studies.twins import load_twin
 from robrst.twin.simulate import simulate
 
 
+def _bouc_wen_slopes(A, B, G, lo, hi, n=4000):
+    """Least and largest ``d(u - h)/du`` on the periodic ``lo..hi`` triangle cycle of the
+    Bouc-Wen recursion ``h += A du - B |du| h - G du |h|`` (third cycle from h = 0)."""
+    u = np.concatenate([np.linspace(lo, hi, n), np.linspace(hi, lo, n)] * 3)
+    h, v = 0.0, np.empty_like(u)
+    for k in range(len(u)):
+        d = u[k] - u[k - 1] if k else 0.0
+        h += A * d - B * abs(d) * h - G * d * abs(h)
+        v[k] = u[k] - h
+    du, dv = np.diff(u[4 * n:]), np.diff(v[4 * n:])
+    s = dv[du != 0] / du[du != 0]
+    return np.array([s.min(), s.max()])
+
+
 def _files(tmp_path, train, test):
     tr = [str(save_dataset(d, tmp_path / f"train{i}.npz")) for i, d in enumerate(train)]
     te = [str(save_dataset(d, tmp_path / f"test{i}.npz")) for i, d in enumerate(test)]
@@ -56,9 +70,23 @@ def _diagnosed(tmp_path, capsys, train, test):
 
 @pytest.mark.slow
 def test_model_out_writes_a_model_design_and_simulate_read(tmp_path, capsys):
-    train, test, _ = make_case("hysteresis", 1)
+    train, test, truth = make_case("hysteresis", 1)
     tr, te, out, d = _diagnosed(tmp_path, capsys, train, test)
     assert d["cause"] == "hysteresis"
+    # the hysteresis as the design's input-gain sector: the fitted map's incremental slopes
+    # over the training records' voltages, recomputed here by the Bouc-Wen recursion
+    sel = next(s for s in d["selected"] if s["name"] == "hysteresis")
+    sec, q = sel["input_gain_sector"], sel["params"]
+    lo, hi = sec["range_V"]
+    u_train = np.concatenate([np.ravel(r.u) for r in train])
+    assert (lo, hi) == pytest.approx((u_train.min(), u_train.max()), rel=1e-12)
+    got = _bouc_wen_slopes(q["A"], q["B_per_V"], q["Gamma_per_V"], lo, hi) * q["gain"]
+    assert sec["slopes"] == pytest.approx(list(got), rel=1e-6)
+    assert sec["nominal"] * (1 - sec["delta"]) == pytest.approx(got[0], rel=1e-6)
+    assert 0.05 < sec["delta"] < 0.5
+    t = truth["params"]               # the hidden map's own sector, its gain normalised
+    true = _bouc_wen_slopes(t["A"], t["B"], t["Gamma"], lo, hi)
+    assert sec["delta"] == pytest.approx((true[1] - true[0]) / (true[1] + true[0]), abs=0.02)
     assert [f["file"] for f in d["model_files"]] == [str(out / "model.toml")]
     doc = tomllib.loads((out / "model.toml").read_text())
     at = doc["model"]["at"][0]

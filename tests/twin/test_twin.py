@@ -151,3 +151,26 @@ def test_compiled_and_vm_paths_agree(monkeypatch):
     b = simulate(cfg, T, u=u)
     assert a.meta["compiled"] and not b.meta["compiled"]
     np.testing.assert_allclose(a.y_true, b.y_true, rtol=1e-12, atol=1e-12)
+
+
+def test_hysteresis_sector_brackets_the_mean_slope():
+    """The Bouc-Wen map's input-gain sector over a cycle: its slopes bracket the cycle's
+    mean slope (1 once normalised by ``hysteresis_gain``), ``nominal (1 -+ delta)`` are the
+    slopes, a wider loop (larger ``B``) a wider sector, and no loop no sector."""
+    from robrst.base.errors import SpecError
+    from robrst.twin.model import hysteresis_gain, hysteresis_sector
+
+    deltas = []
+    for B in (0.002, 0.0045, 0.009):
+        g = hysteresis_gain(0.45, B, B, 0.0, 150.0)
+        sec = hysteresis_sector(0.45, B, B, g, 0.0, 150.0)
+        lo, hi = sec.slopes
+        assert lo < 1.0 < hi
+        assert sec.nominal * (1 - sec.delta) == pytest.approx(lo, rel=1e-12)
+        assert sec.nominal * (1 + sec.delta) == pytest.approx(hi, rel=1e-12)
+        deltas.append(sec.delta)
+    assert deltas == sorted(deltas) and 0.05 < deltas[1] < 0.5
+    assert hysteresis_sector(0.45, 0.0, 0.0, 1.0, 0.0, 150.0).delta == pytest.approx(0.0,
+                                                                                    abs=1e-9)
+    with pytest.raises(SpecError, match="lo < hi"):
+        hysteresis_sector(0.45, 0.0045, 0.0045, 1.0, 10.0, 10.0)
