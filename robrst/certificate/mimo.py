@@ -39,7 +39,7 @@ stable, every peak is verified and every segment's stability is proved.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
@@ -558,7 +558,8 @@ def loop_figures(lp: MimoLoop, specs: MimoSpecs, loop: str, full: bool = True,
             A, B, C, D = lp.transfer(row.transfer)
             peaks[row.figure] = _peak(A, B, C, D, None, fs)
     if robust:      # the scaled bounds (tens of peaks each) only where a spec bounds them
-        peaks.update(sector_figures(peaks, delta, lp if asked else None))
+        peaks.update(sector_figures(peaks, delta, lp if asked else None,
+                                    tighten={f for f in bounded if f.startswith("sector_")}))
     axis = {}
     for name in ("S", "T"):
         if full or f"axis_{name}" in bounded:
@@ -575,7 +576,8 @@ def loop_figures(lp: MimoLoop, specs: MimoSpecs, loop: str, full: bool = True,
                            _bandwidths(lp, fs) if full else None, radius, pole_radius)
 
 
-def sector_figures(peaks: dict, delta: float, lp: MimoLoop | None = None) -> dict:
+def sector_figures(peaks: dict, delta: float, lp: MimoLoop | None = None,
+                   tighten: Collection[str] | None = None) -> dict:
     """The peaks of ``S``, ``T`` and ``K S`` for every input gain in the sector.
 
     With the actuator's input ``(I + Delta) u``, ``Delta`` any operator of ``L2`` gain at
@@ -606,6 +608,10 @@ def sector_figures(peaks: dict, delta: float, lp: MimoLoop | None = None) -> dic
         The sector's half-width (``input_gain_deviation``).
     lp : MimoLoop, optional
         The (stable) loop those peaks are of: the scaled bounds too.
+    tighten : collection of str, optional
+        The figures the scaled bounds tighten (``None``: all three); the others keep the
+        product bound (tens of exact peaks each: the certificate tightens the figures a
+        spec bounds).
 
     Returns
     -------
@@ -622,6 +628,8 @@ def sector_figures(peaks: dict, delta: float, lp: MimoLoop | None = None) -> dic
            "sector_U": (U, U.value / (1.0 - loop) if loop < 1.0 else np.inf)}
     if lp is not None and loop < 1.0 and ok:
         for fig, (nom, bound) in out.items():
+            if tighten is not None and fig not in tighten:
+                continue
             d0 = np.sqrt(Sd.value / (delta * U.value * nom.value))   # balances the blocks
             out[fig] = (nom, min(bound, scaled_sector_peak(lp, delta, fig[7:], nom.value,
                                                            bound, d0)))
