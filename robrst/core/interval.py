@@ -212,6 +212,18 @@ def _rho(ds, ss, x):
     return np.abs(y) / z
 
 
+def _chebyshev_interpolant(g):
+    """Chebyshev coefficients of the polynomial of degree ``N - 1`` through ``g`` at the
+    ``N`` first-kind nodes ``cos(pi (k + 1/2) / N)``: the discrete cosine transform
+    (``c_j = (2 / N) sum_k g_k cos(pi j (k + 1/2) / N)``, ``c_0`` halved), exact where a
+    least-squares fit solves an ``N x N`` system."""
+    N = len(g)
+    k = np.arange(N)
+    c = (2.0 / N) * (np.cos(np.pi * np.outer(k, k + 0.5) / N) @ g)
+    c[0] *= 0.5
+    return c
+
+
 def hurwitz_guardian(c: ArrayLike) -> float:
     """``a_n * H_{n-1}`` of ``c`` (highest power first, ``c[0] > 0``): zero exactly when
     a root lies on the imaginary axis (the guardian map of Hurwitz stability).
@@ -241,13 +253,11 @@ def hurwitz_guardian(c: ArrayLike) -> float:
     if n < 1:
         return float(c[0])
     m = n - 1
-    H = np.zeros((m, m))
-    for i in range(m):
-        for j in range(m):
-            k = 2 * j - i + 1                  # h_ij = a_(2j - i + 1), 0-based
-            if 0 <= k <= n:
-                H[i, j] = c[k]
-    return float(c[-1] * (np.linalg.det(H) if m else 1.0))
+    if not m:
+        return float(c[-1])
+    k = 2 * np.arange(m)[None, :] - np.arange(m)[:, None] + 1   # h_ij = a_(2j - i + 1)
+    H = np.where((k >= 0) & (k <= n), c[np.clip(k, 0, n)], 0.0)
+    return float(c[-1] * np.linalg.det(H))
 
 
 @dataclass(frozen=True)
@@ -319,7 +329,7 @@ def parameter_crossing(delta_at: Callable[[float], ArrayLike], a: float, b: floa
             ds = sc.apply(d)
             g.append(hurwitz_guardian(ds / norm))
         g = np.array(g)
-        coef = np.polynomial.chebyshev.chebfit(x, g[:N], N - 1)
+        coef = _chebyshev_interpolant(g[:N])
         fit = np.polynomial.chebyshev.chebval(xm, coef)
         size = np.max(np.abs(g))
         if size > 0 and np.max(np.abs(fit - g[N:])) <= 1e-7 * size:
