@@ -248,7 +248,7 @@ def program_rounds(name: str, models: Sequence[MimoPlant], specs: MimoSpecs,
     xt_bound = None if xt_bound is None else xt_bound / (1 + GRID_MARGIN)
     band = specs.crosstalk_band_rad_s
     # the sector's figures: the scaled small-gain rows (one scaling per loop and figure,
-    # found at each round's start on the program's points, shared with the validation grid)
+    # program variables started at each round; the validation grid takes the program's)
     sector = {f: b / (1 + GRID_MARGIN) for f, b in specs.bounded.items()
               if f in SECTOR_FIGURES}
     delta = specs.input_gain_deviation
@@ -286,6 +286,11 @@ def program_rounds(name: str, models: Sequence[MimoPlant], specs: MimoSpecs,
                                   bounds or {"sigma_S": 1e6}, xt_bound,
                                   (w >= band[0]) & (w <= band[1]), sec)))
 
+    def share(rows):
+        """The validation grid's sector scalings: the program's, loop by loop."""
+        for k, (_, dr) in enumerate(dense):
+            dr.set_scaling(scales={f: v[k:k + 1] for f, v in rows.scales.items()})
+
     def misses(x, limit):
         """Validation points above ``limit`` (local maxima, a few per loop) or out of the
         half-plane: ``{loop index: frequencies}``."""
@@ -320,8 +325,7 @@ def program_rounds(name: str, models: Sequence[MimoPlant], specs: MimoSpecs,
             # from the last controller the exact check passed
             x, stable, viols = feasible, True, []
         rows.set_scaling(x)
-        for k, (_, dr) in enumerate(dense):
-            dr.set_scaling(scales={f: v[k:k + 1] for f, v in rows.scales.items()})
+        share(rows)
         t_start = rows.worst(x)
         phase = "hard" if t_start <= 1.0 + 2 * GRID_MARGIN else "soft"
         if stable:
@@ -335,8 +339,7 @@ def program_rounds(name: str, models: Sequence[MimoPlant], specs: MimoSpecs,
                                                  phase)
             if np.all(np.isfinite(sol["x"])):
                 cand = sol["x"]
-            for k, (_, dr) in enumerate(dense):       # the solve's sector scalings
-                dr.set_scaling(scales={f: v[k:k + 1] for f, v in rows.scales.items()})
+            share(rows)                               # the solve's sector scalings
             limit = 1.0 if phase == "hard" else sol["t"]
             hp = rows.halfplane(cand)
             out = [("nyquist", int(k)) for k in np.flatnonzero(hp < 0.999 * NYQUIST_FLOOR)]
