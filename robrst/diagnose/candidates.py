@@ -240,7 +240,7 @@ def _fit(setup, name, effects, joint, dynamic=False, start=None, theta=None,
     pinned = setup.pinned_modal if dynamic else setup.pinned
     if dynamic and not (effects or offset or curvature or mixing):
         fit = fit_by_level(name, setup.train, lin, _chain(setup, ()), setup.noise_sigma,
-                           start=start, max_nfev=max_nfev, pinned=pinned)
+                           start=start, max_nfev=min(max_nfev, _FIT.level_nfev), pinned=pinned)
     else:
         fit = fit_model(name, effects, setup.train, lin, _chain(setup, effects),
                         setup.noise_sigma, joint=joint, dynamic=dynamic, start=start,

@@ -274,7 +274,10 @@ class FitOptions:
     nfev: int = 40                # Gauss-Newton converges in 5-20 on a well-posed candidate
     ftol: float = 1e-8            # the held-out gap changes in the 4th digit below it
     final_nfev: int = 150         # enough for a stiff Bouc-Wen + linear joint fit
-    level_nfev: int = 20          # each level starts at the one below: a short walk
+    level_nfev: int = 20          # each level starts at the one below: a short walk (the
+    #                               mirror's three levels: the held-out gap the same to 4
+    #                               digits as with 40, the later steps walk along
+    #                               corrections the records do not determine)
     low_level_nfev: int = 30      # a linear fit from the user's model
     standalone_nfev: int = 25     # three or two parameters
     slope_bound: float = 5.0      # a correction may change by 5 per unit of level factor

@@ -223,6 +223,11 @@ def hysteresis_sector(A: float, B: float, G: float, gain: float, lo: float, hi: 
     -------
     GainSector
 
+    Raises
+    ------
+    SpecError
+        A cycle with ``lo >= hi``.
+
     Examples
     --------
     >>> from robrst.twin.model import hysteresis_sector
