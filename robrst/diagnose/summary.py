@@ -64,6 +64,13 @@ def summary_text(diag: Diagnosis) -> str:
                    else "")
         out.append(f"selected {s['name']} ({s['form']}): gap {s['gap_before']:.4g} ->"
                    f" {s['gap_after']:.4g}{without}; {ps}")
+        sec = s.get("input_gain_sector")
+        if sec and sec.get("delta") is not None:
+            lo, hi = sec["range_V"]
+            out.append(f"  as an input-gain sector over {lo:.4g}-{hi:.4g} V: slopes"
+                       f" {sec['slopes'][0]:.4g}-{sec['slopes'][1]:.4g}, delta"
+                       f" {sec['delta']:.3g} around {sec['nominal']:.4g} (a multi-axis"
+                       f" problem's input_gain_deviation, its model's gain times the centre)")
     for t in d.get("ties") or []:
         after = f" after {' + '.join(t['after'])}" if t["after"] else ""
         out.append(f"tie in slot {t['slot']}{after}: {t['message']}")
