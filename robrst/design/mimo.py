@@ -33,6 +33,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from robrst.base.threads import one_blas_thread
 from robrst.certificate.mimo import MimoCertificate, certify_mimo, check_models
 from robrst.core.mimo_loop import MimoController
 from robrst.problem.mimo import MimoProblem
@@ -253,6 +254,14 @@ def design_mimo(problem: MimoProblem, progress: Callable[[str], None] | None = N
     >>> design_mimo(pr, compare=False).certified
     True
     """
+    # small matrices: a second BLAS thread only spins (robrst.base.threads); the program's
+    # rows and the per-axis scans ran with the caller's threads, the certificates with one
+    with one_blas_thread():
+        return _design_mimo(problem, progress, compare)
+
+
+def _design_mimo(problem, progress, compare):
+    """:func:`design_mimo` with one BLAS thread."""
     say = progress or (lambda msg: None)
     t0 = time.perf_counter()
     st, specs, so = problem.structure, problem.specs, problem.solver
