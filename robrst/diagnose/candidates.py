@@ -239,6 +239,8 @@ def _fit(setup, name, effects, joint, dynamic=False, start=None, theta=None,
         setup = replace(setup, train=setup.train_cut)
     pinned = setup.pinned_modal if dynamic else setup.pinned
     if dynamic and not (effects or offset or curvature or mixing):
+        # each level's fit within its own budget (a fit that stops there is final: a
+        # continuation would repeat it), the caller's budget the converged flag's
         fit = fit_by_level(name, setup.train, lin, _chain(setup, ()), setup.noise_sigma,
                            start=start, max_nfev=min(max_nfev, _FIT.level_nfev), pinned=pinned)
     else:

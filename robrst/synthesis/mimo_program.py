@@ -333,6 +333,9 @@ class GridRows:
         #: the program's variables: ``x``, then the sector's ``log D`` (loop by loop, per
         #: figure in :attr:`scales`' order)
         self.nd = sum(v.size for v in self.scales.values())
+        ends = np.cumsum([0] + [v.size for v in self.scales.values()])
+        self._slots = {f: slice(int(a), int(b))
+                       for f, a, b in zip(self.scales, ends[:-1], ends[1:])}
         self.bases = [a.basis(self.nu) for a in self.axes]
         self.K = len(self.nu)
         self.d0 = None
@@ -347,9 +350,13 @@ class GridRows:
         x : numpy.ndarray
         """
         R, S = self._parts(x)
-        P = self.M * R[:, None, :] + np.eye(self.m)[None] * S[:, None, :]
+        P = self._P(R, S)
         self.d0 = np.linalg.det(P)
         self._cache = (None, None)
+
+    def _P(self, R, S):
+        """``P = diag(S) + G W diag(R)`` at every point ``(K, m, m)`` (``R, S``: ``(K, m)``)."""
+        return self.M * R[:, None, :] + np.eye(self.m)[None] * S[:, None, :]
 
     def _parts(self, x):
         """``R (K, m)``, ``S (K, m)`` of ``x``."""
@@ -376,7 +383,7 @@ class GridRows:
         out = {}
         R, S = self._parts(x)
         m = self.m
-        P = self.M * R[:, None, :] + np.eye(m)[None] * S[:, None, :]
+        P = self._P(R, S)
         with np.errstate(all="ignore"):
             Pi = np.linalg.inv(P)
             for f, b in self.bounds.items():
@@ -419,11 +426,8 @@ class GridRows:
 
     def _unpack(self, logd):
         """:attr:`scales` of program variables ``log D``."""
-        out, pos = {}, 0
-        for f, v in self.scales.items():
-            out[f] = np.exp(np.asarray(logd[pos:pos + v.size], float)).reshape(v.shape)
-            pos += v.size
-        return out
+        return {f: np.exp(np.asarray(logd[sl], float)).reshape(self.scales[f].shape)
+                for f, sl in self._slots.items()}
 
     def set_scaling(self, x: np.ndarray | None = None, scales: dict | None = None) -> None:
         """The sector's ``D``, one per loop and figure: given (``scales``, as
@@ -445,7 +449,7 @@ class GridRows:
         from scipy import optimize      # SciPy loads with the first sector row asked
 
         R, S = self._parts(x)
-        P = self.M * R[:, None, :] + np.eye(self.m)[None] * S[:, None, :]
+        P = self._P(R, S)
         with np.errstate(all="ignore"):
             Pi = np.linalg.inv(P)
         m = self.m
@@ -559,7 +563,7 @@ class GridRows:
         if self.d0 is None:
             return np.full(self.K, np.inf)
         R, S = self._parts(x)
-        P = self.M * R[:, None, :] + np.eye(self.m)[None] * S[:, None, :]
+        P = self._P(R, S)
         with np.errstate(all="ignore"):
             r = (np.linalg.det(P) / self.d0).real
         return np.where(self.d0 != 0, r, np.inf)
@@ -589,7 +593,7 @@ class GridRows:
             self.scales = self._unpack(x[nx:])
             x = x[:nx]
         R, S = self._parts(x)
-        P = self.M * R[:, None, :] + np.eye(m)[None] * S[:, None, :]
+        P = self._P(R, S)
         with np.errstate(all="ignore"):
             Pi = np.linalg.inv(P)
         # dP/dx and dN/dx as (K, nx, m, m)
@@ -633,7 +637,7 @@ class GridRows:
             if f in self.scales:
                 g[ns], J[ns, :nx], dd = self._sector_rows(f, ks, R, S, Pi, dR, dS, dP)
                 # d sigma / d log D: the column of the point's loop and input
-                first = self._offset(f) + self.sector.segments[ks] * m
+                first = self._slots[f].start + self.sector.segments[ks] * m
                 for i in range(m):
                     J[ns, nx + first + i] = dd[:, i]
                 continue
@@ -693,15 +697,6 @@ class GridRows:
         t2 = np.einsum("ki,klij,kj->kl", b, dP[ks], a)
         dlogd = sig[:, None] * (np.abs(u[:, :m]) ** 2 - np.abs(v[:, :m]) ** 2)
         return sig, (t1 - t2).real, dlogd
-
-    def _offset(self, f):
-        """Where figure ``f``'s ``log D`` start among the sector's variables."""
-        pos = 0
-        for g, v in self.scales.items():
-            if g == f:
-                return pos
-            pos += v.size
-        raise KeyError(f)
 
 
 class _Rows(ca.Callback):
