@@ -168,6 +168,16 @@ def _columns(model, fs, V, periodic):
     return np.column_stack(cols), index
 
 
+def _reduced(C, y):
+    """``(R, z)`` with ``||C x - y||^2 = ||R x - z||^2 + const`` for every ``x``: the
+    triangular factor of ``[C, y]`` (when ``C`` has more rows than columns)."""
+    c = C.shape[1]
+    if C.shape[0] <= c + y.shape[1]:
+        return C, y
+    R = np.linalg.qr(np.hstack([C, y]), mode="r")
+    return R[:c, :c], R[:c, c:]
+
+
 def polish_residues(fit: Fitted, train: Sequence[Prepared], noise_sigma: float) -> Fitted:
     """Fit the level slopes of the residues of a dynamic-form ``fit`` (see module doc).
 
@@ -199,10 +209,14 @@ def polish_residues(fit: Fitted, train: Sequence[Prepared], noise_sigma: float) 
         C, index = _columns(model, fs, V, p.periodic)
         base = model.discretise(fs).response(V, periodic=p.periodic)
         # one block of columns per level function: a change at every level (the reference
-        # level's residues re-fitted too), then the slopes
+        # level's residues re-fitted too), then the slopes; the record's rows are
+        # ``C (b^T kron I)``, so ``C``'s triangular factor stands for them (``[C, y] = Q R``:
+        # the same least squares with ``c`` rows instead of ``N``, a QR of ``c`` columns,
+        # not of ``c nb``)
         b = np.concatenate([[1.0], slope_basis(f, knots)])
-        rows.append(np.hstack([C * (v * p.weight) for v in b]))
-        rhs.append((p.Y - fit.output_side(base)) * p.weight)
+        C, y = _reduced(C * p.weight, (p.Y - fit.output_side(base)) * p.weight)
+        rows.append(np.hstack([C * v for v in b]))
+        rhs.append(y)
     if not rows or all(level_factor(p.level, fit.level_ref) == 0.0 for p in train):
         return fit
     nb = 2 + len(knots)

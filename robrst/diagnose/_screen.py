@@ -854,8 +854,12 @@ class RecordColumns:
             yL = base_fit.predict_prepared(p)
             Jb = model_jacobian(base_fit, p)[1]
             nz = base_fit.chain.size
-            JL = (Jb[:, :, nz:nz + lin.size] if base_fit.joint
-                  else lin.simulate_jac(th, base_fit.effective_input(p)[0], p.periodic)[1])
+            if base_fit.joint:
+                JL = Jb[:, :, nz:nz + lin.size]
+            elif self.dynamic_model or "thermal_dynamics" in self.grid.tried:
+                JL = lin.simulate_jac(th, base_fit.effective_input(p)[0], p.periodic)[1]
+            else:
+                JL = None       # no column of this screen goes through the linear part's
             X[base] = np.moveaxis(Jb[R], 2, 0)
         return th, yL, JL
 

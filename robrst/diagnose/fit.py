@@ -751,8 +751,11 @@ def model_jacobian(fit: Fitted, p: Prepared,
         J[:, :, nz:nz + nt] = JL
     if fit.slopes:
         b = slope_basis(level_factor(p.level, fit.level_ref), fit.level_knots)
-        J[:, :, nz + nt:nz + nt + ns] = np.concatenate(
-            [JL[:, :, list(fit.slopes)] * v for v in b], axis=2)
+        k, c0 = len(fit.slopes), nz + nt
+        Js = JL[:, :, list(fit.slopes)]
+        for q, v in enumerate(b):       # in place: a zero knot term stays the zeros it is
+            if v:
+                np.multiply(Js, v, out=J[:, :, c0 + q * k:c0 + (q + 1) * k])
     post = fit.post
     if post is not None:
         if post.mixing:
