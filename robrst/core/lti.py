@@ -248,7 +248,7 @@ class DiscreteSS:
     A: np.ndarray
     Gamma: np.ndarray
     h: float
-    scaling: object
+    scaling: poly.Scaling
 
     @property
     def poles(self):

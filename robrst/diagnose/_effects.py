@@ -19,7 +19,7 @@ temperature and is handled by :mod:`robrst.diagnose._thermal`.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -59,11 +59,11 @@ class Spec:
     """Internal parameters z of one effect (per input): bounds, start, twin values, report."""
 
     names: tuple
-    bounds: object      # summary -> (lower, upper)
-    init: object        # summary -> z0
-    twin: object        # z -> values of the stage's free twin parameters
-    dtwin: object       # z -> d twin / d z (n_free x n_z)
-    report: object      # z -> reported values (same order as names)
+    bounds: Callable[[dict], tuple]        # summary -> (lower, upper)
+    init: Callable[[dict], tuple]          # summary -> z0
+    twin: Callable[[np.ndarray], tuple]    # z -> values of the stage's free twin parameters
+    dtwin: Callable[[np.ndarray], np.ndarray]   # z -> d twin / d z (n_free x n_z)
+    report: Callable[[np.ndarray], tuple]  # z -> reported values (same order as names)
 
 
 def _hyst_twin(z):

@@ -58,6 +58,7 @@ from robrst.diagnose._stages import cached_stage
 
 if TYPE_CHECKING:
     from robrst.diagnose.fit import Fitted, Prepared
+    from robrst.diagnose.linear import LinearPart
 
 __all__ = ["Screen", "ScreenFit", "HeldOut", "ScreenGrid", "ColumnLayout", "RecordColumns",
            "GramAccumulator", "build_screen"]
@@ -92,7 +93,7 @@ class HeldOut:
     r: np.ndarray
     direct: dict
     signals: dict
-    lin: object
+    lin: LinearPart
     theta: np.ndarray
     periodic: bool
 

@@ -19,7 +19,7 @@ import casadi as ca
 import numpy as np
 
 from robrst.twin.config import default_twin
-from robrst.twin.model import build_model
+from robrst.twin.model import TwinModel, build_model
 from robrst.twin.simulate import Simulator, rest_state
 
 if TYPE_CHECKING:
@@ -79,7 +79,7 @@ class SensitivityStage:
     """
 
     name: str
-    model: object
+    model: TwinModel
     sim: Simulator
     free: tuple          # indices into theta
 

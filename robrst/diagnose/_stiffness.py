@@ -20,7 +20,7 @@ from scipy import optimize
 
 from robrst.diagnose.linear import parameter_std
 from robrst.diagnose.options import OPTIONS
-from robrst.diagnose._stages import cached_stage
+from robrst.diagnose._stages import SensitivityStage, cached_stage
 
 if TYPE_CHECKING:
     from robrst.core.plant import Plant
@@ -59,14 +59,14 @@ class StiffnessFit:
     """
 
     name: str
-    stage: object
+    stage: SensitivityStage
     x: np.ndarray            # (c [1/µm²], relative input gain)
     std: np.ndarray
     n_eval: int
     train_cost: float
     effects: tuple = ("stiffness_nonlinearity",)
     form: str = "input"
-    plant: object = None     # D(s) of the step
+    plant: Plant | None = None     # D(s) of the step
 
     def linear_plant(self) -> Plant:
         """The fitted model at small amplitude: ``D(s)`` times the fitted input gain.

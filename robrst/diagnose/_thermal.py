@@ -18,7 +18,7 @@ from scipy import optimize
 from robrst.core.minimize import golden_section
 from robrst.diagnose.linear import parameter_std
 from robrst.diagnose.options import OPTIONS
-from robrst.diagnose._stages import stage
+from robrst.diagnose._stages import SensitivityStage, stage
 
 if TYPE_CHECKING:
     from robrst.core.plant import Plant
@@ -57,7 +57,7 @@ class ThermalFit:
     """
 
     name: str
-    stage: object
+    stage: SensitivityStage
     x: np.ndarray
     std: np.ndarray
     n_eval: int

@@ -31,7 +31,11 @@ from robrst.diagnose._stiffness import fit_stiffness
 from robrst.diagnose._thermal import fit_thermal_dynamics, search_saturation
 
 if TYPE_CHECKING:
-    from robrst.diagnose.fit import Prepared
+    from robrst.core.plant import Plant
+    from robrst.diagnose.fit import Fitted, Prepared
+    from robrst.diagnose.linear import LinearPart
+    from robrst.diagnose._stiffness import StiffnessFit
+    from robrst.diagnose._thermal import ThermalFit
 
 __all__ = ["Setup", "Scored", "Screened", "CandidateFits", "cut", "start_values",
            "linear_with_offset", "refit_keys", "OFFSET", "DYNAMIC", "STANDALONE", "SPECIAL",
@@ -109,11 +113,11 @@ class Setup:
     test: list             # Prepared, full records (held-out gap)
     test_records: list     # Dataset (held-out gap normalisation)
     train_records: list
-    lin: object            # LinearPart
-    lin_modal: object      # LinearPart with per-mode gains (amplitude-dependent dynamics)
+    lin: LinearPart
+    lin_modal: LinearPart  # with per-mode gains (amplitude-dependent dynamics)
     stats: dict
     noise_sigma: float
-    plant: object          # SISO Plant of the user's model (standalone fits) or None
+    plant: Plant | None    # SISO Plant of the user's model (standalone fits)
     effects: tuple         # excited candidates to try
     dynamic: bool          # the amplitude-dependent dynamics can be fitted
     delays: tuple
@@ -161,7 +165,7 @@ class Scored:
     """
 
     name: str
-    fit: object
+    fit: Fitted | StiffnessFit | ThermalFit
     gap: float
     train_gap: float
     residuals: list        # held-out residuals per test record

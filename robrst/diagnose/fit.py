@@ -401,7 +401,7 @@ class Fitted:
     effects: tuple
     form: str
     chain: Chain
-    lin: object
+    lin: LinearPart
     x: np.ndarray
     std: np.ndarray
     joint: bool

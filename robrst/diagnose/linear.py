@@ -536,7 +536,7 @@ class LinearFit:
         Model evaluations.
     """
 
-    plant: object          # Plant (SISO input) or ModalModel
+    plant: Plant | ModalModel
     rel_change: dict       # correction name -> value (theta)
     std: dict
     n_eval: int

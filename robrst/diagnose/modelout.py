@@ -66,7 +66,7 @@ class AnswerModel:
         The temperature the fit holds at [°C] (the twin file's ``reference_C``).
     """
 
-    model: object
+    model: ModalModel
     level_V: float
     name: str
     twin: dict = field(default_factory=dict)
