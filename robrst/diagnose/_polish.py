@@ -34,7 +34,7 @@ from robrst.identify.modal import ModalModel
 if TYPE_CHECKING:
     from robrst.diagnose.fit import Prepared
 
-__all__ = ["Polished", "polish_residues"]
+__all__ = ["Polished", "polish_residues", "reduced_rows"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -168,9 +168,25 @@ def _columns(model, fs, V, periodic):
     return np.column_stack(cols), index
 
 
-def _reduced(C, y):
-    """``(R, z)`` with ``||C x - y||^2 = ||R x - z||^2 + const`` for every ``x``: the
-    triangular factor of ``[C, y]`` (when ``C`` has more rows than columns)."""
+def reduced_rows(C: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(R, z)`` with ``||C X - y||^2 = ||R X - z||^2 + constant`` for every ``X``: the
+    triangular factor of ``[C, y]`` (``C`` as it is when it has no more rows than ``[C, y]``
+    has columns).
+
+    Parameters
+    ----------
+    C : numpy.ndarray
+        Rows ``(N, c)``.
+    y : numpy.ndarray
+        Right-hand sides ``(N, m)``.
+
+    Returns
+    -------
+    R : numpy.ndarray
+        ``(c, c)`` upper triangular (or ``C``).
+    z : numpy.ndarray
+        ``(c, m)`` (or ``y``).
+    """
     c = C.shape[1]
     if C.shape[0] <= c + y.shape[1]:
         return C, y
@@ -214,7 +230,7 @@ def polish_residues(fit: Fitted, train: Sequence[Prepared], noise_sigma: float) 
         # the same least squares with ``c`` rows instead of ``N``, a QR of ``c`` columns,
         # not of ``c nb``)
         b = np.concatenate([[1.0], slope_basis(f, knots)])
-        C, y = _reduced(C * p.weight, (p.Y - fit.output_side(base)) * p.weight)
+        C, y = reduced_rows(C * p.weight, (p.Y - fit.output_side(base)) * p.weight)
         rows.append(np.hstack([C * v for v in b]))
         rhs.append(y)
     if not rows or all(level_factor(p.level, fit.level_ref) == 0.0 for p in train):

@@ -80,3 +80,33 @@ def test_spectral_rows_keep_the_time_rows_inner_products():
     r = rng.standard_normal(n)
     rs = parseval_rows(np.fft.rfft(r[:, None], axis=0), n)
     assert S.T @ rs == pytest.approx(J.T @ r, rel=1e-9, abs=1e-9 * np.abs(J.T @ r).max())
+
+
+def test_the_residues_rows_reduced_to_their_triangular_factor_solve_alike():
+    """``reduced_rows`` (the residues' level slopes solve each record's rows as the
+    triangular factor of ``[C, y]``): for every coefficient matrix the sum of squares moves
+    by one constant, and the stacked least squares of records in Kronecker form (``C (b^T
+    kron I)``, a ridge below) has the solution numpy's ``lstsq`` gives on the full rows."""
+    from robrst.diagnose._polish import reduced_rows
+
+    rng = np.random.default_rng(7)
+    C, y = rng.standard_normal((900, 12)), rng.standard_normal((900, 3))
+    R, z = reduced_rows(C, y)
+    assert R.shape == (12, 12) and z.shape == (12, 3) and np.allclose(np.tril(R, -1), 0.0)
+    gaps = [np.sum((C @ X - y) ** 2) - np.sum((R @ X - z) ** 2)
+            for X in rng.standard_normal((5, 12, 3))]
+    assert np.ptp(gaps) <= 1e-9 * np.sum(y ** 2)
+    small = rng.standard_normal((10, 12))          # no more rows than columns: as it is
+    assert reduced_rows(small, y[:10])[0] is small
+    full, red = [], []
+    for b in ([1.0, 0.0], [1.0, 0.5], [1.0, 1.0]):
+        Ci, yi = rng.standard_normal((700, 12)), rng.standard_normal((700, 3))
+        full.append((np.hstack([Ci * v for v in b]), yi))
+        Ri, zi = reduced_rows(Ci, yi)
+        red.append((np.hstack([Ri * v for v in b]), zi))
+    ridge = (np.diag(np.full(24, 0.1)), np.zeros((24, 3)))
+    A, B = (np.vstack([m[k] for m in full] + [ridge[k]]) for k in (0, 1))
+    Ar, Br = (np.vstack([m[k] for m in red] + [ridge[k]]) for k in (0, 1))
+    assert Ar.shape[0] == 3 * 12 + 24 < A.shape[0]
+    X = np.linalg.lstsq(A, B, rcond=None)[0]
+    assert np.allclose(np.linalg.lstsq(Ar, Br, rcond=None)[0], X, rtol=1e-10, atol=1e-12)
