@@ -222,7 +222,7 @@ def run(data=None, out=Path("reports/mirror_mimo"), quick=False):
     summary["ok"] = bool(result.certified and (summary["sigma_S_worst_sampled"] or 9) <= 2.0
                          * (1 + 1e-3) and summary["cpu_s"] <= GOAL_CPU_S)
     (out / "mirror_mimo.json").write_text(json.dumps(summary, indent=1, default=float) + "\n")
-    (out / "mirror_mimo.md").write_text(_markdown(summary, mimo_summary(d)))
+    (out / "mirror_mimo.md").write_text(_markdown(summary, mimo_summary(result)))
     return summary
 
 

@@ -46,11 +46,10 @@ def run_mimo_design(args: argparse.Namespace) -> int:
             problem.solver, method="nlp" if method == "nlp" else "per_axis"))
     say = progress_printer(args.quiet or args.json)
     result = design_mimo(problem, progress=say)
-    d = result.as_dict()
     if args.json:
-        print_json(d)
+        print_json(result.as_dict())
     else:
-        print(mimo_summary(d))
+        print(mimo_summary(result))
     if not result.certified:
         for v in result.certificate.violations[:5]:
             print(f"robrst: not certified: {v.describe()}", file=sys.stderr)

@@ -263,11 +263,16 @@ class MimoController:
         """
         out = {"axes": [{"name": nm, **c.as_dict()} for nm, c in zip(self.names, self.axes)]}
         if self.dynamic:
-            out["decoupler"] = {"kind": "dynamic", **{k: np.asarray(x).tolist() for k, x in
-                                                      zip("ABCD", self.decoupler_ss)}}
+            out["decoupler"] = {"kind": self.decoupler_kind, **{
+                k: np.asarray(x).tolist() for k, x in zip("ABCD", self.decoupler_ss)}}
         else:
-            out["decoupler"] = {"kind": "static", "W": self.decoupler.tolist()}
+            out["decoupler"] = {"kind": self.decoupler_kind, "W": self.decoupler.tolist()}
         return out
+
+    @property
+    def decoupler_kind(self) -> str:
+        """``"dynamic"`` (a state-space decoupler) or ``"static"`` (a matrix ``W``)."""
+        return "dynamic" if self.dynamic else "static"
 
 
 @dataclass(frozen=True, eq=False)

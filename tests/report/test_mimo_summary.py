@@ -1,0 +1,49 @@
+"""The multi-axis text summary is drawn from the design's records: every member's row holds
+the certificate's figures (read from its loop records here, formatted alike), the binding
+figure and each comparison's verdict, and nothing is recomputed."""
+
+import control
+import numpy as np
+import pytest
+
+from robrst.core.mimo import MimoFamily, MimoPlant
+from robrst.design.mimo import design_mimo
+from robrst.problem.mimo import MimoProblem, MimoSpecs
+from robrst.report.mimo import mimo_summary
+from robrst.report.text import fmt
+
+
+@pytest.fixture(scope="module")
+def one_axis():
+    g = control.tf([2e7], [1, 300, 2e7])
+    fam = MimoFamily((MimoPlant.from_control(g, "cold", 20.0),))
+    problem = MimoProblem("one axis", fam, specs=MimoSpecs(sigma_S_max=2.0,
+                                                           sample_rate_hz=20000.0))
+    return design_mimo(problem, compare=True)
+
+
+def test_the_summary_draws_the_records(one_axis):
+    r = one_axis
+    text = mimo_summary(r)
+    lines = text.splitlines()
+    assert lines[0].startswith("one axis: 1 axes, 1 model(s), sampled at 20000 Hz")
+    assert lines[0].endswith("certified: " + ("yes" if r.certified else "NO"))
+    for rec in (m for m in r.certificate.models if m.member):
+        for loop in ("continuous", "sampled"):
+            lf = rec.loop(loop)
+            row = next(x for x in lines if x.startswith(f"| {rec.label} | {loop} |"))
+            cells = [c.strip() for c in row.strip("|").split("|")]
+            assert cells[2] == ("yes" if lf.stable else "**no**")
+            assert cells[3] == fmt(lf.peaks["sigma_S"].value, ".4g")
+            assert float(cells[3]) == pytest.approx(lf.peaks["sigma_S"].value, rel=1e-3)
+            assert cells[8] == ", ".join(f"{b:.4g}" for b in lf.bandwidth_hz)
+    b = r.binding
+    assert f"binding: {b.figure} at {fmt(b.ratio, '.4g')} of its bound ({b.model}, {b.loop}" \
+        " loop)" in text
+    for name, c in r.comparisons.items():
+        line = next(x for x in lines if x.startswith(f"{name} ("))
+        assert ("NOT certified" not in line) == c.certificate.certified
+    assert lines[-1] == f"{r.seconds:.1f} s"
+    # the integral gains as the controller has them (lim s R/S)
+    ki = [float(a.R[-1] / a.S[-2]) for a in r.controller.axes]
+    assert np.allclose(r.integral_gains(), ki, rtol=1e-9)
