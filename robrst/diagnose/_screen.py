@@ -860,7 +860,7 @@ class RecordColumns:
             elif self.dynamic_model or "thermal_dynamics" in self.grid.tried:
                 JL = lin.simulate_jac(th, base_fit.effective_input(p)[0], p.periodic)[1]
             else:
-                JL = None       # no column of this screen goes through the linear part's
+                JL = None       # no column of this screen uses the linear part's Jacobian
             X[base] = np.moveaxis(Jb[R], 2, 0)
         return th, yL, JL
 
