@@ -114,6 +114,16 @@ def mimo_summary(result: MimoDesignResult) -> str:
              f"decoupler: {result.controller.decoupler_kind}; integral gains"
              f" [V/(µm s)] " + ", ".join(fmt(g, ".4g") for g in result.integral_gains()),
              "", mimo_members_table(cert, list(p.axes)), ""]
+    sectors = [f for f in ("sector_S", "sector_T", "sector_U") if f in cert.bounds]
+    if sectors:
+        parts = []
+        for f in sectors:
+            worst = [(loop, cert.worst(f, loop)) for loop in ("continuous", "sampled")]
+            parts.append(f"{f} " + ", ".join(f"{fmt(w, '.4g')} {loop}" for loop, w in worst
+                                             if w is not None)
+                         + f" (bound {fmt(cert.bounds[f], '.4g')})")
+        lines.append(f"input gains within ±{specs.get('input_gain_deviation'):g} of nominal"
+                     " (a sector), worst over the family: " + "; ".join(parts))
     b = result.binding
     if b is not None:
         r = b.ratio

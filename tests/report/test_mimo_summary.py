@@ -1,6 +1,7 @@
 """The multi-axis text summary is drawn from the design's records: every member's row holds
-the certificate's figures (read from its loop records here, formatted alike), the binding
-figure and each comparison's verdict, and nothing is recomputed."""
+the certificate's figures (read from its loop records here, formatted alike), the sector's
+worst figures, the binding figure and each comparison's verdict, and nothing is
+recomputed."""
 
 import control
 import numpy as np
@@ -17,8 +18,8 @@ from robrst.report.text import fmt
 def one_axis():
     g = control.tf([2e7], [1, 300, 2e7])
     fam = MimoFamily((MimoPlant.from_control(g, "cold", 20.0),))
-    problem = MimoProblem("one axis", fam, specs=MimoSpecs(sigma_S_max=2.0,
-                                                           sample_rate_hz=20000.0))
+    problem = MimoProblem("one axis", fam, specs=MimoSpecs(
+        sigma_S_max=2.0, input_gain_deviation=0.3, sector_S_max=2.0, sample_rate_hz=20000.0))
     return design_mimo(problem, compare=True)
 
 
@@ -37,6 +38,12 @@ def test_the_summary_draws_the_records(one_axis):
             assert cells[3] == fmt(lf.peaks["sigma_S"].value, ".4g")
             assert float(cells[3]) == pytest.approx(lf.peaks["sigma_S"].value, rel=1e-3)
             assert cells[8] == ", ".join(f"{b:.4g}" for b in lf.bandwidth_hz)
+    cert = r.certificate
+    sector = next(x for x in lines if x.startswith("input gains within ±0.3 of nominal"))
+    worst = [max(m.loop(lp).peaks["sector_S"].value for m in cert.models
+                 if m.loop(lp) is not None) for lp in ("continuous", "sampled")]
+    assert f"sector_S {fmt(worst[0], '.4g')} continuous, {fmt(worst[1], '.4g')} sampled" \
+        " (bound 2)" in sector
     b = r.binding
     assert f"binding: {b.figure} at {fmt(b.ratio, '.4g')} of its bound ({b.model}, {b.loop}" \
         " loop)" in text
