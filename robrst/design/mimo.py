@@ -42,10 +42,12 @@ from robrst.synthesis.mimo_design import (decoupler_of, design_axes, per_axis_co
 from robrst.synthesis.mimo_program import AxisParam
 from robrst.synthesis.mimo_start import design_scale
 
-__all__ = ["Binding", "MimoComparison", "MimoDesignResult", "design_mimo", "BACK_OFF"]
+__all__ = ["Binding", "MimoComparison", "MimoDesignResult", "design_mimo", "BACK_OFF",
+           "COMPARISON_VIOLATIONS"]
 
 #: the gain factors of the last resort (module docstring, step 4)
 BACK_OFF = (0.9, 0.75, 0.5)
+COMPARISON_VIOLATIONS = 20   # a comparison's violations its JSON keeps (and the summary names)
 
 
 @dataclass(frozen=True)
@@ -108,7 +110,7 @@ class MimoComparison:
         c = self.certificate
         return {"certified": c.certified, "note": self.note, "ratios": c.ratios(),
                 "controller": self.controller.as_dict(),
-                "violations": [x.as_dict() for x in c.violations[:20]],
+                "violations": [x.as_dict() for x in c.violations[:COMPARISON_VIOLATIONS]],
                 "members": [m.as_dict() for m in c.members()]}
 
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
+from robrst.design.mimo import COMPARISON_VIOLATIONS
 from robrst.report.text import fmt
 
 if TYPE_CHECKING:
@@ -16,7 +17,6 @@ if TYPE_CHECKING:
 __all__ = ["mimo_summary", "mimo_members_table", "comparison_lines"]
 
 SHOWN_VIOLATIONS = 8         # the summary's violation lines; the JSON keeps them all
-LABELLED_VIOLATIONS = 20     # a comparison's violations the JSON keeps (and names here)
 
 
 def _pk(lp: MimoLoopFigures, key: str) -> str:
@@ -78,7 +78,7 @@ def comparison_lines(result: MimoDesignResult) -> list[str]:
         if cert.certified:
             what = "certified"
         else:
-            unstable = [v for v in cert.violations[:LABELLED_VIOLATIONS] if v.kind == "unstable"]
+            unstable = [v for v in cert.violations[:COMPARISON_VIOLATIONS] if v.kind == "unstable"]
             worst = [f"{k} {fmt(v, '.3g')}x" for k, v in sorted(cert.ratios().items(),
                                                                key=lambda kv: -kv[1])[:2]]
             what = "NOT certified: " + ("closed loop unstable on "
@@ -105,8 +105,8 @@ def mimo_summary(result: MimoDesignResult) -> str:
     vals = [m.value for m in fam.models if m.value is not None]
     rng = f" over {fam.parameter} {min(vals):g}-{max(vals):g} {fam.unit}" if len(vals) > 1 \
         else ""
-    specs = p.specs.as_dict()
-    fs = specs.get("sample_rate_hz")
+    specs = p.specs.as_dict()       # the listing below, as the JSON states the specs
+    fs = p.specs.sample_rate_hz
     lines = [f"{p.name}: {len(p.axes)} axes, {len(fam.models)} model(s){rng}"
              + (f", sampled at {fs:g} Hz" if fs else "")
              + f" — certified: {'yes' if result.certified else 'NO'}",
@@ -122,7 +122,7 @@ def mimo_summary(result: MimoDesignResult) -> str:
             parts.append(f"{f} " + ", ".join(f"{fmt(w, '.4g')} {loop}" for loop, w in worst
                                              if w is not None)
                          + f" (bound {fmt(cert.bounds[f], '.4g')})")
-        lines.append(f"input gains within ±{specs.get('input_gain_deviation'):g} of nominal"
+        lines.append(f"input gains within ±{p.specs.input_gain_deviation:g} of nominal"
                      " (a sector), worst over the family: " + "; ".join(parts))
     b = result.binding
     if b is not None:
