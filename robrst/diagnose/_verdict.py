@@ -22,7 +22,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from robrst.diagnose.result import Diagnosis, EffectScore
+from robrst.diagnose.result import (
+    Alternative, Diagnosis, EffectScore, FinalFit, Finding, FrfDeparture, LevelGap,
+    ModelDiagnosed, NotCause, PartialExplanation, RecordGap, RecordsUsed, Regime,
+    ResidualTest, ResidualTests, ScreenGap, SelectedEffect, SensorRecord, SensorReport,
+    TestGap, Tie, TimeWindow, Traces, Where)
 from robrst.diagnose.options import OPTIONS
 from robrst.diagnose.candidates import DYNAMIC, OFFSET, Screened
 from robrst.diagnose._select import excess, significant
@@ -345,13 +349,13 @@ def unmodelled(setup: Setup, linear: Scored, info: dict,
 
 def _sector(params, records):
     """The fitted Bouc–Wen map's input-gain sector over the training records' voltage
-    range (:func:`robrst.twin.model.hysteresis_sector`), as the JSON holds it."""
+    range (:func:`robrst.twin.model.hysteresis_sector`)."""
     u = np.concatenate([np.ravel(d.u) for d in records])
     lo, hi = float(np.min(u)), float(np.max(u))
     if not hi > lo:
         return None
     return hysteresis_sector(params["A"], params["B_per_V"], params["Gamma_per_V"],
-                             params["gain"], lo, hi).as_dict()
+                             params["gain"], lo, hi)
 
 
 def _params(key, sc):
@@ -462,19 +466,19 @@ def build(info: dict, where: dict, tests: dict, traces: dict, cause: str, reason
             fit_res.setdefault(es.name, sc.residuals)
         scores.append(es)
     scores.sort(key=lambda s: s.gap_after)
-    findings = [f for f in findings if f]
+    found = [Finding.of(f) for f in findings if f]
     for s in scores:
         if s.overfit:
-            findings.append({"kind": "train_only", "effect": s.name,
-                             "message": (f"{s.name} removes"
-                                         f" {100 * (1 - s.train_gap / info['before_train']):.0f} %"
-                                         f" of the training gap but {100 * s.shrink:.0f} % of the"
-                                         " held-out gap: it fits the training records only"),
-                             "train_gap": s.train_gap, "test_gap": s.gap_after})
+            found.append(Finding("train_only", (
+                f"{s.name} removes {100 * (1 - s.train_gap / info['before_train']):.0f} % of"
+                f" the training gap but {100 * s.shrink:.0f} % of the held-out gap: it fits the"
+                " training records only"),
+                {"effect": s.name, "train_gap": s.train_gap, "test_gap": s.gap_after}))
     selected, final = [], None
     ex = explanation
     removal = ex.removal if ex else {}
     final_gap = steps[-1][2].gap if steps else None
+    records = tuple(traces["records"])
     for key, gap0, sc in steps:
         name, form = key_name(key)
         final_fit = steps[-1][2]
@@ -483,60 +487,97 @@ def build(info: dict, where: dict, tests: dict, traces: dict, cause: str, reason
             form = "prandtl_ishlinskii"
         gw = removal.get(key)
         tied = next((t["effects"][1] for t in ties if t["effects"][0] == name), None)
-        selected.append({"name": name, "form": form, "gap_before": gap0, "gap_after": sc.gap,
-                         "tied_with": tied,
-                         "shrink": 1 - sc.gap / gap0 if gap0 > 0 else 0.0,
-                         "params": p[0], "params_std": p[1], "gap_without": gw,
-                         "credit": (1 - excess(final_gap, info["floor"]) / excess(gw, info["floor"])
-                                    if gw is not None and excess(gw, info["floor"]) > 0
-                                    else None)})
-        if key == "hysteresis" and form == "input" and p[0]:
-            # the hysteresis as the design's input-gain sector over the records' voltages
-            selected[-1]["input_gain_sector"] = _sector(p[0], traces["records"][:n_tr])
+        credit = (1 - excess(final_gap, info["floor"]) / excess(gw, info["floor"])
+                  if gw is not None and excess(gw, info["floor"]) > 0 else None)
+        # the hysteresis as the design's input-gain sector over the records' voltages
+        sector = (_sector(p[0], records[:n_tr]) if key == "hysteresis" and form == "input"
+                  and p[0] else None)
+        selected.append(SelectedEffect(
+            name=name, form=form, gap_before=gap0, gap_after=sc.gap, tied_with=tied,
+            shrink=1 - sc.gap / gap0 if gap0 > 0 else 0.0, params=p[0], params_std=p[1],
+            gap_without=gw, credit=credit, input_gain_sector=sector))
     if steps:
         sc = steps[-1][2]
         ch, cs = sc.fit.linear_change()
         moves = [abs(v) for k, v in ch.items() if not k.endswith("_per_level")]
-        final = {"effects": [s["name"] for s in selected], "gap_after": sc.gap,
-                 "shrink": 1 - sc.gap / before if before > 0 else 0.0,
-                 "train_gap": sc.train_gap, "linear_change": ch, "linear_change_std": cs,
-                 "linear_moved": max(moves) if moves else 0.0, "n_eval": sc.fit.n_eval,
-                 "gap_per_record": [
-                     {"file": names[n_tr + i], "gap": float(np.sqrt(np.sum(r ** 2) / np.sum(
-                         (d.Y - d.Y.mean(axis=0)) ** 2)))}
-                     for i, (r, d) in enumerate(zip(sc.residuals, traces["records"][n_tr:]))]}
+        final = FinalFit(
+            effects=tuple(s.name for s in selected), gap_after=sc.gap,
+            shrink=1 - sc.gap / before if before > 0 else 0.0, train_gap=sc.train_gap,
+            linear_change=ch, linear_change_std=cs, linear_moved=max(moves) if moves else 0.0,
+            n_eval=sc.fit.n_eval,
+            gap_per_record=tuple(
+                TestGap(names[n_tr + i], float(np.sqrt(np.sum(r ** 2) / np.sum(
+                    (d.Y - d.Y.mean(axis=0)) ** 2))))
+                for i, (r, d) in enumerate(zip(sc.residuals, records[n_tr:]))))
         fit_res["final"] = sc.residuals
-    traces["fit_residuals"] = fit_res
-    traces["answer_fit"] = (steps[-1][2].fit if steps else
-                            (linear.fit if linear is not None else None))
+    answer_fit = (steps[-1][2].fit if steps else (linear.fit if linear is not None else None))
     lin_score = _linear_score(linear, before, isinstance(plant, Plant), plant) if linear else None
-    data = {"fs_hz": info["fs"], "train": names[:n_tr], "test": names[n_tr:],
-            "samples": int(sum(d.n for d in traces["records"])), "noise_sigma_um": info["sigma"],
-            "inputs": model.n_in, "outputs": model.n_out,
-            "periodic": [bool(d.period) for d in traces["records"]]}
-    mdict = {"B": None, "A": None, "label": model.label, "reference_C": info["ref"],
-             "inputs": model.n_in, "outputs": model.n_out, "order": model.order,
-             "poles_hz": sorted(float(abs(p) / (2 * np.pi)) for p in model.poles)}
+    data = RecordsUsed(fs_hz=info["fs"], train=tuple(names[:n_tr]), test=tuple(names[n_tr:]),
+                       samples=int(sum(d.n for d in records)), noise_sigma_um=info["sigma"],
+                       inputs=model.n_in, outputs=model.n_out,
+                       periodic=tuple(bool(d.period) for d in records))
+    B = A = None
     if (model.n_in, model.n_out) == (1, 1):
         ch = plant if isinstance(plant, Plant) else model.channel(0, 0)
-        mdict["B"], mdict["A"] = [float(v) for v in ch.B], [float(v) for v in ch.A]
-    gap_extra = {"noise_floor_method": info["method"], "per_record": info["per_record"],
-                 "per_level": info.get("per_level", [])}
-    extra = {"causes": list(causes), "selected": selected, "final": final,
-             "not_causes": [{"name": key_name(k)[0], "gap_with": a, "gap_without": b}
-                            for k, a, b in (ex.dropped if ex else [])],
-             "alternatives": [{"effect": key_name(k)[0], "alternative": key_name(a)[0],
-                               "gap_alternative": sc.gap}
-                              for k, (a, sc) in (ex.alternatives.items() if ex else [])],
-             "screen": [{"name": key_name(k)[0], "gap": g}
-                        for k, g in (ex.screen_rank if ex else [])],
-             "sensor": sensor, "ties": [dict(t) for t in ties],
-             "selection": list(ex.events) if ex else [],
-             "findings": findings, "best_partial": best_partial, "skipped": skipped or {},
-             "seconds": time.perf_counter() - info["t_start"], "gap": gap_extra,
-             "output_offset": offset_alone.as_dict() if offset_alone else None}
-    return Diagnosis(cause=cause, reason=reason, gap_before=before, noise_floor=info["floor"],
-                     gap_train=info["before_train"], effects=tuple(scores),
-                     linear_refit=lin_score, where=where, tests=tests,
-                     decomposition=decomposition or {}, data=data, model=mdict, extra=extra,
-                     traces=traces)
+        B, A = tuple(float(v) for v in ch.B), tuple(float(v) for v in ch.A)
+    mrec = ModelDiagnosed(B=B, A=A, label=model.label, reference_C=info["ref"],
+                          inputs=model.n_in, outputs=model.n_out, order=model.order,
+                          poles_hz=tuple(sorted(float(abs(p) / (2 * np.pi))
+                                                for p in model.poles)))
+    return Diagnosis(
+        cause=cause, reason=reason, gap_before=before, noise_floor=info["floor"],
+        gap_train=info["before_train"], noise_floor_method=info["method"],
+        per_record=tuple(RecordGap(**r) for r in info["per_record"]),
+        per_level=tuple(LevelGap(r["level_V"], tuple(r["records"]), tuple(r["split"]),
+                                 r["gap"], r["noise_floor"])
+                        for r in info.get("per_level", [])),
+        effects=tuple(scores), linear_refit=lin_score, where=_where(where),
+        tests=ResidualTests(*(ResidualTest(stat, tests[k][stat], tests[k]["bound"],
+                                           tests[k]["passed"])
+                              for k, stat in (("whiteness", "max_abs_autocorr"),
+                                              ("cross_correlation", "max_abs_crosscorr")))),
+        decomposition=decomposition or {}, data=data, model=mrec, causes=tuple(causes),
+        selected=tuple(selected), final=final, findings=tuple(found),
+        best_partial=(PartialExplanation(**{**best_partial,
+                                            "effects": tuple(best_partial["effects"])})
+                      if best_partial else None),
+        skipped=skipped or {}, seconds=time.perf_counter() - info["t_start"],
+        output_offset=offset_alone,
+        not_causes=tuple(NotCause(key_name(k)[0], a, b) for k, a, b in (ex.dropped if ex else [])),
+        alternatives=tuple(Alternative(key_name(k)[0], key_name(a)[0], sc.gap)
+                           for k, (a, sc) in (ex.alternatives.items() if ex else [])),
+        screen=tuple(ScreenGap(key_name(k)[0], g) for k, g in (ex.screen_rank if ex else [])),
+        sensor=_sensor_report(sensor),
+        ties=tuple(Tie(t["slot"], tuple(t["effects"]), tuple(t["gaps"]), tuple(t["after"]),
+                       t["record"], t["message"]) for t in ties),
+        selection=tuple(ex.events) if ex else (),
+        traces=Traces(names=tuple(names), records=records,
+                      base_residuals=tuple(traces["base_residuals"]), psd_f=traces["psd_f"],
+                      psd=traces["psd"], noise_psd=traces["noise_psd"], fit_residuals=fit_res,
+                      answer_fit=answer_fit))
+
+
+def _where(w):
+    """The :class:`Where` record of the localisation's entries."""
+    frf, reg = w["frf"], dict(w["regime"])
+    dominant, measure = reg.pop("dominant", None), reg.pop("measure", "eta2")
+    band = w["frequency_band_hz"]
+    return Where(time_windows=tuple(TimeWindow(**x) for x in w["time_windows"]),
+                 energy_fraction=w["time_windows_energy_fraction"],
+                 frequency_band_hz=None if band is None else tuple(band),
+                 frf=FrfDeparture(None if frf["band_hz"] is None else tuple(frf["band_hz"]),
+                                  frf["max_rel_error"], frf["bins"]),
+                 regime=Regime(reg, dominant, measure))
+
+
+def _sensor_report(sensor):
+    """The :class:`SensorReport` of :func:`robrst.diagnose._sensor.repair`'s entries."""
+    if not sensor:
+        return None
+    return SensorReport(
+        outliers=sensor["outliers"], dropouts=sensor["dropouts"], samples=sensor["samples"],
+        share=sensor["share"],
+        records=tuple(SensorRecord(r["file"], r["outliers"], r["dropouts"],
+                                   tuple(tuple(ab) for ab in r["dropouts_s"]), r["flagged"])
+                      for r in sensor["records"]),
+        noise_floor_with_faults=sensor.get("noise_floor_with_faults"))

@@ -87,7 +87,7 @@ def answer_models(diag: Diagnosis) -> list:
         Empty for an answer without a fitted linear part (``none``, a ``cannot_tell``
         without a partial explanation).
     """
-    fit = diag.traces.get("answer_fit")
+    fit = diag.traces.answer_fit if diag.traces is not None else None
     if fit is not None and hasattr(fit, "twin_tables"):     # the stiffness: the plant itself
         plant = fit.linear_plant()
         return [AnswerModel(ModalModel.from_plant(plant), None, "model", fit.twin_tables(),
@@ -95,7 +95,7 @@ def answer_models(diag: Diagnosis) -> list:
     if fit is None or not hasattr(fit, "lin"):
         return []
     if getattr(fit, "slopes", ()):
-        recs = diag.traces["records"]
+        recs = diag.traces.records
         out = []
         for lv, _ in level_groups(recs):
             m = fit.model_at(lv) if hasattr(fit, "model_at") else fit.lin.continuous(
@@ -203,7 +203,7 @@ def write_models(diag: Diagnosis, folder: str | Path) -> list:
     if folder.exists() and not folder.is_dir():
         raise SpecError(f"{folder}: is a file; --model-out needs a folder")
     models = answer_models(diag)
-    fs = float(diag.data["fs_hz"])
+    fs = float(diag.data.fs_hz)
     for am in models:             # every target checked before anything is written
         _refuse_foreign(folder / f"{am.name}.toml")
         if am.twin:
@@ -215,7 +215,7 @@ def write_models(diag: Diagnosis, folder: str | Path) -> list:
                  if am.level_V is None else f"at the excitation level {am.level_V:.6g} V rms")
         header = [f"the linear part of the answer '{diag.cause}'"
                   f" ({' + '.join(diag.causes) or 'linear corrections'}) {where}",
-                  f"records: {', '.join(map(str, diag.data['train']))[:200]}"]
+                  f"records: {', '.join(map(str, diag.data.train))[:200]}"]
         if am.twin:
             header.append("twin.toml beside it switches the answer's "
                           + ", ".join(am.twin) + " on over it (robrst simulate --twin)")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
@@ -21,6 +22,11 @@ def _g(v, fmt):
     return "n/a" if v is None else format(v, fmt)
 
 
+def _num(v):
+    """A figure as the JSON holds it (a non-finite one is ``None``)."""
+    return v if v is not None and math.isfinite(v) else None
+
+
 def summary_text(diag: Diagnosis) -> str:
     """A dozen lines: gap, verdict, findings, candidates, the selected effects, where.
 
@@ -34,77 +40,75 @@ def summary_text(diag: Diagnosis) -> str:
     str
         What ``robrst diagnose`` prints.
     """
-    d = diag.as_dict()
-    g = d["gap"]
-    out = [f"gap of the simulation model (held-out NRMSE): {_g(g['before'], '.4g')}"
-           f"   noise floor {_g(g['noise_floor'], '.3g')}"
-           f" ({(g['noise_floor_method'] or 'n/a').replace('_', ' ')})"
-           f"   training records {_g(g['before_train'], '.4g')}",
-           f"cause: {d['cause']} — {d['reason']}"]
-    for f in d["findings"] or []:
-        out.append(f"finding {f['kind']}: {f['message']}")
-    if d["skipped"]:
-        out.append("not tried: " + "; ".join(f"{k} ({v})" for k, v in d["skipped"].items()))
-    if d["effects"]:
+    out = [f"gap of the simulation model (held-out NRMSE): {_g(_num(diag.gap_before), '.4g')}"
+           f"   noise floor {_g(_num(diag.noise_floor), '.3g')}"
+           f" ({(diag.noise_floor_method or 'n/a').replace('_', ' ')})"
+           f"   training records {_g(_num(diag.gap_train), '.4g')}",
+           f"cause: {diag.cause} — {diag.reason}"]
+    for f in diag.findings:
+        out.append(f"finding {f.kind}: {f.message}")
+    if diag.skipped:
+        out.append("not tried: " + "; ".join(f"{k} ({v})" for k, v in diag.skipped.items()))
+    if diag.effects:
         out.append(f"  {'candidate (alone)':<30}{'gap before':>11}{'gap after':>11}{'shrink':>9}")
-        rows = d["effects"] + ([dict(d["linear_refit"], name="(linear re-fit)", form="input")]
-                               if d["linear_refit"] else []) + (
-            [dict(d["output_offset"], name="(output offset)", form="output")]
-            if d.get("output_offset") else [])
-        for e in rows:
-            name = e["name"] + {"prandtl_ishlinskii": " (PI)"}.get(e.get("form"), "")
-            flag = "  overfit" if e.get("overfit") else ""
-            how = "  (screen)" if e.get("method") == "screen" else ""
-            out.append(f"  {name:<30}{e['gap_before']:>11.4g}{e['gap_after']:>11.4g}"
-                       f"{100 * e['shrink']:>8.1f}%{flag}{how}")
-    for s in d["selected"] or []:
-        ps = ", ".join(f"{k} = {_pm(v, s['params_std'].get(k))}" for k, v in list(
-            s["params"].items())[:6])
-        without = (f"; without it {s['gap_without']:.4g}" if s.get("gap_without") is not None
-                   else "")
-        out.append(f"selected {s['name']} ({s['form']}): gap {s['gap_before']:.4g} ->"
-                   f" {s['gap_after']:.4g}{without}; {ps}")
-        sec = s.get("input_gain_sector")
-        if sec and sec.get("delta") is not None:
-            lo, hi = sec["range_V"]
+        rows = [(e.name, e) for e in diag.effects]
+        if diag.linear_refit:
+            rows.append(("(linear re-fit)", replace(diag.linear_refit, form="input")))
+        if diag.output_offset:
+            rows.append(("(output offset)", replace(diag.output_offset, form="output")))
+        for name, e in rows:
+            name += {"prandtl_ishlinskii": " (PI)"}.get(e.form, "")
+            flag = "  overfit" if e.overfit else ""
+            how = "  (screen)" if e.method == "screen" else ""
+            out.append(f"  {name:<30}{e.gap_before:>11.4g}{e.gap_after:>11.4g}"
+                       f"{100 * e.shrink:>8.1f}%{flag}{how}")
+    for s in diag.selected:
+        ps = ", ".join(f"{k} = {_pm(v, s.params_std.get(k))}" for k, v in list(
+            s.params.items())[:6])
+        without = f"; without it {s.gap_without:.4g}" if _num(s.gap_without) is not None else ""
+        out.append(f"selected {s.name} ({s.form}): gap {s.gap_before:.4g} ->"
+                   f" {s.gap_after:.4g}{without}; {ps}")
+        sec = s.input_gain_sector
+        if sec and math.isfinite(sec.delta):
+            lo, hi = sec.range_V
             out.append(f"  as an input-gain sector over {lo:.4g}-{hi:.4g} V: slopes"
-                       f" {sec['slopes'][0]:.4g}-{sec['slopes'][1]:.4g}, delta"
-                       f" {sec['delta']:.3g} around {sec['nominal']:.4g} (a multi-axis"
+                       f" {sec.slopes[0]:.4g}-{sec.slopes[1]:.4g}, delta"
+                       f" {sec.delta:.3g} around {sec.nominal:.4g} (a multi-axis"
                        f" problem's input_gain_deviation, its model's gain times the centre)")
-    for t in d.get("ties") or []:
-        after = f" after {' + '.join(t['after'])}" if t["after"] else ""
-        out.append(f"tie in slot {t['slot']}{after}: {t['message']}")
-    for n in d.get("not_causes") or []:
-        out.append(f"not a cause: {n['name']} (the joint fit without it leaves"
-                   f" {n['gap_without']:.4g}, with it {n['gap_with']:.4g})")
-    for a in d.get("alternatives") or []:
-        out.append(f"alternative to {a['effect']}: {a['alternative']} (held-out gap"
-                   f" {a['gap_alternative']:.4g})")
-    fin = d["final"]
+    for t in diag.ties:
+        after = f" after {' + '.join(t.after)}" if t.after else ""
+        out.append(f"tie in slot {t.slot}{after}: {t.message}")
+    for n in diag.not_causes:
+        out.append(f"not a cause: {n.name} (the joint fit without it leaves"
+                   f" {n.gap_without:.4g}, with it {n.gap_with:.4g})")
+    for a in diag.alternatives:
+        out.append(f"alternative to {a.effect}: {a.alternative} (held-out gap"
+                   f" {a.gap_alternative:.4g})")
+    fin = diag.final
     if fin:
-        out.append(f"final model ({' + '.join(fin['effects'])} + linear corrections): held-out gap"
-                   f" {fin['gap_after']:.4g}; the linear part moved by at most"
-                   f" {100 * fin['linear_moved']:.1f} % (log ratio / relative gain)")
-    if d["best_partial"]:
-        b = d["best_partial"]
-        out.append(f"best partial explanation: {' + '.join(b['effects'])} (held-out gap"
-                   f" {b['gap_after']:.4g}, {100 * b['shrink']:.0f} %)")
-    w = d["where"]
-    tw = w["time_windows"]
+        out.append(f"final model ({' + '.join(fin.effects)} + linear corrections): held-out gap"
+                   f" {fin.gap_after:.4g}; the linear part moved by at most"
+                   f" {100 * fin.linear_moved:.1f} % (log ratio / relative gain)")
+    b = diag.best_partial
+    if b:
+        out.append(f"best partial explanation: {' + '.join(b.effects)} (held-out gap"
+                   f" {b.gap_after:.4g}, {100 * b.shrink:.0f} %)")
+    w = diag.where
+    tw = w.time_windows
     if tw:
-        first = ", ".join(f"{x['file']} {x['start_s']:.3g}–{x['end_s']:.3g} s" for x in tw[:3])
+        first = ", ".join(f"{x.file} {x.start_s:.3g}–{x.end_s:.3g} s" for x in tw[:3])
         out.append(f"where (time): {len(tw)} window(s) above 3x noise, holding"
-                   f" {100 * w['time_windows_energy_fraction']:.0f} % of the residual energy: {first}")
+                   f" {100 * w.energy_fraction:.0f} % of the residual energy: {first}")
     else:
         out.append("where (time): no window rises above 3x the noise")
-    band = w["frequency_band_hz"]
+    band = w.frequency_band_hz
     out.append("where (frequency): " + (f"{band[0]:.3g}–{band[1]:.3g} Hz" if band
                                         else "residual spectrum at the noise floor"))
-    reg = w["regime"]
-    if reg.get("dominant"):
-        out.append(f"where (regime): {reg['dominant']} explains {100 * reg[reg['dominant']]:.0f} %"
-                   " of the residual variance")
-    t = d["tests"]
-    out.append(f"residual tests: whiteness {'passed' if t['whiteness']['passed'] else 'failed'},"
-               f" input cross-correlation {'passed' if t['cross_correlation']['passed'] else 'failed'}")
+    reg = w.regime
+    if reg.dominant:
+        out.append(f"where (regime): {reg.dominant} explains"
+                   f" {100 * reg.shares[reg.dominant]:.0f} % of the residual variance")
+    t = diag.tests
+    out.append(f"residual tests: whiteness {'passed' if t.whiteness.passed else 'failed'},"
+               f" input cross-correlation {'passed' if t.cross_correlation.passed else 'failed'}")
     return "\n".join(out)

@@ -11,7 +11,9 @@ model, with the noise floor).  ``diagnosis.json`` is the ``--json`` result.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -23,7 +25,7 @@ from robrst.report._figure import drawing
 
 if TYPE_CHECKING:
     from pathlib import Path
-    from robrst.diagnose.result import Diagnosis
+    from robrst.diagnose.result import Diagnosis, RecordGap, TestGap
 
 __all__ = ["diagnosis_doc", "write_diagnosis_report", "FIGURES", "levels_figure"]
 
@@ -32,9 +34,8 @@ FIGURES = ("output.png", "residual.png", "spectrum.png", "effects.png", "levels.
 
 def _focus(diag):
     """Index (into the records) of the test record with the largest base residual."""
-    tr = diag.traces
-    n_train = len(diag.data["train"])
-    res = tr["base_residuals"][n_train:]
+    n_train = len(diag.data.train)
+    res = diag.traces.base_residuals[n_train:]
     return n_train + int(np.argmax([np.sum(np.asarray(r) ** 2) for r in res]))
 
 
@@ -51,39 +52,39 @@ def _first(a):
 def _output_fig(diag, path):
     tr = diag.traces
     k = _focus(diag)
-    d = tr["records"][k]
-    y, r = _first(d.Y), _first(tr["base_residuals"][k])
+    d = tr.records[k]
+    y, r = _first(d.Y), _first(tr.base_residuals[k])
     n = min(d.n, d.period if d.period else d.n)
     with drawing(path, (10, 4)) as (fig, ax):
         ax.plot(d.t[:n], y[:n], color="k", lw=1, label="measured")
         ax.plot(d.t[:n], (y - r)[:n], color="tab:blue", lw=1, label="model under diagnosis")
-        fit = tr.get("fit_residuals", {})
+        fit = tr.fit_residuals
         key = "final" if "final" in fit else (diag.cause if diag.cause in fit else None)
         if key:
-            rr = _first(fit[key][k - len(diag.data["train"])])
+            rr = _first(fit[key][k - len(diag.data.train)])
             ax.plot(d.t[:n], (y - rr)[:n], color="tab:orange", lw=1, ls="--",
                     label=f"final model ({' + '.join(diag.causes) or diag.cause})")
         ax.set_xlabel("time t [s]")
         ax.set_ylabel("displacement y [µm]" + (" (output 1)" if d.n_out > 1 else ""))
-        ax.set_title(f"measured vs simulated: {tr['names'][k]}" + (" (one period)" if d.period else ""))
+        ax.set_title(f"measured vs simulated: {tr.names[k]}" + (" (one period)" if d.period else ""))
         ax.legend(fontsize=8)
 
 
 def _residual_fig(diag, path):
     tr = diag.traces
     k = _focus(diag)
-    d, r, name = tr["records"][k], np.asarray(tr["base_residuals"][k]), tr["names"][k]
+    d, r, name = tr.records[k], np.asarray(tr.base_residuals[k]), tr.names[k]
     r = r if r.ndim == 1 else np.sqrt(np.mean(r ** 2, axis=1))
     with drawing(path, (10, 3.6)) as (fig, ax):
         ax.plot(d.t, r, color="tab:blue", lw=0.8,
                 label="residual y - y_model" + (" (rms over outputs)" if d.n_out > 1 else ""))
         first = True
-        for w in diag.where["time_windows"]:
-            if w["file"] == name:
-                ax.axvspan(w["start_s"], w["end_s"], color="tab:red", alpha=0.15,
+        for w in diag.where.time_windows:
+            if w.file == name:
+                ax.axvspan(w.start_s, w.end_s, color="tab:red", alpha=0.15,
                            label="gap window (> 3× noise)" if first else None)
                 first = False
-        s = diag.data["noise_sigma_um"]
+        s = diag.data.noise_sigma_um
         ax.axhline(3 * s, color="gray", ls=":", lw=1, label="±3× noise σ")
         ax.axhline(-3 * s, color="gray", ls=":", lw=1)
         ax.set_xlabel("time t [s]")
@@ -94,17 +95,17 @@ def _residual_fig(diag, path):
 
 def _spectrum_fig(diag, path):
     tr = diag.traces
-    f, P = tr["psd_f"], tr["psd"]
+    f, P = tr.psd_f, tr.psd
     with drawing(path, (8, 4)) as (fig, ax):
         ax.loglog(f[1:], P[1:], color="tab:blue", lw=1, label="residual PSD")
-        ax.axhline(tr["noise_psd"], color="k", ls="--", lw=1, label="noise floor (white)")
-        band = diag.where["frequency_band_hz"]
+        ax.axhline(tr.noise_psd, color="k", ls="--", lw=1, label="noise floor (white)")
+        band = diag.where.frequency_band_hz
         if band:
             ax.axvspan(max(band[0], f[1]), max(band[1], f[1]), color="tab:red", alpha=0.15,
                        label=f"gap band {band[0]:.3g}–{band[1]:.3g} Hz")
         for fd in diag.findings:
-            if fd["kind"] == "unmodelled_dynamics":
-                lo, hi = fd["band_hz"]
+            if fd.kind == "unmodelled_dynamics":
+                lo, hi = fd.details["band_hz"]
                 ax.axvspan(lo, hi, color="tab:green", alpha=0.15,
                            label=f"unmodelled dynamics {lo:.3g}–{hi:.3g} Hz")
         ax.set_xlabel("frequency f [Hz] (log)")
@@ -119,8 +120,8 @@ def _effects_fig(diag, path):
     if diag.linear_refit:
         rows.append(("linear re-fit", diag.linear_refit.gap_before, diag.linear_refit.gap_after))
     if diag.final:
-        rows.append(("final: " + " + ".join(diag.final["effects"]), diag.gap_before,
-                     diag.final["gap_after"]))
+        rows.append(("final: " + " + ".join(diag.final.effects), diag.gap_before,
+                     diag.final.gap_after))
     with drawing(path, (9, 4)) as (fig, ax):
         if rows:
             x = np.arange(len(rows))
@@ -134,8 +135,8 @@ def _effects_fig(diag, path):
         ax.legend(fontsize=8)
 
 
-def levels_figure(path: str | Path, per_record: Sequence[dict],
-                  final_per_record: Sequence[dict] | None = None,
+def levels_figure(path: str | Path, per_record: Sequence[RecordGap],
+                  final_per_record: Sequence[TestGap] | None = None,
                   title: str = "gap per record against its level") -> None:
     """Draw the gap (NRMSE) per record against its excitation level into the PNG ``path``.
 
@@ -143,26 +144,25 @@ def levels_figure(path: str | Path, per_record: Sequence[dict],
     ----------
     path : str or pathlib.Path
         The PNG file.
-    per_record : sequence of dict
-        Per record ``file, split ("train"/"test"), level_V, gap, noise_floor`` under the
-        model diagnosed.
-    final_per_record : sequence of dict, optional
-        Per test record ``file, gap`` under the final model.
+    per_record : sequence of RecordGap
+        Per record under the model diagnosed (:attr:`Diagnosis.per_record`).
+    final_per_record : sequence of TestGap, optional
+        Per test record under the final model (:attr:`FinalFit.gap_per_record`).
     title : str
         The figure's title.
     """
     with drawing(path, (8, 4)) as (fig, ax):
         for split, marker in (("train", "o"), ("test", "s")):
-            rows = [r for r in per_record if r["split"] == split]
+            rows = [r for r in per_record if r.split == split]
             if rows:
-                ax.scatter([r["level_V"] for r in rows], [r["gap"] for r in rows], marker=marker,
+                ax.scatter([r.level_V for r in rows], [r.gap for r in rows], marker=marker,
                            color="tab:blue", label=f"model under diagnosis ({split})")
-                ax.scatter([r["level_V"] for r in rows], [r["noise_floor"] for r in rows],
+                ax.scatter([r.level_V for r in rows], [r.noise_floor for r in rows],
                            marker="_", color="k", s=200,
                            label="noise floor" if split == "train" else None)
         if final_per_record:
-            lv = {r["file"]: r["level_V"] for r in per_record}
-            ax.scatter([lv[r["file"]] for r in final_per_record], [r["gap"] for r in final_per_record],
+            lv = {r.file: r.level_V for r in per_record}
+            ax.scatter([lv[r.file] for r in final_per_record], [r.gap for r in final_per_record],
                        marker="s", color="tab:orange", label="final model (test)")
         ax.set_yscale("log")
         ax.set_xlabel("excitation level: input rms [V]")
@@ -172,9 +172,12 @@ def levels_figure(path: str | Path, per_record: Sequence[dict],
 
 
 def _levels_fig(diag, path):
-    g = diag.as_dict()["gap"]
-    final = diag.final["gap_per_record"] if diag.final else None
-    levels_figure(path, g["per_record"], final)
+    levels_figure(path, diag.per_record, diag.final.gap_per_record if diag.final else None)
+
+
+def _fmt(v, fmt):
+    """A figure of the report's tables (``—`` where there is none)."""
+    return "—" if v is None or not math.isfinite(v) else format(v, fmt)
 
 
 def diagnosis_doc(diag: Diagnosis) -> Doc:
@@ -189,20 +192,19 @@ def diagnosis_doc(diag: Diagnosis) -> Doc:
     -------
     Doc
     """
-    d = diag.as_dict()
-    rows = tuple((e["name"] + _form(e.get("form")), e.get("method") or "fit",
-                  f"{e['gap_before']:.4g}", f"{e['gap_after']:.4g}", f"{100 * e['shrink']:.1f} %",
-                  ", ".join(f"{k}={v:.4g}" for k, v in list(e["params"].items())[:8]
-                            if v is not None))
-                 for e in d["effects"] + ([dict(d["linear_refit"], name="linear re-fit")]
-                                          if d["linear_refit"] else []))
-    credit = tuple((s["name"] + _form(s.get("form")), f"{s['gap_after']:.4g}",
-                    "—" if s.get("gap_without") is None else f"{s['gap_without']:.4g}",
-                    "—" if s.get("credit") is None else f"{100 * s['credit']:.0f} %")
-                   for s in d["selected"] or [])
-    credit += tuple((f"{n['name']} (not a cause)", f"{n['gap_with']:.4g}",
-                     f"{n['gap_without']:.4g}", "nothing") for n in d.get("not_causes") or [])
-    blocks = [("p", f"Cause: **{d['cause']}** — {d['reason']}."),
+    scores = diag.effects + ((replace(diag.linear_refit, name="linear re-fit"),)
+                             if diag.linear_refit else ())
+    rows = tuple((e.name + _form(e.form), e.method or "fit", _fmt(e.gap_before, ".4g"),
+                  _fmt(e.gap_after, ".4g"), f"{100 * e.shrink:.1f} %",
+                  ", ".join(f"{k}={v:.4g}" for k, v in list(e.params.items())[:8]
+                            if v is not None and math.isfinite(v)))
+                 for e in scores)
+    credit = tuple((s.name + _form(s.form), _fmt(s.gap_after, ".4g"), _fmt(s.gap_without, ".4g"),
+                    "—" if _fmt(s.credit, "") == "—" else f"{100 * s.credit:.0f} %")
+                   for s in diag.selected)
+    credit += tuple((f"{n.name} (not a cause)", f"{n.gap_with:.4g}",
+                     f"{n.gap_without:.4g}", "nothing") for n in diag.not_causes)
+    blocks = [("p", f"Cause: **{diag.cause}** — {diag.reason}."),
               ("pre", summary_text(diag)),
               ("h2", "Held-out gap per candidate (each alone)"),
               ("table", ("candidate", "scored by", "gap before", "gap after", "shrink",

@@ -9,6 +9,7 @@ held-out NRMSE of every candidate order, and measured vs simulated output on a r
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING
 
@@ -85,10 +86,9 @@ def identification_doc(ident: Identified) -> Doc:
     -------
     Doc
     """
-    d = ident.as_dict()
-    rows = tuple((o["order"], f"{o['train_nrmse']:.4g}" if o["train_nrmse"] is not None else "",
-                  f"{o['heldout_nrmse']:.4g}" if o["heldout_nrmse"] is not None else "", o["note"])
-                 for o in d["orders"])
+    rows = tuple((o.order, f"{o.train_nrmse:.4g}" if math.isfinite(o.train_nrmse) else "",
+                  f"{o.heldout_nrmse:.4g}" if math.isfinite(o.heldout_nrmse) else "", o.note)
+                 for o in ident.scores)
     m = ident.models[0]
     poles = ", ".join(f"{abs(p) / (2 * np.pi):.4g} Hz" for p in sorted(m.poles, key=abs))
     blocks = [("p", f"Order **{ident.order}** ({m.n_out} output(s) x {m.n_in} input(s),"

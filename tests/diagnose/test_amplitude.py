@@ -50,8 +50,8 @@ def test_level_slopes_fitted_on_two_levels_predict_a_third():
     assert d.gap_before > 20 * d.noise_floor              # the level matters
     # the level-dependent linear form has its own name (it was called hysteresis)
     assert d.cause == "amplitude_dependent_dynamics", d.reason
-    after = d.extra["final"]["gap_after"]
+    after = d.final.gap_after
     # the pole slopes alone leave 0.086 of the held-out gap (1.17); with the residue
     # slopes it is 0.024: the polish is what brings the third level within 2 %
     assert after < 0.03 and after < 0.03 * d.gap_before, (after, d.gap_before)
-    assert any(f and f["kind"] == "amplitude_dependent" for f in d.extra["findings"])
+    assert any(f.kind == "amplitude_dependent" for f in d.findings)

@@ -59,7 +59,7 @@ def _records(effects, seed, offset=0.0, ramps=False, hi=120.0):
 
 
 def _offset(dg):
-    return next(f for f in dg.findings if f["kind"] == "output_offset")
+    return next(f for f in dg.findings if f.kind == "output_offset").details
 
 
 def test_a_pure_sensor_offset_is_named_not_hysteresis():
@@ -118,7 +118,7 @@ def test_c_creep_hidden_behind_saturation_is_named():
     assert set(dg.causes) == {"creep", "saturation"}, dg.reason
     g = dg.as_dict()["gap"]
     assert g["after"] <= 1.25 * g["noise_floor"]
-    sat = next(s for s in dg.extra["selected"] if s["name"] == "saturation")["params"]
+    sat = next(s for s in dg.selected if s.name == "saturation").params
     assert sat["u_max_V"] == pytest.approx(default_twin().effects["saturation"]["u_max"],
                                            abs=0.5)
 

@@ -124,7 +124,7 @@ def test_screen_gaps_are_exact_least_squares():
     rng = np.random.default_rng(0)
     recs = [replace(d, y=d.y + 0.01 * rng.standard_normal(d.n)) for d in recs]
     d = diagnose(recs[:2], recs[2:], effects=("output_nonlinearity", "creep"))
-    got = next(s["gap"] for s in d.extra["screen"] if s["name"] == "output_nonlinearity")
+    got = next(s.gap for s in d.screen if s.name == "output_nonlinearity")
     # the same model by hand: y = y0 + J dtheta + a0 + a2 E^2 + a3 E^3 (E about the
     # training mean, scaled by the half range), ridge of the corrections' priors
     from robrst.diagnose.linear import LinearPart
@@ -141,7 +141,7 @@ def test_screen_gaps_are_exact_least_squares():
     X = np.vstack([a for a, _ in A])
     b = np.concatenate([r for _, r in A])
     # the priors' ridge on the corrections (noise std from the diagnosis)
-    sig = d.data["noise_sigma_um"]
+    sig = d.data.noise_sigma_um
     ridge = np.concatenate([(sig / lin.prior_sd) ** 2, np.zeros(3)])
     beta = np.linalg.solve(X.T @ X + np.diag(ridge) + 1e-9 * np.diag(np.diag(X.T @ X)),
                            X.T @ b)

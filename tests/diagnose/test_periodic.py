@@ -110,9 +110,9 @@ def test_a_recipe_record_without_its_period_is_diagnosed_as_with_it():
     assert b.cause == a.cause and b.causes == a.causes
     assert b.noise_floor == pytest.approx(a.noise_floor, rel=1e-12)
     assert b.gap_before == pytest.approx(a.gap_before, rel=1e-12)
-    f = next(x for x in b.findings if x["kind"] == "periodic_records")
-    assert len(f["records"]) == len(plain) and "period-to-period differences" in f["message"]
-    assert not any(x["kind"] == "periodic_records" for x in a.findings)
+    f = next(x for x in b.findings if x.kind == "periodic_records")
+    assert len(f.details["records"]) == len(plain) and "period-to-period differences" in f.message
+    assert not any(x.kind == "periodic_records" for x in a.findings)
 
 
 def test_the_fallback_floor_never_counts_an_excited_band_as_noise():

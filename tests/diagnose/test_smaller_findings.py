@@ -49,7 +49,7 @@ def test_offset_advice_needs_a_constant_of_the_sensor():
 def test_a_gain_change_is_no_sensor_zero(withheld):
     d, _, case = withheld("hard", "gain_change", 0)
     assert d.cause in case.accept, d.reason
-    assert not any(f["kind"] == "output_offset" for f in d.findings), d.findings
+    assert not any(f.kind == "output_offset" for f in d.findings), d.findings
     assert "remove it from the records" not in d.reason
 
 
@@ -99,11 +99,11 @@ def test_creep_growth_with_temperature_is_held_when_the_records_cannot_show_it()
 def test_creep_at_constant_temperature_is_physical(withheld):
     d, _, case = withheld("hard", "creep_constant_temperature", 0)
     assert d.cause == "creep" and d.causes == ("creep",), d.reason
-    sel = next(s for s in d.extra["selected"] if s["name"] == "creep")
+    sel = next(s for s in d.selected if s.name == "creep")
     # truth 0.02 per decade at 28 °C growing 5 %/K: 0.032 at 40 °C
-    assert sel["params"]["per_decade"] == pytest.approx(0.02 * (1 + 0.05 * 12), rel=0.05)
-    assert sel["params"]["per_decade_at_C"] == pytest.approx(40.0)
-    assert sel["params_std"]["per_K"] is None or not np.isfinite(sel["params_std"]["per_K"])
+    assert sel.params["per_decade"] == pytest.approx(0.02 * (1 + 0.05 * 12), rel=0.05)
+    assert sel.params["per_decade_at_C"] == pytest.approx(40.0)
+    assert sel.params_std["per_K"] is None or not np.isfinite(sel.params_std["per_K"])
 
 
 def test_output_backlash_transient_is_not_noise():

@@ -27,17 +27,17 @@ def test_withheld_effect_is_named_localised_and_shrunk(case, seed, withheld):
     d, truth, _ = withheld("twin", case, seed)
     assert d.cause == ANSWER[case], (d.reason, truth)
     if case == "none":
-        assert d.where["time_windows"] == [] and d.where["frequency_band_hz"] is None
+        assert d.where.time_windows == () and d.where.frequency_band_hz is None
         assert d.gap_before <= 1.25 * d.noise_floor
         return
     assert d.winner.shrink >= 0.5
-    assert d.where["time_windows"] and d.where["frequency_band_hz"] is not None
-    lo, hi = d.where["frequency_band_hz"]
-    assert 0 <= lo <= hi <= d.data["fs_hz"] / 2
+    assert d.where.time_windows and d.where.frequency_band_hz is not None
+    lo, hi = d.where.frequency_band_hz
+    assert 0 <= lo <= hi <= d.data.fs_hz / 2
     if case in EXPECTED_REGIME:
-        assert d.where["regime"]["dominant"] in EXPECTED_REGIME[case]
+        assert d.where.regime.dominant in EXPECTED_REGIME[case]
     # the other effects are scored too (every one tried: those the records excite and the
     # model's channels allow), worse than the winner
-    tried = [e for e in EFFECTS if e not in d.extra["skipped"]]
+    tried = [e for e in EFFECTS if e not in d.skipped]
     assert {e.name for e in d.effects} == set(tried)
     assert all(e.gap_after >= d.winner.gap_after for e in d.effects)

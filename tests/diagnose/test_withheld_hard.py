@@ -24,16 +24,16 @@ def results():
 def test_hard_case_gets_its_stated_answer(name, withheld):
     d, _, case = withheld("hard", name, 0)
     assert d.cause in case.accept, (name, d.reason)
-    assert set(case.must_name) <= set(d.extra["causes"]), (name, d.reason)
+    assert set(case.must_name) <= set(d.causes), (name, d.reason)
     if case.only:                         # nothing else named
-        assert set(d.extra["causes"]) == set(case.must_name), (name, d.reason)
+        assert set(d.causes) == set(case.must_name), (name, d.reason)
     if d.cause == "cannot_tell":
         for phrase in case.reason_has:
             assert phrase in d.reason, (name, d.reason)
     if d.cause not in ("none", "cannot_tell"):
-        assert d.extra["final"] is not None or d.cause == "linear"
+        assert d.final is not None or d.cause == "linear"
     if case.finding:
-        found = [f for f in d.extra["findings"] if f.get("kind") == case.finding]
+        found = [f.details for f in d.findings if f.kind == case.finding]
         assert found, (name, d.reason)
         if case.band_hz:
             lo, hi = found[0]["band_hz"]
@@ -41,7 +41,7 @@ def test_hard_case_gets_its_stated_answer(name, withheld):
             assert min(abs(f - case.band_hz) for f in found[0]["extra_modes_hz"]) < 0.05 * case.band_hz
     if name in RECOVERED:
         effect, key, true, rel = RECOVERED[name]
-        got = next(s["params"][key] for s in d.extra["selected"] if s["name"] == effect)
-        assert got == pytest.approx(true, rel=rel), d.extra["selected"]
-    if d.cause == "cannot_tell" and d.extra["best_partial"]:
-        assert d.extra["best_partial"]["gap_after"] < d.gap_before
+        got = next(s.params[key] for s in d.selected if s.name == effect)
+        assert got == pytest.approx(true, rel=rel), d.selected
+    if d.cause == "cannot_tell" and d.best_partial:
+        assert d.best_partial.gap_after < d.gap_before
