@@ -46,8 +46,49 @@ __all__ = ["EffectScore", "Diagnosis", "finite", "RecordGap", "LevelGap", "TimeW
            "Finding", "Traces"]
 
 
+class _Section:
+    """A section of the diagnosis JSON: its fields in order, records and tuples made plain.
+
+    ``_json_names`` renames a field in the JSON, ``_merged`` merges a mapping field's items
+    into the section, ``_omitted_if_none`` leaves a field out while it is ``None`` (a field
+    the JSON has only in some answers).
+    """
+
+    _json_names: ClassVar[Mapping[str, str]] = {}
+    _merged: ClassVar[tuple[str, ...]] = ()
+    _omitted_if_none: ClassVar[tuple[str, ...]] = ()
+
+    def as_dict(self) -> dict:
+        """The section as the diagnosis JSON holds it.
+
+        Returns
+        -------
+        dict
+        """
+        out = {}
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if v is None and f.name in self._omitted_if_none:
+                continue
+            if f.name in self._merged:
+                out.update(_plain(v))
+            else:
+                out[self._json_names.get(f.name, f.name)] = _plain(v)
+        return out
+
+
+def _plain(x: Any) -> Any:
+    if hasattr(x, "as_dict"):
+        return x.as_dict()
+    if isinstance(x, Mapping):
+        return {k: _plain(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_plain(v) for v in x]
+    return x
+
+
 @dataclass(frozen=True)
-class EffectScore:
+class EffectScore(_Section):
     """One candidate's held-out result (gap on the test records).
 
     Parameters
@@ -92,59 +133,6 @@ class EffectScore:
     form: str = "input"
     overfit: bool = False
     method: str = "fit"       # "fit" (its own nonlinear model) or "screen" (linear columns)
-
-    def as_dict(self) -> dict:
-        """The ``effects`` entry of the diagnosis JSON.
-
-        Returns
-        -------
-        dict
-        """
-        return {"name": self.name, "gap_before": self.gap_before, "gap_after": self.gap_after,
-                "shrink": self.shrink, "train_gap": self.train_gap, "params": self.params,
-                "params_std": self.params_std, "n_eval": self.n_eval, "fit_s": self.fit_s,
-                "form": self.form, "overfit": self.overfit, "method": self.method}
-
-
-class _Section:
-    """A section of the diagnosis JSON: its fields in order, records and tuples made plain.
-
-    ``_json_names`` renames a field in the JSON, ``_merged`` merges a mapping field's items
-    into the section, ``_omitted_if_none`` leaves a field out while it is ``None`` (a field
-    the JSON has only in some answers).
-    """
-
-    _json_names: ClassVar[Mapping[str, str]] = {}
-    _merged: ClassVar[tuple[str, ...]] = ()
-    _omitted_if_none: ClassVar[tuple[str, ...]] = ()
-
-    def as_dict(self) -> dict:
-        """The section as the diagnosis JSON holds it.
-
-        Returns
-        -------
-        dict
-        """
-        out = {}
-        for f in fields(self):
-            v = getattr(self, f.name)
-            if v is None and f.name in self._omitted_if_none:
-                continue
-            if f.name in self._merged:
-                out.update(_plain(v))
-            else:
-                out[self._json_names.get(f.name, f.name)] = _plain(v)
-        return out
-
-
-def _plain(x: Any) -> Any:
-    if hasattr(x, "as_dict"):
-        return x.as_dict()
-    if isinstance(x, Mapping):
-        return {k: _plain(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_plain(v) for v in x]
-    return x
 
 
 @dataclass(frozen=True)
