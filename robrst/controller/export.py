@@ -20,13 +20,14 @@ from robrst.certificate.proof import Certificate, certify_problem
 from robrst.design import DesignResult
 from robrst.controller.digital import DigitalController, digital_controller
 from robrst.base.errors import SpecError
-from robrst.controller.implementation import implementation_report, sampled_loop
+from robrst.controller.implementation import (RealisationFigures, implementation_report,
+                                              sampled_loop)
 
 if TYPE_CHECKING:
     from robrst.problem.records import Problem
 
 __all__ = ["ExportedController", "export_controller", "sampling", "check_u_range", "LAW",
-           "default_u_range"]
+           "default_u_range", "MAX_LISTED"]
 
 LAW = "S(q^-1) u(t) = T(q^-1) yr(t) - R(q^-1) y(t)"
 STEP = ("w_k = H_k x_k + J_k [w_{k-1}, yr, y] (k = 1..m, inner to outer, w_0 = 0);"
@@ -68,7 +69,7 @@ class ExportedController:
         ``digital.sample_rate_hz`` and ``delay_samples``.
     spectral_radius : float
         The largest closed-loop pole modulus over the certified models.
-    implementation : dict
+    implementation : tuple of RealisationFigures
         The float64/float32 figures of
         :func:`robrst.controller.implementation.implementation_report`.
     u_range : (float, float)
@@ -89,8 +90,8 @@ class ExportedController:
     delay_samples: int
     certificate: Certificate
     spectral_radius: float
-    implementation: dict
-    u_range: tuple
+    implementation: tuple[RealisationFigures, ...]
+    u_range: tuple[float, float]
 
     @property
     def certified(self):
@@ -99,12 +100,28 @@ class ExportedController:
     @property
     def recommended(self):
         """The realisation and precision to run (see the README's "Digital controller")."""
-        imp = self.implementation
-        f32 = imp["sections_float32"]
-        if (f32["stable_guaranteed"] and f32["mu_y"] <= F32_MU_MAX
-                and (f32["step_error_y"] is None or f32["step_error_y"] <= F32_STEP_MAX)):
-            return "sections_float32"
-        return "sections_float64" if imp["sections_float64"]["stable_guaranteed"] else None
+        f32, f64 = self.realisation("sections", "float32"), self.realisation("sections", "float64")
+        if (f32.stable_guaranteed and f32.mu_y <= F32_MU_MAX
+                and (f32.step_error_y is None or f32.step_error_y <= F32_STEP_MAX)):
+            return f32.key
+        return f64.key if f64.stable_guaranteed else None
+
+    def realisation(self, form: str, precision: str) -> RealisationFigures:
+        """The figures of one realisation in one precision.
+
+        Parameters
+        ----------
+        form : {"sections", "direct_form"}
+            The realisation.
+        precision : {"float64", "float32"}
+            The precision.
+
+        Returns
+        -------
+        RealisationFigures
+        """
+        return next(r for r in self.implementation
+                    if (r.form, r.precision) == (form, precision))
 
     def certificate_dict(self) -> dict:
         """The ``certificate`` object of the JSON (worst case over the certified models).
@@ -145,12 +162,10 @@ class ExportedController:
         """
         ms, mt = (self.certificate.worst(k, "sampled") for k in ("Ms", "Mt"))
         out = {"recommended": self.recommended}
-        for key, rec in self.implementation.items():
-            rec = dict(rec)
-            mu, ok = rec["mu_y"], rec["stable_guaranteed"]
-            rec["Ms_sampled_bound"] = ms / (1 - mu) if ok else None
-            rec["Mt_sampled_bound"] = (mt + mu) / (1 - mu) if ok else None
-            out[key] = rec
+        for r in self.implementation:
+            ok = r.stable_guaranteed
+            out[r.key] = {**r.as_dict(), "Ms_sampled_bound": ms / (1 - r.mu_y) if ok else None,
+                          "Mt_sampled_bound": (mt + r.mu_y) / (1 - r.mu_y) if ok else None}
         return out
 
     def as_dict(self) -> dict:

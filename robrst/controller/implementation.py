@@ -43,9 +43,62 @@ if TYPE_CHECKING:
 
 __all__ = ["rounded", "controller_step", "run_loop", "run_direct_form", "SampledLoop",
            "sampled_loop", "loop_perturbation", "implementation_report", "frequency_grid",
-           "PRECISIONS"]
+           "PRECISIONS", "RealisationFigures"]
 
 PRECISIONS = {"float64": np.float64, "float32": np.float32}
+
+
+@dataclass(frozen=True)
+class RealisationFigures:
+    """What one realisation of the controller in one precision costs against the exact loop.
+
+    Parameters
+    ----------
+    form : str
+        ``"sections"`` (the second-order sections robrst writes) or ``"direct_form"`` (the
+        expanded ``R_z, S_z, T_z``, for comparison).
+    precision : str
+        ``"float64"`` or ``"float32"``.
+    mu_y, mu_yr : float
+        The coefficient rounding's ``sup |P S dK|`` over the unit circle (worst over the
+        loops), from the measured output and from the reference.
+    stable_guaranteed : bool
+        Every exact loop stable, ``mu_y < 1`` and the same poles on and outside the unit
+        circle as the exact controller (the integrator exactly at ``z = 1``).
+    step_error_y, step_error_u : float or None
+        The simulated 1 µm step's largest output and command errors relative to their
+        peaks, against the sections in extended precision (``None`` when the first loop is
+        unstable or is a biproper plant without delay).
+
+    Attributes
+    ----------
+    key : str
+        ``form_precision``, the JSON's name (``"sections_float32"``).
+    """
+
+    form: str
+    precision: str
+    mu_y: float
+    mu_yr: float
+    stable_guaranteed: bool
+    step_error_y: float | None = None
+    step_error_u: float | None = None
+
+    @property
+    def key(self) -> str:
+        return f"{self.form}_{self.precision}"
+
+    def as_dict(self) -> dict:
+        """The figures as the export JSON holds them under :attr:`key`.
+
+        Returns
+        -------
+        dict
+            ``mu_y, mu_yr, stable_guaranteed, step_error_y, step_error_u``.
+        """
+        return {"mu_y": self.mu_y, "mu_yr": self.mu_yr,
+                "stable_guaranteed": self.stable_guaranteed,
+                "step_error_y": self.step_error_y, "step_error_u": self.step_error_u}
 
 
 def rounded(dc: DigitalController, dtype: type) -> DigitalController:
@@ -373,7 +426,8 @@ def _unstable_poles(dc):
 
 
 def implementation_report(dc: DigitalController, loops: Sequence[SampledLoop],
-                          delay_samples: int = 0, n_steps: int = 1000) -> dict[str, dict]:
+                          delay_samples: int = 0, n_steps: int = 1000
+                          ) -> tuple[RealisationFigures, ...]:
     """Float64 and float32 sections (and, for comparison, the direct form) vs the exact loop.
 
     Parameters
@@ -389,15 +443,8 @@ def implementation_report(dc: DigitalController, loops: Sequence[SampledLoop],
 
     Returns
     -------
-    dict
-        Keys ``sections_float64``, ``sections_float32``, ``direct_form_float64``,
-        ``direct_form_float32``, each with ``mu_y``, ``mu_yr`` (worst over ``loops``),
-        ``stable_guaranteed`` (every exact loop stable, ``mu_y < 1`` and the same poles on
-        and outside the unit circle as the exact controller: the integrator exactly at
-        ``z = 1``) and the
-        simulated step's largest output and command errors relative to their peaks
-        (``step_error_y``, ``step_error_u``, against the sections in extended precision;
-        ``None`` when the first loop is unstable or is a biproper plant without delay).
+    tuple of RealisationFigures
+        The sections in float64 and float32, then the direct form in float64 and float32.
     """
     with np.errstate(all="ignore"):
         return _report(dc, loops, int(delay_samples), n_steps)
@@ -413,7 +460,7 @@ def _report(dc, loops, k, n_steps):
             pass
     n_unstable = _unstable_poles(dc)
     exact_stable = all(lp.spectral_radius < 1.0 for lp in loops)
-    out = {}
+    out = []
     for form in ("sections", "direct_form"):
         for name, dt in PRECISIONS.items():
             impl = rounded(dc, dt)
@@ -426,13 +473,14 @@ def _report(dc, loops, k, n_steps):
                 same = not dc.ctrl.has_integrator or math.fsum(impl.S_z) == 0.0
                 runner = lambda r, impl=impl, dt=dt: run_direct_form(impl, plant, r, k, dt)  # noqa: E731
             figs = [loop_perturbation(lp, resp) for lp in loops]
-            rec = {"mu_y": max(f["mu_y"] for f in figs), "mu_yr": max(f["mu_yr"] for f in figs)}
-            rec["stable_guaranteed"] = bool(exact_stable and rec["mu_y"] < 1.0 and same)
-            rec["step_error_y"] = rec["step_error_u"] = None
+            mu_y, mu_yr = max(f["mu_y"] for f in figs), max(f["mu_yr"] for f in figs)
+            err_y = err_u = None
             if reference is not None:
-                rec["step_error_y"], rec["step_error_u"] = _step_error(reference, runner, n_steps)
-            out[f"{form}_{name}"] = rec
-    return out
+                err_y, err_u = _step_error(reference, runner, n_steps)
+            out.append(RealisationFigures(form, name, mu_y, mu_yr,
+                                          bool(exact_stable and mu_y < 1.0 and same),
+                                          err_y, err_u))
+    return tuple(out)
 
 
 class _DirectForm:

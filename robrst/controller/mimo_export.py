@@ -32,11 +32,12 @@ from robrst import __version__
 from robrst.base.errors import SpecError
 from robrst.controller.c_code import check_prefix
 from robrst.controller.digital import digital_controller
-from robrst.controller.export import check_u_range
+from robrst.controller.export import MAX_LISTED, check_u_range
 
 if TYPE_CHECKING:
     from collections.abc import Callable
 
+    from robrst.certificate.mimo import MimoCertificate
     from robrst.core.mimo_loop import MimoController
     from robrst.design.mimo import MimoDesignResult
 
@@ -61,8 +62,14 @@ class MimoExported:
     sample_rate_hz : float
     delay_samples : int
     u_range : (float, float)
-    certificate : dict
-        The multi-axis certificate's summary (``certified``, ``ratios``, sampled loop).
+    certificate : MimoCertificate or None
+        The design's multi-axis certificate (``None``: another controller of the problem,
+        a comparison design, which its own certificate covers).
+
+    Attributes
+    ----------
+    certified : bool or None
+        The certificate's verdict (``None`` without one).
     """
 
     problem: str
@@ -72,12 +79,28 @@ class MimoExported:
     Wd: tuple | None
     sample_rate_hz: float
     delay_samples: int
-    u_range: tuple
-    certificate: dict
+    u_range: tuple[float, float]
+    certificate: MimoCertificate | None
 
     @property
-    def certified(self) -> bool:
-        return bool(self.certificate.get("certified"))
+    def certified(self) -> bool | None:
+        return None if self.certificate is None else bool(self.certificate.certified)
+
+    def certificate_summary(self) -> dict:
+        """The ``certificate`` object of the JSON.
+
+        Returns
+        -------
+        dict
+            ``certified``, ``ratios``, ``worst_sigma_S_sampled`` and ``violations`` (at most
+            20 described); without a certificate ``certified = None`` and a ``note``.
+        """
+        c = self.certificate
+        if c is None:
+            return {"certified": None, "note": "not the design's answer; see its own certificate"}
+        return {"certified": c.certified, "ratios": c.ratios(),
+                "worst_sigma_S_sampled": c.worst("sigma_S", "sampled"),
+                "violations": [v.describe() for v in c.violations[:MAX_LISTED]]}
 
     @property
     def n_inputs(self) -> int:
@@ -152,7 +175,7 @@ class MimoExported:
                           "feedthrough": dc.D.tolist(), "n_states": dc.n_states,
                           "controller_s": dc.ctrl.as_dict()}
                          for nm, dc in zip(self.names, self.axes)],
-                "decoupler": dec, "certificate": self.certificate}
+                "decoupler": dec, "certificate": self.certificate_summary()}
 
 
 def _tustin(A, B, C, D, fs):
@@ -205,16 +228,10 @@ def export_mimo(result: MimoDesignResult, controller: MimoController | None = No
         Wd = _tustin(*ctrl.decoupler_ss, fs)
     else:
         W = ctrl.decoupler
-    cert = result.certificate
-    summary = ({"certified": cert.certified, "ratios": cert.ratios(),
-                "worst_sigma_S_sampled": cert.worst("sigma_S", "sampled"),
-                "violations": [v.describe() for v in cert.violations[:20]]}
-               if controller is None else {"certified": None, "note": "not the design's answer;"
-                                           " see its own certificate"})
     return MimoExported(result.problem.name, tuple(ctrl.names), axes, W, Wd, fs,
                         specs.delay_samples,
                         check_u_range((-np.inf, np.inf) if u_range is None else u_range),
-                        summary)
+                        result.certificate if controller is None else None)
 
 
 def _lit(v):
@@ -257,7 +274,7 @@ def mimo_c_files(exp: MimoExported, name: str = "robrst_mimo",
  * {"static decoupler u = W v" if exp.W is not None else "dynamic decoupler (Tustin state space)"};
  * u clamped to [{P}_U_MIN, {P}_U_MAX]{" with anti-windup dv = W^+ (u_sat - u)" if exp.W is not None else ""}.
  * Tustin at {exp.sample_rate_hz:g} Hz; the certificate assumes {exp.delay_samples} sample(s) of
- * computation delay.  Certified: {exp.certificate.get("certified")}.
+ * computation delay.  Certified: {exp.certified}.
  * Units: r, y in um; u in V.
  */
 #ifndef {P}_H
@@ -450,7 +467,7 @@ def mimo_python_module(exp: MimoExported) -> str:
         return repr(v) if math.isfinite(v) else f'float("{v}")'
     return _PY.format(problem=exp.problem, version=__version__, m=len(exp.axes),
                       k=exp.n_inputs, names=", ".join(exp.names), fs=exp.sample_rate_hz,
-                      certified=exp.certificate.get("certified"), delay=exp.delay_samples,
+                      certified=exp.certified, delay=exp.delay_samples,
                       lo=lit(lo), hi=lit(hi), axes=axes,
                       W=None if exp.W is None else exp.W.tolist(),
                       P=exp.aw_matrix().tolist(), Wd=Wd)

@@ -32,14 +32,14 @@ def _check_against_python_control(exp, problem):
 
     The sections' state space must reproduce the certificate to 1e-6 (peaks) and 1e-8
     (radius); the direct form ``R_z/S_z`` within the error its own coefficients imply
-    (its ``mu`` of ``implementation["direct_form_float64"]``, the bound of
+    (its ``mu`` of ``realisation("direct_form", "float64")``, the bound of
     ``robrst.controller.implementation``; its spectral radius within ``1e-6 + mu``): near-clustered poles by
     ``z = 1`` make it the weaker one.
     """
     d = exp.as_dict()
     fs, k = d["sample_rate_hz"], d["delay_samples"]
     recs = {m.temperature_C: m for m in exp.certificate.models}
-    mu = exp.implementation["direct_form_float64"]["mu_y"]
+    mu = exp.realisation("direct_form", "float64").mu_y
     slack = {"sections": 1e-6, "direct": 1e-6 + 4 * mu * d["certificate"]["Ms_sampled"]}
     for m in problem.family.models:
         dt = zoh_plant(m, fs, k).dt
@@ -119,7 +119,7 @@ def test_random_plants(seed):
     exp = export_controller(run_problem(problem))
     assert exp.certificate is not None and exp.digital.sample_rate_hz == problem.specs.sample_rate_hz
     _check_against_python_control(exp, problem)
-    assert exp.implementation["sections_float64"]["mu_y"] < 1e-9
+    assert exp.realisation("sections", "float64").mu_y < 1e-9
 
 
 @pytest.mark.parametrize("R_fixed,extra", [((1e-4, 1.0), 1), ((1e-4, 1.0), 0)])
@@ -141,14 +141,14 @@ def test_roll_off_controllers(R_fixed, extra):
 def test_implementations_against_the_exact_loop(exports, name):
     """The stated bounds: float64 sections ~1e-13, float32 sections within 1e-5 (mu and a
     simulated step), the direct form in float32 loses the integrator and is 100x worse."""
-    imp = exports(name).implementation
-    f64, f32 = imp["sections_float64"], imp["sections_float32"]
-    assert f64["stable_guaranteed"] and f64["mu_y"] < 1e-12 and f64["step_error_y"] < 1e-12
-    assert f32["stable_guaranteed"] and f32["mu_y"] < 1e-5
-    assert f32["step_error_y"] < 1e-5 and f32["step_error_u"] < 1e-4
-    assert exports(name).recommended == "sections_float32"
-    d32 = imp["direct_form_float32"]
-    assert not d32["stable_guaranteed"] and d32["step_error_y"] > 100 * f32["step_error_y"]
+    exp = exports(name)
+    f64, f32 = exp.realisation("sections", "float64"), exp.realisation("sections", "float32")
+    assert f64.stable_guaranteed and f64.mu_y < 1e-12 and f64.step_error_y < 1e-12
+    assert f32.stable_guaranteed and f32.mu_y < 1e-5
+    assert f32.step_error_y < 1e-5 and f32.step_error_u < 1e-4
+    assert exp.recommended == "sections_float32"
+    d32 = exp.realisation("direct_form", "float32")
+    assert not d32.stable_guaranteed and d32.step_error_y > 100 * f32.step_error_y
     bounds = exports(name).implementation_dict()["sections_float32"]
     cert = exports(name).as_dict()["certificate"]
     assert cert["Ms_sampled"] <= bounds["Ms_sampled_bound"] <= cert["Ms_sampled"] * (1 + 2e-5)
