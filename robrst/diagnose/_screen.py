@@ -52,7 +52,7 @@ import numpy as np
 from scipy import signal
 
 from robrst.diagnose._effects import SPECS, creep_cells, creep_per_K_free, pi_thresholds
-from robrst.diagnose.fit import level_factor, model_jacobian
+from robrst.diagnose.fit import level_factor, model_jacobian, slope_basis
 from robrst.diagnose.options import OPTIONS
 from robrst.diagnose._stages import cached_stage
 
@@ -744,6 +744,10 @@ class Columns:
         ... and the input each drives.
     theta : numpy.ndarray
         The base's linear corrections on this record.
+    base_map : tuple, optional
+        ``(keep, M)`` when the base's level slopes are its modes' columns scaled by the
+        record's level basis: the base's columns are ``M @ X[keep]`` (so its Gram products
+        are those of ``keep``, mapped by ``M``).
     """
 
     rows: slice
@@ -752,6 +756,7 @@ class Columns:
     signals: list
     inputs: list
     theta: np.ndarray
+    base_map: tuple[np.ndarray, np.ndarray] | None = None
 
 
 class _Signals:
@@ -798,14 +803,19 @@ class RecordColumns:
         self.grid, self.layout, self.lin = grid, layout, lin
         self.theta, self.base_fit = theta, base_fit
         self.level_ref, self.dynamic_model, self.stages = level_ref, dynamic_model, stages
+        self._scratch = None
 
-    def of(self, p: Prepared) -> Columns:
+    def of(self, p: Prepared, scratch: bool = False) -> Columns:
         """The columns of record ``p``.
 
         Parameters
         ----------
         p : Prepared
             The record.
+        scratch : bool
+            Write them into this object's one scratch array (reused by the next record
+            asked for with ``scratch``: for a record whose columns are used at once, as a
+            training record's Gram products are).
 
         Returns
         -------
@@ -814,8 +824,15 @@ class RecordColumns:
         N = len(p.U)
         R = slice(None, None, max(1, -(-N // _SCR.samples)))   # rows of the Gram
         Ns = len(range(N)[R])
-        X = np.zeros((self.layout.size, Ns, self.grid.n_out))
-        th, yL, JL = self._base(p, R, X)
+        shape = (self.layout.size, Ns, self.grid.n_out)
+        if not scratch:
+            X = np.zeros(shape)
+        else:                   # one array for every such record: no new pages each time
+            if self._scratch is None or self._scratch.shape != shape:
+                self._scratch = np.zeros(shape)
+            X = self._scratch
+            X.fill(0.0)
+        th, yL, JL, base_map = self._base(p, R, X)
         sig = _Signals(self.layout.index)
         self._output_side(X, yL, R)
         self._coupling(p, X, yL, R, sig)
@@ -831,7 +848,7 @@ class RecordColumns:
             f = level_factor(p.level, self.level_ref)
             for i, n in enumerate(self.lin.names):
                 X[self._col(f"amplitude_dependent_dynamics:{n}_per_level")] = f * JL[R, :, i]
-        return Columns(R, (p.Y - yL)[R], X, sig.signals, sig.inputs, th)
+        return Columns(R, (p.Y - yL)[R], X, sig.signals, sig.inputs, th, base_map)
 
     def _col(self, name):
         return self.layout.index[name]
@@ -853,7 +870,8 @@ class RecordColumns:
         else:
             th = base_fit.theta_at(p.level)
             yL = base_fit.predict_prepared(p)
-            Jb = model_jacobian(base_fit, p)[1]
+            level_map = _level_map(base_fit, p)
+            Jb = model_jacobian(base_fit, p, level_columns=level_map is None)[1]
             nz = base_fit.chain.size
             if base_fit.joint:
                 JL = Jb[:, :, nz:nz + lin.size]
@@ -861,8 +879,16 @@ class RecordColumns:
                 JL = lin.simulate_jac(th, base_fit.effective_input(p)[0], p.periodic)[1]
             else:
                 JL = None       # no column of this screen uses the linear part's Jacobian
-            X[base] = np.moveaxis(Jb[R], 2, 0)
-        return th, yL, JL
+            if level_map is None:
+                X[base] = np.moveaxis(Jb[R], 2, 0)
+                return th, yL, JL, None
+            keep, slopes, M = level_map
+            col = np.asarray(base)                  # the base's parameters' columns
+            X[col[keep]] = np.moveaxis(Jb[R][:, :, keep], 2, 0)
+            for c, (src, v) in slopes.items():      # a slope column: its mode's column scaled
+                np.multiply(X[col[src]], v, out=X[col[c]])
+            return th, yL, JL, (col[keep], M)
+        return th, yL, JL, None
 
     def _output_side(self, X, yL, R):
         g = self.grid
@@ -1064,17 +1090,45 @@ class GramAccumulator:
         if w != 1.0:
             Xf *= w
         rf = r.reshape(-1) * w
-        base = self.layout.base
-        Xb = Xf[base]
-        Gbb = Xb @ Xb.T
+        base, M = self.layout.base, None
+        if cols.base_map is None:
+            Xb = Xf[base]
+        else:       # the base's slope columns are its modes' columns scaled: M @ X[keep]
+            keep, M = cols.base_map
+            Xb = Xf[keep]
+        Gbb, br = Xb @ Xb.T, Xb @ rf
+        if M is not None:
+            Gbb, br = M @ Gbb @ M.T, M @ br
+        nb = len(base)
         for idx, Gb, bb in self.blocks.values():
-            nb = len(base)
             Xg = Xf[idx[nb:]]                  # the block: the base, then the candidate's
-            Gbg = Xb @ Xg.T
+            Gbg = Xb @ Xg.T if M is None else M @ (Xb @ Xg.T)
             Gb["train"] += np.block([[Gbb, Gbg], [Gbg.T, Xg @ Xg.T]])
-            bb["train"] += np.concatenate([Xb @ rf, Xg @ rf])
+            bb["train"] += np.concatenate([br, Xg @ rf])
         self.c["train"] += float(rf @ rf)
         self.den["train"] += float(np.sum((w * (p.Y[R] - p.Y.mean(axis=0))) ** 2))
+
+
+def _level_map(fit, p):
+    """How a fitted base's level slopes stand on a record: ``(keep, slopes, M)`` with
+    ``keep`` the other parameters' indices, ``slopes`` ``{slope index: (its mode's index,
+    the record's basis value)}`` and ``M`` ``(x.size, keep.size)`` with the base's Jacobian
+    columns ``= M @`` those of ``keep`` (:func:`robrst.diagnose.fit.model_jacobian` writes a
+    slope's column as its mode's column times the level basis); ``None`` without slopes."""
+    if not (fit.joint and fit.slopes):
+        return None
+    nz, nt, k = fit.chain.size, fit.lin.size, len(fit.slopes)
+    b = slope_basis(level_factor(p.level, fit.level_ref), fit.level_knots)
+    c0 = nz + nt
+    slopes = {c0 + q * k + j: (nz + i, float(v)) for q, v in enumerate(b)
+              for j, i in enumerate(fit.slopes)}
+    keep = np.array([c for c in range(fit.x.size) if c not in slopes], int)
+    pos = {c: n for n, c in enumerate(keep)}
+    M = np.zeros((fit.x.size, keep.size))
+    M[keep, np.arange(keep.size)] = 1.0
+    for c, (src, v) in slopes.items():
+        M[c, pos[src]] = v
+    return keep, slopes, M
 
 
 def build_screen(setup: Setup, theta: np.ndarray | None,  # noqa: F821  (candidates.Setup)
@@ -1125,7 +1179,7 @@ def build_screen(setup: Setup, theta: np.ndarray | None,  # noqa: F821  (candida
                             stages)
     acc = GramAccumulator(layout, lin)
     for p in setup.train:
-        acc.add_train(p, columns.of(p))
+        acc.add_train(p, columns.of(p, scratch=True))
     for p in setup.test:
         acc.add_test(p, columns.of(p))
     if say:

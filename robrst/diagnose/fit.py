@@ -712,8 +712,8 @@ def _post_jacobian(fit, x, J, Y):
             J[:, j, sl["offset"].start + j] = 1.0
 
 
-def model_jacobian(fit: Fitted, p: Prepared,
-                   x: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def model_jacobian(fit: Fitted, p: Prepared, x: np.ndarray | None = None,
+                   level_columns: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """A candidate's outputs on a record and their derivatives with respect to its parameters.
 
     Exact for the chain (compiled sensitivities, closed forms), the gains and the output
@@ -728,6 +728,9 @@ def model_jacobian(fit: Fitted, p: Prepared,
         The record.
     x : numpy.ndarray, optional
         A parameter vector (default the fitted one).
+    level_columns : bool
+        Write the level slopes' columns (each its mode's column times the record's level
+        basis value); without, they stay zero for a caller that scales them itself.
 
     Returns
     -------
@@ -749,7 +752,7 @@ def model_jacobian(fit: Fitted, p: Prepared,
             J[:, :, c] += lin.simulate_input(th, dv[:, c], j, p.periodic)
     if fit.joint:
         J[:, :, nz:nz + nt] = JL
-    if fit.slopes:
+    if fit.slopes and level_columns:
         b = slope_basis(level_factor(p.level, fit.level_ref), fit.level_knots)
         k, c0 = len(fit.slopes), nz + nt
         Js = JL[:, :, list(fit.slopes)]

@@ -110,3 +110,43 @@ def test_the_residues_rows_reduced_to_their_triangular_factor_solve_alike():
     assert Ar.shape[0] == 3 * 12 + 24 < A.shape[0]
     X = np.linalg.lstsq(A, B, rcond=None)[0]
     assert np.allclose(np.linalg.lstsq(Ar, Br, rcond=None)[0], X, rtol=1e-10, atol=1e-12)
+
+
+def test_a_level_slopes_columns_are_its_modes_columns_scaled():
+    """On top of a level-dependent fit the screen keeps only the base's other columns: a
+    slope's column is its mode's column times the record's level basis value, so the base's
+    Gram products are those of the kept columns mapped by ``M``. Checked against the
+    columns :func:`model_jacobian` writes itself, on records at three levels."""
+    from robrst.core.plant import Plant
+    from robrst.data.dataset import Dataset
+    from robrst.diagnose._effects import Chain, summary
+    from robrst.diagnose._screen import _level_map
+    from robrst.diagnose.fit import fit_by_level, model_jacobian, prepare
+    from robrst.diagnose.linear import LinearPart
+    from robrst.identify.modal import ModalModel
+
+    fs = 5000.0
+    model = ModalModel.from_plant(Plant([4.0e6], [1.0, 120.0, 4.0e6], label="m"))
+    rng = np.random.default_rng(7)
+    recs = []
+    for i, amp in enumerate((1.0, 2.0, 4.0)):
+        n = 4000
+        u = amp * np.repeat(rng.uniform(-1, 1, n // 40), 40)
+        y = np.convolve(u, np.exp(-np.arange(200) / 30.0) / 30.0)[:n] * (1 + 0.05 * amp)
+        recs.append(Dataset(t=np.arange(n) / fs, u=u, y=y + 1e-4 * rng.standard_normal(n),
+                            source=f"r{i}"))
+    train = [prepare(d, 28.0) for d in recs]
+    lin = LinearPart(model, fs, modal_gains=True)
+    chain = Chain((), 1, fs, 28.0, summary(recs))
+    fit = fit_by_level("amplitude_dependent_dynamics", train, lin, chain, 1e-4, max_nfev=3)
+    assert fit.slopes
+    for p in [prepare(d, 28.0, for_fit=False) for d in recs]:
+        _, J = model_jacobian(fit, p)
+        _, J0 = model_jacobian(fit, p, level_columns=False)
+        keep, slopes, M = _level_map(fit, p)
+        assert set(keep) | set(slopes) == set(range(fit.x.size))
+        X = J.reshape(-1, J.shape[2]).T                   # (columns, rows)
+        Xk = J0.reshape(-1, J0.shape[2]).T[keep]
+        assert np.allclose(M @ Xk, X, rtol=1e-12, atol=1e-12 * np.abs(X).max())
+        G, Gm = X @ X.T, M @ (Xk @ Xk.T) @ M.T
+        assert np.allclose(Gm, G, rtol=1e-10, atol=1e-12 * np.abs(G).max())
