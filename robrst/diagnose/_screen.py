@@ -871,20 +871,26 @@ class RecordColumns:
             th = base_fit.theta_at(p.level)
             yL = base_fit.predict_prepared(p)
             level_map = _level_map(base_fit, p)
-            Jb = model_jacobian(base_fit, p, level_columns=level_map is None)[1]
-            nz = base_fit.chain.size
-            if base_fit.joint:
-                JL = Jb[:, :, nz:nz + lin.size]
-            elif self.dynamic_model or "thermal_dynamics" in self.grid.tried:
-                JL = lin.simulate_jac(th, base_fit.effective_input(p)[0], p.periodic)[1]
+            plain = (level_map is not None and base_fit.chain.size == 0
+                     and base_fit.post is None)
+            if plain:       # the level-dependent linear part alone: its kept columns are the
+                # linear part's Jacobian (model_jacobian's, without its copy of every column)
+                JL = Jb = lin.simulate_jac(th, base_fit.effective_input(p)[0], p.periodic)[1]
             else:
-                JL = None       # no column of this screen uses the linear part's Jacobian
+                Jb = model_jacobian(base_fit, p, level_columns=level_map is None)[1]
+                nz = base_fit.chain.size
+                if base_fit.joint:
+                    JL = Jb[:, :, nz:nz + lin.size]
+                elif self.dynamic_model or "thermal_dynamics" in self.grid.tried:
+                    JL = lin.simulate_jac(th, base_fit.effective_input(p)[0], p.periodic)[1]
+                else:
+                    JL = None   # no column of this screen uses the linear part's Jacobian
             if level_map is None:
                 X[base] = np.moveaxis(Jb[R], 2, 0)
                 return th, yL, JL, None
             keep, slopes, M = level_map
             col = np.asarray(base)                  # the base's parameters' columns
-            X[col[keep]] = np.moveaxis(Jb[R][:, :, keep], 2, 0)
+            X[col[keep]] = np.moveaxis(Jb[R] if plain else Jb[R][:, :, keep], 2, 0)
             for c, (src, v) in slopes.items():      # a slope column: its mode's column scaled
                 np.multiply(X[col[src]], v, out=X[col[c]])
             return th, yL, JL, (col[keep], M)
