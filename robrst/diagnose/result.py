@@ -21,6 +21,11 @@ other slots stay in ``causes``), ``selected[].tied_with`` and ``selection[]`` (e
 decision of the forward selection, in order), and (added) ``selected[].input_gain_sector``
 (a Bouc–Wen hysteresis's ``nominal, delta, slopes, range_V``:
 :func:`robrst.twin.model.hysteresis_sector`).
+
+Every section is a frozen record (:class:`Where`, :class:`ResidualTests`,
+:class:`SelectedEffect`, :class:`FinalFit`, :class:`Finding`, :class:`Tie`, ...), a field of
+:class:`Diagnosis`; the JSON is written once from them (:meth:`Diagnosis.as_dict`), in the
+order published as ``docs/reference/diagnose.schema.json``.
 """
 
 from __future__ import annotations
