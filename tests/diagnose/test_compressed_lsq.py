@@ -150,3 +150,34 @@ def test_a_level_slopes_columns_are_its_modes_columns_scaled():
         assert np.allclose(M @ Xk, X, rtol=1e-12, atol=1e-12 * np.abs(X).max())
         G, Gm = X @ X.T, M @ (Xk @ Xk.T) @ M.T
         assert np.allclose(Gm, G, rtol=1e-10, atol=1e-12 * np.abs(G).max())
+
+
+@pytest.mark.parametrize("modal_gains", [False, True])
+def test_the_pole_moves_columns_equal_the_moved_models(modal_gains):
+    """The periodic Jacobian's pole-move columns (a mode's frequency or damping moved by the
+    step, every other residue re-mapped over the one moved pole, the modes' terms applied
+    to the input's spectrum first) equal the finite difference of the whole model's
+    outputs (:meth:`LinearPart.simulate`: every pole and residue mapped afresh). Two inputs,
+    two outputs, two resonances and a real pole, away from zero corrections."""
+    from robrst.diagnose.linear import LinearPart
+    from robrst.diagnose.options import OPTIONS
+    from robrst.identify.modal import ModalModel
+
+    poles = np.array([-15.0 + 1j * 2 * np.pi * 400.0, -40.0 + 1j * 2 * np.pi * 900.0, -300.0])
+    R = np.array([[[300.0, 120.0], [80.0, 250.0]], [[-150.0, 400.0], [200.0, -90.0]],
+                  [[50.0, 20.0], [10.0, 60.0]]], complex)
+    lin = LinearPart(ModalModel(poles, R, np.diag([0.01, 0.02])), 5000.0,
+                     modal_gains=modal_gains)
+    rng = np.random.default_rng(3)
+    theta = rng.uniform(-0.05, 0.05, lin.size)
+    V = rng.standard_normal((512, 2))
+    h = OPTIONS.linear.fd_step
+    Y0, J = lin.simulate_jac(theta, V, periodic=True)
+    moves = [i for i in lin.moves if lin.kinds[i][0] in ("dlog_freq", "dlog_damping")]
+    assert moves
+    for i in moves:
+        th = theta.copy()
+        th[i] += h
+        fd = (lin.simulate(th, V, True) - Y0) / h
+        assert np.allclose(J[:, :, i], fd, rtol=1e-5, atol=1e-6 * np.abs(fd).max()), \
+            lin.names[i]
