@@ -554,7 +554,8 @@ def build(info: dict, where: dict, tests: dict, traces: dict, cause: str, reason
         traces=Traces(names=tuple(names), records=records,
                       base_residuals=tuple(traces["base_residuals"]), psd_f=traces["psd_f"],
                       psd=traces["psd"], noise_psd=traces["noise_psd"], fit_residuals=fit_res,
-                      answer_fit=answer_fit))
+                      answer_fit=answer_fit, focus=n_tr + int(np.argmax(
+                          [np.sum(np.asarray(r) ** 2) for r in traces["base_residuals"][n_tr:]]))))
 
 
 def _where(w):

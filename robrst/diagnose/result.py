@@ -693,6 +693,9 @@ class Traces:
         Test-record residuals per fitted candidate (and ``"final"``).
     answer_fit : Fitted, StiffnessFit, ThermalFit or None
         The answer's fitted model (the final joint fit, else the linear re-fit).
+    focus : int
+        The record the report draws: the test record with the largest residual of the
+        model under diagnosis (an index into ``records``).
     """
 
     names: tuple[str, ...]
@@ -703,6 +706,7 @@ class Traces:
     noise_psd: float
     fit_residuals: Mapping[str, Sequence[np.ndarray]] = field(default_factory=dict)
     answer_fit: Fitted | StiffnessFit | ThermalFit | None = None
+    focus: int = 0
 
 
 @dataclass(frozen=True, eq=False)

@@ -32,13 +32,6 @@ __all__ = ["diagnosis_doc", "write_diagnosis_report", "FIGURES", "levels_figure"
 FIGURES = ("output.png", "residual.png", "spectrum.png", "effects.png", "levels.png")
 
 
-def _focus(diag):
-    """Index (into the records) of the test record with the largest base residual."""
-    n_train = len(diag.data.train)
-    res = diag.traces.base_residuals[n_train:]
-    return n_train + int(np.argmax([np.sum(np.asarray(r) ** 2) for r in res]))
-
-
 def _form(form):
     return {"dynamic": " (level-dependent)", "prandtl_ishlinskii": " (Prandtl–Ishlinskii)"}.get(
         form, "")
@@ -51,7 +44,7 @@ def _first(a):
 
 def _output_fig(diag, path):
     tr = diag.traces
-    k = _focus(diag)
+    k = diag.traces.focus
     d = tr.records[k]
     y, r = _first(d.Y), _first(tr.base_residuals[k])
     n = min(d.n, d.period if d.period else d.n)
@@ -72,7 +65,7 @@ def _output_fig(diag, path):
 
 def _residual_fig(diag, path):
     tr = diag.traces
-    k = _focus(diag)
+    k = diag.traces.focus
     d, r, name = tr.records[k], np.asarray(tr.base_residuals[k]), tr.names[k]
     r = r if r.ndim == 1 else np.sqrt(np.mean(r ** 2, axis=1))
     with drawing(path, (10, 3.6)) as (fig, ax):

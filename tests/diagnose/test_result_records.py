@@ -10,6 +10,7 @@ import dataclasses
 import json
 import math
 
+import numpy as np
 import pytest
 
 import robrst.diagnose.result as result
@@ -70,3 +71,31 @@ def test_the_json_holds_what_the_records_hold(diag):
     assert d["selection"] == list(diag.selection)
     assert d["findings"] == [{"kind": f.kind, "message": f.message, **f.details}
                              for f in diag.findings]
+
+
+def test_the_report_draws_the_test_record_with_the_largest_residual(diag):
+    tr = diag.traces
+    n_train = len(diag.data.train)
+    energy = [float(np.sum(np.asarray(r) ** 2)) for r in tr.base_residuals]
+    assert tr.focus >= n_train
+    assert energy[tr.focus] == max(energy[n_train:])
+
+
+def test_the_report_folder_holds_the_records(diag, tmp_path):
+    """``--report``: the figures are PNG files, ``diagnosis.json`` is the JSON, and the
+    document's candidate table lists every candidate's gaps as the records hold them."""
+    from robrst.report.diagnosis import FIGURES, diagnosis_doc, write_diagnosis_report
+
+    out = write_diagnosis_report(diag, tmp_path / "rep")
+    for name in FIGURES:
+        assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", name
+    doc = json.loads((out / "diagnosis.json").read_text("utf-8"))
+    want = diag.as_dict()
+    assert {k: v for k, v in doc.items() if k != "seconds"} == \
+        {k: v for k, v in want.items() if k != "seconds"}
+    table = next(b for b in diagnosis_doc(diag).blocks if b[0] == "table")
+    rows = {r[0]: r for r in table[2]}
+    for e in diag.effects:
+        row = next(r for name, r in rows.items() if name.startswith(e.name))
+        assert row[2] == f"{e.gap_before:.4g}" and row[3] == f"{e.gap_after:.4g}"
+    assert "report.md" in {p.name for p in out.iterdir()}
