@@ -52,7 +52,7 @@ import numpy as np
 from scipy import signal
 
 from robrst.diagnose._effects import SPECS, creep_cells, creep_per_K_free, pi_thresholds
-from robrst.diagnose.fit import level_factor, model_jacobian, slope_basis
+from robrst.diagnose.fit import level_factor, level_map_of, model_jacobian
 from robrst.diagnose.options import OPTIONS
 from robrst.diagnose._stages import cached_stage
 
@@ -870,7 +870,7 @@ class RecordColumns:
         else:
             th = base_fit.theta_at(p.level)
             yL = base_fit.predict_prepared(p)
-            level_map = _level_map(base_fit, p)
+            level_map = level_map_of(base_fit, p)
             plain = (level_map is not None and base_fit.chain.size == 0
                      and base_fit.post is None)
             if plain:       # the level-dependent linear part alone: its kept columns are the
@@ -1113,28 +1113,6 @@ class GramAccumulator:
             bb["train"] += np.concatenate([br, Xg @ rf])
         self.c["train"] += float(rf @ rf)
         self.den["train"] += float(np.sum((w * (p.Y[R] - p.Y.mean(axis=0))) ** 2))
-
-
-def _level_map(fit, p):
-    """How a fitted base's level slopes stand on a record: ``(keep, slopes, M)`` with
-    ``keep`` the other parameters' indices, ``slopes`` ``{slope index: (its mode's index,
-    the record's basis value)}`` and ``M`` ``(x.size, keep.size)`` with the base's Jacobian
-    columns ``= M @`` those of ``keep`` (:func:`robrst.diagnose.fit.model_jacobian` writes a
-    slope's column as its mode's column times the level basis); ``None`` without slopes."""
-    if not (fit.joint and fit.slopes):
-        return None
-    nz, nt, k = fit.chain.size, fit.lin.size, len(fit.slopes)
-    b = slope_basis(level_factor(p.level, fit.level_ref), fit.level_knots)
-    c0 = nz + nt
-    slopes = {c0 + q * k + j: (nz + i, float(v)) for q, v in enumerate(b)
-              for j, i in enumerate(fit.slopes)}
-    keep = np.array([c for c in range(fit.x.size) if c not in slopes], int)
-    pos = {c: n for n, c in enumerate(keep)}
-    M = np.zeros((fit.x.size, keep.size))
-    M[keep, np.arange(keep.size)] = 1.0
-    for c, (src, v) in slopes.items():
-        M[c, pos[src]] = v
-    return keep, slopes, M
 
 
 def build_screen(setup: Setup, theta: np.ndarray | None,  # noqa: F821  (candidates.Setup)

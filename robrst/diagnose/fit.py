@@ -44,7 +44,7 @@ if TYPE_CHECKING:
     from robrst.diagnose.linear import LinearPart
 
 __all__ = ["Prepared", "prepare", "Fitted", "fit_model", "fit_by_level", "model_jacobian",
-           "level_factor", "slope_basis", "compressed", "Pooled", "pool_periodic"]
+           "level_map_of", "level_factor", "slope_basis", "compressed", "Pooled", "pool_periodic"]
 
 SLOPE_KINDS = ("dlog_freq", "dlog_damping", "input_gain", "gain", "mode_gain")
 _FIT = OPTIONS.fit
@@ -771,6 +771,43 @@ def model_jacobian(fit: Fitted, p: Prepared, x: np.ndarray | None = None,
                 J[:, :, c] = lin.simulate_input(th, V0[:, j], i, p.periodic)
         _post_jacobian(fit, x, J, Y0)
     return fit.output_side(Y0, x), J
+
+
+def level_map_of(fit: Fitted, p: Prepared
+                 ) -> tuple[np.ndarray, dict[int, tuple[int, float]], np.ndarray] | None:
+    """How a fit's level slopes stand on a record, in :func:`model_jacobian`'s layout.
+
+    A slope's Jacobian column is its mode's column times the record's level basis value,
+    so every column of the Jacobian is ``M @`` the columns of ``keep``.
+
+    Parameters
+    ----------
+    fit : Fitted
+        The fit (its linear part joint with the effects, for the modes' columns to be in
+        its Jacobian).
+    p : Prepared
+        The record (its level).
+
+    Returns
+    -------
+    tuple or None
+        ``(keep, slopes, M)``: the other parameters' indices, ``{slope index: (its mode's
+        index, the basis value)}`` and ``M`` ``(x.size, keep.size)``; ``None`` for a fit
+        without slopes or not joint.
+    """
+    if not (fit.joint and fit.slopes):
+        return None
+    nz, nt, k = fit.chain.size, fit.lin.size, len(fit.slopes)
+    b = slope_basis(level_factor(p.level, fit.level_ref), fit.level_knots)
+    slopes = {nz + nt + q * k + j: (nz + i, float(v)) for q, v in enumerate(b)
+              for j, i in enumerate(fit.slopes)}
+    keep = np.array([c for c in range(fit.x.size) if c not in slopes], int)
+    pos = {c: n for n, c in enumerate(keep)}
+    M = np.zeros((fit.x.size, keep.size))
+    M[keep, np.arange(keep.size)] = 1.0
+    for c, (src, v) in slopes.items():
+        M[c, pos[src]] = v
+    return keep, slopes, M
 
 
 def fit_model(name: str, effects: Sequence[str], train: Sequence[Prepared], lin: LinearPart,

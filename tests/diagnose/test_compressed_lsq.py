@@ -120,8 +120,7 @@ def test_a_level_slopes_columns_are_its_modes_columns_scaled():
     from robrst.core.plant import Plant
     from robrst.data.dataset import Dataset
     from robrst.diagnose._effects import Chain, summary
-    from robrst.diagnose._screen import _level_map
-    from robrst.diagnose.fit import fit_by_level, model_jacobian, prepare
+    from robrst.diagnose.fit import fit_by_level, level_map_of, model_jacobian, prepare
     from robrst.diagnose.linear import LinearPart
     from robrst.identify.modal import ModalModel
 
@@ -143,7 +142,7 @@ def test_a_level_slopes_columns_are_its_modes_columns_scaled():
     for p in [prepare(d, 28.0, for_fit=False) for d in recs]:
         _, J = model_jacobian(fit, p)
         _, J0 = model_jacobian(fit, p, level_columns=False)
-        keep, slopes, M = _level_map(fit, p)
+        keep, slopes, M = level_map_of(fit, p)
         assert set(keep) | set(slopes) == set(range(fit.x.size))
         X = J.reshape(-1, J.shape[2]).T                   # (columns, rows)
         Xk = J0.reshape(-1, J0.shape[2]).T[keep]
