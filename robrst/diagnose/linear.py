@@ -50,6 +50,7 @@ __all__ = ["coefficient_changes", "LinearPart", "LinearSim", "as_modal", "refit_
 
 GAIN_KINDS = ("gain", "input_gain", "mode_gain")
 _LIN = OPTIONS.linear
+_BLOCK = 1 << 15    # complex terms per block of frequencies (512 kB: they stay in cache)
 
 
 def as_modal(model: ModalModel | Plant) -> ModalModel:
@@ -226,56 +227,85 @@ class LinearPart:
             self._cache[key] = H
         return H
 
-    def _terms(self, theta, N):
-        """Every mode's part of the sampled transfer at ``theta`` (cached, the latest only):
-        ``(new poles, mapped residues, A, B, z)`` with ``A[p] = Rd_p / (z - zp_p)`` and ``B[p]``
-        its conjugate pole's term (zero for a real pole), ``(modes, F, m, k)``."""
-        key = (np.asarray(theta, float).tobytes(), int(N))
-        if self._term_cache.get("key") != key:
-            new, Rm = self._mapped(theta)
-            R = Rm * self._mode_factors(theta)[:, None, None] * self._gains(theta)[None, None, :]
-            zp, Rd = zoh_modal(new, R, self.fs)
-            z = np.exp(2j * np.pi * np.arange(N // 2 + 1) / N)
-            A = Rd[:, None] / (z[None, :, None, None] - zp[:, None, None, None])
-            B = np.where((self.weight == 2.0)[:, None, None, None],
-                         np.conj(Rd)[:, None] / (z[None, :, None, None]
-                                                 - np.conj(zp)[:, None, None, None]), 0.0)
-            self._term_cache = {"key": key, "value": (new, Rm, A, B, z)}
-        return self._term_cache["value"]
+    def _move_terms(self, theta, moves):
+        """The modal terms of the finite-difference moves at ``theta`` (cached, the latest):
+        ``(poles, residues, S, zq, Rq, pair)``.
 
-    def _H_moves(self, theta, moves, N):
-        """The sampled transfers ``(len(moves), F, m, k)`` with each correction of ``moves``
-        (a mode's frequency or damping) moved by the finite-difference step (cached with
-        the latest theta): only that mode's pole moves, so every other mode's residue is its
-        own times a scalar (the zero-preserving map of one pole, as :meth:`_mapped`
-        composes), one matrix product for every move; only the moved mode's term is new."""
-        key = (np.asarray(theta, float).tobytes(), int(N), tuple(moves))
-        if self._term_cache.get("moves_key") == key:
-            return self._term_cache["moves"]
-        new, Rm, A, B, z = self._terms(theta, N)
+        ``poles``/``residues`` are the sampled modes at ``theta``, each pair's conjugate
+        appended (``(P,)``, ``(P, m, k)``).  Row ``r`` of ``S`` ``(len(moves), P)`` is the
+        change of every mode's residue, as a multiple of itself, when correction
+        ``moves[r]`` takes its finite-difference step.  A frequency or damping moves only
+        its mode's pole, so every other mode's residue is its own times a scalar (the
+        zero-preserving map of one pole, as :meth:`_mapped` composes); the moved mode's
+        entry is ``-1`` and its new term ``Rq[r] / (z - zq[r])`` (and the conjugate when
+        ``pair[r]``).  A mode's gain scales that mode's term alone (``Rq[r]`` zero)."""
+        key = (np.asarray(theta, float).tobytes(), tuple(moves))
+        if self._term_cache.get("key") == key:
+            return self._term_cache["value"]
+        new, Rm = self._mapped(theta)
+        R = Rm * self._mode_factors(theta)[:, None, None] * self._gains(theta)[None, None, :]
+        zp, Rd = zoh_modal(new, R, self.fs)
+        pair = self.weight == 2.0
+        poles = np.concatenate([zp, np.conj(zp[pair])])
+        residues = np.concatenate([Rd, np.conj(Rd[pair])])
         S = np.zeros((len(moves), new.size), complex)
-        extra = []
+        zq = np.zeros(len(moves), complex)
+        Rq = np.zeros((len(moves),) + Rd.shape[1:], complex)
         for r, i in enumerate(moves):
+            kind, q = self.kinds[i]
             th = np.array(theta, float)
             th[i] += _LIN.fd_step
-            S[r], term = self._moved(new, Rm, th, self.kinds[i][1], z)
-            extra.append(term)
-        F = A.shape[1:]
-        H = (S @ A.reshape(new.size, -1) + np.conj(S) @ B.reshape(new.size, -1)).reshape(
-            (len(moves),) + F) + np.array(extra)
-        self._term_cache["moves_key"], self._term_cache["moves"] = key, H
-        return H
+            if kind == "mode_gain":         # that mode's term scales: the others stay
+                S[r, q] = self._factor(th[i]) / self._factor(theta[i]) - 1.0
+                continue
+            S[r], zq[r], Rq[r] = self._moved(new, Rm, th, q)
+        S = np.concatenate([S, np.conj(S[:, pair])], axis=1)
+        value = (poles, residues, S, zq, Rq, pair[[self.kinds[i][1] for i in moves]])
+        self._term_cache = {"key": key, "value": value}
+        return value
 
-    def _moved(self, new, Rm, th, q, z):
-        """Scalars of the other modes' residues and the moved mode ``q``'s term (with D) at
-        ``th`` (which moves only mode ``q``'s pole)."""
+    def _moves_applied(self, theta, moves, Vf, N, out):
+        """Write into ``out`` ``(F, m, len(moves))`` the change of the output spectrum that
+        each move makes, per unit of the finite-difference step, for the input spectrum
+        ``Vf`` ``(F, k)``: every mode's output term once (``Rd_p Vf / (z - zp_p)``), each
+        move a column of ``S`` over them plus its moved mode's new term.  No transfer is
+        formed, every product is a matrix product, and the frequencies go in blocks whose
+        terms stay in cache (no array of every frequency is made and dropped per call)."""
+        poles, residues, S, zq, Rq, pair = self._move_terms(theta, moves)
+        P, m, k = residues.shape
+        n = len(moves)
+        step = 1.0 / _LIN.fd_step
+        St = S.T * step
+        res = residues.transpose(2, 1, 0).reshape(k, m * P)
+        new = (Rq * step).transpose(2, 1, 0).reshape(k, m * n)
+        new_c = (np.where(pair[:, None, None], np.conj(Rq), 0.0) * step).transpose(
+            2, 1, 0).reshape(k, m * n)
+        zq_c = np.conj(zq)
+        F = N // 2 + 1
+        block = max(1, _BLOCK // (m * max(P, n)))
+        for f0 in range(0, F, block):
+            f = np.arange(f0, min(F, f0 + block))
+            z = np.exp(2j * np.pi * f / N)[:, None]
+            V = Vf[f0:f0 + f.size]
+            W = (V @ res).reshape(f.size, m, P)
+            W *= (1.0 / (z - poles[None, :]))[:, None, :]
+            blk = (W.reshape(f.size * m, P) @ St).reshape(f.size, m, n)
+            blk += (V @ new).reshape(f.size, m, n) * (1.0 / (z - zq[None, :]))[:, None, :]
+            if pair.any():
+                blk += (V @ new_c).reshape(f.size, m, n) * (
+                    1.0 / (z - zq_c[None, :]))[:, None, :]
+            out[f0:f0 + f.size] = blk
+
+    def _moved(self, new, Rm, th, q):
+        """The change of every mode's residue scalar (``-1`` for mode ``q``, whose term is
+        replaced), and the moved mode ``q``'s sampled pole and residue at ``th`` (which moves
+        only mode ``q``'s pole)."""
         old, nw = new[q], self._poles(th)[q]
         pair = self.weight[q] == 2.0
         olds = np.array([old, np.conj(old)] if pair else [old])
         news = np.array([nw, np.conj(nw)] if pair else [nw])
         s = np.prod((new[:, None] - olds[None, :]) / (new[:, None] - news[None, :]), axis=1)
-        s[q] = 0.0
-        H = 0.0
+        s[q] = 0.0        # the moved mode's own term is replaced (its new term added)
         # the moved mode: its residue re-mapped over the new pole (ratio and sum of _mapped)
         cj = np.imag(new) > 0
         P0 = np.concatenate([new, np.conj(new[cj])])
@@ -286,10 +316,7 @@ class LinearPart:
         rest = np.tensordot((nw - old) / (nw - P0[others]), R0[others], axes=1)
         Rq = ratio * (Rm[q] + rest) * self._mode_factors(th)[q] * self._gains(th)[None, :]
         zq, Rdq = zoh_modal(np.array([nw]), Rq[None], self.fs)
-        H += Rdq[0][None] / (z - zq[0])[:, None, None]
-        if pair:
-            H += np.conj(Rdq[0])[None] / (z - np.conj(zq[0]))[:, None, None]
-        return s, H + (self.model.D * self._gains(th)[None, :])[None]
+        return s - 1.0, zq[0], Rdq[0]
 
     def _parts(self, theta, V, periodic, Vf=None):
         """Per-input output contributions ``(N or F, m, k)`` (spectra when periodic; ``Vf``
@@ -446,21 +473,16 @@ class LinearPart:
         for i, (kind, q) in enumerate(self.kinds):
             if kind in ("gain", "input_gain"):       # d exp(t) = exp(t) dt; d (1 + t) = dt
                 cols[..., i] = parts[:, :, q] if self.modal_gains else parts[:, :, q] / gains[q]
-        poles_moves = [i for i in self.moves if periodic
-                       and self.kinds[i][0] in ("dlog_freq", "dlog_damping")]
-        if poles_moves:               # every pole move at once (one matrix product)
-            Hm = self._H_moves(theta, tuple(poles_moves), N)
-            cols[..., poles_moves] = (np.einsum("ifmk,fk->fmi", Hm, Vf)
-                                      - total[..., None]) / _LIN.fd_step
-        for i in self.moves:
-            if i in poles_moves:
-                continue
-            kind, q = self.kinds[i]
-            if periodic and kind == "mode_gain":     # that mode's term scales: no new H
-                _, _, A, B, _ = self._terms(theta, N)
-                ratio = self._factor(theta[i] + _LIN.fd_step) / self._factor(theta[i]) - 1.0
-                cols[..., i] = (ratio / _LIN.fd_step) * np.einsum("fmk,fk->fm", A[q] + B[q], Vf)
-                continue
+        moves = list(self.moves) if periodic else []
+        if moves:                   # every move at once: its change of the output spectrum
+            a, b = moves[0], moves[-1] + 1
+            if moves == list(range(a, b)):      # the modes come first: a slice
+                self._moves_applied(theta, tuple(moves), Vf, N, cols[..., a:b])
+            else:
+                dY = np.empty(cols.shape[:2] + (len(moves),), complex)
+                self._moves_applied(theta, tuple(moves), Vf, N, dY)
+                cols[..., moves] = dY
+        for i in self.moves if not periodic else ():
             th = theta.copy()
             th[i] += _LIN.fd_step
             cols[..., i] = (self._parts(th, V, periodic, Vf).sum(axis=2) - total) / _LIN.fd_step

@@ -153,11 +153,12 @@ def test_a_level_slopes_columns_are_its_modes_columns_scaled():
 
 @pytest.mark.parametrize("modal_gains", [False, True])
 def test_the_pole_moves_columns_equal_the_moved_models(modal_gains):
-    """The periodic Jacobian's pole-move columns (a mode's frequency or damping moved by the
-    step, every other residue re-mapped over the one moved pole, the modes' terms applied
-    to the input's spectrum first) equal the finite difference of the whole model's
-    outputs (:meth:`LinearPart.simulate`: every pole and residue mapped afresh). Two inputs,
-    two outputs, two resonances and a real pole, away from zero corrections."""
+    """The periodic Jacobian's move columns (a mode's frequency or damping moved by the
+    step, every other residue re-mapped over the one moved pole; a mode's gain: its term
+    scaled; the modes' terms applied to the input's spectrum first, each move's change
+    formed directly) equal the finite difference of the whole model's outputs
+    (:meth:`LinearPart.simulate`: every pole and residue mapped afresh). Two inputs, two
+    outputs, two resonances and a real pole, away from zero corrections."""
     from robrst.diagnose.linear import LinearPart
     from robrst.diagnose.options import OPTIONS
     from robrst.identify.modal import ModalModel
@@ -172,8 +173,10 @@ def test_the_pole_moves_columns_equal_the_moved_models(modal_gains):
     V = rng.standard_normal((512, 2))
     h = OPTIONS.linear.fd_step
     Y0, J = lin.simulate_jac(theta, V, periodic=True)
-    moves = [i for i in lin.moves if lin.kinds[i][0] in ("dlog_freq", "dlog_damping")]
-    assert moves
+    moves = list(lin.moves)
+    assert {lin.kinds[i][0] for i in moves} == (
+        {"dlog_freq", "dlog_damping", "mode_gain"} if modal_gains
+        else {"dlog_freq", "dlog_damping"})
     for i in moves:
         th = theta.copy()
         th[i] += h
