@@ -921,8 +921,9 @@ def fit_model(name: str, effects: Sequence[str], train: Sequence[Prepared], lin:
         for p, k in zip(rows_of, strides):
             c = p.weight * np.sqrt(k) / scale
             if p.periodic and k == 1 and proto.chain.size == 0 and post is None and joint:
-                J = spectral_jacobian(proto, p, x) * c
-                yield np.where(np.isfinite(J), J, 0.0), p.Y.size, (
+                J = spectral_jacobian(proto, p, x)
+                J *= c
+                yield np.nan_to_num(J, copy=False, nan=0.0, posinf=0.0, neginf=0.0), p.Y.size, (
                     lambda rr, n=len(p.Y): parseval_rows(
                         np.fft.rfft(rr.reshape(n, -1), axis=0), n))
                 continue
@@ -1006,8 +1007,10 @@ def parseval_rows(S: np.ndarray, n: int) -> np.ndarray:
     w[0] = 1.0
     if n % 2 == 0:
         w[-1] = 1.0
-    S = S * np.sqrt(w / n).reshape((F,) + (1,) * (S.ndim - 1))
-    R = np.concatenate([S.real, S.imag], axis=0)
+    w = np.sqrt(w / n).reshape((F,) + (1,) * (S.ndim - 1))
+    R = np.empty((2,) + S.shape)            # the real rows, then the imaginary ones: one array
+    np.multiply(S.real, w, out=R[0])
+    np.multiply(S.imag, w, out=R[1])
     return R.reshape(-1, R.shape[-1]) if S.ndim == 3 else R.ravel()
 
 
@@ -1032,11 +1035,15 @@ def spectral_jacobian(fit: Fitted, p: Prepared, x: np.ndarray) -> np.ndarray:
     """
     th = fit.theta_at(p.level, x)
     _, JL = fit.lin.simulate_jac(th, p.U, True, spectral=True)          # (F, m, size)
-    cols = [JL]
-    if fit.slopes:
-        b = slope_basis(level_factor(p.level, fit.level_ref), fit.level_knots)
-        cols += [JL[:, :, list(fit.slopes)] * v for v in b]
-    return parseval_rows(np.concatenate(cols, axis=2), len(p.U))
+    if not fit.slopes:
+        return parseval_rows(JL, len(p.U))
+    b = slope_basis(level_factor(p.level, fit.level_ref), fit.level_knots)
+    k, size = len(fit.slopes), JL.shape[2]
+    J = np.empty(JL.shape[:2] + (size + k * len(b),), complex)
+    J[:, :, :size] = JL
+    for q, v in enumerate(b):
+        np.multiply(JL[:, :, list(fit.slopes)], v, out=J[:, :, size + q * k:size + (q + 1) * k])
+    return parseval_rows(J, len(p.U))
 
 
 def compressed(residual: Callable[[np.ndarray], np.ndarray],
@@ -1090,12 +1097,16 @@ def compressed(residual: Callable[[np.ndarray], np.ndarray],
         x = np.asarray(x, float)
         r = last["r"] if "x" in last and np.array_equal(last["x"], x) else residual(x)
         G, pos, kept = np.zeros((n + 1, n + 1)), 0, []
-        for B, rows, transform in blocks(x):
+        for B, rows, transform in blocks(x):       # [B t]^T [B t] by parts: no copy of B
             rr = r[pos:pos + rows]
             pos += rows
-            A = np.column_stack([B, rr if transform is None else transform(rr)])
-            G += A.T @ A
-            kept.append(A)
+            t = rr if transform is None else transform(rr)
+            Bt = B.T @ t
+            G[:n, :n] += B.T @ B
+            G[:n, n] += Bt
+            G[n, :n] += Bt
+            G[n, n] += t @ t
+            kept.append((B, t))
         d = np.sqrt(np.maximum(np.diag(G), 0.0))
         d[d == 0] = 1.0
         lam, V = np.linalg.eigh(G / d[:, None] / d[None, :])
@@ -1104,7 +1115,8 @@ def compressed(residual: Callable[[np.ndarray], np.ndarray],
             K = (np.sqrt(lam)[:, None] * V.T) * d[None, :]
         else:                   # squaring would lose the small directions: QR of the blocks
             K = None
-            for A in kept:
+            for B, t in kept:
+                A = np.column_stack([B, t])
                 K = np.linalg.qr(A if K is None else np.vstack([K, A]), mode="r")
             K = np.vstack([K, np.zeros((n + 1 - K.shape[0], n + 1))])
         w, M = K[:, n], K[:, :n]
