@@ -24,6 +24,7 @@ from robrst.synthesis.parametrize import integral_gain
 from robrst.synthesis.objective import objective
 from robrst.synthesis.starts import ON_SLOW_POLE, candidates, integral_seeds, score, score_many
 from robrst.synthesis._polerows import pole_rows, worst_damping_ratio
+from robrst.synthesis.template import MappedTemplates
 from robrst.synthesis.tracking import meets_time_specs
 from robrst.synthesis._timesamples import (TIME_MARGIN, TimeRows, time_rows, time_specs,
                                            worst_time_ratio)
@@ -84,6 +85,16 @@ class RunOptions:
         Their first trust region (relative to the coefficients).
     rows_first_near : float
         A polish's first solve carries the step samples above this share of their bound.
+    pole_polish : bool
+        A polish whose first trust region over the coefficients fails is solved over the
+        nominal closed-loop poles and the Youla degrees instead (:meth:`Run.in_pole_space`;
+        the smaller coefficient box it replaces changed no answer on the stages measured).
+        Off by default: on ``paper_robust`` it certifies 463,313 against 337,743, but with
+        three specs binding 0 of 24 drawn actuators of a small Monte Carlo (gain 5 %, resonance
+        3 %) meet the specs, against 7 with the default answer (synthesis background page) ...
+    pole_box : float
+        ... within this share of the search box around its start (each pole's log-frequency
+        and log-damping move by at most 3 % of their ranges, the nominal loop stays stable).
     """
 
     gamma_floor: float = 0.97
@@ -102,6 +113,8 @@ class RunOptions:
     time_rounds: int = 8
     time_box: float = 0.5
     rows_first_near: float = 0.3
+    pole_polish: bool = False
+    pole_box: float = 0.03
 
 
 RUN = RunOptions()
@@ -351,6 +364,9 @@ class Run:
     rows_first : bool
         The linearised rows (reference-step samples, roots near a floor) join the first
         solve with freely placed poles (a polish from a near-optimal start).
+    pole_space : callable or None
+        ``(ctx, setup) -> PoleSpace or None`` (:meth:`robrst.synthesis.search.PoleSpace.of`)
+        when a polish may go over the poles (:meth:`in_pole_space`), else ``None``.
     floor : float or None
         A polish's objective floor: the scaled integral gain its solves with freely placed
         poles keep (a linear row ``R(0) >= floor (S/s^k)(0)``), so a polish improves on the
@@ -372,6 +388,7 @@ class Run:
         self.global_phase = False
         self.rows_first = False
         self.floor = None
+        self.pole_space = None
 
     def spent(self, placement: str | None = None) -> bool:
         """True once the synthesis has used its IPOPT iteration budget: ``RUN.iter_budget``
@@ -612,7 +629,7 @@ class Run:
             iters += res.iterations
             cap = min(RUN.free_iter_budget, self.budget)
             if not res.success:
-                if f <= RUN.free_box / 4 or iters > cap:
+                if f <= RUN.free_box / 4 or iters > cap or (best is None and self.poles_next()):
                     break
                 f /= 4
                 continue
@@ -622,7 +639,69 @@ class Run:
             if inside or not gain or iters > cap:
                 break
             f = min(2 * f, 8 * RUN.free_box)
+        if best is None and self.poles_next():
+            poles = self.in_pole_space(ctx, setup, x0, phase, exact, ipopt, lin)
+            if poles is not None:
+                iters += poles.iterations
+                best = poles if poles.success else None
         return replace(best if best is not None else res, iterations=iters)
+
+    def in_pole_space(self, ctx: Context, setup: NLPSetup, x0: np.ndarray, phase: Phase,
+                      exact: bool, ipopt: dict, lin: TimeRows | None = None
+                      ) -> SolveResult | None:
+        """The program solved over the nominal closed-loop poles and the Youla degrees
+        (:class:`robrst.synthesis.template.MappedTemplate`) within ``RUN.pole_box`` of the
+        start's point: where the trust region over the coefficients failed (IPOPT's iteration
+        limit or a local infeasibility: a loop whose coefficients move a lightly damped
+        pair far in one step), the poles move in steps of their own size and the nominal
+        loop stays stable.  The grid, the rows, the exchange
+        and the certificate are the coefficients' own.
+
+        Parameters
+        ----------
+        ctx : Context
+            The synthesis's context.
+        setup : NLPSetup
+            The program's data (freely placed poles).
+        x0 : numpy.ndarray
+            The start.
+        phase : Phase
+            The phase.
+        exact : bool
+            Exact peak exchange.
+        ipopt : dict
+            IPOPT options.
+        lin : TimeRows, optional
+            Linear rows imposed in every round.
+
+        Returns
+        -------
+        SolveResult or None
+            ``None`` when the space cannot be built or the start's nominal loop is unstable.
+        """
+        space = self.pole_space(ctx, setup)
+        nx = ctx.param.n_x
+        theta = None if space is None else space.point(np.asarray(x0, float)[:nx])
+        if theta is None:
+            return None
+        x = np.concatenate([space.controllers(theta[None])[0], np.asarray(x0, float)[nx:]])
+        maps = MappedTemplates(self.templates, space, np.clip(theta - RUN.pole_box, 0.0, 1.0),
+                               np.clip(theta + RUN.pole_box, 0.0, 1.0))
+        res = solve_exchange(setup, x, ipopt, phase, maps, exact=exact,
+                             max_rounds=RUN.free_exchange_rounds, lin=lin)
+        self.say(f"{phase.kind} phase over the poles: IPOPT {res.status} in {res.iterations} it,"
+                 f" {res.exchange.rounds} exchange rounds")
+        return res
+
+    def poles_next(self) -> bool:
+        """True when a failed trust region over the coefficients hands over to
+        :meth:`in_pole_space` (a polish's run, the option on, the budget not spent).
+
+        Returns
+        -------
+        bool
+        """
+        return self.pole_space is not None and RUN.pole_polish and not self.spent()
 
     def near_start(self, ctx: Context, setup: NLPSetup, starts: Sequence) -> Outcome | None:
         """The best start the exact certificate accepts among those near the specs on the

@@ -393,6 +393,7 @@ def _hard_from(ctx, run, x, name, budget, floor=None):
     run's notes."""
     sub = Run(ctx.problem, run.say, run.templates, None, budget, run.stop)
     sub.rows_first = True
+    sub.pole_space = PoleSpace.of     # a failed trust region: over the poles
     sub.floor = floor
     out = sub.hard(ctx, "free", x, name)
     run.rounds += sub.rounds

@@ -48,8 +48,10 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+import casadi as ca
 import numpy as np
 
+from robrst.core import poly
 from robrst.synthesis.attempts import GLOBAL_START
 from robrst.synthesis._cmaes import CMAES
 from robrst.synthesis._nlp import closed_loop_maps
@@ -270,6 +272,36 @@ class PoleSpace:
             u = 2.0 * theta[:, -self.n_youla:] - 1.0
             v = np.sinh(YOULA_SHAPE * u) / np.sinh(YOULA_SHAPE) * YOULA_RANGE * size
             X = X + v @ self.null.T
+        return X
+
+    def symbolic(self, theta: ca.MX) -> ca.MX:
+        """The decision vector of the point ``theta`` as a CasADi expression
+        (:meth:`controllers` written again in CasADi: the polish over the poles,
+        :class:`robrst.synthesis.template.MappedTemplate`).
+
+        Parameters
+        ----------
+        theta : casadi.MX
+            ``(dim, 1)``.
+
+        Returns
+        -------
+        casadi.MX
+            ``(n_x, 1)``.
+        """
+        (wl, wh), (zl, zh) = self.log_w, self.log_zeta
+        am = [1.0]
+        for i in range(self.n_pairs):
+            w = ca.exp(wl + (wh - wl) * theta[2 * i])
+            z = ca.exp(zl + (zh - zl) * theta[2 * i + 1])
+            am = poly.conv_generic(am, [1.0, 2 * z * w, w * w])
+        if self.n_real:
+            am = poly.conv_generic(am, [1.0, ca.exp(wl + (wh - wl) * theta[2 * self.n_pairs])])
+        X = ca.mtimes(ca.DM(self.pinv), self.lead * ca.vertcat(*am[1:]) - ca.DM(self.Dc[1:]))
+        if self.n_youla:
+            u = 2.0 * theta[self.dim - self.n_youla:] - 1.0
+            v = ca.sinh(YOULA_SHAPE * u) * (YOULA_RANGE / np.sinh(YOULA_SHAPE)) * ca.norm_2(X)
+            X = X + ca.mtimes(ca.DM(self.null), v)
         return X
 
     def point(self, xc: np.ndarray) -> np.ndarray | None:

@@ -36,7 +36,7 @@ from robrst.base.interrupt import requested, solver_call
 from robrst.core import poly
 from robrst.synthesis._nlp import routh_column
 
-__all__ = ["Structure", "Template", "TINY"]
+__all__ = ["Structure", "Template", "MappedTemplate", "MappedTemplates", "TINY"]
 
 TINY = 1e-20           # log clip: its second derivative (1e40) stays finite
 
@@ -132,6 +132,15 @@ class _StopWhenAsked(ca.Callback):
         return [1 if requested() else 0]
 
 
+def _options(st, n_x, n_g):
+    """The solver's options (and its stop callback: a signal stops IPOPT at its next
+    iteration, :mod:`robrst.base.interrupt`) for structure ``st``."""
+    stop = _StopWhenAsked(n_x, n_g)
+    return stop, {"ipopt": dict(st.ipopt), "print_time": False, "show_eval_warnings": False,
+                  "calc_lam_p": False,   # parameter multipliers: unused (and noisy on failure)
+                  "iteration_callback": stop}
+
+
 class Template:
     """One CasADi NLP with parameters (see the module docstring).
 
@@ -206,13 +215,11 @@ class Template:
              + coef[1] * (-ca.log(ca.fmax(r0, TINY)) + ca.log(ca.fmax(q0, TINY)))
              + coef[2] * ca.sumsqr(xc - par("xref")))
         self.n_g = int(sum(e.numel() for e in g))
-        # a signal stops IPOPT at its next iteration (robrst.base.interrupt)
-        self.stop = _StopWhenAsked(int(X.numel()), self.n_g)
-        opts = {"ipopt": dict(st.ipopt), "print_time": False, "show_eval_warnings": False,
-                "calc_lam_p": False,     # parameter multipliers: unused (and noisy on failure)
-                "iteration_callback": self.stop}
-        self.solver = ca.nlpsol("rst", "ipopt", {"x": X, "p": P, "f": f, "g": ca.vertcat(*g)},
-                                opts)
+        g = ca.vertcat(*g)
+        # the program as a function of (X, P): a MappedTemplate composes it with a map
+        self.program = ca.Function("rst_program", [X, P], [f, g])
+        self.stop, opts = _options(st, int(X.numel()), self.n_g)
+        self.solver = ca.nlpsol("rst", "ipopt", {"x": X, "p": P, "f": f, "g": g}, opts)
 
     @staticmethod
     def _am(wn, zeta, aux, domr, degree):
@@ -279,3 +286,132 @@ class Template:
                 "lam_g": np.array(sol["lam_g"]).ravel(),
                 "lam_x": np.array(sol["lam_x"]).ravel(),
                 "iterations": int(stats.get("iter_count", 0))}
+
+
+class MappedTemplate:
+    """A :class:`Template`'s program over other coordinates: the controller coefficients
+    ``xc = space.symbolic(theta)`` (the nominal closed-loop poles and the Youla degrees of
+    :class:`robrst.synthesis.search.PoleSpace`), ``theta`` within ``[lo, hi]``; every
+    other variable, the parameters, the constraints and the objective are the template's.
+
+    It answers like a template (:meth:`pack`, :meth:`solve`, :attr:`layout`): the exchange
+    and its rows see coefficient vectors, the solver moves the poles.  In these
+    coordinates the nominal closed loop stays stable and its poles move in steps of their
+    own size, where the coefficients' trust regions fail.
+
+    Parameters
+    ----------
+    base : Template
+        The program.
+    space : PoleSpace
+        The map (``dim``, ``symbolic``, ``controllers``, ``point``).
+    lo, hi : numpy.ndarray
+        The box of ``theta``.
+    memo : dict
+        Coefficient vectors (bytes) -> the ``theta`` that gave them, shared by the
+        templates of one solve, so a round starts at the previous round's exact point.
+    """
+
+    def __init__(self, base: Template, space: object, lo: np.ndarray, hi: np.ndarray,
+                 memo: dict) -> None:
+        st = self.structure = base.structure
+        self.layout, self.n_p, self.n_g = base.layout, base.n_p, base.n_g
+        self.base, self.space, self.memo = base, space, memo
+        self.lo, self.hi = np.asarray(lo, float), np.asarray(hi, float)
+        T = ca.MX.sym("theta", space.dim)
+        rest = ca.MX.sym("rest", st.n_var - st.nx)
+        P = ca.MX.sym("p", base.n_p)
+        f, g = base.program(ca.vertcat(space.symbolic(T), rest), P)
+        X = ca.vertcat(T, rest)
+        self.stop, opts = _options(st, int(X.numel()), self.n_g)
+        self.solver = ca.nlpsol("rst_poles", "ipopt", {"x": X, "p": P, "f": f, "g": g}, opts)
+
+    def pack(self, values: dict[str, np.ndarray]) -> np.ndarray:
+        """The parameter vector (:meth:`Template.pack`).
+
+        Parameters
+        ----------
+        values : dict
+            Parameter block name -> array.
+
+        Returns
+        -------
+        numpy.ndarray
+        """
+        return self.base.pack(values)
+
+    def solve(self, values: dict[str, np.ndarray], x0: np.ndarray, lbx: np.ndarray, ubx: np.ndarray,
+              lbg: np.ndarray, ubg: np.ndarray) -> dict:
+        """Solve over ``theta`` (:meth:`Template.solve`'s arguments and answer, in
+        coefficients; the coefficients' bounds give way to the box of ``theta``).
+
+        Parameters
+        ----------
+        values : dict
+            The parameter blocks.
+        x0 : numpy.ndarray
+            The start (coefficients first).
+        lbx, ubx : numpy.ndarray
+            Bounds of the variables (those of the coefficients unused).
+        lbg, ubg : numpy.ndarray
+            Bounds of the constraints.
+
+        Returns
+        -------
+        dict
+            As :meth:`Template.solve`; ``x`` in coefficients, ``lam_x`` ``None`` (the
+            bounds' multipliers are those of ``theta``), ``theta`` the solution's point.
+        """
+        nx, x0 = self.structure.nx, np.asarray(x0, float)
+        th0 = self.memo.get(x0[:nx].tobytes())
+        if th0 is None:
+            th0 = self.space.point(x0[:nx])
+            th0 = (self.lo + self.hi) / 2 if th0 is None else th0
+        th0 = np.clip(th0, self.lo, self.hi)
+        with solver_call():
+            sol = self.solver(x0=np.concatenate([th0, x0[nx:]]), p=self.pack(values),
+                              lbx=np.concatenate([self.lo, lbx[nx:]]),
+                              ubx=np.concatenate([self.hi, ubx[nx:]]), lbg=lbg, ubg=ubg)
+        stats = self.solver.stats()
+        z = np.array(sol["x"]).ravel()
+        th = z[:self.space.dim]
+        xc = self.space.controllers(th[None])[0]
+        self.memo[xc.tobytes()] = th
+        return {"status": stats["return_status"], "x": np.concatenate([xc, z[th.size:]]),
+                "f": float(sol["f"]), "g": np.array(sol["g"]).ravel(),
+                "lam_g": np.array(sol["lam_g"]).ravel(), "lam_x": None, "theta": th,
+                "iterations": int(stats.get("iter_count", 0))}
+
+
+class MappedTemplates:
+    """A cache of :class:`MappedTemplate` by structure, for
+    :func:`robrst.synthesis.exchange.solve_exchange`'s ``templates`` (each built from the
+    shared cache's template of that structure).
+
+    Parameters
+    ----------
+    base : dict
+        The shared cache of built templates (structure -> :class:`Template`).
+    space : PoleSpace
+        The map.
+    lo, hi : numpy.ndarray
+        The box of ``theta``.
+    """
+
+    def __init__(self, base: dict, space: object, lo: np.ndarray, hi: np.ndarray) -> None:
+        self.base, self.space, self.lo, self.hi = base, space, lo, hi
+        self.built, self.memo = {}, {}
+
+    def __contains__(self, st: Structure) -> bool:
+        return True
+
+    def __getitem__(self, st: Structure) -> MappedTemplate:
+        if st not in self.built:
+            if st not in self.base:
+                self.base[st] = Template(st)
+            self.built[st] = MappedTemplate(self.base[st], self.space, self.lo, self.hi,
+                                            self.memo)
+        return self.built[st]
+
+    def __setitem__(self, st: Structure, tpl: Template) -> None:
+        self.base[st] = tpl

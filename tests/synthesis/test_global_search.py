@@ -385,3 +385,65 @@ def test_quadratic_powers_equal_the_exponential_on_the_step_grid():
     with np.errstate(all="ignore"):
         out = quadratic_powers(bad, t_end)
     assert not np.isfinite(out[0, 0, 0]).all() and not np.isfinite(out[1, 2, 3]).any()
+
+
+def test_the_symbolic_pole_map_places_the_nominal_poles():
+    """``PoleSpace.symbolic`` (the CasADi map the polish over the poles solves through),
+    evaluated at points of the box, names controllers whose nominal closed loop on the
+    unscaled polynomials has the poles the point says, on a 2nd-order stage (one Youla
+    degree) and a 4th-order one (several pairs)."""
+    import casadi as ca
+
+    from stages_global import stage_doc
+
+    for doc in (DOC, stage_doc(32, order=4)):
+        p, ctx, setup, _ = _setup(doc)
+        sp = PoleSpace.of(ctx, setup)
+        T = ca.MX.sym("theta", sp.dim)
+        fn = ca.Function("map", [T], [sp.symbolic(T)])
+        th = np.random.default_rng(4).uniform(0.2, 0.8, size=(4, sp.dim))
+        am = sp.poles(th)
+        ref = p.family.reference_model
+        for t, a in zip(th, am):
+            x = np.array(fn(t)).ravel()
+            assert np.allclose(x, sp.controllers(t[None])[0], rtol=1e-9, atol=1e-12)  # Youla too
+            c = ctx.controller(x)
+            D = np.polyadd(np.polymul(ref.A, c.S), np.polymul(ref.B, c.R))
+            want = np.sort_complex(np.roots(a) * ctx.w0)
+            got = np.sort_complex(np.roots(D))
+            assert np.allclose(got, want, rtol=1e-6), (got, want)
+
+
+def test_a_solve_over_the_poles_stays_in_its_box_and_meets_the_specs():
+    """The program solved over the poles (``MappedTemplates``) from a candidate of a short
+    search (within the specs on the screen):
+    the answer is the controller of a point inside the box, its nominal poles those of the
+    point on the unscaled polynomials, and its peaks on a dense grid of the unscaled loops
+    within the program's bounds; its integral gain is not below the start's."""
+    from robrst.synthesis._nlp import objective_rows
+    from robrst.synthesis.exchange import Phase, solve_exchange
+    from robrst.synthesis.template import MappedTemplates
+
+    p, ctx, setup, start = _setup()
+    sp = PoleSpace.of(ctx, setup)
+    found = global_search(Screen(setup), sp, [("analytic", ctx.param.vector(start.controller))],
+                          options=SearchOptions(seed=5, restarts=1, generations=100))
+    cand = found.candidates[0]
+    assert cand.violation == 0
+    th0 = cand.theta
+    x0 = np.concatenate([sp.controllers(th0[None])[0], [1.0]])
+    lo, hi = np.clip(th0 - 0.03, 0, 1), np.clip(th0 + 0.03, 0, 1)
+    maps = MappedTemplates({}, sp, lo, hi)
+    res = solve_exchange(setup, x0, ctx.ipopt, Phase("hard"), maps, exact=True)
+    assert res.success, res.status
+    th = maps.memo[res.x[:-1].tobytes()]
+    assert np.all(th >= lo - 1e-7) and np.all(th <= hi + 1e-7)    # IPOPT relaxes bounds by 1e-8
+    c = ctx.controller(res.x)
+    ref = p.family.reference_model
+    D = np.polyadd(np.polymul(ref.A, c.S), np.polymul(ref.B, c.R))
+    assert np.allclose(np.sort_complex(np.roots(D)),
+                       np.sort_complex(np.roots(sp.poles(th[None])[0]) * ctx.w0), rtol=1e-6)
+    assert _dense_worst(p, ctx, setup, res.x) < 1.0 + 1e-3
+    r0, q0, q0c = objective_rows(setup)
+    gain = lambda x: float(r0 @ x[:-1]) / float(q0 @ x[:-1] + q0c)   # noqa: E731
+    assert gain(res.x) >= gain(x0) * (1 - 1e-9)
