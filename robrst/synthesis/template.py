@@ -23,6 +23,10 @@ Variables ``X = [xc, (wn, zeta), gamma]``.  Constraints, in order:
    :mod:`robrst.synthesis._polerows`, linearised at the round's point).
 
 Objective ``c_gamma gamma + c_ki (-log(sign R(0)) + log((S/s^k)(0))) + c_reg |xc - xref|^2``.
+
+:class:`MappedTemplate` solves the same program over other coordinates (the nominal
+closed-loop poles and Youla degrees of :class:`robrst.synthesis.search.PoleSpace`, the
+coefficients a CasADi expression of them): ``RunOptions.pole_polish``.
 """
 
 from __future__ import annotations
