@@ -654,8 +654,8 @@ class Run:
         start's point: where the trust region over the coefficients failed (IPOPT's iteration
         limit or a local infeasibility: a loop whose coefficients move a lightly damped
         pair far in one step), the poles move in steps of their own size and the nominal
-        loop stays stable.  The grid, the rows, the exchange
-        and the certificate are the coefficients' own.
+        loop stays stable.  The grid, the rows, the exchange and the certificate are the
+        coefficients' own.
 
         Parameters
         ----------
@@ -680,11 +680,11 @@ class Run:
             ``None`` when the space cannot be built or the start's nominal loop is unstable.
         """
         space = self.pole_space(ctx, setup)
-        nx = ctx.param.n_x
-        theta = None if space is None else space.point(np.asarray(x0, float)[:nx])
+        nx, x0 = ctx.param.n_x, np.asarray(x0, float)
+        theta = None if space is None else space.point(x0[:nx])
         if theta is None:
             return None
-        x = np.concatenate([space.controllers(theta[None])[0], np.asarray(x0, float)[nx:]])
+        x = np.concatenate([space.controllers(theta[None])[0], x0[nx:]])
         maps = MappedTemplates(self.templates, space, np.clip(theta - RUN.pole_box, 0.0, 1.0),
                                np.clip(theta + RUN.pole_box, 0.0, 1.0))
         res = solve_exchange(setup, x, ipopt, phase, maps, exact=exact,

@@ -145,6 +145,14 @@ def _options(st, n_x, n_g):
                   "iteration_callback": stop}
 
 
+def _answer(solver, sol, x, lam_x):
+    """A solve's outcome as :meth:`Template.solve` returns it (``x``, ``lam_x`` given)."""
+    stats = solver.stats()
+    return {"status": stats["return_status"], "x": x, "f": float(sol["f"]),
+            "g": np.array(sol["g"]).ravel(), "lam_g": np.array(sol["lam_g"]).ravel(),
+            "lam_x": lam_x, "iterations": int(stats.get("iter_count", 0))}
+
+
 class Template:
     """One CasADi NLP with parameters (see the module docstring).
 
@@ -284,12 +292,8 @@ class Template:
         """
         with solver_call():     # a signal inside stops IPOPT, then raises Interrupted
             sol = self.solver(x0=x0, p=self.pack(values), lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
-        stats = self.solver.stats()
-        return {"status": stats["return_status"], "x": np.array(sol["x"]).ravel(),
-                "f": float(sol["f"]), "g": np.array(sol["g"]).ravel(),
-                "lam_g": np.array(sol["lam_g"]).ravel(),
-                "lam_x": np.array(sol["lam_x"]).ravel(),
-                "iterations": int(stats.get("iter_count", 0))}
+        return _answer(self.solver, sol, np.array(sol["x"]).ravel(),
+                       np.array(sol["lam_x"]).ravel())
 
 
 class MappedTemplate:
@@ -363,8 +367,8 @@ class MappedTemplate:
         Returns
         -------
         dict
-            As :meth:`Template.solve`; ``x`` in coefficients, ``lam_x`` ``None`` (the
-            bounds' multipliers are those of ``theta``), ``theta`` the solution's point.
+            As :meth:`Template.solve`; ``x`` in coefficients (its ``theta`` in
+            ``memo``), ``lam_x`` ``None`` (the bounds' multipliers are those of ``theta``).
         """
         nx, x0 = self.structure.nx, np.asarray(x0, float)
         th0 = self.memo.get(x0[:nx].tobytes())
@@ -376,15 +380,11 @@ class MappedTemplate:
             sol = self.solver(x0=np.concatenate([th0, x0[nx:]]), p=self.pack(values),
                               lbx=np.concatenate([self.lo, lbx[nx:]]),
                               ubx=np.concatenate([self.hi, ubx[nx:]]), lbg=lbg, ubg=ubg)
-        stats = self.solver.stats()
         z = np.array(sol["x"]).ravel()
         th = z[:self.space.dim]
         xc = self.space.controllers(th[None])[0]
         self.memo[xc.tobytes()] = th
-        return {"status": stats["return_status"], "x": np.concatenate([xc, z[th.size:]]),
-                "f": float(sol["f"]), "g": np.array(sol["g"]).ravel(),
-                "lam_g": np.array(sol["lam_g"]).ravel(), "lam_x": None, "theta": th,
-                "iterations": int(stats.get("iter_count", 0))}
+        return _answer(self.solver, sol, np.concatenate([xc, z[th.size:]]), None)
 
 
 class MappedTemplates:
@@ -416,6 +416,3 @@ class MappedTemplates:
             self.built[st] = MappedTemplate(self.base[st], self.space, self.lo, self.hi,
                                             self.memo)
         return self.built[st]
-
-    def __setitem__(self, st: Structure, tpl: Template) -> None:
-        self.base[st] = tpl
