@@ -24,13 +24,13 @@ cert_temperatures = 3
 name = "gain"
 dist = "normal"
 mean = 1.0
-std = 0.05
+std = 0.03
 
 [[param]]
 name = "resonance"
 dist = "normal"
 mean = 1.0
-std = 0.03
+std = 0.001
 lo = 0.9
 hi = 1.1
 
@@ -38,7 +38,7 @@ hi = 1.1
 name = "damping"
 dist = "lognormal"
 median = 1.0
-sigma = 0.4
+sigma = 0.001
 
 [[param]]
 name = "family.parametric.creep_per_K"
@@ -77,7 +77,12 @@ def write(folder, name, text):
 
 
 def mc_file(folder, robust, n=24, chunk=4):
-    """The small Monte Carlo of the paper_robust controller (result file beside it)."""
+    """The small Monte Carlo of the paper_robust controller (result file beside it).
+
+    Its spread is mostly of the static gain: the controller cancels the resonance and sits
+    on the |T| bound in its band, so a resonance spread of 1 % (1-sigma) already fails nearly
+    every drawn actuator, and the Dask test needs both outcomes (16 of 24 certify).
+    """
     write(folder, "robust.json", json_text(robust.as_dict()))
     return write(folder, "mc_small.toml", MC.format(n=n, chunk=chunk))
 

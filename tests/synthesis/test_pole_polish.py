@@ -1,5 +1,5 @@
 """The polish over the poles (``robrst.synthesis.attempts.Run.in_pole_space``, switched on
-by ``RunOptions.pole_polish``) on a stage where the trust regions over the coefficients
+by ``RunOptions.pole_polish``, the default; set explicitly here) on a stage where the trust regions over the coefficients
 fail: the design certifies a larger integral gain than without it, and python-control, on
 the unscaled loops at 13 temperatures, continuous and sampled, finds every loop stable
 within the specs."""
@@ -16,7 +16,7 @@ from robrst.problem.files import parse_problem
 from stages_global import stage_doc
 
 # the default design of the 4th-order stage 32 at Ms_max 2.0 without the polish over the
-# poles (measured 2026-12-01, RunOptions(pole_polish=False), the default): every polish's
+# poles (measured 2026-12-01 with RunOptions(pole_polish=False)): every polish's
 # trust regions over the coefficients fail, and the answer is a candidate as screened
 BEFORE = 212_821.0
 
