@@ -197,13 +197,19 @@ def spec_table(result: DesignResult) -> list[str]:
         return ["specs: none bounded"]
     head = f"  {'spec':<24}{'bound':>11}{'achieved':>12}{'slack':>9}  where"
     out = ["specs (worst over every checked model and temperature; slack = room left):", head]
+    tol = result.problem.solver.cert_tol
     for r in rows:
         name = r.spec + (" (default)" if r.source == "default" else "")
         where = (r.model if r.temperature_C is None else
                  f"{r.model} ({r.temperature_C:g} °C"
                  + (", sampled" if r.loop == "sampled" else "") + ")")
+        tag = "  BINDS" if r.binding else ""
+        if r.slack < 0:      # certified within the certificate's relative tolerance
+            tag += (f" (beyond the bound by {100 * -r.slack:.2g} %: within the certificate's"
+                    f" tolerance, [solver] cert_tol = {tol:g})")
+        slack = f"{100 * r.slack:>8.1f}%" if abs(r.slack) >= 5e-4 else f"{100 * r.slack:>8.2f}%"
         out.append(f"  {name:<24}{_num(r.bound):>11}{_num(r.achieved):>12}"
-                   f"{100 * r.slack:>8.1f}%  {where}" + ("  BINDS" if r.binding else ""))
+                   f"{slack}  {where}{tag}")
     return out
 
 
