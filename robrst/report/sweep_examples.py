@@ -1,7 +1,8 @@
 """Regenerate the committed sweep examples: ``python -m robrst.report.sweep_examples [OUT]``.
 
 Runs the built-in sweeps ``paper_montecarlo`` (1,000 variants) and ``paper_tradeoff``
-(16 robust designs) on a local Dask cluster, in ``sweeps/NAME`` (resumed if already there),
+(16 robust designs) on a local Dask cluster, in ``sweeps/NAME`` (computed again: robrst's
+earlier results there are discarded),
 and writes their report folders to ``OUT/NAME`` (``OUT`` defaults to ``reports``).  About
 1–2 minutes on two cores.
 """
@@ -38,7 +39,9 @@ def write_sweep_examples(out: str | Path = "reports", work: str | Path = "sweeps
     """
     paths = []
     for name in SWEEP_EXAMPLES:
-        result = run_sweep(name, Path(work) / name, workers=workers)
+        # computed again, never resumed: the fingerprint holds the robrst version, not the
+        # code, and a committed example is the current code's (robrst's own files only)
+        result = run_sweep(name, Path(work) / name, workers=workers, restart=True)
         paths.append(write_sweep_report(result, Path(out) / name))
     return paths
 

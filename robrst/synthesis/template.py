@@ -40,9 +40,10 @@ from robrst.base.interrupt import requested, solver_call
 from robrst.core import poly
 from robrst.synthesis._nlp import routh_column
 
-__all__ = ["Structure", "Template", "MappedTemplate", "MappedTemplates", "TINY"]
+__all__ = ["Structure", "Template", "MappedTemplate", "MappedTemplates", "TINY", "POLE_SCALING"]
 
 TINY = 1e-20           # log clip: its second derivative (1e40) stays finite
+POLE_SCALING = "gradient-based"   # IPOPT's scaling of the program over the poles (below)
 
 
 @dataclass(frozen=True)
@@ -332,6 +333,12 @@ class MappedTemplate:
         f, g = base.program(ca.vertcat(space.symbolic(T), rest), P)
         X = ca.vertcat(T, rest)
         self.stop, opts = _options(st, int(X.numel()), self.n_g)
+        # the map's derivatives span decades (a lightly damped pair's frequency against a
+        # real pole's): IPOPT scales every row and the objective by its gradient at the
+        # start.  Unscaled, the exchange's later rounds (each started outside the points it
+        # adds) ended at the iteration limit in about half of the solves; in the
+        # coefficients (the template's own program) the same scaling lost optima.
+        opts["ipopt"]["nlp_scaling_method"] = POLE_SCALING
         self.solver = ca.nlpsol("rst_poles", "ipopt", {"x": X, "p": P, "f": f, "g": g}, opts)
 
     def pack(self, values: dict[str, np.ndarray]) -> np.ndarray:

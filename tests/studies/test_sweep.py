@@ -3,6 +3,7 @@
 import json
 import math
 import re
+from pathlib import Path
 from dataclasses import replace
 
 import numpy as np
@@ -150,6 +151,34 @@ def test_interrupted_sweep_resumes_where_it_stopped(tmp_path):
     assert res.summary["resumed_chunks"] == 2 and res.complete
     columns_equal(res.table, full.table)
     assert res.table.column("index").to_pylist() == list(range(30))
+
+
+def test_a_sweep_of_a_designed_controller_does_not_resume_another_designs_results(
+        tmp_path, monkeypatch):
+    """The fingerprint holds the coefficients of the controller the sweep designed: with the
+    same sweep file, base problem and robrst version but a design that changed (the code's
+    answer, here nudged by 1e-9), the earlier results (of the other controller) are refused,
+    and computed again with ``restart``; the same design resumes."""
+    import robrst.design as design
+
+    path = fast_file(tmp_path, n=10, chunk=5)
+    first = run_sweep(path, tmp_path / "o", workers=0)
+    again = run_sweep(path, tmp_path / "o", workers=0)
+    assert again.summary["fingerprint"] == first.summary["fingerprint"]
+    assert again.summary["resumed_chunks"] == 2
+    real = design.run_problem
+
+    def nudged(*args, **kw):
+        r = real(*args, **kw)
+        return replace(r, controller=replace(r.controller, R=r.controller.R * (1 + 1e-9)))
+
+    monkeypatch.setattr(design, "run_problem", nudged)
+    with pytest.raises(OutputError, match="designed controller"):
+        run_sweep(path, tmp_path / "o", workers=0)
+    res = run_sweep(path, tmp_path / "o", workers=0, restart=True)
+    assert res.summary["fingerprint"] != first.summary["fingerprint"]
+    assert res.summary["resumed_chunks"] == 0 and res.complete
+    assert res.summary["controller"]["R"] != first.summary["controller"]["R"]
 
 
 def test_a_failing_variant_is_a_row_not_a_lost_sweep(tmp_path):
@@ -349,10 +378,20 @@ def test_committed_sweep_examples_are_not_stale(root, name):
     (regenerate with python -m robrst.report.sweep_examples)."""
     from robrst.studies.sweep._prepare import fingerprint
 
+    from robrst.core.rst import RSTController
+
     sweep = load_sweep(name)
     folder = root / "reports" / name
     s = load_json(folder / "summary.json")
-    assert s["fingerprint"] == fingerprint(sweep, [sweep.path, sweep.problem])
+    designed = None
+    if sweep.kind == "analysis" and sweep.controller == "design":
+        # the controller it analysed is the committed design of its base problem (itself
+        # checked against a fresh design by the golden margins and the report tests)
+        designed = RSTController(**s["controller"])
+        robust = load_json(root / "reports" / Path(sweep.problem).stem / "result.json")
+        for k in "RST":
+            assert s["controller"][k] == robust["controller"][k], k
+    assert s["fingerprint"] == fingerprint(sweep, [sweep.path, sweep.problem], (), designed)
     assert s["complete"] and s["done"] == s["n"]
     md = (folder / "report.md").read_text()
     for png in re.findall(r"\]\(([\w.]+\.png)\)", md):

@@ -5,7 +5,7 @@ Everything a worker needs is gathered here once, in the process that runs the sw
 problem, ``[set]``, the result file, the fleet folder, plant factors the base model cannot
 take) is checked here, so a bad sweep is one clear error before any work starts.  The
 fingerprint identifies the sweep's results: the validated sweep, the bytes of every input
-file and the robrst version.
+file, the coefficients of a controller designed for the sweep and the robrst version.
 """
 
 from __future__ import annotations
@@ -15,9 +15,11 @@ import hashlib
 import json
 import os
 from collections.abc import Iterable
-from dataclasses import asdict, replace
+from dataclasses import asdict, fields, is_dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
+
+import numpy as np
 
 from robrst import __version__
 from robrst.base.errors import RobrstError, SolverError, SpecError
@@ -241,9 +243,11 @@ def _stable(x):
     return x
 
 
-def fingerprint(sweep: Sweep, files: Iterable[str | Path], names: Iterable[str] = ()) -> str:
+def fingerprint(sweep: Sweep, files: Iterable[str | Path], names: Iterable[str] = (),
+                controller: RSTController | MimoController | None = None) -> str:
     """SHA-256 of the validated sweep (floats to 12 digits), the input files' bytes,
-    ``names`` (a fleet's members that are no file) and the robrst version.
+    ``names`` (a fleet's members that are no file), the coefficients of a controller the
+    sweep designed and the robrst version.
 
     Parameters
     ----------
@@ -253,6 +257,10 @@ def fingerprint(sweep: Sweep, files: Iterable[str | Path], names: Iterable[str] 
         The files its results depend on (sweep, base problem, result file, members).
     names : iterable of str
         Further names (broken fleet members).
+    controller : RSTController or MimoController, optional
+        An analysis's controller designed from the base problem (``controller =
+        "design"``): a design that changes with the code (same files, same version) gives
+        other results, so a folder of the earlier design is not resumed.
 
     Returns
     -------
@@ -269,8 +277,28 @@ def fingerprint(sweep: Sweep, files: Iterable[str | Path], names: Iterable[str] 
         h.update(Path(f).read_bytes())
     for name in names:
         h.update(name.encode())
+    if controller is not None:
+        _hash_numbers(h, controller)
     h.update(__version__.encode())
     return h.hexdigest()
+
+
+def _hash_numbers(h, obj) -> None:
+    """Feed ``h`` every number and name of a controller record (its fields, sequences and
+    arrays, in order; the exact bits of every coefficient)."""
+    if is_dataclass(obj):
+        for f in fields(obj):
+            _hash_numbers(h, getattr(obj, f.name))
+    elif isinstance(obj, (tuple, list)):
+        h.update(b"(%d" % len(obj))
+        for x in obj:
+            _hash_numbers(h, x)
+    elif obj is None:
+        h.update(b"None")
+    elif isinstance(obj, str):
+        h.update(obj.encode())
+    else:
+        h.update(np.asarray(obj, float).tobytes())
 
 
 def prepare(sweep: Sweep) -> tuple[SweepContext, VariantTable]:
@@ -310,4 +338,5 @@ def prepare(sweep: Sweep) -> tuple[SweepContext, VariantTable]:
     table = variant_table(sweep, labels)
     ctx = SweepContext(sweep=sweep, names=table.names, base=base, doc=doc,
                        controller=controller, fleet=fleet)
-    return replace(ctx, fingerprint=fingerprint(sweep, files, broken)), table
+    designed = controller if sweep.kind == "analysis" and sweep.controller == "design" else None
+    return replace(ctx, fingerprint=fingerprint(sweep, files, broken, designed)), table

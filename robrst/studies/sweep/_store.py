@@ -159,9 +159,9 @@ def prepare_folder(out: Path, meta: dict, restart: bool = False) -> bool:
         same = old.get("fingerprint") == meta["fingerprint"]
         if not same and not restart:
             raise OutputError(f"{out}: holds the results of a different sweep ({old.get('sweep')},"
-                              " or the sweep file, base problem or robrst changed since);"
-                              " choose another --out, or --restart to discard robrst's results"
-                              " there")
+                              " or the sweep file, base problem, its designed controller or"
+                              " robrst changed since); choose another --out, or --restart to"
+                              " discard robrst's results there")
         if restart:
             for p in _own_files(out):
                 p.unlink(missing_ok=True)
