@@ -31,7 +31,7 @@ from robrst.certificate.proof import band_peak
 from robrst.core.peaks import peak_gain
 from robrst.synthesis._nlp import (controller_conditions, grid_blocks, local_maxima,
                                   objective_rows)
-from robrst.synthesis.outcome import SolveResult
+from robrst.synthesis.outcome import FEASIBLE_TOL, LIMIT_FEASIBLE, SolveResult
 from robrst.synthesis.stability import (ROUTH_MIN, initial_stability, joined, routh_margins,
                                         stability_rows)
 from robrst.synthesis.template import Structure, Template
@@ -333,7 +333,12 @@ def solve_program(setup: NLPSetup, x0: np.ndarray, ipopt: dict, phase: Phase = P
     lbx, ubx = _var_bounds(setup, st, phase, box)
     x0 = np.clip(x0, lbx, ubx)
     out = tpl.solve(v, x0, lbx, ubx, lbg, ubg)
-    return SolveResult(status=out["status"], x=out["x"], objective=out["f"],
+    status, g = out["status"], np.asarray(out["g"], float)
+    if status == "Maximum_Iterations_Exceeded" and np.isfinite(out["f"]) and np.all(
+            np.isfinite(g)) and np.all(g >= np.asarray(lbg, float) - FEASIBLE_TOL) and np.all(
+            g <= np.asarray(ubg, float) + FEASIBLE_TOL):
+        status = LIMIT_FEASIBLE     # a point that meets every row: used (and certified)
+    return SolveResult(status=status, x=out["x"], objective=out["f"],
                        iterations=out["iterations"], g=out["g"], lbg=lbg, ubg=ubg,
                        lam_g=out["lam_g"], labels=labels, w0=setup.w0, rates=dict(setup.rates),
                        lam_x=out["lam_x"], lbx=lbx, ubx=ubx, params=v)

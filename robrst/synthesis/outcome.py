@@ -16,10 +16,16 @@ if TYPE_CHECKING:
     from robrst.certificate.proof import Certificate
     from robrst.core.rst import RSTController
 
-__all__ = ["OK_STATUS", "Binding", "SolveResult", "Round", "SynthesisResult", "worst_violation",
+__all__ = ["OK_STATUS", "LIMIT_FEASIBLE", "FEASIBLE_TOL", "Binding", "SolveResult", "Round", "SynthesisResult", "worst_violation",
            "best_achievable"]
 
-OK_STATUS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+# IPOPT's iteration limit on a point that meets every row of its program (within
+# FEASIBLE_TOL): a polish still climbing when its budget ends keeps what it reached (the
+# certificate judges it as any other point), where that point was discarded before
+LIMIT_FEASIBLE = "Feasible_At_Iteration_Limit"
+FEASIBLE_TOL = 1e-8
+NEAR_BOUND = 1e-3      # ... and its binding rows are those within this (relative) of a bound
+OK_STATUS = ("Solve_Succeeded", "Solved_To_Acceptable_Level", LIMIT_FEASIBLE)
 
 
 @dataclass(frozen=True)
@@ -86,7 +92,9 @@ class SolveResult:
     Parameters
     ----------
     status : str
-        IPOPT's return status.
+        IPOPT's return status, or :data:`LIMIT_FEASIBLE`: the iteration limit on a point
+        that meets every row (a success: its point is used and certified, its multipliers
+        are not those of an optimum).
     x : numpy.ndarray
         The point.
     objective : float
@@ -191,6 +199,10 @@ class SolveResult:
         lam = np.abs(self.lam_g)
         big = lam.max(initial=0.0, where=ineq) * 1e-4   # an interior point's inactive rows
         act = np.flatnonzero(ineq & (lam > big))         # carry mu / slack, not zero
+        if self.status == LIMIT_FEASIBLE:   # no optimum: only the rows the point sits on
+            with np.errstate(invalid="ignore"):
+                slack = np.minimum(self.g - self.lbg, self.ubg - self.g)
+            act = act[slack[act] <= NEAR_BOUND * np.maximum(1.0, np.abs(self.g[act]))]
         order += [i for i in act[np.argsort(-lam[act])] if i not in order]
         out, seen = [], set()
         for i in order:

@@ -134,3 +134,28 @@ def test_peaks_near_their_bound_start_with_their_neighbours():
     assert set(active) == {0, 20, 40, 9, 10, 11, 30}
     # freely placed poles (the trust-region search): the maxima alone
     assert set(_initial_active([r], 3, neighbours=False)[0]) == {0, 20, 40, 10, 30}
+
+
+def test_a_point_that_meets_every_row_at_the_iteration_limit_is_kept():
+    """IPOPT stopped by its iteration limit: the solve is a success (its point used, then
+    certified like any other) exactly when the point meets every row of its program within
+    ``FEASIBLE_TOL`` (violations recomputed here from the rows and their bounds); else it stays
+    IPOPT's failure.  Both happen on the way from the analytic start (free poles)."""
+    from robrst.synthesis.outcome import FEASIBLE_TOL, LIMIT_FEASIBLE
+
+    problem, ctx, _, _ = _setup(60)
+    start = analytic_design(problem)
+    setup = ctx.setup(list(problem.family.models), ctx.nu, "free")
+    x0 = ctx.full(ctx.param.vector(start.controller), setup)
+    seen = set()
+    for k in range(1, 25):
+        res = solve_program(setup, x0, {**IPOPT, "max_iter": k})
+        if res.status == "Solve_Succeeded":
+            break
+        lbg, ubg, g = (np.asarray(a, float) for a in (res.lbg, res.ubg, res.g))
+        worst = float(np.max(np.maximum(lbg - g, g - ubg)))
+        assert res.status in (LIMIT_FEASIBLE, "Maximum_Iterations_Exceeded"), res.status
+        assert (res.status == LIMIT_FEASIBLE) == (worst <= FEASIBLE_TOL), (k, worst)
+        assert res.success == (res.status == LIMIT_FEASIBLE)
+        seen.add(res.status)
+    assert seen == {LIMIT_FEASIBLE, "Maximum_Iterations_Exceeded"}, seen

@@ -59,8 +59,10 @@ def test_one_synthesizer_builds_few_programs(stage_results):
     # one program per structure (degree, phase, capacity, IPOPT options): 12 before the
     # linearised rows (damping floors, reference-step samples) and the bolder start's soft
     # phase with every coefficient free; 20 measured with them; 21 measured once every
-    # bounded problem carries the default specs (overshoot, damping floor, |B S/Delta|)
-    assert syn.built <= 21
+    # bounded problem carries the default specs (overshoot, damping floor, |B S/Delta|);
+    # 23 once a feasible point at IPOPT's iteration limit is kept (its exchange goes on
+    # to two more capacities; the four answers and the CPU unchanged, 2026-12-01)
+    assert syn.built <= 23
 
 
 @pytest.mark.slow
