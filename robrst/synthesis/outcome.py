@@ -16,8 +16,8 @@ if TYPE_CHECKING:
     from robrst.certificate.proof import Certificate
     from robrst.core.rst import RSTController
 
-__all__ = ["OK_STATUS", "LIMIT_FEASIBLE", "FEASIBLE_TOL", "Binding", "SolveResult", "Round", "SynthesisResult", "worst_violation",
-           "best_achievable"]
+__all__ = ["OK_STATUS", "LIMIT_FEASIBLE", "FEASIBLE_TOL", "Binding", "SolveResult", "Round",
+           "SynthesisResult", "worst_violation", "best_achievable"]
 
 # IPOPT's iteration limit on a point that meets every row of its program (within
 # FEASIBLE_TOL): a polish still climbing when its budget ends keeps what it reached (the
