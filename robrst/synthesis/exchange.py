@@ -333,15 +333,14 @@ def solve_program(setup: NLPSetup, x0: np.ndarray, ipopt: dict, phase: Phase = P
     lbx, ubx = _var_bounds(setup, st, phase, box)
     x0 = np.clip(x0, lbx, ubx)
     out = tpl.solve(v, x0, lbx, ubx, lbg, ubg)
-    status, g = out["status"], np.asarray(out["g"], float)
-    if status == "Maximum_Iterations_Exceeded" and np.isfinite(out["f"]) and np.all(
-            np.isfinite(g)) and np.all(g >= np.asarray(lbg, float) - FEASIBLE_TOL) and np.all(
-            g <= np.asarray(ubg, float) + FEASIBLE_TOL):
-        status = LIMIT_FEASIBLE     # a point that meets every row: used (and certified)
-    return SolveResult(status=status, x=out["x"], objective=out["f"],
-                       iterations=out["iterations"], g=out["g"], lbg=lbg, ubg=ubg,
-                       lam_g=out["lam_g"], labels=labels, w0=setup.w0, rates=dict(setup.rates),
-                       lam_x=out["lam_x"], lbx=lbx, ubx=ubx, params=v)
+    res = SolveResult(status=out["status"], x=out["x"], objective=out["f"],
+                      iterations=out["iterations"], g=out["g"], lbg=lbg, ubg=ubg,
+                      lam_g=out["lam_g"], labels=labels, w0=setup.w0, rates=dict(setup.rates),
+                      lam_x=out["lam_x"], lbx=lbx, ubx=ubx, params=v)
+    if res.status == "Maximum_Iterations_Exceeded" and np.isfinite(res.objective) and np.all(
+            np.isfinite(res.g)) and res.violations().max(initial=0.0) <= FEASIBLE_TOL:
+        res = replace(res, status=LIMIT_FEASIBLE)   # a point that meets every row: used
+    return res
 
 
 def _initial_active(ratios, coarse_points, neighbours=True):
