@@ -433,7 +433,9 @@ def solve_exchange(setup: NLPSetup, x0: np.ndarray, ipopt: dict, phase: Phase = 
     -------
     SolveResult
         The last subproblem's result with ``iterations`` summed over the rounds and
-        ``exchange`` an :class:`ExchangeInfo`.  A subproblem that fails is returned at
+        ``exchange`` an :class:`ExchangeInfo`.  A later round that fails from the previous
+        round's optimum (with a warm and with IPOPT's default barrier) is solved again
+        from ``x0``.  A subproblem that fails is returned at
         once (it is a relaxation of the full-grid program) unless it ends where a
         stability row it left out does not hold: the program is then solved again with
         every row from the first round.
@@ -477,6 +479,11 @@ def _exchange(setup, x0, ipopt, phase, templates, max_rounds, coarse_points, exa
             cold = {k: v for k, v in ipopt.items() if k != "mu_init"}
             res = solve_program(setup, x, cold, phase, blocks, active, templates, x_ref=x0,
                                 box=box, routh=routh, rows=rows, lin=lin)
+            if not res.success:   # from the exchange's own start: the previous optimum
+                # sits outside the rows just added, and IPOPT's restoration from there can
+                # end at a local minimum of the infeasibility (a polish's start meets them)
+                res = solve_program(setup, x0, cold, phase, blocks, active, templates,
+                                    x_ref=x0, box=box, routh=routh, rows=rows, lin=lin)
         x = res.x
         iters += res.iterations
         ratios = effective_ratios(blocks, limits, x, x[-1])
