@@ -101,10 +101,8 @@ class SearchOptions:
     inside_generations : int
         ... for at most this many generations (a run's) ...
     inside_stall : int
-        ... or this many without progress once inside (a run's: once inside, the narrow
-        run goes on to the best point near the candidate, as a run of the search does; it
-        stopped after 10 and kept 61-77 % of a candidate's integral gain where 1.03x was
-        inside).
+        ... or this many without progress once inside (a run's rules: once inside, the
+        narrow run goes on to the best point near the candidate).
     progress : float
         A run's best objective (``log`` of the integral gain: relative) must grow by more
         than this to count as progress.
