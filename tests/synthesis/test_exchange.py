@@ -159,3 +159,32 @@ def test_a_point_that_meets_every_row_at_the_iteration_limit_is_kept():
         assert res.success == (res.status == LIMIT_FEASIBLE)
         seen.add(res.status)
     assert seen == {LIMIT_FEASIBLE, "Maximum_Iterations_Exceeded"}, seen
+
+
+def test_a_round_that_fails_from_the_previous_optimum_is_solved_from_the_start(
+        monkeypatch, full_and_exchange):
+    """A later round starts at the previous round's optimum, outside the rows it adds;
+    where IPOPT fails from there (emulated: every solve that does not start at the
+    exchange's start reports ``Infeasible_Problem_Detected``), the round is solved again
+    from the start and the exchange still reaches the full-grid optimum."""
+    from dataclasses import replace
+
+    import robrst.synthesis.exchange as exchange
+
+    problem, ctx, setup, full, _ = full_and_exchange
+    _, _, _, x0 = _setup(60)
+    real = exchange.solve_program
+    starts = []
+
+    def failing_away_from_the_start(setup, x, *args, **kwargs):
+        res = real(setup, x, *args, **kwargs)
+        at_start = bool(np.array_equal(x, x0))
+        starts.append(at_start)
+        return res if at_start else replace(res, status="Infeasible_Problem_Detected")
+
+    monkeypatch.setattr(exchange, "solve_program", failing_away_from_the_start)
+    res = solve_exchange(setup, x0, IPOPT, coarse_points=2)
+    assert res.status == "Solve_Succeeded" and res.exchange.rounds >= 2
+    assert sum(starts) >= 2 and not all(starts)     # later rounds were solved from x0
+    k_full = integral_gain(ctx.controller(full.x))
+    np.testing.assert_allclose(integral_gain(ctx.controller(res.x)), k_full, rtol=1e-7)
