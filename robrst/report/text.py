@@ -213,8 +213,8 @@ def spec_table(result: DesignResult) -> list[str]:
                 tag += (f" (beyond the bound by {100 * beyond:.2g} %: within the certificate's"
                         f" tolerance, [solver] cert_tol = {tol:g})")
             else:
-                tag = f"  NOT MET ({'above' if r.achieved > r.bound else 'below'} the bound" \
-                      f" by {100 * beyond:.2g} %)"
+                side = "above" if r.achieved > r.bound else "below"
+                tag = f"  NOT MET ({side} the bound by {100 * beyond:.2g} %)"
         slack = f"{100 * r.slack:>8.1f}%" if abs(r.slack) >= 5e-4 else f"{100 * r.slack:>8.2f}%"
         out.append(f"  {name:<24}{_num(r.bound):>11}{_num(r.achieved):>12}"
                    f"{slack}  {where}{tag}")

@@ -71,27 +71,23 @@ def test_a_looser_bound_never_collapses(scans, seed, order):
         best = ki if best is None else max(best, ki)
 
 
-STAGE13 = pytest.mark.xfail(strict=False, reason="not monotone within 1 % yet on the 4th-order"
-                            " stage: which basin the restarts find still moves with the bound."
-                            " Measured (integral gain at Ms_max 1.5 / 1.75 / 2.0 / 2.25 / 2.5):"
-                            " 115 k / 200 k / 270 k / 262 k / 201 k (183 k at 2.5 before a"
-                            " failed exchange round was solved again from its start); the"
-                            " answer at 2.0 (Ms 1.99, binding) is feasible at 2.5, whose"
-                            " answer has Ms 2.21 (its search's best, 182,705, had 1.82);"
-                            " at 2.5, 20 seeded runs"
-                            " of population 56 (the search's third) reach the upper basin 5"
-                            " times (screened"
-                            " log objective 2.86-2.91 against 2.36-2.43 for the lower one), and"
-                            " whether a run does is not told by its random mean's damping"
-                            " pattern; the search's seeds 1-6 find it twice, with the"
-                            " restarts' means repelled from earlier runs' optima twice, with a"
-                            " penalty ranking instead of Deb's rules twice")
+STAGE13 = pytest.mark.xfail(strict=False, reason=(
+    "not monotone within 1 % yet on the 4th-order stage: which basin the restarts find still"
+    " moves with the bound. Measured (integral gain at Ms_max 1.5 / 1.75 / 2.0 / 2.25 / 2.5):"
+    " 115 k / 200 k / 270 k / 262 k / 201 k (183 k at 2.5 before a failed exchange round was"
+    " solved again from its start); the answer at 2.0 (Ms 1.99, binding) is feasible at 2.5,"
+    " whose answer has Ms 2.21 (its search's best, 182,705, had 1.82); at 2.5, 20 seeded runs"
+    " of population 56 (the search's third) reach the upper basin 5 times (screened log"
+    " objective 2.86-2.91 against 2.36-2.43 for the lower one), and whether a run does is not"
+    " told by its random mean's damping pattern; the search's seeds 1-6 find it twice, with"
+    " the restarts' means repelled from earlier runs' optima twice, with a penalty ranking"
+    " instead of Deb's rules twice"))
 
 
-STAGE11 = pytest.mark.xfail(strict=False, reason="within 1.3 % but not 1 % on stage 11: two"
-                            " local optima of the polish (each a KKT point) at Ms_max 1.75 and"
-                            " 2.0: 753 k / 828 k / 818 k / 828 k / 828 k at Ms_max 1.5 / 1.75 /"
-                            " 2.0 / 2.25 / 2.5")
+STAGE11 = pytest.mark.xfail(strict=False, reason=(
+    "within 1.2 % but not 1 % on stage 11: two local optima of the polish (each a KKT point)"
+    " at Ms_max 1.75 and 2.0: 753 k / 828 k / 818 k / 828 k / 828 k at Ms_max 1.5 / 1.75 /"
+    " 2.0 / 2.25 / 2.5"))
 
 
 @pytest.mark.slow
