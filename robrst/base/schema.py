@@ -297,7 +297,7 @@ def load_toml(path: str | Path, what: str = "file") -> dict:
     except tomllib.TOMLDecodeError as exc:
         raise SpecError(f"{path}: invalid TOML ({exc})") from None
     if not doc:
-        raise SpecError(f"{path}: empty {what}; expected TOML tables (see the README's reference)")
+        raise SpecError(f"{path}: empty {what}; expected TOML tables (see docs/reference/)")
     return doc
 
 

@@ -68,8 +68,9 @@ def _header(exp, prefix, name):
  * after y(t) is measured (0: at once).  Certified: {"yes" if exp.certified else "NO"};
  * worst case Ms {fig("Ms_sampled")}, Mt {fig("Mt_sampled")}, Mu {fig("Mu_sampled")} V/um,
  * closed-loop spectral radius {exp.spectral_radius:.9g}.
- * Realisation: {len(dc.sections)} delta-form sections, {dc.n_states} states (see robrst's README,
- * "Digital controller"); recommended precision: {exp.recommended or "none guaranteed"}.
+ * Realisation: {len(dc.sections)} delta-form sections, {dc.n_states} states (see robrst's
+ * guide, docs/guide/export.md, "Which realisation to run"); recommended precision:
+ * {exp.recommended or "none guaranteed"}.
  * Units: yr, y in um; u in V, saturated to [{P}_U_MIN, {P}_U_MAX] with anti-windup.
  */
 #ifndef {P}_H

@@ -99,7 +99,8 @@ class ExportedController:
 
     @property
     def recommended(self):
-        """The realisation and precision to run (see the README's "Digital controller")."""
+        """The realisation and precision to run (docs/guide/export.md, "Which realisation
+        to run")."""
         f32, f64 = self.realisation("sections", "float32"), self.realisation("sections", "float64")
         if (f32.stable_guaranteed and f32.mu_y <= F32_MU_MAX
                 and (f32.step_error_y is None or f32.step_error_y <= F32_STEP_MAX)):

@@ -1,7 +1,7 @@
 """The summary of a sweep's results: yield, statistics, worst variants, trade-off front.
 
 ``summary.json`` (a public contract: fields are only added) holds ``kind, n, done,
-certified, yield, workers, wall_s, worst`` and more (see the README).  The yield is the
+certified, yield, workers, wall_s, worst`` and more (docs/guide/sweeps.md, "Output folder").  The yield is the
 share of the *finished* variants that are certified (a failed variant counts as not
 certified), with its 95 % Wilson score interval.  The worst variants are the failed ones
 first, then by ``worst_ratio`` (largest figure/bound over the specs), with their parameters.
