@@ -270,3 +270,29 @@ def test_the_api_reference_is_a_few_task_pages_covering_the_face():
     # a subpackage name is never the same object as a face name (it would be shown twice)
     face_ids = {id(getattr(robrst, n.split(".", 1)[1])) for n in face}
     assert not [n for n, o in zip(listed, objs) if n not in face and id(o) in face_ids]
+
+
+SOURCE_POINTER = re.compile(r"(docs/[A-Za-z0-9_/.-]+\.md)(?:,\s*|\s*\(|\s+)?(?:\"([^\"\n]+)\")?")
+
+
+def _headings(page):
+    return {line.lstrip("#").strip() for line in page.read_text().splitlines()
+            if line.startswith("#")}
+
+
+def test_the_package_points_to_pages_and_sections_that_exist():
+    """Every ``docs/...md`` a message, a docstring or a generated file of the package names
+    exists, and a quoted section after it is one of that page's headings (the README
+    is a front page: the guide's sections live in docs/, and a pointer into a README
+    section that moved is a dead end for the user who reads it in a C header)."""
+    found = []
+    for src in sorted((ROOT / "robrst").rglob("*.py")):
+        text = re.sub(r"\s*\n\s*\*?\s*", " ", src.read_text())    # wrapped comments joined
+        for m in SOURCE_POINTER.finditer(text):
+            page = ROOT / m.group(1)
+            assert page.is_file(), (src.name, m.group(1))
+            if m.group(2):
+                assert m.group(2) in _headings(page), (src.name, m.group(1), m.group(2))
+            found.append(m.group(1))
+        assert not re.search(r"README(?:'s)?,? \"", text), (src.name, "a README section")
+    assert found
