@@ -21,7 +21,7 @@ from robrst.studies.design_curves import DesignCurves, design_curves
 from robrst.base.fileio import json_text
 import robrst.report._design_figures as figs
 from robrst.report.doc import Doc, write_folder
-from robrst.report.text import sampled_summary
+from robrst.report.text import sampled_summary, spec_rows
 
 __all__ = ["design_doc", "write_design_report", "FIGURES"]
 
@@ -60,16 +60,24 @@ def design_doc(result: DesignResult, twin: bool = False) -> Doc:
     -------
     Doc
     """
-    p, cert, specs = result.problem, result.certificate, result.problem.specs
+    p, cert = result.problem, result.certificate
+    rows = spec_rows(result)
     worst = {k: cert.worst_model(k) for k in ("Ms", "Mt", "Mu")}
     c = result.controller
     sampled = sampled_summary(result)
     blocks = [
         ("p", f"Problem `{p.name}`, method **{result.method}**, certified:"
-              f" **{str(bool(result.certified)).lower()}**."
-              f" Specs: Ms ≤ {specs.Ms_max}, Mt ≤ {specs.Mt_max}, Mu ≤ {specs.Mu_max} V/µm."),
+              f" **{str(bool(result.certified)).lower()}**."),
         ("pre", "\n".join(f"{k}(s) = " + " ".join(f"{v:.6g}" for v in getattr(c, k))
                           for k in "RST")),
+        ("h2", "Specs"),
+        ("p", "Worst over every checked model and temperature; slack = room left"
+              " (`(default)`: a spec robrst adds, each switched off by its key)."
+              if rows else "No spec bounded."),
+    ]
+    if rows:
+        blocks.append(("table", ("spec", "bound", "achieved", "slack", "where", "note"), tuple(rows)))
+    blocks += [
         ("h2", "Margins per temperature"),
         ("table", ("model", "T [°C]", "stable", "Ms", "Mt", "Mu [V/µm]", "GM", "PM [°]", "MM",
                    "DM [µs]"), tuple(_margins_rows(result))),

@@ -16,7 +16,7 @@ if TYPE_CHECKING:
     from robrst.synthesis.scenario import FleetDesign
 
 __all__ = ["margins_table", "sampled_summary", "design_summary", "fleet_summary", "fmt",
-           "spec_table", "controller_lines"]
+           "spec_table", "spec_rows", "controller_lines"]
 
 
 def fmt(x: float | None, spec: str) -> str:
@@ -179,9 +179,48 @@ def _objective_line(result):
     return line
 
 
+def spec_rows(result: DesignResult) -> list[tuple[str, str, str, str, str, str]]:
+    """Each spec's cells: name, bound, achieved (worst over the certificate's models),
+    slack, where, and the tag (``BINDS``, within the certificate's tolerance, ``NOT
+    MET``) from ``result.specs_achieved``; the text's table and the report's draw them.
+
+    Parameters
+    ----------
+    result : DesignResult
+        The design.
+
+    Returns
+    -------
+    list of tuple of str
+    """
+    tol = result.problem.solver.cert_tol
+    out = []
+    for r in result.specs_achieved or ():
+        name = r.spec + (" (default)" if r.source == "default" else "")
+        where = (r.model if r.temperature_C is None else
+                 f"{r.model} ({r.temperature_C:g} °C"
+                 + (", sampled" if r.loop == "sampled" else "") + ")")
+        tag = "BINDS" if r.binding else ""
+        if r.slack < 0:
+            # the slack's excess (1 - value/bound, 1 - bound/value for a lower bound) is
+            # what the certificate's relative tolerance measures; the text says how far
+            # the value lies from the bound
+            beyond = abs(r.achieved - r.bound) / abs(r.bound) if r.bound else float("inf")
+            if -r.slack <= tol * (1 + 1e-9):
+                tag = (tag + " " if tag else "") + (
+                    f"(beyond the bound by {100 * beyond:.2g} %: within the certificate's"
+                    f" tolerance, [solver] cert_tol = {tol:g})")
+            else:
+                side = "above" if r.achieved > r.bound else "below"
+                tag = f"NOT MET ({side} the bound by {100 * beyond:.2g} %)"
+        slack = f"{100 * r.slack:.1f}%" if abs(r.slack) >= 5e-4 else f"{100 * r.slack:.2f}%"
+        out.append((name, _num(r.bound), _num(r.achieved), slack, where, tag))
+    return out
+
+
 def spec_table(result: DesignResult) -> list[str]:
     """Each spec: bound, achieved (worst over the certificate's models), slack, where, and
-    whether it binds (``result.specs_achieved``).
+    whether it binds (:func:`spec_rows`).
 
     Parameters
     ----------
@@ -192,32 +231,14 @@ def spec_table(result: DesignResult) -> list[str]:
     -------
     list of str
     """
-    rows = result.specs_achieved
+    rows = spec_rows(result)
     if not rows:
         return ["specs: none bounded"]
     head = f"  {'spec':<24}{'bound':>11}{'achieved':>12}{'slack':>9}  where"
     out = ["specs (worst over every checked model and temperature; slack = room left):", head]
-    tol = result.problem.solver.cert_tol
-    for r in rows:
-        name = r.spec + (" (default)" if r.source == "default" else "")
-        where = (r.model if r.temperature_C is None else
-                 f"{r.model} ({r.temperature_C:g} °C"
-                 + (", sampled" if r.loop == "sampled" else "") + ")")
-        tag = "  BINDS" if r.binding else ""
-        if r.slack < 0:
-            # the slack's excess (1 - value/bound, 1 - bound/value for a lower bound) is
-            # what the certificate's relative tolerance measures; the text says how far
-            # the value lies from the bound
-            beyond = abs(r.achieved - r.bound) / abs(r.bound) if r.bound else float("inf")
-            if -r.slack <= tol * (1 + 1e-9):
-                tag += (f" (beyond the bound by {100 * beyond:.2g} %: within the certificate's"
-                        f" tolerance, [solver] cert_tol = {tol:g})")
-            else:
-                side = "above" if r.achieved > r.bound else "below"
-                tag = f"  NOT MET ({side} the bound by {100 * beyond:.2g} %)"
-        slack = f"{100 * r.slack:>8.1f}%" if abs(r.slack) >= 5e-4 else f"{100 * r.slack:>8.2f}%"
-        out.append(f"  {name:<24}{_num(r.bound):>11}{_num(r.achieved):>12}"
-                   f"{slack}  {where}{tag}")
+    for name, bound, achieved, slack, where, tag in rows:
+        out.append(f"  {name:<24}{bound:>11}{achieved:>12}{slack:>9}  {where}"
+                   + (f"  {tag}" if tag else ""))
     return out
 
 

@@ -90,3 +90,24 @@ def test_cli_report_quiet(tmp_path, problems_dir, capsys):
     assert io.err == "" and "wrote" in io.out
     for f in ("report.md", "report.html", "result.json", "bode.png", "nyquist.png", "step.png"):
         assert (tmp_path / "p" / f).is_file()
+
+
+def test_the_report_tables_every_spec_the_design_states(tmp_path, problems_dir):
+    """The report's spec table has one row per spec of the design's JSON
+    (``specs_achieved``: the defaults robrst adds included), its bound and achieved value
+    as the command line prints them, and the same rows in Markdown and HTML."""
+    out = tmp_path / "p"
+    assert main(["report", str(problems_dir / "paper.toml"), "--out",
+                 str(out), "--quiet"]) in (0, 1)
+    rows = json.loads((out / "result.json").read_text())["specs_achieved"]
+    md, html = (out / "report.md").read_text(), (out / "report.html").read_text()
+    table = md.split("## Specs", 1)[1].split("\n## ", 1)[0]
+    lines = [line for line in table.splitlines() if line.startswith("| ")][1:]
+    assert len(lines) == len(rows) >= 3
+    for line, row in zip(lines, rows):
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        assert cells[0].split(" (default)")[0] == row["spec"]
+        assert float(cells[1]) == pytest.approx(row["bound"], rel=5e-4)
+        assert float(cells[2]) == pytest.approx(row["achieved"], rel=5e-4)
+        assert (cells[5] == "BINDS") == bool(row["binding"]) or "tolerance" in cells[5]
+        assert f"<td>{cells[0]}</td>" in html
