@@ -39,7 +39,49 @@ if TYPE_CHECKING:
     from robrst.synthesis._timesamples import TimeSpecs
 
 __all__ = ["Outcome", "Run", "worst_violation", "frequency_certificate", "refine",
-           "objective_value", "program_models", "RunOptions", "RUN"]
+           "objective_value", "program_models", "RunOptions", "RUN", "merged_notes"]
+
+_LINEARISED = ("linearised rows (reference-step samples, damping floors): the worst is {} x"
+               " its bound after the rounds (the certificate decides)")
+_LINEARISED_HEAD, _LINEARISED_TAIL = _LINEARISED.split("{}")
+
+
+def merged_notes(notes: Sequence[str]) -> tuple[str, ...]:
+    """A run's notes for the reader: each once, in the order first given, and the
+    linearised rows' worst ratios of every solve that left them above their bound in one
+    note (a polish and its back-offs each add theirs).
+
+    Parameters
+    ----------
+    notes : sequence of str
+        The notes as the run's solves added them.
+
+    Returns
+    -------
+    tuple of str
+
+    Examples
+    --------
+    >>> from robrst.synthesis.attempts import merged_notes
+    >>> merged_notes(["a", "b", "a"])
+    ('a', 'b')
+    """
+    out, ratios, at = [], [], None
+    for n in notes:
+        if n.startswith(_LINEARISED_HEAD) and n.endswith(_LINEARISED_TAIL):
+            ratios.append(n[len(_LINEARISED_HEAD):len(n) - len(_LINEARISED_TAIL)])
+            if at is None:
+                at = len(out)
+                out.append("")
+        elif n not in out:
+            out.append(n)
+    if at is not None:
+        out[at] = (_LINEARISED.format(ratios[0]) if len(ratios) == 1 else
+                   f"{_LINEARISED_HEAD.rsplit(': ', 1)[0]}: the worst is {', '.join(ratios)}"
+                   f" x its bound after the rounds of {len(ratios)} solves (the certificate"
+                   " decides)")
+    return tuple(out)
+
 
 WARM_START = "previous design"   # the name of that start (robrst.synthesis.robust hands it down)
 GLOBAL_START = "global run"      # the global phase's candidates (near-optimal starts)
@@ -561,9 +603,7 @@ class Run:
             else:
                 f /= 2
         if worst > 1.0:
-            self.notes.append(f"linearised rows (reference-step samples, damping floors): the"
-                              f" worst is {worst:.3g} x its bound after the rounds (the"
-                              " certificate decides)")
+            self.notes.append(_LINEARISED.format(f"{worst:.3g}"))
         return replace(best, iterations=iters)
 
     def floor_row(self, setup: NLPSetup) -> TimeRows | None:

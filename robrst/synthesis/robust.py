@@ -43,7 +43,7 @@ import numpy as np
 from robrst.core import poly
 from robrst.base.errors import RobrstError
 from robrst.synthesis.attempts import (WARM_START, Outcome, Run, objective_value,
-                                       program_models)
+                                       program_models, merged_notes)
 from robrst.synthesis.context import BOUND_MARGIN, Context
 from robrst.synthesis._nlp import objective_rows
 from robrst.synthesis.outcome import SynthesisResult, best_achievable, worst_violation
@@ -582,7 +582,7 @@ def robust_synthesis(problem: Problem, start: AnalyticDesign,
                            rounds=tuple(run.rounds), solve=out.res,
                            wall_time_s=time.perf_counter() - t0, wn_rad_s=wn, zeta=zeta,
                            placement=out.placement, phase=out.phase,
-                           best_achievable=best_achievable(cert), notes=tuple(run.notes),
+                           best_achievable=best_achievable(cert), notes=merged_notes(run.notes),
                            search=run.search, tried=tuple(_tried(problem, run.tried)))
 
 

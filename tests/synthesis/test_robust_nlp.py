@@ -316,3 +316,23 @@ def test_convex_uses_an_inaccurate_optimum_and_certifies_it(tmp_path, monkeypatc
         res = run_problem(load_problem(f))
     assert not res.synthesis.notes                    # the hard program's answer was used
     assert res.certified and res.analytic_check.passed
+
+
+def test_the_notes_say_each_thing_once():
+    """A run's notes as the design prints them: a note two solves added is given once, and
+    the linearised rows' worst ratios of several solves (a polish and its back-offs) are
+    one note that keeps every ratio, in order, at the place of the first."""
+    from robrst.synthesis.attempts import merged_notes
+
+    def lin(r):
+        return ("linearised rows (reference-step samples, damping floors): the worst is"
+                f" {r} x its bound after the rounds (the certificate decides)")
+
+    budget = "iteration budget (2500) spent: refinement stopped"
+    got = merged_notes(["start", lin("10.6"), budget, lin("3.92"), budget, lin("11"), "end"])
+    assert got == ("start",
+                   "linearised rows (reference-step samples, damping floors): the worst is"
+                   " 10.6, 3.92, 11 x its bound after the rounds of 3 solves (the certificate"
+                   " decides)", budget, "end")
+    assert merged_notes([lin("1.25"), budget]) == (lin("1.25"), budget)
+    assert merged_notes([]) == ()
