@@ -2,8 +2,9 @@
 
 The paper reports that temperature barely changes the fast dynamics; robrst models the
 change with three relative coefficients per kelvin around a reference temperature: the
-static gain, the natural frequency and the damping of every complex pole pair of the
-nominal model (real poles stay).  :func:`thermal_polynomials` states that law once,
+numerator's gain (the static gain times ``wn^2`` of every resonant pair), the natural
+frequency and the damping of every complex pole pair of the nominal model (real poles
+stay).  :func:`thermal_polynomials` states that law once,
 with plain arithmetic, so the numeric plant family (:mod:`robrst.core.family`) and the
 symbolic CasADi twin (:mod:`robrst.twin.model`) are generated from the same definition.
 """

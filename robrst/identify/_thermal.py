@@ -312,6 +312,21 @@ def _combine(rels, sds):
     return mean, float(1.0 / np.sqrt(np.sum(w))), _agrees(chi2, len(rels) - 1)
 
 
+def _gain_note(dT, gain, sd, n_pairs, r):
+    """Why the law's gain fails: ``gain_per_K`` scales the numerator B (the static gain
+    times ``wn^2`` of every resonant pair), so a static gain linear in temperature with a
+    moving resonance makes B quadratic; the note says which of the two is not linear."""
+    if not n_pairs:
+        return "the static gain does not change linearly with temperature"
+    why = ("the numerator's gain (the static gain times wn^2 of each resonance: what"
+           " gain_per_K scales) does not change linearly with temperature")
+    g, _, chi2, dof = _relative(dT, gain, sd)
+    if dof > 0 and _agrees(chi2, dof):
+        why += (f"; the static gain alone does ({100 * g:+.3g} %/K), but with the resonance"
+                f" moving {100 * r:+.3g} %/K the numerator is quadratic in temperature")
+    return why
+
+
 def thermal_law(params: list, reference_C: float) -> ThermalLaw:
     """Fit the per-kelvin laws to models at several temperatures.
 
@@ -370,7 +385,7 @@ def thermal_law(params: list, reference_C: float) -> ThermalLaw:
     g, sdg, chi2, dof = _relative(dT, V[:, 0] * corr, S[:, 0] * corr)
     sdg = float(np.hypot(sdg, 2 * n_pairs * sdr))
     if not _agrees(chi2, dof):
-        notes.append("the static gain does not change linearly with temperature")
+        notes.append(_gain_note(dT, V[:, 0], S[:, 0], n_pairs, r))
     for k in range(1 + 2 * n_pairs, V.shape[1]):
         w = 1.0 / S[:, k] ** 2
         mean = np.sum(w * V[:, k]) / np.sum(w)

@@ -7,6 +7,7 @@ model file used to end in "computation failed (AttributeError: 'ModalModel' obje
 attribute 'n')").  Truth: python-control's ZOH records (tests/stages.py)."""
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -69,3 +70,28 @@ def test_the_problem_and_model_files_read_back_and_diagnose(records, tmp_path, c
     # the model holds at 20 °C: the 40 °C records differ by the thermal law, which the
     # diagnosis names (it is tried now that the modal file gives a polynomial plant)
     assert d["cause"] == "thermal_dynamics"
+
+
+def test_a_linear_static_gain_with_a_moving_resonance_is_named_as_such():
+    """robrst's gain_per_K scales the numerator B = k wn^2: a stage whose static gain k and
+    resonance wn are both exactly linear in temperature (-0.2 %/K, -0.03 %/K; three
+    temperatures, relative sigmas 1e-6) has a B quadratic in temperature, which the law
+    rejects; the note must not say that the static gain is not linear (it is), but which
+    quantity is not, and the static gain's own slope."""
+    from robrst.identify._thermal import ModalParameters, thermal_law
+
+    def at(T):
+        dT = T - 25.0
+        k, w, z = 0.08 * (1 - 0.002 * dT), 1e4 * (1 - 0.0003 * dT), 0.01
+        v = np.array([k, w, z, 2.5e4])
+        return ModalParameters(T, k, ((w, z),), (2.5e4,), np.diag((1e-6 * v) ** 2))
+
+    law = thermal_law([at(T) for T in (25.0, 35.0, 50.0)], 25.0)
+    assert not law.consistent
+    assert "static gain does not change linearly" not in law.note
+    assert "numerator" in law.note and "static gain alone does (-0.2 %/K)" in law.note
+    assert "-0.03 %/K" in law.note
+    # a static gain that is not linear either: the note does not claim it is
+    bent = [at(25.0), at(35.0), replace(at(50.0), gain=0.08 * (1 - 0.002 * 25) * 1.01)]
+    note = thermal_law(bent, 25.0).note
+    assert "numerator" in note and "alone does" not in note
