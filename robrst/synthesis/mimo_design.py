@@ -313,6 +313,7 @@ def program_rounds(name: str, models: Sequence[MimoPlant], specs: MimoSpecs,
         return stable, recs, viols
 
     x = np.asarray(x0, float)
+    again = None            # the feasible point a round was last restarted from
     stable, recs, viols = check(x)
     best = (x, stable, viols) if stable else None
     feasible = x if stable and not viols else None
@@ -320,10 +321,13 @@ def program_rounds(name: str, models: Sequence[MimoPlant], specs: MimoSpecs,
         t0 = time.perf_counter()
         rows = grid_rows()
         nu = rows.nu
-        if viols and feasible is not None:
+        if viols and feasible is not None and not (stable and again is feasible):
             # the last candidate missed a peak between points (now on the grid): solve again
-            # from the last controller the exact check passed
+            # from the last controller the exact check passed; but once only: a hard round
+            # from it that ended outside the specs again goes on from where it ended (the
+            # soft phase), or every round repeats the same failed solve with more rows
             x, stable, viols = feasible, True, []
+            again = feasible
         rows.set_scaling(x)
         share(rows)
         t_start = rows.worst(x)
