@@ -306,7 +306,8 @@ def decide(info: dict, ex: Explanation, amp: dict | None = None) -> Verdict:
 
 def unmodelled(setup: Setup, linear: Scored, info: dict,
                order_extra: Sequence[int] = _V.unmodelled_orders) -> tuple[ModalModel, float] | None:
-    """Higher-order linear fits on the training records.
+    """Higher-order linear fits on the training records, and the re-fit's own order fitted
+    from the data alone.
 
     Parameters
     ----------
@@ -321,15 +322,23 @@ def unmodelled(setup: Setup, linear: Scored, info: dict,
 
     Returns
     -------
-    (ModalModel, float) or None
-        The best higher-order model and its held-out gap.
+    (ModalModel, float, ModalModel) or None
+        The best higher-order model (or the own-order one from the data, when its held-out
+        gap is within ``unmodelled_same_order`` of it), its held-out gap, and the re-fit
+        as a continuous model.
     """
     base = setup.lin.continuous(linear.fit.parts()[1])
     data = fit_data(setup.train_records)
-    best = None
-    for extra in order_extra:
-        poles0 = np.concatenate([base.discretise(setup.fs).zpoles,
-                                 initial_poles(extra, setup.fs, *data.band)])
+    best, fresh = None, None
+    # each higher order from the re-fit's poles; and the re-fit's own order from the data
+    # alone (poles spread over the band): a re-fit that stays in a local minimum of a
+    # wrong model (its resonance far from the data's) is not missing an order
+    for extra in (*order_extra, None):
+        if extra is None:
+            poles0 = initial_poles(base.order, setup.fs, *data.band)
+        else:
+            poles0 = np.concatenate([base.discretise(setup.fs).zpoles,
+                                     initial_poles(extra, setup.fs, *data.band)])
         try:
             poles = vector_fit(data, poles0, n_iter=_V.unmodelled_iterations)
             dm, _ = fit_residues(data, poles)
@@ -342,8 +351,12 @@ def unmodelled(setup: Setup, linear: Scored, info: dict,
             num += float(np.sum(E ** 2))
             den += float(np.sum((d.Y - d.Y.mean(axis=0)) ** 2))
         gap = float(np.sqrt(num / den)) if den > 0 else np.inf
-        if best is None or gap < best[1]:
+        if extra is None:
+            fresh = (cm, gap, base)
+        elif best is None or gap < best[1]:
             best = (cm, gap, base)
+    if fresh is not None and (best is None or fresh[1] <= _V.unmodelled_same_order * best[1]):
+        return fresh        # the model's own order suffices: its dynamics are wrong
     return best
 
 

@@ -398,6 +398,10 @@ class VerdictOptions:
         A higher linear order must remove this share of the excess the re-fit leaves.
     unmodelled_orders : tuple of int
         Orders added to the re-fit's for the ``unmodelled_dynamics`` finding.
+    unmodelled_same_order : float
+        The re-fit's own order fitted from the data alone is the finding's model when its
+        held-out gap is within this factor of the best higher order's (the model's
+        dynamics are wrong, not short of an order).
     unmodelled_iterations : int
         Vector-fitting iterations of those fits.
     unmodelled_band : float
@@ -418,6 +422,7 @@ class VerdictOptions:
     offset_agree: float = 0.25    # a sensor zero is the same in every record
     unmodelled_share: float = 0.5   # half the excess: more than a re-fit's noise
     unmodelled_orders: tuple = (2, 4)   # one or two missing pairs
+    unmodelled_same_order: float = 1.1  # the model's order from the data within 10 % of them
     unmodelled_iterations: int = 8      # vector fitting converges in a few
     unmodelled_band: float = 0.2  # a fifth: where the data see the missing dynamics
     unmodelled_pole_tol: float = 0.05   # 5 %: a re-fitted pole moves less
