@@ -6,6 +6,8 @@ import math
 from dataclasses import replace
 from typing import TYPE_CHECKING
 
+from robrst.core.plant import paper_plant
+
 if TYPE_CHECKING:
     from robrst.diagnose.result import Diagnosis
 
@@ -27,6 +29,17 @@ def _num(v):
     return v if v is not None and math.isfinite(v) else None
 
 
+def _model_line(model) -> str:
+    """Which model the gap is measured against: its label, order and poles (the paper's
+    D(s) is said to be the default of ``robrst diagnose`` without ``--model``)."""
+    poles = ", ".join(f"{f:.4g}" for f in sorted(set(round(p, 9) for p in model.poles_hz)))
+    line = (f"model under diagnosis: {model.label} (order {model.order}, poles at {poles} Hz,"
+            f" {model.reference_C:g} °C)")
+    if model.label == paper_plant().label:
+        line += ": the paper's D(s), eq. (4), what robrst diagnose uses without --model"
+    return line
+
+
 def summary_text(diag: Diagnosis) -> str:
     """A dozen lines: gap, verdict, findings, candidates, the selected effects, where.
 
@@ -44,6 +57,7 @@ def summary_text(diag: Diagnosis) -> str:
            f"   noise floor {_g(_num(diag.noise_floor), '.3g')}"
            f" ({(diag.noise_floor_method or 'n/a').replace('_', ' ')})"
            f"   training records {_g(_num(diag.gap_train), '.4g')}",
+           _model_line(diag.model),
            f"cause: {diag.cause} — {diag.reason}"]
     for f in diag.findings:
         out.append(f"finding {f.kind}: {f.message}")

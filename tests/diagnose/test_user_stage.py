@@ -171,3 +171,10 @@ def test_a_wrong_model_of_the_right_order_is_not_called_short_of_an_order():
     modes = np.array(f["extra_modes_hz"])
     for true_hz in (1600.0, 4000.0):
         assert np.min(np.abs(modes - true_hz)) < 0.02 * true_hz, (modes, true_hz)
+    # the summary names the model the gap is measured against (the paper's D(s) when none
+    # is given: a user's stage diagnosed against it is told so)
+    from robrst.diagnose.summary import summary_text
+    assert "model under diagnosis: wrong (order 3, poles at 800, 3183 Hz" in summary_text(dg)
+    default = summary_text(diagnose(recs[:1], recs[1:]))
+    assert "model under diagnosis: paper_D (order 3" in default
+    assert "the paper's D(s), eq. (4), what robrst diagnose uses without --model" in default
