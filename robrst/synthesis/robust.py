@@ -150,6 +150,13 @@ def _synthesize(problem, start, run, extra, lower=None):
             if (out.phase == "hard" or so.objective == "feasibility") and not (
                     glob and "free" in placements):
                 break          # optimised under the specs (or nothing to optimise)
+            if so.objective == "feasibility" and _rank(problem, out, glob)[0]:
+                # every certified controller is an answer to a feasibility problem: no
+                # global phase once one meets every spec (its time-domain ones included)
+                if glob and placement != "free":
+                    run.notes.append(f"feasibility: the problem's poles ({placement})"
+                                     " certify; no global phase (nothing to optimise)")
+                break
             seeds = [("best point so far", best.x[:ctx.param.n_x])]
             if out.phase != "hard" and glob and placement == "free":
                 name = next((n for n, o in run.tried if o is out), "a candidate")
