@@ -32,8 +32,10 @@ def _num(v):
 def _model_line(model) -> str:
     """Which model the gap is measured against: its label, order and poles (the paper's
     D(s) is said to be the default of ``robrst diagnose`` without ``--model``)."""
-    poles = ", ".join(f"{f:.4g}" for f in sorted(set(round(p, 9) for p in model.poles_hz)))
-    line = (f"model under diagnosis: {model.label} (order {model.order}, poles at {poles} Hz,"
+    hz = sorted(set(round(p, 9) for p in model.poles_hz))
+    poles = ", ".join(f"{f:.4g}" for f in hz[:8]) + " Hz" + (
+        f" and {len(hz) - 8} more" if len(hz) > 8 else "")
+    line = (f"model under diagnosis: {model.label} (order {model.order}, poles at {poles},"
             f" {model.reference_C:g} °C)")
     if model.label == paper_plant().label:
         line += ": the paper's D(s), eq. (4), what robrst diagnose uses without --model"
