@@ -296,8 +296,9 @@ def amplitude_finding(records: Sequence[Dataset], base_res: Sequence[np.ndarray]
 
 
 def _hz(freqs):
-    """Frequencies [Hz] as a short list (``"616, 1.6e+03"``; ``"none"``)."""
-    return ", ".join(f"{f:.3g}" for f in sorted(set(freqs))) if len(freqs) else "none"
+    """Frequencies [Hz] as a short list, each once as printed (``"616, 1.6e+03"``;
+    ``"none"``)."""
+    return ", ".join(dict.fromkeys(f"{f:.3g}" for f in sorted(freqs))) or "none"
 
 
 def unmodelled_finding(high: ModalModel, refit: ModalModel, fs: float, gap_high: float,
@@ -350,7 +351,7 @@ def unmodelled_finding(high: ModalModel, refit: ModalModel, fs: float, gap_high:
             extra.append(float(abs(p) / (2 * np.pi)))
     if high.order <= refit.order:
         # the model's own order, fitted from the data: its dynamics are wrong, not short
-        own = sorted({round(float(abs(p) / (2 * np.pi)), 6) for p in refit.poles if p != 0})
+        own = [float(abs(p) / (2 * np.pi)) for p in refit.poles if p != 0]
         message = (f"a linear model of the model's own order ({refit.order}) fitted from the"
                    f" data alone brings the held-out gap from {gap_refit:.3g} to"
                    f" {gap_high:.3g}: the model's linear dynamics are wrong around"

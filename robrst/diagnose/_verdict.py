@@ -305,7 +305,8 @@ def decide(info: dict, ex: Explanation, amp: dict | None = None) -> Verdict:
 
 
 def unmodelled(setup: Setup, linear: Scored, info: dict,
-               order_extra: Sequence[int] = _V.unmodelled_orders) -> tuple[ModalModel, float] | None:
+               order_extra: Sequence[int] = _V.unmodelled_orders
+               ) -> tuple[ModalModel, float, ModalModel] | None:
     """Higher-order linear fits on the training records, and the re-fit's own order fitted
     from the data alone.
 

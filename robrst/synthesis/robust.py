@@ -147,16 +147,16 @@ def _synthesize(problem, start, run, extra, lower=None):
             if best is None or not best.certified or (
                     _rank(problem, out, glob) > _rank(problem, best, glob)):
                 best = out
-            if (out.phase == "hard" or so.objective == "feasibility") and not (
-                    glob and "free" in placements):
-                break          # optimised under the specs (or nothing to optimise)
-            if so.objective == "feasibility" and _rank(problem, out, glob)[0]:
-                # every certified controller is an answer to a feasibility problem: no
-                # global phase once one meets every spec (its time-domain ones included)
-                if glob and placement != "free":
+            searched = glob and "free" in placements      # a global phase follows
+            # every certified controller answers a feasibility problem: no global phase
+            # once one meets every spec (its time-domain ones included)
+            answered = so.objective == "feasibility" and _rank(problem, out, glob)[0]
+            if answered or ((out.phase == "hard" or so.objective == "feasibility")
+                            and not searched):
+                if answered and searched and placement != "free":
                     run.notes.append(f"feasibility: the problem's poles ({placement})"
                                      " certify; no global phase (nothing to optimise)")
-                break
+                break          # optimised under the specs (or nothing to optimise)
             seeds = [("best point so far", best.x[:ctx.param.n_x])]
             if out.phase != "hard" and glob and placement == "free":
                 name = next((n for n, o in run.tried if o is out), "a candidate")
