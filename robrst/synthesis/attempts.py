@@ -181,6 +181,10 @@ class Outcome:
         The variable vector.
     setup : NLPSetup
         The program it was solved in.
+    grid : tuple, optional
+        ``(models, nu)``: the program's models and frequency grid [rad/s] after the
+        rounds of :meth:`Run.hard` that reached it, the last certificate's offending
+        points included (a solve continued from it keeps the exchange's points).
 
     Attributes
     ----------
@@ -197,6 +201,7 @@ class Outcome:
     placement: str
     x: np.ndarray
     setup: NLPSetup
+    grid: tuple = None
 
     @property
     def certified(self):
@@ -840,7 +845,8 @@ class Run:
             offer(objective_value(p, out), (p, ctrl, cert))      # if a signal stops the run
         return out
 
-    def hard(self, ctx: Context, placement: str, x: np.ndarray, name: str) -> Outcome | None:
+    def hard(self, ctx: Context, placement: str, x: np.ndarray, name: str,
+             grid: tuple | None = None) -> Outcome | None:
         """The objective under hard specs from ``x``, certified, refined round by round.
 
         With freely placed poles, a first result the certificate refuses is solved again
@@ -857,14 +863,19 @@ class Run:
             The start.
         name : str
             The start's name.
+        grid : tuple, optional
+            ``(models, nu)`` to start from (an earlier outcome's :attr:`Outcome.grid`);
+            default the problem's models on the context's grid.
 
         Returns
         -------
         Outcome or None
-            The last outcome (``None`` if IPOPT failed in the first round).
+            The last outcome (``None`` if IPOPT failed in the first round), with the
+            rounds' grid.
         """
         p = ctx.problem
-        models, nu, last = program_models(p), ctx.nu, None
+        models, nu = (program_models(p), ctx.nu) if grid is None else grid
+        last = refined = None
         x = np.concatenate([x[:-1], [1.0]])
         exact, start = False, name
         for rnd in range(p.solver.max_rounds):
@@ -906,7 +917,12 @@ class Run:
                 continue
             x, start = res.x, "previous round"
             models, nu = refine(p, last.cert, models, nu)
-        return last
+            refined = last
+        if last is None:
+            return None
+        if not last.certified and refined is not last:   # stopped before its refinement
+            models, nu = refine(p, last.cert, models, nu)
+        return replace(last, grid=(models, nu))
 
     def _from_warm(self, ctx, setup, placement, warm):
         """Soft goals, then the objective, from the previous design ``warm`` (a scored

@@ -392,17 +392,18 @@ def _polish(ctx, run, xa, name, floor=None):
     return _backoff(ctx, run, out, name, floor), notes
 
 
-def _hard_from(ctx, run, x, name, budget, floor=None):
+def _hard_from(ctx, run, x, name, budget, floor=None, grid=None):
     """The objective phase with every coefficient free from the near-optimal point ``x``,
     in a run of its own with ``budget`` IPOPT iterations (its reference-step rows and
     floored roots linearised from the first solve on; ``floor``: the scaled integral gain
-    it keeps, :attr:`Run.floor`); its rounds join ``run``'s.  Returns the outcome and the
-    run's notes."""
+    it keeps, :attr:`Run.floor`; ``grid``: the models and frequencies to start from,
+    :attr:`~robrst.synthesis.attempts.Outcome.grid`); its rounds join ``run``'s.  Returns
+    the outcome and the run's notes."""
     sub = Run(ctx.problem, run.say, run.templates, None, budget, run.stop)
     sub.rows_first = True
     sub.pole_space = PoleSpace.of     # a failed trust region: over the poles
     sub.floor = floor
-    out = sub.hard(ctx, "free", x, name)
+    out = sub.hard(ctx, "free", x, name, grid)
     run.rounds += sub.rounds
     return out, sub.notes
 
@@ -429,12 +430,28 @@ def _backoff(ctx, run, out, name, floor=None):
             margin /= out.badness ** 2
         else:
             return out
-        again, _ = _hard_from(replace(ctx, free_margin=margin), run, out.x,
-                              f"{name}, backed off", POLISH.backoff_iter, floor)
+        again = _solved_again(replace(ctx, free_margin=margin), run, out, f"{name}, backed off",
+                              floor)
         if again is None:
             return out
         out = again
     return out
+
+
+def _solved_again(ctx, run, out, name, floor):
+    """The polish's program solved again from its outcome ``out`` (``ctx``: the backed-off
+    program) on the program's own grid, and when that does not certify, on the grid the
+    polish's rounds reached (:attr:`~robrst.synthesis.attempts.Outcome.grid`: the
+    certificate's offending frequencies and temperatures kept, so a peak the budget left
+    between the exchange's frequencies is not missed again; a larger program, which the
+    back-off's few iterations do not always solve); the better of the two (``None``:
+    nothing solved)."""
+    plain, _ = _hard_from(ctx, run, out.x, name, POLISH.backoff_iter, floor)
+    if (plain is not None and plain.certified) or out.grid is None or run.stop():
+        return plain
+    kept, _ = _hard_from(ctx, run, out.x, name, POLISH.backoff_iter, floor, out.grid)
+    done = [o for o in (plain, kept) if o is not None]
+    return min(done, key=lambda o: o.badness, default=None)
 
 
 def _tightened(problem, factor):
