@@ -27,7 +27,7 @@ if TYPE_CHECKING:
 __all__ = ["AnalyticCheck", "Comparison", "SpecRow", "PolyFactors", "ControllerFactors",
            "SolverSummary", "StartsSummary",
            "spec_rows", "controller_factors", "solver_summary", "starts_summary",
-           "SPEC_FIGURES", "SPEC_ROW_FIELDS", "BINDING_SLACK"]
+           "SPEC_FIGURES", "SPEC_ROW_FIELDS", "BINDING_SLACK", "BINDING_SPECS"]
 
 SPEC_ROW_FIELDS = ("spec", "bound", "achieved", "slack", "model", "temperature_C", "loop",
                    "binding", "source")
@@ -168,11 +168,21 @@ class SolverSummary:
         frequency.
     notes : tuple of str
         What the pipeline had to do (fallbacks, relaxations).
+    binding_slack : tuple of (float or None)
+        Beside each of ``binding``: the certificate's slack of the spec that constraint
+        bounds (its worst over every model and loop, :attr:`SpecRow.slack`); ``None``
+        where the constraint bounds no single spec (stability, the controller's poles, a
+        reference-step sample); empty when the record does not say (a design saved before
+        the field).  Above
+        ``BINDING_SLACK`` the constraint held in the program, whose bound was tighter than
+        the spec (the grid constraints' margin, a backed-off polish), not in the
+        certificate.
     """
 
     objective: str | None = None
     binding: tuple = ()
     notes: tuple = ()
+    binding_slack: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -291,13 +301,23 @@ def controller_factors(ctrl: RSTController) -> ControllerFactors:
     return ControllerFactors(w0_rad_s=float(sc.w0), **out)
 
 
-def solver_summary(synthesis: object) -> SolverSummary:
+# the program's constraint kind (robrst.synthesis.outcome.Binding) -> the spec it bounds
+BINDING_SPECS = {"S": ("Ms_max",), "T": ("Mt_max",), "U": ("Mu_max",),
+                 "Tband": ("T_resonance_max",), "Uhf": ("Mu_hf_max",),
+                 "Sd": ("Msd_max", "Msd_rel_max"), "Ry": ("Mry_max",),
+                 "sector": ("damping_min",), "controller_sector": ("controller_damping_min",)}
+
+
+def solver_summary(synthesis: object, rows: tuple = ()) -> SolverSummary:
     """The solver's objective, binding constraints and notes.
 
     Parameters
     ----------
     synthesis : AnalyticDesign, SynthesisResult or a saved design's solver record
         The design's synthesis record (a saved record: read from its ``solver_dict()``).
+    rows : tuple of SpecRow
+        The design's :func:`spec_rows`: each binding constraint's certified slack
+        (:attr:`SolverSummary.binding_slack`).
 
     Returns
     -------
@@ -311,13 +331,17 @@ def solver_summary(synthesis: object) -> SolverSummary:
     if isinstance(synthesis, SynthesisResult):
         if synthesis.name != "ipopt":
             return SolverSummary()
-        binding = () if synthesis.solve is None else tuple(
-            b.describe() for b in synthesis.solve.binding())
-        return SolverSummary(objective=synthesis.objective, binding=binding,
-                             notes=tuple(synthesis.notes))
+        found = () if synthesis.solve is None else synthesis.solve.binding()
+        slack = {r.spec: r.slack for r in rows}
+        return SolverSummary(
+            objective=synthesis.objective, binding=tuple(b.describe() for b in found),
+            notes=tuple(synthesis.notes),
+            binding_slack=tuple(min((slack[k] for k in BINDING_SPECS.get(b.kind, ())
+                                     if k in slack), default=None) for b in found))
     d = synthesis.solver_dict()         # a saved design's record, as it was written
     return SolverSummary(objective=d.get("objective"), binding=tuple(d.get("binding") or ()),
-                         notes=tuple(d.get("notes") or ()))
+                         notes=tuple(d.get("notes") or ()),
+                         binding_slack=tuple(d.get("binding_slack") or ()))
 
 
 def starts_summary(starts: object) -> StartsSummary:

@@ -223,6 +223,16 @@ def solver_json(synthesis: AnalyticDesign | SynthesisResult) -> dict:
     return s.solver_dict()
 
 
+def _solver_with_slack(result):
+    """:func:`solver_json` with ``binding_slack`` beside ``binding`` (a synthesised design:
+    :attr:`robrst.design.achieved.SolverSummary.binding_slack`)."""
+    out = solver_json(result.synthesis)
+    slack = result.solver_summary.binding_slack
+    if slack:
+        out["binding_slack"] = [None if v is None else float(v) for v in slack]
+    return out
+
+
 def design_json(result: DesignRecord) -> dict:
     """The public JSON contract of ``robrst design --json`` (fields are only added).
 
@@ -254,7 +264,7 @@ def design_json(result: DesignRecord) -> dict:
                                                                p.family.models)],
         "certified": lambda: bool(result.certified),
         "certificate": lambda: certificate_json(result.certificate),
-        "solver": lambda: solver_json(result.synthesis),
+        "solver": lambda: _solver_with_slack(result),
         "integral_gain": lambda: result.integral_gain,
         "best_achievable": lambda: result.best_achievable,
         "specs_achieved": lambda: [dict(zip(SPEC_ROW_FIELDS, (getattr(r, k) for k in

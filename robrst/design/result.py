@@ -152,7 +152,7 @@ class DesignResult:
     @cached_property
     def solver_summary(self) -> SolverSummary:
         """The solver's objective, binding constraints and notes."""
-        return solver_summary(self.synthesis)
+        return solver_summary(self.synthesis, self.specs_achieved)
 
     @cached_property
     def starts_summary(self) -> StartsSummary | None:

@@ -10,6 +10,8 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
+from robrst.design.achieved import BINDING_SLACK
+
 if TYPE_CHECKING:
     from robrst.design.achieved import PolyFactors
     from robrst.design.result import DesignResult
@@ -262,7 +264,10 @@ def design_summary(result: DesignResult) -> str:
     out += spec_table(result)
     so = result.solver_summary
     if so.binding:
-        out.append("binding constraints (the optimiser's multipliers): " + "; ".join(so.binding))
+        out.append("binding constraints (the optimiser's multipliers): " + "; ".join(
+            b + (f" (held in the program: the certificate leaves {100 * sl:.1f} % slack)"
+                 if sl is not None and sl > BINDING_SLACK else "")
+            for b, sl in zip(so.binding, so.binding_slack or (None,) * len(so.binding))))
     if result.best_achievable:
         out.append(result.best_achievable)
     if result.feasibility is not None:
