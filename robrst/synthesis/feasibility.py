@@ -262,7 +262,8 @@ def _loop_proofs(lp, sp, n, integral):
             dc = abs(lp.dc()[0])
             out.append(Infeasibility(
                 lp.label, lp.temperature_C, lp.loop, (0.0, 0.0), keys, 0.0, r0, 1, 0.0,
-                f"{where}: integral action makes T(0) = 1, but at 0 Hz {what} allow |T| <="
+                f"{where}: integral action makes T(0) = 1, but at 0 Hz"
+                f" {what} {'allows' if len(keys) == 1 else 'allow'} |T| <="
                 f" {r0:.4g} (|D(0)| = {dc:.4g} µm/V)"))
     w = _grid(lp, sp, n)
     s, d = _sums(lp, w, sp)
