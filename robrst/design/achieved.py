@@ -173,10 +173,9 @@ class SolverSummary:
         bounds (its worst over every model and loop, :attr:`SpecRow.slack`); ``None``
         where the constraint bounds no single spec (stability, the controller's poles, a
         reference-step sample); empty when the record does not say (a design saved before
-        the field).  Above
-        ``BINDING_SLACK`` the constraint held in the program, whose bound was tighter than
-        the spec (the grid constraints' margin, a backed-off polish), not in the
-        certificate.
+        the field).  Above ``BINDING_SLACK`` the constraint held in the program, whose
+        bound was tighter than the spec (the grid constraints' margin, a backed-off
+        polish), not in the certificate.
     """
 
     objective: str | None = None
