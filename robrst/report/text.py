@@ -8,6 +8,7 @@ multi-start's summaries, the fleet record) and formats them: nothing is computed
 from __future__ import annotations
 
 import math
+from itertools import zip_longest
 from typing import TYPE_CHECKING
 
 from robrst.design.achieved import BINDING_SLACK
@@ -267,7 +268,7 @@ def design_summary(result: DesignResult) -> str:
         out.append("binding constraints (the optimiser's multipliers): " + "; ".join(
             b + (f" (held in the program: the certificate leaves {100 * sl:.1f} % slack)"
                  if sl is not None and sl > BINDING_SLACK else "")
-            for b, sl in zip(so.binding, so.binding_slack or (None,) * len(so.binding))))
+            for b, sl in zip_longest(so.binding, so.binding_slack)))
     if result.best_achievable:
         out.append(result.best_achievable)
     if result.feasibility is not None:

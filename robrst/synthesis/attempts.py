@@ -874,7 +874,8 @@ class Run:
             rounds' grid.
         """
         p = ctx.problem
-        models, nu = (program_models(p), ctx.nu) if grid is None else grid
+        # a copy of the grid's models: refine() appends to the list it is given
+        models, nu = (program_models(p), ctx.nu) if grid is None else (list(grid[0]), grid[1])
         last = refined = None
         x = np.concatenate([x[:-1], [1.0]])
         exact, start = False, name
