@@ -18,8 +18,8 @@ if TYPE_CHECKING:
     from robrst.design.result import DesignResult
     from robrst.synthesis.scenario import FleetDesign
 
-__all__ = ["margins_table", "sampled_summary", "design_summary", "fleet_summary", "fmt",
-           "spec_table", "spec_rows", "controller_lines"]
+__all__ = ["margins_table", "sampled_summary", "design_summary", "objective_line",
+           "fleet_summary", "fmt", "spec_table", "spec_rows", "controller_lines"]
 
 
 def fmt(x: float | None, spec: str) -> str:
@@ -155,7 +155,19 @@ def controller_lines(result: DesignResult) -> list[str]:
     return out
 
 
-def _objective_line(result):
+def objective_line(result: DesignResult) -> str:
+    """The summary's objective line: what was optimised, the certified value, and what the
+    global phase found (its spread in the objective's own terms: ``min_Ms`` as worst Ms).
+
+    Parameters
+    ----------
+    result : DesignResult
+        The design.
+
+    Returns
+    -------
+    str
+    """
     obj = result.solver_summary.objective
     if obj is None:       # the analytic design: no objective optimised
         return ("objective: none (analytic pole placement); integral gain"
@@ -175,8 +187,11 @@ def _objective_line(result):
                 f" {st.dimension} dimensions), {st.starts} tried"
                 if st.search_method else f"multi-start: {st.starts} starts")
         if st.certified:
-            line += (f"; {what}, {st.certified} certified, optima {_num(st.worst)} .."
-                     f" {_num(st.best)}, best from '{st.winner}'")
+            # the starts' objectives are larger-is-better: min_Ms's is minus the worst Ms
+            lo, hi = ((-st.best, -st.worst) if obj == "min_Ms" else (st.worst, st.best))
+            name = "worst Ms" if obj == "min_Ms" else "optima"
+            line += (f"; {what}, {st.certified} certified, {name} {_num(lo)} .."
+                     f" {_num(hi)}, best from '{st.winner}'")
         else:
             line += f"; {what}, none certified"
     return line
@@ -261,7 +276,7 @@ def design_summary(result: DesignResult) -> str:
     """
     p, cert = result.problem, result.certificate
     head = f"problem {p.name}  method {result.method}  certified: {bool(result.certified)}"
-    out = [head, f"method: {p.solver.method_reason}", _objective_line(result)]
+    out = [head, f"method: {p.solver.method_reason}", objective_line(result)]
     out += spec_table(result)
     so = result.solver_summary
     if so.binding:

@@ -80,7 +80,8 @@ class StartOutcome:
     status : {"certified", "not_certified", "failed"}
         ``"failed"``: an error, named in ``note``.
     objective : float, optional
-        The certified objective (``None`` when not certified).
+        The certified objective, larger is better (``min_Ms``: minus the worst Ms;
+        ``None`` when not certified).
     integral_gain : float, optional
         Its controller's integral gain [V/(µm s)].
     worst_ratio : float, optional
