@@ -152,6 +152,8 @@ def test_min_Ms_infimum_is_one_and_a_slow_integrator_reaches_it():
     p = parse_problem(doc, "<stage>")
     b = objective_bound(p)
     assert b.status == "bounded" and b.exact and b.value == 1.0
+    assert "rewards a loop that barely acts" in b.describe()     # and says what asks speed
+    assert "settling_time_max_s, decay_min or an Msd_max" in b.describe()
     eps = 1.0                          # |ki D(0)| = 0.1 rad/s
     slow = RSTController([eps], [1.0, 0.0], [eps])
     fig = figures(doc, slow, n_temps=5, n_grid=6000, n_stab=9)
