@@ -70,8 +70,8 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
         candidates polished and certified, the best certified answer kept, all in this
         process (default: ``problem.solver.multistart and problem.solver.starts > 0``;
         ``False``: one local run from the problem's start). A problem with a
-        ``[spread]`` is designed for the fleet (:mod:`robrst.design.fleet`), its rounds
-        warm-started from one another, without the global phase.
+        ``[spread]`` is designed for the fleet (:mod:`robrst.design.fleet`), each round's
+        global phase seeded with the round before.
     stop : callable, optional
         Polled once per generation of the global phase and per certification round
         (default :func:`robrst.base.interrupt.requested`): true ends the design with the
@@ -107,7 +107,7 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
             result = replace(design_single(run, progress, templates, analyses, False),
                              problem=problem, method=problem.solver.method)
         elif problem.spread is not None:
-            result = fleet_design(problem, progress, templates, analyses)
+            result = fleet_design(problem, progress, templates, analyses, multistart)
         else:
             result = design_single(problem, progress, templates, analyses, multistart,
                                    stop=stop)

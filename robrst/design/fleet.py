@@ -31,7 +31,8 @@ __all__ = ["fleet_design", "scenario_design"]
 
 
 def fleet_design(problem: Problem, progress: Callable[[str], None] | None = None,
-                 templates: dict | None = None, analyses: bool = True) -> DesignResult:
+                 templates: dict | None = None, analyses: bool = True,
+                 multistart: bool = False) -> DesignResult:
     """The design of a problem with a ``[spread]`` (its BLAS limited by the caller).
 
     Parameters
@@ -44,6 +45,8 @@ def fleet_design(problem: Problem, progress: Callable[[str], None] | None = None
         Built NLP solvers by structure.
     analyses : bool
         Analyse every family model and assess the design.
+    multistart : bool
+        Every round runs the global phase (:func:`scenario_design`).
 
     Returns
     -------
@@ -51,7 +54,7 @@ def fleet_design(problem: Problem, progress: Callable[[str], None] | None = None
         The last round's design with its ``fleet`` record (``problem.scenarios``: the
         actuators the program held on).
     """
-    result, fleet = scenario_design(problem, progress, templates)
+    result, fleet = scenario_design(problem, progress, templates, multistart=multistart)
     comp = comparison(result.problem, result.controller, result.certificate)
     found, assessment = analyse(result.problem, result.controller) if analyses else ((), None)
     return replace(result, analyses=found, comparison=comp, fleet=fleet,
@@ -62,11 +65,12 @@ def scenario_design(problem: Problem, progress: Callable[[str], None] | None = N
                     templates: dict | None = None,
                     families: Sequence[PlantFamily] | None = None,
                     values: np.ndarray | None = None,
-                    n_scenarios: int | None = None) -> tuple[DesignResult, FleetDesign]:
+                    n_scenarios: int | None = None,
+                    multistart: bool = False) -> tuple[DesignResult, FleetDesign]:
     """Design ``problem`` for its spread (:mod:`robrst.synthesis.scenario`): an exchange over
     actuators, every round one design (:func:`robrst.design._single.design_single`) of a
     problem whose ``scenarios`` are the actuators handed to the program, warm-started from
-    the previous round's synthesis record, without comparison or multi-start.
+    the previous round's synthesis record, without comparison.
 
     Parameters
     ----------
@@ -81,6 +85,12 @@ def scenario_design(problem: Problem, progress: Callable[[str], None] | None = N
         draws (tests; the box method's corners).
     n_scenarios : int, optional
         Drawn actuators (default: ``spread.scenarios``, else :func:`scenario_count`).
+    multistart : bool
+        Every round runs the global phase (:mod:`robrst.synthesis.search`) over the
+        family and the actuators it holds, the round before's controller among its seeds
+        (a deterministic function of those actuators, as the compression argument needs).
+        Without it each round is a local run from the round before, and the exchange can
+        end far below what the actuators allow (a 1 kHz stage: 4,850 against 1.35 M).
 
     Returns
     -------
@@ -94,8 +104,8 @@ def scenario_design(problem: Problem, progress: Callable[[str], None] | None = N
     say = progress or (lambda m: None)
     templates = {} if templates is None else templates
 
-    def design(p, warm):
-        return design_single(p, lambda msg: say("  " + msg), templates, False, False, warm,
+    def design(p, warm, glob=False):
+        return design_single(p, lambda msg: say("  " + msg), templates, False, glob, warm,
                              compare=False)
 
     t0 = time.perf_counter()
@@ -131,7 +141,7 @@ def scenario_design(problem: Problem, progress: Callable[[str], None] | None = N
 
     for rnd in range(1, MAX_ROUNDS + 1):
         p = replace(base, scenarios=tuple(families[i] for i in support))
-        out = timed("design", design, p, warm)
+        out = timed("design", design, p, warm, multistart)
         if nominal_ki is None:
             nominal_ki = out.integral_gain
         if not out.certified and last is not None:

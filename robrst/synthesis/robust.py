@@ -151,8 +151,12 @@ def _synthesize(problem, start, run, extra, lower=None):
             # every certified controller answers a feasibility problem: no global phase
             # once one meets every spec (its time-domain ones included)
             answered = so.objective == "feasibility" and _rank(problem, out, glob)[0]
+            # a warm start from a later placement (a fleet's round after the global phase)
+            # is still to be polished in its own placement
+            pending = (warm is not None and _ORDER[warm[0]] > _ORDER[placement]
+                       and placement != placements[-1])
             if answered or ((out.phase == "hard" or so.objective == "feasibility")
-                            and not searched):
+                            and not searched and not pending):
                 if answered and searched and placement != "free":
                     run.notes.append(f"feasibility: the problem's poles ({placement})"
                                      " certify; no global phase (nothing to optimise)")

@@ -255,3 +255,48 @@ def test_shipped_fleet_designs_on_1000_fresh_draws(tmp_path, name, least):
     rec = run(name, tmp_path / name, n=1000, workers=2, say=lambda m: None)
     v = rec["verification"]
     assert v["n"] == 1000 and v["measured_yield"] >= least and v["unstable"] == 0
+
+
+STAGE900 = {
+    "problem": {"name": "stage900_fleet"},
+    "plant": {"B": [3.1978e6], "A": [1.0, 226.19, 3.1978e7], "temperature_C": 20.0},
+    "family": {"temperatures_C": [20.0, 30.0, 40.0],
+               "parametric": {"gain_per_K": 0.0015, "resonance_per_K": -0.0001,
+                              "damping_per_K": 0.005}},
+    "controller": {"extra_degree": 1},
+    "poles": {"wn": 1130.0, "zeta": 1.0},
+    "specs": {"Ms_max": 2.0, "Mt_max": 1.3, "Mu_max": 100.0},
+    "solver": {"method": "nlp", "objective": "max_integral_gain", "n_freq": 80,
+               "cert_temperatures": 9},
+    "spread": {"yield": 0.9, "confidence": 0.9, "seed": 3, "scenarios": 30, "param": [
+        {"name": "gain", "dist": "normal", "mean": 1.0, "std": 0.05},
+        {"name": "resonance", "dist": "uniform", "lo": 0.97, "hi": 1.03}]},
+}
+
+
+@pytest.mark.slow
+def test_fleet_rounds_search_globally():
+    """Every round of the exchange over actuators runs the global phase: a 900 Hz stage's
+    fleet design keeps most of its nominal optimum (2.44 M against 2.50 M), where rounds
+    that were local runs from the fixed-pole start ended at 5,691, 440x below.  Every
+    drawn actuator's models are checked in python-control (state-space poles, dense-grid
+    |S|, |T|, |K S|)."""
+    problem = parse_problem(STAGE900, "stage900_fleet.toml")
+    fleet = run_problem(problem, analyses=False)
+    nominal = run_problem(replace(problem, spread=None), analyses=False)
+    assert fleet.certified and not fleet.fleet.violated
+    assert fleet.integral_gain >= 0.5 * nominal.integral_gain, (fleet.integral_gain,
+                                                                nominal.integral_gain)
+    K = control.tf(fleet.controller.R, fleet.controller.S)
+    w = np.geomspace(1.0, 1e6, 20_000)
+    k = np.asarray(K(1j * w)).ravel()
+    sp = problem.spread
+    for fam in sp.actuators(problem.family, sp.draws(sp.scenarios)):
+        for m in fam.models:
+            L = control.tf(m.B, m.A) * K
+            cl = control.ss(control.feedback(L, 1))
+            assert np.max(np.linalg.eigvals(cl.A).real) < 0
+            l = np.asarray(L(1j * w)).ravel()
+            assert np.max(np.abs(1 / (1 + l))) <= 2.0 * 1.001
+            assert np.max(np.abs(l / (1 + l))) <= 1.3 * 1.001
+            assert np.max(np.abs(k / (1 + l))) <= 100.0 * 1.001
