@@ -90,7 +90,7 @@ def scenario_design(problem: Problem, progress: Callable[[str], None] | None = N
         family and the actuators it holds, the round before's controller among its seeds
         (a deterministic function of those actuators, as the compression argument needs).
         Without it each round is a local run from the round before, and the exchange can
-        end far below what the actuators allow (a 1 kHz stage: 4,850 against 1.35 M).
+        end far below what the actuators allow (a 900 Hz stage: 4,850 against 1.35 M).
 
     Returns
     -------
