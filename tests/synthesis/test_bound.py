@@ -154,6 +154,9 @@ def test_min_Ms_infimum_is_one_and_a_slow_integrator_reaches_it():
     assert b.status == "bounded" and b.exact and b.value == 1.0
     assert "rewards a loop that barely acts" in b.describe()     # and says what asks speed
     assert "settling_time_max_s, decay_min or an Msd_max" in b.describe()
+    timed = objective_bound(parse_problem({**doc, "specs": {**doc["specs"],
+                                                            "decay_min": 50.0}}, "<stage>"))
+    assert "decay_min" in timed.left_out and "barely acts" not in timed.describe()
     eps = 1.0                          # |ki D(0)| = 0.1 rad/s
     slow = RSTController([eps], [1.0, 0.0], [eps])
     fig = figures(doc, slow, n_temps=5, n_grid=6000, n_stab=9)
