@@ -104,9 +104,9 @@ def scenario_design(problem: Problem, progress: Callable[[str], None] | None = N
     say = progress or (lambda m: None)
     templates = {} if templates is None else templates
 
-    def design(p, warm, glob=False):
-        return design_single(p, lambda msg: say("  " + msg), templates, False, glob, warm,
-                             compare=False)
+    def design(p, warm):
+        return design_single(p, lambda msg: say("  " + msg), templates, False, multistart,
+                             warm, compare=False)
 
     t0 = time.perf_counter()
     spread = problem.spread
@@ -141,7 +141,7 @@ def scenario_design(problem: Problem, progress: Callable[[str], None] | None = N
 
     for rnd in range(1, MAX_ROUNDS + 1):
         p = replace(base, scenarios=tuple(families[i] for i in support))
-        out = timed("design", design, p, warm, multistart)
+        out = timed("design", design, p, warm)
         if nominal_ki is None:
             nominal_ki = out.integral_gain
         if not out.certified and last is not None:
