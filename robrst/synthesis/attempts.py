@@ -17,6 +17,7 @@ import numpy as np
 
 from robrst.base.interrupt import offer, requested
 from robrst.certificate.proof import actuator_of, certify_families
+from robrst.synthesis.context import strip_note
 from robrst.synthesis.exchange import Phase, solve_exchange
 from robrst.synthesis._nlp import grid_blocks, objective_rows
 from robrst.synthesis.outcome import Round, worst_violation
@@ -346,12 +347,18 @@ def objective_value(problem: Problem, out: Outcome) -> float:
     Returns
     -------
     float
-        ``|integral gain|``, ``-worst Ms`` or 0 (feasibility).
+        ``|integral gain|``, ``-worst Ms`` or 0 (feasibility); ``-inf`` for an integral
+        gain whose controller has a pole outside the program's strip (by more than
+        ``CTRL_POLE_SLACK``, :func:`robrst.synthesis.context.strip_note`): a solve that
+        ended there (IPOPT's acceptable level, a restoration phase) bought its gain with a
+        lag the program excludes, and never beats a controller inside the strip.
     """
     if out is None:
         return -np.inf
     value = objective(problem, out.ctrl, out.cert)
-    return -np.inf if value is None else value
+    if value is None or strip_note(problem, out.ctrl):
+        return -np.inf
+    return value
 
 
 def _key(obj):
@@ -840,6 +847,9 @@ class Run:
         out = Outcome(ctrl=ctrl, cert=cert, res=res, phase=phase, placement=setup.placement,
                       x=np.asarray(x, float), setup=setup)
         p = ctx.problem
+        lag = strip_note(p, ctrl) if cert.certified else None
+        if lag:
+            self.notes.append(f"a certified solve ended with {lag}")
         if cert.certified and not p.specs.time_domain and p.spread is None \
                 and p.controller.T_mode != "reference_model":   # the whole certificate
             offer(objective_value(p, out), (p, ctrl, cert))      # if a signal stops the run

@@ -32,11 +32,14 @@ if TYPE_CHECKING:
     from robrst.synthesis.analytic import AnalyticDesign
 
 __all__ = ["Context", "BOUND_MARGIN", "FREE_MARGIN", "ipopt_options", "CTRL_POLE_RATIO",
-           "low_frequency_coefficient"]
+           "CTRL_POLE_SLACK", "low_frequency_coefficient", "controller_strip", "strip_excess",
+           "strip_note"]
 
 BOUND_MARGIN = 0.9995   # grid constraints just inside the specs (half the certificate tolerance)
 FREE_MARGIN = 0.98      # freely placed poles: sharp resonances move between the models
 CTRL_POLE_RATIO = 0.1   # max_integral_gain: controller poles at Re s <= -0.1 |slowest dominant|
+CTRL_POLE_SLACK = 0.02  # ... a pole this share short of the strip's edge is on it (IPOPT's
+#                         tolerances; the global phase's screen slack)
 CTRL_MAX = 30.0         # free placement: controller poles at Re s >= -30 |fastest start root|
 REGION_MARGIN = 1e-3    # the program's damping floor just inside the certificate's
 HF_POINTS = 40          # points of the high-frequency |U| band up to the grid's end (and to Nyquist)
@@ -80,6 +83,92 @@ def low_frequency_coefficient(a: ArrayLike) -> float:
     """
     nz = np.flatnonzero(np.asarray(a, float))
     return float(a[nz[-1]]) if nz.size else 0.0
+
+
+def controller_strip(problem: Problem) -> float:
+    """The edge of the controller-pole strip of ``max_integral_gain`` [rad/s]: every
+    controller pole but the integrators at ``Re p <= -strip``, ``CTRL_POLE_RATIO`` times
+    the slowest dominant pole (with freely placed poles, the slowest the solver bounds
+    allow).  Without it a slow controller pole, a lag ``(s + a)/(s + b)``, multiplies the
+    integral gain ``lim s K(s)`` by ``a/b`` without limit and buys no integral action
+    between ``b`` and ``a``.
+
+    Parameters
+    ----------
+    problem : Problem
+        The problem (its poles and solver bounds).
+
+    Returns
+    -------
+    float
+    """
+    slow = float(np.min(np.abs(problem.poles.dominant())))
+    so = problem.solver
+    if so.free_poles:
+        slow = min(slow, so.wn_bounds[0] * min(1.0, so.zeta_bounds[0]))
+    return CTRL_POLE_RATIO * slow
+
+
+def strip_excess(problem: Problem, ctrl: RSTController) -> float:
+    """How far the controller's slowest pole (its integrators aside) lies outside the
+    strip of :func:`controller_strip`, relative to the strip's edge: 0 inside, 1 at the
+    origin, more for an unstable controller pole.
+
+    Parameters
+    ----------
+    problem : Problem
+        The problem.
+    ctrl : RSTController
+        A continuous controller.
+
+    Returns
+    -------
+    float
+
+    Examples
+    --------
+    >>> from robrst import load_problem
+    >>> from robrst.core.rst import RSTController
+    >>> from robrst.synthesis.context import controller_strip, strip_excess
+    >>> pr = load_problem("paper_robust")
+    >>> round(controller_strip(pr), 6)
+    15.0
+    >>> lag = RSTController(R=[1.0, 1.0], S=[1.0, 7.5, 0.0], T=[1.0])   # s (s + 7.5)
+    >>> round(strip_excess(pr, lag), 6)
+    0.5
+    """
+    S = np.trim_zeros(np.asarray(ctrl.S, float), "b")
+    if len(S) < 2:
+        return 0.0
+    edge = controller_strip(problem)
+    return max(0.0, (float(np.max(np.roots(S).real)) + edge) / edge)
+
+
+def strip_note(problem: Problem, ctrl: RSTController) -> str | None:
+    """Why the integral gain of ``ctrl`` does not count (``max_integral_gain``): its
+    slowest pole lies outside the strip of :func:`controller_strip` by more than
+    ``CTRL_POLE_SLACK``; ``None`` when it counts (or for another objective).
+
+    Parameters
+    ----------
+    problem : Problem
+        The problem.
+    ctrl : RSTController
+        A continuous controller.
+
+    Returns
+    -------
+    str or None
+    """
+    if problem.solver.objective != "max_integral_gain":
+        return None
+    excess = strip_excess(problem, ctrl)
+    if excess <= CTRL_POLE_SLACK:
+        return None
+    edge = controller_strip(problem)
+    return (f"a controller pole at {edge * (1.0 - excess):.4g} rad/s, outside the program's"
+            f" strip (Re p <= -{edge:.4g} rad/s): its integral gain is a lag's and is not"
+            " counted")
 
 
 @dataclass(frozen=True, eq=False)
@@ -160,17 +249,13 @@ class Context:
             sign = float(np.sign(ref.B[-1] / a0))
         else:
             sign = float(np.sign(ki)) if np.isfinite(ki) and ki != 0 else 1.0
-        dom = np.abs(problem.poles.dominant())
-        slow = float(np.min(dom))
-        if so.free_poles:
-            slow = min(slow, so.wn_bounds[0] * min(1.0, so.zeta_bounds[0]))
         q = poly.trim(start.controller.S)
         q = q[:len(q) - param.integrators] if len(q) > param.integrators else np.ones(1)
         fast = max([float(np.max(np.abs(np.roots(c)))) for c in (q, start.Am) if len(c) > 1],
                    default=sc.w0)
         return cls(problem=problem, param=param, tracking=tracking, ctrl_max=CTRL_MAX * fast / sc.w0,
                    nu=frequency_grid(problem.family, start.Am, so.n_freq), Am=start.Am,
-                   sign=sign, ctrl_shift=CTRL_POLE_RATIO * slow / sc.w0,
+                   sign=sign, ctrl_shift=controller_strip(problem) / sc.w0,
                    ipopt=ipopt_options(so),
                    extra_degree=problem.controller.extra_degree if extra_degree is None
                    else extra_degree)

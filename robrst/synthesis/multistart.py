@@ -81,7 +81,8 @@ class StartOutcome:
         ``"failed"``: an error, named in ``note``.
     objective : float, optional
         The certified objective, larger is better (``min_Ms``: minus the worst Ms;
-        ``None`` when not certified).
+        ``None`` when not certified, or for an integral gain bought with a controller
+        pole outside the program's strip, said in ``note``).
     integral_gain : float, optional
         Its controller's integral gain [V/(µm s)].
     worst_ratio : float, optional
@@ -91,7 +92,7 @@ class StartOutcome:
     wall_time_s : float, optional
         Its wall time [s].
     note : str, optional
-        Why it failed.
+        Why it failed, or why a certified start has no objective.
     """
 
     name: str
@@ -237,8 +238,8 @@ def multistart_record(stage: SynthesisResult, wall_time_s: float) -> MultiStart:
         smallest worst violation).
     """
     outs = tuple(StartOutcome(name, status, objective=obj, integral_gain=ki,
-                              worst_ratio=ratio, placement=placement)
-                 for name, status, obj, ki, ratio, placement in stage.tried)
+                              worst_ratio=ratio, placement=placement, note=note)
+                 for name, status, obj, ki, ratio, placement, note in stage.tried)
     winner = None
     if outs:
         ok = [o for o in outs if o.objective is not None]

@@ -328,8 +328,8 @@ class SynthesisResult:
         The global phase's record (:mod:`robrst.synthesis.search`).
     tried : tuple
         What the global phase tried: ``(name, status, objective, integral gain, worst
-        ratio, placement)`` per candidate (as screened, polished) and the problem's own
-        placement.
+        ratio, placement, note)`` per candidate (as screened, polished) and the problem's
+        own placement (``note``: why a certified one has no objective, or ``None``).
 
     Attributes
     ----------

@@ -44,7 +44,7 @@ from robrst.core import poly
 from robrst.base.errors import RobrstError
 from robrst.synthesis.attempts import (WARM_START, Outcome, Run, objective_value,
                                        program_models, merged_notes)
-from robrst.synthesis.context import BOUND_MARGIN, Context
+from robrst.synthesis.context import BOUND_MARGIN, Context, strip_note
 from robrst.synthesis._nlp import objective_rows
 from robrst.synthesis.outcome import SynthesisResult, best_achievable, worst_violation
 from robrst.synthesis.parametrize import integral_gain
@@ -615,14 +615,16 @@ def robust_synthesis(problem: Problem, start: AnalyticDesign,
 
 
 def _tried(problem, tried):
-    """``(name, status, objective, integral gain, worst ratio, placement)`` of what the
-    global phase tried: ``"certified"`` (with its objective) only when the reference step
-    also meets the time-domain specs, as the answer must."""
+    """``(name, status, objective, integral gain, worst ratio, placement, note)`` of what
+    the global phase tried: ``"certified"`` (with its objective) only when the reference
+    step also meets the time-domain specs, as the answer must; a certified one outside the
+    controller-pole strip has no objective, and its note says why."""
     out = []
     for name, o in tried:
         ok = o.certified and meets_time_specs(problem, o.ctrl)
         obj = objective_value(problem, o) if ok else np.nan
+        note = strip_note(problem, o.ctrl) if ok else None
         out.append((name, "certified" if ok else "not_certified",
                     float(obj) if np.isfinite(obj) else None, integral_gain(o.ctrl),
-                    float(o.badness) if np.isfinite(o.badness) else None, o.placement))
+                    float(o.badness) if np.isfinite(o.badness) else None, o.placement, note))
     return out

@@ -1,7 +1,8 @@
 """Monotone answers: loosening a bound never returns a worse certified objective.
 
 With default settings (``run_problem`` as the command line runs it: global phase, default
-specs) ``Ms_max`` is scanned from 1.5 to 2.5 on seeded stages: the certified integral gain
+specs) ``Ms_max`` is scanned from 1.5 to 2.5 on seeded stages (every certified answer's
+controller poles inside the program's strip, by numpy's roots): the certified integral gain
 never decreases by more than 1 % as the bound loosens, and no design made for a tighter
 bound certifies on a looser problem (robrst's certificate with the time-domain figures,
 and the independent python-control check of its figures) with an objective more than 1 %
@@ -9,6 +10,7 @@ above that problem's own answer.
 """
 
 
+import numpy as np
 import pytest
 
 from robrst.certificate.proof import certify_problem
@@ -23,12 +25,21 @@ VALUES = (1.5, 1.75, 2.0, 2.25, 2.5)
 TOL = 0.01
 
 
+def _slowest_controller_pole(ctrl):
+    """|Re| of the controller's slowest pole, its integrators aside (numpy's roots)."""
+    S = np.trim_zeros(np.asarray(ctrl.S, float), "b")
+    return float(-np.max(np.roots(S).real))
+
+
 def _scan(doc):
     out = []
     for v in VALUES:
         d = {**doc, "specs": {**doc["specs"], "Ms_max": v}}
         p = parse_problem(d, f"<Ms {v}>")
         r = run_problem(p, analyses=False)
+        if r.certified:     # the program's strip: 0.1 x the slowest dominant pole
+            edge = 0.1 * float(np.min(np.abs(p.poles.dominant())))
+            assert _slowest_controller_pole(r.controller) >= 0.98 * edge, (v, edge)
         out.append((v, p, r, r.integral_gain if r.certified else None))
     return out
 
@@ -93,8 +104,11 @@ STAGE11 = pytest.mark.xfail(strict=False, reason=(
 
 @pytest.mark.slow
 @pytest.mark.parametrize("seed,order", [pytest.param(11, 2, marks=STAGE11), (12, 2),
-                                        pytest.param(13, 4, marks=STAGE13)])
+                                        pytest.param(13, 4, marks=STAGE13), (102, 4)])
 def test_ms_scan_is_monotone(scans, seed, order):
+    """Stage 102 (4th order): at Ms_max 2.25 a polish ended at IPOPT's acceptable level with
+    a controller pole at 28 rad/s, half the strip's edge, and won with 298 k against 231 k at
+    2.5 (certified there too); counted only inside the strip, 224 k."""
     scan = scans(seed, order)
     print(f"\nstage {seed}: " + ", ".join(f"{v}: {ki}" for v, _, _, ki in scan))
     best = None
