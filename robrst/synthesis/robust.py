@@ -332,6 +332,9 @@ def _global(ctx, run, seeds, best, start):
         gained = out is not None and out.certified and (
             not base.certified or objective_value(p, out) > objective_value(p, base))
         polishes.append((c.name, gained, notes))
+        lag = strip_note(p, out.ctrl) if out is not None and out.certified else None
+        if lag:
+            run.notes.append(f"global phase: the polish of {c.name} ended with {lag}")
         if out is not None:
             run.tried.append((f"{c.name}, polished", out))
             outs.append(out)
