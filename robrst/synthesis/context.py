@@ -166,9 +166,9 @@ def strip_note(problem: Problem, ctrl: RSTController) -> str | None:
     if excess <= CTRL_POLE_SLACK:
         return None
     edge = controller_strip(problem)
-    return (f"a controller pole at {edge * (1.0 - excess):.4g} rad/s, outside the program's"
-            f" strip (Re p <= -{edge:.4g} rad/s): its integral gain is a lag's and is not"
-            " counted")
+    return (f"a controller pole at Re p = {edge * (excess - 1.0):.4g} rad/s, outside the"
+            f" program's strip (Re p <= -{edge:.4g} rad/s): its integral gain is a lag's and"
+            " is not counted")
 
 
 @dataclass(frozen=True, eq=False)

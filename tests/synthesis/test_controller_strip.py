@@ -56,7 +56,7 @@ def test_a_lag_outside_the_strip_never_counts(problem, share):
     ctrl = RSTController(R=[2.0, 3.0], S=[1.0, b, 0.0], T=[3.0])
     assert objective_value(problem, _outcome(ctrl)) == -np.inf
     note = strip_note(problem, ctrl)
-    assert note is not None and f"{b:.4g} rad/s" in note and f"{edge:.4g}" in note
+    assert note is not None and f"Re p = -{b:.4g} rad/s" in note and f"{edge:.4g}" in note
 
 
 @pytest.mark.parametrize("share", [1.0, 0.985, 3.0])
