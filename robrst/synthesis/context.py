@@ -32,8 +32,7 @@ if TYPE_CHECKING:
     from robrst.synthesis.analytic import AnalyticDesign
 
 __all__ = ["Context", "BOUND_MARGIN", "FREE_MARGIN", "ipopt_options", "CTRL_POLE_RATIO",
-           "CTRL_POLE_SLACK", "low_frequency_coefficient", "controller_strip", "strip_excess",
-           "strip_note"]
+           "CTRL_POLE_SLACK", "low_frequency_coefficient", "controller_strip", "strip_note"]
 
 BOUND_MARGIN = 0.9995   # grid constraints just inside the specs (half the certificate tolerance)
 FREE_MARGIN = 0.98      # freely placed poles: sharp resonances move between the models
@@ -109,45 +108,11 @@ def controller_strip(problem: Problem) -> float:
     return CTRL_POLE_RATIO * slow
 
 
-def strip_excess(problem: Problem, ctrl: RSTController) -> float:
-    """How far the controller's slowest pole (its integrators aside) lies outside the
-    strip of :func:`controller_strip`, relative to the strip's edge: 0 inside, 1 at the
-    origin, more for an unstable controller pole.
-
-    Parameters
-    ----------
-    problem : Problem
-        The problem.
-    ctrl : RSTController
-        A continuous controller.
-
-    Returns
-    -------
-    float
-
-    Examples
-    --------
-    >>> from robrst import load_problem
-    >>> from robrst.core.rst import RSTController
-    >>> from robrst.synthesis.context import controller_strip, strip_excess
-    >>> pr = load_problem("paper_robust")
-    >>> round(controller_strip(pr), 6)
-    15.0
-    >>> lag = RSTController(R=[1.0, 1.0], S=[1.0, 7.5, 0.0], T=[1.0])   # s (s + 7.5)
-    >>> round(strip_excess(pr, lag), 6)
-    0.5
-    """
-    S = np.trim_zeros(np.asarray(ctrl.S, float), "b")
-    if len(S) < 2:
-        return 0.0
-    edge = controller_strip(problem)
-    return max(0.0, (float(np.max(np.roots(S).real)) + edge) / edge)
-
-
 def strip_note(problem: Problem, ctrl: RSTController) -> str | None:
     """Why the integral gain of ``ctrl`` does not count (``max_integral_gain``): its
-    slowest pole lies outside the strip of :func:`controller_strip` by more than
-    ``CTRL_POLE_SLACK``; ``None`` when it counts (or for another objective).
+    slowest pole (its integrators aside) lies outside the strip of :func:`controller_strip`
+    by more than ``CTRL_POLE_SLACK`` of its edge; ``None`` when it counts (or for another
+    objective).
 
     Parameters
     ----------
@@ -159,16 +124,28 @@ def strip_note(problem: Problem, ctrl: RSTController) -> str | None:
     Returns
     -------
     str or None
+
+    Examples
+    --------
+    >>> from robrst import load_problem
+    >>> from robrst.core.rst import RSTController
+    >>> from robrst.synthesis.context import controller_strip, strip_note
+    >>> pr = load_problem("paper_robust")
+    >>> round(controller_strip(pr), 6)
+    15.0
+    >>> strip_note(pr, RSTController(R=[1.0, 1.0], S=[1.0, 7.5, 0.0], T=[1.0]))[:34]
+    'a controller pole at Re p = -7.5 r'
+    >>> strip_note(pr, RSTController(R=[1.0, 1.0], S=[1.0, 30.0, 0.0], T=[1.0])) is None
+    True
     """
-    if problem.solver.objective != "max_integral_gain":
+    S = np.trim_zeros(np.asarray(ctrl.S, float), "b")     # the integrators aside
+    if problem.solver.objective != "max_integral_gain" or len(S) < 2:
         return None
-    excess = strip_excess(problem, ctrl)
-    if excess <= CTRL_POLE_SLACK:
+    edge, slowest = controller_strip(problem), float(np.max(np.roots(S).real))
+    if slowest <= -edge * (1.0 - CTRL_POLE_SLACK):
         return None
-    edge = controller_strip(problem)
-    return (f"a controller pole at Re p = {edge * (excess - 1.0):.4g} rad/s, outside the"
-            f" program's strip (Re p <= -{edge:.4g} rad/s): its integral gain is a lag's and"
-            " is not counted")
+    return (f"a controller pole at Re p = {slowest:.4g} rad/s, outside the program's strip"
+            f" (Re p <= -{edge:.4g} rad/s): its integral gain is a lag's and is not counted")
 
 
 @dataclass(frozen=True, eq=False)
