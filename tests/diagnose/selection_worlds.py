@@ -13,7 +13,9 @@ cannot tell the two apart, a tie).  The held-out gap of a set ``S`` is
 (``cover_S(e)`` the largest share any member of ``S`` explains), times a small seeded
 factor per set (a fit's own scatter); the training gap likewise.  Screens are the same
 gaps with a larger scatter (first order).  Some sets' fits from the smaller set's start
-are stuck (a training gap three times too high) until fitted again from fresh starts.
+are stuck (a training gap three times too high) until fitted again from fresh starts
+(``stuck_on_top``: only from every effect's first screen, not from the screen on top of
+the stuck set).
 """
 
 from dataclasses import dataclass, field
@@ -39,6 +41,7 @@ class World:
     screen_scatter: float = 0.05
     stuck: frozenset = frozenset()   # sets whose fit from the smaller set is stuck
     seed: int = 0
+    stuck_on_top: frozenset = frozenset()   # ... and from the screen on top of it too
 
     def cover(self, S, e):
         return max([1.0 if e in S else 0.0] + [self.stands_in.get((c, e), 0.0) for c in S])
@@ -114,7 +117,7 @@ class FakeFits:
         return {k: self._screen((k,)) for k in self.keys}
 
     def start_of(self, key):
-        return {}
+        return {f"{key}:first": 1.0}
 
     def first(self, pool):
         base = self._screen(())
@@ -123,9 +126,10 @@ class FakeFits:
 
     def on_top(self, state, pool):
         S = state.keys
-        base = self._screen(S)
+        # the screen on top of a set starts where its fit is (a stuck fit's gap)
+        base = SimpleNamespace(gap=state.gap, train_gap=state.train_gap, beta={})
         return ({k: self._screen(S + (k,)) for k in pool}, {k: base for k in pool},
-                {k: {} for k in pool})
+                {k: {f"{k}:on_top": 1.0} for k in pool})
 
     def _fit(self, keys, stuck_ok):
         w = self.world
@@ -147,7 +151,9 @@ class FakeFits:
 
     def refit(self, keys, start, form=None):
         self.calls.append(("refit", tuple(sorted(keys))))
-        return self._fit(keys, False)
+        # a start from the screen on top of the stuck set lies in its basin (stuck_on_top)
+        on_top = any(k.endswith(":on_top") for k in start)
+        return self._fit(keys, on_top and frozenset(keys) in self.world.stuck_on_top)
 
     def converge(self, sc):
         self.fitted[tuple(sorted(sc.keys))] = sc

@@ -151,3 +151,21 @@ def test_hysteresis_then_a_tie_of_creep_and_drift_names_hysteresis():
     assert v.ties[0]["after"] == ["hysteresis"]
     assert "hysteresis, then " in v.reason and "cannot tell them apart" in v.reason
     assert "a record at constant temperature of" in v.reason
+
+
+def test_a_pair_stuck_from_the_screen_on_top_is_fitted_from_the_first_screens():
+    """Stated before the run: creep and thermal drift make the gap; their joint fit from
+    creep's values is stuck, and so is it from the screen on top of creep (linearised where
+    creep stretched to stand in for the drift), but not from each effect's first screen;
+    input nonlinearity stands in for part of the drift.  Answer: creep and thermal drift,
+    nothing else, no tie (from the screen on top a third effect filled the stuck fit's
+    gap; a fresh seed of the hard suite named input nonlinearity third)."""
+    pair = frozenset({frozenset({"creep", "thermal_drift"})})
+    world = World(floor=0.004, linear_error=0.05, true={"creep": 0.1, "thermal_drift": 0.05},
+                  stands_in={("input_nonlinearity", "thermal_drift"): 0.6}, stuck=pair,
+                  stuck_on_top=pair, seed=5)
+    ex, v = _run(world)
+    _check(world, ex, v)
+    assert any(e.startswith("fresh fit") for e in ex.events), ex.events
+    assert [k for k, _, _ in ex.steps] == ["creep", "thermal_drift"], ex.events
+    assert set(v.causes) == {"creep", "thermal_drift"} and not v.ties, v.reason
