@@ -547,6 +547,14 @@ class GridRows:
             nyq = {k for k in nyq if self.d0[k[1]] != 0}
         self.rows = sorted(rows, key=lambda t: (t[0], t[1:])) + sorted(nyq)
         self._cache = (None, None)
+        # the rows by figure, once per selection (not per evaluation): figure, rows, points
+        # and, of the crosstalk, the entries
+        by = {}
+        for n, row in enumerate(self.rows):
+            by.setdefault(row[0], []).append(n)
+        self._groups = [(f, ns, np.array([self.rows[n][1] for n in ns]),
+                         np.array([self.rows[n][2:] for n in ns]).reshape(len(ns), -1))
+                        for f, ns in by.items()]
         return len(self.rows)
 
     def halfplane(self, x: np.ndarray) -> np.ndarray:
@@ -608,11 +616,7 @@ class GridRows:
         dP = self.M[:, None] * dR[:, :, None, :] + eye[None, None] * dS[:, :, None, :]
         g = np.zeros(len(self.rows))
         J = np.zeros((len(self.rows), nx + self.nd))
-        by = {}
-        for n, row in enumerate(self.rows):
-            by.setdefault(row[0], []).append(n)
-        for f, ns in by.items():
-            ks = np.array([self.rows[n][1] for n in ns])
+        for f, ns, ks, entries in self._groups:
             if f == "nyquist":
                 r = np.linalg.det(P[ks]) / self.d0[ks]
                 tr = np.einsum("kji,klij->kl", Pi[ks], dP[ks])
@@ -625,8 +629,7 @@ class GridRows:
                 X = N @ Pik
                 dN = Mk[:, None] * dR[ks][:, :, None, :]
                 dX = (dN - X[:, None] @ dP[ks]) @ Pik[:, None]
-                ii = np.array([self.rows[n][2] for n in ns])
-                jj = np.array([self.rows[n][3] for n in ns])
+                ii, jj = entries[:, 0], entries[:, 1]
                 a = np.arange(len(ns))
                 xij = X[a, ii, jj]
                 mag = np.abs(xij)
