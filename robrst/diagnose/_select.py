@@ -19,12 +19,15 @@ diagnosis's records that is :class:`~robrst.diagnose.candidates.CandidateFits`
    gap stays ``short_of_screen`` times above its screen, it is fitted again from the
    screens' starts (not from the smaller set's values: an effect fitted alone can stretch
    to stand in for the one still missing, e.g. creep's growth with temperature for a
-   thermal drift, and the joint fit cannot leave that minimum) and the one that fits the
-   training records better is kept.  The selection stops at ``max_effects``, at the
-   noise floor, when no screen is promising or when the best fit is not significant.
+   thermal drift, and the joint fit cannot leave that minimum; the new effect from its
+   first screen as well as from the screen on top, which is linearised where the smaller
+   set stretched) and the one that fits the training records better is kept.  The
+   selection stops at ``max_effects``, at the noise floor, when no screen is promising or
+   when the best fit is not significant.
 4. Credit by removal: every selected effect is removed from the joint fit in turn (the
-   others re-fitted); an effect whose removal costs less than the same bar is no cause
-   and is dropped (the set re-fitted without it).
+   others re-fitted; the least needed one's removal to convergence, as the set itself);
+   an effect whose removal costs less than the same bar is no cause and is dropped (the
+   set re-fitted without it, its fit the answer's).
 5. Ties: the best other candidate fitted in a selected effect's step is its
    alternative; when neither explains the held-out gap significantly better (and the
    alternative was not selected too), that *slot* is a tie (:class:`Tie`).  A tie never
