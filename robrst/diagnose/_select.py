@@ -280,11 +280,10 @@ def select_effects(fits: CandidateFits, say: Callable[[str], None]) -> Explanati
             fresh_start = {}
             for c in chosen:
                 fresh_start.update(start_values(lin) if c == DYNAMIC else fits.start_of(c))
-            tries_new = [{**fresh_start, **fits.start_of(k_best)}]
-            if not _same(fits.start_of(k_best), starts[k_best]):
-                tries_new.append({**fresh_start, **starts[k_best]})
-            fresh = min((fits.refit(chosen + [k_best], st, form) for st in tries_new),
-                        key=lambda sc: sc.train_gap)
+            first = fits.start_of(k_best)
+            news = [first] if _same(first, starts[k_best]) else [first, starts[k_best]]
+            fresh = min((fits.refit(chosen + [k_best], {**fresh_start, **new}, form)
+                         for new in news), key=lambda sc: sc.train_gap)
             if fresh.train_gap < state.train_gap and DYNAMIC not in fresh.keys:
                 fresh = fits.converge(fresh)
             say(f"  fitted {fresh.name:<30} held-out gap {fresh.gap:.4g} (training"
