@@ -13,7 +13,8 @@ and the linear part maps the effective input ``v`` to the output.  :class:`Chain
 set of effects on a record and returns ``v`` with its Jacobian with respect to the
 internal parameters ``z`` (exact: compiled twin steps with sensitivities, and closed
 forms for creep, saturation and delay; forward differences only for a parameter
-upstream of slew or hysteresis).  ``thermal_dynamics`` changes the linear part with
+upstream of slew or hysteresis, and for where the hysteresis memory rested before the
+record, :data:`MEMORY`).  ``thermal_dynamics`` changes the linear part with
 temperature and is handled by :mod:`robrst.diagnose._thermal`.
 """
 
@@ -67,14 +68,24 @@ class Spec:
 
 
 def _hyst_twin(z):
-    A, lb, r, g = z
+    A, lb, r, g = z[:4]
     return np.array([A, 10 ** lb, r * 10 ** lb, g])
 
 
 def _hyst_d(z):
-    A, lb, r, g = z
+    """d twin / d z, ``(4, len(z))`` (the memory's column, when ``z`` has it, is 0)."""
+    A, lb, r, g = z[:4]
     b = 10 ** lb
-    return np.array([[1, 0, 0, 0], [0, LN10 * b, 0, 0], [0, r * LN10 * b, b, 0], [0, 0, 0, 1.0]])
+    D = np.zeros((4, len(z)))
+    D[:, :4] = [[1, 0, 0, 0], [0, LN10 * b, 0, 0], [0, r * LN10 * b, b, 0], [0, 0, 0, 1.0]]
+    return D
+
+
+# the hysteresis memory (Bouc–Wen or the plays) of a record at rest before it, at this
+# fraction of the record's first input: 0 at 0 V (the twin's rest state), 1 at the first
+# input (a record taken where the actuator had settled); not a property of the actuator.
+# Started at 0.5: from a bound the trust-region steps that cross it shrink to nothing
+MEMORY = "memory_rest_fraction"
 
 
 def _drift_twin(z):
@@ -100,12 +111,13 @@ def _b_max(s):
 
 SPECS = {
     "hysteresis": Spec(
-        names=("A", "B_per_V", "Gamma_per_V", "gain"),
-        bounds=lambda s: ((0.0, min(np.log10(1e-4 / s["u_ptp"]), _b_max(s) - 1.0), -1.0, 0.2),
-                          (0.95, _b_max(s), 1.0, 5.0)),
-        init=lambda s: (0.3, min(np.log10(1.0 / s["u_ptp"]), _b_max(s) - 0.3), 1.0, 1.2),
+        names=("A", "B_per_V", "Gamma_per_V", "gain", MEMORY),
+        bounds=lambda s: ((0.0, min(np.log10(1e-4 / s["u_ptp"]), _b_max(s) - 1.0), -1.0, 0.2,
+                           0.0),
+                          (0.95, _b_max(s), 1.0, 5.0, 1.0)),
+        init=lambda s: (0.3, min(np.log10(1.0 / s["u_ptp"]), _b_max(s) - 0.3), 1.0, 1.2, 0.5),
         twin=_hyst_twin, dtwin=_hyst_d,
-        report=lambda z: (z[0], 10 ** z[1], z[2] * 10 ** z[1], z[3])),
+        report=lambda z: (z[0], 10 ** z[1], z[2] * 10 ** z[1], z[3], z[4])),
     "thermal_drift": Spec(
         names=("lag_s", "B_per_K", "Gamma_per_K", "gain_V_per_K"),
         bounds=lambda s: ((-1.0, -3.0, -1.0, -20.0 * s["u_scale"]),
@@ -141,9 +153,10 @@ SPECS = {
 
 def _pi_spec(stats):
     n = len(_EFF.pi_fractions)
-    return Spec(names=tuple(f"weight_{i + 1}" for i in range(n)),
-                bounds=lambda s: ((-3.0,) * n, (3.0,) * n), init=lambda s: (0.0,) * n,
-                twin=lambda z: np.asarray(z, float), dtwin=lambda z: np.eye(n),
+    return Spec(names=tuple(f"weight_{i + 1}" for i in range(n)) + (MEMORY,),
+                bounds=lambda s: ((-3.0,) * n + (0.0,), (3.0,) * n + (1.0,)),
+                init=lambda s: (0.0,) * n + (0.5,),
+                twin=lambda z: np.asarray(z[:n], float), dtwin=lambda z: np.eye(n, len(z)),
                 report=lambda z: tuple(z))
 
 
@@ -203,7 +216,8 @@ def summary(records: Sequence[Dataset]) -> dict:
         ``u_ptp``, ``du_max`` (the largest step, from 0 V to the first sample
         included), ``knots`` (of the static input map), ``u_min``, ``u_max``,
         ``u_scale``, ``rate_max`` [V/s], ``duration_s``, ``temp_min`` and ``temp_max``
-        [°C] (None when no record has a temperature).
+        [°C] (None when no record has a temperature), ``memory_shows`` (a record that is
+        not periodic starts away from 0 V: where its hysteresis memory rested shows).
     """
     U = np.concatenate([d.U for d in records])
     ptp = float(max(np.ptp(U), 1e-9))
@@ -218,7 +232,9 @@ def summary(records: Sequence[Dataset]) -> dict:
             "temp_min": min((float(np.min(d.temp)) for d in records if d.temp is not None),
                             default=None),
             "temp_max": max((float(np.max(d.temp)) for d in records if d.temp is not None),
-                            default=None)}
+                            default=None),
+            "memory_shows": any(not (d.period and d.periods >= 1)
+                                and float(np.max(np.abs(d.U[0]))) > 1e-9 * ptp for d in records)}
 
 
 def creep_heating(stats: dict, reference_C: float) -> tuple[float, float]:
@@ -338,6 +354,11 @@ class Chain:
                 else:                       # not determined by the records: held at 0
                     self.lower[k], self.upper[k] = -1e-12, 1e-12
                 self.z0[k] = np.clip(self.z0[k], self.lower[k], self.upper[k])
+        if not stats.get("memory_shows", True):    # periodic records (warmed up on a period)
+            for (e, j, sl) in self.blocks:          # or from 0 V: where it rested does not show
+                if e in ("hysteresis", "pi_hysteresis"):
+                    k = sl.stop - 1
+                    self.lower[k], self.upper[k], self.z0[k] = -1e-12, 1e-12, 0.0
         self.stages = {e: cached_stage(cache, e, fs, reference_C) for e in self.effects
                        if e in ("slew", "hysteresis", "thermal_drift")}
         if "pi_hysteresis" in self.effects:
@@ -403,12 +424,15 @@ class Chain:
             elif e in ("slew", "hysteresis", "pi_hysteresis"):
                 st = self.stages[e]
                 sp = spec(e, self.stats)
-                out, dout = st.run(x, temp, sp.twin(zz))
+                memory = e != "slew"
+                out, dout = st.run(x, temp, sp.twin(zz), memory_V=zz[-1] * x[0] if memory else 0.0)
                 if jac:
                     if np.any(dx):
                         fd_cols += [c for c in range(self.size) if np.any(dx[:, c])]
                     dx[:] = 0.0
                     dx[:, sl] = dout @ sp.dtwin(zz)
+                    if memory and x[0] and self.upper[sl.stop - 1] > self.lower[sl.stop - 1]:
+                        dx[:, sl.stop - 1] = self._memory_column(st, sp, zz, x, temp, out)
                 x = out
             elif e == "creep":
                 a, per = self.cells
@@ -432,6 +456,14 @@ class Chain:
                     dx[:, sl] = dout @ SPECS[e].dtwin(zz)
                 x = x + out
         return x, dx, sorted(set(fd_cols))
+
+    @staticmethod
+    def _memory_column(st, sp, zz, x, temp, out):
+        """d out / d (the memory's rest fraction) by a one-sided difference inside [0, 1]
+        (at 1 the first step vanishes: ``|du|`` has its corner there)."""
+        h = 1e-4 if zz[-1] <= 0.5 else -1e-4
+        shifted, _ = st.run(x, temp, sp.twin(zz), memory_V=(zz[-1] + h) * x[0])
+        return (shifted - out) / h
 
     def _stack_temp(self, z, temp, j):
         if "thermal_drift" not in self.effects:

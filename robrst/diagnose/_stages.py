@@ -100,10 +100,12 @@ class SensitivityStage:
         return th
 
     def run(self, u: np.ndarray, temp: np.ndarray, values: Sequence[float],
-            u0_rest: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+            u0_rest: float | None = None,
+            memory_V: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
         """Output ``(N,)`` and its derivative ``(N, n_free)`` on input ``u`` and ``temp``.
 
-        Starts at the twin's rest state (hysteresis memory at 0 V; stack at ``temp[0]``).
+        Starts at the twin's rest state (stack at ``temp[0]``), the hysteresis memory
+        (Bouc–Wen and the plays) at rest at ``memory_V`` (the twin's: 0 V).
 
         Parameters
         ----------
@@ -115,6 +117,9 @@ class SensitivityStage:
             The free parameters.
         u0_rest : float, optional
             The voltage held before the record (default ``u[0]``).
+        memory_V : float
+            The input [V] the hysteresis memory rests at before the record (its loop
+            variable and the plays at 0 there).
 
         Returns
         -------
@@ -123,6 +128,11 @@ class SensitivityStage:
         n = u.size
         P = np.vstack([u, temp, np.zeros(n)])
         x0 = rest_state(self.model, u[0] if u0_rest is None else u0_rest, temp[0])
+        if memory_V:
+            sl = self.model.slices
+            if self.model.config.enabled("hysteresis"):
+                x0[sl["u_prev"]] = memory_V
+            x0[sl["plays"]] = memory_V
         nf = len(self.free)
         xa = np.concatenate([x0, np.zeros(self.model.n_state * nf)])
         Y, _ = self.sim.loop(P, xa, self.theta(values))

@@ -61,7 +61,7 @@ def test_bouc_wen_bound_keeps_the_discrete_update_a_contraction():
     ch = Chain(("hysteresis",), 1, d.fs, 28.0, s)
     b_max = 10 ** ch.upper[1]
     assert 2 * b_max * s["du_max"] <= 1.9 + 1e-12
-    for z in (ch.upper, ch.lower, np.r_[ch.upper[:2], -1.0, ch.upper[3]]):
+    for z in (ch.upper, ch.lower, np.r_[ch.upper[:2], -1.0, ch.upper[3:]]):
         V, dV = ch.run(z, d.U, np.full(d.n, 28.0))
         assert np.all(np.isfinite(V)) and np.all(np.isfinite(dV[0]))
         assert np.max(np.abs(dV[0])) < 1e6
