@@ -58,3 +58,15 @@ def test_creep_and_drift_on_fresh_seeds_name_nothing_else(seed, withheld):
     d, _, _ = withheld("hard", "creep+thermal_drift", seed)
     assert set(d.causes) == {"creep", "thermal_drift"}, d.reason
     assert d.final is not None and d.final.gap_after < 2.0 * d.noise_floor, d.reason
+
+
+@pytest.mark.slow
+def test_an_offset_only_the_held_out_records_want_is_not_named(withheld):
+    """The rate-dependent hysteresis (outside the library) on fresh seed 7007 (stated
+    before the run: hysteresis or cannot_tell): it named an output offset of 3.1 µm beside
+    hysteresis (held out 0.12 -> 0.065, training only 0.058 -> 0.051), an effect outside
+    the truth with 92 % of the gap removed.  A sensor zero is in the training records
+    alike: without their need of it, it is not named."""
+    d, _, case = withheld("hard", "rate_dependent_hysteresis", 7007)
+    assert d.cause in case.accept, d.reason
+    assert "output_offset" not in d.causes, d.reason
