@@ -13,11 +13,13 @@
    :func:`robrst.synthesis.mimo_design.program_rounds`): every axis, the coupling and
    every model at once; then the full certificate, whose violated points between models
    join the program as further models.
-4. **Always an answer**: the best certified controller, else the best found, with its
-   certificate and the binding figure (the largest ratio to its bound) named.  When
-   neither the joint design nor the per-axis start is certified, the per-axis start with
-   every axis's feedback gain backed off (``R_i`` scaled by :data:`BACK_OFF`) is
-   certified in turn, and the first certified one is the answer; with none certified,
+   Before it, the per-axis start is certified, and while it is not, the start with every
+   axis's feedback gain backed off (``R_i`` scaled by :data:`BACK_OFF`), up to the first
+   certified one.
+4. **Always an answer**: the certified controller with the larger least integral gain of
+   the joint design and that certified start (the joint program is local: where it ends
+   or stops can lie below its start), else the best found, with its certificate
+   and the binding figure (the largest ratio to its bound) named; with none certified,
    the least violating of every controller tried (the smallest binding ratio: a joint
    result outside its own rows can be far worse than its start).
 5. **The comparison**: the per-axis designs certified on the whole loop, and (``compare``)
@@ -218,6 +220,37 @@ def _binding(cert: MimoCertificate) -> Binding | None:
     return best
 
 
+def _backed_off(xs, axis, factor):
+    """The per-axis vectors with every axis's feedback ``R_i`` scaled by ``factor``."""
+    return [np.concatenate([x[:axis.d], factor * x[axis.d:]]) for x in xs]
+
+
+def _certified_start(fam, xs, axes, W, st, names, specs, so, say):
+    """``[(factor, controller, certificate)]``: the per-axis start (factor 1), then backed
+    off by :data:`BACK_OFF` while none is certified."""
+    out = []
+    for factor in (1.0,) + BACK_OFF:
+        ctrl = per_axis_controller(axes, _backed_off(xs, axes[0], factor), W, st.T_mode,
+                                   names)
+        say("certifying the per-axis start over the whole family" if factor == 1.0 else
+            f"certifying the per-axis start at {factor:g} x its gain")
+        cert = certify_mimo(fam, ctrl, specs, so.cert_tol, so.cert_points)
+        out.append((factor, ctrl, cert))
+        if cert.certified:
+            break
+    return out
+
+
+def _least_gain(ctrl: MimoController) -> float:
+    """The least of the axes' integral gains ``lim s R_i/S_i`` (0 without integral action):
+    what the joint program maximises."""
+    out = []
+    for c in ctrl.axes:
+        S = np.trim_zeros(c.S, "b")
+        out.append(abs(float(c.R[-1] / S[-1])) if len(S) < len(c.S) else 0.0)
+    return min(out)
+
+
 def _miss(cert: MimoCertificate) -> float:
     """How far ``cert``'s controller is from the specs: its binding ratio (infinite when
     a loop is unstable or a figure unbounded)."""
@@ -286,6 +319,12 @@ def _design_mimo(problem, progress, compare):
     start_note = ("each axis designed alone on (G W)_ii with the decoupler; the joint"
                   " program's start")
     best_ctrl = start
+    # the per-axis start and its backed-off gains (BACK_OFF), certified until one is: an
+    # answer beside the joint design's (the joint program's local optimum, or where it
+    # stopped, can lie below it)
+    backed = _certified_start(fam, xs, axes, W, st, names, specs, so, say)
+    start_cert = backed[0][2]
+    certified_start = next((b for b in backed if b[2].certified), None)
     if so.method == "nlp":
         x0 = np.concatenate(xs)
         recs, viols = check_models(models, start, specs, so.cert_tol)
@@ -323,42 +362,28 @@ def _design_mimo(problem, progress, compare):
             x0 = x
         certificate = cert
     else:
-        say("certifying the per-axis designs over the whole family")
-        certificate = certify_mimo(fam, start, specs, so.cert_tol, so.cert_points)
-    if so.method == "nlp":
-        say("certifying the per-axis start over the whole family")
-        start_cert = certify_mimo(fam, start, specs, so.cert_tol, so.cert_points)
-        if not certificate.certified and start_cert.certified:
-            best_ctrl, certificate = start, start_cert
-    else:
-        start_cert = certificate
+        certificate = start_cert
     comparisons = {"per_axis_start": MimoComparison(start, start_cert, start_note)}
+    if certified_start is not None:
+        factor, ctrl, cert = certified_start
+        if not certificate.certified or _least_gain(ctrl) > _least_gain(best_ctrl):
+            why = "" if factor == 1.0 else f"; the answer is it at {factor:g} x its gain"
+            if certificate.certified:       # the joint design's, certified but lower
+                why += ("; the answer is it" if factor == 1.0 else "") + (
+                    " (certified, with larger integral gains than the joint design's)")
+            best_ctrl, certificate = ctrl, cert
+            comparisons["per_axis_start"] = MimoComparison(start, start_cert, start_note + why)
     if not certificate.certified:
-        # nothing certified: the per-axis start with every axis's feedback gain backed off
-        # (R_i scaled), certified each time; the first certified one is the answer, and
-        # with none the least violating of all tried (a joint result the program could
-        # not hold inside its rows may be far worse than its start)
-        tried = [(_miss(certificate), 0, best_ctrl, certificate, None),
-                 (_miss(start_cert), 1, start, start_cert, "the per-axis start, the least"
-                  " violating controller tried")]
-        for factor in BACK_OFF:
-            xb = [np.concatenate([x[:axis.d], factor * x[axis.d:]]) for x in xs]
-            ctrl = per_axis_controller(axes, xb, W, st.T_mode, names)
-            say(f"certifying the per-axis start at {factor:g} x its gain")
-            cert = certify_mimo(fam, ctrl, specs, so.cert_tol, so.cert_points)
-            if cert.certified:
-                best_ctrl, certificate = ctrl, cert
-                comparisons["per_axis_start"] = MimoComparison(
-                    start, start_cert, start_note + f"; the answer is it at {factor:g} x"
-                    " its gain")
-                break
-            tried.append((_miss(cert), len(tried), ctrl, cert, f"it at {factor:g} x its"
-                          " gain, the least violating controller tried"))
-        if not certificate.certified:
-            _, _, best_ctrl, certificate, why = min(tried, key=lambda t: t[:2])
-            if why is not None:
-                comparisons["per_axis_start"] = MimoComparison(
-                    start, start_cert, f"{start_note}; the answer is {why}")
+        # nothing certified: the least violating of every controller tried (a joint result
+        # the program could not hold inside its rows may be far worse than its start)
+        tried = [(_miss(certificate), 0, best_ctrl, certificate, None)] + [
+            (_miss(c), i + 1, ctrl, c, "the per-axis start, the least violating controller"
+             " tried" if f == 1.0 else f"it at {f:g} x its gain, the least violating"
+             " controller tried") for i, (f, ctrl, c) in enumerate(backed)]
+        _, _, best_ctrl, certificate, why = min(tried, key=lambda t: t[:2])
+        if why is not None:
+            comparisons["per_axis_start"] = MimoComparison(
+                start, start_cert, f"{start_note}; the answer is {why}")
     if compare and fam.n_out > 1:
         say("designing the axes one by one on G_ii, ignoring the coupling (no decoupler)")
         ident = np.eye(fam.n_out)
