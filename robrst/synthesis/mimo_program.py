@@ -72,9 +72,11 @@ from typing import TYPE_CHECKING
 import casadi as ca
 import numpy as np
 
+from robrst.base.interrupt import solver_call
 from robrst.core import poly
 from robrst.core.rst import RSTController
 from robrst.synthesis._nlp import routh_column, shift_matrix
+from robrst.synthesis._stopping import StopWhenAsked
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -799,7 +801,11 @@ class MimoProgram:
         ip = {"hessian_approximation": "limited-memory",
               "limited_memory_initialization": "constant", "limited_memory_init_val": 1e-4,
               **dict(ipopt)}
-        opts = {"ipopt": ip, "print_time": False, "calc_lam_p": False}
+        # a signal stops IPOPT at its next iteration (raised inside the rows' callback, CasADi
+        # swallowed it as a failed solve and the design ran on to its end)
+        self._stop = StopWhenAsked(X.numel(), g.numel())
+        opts = {"ipopt": ip, "print_time": False, "calc_lam_p": False,
+                "iteration_callback": self._stop}
         self.solver = ca.nlpsol("mimo", "ipopt",
                                 {"x": X, "p": ca.vertcat(coef, signs, xref), "f": obj,
                                  "g": g}, opts)
@@ -842,7 +848,8 @@ class MimoProgram:
             x0[self.grid.offsets[i]:self.grid.offsets[i + 1]]) for i in range(self.grid.m)]
         z0 = float(np.log(max(min(ks), 1e-300))) - 1e-6
         X0 = np.concatenate([x0, logd, [1.0 if phase == "hard" else t0, z0]])
-        sol = self.solver(x0=X0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+        with solver_call():     # a signal inside stops IPOPT, then raises Interrupted
+            sol = self.solver(x0=X0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         st = self.solver.stats()
         X = np.array(sol["x"]).ravel()
         if nd:

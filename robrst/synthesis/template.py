@@ -36,7 +36,8 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from robrst.base.interrupt import requested, solver_call
+from robrst.base.interrupt import solver_call
+from robrst.synthesis._stopping import StopWhenAsked
 from robrst.core import poly
 from robrst.synthesis._nlp import routh_column
 
@@ -95,52 +96,10 @@ class Structure:
         return self.nx + (2 if self.placement == "dominant" else 0) + 1
 
 
-class _StopWhenAsked(ca.Callback):
-    """IPOPT's iteration callback: asks it to stop (``User_Requested_Stop``) once a signal
-    asked the run to (:func:`robrst.base.interrupt.requested`), so that Ctrl-C or ``kill``
-    ends a solve at its next iteration instead of its last.
-
-    Parameters
-    ----------
-    nx, ng : int
-        The program's variables and constraints.
-    """
-
-    def __init__(self, nx: int, ng: int) -> None:
-        ca.Callback.__init__(self)
-        self.nx, self.ng = nx, ng
-        self.construct("stop_when_asked", {})
-
-    def get_n_in(self) -> int:
-        return ca.nlpsol_n_out()
-
-    def get_n_out(self) -> int:
-        return 1
-
-    def get_name_in(self, i: int) -> str:
-        return ca.nlpsol_out(i)
-
-    def get_name_out(self, i: int) -> str:
-        return "stop"
-
-    def get_sparsity_in(self, i: int) -> ca.Sparsity:
-        name = ca.nlpsol_out(i)
-        if name == "f":
-            return ca.Sparsity.scalar()
-        if name in ("x", "lam_x"):
-            return ca.Sparsity.dense(self.nx)
-        if name in ("g", "lam_g"):
-            return ca.Sparsity.dense(self.ng)
-        return ca.Sparsity(0, 0)
-
-    def eval(self, arg: list) -> list:
-        return [1 if requested() else 0]
-
-
 def _options(st, n_x, n_g):
     """The solver's options (and its stop callback: a signal stops IPOPT at its next
     iteration, :mod:`robrst.base.interrupt`) for structure ``st``."""
-    stop = _StopWhenAsked(n_x, n_g)
+    stop = StopWhenAsked(n_x, n_g)
     return stop, {"ipopt": dict(st.ipopt), "print_time": False, "show_eval_warnings": False,
                   "calc_lam_p": False,   # parameter multipliers: unused (and noisy on failure)
                   "iteration_callback": stop}

@@ -97,3 +97,36 @@ def test_an_interrupted_design_prints_its_best_certified_answer(repro_dir, tmp_p
     # the answer is what it says: certified again from its controller alone
     ctrl = RSTController(*(np.array(d["controller"][k]) for k in "RST"))
     assert certify_problem(load_problem(problem), ctrl).certified
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("sig, code, word", [(signal.SIGINT, 130, "interrupted"),
+                                             (signal.SIGTERM, 143, "terminated")])
+def test_a_signal_stops_a_multi_axis_design_within_a_second(repro_dir, tmp_path, sig, code,
+                                                            word):
+    """``mimo_signal_swallowed.toml``: the signal came inside the joint program's rows
+    callback, CasADi took it for a failed solve and the design ran on (minutes)."""
+    cmd = [sys.executable, "-m", "robrst", "design",
+           str(repro_dir / "mimo_signal_swallowed.toml"), "--json"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=tmp_path,
+                            env=_env(), start_new_session=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    try:
+        time.sleep(6.0)            # inside the first joint round (about 11 s of IPOPT)
+        assert proc.poll() is None
+        t0 = time.monotonic()
+        if sig == signal.SIGINT:
+            os.killpg(proc.pid, sig)
+        else:
+            proc.send_signal(sig)
+        out, err = proc.communicate(timeout=60)
+        waited = time.monotonic() - t0
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.communicate()
+    lines = err.decode().strip().splitlines()
+    assert proc.returncode == code and lines[-1] == f"robrst: {word}", lines[-5:]
+    assert waited < 5.0, waited
+    assert "Traceback" not in err.decode()
+    assert out == b"" and list(tmp_path.iterdir()) == []
