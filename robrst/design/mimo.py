@@ -166,11 +166,7 @@ class MimoDesignResult:
         -------
         list of float
         """
-        out = []
-        for c in self.controller.axes:
-            S = np.trim_zeros(c.S, "b")
-            out.append(float(c.R[-1] / S[-1]) if len(S) < len(c.S) else 0.0)
-        return out
+        return _integral_gains(self.controller)
 
     def as_dict(self) -> dict:
         """The design as one JSON-ready object.
@@ -241,14 +237,19 @@ def _certified_start(fam, xs, axes, W, st, names, specs, so, say):
     return out
 
 
-def _least_gain(ctrl: MimoController) -> float:
-    """The least of the axes' integral gains ``lim s R_i/S_i`` (0 without integral action):
-    what the joint program maximises."""
+def _integral_gains(ctrl: MimoController) -> list[float]:
+    """Every axis's integral gain ``lim s R_i/S_i`` (0 without integral action)."""
     out = []
     for c in ctrl.axes:
         S = np.trim_zeros(c.S, "b")
-        out.append(abs(float(c.R[-1] / S[-1])) if len(S) < len(c.S) else 0.0)
-    return min(out)
+        out.append(float(c.R[-1] / S[-1]) if len(S) < len(c.S) else 0.0)
+    return out
+
+
+def _least_gain(ctrl: MimoController) -> float:
+    """The least of the axes' integral gains in magnitude: what the joint program
+    maximises."""
+    return min(abs(k) for k in _integral_gains(ctrl))
 
 
 def _miss(cert: MimoCertificate) -> float:

@@ -37,17 +37,16 @@ def _alive(pgid):
         return False
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("sig, code, word", [(signal.SIGINT, 130, "interrupted"),
-                                             (signal.SIGTERM, 143, "terminated")])
-def test_a_signal_stops_the_nlp_within_a_second(repro_dir, tmp_path, sig, code, word):
-    cmd = [sys.executable, "-m", "robrst", "design", str(repro_dir / "turn4" / "b_damp.toml"),
-           "--json"]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=tmp_path,
+def _signalled(problem, cwd, sig, after_s):
+    """``robrst design PROBLEM --json`` in a subprocess, signalled ``after_s`` seconds in
+    (SIGINT to the whole process group, as Ctrl-C; any other to the process alone, as
+    ``kill``): ``(process, stdout, stderr, seconds it took to end after the signal)``."""
+    cmd = [sys.executable, "-m", "robrst", "design", str(problem), "--json"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=cwd,
                             env=_env(), start_new_session=True,
                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
-        time.sleep(8.0)            # inside the first IPOPT solves (the design takes minutes)
+        time.sleep(after_s)
         assert proc.poll() is None
         t0 = time.monotonic()
         if sig == signal.SIGINT:
@@ -60,6 +59,15 @@ def test_a_signal_stops_the_nlp_within_a_second(repro_dir, tmp_path, sig, code, 
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
             proc.communicate()
+    return proc, out, err, waited
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("sig, code, word", [(signal.SIGINT, 130, "interrupted"),
+                                             (signal.SIGTERM, 143, "terminated")])
+def test_a_signal_stops_the_nlp_within_a_second(repro_dir, tmp_path, sig, code, word):
+    # after 8 s: inside the first IPOPT solves (the design takes minutes)
+    proc, out, err, waited = _signalled(repro_dir / "turn4" / "b_damp.toml", tmp_path, sig, 8.0)
     lines = err.decode().strip().splitlines()
     assert proc.returncode == code and lines[-1] == f"robrst: {word}", lines[-5:]
     assert waited < 5.0, waited
@@ -106,25 +114,9 @@ def test_a_signal_stops_a_multi_axis_design_within_a_second(repro_dir, tmp_path,
                                                             word):
     """``mimo_signal_swallowed.toml``: the signal came inside the joint program's rows
     callback, CasADi took it for a failed solve and the design ran on (minutes)."""
-    cmd = [sys.executable, "-m", "robrst", "design",
-           str(repro_dir / "mimo_signal_swallowed.toml"), "--json"]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=tmp_path,
-                            env=_env(), start_new_session=True,
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
-    try:
-        time.sleep(6.0)            # inside the first joint round (about 11 s of IPOPT)
-        assert proc.poll() is None
-        t0 = time.monotonic()
-        if sig == signal.SIGINT:
-            os.killpg(proc.pid, sig)
-        else:
-            proc.send_signal(sig)
-        out, err = proc.communicate(timeout=60)
-        waited = time.monotonic() - t0
-    finally:
-        if proc.poll() is None:
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.communicate()
+    # after 6 s: inside the first joint round (about 11 s of IPOPT)
+    proc, out, err, waited = _signalled(repro_dir / "mimo_signal_swallowed.toml", tmp_path, sig,
+                                        6.0)
     lines = err.decode().strip().splitlines()
     assert proc.returncode == code and lines[-1] == f"robrst: {word}", lines[-5:]
     assert waited < 5.0, waited
