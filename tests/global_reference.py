@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import differential_evolution
-from scipy.signal import cont2discrete, lfilter
+from scipy.signal import cont2discrete, lfilter, tf2ss
 
 GRID = np.geomspace(1.0, 1e7, 2500)
 CIRCLE = np.concatenate([np.geomspace(1e-5, np.pi, 2000), [np.pi]])
@@ -63,6 +63,8 @@ class Setting:
     ctrl_shift: float          # controller poles at Re s <= -ctrl_shift [rad/s]
     ctrl_max: float            # ... and >= -ctrl_max
     w_ref: float               # a frequency scale of the parametrisation [rad/s]
+    rtol: float = 0.0          # a figure within this of its bound passes (the certificate's
+    #                            own tolerance, solver.cert_tol, for a search judged as it)
 
 
 def _peak_grid(N, D):
@@ -119,8 +121,8 @@ def controller(st, v):
     """``(R, S)`` (s, highest power first) of the parameter vector ``v``."""
     i, w = 1, st.w_ref
     Sp = np.ones(1)
-    for _ in range(st.ks // 2):
-        wn, z = 10 ** v[i] * w, v[i + 1]
+    for _ in range(st.ks // 2):      # a pair, or two real poles (damping above 1)
+        wn, z = 10 ** v[i] * w, 10 ** v[i + 1]
         Sp = np.polymul(Sp, [1.0, 2 * z * wn, wn * wn])
         i += 2
     if st.ks % 2:
@@ -144,8 +146,8 @@ def bounds_of(st):
     """The search box of :func:`controller`'s parameters."""
     out = [(-2.0, 8.0)]
     lo, hi = np.log10(st.ctrl_shift / st.w_ref), np.log10(st.ctrl_max / st.w_ref)
-    for _ in range(st.ks // 2):
-        out += [(lo, hi), (0.05, 3.0)]
+    for _ in range(st.ks // 2):     # damping 0.05 .. 300: real poles up to 3.6e5 apart
+        out += [(lo, hi), (np.log10(0.05), np.log10(300.0))]
     if st.ks % 2:
         out += [(lo, hi)]
     for _ in range(st.kr // 2):
@@ -153,6 +155,43 @@ def bounds_of(st):
     if st.kr % 2:
         out += [(-12.0, 12.0)]
     return out
+
+
+def parameters(st, R, S):
+    """The parameters of :func:`controller` for a controller ``(R, S)`` of its structure
+    (``S = s S'``; ``R``'s zeros as pairs and one real zero), ``None`` when it has no such
+    form (a pair of ``R``'s zeros real, or a parameter outside :func:`bounds_of`)."""
+    R, S = np.asarray(R, float), np.asarray(S, float)
+    Sp = S[:-1] / S[0]
+    q = np.roots(Sp)
+    v = [0.0]
+    w = st.w_ref
+    pairs = sorted(q, key=lambda r: (abs(r.imag) == 0, -abs(r.imag), r.real))
+    complex_ = [r for r in pairs if r.imag > 0]
+    real = sorted(r.real for r in pairs if r.imag == 0)
+    quads = [(abs(r) ** 2, -2 * r.real) for r in complex_]
+    while len(real) >= 2 and len(quads) < st.ks // 2:
+        a, b = real.pop(0), real.pop(-1)        # the fastest with the slowest
+        quads.append((a * b, -(a + b)))
+    for a0, a1 in quads:
+        wn = np.sqrt(a0)
+        v += [np.log10(wn / w), np.log10(a1 / (2 * wn))]
+    if st.ks % 2:
+        v.append(np.log10(-real.pop() / w))
+    z = np.roots(R)
+    zc = [r for r in z if r.imag > 0]
+    zr = [r.real for r in z if r.imag == 0]
+    if len(zc) != st.kr // 2 or len(zr) != st.kr % 2:
+        return None
+    for r in zc:
+        wn = abs(r)
+        v += [np.log10(wn / w), -r.real / wn]
+    if st.kr % 2:
+        v.append(float(np.arcsinh(-w / zr[0])))
+    v[0] = np.log10(R[-1] / Sp[-1])
+    lo, hi = np.array(bounds_of(st)).T
+    v = np.array(v, float)
+    return v if np.all((v >= lo) & (v <= hi)) else None
 
 
 def _tustin(c, fs, deg):
@@ -184,21 +223,49 @@ def _step_over(num, den, h, n):
     return float(np.max(y) / final - 1.0)
 
 
+def _continuous_over(N, D, roots, h, n):
+    """Overshoot (fraction) of the step of ``N/D`` at ``n`` instants ``k h``: exact ZOH
+    samples of a state-space realisation in time scaled by the fastest root (the unscaled
+    transfer function's coefficients span 1e20 and more on a 4th-order stage; its ZOH
+    transfer function overflowed to an overshoot of 1.8e6 on a loop that overshoots
+    15 %)."""
+    w = float(np.max(np.abs(roots)))
+    nd, nn = len(D) - 1, len(N) - 1
+    Dx = D * w ** np.arange(nd, -1, -1.0)
+    Nx = N * w ** np.arange(nn, -1, -1.0)
+    Nx, Dx = Nx / Dx[0], Dx / Dx[0]
+    a, b, c, d = tf2ss(Nx, Dx)
+    ad, bd, cd, dd, _ = cont2discrete((a, b, c, d), h * w, method="zoh")
+    x = np.zeros(ad.shape[0])
+    y = np.empty(n)
+    for k in range(n):
+        y[k] = (cd @ x + dd[:, 0])[0]
+        x = ad @ x + bd[:, 0]
+    final = np.polyval(N, 0.0) / np.polyval(D, 0.0)
+    if not np.all(np.isfinite(y)) or final == 0:
+        return np.inf
+    return float(np.max(y) / final - 1.0)
+
+
 def violation(st, R, S, steps=True):
     """The summed relative excess of every constraint (0: feasible), judged here."""
+    if not (np.all(np.isfinite(R)) and np.all(np.isfinite(S))):
+        return 1e3                # a parameter vector beyond double precision
     v = 0.0
     q = np.roots(S[:-1]) if len(S) > 2 else np.zeros(0)
     if q.size:
-        v += max(0.0, (q.real.max() + st.ctrl_shift) / st.ctrl_shift)
-        v += max(0.0, (-st.ctrl_max - q.real.min()) / st.ctrl_max)
+        v += max(0.0, (q.real.max() + st.ctrl_shift) / st.ctrl_shift - st.rtol)
+        v += max(0.0, (-st.ctrl_max - q.real.min()) / st.ctrl_max - st.rtol)
     T = np.array([R[-1]])
     for m in st.models:
         D = np.polyadd(np.polymul(m.A, S), np.polymul(m.B, R))
+        if not np.all(np.isfinite(D)):
+            return 1e3
         p = np.roots(D)
         if np.max(p.real) >= 0:
             return 10.0 + v + np.max(p.real) / st.w_ref
         if st.floor:
-            v += max(0.0, st.floor / _damping(p) - 1.0)
+            v += max(0.0, st.floor / _damping(p) - 1.0 - st.rtol)
         low = p[(-p.real / np.abs(p) < 0.3) & (p.imag > 0)]
         w = np.concatenate([GRID, np.abs(low.imag)])
         s = 1j * w
@@ -206,15 +273,14 @@ def violation(st, R, S, steps=True):
         a, b, r, sv = (np.polyval(c, s) for c in (m.A, m.B, R, S))
         for key, num in (("S", a * sv), ("T", b * r), ("U", a * r)):
             if st.bounds[key]:
-                v += max(0.0, np.max(np.abs(num) / d) / st.bounds[key] - 1.0)
+                v += max(0.0, np.max(np.abs(num) / d) / st.bounds[key] - 1.0 - st.rtol)
         if st.msd_rel:
-            v += max(0.0, np.max(np.abs(b * sv) / d) / (st.msd_rel * m.ol_peak) - 1.0)
+            v += max(0.0, np.max(np.abs(b * sv) / d) / (st.msd_rel * m.ol_peak) - 1.0 - st.rtol)
         if steps and st.overshoot is not None and v == 0:
             sig = np.min(-p.real)
             horizon = min(12.0 / sig, 1e3)
-            h = horizon / STEPS
-            bd, ad, _ = cont2discrete((np.polymul(m.B, T), D), h, method="zoh")
-            v += max(0.0, _step_over(np.squeeze(bd), ad, h, STEPS) - st.overshoot)
+            over = _continuous_over(np.polymul(m.B, T), D, p, horizon / STEPS, STEPS)
+            v += max(0.0, over - st.overshoot - st.rtol)
         if st.fs:
             v += _sampled(st, m, R, S, T, steps and v == 0)
     return v
@@ -225,24 +291,26 @@ def _sampled(st, m, R, S, T, steps):
     deg = len(S) - 1
     Rz, Sz, Tz = _tustin(R, fs, deg), _tustin(S, fs, deg), _tustin(T, fs, deg)
     D = np.polyadd(np.polymul(m.Ad, Sz), np.polymul(m.Bd, Rz))
+    if not np.all(np.isfinite(D)):
+        return 10.0
     z = np.roots(D)
     if z.size == 0 or np.max(np.abs(z)) >= 1.0:
         return 10.0
     v = 0.0
     if st.floor:
         with np.errstate(divide="ignore"):
-            v += max(0.0, st.floor / _damping(fs * np.log(z.astype(complex))) - 1.0)
+            v += max(0.0, st.floor / _damping(fs * np.log(z.astype(complex))) - 1.0 - st.rtol)
     zz = np.exp(1j * CIRCLE)
     d = np.abs(np.polyval(D, zz))
     a, b, r, sv = (np.polyval(c, zz) for c in (m.Ad, m.Bd, Rz, Sz))
     for key, num in (("S", a * sv), ("T", b * r), ("U", a * r)):
         if st.bounds[key]:
-            v += max(0.0, np.max(np.abs(num) / d) / st.bounds[key] - 1.0)
+            v += max(0.0, np.max(np.abs(num) / d) / st.bounds[key] - 1.0 - st.rtol)
     if st.msd_rel:
-        v += max(0.0, np.max(np.abs(b * sv) / d) / (st.msd_rel * m.ol_peak_d) - 1.0)
+        v += max(0.0, np.max(np.abs(b * sv) / d) / (st.msd_rel * m.ol_peak_d) - 1.0 - st.rtol)
     if steps and st.overshoot is not None and v == 0:
         n = int(min(20000, 12.0 / max(np.min(-np.log(np.abs(z))), 1e-9)))
-        v += max(0.0, _step_over(np.polymul(m.Bd, Tz), D, 1 / fs, max(n, 50)) - st.overshoot)
+        v += max(0.0, _step_over(np.polymul(m.Bd, Tz), D, 1 / fs, max(n, 50)) - st.overshoot - st.rtol)
     return v
 
 
