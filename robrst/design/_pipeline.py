@@ -21,7 +21,8 @@ from robrst.base.threads import one_blas_thread
 from robrst.design.fleet import fleet_design
 from robrst.design._single import design_single
 from robrst.problem.records import with_defaults
-from robrst.synthesis.feasibility import feasibility_verdict, prove_infeasible
+from robrst.synthesis.feasibility import (feasibility_verdict, prove_infeasible,
+                                          prove_step_infeasible)
 from robrst.synthesis.limits import design_limits
 
 if TYPE_CHECKING:
@@ -31,8 +32,8 @@ if TYPE_CHECKING:
 __all__ = ["run_problem", "infeasibility", "SKIPPED"]
 
 #: what the pipeline did about a proof that no linear controller meets the specs
-SKIPPED = ("the synthesis was skipped (a family member has no solution); the controller is the"
-           " analytic start")
+SKIPPED = ("the synthesis was skipped (no controller meets the specs: the proof above); the"
+           " controller is the analytic start")
 
 
 def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
@@ -124,7 +125,9 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
 
 
 def infeasibility(problem: Problem) -> tuple:
-    """The proofs that no linear controller meets the problem's specs on some family member
+    """The proofs that no controller meets the problem's specs: a reference-step spec
+    beyond causality (:func:`robrst.synthesis.feasibility.prove_step_infeasible`), or no
+    linear controller on some family member
     (:func:`robrst.synthesis.feasibility.prove_infeasible`); none for the analytic method or
     when the proof's arithmetic fails (the synthesis then runs and the verdict says the rest).
 
@@ -139,6 +142,7 @@ def infeasibility(problem: Problem) -> tuple:
     if problem.solver.method == "analytic":
         return ()
     try:
-        return tuple(prove_infeasible(problem, list(problem.family.models)))
+        return prove_step_infeasible(problem) + tuple(
+            prove_infeasible(problem, list(problem.family.models)))
     except (ArithmeticError, ValueError, np.linalg.LinAlgError):
         return ()

@@ -16,6 +16,13 @@ change (band edges and corners, checked on both sides), and names the contiguous
 failing frequencies with its ends refined by bisection.  A grid on which the discs meet
 everywhere proves nothing: then the answer is "not found".
 
+**Causality** proves one time-domain spec: in the sampled loop the output cannot move
+before the first input the controller computes has passed the loop's dead time
+(``delay_samples`` samples, one more through the hold of a strictly proper plant), so the
+output is 0 at every sample before it, outside the 2 % band of a step that the loop
+tracks (integral action: the final value is the reference).  A ``settling_time_max_s``
+below that dead time is met by no controller at all (:class:`StepInfeasibility`).
+
 **Not found**: the best controller's worst violation, for a pole region the mode below
 the floor (its frequency, model and the damping reached), and a suggestion (one more
 controller degree; the loosest value of the violated spec this order reached).
@@ -35,8 +42,8 @@ if TYPE_CHECKING:
     from robrst.certificate.proof import Certificate
     from robrst.problem.records import Problem
 
-__all__ = ["Infeasibility", "FeasibilityVerdict", "prove_infeasible", "feasibility_verdict",
-           "PROOF_MARGIN", "PROOF_POINTS"]
+__all__ = ["Infeasibility", "StepInfeasibility", "FeasibilityVerdict", "prove_infeasible",
+           "prove_step_infeasible", "feasibility_verdict", "PROOF_MARGIN", "PROOF_POINTS"]
 
 PROOF_MARGIN = 1e-9      # the discs must miss by this much (relative to 1): far above rounding
 PROOF_POINTS = 3000      # log-spaced frequencies per loop (plus edges and resonance points)
@@ -96,7 +103,55 @@ class Infeasibility:
         return {"model": self.model, "temperature_C": self.temperature_C, "loop": self.loop,
                 "band_hz": [float(b) for b in self.band_hz], "specs": list(self.specs),
                 "worst_hz": self.worst_hz, "worst_sum": self.worst_sum, "points": self.points,
-                "checked_to_hz": self.checked_to_hz, "reason": self.reason}
+                "checked_to_hz": self.checked_to_hz, "reason": self.reason,
+                "kind": "frequency"}
+
+
+@dataclass(frozen=True)
+class StepInfeasibility:
+    """A proof that no controller meets a reference-step spec: causality of the sampled loop.
+
+    Parameters
+    ----------
+    model : str
+        The label of the first family member (the dead time is every model's).
+    temperature_C : float
+        Its temperature [°C].
+    loop : str
+        ``"sampled"``.
+    spec : str
+        The spec key (``"settling_time_max_s"``).
+    bound : float
+        Its value [s].
+    least : float
+        What every controller reaches at least: the loop's dead time [s].
+    dead_samples : int
+        Samples at which the output is still 0 (``delay_samples``, plus one through the
+        hold of a strictly proper plant).
+    reason : str
+        The proof in one sentence.
+    """
+
+    model: str
+    temperature_C: float
+    loop: str
+    spec: str
+    bound: float
+    least: float
+    dead_samples: int
+    reason: str
+
+    def as_dict(self) -> dict:
+        """The entry of ``feasibility.proofs`` in the design JSON (``kind`` ``"step"``;
+        the frequency proofs' entries have ``kind`` ``"frequency"``).
+
+        Returns
+        -------
+        dict
+        """
+        return {"kind": "step", "model": self.model, "temperature_C": self.temperature_C,
+                "loop": self.loop, "specs": [self.spec], "bound": self.bound,
+                "least": self.least, "dead_samples": self.dead_samples, "reason": self.reason}
 
 
 @dataclass(frozen=True)
@@ -108,8 +163,9 @@ class FeasibilityVerdict:
     status : {"infeasible", "not_found"}
         ``"infeasible"``: no linear controller meets the specs (``proofs``);
         ``"not_found"``: no proof, and this design does not meet them.
-    proofs : tuple of Infeasibility
-        One per model and loop where the discs do not meet (at most the worst band each).
+    proofs : tuple of Infeasibility or StepInfeasibility
+        The step specs no controller meets (:func:`prove_step_infeasible`), then one per
+        model and loop where the discs do not meet (at most the worst band each).
     checked : str
         What the test covered (models, loops, frequencies, specs).
     expressed : tuple of str
@@ -340,6 +396,60 @@ def prove_infeasible(problem: Problem, models: list | None = None,
     return ()
 
 
+def prove_step_infeasible(problem: Problem) -> tuple[StepInfeasibility, ...]:
+    """The reference-step specs that no controller meets, by causality (module docstring).
+
+    The sampled loop's output is 0 at the samples ``0 .. n - 1``, ``n`` the loop's dead
+    samples (``delay_samples``, plus one when every model is strictly proper: the hold's
+    first sample), whatever the controller; with integral action (the final value is the
+    reference, not 0) they are outside the 2 % band, so the settling time, counted to the
+    first sample back in the band, is at least ``n / fs``.  A ``settling_time_max_s``
+    below that (beyond the certificate's tolerance ``solver.cert_tol``) is infeasible.
+    The continuous loop has no dead time: nothing is proved there.
+
+    Parameters
+    ----------
+    problem : Problem
+
+    Returns
+    -------
+    tuple of StepInfeasibility
+        Empty when nothing is proved.
+
+    Examples
+    --------
+    A 20 µs settling time behind one sample of delay at 25 kHz (a dead time of 80 µs):
+
+    >>> from dataclasses import replace
+    >>> from robrst import load_problem
+    >>> p = load_problem("paper_robust")
+    >>> p = replace(p, specs=replace(p.specs, sample_rate_hz=25000.0, delay_samples=1,
+    ...                              settling_time_max_s=2e-5))
+    >>> prove_step_infeasible(p)[0].least
+    8e-05
+    """
+    sp = problem.specs
+    ts = sp.settling_time_max_s
+    if ts is None or not sp.sampled or integrators_of(problem) < 1:
+        return ()
+    models = problem.family.models
+    proper = all(len(np.trim_zeros(np.asarray(m.B, float), "f")) < len(np.asarray(m.A, float))
+                 for m in models)
+    dead = int(sp.delay_samples) + (1 if proper else 0)
+    least = dead / sp.sample_rate_hz
+    if not ts * (1.0 + problem.solver.cert_tol) * (1.0 + PROOF_MARGIN) < least:
+        return ()
+    m = models[0]
+    why = (f"every model, sampled loop at {sp.sample_rate_hz:g} Hz: the output is 0 at the"
+           f" first {dead} samples (delay_samples = {sp.delay_samples}"
+           + (", plus the hold's sample of a strictly proper plant" if proper else "")
+           + f") whatever the controller, outside the 2 % band of the step the integral"
+           f" action tracks, so no loop settles before {least:.4g} s; settling_time_max_s ="
+           f" {ts:g} s")
+    return (StepInfeasibility(m.label, m.temperature_C, "sampled", "settling_time_max_s", ts,
+                              least, dead, why),)
+
+
 def feasibility_verdict(problem: Problem, cert: Certificate, controller: object = None,
                         models: list | None = None) -> FeasibilityVerdict:
     """Infeasible (with proofs) or not found (what the best design misses, what to try).
@@ -362,7 +472,7 @@ def feasibility_verdict(problem: Problem, cert: Certificate, controller: object 
     t0 = time.perf_counter()
     sp = problem.specs
     given, lost = expressed_specs(sp)
-    proofs = prove_infeasible(problem, models)
+    proofs = prove_step_infeasible(problem) + prove_infeasible(problem, models)
     n_models = len(problem.family.models)
     loops = "continuous and sampled loops" if sp.sampled else "continuous loop"
     checked = (f"the discs of {', '.join(given) or 'no peak spec'} meet at every frequency"
@@ -370,8 +480,10 @@ def feasibility_verdict(problem: Problem, cert: Certificate, controller: object 
                f" model ({n_models} members and the temperature sweep, {loops}); a passing"
                " grid proves nothing")
     if proofs:
+        step = tuple(q.spec for q in proofs if isinstance(q, StepInfeasibility))
         return FeasibilityVerdict("infeasible", proofs=proofs, checked=checked,
-                                  expressed=given, not_expressed=lost,
+                                  expressed=given + step,
+                                  not_expressed=tuple(k for k in lost if k not in step),
                                   wall_time_s=time.perf_counter() - t0)
     misses, mode, suggestion = _not_found(problem, cert, lost)
     return FeasibilityVerdict("not_found", checked=checked, expressed=given,
