@@ -21,7 +21,10 @@ before the first input the controller computes has passed the loop's dead time
 (``delay_samples`` samples, one more through the hold of a strictly proper plant), so the
 output is 0 at every sample before it, outside the 2 % band of a step that the loop
 tracks (integral action: the final value is the reference).  A ``settling_time_max_s``
-below that dead time is met by no controller at all (:class:`StepInfeasibility`).
+below that dead time is met by no controller at all (:class:`StepInfeasibility`).  And a
+loop that tracks the step holds the plant's input at ``step_um / D(0)`` in the end (every
+robrst controller has ``T(0) = R(0)``, so with the integral action the output settles at
+the reference): a ``step_u_max_V`` below that on some family member is met by none.
 
 **Not found**: the best controller's worst violation, for a pole region the mode below
 the floor (its frequency, model and the damping reached), and a suggestion (one more
@@ -114,20 +117,23 @@ class StepInfeasibility:
     Parameters
     ----------
     model : str
-        The label of the first family member (the dead time is every model's).
+        The label of the model: the first family member for the dead time (every model's),
+        the member of least static gain for the voltage.
     temperature_C : float
         Its temperature [°C].
     loop : str
-        ``"sampled"``.
+        ``"sampled"`` (the dead time), ``"continuous"`` (the voltage: the sampled loop's
+        static gain is the same).
     spec : str
-        The spec key (``"settling_time_max_s"``).
+        The spec key (``"settling_time_max_s"`` or ``"step_u_max_V"``).
     bound : float
-        Its value [s].
+        Its value [s or V].
     least : float
-        What every controller reaches at least: the loop's dead time [s].
+        What every controller reaches at least: the loop's dead time [s], or the
+        voltage that holds the step [V].
     dead_samples : int
         Samples at which the output is still 0 (``delay_samples``, plus one through the
-        hold of a strictly proper plant).
+        hold of a strictly proper plant; 0 for the voltage).
     reason : str
         The proof in one sentence.
     """
@@ -407,6 +413,11 @@ def prove_step_infeasible(problem: Problem) -> tuple[StepInfeasibility, ...]:
     below that (beyond the certificate's tolerance ``solver.cert_tol``) is infeasible.
     The continuous loop has no dead time: nothing is proved there.
 
+    The voltage of a reference step ``step_um`` settles at ``step_um T(0) / (R(0) D(0))``
+    (integral action: ``S(0) = 0``), ``step_um / D(0)`` for robrst's controllers
+    (``T(0) = R(0)``: the loop tracks the step), so its peak is at least that on every
+    model; a ``step_u_max_V`` below it on the member of least ``|D(0)|`` is infeasible.
+
     Parameters
     ----------
     problem : Problem
@@ -429,25 +440,43 @@ def prove_step_infeasible(problem: Problem) -> tuple[StepInfeasibility, ...]:
     8e-05
     """
     sp = problem.specs
-    ts = sp.settling_time_max_s
-    if ts is None or not sp.sampled or integrators_of(problem) < 1:
+    if integrators_of(problem) < 1:
         return ()
     models = problem.family.models
-    proper = all(len(np.trim_zeros(np.asarray(m.B, float), "f")) < len(np.asarray(m.A, float))
-                 for m in models)
-    dead = int(sp.delay_samples) + (1 if proper else 0)
-    least = dead / sp.sample_rate_hz
-    if not ts * (1.0 + problem.solver.cert_tol) * (1.0 + PROOF_MARGIN) < least:
-        return ()
-    m = models[0]
-    why = (f"every model, sampled loop at {sp.sample_rate_hz:g} Hz: the output is 0 at the"
-           f" first {dead} samples (delay_samples = {sp.delay_samples}"
-           + (", plus the hold's sample of a strictly proper plant" if proper else "")
-           + f") whatever the controller, outside the 2 % band of the step the integral"
-           f" action tracks, so no loop settles before {least:.4g} s; settling_time_max_s ="
-           f" {ts:g} s")
-    return (StepInfeasibility(m.label, m.temperature_C, "sampled", "settling_time_max_s", ts,
-                              least, dead, why),)
+    slack = (1.0 + problem.solver.cert_tol) * (1.0 + PROOF_MARGIN)
+    out = []
+    ts = sp.settling_time_max_s
+    if ts is not None and sp.sampled:
+        proper = all(len(np.trim_zeros(np.asarray(m.B, float), "f"))
+                     < len(np.asarray(m.A, float)) for m in models)
+        dead = int(sp.delay_samples) + (1 if proper else 0)
+        least = dead / sp.sample_rate_hz
+        if ts * slack < least:
+            m = models[0]
+            why = (f"every model, sampled loop at {sp.sample_rate_hz:g} Hz: the output is 0 at"
+                   f" the first {dead} samples (delay_samples = {sp.delay_samples}"
+                   + (", plus the hold's sample of a strictly proper plant" if proper else "")
+                   + ") whatever the controller, outside the 2 % band of the step the integral"
+                   f" action tracks, so no loop settles before {least:.4g} s;"
+                   f" settling_time_max_s = {ts:g} s")
+            out.append(StepInfeasibility(m.label, m.temperature_C, "sampled",
+                                         "settling_time_max_s", ts, least, dead, why))
+    u_max = sp.step_u_max_V
+    if u_max is not None:
+        dc = [abs(float(np.polyval(m.B, 0.0) / np.polyval(m.A, 0.0))) for m in models]
+        k = int(np.argmin(dc))
+        if np.isfinite(dc[k]) and dc[k] > 0:
+            least = sp.step_um / dc[k]
+            if u_max * slack < least:
+                m = models[k]
+                why = (f"model {m.label} ({m.temperature_C:g} °C): a loop that tracks a"
+                       f" {sp.step_um:g} µm step holds the input at step_um / |D(0)| ="
+                       f" {sp.step_um:g} / {dc[k]:.4g} = {least:.4g} V in the end (|D(0)| ="
+                       f" {dc[k]:.4g} µm/V, the family's least static gain), so its peak is"
+                       f" at least that; step_u_max_V = {u_max:g} V")
+                out.append(StepInfeasibility(m.label, m.temperature_C, "continuous",
+                                             "step_u_max_V", u_max, least, 0, why))
+    return tuple(out)
 
 
 def feasibility_verdict(problem: Problem, cert: Certificate, controller: object = None,

@@ -1,4 +1,5 @@
-"""A settling time below the sampled loop's dead time is infeasible, by causality.
+"""A settling time below the sampled loop's dead time is infeasible, by causality; a step
+voltage below what holds the step (``step_um / D(0)``) too.
 
 The fact the proof rests on is checked independently of robrst: python-control's ZOH model
 of the plant behind ``z^-d`` in an RST loop with a Tustin controller (here the analytic
@@ -8,6 +9,10 @@ below ``(d + 1) / fs``.  The proof fires only below that dead time (beyond the
 certificate's tolerance), names it, and the design answers "infeasible" at once instead of
 "not found" after a synthesis (9 s CPU on the reproducer's stage, which asked 50 µs behind
 80 µs of dead time).
+
+The voltage: python-control's step of ``u = A T / Delta`` (continuous loop, unscaled
+polynomials) ends at ``1 / D(0)`` per µm, so its peak is at least that, and the
+certificate's ``step_u_peak_V`` is never below ``step_um / |D(0)|``.
 
 Reproducer: ``tests/repro/settling_below_dead_time.toml``.
 """
@@ -115,3 +120,39 @@ def test_a_design_with_a_settling_time_below_the_dead_time_is_named_infeasible_a
                     analyses=False)
     assert r.feasibility.status == "infeasible"
     assert r.feasibility.as_dict()["proofs"][0]["kind"] == "frequency"
+
+
+def test_the_step_voltage_ends_at_step_um_over_the_static_gain():
+    """python-control: the voltage's step ends at ``1 / D(0)`` per µm on every member; the
+    certificate's step voltage peak is at least ``step_um / |D(0)|``."""
+    p = _problem(settling_time_max_s=None, step_u_max_V=1e6, step_um=3.0)
+    ctrl = analytic_design(p).controller
+    pd = with_defaults(p)
+    cert = with_time_domain(pd, certify_problem(pd, ctrl), ctrl)
+    checked = 0
+    for m in p.family.models:
+        delta = np.polyadd(np.polymul(m.A, ctrl.S), np.polymul(m.B, ctrl.R))
+        u = control.tf(np.polymul(m.A, ctrl.T), delta)
+        dc = np.polyval(m.B, 0.0) / np.polyval(m.A, 0.0)
+        assert float(np.real(control.dcgain(u))) == pytest.approx(1.0 / dc, rel=1e-9)
+        fig = [mc for mc in cert.models if mc.label == m.label][0].continuous
+        if fig.step is not None:
+            assert fig.value("step_u_peak_V") >= 3.0 / abs(dc) * (1 - 1e-12)
+            checked += 1
+    assert checked
+
+
+def test_a_step_voltage_below_what_holds_the_step_is_infeasible():
+    p = _problem(settling_time_max_s=None, step_um=2.0)
+    dc = [abs(np.polyval(m.B, 0.0) / np.polyval(m.A, 0.0)) for m in p.family.models]
+    least = 2.0 / min(dc)
+    low = replace(p, specs=replace(p.specs, step_u_max_V=0.9 * least))
+    proof = prove_step_infeasible(low)
+    assert len(proof) == 1 and proof[0].spec == "step_u_max_V"
+    assert proof[0].least == pytest.approx(least, rel=1e-12)
+    assert proof[0].model == p.family.models[int(np.argmin(dc))].label
+    for u in (least, least / (1 + 0.5 * p.solver.cert_tol), 3 * least):
+        assert prove_step_infeasible(replace(p, specs=replace(p.specs, step_u_max_V=u))) == ()
+    r = run_problem(low, analyses=False)
+    assert not r.certified and r.feasibility.status == "infeasible"
+    assert r.feasibility.proofs[0].spec == "step_u_max_V"
