@@ -16,7 +16,7 @@ change (band edges and corners, checked on both sides), and names the contiguous
 failing frequencies with its ends refined by bisection.  A grid on which the discs meet
 everywhere proves nothing: then the answer is "not found".
 
-**Causality** proves one time-domain spec: in the sampled loop the output cannot move
+**Reference steps** have two proofs.  Causality: in the sampled loop the output cannot move
 before the first input the controller computes has passed the loop's dead time
 (``delay_samples`` samples, one more through the hold of a strictly proper plant), so the
 output is 0 at every sample before it, outside the 2 % band of a step that the loop
@@ -112,7 +112,8 @@ class Infeasibility:
 
 @dataclass(frozen=True)
 class StepInfeasibility:
-    """A proof that no controller meets a reference-step spec: causality of the sampled loop.
+    """A proof that no controller meets a reference-step spec: the sampled loop's dead time
+    (causality), or the voltage that holds the step.
 
     Parameters
     ----------
