@@ -166,10 +166,8 @@ def parameters(st, R, S):
     q = np.roots(Sp)
     v = [0.0]
     w = st.w_ref
-    pairs = sorted(q, key=lambda r: (abs(r.imag) == 0, -abs(r.imag), r.real))
-    complex_ = [r for r in pairs if r.imag > 0]
-    real = sorted(r.real for r in pairs if r.imag == 0)
-    quads = [(abs(r) ** 2, -2 * r.real) for r in complex_]
+    real = sorted(r.real for r in q if r.imag == 0)
+    quads = [(abs(r) ** 2, -2 * r.real) for r in q if r.imag > 0]
     while len(real) >= 2 and len(quads) < st.ks // 2:
         a, b = real.pop(0), real.pop(-1)        # the fastest with the slowest
         quads.append((a * b, -(a + b)))
