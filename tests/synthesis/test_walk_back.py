@@ -1,0 +1,56 @@
+"""A polish that ends outside the specs keeps the best certified point on its way.
+
+The global phase polishes its candidates with IPOPT from a certified start.  A polish can
+end just outside the certificate (a peak between the exchange's frequencies, a sampled
+step sample) with its back-offs spent; before, the whole polish was then lost and the
+candidate kept its start.  Now the segment from the certified start to where the polish
+ended is bisected for its last certified point: the integral gain is a ratio of two linear
+functions of the controller's coefficients, so it is monotone along the segment and that
+point is the best on it.
+
+On the seeded 4th-order stage 204 at ``Ms_max`` 2.25 (default settings, as the command
+line runs it) the best candidate's polish ends outside the specs: its start (moved inside
+the specs) has integral gain 501,092, the best other certified outcome 496,361, and the
+walked-back point 536,527, the design's answer.  The answer is judged independently by
+``tests/global_reference.py`` (dense grids of the unscaled polynomials of every family
+member, continuous and sampled loops, reference steps by ``lfilter``).
+"""
+
+import numpy as np
+import pytest
+
+import global_reference as gr
+from robrst.design import run_problem
+from robrst.problem.files import parse_problem
+from robrst.problem.records import with_defaults
+from stages_global import stage_doc
+
+WALKED = ", polished, walked back into the specs"
+
+
+@pytest.mark.slow
+def test_a_polish_outside_the_specs_keeps_its_certified_gain():
+    p = with_defaults(parse_problem(stage_doc(204, order=4, ms=2.25), "<stage 204>"))
+    res = run_problem(p, analyses=False)
+    assert res.certified
+    tried = {t[0]: t for t in res.synthesis.tried}
+    walked = [name for name in tried if name.endswith(WALKED)]
+    assert walked, list(tried)
+    for name in walked:
+        cand = name[:-len(WALKED)]
+        raw = tried[f"{cand}, polished"]
+        assert raw[1] == "not_certified", raw            # the polish ended outside
+        start = [tried[k][2] for k in (f"{cand}, moved inside", f"{cand}, as screened")
+                 if k in tried and tried[k][1] == "certified"]
+        assert start, (cand, list(tried))
+        assert tried[name][1] == "certified" and tried[name][2] > start[0], (name, start)
+    # the walk decided the answer: above every outcome that was not walked back
+    others = [t[2] for n, t in tried.items() if t[1] == "certified" and not n.endswith(WALKED)]
+    assert res.integral_gain > 1.02 * max(others), (res.integral_gain, others)
+    assert any(abs(tried[n][2] - res.integral_gain) <= 1e-9 * res.integral_gain
+               for n in walked)
+    # judged without robrst's numerical code, at the certificate's tolerance
+    st = gr.setting(p, *gr.strip(p))
+    st.rtol = p.solver.cert_tol
+    R, S = np.asarray(res.controller.R, float), np.asarray(res.controller.S, float)
+    assert gr.violation(st, R, S) == 0.0
