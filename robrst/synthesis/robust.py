@@ -386,16 +386,18 @@ def _rescued(ctx, run, setup, x0, out, name):
 
 
 def _walked_back(ctx, run, setup, x0, out):
-    """The best certified point on the segment from a polish's certified start ``x0`` to
-    where it ended outside the specs (``out``, back-offs included), by bisection
-    (``POLISH.walk_steps`` certificates): the last point that meets every spec, frequency
-    and reference step (``None``: none met them).
+    """The point where the segment from a polish's certified start ``x0`` to where it
+    ended outside the specs (``out``, back-offs included) leaves the specs, by bisection
+    (``POLISH.walk_steps`` certificates, to ``2 ** -walk_steps`` of the segment): the
+    farthest point found that meets every spec, frequency and reference step (``None``:
+    none met them).
 
     The integral gain ``r_0 / q_0`` is a ratio of two linear functions of the controller's
-    coefficients, so along a segment it is monotone: the last certified point is the best
-    on the segment, and a polish that gained on its start but ended just outside the specs
-    keeps most of its gain instead of being lost (on a 4th-order stage, polishes from
-    401-501 k that ended outside the specs kept 449-537 k)."""
+    coefficients, so along a segment it is monotone: when the points that meet the specs
+    form one interval from the start, the farthest is the best on the segment (the caller
+    keeps it only above its start), and a polish that gained on its start but ended
+    outside the specs keeps most of its gain instead of being lost (on a 4th-order stage,
+    polishes from starts of 399-501 k kept 449-537 k)."""
     p = ctx.problem
     n = ctx.param.n_x
     a = np.asarray(x0, float)
