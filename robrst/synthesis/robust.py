@@ -339,6 +339,7 @@ def _global(ctx, run, seeds, best, start):
             walked = _rescued(near, run, polished_setup, xr, out, c.name)
             if walked is not None and objective_value(p, walked) > objective_value(p, base):
                 run.tried.append((f"{c.name}, polished", out))
+                run.notes.append(_walk_note(p, c.name, out, walked, base))
                 out, label = walked, "polished, walked back into the specs"
         gained = out is not None and out.certified and (
             not base.certified or objective_value(p, out) > objective_value(p, base))
@@ -359,6 +360,17 @@ def _global(ctx, run, seeds, best, start):
         run.notes.append("global phase: no certified candidate met the time-domain specs")
         return certified[0]
     return min(outs, key=lambda o: o.badness)
+
+
+def _walk_note(problem, name, out, walked, base):
+    """The note of a polish that ended outside the specs and was walked back."""
+    v = worst_violation(out.cert)
+    miss = v.describe() if v is not None else "outside the reference-step specs"
+    what = problem.solver.objective.replace("_", " ")
+    return (f"global phase: the polish of {name} ended outside the specs ({miss});"
+            " walked back to its last certified point and solved again from there:"
+            f" {what} {objective_value(problem, walked):.6g} (its start"
+            f" {objective_value(problem, base):.6g})")
 
 
 def _rescued(ctx, run, setup, x0, out, name):
@@ -414,7 +426,9 @@ def _walked_back(ctx, run, setup, x0, out):
             lo, best = t, o
         else:
             hi = t
-    return best
+    # a point of the polish that ended at ``out``: its phase (a hard-phase polish's answer
+    # is optimised under the specs, as far as its budget went)
+    return None if best is None else replace(best, phase=out.phase)
 
 
 def _polish_notes(polishes):

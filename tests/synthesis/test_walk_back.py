@@ -46,6 +46,11 @@ def test_a_polish_outside_the_specs_keeps_its_certified_gain():
                  if k in tried and tried[k][1] == "certified"]
         assert start, (cand, list(tried))
         assert tried[name][1] == "certified" and tried[name][2] > start[0], (name, start)
+    # the answer says so, naming the polish's miss
+    said = [n for n in res.synthesis.notes if "walked back to its last certified point" in n]
+    assert said and all("ended outside the specs (" in n for n in said), res.synthesis.notes
+    assert any("peak" in n for n in said), said
+    assert not any("no polish improved" in n for n in res.synthesis.notes), res.synthesis.notes
     # the walk decided the answer: above every outcome that was not walked back
     others = [t[2] for n, t in tried.items() if t[1] == "certified" and not n.endswith(WALKED)]
     assert res.integral_gain > 1.02 * max(others), (res.integral_gain, others)
