@@ -182,6 +182,11 @@ def _synthesize(problem, start, run, extra, lower=None):
     return best
 
 
+def _meets_specs(problem, out):
+    """The outcome ``out`` is certified and its reference step meets the time-domain specs."""
+    return out.certified and meets_time_specs(problem, out.ctrl)
+
+
 def _rank(problem, out, timed):
     """Sort key of a certified outcome: (meets the time-domain specs, when ``timed``;
     objective)."""
@@ -319,7 +324,7 @@ def _global(ctx, run, seeds, best, start):
         run.tried.append((f"{c.name}, as screened", as_is))
         outs.append(as_is)
         base = as_is          # the polish starts from a point that meets the specs
-        if not (as_is.certified and meets_time_specs(p, as_is.ctrl)) and not run.stop():
+        if not _meets_specs(p, as_is) and not run.stop():
             moved = _moved_inside(ctx, run, setup, space, inside, c, steps, two_dof)
             if moved is not None:
                 run.tried.append((f"{c.name}, moved inside", moved))
@@ -334,8 +339,7 @@ def _global(ctx, run, seeds, best, start):
         floor = _floor(p, polished_setup, xr) if base.certified else None
         out, notes = _polish(near, run, xr, c.name, floor)
         label = "polished"
-        if base.certified and out is not None and not (out.certified
-                                                       and meets_time_specs(p, out.ctrl)):
+        if base.certified and out is not None and not _meets_specs(p, out):
             walked = _rescued(near, run, polished_setup, xr, out, c.name)
             if walked is not None and objective_value(p, walked) > objective_value(p, base):
                 run.tried.append((f"{c.name}, polished", out))
@@ -390,7 +394,7 @@ def _rescued(ctx, run, setup, x0, out, name):
     floor = _floor(p, setup, walked.x)
     again, _ = _hard_from(ctx, run, walked.x, f"{name}, from its walk back",
                           POLISH.backoff_iter, floor, out.grid)
-    if again is not None and not (again.certified and meets_time_specs(p, again.ctrl)):
+    if again is not None and not _meets_specs(p, again):
         again = _walked_back(ctx, run, setup, walked.x, again)
     if again is None or objective_value(p, again) <= objective_value(p, walked):
         return walked
@@ -422,7 +426,7 @@ def _walked_back(ctx, run, setup, x0, out):
         x = a.copy()
         x[:n] = a[:n] + t * (b - a[:n])
         o = run.outcome(ctx, setup, None, "start", x=x)
-        if o.certified and meets_time_specs(p, o.ctrl):
+        if _meets_specs(p, o):
             lo, best = t, o
         else:
             hi = t
@@ -563,7 +567,7 @@ def _moved_inside(ctx, run, setup, space, inside, cand, steps, two_dof):
     if moved is None:
         return None
     out = run.outcome(ctx, setup, None, "start", x=ctx.full(moved.xc, setup))
-    return out if out.certified and meets_time_specs(ctx.problem, out.ctrl) else None
+    return out if _meets_specs(ctx.problem, out) else None
 
 
 def _screened_steps(problem, w0):
@@ -705,7 +709,7 @@ def _tried(problem, tried):
     controller-pole strip has no objective, and its note says why."""
     out = []
     for name, o in tried:
-        ok = o.certified and meets_time_specs(problem, o.ctrl)
+        ok = _meets_specs(problem, o)
         obj = objective_value(problem, o) if ok else np.nan
         note = strip_note(problem, o.ctrl) if ok else None
         out.append((name, "certified" if ok else "not_certified",
