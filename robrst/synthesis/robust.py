@@ -43,7 +43,7 @@ import numpy as np
 from robrst.core import poly
 from robrst.base.errors import RobrstError
 from robrst.synthesis.attempts import (WARM_START, Outcome, Run, objective_value,
-                                       program_models, merged_notes)
+                                       program_models, merged_notes, refine)
 from robrst.synthesis.context import BOUND_MARGIN, Context, strip_note
 from robrst.synthesis._nlp import objective_rows
 from robrst.synthesis.outcome import SynthesisResult, best_achievable, worst_violation
@@ -325,7 +325,7 @@ def _global(ctx, run, seeds, best, start):
         outs.append(as_is)
         base = as_is          # the polish starts from a point that meets the specs
         if not _meets_specs(p, as_is) and not run.stop():
-            moved = _moved_inside(ctx, run, setup, space, inside, c, steps, two_dof)
+            moved = _moved_inside(ctx, run, setup, space, inside, c, steps, two_dof, as_is)
             if moved is not None:
                 run.tried.append((f"{c.name}, moved inside", moved))
                 outs.append(moved)
@@ -554,20 +554,31 @@ def _tightened(problem, factor):
     return replace(problem, specs=replace(sp, **tight))
 
 
-def _moved_inside(ctx, run, setup, space, inside, cand, steps, two_dof):
-    """The candidate ``cand``, which the certificate (or the time-domain check) refused,
-    moved inside the specs by the screen (:func:`~robrst.synthesis.search.move_inside`)
-    and certified; ``None`` when nothing inside was found or it does not certify either.
-    ``inside`` memoises the inner screen."""
-    if not inside:
-        tight = replace(ctx, free_margin=POLISH.inside_margin).setup(
-            program_models(ctx.problem), ctx.nu, "free")
-        inside.append(Screen(tight, _inside(steps, TIME_MARGIN ** 2), two_dof))
-    moved = move_inside(inside[0], space, cand)
+def _moved_inside(ctx, run, setup, space, inside, cand, steps, two_dof, refused):
+    """The candidate ``cand``, which the certificate (or the time-domain check) refused
+    (``refused``: its outcome as screened), moved inside the specs by the screen
+    (:func:`~robrst.synthesis.search.move_inside`) and certified; ``None`` when nothing
+    inside was found or it does not certify either.  ``inside`` memoises the inner screen
+    on the program's grid; a refusal at frequencies or temperatures of its own adds them
+    to that candidate's inner screen (the exchange's :func:`refine`): the peak the screen
+    did not see is the one to move away from."""
+    p = ctx.problem
+    tight = replace(ctx, free_margin=POLISH.inside_margin)
+    cert = refused.cert
+    if cert is not None and cert.violations:
+        models, nu = refine(p, cert, program_models(p), ctx.nu)
+        screen = Screen(tight.setup(models, nu, "free"), _inside(steps, TIME_MARGIN ** 2),
+                        two_dof)
+    else:
+        if not inside:
+            inside.append(Screen(tight.setup(program_models(p), ctx.nu, "free"),
+                                 _inside(steps, TIME_MARGIN ** 2), two_dof))
+        screen = inside[0]
+    moved = move_inside(screen, space, cand)
     if moved is None:
         return None
     out = run.outcome(ctx, setup, None, "start", x=ctx.full(moved.xc, setup))
-    return out if _meets_specs(ctx.problem, out) else None
+    return out if _meets_specs(p, out) else None
 
 
 def _screened_steps(problem, w0):

@@ -111,7 +111,9 @@ def test_ms_scan_is_monotone(scans, seed, order):
     a controller pole at 28 rad/s, half the strip's edge, and won with 298 k against 231 k at
     2.5 (certified there too); counted only inside the strip, 224 k.  Stage 204 (4th order,
     blind until the polishes that end outside the specs were walked back): 217 k / 406 k /
-    406 k / 501 k / 473 k before, 217 k / 473 k / 532 k / 585 k / 589 k since."""
+    406 k / 501 k / 473 k before, 217 k / 473 k / 532 k / 585 k / 589 k since, 300 k / 510 k
+    / 537 k / 565 k / 584 k once a refused candidate is moved inside on a screen with the
+    refusal's frequencies."""
     scan = scans(seed, order)
     print(f"\nstage {seed}: " + ", ".join(f"{v}: {ki}" for v, _, _, ki in scan))
     best = None
