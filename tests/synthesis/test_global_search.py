@@ -166,6 +166,31 @@ def test_cmaes_finds_known_minima():
             assert best < fun(np.full((1, len(opt)), 0.5))[0]
 
 
+def _ridge_generations(active, seed, d=8, width=0.02, limit=300):
+    """Generations until a feasible sample reaches ``x0 > 0.95`` on a narrow ridge: maximise
+    ``x0`` subject to ``|x_i - x0| <= width`` (the optimum: every coordinate 1), ranked by
+    Deb's rules as the search ranks its populations."""
+    es = CMAES(np.full(d, 0.2), 0.1, np.random.default_rng(seed), 12, active)
+    for g in range(limit):
+        X = es.ask()
+        viol = np.sum(np.maximum(np.abs(X[:, 1:] - X[:, :1]) - width, 0.0), axis=1)
+        es.tell(X, np.lexsort((-X[:, 0], viol)))
+        assert np.all(np.linalg.eigvalsh(es.C) > 0)       # negative weights keep C definite
+        if np.any(X[viol == 0, 0] > 0.95):
+            return g
+    return limit
+
+
+def test_active_update_climbs_a_constraint_ridge_faster():
+    """The active covariance update (negative weights for the worse half) against the plain
+    rank-mu update on a ridge made by constraints: the infeasible samples teach the
+    distribution the constraints' normals.  Measured: median 86 against 112 generations
+    over ten seeds."""
+    plain = np.median([_ridge_generations(False, s) for s in range(10)])
+    active = np.median([_ridge_generations(True, s) for s in range(10)])
+    assert active <= 0.85 * plain, (active, plain)
+
+
 def test_search_is_seeded_and_reports():
     p, ctx, setup, start = _setup()
     scr = Screen(setup, time_specs(p, ctx.w0))
@@ -212,16 +237,18 @@ def test_screen_overshoot_of_the_sampled_loop_against_python_control():
             D = np.polyadd(np.polymul(m.A, c.S), np.polymul(m.B, c.R))
             horizon = 40.0 / np.min(-np.roots(D).real)
             t = np.linspace(0, horizon, 8001)
-            y = np.asarray(control.step_response(control.tf(np.polymul(m.B, [c.R[-1]]), D),
-                                                 T=t).outputs).ravel()
-            over_c = max(over_c, y.max() / y[-1] - 1.0)
+            cl = control.tf(np.polymul(m.B, [c.R[-1]]), D)
+            y = np.asarray(control.step_response(cl, T=t).outputs).ravel()
+            # over the final value (the loop's gain at 0 Hz), not the last sample: a sampled
+            # loop may ring longer than the continuous loop's horizon
+            over_c = max(over_c, y.max() / float(np.real(cl.dcgain())) - 1.0)
             Pd = control.c2d(control.tf(list(m.B), list(m.A)), 1.0 / fs, "zoh") * (1 / z) ** k
             Kr = control.c2d(control.tf(list(c.R), list(c.S)), 1.0 / fs, "tustin")
             Kt = control.c2d(control.tf([c.R[-1]], list(c.S)), 1.0 / fs, "tustin")
             loop = control.minreal(Kt * control.feedback(Pd, Kr), verbose=False)
             n = int(np.ceil(horizon * fs))
             yd = np.asarray(control.step_response(loop, T=np.arange(n) / fs).outputs).ravel()
-            over_d = max(over_d, yd.max() / yd[-1] - 1.0)
+            over_d = max(over_d, yd.max() / float(np.real(loop.dcgain())) - 1.0)
         assert f.overshoot[i] == pytest.approx(max(over_c, over_d), abs=0.01)
         checked += 1
         above += over_d > over_c + 0.002
