@@ -8,10 +8,10 @@ population shrinks the variance along its directions.  Ranked by feasibility fir
 infeasible samples thus teach the distribution the constraints' normals, and it stretches
 along the boundary where a constrained optimum lies (Arnold and Hansen 2012 use the same
 update for constraint handling); the plain update only learns where the good samples
-are, and a run on a constraint's ridge creeps.  Only the *ranking* of the candidates enters the
-update, so the strategy is invariant to monotone transformations of the objective, and
-the adapted covariance makes it invariant to rotations and scalings of the search space:
-a badly conditioned landscape costs evaluations, not failure.  Constraints enter through
+are, and a run on a constraint's ridge creeps.  Only the *ranking* of the candidates
+enters the update, so the strategy is invariant to monotone transformations of the
+objective, and the adapted covariance makes it invariant to rotations and scalings of the
+search space: a badly conditioned landscape costs evaluations, not failure.  Constraints enter through
 the ranking (the caller orders the population, e.g. by Deb's feasibility rules: feasible
 candidates by objective, then the others by violation).
 

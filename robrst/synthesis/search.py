@@ -110,10 +110,10 @@ class SearchOptions:
         The active covariance update (:mod:`robrst.synthesis._cmaes`): the infeasible
         and worse samples shrink the variance along their directions, and a run on a
         bound's ridge climbs instead of creeping.  Off by default: measured at ``Ms_max``
-        1.5 / 1.75 / 2.0 / 2.25 / 2.5 it raised the objectives (geometric mean +4.6 %,
-        ``paper_robust`` 636,429 -> 665,233, stage 13 monotone) but moved which basin
-        each design reaches, and the scans of stages 102, 204 and 205 lost their
-        monotonicity (docs/background/synthesis.md).
+        1.5 / 1.75 / 2.0 / 2.25 / 2.5 it raised the objectives (geometric mean +4.3 % over
+        25 points, ``paper_robust`` 636,429 -> 665,233) but moved which basin each design
+        reaches, and the tested monotone scans of stages 102 and 204 lost 8 % and 9 %
+        (docs/background/synthesis.md).
     """
 
     seed: int = 20261128
