@@ -11,9 +11,9 @@ update for constraint handling); the plain update only learns where the good sam
 are, and a run on a constraint's ridge creeps.  Only the *ranking* of the candidates
 enters the update, so the strategy is invariant to monotone transformations of the
 objective, and the adapted covariance makes it invariant to rotations and scalings of the
-search space: a badly conditioned landscape costs evaluations, not failure.  Constraints enter through
-the ranking (the caller orders the population, e.g. by Deb's feasibility rules: feasible
-candidates by objective, then the others by violation).
+search space: a badly conditioned landscape costs evaluations, not failure.  Constraints
+enter through the ranking (the caller orders the population, e.g. by Deb's feasibility
+rules: feasible candidates by objective, then the others by violation).
 
 The strategy is driven by the caller: :meth:`CMAES.ask` returns a population,
 :meth:`CMAES.tell` takes its ranking.  So a search loop evaluates a whole population at
@@ -72,7 +72,7 @@ class CMAES:
         # the rank-mu weights of every place: the mean's, then (active) the tutorial's
         # negative ones, scaled so that the update keeps C positive definite (its eq. 53)
         neg = np.log((self.lam + 1) / 2) - np.log(np.arange(self.mu + 1, self.lam + 1))
-        if active and neg.size and neg.sum() < 0:
+        if active:          # (lambda >= 4: mu >= 2 places below the mean's, all negative)
             mueff_neg = neg.sum() ** 2 / np.sum(neg ** 2)
             scale = min(1 + self.c1 / self.cmu, 1 + 2 * mueff_neg / (mueff + 2),
                         (1 - self.c1 - self.cmu) / (d * self.cmu))

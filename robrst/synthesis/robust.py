@@ -563,16 +563,16 @@ def _moved_inside(ctx, run, setup, space, inside, cand, steps, two_dof, refused)
     to that candidate's inner screen (the exchange's :func:`refine`): the peak the screen
     did not see is the one to move away from."""
     p = ctx.problem
-    tight = replace(ctx, free_margin=POLISH.inside_margin)
-    cert = refused.cert
-    if cert is not None and cert.violations:
-        models, nu = refine(p, cert, program_models(p), ctx.nu)
-        screen = Screen(tight.setup(models, nu, "free"), _inside(steps, TIME_MARGIN ** 2),
-                        two_dof)
+    own = refused.cert is not None and bool(refused.cert.violations)
+    if own or not inside:
+        models, nu = program_models(p), ctx.nu
+        if own:
+            models, nu = refine(p, refused.cert, models, nu)
+        tight = replace(ctx, free_margin=POLISH.inside_margin).setup(models, nu, "free")
+        screen = Screen(tight, _inside(steps, TIME_MARGIN ** 2), two_dof)
+        if not own:
+            inside.append(screen)
     else:
-        if not inside:
-            inside.append(Screen(tight.setup(program_models(p), ctx.nu, "free"),
-                                 _inside(steps, TIME_MARGIN ** 2), two_dof))
         screen = inside[0]
     moved = move_inside(screen, space, cand)
     if moved is None:
