@@ -187,6 +187,13 @@ def _meets_specs(problem, out):
     return out.certified and meets_time_specs(problem, out.ctrl)
 
 
+def _counts(problem, out):
+    """The outcome ``out`` meets the specs (:func:`_meets_specs`) and its objective counts:
+    with ``max_integral_gain`` every controller pole but the integrators inside the
+    program's strip (:func:`~robrst.synthesis.context.strip_note`)."""
+    return _meets_specs(problem, out) and strip_note(problem, out.ctrl) is None
+
+
 def _rank(problem, out, timed):
     """Sort key of a certified outcome: (meets the time-domain specs, when ``timed``;
     objective)."""
@@ -339,7 +346,7 @@ def _global(ctx, run, seeds, best, start):
         floor = _floor(p, polished_setup, xr) if base.certified else None
         out, notes = _polish(near, run, xr, c.name, floor)
         label = "polished"
-        if base.certified and out is not None and not _meets_specs(p, out):
+        if base.certified and out is not None and not _counts(p, out):
             walked = _rescued(near, run, polished_setup, xr, out, c.name)
             if walked is not None and objective_value(p, walked) > objective_value(p, base):
                 run.tried.append((f"{c.name}, polished", out))
@@ -369,7 +376,12 @@ def _global(ctx, run, seeds, best, start):
 def _walk_note(problem, name, out, walked, base):
     """The note of a polish that ended outside the specs and was walked back."""
     v = worst_violation(out.cert)
-    miss = v.describe() if v is not None else "outside the reference-step specs"
+    if v is not None:
+        miss = v.describe()
+    elif _meets_specs(problem, out):
+        miss = strip_note(problem, out.ctrl)
+    else:
+        miss = "outside the reference-step specs"
     what = problem.solver.objective.replace("_", " ")
     return (f"global phase: the polish of {name} ended outside the specs ({miss});"
             " walked back to its last certified point and solved again from there:"
@@ -378,15 +390,19 @@ def _walk_note(problem, name, out, walked, base):
 
 
 def _rescued(ctx, run, setup, x0, out, name):
-    """A polish ``out`` from the certified point ``x0`` that ended outside the specs:
-    walked back (:func:`_walked_back`), solved again from there with its floor at the
+    """A polish ``out`` from the certified point ``x0`` that ended outside the specs, or
+    certified with a controller pole outside the program's strip (IPOPT's acceptable
+    level: its integral gain does not count, :func:`_counts`): walked back (:func:`_walked_back`), solved again from there with its floor at the
     walked-back gain on the grid the polish reached (the certificate's offending
     frequencies and temperatures kept, ``POLISH.backoff_iter`` IPOPT iterations), and that
     solve walked back in turn when it ends outside the specs too; the better certified
     point (``None``: the walk found none).  A polish that missed by more than the
     back-off's 5 % (on stage 204 at ``Ms_max`` 2.25 its |T| peak 1.46 against 1.3 at a
     resonance between its grid's frequencies, integral gain 614 k) is walked back to
-    537 k, solved again to 593 k 1.9 % outside, and walked back to 585 k."""
+    537 k, solved again to 593 k 1.9 % outside, and walked back to 585 k.  On stage 11
+    at ``Ms_max`` 2.0 a polish that ended at 627 k with a controller pole 10 % outside the
+    strip (not counted; the answer was another polish's 818 k) is walked back and solved
+    again to 825 k."""
     p = ctx.problem
     walked = _walked_back(ctx, run, setup, x0, out)
     if walked is None or run.stop():
@@ -394,7 +410,7 @@ def _rescued(ctx, run, setup, x0, out, name):
     floor = _floor(p, setup, walked.x)
     again, _ = _hard_from(ctx, run, walked.x, f"{name}, from its walk back",
                           POLISH.backoff_iter, floor, out.grid)
-    if again is not None and not _meets_specs(p, again):
+    if again is not None and not _counts(p, again):
         again = _walked_back(ctx, run, setup, walked.x, again)
     if again is None or objective_value(p, again) <= objective_value(p, walked):
         return walked
@@ -405,8 +421,8 @@ def _walked_back(ctx, run, setup, x0, out):
     """The point where the segment from a polish's certified start ``x0`` to where it
     ended outside the specs (``out``, back-offs included) leaves the specs, by bisection
     (``POLISH.walk_steps`` certificates, to ``2 ** -walk_steps`` of the segment): the
-    farthest point found that meets every spec, frequency and reference step (``None``:
-    none met them).
+    farthest point found that meets every spec, frequency and reference step, with every
+    controller pole inside the program's strip (:func:`_counts`; ``None``: none met them).
 
     The integral gain ``r_0 / q_0`` is a ratio of two linear functions of the controller's
     coefficients, so along a segment it is monotone: when the points that meet the specs
@@ -419,6 +435,7 @@ def _walked_back(ctx, run, setup, x0, out):
     a = np.asarray(x0, float)
     b = np.asarray(out.x, float)[:n]
     lo, hi, best = 0.0, 1.0, None
+    said = len(run.notes)      # the probes are points of a segment, not solves to note
     for _ in range(POLISH.walk_steps):
         if run.stop():
             break
@@ -426,10 +443,11 @@ def _walked_back(ctx, run, setup, x0, out):
         x = a.copy()
         x[:n] = a[:n] + t * (b - a[:n])
         o = run.outcome(ctx, setup, None, "start", x=x)
-        if _meets_specs(p, o):
+        if _counts(p, o):
             lo, best = t, o
         else:
             hi = t
+    del run.notes[said:]
     # a point of the polish that ended at ``out``: its phase (a hard-phase polish's answer
     # is optimised under the specs, as far as its budget went)
     return None if best is None else replace(best, phase=out.phase)
