@@ -340,20 +340,19 @@ def _global(ctx, run, seeds, best, start):
         if seen:
             continue          # a basin already polished
         polished.append(c.theta)
-        near = ctx.around(base.ctrl) if POLISH.rescale else ctx     # scaled at the candidate
-        polished_setup = near.setup(program_models(p), near.nu, "free")
-        xr = near.full(near.param.vector(base.ctrl), polished_setup)
-        floor = _floor(p, polished_setup, xr) if base.certified else None
-        out, notes = _polish(near, run, xr, c.name, floor)
-        label = "polished"
-        if base.certified and out is not None and not _counts(p, out):
-            walked = _rescued(near, run, polished_setup, xr, out, c.name)
-            if walked is not None and objective_value(p, walked) > objective_value(p, base):
-                run.tried.append((f"{c.name}, polished", out))
-                run.notes.append(_walk_note(p, c.name, out, walked, base))
-                out, label = walked, "polished, walked back into the specs"
-        gained = out is not None and out.certified and (
-            not base.certified or objective_value(p, out) > objective_value(p, base))
+        out, label, notes = _polished(ctx, run, base, c.name)
+        gained = _gained(p, base, out)
+        if not gained and base is as_is and as_is.certified and not run.stop():
+            # a polish from the screen's boundary that gained nothing: again from inside
+            moved = _moved_inside(ctx, run, setup, space, inside, c, steps, two_dof, as_is)
+            if moved is not None:
+                run.tried.append((f"{c.name}, moved inside", moved))
+                outs.append(moved)
+                if out is not None:
+                    run.tried.append((f"{c.name}, {label}", out))
+                    outs.append(out)
+                out, label, notes = _polished(ctx, run, moved, c.name, "moved inside, polished")
+                gained = _gained(p, base, out)
         polishes.append((c.name, gained, notes))
         lag = strip_note(p, out.ctrl) if out is not None and out.certified else None
         if lag:
@@ -371,6 +370,35 @@ def _global(ctx, run, seeds, best, start):
         run.notes.append("global phase: no certified candidate met the time-domain specs")
         return certified[0]
     return min(outs, key=lambda o: o.badness)
+
+
+def _polished(ctx, run, base, name, how="polished"):
+    """The polish of a candidate from its outcome ``base`` (as screened, or moved inside the
+    specs): the program rescaled at it (``POLISH.rescale``), keeping its integral gain when
+    it is certified (:func:`_floor`), backed off by its miss (:func:`_polish`), and walked
+    back into the specs when it ends outside them (:func:`_rescued`).  Returns the outcome
+    (``None``: nothing solved), its label in ``tried`` (``how``, and how it ended) and the
+    polish's notes."""
+    p = ctx.problem
+    near = ctx.around(base.ctrl) if POLISH.rescale else ctx     # scaled at the candidate
+    polished_setup = near.setup(program_models(p), near.nu, "free")
+    xr = near.full(near.param.vector(base.ctrl), polished_setup)
+    floor = _floor(p, polished_setup, xr) if base.certified else None
+    out, notes = _polish(near, run, xr, name, floor)
+    label = how
+    if base.certified and out is not None and not _counts(p, out):
+        walked = _rescued(near, run, polished_setup, xr, out, name)
+        if walked is not None and objective_value(p, walked) > objective_value(p, base):
+            run.tried.append((f"{name}, {label}", out))
+            run.notes.append(_walk_note(p, name, out, walked, base))
+            out, label = walked, f"{how}, walked back into the specs"
+    return out, label, notes
+
+
+def _gained(problem, base, out):
+    """The polish's outcome ``out`` is certified and, from a certified ``base``, better."""
+    return out is not None and out.certified and (
+        not base.certified or objective_value(problem, out) > objective_value(problem, base))
 
 
 def _walk_note(problem, name, out, walked, base):
