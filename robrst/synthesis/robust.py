@@ -263,21 +263,23 @@ POLISH = PolishOptions()
 def _global(ctx, run, seeds, best, start):
     """The global phase (:mod:`robrst.synthesis.search`) with every coefficient free
     (settings: :class:`PolishOptions`): the search (on a screen ``search_margin`` inside
-    the peaks' bounds, the steps at the program's ``TIME_MARGIN ** 2``: its best
-    candidates certify as they are and start the polish inside the program), then its best
-    distinct candidates (those screened within ``screen_slack`` of the specs) certified as
-    they are (one the certificate refuses, a peak or a step sample between the screen's
-    points, moved inside the specs by :func:`~robrst.synthesis.search.move_inside`:
+    the peaks' bounds, the steps at the program's ``TIME_MARGIN ** 2``: its best candidates
+    certify as they are and start the polish inside the program), then its best distinct
+    candidates (those screened within ``screen_slack`` of the specs) certified as they are
+    (one the certificate refuses, a peak or a step sample between the screen's points,
+    moved inside the specs by :func:`~robrst.synthesis.search.move_inside`:
     ``inside_margin`` on the peaks, ``TIME_MARGIN ** 2`` on the steps, as the program's
     rows) and polished by the program (the best ``1 + solver.starts`` of them and each
     run's best: each within ``iterations`` IPOPT iterations, from the program rescaled at
     the candidate with the certificate's bounds, keeping its integral gain, backed off by
-    its miss when it ends just outside the specs; not one within ``distinct`` of one
-    polished or screened below ``share`` of the best: which basin polishes best, the
-    screened objective does not tell); the best certified outcome whose reference step
-    meets the time-domain specs on every model of its certificate, else the best
-    certified one, else the least violating one.  Falls back to :meth:`Run.attempt`
-    when the space cannot be parametrised or nothing screened feasible."""
+    its miss when it ends just outside the specs, walked back into them when it ends
+    farther out, and polished again from the candidate moved inside the specs when it
+    gained nothing; not one within ``distinct`` of one polished or screened below ``share``
+    of the best: which basin polishes best, the screened objective does not tell); the best
+    certified outcome whose reference step meets the time-domain specs on every model of
+    its certificate, else the best certified one, else the least violating one. Falls back
+    to :meth:`Run.attempt` when the space cannot be parametrised or nothing screened
+    feasible."""
     p = ctx.problem
     ctx = replace(ctx, free_margin=BOUND_MARGIN)   # the certificate's bounds, not 2 % inside
     setup = ctx.setup(program_models(p), ctx.nu, "free")
@@ -419,18 +421,18 @@ def _walk_note(problem, name, out, walked, base):
 
 def _rescued(ctx, run, setup, x0, out, name):
     """A polish ``out`` from the certified point ``x0`` that ended outside the specs, or
-    certified with a controller pole outside the program's strip (IPOPT's acceptable
-    level: its integral gain does not count, :func:`_counts`): walked back (:func:`_walked_back`), solved again from there with its floor at the
-    walked-back gain on the grid the polish reached (the certificate's offending
-    frequencies and temperatures kept, ``POLISH.backoff_iter`` IPOPT iterations), and that
-    solve walked back in turn when it ends outside the specs too; the better certified
-    point (``None``: the walk found none).  A polish that missed by more than the
-    back-off's 5 % (on stage 204 at ``Ms_max`` 2.25 its |T| peak 1.46 against 1.3 at a
-    resonance between its grid's frequencies, integral gain 614 k) is walked back to
-    537 k, solved again to 593 k 1.9 % outside, and walked back to 585 k.  On stage 11
-    at ``Ms_max`` 2.0 a polish that ended at 627 k with a controller pole 10 % outside the
-    strip (not counted; the answer was another polish's 818 k) is walked back and solved
-    again to 825 k."""
+    certified with a controller pole outside the program's strip (IPOPT's acceptable level:
+    its integral gain does not count, :func:`_counts`): walked back (:func:`_walked_back`),
+    solved again from there with its floor at the walked-back gain on the grid the polish
+    reached (the certificate's offending frequencies and temperatures kept,
+    ``POLISH.backoff_iter`` IPOPT iterations), and that solve walked back in turn when it
+    ends outside the specs too; the better certified point (``None``: the walk found none).
+    A polish that missed by more than the back-off's 5 % (on stage 204 at ``Ms_max`` 2.25
+    its |T| peak 1.46 against 1.3 at a resonance between its grid's frequencies, integral
+    gain 614 k) is walked back to 537 k, solved again to 593 k 1.9 % outside, and walked
+    back to 585 k. On stage 11 at ``Ms_max`` 2.0 a polish that ended at 627 k with a
+    controller pole 10 % outside the strip (not counted; the answer was another polish's
+    818 k) is walked back and solved again to 825 k."""
     p = ctx.problem
     walked = _walked_back(ctx, run, setup, x0, out)
     if walked is None or run.stop():
@@ -602,7 +604,8 @@ def _tightened(problem, factor):
 
 def _moved_inside(ctx, run, setup, space, inside, cand, steps, two_dof, refused):
     """The candidate ``cand``, which the certificate (or the time-domain check) refused
-    (``refused``: its outcome as screened), moved inside the specs by the screen
+    or whose polish gained nothing (``refused``: its outcome as screened), moved inside
+    the specs by the screen
     (:func:`~robrst.synthesis.search.move_inside`) and certified; ``None`` when nothing
     inside was found or it does not certify either.  ``inside`` memoises the inner screen
     on the program's grid; a refusal at frequencies or temperatures of its own adds them
