@@ -68,8 +68,18 @@ class Setting:
 
 
 def _peak_grid(N, D):
-    v = np.abs(np.polyval(N, 1j * GRID) / np.polyval(D, 1j * GRID))
+    """The open loop's peak on the grid and at its own poles' frequencies (a lightly damped
+    resonance peaks between the grid's points: 0.6 % low at damping 0.006)."""
+    w = np.concatenate([GRID, np.abs(np.roots(D).imag)])
+    v = np.abs(np.polyval(N, 1j * w) / np.polyval(D, 1j * w))
     return float(np.max(v))
+
+
+def _peak_circle(N, D):
+    """The sampled open loop's peak on the unit circle's grid and at its poles' angles."""
+    p = np.roots(D)
+    z = np.exp(1j * np.concatenate([CIRCLE, np.abs(np.angle(p[np.abs(p) > 0]))]))
+    return float(np.max(np.abs(np.polyval(N, z) / np.polyval(D, z))))
 
 
 def _zoh(A, B, fs, delay):
@@ -94,9 +104,8 @@ def setting(problem, ctrl_shift, ctrl_max):
         mod = Model(A=A, B=B, ol_peak=_peak_grid(B, A))
         if sp.sample_rate_hz:
             ad, bd = _zoh(A, B, sp.sample_rate_hz, sp.delay_samples)
-            z = np.exp(1j * CIRCLE)
             mod.Ad, mod.Bd = ad, bd
-            mod.ol_peak_d = float(np.max(np.abs(np.polyval(bd, z) / np.polyval(ad, z))))
+            mod.ol_peak_d = _peak_circle(bd, ad)
         models.append(mod)
     ref = problem.family.reference_model
     n = len(ref.A) - 1
