@@ -30,12 +30,18 @@ from stages_global import stage_doc
 WALKED = ", polished, walked back into the specs"
 
 
-@pytest.mark.slow
-def test_a_polish_outside_the_specs_keeps_its_certified_gain():
-    p = with_defaults(parse_problem(stage_doc(204, order=4, ms=2.25), "<stage 204>"))
+def _designed(seed, order, ms):
+    """The seeded stage's problem and its default design (certified), with what the
+    global phase tried by name."""
+    p = with_defaults(parse_problem(stage_doc(seed, order=order, ms=ms), f"<stage {seed}>"))
     res = run_problem(p, analyses=False)
     assert res.certified
-    tried = {t[0]: t for t in res.synthesis.tried}
+    return p, res, {t[0]: t for t in res.synthesis.tried}
+
+
+@pytest.mark.slow
+def test_a_polish_outside_the_specs_keeps_its_certified_gain():
+    p, res, tried = _designed(204, 4, 2.25)
     walked = [name for name in tried if name.endswith(WALKED)]
     assert walked, list(tried)
     for name in walked:
@@ -70,10 +76,7 @@ def test_a_polish_outside_the_strip_is_walked_back_inside_it():
     strip (integral gain 627 k, a lag's, not counted); the answer was another polish's
     818 k against 828 k at ``Ms_max`` 1.75.  Walked back inside the strip and solved again
     from there it reaches 825 k, the answer."""
-    p = with_defaults(parse_problem(stage_doc(11, order=2, ms=2.0), "<stage 11>"))
-    res = run_problem(p, analyses=False)
-    assert res.certified
-    tried = {t[0]: t for t in res.synthesis.tried}
+    p, res, tried = _designed(11, 2, 2.0)
     walked = [name for name in tried if name.endswith(WALKED)]
     assert walked, list(tried)
     for name in walked:
@@ -109,10 +112,7 @@ def test_a_polish_that_gains_nothing_from_the_boundary_is_run_again_from_inside(
     outside the specs, so the answer was the candidate as screened (62,716; 82 k at
     ``Ms_max`` 2.0, 107 k at 2.5).  Moved inside the specs first (a little less gain,
     59 k), the same candidate polishes to 94 k."""
-    p = with_defaults(parse_problem(stage_doc(311, order=4, ms=2.25), "<stage 311>"))
-    res = run_problem(p, analyses=False)
-    assert res.certified
-    tried = {t[0]: t for t in res.synthesis.tried}
+    p, res, tried = _designed(311, 4, 2.25)
     again = [name for name in tried if name.endswith(FROM_INSIDE)
              or name.endswith(FROM_INSIDE + ", walked back into the specs")]
     assert again, list(tried)
