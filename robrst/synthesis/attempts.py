@@ -420,6 +420,12 @@ class Run:
     pole_space : callable or None
         ``(ctx, setup) -> PoleSpace or None`` (:meth:`robrst.synthesis.search.PoleSpace.of`)
         when a polish may go over the poles (:meth:`in_pole_space`), else ``None``.
+    poles_first : bool
+        A polish whose earlier solve of the same candidate needed the poles (its trust
+        region over the coefficients failed there): its solves start over the poles, and
+        the coefficients' trust region runs only when they fail.
+    over_poles : bool
+        Set once a solve's answer came from the poles (:meth:`in_pole_space`).
     floor : float or None
         A polish's objective floor: the scaled integral gain its solves with freely placed
         poles keep (a linear row ``R(0) >= floor (S/s^k)(0)``), so a polish improves on the
@@ -442,6 +448,7 @@ class Run:
         self.rows_first = False
         self.floor = None
         self.pole_space = None
+        self.poles_first = self.over_poles = False
 
     def spent(self, placement: str | None = None) -> bool:
         """True once the synthesis has used its IPOPT iteration budget: ``RUN.iter_budget``
@@ -646,6 +653,9 @@ class Run:
         """Trust-region solves for freely placed poles (free coefficients move resonances
         and slow poles far in one step; IPOPT alone wanders): a box around the point,
         re-centred and doubled while the solution lands on it, halved after a failure.
+        Where they fail and the run may go over the poles, :meth:`in_pole_space`; a run
+        that needed the poles before (:attr:`poles_first`, :attr:`over_poles`) starts
+        there, and the boxes run only when the poles fail.
 
         Parameters
         ----------
@@ -672,6 +682,13 @@ class Run:
         ipopt = {**(ipopt or ctx.ipopt),
                  "max_iter": min(ctx.ipopt["max_iter"], RUN.free_max_iter)}
         best, x, iters, res, f = None, np.asarray(x0, float), 0, None, RUN.free_box
+        first = (self.poles_first or self.over_poles) and self.poles_next()
+        if first:       # the candidate's earlier solve needed the poles: over them first
+            poles = self.in_pole_space(ctx, setup, x0, phase, exact, ipopt, lin)
+            if poles is not None and poles.success:
+                self.over_poles = True
+                return poles
+            iters += 0 if poles is None else poles.iterations
         for _ in range(RUN.free_boxes):
             c = x[:ctx.param.n_x]
             r = f * np.abs(c) + 0.05 * np.max(np.abs(c))
@@ -690,11 +707,12 @@ class Run:
             if inside or not gain or iters > cap:
                 break
             f = min(2 * f, 8 * RUN.free_box)
-        if best is None and self.poles_next():
+        if best is None and not first and self.poles_next():
             poles = self.in_pole_space(ctx, setup, x0, phase, exact, ipopt, lin)
             if poles is not None:
                 iters += poles.iterations
                 best = poles if poles.success else None
+                self.over_poles = best is not None
         return replace(best if best is not None else res, iterations=iters)
 
     def in_pole_space(self, ctx: Context, setup: NLPSetup, x0: np.ndarray, phase: Phase,

@@ -386,10 +386,10 @@ def _polished(ctx, run, base, name, how="polished"):
     polished_setup = near.setup(program_models(p), near.nu, "free")
     xr = near.full(near.param.vector(base.ctrl), polished_setup)
     floor = _floor(p, polished_setup, xr) if base.certified else None
-    out, notes = _polish(near, run, xr, name, floor)
+    out, notes, poles = _polish(near, run, xr, name, floor)
     label = how
     if base.certified and out is not None and not _counts(p, out):
-        walked = _rescued(near, run, polished_setup, xr, out, name)
+        walked = _rescued(near, run, polished_setup, xr, out, name, poles)
         if walked is not None and objective_value(p, walked) > objective_value(p, base):
             run.tried.append((f"{name}, {label}", out))
             run.notes.append(_walk_note(p, name, out, walked, base))
@@ -419,14 +419,15 @@ def _walk_note(problem, name, out, walked, base):
             f" {objective_value(problem, base):.6g})")
 
 
-def _rescued(ctx, run, setup, x0, out, name):
+def _rescued(ctx, run, setup, x0, out, name, poles_first=False):
     """A polish ``out`` from the certified point ``x0`` that ended outside the specs, or
     certified with a controller pole outside the program's strip (IPOPT's acceptable level:
     its integral gain does not count, :func:`_counts`): walked back (:func:`_walked_back`),
     solved again from there with its floor at the walked-back gain on the grid the polish
     reached (the certificate's offending frequencies and temperatures kept,
     ``POLISH.backoff_iter`` IPOPT iterations), and that solve walked back in turn when it
-    ends outside the specs too; the better certified point (``None``: the walk found none).
+    ends outside the specs too (over the poles first when the polish needed them,
+    ``poles_first``); the better certified point (``None``: the walk found none).
     A polish that missed by more than the back-off's 5 % (on stage 204 at ``Ms_max`` 2.25
     its |T| peak 1.46 against 1.3 at a resonance between its grid's frequencies, integral
     gain 614 k) is walked back to 537 k, solved again to 593 k 1.9 % outside, and walked
@@ -438,8 +439,8 @@ def _rescued(ctx, run, setup, x0, out, name):
     if walked is None or run.stop():
         return walked
     floor = _floor(p, setup, walked.x)
-    again, _ = _hard_from(ctx, run, walked.x, f"{name}, from its walk back",
-                          POLISH.backoff_iter, floor, out.grid)
+    again, _, _ = _hard_from(ctx, run, walked.x, f"{name}, from its walk back",
+                             POLISH.backoff_iter, floor, out.grid, poles_first)
     if again is not None and not _counts(p, again):
         again = _walked_back(ctx, run, setup, walked.x, again)
     if again is None or objective_value(p, again) <= objective_value(p, walked):
@@ -527,36 +528,42 @@ def _polish(ctx, run, xa, name, floor=None):
     certificate; with a ``floor`` (:func:`_floor` of a certified start) every solve keeps
     the start's integral gain (:attr:`~robrst.synthesis.attempts.Run.floor`): a polish is
     an improvement or nothing, never a worse basin reached through IPOPT's restoration.
-    Returns the outcome (``None``: nothing solved) and the polish's notes."""
-    out, notes = _hard_from(ctx, run, xa, name, POLISH.iterations, floor)
-    return _backoff(ctx, run, out, name, floor), notes
+    Returns the outcome (``None``: nothing solved), the polish's notes and whether a solve
+    needed the poles (the back-off's solves then start over them)."""
+    out, notes, poles = _hard_from(ctx, run, xa, name, POLISH.iterations, floor)
+    return _backoff(ctx, run, out, name, floor, poles), notes, poles
 
 
-def _hard_from(ctx, run, x, name, budget, floor=None, grid=None):
+def _hard_from(ctx, run, x, name, budget, floor=None, grid=None, poles_first=False):
     """The objective phase with every coefficient free from the near-optimal point ``x``,
     in a run of its own with ``budget`` IPOPT iterations (its reference-step rows and
     floored roots linearised from the first solve on; ``floor``: the scaled integral gain
     it keeps, :attr:`Run.floor`; ``grid``: the models and frequencies to start from,
-    :attr:`~robrst.synthesis.attempts.Outcome.grid`); its rounds join ``run``'s.  Returns
-    the outcome and the run's notes."""
+    :attr:`~robrst.synthesis.attempts.Outcome.grid`; ``poles_first``: an earlier solve of
+    the same polish needed the poles, so its solves start over them,
+    :attr:`~robrst.synthesis.attempts.Run.poles_first`); its rounds join ``run``'s.
+    Returns the outcome, the run's notes and whether a solve's answer came from the
+    poles (:attr:`~robrst.synthesis.attempts.Run.over_poles`)."""
     sub = Run(ctx.problem, run.say, run.templates, None, budget, run.stop)
     sub.rows_first = True
     sub.pole_space = PoleSpace.of     # a failed trust region: over the poles
     sub.floor = floor
+    sub.poles_first = poles_first
     out = sub.hard(ctx, "free", x, name, grid)
     run.rounds += sub.rounds
-    return out, sub.notes
+    return out, sub.notes, sub.over_poles
 
 
-def _backoff(ctx, run, out, name, floor=None):
+def _backoff(ctx, run, out, name, floor=None, poles_first=False):
     """A polish that ends just outside the specs solved again from where it ended with the
     program tightened by the miss (constraint back-off, ``POLISH.backoffs`` times,
     ``POLISH.backoff_iter`` IPOPT iterations each): outside the certificate (its last round's
     peaks between the exchange's frequencies, its budget spent) the program's bounds, or
     certified but outside the reference-step specs (its linearised step samples missed the
     sampled loop's peak) the time-domain specs the program holds.  The optimum moves
-    inside by the miss instead of the polish being lost.  Returns the first outcome that
-    meets every spec, else the last one."""
+    inside by the miss instead of the polish being lost (``poles_first``: the polish's
+    first solve needed the poles, and its back-offs start over them).  Returns the first
+    outcome that meets every spec, else the last one."""
     margin, problem = ctx.free_margin, ctx.problem
     for _ in range(POLISH.backoffs):
         if out is None or run.stop():
@@ -571,14 +578,14 @@ def _backoff(ctx, run, out, name, floor=None):
         else:
             return out
         again = _solved_again(replace(ctx, free_margin=margin), run, out, f"{name}, backed off",
-                              floor)
+                              floor, poles_first)
         if again is None:
             return out
         out = again
     return out
 
 
-def _solved_again(ctx, run, out, name, floor):
+def _solved_again(ctx, run, out, name, floor, poles_first=False):
     """The polish's program solved again from its outcome ``out`` (``ctx``: the backed-off
     program) on the program's own grid, and when that does not certify, on the grid the
     polish's rounds reached (:attr:`~robrst.synthesis.attempts.Outcome.grid`: the
@@ -586,10 +593,12 @@ def _solved_again(ctx, run, out, name, floor):
     between the exchange's frequencies is not missed again; a larger program, which the
     back-off's few iterations do not always solve); the better of the two (``None``:
     nothing solved)."""
-    plain, _ = _hard_from(ctx, run, out.x, name, POLISH.backoff_iter, floor)
+    plain, _, _ = _hard_from(ctx, run, out.x, name, POLISH.backoff_iter, floor,
+                             poles_first=poles_first)
     if (plain is not None and plain.certified) or out.grid is None or run.stop():
         return plain
-    kept, _ = _hard_from(ctx, run, out.x, name, POLISH.backoff_iter, floor, out.grid)
+    kept, _, _ = _hard_from(ctx, run, out.x, name, POLISH.backoff_iter, floor, out.grid,
+                            poles_first)
     done = [o for o in (plain, kept) if o is not None]
     return min(done, key=lambda o: o.badness, default=None)
 
