@@ -30,7 +30,7 @@ def _run(monkeypatch, coefficients_ok, poles_ok):
 
     def coefficients(setup, x, *args, **kwargs):
         calls.append("coefficients")
-        return _Result(coefficients_ok, -1.0, np.asarray(x, float) * 1.0)
+        return _Result(coefficients_ok, -1.0, np.asarray(x, float))
 
     def poles(self, ctx, setup, x0, *args, **kwargs):
         calls.append("poles")
