@@ -45,6 +45,7 @@ if TYPE_CHECKING:
     from robrst.synthesis._timesamples import TimeSpecs
 
 __all__ = ["Screen", "Figures", "batch_roots", "routh_columns", "quadratic_powers",
+           "first_samples", "PEAK_SAMPLES",
            "RESONANT_DAMPING", "STEP_POINTS", "RANK_BITS", "RANK_VIOLATION_BITS", "RANK_VIOLATION",
            "OBJECTIVE_NOISE"]
 
@@ -56,6 +57,7 @@ OBJECTIVE_NOISE = 1e-9   # R(0), (S/s^k)(0) this small against their terms have 
 RESONANT_DAMPING = 0.3   # closed-loop roots damped less than this add their frequency
 STEP_POINTS = 120        # samples of each screened reference step (quadratically spaced)
 PEAK_SAMPLES = 256       # ... and, of a sampled loop, every one of its first samples
+PEAK_BLOCK = 16          # ... as blocks of this many samples (a divisor of PEAK_SAMPLES)
 STEP_HORIZON = 10.0      # ... up to this many time constants of the slowest mode
 UNSTABLE = 1e3           # the violation of an unstable loop (plus its abscissa)
 # each bound's plant factor and controller factor: |a S|, |b R|, |a R|, |b S|, |b Vt r0|
@@ -730,11 +732,8 @@ def _modal_steps(poles, lead, fy, fu, ts, h=None):
         peak = y.max(axis=2)
         if h is not None:     # every one of the first samples: the peak of a loop that rings
             # near Nyquist falls between the grid's samples
-            zk = np.empty(rate.shape + (PEAK_SAMPLES,), complex)   # z_i^k, k < PEAK_SAMPLES
-            zk[..., 0] = 1.0
-            zk[..., 1:] = np.exp(rate * h)[..., None]
-            np.cumprod(zk, axis=-1, out=zk)
-            peak = np.maximum(peak, output(zk).max(axis=2))
+            first = first_samples(cy, np.exp(rate * h))
+            peak = np.maximum(peak, ((y_inf[..., None] + first) / y_inf[..., None]).max(axis=2))
         o = np.where(ok, peak - 1.0, 0.0)
         over = o.max(axis=1)
         if ts.overshoot is not None:
@@ -753,6 +752,50 @@ def _modal_steps(poles, lead, fy, fu, ts, h=None):
             pk = np.abs(u).max(axis=2).max(axis=1) * ts.step_um
             excess += np.where(np.isfinite(pk), np.maximum(pk / ts.u_max - 1.0, 0.0), 0.0)
     return excess, over
+
+
+def first_samples(c: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """``Re sum_i c_i z_i^k`` for ``k < PEAK_SAMPLES``: the modal sum at a sampled loop's
+    first samples, in blocks of ``k = B a + b`` (``B = PEAK_BLOCK``).
+
+    ``sum_i (c_i z_i^(B a)) z_i^b`` is one matrix product per candidate and model, of the
+    weights times the block powers ``z^(B a)`` (rows ``a``) with the powers ``z^b`` within
+    a block (columns ``b``): ``B + PEAK_SAMPLES / B`` powers per mode, not
+    ``PEAK_SAMPLES``, and no array of every mode at every sample.
+
+    Parameters
+    ----------
+    c : numpy.ndarray
+        ``(K, M, n)`` complex weights.
+    z : numpy.ndarray
+        ``(K, M, n)`` complex modes (``z_i`` per sample).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(K, M, PEAK_SAMPLES)`` real.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> z = np.array([[[0.9 + 0.1j, 0.5 + 0j]]])
+    >>> c = np.array([[[1.0 + 2.0j, -0.5 + 0j]]])
+    >>> k = np.arange(PEAK_SAMPLES)
+    >>> direct = (c[..., None] * z[..., None] ** k).sum(axis=2).real
+    >>> bool(np.allclose(first_samples(c, z), direct, rtol=1e-12, atol=1e-12))
+    True
+    """
+    B = PEAK_BLOCK
+    within = np.empty(z.shape + (B,), complex)                  # z^b, b < B
+    within[..., 0] = 1.0
+    within[..., 1:] = z[..., None]
+    np.cumprod(within, axis=-1, out=within)
+    blocks = np.empty(z.shape + (PEAK_SAMPLES // B,), complex)  # z^(B a)
+    blocks[..., 0] = 1.0
+    blocks[..., 1:] = (within[..., -1] * z)[..., None]
+    np.cumprod(blocks, axis=-1, out=blocks)
+    rows = np.swapaxes(c[..., None] * blocks, -1, -2)          # (K, M, A, n)
+    return np.matmul(rows, within).real.reshape(z.shape[:2] + (PEAK_SAMPLES,))
 
 
 def quadratic_powers(rate: np.ndarray, t_end: np.ndarray) -> np.ndarray:

@@ -412,6 +412,29 @@ def test_quadratic_powers_equal_the_exponential_on_the_step_grid():
     assert not np.isfinite(out[0, 0, 0]).all() and not np.isfinite(out[1, 2, 3]).any()
 
 
+def test_first_samples_equal_the_powers_sample_by_sample():
+    """The screened sampled steps' first samples (blocks of powers, one matrix product)
+    against the modal sum taken power by power with numpy: modes from slow to near
+    Nyquist (``|z|`` up to 0.999, angles up to pi), real and complex weights, to 1e-12 of
+    the weights' size; a mode that is not finite makes its samples after the first (``z^0 =
+    1``) not finite."""
+    from robrst.synthesis._screen import PEAK_SAMPLES, first_samples
+
+    rng = np.random.default_rng(11)
+    K, M, n = 20, 5, 6
+    z = rng.uniform(0.2, 0.999, (K, M, n)) * np.exp(1j * rng.uniform(-np.pi, np.pi, (K, M, n)))
+    z[:, :, 0] = z[:, :, 0].real            # a real mode in every loop
+    c = rng.normal(size=(K, M, n)) + 1j * rng.normal(size=(K, M, n))
+    k = np.arange(PEAK_SAMPLES)
+    ref = np.stack([np.sum(c * z ** j, axis=2).real for j in k], axis=-1)
+    got = first_samples(c, z)
+    assert got.shape == (K, M, PEAK_SAMPLES)
+    assert np.max(np.abs(got - ref)) < 1e-12 * np.max(np.abs(c)) * n
+    z[0, 0, 1] = np.nan
+    with np.errstate(all="ignore"):
+        assert not np.isfinite(first_samples(c, z)[0, 0, 1:]).any()
+
+
 def test_the_symbolic_pole_map_places_the_nominal_poles():
     """``PoleSpace.symbolic`` (the CasADi map the polish over the poles solves through),
     evaluated at points of the box, names controllers whose nominal closed loop on the
