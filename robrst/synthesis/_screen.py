@@ -720,20 +720,19 @@ def _modal_steps(poles, lead, fy, fu, ts, h=None):
         tau = t_end[..., None] * tgrid                                  # (K, M, T)
         if h is not None:                                               # at the samples
             tau = np.round(tau / h) * h
-        def output(e):        # the unit step's output at the modes' values e (K, M, n, T)
-            return (y_inf[..., None] + _weigh(cy, e)) / y_inf[..., None]
+        def output(modal):    # the unit step's output from its modes' sum (K, M, T)
+            return (y_inf[..., None] + modal) / y_inf[..., None]
 
         if h is None:
             e = quadratic_powers(rate, t_end)                          # (K, M, n, T)
         else:
             e = np.exp(rate[..., None] * tau[..., None, :])
-        y = output(e)
+        y = output(_weigh(cy, e))
         ok = np.all(np.isfinite(y), axis=2)
         peak = y.max(axis=2)
         if h is not None:     # every one of the first samples: the peak of a loop that rings
             # near Nyquist falls between the grid's samples
-            first = first_samples(cy, np.exp(rate * h))
-            peak = np.maximum(peak, ((y_inf[..., None] + first) / y_inf[..., None]).max(axis=2))
+            peak = np.maximum(peak, output(first_samples(cy, np.exp(rate * h))).max(axis=2))
         o = np.where(ok, peak - 1.0, 0.0)
         over = o.max(axis=1)
         if ts.overshoot is not None:
