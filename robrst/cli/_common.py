@@ -61,7 +61,7 @@ def is_saved_design(arg: str) -> bool:
 
 
 def design_result(arg: str, say: Callable[[str], None], problem: object = None,
-                  announce: bool = True) -> object:
+                  announce: bool = True, incumbent: object = None) -> object:
     """The design result of a command's ``PROBLEM`` argument.
 
     Parameters
@@ -76,6 +76,8 @@ def design_result(arg: str, say: Callable[[str], None], problem: object = None,
     announce : bool, optional
         Say "designing NAME (method)" before a design (``robrst design`` does not: a
         problem that fails before its design must print one line only).
+    incumbent : RSTController, optional
+        A controller the design is to beat (:func:`robrst.design.run_problem`).
 
     Returns
     -------
@@ -93,7 +95,7 @@ def design_result(arg: str, say: Callable[[str], None], problem: object = None,
     problem = problem or load_problem(arg)
     if announce:
         say(f"designing {problem.name} ({problem.solver.method})")
-    return run_problem(problem, progress=say)
+    return run_problem(problem, progress=say, incumbent=incumbent)
 
 
 def certified_exit(certified: bool, certificate: object) -> int:

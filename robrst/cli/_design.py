@@ -35,6 +35,11 @@ def add_parsers(sub: argparse._SubParsersAction) -> None:
                                                        " it to export, check, report, simulate,"
                                                        " certify)")
     d.add_argument("--quiet", action="store_true", help="no progress lines")
+    d.add_argument("--incumbent", metavar="DESIGN.json",
+                   help="a saved design whose controller the answer is to beat (the one in"
+                        " service, a tighter bound's answer): it starts the global phase, is"
+                        " certified and polished first, and the answer is never below it"
+                        " when it meets this problem's specs")
     _method_options(d)
     d.set_defaults(func=run_design)
     r = sub.add_parser("report", help="design, certify and write a report folder (md, html, PNG)")
@@ -92,10 +97,21 @@ def run_design(args: argparse.Namespace) -> int:
     if is_mimo_file(args.problem):
         return run_mimo_design(args)
     say = progress_printer(args.quiet or args.json)
+    incumbent = None
+    if args.incumbent is not None:
+        from robrst.controller.artefact import saved_controller
+
+        incumbent = saved_controller(args.incumbent)      # a bad file: one line, exit 2
     if is_saved_design(args.problem):
+        if incumbent is not None:
+            from robrst.base.errors import SpecError
+
+            raise SpecError(f"--incumbent: {args.problem} is a saved design, read back and"
+                            " not designed; give a problem file to design")
         result = design_result(args.problem, say, announce=False)
     else:        # an error stays one line
-        result = design_result(args.problem, say, _problem(args), announce=False)
+        result = design_result(args.problem, say, _problem(args), announce=False,
+                               incumbent=incumbent)
     return print_result(result, args.json)
 
 

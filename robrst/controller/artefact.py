@@ -35,6 +35,7 @@ from robrst.design import ARTEFACT_FORMAT, AnalyticCheck, Comparison, DesignResu
 from robrst.problem.files import FAMILY_TABLES, parse_problem
 
 __all__ = ["load_design", "read_design", "is_design_file", "design_from_dict", "recertify",
+           "saved_controller",
            "merge_problem", "StoredRecord"]
 
 MAX_BYTES = 200_000_000     # a saved design is a few hundred kB; refuse to read more
@@ -154,6 +155,29 @@ def _controller(path, d):
     except (KeyError, TypeError, ValueError, SpecError) as exc:
         raise SpecError(f"{path}: [controller] expected R, S, T as lists of numbers ({exc})"
                         ) from None
+
+
+def saved_controller(path: str | os.PathLike) -> RSTController:
+    """The controller of a saved design, as saved (no certificate computed).
+
+    Parameters
+    ----------
+    path : str or Path
+        The JSON of ``robrst design --json`` (or a report's ``result.json``).
+
+    Returns
+    -------
+    RSTController
+
+    Raises
+    ------
+    SpecError
+        Naming the file: not a saved design, or its ``controller`` not ``R``, ``S``, ``T``
+        lists of numbers.
+    """
+    doc = read_design(path)
+    ctrl = doc["controller"]
+    return _controller(path, ctrl if isinstance(ctrl, dict) else {})
 
 
 def design_from_dict(doc: dict, path: str = "<design>", problem: object = None,

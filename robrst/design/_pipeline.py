@@ -26,6 +26,7 @@ from robrst.synthesis.feasibility import (feasibility_verdict, prove_infeasible,
 from robrst.synthesis.limits import design_limits
 
 if TYPE_CHECKING:
+    from robrst.core.rst import RSTController
     from robrst.design.result import DesignResult
     from robrst.problem.records import Problem
 
@@ -39,7 +40,8 @@ SKIPPED = ("the synthesis was skipped (no controller meets the specs: the proof 
 def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
                 templates: dict | None = None, analyses: bool = True,
                 multistart: bool | None = None,
-                stop: Callable[[], bool] | None = None) -> DesignResult:
+                stop: Callable[[], bool] | None = None,
+                incumbent: RSTController | DesignResult | None = None) -> DesignResult:
     """Run the design the problem asks for, certify it, analyse every family model.
 
     A synthesis always ends with a controller: when the specs cannot be met the result
@@ -77,6 +79,13 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
         Polled once per generation of the global phase and per certification round
         (default :func:`robrst.base.interrupt.requested`): true ends the design with the
         best point found so far (certified for what it achieves).
+    incumbent : RSTController or DesignResult, optional
+        A controller to beat (a design's controller: the one in service, or the answer of
+        a tighter bound), of the problem's structure, for the robust program
+        (``method = "nlp"``). With the global phase it starts the search's first run, is
+        certified as it is and polished first: when it meets the specs the answer is never
+        below it (a scan of a bound that hands each answer to the next looser one is
+        monotone). Without the global phase it starts the local run.
 
     Returns
     -------
@@ -85,7 +94,9 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
     Raises
     ------
     SpecError, CoprimeError, DegreeError
-        Ill-posed problems (the message names the cause and the key to change).
+        Ill-posed problems (the message names the cause and the key to change), and an
+        incumbent the problem cannot take (another structure, another method, a
+        ``[spread]``).
 
     Examples
     --------
@@ -97,6 +108,7 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
     if multistart is None:
         multistart = problem.solver.multistart
     problem = with_defaults(problem)
+    incumbent = _incumbent(problem, incumbent)
     with one_blas_thread(problem.needs_scipy):
         proofs = infeasibility(problem)
         if proofs:     # no linear controller meets the specs: the start design is the answer
@@ -111,7 +123,7 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
             result = fleet_design(problem, progress, templates, analyses, multistart)
         else:
             result = design_single(problem, progress, templates, analyses, multistart,
-                                   stop=stop)
+                                   stop=stop, incumbent=incumbent)
         if not analyses:
             if proofs:   # the proof stands without the analyses (the limits are not stated)
                 return replace(result, feasibility=replace(feasibility_verdict(
@@ -122,6 +134,29 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
         if proofs and verdict is not None:
             verdict = replace(verdict, note=SKIPPED)
         return replace(result, objective_bound=bound, feasibility=verdict)
+
+
+def _incumbent(problem, given):
+    """The controller of ``given`` (a controller or a design) checked against ``problem``:
+    the robust program's, no spread, the problem's structure (a :class:`SpecError` naming
+    what differs)."""
+    if given is None:
+        return None
+    from robrst.base.errors import SpecError
+    from robrst.design.candidate import analytic_design
+    from robrst.synthesis.robust import incumbent_fits
+
+    ctrl = getattr(given, "controller", given)
+    if problem.solver.method != "nlp":
+        raise SpecError(f"incumbent: the robust program starts from it ([solver] method ="
+                        f' "nlp"); this problem\'s method is {problem.solver.method!r}')
+    if problem.spread is not None:
+        raise SpecError("incumbent: a problem with a [spread] is designed round by round"
+                        " for its actuators; design it without an incumbent")
+    why = incumbent_fits(problem, analytic_design(problem), ctrl)
+    if why is not None:
+        raise SpecError(f"incumbent: not a controller of this problem's structure ({why})")
+    return ctrl
 
 
 def infeasibility(problem: Problem) -> tuple:

@@ -51,7 +51,8 @@ def analyse(problem: Problem, ctrl: RSTController) -> tuple:
 def design_single(problem: Problem, progress: Callable[[str], None] | None = None,
                   templates: dict | None = None, analyses: bool = True,
                   multistart: bool = False, warm: SynthesisResult | None = None,
-                  compare: bool = True, stop: Callable[[], bool] | None = None) -> DesignResult:
+                  compare: bool = True, stop: Callable[[], bool] | None = None,
+                  incumbent: RSTController | None = None) -> DesignResult:
     """:func:`robrst.design.run_problem` of a problem without a spread (its BLAS limited
     by the caller).
 
@@ -76,6 +77,9 @@ def design_single(problem: Problem, progress: Callable[[str], None] | None = Non
     stop : callable, optional
         Polled once per generation of the global phase and per certification round
         (default :func:`robrst.base.interrupt.requested`).
+    incumbent : RSTController, optional
+        A controller of the problem's structure the answer is to beat (``method = "nlp"``;
+        :func:`robrst.design.run_problem` checks it).
 
     Returns
     -------
@@ -98,7 +102,8 @@ def design_single(problem: Problem, progress: Callable[[str], None] | None = Non
         glob = method == "nlp" and multistart and problem.solver.starts > 0
         t0 = time.perf_counter()
         stage, ctrl, trk, cert = candidate(problem, problem, False, start, say, templates,
-                                           warm=warm, global_phase=glob, stop=stop)
+                                           warm=warm, global_phase=glob, stop=stop,
+                                           incumbent=incumbent)
         if glob:
             starts = multistart_record(stage, time.perf_counter() - t0)
         offer_candidate(problem, ctrl, cert)

@@ -153,7 +153,8 @@ def candidate(problem: Problem, original: Problem, recheck: bool = False,
               start: AnalyticDesign | None = None, say: Callable[[str], None] | None = None,
               templates: dict | None = None, budget: int | None = None,
               warm: object = None, global_phase: bool = False,
-              stop: Callable[[], bool] | None = None) -> tuple:
+              stop: Callable[[], bool] | None = None,
+              incumbent: RSTController | None = None) -> tuple:
     """One synthesis of ``problem`` judged on ``original``, its reference path and its
     certificate completed by the time-domain figures.
 
@@ -185,6 +186,9 @@ def candidate(problem: Problem, original: Problem, recheck: bool = False,
         Polled once per generation of the global phase and per certification round
         (default :func:`robrst.base.interrupt.requested`): true ends the synthesis with
         the best point found so far.
+    incumbent : RSTController, optional
+        A controller of the problem's structure the answer is to beat
+        (:func:`robrst.synthesis.robust.robust_synthesis`).
 
     Returns
     -------
@@ -202,7 +206,7 @@ def candidate(problem: Problem, original: Problem, recheck: bool = False,
         stage = convex_synthesis(problem, start, say)
     else:
         stage = robust_synthesis(problem, start, say, templates, warm=warm, budget=budget,
-                                 global_phase=global_phase, stop=stop)
+                                 global_phase=global_phase, stop=stop, incumbent=incumbent)
     ctrl, cert = stage.controller, stage.certificate
     if recheck:
         from robrst.synthesis.attempts import frequency_certificate

@@ -86,6 +86,7 @@ def merged_notes(notes: Sequence[str]) -> tuple[str, ...]:
 
 WARM_START = "previous design"   # the name of that start (robrst.synthesis.robust hands it down)
 GLOBAL_START = "global run"      # the global phase's candidates (near-optimal starts)
+INCUMBENT = "the incumbent"      # a controller the caller asks the answer to beat
 
 
 @dataclass(frozen=True)
@@ -414,6 +415,9 @@ class Run:
         The global phase's candidates and the problem's own placement, as they ended.
     global_phase : bool
         The freely placed poles are searched globally (:mod:`robrst.synthesis.robust`).
+    incumbent : RSTController or None
+        A controller the answer is to beat (the caller's): a start of the freely placed
+        poles' solves and, with the global phase, certified as it is and polished first.
     rows_first : bool
         The linearised rows (reference-step samples, roots near a floor) join the first
         solve with freely placed poles (a polish from a near-optimal start).
@@ -445,6 +449,7 @@ class Run:
         self.stop = stop or requested      # a signal (robrst.base.interrupt) stops too
         self.search, self.tried = None, []
         self.global_phase = False
+        self.incumbent = None
         self.rows_first = False
         self.floor = None
         self.pole_space = None
@@ -498,7 +503,7 @@ class Run:
         SolveResult
         """
         ipopt = ctx.ipopt
-        if start == WARM_START or start.startswith(GLOBAL_START):
+        if start == WARM_START or start.startswith((GLOBAL_START, INCUMBENT)):
             ipopt = {**ipopt, "mu_init": RUN.warm_mu}   # a near-optimal start: a small barrier
         # the homotopy may pose the very same program again (same data, start and options):
         # the solves are deterministic, so its result is reused

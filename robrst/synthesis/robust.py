@@ -42,7 +42,7 @@ import numpy as np
 
 from robrst.core import poly
 from robrst.base.errors import RobrstError
-from robrst.synthesis.attempts import (WARM_START, Outcome, Run, objective_value,
+from robrst.synthesis.attempts import (INCUMBENT, WARM_START, Outcome, Run, objective_value,
                                        program_models, merged_notes, refine)
 from robrst.synthesis.context import BOUND_MARGIN, Context, strip_note
 from robrst.synthesis._nlp import objective_rows
@@ -57,9 +57,10 @@ from robrst.synthesis.tracking import (CANCEL_FLOOR, meets_time_specs, time_spec
 
 if TYPE_CHECKING:
     from robrst.problem.records import Problem
+    from robrst.core.rst import RSTController
     from robrst.synthesis.analytic import AnalyticDesign
 
-__all__ = ["robust_synthesis", "a_priori_note", "BOUND_MARGIN", "worst_violation",
+__all__ = ["robust_synthesis", "incumbent_fits", "a_priori_note", "BOUND_MARGIN", "worst_violation",
            "best_achievable", "PolishOptions", "POLISH"]
 
 NEAR_MISS = 1.5   # on failure, lower degrees are tried when the specs are missed by <= 50 %
@@ -133,6 +134,9 @@ def _synthesize(problem, start, run, extra, lower=None):
                           else [])
         if warm is not None and _ORDER[warm[0]] <= _ORDER[placement]:
             seeded = [warm[1]] + seeded
+        if run.incumbent is not None and placement == "free" and not glob \
+                and extra == problem.controller.extra_degree:
+            seeded = [(INCUMBENT, _incumbent_x(ctx, run.incumbent))] + seeded
         if glob and placement == "free":
             out = _global(ctx, run, seeded, best, start)
         else:
@@ -301,6 +305,9 @@ def _global(ctx, run, seeds, best, start):
     if best is not None:
         named.append((f"the problem's poles ({best.placement})", best.x[:ctx.param.n_x]))
     named += integral_seeds(ctx)     # the classical loops: a PI may sit on the optimum
+    given = _incumbent_x(ctx, run.incumbent)
+    if given is not None:      # the caller's controller: the first run may start from it
+        named.insert(0, (INCUMBENT, given))
     res = global_search(screen, space, named, stop=run.stop, say=run.say)
     run.search = res
     run.say(f"global phase: {res.evaluations} candidates in {res.generations} generations"
@@ -308,21 +315,27 @@ def _global(ctx, run, seeds, best, start):
     # within the search's own margins of the specs (a start that meets them exactly, the
     # problem's PI) the certificate decides too
     feasible = [c for c in res.candidates if c.violation <= POLISH.screen_slack]
-    if not feasible:
+    outs, polished, polishes = [], [], []
+    if given is not None:      # certified as it is and polished first: never lost
+        _from_incumbent(ctx, run, setup, given, outs, polishes)
+        theta = space.point(given)
+        if theta is not None:  # the search's candidate at the same point: not polished again
+            polished.append(theta)
+    if not feasible and not any(o.certified for o in outs):
         run.notes.append("global phase: no candidate met the specs on the grid; the soft"
                          " phase from its best points")
         return run.attempt(ctx, "free", seeds + [(c.name, c.xc) for c in
                                                  res.candidates[:POLISH.soft_seeds]])
-    outs, polished, polishes = [], [], []
     n_top = 1 + max(0, p.solver.starts)
     # the best few, then each run's best, each screened within share of the best (an
     # objective that is a positive size)
     least = (POLISH.share * _screened_value(p, ctx, feasible[0])
-             if p.solver.objective == "max_integral_gain" else -np.inf)
+             if feasible and p.solver.objective == "max_integral_gain" else -np.inf)
     chosen = [(i < n_top, c) for i, c in enumerate(feasible) if i == 0 or (
         (i < n_top or c.run) and _screened_value(p, ctx, c) >= least)]
+    n_given = len(outs)
     for first, c in chosen:
-        if run.spent("free") and outs:
+        if run.spent("free") and len(outs) > n_given:
             break
         seen = bool(polished) and min(np.max(np.abs(c.theta - t)) for t in polished) \
             < POLISH.distinct
@@ -395,6 +408,59 @@ def _polished(ctx, run, base, name, how="polished"):
             run.notes.append(_walk_note(p, name, out, walked, base))
             out, label = walked, f"{how}, walked back into the specs"
     return out, label, notes
+
+
+def _incumbent_x(ctx, ctrl):
+    """The coefficients of the caller's controller ``ctrl`` in this structure (``None``: no
+    incumbent; the caller checked that it fits, :func:`incumbent_fits`)."""
+    return None if ctrl is None else ctx.param.vector(ctrl)
+
+
+def incumbent_fits(problem: Problem, start: AnalyticDesign, ctrl: RSTController) -> str | None:
+    """Why the controller ``ctrl`` cannot be an incumbent of ``problem``'s robust synthesis
+    (its structure: degrees, fixed parts), or ``None`` when it can.
+
+    Parameters
+    ----------
+    problem : Problem
+    start : AnalyticDesign
+        The analytic design at the problem's poles.
+    ctrl : RSTController
+
+    Returns
+    -------
+    str or None
+    """
+    try:
+        Context.of(problem, start).param.vector(ctrl)
+    except RobrstError as exc:
+        deg = lambda c: (len(np.trim_zeros(np.asarray(c.R, float), "f")) - 1,  # noqa: E731
+                         len(np.trim_zeros(np.asarray(c.S, float), "f")) - 1)
+        (rg, sg), (rw, sw) = deg(ctrl), deg(start.controller)
+        return (f"{exc}: R of degree {rg} and S of degree {sg}, where this problem's"
+                f" [controller] gives R of degree {rw} and S of degree {sw} with its fixed"
+                " factors")
+    return None
+
+
+def _from_incumbent(ctx, run, setup, given, outs, polishes):
+    """The caller's controller (coefficients ``given``) certified as it is and, when it
+    meets the specs, polished first (its objective kept, :func:`_polished`): both join
+    ``outs``, so the global phase never answers below a given controller that meets them."""
+    p = ctx.problem
+    as_is = run.outcome(ctx, setup, None, "start", x=ctx.full(given, setup))
+    run.tried.append((f"{INCUMBENT}, as given", as_is))
+    outs.append(as_is)
+    if not _meets_specs(p, as_is) or run.stop():
+        run.notes.append(f"global phase: {INCUMBENT} does not meet the specs as given"
+                         f" ({best_achievable(as_is.cert) or 'its reference step'});"
+                         " it started the first run")
+        return
+    out, label, notes = _polished(ctx, run, as_is, INCUMBENT)
+    polishes.append((INCUMBENT, _gained(p, as_is, out), notes))
+    if out is not None:
+        run.tried.append((f"{INCUMBENT}, {label}", out))
+        outs.append(out)
 
 
 def _gained(problem, base, out):
@@ -710,7 +776,8 @@ def robust_synthesis(problem: Problem, start: AnalyticDesign,
                      progress: Callable[[str], None] | None = None, templates: dict | None = None,
                      warm: SynthesisResult | None = None,
                      budget: int | None = None, global_phase: bool = False,
-                     stop: Callable[[], bool] | None = None) -> SynthesisResult:
+                     stop: Callable[[], bool] | None = None,
+                     incumbent: RSTController | None = None) -> SynthesisResult:
     """Synthesise, certify and always return a controller; see the module docstring.
 
     Parameters
@@ -738,6 +805,11 @@ def robust_synthesis(problem: Problem, start: AnalyticDesign,
     stop : callable, optional
         Checked once per generation of the global phase and per certification round:
         true returns the best point found so far.
+    incumbent : RSTController, optional
+        A controller of the problem's structure (:func:`incumbent_fits`) the answer is to
+        beat: with the global phase it starts the search's first run, is certified as it
+        is and polished first, and the answer is never below it when it meets the specs;
+        without, it is a start of the freely placed poles' local run.
 
     Returns
     -------
@@ -747,6 +819,7 @@ def robust_synthesis(problem: Problem, start: AnalyticDesign,
     say = progress or (lambda m: None)
     run = Run(problem, say, {} if templates is None else templates, warm, budget, stop)
     run.global_phase = global_phase
+    run.incumbent = incumbent
     t0 = time.perf_counter()
     note = a_priori_note(problem)
     if note:
