@@ -99,9 +99,9 @@ def run_design(args: argparse.Namespace) -> int:
     say = progress_printer(args.quiet or args.json)
     incumbent = None
     if args.incumbent is not None:
-        from robrst.controller.artefact import saved_controller
+        from robrst.controller.artefact import saved_feedback
 
-        incumbent = saved_controller(args.incumbent)      # a bad file: one line, exit 2
+        incumbent = saved_feedback(args.incumbent)      # a bad file: one line, exit 2
     if is_saved_design(args.problem):
         if incumbent is not None:
             from robrst.base.errors import SpecError

@@ -35,7 +35,7 @@ from robrst.design import ARTEFACT_FORMAT, AnalyticCheck, Comparison, DesignResu
 from robrst.problem.files import FAMILY_TABLES, parse_problem
 
 __all__ = ["load_design", "read_design", "is_design_file", "design_from_dict", "recertify",
-           "saved_controller",
+           "saved_feedback",
            "merge_problem", "StoredRecord"]
 
 MAX_BYTES = 200_000_000     # a saved design is a few hundred kB; refuse to read more
@@ -157,8 +157,10 @@ def _controller(path, d):
                         ) from None
 
 
-def saved_controller(path: str | os.PathLike) -> RSTController:
-    """The controller of a saved design, as saved (no certificate computed).
+def saved_feedback(path: str | os.PathLike) -> RSTController:
+    """The feedback law of a saved design (no certificate computed): its controller as
+    saved, and for a 2-DOF design (``tracking``) its ``R`` and ``S`` divided by the
+    reference model's denominator, their common factor (``T = R``).
 
     Parameters
     ----------
@@ -172,12 +174,26 @@ def saved_controller(path: str | os.PathLike) -> RSTController:
     Raises
     ------
     SpecError
-        Naming the file: not a saved design, or its ``controller`` not ``R``, ``S``, ``T``
-        lists of numbers.
+        Naming the file: not a saved design, its ``controller`` not ``R``, ``S``, ``T``
+        lists of numbers, or its ``tracking.reference_den`` not a factor of both.
     """
     doc = read_design(path)
     ctrl = doc["controller"]
-    return _controller(path, ctrl if isinstance(ctrl, dict) else {})
+    c = _controller(path, ctrl if isinstance(ctrl, dict) else {})
+    trk = doc.get("tracking")
+    if not isinstance(trk, dict) or trk.get("reference_den") is None:
+        return c
+    try:
+        den = np.asarray(trk["reference_den"], float)
+        (R, rr), (S, rs) = np.polydiv(c.R, den), np.polydiv(c.S, den)
+    except (TypeError, ValueError) as exc:
+        raise SpecError(f"{path}: [tracking] reference_den expected a list of numbers"
+                        f" ({exc})") from None
+    if np.max(np.abs(rr), initial=0.0) > 1e-6 * np.max(np.abs(c.R)) or \
+            np.max(np.abs(rs), initial=0.0) > 1e-6 * np.max(np.abs(c.S)):
+        raise SpecError(f"{path}: [tracking] reference_den does not divide the controller's"
+                        " R and S (expected their common factor)")
+    return RSTController(R, S, R)
 
 
 def design_from_dict(doc: dict, path: str = "<design>", problem: object = None,

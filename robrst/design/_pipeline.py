@@ -146,7 +146,10 @@ def _incumbent(problem, given):
     from robrst.design.candidate import analytic_design
     from robrst.synthesis.robust import incumbent_fits
 
-    ctrl = getattr(given, "controller", given)
+    # a design's feedback law as synthesised (a 2-DOF design's R and S without the
+    # reference model's common factor)
+    stage = getattr(given, "synthesis", None)
+    ctrl = stage.controller if stage is not None else getattr(given, "controller", given)
     if problem.solver.method != "nlp":
         raise SpecError(f"incumbent: the robust program starts from it ([solver] method ="
                         f' "nlp"); this problem\'s method is {problem.solver.method!r}')
