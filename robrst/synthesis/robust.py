@@ -463,7 +463,7 @@ def _from_incumbent(ctx, run, setup, given, outs, polishes):
     if not _meets_specs(p, as_is) or run.stop():
         run.notes.append(f"global phase: {INCUMBENT} does not meet the specs as given"
                          f" ({best_achievable(as_is.cert) or 'its reference step'});"
-                         " it started the first run")
+                         " it is a start of the search only")
         return
     out, label, notes = _polished(ctx, run, as_is, INCUMBENT)
     polishes.append((INCUMBENT, _gained(p, as_is, out), notes))
