@@ -244,12 +244,6 @@ class PolishOptions:
         by this many bisection steps (:func:`_walked_back`).
     floor_slack : float
         A polish keeps its start's integral gain but for this share (rounding).
-    again : int
-        The best answer of the global phase is polished again from where it ended (the
-        program rescaled there, a fresh trust region and iteration budget) at most this
-        many times ...
-    again_gain : float
-        ... while each polish gains at least this share of the objective.
     """
 
     rescale: bool = True
@@ -265,8 +259,6 @@ class PolishOptions:
     soft_seeds: int = 3
     walk_steps: int = 6
     floor_slack: float = 1e-3
-    again: int = 1
-    again_gain: float = 0.01
 
 
 POLISH = PolishOptions()
@@ -383,7 +375,6 @@ def _global(ctx, run, seeds, best, start):
         if out is not None:
             run.tried.append((f"{c.name}, {label}", out))
             outs.append(out)
-    _polish_again(ctx, run, outs)
     run.notes += _polish_notes(polishes)
     certified = sorted((o for o in outs if o.certified),
                        key=lambda o: -objective_value(p, o))
@@ -470,37 +461,6 @@ def _from_incumbent(ctx, run, setup, given, outs, polishes):
     if out is not None:
         run.tried.append((f"{INCUMBENT}, {label}", out))
         outs.append(out)
-
-
-def _polish_again(ctx, run, outs):
-    """The best answer in ``outs`` (certified, its step within the time-domain specs, its
-    objective counted) polished again from where it ended, with a fresh iteration budget
-    (:meth:`Run.grant`), while each polish gains ``POLISH.again_gain`` and at most
-    ``POLISH.again`` times; each outcome joins ``outs``.  A polish ends at its iteration
-    limit, its trust region's edge or a point the exchange's grid no longer holds; from its
-    end, rescaled there, the program often goes far on."""
-    p = ctx.problem
-    if p.solver.objective == "feasibility":
-        return
-    for k in range(POLISH.again):
-        counting = [o for o in outs if _counts(p, o)]
-        if not counting or run.stop() or run.strict:
-            return
-        best = max(counting, key=lambda o: objective_value(p, o))
-        name = next((n for n, o in reversed(run.tried) if o is best), "the best answer")
-        name = name.split(", ")[0]            # the candidate, without how it ended
-        run.grant("free")
-        how = "polished again" + (f" ({k + 1})" if k else "")
-        out, label, _ = _polished(ctx, run, best, name, how)
-        if out is None:
-            return
-        run.tried.append((f"{name}, {label}", out))
-        outs.append(out)
-        before, after = objective_value(p, best), objective_value(p, out)
-        if not (_counts(p, out) and after - before >= POLISH.again_gain * abs(before)):
-            return
-        run.notes.append(f"global phase: the answer polished again from where its polish"
-                         f" ended: {abs(before):.6g} -> {abs(after):.6g}")
 
 
 def _gained(problem, base, out):
