@@ -4,7 +4,8 @@ Each design of a scan is a local optimum of a non-convex program: designed one b
 looser bound may end at a worse optimum than a tighter one, and a tighter bound may miss a
 design of a looser one that meets it too.  :func:`bound_scan` designs the values from the
 tightest to the loosest and hands every answer to the next one (the tighter problem's
-answer meets the looser bound: it is a candidate, certified on the looser problem), then
+answer meets the looser bound: the robust program's incumbent, a start of its design, and
+a candidate certified on the looser problem), then
 walks back from the loosest and keeps, for every tighter bound, the best answer of a
 looser one that it certifies there.  So:
 
@@ -93,7 +94,9 @@ def bound_scan(problem: Problem, key: str, values: Sequence[float],
     probs = [replace(problem, specs=replace(problem.specs, **{key: v})) for v in vals]
     points = []
     for i, (v, p) in enumerate(zip(vals, probs)):      # tight -> loose
-        res = run_problem(p, analyses=False, multistart=multistart)
+        given = (points[-1].result if points and points[-1].objective is not None
+                 and p.solver.method == "nlp" and p.spread is None else None)
+        res = run_problem(p, analyses=False, multistart=multistart, incumbent=given)
         best = ScanPoint(v, res, objective(p, res.controller, res.certificate), "designed")
         if points and points[-1].objective is not None:
             prev = _on(p, points[-1].result)

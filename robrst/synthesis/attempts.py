@@ -479,6 +479,20 @@ class Run:
             return total > self.budget
         return sum(r.iterations for r in self.rounds if r.placement == placement) > self.budget
 
+    def grant(self, placement: str) -> None:
+        """A fresh iteration budget for what follows: ``RUN.iter_budget`` beyond the
+        iterations the rounds of ``placement`` used so far (none for an extra start of a
+        multi-start, whose budget is a hard stop).
+
+        Parameters
+        ----------
+        placement : str
+            The placement whose rounds count.
+        """
+        if not self.strict:
+            used = sum(r.iterations for r in self.rounds if r.placement == placement)
+            self.budget = max(self.budget, used + RUN.iter_budget)
+
     def solve(self, ctx: Context, setup: NLPSetup, x0: np.ndarray, phase: Phase, start: str,
               exact: bool = False) -> SolveResult:
         """One program by constraint exchange (trust regions with freely placed poles).

@@ -134,15 +134,17 @@ def _synthesize(problem, start, run, extra, lower=None):
                           else [])
         if warm is not None and _ORDER[warm[0]] <= _ORDER[placement]:
             seeded = [warm[1]] + seeded
-        if run.incumbent is not None and placement == "free" and not glob \
-                and extra == problem.controller.extra_degree:
-            seeded = [(INCUMBENT, _incumbent_x(ctx, run.incumbent))] + seeded
+        given = _incumbent_x(ctx, run.incumbent) if placement == "free" and not glob else None
+        if given is not None:
+            seeded = [(INCUMBENT, given)] + seeded
         if glob and placement == "free":
             out = _global(ctx, run, seeded, best, start)
         else:
             # with the global phase to follow, the problem's own placement gets no soft phase
             out = run.attempt(ctx, placement, seeded,
                               soft=not (glob and "free" in placements))
+            if given is not None:
+                out = _kept(ctx, run, given, out)
             if glob and out is not None:
                 run.tried.append((f"the problem's poles ({placement})", out))
         if out is None:
@@ -244,6 +246,12 @@ class PolishOptions:
         by this many bisection steps (:func:`_walked_back`).
     floor_slack : float
         A polish keeps its start's integral gain but for this share (rounding).
+    again : int
+        The best answer of the global phase is polished again from where it ended (the
+        program rescaled there, a fresh trust region and iteration budget) at most this
+        many times ...
+    again_gain : float
+        ... while each polish gains at least this share of the objective.
     """
 
     rescale: bool = True
@@ -259,6 +267,8 @@ class PolishOptions:
     soft_seeds: int = 3
     walk_steps: int = 6
     floor_slack: float = 1e-3
+    again: int = 1
+    again_gain: float = 0.01
 
 
 POLISH = PolishOptions()
@@ -375,6 +385,7 @@ def _global(ctx, run, seeds, best, start):
         if out is not None:
             run.tried.append((f"{c.name}, {label}", out))
             outs.append(out)
+    _polish_again(ctx, run, outs)
     run.notes += _polish_notes(polishes)
     certified = sorted((o for o in outs if o.certified),
                        key=lambda o: -objective_value(p, o))
@@ -411,9 +422,15 @@ def _polished(ctx, run, base, name, how="polished"):
 
 
 def _incumbent_x(ctx, ctrl):
-    """The coefficients of the caller's controller ``ctrl`` in this structure (``None``: no
-    incumbent; the caller checked that it fits, :func:`incumbent_fits`)."""
-    return None if ctrl is None else ctx.param.vector(ctrl)
+    """The coefficients of the caller's controller ``ctrl`` in this structure; ``None``
+    without an incumbent, and at a lower degree of the homotopy (the caller checked that it
+    fits the problem's own structure, :func:`incumbent_fits`)."""
+    if ctrl is None:
+        return None
+    try:
+        return ctx.param.vector(ctrl)
+    except RobrstError:
+        return None
 
 
 def incumbent_fits(problem: Problem, start: AnalyticDesign, ctrl: RSTController) -> str | None:
@@ -461,6 +478,54 @@ def _from_incumbent(ctx, run, setup, given, outs, polishes):
     if out is not None:
         run.tried.append((f"{INCUMBENT}, {label}", out))
         outs.append(out)
+
+
+def _kept(ctx, run, given, out):
+    """Without the global phase: the caller's controller (coefficients ``given``) certified
+    as it is, the answer when it meets the specs and the program's ``out`` is not certified
+    or worse (the program only started from it)."""
+    p = ctx.problem
+    setup = ctx.setup(program_models(p), ctx.nu, "free")
+    as_is = run.outcome(ctx, setup, None, "start", x=ctx.full(given, setup))
+    run.tried.append((f"{INCUMBENT}, as given", as_is))
+    if not _meets_specs(p, as_is):
+        return out
+    if out is None or not out.certified or _rank(p, as_is, True) > _rank(p, out, True):
+        run.notes.append(f"{INCUMBENT} as given is the answer: the program started from it"
+                         " ended below it")
+        return as_is
+    return out
+
+
+def _polish_again(ctx, run, outs):
+    """The best answer in ``outs`` (certified, its step within the time-domain specs, its
+    objective counted) polished again from where it ended, with a fresh iteration budget
+    (:meth:`Run.grant`), while each polish gains ``POLISH.again_gain`` and at most
+    ``POLISH.again`` times; each outcome joins ``outs``.  A polish ends at its iteration
+    limit, its trust region's edge or a point the exchange's grid no longer holds; from its
+    end, rescaled there, the program often goes far on."""
+    p = ctx.problem
+    if p.solver.objective == "feasibility":
+        return
+    for k in range(POLISH.again):
+        counting = [o for o in outs if _counts(p, o)]
+        if not counting or run.stop() or run.strict:
+            return
+        best = max(counting, key=lambda o: objective_value(p, o))
+        name = next((n for n, o in reversed(run.tried) if o is best), "the best answer")
+        name = name.split(", ")[0]            # the candidate, without how it ended
+        run.grant("free")
+        how = "polished again" + (f" ({k + 1})" if k else "")
+        out, label, _ = _polished(ctx, run, best, name, how)
+        if out is None:
+            return
+        run.tried.append((f"{name}, {label}", out))
+        outs.append(out)
+        before, after = objective_value(p, best), objective_value(p, out)
+        if not (_counts(p, out) and after - before >= POLISH.again_gain * abs(before)):
+            return
+        run.notes.append(f"global phase: the answer polished again from where its polish"
+                         f" ended: {abs(before):.6g} -> {abs(after):.6g}")
 
 
 def _gained(problem, base, out):

@@ -69,7 +69,7 @@ def test_the_stage_file_designs_and_certifies():
     res = run_problem(problem)
     assert res.certified and res.status == "certified"
     R, S = res.controller.R, res.controller.S
-    assert S[-1] == 0.0 and round(R[-1] / S[-2]) == 1559573      # "integral gain 1,559,573"
+    assert S[-1] == 0.0 and round(R[-1] / S[-2]) == 1571365      # "integral gain 1,571,365"
     w = np.logspace(0, 6, 200_001)
     fs = problem.specs.sample_rate_hz
     z = np.exp(1j * np.linspace(1e-6, np.pi, 100_001))
@@ -82,5 +82,5 @@ def test_the_stage_file_designs_and_certifies():
         Pd = control.c2d(control.tf(m.B, m.A), 1 / fs, "zoh")
         Ld = (Pd * Kd)(z)
         ms_sampled.append(np.max(np.abs(1 / (1 + Ld))))
-    assert round(max(ms), 2) == 1.24 and round(max(ms_sampled), 2) == 1.71   # as stated
+    assert round(max(ms), 2) == 1.24 and round(max(ms_sampled), 2) == 1.70   # as stated
     assert max(ms) <= problem.specs.Ms_max and max(ms_sampled) <= problem.specs.Ms_max

@@ -112,3 +112,18 @@ def test_the_known_better_controller_as_incumbent_is_kept_or_beaten():
         assert S.max() <= sp.Ms_max * (1 + RTOL) and T.max() <= sp.Mt_max * (1 + RTOL)
         assert U.max() <= sp.Mu_max * (1 + RTOL)
         assert T[band].max() <= sp.T_resonance_max * (1 + RTOL)
+
+
+@pytest.mark.parametrize("starts", [0, 2])
+def test_the_homotopys_lower_degree_runs_without_it(starts):
+    """An incumbent of the problem's degree is no start of the homotopy's lower degree:
+    ``bound_scan`` handing each answer on stopped with "initial controller has the wrong
+    degrees" where a design fell back to ``extra_degree - 1`` (2026-12-04)."""
+    doc = DOC.format(ms=2.0) + f'homotopy = "always"\nstarts = {starts}\n'
+    problem = parse_problem(tomllib.loads(doc), "<homotopy>")
+    given = run_problem(_problem(1.4), analyses=False)
+    res = run_problem(problem, analyses=False, incumbent=given)
+    assert res.certified
+    assert _gain(res.controller) >= _gain(given.controller) * (1 - 1e-9)
+    Ms, Mu = _peaks(res.controller)
+    assert Ms <= 2.0 * (1 + RTOL) and Mu <= 20.0 * (1 + RTOL)

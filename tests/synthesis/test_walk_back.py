@@ -13,7 +13,9 @@ line runs it) the best candidate's polish ends outside the specs (integral gain 
 |T| 1.46 against 1.3 at a resonance between its grid's frequencies): its start (moved
 inside the specs) has integral gain 501,092, the best other certified outcome 496,361.
 Walked back it keeps 536,527; solved again from there on the grid the polish reached it
-ends 1.9 % outside at 593,075, walked back in turn to 584,521, the design's answer.  The answer is judged independently by
+ends outside again, walked back in turn to 564,735 (584,521 when this test was written);
+the answer polished again from there ends outside too and walks back to 567,278, the
+design's answer (2026-12-04).  The answer is judged independently by
 ``tests/global_reference.py`` (dense grids of the unscaled polynomials of every family
 member, continuous and sampled loops, reference steps by ``lfilter``).
 """
@@ -27,7 +29,9 @@ from robrst.problem.files import parse_problem
 from robrst.problem.records import with_defaults
 from stages_global import stage_doc
 
-WALKED = ", polished, walked back into the specs"
+BACK = ", walked back into the specs"
+WALKED = ", polished" + BACK
+AGAIN = ", polished again"
 
 
 def _designed(seed, order, ms):
@@ -57,11 +61,13 @@ def test_a_polish_outside_the_specs_keeps_its_certified_gain():
     assert said and all("ended outside the specs (" in n for n in said), res.synthesis.notes
     assert any("peak" in n for n in said), said
     assert not any("no polish improved" in n for n in res.synthesis.notes), res.synthesis.notes
-    # the walk decided the answer: above every outcome that was not walked back
-    others = [t[2] for n, t in tried.items() if t[1] == "certified" and not n.endswith(WALKED)]
+    # the walk decided the answer: above every outcome that was not walked back (the
+    # answer polished again from where its walk ended is walked back in turn)
+    back = [n for n in tried if n.endswith(BACK)]
+    others = [t[2] for n, t in tried.items() if t[1] == "certified" and n not in back]
     assert res.integral_gain > 1.02 * max(others), (res.integral_gain, others)
     assert any(abs(tried[n][2] - res.integral_gain) <= 1e-9 * res.integral_gain
-               for n in walked)
+               for n in back)
     # judged without robrst's numerical code, at the certificate's tolerance
     st = gr.setting(p, *gr.strip(p))
     st.rtol = p.solver.cert_tol
@@ -75,7 +81,8 @@ def test_a_polish_outside_the_strip_is_walked_back_inside_it():
     certified at IPOPT's acceptable level with a controller pole 10 % outside the program's
     strip (integral gain 627 k, a lag's, not counted); the answer was another polish's
     818 k against 828 k at ``Ms_max`` 1.75.  Walked back inside the strip and solved again
-    from there it reaches 825 k, the answer."""
+    from there it reaches 825 k, above every other polish; polished again (2026-12-04) the
+    answer is 828.6 k."""
     p, res, tried = _designed(11, 2, 2.0)
     walked = [name for name in tried if name.endswith(WALKED)]
     assert walked, list(tried)
@@ -86,9 +93,11 @@ def test_a_polish_outside_the_strip_is_walked_back_inside_it():
         assert tried[name][1] == "certified" and tried[name][2] > 0.0
     said = [n for n in res.synthesis.notes if "walked back to its last certified point" in n]
     assert said and all("outside the program's strip" in n for n in said), said
+    # above every other first polish; the answer polished again from there may add more
     others = [t[2] for n, t in tried.items() if t[1] == "certified" and t[2] is not None
-              and not n.endswith(WALKED)]
-    assert res.integral_gain > max(others), (res.integral_gain, others)
+              and not n.endswith(WALKED) and AGAIN not in n]
+    assert max(tried[n][2] for n in walked) > max(others), (walked, others)
+    assert res.integral_gain >= max(tried[n][2] for n in walked)
     assert res.integral_gain > 0.99 * 828_000          # the answer at Ms_max 1.75
     # judged without robrst's numerical code: the controller's slowest pole by numpy's
     # roots within the strip's 2 % slack, every spec at the certificate's tolerance
