@@ -398,19 +398,23 @@ def _global(ctx, run, seeds, best, start):
     return min(outs, key=lambda o: o.badness)
 
 
-def _polished(ctx, run, base, name, how="polished"):
+def _polished(ctx, run, base, name, how="polished", grid=None):
     """The polish of a candidate from its outcome ``base`` (as screened, or moved inside the
     specs): the program rescaled at it (``POLISH.rescale``), keeping its integral gain when
     it is certified (:func:`_floor`), backed off by its miss (:func:`_polish`), and walked
-    back into the specs when it ends outside them (:func:`_rescued`).  Returns the outcome
-    (``None``: nothing solved), its label in ``tried`` (``how``, and how it ended) and the
-    polish's notes."""
+    back into the specs when it ends outside them (:func:`_rescued`); ``grid``: the models
+    and frequencies to start from besides the rescaled program's own (an earlier polish's
+    :attr:`~robrst.synthesis.attempts.Outcome.grid`).  Returns the outcome (``None``:
+    nothing solved), its label in ``tried`` (``how``, and how it ended) and the polish's
+    notes."""
     p = ctx.problem
     near = ctx.around(base.ctrl) if POLISH.rescale else ctx     # scaled at the candidate
     polished_setup = near.setup(program_models(p), near.nu, "free")
     xr = near.full(near.param.vector(base.ctrl), polished_setup)
     floor = _floor(p, polished_setup, xr) if base.certified else None
-    out, notes, poles = _polish(near, run, xr, name, floor)
+    if grid is not None:
+        grid = (grid[0], np.union1d(near.nu, grid[1]))
+    out, notes, poles = _polish(near, run, xr, name, floor, grid)
     label = how
     if base.certified and out is not None and not _counts(p, out):
         walked = _rescued(near, run, polished_setup, xr, out, name, poles)
@@ -492,7 +496,7 @@ def _kept(ctx, run, given, out):
         return out
     if out is None or not out.certified or _rank(p, as_is, True) > _rank(p, out, True):
         run.notes.append(f"{INCUMBENT} as given is the answer: the program started from it"
-                         " ended below it")
+                         " ended below it or outside the specs")
         return as_is
     return out
 
@@ -516,7 +520,7 @@ def _polish_again(ctx, run, outs):
         name = name.split(", ")[0]            # the candidate, without how it ended
         run.grant("free")
         how = "polished again" + (f" ({k + 1})" if k else "")
-        out, label, _ = _polished(ctx, run, best, name, how)
+        out, label, _ = _polished(ctx, run, best, name, how, best.grid)
         if out is None:
             return
         run.tried.append((f"{name}, {label}", out))
@@ -567,13 +571,18 @@ def _rescued(ctx, run, setup, x0, out, name, poles_first=False):
     818 k) is walked back and solved again to 825 k."""
     p = ctx.problem
     walked = _walked_back(ctx, run, setup, x0, out)
+    if walked is not None and walked.grid is None:
+        walked = replace(walked, grid=out.grid)     # where the polish found the specs bind
     if walked is None or run.stop():
         return walked
     floor = _floor(p, setup, walked.x)
     again, _, _ = _hard_from(ctx, run, walked.x, f"{name}, from its walk back",
                              POLISH.backoff_iter, floor, out.grid, poles_first)
     if again is not None and not _counts(p, again):
+        grid = again.grid
         again = _walked_back(ctx, run, setup, walked.x, again)
+        if again is not None and again.grid is None:
+            again = replace(again, grid=grid)
     if again is None or objective_value(p, again) <= objective_value(p, walked):
         return walked
     return again
@@ -652,16 +661,17 @@ def _floor(problem, setup, x):
     return (1.0 - POLISH.floor_slack) * num / den if num > 0 and den > 0 else None
 
 
-def _polish(ctx, run, xa, name, floor=None):
+def _polish(ctx, run, xa, name, floor=None, grid=None):
     """One polish of a candidate (its vector ``xa`` in ``ctx``'s scaling): the program from
     it within ``POLISH.iterations`` iterations, its reference-step rows and floored roots
     linearised from the first solve on, backed off when it ends just outside the
     certificate; with a ``floor`` (:func:`_floor` of a certified start) every solve keeps
     the start's integral gain (:attr:`~robrst.synthesis.attempts.Run.floor`): a polish is
-    an improvement or nothing, never a worse basin reached through IPOPT's restoration.
+    an improvement or nothing, never a worse basin reached through IPOPT's restoration;
+    ``grid``: the models and frequencies to start from (:func:`_hard_from`).
     Returns the outcome (``None``: nothing solved), the polish's notes and whether a solve
     needed the poles (the back-off's solves then start over them)."""
-    out, notes, poles = _hard_from(ctx, run, xa, name, POLISH.iterations, floor)
+    out, notes, poles = _hard_from(ctx, run, xa, name, POLISH.iterations, floor, grid)
     return _backoff(ctx, run, out, name, floor, poles), notes, poles
 
 

@@ -8,7 +8,8 @@ temperatures (the exchange's ``refine``).
 
 On the seeded 4th-order stage 204 at ``Ms_max`` 1.5 (default settings) run 3's candidate is
 refused as screened and certifies 292,275 once moved inside, over 1.2 times what the move
-reaches when it sees only the program's grid; the design answers 300,194.  With the move on
+reaches when it sees only the program's grid; the design answered 300,194 (356,764 since
+its answer is polished again on the grid its polish reached, 2026-12-04).  With the move on
 the program's grid alone the design answered 217 k, and 323,832 (another candidate) since
 the best answer is polished again (2026-12-04).  The answer is judged independently by
 ``tests/global_reference.py`` (dense grids of the unscaled polynomials of every family member,

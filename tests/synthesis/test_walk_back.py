@@ -14,8 +14,8 @@ line runs it) the best candidate's polish ends outside the specs (integral gain 
 inside the specs) has integral gain 501,092, the best other certified outcome 496,361.
 Walked back it keeps 536,527; solved again from there on the grid the polish reached it
 ends outside again, walked back in turn to 564,735 (584,521 when this test was written);
-the answer polished again from there ends outside too and walks back to 567,278, the
-design's answer (2026-12-04).  The answer is judged independently by
+the answer polished again from there, on the grid the polish reached, certifies at
+574,923, the design's answer (2026-12-04).  The answer is judged independently by
 ``tests/global_reference.py`` (dense grids of the unscaled polynomials of every family
 member, continuous and sampled loops, reference steps by ``lfilter``).
 """
@@ -61,13 +61,13 @@ def test_a_polish_outside_the_specs_keeps_its_certified_gain():
     assert said and all("ended outside the specs (" in n for n in said), res.synthesis.notes
     assert any("peak" in n for n in said), said
     assert not any("no polish improved" in n for n in res.synthesis.notes), res.synthesis.notes
-    # the walk decided the answer: above every outcome that was not walked back (the
-    # answer polished again from where its walk ended is walked back in turn)
-    back = [n for n in tried if n.endswith(BACK)]
-    others = [t[2] for n, t in tried.items() if t[1] == "certified" and n not in back]
-    assert res.integral_gain > 1.02 * max(others), (res.integral_gain, others)
-    assert any(abs(tried[n][2] - res.integral_gain) <= 1e-9 * res.integral_gain
-               for n in back)
+    # the walk decided the answer: above every first polish that was not walked back, and
+    # the answer is that point or its polish again (started from it)
+    others = [t[2] for n, t in tried.items()
+              if t[1] == "certified" and not n.endswith(BACK) and AGAIN not in n]
+    walk = max(tried[n][2] for n in walked)
+    assert walk > 1.02 * max(others), (walk, others)
+    assert res.integral_gain >= walk * (1 - 1e-9), (res.integral_gain, walk)
     # judged without robrst's numerical code, at the certificate's tolerance
     st = gr.setting(p, *gr.strip(p))
     st.rtol = p.solver.cert_tol
