@@ -469,8 +469,7 @@ def _from_incumbent(ctx, run, setup, given, outs, polishes):
     meets the specs, polished first (its objective kept, :func:`_polished`): both join
     ``outs``, so the global phase never answers below a given controller that meets them."""
     p = ctx.problem
-    as_is = run.outcome(ctx, setup, None, "start", x=ctx.full(given, setup))
-    run.tried.append((f"{INCUMBENT}, as given", as_is))
+    as_is = _as_given(ctx, run, setup, given)
     outs.append(as_is)
     if not _meets_specs(p, as_is) or run.stop():
         run.notes.append(f"global phase: {INCUMBENT} does not meet the specs as given"
@@ -484,14 +483,20 @@ def _from_incumbent(ctx, run, setup, given, outs, polishes):
         outs.append(out)
 
 
+def _as_given(ctx, run, setup, given):
+    """The caller's controller (coefficients ``given``) certified as it is, on ``setup``'s
+    program; it joins ``run.tried``."""
+    as_is = run.outcome(ctx, setup, None, "start", x=ctx.full(given, setup))
+    run.tried.append((f"{INCUMBENT}, as given", as_is))
+    return as_is
+
+
 def _kept(ctx, run, given, out):
     """Without the global phase: the caller's controller (coefficients ``given``) certified
     as it is, the answer when it meets the specs and the program's ``out`` is not certified
     or worse (the program only started from it)."""
     p = ctx.problem
-    setup = ctx.setup(program_models(p), ctx.nu, "free")
-    as_is = run.outcome(ctx, setup, None, "start", x=ctx.full(given, setup))
-    run.tried.append((f"{INCUMBENT}, as given", as_is))
+    as_is = _as_given(ctx, run, ctx.setup(program_models(p), ctx.nu, "free"), given)
     if not _meets_specs(p, as_is):
         return out
     if out is None or not out.certified or _rank(p, as_is, True) > _rank(p, out, True):
@@ -571,18 +576,13 @@ def _rescued(ctx, run, setup, x0, out, name, poles_first=False):
     818 k) is walked back and solved again to 825 k."""
     p = ctx.problem
     walked = _walked_back(ctx, run, setup, x0, out)
-    if walked is not None and walked.grid is None:
-        walked = replace(walked, grid=out.grid)     # where the polish found the specs bind
     if walked is None or run.stop():
         return walked
     floor = _floor(p, setup, walked.x)
     again, _, _ = _hard_from(ctx, run, walked.x, f"{name}, from its walk back",
                              POLISH.backoff_iter, floor, out.grid, poles_first)
     if again is not None and not _counts(p, again):
-        grid = again.grid
         again = _walked_back(ctx, run, setup, walked.x, again)
-        if again is not None and again.grid is None:
-            again = replace(again, grid=grid)
     if again is None or objective_value(p, again) <= objective_value(p, walked):
         return walked
     return again
@@ -620,8 +620,9 @@ def _walked_back(ctx, run, setup, x0, out):
             hi = t
     del run.notes[said:]
     # a point of the polish that ended at ``out``: its phase (a hard-phase polish's answer
-    # is optimised under the specs, as far as its budget went)
-    return None if best is None else replace(best, phase=out.phase)
+    # is optimised under the specs, as far as its budget went) and the grid it reached
+    # (where it found the specs bind: a polish from this point starts there)
+    return None if best is None else replace(best, phase=out.phase, grid=out.grid)
 
 
 def _polish_notes(polishes):
