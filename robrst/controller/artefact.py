@@ -217,7 +217,8 @@ def design_from_dict(doc: dict, path: str = "<design>", problem: object = None,
     DesignResult
         The saved controller, a certificate computed now on ``problem`` (default: the saved
         problem), the analyses of every family model and the limits
-        (:func:`robrst.synthesis.limits.design_limits`); the saved solver record, starts,
+        (:func:`robrst.synthesis.limits.design_limits`) and, certified, the tolerance
+        (:func:`robrst.design.tolerance.spread_tolerance`); the saved solver record, starts,
         analytic check, comparison and 2-DOF path as they were written.  On another
         ``problem`` only the 2-DOF path is kept (it is the controller's); the solver record
         says where the controller was designed, and there are no starts, analytic check or
@@ -236,6 +237,8 @@ def design_from_dict(doc: dict, path: str = "<design>", problem: object = None,
                f" (saved: {'certified' if was else 'not certified'}; robrst"
                f" {doc['artefact'].get('versions', {}).get('robrst')} made it)"))
     from robrst.certificate.assessment import assess
+    from robrst.design.tolerance import spread_tolerance
+    from robrst.problem.records import with_defaults
     from robrst.synthesis.limits import design_limits
 
     ac, comp = doc.get("analytic_check"), doc.get("comparison")
@@ -260,7 +263,9 @@ def design_from_dict(doc: dict, path: str = "<design>", problem: object = None,
         tracking=None if doc.get("tracking") is None else StoredRecord(doc["tracking"]),
         assessment=assess(problem, ctrl),     # computed again, as the analyses
         starts=None if not saved or doc.get("starts") is None else StoredRecord(doc["starts"]),
-        objective_bound=bound, feasibility=verdict)
+        objective_bound=bound, feasibility=verdict,
+        tolerance=spread_tolerance(with_defaults(problem), ctrl)       # as the analyses
+        if cert.certified and problem.spread is None else None)
 
 
 def load_design(path: str | os.PathLike,

@@ -20,6 +20,7 @@ import numpy as np
 from robrst.base.threads import one_blas_thread
 from robrst.design.fleet import fleet_design
 from robrst.design._single import design_single
+from robrst.design.tolerance import spread_tolerance
 from robrst.problem.records import with_defaults
 from robrst.synthesis.feasibility import (feasibility_verdict, prove_infeasible,
                                           prove_step_infeasible)
@@ -133,7 +134,11 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
                                        result.certified)
         if proofs and verdict is not None:
             verdict = replace(verdict, note=SKIPPED)
-        return replace(result, objective_bound=bound, feasibility=verdict)
+        # the next actuator off the line: a stated spread is the fleet design's own
+        tolerance = (spread_tolerance(problem, result.controller)
+                     if result.certified and problem.spread is None else None)
+        return replace(result, objective_bound=bound, feasibility=verdict,
+                       tolerance=tolerance)
 
 
 def _incumbent(problem, given):

@@ -25,6 +25,7 @@ if TYPE_CHECKING:
     from robrst.core.plant import Plant
     from robrst.core.rst import RSTController
     from robrst.design.achieved import AnalyticCheck, Comparison, ControllerFactors
+    from robrst.design.tolerance import SpreadTolerance
     from robrst.problem.records import Problem, Specs
     from robrst.synthesis.analytic import AnalyticDesign
     from robrst.synthesis.bound import ObjectiveBound
@@ -51,11 +52,12 @@ DESIGN_FIELDS = ("problem", "method", "status", "controller", "target_char_poly"
                  "temperature_range_C", "models", "certified", "certificate", "solver",
                  "integral_gain", "best_achievable", "specs_achieved", "controller_factored",
                  "method_reason", "assessment", "starts", "tracking", "analytic_check",
-                 "comparison", "artefact", "fleet", "objective_bound", "feasibility")
+                 "comparison", "artefact", "fleet", "objective_bound", "feasibility",
+                 "tolerance")
 # the specs object's fields after the table's keys (robrst.problem.specs)
 SPECS_DEFAULT_FIELDS = ("defaults", "defaults_off")
 OPTIONAL_FIELDS = ("assessment", "starts", "tracking", "analytic_check", "comparison", "fleet",
-                   "objective_bound", "feasibility")
+                   "objective_bound", "feasibility", "tolerance")
 CERTIFICATE_FIELDS = ("ratios", "certified", "rtol", "controller", "models", "violations",
                       "interval", "interval_proof", "interval_resolution_C")
 INTERVAL_FIELDS = ("range_C", "stability", "peaks", "points", "max_spacing_C", "min_spacing_C",
@@ -128,7 +130,7 @@ class DesignRecord(Protocol):
     ----------
     problem, method, controller, target_char_poly, analyses, certificate, synthesis
         The design's parts (see :class:`~robrst.design.result.DesignResult`).
-    analytic_check, comparison, tracking, fleet, assessment, starts, objective_bound, feasibility
+    analytic_check, comparison, tracking, fleet, assessment, starts, objective_bound, feasibility, tolerance
         Its optional parts (``None`` when absent).
     certified, status, integral_gain, best_achievable
         Its verdict and figures.
@@ -151,6 +153,7 @@ class DesignRecord(Protocol):
     starts: MultiStart | None
     objective_bound: ObjectiveBound | None
     feasibility: FeasibilityVerdict | None
+    tolerance: SpreadTolerance | None
     certified: bool
     status: str
     integral_gain: float
@@ -283,6 +286,7 @@ def design_json(result: DesignRecord) -> dict:
         "fleet": lambda: result.fleet.as_dict(),
         "objective_bound": lambda: result.objective_bound.as_dict(),
         "feasibility": lambda: result.feasibility.as_dict(),
+        "tolerance": lambda: result.tolerance.as_dict(),
     }
     return {k: writers[k]() for k in DESIGN_FIELDS
             if k not in OPTIONAL_FIELDS or getattr(result, k) is not None}

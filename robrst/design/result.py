@@ -24,6 +24,7 @@ if TYPE_CHECKING:
     from robrst.certificate.assessment import Assessment
     from robrst.certificate.proof import Certificate
     from robrst.core.rst import RSTController
+    from robrst.design.tolerance import SpreadTolerance
     from robrst.problem.records import Problem
     from robrst.synthesis.analytic import AnalyticDesign
     from robrst.synthesis.bound import ObjectiveBound
@@ -79,6 +80,10 @@ class DesignResult:
     feasibility : FeasibilityVerdict, optional
         A design that is not certified: infeasible (a proof) or not found (what it misses,
         what to try) (:func:`robrst.synthesis.feasibility.feasibility_verdict`).
+    tolerance : SpreadTolerance, optional
+        A certified design without a ``[spread]``: how far the static gain and the
+        resonance may move before a spec fails (:func:`robrst.design.tolerance.spread_tolerance`;
+        with the analyses).
 
     Attributes
     ----------
@@ -116,6 +121,7 @@ class DesignResult:
     starts: MultiStart | None = None
     objective_bound: ObjectiveBound | None = None
     feasibility: FeasibilityVerdict | None = None
+    tolerance: SpreadTolerance | None = None
 
     @property
     def best_achievable(self):

@@ -17,6 +17,7 @@ from pathlib import Path
 
 from robrst.design import DesignResult
 from robrst.design.contract import design_json
+from robrst.design.tolerance import FRAGILE
 from robrst.studies.design_curves import DesignCurves, design_curves
 from robrst.base.fileio import json_text
 import robrst.report._design_figures as figs
@@ -100,6 +101,20 @@ def design_doc(result: DesignResult, twin: bool = False) -> Doc:
         ac = result.analytic_check
         blocks.append(("p", f"Analytic check: max relative coefficient error"
                             f" {ac.max_rel_coef_error:.2e} → {'passed' if ac.passed else 'FAILED'}."))
+    tol = result.tolerance
+    if tol is not None:
+        def met(x, at):
+            return f"{x:.4g}" + (" (the span's end)" if at is None else "")
+        blocks += [("h2", "The next actuator off the line"),
+                   ("p", "How far each plant factor may move alone with every spec still met"
+                         f" ({tol.statement})." + (
+                             f" **Fragile to the next actuator: a factor within 1 ± {FRAGILE:g}"
+                             " fails a spec; state the actuators' spread ([spread]) to design"
+                             " for them.**" if tol.warning else "")),
+                   ("table", ("factor", "met down to", "fails below", "met up to",
+                              "fails above"),
+                    tuple((f.factor, met(f.low, f.below_at), f.below or "—",
+                           met(f.high, f.above_at), f.above or "—") for f in tol.factors))]
     if result.comparison is not None:
         blocks += [("h2", "Analytic pole placement vs this design (worst case over the family)"),
                    ("pre", result.comparison.table)]

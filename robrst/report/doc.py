@@ -57,8 +57,13 @@ class Doc:
         return [b[1] for b in self.blocks if b[0] == "img"]
 
 
-def _cell(x):
+def _text(x):
     return "" if x is None else str(x)
+
+
+def _cell(x):
+    """A Markdown table cell: a ``|`` in the text (``|T| peak``) escaped."""
+    return _text(x).replace("|", "\\|")
 
 
 def to_markdown(doc: Doc) -> str:
@@ -133,7 +138,7 @@ def to_html(doc: Doc) -> str:
                        f"<figcaption>{e(b[2])}</figcaption></figure>")
         elif kind == "table":
             out.append("<table><tr>" + "".join(f"<th>{e(h)}</th>" for h in b[1]) + "</tr>")
-            out += ["<tr>" + "".join(f"<td>{e(_cell(c))}</td>" for c in row) + "</tr>"
+            out += ["<tr>" + "".join(f"<td>{e(_text(c))}</td>" for c in row) + "</tr>"
                     for row in b[2]]
             out.append("</table>")
         else:

@@ -290,11 +290,16 @@ def design_summary(result: DesignResult) -> str:
         out += result.feasibility.lines()
     if result.objective_bound is not None:
         out.append(result.objective_bound.describe())
+    if result.tolerance is not None:
+        out.append("tolerated by the design (each factor alone, measured, not proved): "
+                   + "; ".join(f.line() for f in result.tolerance.factors))
     assessment = result.assessment
     for n in list(so.notes) + list(assessment.notes if assessment else ()):
         out.append(f"note: {n}")
     for w in assessment.warnings if assessment else ():
         out.append(f"WARNING: {w}")
+    if result.tolerance is not None and result.tolerance.warning:
+        out.append(f"WARNING: {result.tolerance.warning}")
     out += controller_lines(result)
     out.append(margins_table(result))
     out.append(f"certificate: {len(cert.models)} models checked (family + temperature sweep),"

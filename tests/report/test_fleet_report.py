@@ -39,6 +39,9 @@ def test_fleet_report_states_guarantee_measured_yield_and_price(tmp_path):
     assert "987 / 1000 = 98.7 %" in md and "97.8 % – 99.2 %" in md
     assert "95.54 %" in md and "Campi, Garatti & Ramponi (2018)" in md
     assert "| nominal (no spread) |" in md and "price_of_yield.png" in md
-    assert "model T15C (15 °C): |S| = 2.08 > 2" in md
+    # a table cell's "|" escaped: the Markdown table keeps its columns
+    assert "model T15C (15 °C): \\|S\\| = 2.08 > 2" in md
+    html = (tmp_path / "report" / "report.html").read_text()
+    assert "model T15C (15 °C): |S| = 2.08 &gt; 2" in html
     assert (tmp_path / "report" / "price_of_yield.png").stat().st_size > 1000
     assert (tmp_path / "report" / "report.html").is_file()
