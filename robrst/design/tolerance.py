@@ -152,7 +152,8 @@ def spread_tolerance(problem: Problem, ctrl: RSTController) -> SpreadTolerance |
     Returns
     -------
     SpreadTolerance or None
-        ``None`` when the design does not meet the specs on its own family's members.
+        ``None`` when the design does not meet the specs on its own family's members (or
+        they cannot be checked).
 
     Examples
     --------
@@ -167,22 +168,24 @@ def spread_tolerance(problem: Problem, ctrl: RSTController) -> SpreadTolerance |
 
     def check(name, k):
         count[0] += 1
-        fam = transform_family(problem.family, {name: float(k)}) if k != 1.0 \
-            else problem.family
-        c = check_actuators(problem, ctrl, [fam], full=False)[0]
+        try:
+            fam = transform_family(problem.family, {name: float(k)}) if k != 1.0 \
+                else problem.family
+            c = check_actuators(problem, ctrl, [fam], full=False)[0]
+        except (SpecError, ArithmeticError, ValueError, np.linalg.LinAlgError) as exc:
+            # a family the factor makes invalid (a thermal law out of its domain) or a
+            # loop that cannot be evaluated: no actuator there meets the specs
+            return False, f"not checked: {exc}"
         return c.certified, c.violation
 
     if not check("gain", 1.0)[0]:
         return None
     out = []
     for name in FACTORS:
-        try:
-            if name != "gain" and _unmoved(problem, name):
-                continue
-            low, below_at, below = _side(check, name, -1.0)
-            high, above_at, above = _side(check, name, 1.0)
-        except SpecError:      # a factor this family cannot take
+        if name != "gain" and _unmoved(problem, name):
             continue
+        low, below_at, below = _side(check, name, -1.0)
+        high, above_at, above = _side(check, name, 1.0)
         out.append(FactorTolerance(name, low, high, below_at, above_at, below, above))
     fragile = [f for f in out if f.margin < FRAGILE]
     warning = None
@@ -200,7 +203,10 @@ def spread_tolerance(problem: Problem, ctrl: RSTController) -> SpreadTolerance |
 
 def _unmoved(problem, name):
     """The family is the same with the factor moved (no complex pole pair to move)."""
-    fam = transform_family(problem.family, {name: 1.0 + SPAN})
+    try:
+        fam = transform_family(problem.family, {name: 1.0 + SPAN})
+    except SpecError:        # moved out of its laws' domain: it moves
+        return False
     return all(np.allclose(a.A, b.A) and np.allclose(a.B, b.B)
                for a, b in zip(fam.models, problem.family.models))
 

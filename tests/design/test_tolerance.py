@@ -67,3 +67,22 @@ def test_a_design_at_its_bound_is_named_fragile():
 
 def test_a_design_that_misses_its_own_specs_has_none():
     assert spread_tolerance(_problem(1.1), CTRL) is None
+
+
+def test_a_family_the_factor_makes_invalid_fails_there(monkeypatch):
+    """A factor whose family cannot be built (a thermal law out of its domain) counts as
+    failing, and says why, instead of stopping the design."""
+    import robrst.design.tolerance as tolerance
+    from robrst.base.errors import SpecError
+
+    real = tolerance.transform_family
+
+    def partial(family, values):
+        if values.get("gain", 1.0) < 0.9:
+            raise SpecError("family: gain factor out of the law's domain")
+        return real(family, values)
+
+    monkeypatch.setattr(tolerance, "transform_family", partial)
+    g = spread_tolerance(_problem(1.2), CTRL).factors[0]
+    assert 0.9 <= g.low < 1.0 and g.below_at < 0.9
+    assert g.below.startswith("not checked: family: gain factor")
