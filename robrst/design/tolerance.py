@@ -167,10 +167,12 @@ def spread_tolerance(problem: Problem, ctrl: RSTController) -> SpreadTolerance |
     count = [0]
 
     def check(name, k):
+        """Every spec met with the factor ``name`` at ``k`` (``None``: the family as
+        stated), and the worst violation."""
         count[0] += 1
         try:
-            fam = transform_family(problem.family, {name: float(k)}) if k != 1.0 \
-                else problem.family
+            fam = problem.family if name is None else \
+                transform_family(problem.family, {name: float(k)})
             c = check_actuators(problem, ctrl, [fam], full=False)[0]
         except (SpecError, ArithmeticError, ValueError, np.linalg.LinAlgError) as exc:
             # a family the factor makes invalid (a thermal law out of its domain) or a
@@ -178,7 +180,7 @@ def spread_tolerance(problem: Problem, ctrl: RSTController) -> SpreadTolerance |
             return False, f"not checked: {exc}"
         return c.certified, c.violation
 
-    if not check("gain", 1.0)[0]:
+    if not check(None, 1.0)[0]:
         return None
     out = []
     for name in FACTORS:
