@@ -53,13 +53,15 @@ SCHEMA = {
         "zeros": Field("numbers", None, "real zeros [rad/s] (with 'poles', 'gain')", **RATE),
         "poles": Field("numbers", None, "real poles [rad/s]", **RATE),
         "gain": Field("number", None, "leading gain k of k*prod(s-z)/prod(s-p)", **COEF),
-        "temperature_C": Field("number", 28.0, "temperature of the nominal model [°C]", **TEMP),
+        "temperature_C": Field("number", 28.0, "temperature of the nominal model [°C] (default"
+                               " a parametric family's reference_C when given, else 28)", **TEMP),
         "source": Field("str", "", "where the model comes from"),
     },
     "family": {
         "reference_C": Field("number", None, "temperature of the nominal model (default"
                              " plant.temperature_C; with [[family.models]] and no [plant], the"
-                             " coldest model's)", **TEMP),
+                             " coldest model's); a parametric family's law moves [plant] from"
+                             " it, so a [plant] temperature_C must equal it", **TEMP),
         "temperatures_C": Field("numbers", None, "temperatures of a parametric family [°C]", **TEMP),
         "source": Field("str", "", "where the coefficients come from"),
         "parametric": {
@@ -266,6 +268,26 @@ def _check_plant_in_family(path, nominal, family):
                         f" (B = {list(m.B)}, A = {list(m.A)}); {why}")
 
 
+def _law_reference(path, data, v):
+    """A parametric family moves ``[plant]`` by its law from ``reference_C``: the plant is
+    the model at ``reference_C``.  Without its own ``temperature_C`` it takes that one
+    (not the default 28 °C); with a different one the two keys contradict each other (the
+    law would move the plant's model by the wrong number of kelvin, silently)."""
+    fam, plant = v["family"], v["plant"]
+    if plant is None or fam is None or fam["models"] or fam["reference_C"] is None:
+        return
+    ref = fam["reference_C"]
+    if "temperature_C" not in (data.get("plant") or {}):
+        plant["temperature_C"] = ref
+    elif plant["temperature_C"] != ref:
+        raise key_error(path, ("family", "reference_C"),
+                        f"{ref:g} °C differs from [plant] temperature_C = "
+                        f"{plant['temperature_C']:g} °C: a parametric family moves the [plant]"
+                        " model by its law from reference_C, so [plant] is the model at"
+                        " reference_C; give them equal, or omit reference_C (it defaults to"
+                        " the plant's temperature)")
+
+
 def _family(path, f, nominal):
     """The family; no ``[plant]``: reference at ``reference_C``, default the coldest model."""
     if f is None:
@@ -407,6 +429,7 @@ def parse_problem(data: dict, path: str | Path = "<problem>", compare: bool = Tr
     if isinstance(data, dict) and "model" in data:    # a model file of robrst identify
         data = model_document(path, data)
     v = validate(path, data, SCHEMA)
+    _law_reference(path, data, v)
     explicit = v["plant"] is None and v["family"] is not None and v["family"]["models"]
     nominal = None if explicit else _plant(path, v["plant"])
     family = _family(path, v["family"], nominal)

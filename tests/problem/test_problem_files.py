@@ -191,3 +191,53 @@ def test_wide_wn_bounds_are_accepted(tmp_path, free, bounds):
                    "zeta_bounds = [0.5, 1.0]\n")
     pr = load_problem(write(tmp_path, text))
     assert pr.solver.wn_bounds == tuple(eval(bounds))
+
+
+LAW = """
+[plant]
+B = [0.1]
+A = [1.0, 100.0, 4.0e6]
+{temperature}
+[family]
+reference_C = 20.0
+temperatures_C = [20.0, 30.0]
+[family.parametric]
+resonance_per_K = -0.001
+[poles]
+wn = 300.0
+zeta = 1.0
+[controller]
+extra_degree = 1
+"""
+
+
+def test_a_parametric_family_moves_the_plant_from_reference_c(tmp_path):
+    """[plant] without its own temperature is the model at reference_C (not at the default
+    28 °C): the family's model there is the plant, 10 K above it the resonance moved by
+    the law (2000 rad/s x (1 - 0.01), from the roots)."""
+    pr = load_problem(write(tmp_path, LAW.format(temperature="")))
+    assert pr.family.nominal.temperature_C == 20.0
+    at20, at30 = pr.family.at(20.0), pr.family.at(30.0)
+    np.testing.assert_allclose(at20.A / at20.A[0], [1.0, 100.0, 4.0e6], rtol=1e-12)
+    w30 = np.abs(np.roots(at30.A)).max()
+    assert w30 == pytest.approx(2000.0 * 0.99, rel=1e-9)
+
+
+def test_reference_c_contradicting_the_plant_temperature_is_refused(tmp_path, capsys):
+    """A [plant] at 28 °C with reference_C = 20 °C: the law would move the plant's model by
+    the wrong 10 K, silently (a design of such a file ran 45 s and missed every step spec
+    by 60,000 %); refused when the file is read, naming the key."""
+    from robrst.cli import main
+
+    f = write(tmp_path, LAW.format(temperature="temperature_C = 28.0"))
+    with pytest.raises(SpecError, match=r"\[family.reference_C\] 20 °C differs from \[plant\]"
+                                        r" temperature_C = 28 °C"):
+        load_problem(f)
+    assert main(["design", str(f), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "p.toml" in err[0] and "Traceback" not in err[0]
+    # the same temperature in both keys, or reference_C omitted, is fine
+    ok = LAW.format(temperature="temperature_C = 20.0")
+    assert load_problem(write(tmp_path, ok, "q.toml")).family.nominal.temperature_C == 20.0
+    same = ok.replace("reference_C = 20.0\n", "")
+    assert load_problem(write(tmp_path, same, "r.toml")).family.thermal.reference_C == 20.0
