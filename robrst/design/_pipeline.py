@@ -23,7 +23,7 @@ from robrst.design._single import design_single
 from robrst.design.tolerance import spread_tolerance
 from robrst.problem.records import with_defaults
 from robrst.synthesis.feasibility import (feasibility_verdict, prove_infeasible,
-                                          prove_step_infeasible)
+                                          prove_region_infeasible, prove_step_infeasible)
 from robrst.synthesis.limits import design_limits
 
 if TYPE_CHECKING:
@@ -169,7 +169,9 @@ def _incumbent(problem, given):
 
 def infeasibility(problem: Problem) -> tuple:
     """The proofs that no controller meets the problem's specs: a reference-step spec
-    beyond causality (:func:`robrst.synthesis.feasibility.prove_step_infeasible`), or no
+    beyond causality (:func:`robrst.synthesis.feasibility.prove_step_infeasible`), a decay
+    floor beyond a vanishing creep pair
+    (:func:`robrst.synthesis.feasibility.prove_region_infeasible`), or no
     linear controller on some family member
     (:func:`robrst.synthesis.feasibility.prove_infeasible`); none for the analytic method or
     when the proof's arithmetic fails (the synthesis then runs and the verdict says the rest).
@@ -185,7 +187,7 @@ def infeasibility(problem: Problem) -> tuple:
     if problem.solver.method == "analytic":
         return ()
     try:
-        return prove_step_infeasible(problem) + tuple(
+        return prove_step_infeasible(problem) + prove_region_infeasible(problem) + tuple(
             prove_infeasible(problem, list(problem.family.models)))
     except (ArithmeticError, ValueError, np.linalg.LinAlgError):
         return ()

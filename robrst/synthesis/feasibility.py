@@ -26,6 +26,16 @@ loop that tracks the step holds the plant's input at ``step_um / D(0)`` in the e
 robrst controller has ``T(0) = R(0)``, so with the integral action the output settles at
 the reference): a ``step_u_max_V`` below that on some family member is met by none.
 
+**A decay floor** has one proof: the creep of a parametric family
+(:mod:`robrst.core.family`) multiplies the plant by the lag-lead ``(tau s + 1 + kappa) /
+(tau s + 1)``, whose strength ``kappa`` grows from 0 at the reference temperature.  As
+``kappa`` tends to 0 the pole and the zero meet at ``-1/tau`` and every closed loop
+``(tau s + 1) A S + (tau s + 1 + kappa) B R`` tends to ``(tau s + 1)(A S + B R)``: its roots
+move continuously, so one of them tends to ``-1/tau`` whatever the controller (in the
+sampled loop to ``exp(-h/tau)``, the same decay).  Where the interval holds temperatures of
+strength 0 and temperatures of positive strength, a ``decay_min`` above ``1/tau`` is met by
+no controller (:class:`RegionInfeasibility`).
+
 **Not found**: the best controller's worst violation, for a pole region the mode below
 the floor (its frequency, model and the damping reached), and a suggestion (one more
 controller degree; the loosest value of the violated spec this order reached).
@@ -45,8 +55,9 @@ if TYPE_CHECKING:
     from robrst.certificate.proof import Certificate
     from robrst.problem.records import Problem
 
-__all__ = ["Infeasibility", "StepInfeasibility", "FeasibilityVerdict", "prove_infeasible",
-           "prove_step_infeasible", "feasibility_verdict", "PROOF_MARGIN", "PROOF_POINTS"]
+__all__ = ["Infeasibility", "StepInfeasibility", "RegionInfeasibility", "FeasibilityVerdict",
+           "prove_infeasible", "prove_step_infeasible", "prove_region_infeasible",
+           "feasibility_verdict", "PROOF_MARGIN", "PROOF_POINTS"]
 
 PROOF_MARGIN = 1e-9      # the discs must miss by this much (relative to 1): far above rounding
 PROOF_POINTS = 3000      # log-spaced frequencies per loop (plus edges and resonance points)
@@ -159,6 +170,50 @@ class StepInfeasibility:
         return {"kind": "step", "model": self.model, "temperature_C": self.temperature_C,
                 "loop": self.loop, "specs": [self.spec], "bound": self.bound,
                 "least": self.least, "dead_samples": self.dead_samples, "reason": self.reason}
+
+
+@dataclass(frozen=True)
+class RegionInfeasibility:
+    """A proof that no controller meets a decay floor: a closed-loop root that a vanishing
+    creep pair holds at ``-1/tau`` whatever the controller (module docstring).
+
+    Parameters
+    ----------
+    model : str
+        The label of the limit model (the temperature where the creep strength is 0).
+    temperature_C : float
+        That temperature [°C].
+    loop : str
+        ``"both"``: the continuous and the sampled loop alike.
+    spec : str
+        ``"decay_min"``.
+    bound : float
+        Its value [rad/s].
+    limit : float
+        The decay rate some closed-loop root approaches at temperatures of small creep,
+        whatever the controller: ``1/tau`` [rad/s].
+    reason : str
+        The proof in one sentence.
+    """
+
+    model: str
+    temperature_C: float
+    loop: str
+    spec: str
+    bound: float
+    limit: float
+    reason: str
+
+    def as_dict(self) -> dict:
+        """The entry of ``feasibility.proofs`` in the design JSON (``kind`` ``"region"``).
+
+        Returns
+        -------
+        dict
+        """
+        return {"kind": "region", "model": self.model, "temperature_C": self.temperature_C,
+                "loop": self.loop, "specs": [self.spec], "bound": self.bound,
+                "limit": self.limit, "reason": self.reason}
 
 
 @dataclass(frozen=True)
@@ -480,6 +535,60 @@ def prove_step_infeasible(problem: Problem) -> tuple[StepInfeasibility, ...]:
     return tuple(out)
 
 
+def prove_region_infeasible(problem: Problem) -> tuple[RegionInfeasibility, ...]:
+    """A ``decay_min`` that no controller meets on a family whose creep vanishes inside its
+    temperature interval (module docstring).
+
+    The creep strength ``kappa(T) = creep_at_ref + creep_per_K max(T - reference_C, 0)`` is
+    continuous in ``T``; when it is 0 somewhere in the interval and positive somewhere
+    else, it takes values arbitrarily close to 0 with the creep pair present, and there
+    some closed-loop root decays at nearly ``1/tau``.  A ``decay_min`` above ``1/tau``
+    (beyond the certificate's tolerance ``solver.cert_tol``) is infeasible.
+
+    Parameters
+    ----------
+    problem : Problem
+
+    Returns
+    -------
+    tuple of RegionInfeasibility
+        Empty when nothing is proved (no decay floor, an explicit family, no creep, or a
+        creep strength that stays away from 0).
+
+    Examples
+    --------
+    The paper's robust problem: creep from 0 at 28 °C with a 0.5 s time constant.
+
+    >>> from dataclasses import replace
+    >>> from robrst import load_problem
+    >>> p = load_problem("paper_robust")
+    >>> p = replace(p, specs=replace(p.specs, decay_min=3.0))
+    >>> prove_region_infeasible(p)[0].limit
+    2.0
+    """
+    sigma = problem.specs.decay_min
+    c = problem.family.thermal
+    if not sigma or c is None or c.creep_per_K == 0.0 or not c.creep_tau_s > 0:
+        return ()
+    lo, hi = problem.family.range_C
+    temps = [lo, hi] + ([c.reference_C] if lo < c.reference_C < hi else [])
+    kappa = {T: c.creep_at_ref + c.creep_per_K * max(T - c.reference_C, 0.0) for T in temps}
+    zero = [T for T, k in kappa.items() if k == 0.0]
+    if not zero or max(kappa.values()) <= 0.0:
+        return ()
+    T0 = min(zero, key=lambda T: abs(T - c.reference_C))
+    limit = 1.0 / c.creep_tau_s
+    if not sigma * (1.0 - problem.solver.cert_tol) > limit * (1.0 + PROOF_MARGIN):
+        return ()
+    why = (f"the family's creep lag-lead (tau s + 1 + kappa)/(tau s + 1), tau = "
+           f"{c.creep_tau_s:g} s, vanishes at {T0:g} °C (kappa = 0) and is present beside it"
+           " in the interval: as kappa tends to 0 its pole and zero meet at -1/tau, so some"
+           f" closed-loop root tends to -{limit:.4g} rad/s whatever the controller (in the"
+           f" sampled loop as well); decay_min = {sigma:g} rad/s")
+    return (RegionInfeasibility(f"T{T0:g}C", float(T0), "both", "decay_min", float(sigma),
+                                float(limit), why),)
+
+
 def feasibility_verdict(problem: Problem, cert: Certificate, controller: object = None,
                         models: list | None = None) -> FeasibilityVerdict:
     """Infeasible (with proofs) or not found (what the best design misses, what to try).
@@ -502,7 +611,8 @@ def feasibility_verdict(problem: Problem, cert: Certificate, controller: object 
     t0 = time.perf_counter()
     sp = problem.specs
     given, lost = expressed_specs(sp)
-    proofs = prove_step_infeasible(problem) + prove_infeasible(problem, models)
+    proofs = (prove_step_infeasible(problem) + prove_region_infeasible(problem)
+              + tuple(prove_infeasible(problem, models)))
     n_models = len(problem.family.models)
     loops = "continuous and sampled loops" if sp.sampled else "continuous loop"
     checked = (f"the discs of {', '.join(given) or 'no peak spec'} meet at every frequency"
@@ -510,7 +620,8 @@ def feasibility_verdict(problem: Problem, cert: Certificate, controller: object 
                f" model ({n_models} members and the temperature sweep, {loops}); a passing"
                " grid proves nothing")
     if proofs:
-        step = tuple(q.spec for q in proofs if isinstance(q, StepInfeasibility))
+        step = tuple(q.spec for q in proofs
+                     if isinstance(q, (StepInfeasibility, RegionInfeasibility)))
         return FeasibilityVerdict("infeasible", proofs=proofs, checked=checked,
                                   expressed=given + step,
                                   not_expressed=tuple(k for k in lost if k not in step),
