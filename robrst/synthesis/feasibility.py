@@ -662,7 +662,7 @@ def _not_found(problem, cert, lost):
             v = min(dec, key=lambda v: v.value)
             mode = (mode + "; " if mode else "pole region: ") + (
                 f"model {v.label} ({v.temperature_C:g} °C) keeps a pole decaying at"
-                f" {v.value:.4g} < {v.bound:.4g} rad/s")
+                f" {v.value:.4g} < {v.bound:.4g} rad/s") + _creep_note(problem, v.value)
             if v.value > 0:
                 tips.append(f"decay_min <= {v.value:.3g} rad/s")
     peak = {}
@@ -677,6 +677,24 @@ def _not_found(problem, cert, lost):
         out += ("; the proof cannot express " + ", ".join(lost) + ": the specs may still be"
                 " infeasible through them")
     return misses, mode, out
+
+
+def _creep_note(problem, decay):
+    """Where a slow closed-loop pole sits at the family's creep pair (within 10 % of its
+    pole ``-1/tau``): that pair, a pole and a zero a few per cent apart that a controller
+    barely moves (no proof: its strength stays away from 0; see
+    :func:`prove_region_infeasible`)."""
+    c = problem.family.thermal
+    if c is None or not c.creep_tau_s > 0 or (c.creep_per_K == 0.0 and c.creep_at_ref == 0.0):
+        return ""
+    rate = 1.0 / c.creep_tau_s
+    if not abs(decay - rate) <= 0.1 * rate:
+        return ""
+    lo, hi = problem.family.range_C
+    kappa = min(c.creep_at_ref + c.creep_per_K * max(T - c.reference_C, 0.0) for T in (lo, hi))
+    return (f": the family's creep lag-lead, pole at -{rate:.4g} rad/s and zero at"
+            f" -{(1.0 + kappa) * rate:.4g} rad/s where it is weakest (kappa = {kappa:.3g}),"
+            " a pair a controller barely moves")
 
 
 _SPEC_OF = {"|S| peak": "Ms_max", "|T| peak": "Mt_max", "|U| peak": "Mu_max",

@@ -106,3 +106,19 @@ def test_the_proof_is_silent_where_it_proves_nothing(case):
                "solver": {"method": "nlp"}}
         p = parse_problem(doc, "<explicit>")
     assert prove_region_infeasible(p) == ()
+
+
+def test_a_slow_pole_at_a_creep_pair_that_never_vanishes_is_named():
+    """Strength 0.01 everywhere: no proof; the "not found" of a controller whose slow pole
+    sits at the pair (the analytic design of the vanishing family: a root at the zero,
+    -2.02 rad/s, on every member) names the creep pair."""
+    from robrst.certificate.proof import certify_problem
+    from robrst.problem.records import with_defaults
+    from robrst.synthesis.feasibility import feasibility_verdict
+
+    ctrl = analytic_design(_with_decay(3.0)).controller
+    p = with_defaults(_with_decay(3.0, creep_at_ref=0.01))
+    verdict = feasibility_verdict(p, certify_problem(p, ctrl), ctrl)
+    assert verdict.status == "not_found"
+    assert "decaying at 2.02 < 3 rad/s" in verdict.mode
+    assert "creep lag-lead, pole at -2 rad/s and zero at -2.02 rad/s" in verdict.mode
