@@ -46,7 +46,7 @@ def _thermal_model(nominal, c, T):
         raise SpecError(f"family: resonance or damping <= 0 at {T} °C")
     B, A = (np.asarray(x, float) for x in
             thermal_polynomials(form, dT, c.gain_per_K, c.resonance_per_K, c.damping_per_K))
-    kappa = c.creep_at_ref + c.creep_per_K * max(dT, 0.0)
+    kappa = c.creep_strength(T)
     if kappa < 0:
         raise SpecError(f"family: creep strength {kappa:.3g} < 0 at {T} °C")
     if kappa > 0:

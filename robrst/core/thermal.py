@@ -59,6 +59,26 @@ class ThermalCoefficients:
     creep_at_ref: float = 0.0
     creep_tau_s: float = 1.0
 
+    def creep_strength(self, T: float) -> float:
+        """The creep strength ``kappa`` at ``T`` [°C]: ``creep_at_ref`` plus ``creep_per_K``
+        per kelvin above the reference (none gained below it).
+
+        Parameters
+        ----------
+        T : float
+            Temperature [°C].
+
+        Returns
+        -------
+        float
+
+        Examples
+        --------
+        >>> ThermalCoefficients(reference_C=28.0, creep_per_K=0.004).creep_strength(45.0)
+        0.068
+        """
+        return self.creep_at_ref + self.creep_per_K * max(float(T) - self.reference_C, 0.0)
+
 
 #: a complex pair damped at least this much is no resonance (e.g. a repeated real pole,
 #: which ``np.roots`` returns as a pair split by rounding): the thermal law leaves it as it is

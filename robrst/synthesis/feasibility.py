@@ -539,8 +539,9 @@ def prove_region_infeasible(problem: Problem) -> tuple[RegionInfeasibility, ...]
     """A ``decay_min`` that no controller meets on a family whose creep vanishes inside its
     temperature interval (module docstring).
 
-    The creep strength ``kappa(T) = creep_at_ref + creep_per_K max(T - reference_C, 0)`` is
-    continuous in ``T``; when it is 0 somewhere in the interval and positive somewhere
+    The creep strength ``kappa(T)``
+    (:meth:`~robrst.core.thermal.ThermalCoefficients.creep_strength`) is continuous in
+    ``T``; when it is 0 somewhere in the interval and positive somewhere
     else, it takes values arbitrarily close to 0 with the creep pair present, and there
     some closed-loop root decays at nearly ``1/tau``.  A ``decay_min`` above ``1/tau``
     (beyond the certificate's tolerance ``solver.cert_tol``) is infeasible.
@@ -572,7 +573,7 @@ def prove_region_infeasible(problem: Problem) -> tuple[RegionInfeasibility, ...]
         return ()
     lo, hi = problem.family.range_C
     temps = [lo, hi] + ([c.reference_C] if lo < c.reference_C < hi else [])
-    kappa = {T: c.creep_at_ref + c.creep_per_K * max(T - c.reference_C, 0.0) for T in temps}
+    kappa = {T: c.creep_strength(T) for T in temps}
     zero = [T for T, k in kappa.items() if k == 0.0]
     if not zero or max(kappa.values()) <= 0.0:
         return ()
@@ -691,7 +692,7 @@ def _creep_note(problem, decay):
     if not abs(decay - rate) <= 0.1 * rate:
         return ""
     lo, hi = problem.family.range_C
-    kappa = min(c.creep_at_ref + c.creep_per_K * max(T - c.reference_C, 0.0) for T in (lo, hi))
+    kappa = min(c.creep_strength(T) for T in (lo, hi))
     return (f": the family's creep lag-lead, pole at -{rate:.4g} rad/s and zero at"
             f" -{(1.0 + kappa) * rate:.4g} rad/s where it is weakest (kappa = {kappa:.3g}),"
             " a pair a controller barely moves")
