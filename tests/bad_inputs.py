@@ -389,6 +389,15 @@ VARIANTS = [
     twin("twin_rate_and_fs", "[twin]\nsample_rate_hz = 1e4\nfs_hz = 1e4\n", ("[twin.fs_hz]",)),
     twin("twin_saturation_reversed", "[saturation]\nu_min = 150.0\nu_max = 0.0\n",
          ("[saturation.u_max]",)),
+    twin("twin_delay_too_long", "[delay]\nenabled = true\nseconds = 1.0\n",
+         ("[delay.seconds]", "20000 samples", "at most 2000")),
+    twin("twin_gain_changes_sign", "[thermal_dynamics]\nenabled = true\ngain_per_K = -1.0\n",
+         ("[thermal_dynamics]", "gain factor", "45")),
+    twin("twin_creep_negative", "[creep]\nenabled = true\nper_K = -1.0\n",
+         ("[creep]", "per_K", "negative")),
+    V("scenario_name_too_long", {"s.toml": "[scenario]\nduration_s = 0.01\ntwin = '"
+                                 + "a" * 5000 + "'\n"},
+      ("simulate", "s.toml", "--quiet", "--out", "sim"), ("s.toml", "5000 characters")),
     # ------------------------------------------------------------ data files
     diag("csv_missing_column", csv(header="t,u,temp", rows=["0,1,2", "0.001,1,2"]),
          ("missing column", "y")),

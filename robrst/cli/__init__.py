@@ -136,6 +136,12 @@ def _main(args):
     return rc
 
 
+def _input_named(args):
+    """The input file the command line names (problem, design, sweep, scenario), or ``""``."""
+    return next((str(getattr(args, k)) for k in ("problem", "design", "file", "sweep", "scenario")
+                 if isinstance(getattr(args, k, None), (str, os.PathLike))), "")
+
+
 def _run(args):
     """``args.func(args)`` with every failure turned into one line and an exit code."""
     try:
@@ -161,12 +167,20 @@ def _run(args):
         print("robrst: error: the output was closed before robrst finished writing it",
               file=sys.stderr)
         return 2
+    except OSError as exc:     # the system refused a file: a name too long, no permission, full disk
+        if os.environ.get("ROBRST_DEBUG"):
+            raise
+        name = str(exc.filename) if exc.filename is not None else ""
+        name = name if len(name) <= 80 else name[:60] + f"... ({len(name)} characters)"
+        reason = exc.strerror or " ".join(str(exc).split()) or type(exc).__name__
+        where = _input_named(args)
+        print(f"robrst: error: {where + ': ' if where and where != name else ''}"
+              f"{name + ': ' if name else ''}{reason}", file=sys.stderr)
+        return 2
     except Exception as exc:   # noqa: BLE001 — the CLI never ends in a traceback
         if os.environ.get("ROBRST_DEBUG"):
             raise
-        where = next((str(getattr(args, k)) for k in ("problem", "design", "file", "sweep",
-                                                      "scenario")
-                      if isinstance(getattr(args, k, None), (str, os.PathLike))), "")
+        where = _input_named(args)
         msg = " ".join(str(exc).split()) or "no message"
         print(f"robrst: error: {where + ': ' if where else ''}{LAST_RESORT}"
               f"{type(exc).__name__}: {msg}); the input is outside what robrst can compute"

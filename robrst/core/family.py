@@ -24,12 +24,11 @@ from robrst.core import poly
 from robrst.base.errors import SpecError
 from robrst.core.plant import Plant, as_plant
 from robrst.core.sampled import sampled_plant
-from robrst.core.thermal import ThermalCoefficients, modal_form, thermal_polynomials
+from robrst.core.thermal import GAIN_SPAN, ThermalCoefficients, modal_form, thermal_polynomials
 
 __all__ = ["ThermalCoefficients", "PlantFamily", "parametric_family", "explicit_family",
            "GAIN_SPAN"]
 
-GAIN_SPAN = (1e-6, 1e6)   # static-gain factor of a parametric family over its temperatures
 MEMO_MAX = 4096           # models kept by a family's memo; beyond, it starts again (memory)
 
 
@@ -38,17 +37,11 @@ def _thermal_model(nominal, c, T):
     dT = float(T) - c.reference_C
     if dT == 0.0 and c.creep_at_ref == 0.0:
         return nominal.with_label(f"T{T:g}C", float(T))
-    if not GAIN_SPAN[0] <= 1.0 + c.gain_per_K * dT <= GAIN_SPAN[1]:
-        raise SpecError(f"family: gain factor 1 + gain_per_K dT = {1.0 + c.gain_per_K * dT:.3g}"
-                        f" at {T} °C; expected within [{GAIN_SPAN[0]:g}, {GAIN_SPAN[1]:g}]")
     form = modal_form(nominal)
-    if form.pairs and not (1 + c.resonance_per_K * dT > 0 and 1 + c.damping_per_K * dT > 0):
-        raise SpecError(f"family: resonance or damping <= 0 at {T} °C")
+    c.check(T, resonant=bool(form.pairs))
     B, A = (np.asarray(x, float) for x in
             thermal_polynomials(form, dT, c.gain_per_K, c.resonance_per_K, c.damping_per_K))
     kappa = c.creep_strength(T)
-    if kappa < 0:
-        raise SpecError(f"family: creep strength {kappa:.3g} < 0 at {T} °C")
     if kappa > 0:
         tau = c.creep_tau_s
         B = poly.pmul(B, [tau, 1.0 + kappa])

@@ -16,13 +16,17 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from robrst.base.errors import SpecError
 from robrst.core import poly
 
 if TYPE_CHECKING:
     from robrst.core.plant import Plant
 
 __all__ = ["ThermalCoefficients", "ModalForm", "modal_form", "thermal_polynomials",
-           "ZETA_NOT_RESONANT"]
+           "ZETA_NOT_RESONANT", "GAIN_SPAN"]
+
+#: the static-gain factor ``1 + gain_per_K dT`` a law may reach at any of its temperatures
+GAIN_SPAN = (1e-6, 1e6)
 
 
 @dataclass(frozen=True)
@@ -78,6 +82,47 @@ class ThermalCoefficients:
         0.068
         """
         return self.creep_at_ref + self.creep_per_K * max(float(T) - self.reference_C, 0.0)
+
+    def check(self, T: float, resonant: bool = True, who: str = "family") -> None:
+        """Refuse a law that leaves physics at ``T`` [°C]: a static-gain factor
+        ``1 + gain_per_K dT`` outside :data:`GAIN_SPAN`, a resonance or a damping factor
+        ``<= 0`` (when the model has a resonant pair), or a negative creep strength.
+
+        The factors are affine in ``T``: checking the ends of a temperature interval
+        checks all of it.
+
+        Parameters
+        ----------
+        T : float
+            Temperature [°C].
+        resonant : bool
+            The nominal model has a resonant pair (else the resonance and damping
+            factors act on nothing).
+        who : str
+            What the error names first (the family, a twin file's table).
+
+        Raises
+        ------
+        SpecError
+            The law at ``T`` is not a physical model.
+
+        Examples
+        --------
+        >>> ThermalCoefficients(reference_C=28.0, gain_per_K=-0.1).check(45.0)
+        Traceback (most recent call last):
+        ...
+        robrst.base.errors.SpecError: family: gain factor 1 + gain_per_K dT = -0.7 at 45.0 °C; expected within [1e-06, 1e+06]
+        """
+        dT = float(T) - self.reference_C
+        gain = 1.0 + self.gain_per_K * dT
+        if not GAIN_SPAN[0] <= gain <= GAIN_SPAN[1]:
+            raise SpecError(f"{who}: gain factor 1 + gain_per_K dT = {gain:.3g} at {T} °C;"
+                            f" expected within [{GAIN_SPAN[0]:g}, {GAIN_SPAN[1]:g}]")
+        if resonant and not (1 + self.resonance_per_K * dT > 0 and 1 + self.damping_per_K * dT > 0):
+            raise SpecError(f"{who}: resonance or damping <= 0 at {T} °C")
+        kappa = self.creep_strength(T)
+        if kappa < 0:
+            raise SpecError(f"{who}: creep strength {kappa:.3g} < 0 at {T} °C")
 
 
 #: a complex pair damped at least this much is no resonance (e.g. a repeated real pole,

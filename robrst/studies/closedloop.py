@@ -208,6 +208,7 @@ def run_closed_loop(twin: object, controller: LoopController, yr: object, temp: 
     model = build_model(twin)
     if not model.strictly_proper:
         raise SpecError("closed-loop simulation needs a strictly proper plant (no feedthrough)")
+    model.check_temperatures(temp)
     loop = None
     if compiler() is not None:
         loop = compile_controlled_loop(model.step, model.output, controller.files,

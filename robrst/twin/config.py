@@ -40,6 +40,9 @@ MAX_RUN_SAMPLES = 50_000_000
 # made a 50 MB file gcc did not finish)
 RK4_STEP = 0.05
 MAX_SUBSTEPS = 64
+#: samples of transport delay the twin holds (its state carries one entry per sample): 0.1 s
+#: at 20 kHz, far beyond any amplifier's or sensor's latency
+MAX_DELAY_SAMPLES = 2000
 
 EFFECTS = ("thermal_dynamics", "hysteresis", "creep", "thermal_drift", "delay", "saturation",
            "slew", "noise", "quantization", "input_nonlinearity", "output_nonlinearity",
@@ -434,6 +437,11 @@ def parse_twin(data: dict, path: str = "<twin>", plant_loader: object = None) ->
     if user and not plant_model.m < plant_model.n:
         raise key_error(path, ("twin", "plant"), "the twin needs a strictly proper plant (no"
                         " feedthrough: y(k) must not depend on u(k))")
+    if round(effects["delay"]["seconds"] * rate) > MAX_DELAY_SAMPLES:
+        raise key_error(path, ("delay", "seconds"), f"{effects['delay']['seconds']:g} s is"
+                        f" {round(effects['delay']['seconds'] * rate)} samples at {rate:g} Hz;"
+                        f" expected at most {MAX_DELAY_SAMPLES} samples"
+                        f" ({MAX_DELAY_SAMPLES / rate:g} s)")
     _check_rate(path, ("twin", "fs_hz" if tw["fs_hz"] is not None else "sample_rate_hz"),
                 rate, plant_model if user else named_plant(tw["plant"]))
     return TwinConfig(name=tw["name"], plant=tw["plant"], sample_rate_hz=rate,

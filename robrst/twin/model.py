@@ -28,7 +28,7 @@ import numpy as np
 
 from robrst.base.errors import SpecError
 from robrst.core import lti, poly
-from robrst.core.thermal import modal_form, thermal_polynomials
+from robrst.core.thermal import ThermalCoefficients, modal_form, thermal_polynomials
 from robrst.twin.config import MAX_SUBSTEPS, RK4_STEP, min_sample_rate_hz
 
 if TYPE_CHECKING:
@@ -103,6 +103,39 @@ class TwinModel:
     w0: float
     dc_gain: float
     strictly_proper: bool
+    resonant: bool = True
+
+    def check_temperatures(self, temp: np.ndarray) -> None:
+        """Refuse a run whose ambient temperatures ``temp`` [°C] take the twin's per-kelvin
+        laws out of physics: a gain changing sign, a resonance or damping <= 0, a negative
+        creep.  The stack's lagged temperature stays within the ambient range and the laws
+        are affine in it, so the range's two ends decide.
+
+        Parameters
+        ----------
+        temp : numpy.ndarray
+            The run's ambient temperature per sample [°C].
+
+        Raises
+        ------
+        SpecError
+            Naming the twin file, the table and the temperature.
+        """
+        cfg = self.config
+        lo, hi = float(np.min(temp)), float(np.max(temp))
+        where = f"twin {cfg.path}: at the run's temperatures {lo:g}..{hi:g} °C"
+        if cfg.enabled("thermal_dynamics"):
+            td = cfg.effects["thermal_dynamics"]
+            law = ThermalCoefficients(reference_C=cfg.reference_C, gain_per_K=td["gain_per_K"],
+                                      resonance_per_K=td["resonance_per_K"],
+                                      damping_per_K=td["damping_per_K"])
+            for T in (lo, hi):
+                law.check(T, self.resonant, who=f"{where}, [thermal_dynamics]")
+        if cfg.enabled("creep"):
+            factor = 1.0 + cfg.effects["creep"]["per_K"] * max(hi - cfg.reference_C, 0.0)
+            if factor < 0:
+                raise SpecError(f"{where}, [creep] per_K makes the creep negative at {hi:g} °C"
+                                f" (1 + per_K dT = {factor:.3g}); expected >= 0")
 
 
 def creep_taus(c: dict) -> np.ndarray:
@@ -464,4 +497,5 @@ def build_model(config: TwinConfig, plant: Plant | None = None, linear: bool = T
     output = ca.Function("twin_output", [x, p, th], [y_n], ["x", "p", "theta"], ["y_meas"])
     return TwinModel(config=config, step=step, output=output, theta_names=names, theta0=theta0,
                      n_state=k, slices=slices, n_delay=nd, w0=w0, dc_gain=float(plant.dc_gain),
-                     strictly_proper=plant.m < plant.n)
+                     strictly_proper=plant.m < plant.n,
+                     resonant=bool(modal_form(plant).pairs))

@@ -186,8 +186,11 @@ class Simulator:
         outputs : numpy.ndarray
         state : numpy.ndarray
         """
+        P = np.asarray(P, float)
+        if theta is None:
+            self.model.check_temperatures(P[1])
         theta = self.model.theta0 if theta is None else np.asarray(theta, float)
-        return self.loop(np.asarray(P, float), x0, theta)
+        return self.loop(P, x0, theta)
 
 
 def simulate(config: TwinConfig, temp: ArrayLike, u: ArrayLike | None = None,
