@@ -56,6 +56,7 @@ from robrst.certificate._structure import structure_violations
 from robrst.problem.records import Problem
 from robrst.core.rst import RSTController, as_controller, closed_loop
 from robrst.core.thermal import modal_form
+from robrst.base.errors import SpecError
 from robrst.base.threads import one_blas_thread
 
 if TYPE_CHECKING:
@@ -508,8 +509,20 @@ def certify(family: PlantFamily, ctrl: RSTController, specs: Specs, n_sweep: int
     Returns
     -------
     Certificate
+
+    Raises
+    ------
+    SpecError
+        The controller's coefficients overflow the closed-loop polynomial ``A S + B R``
+        of a family model (no finite loop exists to certify).
     """
     ctrl = as_controller(ctrl)      # a python-control system too
+    with np.errstate(over="ignore", invalid="ignore"):
+        finite = all(np.all(np.isfinite(closed_loop(m, ctrl).Delta)) for m in family.models)
+    if not finite:
+        big = max(float(np.max(np.abs(getattr(ctrl, k)))) for k in "RST")
+        raise SpecError(f"the controller's coefficients (up to {big:.3g}) overflow the"
+                        " closed-loop polynomial A S + B R: no finite loop to certify")
     specs, damping_source = resolved_specs(specs, family)
     known = {m.temperature_C for m in family.models}
     models = list(family.models)

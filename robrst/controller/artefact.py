@@ -229,7 +229,10 @@ def design_from_dict(doc: dict, path: str = "<design>", problem: object = None,
     saved = problem is None
     if saved:
         problem = parse_problem(doc["artefact"]["problem_document"], str(path), compare=False)
-    cert = certify_problem(problem, ctrl)
+    try:
+        cert = certify_problem(problem, ctrl)
+    except SpecError as exc:           # the saved controller, not the problem, is at fault
+        raise SpecError(f"{path}: [controller] {exc}") from None
     if saved:
         was = bool(doc.get("certified"))
         say(f"re-certified the saved controller: {'certified' if cert.certified else 'not certified'}"
@@ -242,6 +245,14 @@ def design_from_dict(doc: dict, path: str = "<design>", problem: object = None,
     from robrst.synthesis.limits import design_limits
 
     ac, comp = doc.get("analytic_check"), doc.get("comparison")
+    tcp = doc.get("target_char_poly")
+    try:
+        tcp = None if tcp is None else np.asarray(tcp, float)
+    except (TypeError, ValueError):
+        tcp = np.zeros((0, 0))
+    if tcp is not None and (tcp.ndim != 1 or not tcp.size or not np.all(np.isfinite(tcp))):
+        raise SpecError(f"{path}: [target_char_poly] expected a list of finite numbers"
+                        " (or null)")
     bound, verdict = design_limits(problem, ctrl, cert, cert.certified)   # as the analyses
     solver = dict(doc.get("solver") or {"name": "saved"})
     if not saved:        # the synthesis record and the starts belong to the saved problem
@@ -253,8 +264,7 @@ def design_from_dict(doc: dict, path: str = "<design>", problem: object = None,
                             " are not this problem's and are not repeated"]}
     return DesignResult(
         problem=problem, method=str(doc.get("method", "saved")), controller=ctrl,
-        target_char_poly=None if doc.get("target_char_poly") is None
-        else np.asarray(doc["target_char_poly"], float),
+        target_char_poly=tcp,
         analyses=analyze_many(problem.family.models, ctrl), certificate=cert,
         synthesis=StoredRecord(solver),
         analytic_check=None if not saved or ac is None else AnalyticCheck(**ac),

@@ -193,3 +193,25 @@ def test_files_that_are_no_saved_design_are_one_line(tmp_path, capsys):
             assert len(err) == 1 and str(path) in err[0] and words in err[0], (cmd, err)
     with pytest.raises(robrst.SpecError, match="design it again"):
         read_design(old)
+
+
+def test_a_saved_design_with_overflowing_or_unreadable_numbers_is_one_line(tmp_path, capsys):
+    # found by mutating every field of a saved design: R of 1e300 overflowed A S + B R inside
+    # the stability check (a raw LinAlgError), a target_char_poly of text a raw ValueError
+    doc = robrst.run_problem(robrst.load_problem("paper")).as_dict()
+    cases = {"big.json": ("controller", "R", [1e300] * len(doc["controller"]["R"])),
+             "text.json": ("target_char_poly", None, "x")}
+    for name, (key, sub, value) in cases.items():
+        d = json.loads(json.dumps(doc))
+        if sub is None:
+            d[key] = value
+        else:
+            d[key][sub] = value
+        path = tmp_path / name
+        path.write_text(json.dumps(d))
+        for cmd in (["certify", str(path), "--quiet"],
+                    ["export", str(path), "--quiet", "--out", str(tmp_path / "c.json")]):
+            assert main(cmd) == 2, cmd
+            err = capsys.readouterr().err.strip().splitlines()
+            assert len(err) == 1 and str(path) in err[0] and f"[{key}]" in err[0], (cmd, err)
+            assert "computation failed" not in err[0]
