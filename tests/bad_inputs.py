@@ -407,6 +407,9 @@ VARIANTS = [
                                                     if i == 10 else None)), ("line", "time")),
     diag("csv_nan", csv(rows=csv_rows(lambda i, r: r[:2] + ["nan"] + r[3:]
                                       if i == 3 else None)), ("line", "column(s) y")),
+    diag("csv_underscore_digits", csv(rows=csv_rows(lambda i, r: r[:1] + ["1_000"] + r[2:]
+                                                    if i == 7 else None)),
+         ("line 10", "non-numeric")),
     diag("csv_inf", csv(rows=csv_rows(lambda i, r: r[:1] + ["inf"] + r[2:]
                                       if i == 3 else None)), ("line", "column(s) u")),
     diag("csv_short_row", csv(rows=csv_rows(lambda i, r: r[:3] if i == 7 else None)),
