@@ -350,8 +350,8 @@ def read_golden(path: str | Path) -> dict:
     if unknown:
         raise _bad(path, sorted(unknown)[0], "unknown table; expected golden, design, models")
     head = data.get("golden")
-    if not isinstance(head, dict) or head.get("format") != FORMAT \
-            or not isinstance(head.get("problem"), str):
+    if not isinstance(head, dict) or isinstance(head.get("format"), bool) \
+            or head.get("format") != FORMAT or not isinstance(head.get("problem"), str):
         raise _bad(path, "golden", f"expected format = {FORMAT} and problem = \"NAME\"")
     _known(path, "golden", head, ("format", "problem", "robrst_version"))   # version: a note
     design = data.get("design", {})
@@ -362,7 +362,8 @@ def read_golden(path: str | Path) -> dict:
         raise _bad(path, "design.certified", "expected true or false")
     obj = design.get("objective")
     if obj is not None:
-        if not isinstance(obj, dict) or obj.get("name") not in OBJECTIVES:
+        if not isinstance(obj, dict) or not isinstance(obj.get("name"), str) \
+                or obj["name"] not in OBJECTIVES:
             raise _bad(path, "design.objective", f"expected {{ name = one of {sorted(OBJECTIVES)},"
                        " value = number, rtol = number }")
         obj = (obj["name"], *_figure(path, "design.objective",
@@ -370,7 +371,7 @@ def read_golden(path: str | Path) -> dict:
     models = data.get("models", {})
     if not isinstance(models, dict):
         raise _bad(path, "models", "expected a table of models")
-    out = {}
+    out, temps = {}, {}
     for label, figs in models.items():
         if not isinstance(figs, dict):
             raise _bad(path, f"models.{label}", "expected a table of figures")
@@ -379,12 +380,13 @@ def read_golden(path: str | Path) -> dict:
             if k == "temperature_C":
                 if _float(v) is None or not math.isfinite(_float(v)):
                     raise _bad(path, f"models.{label}.{k}", f"expected a number, got {_shown(v)}")
+                temps[label] = _float(v)
                 continue
             if direction(k) is None:
                 raise _bad(path, f"models.{label}.{k}", "not a margin figure robrst checks")
             out[label][k] = _figure(path, f"models.{label}.{k}", v)
     g = {"problem": head["problem"], "certified": design.get("certified", False),
-         "objective": obj, "models": out, "path": str(path)}
+         "objective": obj, "models": out, "path": str(path), "temperatures_C": temps}
     if not count_figures(g):
         raise SpecError(f"{path}: the golden checks nothing (no model figure, no objective and"
                         " certified = false); write one with --update")
@@ -464,6 +466,13 @@ def check_golden_fits(golden: dict, problem: Problem) -> None:
     if golden["objective"] is not None and golden["objective"][0] != want:
         raise _bad(path, "design.objective", f"golden objective {golden['objective'][0]!r}, the"
                    f" problem's objective is {kind!r} ({'no figure' if want is None else want})")
+    family = getattr(problem, "family", None)       # a multi-axis problem: no temperatures
+    at = {m.label: getattr(m, "temperature_C", None) for m in getattr(family, "models", ())}
+    for label, T in golden.get("temperatures_C", {}).items():
+        if at.get(label) is not None and abs(at[label] - T) > 1e-9 * max(1.0, abs(T)):
+            raise _bad(path, f"models.{label}.temperature_C", f"the golden's model {label} is at"
+                       f" {T:g} °C, the problem's at {at[label]:g} °C: a golden of another"
+                       " family (write it again with --update)")
     if problem.specs.sample_rate_hz is None:
         for label, figs in golden["models"].items():
             for k in figs:

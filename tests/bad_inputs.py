@@ -407,6 +407,9 @@ VARIANTS = [
                                                     if i == 10 else None)), ("line", "time")),
     diag("csv_nan", csv(rows=csv_rows(lambda i, r: r[:2] + ["nan"] + r[3:]
                                       if i == 3 else None)), ("line", "column(s) y")),
+    diag("csv_time_in_nanoseconds_read_as_seconds",
+         csv(rows=csv_rows(lambda i, r: [f"{i * 1e6:.12g}"] + r[1:])),
+         ("column t", "sampling rate", "1e-06 Hz", "plausible")),
     diag("csv_underscore_digits", csv(rows=csv_rows(lambda i, r: r[:1] + ["1_000"] + r[2:]
                                                     if i == 7 else None)),
          ("line 10", "non-numeric")),
@@ -499,4 +502,12 @@ VARIANTS = [
            ("design.certified",)),
     golden("golden_figure_string", GOLDEN_OK + '[models.T28C]\nMs = "big"\n', ("Ms",)),
     golden("golden_other_problem", GOLDEN_OK.replace('"paper"', '"other"'), ("other",)),
+    golden("golden_format_true", GOLDEN_OK.replace("format = 1", "format = true"), ("format",)),
+    golden("golden_objective_name_list",
+           GOLDEN_OK + 'objective = { name = ["a"], value = 1.0, rtol = 0.1 }\n',
+           ("design.objective",)),
+    golden("golden_model_at_another_temperature",
+           GOLDEN_OK.replace('"paper"', '"p"')
+           + "[models.T28C]\ntemperature_C = 40.0\nMs = { value = 2.0, rtol = 0.1 }\n",
+           ("models.T28C.temperature_C", "40", "28")),
 ]

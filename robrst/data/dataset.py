@@ -39,6 +39,9 @@ COLUMNS = ("t", "u", "y")          # required (u/y or u1..uk/y1..ym)
 PLAUSIBLE = {"u": (-1000.0, 1000.0, "V"), "y": (-1.0e4, 1.0e4, "µm"), "yr": (-1.0e4, 1.0e4, "µm"),
              "temp": (-60.0, 200.0, "°C")}
 TIME_RTOL = 1e-6
+#: sampling rates a record may have [Hz]: a thermal log at one sample per 1,000 s to a
+#: 1 GHz digitiser; beyond, the time column is in another unit (ms, µs) or not a time
+PLAUSIBLE_RATE_HZ = (1e-3, 1e9)
 _PERIOD = re.compile(r"^period_samples\s*[=:]\s*(\d+)\s*$")
 _NPZ_KEYS = ("t", "u", "y", "temp", "yr", "period_samples")
 
@@ -408,6 +411,10 @@ def _check_columns(path, col, header, period, at):
         raise DataError(f"{path}: {at(j)}: time not strictly increasing"
                         f" ({t[j - 1]:.9g} -> {t[j]:.9g})")
     h = (t[-1] - t[0]) / (n - 1)
+    if not PLAUSIBLE_RATE_HZ[0] <= 1.0 / h <= PLAUSIBLE_RATE_HZ[1]:
+        raise DataError(f"{path}: column t: sampling rate {1.0 / h:.6g} Hz (step {h:.6g} s)"
+                        f" outside the plausible range [{PLAUSIBLE_RATE_HZ[0]:g},"
+                        f" {PLAUSIBLE_RATE_HZ[1]:g}] Hz: is the time column in seconds?")
     dev = np.abs(dt - h)
     if np.max(dev) > TIME_RTOL * h + 1e-12:
         j = int(np.argmax(dev)) + 1
