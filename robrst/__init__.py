@@ -41,6 +41,7 @@ _EXPORTS = {
     "ControllerStructure": "robrst.problem.records", "Specs": "robrst.problem.records",
     "SolverOptions": "robrst.problem.records",
     "load_problem": "robrst.problem.files", "parse_problem": "robrst.problem.files",
+    "check_problem": "robrst.problem.documents",
     "certify": "robrst.certificate.proof", "certify_problem": "robrst.certificate.proof",
     "pole_placement": "robrst.synthesis.analytic",
     "run_problem": "robrst.design", "DesignResult": "robrst.design",

@@ -484,6 +484,14 @@ def _controller_poles(ctrl, specs, rtol):
     return rec, viol
 
 
+def _number(v):
+    """``v`` as a float, NaN when it is none (text, a list)."""
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        return float("nan")
+
+
 def certify(family: PlantFamily, ctrl: RSTController, specs: Specs, n_sweep: int = 35,
             rtol: float = 1e-3, checks: Sequence[Callable] = (),
             max_refine: int | None = None) -> Certificate:
@@ -514,7 +522,8 @@ def certify(family: PlantFamily, ctrl: RSTController, specs: Specs, n_sweep: int
     ------
     SpecError
         The controller's coefficients overflow the closed-loop polynomial ``A S + B R``
-        of a family model (no finite loop exists to certify).
+        of a family model (no finite loop exists to certify), or a bound is not a finite
+        number (NaN bounds nothing).
     """
     ctrl = as_controller(ctrl)      # a python-control system too
     with np.errstate(over="ignore", invalid="ignore"):
@@ -523,6 +532,10 @@ def certify(family: PlantFamily, ctrl: RSTController, specs: Specs, n_sweep: int
         big = max(float(np.max(np.abs(getattr(ctrl, k)))) for k in "RST")
         raise SpecError(f"the controller's coefficients (up to {big:.3g}) overflow the"
                         " closed-loop polynomial A S + B R: no finite loop to certify")
+    for _, key in BOUNDED + LOWER_BOUNDED:      # a NaN bound bounds nothing: no proof of it
+        v = getattr(specs, key)
+        if v is not None and not isinstance(v, bool) and not np.isfinite(_number(v)):
+            raise SpecError(f"[specs.{key}] = {v!r}: a bound must be a finite number")
     specs, damping_source = resolved_specs(specs, family)
     known = {m.temperature_C for m in family.models}
     models = list(family.models)

@@ -223,6 +223,12 @@ def design_from_dict(doc: dict, path: str = "<design>", problem: object = None,
         ``problem`` only the 2-DOF path is kept (it is the controller's); the solver record
         says where the controller was designed, and there are no starts, analytic check or
         comparison (they belong to the saved problem).
+
+    Raises
+    ------
+    SpecError
+        Naming ``path``: the controller is not ``R``, ``S``, ``T`` lists of numbers or
+        overflows the closed loop, ``target_char_poly`` is not a list of finite numbers.
     """
     say = progress or (lambda msg: None)
     ctrl = _controller(path, doc["controller"])

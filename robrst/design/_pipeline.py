@@ -22,6 +22,7 @@ from robrst.design.fleet import fleet_design
 from robrst.design._single import design_single
 from robrst.design.tolerance import spread_tolerance
 from robrst.problem.records import with_defaults
+from robrst.problem.documents import check_problem
 from robrst.synthesis.feasibility import (feasibility_verdict, prove_infeasible,
                                           prove_region_infeasible, prove_step_infeasible)
 from robrst.synthesis.limits import design_limits
@@ -108,6 +109,7 @@ def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,
     """
     if multistart is None:
         multistart = problem.solver.multistart
+    check_problem(problem)        # a problem built or changed in Python: the file's checks
     problem = with_defaults(problem)
     incumbent = _incumbent(problem, incumbent)
     with one_blas_thread(problem.needs_scipy):

@@ -14,7 +14,7 @@ import numpy as np
 from robrst.base.errors import SpecError
 from robrst.problem.records import ControllerStructure, Problem, SolverOptions, Specs
 
-__all__ = ["problem_document"]
+__all__ = ["problem_document", "check_problem"]
 
 
 def _value(v):
@@ -137,3 +137,44 @@ def problem_document(problem: Problem) -> dict:
     doc["solver"] = {k: v for k, v in _table(problem.solver, SolverOptions).items()
                      if k != "method_source"}
     return doc
+
+
+def check_problem(problem: Problem) -> None:
+    """Refuse a problem built or changed in Python that its problem file could not state:
+    every value is checked by the file's own validation (the round trip
+    ``parse_problem(problem_document(problem))``), so a Python user gets the file's errors,
+    naming the table and key (``Specs(Ms_max=nan)`` would otherwise bound nothing).
+
+    A problem no file can state (a plant without a temperature, complex auxiliary roots)
+    is not checked this way; its records are used as they are.
+
+    Parameters
+    ----------
+    problem : Problem
+
+    Raises
+    ------
+    SpecError
+        ``<python>: [table.key] expected ...``, as the problem file's error (a problem
+        read from a file and changed since: ``FILE (changed in Python): [table.key] ...``).
+
+    Examples
+    --------
+    >>> from dataclasses import replace
+    >>> from robrst import load_problem
+    >>> p = load_problem("paper")
+    >>> check_problem(p)
+    >>> check_problem(replace(p, path="<python>", specs=replace(p.specs, Ms_max=0.5)))
+    Traceback (most recent call last):
+    ...
+    robrst.base.errors.SpecError: <python>: [specs.Ms_max] expected number >= 1, got 0.5
+    """
+    from robrst.problem.files import parse_problem
+
+    try:
+        doc = problem_document(problem)
+    except (SpecError, TypeError, ValueError, AttributeError):
+        return
+    where = problem.path if str(problem.path).startswith("<") else \
+        f"{problem.path} (changed in Python)"
+    parse_problem(doc, where, compare=False)

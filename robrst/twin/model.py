@@ -90,6 +90,9 @@ class TwinModel:
         The nominal static gain [µm/V].
     strictly_proper : bool
         The plant has no feedthrough.
+    resonant : bool
+        The plant has a resonant pair (the thermal law's resonance and damping factors act
+        on it).
     """
 
     config: TwinConfig
