@@ -79,7 +79,8 @@ API_PAGES = (
     ("problems", "Problems and specs",
      "A problem file or record in: the plant family, the specs, the solver's options; and "
      "the errors robrst raises on bad input.",
-     ["robrst.load_problem", "robrst.parse_problem", "robrst.Problem", "robrst.Specs",
+     ["robrst.load_problem", "robrst.parse_problem", "robrst.check_problem", "robrst.Problem",
+      "robrst.Specs",
       "robrst.PoleSpec", "robrst.ControllerStructure", "robrst.SolverOptions",
       "robrst.RobrstError", "robrst.SpecError", "robrst.DegreeError", "robrst.CoprimeError",
       "robrst.DataError", "robrst.SolverError", "robrst.InfeasibleError",
