@@ -73,3 +73,19 @@ def test_a_certificate_of_a_nan_bound_is_refused(paper, key):
     with pytest.raises(SpecError, match=rf"\[specs.{key}\] = nan"):
         certify_problem(bad, ctrl)
     assert certify_problem(paper, ctrl).certified
+
+
+def test_a_family_beyond_the_file_format_is_not_refused_but_its_specs_are_checked():
+    """A 14th-order plant at 10-30 Mrad/s: its expanded denominator reaches 8e101, beyond a
+    problem file's 1e100 (a format limit, not the plant's): check_problem passes it, and
+    still names a NaN bound of its specs."""
+    from robrst import Plant, PlantFamily, PoleSpec, Problem, Specs
+
+    A = np.poly(-np.linspace(1e7, 3e7, 14))
+    assert np.abs(A).max() > 1e100
+    plant = Plant([A[-1]], A, temperature_C=28.0).with_label("n", 28.0)
+    pr = Problem("big", PlantFamily(models=(plant,)), poles=PoleSpec(wn=1e6, zeta=1.0),
+                 specs=Specs(Ms_max=2.0))
+    check_problem(pr)
+    with pytest.raises(SpecError, match=r"<python>: \[specs.Ms_max\] expected a finite"):
+        check_problem(dataclasses.replace(pr, specs=Specs(Ms_max=float("nan"))))
