@@ -37,7 +37,7 @@ import numpy as np
 
 from robrst.data.dataset import check_sensor
 import robrst.diagnose._signals as signals
-from robrst.diagnose._effects import EFFECTS, THERMAL, Chain, summary
+from robrst.diagnose._effects import EFFECTS, INPUT_EFFECTS, THERMAL, Chain, summary
 from robrst.diagnose._findings import (amplitude_finding, comparable, floor_of, noise_estimate,
                                       noise_levels, unmodelled_finding)
 from robrst.diagnose.fit import fit_model, prepare
@@ -170,18 +170,23 @@ def skipped_effects(train: Sequence[Dataset], test: Sequence[Dataset], effects: 
     Returns
     -------
     dict
-        ``{effect: reason}``: temperature not excited, one input and output only (or
-        polynomials that overflow), several only, or (amplitude-dependent dynamics) not periodic at two training levels.
+        ``{effect: reason}``: temperature not excited, an effect of the input on records
+        whose input is 0 V throughout, one input and output only (or polynomials that
+        overflow), several only, or (amplitude-dependent dynamics) not periodic at two
+        training levels.
     """
     out = {}
     temps = [d.temp for d in train if d.temp is not None]
     # within a record or across records (each at its own constant temperature)
     t_range = float(np.ptp(np.concatenate(temps))) if temps else 0.0
     siso = (model.n_in, model.n_out) == (1, 1)
+    no_input = not any(np.any(d.U) for d in train)     # 0 V throughout (a drift record)
     for e in effects:
         if e in THERMAL and t_range < _REC.temp_excited_K:
             out[e] = (f"temperature constant within {t_range:.3g} K on the training records"
                       if temps else "no temperature measured")
+        elif e in INPUT_EFFECTS and e not in THERMAL and no_input:
+            out[e] = "the training input is 0 V throughout: nothing drives it"
         elif e in ("thermal_dynamics", "stiffness_nonlinearity") and not siso:
             out[e] = "one input and one output only"
         elif e == "cross_coupling" and siso:

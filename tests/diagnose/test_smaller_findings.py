@@ -120,3 +120,25 @@ def test_output_backlash_transient_is_not_noise():
     D = np.diff(d.Y.reshape(d.periods, d.period, -1), axis=0)
     assert np.sqrt(np.mean(D ** 2) / 2) > 2 * period_noise(d)[0]
 
+
+
+def test_records_at_0_V_leave_the_effects_of_the_input_untried():
+    """A drift record at 0 V throughout (the paper's Fig. 2 at 0 V): no effect of the input
+    (hysteresis, creep, saturation, ...) can be fitted from it, and screening them blew up
+    (Bouc-Wen scaled by the input's range, 0). They are 'not tried', with the reason; the
+    thermal drift, driven by the temperature, is still tried. Found by mutating a CSV."""
+    from robrst.diagnose._diagnosis import skipped_effects
+    from robrst.diagnose._effects import EFFECTS, INPUT_EFFECTS, THERMAL
+    from robrst.diagnose.linear import as_modal
+
+    t = np.arange(4000) / 1000.0
+    temp = 28.0 + 4.0 * t
+    drift = Dataset(t=t, u=np.zeros_like(t), y=0.3 * (temp - 28.0), temp=temp)
+    model = as_modal(paper_plant())
+    out = skipped_effects([drift], [drift], EFFECTS, model)
+    driven_by_u = {e for e in INPUT_EFFECTS if e in EFFECTS and e not in THERMAL}
+    assert driven_by_u and driven_by_u <= set(out)
+    assert all("0 V throughout" in out[e] for e in driven_by_u)
+    assert "thermal_drift" not in out
+    driven = Dataset(t=t, u=np.where(t > 1.0, 10.0, 0.0), y=0.3 * (temp - 28.0), temp=temp)
+    assert not set(skipped_effects([driven], [drift], EFFECTS, model)) & set(INPUT_EFFECTS)
