@@ -71,12 +71,9 @@ def run_diagnose(args: argparse.Namespace) -> int:
     if args.report:
         check_report_target(args.report, args.force, option="--report")
     if args.model_out:
-        from pathlib import Path
+        from robrst.diagnose.modelout import check_model_out
 
-        from robrst.base.errors import SpecError
-
-        if Path(args.model_out).exists() and not Path(args.model_out).is_dir():
-            raise SpecError(f"--model-out {args.model_out}: is a file; expected a folder")
+        check_model_out(args.model_out)          # a foreign file in the way: before the work
     say = progress_printer(args.quiet or to_stdout)
     train = [load_dataset(f) for f in args.train]
     test = [load_dataset(f) for f in args.test]

@@ -41,8 +41,8 @@ from robrst.identify.modelfile import modal_model_table, starting_design
 if TYPE_CHECKING:
     from robrst.diagnose.result import Diagnosis
 
-__all__ = ["AnswerModel", "answer_models", "write_models", "model_file_text", "twin_file_text",
-           "MARKER"]
+__all__ = ["AnswerModel", "answer_models", "write_models", "check_model_out", "model_file_text",
+           "twin_file_text", "MARKER"]
 
 MARKER = "# written by robrst diagnose"
 
@@ -174,6 +174,30 @@ def _refuse_foreign(path):
         if not first or not first[0].startswith(MARKER):
             raise SpecError(f"{path}: exists and was not written by robrst diagnose; not"
                             " overwriting it (choose another --model-out)")
+
+
+def check_model_out(folder: str | Path) -> None:
+    """Refuse, before any work, a ``--model-out`` folder that is a file or holds a file of a
+    name the answer may write (``model.toml``, ``model_<level>Vrms.toml``, ``twin.toml``)
+    that robrst diagnose did not write.
+
+    Parameters
+    ----------
+    folder : str or Path
+
+    Raises
+    ------
+    SpecError
+        Naming the file in the way.
+    """
+    folder = Path(folder)
+    if folder.exists() and not folder.is_dir():
+        raise SpecError(f"{folder}: is a file; --model-out needs a folder")
+    if folder.is_dir():
+        for path in sorted(folder.glob("*.toml")):
+            if path.name in ("model.toml", "twin.toml") or (
+                    path.name.startswith("model_") and path.name.endswith("Vrms.toml")):
+                _refuse_foreign(path)
 
 
 def write_models(diag: Diagnosis, folder: str | Path) -> list:

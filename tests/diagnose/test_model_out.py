@@ -188,3 +188,29 @@ def test_stiffness_answer_writes_a_model_and_a_twin_that_reproduce_it(tmp_path, 
     y_hold = simulate(cfg, np.full(20000, 30.0), u=np.full(20000, 100.0)).y_true[-1]
     root = np.roots([c, 0.0, 1.0, -k * 100.0])
     assert y_hold == pytest.approx(float(root[np.isreal(root)].real[0]), rel=1e-6)
+
+
+def test_a_foreign_file_in_the_model_out_folder_is_refused_before_the_work(tmp_path, capsys,
+                                                                            monkeypatch):
+    """A model.toml (or model_<level>Vrms.toml, twin.toml) robrst did not write: refused
+    before the diagnosis runs (it ran to the end, then refused), the file untouched."""
+    import robrst.diagnose as diagnose_pkg
+
+    t = np.arange(2000) / 20000.0
+    rec = tmp_path / "r.csv"
+    rec.write_text("t,u,y\n" + "\n".join(f"{a:.9g},{5 + np.sin(400 * a):.9g},{np.sin(400 * a):.9g}"
+                                         for a in t) + "\n")
+
+    def boom(*a, **k):
+        raise AssertionError("diagnosed before refusing")
+
+    monkeypatch.setattr(diagnose_pkg, "diagnose", boom)     # the CLI imports it when it runs
+    for name in ("model.toml", "twin.toml", "model_0.1Vrms.toml"):
+        folder = tmp_path / name.replace(".", "_")
+        folder.mkdir()
+        (folder / name).write_text("mine\n")
+        assert robrst(["diagnose", "--train", str(rec), "--test", str(rec), "--quiet",
+                       "--model-out", str(folder)]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and name in err[0] and "not written by robrst" in err[0], err
+        assert (folder / name).read_text() == "mine\n"
