@@ -50,9 +50,9 @@ if TYPE_CHECKING:
     from robrst.design.mimo import MimoDesignResult
     from robrst.problem.records import Problem
 
-__all__ = ["Worse", "golden_figures", "write_golden", "read_golden", "compare_golden",
-           "assert_margins", "check_golden_fits", "count_figures", "figures_line", "MARKER",
-           "DEFAULT_TOL"]
+__all__ = ["Worse", "golden_figures", "write_golden", "check_golden_target", "read_golden",
+           "compare_golden", "assert_margins", "check_golden_fits", "count_figures",
+           "figures_line", "MARKER", "DEFAULT_TOL"]
 
 MARKER = "# robrst margins golden"
 FORMAT = 1
@@ -201,6 +201,31 @@ def _tol(name, rtol, phase_atol):
     return {"atol": float(phase_atol)} if direction(name) == "abs" else {"rtol": float(rtol)}
 
 
+def check_golden_target(path: str | Path) -> Path:
+    """The golden file ``path`` may be written: a new file, or a robrst golden (checked
+    before a design, so a file in the way fails at once).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+
+    Returns
+    -------
+    pathlib.Path
+
+    Raises
+    ------
+    OutputError
+        ``path`` exists and is not a robrst golden, or cannot be written.
+    """
+    path = check_file_target(path)
+    if (path.exists() or path.is_symlink()) and (
+            path.is_dir() or not (peek_text(path) or "").startswith(MARKER)):
+        raise OutputError(f"{path}: exists and is not a robrst golden (it does not start with"
+                          f" {MARKER!r}); refusing to overwrite it")
+    return path
+
+
 def write_golden(result: DesignResult | dict, path: str | Path, rtol: float = DEFAULT_TOL["rtol"],
                  phase_atol_deg: float = DEFAULT_TOL["phase_atol_deg"]) -> Path:
     """Write the golden of ``result`` to ``path`` (atomically; only over a robrst golden).
@@ -226,11 +251,7 @@ def write_golden(result: DesignResult | dict, path: str | Path, rtol: float = DE
     OutputError
         ``path`` exists and is not a robrst golden (nothing is overwritten).
     """
-    path = check_file_target(path)
-    if (path.exists() or path.is_symlink()) and (
-            path.is_dir() or not (peek_text(path) or "").startswith(MARKER)):
-        raise OutputError(f"{path}: exists and is not a robrst golden (it does not start with"
-                          f" {MARKER!r}); refusing to overwrite it")
+    path = check_golden_target(path)
     import tomlkit   # noqa: PLC0415  (only writing a golden needs it: no command's start pays)
 
     from robrst.base.tomlwrite import document, inline, plain   # noqa: PLC0415

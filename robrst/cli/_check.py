@@ -6,10 +6,10 @@ from typing import TYPE_CHECKING
 
 from robrst.cli._common import design_result, is_saved_design, progress_printer
 from robrst.cli._mimo import is_mimo_file
-from robrst.base.fileio import check_file_target
 from robrst.problem.files import load_problem
-from robrst.testing import (check_golden_fits, compare_golden, count_figures, figures_line,
-                            golden_figures, read_golden, write_golden)
+from robrst.testing import (check_golden_fits, check_golden_target, compare_golden,
+                            count_figures, figures_line, golden_figures, read_golden,
+                            write_golden)
 
 if TYPE_CHECKING:
     import argparse
@@ -55,7 +55,7 @@ def run_check(args: argparse.Namespace) -> int:
     say = progress_printer(args.quiet)
     golden = None if args.update else read_golden(args.golden)   # a bad golden fails first
     if args.update:
-        check_file_target(args.golden)
+        check_golden_target(args.golden)      # a file in the way fails before the design
     problem = None
     if is_mimo_file(args.problem):                  # a multi-axis problem: its joint design
         from robrst.design.mimo import design_mimo

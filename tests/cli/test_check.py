@@ -126,6 +126,23 @@ def test_update_never_overwrites_a_file_it_did_not_write(tmp_path, designs):
     assert mine.read_text() == "my = 1\n"
 
 
+def test_update_refuses_a_file_in_the_way_before_designing(tmp_path, monkeypatch, capsys):
+    """`check --update` onto a file robrst did not write: refused before the design (it
+    designed paper_robust for a minute, then refused)."""
+    import robrst.cli._check as cli_check
+
+    def boom(*a, **k):
+        raise AssertionError("designed before refusing")
+
+    monkeypatch.setattr(cli_check, "design_result", boom)
+    mine = tmp_path / "notes.toml"
+    mine.write_text("my = 1\n")
+    assert main(["check", "paper_robust", "--golden", str(mine), "--update", "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "not a robrst golden" in err[0] and str(mine) in err[0], err
+    assert mine.read_text() == "my = 1\n"
+
+
 def test_assert_margins_for_pytest(tmp_path, designs):
     result = designs("paper_robust")
     path = tmp_path / "robust.toml"
