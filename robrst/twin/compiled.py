@@ -158,23 +158,41 @@ def compile_loop(step: ca.Function, flags: Sequence[str] = ("-O2",)) -> Loop:
               .replace("NP", str(step.size1_in(1))).replace("NY", str(step.size1_out(1))))
     src = src + driver
     key = hashlib.sha256((src + " ".join(flags)).encode()).hexdigest()[:16]
-    out = cache_dir() / f"{name}_{key}.so"
-    if not out.exists():
-        out.parent.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryDirectory() as tmp:
-            c = Path(tmp, "f.c")
-            c.write_text(src)
-            so = Path(tmp, "f.so")
-            r = subprocess.run([cc, *flags, "-shared", "-fPIC", "-o", str(so), str(c), "-lm"],
-                               capture_output=True, text=True)
-            if r.returncode != 0:
-                return Loop(step)
-            tmp_out = out.with_suffix(f".{os.getpid()}.tmp")
-            shutil.copyfile(so, tmp_out)
-            os.replace(tmp_out, out)  # atomic: concurrent builders never see half a library
-    lib = ctypes.CDLL(str(out))
+
+    def build(so):
+        c = so.with_name("f.c")
+        c.write_text(src)
+        r = subprocess.run([cc, *flags, "-shared", "-fPIC", "-o", str(so), str(c), "-lm"],
+                           capture_output=True, text=True)
+        return r.returncode == 0
+
+    lib = _library(cache_dir() / f"{name}_{key}.so", build)
+    if lib is None:
+        return Loop(step)
     lib.robrst_loop.restype = ctypes.c_int
     return Loop(step, lib)
+
+
+def _library(out, build):
+    """The shared library ``out`` of the cache, built by ``build(path) -> ok`` when missing
+    (``None`` when the build fails).  A cache that cannot be used (``ROBRST_CACHE`` a file,
+    a read-only or full disk, a damaged library): built in a temporary folder and loaded
+    from there, not cached; the same code either way."""
+    try:
+        if not out.exists():
+            out.parent.mkdir(parents=True, exist_ok=True)
+            with tempfile.TemporaryDirectory() as tmp:
+                so = Path(tmp, "f.so")
+                if not build(so):
+                    return None
+                tmp_out = out.with_suffix(f".{os.getpid()}.tmp")
+                shutil.copyfile(so, tmp_out)
+                os.replace(tmp_out, out)  # atomic: concurrent builders never see half a library
+        return ctypes.CDLL(str(out))
+    except OSError:
+        with tempfile.TemporaryDirectory() as tmp:
+            so = Path(tmp, "f.so")
+            return ctypes.CDLL(str(so)) if build(so) else None   # loaded: the file may go
 
 
 _CL_DRIVER = r"""
@@ -366,24 +384,21 @@ def compile_controlled_loop(step: object, output: object, files: dict, header: s
     key_src = "\n".join([twin_src, *(files[k] for k in sorted(files)),
                          " ".join(flags + defines)])
     key = hashlib.sha256(key_src.encode()).hexdigest()[:16]
-    out = cache_dir() / f"twin_cl_{key}.so"
-    if not out.exists():
-        out.parent.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryDirectory() as tmp:
-            for name, text in files.items():
-                Path(tmp, name).write_text(text)
-            Path(tmp, "twin_cl.c").write_text(twin_src)
-            sources = [str(Path(tmp, n)) for n in files if n.endswith(".c")]
-            so = Path(tmp, "f.so")
-            r = subprocess.run([cc, *flags, *defines, "-shared", "-fPIC", "-o", str(so),
-                                str(Path(tmp, "twin_cl.c")), *sources, "-lm"],
-                               capture_output=True, text=True)
-            if r.returncode != 0:
-                raise RuntimeError(f"compiling the controller with the twin failed:"
-                                   f" {r.stderr.strip()[:400]}")
-            tmp_out = out.with_suffix(f".{os.getpid()}.tmp")
-            shutil.copyfile(so, tmp_out)
-            os.replace(tmp_out, out)
-    lib = ctypes.CDLL(str(out))
+
+    def build(so):
+        tmp = so.parent
+        for name, text in files.items():
+            Path(tmp, name).write_text(text)
+        Path(tmp, "twin_cl.c").write_text(twin_src)
+        sources = [str(Path(tmp, n)) for n in files if n.endswith(".c")]
+        r = subprocess.run([cc, *flags, *defines, "-shared", "-fPIC", "-o", str(so),
+                            str(Path(tmp, "twin_cl.c")), *sources, "-lm"],
+                           capture_output=True, text=True)
+        if r.returncode != 0:
+            raise RuntimeError(f"compiling the controller with the twin failed:"
+                               f" {r.stderr.strip()[:400]}")
+        return True
+
+    lib = _library(cache_dir() / f"twin_cl_{key}.so", build)
     lib.robrst_cl_loop.restype = ctypes.c_int
     return ControlledLoop(step, output, delay, lib=lib)

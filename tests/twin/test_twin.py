@@ -174,3 +174,37 @@ def test_hysteresis_sector_brackets_the_mean_slope():
                                                                                     abs=1e-9)
     with pytest.raises(SpecError, match="lo < hi"):
         hysteresis_sector(0.45, 0.0045, 0.0045, 1.0, 10.0, 10.0)
+
+
+def test_an_unusable_cache_still_runs_the_compiled_loop(tmp_path, monkeypatch):
+    """ROBRST_CACHE a file, or a damaged library in the cache: the loop is built in a
+    temporary folder and loaded from there (it ended in 'File exists' / an OSError); the
+    numbers are the virtual machine's."""
+    import casadi as ca
+
+    from robrst.twin.compiled import Loop, compile_loop, compiler
+
+    x, p, th = ca.SX.sym("x", 2), ca.SX.sym("p", 3), ca.SX.sym("th", 1)
+    step = ca.Function("fz_step", [x, p, th], [ca.vertcat(0.5 * x[0] + p[0], x[0] - th * x[1]),
+                                                ca.vertcat(x[0] + p[1], x[1] * p[2])])
+    P = np.vstack([np.sin(np.arange(50.0)), np.cos(np.arange(50.0)), np.ones(50)])
+    want, _ = Loop(step)(P, np.zeros(2), np.array([0.3]))
+
+    def check(cache):
+        monkeypatch.setenv("ROBRST_CACHE", str(cache))
+        loop = compile_loop(step)
+        assert loop.is_compiled == (compiler() is not None)
+        got, _ = loop(P, np.zeros(2), np.array([0.3]))
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
+
+    blocker = tmp_path / "a_file"
+    blocker.write_text("not a folder")
+    check(blocker)
+    assert blocker.read_text() == "not a folder"
+    good = tmp_path / "good"
+    check(good)                                   # cached there (and loaded from there)
+    damaged = tmp_path / "damaged"                # the same names, damaged, never loaded
+    damaged.mkdir()
+    for so in good.glob("*.so"):
+        (damaged / so.name).write_text("damaged")
+    check(damaged)
