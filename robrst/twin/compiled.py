@@ -174,25 +174,27 @@ def compile_loop(step: ca.Function, flags: Sequence[str] = ("-O2",)) -> Loop:
 
 
 def _library(out, build):
-    """The shared library ``out`` of the cache, built by ``build(path) -> ok`` when missing
-    (``None`` when the build fails).  A cache that cannot be used (``ROBRST_CACHE`` a file,
-    a read-only or full disk, a damaged library): built in a temporary folder and loaded
-    from there, not cached; the same code either way."""
+    """The shared library ``out`` of the cache, built once by ``build(path) -> ok`` when
+    missing or damaged (``None`` when the build fails).  A cache that cannot be written
+    (``ROBRST_CACHE`` a file, a read-only or full disk): the library just built is loaded
+    from its temporary folder, not cached; the same code either way."""
     try:
-        if not out.exists():
-            out.parent.mkdir(parents=True, exist_ok=True)
-            with tempfile.TemporaryDirectory() as tmp:
-                so = Path(tmp, "f.so")
-                if not build(so):
-                    return None
-                tmp_out = out.with_suffix(f".{os.getpid()}.tmp")
-                shutil.copyfile(so, tmp_out)
-                os.replace(tmp_out, out)  # atomic: concurrent builders never see half a library
-        return ctypes.CDLL(str(out))
+        if out.exists():
+            return ctypes.CDLL(str(out))
     except OSError:
-        with tempfile.TemporaryDirectory() as tmp:
-            so = Path(tmp, "f.so")
-            return ctypes.CDLL(str(so)) if build(so) else None   # loaded: the file may go
+        pass                         # a damaged library: built again and replaced below
+    with tempfile.TemporaryDirectory() as tmp:
+        so = Path(tmp, "f.so")
+        if not build(so):
+            return None
+        try:
+            out.parent.mkdir(parents=True, exist_ok=True)
+            tmp_out = out.with_suffix(f".{os.getpid()}.tmp")
+            shutil.copyfile(so, tmp_out)
+            os.replace(tmp_out, out)  # atomic: concurrent builders never see half a library
+            return ctypes.CDLL(str(out))
+        except OSError:
+            return ctypes.CDLL(str(so))   # loaded: the file may go with its folder
 
 
 _CL_DRIVER = r"""
