@@ -9,7 +9,12 @@
    ``(G W)_ii`` over every model and loop of the family
    (:func:`robrst.synthesis.mimo_design.design_axes`); with method ``per_axis`` they are
    the answer.
-3. **The joint program** (method ``nlp``,
+3. **The global phase** (method ``nlp``, ``multistart``:
+   :func:`robrst.synthesis.mimo_search.search_mimo`): a population search over every
+   axis's law on the members and the midpoints between them; its best is certified as it
+   is, and the joint program runs from it as well as from the per-axis start (the program
+   is local: either start can end higher).
+   **The joint program** (method ``nlp``,
    :func:`robrst.synthesis.mimo_design.program_rounds`): every axis, the coupling and
    every model at once; then the full certificate, whose violated points between models
    join the program as further models.
@@ -17,7 +22,7 @@
    axis's feedback gain backed off (``R_i`` scaled by :data:`BACK_OFF`), up to the first
    certified one.
 4. **Always an answer**: the certified controller with the larger least integral gain of
-   the joint design and that certified start (the joint program is local: where it ends
+   the joint designs, the search's point and that certified start (the joint program is local: where it ends
    or stops can lie below its start), else the best found, with its certificate
    and the binding figure (the largest ratio to its bound) named; with none certified,
    the least violating of every controller tried (the smallest binding ratio: a joint
@@ -42,6 +47,7 @@ from robrst.problem.mimo import MimoProblem
 from robrst.synthesis.mimo_design import (decoupler_of, design_axes, per_axis_controller,
                                           program_rounds, controller_of)
 from robrst.synthesis.mimo_program import AxisParam
+from robrst.synthesis.mimo_search import search_mimo
 from robrst.synthesis.mimo_start import design_scale
 
 __all__ = ["Binding", "MimoComparison", "MimoDesignResult", "design_mimo", "BACK_OFF",
@@ -133,8 +139,9 @@ class MimoDesignResult:
     start : MimoController
         The per-axis designs with the decoupler (the program's start).
     comparisons : dict of str to MimoComparison
-        ``per_axis_start`` and (with ``compare``) ``ignoring_coupling``, the per-axis
-        designs that ignore the coupling.
+        ``per_axis_start``, ``global_search`` (the global phase's best law, when it
+        screened above the start) and (with ``compare``) ``ignoring_coupling``, the
+        per-axis designs that ignore the coupling.
     w_design : float
         The start's crossover [rad/s].
     seconds : float
@@ -260,6 +267,64 @@ def _miss(cert: MimoCertificate) -> float:
     return float(r) if np.isfinite(r) else np.inf
 
 
+
+def _stable_start(models, xs, axes, W, st, names, specs, so):
+    """The per-axis start, its feedback gains halved while the coupling destabilises a
+    model's loop (the joint program's start without the global phase)."""
+    axis = axes[0]
+    x0 = np.concatenate(xs)
+    recs, _ = check_models(models, per_axis_controller(axes, xs, W, st.T_mode, names), specs,
+                           so.cert_tol)
+    shrink = 1.0
+    while not all(r.continuous.stable and (r.sampled is None or r.sampled.stable)
+                  for r in recs) and shrink > 1e-3:
+        shrink *= 0.5
+        x0 = np.concatenate([np.concatenate([x[:axis.d], shrink * x[axis.d:]]) for x in xs])
+        recs, _ = check_models(models, per_axis_controller(
+            axes, [x0[i * axis.n_x:(i + 1) * axis.n_x] for i in range(len(xs))], W,
+            st.T_mode, names), specs, so.cert_tol)
+    return x0
+
+
+def _better(ctrl, cert, other, other_cert):
+    """Whether ``ctrl`` is the better answer: certified with a larger least integral gain,
+    or certified where the other is not, or neither certified and it misses less."""
+    if cert.certified != other_cert.certified:
+        return cert.certified
+    if cert.certified:
+        return _least_gain(ctrl) > _least_gain(other)
+    return _miss(cert) < _miss(other_cert)
+
+
+def _joint(fam, models, x0, axes, W, st, names, specs, so, signs, say, w_design, rounds):
+    """The joint program's rounds from ``x0`` and the certificate, the certificate's
+    violated points between models joining the program (three times at most):
+    ``(controller, certificate)``."""
+    extra = []
+    for _ in range(3):
+        x, _, _ = program_rounds("joint", models, specs, axes, W, st.T_mode, names, x0,
+                                 signs, so, say, w_design, rounds, extra)
+        ctrl = controller_of(axes, x, W, st.T_mode, names)
+        say("certifying the joint design over the whole family")
+        cert = certify_mimo(fam, ctrl, specs, so.cert_tol, so.cert_points)
+        if cert.certified:
+            break
+        bad = [v for v in cert.violations if v.kind in ("exceeds", "unstable")
+               and v.value_param is not None
+               and not any(v.label == m.label for m in models)]
+        new = []
+        for v in bad:
+            plant = fam.at(v.value_param)
+            if not any(plant.value == e.value for e in extra):
+                new.append(plant)
+        if not new:
+            break
+        say(f"  {len(new)} point(s) between models violated: added to the program")
+        extra += new[:4]
+        x0 = x
+    return ctrl, cert
+
+
 def design_mimo(problem: MimoProblem, progress: Callable[[str], None] | None = None,
                 compare: bool = True) -> MimoDesignResult:
     """Design and certify a decentralised multi-axis controller (module docstring).
@@ -326,45 +391,51 @@ def _design_mimo(problem, progress, compare):
     backed = _certified_start(fam, xs, axes, W, st, names, specs, so, say)
     start_cert = backed[0][2]
     certified_start = next((b for b in backed if b[2].certified), None)
+    found = None
     if so.method == "nlp":
-        x0 = np.concatenate(xs)
-        recs, viols = check_models(models, start, specs, so.cert_tol)
-        shrink = 1.0
-        while not all(r.continuous.stable and (r.sampled is None or r.sampled.stable)
-                      for r in recs) and shrink > 1e-3:
-            shrink *= 0.5       # the coupling destabilises the per-axis start: less gain
-            x0 = np.concatenate([np.concatenate([x[:axis.d], shrink * x[axis.d:]])
-                                 for x in xs])
-            recs, viols = check_models(models, per_axis_controller(
-                axes, [x0[i * axis.n_x:(i + 1) * axis.n_x] for i in range(len(xs))], W,
-                st.T_mode, names), specs, so.cert_tol)
-        extra = []
-        for attempt in range(3):
-            x, _, _ = program_rounds("joint", models, specs, axes, W, st.T_mode, names, x0,
-                                     signs, so, say, w_design, rounds, extra)
-            ctrl = controller_of(axes, x, W, st.T_mode, names)
-            say("certifying the joint design over the whole family")
-            cert = certify_mimo(fam, ctrl, specs, so.cert_tol, so.cert_points)
-            best_ctrl = ctrl
-            if cert.certified:
-                break
-            bad = [v for v in cert.violations if v.kind in ("exceeds", "unstable")
-                   and v.value_param is not None
-                   and not any(v.label == m.label for m in models)]
-            new = []
-            for v in bad:
-                plant = fam.at(v.value_param)
-                if not any(plant.value == e.value for e in extra):
-                    new.append(plant)
-            if not new:
-                break
-            say(f"  {len(new)} point(s) between models violated: added to the program")
-            extra += new[:4]
-            x0 = x
-        certificate = cert
+        x_axes = _stable_start(models, xs, axes, W, st, names, specs, so)
+        x0 = x_axes
+        if so.multistart:
+            say("global phase: a population search over every axis's law")
+            # the members and the midpoint of every segment between them: a law that
+            # holds on the members only (a resonance cancelled at one temperature) is
+            # what the certificate's sweep between them then refuses
+            between = [fam.at((a.value + b.value) / 2) for a, b in fam.segments()
+                       if a.value is not None and b.value is not None]
+            search = search_mimo(models + between, specs, axes, W, st.T_mode, signs,
+                                 np.concatenate(xs), w_design, progress=say)
+            if search.feasible and search.objective > search.start_objective:
+                # the program starts from the search's best, and that point, certified as
+                # it is, is an answer beside the program's result
+                x0 = search.x
+                ctrl = controller_of(axes, x0, W, st.T_mode, names)
+                say("certifying the search's best over the whole family")
+                found = (ctrl, certify_mimo(fam, ctrl, specs, so.cert_tol, so.cert_points),
+                         search)
+        best_ctrl, certificate = _joint(fam, models, x_axes, axes, W, st, names, specs, so,
+                                        signs, say, w_design, rounds)
+        if found is not None:
+            # the program is local: from the search's best it may end higher, or lower,
+            # than from the per-axis start (seeded three-axis stages: 0.1x to 12x); both
+            # are solved and the better certified one is the answer
+            say("the joint program from the search's best")
+            ctrl, cert = _joint(fam, models, x0, axes, W, st, names, specs, so, signs, say,
+                                w_design, rounds)
+            if _better(ctrl, cert, best_ctrl, certificate):
+                best_ctrl, certificate = ctrl, cert
     else:
         certificate = start_cert
     comparisons = {"per_axis_start": MimoComparison(start, start_cert, start_note)}
+    if found is not None:
+        ctrl, cert, search = found
+        note = (f"the global phase's best law ({search.evaluations} candidates screened),"
+                " certified as it is; the joint program's start")
+        if cert.certified and _better(ctrl, cert, best_ctrl, certificate):
+            note += "; the answer is it (the joint program ended below it)"
+            best_ctrl, certificate = ctrl, cert
+        comparisons["global_search"] = MimoComparison(ctrl, cert, note)
+        start_note = "each axis designed alone on (G W)_ii with the decoupler"
+        comparisons["per_axis_start"] = MimoComparison(start, start_cert, start_note)
     if certified_start is not None:
         factor, ctrl, cert = certified_start
         if not certificate.certified or _least_gain(ctrl) > _least_gain(best_ctrl):
@@ -381,6 +452,8 @@ def _design_mimo(problem, progress, compare):
             (_miss(c), i + 1, ctrl, c, "the per-axis start, the least violating controller"
              " tried" if f == 1.0 else f"it at {f:g} x its gain, the least violating"
              " controller tried") for i, (f, ctrl, c) in enumerate(backed)]
+        if found is not None:
+            tried.append((_miss(found[1]), len(tried), found[0], found[1], None))
         _, _, best_ctrl, certificate, why = min(tried, key=lambda t: t[:2])
         if why is not None:
             comparisons["per_axis_start"] = MimoComparison(

@@ -335,6 +335,9 @@ class MimoSolverOptions:
         IPOPT iterations per solve.
     ipopt_tol : float
         IPOPT tolerance.
+    multistart : bool
+        ``nlp``: run the global phase first (a population search over every axis's law,
+        :mod:`robrst.synthesis.mimo_search`), whose best law starts the joint program.
 
     Raises
     ------
@@ -350,6 +353,7 @@ class MimoSolverOptions:
     cert_tol: float = 1e-3
     max_iter: int = 300
     ipopt_tol: float = 1e-6
+    multistart: bool = True
 
     def __post_init__(self):
         if self.method not in MIMO_METHODS:
