@@ -9,11 +9,11 @@
    ``(G W)_ii`` over every model and loop of the family
    (:func:`robrst.synthesis.mimo_design.design_axes`); with method ``per_axis`` they are
    the answer.
-3. **The global phase** (method ``nlp``, ``multistart``:
+3. **The global phase** (method ``nlp`` with ``multistart``:
    :func:`robrst.synthesis.mimo_search.search_mimo`): a population search over every
    axis's law on the members and the midpoints between them; its best is certified as it
-   is, and the joint program runs from it as well as from the per-axis start (the program
-   is local: either start can end higher).
+   is, and the joint program runs from it as well as from the per-axis start when it
+   screens above the first answer (the program is local: either start can end higher).
    **The joint program** (method ``nlp``,
    :func:`robrst.synthesis.mimo_design.program_rounds`): every axis, the coupling and
    every model at once; then the full certificate, whose violated points between models
@@ -299,7 +299,7 @@ def _better(ctrl, cert, other, other_cert):
 def _joint(fam, models, x0, axes, W, st, names, specs, so, signs, say, w_design, rounds):
     """The joint program's rounds from ``x0`` and the certificate, the certificate's
     violated points between models joining the program (three times at most):
-    ``(controller, certificate)``."""
+    ``(x, controller, certificate)``."""
     extra = []
     for _ in range(3):
         x, _, _ = program_rounds("joint", models, specs, axes, W, st.T_mode, names, x0,
@@ -322,7 +322,7 @@ def _joint(fam, models, x0, axes, W, st, names, specs, so, signs, say, w_design,
         say(f"  {len(new)} point(s) between models violated: added to the program")
         extra += new[:4]
         x0 = x
-    return ctrl, cert
+    return x, ctrl, cert
 
 
 def design_mimo(problem: MimoProblem, progress: Callable[[str], None] | None = None,
@@ -412,17 +412,23 @@ def _design_mimo(problem, progress, compare):
                 say("certifying the search's best over the whole family")
                 found = (ctrl, certify_mimo(fam, ctrl, specs, so.cert_tol, so.cert_points),
                          search)
-        best_ctrl, certificate = _joint(fam, models, x_axes, axes, W, st, names, specs, so,
-                                        signs, say, w_design, rounds)
+        x_joint, best_ctrl, certificate = _joint(fam, models, x_axes, axes, W, st, names,
+                                                 specs, so, signs, say, w_design, rounds)
         if found is not None:
             # the program is local: from the search's best it may end higher, or lower,
-            # than from the per-axis start (seeded three-axis stages: 0.1x to 12x); both
-            # are solved and the better certified one is the answer
-            say("the joint program from the search's best")
-            ctrl, cert = _joint(fam, models, x0, axes, W, st, names, specs, so, signs, say,
-                                w_design, rounds)
-            if _better(ctrl, cert, best_ctrl, certificate):
-                best_ctrl, certificate = ctrl, cert
+            # than from the per-axis start (seeded three-axis stages: 0.1x to 12x). It is
+            # solved from there too when that point screens above the first answer, or
+            # the first answer is not certified; the better certified one is the answer
+            ahead = found[2].objective > found[2].space.objective(x_joint)[0]
+            if ahead or not certificate.certified:
+                say("the joint program from the search's best")
+                _, ctrl, cert = _joint(fam, models, x0, axes, W, st, names, specs, so,
+                                       signs, say, w_design, rounds)
+                if _better(ctrl, cert, best_ctrl, certificate):
+                    best_ctrl, certificate = ctrl, cert
+            else:
+                say("the search's best screens below the joint program's answer: not"
+                    " polished")
     else:
         certificate = start_cert
     comparisons = {"per_axis_start": MimoComparison(start, start_cert, start_note)}

@@ -475,6 +475,8 @@ class MimoSearch:
         Candidates judged.
     runs : tuple of str
         One line per run (population, generations, best).
+    space : MimoSpace
+        The box searched (its :meth:`MimoSpace.objective` ranks other laws alike).
     """
 
     x: np.ndarray
@@ -483,6 +485,7 @@ class MimoSearch:
     start_objective: float
     evaluations: int
     runs: tuple
+    space: MimoSpace
 
     @property
     def feasible(self) -> bool:
@@ -531,11 +534,9 @@ def search_mimo(models: Sequence[MimoPlant], specs: MimoSpecs, axes: Sequence[Ax
     """
     say = progress or (lambda msg: None)
     axes = tuple(axes)
-    space0 = MimoSpace(axes, tuple(signs), tuple(1.0 for _ in axes))
     ks = [max(abs(a.integral_gain(x_start[o:o + a.n_x])), 1e-12)
           for a, o in zip(axes, np.cumsum([0] + [a.n_x for a in axes]))]
     space = MimoSpace(axes, tuple(signs), tuple(ks))
-    del space0
     screen = MimoScreen(models, specs, axes, W, T_mode, w_design, n_freq)
     x0 = np.asarray(x_start, float)[None]
     v0, w0 = screen(x0)
@@ -572,4 +573,4 @@ def search_mimo(models: Sequence[MimoPlant], specs: MimoSpecs, axes: Sequence[Ax
         say("  search " + lines[-1])
         if run_best[0] < best[0]:
             best = run_best
-    return MimoSearch(best[1], best[3], best[2], start_obj, evals, tuple(lines))
+    return MimoSearch(best[1], best[3], best[2], start_obj, evals, tuple(lines), space)
