@@ -21,9 +21,10 @@
    Before it, the per-axis start is certified, and while it is not, the start with every
    axis's feedback gain backed off (``R_i`` scaled by :data:`BACK_OFF`), up to the first
    certified one.
-4. **Always an answer**: the certified controller with the larger least integral gain of
-   the joint designs, the search's point and that certified start (the joint program is local: where it ends
-   or stops can lie below its start), else the best found, with its certificate
+4. **Always an answer**: the certified controller with the largest least integral gain
+   of the joint designs, the search's point and that certified start (the joint program
+   is local: where it ends or stops can lie below its start), else the best found, with
+   its certificate
    and the binding figure (the largest ratio to its bound) named; with none certified,
    the least violating of every controller tried (the smallest binding ratio: a joint
    result outside its own rows can be far worse than its start).
@@ -265,7 +266,6 @@ def _miss(cert: MimoCertificate) -> float:
     b = _binding(cert)
     r = np.inf if b is None or b.ratio is None else b.ratio
     return float(r) if np.isfinite(r) else np.inf
-
 
 
 def _stable_start(models, xs, axes, W, st, names, specs, so):
