@@ -24,8 +24,8 @@
 4. **Always an answer**: the certified controller with the largest least integral gain
    of the joint designs, the search's point and that certified start (the joint program
    is local: where it ends or stops can lie below its start), else the best found, with
-   its certificate
-   and the binding figure (the largest ratio to its bound) named; with none certified,
+   its certificate and the binding figure (the largest ratio to its bound) named; with
+   none certified,
    the least violating of every controller tried (the smallest binding ratio: a joint
    result outside its own rows can be far worse than its start).
 5. **The comparison**: the per-axis designs certified on the whole loop, and (``compare``)
