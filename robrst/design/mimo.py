@@ -431,6 +431,8 @@ def _design_mimo(problem, progress, compare):
                     " polished")
     else:
         certificate = start_cert
+    if found is not None:
+        start_note = "each axis designed alone on (G W)_ii with the decoupler"
     comparisons = {"per_axis_start": MimoComparison(start, start_cert, start_note)}
     if found is not None:
         ctrl, cert, search = found
@@ -440,8 +442,6 @@ def _design_mimo(problem, progress, compare):
             note += "; the answer is it (the joint program ended below it)"
             best_ctrl, certificate = ctrl, cert
         comparisons["global_search"] = MimoComparison(ctrl, cert, note)
-        start_note = "each axis designed alone on (G W)_ii with the decoupler"
-        comparisons["per_axis_start"] = MimoComparison(start, start_cert, start_note)
     if certified_start is not None:
         factor, ctrl, cert = certified_start
         if not certificate.certified or _least_gain(ctrl) > _least_gain(best_ctrl):

@@ -146,7 +146,7 @@ class MimoSpace:
         -------
         numpy.ndarray
         """
-        u, offs = [], np.cumsum([0] + [a.n_x for a in self.axes])
+        u, offs = [], _offsets(self.axes)
         for i, (a, sign, g) in enumerate(zip(self.axes, self.signs, self.gains)):
             xi = np.asarray(x[offs[i]:offs[i + 1]], float)
             Sp = np.concatenate([[1.0], xi[:a.d]])
@@ -189,13 +189,18 @@ class MimoSpace:
             ``(P,)``; ``-inf`` where a gain has the wrong sign.
         """
         X = np.atleast_2d(X)
-        offs = np.cumsum([0] + [a.n_x for a in self.axes])
+        offs = _offsets(self.axes)
         ks = np.column_stack([
             s * X[:, offs[i + 1] - 1] / (X[:, offs[i] + a.d - 1] if a.d else 1.0)
             for i, (a, s) in enumerate(zip(self.axes, self.signs))])
         with np.errstate(divide="ignore", invalid="ignore"):
             logk = np.where(ks > 0, np.log(np.where(ks > 0, ks, 1.0)), -np.inf)
         return logk.min(1) + TIE_BREAK * logk.sum(1)
+
+
+def _offsets(axes):
+    """Where each axis's coefficients start in the joint decision vector (and the end)."""
+    return np.cumsum([0] + [a.n_x for a in axes])
 
 
 def _times(A, B):
@@ -253,7 +258,7 @@ class MimoScreen:
 
     def _responses(self, X, basis):
         """``R_i(j nu)``, ``S_i(j nu)`` of every candidate: ``(P, F, m)`` each."""
-        offs = np.cumsum([0] + [a.n_x for a in self.axes])
+        offs = _offsets(self.axes)
         Rs, Ss = [], []
         for i, (a, (ER, ES, eS0)) in enumerate(zip(self.axes, basis)):
             x = X[:, offs[i]:offs[i + 1]]
@@ -264,12 +269,12 @@ class MimoScreen:
     def _realisation(self, X):
         """The law ``u = C_K x + D_K y`` of every candidate, batched: ``(A, B, C, D)``."""
         P, m = X.shape[0], self.m
-        offs = np.cumsum([0] + [a.n_x for a in self.axes])
+        offs = _offsets(self.axes)
         blocks = []
         for i, a in enumerate(self.axes):
             x = X[:, offs[i]:offs[i + 1]]
             Sp = np.column_stack([np.ones(P), x[:, :a.d]])
-            S = _times(_times(np.tile([[1.0, 0.0]], (P, 1)), np.tile(a.F, (P, 1))), Sp)
+            S = _times(np.tile(np.polymul([1.0, 0.0], a.F), (P, 1)), Sp)     # p F(p) S'(p)
             lead = S[:, :1]
             S, R = S / lead, x[:, a.d:] / lead
             n = S.shape[1] - 1
@@ -415,7 +420,7 @@ class MimoScreen:
                     if self.T_mode == "feedback":
                         Tr = T
                     else:                   # T_i = R_i(0): Tr = S_o M diag(R_i(0) / S_i)
-                        offs = np.cumsum([0] + [a.n_x for a in self.axes])
+                        offs = _offsets(self.axes)
                         R0 = X[:, offs[1:] - 1]
                         Tr = So @ (M[None] * (R0[:, None, :] / S)[..., None, :])
                     off = ~np.eye(m, dtype=bool)
@@ -495,7 +500,7 @@ class MimoSearch:
 
 def _key(viol, worst, obj):
     """Deb's ranking key: feasible by objective, then violation, then unstable."""
-    return [(0, -o, 0.0) if v == 0 else ((1, v, 0.0) if np.isfinite(v) else (2, w, 0.0))
+    return [(0, -o) if v == 0 else ((1, v) if np.isfinite(v) else (2, w))
             for v, w, o in zip(viol, worst, obj)]
 
 
@@ -535,7 +540,7 @@ def search_mimo(models: Sequence[MimoPlant], specs: MimoSpecs, axes: Sequence[Ax
     say = progress or (lambda msg: None)
     axes = tuple(axes)
     ks = [max(abs(a.integral_gain(x_start[o:o + a.n_x])), 1e-12)
-          for a, o in zip(axes, np.cumsum([0] + [a.n_x for a in axes]))]
+          for a, o in zip(axes, _offsets(axes))]
     space = MimoSpace(axes, tuple(signs), tuple(ks))
     screen = MimoScreen(models, specs, axes, W, T_mode, w_design, n_freq)
     x0 = np.asarray(x_start, float)[None]
