@@ -33,6 +33,7 @@ import robrst.cli._simulate as simulate
 import robrst.cli._sweep as sweep
 from robrst.base.errors import RobrstError
 from robrst.base.interrupt import Interrupted, interruptible
+from robrst.base.interrupt import check as check_signal
 
 __all__ = ["main", "build_parser", "Terminated", "LAST_RESORT"]
 
@@ -145,7 +146,14 @@ def _input_named(args):
 def _run(args):
     """``args.func(args)`` with every failure turned into one line and an exit code."""
     try:
-        return args.func(args)
+        try:
+            return args.func(args)
+        except Exception:
+            # a signal whose Interrupted a library wrapped in an error of its own (a C
+            # extension's import stopped by SIGTERM ends in pybind11's "ImportError:
+            # initialization failed"): the run was stopped, it did not fail
+            check_signal()
+            raise
     except RobrstError as exc:
         print(f"robrst: error: {exc}", file=sys.stderr)
         return 2

@@ -122,3 +122,27 @@ def test_a_signal_stops_a_multi_axis_design_within_a_second(repro_dir, tmp_path,
     assert waited < 5.0, waited
     assert "Traceback" not in err.decode()
     assert out == b"" and list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("sig, code, word", [(signal.SIGTERM, 143, "terminated"),
+                                             (signal.SIGINT, 130, "interrupted")])
+def test_a_signal_wrapped_in_a_librarys_error_still_stops_the_run(capsys, sig, code, word):
+    """A stop that a library wrapped in its own error is a stop, not a failure (slow CI:
+    SIGTERM while ``robrst diagnose --report`` imported a C extension ended in pybind11's
+    ``ImportError: initialization failed``, exit 2 "computation failed" instead of 143)."""
+    import argparse
+
+    from robrst.base.interrupt import interruptible
+    from robrst.cli import _run
+
+    def command(args):
+        try:
+            os.kill(os.getpid(), sig)          # the handler raises Interrupted here
+            time.sleep(5)
+        except BaseException as exc:          # noqa: BLE001 — what pybind11's module init does
+            raise ImportError("initialization failed") from exc
+        return 0
+
+    with interruptible():
+        rc = _run(argparse.Namespace(func=command))
+    assert (rc, capsys.readouterr().err.strip().splitlines()) == (code, [f"robrst: {word}"])
