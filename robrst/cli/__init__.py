@@ -32,8 +32,7 @@ import robrst.cli._identify as identify
 import robrst.cli._simulate as simulate
 import robrst.cli._sweep as sweep
 from robrst.base.errors import RobrstError
-from robrst.base.interrupt import Interrupted, interruptible
-from robrst.base.interrupt import check as check_signal
+from robrst.base.interrupt import Interrupted, interruptible, check as check_signal
 
 __all__ = ["main", "build_parser", "Terminated", "LAST_RESORT"]
 

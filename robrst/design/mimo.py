@@ -382,8 +382,6 @@ def _design_mimo(problem, progress, compare):
                             rounds, optimize=so.method == "per_axis")
     axes = [axis] * len(names)
     start = per_axis_controller(axes, xs, W, st.T_mode, names)
-    start_note = ("each axis designed alone on (G W)_ii with the decoupler; the joint"
-                  " program's start")
     best_ctrl = start
     # the per-axis start and its backed-off gains (BACK_OFF), certified until one is: an
     # answer beside the joint design's (the joint program's local optimum, or where it
@@ -431,8 +429,8 @@ def _design_mimo(problem, progress, compare):
                     " polished")
     else:
         certificate = start_cert
-    if found is not None:
-        start_note = "each axis designed alone on (G W)_ii with the decoupler"
+    start_note = "each axis designed alone on (G W)_ii with the decoupler" + (
+        "" if found is not None else "; the joint program's start")
     comparisons = {"per_axis_start": MimoComparison(start, start_cert, start_note)}
     if found is not None:
         ctrl, cert, search = found
