@@ -32,7 +32,7 @@ from robrst.core.mimo_loop import MimoController
 from robrst.problem.mimo import MimoProblem, MimoSolverOptions, MimoSpecs
 from robrst.synthesis.mimo_program import (NYQUIST_FLOOR, PROGRAM_FIGURES, SECTOR_FIGURES,
                                            AxisParam, GridRows, MimoProgram, Sector)
-from robrst.synthesis.mimo_start import (axis_plant, loop_plants,
+from robrst.synthesis.mimo_start import (NYQUIST_EDGE, axis_plant, loop_plants,
                                          nu_of, program_grid, start_gain, static_decoupler)
 
 __all__ = ["MimoRound", "design_axes", "decoupler_of", "per_axis_controller", "controller_of",
@@ -176,7 +176,7 @@ class _Grid:
         for f in freqs:
             if f is None or not np.isfinite(f) or f <= 0:
                 continue
-            top = np.pi * self.loops[k].fs * 0.9995 if self.loops[k].fs else np.inf
+            top = np.pi * self.loops[k].fs * NYQUIST_EDGE if self.loops[k].fs else np.inf
             ws.append(np.minimum(f * np.array([0.99, 0.996, 0.999, 1.0, 1.001, 1.004, 1.01]),
                                  top))
         self.w[k] = np.unique(np.concatenate(ws))

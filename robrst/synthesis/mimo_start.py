@@ -32,9 +32,16 @@ if TYPE_CHECKING:
     from robrst.synthesis.mimo_program import AxisParam
 
 __all__ = ["static_decoupler", "LoopPlant", "loop_plants", "program_grid", "nu_of",
-           "axis_plant", "start_gain", "design_scale", "RESONANT_DAMPING"]
+           "axis_plant", "start_gain", "design_scale", "RESONANT_DAMPING", "NYQUIST_EDGE"]
 
 RESONANT_DAMPING = 0.3     # poles less damped than this get points across their peak
+#: the last point of a sampled loop's validation grid (and of the points the exact check
+#: adds), as a fraction of Nyquist.  ``z = -1`` is ``nu = inf`` in the w-plane, and a real
+#: closed-loop pole far out there (a z-plane pole near -1) peaks at Nyquist only: seeded
+#: three-axis stage 4's program, its grid ending at 0.9995 of Nyquist, saw ``sigma_S``
+#: 1.08 where it was 3.0 at Nyquist.  Here ``nu = 2 fs tan(pi / 2 NYQUIST_EDGE)`` is
+#: 6.4e7 x ``2 fs``: finite, and a pole beyond it lies within 3e-8 of ``z = -1``.
+NYQUIST_EDGE = 1.0 - 1e-8
 
 
 def static_decoupler(plant: MimoPlant, freq_hz: float = 0.0) -> np.ndarray:
@@ -155,8 +162,9 @@ def program_grid(plant: MimoPlant, fs: float | None, w_design: float, n: int,
     """Physical frequencies [rad/s] of one loop's program points.
 
     ``n`` log-spaced points from ``w_design / 200`` to Nyquist (sampled loop, its end
-    at ``0.9995`` of it) or to 30 times the fastest pole or the design scale, plus eleven
-    points across each resonance (damping below :data:`RESONANT_DAMPING`) in that range.
+    at ``0.9995`` of it; a dense grid has one more at :data:`NYQUIST_EDGE` of it) or to
+    30 times the fastest pole or the design scale, plus eleven points across each
+    resonance (damping below :data:`RESONANT_DAMPING`) in that range.
 
     Parameters
     ----------
@@ -193,6 +201,8 @@ def program_grid(plant: MimoPlant, fs: float | None, w_design: float, n: int,
             x = wn * (1.0 + k * max(z, 1e-4))
             if lo < x < hi:
                 w.append(x)
+    if fs and dense:
+        w.append(NYQUIST_EDGE * np.pi * fs)
     return np.unique(np.asarray(w))
 
 
