@@ -39,7 +39,7 @@ RESONANT_DAMPING = 0.3     # poles less damped than this get points across their
 #: adds), as a fraction of Nyquist.  ``z = -1`` is ``nu = inf`` in the w-plane, and a real
 #: closed-loop pole far out there (a z-plane pole near -1) peaks at Nyquist only: seeded
 #: three-axis stage 4's program, its grid ending at 0.9995 of Nyquist, saw ``sigma_S``
-#: 1.08 where it was 3.0 at Nyquist.  Here ``nu = 2 fs tan(pi / 2 NYQUIST_EDGE)`` is
+#: 1.08 where it was 11.4 at Nyquist.  Here ``nu = 2 fs tan(pi / 2 NYQUIST_EDGE)`` is
 #: 6.4e7 x ``2 fs``: finite, and a pole beyond it lies within 3e-8 of ``z = -1``.
 NYQUIST_EDGE = 1.0 - 1e-8
 
