@@ -179,8 +179,9 @@ def program_grid(plant: MimoPlant, fs: float | None, w_design: float, n: int,
     resonances : bool
         Add the points across the resonances.
     dense : bool
-        33 points across each resonance (within 8 dampings) instead of 11: the grid the
-        program's candidates are validated on.
+        33 points across each resonance (within 8 dampings) instead of 11, and a sampled
+        loop's point at :data:`NYQUIST_EDGE`: the grid the program's candidates are
+        validated on (and the global phase screens on).
 
     Returns
     -------
