@@ -326,8 +326,9 @@ def _global(ctx, run, seeds, best, start):
     # problem's PI) the certificate decides too
     feasible = [c for c in res.candidates if c.violation <= POLISH.screen_slack]
     outs, polished, polishes = [], [], []
+    bases = []            # the outcomes a polish started from
     if given is not None:      # certified as it is and polished first: never lost
-        _from_incumbent(ctx, run, setup, given, outs, polishes)
+        _from_incumbent(ctx, run, setup, given, outs, polishes, bases)
         theta = space.point(given)
         if theta is not None:  # the search's candidate at the same point: not polished again
             polished.append(theta)
@@ -365,6 +366,7 @@ def _global(ctx, run, seeds, best, start):
         if seen:
             continue          # a basin already polished
         polished.append(c.theta)
+        bases.append(base)
         out, label, notes = _polished(ctx, run, base, c.name)
         gained = _gained(p, base, out)
         if not gained and base is as_is and as_is.certified and not run.stop():
@@ -376,6 +378,7 @@ def _global(ctx, run, seeds, best, start):
                 if out is not None:
                     run.tried.append((f"{c.name}, {label}", out))
                     outs.append(out)
+                bases.append(moved)
                 out, label, notes = _polished(ctx, run, moved, c.name, "moved inside, polished")
                 gained = _gained(p, base, out)
         polishes.append((c.name, gained, notes))
@@ -385,7 +388,7 @@ def _global(ctx, run, seeds, best, start):
         if out is not None:
             run.tried.append((f"{c.name}, {label}", out))
             outs.append(out)
-    _polish_again(ctx, run, outs)
+    _polish_again(ctx, run, outs, bases)
     run.notes += _polish_notes(polishes)
     certified = sorted((o for o in outs if o.certified),
                        key=lambda o: -objective_value(p, o))
@@ -464,10 +467,11 @@ def incumbent_fits(problem: Problem, start: AnalyticDesign, ctrl: RSTController)
     return None
 
 
-def _from_incumbent(ctx, run, setup, given, outs, polishes):
+def _from_incumbent(ctx, run, setup, given, outs, polishes, bases):
     """The caller's controller (coefficients ``given``) certified as it is and, when it
     meets the specs, polished first (its objective kept, :func:`_polished`): both join
-    ``outs``, so the global phase never answers below a given controller that meets them."""
+    ``outs``, so the global phase never answers below a given controller that meets them;
+    the outcome polished from joins ``bases``."""
     p = ctx.problem
     as_is = _as_given(ctx, run, setup, given)
     outs.append(as_is)
@@ -476,6 +480,7 @@ def _from_incumbent(ctx, run, setup, given, outs, polishes):
                          f" ({best_achievable(as_is.cert) or 'its reference step'});"
                          " it is a start of the search only")
         return
+    bases.append(as_is)
     out, label, notes = _polished(ctx, run, as_is, INCUMBENT)
     polishes.append((INCUMBENT, _gained(p, as_is, out), notes))
     if out is not None:
@@ -506,13 +511,16 @@ def _kept(ctx, run, given, out):
     return out
 
 
-def _polish_again(ctx, run, outs):
+def _polish_again(ctx, run, outs, bases=()):
     """The best answer in ``outs`` (certified, its step within the time-domain specs, its
     objective counted) polished again from where it ended, with a fresh iteration budget
     (:meth:`Run.grant`), while each polish gains ``POLISH.again_gain`` and at most
     ``POLISH.again`` times; each outcome joins ``outs``.  A polish ends at its iteration
     limit, its trust region's edge or a point the exchange's grid no longer holds; from its
-    end, rescaled there, the program often goes far on."""
+    end, rescaled there, the program often goes far on.  Not when the best is a start a
+    polish already began from (one of ``bases``, no grid of its own: every polish of it
+    gained nothing): that polish would be the same program from the same point, solved
+    again to the same end."""
     p = ctx.problem
     if p.solver.objective == "feasibility":
         return
@@ -521,6 +529,8 @@ def _polish_again(ctx, run, outs):
         if not counting or run.stop() or run.strict:
             return
         best = max(counting, key=lambda o: objective_value(p, o))
+        if best.grid is None and any(best is b for b in bases):
+            return
         name = next((n for n, o in reversed(run.tried) if o is best), "the best answer")
         name = name.split(", ")[0]            # the candidate, without how it ended
         run.grant("free")
