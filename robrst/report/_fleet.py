@@ -63,6 +63,8 @@ def fleet_doc(records: dict) -> tuple[Doc, list[str]]:
                   ("a-posteriori guarantee 1 - epsilon(k) (Campi, Garatti & Ramponi 2018)",
                    _pct(fl["guaranteed_yield"], 2)),
                   ("target met by the guarantee", fl["target_met"]),
+              ] + ([("drawn actuators the target needs at this k",
+                     fl["scenarios_for_target"])] if fl.get("scenarios_for_target") else []) + [
                   (f"measured yield on {v['n']} fresh actuators (seed {v['seed']})",
                    f"{v['certified']} / {v['n']} = {_pct(v['measured_yield'])}"),
                   ("95 % Wilson interval", f"{_pct(lo)} – {_pct(hi)}"),

@@ -342,6 +342,13 @@ def fleet_summary(f: FleetDesign) -> str:
         lines.append(f"guaranteed yield {100 * f.guaranteed_yield:.2f} % at confidence"
                      f" {100 * f.confidence:g} % (target {100 * f.yield_target:g} %:"
                      f" {'met' if f.target_met else 'NOT met'}); {f.bound_statement}")
+    if f.scenarios_for_target is not None:
+        k = len(f.compression)
+        lines.append(f"the target needs N = {f.scenarios_for_target} drawn actuators for a"
+                     f" compression set of k = {k} ([spread] scenarios ="
+                     f" {f.scenarios_for_target}; with more actuators the exchange may need"
+                     " more of them in the program), or a target of at most"
+                     f" {100 * f.guaranteed_yield:.2f} %")
     if f.integral_gain_ratio is not None:
         lines.append(f"integral gain {f.integral_gain:.5g}, {f.integral_gain_ratio:.3f}"
                      f" x the nominal design's {f.nominal_integral_gain:.5g}")

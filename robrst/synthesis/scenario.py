@@ -293,6 +293,9 @@ class FleetDesign:
         ``1 - epsilon(k)``.
     target_met : bool or None
         The guaranteed yield reaches the target (``None`` for a box).
+    scenarios_for_target : int or None
+        When the target is not met: the draws at which a compression set of the same size
+        would meet it (``None`` otherwise).
     bound_statement : str or None
         The scenario bound the guarantee comes from.
     integral_gain_ratio : float or None
@@ -351,6 +354,17 @@ class FleetDesign:
         return None if g is None else bool(g >= self.yield_target - 1e-12)
 
     @property
+    def scenarios_for_target(self):
+        """When the guarantee misses the target: the smallest ``N`` at which a compression
+        set of the same size ``k`` meets it (:func:`scenario_count` at ``k``), else
+        ``None``.  What a design with that many draws guarantees depends on its own ``k``
+        (more actuators can need more of them in the program)."""
+        if self.target_met is not False:
+            return None
+        return scenario_count(1.0 - self.yield_target, 1.0 - self.confidence,
+                              len(self.compression))
+
+    @property
     def bound_statement(self):
         """The scenario bound the guarantee comes from, in words (``None`` for a box)."""
         if self.method != "scenario":
@@ -397,6 +411,7 @@ class FleetDesign:
             "rounds": self.rounds,
             "epsilon": self.epsilon, "guaranteed_yield": self.guaranteed_yield,
             "target_met": self.target_met, "bound": self.bound_statement,
+            "scenarios_for_target": self.scenarios_for_target,
             "n_convex_a_priori": self.n_convex,
             "nominal_integral_gain": self.nominal_integral_gain,
             "integral_gain": self.integral_gain,

@@ -45,3 +45,13 @@ def test_fleet_report_states_guarantee_measured_yield_and_price(tmp_path):
     assert "model T15C (15 °C): |S| = 2.08 &gt; 2" in html
     assert (tmp_path / "report" / "price_of_yield.png").stat().st_size > 1000
     assert (tmp_path / "report" / "report.html").is_file()
+
+
+def test_a_missed_target_shows_the_draws_it_needs(tmp_path):
+    records = _records()
+    records["design"]["fleet"] = {**records["design"]["fleet"], "target_met": False,
+                                  "guaranteed_yield": 0.9231, "compression_size": 9,
+                                  "scenarios_for_target": 431}
+    write_fleet_report(records, tmp_path)
+    md = (tmp_path / "report" / "report.md").read_text()
+    assert "drawn actuators the target needs at this k" in md and "431" in md

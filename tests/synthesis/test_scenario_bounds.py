@@ -14,6 +14,7 @@
 import math
 
 import mpmath
+import numpy as np
 import pytest
 
 from robrst.synthesis.scenario import (convex_confidence, convex_scenario_count,
@@ -79,3 +80,36 @@ def test_scenario_count_is_the_smallest_N_meeting_the_target_at_d(eps, beta, d):
     assert float(_mp_epsilon(d, N, beta)) <= eps < float(_mp_epsilon(d, N - 1, beta))
     # the non-convex a-posteriori count at k = d needs more draws than the convex a-priori
     assert N >= convex_scenario_count(eps, beta, d)
+
+
+def _fleet(n, k, d, target=0.95, confidence=0.99):
+    from robrst.synthesis.scenario import ActuatorCheck, FleetDesign
+
+    checks = tuple(ActuatorCheck(index=i, ratio=0.9, certified=True) for i in range(n))
+    return FleetDesign(method="scenario", names=("gain",), values=np.ones((n, 1)),
+                       n_scenarios=n, decision_variables=d, yield_target=target,
+                       confidence=confidence, support=tuple(range(k)), checks=checks,
+                       rounds=3, nominal_integral_gain=1.0, integral_gain=0.9,
+                       wall_time_s=1.0)
+
+
+@pytest.mark.parametrize("n, k, d", [(152, 7, 6), (294, 9, 4), (200, 6, 13)])
+def test_a_missed_target_states_the_draws_it_needs_at_its_k(n, k, d):
+    """The guarantee at the compression set's size k misses the target: the draws stated
+    are the smallest N whose epsilon(k) (mpmath, 60 digits) meets it; the summary says so."""
+    from robrst.report.text import fleet_summary
+
+    f = _fleet(n, k, d)
+    assert f.target_met is False
+    N = f.scenarios_for_target
+    eps, beta = 0.05, 0.01
+    assert float(_mp_epsilon(k, N, beta)) <= eps < float(_mp_epsilon(k, N - 1, beta))
+    assert N > n and f.as_dict()["scenarios_for_target"] == N
+    text = fleet_summary(f)
+    assert f"the target needs N = {N} drawn actuators for a compression set of k = {k}" in text
+
+
+def test_a_met_target_states_no_draws():
+    f = _fleet(600, 3, 4)
+    assert f.target_met is True and f.scenarios_for_target is None
+    assert f.as_dict()["scenarios_for_target"] is None
