@@ -13,7 +13,7 @@ cancellation at high sampling rates.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -27,7 +27,7 @@ if TYPE_CHECKING:
 __all__ = ["companion_parts", "companion", "companion_monic", "companion_outputs",
            "companion_outputs_many", "DiscreteSS",
            "zoh", "zoh_matrices", "zoh_modal", "d2c_modal", "modal_polynomials",
-           "transmission_zeros", "ss_to_poly", "d2c"]
+           "transmission_zeros", "ss_to_poly", "d2c", "split_modes", "least_control_peak"]
 
 
 def companion_parts(a: Sequence[Any], b: Sequence[Any]) -> tuple[list, list, Any]:
@@ -562,3 +562,108 @@ def d2c(Ad: ArrayLike, Bd: ArrayLike, dt: float) -> tuple[np.ndarray, np.ndarray
         raise ValueError("the discrete model has no real continuous zero-order-hold pre-image")
     L = L.real / float(dt)
     return L[:n, :n], L[:n, n:]
+
+
+def split_modes(A: ArrayLike, B: ArrayLike, C: ArrayLike,
+                drop: Callable[[float, float], bool]) -> tuple[np.ndarray, np.ndarray,
+                                                               np.ndarray, int]:
+    """The part of ``C (sI - A)^-1 B`` whose modes ``drop`` does not select, decoupled
+    from the modes it selects (the additive split ``G = G_drop + G_kept``).
+
+    An ordered real Schur form puts the selected modes first, ``T = [[T11, T12], [0,
+    T22]]``; the Sylvester equation ``T11 X - X T22 = -T12`` decouples the two blocks, and
+    the kept part is ``(T22, B2, C1 X + C2)``.  Orthogonal transformations and one
+    Sylvester solve: no polynomial, no eigenvector basis.
+
+    Parameters
+    ----------
+    A, B, C : array_like
+        A state space (``(n, n)``, ``(n, m)``, ``(p, n)``), best in a scaled time.
+    drop : callable
+        ``drop(re, im) -> bool`` for each eigenvalue of ``A`` (scipy's ``schur`` sort).
+
+    Returns
+    -------
+    A2, B2, C2 : numpy.ndarray
+        The kept modes' realisation.
+    n_dropped : int
+        How many modes were split off.
+
+    Examples
+    --------
+    ``1/((s + 1)(s - 2))`` without its stable mode is ``(1/3)/(s - 2)``:
+
+    >>> import numpy as np
+    >>> from robrst.core.lti import split_modes
+    >>> A = np.array([[1.0, 2.0], [1.0, 0.0]]); B = np.array([[1.0], [0.0]])
+    >>> C = np.array([[0.0, 1.0]])
+    >>> A2, B2, C2, k = split_modes(A, B, C, lambda re, im: re < 0)
+    >>> round(float(A2[0, 0]), 12), round(float((C2 @ B2)[0, 0]), 12), k
+    (2.0, 0.333333333333, 1)
+    """
+    import scipy.linalg as sla
+
+    A = np.atleast_2d(np.asarray(A, float))
+    B, C = np.asarray(B, float), np.asarray(C, float)
+    T, Q, k = sla.schur(A, output="real", sort=drop)
+    T11, T12, T22 = T[:k, :k], T[:k, k:], T[k:, k:]
+    X = sla.solve_sylvester(T11, -T22, -T12)         # T11 X - X T22 = -T12
+    QB, CQ = Q.T @ B, C @ Q
+    return T22, QB[k:], CQ[:, :k] @ X + CQ[:, k:], int(k)
+
+
+def least_control_peak(N: ArrayLike, D: ArrayLike, axis_rtol: float = 1e-9) -> float | None:
+    """The least peak of ``|K / (1 + P K)|`` (robrst's ``|U|``) over every controller ``K``
+    that stabilises the unstable plant ``P = N/D``: ``1 / sigma_min``, the least Hankel
+    singular value of the mirror image ``P_u(-s)`` of the plant's unstable part
+    (Glover 1986, "Robust stabilization of linear multivariable systems: relations to
+    approximation", Int. J. Control 43: the largest additive perturbation one controller
+    tolerates; Zhou, Doyle and Glover 1996, Sec. 17.2 (optimal additive robust
+    stabilisation)).
+
+    The unstable part comes from :func:`split_modes` on the balanced companion form in the
+    natural scale (Hankel singular values do not change with the time scale), its Gramians
+    from two Lyapunov equations.
+
+    Parameters
+    ----------
+    N, D : array_like
+        The plant's numerator and denominator (highest power first), in s or in a
+        sampled loop's w-plane.
+    axis_rtol : float
+        A pole this close (relative to its modulus, or to the scale at 0) to the imaginary
+        axis counts as on it.
+
+    Returns
+    -------
+    float or None
+        ``None`` when the plant has no pole in the open right half-plane, or one on the
+        imaginary axis (the theorem needs none there).
+
+    Examples
+    --------
+    ``b/(s - a)``: ``2 a / |b|`` (a constant gain ``2 a / b`` reaches it):
+
+    >>> from robrst.core.lti import least_control_peak
+    >>> round(least_control_peak([3.0], [1.0, -5.0]), 12)
+    3.333333333333
+    """
+    import scipy.linalg as sla
+
+    D = poly.trim(D)
+    if len(D) < 2:
+        return None
+    sc = poly.Scaling.natural(D)
+    A, B, C, _ = companion(N, D, sc)
+    lam = np.linalg.eigvals(A)
+    if np.any(np.abs(lam.real) <= axis_rtol * np.maximum(np.abs(lam), 1.0)):
+        return None
+    if not np.any(lam.real > 0):
+        return None
+    Au, Bu, Cu, _ = split_modes(A, B, C, lambda re, im: re < 0)
+    Am, Cm = -Au, -Cu                # P_u(-s) = -Cu (sI + Au)^-1 Bu: stable
+    P = sla.solve_continuous_lyapunov(Am, -Bu @ Bu.T)
+    Qg = sla.solve_continuous_lyapunov(Am.T, -Cm.T @ Cm)
+    hsv = np.sqrt(np.abs(np.linalg.eigvals(P @ Qg).real))
+    least = float(hsv.min())
+    return float(np.inf) if least == 0.0 else 1.0 / least

@@ -257,8 +257,6 @@ class MimoPlant:
         >>> [round(float(p.real), 6) for p in G.without_modes_below(10.0).poles()]
         [-1000.0]
         """
-        import scipy.linalg as sla
-
         if not w_rad_s >= 0:
             raise SpecError(f"plant {self.label!r}: modes below {w_rad_s!r} rad/s: a"
                             " frequency >= 0 expected")
@@ -267,14 +265,9 @@ class MimoPlant:
         if not slow.any():
             return self
         sc = self.w0
-        T, Q, ns = sla.schur(self.A / sc, output="real",
-                             sort=lambda re, im: np.hypot(re, im) < w_rad_s / sc)
-        T11, T12, T22 = T[:ns, :ns], T[:ns, ns:], T[ns:, ns:]
-        X = sla.solve_sylvester(T11, -T22, -T12)         # T11 X - X T22 = -T12
-        QB, CQ = Q.T @ self.B, self.C @ Q
+        T22, B2, C2, _ = lti.split_modes(self.A / sc, self.B, self.C,
+                                     lambda re, im: np.hypot(re, im) < w_rad_s / sc)
         A2 = T22 * sc
-        B2 = QB[ns:]
-        C2 = CQ[:, :ns] @ X + CQ[:, ns:]
         meta = dict(self.meta, removed_poles=[complex(p) for p in self.poles()[slow]])
         return MimoPlant(A2, B2, C2, self.D, self.label, self.value, meta)
 

@@ -23,8 +23,9 @@ from robrst.design._single import design_single
 from robrst.design.tolerance import spread_tolerance
 from robrst.problem.records import with_defaults
 from robrst.problem.documents import check_problem
-from robrst.synthesis.feasibility import (feasibility_verdict, prove_infeasible,
-                                          prove_region_infeasible, prove_step_infeasible)
+from robrst.synthesis.feasibility import (feasibility_verdict, prove_control_infeasible,
+                                          prove_infeasible, prove_region_infeasible,
+                                          prove_step_infeasible)
 from robrst.synthesis.limits import design_limits
 
 if TYPE_CHECKING:
@@ -173,7 +174,9 @@ def infeasibility(problem: Problem) -> tuple:
     """The proofs that no controller meets the problem's specs: a reference-step spec
     beyond causality (:func:`robrst.synthesis.feasibility.prove_step_infeasible`), a decay
     floor beyond a vanishing creep pair
-    (:func:`robrst.synthesis.feasibility.prove_region_infeasible`), or no
+    (:func:`robrst.synthesis.feasibility.prove_region_infeasible`), a ``Mu_max`` below what
+    any controller stabilising an unstable plant needs
+    (:func:`robrst.synthesis.feasibility.prove_control_infeasible`), or no
     linear controller on some family member
     (:func:`robrst.synthesis.feasibility.prove_infeasible`); none for the analytic method or
     when the proof's arithmetic fails (the synthesis then runs and the verdict says the rest).
@@ -189,7 +192,9 @@ def infeasibility(problem: Problem) -> tuple:
     if problem.solver.method == "analytic":
         return ()
     try:
-        return prove_step_infeasible(problem) + prove_region_infeasible(problem) + tuple(
-            prove_infeasible(problem, list(problem.family.models)))
+        members = list(problem.family.models)
+        return (prove_step_infeasible(problem) + prove_region_infeasible(problem)
+                + prove_control_infeasible(problem, members)
+                + tuple(prove_infeasible(problem, members)))
     except (ArithmeticError, ValueError, np.linalg.LinAlgError):
         return ()

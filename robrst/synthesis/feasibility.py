@@ -36,6 +36,14 @@ sampled loop to ``exp(-h/tau)``, the same decay).  Where the interval holds temp
 strength 0 and temperatures of positive strength, a ``decay_min`` above ``1/tau`` is met by
 no controller (:class:`RegionInfeasibility`).
 
+**An unstable plant** has one more proof: whatever controller stabilises it, the peak of
+``|U| = |K / (1 + P K)|`` is at least ``1 / sigma_min``, the least Hankel singular value of
+the mirror image of the plant's unstable part (Glover 1986; the largest additive
+perturbation one controller tolerates, :func:`robrst.core.lti.least_control_peak`).  A
+``Mu_max`` below it on some family member, in the continuous loop or in the sampled
+loop's w-plane (whose unstable poles are the sampled plant's poles outside the unit
+circle), is met by no controller (:class:`ControlInfeasibility`).
+
 **Not found**: the best controller's worst violation, for a pole region the mode below
 the floor (its frequency, model and the damping reached), and a suggestion (one more
 controller degree; the loosest value of the violated spec this order reached).
@@ -55,8 +63,9 @@ if TYPE_CHECKING:
     from robrst.certificate.proof import Certificate
     from robrst.problem.records import Problem
 
-__all__ = ["Infeasibility", "StepInfeasibility", "RegionInfeasibility", "FeasibilityVerdict",
-           "prove_infeasible", "prove_step_infeasible", "prove_region_infeasible",
+__all__ = ["Infeasibility", "StepInfeasibility", "RegionInfeasibility", "ControlInfeasibility",
+           "FeasibilityVerdict", "prove_infeasible", "prove_step_infeasible",
+           "prove_region_infeasible", "prove_control_infeasible",
            "feasibility_verdict", "PROOF_MARGIN", "PROOF_POINTS"]
 
 PROOF_MARGIN = 1e-9      # the discs must miss by this much (relative to 1): far above rounding
@@ -217,6 +226,55 @@ class RegionInfeasibility:
 
 
 @dataclass(frozen=True)
+class ControlInfeasibility:
+    """A proof that no controller meets ``Mu_max`` on an unstable plant: every controller
+    that stabilises it has a larger ``|U|`` peak (module docstring).
+
+    Parameters
+    ----------
+    model : str
+        The model's label.
+    temperature_C : float
+        Its temperature [°C].
+    loop : {"continuous", "sampled"}
+        Which loop.
+    spec : str
+        ``"Mu_max"``.
+    bound : float
+        Its value [V/µm].
+    least : float
+        The least ``|U|`` peak of every stabilising controller [V/µm].
+    unstable_poles : int
+        The plant's poles in the open right half-plane (of the w-plane for the sampled
+        loop).
+    reason : str
+        The proof in one sentence.
+    """
+
+    model: str
+    temperature_C: float
+    loop: str
+    spec: str
+    bound: float
+    least: float
+    unstable_poles: int
+    reason: str
+
+    def as_dict(self) -> dict:
+        """The entry of ``feasibility.proofs`` in the design JSON (``kind``
+        ``"unstable_plant"``).
+
+        Returns
+        -------
+        dict
+        """
+        return {"kind": "unstable_plant", "model": self.model,
+                "temperature_C": self.temperature_C, "loop": self.loop, "specs": [self.spec],
+                "bound": self.bound, "least": self.least,
+                "unstable_poles": self.unstable_poles, "reason": self.reason}
+
+
+@dataclass(frozen=True)
 class FeasibilityVerdict:
     """Why a design is not certified: infeasible (with proofs) or not found (with advice).
 
@@ -225,9 +283,11 @@ class FeasibilityVerdict:
     status : {"infeasible", "not_found"}
         ``"infeasible"``: no linear controller meets the specs (``proofs``);
         ``"not_found"``: no proof, and this design does not meet them.
-    proofs : tuple of Infeasibility or StepInfeasibility
-        The step specs no controller meets (:func:`prove_step_infeasible`), then one per
-        model and loop where the discs do not meet (at most the worst band each).
+    proofs : tuple of Infeasibility, StepInfeasibility, RegionInfeasibility or ControlInfeasibility
+        The step specs no controller meets (:func:`prove_step_infeasible`), a decay floor
+        (:func:`prove_region_infeasible`), ``Mu_max`` on an unstable plant
+        (:func:`prove_control_infeasible`), then one per model and loop where the discs do
+        not meet (at most the worst band each).
     checked : str
         What the test covered (models, loops, frequencies, specs).
     expressed : tuple of str
@@ -413,6 +473,55 @@ def _loop_proofs(lp, sp, n, integral):
                              (_edge_hz(lo, sp), _edge_hz(hi, sp)), keys, _hz(w[k]),
                              float(s[k]), len(run), _hz(top_checked), reason))
     return out
+
+
+CONTROL_MARGIN = 1e-6     # Mu_max must be below the least |U| by this much (relative)
+
+
+def prove_control_infeasible(problem: Problem, models: list | None = None
+                             ) -> tuple[ControlInfeasibility, ...]:
+    """Every model loop of an unstable plant on which ``Mu_max`` lies below the least
+    ``|U|`` peak of every stabilising controller (module docstring).
+
+    Parameters
+    ----------
+    problem : Problem
+        The problem (family, ``Mu_max``, sample rate).
+    models : list of Plant, optional
+        The models (default: the family's members, then the certificate's temperature
+        sweep, as :func:`prove_infeasible`).
+
+    Returns
+    -------
+    tuple of ControlInfeasibility
+        Empty for stable plants, plants with a pole on the imaginary axis, or no
+        ``Mu_max``; the largest least peak first.
+    """
+    from robrst.core.lti import least_control_peak
+
+    bound = problem.specs.Mu_max
+    if bound is None or not np.isfinite(bound):
+        return ()
+    sets = [models] if models is not None else [None]
+    if models is None and problem.solver.cert_temperatures > 1:
+        sets.append(problem.family.sweep(problem.solver.cert_temperatures))
+    for ms in sets:
+        out = []
+        for lp in loop_plants(problem, ms):
+            least = least_control_peak(lp.plant.B, lp.plant.A)
+            if least is None or not bound < least * (1 - CONTROL_MARGIN):
+                continue
+            n_u = int(np.sum(np.roots(lp.plant.A).real > 0))
+            where = f"model {lp.label} ({lp.temperature_C:g} °C, {lp.loop} loop)"
+            out.append(ControlInfeasibility(
+                lp.label, lp.temperature_C, lp.loop, "Mu_max", float(bound), least, n_u,
+                f"{where}: the plant has {n_u} unstable pole{'s' if n_u > 1 else ''}, and"
+                f" every controller that stabilises it has |U| >= {least:.6g} V/µm at some"
+                " frequency (1 / the least Hankel singular value of its unstable part's"
+                f" mirror image, Glover 1986), above Mu_max = {bound:g}"))
+        if out:
+            return tuple(sorted(out, key=lambda p: -p.least))
+    return ()
 
 
 def prove_infeasible(problem: Problem, models: list | None = None,
@@ -613,6 +722,7 @@ def feasibility_verdict(problem: Problem, cert: Certificate, controller: object 
     sp = problem.specs
     given, lost = expressed_specs(sp)
     proofs = (prove_step_infeasible(problem) + prove_region_infeasible(problem)
+              + prove_control_infeasible(problem, models)
               + tuple(prove_infeasible(problem, models)))
     n_models = len(problem.family.models)
     loops = "continuous and sampled loops" if sp.sampled else "continuous loop"
@@ -621,8 +731,8 @@ def feasibility_verdict(problem: Problem, cert: Certificate, controller: object 
                f" model ({n_models} members and the temperature sweep, {loops}); a passing"
                " grid proves nothing")
     if proofs:
-        step = tuple(q.spec for q in proofs
-                     if isinstance(q, (StepInfeasibility, RegionInfeasibility)))
+        step = tuple(q.spec for q in proofs if isinstance(
+            q, (StepInfeasibility, RegionInfeasibility, ControlInfeasibility)))
         return FeasibilityVerdict("infeasible", proofs=proofs, checked=checked,
                                   expressed=given + step,
                                   not_expressed=tuple(k for k in lost if k not in step),
