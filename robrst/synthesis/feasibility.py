@@ -784,10 +784,25 @@ def _not_found(problem, cert, lost):
     for key, val in peak.items() if not unstable else ():     # an unstable loop's peaks
         tips.append(f"{key} = {val:.4g} (what this design reaches)")   # are no spec values
     out = "try " + "; or ".join(tips[:4])
+    floor = _control_floor(problem) if "Mu_max" in peak else None
+    if floor is not None:
+        out += (f"; every controller that stabilises the unstable plant has |U| >="
+                f" {floor:.4g} V/µm somewhere (Glover 1986): no Mu_max below it")
     if lost:
         out += ("; the proof cannot express " + ", ".join(lost) + ": the specs may still be"
                 " infeasible through them")
     return misses, mode, out
+
+
+def _control_floor(problem):
+    """The largest least ``|U|`` peak of every stabilising controller over the family
+    members' loops (:func:`robrst.core.lti.least_control_peak`), ``None`` for a stable
+    plant."""
+    from robrst.core.lti import least_control_peak
+
+    floors = [least_control_peak(lp.plant.B, lp.plant.A) for lp in loop_plants(problem)]
+    floors = [f for f in floors if f is not None]
+    return max(floors) if floors else None
 
 
 def _creep_note(problem, decay):

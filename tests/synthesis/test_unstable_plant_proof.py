@@ -88,3 +88,20 @@ def test_the_pipeline_names_it_infeasible_and_never_above_the_bound():
     assert kinds == ["unstable_plant"]
     assert "Glover 1986" in res.feasibility.lines()[0]
     assert prove_control_infeasible(parse_problem(_doc(1.01 * 2 * a / b), "<u>")) == ()
+
+
+def test_not_found_on_an_unstable_plant_states_the_floor():
+    """Above the floor there is no proof; a design missing ``Mu_max`` is told the floor."""
+    from robrst.certificate.proof import certify_problem
+    from robrst.design import analytic_design
+    from robrst.synthesis.feasibility import feasibility_verdict
+
+    a, b = 50.0, 400.0
+    least = 2 * a / b
+    p = parse_problem(_doc(1.5 * least), "<u>")
+    ctrl = analytic_design(p).controller
+    cert = certify_problem(p, ctrl)
+    assert any(v.quantity.startswith("|U|") for v in cert.violations), cert.violations
+    verdict = feasibility_verdict(p, cert, ctrl)
+    assert verdict.status == "not_found"
+    assert f"has |U| >= {least:.4g} V/µm somewhere (Glover 1986)" in verdict.suggestion
