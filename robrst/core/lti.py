@@ -612,6 +612,9 @@ def split_modes(A: ArrayLike, B: ArrayLike, C: ArrayLike,
     return T22, QB[k:], CQ[:, :k] @ X + CQ[:, k:], int(k)
 
 
+HANKEL_RTOL = 1e-12    # a Hankel singular value this small (relative to |B| |C|) is zero
+
+
 def least_control_peak(N: ArrayLike, D: ArrayLike, axis_rtol: float = 1e-9) -> float | None:
     """The least peak of ``|K / (1 + P K)|`` (robrst's ``|U|``) over every controller ``K``
     that stabilises the unstable plant ``P = N/D``: ``1 / sigma_min``, the least Hankel
@@ -638,7 +641,9 @@ def least_control_peak(N: ArrayLike, D: ArrayLike, axis_rtol: float = 1e-9) -> f
     -------
     float or None
         ``None`` when the plant has no pole in the open right half-plane, or one on the
-        imaginary axis (the theorem needs none there).
+        imaginary axis (the theorem needs none there); ``inf`` when an unstable mode is
+        not seen by the input or the output (cancelled by a zero: a Hankel singular value
+        below ``HANKEL_RTOL`` of the realisation's size), which no controller stabilises.
 
     Examples
     --------
@@ -666,4 +671,7 @@ def least_control_peak(N: ArrayLike, D: ArrayLike, axis_rtol: float = 1e-9) -> f
     Qg = sla.solve_continuous_lyapunov(Am.T, -Cm.T @ Cm)
     hsv = np.sqrt(np.abs(np.linalg.eigvals(P @ Qg).real))
     least = float(hsv.min())
-    return float(np.inf) if least == 0.0 else 1.0 / least
+    # a mode the input or the output does not see (an unstable pole cancelled by a zero)
+    # has a Hankel value at rounding level: no controller stabilises the loop
+    floor = HANKEL_RTOL * float(np.linalg.norm(B) * np.linalg.norm(C))
+    return float(np.inf) if least <= floor else 1.0 / least

@@ -513,12 +513,15 @@ def prove_control_infeasible(problem: Problem, models: list | None = None
                 continue
             n_u = int(np.sum(np.roots(lp.plant.A).real > 0))
             where = f"model {lp.label} ({lp.temperature_C:g} °C, {lp.loop} loop)"
+            poles = f"{n_u} unstable pole{'s' if n_u > 1 else ''}"
+            why = (f"every controller that stabilises it has |U| >= {least:.6g} V/µm at some"
+                   " frequency (1 / the least Hankel singular value of its unstable part's"
+                   f" mirror image, Glover 1986), above Mu_max = {bound:g}"
+                   if np.isfinite(least) else
+                   "one of them is cancelled by a zero: no controller stabilises the loop")
             out.append(ControlInfeasibility(
                 lp.label, lp.temperature_C, lp.loop, "Mu_max", float(bound), least, n_u,
-                f"{where}: the plant has {n_u} unstable pole{'s' if n_u > 1 else ''}, and"
-                f" every controller that stabilises it has |U| >= {least:.6g} V/µm at some"
-                " frequency (1 / the least Hankel singular value of its unstable part's"
-                f" mirror image, Glover 1986), above Mu_max = {bound:g}"))
+                f"{where}: the plant has {poles}, and {why}"))
         if out:
             return tuple(sorted(out, key=lambda p: -p.least))
     return ()

@@ -105,3 +105,12 @@ def test_not_found_on_an_unstable_plant_states_the_floor():
     verdict = feasibility_verdict(p, cert, ctrl)
     assert verdict.status == "not_found"
     assert f"has |U| >= {least:.4g} V/µm somewhere (Glover 1986)" in verdict.suggestion
+
+
+def test_an_unstable_pole_cancelled_by_a_zero_is_no_controller_at_all():
+    # (s - 1)/((s - 1)(s + 2)): the unstable mode is unobservable, its Hankel value 0
+    assert least_control_peak([1.0, -1.0], [1.0, 1.0, -2.0]) == np.inf
+    doc = _doc(50.0)
+    doc["plant"] = {"B": [1.0, -1.0], "A": [1.0, 1.0, -2.0], "temperature_C": 25.0}
+    proofs = prove_control_infeasible(parse_problem(doc, "<u>"))
+    assert proofs and "no controller stabilises the loop" in proofs[0].reason
