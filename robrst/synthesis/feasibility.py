@@ -498,8 +498,6 @@ def prove_control_infeasible(problem: Problem, models: list | None = None
         Empty for stable plants, plants with a pole on the imaginary axis, or no
         ``Mu_max``; the largest least peak first.
     """
-    from robrst.core.lti import least_control_peak
-
     bound = problem.specs.Mu_max
     if bound is None or not np.isfinite(bound):
         return ()
@@ -508,11 +506,9 @@ def prove_control_infeasible(problem: Problem, models: list | None = None
         sets.append(problem.family.sweep(problem.solver.cert_temperatures))
     for ms in sets:
         out = []
-        for lp in loop_plants(problem, ms):
-            least = least_control_peak(lp.plant.B, lp.plant.A)
+        for lp, least in _control_floors(problem, ms):
             # beyond the certificate's tolerance: a |U| peak within it is accepted
-            if least is None or not (bound * (1.0 + problem.solver.cert_tol)
-                                     < least * (1.0 - CONTROL_MARGIN)):
+            if not bound * (1.0 + problem.solver.cert_tol) < least * (1.0 - CONTROL_MARGIN):
                 continue
             n_u = int(np.sum(np.roots(lp.plant.A).real > 0))
             where = f"model {lp.label} ({lp.temperature_C:g} °C, {lp.loop} loop)"
@@ -790,25 +786,26 @@ def _not_found(problem, cert, lost):
     for key, val in peak.items() if not unstable else ():     # an unstable loop's peaks
         tips.append(f"{key} = {val:.4g} (what this design reaches)")   # are no spec values
     out = "try " + "; or ".join(tips[:4])
-    floor = _control_floor(problem) if "Mu_max" in peak else None
-    if floor is not None:
+    floors = [least for _, least in _control_floors(problem)] if "Mu_max" in peak else []
+    if floors:
         out += (f"; every controller that stabilises the unstable plant has |U| >="
-                f" {floor:.4g} V/µm somewhere (Glover 1986): no Mu_max below it")
+                f" {max(floors):.4g} V/µm somewhere (Glover 1986): no Mu_max below it")
     if lost:
         out += ("; the proof cannot express " + ", ".join(lost) + ": the specs may still be"
                 " infeasible through them")
     return misses, mode, out
 
 
-def _control_floor(problem):
-    """The largest least ``|U|`` peak of every stabilising controller over the family
-    members' loops (:func:`robrst.core.lti.least_control_peak`), ``None`` for a stable
-    plant."""
+def _control_floors(problem, models=None):
+    """``(loop plant, least |U| peak of every stabilising controller)`` of each loop of
+    ``models`` (default the family's members) whose plant is unstable
+    (:func:`robrst.core.lti.least_control_peak`)."""
     from robrst.core.lti import least_control_peak
 
-    floors = [least_control_peak(lp.plant.B, lp.plant.A) for lp in loop_plants(problem)]
-    floors = [f for f in floors if f is not None]
-    return max(floors) if floors else None
+    for lp in loop_plants(problem, models):
+        least = least_control_peak(lp.plant.B, lp.plant.A)
+        if least is not None:
+            yield lp, least
 
 
 def _creep_note(problem, decay):

@@ -511,7 +511,7 @@ def _kept(ctx, run, given, out):
     return out
 
 
-def _polish_again(ctx, run, outs, bases=()):
+def _polish_again(ctx, run, outs, bases):
     """The best answer in ``outs`` (certified, its step within the time-domain specs, its
     objective counted) polished again from where it ended, with a fresh iteration budget
     (:meth:`Run.grant`), while each polish gains ``POLISH.again_gain`` and at most
