@@ -40,8 +40,8 @@ if TYPE_CHECKING:
     import control
     from numpy.typing import ArrayLike
 
-__all__ = ["MimoPlant", "MimoFamily", "as_mimo_plant", "combination", "sampled_mimo",
-           "PARAMETERS", "RANK_RTOL"]
+__all__ = ["MimoPlant", "ModalResponse", "MimoFamily", "as_mimo_plant", "combination",
+           "sampled_mimo", "PARAMETERS", "RANK_RTOL"]
 
 #: the parameters a family runs over, with their unit
 PARAMETERS = {"temperature_C": "°C", "level": ""}
@@ -58,6 +58,67 @@ def _matrix(x, name, shape=None):
         raise SpecError(f"{name}: entries must be finite numbers")
     return a
 
+
+
+@dataclass(frozen=True, eq=False)
+class ModalResponse:
+    """A plant's frequency response at many frequencies at once, from one decomposition
+    (:meth:`MimoPlant.modal_response`): ``G(jw) = D + C V diag(1 / (jw/sc - lam)) V^-1 B /
+    sc`` when the scaled ``A / sc`` is diagonalisable with a well-conditioned ``V``, else
+    one batched solve of ``(jw/sc I - A/sc) X = B/sc``.
+
+    Parameters
+    ----------
+    scale : float
+        ``sc``, the plant's natural frequency scale [rad/s].
+    As, Bs : numpy.ndarray
+        ``A / sc``, ``B / sc``.
+    C, D : numpy.ndarray
+    lam, CV, ViB : numpy.ndarray or None
+        The eigenvalues of ``A / sc``, ``C V`` and ``V^-1 B / sc`` (``None``: solves).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from robrst.core.mimo import MimoPlant
+    >>> g = MimoPlant(-np.eye(1) * 10.0, np.eye(1) * 10.0, np.eye(1), np.zeros((1, 1)))
+    >>> r = g.modal_response()
+    >>> bool(np.allclose(r(np.array([0.0, 10.0]))[:, 0, 0], [1.0, 10 / (10 + 10j)]))
+    True
+    """
+
+    scale: float
+    As: np.ndarray
+    Bs: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+    lam: np.ndarray | None = None
+    CV: np.ndarray | None = None
+    ViB: np.ndarray | None = None
+
+    def __call__(self, w: ArrayLike) -> np.ndarray:
+        """The response ``(F, outputs, inputs)`` at the finite frequencies ``w`` [rad/s].
+
+        Parameters
+        ----------
+        w : array_like
+            ``F`` frequencies [rad/s].
+
+        Returns
+        -------
+        numpy.ndarray
+            Complex.
+        """
+        w = np.atleast_1d(np.asarray(w, float))
+        n = self.As.shape[0]
+        if not n:
+            return np.broadcast_to(self.D, (w.size,) + self.D.shape).astype(complex)
+        p = 1j * w / self.scale
+        if self.lam is not None:
+            return (self.CV[None] / (p[:, None] - self.lam)[:, None, :]) @ self.ViB + self.D
+        X = np.linalg.solve(p[:, None, None] * np.eye(n) - self.As,
+                            np.broadcast_to(self.Bs.astype(complex), (w.size,) + self.Bs.shape))
+        return self.C @ X + self.D
 
 @dataclass(frozen=True, eq=False)
 class MimoPlant:
@@ -176,21 +237,37 @@ class MimoPlant:
         if not self.n_states:
             out[:] = self.D
             return out
-        sc = self.w0
-        As, Bs = self.A / sc, self.B / sc
-        # one eigen-decomposition when A is diagonalisable and well conditioned, else solves
-        lam, V = np.linalg.eig(As)
-        if np.linalg.cond(V) < 1e8:
-            CV, ViB = self.C @ V, np.linalg.solve(V, Bs)
+        r = self.modal_response()
+        if r.lam is not None:
             for i, x in enumerate(w):
                 out[i] = self.D if not np.isfinite(x) else \
-                    (CV / (1j * x / sc - lam)) @ ViB + self.D
+                    (r.CV / (1j * x / r.scale - r.lam)) @ r.ViB + self.D
             return out
         eye = np.eye(self.n_states)
         for i, x in enumerate(w):
             out[i] = self.D if not np.isfinite(x) else \
-                self.C @ np.linalg.solve(1j * x / sc * eye - As, Bs) + self.D
+                self.C @ np.linalg.solve(1j * x / r.scale * eye - r.As, r.Bs) + self.D
         return out
+
+    def modal_response(self) -> ModalResponse:
+        """The decomposition :meth:`freqresp` evaluates, kept: the response at many
+        frequencies at once, each set of frequencies without a new decomposition (a search's
+        candidates' own frequencies, population after population).
+
+        Returns
+        -------
+        ModalResponse
+        """
+        sc = self.w0 if self.n_states else 1.0
+        As, Bs = self.A / sc, self.B / sc
+        lam = CV = ViB = None
+        if self.n_states:
+            # one eigen-decomposition when A is diagonalisable and well conditioned, else solves
+            ev, V = np.linalg.eig(As)
+            if np.linalg.cond(V) < 1e8:
+                lam, CV, ViB = ev, self.C @ V, np.linalg.solve(V, Bs)
+        return ModalResponse(scale=sc, As=As, Bs=Bs, C=self.C, D=self.D, lam=lam, CV=CV,
+                             ViB=ViB)
 
     def dc_gain(self) -> np.ndarray:
         """Static gain ``(m, k)``.

@@ -257,9 +257,10 @@ class MimoScreen:
             Wj = MimoPlant(*self.Wss, "decoupler").freqresp(nu) if self.Wss[0].size \
                 else np.broadcast_to(self.Wss[3], (nu.size,) + self.Wss[3].shape)
             band = (w >= lo) & (w <= hi)
-            self.loops.append((lp.plant, nu, G, Wj, G @ Wj, band,
+            self.loops.append((lp.plant, lp.plant.modal_response(), nu, G, Wj, G @ Wj, band,
                                [a.basis(nu) for a in self.axes]))
-        self.decoupler = MimoPlant(*self.Wss, "decoupler") if self.Wss[0].size else None
+        self.decoupler = (MimoPlant(*self.Wss, "decoupler").modal_response()
+                          if self.Wss[0].size else None)
 
     def _responses(self, X, basis):
         """``R_i(j nu)``, ``S_i(j nu)`` of every candidate: ``(P, F, m)`` each."""
@@ -399,15 +400,15 @@ class MimoScreen:
         and at the frequency of each lightly damped closed-loop pole (damping below
         ``RESONANT_DAMPING``), where a closed-loop resonance peaks between the grid's points
         (the crosstalk on the grid only)."""
-        out = self._peaks(X, *loop[1:])
+        out = self._peaks(X, *loop[2:])
         with np.errstate(all="ignore"):
             lightly = ((eig.imag > 0) & np.isfinite(eig)
                        & (-eig.real < RESONANT_DAMPING * np.abs(eig)))
         rows, cols = np.nonzero(lightly)
         if rows.size:
             nu = eig[rows, cols].imag
-            G = _freqresp(loop[0], nu)
-            Wj = (_freqresp(self.decoupler, nu) if self.decoupler is not None
+            G = loop[1](nu)
+            Wj = (self.decoupler(nu) if self.decoupler is not None
                   else np.broadcast_to(self.Wss[3], (nu.size,) + self.Wss[3].shape))
             R, S = self._responses_at(X[rows], nu)
             at = self._figures(X[rows], R[:, None], S[:, None], G[:, None], Wj[:, None],
@@ -470,17 +471,6 @@ class MimoScreen:
                     off = ~np.eye(m, dtype=bool)
                     out["crosstalk"] = np.abs(Tr[:, band][..., off]).max((1, 2))
         return {f: np.where(np.isfinite(v), v, np.inf) for f, v in out.items()}
-
-
-def _freqresp(plant, nu):
-    """``plant``'s frequency response ``(F, out, in)`` at the frequencies ``nu`` [rad/s],
-    one batched solve (the candidates' own frequencies: no loop over them)."""
-    n = plant.n_states
-    if not n:
-        return np.broadcast_to(plant.D, (nu.size,) + plant.D.shape).astype(complex)
-    A = 1j * nu[:, None, None] * np.eye(n) - plant.A
-    X = np.linalg.solve(A, np.broadcast_to(plant.B.astype(complex), (nu.size,) + plant.B.shape))
-    return plant.C @ X + plant.D
 
 
 def _sigma_peak(Xf):

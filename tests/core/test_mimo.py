@@ -26,6 +26,27 @@ def test_transfer_matrix_realisation_matches_python_control(seed, m):
 
 
 @pytest.mark.parametrize("seed", SEEDS)
+def test_modal_response_at_many_frequencies_matches_python_control(seed):
+    """The response from one kept decomposition (the search's candidates' own frequencies)
+    against python-control's transfer matrix; and with a defective ``A`` (a Jordan block:
+    no well-conditioned eigenvectors) against python-control's state space."""
+    g, = random_stage(seed, 3)
+    r = MimoPlant.from_control(g).modal_response()
+    assert r.lam is not None
+    w = np.random.default_rng(seed).uniform(10.0, 1e5, 37)
+    ref = np.moveaxis(g(1j * w), -1, 0)
+    assert np.max(np.abs(r(w) - ref)) <= 1e-9 * np.max(np.abs(ref))
+    A = np.array([[-300.0, 1.0, 0.0], [0.0, -300.0, 1.0], [0.0, 0.0, -300.0]])
+    B = np.array([[0.0, 1.0], [0.0, 0.0], [300.0 ** 3, 0.0]])
+    C = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 1.0]])
+    D = np.array([[0.0, 0.1], [0.0, 0.0]])
+    jordan = MimoPlant(A, B, C, D).modal_response()
+    assert jordan.lam is None          # solves: the eigenvectors are (nearly) parallel
+    ref = np.moveaxis(control.ss(A, B, C, D)(1j * w), -1, 0)
+    assert np.max(np.abs(jordan(w) - ref)) <= 1e-9 * np.max(np.abs(ref))
+
+
+@pytest.mark.parametrize("seed", SEEDS)
 def test_sigma_peak_agrees_with_slicot_and_a_dense_grid(seed):
     """The exact peak against SLICOT ab13dd (python-control linfnorm) and a refined grid."""
     g, = random_stage(seed, 2 + seed % 2)
