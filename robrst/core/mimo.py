@@ -59,7 +59,6 @@ def _matrix(x, name, shape=None):
     return a
 
 
-
 @dataclass(frozen=True, eq=False)
 class ModalResponse:
     """A plant's frequency response at many frequencies at once, from one decomposition
@@ -119,6 +118,7 @@ class ModalResponse:
         X = np.linalg.solve(p[:, None, None] * np.eye(n) - self.As,
                             np.broadcast_to(self.Bs.astype(complex), (w.size,) + self.Bs.shape))
         return self.C @ X + self.D
+
 
 @dataclass(frozen=True, eq=False)
 class MimoPlant:
