@@ -249,18 +249,20 @@ class MimoScreen:
         else:
             Wm = np.asarray(W, float)
             self.Wss = (np.zeros((0, 0)), np.zeros((0, self.m)), np.zeros((Wm.shape[0], 0)), Wm)
+        dec = MimoPlant(*self.Wss, "decoupler") if self.Wss[0].size else None
+        self.decoupler = dec.modal_response() if dec is not None else None
         self.loops = []
         for lp in loop_plants(models, specs):
             w = program_grid(models[lp.model], lp.fs, w_design, n_freq, dense=True)
             nu = nu_of(w, lp.fs)
             G = lp.plant.freqresp(nu)
-            Wj = MimoPlant(*self.Wss, "decoupler").freqresp(nu) if self.Wss[0].size \
+            Wj = dec.freqresp(nu) if dec is not None \
                 else np.broadcast_to(self.Wss[3], (nu.size,) + self.Wss[3].shape)
             band = (w >= lo) & (w <= hi)
+            # the kept response's scale is the plant's w0 (its eigenvalues, not again per
+            # population)
             self.loops.append((lp.plant, lp.plant.modal_response(), nu, G, Wj, G @ Wj, band,
                                [a.basis(nu) for a in self.axes]))
-        self.decoupler = (MimoPlant(*self.Wss, "decoupler").modal_response()
-                          if self.Wss[0].size else None)
 
     def _responses(self, X, basis):
         """``R_i(j nu)``, ``S_i(j nu)`` of every candidate: ``(P, F, m)`` each."""
@@ -338,7 +340,7 @@ class MimoScreen:
         worst = np.full(P, -np.inf)
         for loop in self.loops:
             eig = self._loop_poles(loop[0], Ak, Bk, Ck, Dk)
-            ev = eig.real.max(1) / loop[0].w0
+            ev = eig.real.max(1) / loop[1].scale
             worst = np.maximum(worst, ev)
             live = np.flatnonzero((ev < 0) & np.isfinite(viol))
             viol[ev >= 0] = np.inf
