@@ -53,11 +53,13 @@ from robrst.synthesis.mimo_start import (RESONANT_DAMPING, loop_plants, nu_of,
 if TYPE_CHECKING:
     from robrst.problem.mimo import MimoSpecs
 
-__all__ = ["MimoSpace", "MimoScreen", "MimoSearch", "search_mimo", "SCREEN_MARGIN"]
+__all__ = ["MimoSpace", "MimoScreen", "MimoSearch", "search_mimo", "SCREEN_MARGIN", "PEAK_DAMPING"]
 
+#: a closed-loop mode damped less than this peaks, at ``|p| sqrt(1 - 2 zeta^2)`` (second
+#: order), where the screen evaluates it too
+PEAK_DAMPING = 1 / np.sqrt(2)
 #: the screen holds the bounds this much inside the program's (which are GRID_MARGIN inside
 #: the certificate's): its best point starts the program inside its rows
-PEAK_DAMPING = 1 / np.sqrt(2)   # a mode less damped peaks, at |p| sqrt(1 - 2 zeta^2)
 SCREEN_MARGIN = 0.005
 #: the runs: (population, step size, generations at most); the first from the start
 RUNS = ((14, 0.05, 150), (28, 0.3, 200), (56, 0.3, 250))
@@ -401,11 +403,11 @@ class MimoScreen:
     def _loop_peaks(self, X, loop, eig):
         """Every bounded figure's peak on one loop (``loop``: an entry of ``self.loops``)
         for the stable candidates ``X`` with closed-loop poles ``eig``: on the loop's grid,
-        at the damped frequency of each lightly damped closed-loop pole (damping below
-        ``RESONANT_DAMPING``) and at ``|p| sqrt(1 - 2 zeta^2)`` of each pole damped below
-        ``PEAK_DAMPING`` (where a second-order mode peaks: seeded stage 2's ``sigma_T``
-        peaked 1.4 % over its bound below its modes damped 0.31-0.38), where a closed-loop
-        resonance peaks between the grid's points (the crosstalk on the grid only)."""
+        and where a closed-loop mode peaks between the grid's points — the damped frequency
+        of each lightly damped pole (damping below ``RESONANT_DAMPING``) and
+        ``|p| sqrt(1 - 2 zeta^2)`` of each pole damped below ``PEAK_DAMPING`` (seeded stage
+        2's ``sigma_T`` peaked 1.4 % over its bound below its modes damped 0.31-0.38).  The
+        crosstalk on the grid only."""
         out = self._peaks(X, *loop[2:])
         with np.errstate(all="ignore"):
             mag = np.abs(eig)
