@@ -52,11 +52,17 @@ from robrst.synthesis.mimo_search import search_mimo
 from robrst.synthesis.mimo_start import design_scale
 
 __all__ = ["Binding", "MimoComparison", "MimoDesignResult", "design_mimo", "BACK_OFF",
-           "COMPARISON_VIOLATIONS"]
+           "COMPARISON_VIOLATIONS", "LOCAL_NOTE"]
 
 #: the gain factors of the last resort (module docstring, step 4)
 BACK_OFF = (0.9, 0.75, 0.5)
 COMPARISON_VIOLATIONS = 20   # a comparison's violations its JSON keeps (and the summary names)
+#: the note of a joint design without the global phase: the program is local, and which
+#: basin it ends in depends on where it starts (on seeded three-axis stages the search's
+#: basin was up to ten times higher: docs/guide/multi-axis.md)
+LOCAL_NOTE = ("a local optimum: the joint program from the per-axis start, no global phase"
+              " ([mimo.solver] multistart = true searches every axis's law first and can"
+              " reach a higher basin, at a few times the CPU)")
 
 
 @dataclass(frozen=True)
@@ -147,6 +153,9 @@ class MimoDesignResult:
         The start's crossover [rad/s].
     seconds : float
         Wall time.
+    notes : tuple of str
+        What the answer is and is not: without the global phase, a local optimum
+        (:data:`LOCAL_NOTE`); with it, why the search's best was not used when it was not.
 
     Attributes
     ----------
@@ -162,6 +171,7 @@ class MimoDesignResult:
     comparisons: dict = field(default_factory=dict)
     w_design: float = 0.0
     seconds: float = 0.0
+    notes: tuple = ()
 
     @property
     def certified(self) -> bool:
@@ -184,7 +194,7 @@ class MimoDesignResult:
         dict
             ``kind = "mimo"``, ``problem``, ``certified``, ``controller``, ``certificate``,
             ``binding``, ``integral_gains``, ``rounds``, ``comparisons`` (their certified
-            flag, ratios and violations), ``seconds``.
+            flag, ratios and violations), ``seconds``, ``notes``.
         """
         p = self.problem
         return {
@@ -201,6 +211,7 @@ class MimoDesignResult:
             "rounds": [r.__dict__ for r in self.rounds],
             "comparisons": {k: v.as_dict() for k, v in self.comparisons.items()},
             "seconds": self.seconds,
+            "notes": list(self.notes),
         }
 
 
@@ -389,7 +400,7 @@ def _design_mimo(problem, progress, compare):
     backed = _certified_start(fam, xs, axes, W, st, names, specs, so, say)
     start_cert = backed[0][2]
     certified_start = next((b for b in backed if b[2].certified), None)
-    found = None
+    found, notes = None, []
     if so.method == "nlp":
         x_axes = _stable_start(models, xs, axes, W, st, names, specs, so)
         x0 = x_axes
@@ -402,6 +413,14 @@ def _design_mimo(problem, progress, compare):
                        if a.value is not None and b.value is not None]
             search = search_mimo(models + between, specs, axes, W, st.T_mode, signs,
                                  np.concatenate(xs), w_design, progress=say)
+            if not search.feasible:
+                notes.append(f"global phase: none of its {search.evaluations} candidates met"
+                             " the specs on its screen; the answer is the joint program's"
+                             " from the per-axis start")
+            elif search.objective <= search.start_objective:
+                notes.append(f"global phase: its best of {search.evaluations} candidates"
+                             " screened below the per-axis start; the answer is the joint"
+                             " program's from that start")
             if search.feasible and search.objective > search.start_objective:
                 # the program starts from the search's best, and that point, certified as
                 # it is, is an answer beside the program's result
@@ -410,6 +429,8 @@ def _design_mimo(problem, progress, compare):
                 say("certifying the search's best over the whole family")
                 found = (ctrl, certify_mimo(fam, ctrl, specs, so.cert_tol, so.cert_points),
                          search)
+        else:
+            notes.append(LOCAL_NOTE)
         x_joint, best_ctrl, certificate = _joint(fam, models, x_axes, axes, W, st, names,
                                                  specs, so, signs, say, w_design, rounds)
         if found is not None:
@@ -475,4 +496,4 @@ def _design_mimo(problem, progress, compare):
     return MimoDesignResult(problem=problem, controller=best_ctrl, certificate=certificate,
                             binding=_binding(certificate), rounds=tuple(rounds), start=start,
                             comparisons=comparisons, w_design=w_design,
-                            seconds=time.perf_counter() - t0)
+                            seconds=time.perf_counter() - t0, notes=tuple(notes))

@@ -142,5 +142,6 @@ def mimo_summary(result: MimoDesignResult) -> str:
         lines.append(f"violation: {v.quantity} = {fmt(v.value, '.4g')} (bound"
                      f" {fmt(v.bound, '.4g')}) on {v.label} [{v.kind}, {v.loop}]")
     lines += [""] + comparison_lines(result)
+    lines += [f"note: {n}" for n in result.notes]
     lines.append(f"{result.seconds:.1f} s")
     return "\n".join(lines)

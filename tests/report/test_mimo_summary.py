@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from robrst.core.mimo import MimoFamily, MimoPlant
-from robrst.design.mimo import design_mimo
+from robrst.design.mimo import LOCAL_NOTE, design_mimo
 from robrst.problem.mimo import MimoProblem, MimoSpecs
 from robrst.report.mimo import mimo_summary
 from robrst.report.text import fmt
@@ -53,6 +53,10 @@ def test_the_summary_draws_the_records(one_axis):
     for name, c in r.comparisons.items():
         line = next(x for x in lines if x.startswith(f"{name} ("))
         assert ("NOT certified" not in line) == c.certificate.certified
+    # the notes, drawn as the design states them, just above the time
+    assert r.notes == (LOCAL_NOTE,)        # the default: the joint program alone
+    assert lines[-1 - len(r.notes):-1] == [f"note: {n}" for n in r.notes]
+    assert r.as_dict()["notes"] == [LOCAL_NOTE]
     assert lines[-1] == f"{r.seconds:.1f} s"
     # the integral gains as the controller has them (lim s R/S)
     ki = [float(a.R[-1] / a.S[-2]) for a in r.controller.axes]
@@ -73,3 +77,30 @@ def test_a_figure_with_room_left_is_not_called_binding(one_axis):
     assert "binding: sigma_S at 0.995 of its bound (h, sampled loop)" in tight
     over = mimo_summary(swap(one_axis, binding=Binding("sigma_S", 1.2, "h", "sampled")))
     assert "binding: sigma_S at 1.2 of its bound (h, sampled loop)" in over
+
+
+@pytest.mark.parametrize("violation, objective, said", [
+    (0.3, 1.0, "none of its 77 candidates met the specs on its screen"),
+    (0.0, -1.0, "its best of 77 candidates screened below the per-axis start"),
+])
+def test_a_global_phase_that_is_not_used_says_why(monkeypatch, violation, objective, said):
+    """With ``multistart`` the design says why the search's best did not start the
+    program (its screen refused every candidate, or its best screened below the start),
+    and never calls the answer a design without the global phase."""
+    import robrst.design.mimo as mimo_design
+    from robrst.problem.mimo import MimoSolverOptions
+    from robrst.synthesis.mimo_search import MimoSearch
+
+    def search(*args, **kwargs):
+        return MimoSearch(x=np.zeros(1), objective=objective, violation=violation,
+                          start_objective=0.0, evaluations=77, runs=(), space=None)
+
+    monkeypatch.setattr(mimo_design, "search_mimo", search)
+    g = control.tf([2e7], [1, 300, 2e7])
+    fam = MimoFamily((MimoPlant.from_control(g, "cold", 20.0),))
+    r = design_mimo(MimoProblem("one axis", fam, specs=MimoSpecs(
+        sigma_S_max=2.0, sample_rate_hz=20000.0), solver=MimoSolverOptions(multistart=True)),
+        compare=False)
+    assert len(r.notes) == 1 and said in r.notes[0] and LOCAL_NOTE not in r.notes
+    assert "global_search" not in r.comparisons
+    assert f"note: {r.notes[0]}" in mimo_summary(r)
