@@ -60,9 +60,10 @@ COMPARISON_VIOLATIONS = 20   # a comparison's violations its JSON keeps (and the
 #: the note of a joint design without the global phase: the program is local, and which
 #: basin it ends in depends on where it starts (on seeded three-axis stages the search's
 #: basin was up to ten times higher: docs/guide/multi-axis.md)
-LOCAL_NOTE = ("a local optimum: the joint program from the per-axis start, no global phase"
-              " ([mimo.solver] multistart = true searches every axis's law first and can"
-              " reach a higher basin, at a few times the CPU)")
+LOCAL_NOTE = ("no global phase: the joint program from the per-axis start, a local method"
+              " whose answer depends on where it starts ([mimo.solver] multistart = true"
+              " searches every axis's law first and can reach a higher basin, at a few"
+              " times the CPU)")
 
 
 @dataclass(frozen=True)
@@ -154,7 +155,7 @@ class MimoDesignResult:
     seconds : float
         Wall time.
     notes : tuple of str
-        What the answer is and is not: without the global phase, a local optimum
+        What the answer is and is not: without the global phase, the local program's
         (:data:`LOCAL_NOTE`); with it, why the search's best was not used when it was not.
 
     Attributes
