@@ -10,12 +10,13 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 from robrst.certificate.proof import certify_problem
 from robrst.core.analysis import analyze_many
-from robrst.design.candidate import (analytic_check, analytic_design, candidate, comparison,
-                                     offer_candidate)
+from robrst.design.candidate import (LOCAL_RUN_NOTE, analytic_check, analytic_design,
+                                     candidate, comparison, offer_candidate)
 from robrst.design.result import DesignResult
 from robrst.synthesis.multistart import multistart_record
 from robrst.synthesis.tracking import design_tracking
@@ -106,6 +107,8 @@ def design_single(problem: Problem, progress: Callable[[str], None] | None = Non
                                            incumbent=incumbent)
         if glob:
             starts = multistart_record(stage, time.perf_counter() - t0)
+        elif method == "nlp":       # the answer of a local method: said so
+            stage = replace(stage, notes=tuple(stage.notes) + (LOCAL_RUN_NOTE,))
         offer_candidate(problem, ctrl, cert)
         check = analytic_check(problem, stage.controller, stage.Am)
     comp = None if method == "analytic" or not compare else comparison(problem, ctrl, cert)

@@ -30,7 +30,17 @@ if TYPE_CHECKING:
     from robrst.problem.records import PoleSpec, Problem
     from robrst.synthesis.analytic import AnalyticDesign
 
-__all__ = ["candidate", "analytic_design", "analytic_check", "comparison", "offer_candidate"]
+__all__ = ["candidate", "analytic_design", "analytic_check", "comparison", "offer_candidate",
+           "LOCAL_RUN_NOTE"]
+
+#: the note of a robust design without the global phase (``[solver] starts = 0``,
+#: ``multistart = false``, ``--starts 0``): local runs from the problem's own design, whose
+#: answer depends on where they start (``paper_robust``: 751.8 against 861,623 with the
+#: phase, docs/background/benchmarks.md)
+LOCAL_RUN_NOTE = ("no global phase: the robust program's local runs from the problem's own"
+                  " design, whose answer depends on where they start (the default,"
+                  " [solver] multistart = true with starts > 0, searches every controller"
+                  " of the structure first)")
 
 
 def analytic_design(problem: Problem, poles: PoleSpec | None = None) -> AnalyticDesign:

@@ -9,6 +9,7 @@ import pytest
 
 from robrst.cli import main
 from robrst.base.errors import SpecError
+from robrst.design.candidate import LOCAL_RUN_NOTE
 
 MODEL_KEYS = {"label", "temperature_C", "A", "B", "stable", "closed_loop_poles", "Ms",
               "Ms_freq_rad_s", "Mt", "Mu", "gain_margin", "phase_margin_deg",
@@ -98,6 +99,8 @@ def test_a_continuous_design_does_not_import_scipy(tmp_path):
     assert r.returncode == 0, r.stderr
     assert json.loads(r.stdout)["certified"] is True
     assert r.stderr.strip().splitlines()[-1] == "[]"
+    # a local run's answer says it is one (the global phase is the default)
+    assert LOCAL_RUN_NOTE in json.loads(r.stdout)["solver"]["notes"]
 
 
 def test_numpy_warnings_never_print_raw(monkeypatch, capsys):

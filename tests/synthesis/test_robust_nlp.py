@@ -9,6 +9,7 @@ import pytest
 from robrst.core import poly
 from robrst.certificate.proof import certify_problem
 from robrst.design import analytic_design, run_problem, with_time_domain
+from robrst.design.candidate import LOCAL_RUN_NOTE
 from robrst.core.rst import RSTController, closed_loop
 from robrst.problem.files import load_problem
 from robrst.synthesis.outcome import worst_violation
@@ -63,6 +64,8 @@ def test_paper_robust_is_certified_and_meets_every_spec(robust_result):
             assert v("step_u_peak_V") <= sp.step_u_max_V
     temps = [m.temperature_C for m in r.certificate.models]
     assert min(temps) == 28.0 and max(temps) == 45.0 and len(temps) >= 30
+    # the global phase ran: the answer is not called a local run's
+    assert r.starts is not None and LOCAL_RUN_NOTE not in r.synthesis.notes
 
 
 def test_certificate_independent_recomputation(robust_result):
@@ -238,6 +241,7 @@ def test_convex_initializer_reaches_the_same_optimum(tmp_path, problems_dir):
         # answer from its own candidates whatever the start)
         res[init] = run_problem(load_problem(f), multistart=False)
         assert res[init].certified and res[init].analytic_check.passed
+        assert LOCAL_RUN_NOTE in res[init].synthesis.notes      # and it says so
     ki = {k: r.integral_gain for k, r in res.items()}
     assert ki["convex"] == pytest.approx(ki["analytic"], rel=1e-6)
     assert poly.rel_coef_error(res["convex"].controller.R, res["analytic"].controller.R) <= 1e-5
