@@ -52,7 +52,7 @@ from robrst.synthesis.mimo_search import search_mimo
 from robrst.synthesis.mimo_start import design_scale
 
 __all__ = ["Binding", "MimoComparison", "MimoDesignResult", "design_mimo", "BACK_OFF",
-           "COMPARISON_VIOLATIONS", "LOCAL_NOTE"]
+           "COMPARISON_VIOLATIONS", "LOCAL_RUN_NOTE"]
 
 #: the gain factors of the last resort (module docstring, step 4)
 BACK_OFF = (0.9, 0.75, 0.5)
@@ -60,10 +60,10 @@ COMPARISON_VIOLATIONS = 20   # a comparison's violations its JSON keeps (and the
 #: the note of a joint design without the global phase: the program is local, and which
 #: basin it ends in depends on where it starts (on seeded three-axis stages the search's
 #: basin was up to ten times higher: docs/guide/multi-axis.md)
-LOCAL_NOTE = ("no global phase: the joint program from the per-axis start, a local method"
-              " whose answer depends on where it starts ([mimo.solver] multistart = true"
-              " searches every axis's law first and can reach a higher basin, at a few"
-              " times the CPU)")
+LOCAL_RUN_NOTE = ("no global phase: the joint program from the per-axis start, a local"
+                  " method whose answer depends on where it starts ([mimo.solver]"
+                  " multistart = true searches every axis's law first and can reach a higher"
+                  " basin, at a few times the CPU)")
 
 
 @dataclass(frozen=True)
@@ -156,7 +156,8 @@ class MimoDesignResult:
         Wall time.
     notes : tuple of str
         What the answer is and is not: without the global phase, the local program's
-        (:data:`LOCAL_NOTE`); with it, why the search's best was not used when it was not.
+        (:data:`LOCAL_RUN_NOTE`); with it, why the search's best was not used, when it was
+        not.
 
     Attributes
     ----------
@@ -416,12 +417,12 @@ def _design_mimo(problem, progress, compare):
                                  np.concatenate(xs), w_design, progress=say)
             if not search.feasible:
                 notes.append(f"global phase: none of its {search.evaluations} candidates met"
-                             " the specs on its screen; the answer is the joint program's"
-                             " from the per-axis start")
+                             " the specs on its screen; the joint program runs from the"
+                             " per-axis start alone")
             elif search.objective <= search.start_objective:
                 notes.append(f"global phase: its best of {search.evaluations} candidates"
-                             " screened below the per-axis start; the answer is the joint"
-                             " program's from that start")
+                             " screened below the per-axis start; the joint program runs"
+                             " from that start alone")
             if search.feasible and search.objective > search.start_objective:
                 # the program starts from the search's best, and that point, certified as
                 # it is, is an answer beside the program's result
@@ -431,7 +432,7 @@ def _design_mimo(problem, progress, compare):
                 found = (ctrl, certify_mimo(fam, ctrl, specs, so.cert_tol, so.cert_points),
                          search)
         else:
-            notes.append(LOCAL_NOTE)
+            notes.append(LOCAL_RUN_NOTE)
         x_joint, best_ctrl, certificate = _joint(fam, models, x_axes, axes, W, st, names,
                                                  specs, so, signs, say, w_design, rounds)
         if found is not None:

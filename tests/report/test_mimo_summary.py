@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from robrst.core.mimo import MimoFamily, MimoPlant
-from robrst.design.mimo import LOCAL_NOTE, design_mimo
+from robrst.design.mimo import LOCAL_RUN_NOTE, design_mimo
 from robrst.problem.mimo import MimoProblem, MimoSpecs
 from robrst.report.mimo import mimo_summary
 from robrst.report.text import fmt
@@ -54,9 +54,9 @@ def test_the_summary_draws_the_records(one_axis):
         line = next(x for x in lines if x.startswith(f"{name} ("))
         assert ("NOT certified" not in line) == c.certificate.certified
     # the notes, drawn as the design states them, just above the time
-    assert r.notes == (LOCAL_NOTE,)        # the default: the joint program alone
+    assert r.notes == (LOCAL_RUN_NOTE,)        # the default: the joint program alone
     assert lines[-1 - len(r.notes):-1] == [f"note: {n}" for n in r.notes]
-    assert r.as_dict()["notes"] == [LOCAL_NOTE]
+    assert r.as_dict()["notes"] == [LOCAL_RUN_NOTE]
     assert lines[-1] == f"{r.seconds:.1f} s"
     # the integral gains as the controller has them (lim s R/S)
     ki = [float(a.R[-1] / a.S[-2]) for a in r.controller.axes]
@@ -101,6 +101,6 @@ def test_a_global_phase_that_is_not_used_says_why(monkeypatch, violation, object
     r = design_mimo(MimoProblem("one axis", fam, specs=MimoSpecs(
         sigma_S_max=2.0, sample_rate_hz=20000.0), solver=MimoSolverOptions(multistart=True)),
         compare=False)
-    assert len(r.notes) == 1 and said in r.notes[0] and LOCAL_NOTE not in r.notes
+    assert len(r.notes) == 1 and said in r.notes[0] and LOCAL_RUN_NOTE not in r.notes
     assert "global_search" not in r.comparisons
     assert f"note: {r.notes[0]}" in mimo_summary(r)

@@ -13,7 +13,7 @@ import pytest
 
 from mimo_stages import random_stage, refined_max, sigma_grid
 from robrst.core.mimo import MimoFamily, MimoPlant
-from robrst.design.mimo import LOCAL_NOTE, design_mimo
+from robrst.design.mimo import LOCAL_RUN_NOTE, design_mimo
 from robrst.problem.mimo import MimoProblem, MimoSolverOptions, MimoSpecs, MimoStructure
 from robrst.synthesis.mimo_program import CTRL_DECAY, AxisParam
 from robrst.synthesis.mimo_search import MimoScreen, MimoSpace, SCREEN_MARGIN
@@ -157,7 +157,7 @@ def test_the_global_phase_finds_the_basin_the_joint_program_misses():
     assert min(res.integral_gains()) >= min(alone.integral_gains()) * (1 - 1e-9)
     assert min(res.integral_gains()) >= 1.5 * min(alone.integral_gains())
     assert "global_search" in res.comparisons
-    assert alone.notes == (LOCAL_NOTE,) and not res.notes    # what each answer is
+    assert alone.notes == (LOCAL_RUN_NOTE,) and not res.notes    # what each answer is
     ctrl, m = res.controller, 3
     num = [[list(ctrl.axes[j].R) if i == j else [0.0] for j in range(m)] for i in range(m)]
     den = [[list(ctrl.axes[j].S) if i == j else [1.0] for j in range(m)] for i in range(m)]
