@@ -108,7 +108,7 @@ def design_single(problem: Problem, progress: Callable[[str], None] | None = Non
         if glob:
             starts = multistart_record(stage, time.perf_counter() - t0)
         elif method == "nlp":       # the answer of a local method: said so
-            stage = replace(stage, notes=tuple(stage.notes) + (LOCAL_RUN_NOTE,))
+            stage = replace(stage, notes=(*stage.notes, LOCAL_RUN_NOTE))
         offer_candidate(problem, ctrl, cert)
         check = analytic_check(problem, stage.controller, stage.Am)
     comp = None if method == "analytic" or not compare else comparison(problem, ctrl, cert)

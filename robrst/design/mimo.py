@@ -415,14 +415,6 @@ def _design_mimo(problem, progress, compare):
                        if a.value is not None and b.value is not None]
             search = search_mimo(models + between, specs, axes, W, st.T_mode, signs,
                                  np.concatenate(xs), w_design, progress=say)
-            if not search.feasible:
-                notes.append(f"global phase: none of its {search.evaluations} candidates met"
-                             " the specs on its screen; the joint program runs from the"
-                             " per-axis start alone")
-            elif search.objective <= search.start_objective:
-                notes.append(f"global phase: its best of {search.evaluations} candidates"
-                             " screened below the per-axis start; the joint program runs"
-                             " from that start alone")
             if search.feasible and search.objective > search.start_objective:
                 # the program starts from the search's best, and that point, certified as
                 # it is, is an answer beside the program's result
@@ -431,6 +423,14 @@ def _design_mimo(problem, progress, compare):
                 say("certifying the search's best over the whole family")
                 found = (ctrl, certify_mimo(fam, ctrl, specs, so.cert_tol, so.cert_points),
                          search)
+            elif not search.feasible:
+                notes.append(f"global phase: none of its {search.evaluations} candidates met"
+                             " the specs on its screen; the joint program runs from the"
+                             " per-axis start alone")
+            else:
+                notes.append(f"global phase: its best of {search.evaluations} candidates"
+                             " screened below the per-axis start; the joint program runs"
+                             " from that start alone")
         else:
             notes.append(LOCAL_RUN_NOTE)
         x_joint, best_ctrl, certificate = _joint(fam, models, x_axes, axes, W, st, names,
