@@ -69,7 +69,7 @@ def test_the_stage_file_designs_and_certifies():
     res = run_problem(problem)
     assert res.certified and res.status == "certified"
     R, S = res.controller.R, res.controller.S
-    assert S[-1] == 0.0 and round(R[-1] / S[-2]) == 1571260      # "integral gain 1,571,260"
+    assert S[-1] == 0.0 and round(R[-1] / S[-2]) == 1572431      # "integral gain 1,572,431"
     w = np.logspace(0, 6, 200_001)
     fs = problem.specs.sample_rate_hz
     z = np.exp(1j * np.linspace(1e-6, np.pi, 100_001))
