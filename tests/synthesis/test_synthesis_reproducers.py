@@ -31,7 +31,8 @@ def test_relaxed_band_certifies(relaxed):
 @pytest.mark.xfail(strict=True, reason=(
     "issue 40: since the answer is polished again from where its polish ended, on the grid"
     " it reached, the tighter problem answers 307.5 M, the relaxed one 14.2 M (its search"
-    " never reaches that basin)"))
+    " never reaches that basin: two controller poles at the strip's edge, where the relaxed"
+    " answer has one; docs/background/synthesis.md)"))
 def test_relaxed_band_is_no_worse_than_the_tighter_one(relaxed, designs):
     tighter = designs("paper_robust_continuous")     # the same problem with the 1.0 bound
     assert tighter.problem.specs.T_resonance_max == 1.0
