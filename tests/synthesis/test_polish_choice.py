@@ -8,7 +8,7 @@
 * **A feasibility problem is not polished**: every certified controller answers it, so the
   first candidate of the search that certifies (as screened, or moved inside the specs)
   is the answer.  The seeded random problem 770032 (6th order, three resonances, a
-  right-half-plane zero, ``objective = "feasibility"``) polished five candidates for 29 s
+  right-half-plane zero, ``objective = "feasibility"``) polished five candidates for 31 s
   CPU, each polish twice, to answer the first candidate as screened.
 * **A candidate inside the specs is not polished twice**: a polish from the screen's
   boundary that gains nothing runs again from the candidate moved inside the specs; when
