@@ -263,7 +263,7 @@ class PolishOptions:
         The basins (the outcomes of one candidate of the search) polished again, best
         first.  Which basin ends best after its first polish does not tell which ends best
         polished again: on the seeded 4th-order stage 722 at ``Ms_max`` 2.0 the best
-        basin's polished again reached 459 k, the second's 788 k (2026-12-06).
+        basin polished again reached 459 k, the third (204 k after its first polish) 788 k.
     """
 
     rescale: bool = True

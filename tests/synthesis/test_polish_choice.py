@@ -4,7 +4,7 @@
   of the three best basins (the outcomes of one candidate of the search) is polished
   again from where its polish ended, not only the best one's.  On the seeded 4th-order
   stage 722 at ``Ms_max`` 2.0 the best basin polished again reached 458,998 and the
-  answer was that; the second basin's, polished again, reaches 788,122 (2026-12-06).
+  answer was that; the third basin (204,292 after its first polish) reaches 788,122.
 * **A feasibility problem is not polished**: every certified controller answers it, so the
   first candidate of the search that certifies (as screened, or moved inside the specs)
   is the answer.  The seeded random problem 770032 (6th order, three resonances, a
