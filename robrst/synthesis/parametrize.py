@@ -140,7 +140,9 @@ class Parametrization:
         Ss, Rs = sc.normalize(pad(ctrl.S), n), sc.normalize(pad(ctrl.R), n)
         sp, rem = np.polydiv(Ss, self.Sf)
         rp, rem2 = np.polydiv(Rs, self.Rf)
-        if np.max(np.abs(rem)) > 1e-8 or np.max(np.abs(rem2)) > 1e-8 * max(1, np.max(np.abs(Rs))):
+        # remainders relative to the coefficients divided (rounding grows with their size)
+        if (np.max(np.abs(rem)) > 1e-8 * max(1, np.max(np.abs(Ss)))
+                or np.max(np.abs(rem2)) > 1e-8 * max(1, np.max(np.abs(Rs)))):
             raise SolverError("initial controller does not contain the fixed factors")
         if len(rp) > self.kr + 1:          # leading zeros of the padding
             rp = rp[len(rp) - self.kr - 1:]

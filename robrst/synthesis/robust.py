@@ -432,7 +432,12 @@ def _polished(ctx, run, base, name, how="polished", grid=None):
     p = ctx.problem
     near = ctx.around(base.ctrl) if POLISH.rescale else ctx     # scaled at the candidate
     polished_setup = near.setup(program_models(p), near.nu, "free")
-    xr = near.full(near.param.vector(base.ctrl), polished_setup)
+    try:
+        xr = near.full(near.param.vector(base.ctrl), polished_setup)
+    except RobrstError as e:   # never the design's end: the other outcomes still answer
+        run.notes.append(f"global phase: {name} not polished ({how}): its controller does"
+                         f" not map to the program rescaled at it ({e})")
+        return None, how, []
     floor = _floor(p, polished_setup, xr) if base.certified else None
     if grid is not None:
         grid = (grid[0], np.union1d(near.nu, grid[1]))
