@@ -131,7 +131,8 @@ class Parametrization:
         Raises
         ------
         SolverError
-            Wrong degrees, or the fixed factors are not factors of ``ctrl``.
+            Wrong degrees, or the fixed factors are not factors of ``ctrl`` (the division's
+            remainder above 1e-8 of the largest normalised coefficient divided).
         """
         sc, n = self.scaling, self.deg_s
         pad = lambda c: np.concatenate([np.zeros(n + 1 - len(c)), c])  # noqa: E731

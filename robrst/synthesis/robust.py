@@ -427,8 +427,9 @@ def _polished(ctx, run, base, name, how="polished", grid=None):
     back into the specs when it ends outside them (:func:`_rescued`); ``grid``: the models
     and frequencies to start from besides the rescaled program's own (an earlier polish's
     :attr:`~robrst.synthesis.attempts.Outcome.grid`).  Returns the outcome (``None``:
-    nothing solved), its label in ``tried`` (``how``, and how it ended) and the polish's
-    notes."""
+    nothing solved, or the candidate's controller does not map to the rescaled program:
+    noted, never the design's end), its label in ``tried`` (``how``, and how it ended) and
+    the polish's notes."""
     p = ctx.problem
     near = ctx.around(base.ctrl) if POLISH.rescale else ctx     # scaled at the candidate
     polished_setup = near.setup(program_models(p), near.nu, "free")
