@@ -13,6 +13,8 @@ now judged relative to the coefficients divided, as R's was.
 The controllers here are built with numpy's own polynomial product, not robrst's.
 """
 
+from dataclasses import fields, replace
+
 import numpy as np
 import pytest
 
@@ -22,8 +24,11 @@ from robrst.core.plant import Plant
 from robrst.core.poly import Scaling
 from robrst.core.rst import RSTController
 from robrst.design import run_problem
+from robrst.problem.files import parse_problem
 from robrst.problem.records import ControllerStructure
+from robrst.synthesis.context import Context
 from robrst.synthesis.parametrize import Parametrization, TrackingRule
+from stages_global import stage_doc
 
 # the reproducer's nominal model (770064, 3.63 °C) and fixed factor of S
 PLANT = Plant(B=np.array([2.14654625e+00, -4.54866671e+02, -6.99206465e+04, -2.28446004e+05]),
@@ -89,12 +94,6 @@ class _Refusing(Parametrization):
 def test_a_polish_that_cannot_start_leaves_the_other_outcomes_to_answer(monkeypatch):
     """Every polish's rescaled program refuses its candidate: the design still answers
     with the search's candidates as screened, and says why nothing was polished."""
-    from dataclasses import fields, replace
-
-    from robrst.problem.files import parse_problem
-    from robrst.synthesis.context import Context
-    from stages_global import stage_doc
-
     around = Context.around
 
     def refusing(self, ctrl):
