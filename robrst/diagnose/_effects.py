@@ -145,7 +145,9 @@ SPECS = {
         names=("u_min_V", "u_max_V"),
         bounds=lambda s: ((s["u_min"] - s["u_ptp"], s["u_max"] - 0.5 * s["u_ptp"]),
                           (s["u_min"] + 0.5 * s["u_ptp"], s["u_max"] + s["u_ptp"])),
-        init=lambda s: (s["u_min"], s["u_max"]),
+        # a limit not started inside the records starts at the far end of its bounds: one
+        # at their edge would clip held-out data beyond them that the records never tested
+        init=lambda s: (s["u_min"] - s["u_ptp"], s["u_max"] + s["u_ptp"]),
         twin=lambda z: np.asarray(z, float), dtwin=lambda z: np.eye(2),
         report=lambda z: (z[0], z[1])),
 }
@@ -372,6 +374,39 @@ class Chain:
 
     def _block(self, e, j):
         return next(s for (name, jj, s) in self.blocks if name == e and jj == j)
+
+    def release_unreached(self, z: np.ndarray, U: Sequence[np.ndarray]) -> np.ndarray:
+        """``z`` with every saturation limit that clips none of the inputs ``U`` moved to
+        the far end of its bounds.
+
+        A limit the records never reach is not determined by them (it fits them equally
+        anywhere beyond their extreme); a fit ends it at their edge, where it would clip
+        held-out inputs beyond them that no record tested. Out of their way it clips only
+        what lies a span beyond the records. The records' residuals are unchanged.
+
+        Parameters
+        ----------
+        z : numpy.ndarray
+            The chain's parameters.
+        U : sequence of numpy.ndarray
+            Each training record's inputs ``(N, n_in)`` [V].
+
+        Returns
+        -------
+        numpy.ndarray
+            A copy.
+        """
+        z = np.array(z, float)
+        if "saturation" not in self.effects:
+            return z
+        for j in range(self.n_in):
+            u = np.concatenate([np.asarray(x)[:, j] for x in U])
+            lo, hi = self._block("saturation", j).start, self._block("saturation", j).start + 1
+            if z[lo] <= u.min():
+                z[lo] = self.lower[lo]
+            if z[hi] >= u.max():
+                z[hi] = self.upper[hi]
+        return z
 
     def start_saturation(self, limits: Sequence[tuple[float, float]]) -> None:
         """Start the saturation limits at ``limits`` (one ``(lo, hi)`` per input), in bounds.

@@ -256,7 +256,9 @@ def search_saturation(train: Sequence[Prepared], lin: LinearPart,
                 c += p.weight ** 2 * float(np.sum((lin.simulate(th, U, p.periodic) - p.Y) ** 2))
             return c
 
-        best_lo, best_hi = lo - 1e-6 * span, hi + 1e-6 * span
+        # a limit the training records never reach is not a limit at their edge: it
+        # starts (and, clipping nothing, stays) out of their way, a span beyond them
+        best_lo, best_hi = lo - span, hi + span
         for which in ("hi", "lo"):
             qs = np.linspace(0.5, 1.0, 17) if which == "hi" else np.linspace(0.5, 0.0, 17)
             cands = np.quantile(u_all, qs)

@@ -198,6 +198,20 @@ def _ties(info, ex):
     return tuple(out)
 
 
+def _explains_training_only(info, ex):
+    """A candidate fitted alone that explains the training records to their noise floor
+    (``near_ratio``) where the answer does not, and is worse on the held-out ones: the
+    two sets of records disagree (None when there is none)."""
+    tight = _V.near_ratio * max(info.get("floor_train", info["floor"]), _V.resolved_gap)
+    final = ex.steps[-1][2]
+    if final.train_gap <= tight:
+        return None
+    chosen = {k for k, _, _ in ex.steps}
+    better = [sc for k, sc in ex.singles.items() if k not in chosen
+              and not isinstance(sc, Screened) and sc.train_gap <= tight and sc.gap > final.gap]
+    return min(better, key=lambda sc: sc.train_gap, default=None)
+
+
 def decide(info: dict, ex: Explanation, amp: dict | None = None) -> Verdict:
     """The verdict (see the module docstring).
 
@@ -285,6 +299,19 @@ def decide(info: dict, ex: Explanation, amp: dict | None = None) -> Verdict:
             f" {100 * _SEL.min_shrink:.0f} % of the excess held-out gap (linear re-fit"
             f" {linear.gap:.3g} vs {before:.3g}){'; ' + where if where else ''}{extra}"))
     near = gap <= _V.near_ratio * floor or excess(gap, floor) <= _V.near_excess * excess(before, floor)
+    other = _explains_training_only(info, ex) if ex.steps else None
+    if near and other is not None:
+        best = {"effects": [key_name(k)[0] for k, _, _ in ex.steps], "gap_after": gap,
+                "shrink": 1 - gap / before}
+        return Verdict("cannot_tell", (
+            f"{other.name} explains the training records to their noise floor (training gap"
+            f" {other.train_gap:.3g}) but not the held-out ones ({other.gap:.3g}), and the best"
+            f" held-out explanation, {what} ({before:.3g} -> {gap:.3g}), leaves"
+            f" {ex.steps[-1][2].train_gap:.3g} on the training records: the held-out records"
+            " differ from the training ones by something no candidate explains (a change"
+            " between the sessions: a gain, the sensor, the set-up); record training and"
+            f" test records in one session{'; ' + where if where else ''}"), (), best, gap,
+            ties)
     if near:
         if gap > _V.near_ratio * floor:
             ratio = (f"{gap / floor:.3g}x the noise floor" if floor > 0 else

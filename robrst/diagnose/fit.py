@@ -964,6 +964,7 @@ def fit_model(name: str, effects: Sequence[str], train: Sequence[Prepared], lin:
         if not free.all():          # the 1-sigma as before: every parameter's column
             res.jac = jac(res.x)
         n_rows = n_rows()
+    res.x[:nz] = chain.release_unreached(res.x[:nz], [p.U for p in train])
     cost = float(res.cost)
     if pooled is not None:        # the cost and the rows of the records themselves
         cost += 0.5 * pooled.constant / scale ** 2
