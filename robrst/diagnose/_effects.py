@@ -375,38 +375,23 @@ class Chain:
     def _block(self, e, j):
         return next(s for (name, jj, s) in self.blocks if name == e and jj == j)
 
-    def release_unreached(self, z: np.ndarray, U: Sequence[np.ndarray]) -> np.ndarray:
-        """``z`` with every saturation limit that clips none of the inputs ``U`` moved to
-        the far end of its bounds.
+    def limits(self) -> list[tuple[int, float]]:
+        """The saturation limits: ``(index in z, the far end of its bounds)`` per limit.
 
-        A limit the records never reach is not determined by them (it fits them equally
-        anywhere beyond their extreme); a fit ends it at their edge, where it would clip
-        held-out inputs beyond them that no record tested. Out of their way it clips only
-        what lies a span beyond the records. The records' residuals are unchanged.
-
-        Parameters
-        ----------
-        z : numpy.ndarray
-            The chain's parameters.
-        U : sequence of numpy.ndarray
-            Each training record's inputs ``(N, n_in)`` [V].
+        A limit is moved to its far end when the records do not need it
+        (:func:`robrst.diagnose.fit.fit_model`): out of their way it clips only what lies a
+        span of the inputs beyond them.
 
         Returns
         -------
-        numpy.ndarray
-            A copy.
+        list of (int, float)
         """
-        z = np.array(z, float)
-        if "saturation" not in self.effects:
-            return z
-        for j in range(self.n_in):
-            u = np.concatenate([np.asarray(x)[:, j] for x in U])
-            lo, hi = self._block("saturation", j).start, self._block("saturation", j).start + 1
-            if z[lo] <= u.min():
-                z[lo] = self.lower[lo]
-            if z[hi] >= u.max():
-                z[hi] = self.upper[hi]
-        return z
+        out = []
+        for (e, _, sl) in self.blocks:
+            if e == "saturation":
+                out += [(sl.start, float(self.lower[sl.start])),
+                        (sl.start + 1, float(self.upper[sl.start + 1]))]
+        return out
 
     def start_saturation(self, limits: Sequence[tuple[float, float]]) -> None:
         """Start the saturation limits at ``limits`` (one ``(lo, hi)`` per input), in bounds.

@@ -961,10 +961,11 @@ def fit_model(name: str, effects: Sequence[str], train: Sequence[Prepared], lin:
                 bounds=(lo[free], hi[free]), method="trf", x_scale="jac", ftol=ftol,
                 xtol=1e-10, gtol=1e-10, max_nfev=max_nfev)
         res.x = whole(res.x)
-        if not free.all():          # the 1-sigma as before: every parameter's column
+        res.x, res.cost, released = _released_limits(chain, res.x, float(res.cost), free,
+                                                     residual)
+        if released or not free.all():   # the 1-sigma as before: every parameter's column
             res.jac = jac(res.x)
         n_rows = n_rows()
-    res.x[:nz] = chain.release_unreached(res.x[:nz], [p.U for p in train])
     cost = float(res.cost)
     if pooled is not None:        # the cost and the rows of the records themselves
         cost += 0.5 * pooled.constant / scale ** 2
@@ -972,6 +973,30 @@ def fit_model(name: str, effects: Sequence[str], train: Sequence[Prepared], lin:
     std = parameter_std(res.jac, cost, n_rows) if x0.size else np.zeros(0)
     return Fitted(name, tuple(effects), proto.form, chain, lin, res.x, std, joint, slopes,
                   level_ref, int(res.nfev), 2 * cost, fixed, no, post)
+
+
+def _released_limits(chain, x, cost, free, residual):
+    """``(x, cost, released)``: every saturation limit the training records do not need
+    moved out of their way.
+
+    A limit that clips no training input has no gradient, and the fit leaves it at their
+    edge (or, clipping a few samples by the noise's size, just inside); there it clips
+    held-out inputs beyond them that no record tested. A limit is kept where it lowers
+    the sum of squares by more than the Bayesian information criterion's price of a
+    parameter, ``ln(n) sigma^2`` (``n`` residual rows, ``sigma^2 = SS / n``), and else
+    moved to the far end of its bounds (:meth:`Chain.limits`), the others held."""
+    released = []
+    for i, far in chain.limits():
+        if not free[i] or x[i] == far:
+            continue
+        trial = x.copy()
+        trial[i] = far
+        r = residual(trial)
+        c = 0.5 * float(r @ r)
+        if 2.0 * (c - cost) <= np.log(r.size) * 2.0 * cost / r.size:
+            x, cost = trial, c
+            released.append(i)
+    return x, cost, released
 
 
 def parseval_rows(S: np.ndarray, n: int) -> np.ndarray:
