@@ -238,9 +238,9 @@ def run_suite(seeds, cases=CASES, progress=None):
             w = d.winner
             rows.append({"case": case, "seed": seed, "cause": d.cause,
                          "shrink": w.shrink if w else None, "gap_before": d.gap_before,
-                         "noise_floor": d.noise_floor, "band_hz": d.where["frequency_band_hz"],
-                         "windows": len(d.where["time_windows"]),
-                         "dominant_regime": d.where["regime"]["dominant"]})
+                         "noise_floor": d.noise_floor, "band_hz": d.where.frequency_band_hz,
+                         "windows": len(d.where.time_windows),
+                         "dominant_regime": d.where.regime.dominant if d.where.regime else None})
             if progress:
                 progress(f"{case:<17} seed {seed}: {d.cause}")
     return rows

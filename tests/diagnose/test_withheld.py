@@ -41,3 +41,17 @@ def test_withheld_effect_is_named_localised_and_shrunk(case, seed, withheld):
     tried = [e for e in EFFECTS if e not in d.skipped]
     assert {e.name for e in d.effects} == set(tried)
     assert all(e.gap_after >= d.winner.gap_after for e in d.effects)
+
+
+def test_the_validation_matrix_runs():
+    """``python -m robrst.diagnose.validation`` (the guide's matrix): its rows and the
+    markdown table (the rows read the answer's typed ``where`` record; it subscripted it
+    as a dict and stopped with a TypeError)."""
+    from robrst.diagnose.validation import confusion_markdown, run_suite
+
+    rows = run_suite([100], cases=("delay", "none"))
+    assert [(r["case"], r["cause"]) for r in rows] == [("delay", "delay"), ("none", "none")]
+    assert rows[0]["windows"] > 0 and rows[0]["dominant_regime"]
+    assert rows[1]["band_hz"] is None and rows[1]["windows"] == 0
+    table = confusion_markdown(rows)
+    assert "| delay |" in table and "| none |" in table
