@@ -380,6 +380,9 @@ def _credit(fits, state, chosen, steps, floor, say, events):
         else:
             st = start_values(state)
             form = state.form if "hysteresis" in chosen else None
+            # the smaller sets fitted before this round (cached: from other starts)
+            earlier = {k for k in chosen if tuple(sorted(c for c in chosen if c != k))
+                       in fits.fitted}
             without = dict(zip(chosen, fits.fit_many(
                 [([c for c in chosen if c != k], st, form if k != "hysteresis" else None)
                  for k in chosen])))
@@ -393,10 +396,12 @@ def _credit(fits, state, chosen, steps, floor, say, events):
             # drift from the screens' starts left 0.0019, five times the floor, and made a
             # static input map of 1e-5/V look needed; from the three-effect answer's
             # creep and lag they reach 0.0004)
-            rest = [c for c in chosen if c != k]
-            again = fits.refit(rest, st, form if k != "hysteresis" else None)
-            without[k] = min((fits.converge(without[k]), fits.converge(again)),
-                             key=lambda sc: sc.train_gap)
+            fits_k = [fits.converge(without[k])]
+            if k in earlier:        # else it was just fitted from the answer's values
+                rest = [c for c in chosen if c != k]
+                fits_k.append(fits.converge(fits.refit(rest, st, form if k != "hysteresis"
+                                                       else None)))
+            without[k] = min(fits_k, key=lambda sc: sc.train_gap)
             fits.remember(without[k])
             if not significant(state.gap, without[k].gap, floor):
                 weak = [k]
