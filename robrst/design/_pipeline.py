@@ -20,6 +20,7 @@ import numpy as np
 from robrst.base.threads import one_blas_thread
 from robrst.design.fleet import fleet_design
 from robrst.design._single import design_single
+from robrst.design.result import SKIPPED
 from robrst.design.tolerance import spread_tolerance
 from robrst.problem.records import with_defaults
 from robrst.problem.documents import check_problem
@@ -35,9 +36,6 @@ if TYPE_CHECKING:
 
 __all__ = ["run_problem", "infeasibility", "SKIPPED"]
 
-#: what the pipeline did about a proof that no linear controller meets the specs
-SKIPPED = ("the synthesis was skipped (no controller meets the specs: the proof above); the"
-           " controller is the analytic start")
 
 
 def run_problem(problem: Problem, progress: Callable[[str], None] | None = None,

@@ -34,7 +34,11 @@ if TYPE_CHECKING:
     from robrst.synthesis.scenario import FleetDesign
     from robrst.synthesis.tracking import Tracking
 
-__all__ = ["DesignResult"]
+__all__ = ["DesignResult", "SKIPPED"]
+
+#: what the pipeline did about a proof that no linear controller meets the specs
+SKIPPED = ("the synthesis was skipped (no controller meets the specs: the proof above); the"
+           " controller is the analytic start")
 
 
 @dataclass(frozen=True, eq=False)
@@ -125,8 +129,17 @@ class DesignResult:
 
     @property
     def best_achievable(self):
-        """What an uncertified design achieves (its worst violation), or ``None``."""
-        return best_achievable(self.certificate)
+        """What an uncertified design achieves (its worst violation), or ``None``.
+
+        When no linear controller meets the specs (``feasibility`` holds the proof and the
+        synthesis was skipped) the line says that the figure is the analytic start's: its
+        worst violation is not what binds (the proof, ``feasibility``, names that).
+        """
+        line = best_achievable(self.certificate)
+        fv = self.feasibility
+        if line is None or fv is None or fv.status != "infeasible" or fv.note != SKIPPED:
+            return line
+        return line + " (the analytic start, returned because no linear controller meets the specs)"
 
     @property
     def certified(self):
