@@ -496,6 +496,10 @@ class SolverOptions:
     method_source : {"given", "default", "command line", "infeasible"}
         Who chose ``method`` (see :attr:`method_reason`; ``"infeasible"``: the pipeline,
         after a proof that no linear controller meets the specs).
+    edge_runs : bool
+        The global phase also searches the controllers whose free ``S`` has one and two
+        roots at the controller-pole strip's edge (``max_integral_gain``;
+        :class:`robrst.synthesis.search.EdgeSpace`): four CMA-ES runs more.
     bound : bool
         State the estimate of what any linear controller could reach on the family
         (:mod:`robrst.synthesis.bound`) beside a certified design (a design that is not
@@ -526,6 +530,7 @@ class SolverOptions:
     starts: int = 2
     method_source: str = "given"
     bound: bool = True
+    edge_runs: bool = False
 
     @property
     def method_reason(self):

@@ -49,7 +49,7 @@ from robrst.synthesis._nlp import objective_rows
 from robrst.synthesis.outcome import SynthesisResult, best_achievable, worst_violation
 from robrst.synthesis.parametrize import integral_gain
 from robrst.synthesis._screen import Screen
-from robrst.synthesis.search import PoleSpace, global_search, move_inside
+from robrst.synthesis.search import EDGE_ROOTS, SEARCH, PoleSpace, global_search, move_inside
 from robrst.synthesis.starts import integral_seeds
 from robrst.synthesis._timesamples import TIME_MARGIN, TimeSpecs, time_specs
 from robrst.synthesis.tracking import (CANCEL_FLOOR, meets_time_specs, time_spec_ratio,
@@ -330,7 +330,8 @@ def _global(ctx, run, seeds, best, start):
     given = _incumbent_x(ctx, run.incumbent)
     if given is not None:      # the caller's controller: the first run may start from it
         named.insert(0, (INCUMBENT, given))
-    res = global_search(screen, space, named, stop=run.stop, say=run.say)
+    options = replace(SEARCH, edge_roots=EDGE_ROOTS if p.solver.edge_runs else ())
+    res = global_search(screen, space, named, options, stop=run.stop, say=run.say)
     run.search = res
     run.say(f"global phase: {res.evaluations} candidates in {res.generations} generations"
             f" ({res.cpu_s:.2g} s CPU), {len(res.candidates)} distinct")

@@ -61,8 +61,8 @@ if TYPE_CHECKING:
     from robrst.synthesis._nlp import NLPSetup
     from robrst.synthesis._screen import Screen
 
-__all__ = ["PoleSpace", "Candidate", "GlobalSearch", "global_search", "move_inside",
-           "SearchOptions", "SEARCH", "ZETA_MAX"]
+__all__ = ["PoleSpace", "EdgeSpace", "Candidate", "GlobalSearch", "global_search", "move_inside",
+           "SearchOptions", "SEARCH", "ZETA_MAX", "EDGE_ROOTS"]
 
 @dataclass(frozen=True)
 class SearchOptions:
@@ -114,6 +114,22 @@ class SearchOptions:
         25 points, ``paper_robust`` 636,429 -> 665,233) but moved which basin each design
         reaches, and the tested monotone scans of stages 102 and 204 lost 8 % and 9 %
         (docs/background/synthesis.md).
+    edge_roots : tuple of int
+        ``max_integral_gain`` with a controller-pole strip: after the runs above, runs on
+        the controllers whose free ``S`` has this many roots at the strip's edge
+        (:class:`EdgeSpace`; a count above that polynomial's degree is skipped; ``()``, the
+        default, none; ``[solver] edge_runs = true``: :data:`EDGE_ROOTS`).  The integral gain grows as the controller's slow poles approach the strip
+        (a lag at its edge multiplies it), and the optima seen sit there with two; the
+        pole space names the nominal closed-loop poles, not the controller's, and its
+        runs reached such a basin by luck.  Measured on two seeded 4th-order stages at
+        ``Ms_max`` 1.5 / 1.75 / 2.0 / 2.25 / 2.5: 315 k / 430 k / 788 k / 411 k / 471 k ->
+        375 k / 707 k / 996 k / 1,054 k / 1,053 k, and 87 k / 115 k / 128 k / 139 k /
+        130 k -> 126 k / 232 k / 323 k / 359 k / 359 k: higher and monotone.
+    edge_sigma : float
+        The step size of the first run of each count, from the best point found so far
+        (the second from a random mean at ``random_sigma``).
+    edge_sizes : tuple of int
+        Their populations, times the first run's.
     """
 
     seed: int = 20261128
@@ -131,6 +147,9 @@ class SearchOptions:
     inside_stall: int = 40
     progress: float = 1e-4
     active: bool = False
+    edge_roots: tuple = ()
+    edge_sigma: float = 0.1
+    edge_sizes: tuple = (2, 4)
 
 
 SEARCH = SearchOptions()   # the defaults: robrst.synthesis.robust's global phase
@@ -138,6 +157,8 @@ ZETA_MIN, ZETA_MAX = 0.005, 30.0   # damping range of a pole pair (zeta > 1: two
 YOULA_RANGE = 30.0       # Youla degrees within +- this times |controller| ...
 YOULA_SHAPE = 4.0        # ... on a sinh scale: |v| <= 1.3 |controller| over half the box
 FREQ_PAD = 30.0          # pole frequencies within the plant's and start's / and x this
+EDGE_ROOTS = (1, 2)      # [solver] edge_runs: one and two roots at the strip's edge
+EDGE_INSIDE = 1e-3       # EdgeSpace: the roots this much (relative) inside the strip
 SEED_GRID = 1e-2         # the first run's mean is rounded to this grid of the box (a fifth of
 #                          its step size)
 
@@ -392,6 +413,92 @@ def _pairings(reals, pairs, singles):
 
 
 @dataclass(frozen=True, eq=False)
+class EdgeSpace:
+    """The controllers of a :class:`PoleSpace` moved to those whose free ``S`` has
+    ``roots`` roots at the controller-pole strip's edge ``Re s = -shift``.
+
+    The free polynomial's coefficients are affine in the decision vector (``x rowsᵀ +
+    offset``, highest power first), so a root at ``-shift`` (and, for two, a double root:
+    the derivative too) is a linear constraint ``A x = b``: each controller of the pole
+    space is projected onto it (the least change of its scaled coefficients).  The root
+    sits ``EDGE_INSIDE`` inside the strip.  The box and its dimension are the pole
+    space's; a point's nominal closed-loop poles are those of the projected controller.
+
+    Use :meth:`of` to build it.
+
+    Parameters
+    ----------
+    space : PoleSpace
+        The search box.
+    A, b : numpy.ndarray
+        The constraints ``A x = b`` (``(roots, n_x)``, ``(roots,)``).
+    roots : int
+        Roots at the edge.
+    """
+
+    space: PoleSpace
+    A: np.ndarray
+    b: np.ndarray
+    roots: int
+
+    @classmethod
+    def of(cls, space: PoleSpace, rows: np.ndarray, offset: np.ndarray, shift: float,
+           roots: int) -> EdgeSpace | None:
+        """The space, or ``None`` when the free polynomial has fewer than ``roots`` roots.
+
+        Parameters
+        ----------
+        space : PoleSpace
+            The search box.
+        rows, offset : numpy.ndarray
+            The free ``S``'s coefficients ``x rowsᵀ + offset`` (scaled, highest first).
+        shift : float
+            The strip's edge (scaled, positive).
+        roots : int
+            1 or 2.
+
+        Returns
+        -------
+        EdgeSpace or None
+        """
+        m = rows.shape[0] - 1
+        if m < roots or roots < 1 or shift <= 0:
+            return None
+        p = -shift * (1.0 + EDGE_INSIDE)
+        k = np.arange(m, -1, -1)                       # the powers, highest first
+        V = [p ** k.astype(float)]
+        if roots >= 2:
+            V.append(np.where(k > 0, k * p ** np.maximum(k - 1, 0).astype(float), 0.0))
+        V = np.array(V)
+        A = V @ rows
+        if np.linalg.matrix_rank(A) < len(V):
+            return None
+        return cls(space=space, A=A, b=-V @ offset, roots=roots)
+
+    @property
+    def dim(self):
+        """Dimension of the search box (the pole space's)."""
+        return self.space.dim
+
+    def controllers(self, theta: np.ndarray) -> np.ndarray:
+        """The decision vectors of the points ``theta``, projected onto the edge.
+
+        Parameters
+        ----------
+        theta : numpy.ndarray
+            ``(K, dim)`` in ``[0, 1]``.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(K, n_x)``.
+        """
+        X = self.space.controllers(theta)
+        r = X @ self.A.T - self.b
+        return X - np.linalg.solve(self.A @ self.A.T, r.T).T @ self.A
+
+
+@dataclass(frozen=True, eq=False)
 class Candidate:
     """A point the global phase found.
 
@@ -507,45 +614,46 @@ def global_search(screen: Screen, space: PoleSpace, starts: Sequence[tuple] = ()
     # one random stream per run (and one for the first mean): a run's length never
     # changes another run's samples
     o = options
-    streams = [np.random.default_rng(s)
-               for s in np.random.SeedSequence(o.seed).spawn(o.restarts + 1)]
+    edges = _edges(screen, space, o)
+    streams = [np.random.default_rng(s) for s in
+               np.random.SeedSequence(o.seed).spawn(o.restarts + 1 + 2 * len(edges))]
     say = say or (lambda msg: None)
     stop = stop or (lambda: False)
     d = space.dim
     lam = max(o.popsize, 4 + int(3 * np.log(d)))
-    evals = gens = 0
-    stopped = False
-    found = []            # (key, theta, name, run)
+    count = {"evals": 0, "gens": 0, "runs": 0, "stopped": False}
+    found = []            # (key, theta, name, run, decision vector or None)
     seeds = [(name, space.point(x)) for name, x in starts]
     seeds = [(n, th) for n, th in seeds if th is not None]
     if seeds:
         X = space.controllers(np.array([th for _, th in seeds]))
         figs = screen.rate(X)
-        evals += len(seeds)
+        count["evals"] += len(seeds)
         k = int(figs.order()[0])
         # the first mean on a grid of the box: a start a solver computed (its late digits
         # those of the BLAS build) gives the same first run on every machine
         first = np.round(seeds[k][1] / SEED_GRID) * SEED_GRID
         first_name = seeds[k][0]
         for i, (n, th) in enumerate(seeds):
-            found.append((_key(figs, i), th, n, 0))
+            found.append((_key(figs, i), th, n, 0, None))
     else:
-        first, first_name = streams[-1].uniform(0.2, 0.8, d), None
+        first, first_name = streams[o.restarts].uniform(0.2, 0.8, d), None
     plan = [(first, o.seed_sigma, f"from {first_name}" if first_name else "random mean", lam)]
     plan += [(streams[r].uniform(0.1, 0.9, d), o.random_sigma, "random mean",
               o.growth ** r * lam) for r in range(1, o.restarts)]
-    for r in range(len(plan)):
-        mean, sigma, what, size = plan[r]
-        es = CMAES(mean, sigma, streams[r], size, o.active)
+
+    def one_run(mean, sigma, rng, size, mapped, what):
+        """One CMA-ES run over ``mapped``'s controllers; its best joins ``found``."""
+        es = CMAES(mean, sigma, rng, size, o.active)
         run_best, last_gain = None, 0
         for g in range(o.generations):
             if stop():
-                stopped = True
+                count["stopped"] = True
                 break
             TH = es.ask()
-            figs = screen.rate(space.controllers(TH), top=es.mu)   # it recombines mu
-            evals += len(TH)
-            gens += 1
+            figs = screen.rate(mapped.controllers(TH), top=es.mu)   # it recombines mu
+            count["evals"] += len(TH)
+            count["gens"] += 1
             order = figs.order()
             es.tell(TH, order)
             k = int(order[0])
@@ -556,25 +664,62 @@ def global_search(screen: Screen, space: PoleSpace, starts: Sequence[tuple] = ()
                 run_best = (key, TH[k].copy())
             if g - last_gain > o.stall or es.spread < o.min_spread:
                 break
-        if run_best is not None:
-            name = f"{GLOBAL_START} {r + 1} ({what})"
-            found.append((run_best[0], run_best[1], name, r + 1))
-            v, ob = run_best[0]
-            say(f"global phase: run {r + 1} ({what}): {es.generation} generations, best"
-                + (f" screened objective {-ob:.5g}" if v == 0 else f" violation {v:.3g}"))
-        if stopped:
+        count["runs"] += 1
+        r = count["runs"]
+        if run_best is None:
+            return
+        name = f"{GLOBAL_START} {r} ({what})"
+        xc = theta = None
+        if mapped is space:
+            theta = run_best[1]
+        else:         # the projected controller, at its own point of the pole space
+            xc = mapped.controllers(run_best[1][None])[0]
+            theta = space.point(xc)
+        if theta is not None:
+            found.append((run_best[0], theta, name, r, xc))
+        v, ob = run_best[0]
+        say(f"global phase: run {r} ({what}): {es.generation} generations, best"
+            + (f" screened objective {-ob:.5g}" if v == 0 else f" violation {v:.3g}"))
+
+    for r, (mean, sigma, what, size) in enumerate(plan):
+        one_run(mean, sigma, streams[r], size, space, what)
+        if count["stopped"]:
             break
+    best = min(found, key=lambda f: f[0])[1] if found else None   # of the runs above
+    for i, edge in enumerate(edges):
+        if count["stopped"] or best is None:
+            break
+        where = f"{edge.roots} controller pole{'s' if edge.roots > 1 else ''} at the strip's edge"
+        for j, (mean, sigma, how) in enumerate((
+                (best, o.edge_sigma, "from the best so far"),
+                (streams[o.restarts + 2 + 2 * i].uniform(0.1, 0.9, d), o.random_sigma,
+                 "random mean"))):
+            if not count["stopped"]:
+                one_run(mean, sigma, streams[o.restarts + 1 + 2 * i + j],
+                        o.edge_sizes[j] * lam, edge, f"{where}, {how}")
     found.sort(key=lambda f: f[0])
     cands = []
-    for key, th, name, run in found:
+    for key, th, name, run, xc in found:
         if any(np.max(np.abs(th - c.theta)) < o.distinct for c in cands):
             continue
-        xc = space.controllers(th[None])[0]
+        xc = space.controllers(th[None])[0] if xc is None else xc
         cands.append(Candidate(name=name, xc=xc, theta=th, objective=-key[1],
                                violation=key[0], run=run))
     return GlobalSearch(candidates=tuple(cands), method="CMA-ES", dimension=d,
-                        evaluations=evals, generations=gens, runs=len(plan),
-                        cpu_s=time.process_time() - t0, stopped=stopped)
+                        evaluations=count["evals"], generations=count["gens"],
+                        runs=count["runs"], cpu_s=time.process_time() - t0,
+                        stopped=count["stopped"])
+
+
+def _edges(screen, space, options):
+    """The :class:`EdgeSpace` of each of ``options.edge_roots`` (``max_integral_gain`` with
+    a controller-pole strip; none otherwise)."""
+    st = screen.setup
+    if st.objective != "max_integral_gain" or not st.ctrl_shift or screen.Lq.shape[0] < 2:
+        return []
+    out = [EdgeSpace.of(space, screen.Lq, screen.q, st.ctrl_shift, k) for k in
+           options.edge_roots]
+    return [e for e in out if e is not None]
 
 
 def move_inside(screen: Screen, space: PoleSpace, cand: Candidate,

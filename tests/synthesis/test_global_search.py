@@ -495,3 +495,47 @@ def test_a_solve_over_the_poles_stays_in_its_box_and_meets_the_specs():
     r0, q0, q0c = objective_rows(setup)
     gain = lambda x: float(r0 @ x[:-1]) / float(q0 @ x[:-1] + q0c)   # noqa: E731
     assert gain(res.x) >= gain(x0) * (1 - 1e-9)
+
+
+def test_edge_space_puts_controller_poles_at_the_strip_edge():
+    """Every controller of the edge space has one (two: a double) root of ``S`` at the
+    controller-pole strip's edge, on the unscaled ``S`` the design reports."""
+    from robrst.synthesis.search import EDGE_INSIDE, EdgeSpace
+
+    p, ctx, setup, _ = _setup()
+    scr = Screen(setup, time_specs(p, ctx.w0))
+    sp = PoleSpace.of(ctx, setup)
+    shift = setup.ctrl_shift
+    assert shift > 0
+    edge = -shift * ctx.w0 * (1 + EDGE_INSIDE)           # rad/s
+    th = np.random.default_rng(4).uniform(size=(6, sp.dim))
+    for roots in (1, 2):
+        es = EdgeSpace.of(sp, scr.Lq, scr.q, shift, roots)
+        assert es is not None and es.dim == sp.dim
+        X = es.controllers(th)
+        for x in X:
+            r = np.roots(np.asarray(ctx.controller(x).S, float))
+            near = np.abs(r - edge) / abs(edge)
+            # a simple root to the last digits; a double one splits by the square root
+            # of the coefficients' rounding (the controller's other coefficients are
+            # 1e5 times larger here)
+            assert np.sum(near < (1e-6 if roots == 1 else 1e-2)) >= roots, (roots, r)
+    # more roots than the free polynomial has: no space
+    assert EdgeSpace.of(sp, scr.Lq, scr.q, shift, scr.Lq.shape[0]) is None
+
+
+def test_edge_runs_join_the_search_only_when_asked():
+    p, ctx, setup, start = _setup()
+    scr = Screen(setup, time_specs(p, ctx.w0))
+    sp = PoleSpace.of(ctx, setup)
+    opts = SearchOptions(seed=5, restarts=1, generations=30)
+    plain = global_search(scr, sp, [], options=opts)
+    edged = global_search(scr, sp, [], options=SearchOptions(
+        seed=5, restarts=1, generations=30, edge_roots=(1, 2)))
+    assert plain.runs == 1 and edged.runs == 1 + 2 * min(2, scr.Lq.shape[0] - 1)
+    assert any("strip's edge" in c.name for c in edged.candidates)
+    assert not any("strip's edge" in c.name for c in plain.candidates)
+    # the first run is the same run either way (its own random stream)
+    first = [next(c for c in r.candidates if c.name.startswith("global run 1")).theta
+             for r in (plain, edged)]
+    assert np.array_equal(*first)
