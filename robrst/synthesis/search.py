@@ -692,13 +692,14 @@ def global_search(screen: Screen, space: PoleSpace, starts: Sequence[tuple] = ()
         if count["stopped"] or best is None:
             break
         where = f"{edge.roots} controller pole{'s' if edge.roots > 1 else ''} at the strip's edge"
+        # no comma in a run's name: its outcomes carry it before their first comma
         for j, (mean, sigma, how) in enumerate((
                 (best, o.edge_sigma, "from the best so far"),
                 (streams[o.restarts + 2 + 2 * i].uniform(0.1, 0.9, d), o.random_sigma,
-                 "random mean"))):
+                 "from a random mean"))):
             if not count["stopped"]:
                 one_run(mean, sigma, streams[o.restarts + 1 + 2 * i + j],
-                        o.edge_sizes[j] * lam, edge, f"{where}, {how}")
+                        o.edge_sizes[j] * lam, edge, f"{where} {how}")
     found.sort(key=lambda f: f[0])
     cands = []
     for key, th, name, run, xc in found:

@@ -535,6 +535,9 @@ def test_edge_runs_join_the_search_only_when_asked():
     assert plain.runs == 1 and edged.runs == 1 + 2 * min(2, scr.Lq.shape[0] - 1)
     assert any("strip's edge" in c.name for c in edged.candidates)
     assert not any("strip's edge" in c.name for c in plain.candidates)
+    # a candidate's outcomes carry its name before their first comma (the basins polished
+    # again are told apart by it)
+    assert not any(", " in c.name for c in edged.candidates + plain.candidates)
     # the first run is the same run either way (its own random stream)
     first = [next(c for c in r.candidates if c.name.startswith("global run 1")).theta
              for r in (plain, edged)]
