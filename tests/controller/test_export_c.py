@@ -87,7 +87,10 @@ def twin_plant():
     return named_plant(twin.plant), twin
 
 
-REF = np.concatenate([np.zeros(20), np.full(1500, 10.0), np.full(1500, 4.0)])
+# the last level held 1 s: the paper_robust answer of 2026-12-07 leaves the resonance's
+# closed-loop mode at 591 Hz with damping 0.026 (decay 96 /s, its residue small: the
+# settling time to 2 % is 8.4 ms), 3.4e-5 off the reference after 75 ms
+REF = np.concatenate([np.zeros(20), np.full(1500, 10.0), np.full(20000, 4.0)])
 
 
 def test_c_double_in_closed_loop_matches_the_python_sampled_loop(exp, twin_plant, tmp_path):
