@@ -39,7 +39,10 @@ class Margins:
     ----------
     gain_margin : float or None
         The smallest factor > 1 by which the loop gain can grow before a phase crossover
-        reaches -1 (None: infinite).
+        reaches -1 (None: infinite).  Where robrst differs from python-control: its
+        ``stability_margins`` answers one gain margin, of this and
+        :attr:`gain_margin_lower` the one nearest 1 on a log scale; a conditionally
+        stable loop has both, and robrst states both.
     gain_crossover_rad_s : tuple of float
         Every gain crossover [rad/s].
     phase_crossover_rad_s : tuple of float
