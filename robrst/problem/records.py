@@ -499,8 +499,7 @@ class SolverOptions:
     edge_runs : bool
         The global phase also searches the controllers whose free ``S`` has one and two
         roots at the controller-pole strip's edge (``max_integral_gain``;
-        :class:`robrst.synthesis.search.EdgeSpace`): four CMA-ES runs more (the default;
-        false: the pole space only).
+        :class:`robrst.synthesis.search.EdgeSpace`): four CMA-ES runs more.
     bound : bool
         State the estimate of what any linear controller could reach on the family
         (:mod:`robrst.synthesis.bound`) beside a certified design (a design that is not
@@ -531,7 +530,7 @@ class SolverOptions:
     starts: int = 2
     method_source: str = "given"
     bound: bool = True
-    edge_runs: bool = True
+    edge_runs: bool = False
 
     @property
     def method_reason(self):

@@ -118,15 +118,15 @@ class SearchOptions:
         ``max_integral_gain`` with a controller-pole strip: after the runs above, runs on
         the controllers whose free ``S`` has this many roots at the strip's edge
         (:class:`EdgeSpace`; a count above that polynomial's degree is skipped; ``()``,
-        the default here, none; the design's ``[solver] edge_runs``, true by default:
-        :data:`EDGE_ROOTS`).  The
+        the default, none; ``[solver] edge_runs = true``: :data:`EDGE_ROOTS`).  The
         integral gain grows as the controller's slow poles approach the strip (a lag at
         its edge multiplies it), and the optima seen sit there with two; the pole space
         names the nominal closed-loop poles, not the controller's, and its runs reached
         such a basin by luck.  Measured on seeded 4th-order stages at ``Ms_max`` 1.5 /
         1.75 / 2.0 / 2.25 / 2.5: 315 k / 430 k / 788 k / 411 k / 471 k -> 376 k / 722 k /
         994 k / 1,088 k / 1,062 k, 87 k / 115 k / 128 k / 139 k / 130 k -> 123 k / 227 k /
-        324 k / 344 k / 364 k (docs/background/synthesis.md; 13-18 s CPU more).
+        324 k / 344 k / 364 k; not yet the default (docs/background/synthesis.md: a
+        tested monotone scan, stage 102's, would lose it; 13-18 s CPU more).
     edge_sigma : float
         The step size of the first run of each count, from the best point found so far
         (the second from a random mean at ``random_sigma``).
