@@ -87,7 +87,7 @@ def twin_plant():
     return named_plant(twin.plant), twin
 
 
-# the last level held 1 s: the paper_robust answer of 2026-12-07 leaves the resonance's
+# the last level held 1 s: a paper_robust design tried on 2026-12-07 left the resonance's
 # closed-loop mode at 591 Hz with damping 0.026 (decay 96 /s, its residue small: the
 # settling time to 2 % is 8.4 ms), 3.4e-5 off the reference after 75 ms
 REF = np.concatenate([np.zeros(20), np.full(1500, 10.0), np.full(20000, 4.0)])

@@ -121,7 +121,7 @@ def test_python_control_margins_on_the_returned_loop(loops, name):
     else:
         # python-control answers the margin nearest 1 on a log scale, up or down; robrst
         # states both (gain_margin > 1, gain_margin_lower < 1: a conditionally stable loop,
-        # as the paper_robust answer of 2026-12-07 with its lag at 15 rad/s: 20.98 / 0.061)
+        # as a paper_robust design tried on 2026-12-07, a lag at 15 rad/s: 20.98 / 0.061)
         gms = control.stability_margins(cl["L"], returnall=True)[0]
         both = [g for g in (a.margins.gain_margin, a.margins.gain_margin_lower) if g]
         for g in both:

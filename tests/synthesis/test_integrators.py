@@ -120,8 +120,8 @@ def test_the_free_search_reaches_the_known_integral_gain(p2_auto):
     later ones, 732 that morning): every polish ended at IPOPT's iteration limit, and a
     limit reached on a point that meets every row was discarded.  Kept since
     (``robrst.synthesis.outcome.LIMIT_FEASIBLE``), run 2's polish over the poles certifies
-    5,936.  A polish certifies it: the first, or one from where a polish ended (since the
-    edge runs are on by default, 2026-12-07, "polished again")."""
+    5,936.  A polish certifies it: the first, or one from where a polish ended ("polished
+    again": the path with the edge runs and a longer chain, tried 2026-12-07)."""
     assert p2_auto.integral_gain > 1000.0, p2_auto.synthesis.notes
     assert any(", polished" in t[0] and t[1] == "certified" and t[2] > 1000.0
                for t in p2_auto.synthesis.tried), p2_auto.synthesis.tried
