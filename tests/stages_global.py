@@ -12,8 +12,9 @@ def _pair(f_hz, zeta):
     return np.array([1.0, 2 * zeta * w, w * w]), w
 
 
-def stage_doc(seed, order=2, ms=2.0, delay=None):
-    """A seeded stage's problem document (``[specs] Ms_max = ms``)."""
+def stage_doc(seed, order=2, ms=2.0, delay=None, edge_runs=None):
+    """A seeded stage's problem document (``[specs] Ms_max = ms``; ``edge_runs``: the
+    ``[solver]`` key when given, else its default)."""
     rng = np.random.default_rng(seed)
     f1 = float(np.exp(rng.uniform(np.log(300.0), np.log(3000.0))))
     z1 = float(np.exp(rng.uniform(np.log(0.005), np.log(0.05))))
@@ -38,7 +39,8 @@ def stage_doc(seed, order=2, ms=2.0, delay=None):
             "poles": {"wn": float(w / 5), "zeta": 1.0},
             "specs": {"Ms_max": ms, "Mt_max": 1.3, "Mu_max": float(rng.uniform(80, 250)),
                       "sample_rate_hz": fs, "delay_samples": k},
-            "solver": {"method": "nlp", "objective": "max_integral_gain"}}
+            "solver": {"method": "nlp", "objective": "max_integral_gain",
+                       **({} if edge_runs is None else {"edge_runs": edge_runs})}}
 
 
 def stage(seed, **kw):

@@ -34,7 +34,11 @@ def _judged(seed, order, popsize, maxiter):
     p = with_defaults(parse_problem(stage_doc(seed, order=order), f"<stage {seed}>"))
     res = run_problem(p, analyses=False)
     assert res.certified, seed
-    st = gr.setting(p, *gr.strip(p))
+    # a controller pole on the strip's edge counts within the program's 2 % slack
+    # (``robrst.synthesis.context.CTRL_POLE_SLACK``): stage 102's answer has two lags there
+    # (-54.60 and -54.38 rad/s, the edge at -54.49), as the edge runs place them
+    shift, top = gr.strip(p)
+    st = gr.setting(p, 0.98 * shift, top)
     st.rtol = p.solver.cert_tol
     R, S = np.asarray(res.controller.R, float), np.asarray(res.controller.S, float)
     v0 = gr.parameters(st, R, S)

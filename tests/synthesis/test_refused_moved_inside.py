@@ -43,7 +43,9 @@ def _moved(res):
 
 @pytest.mark.slow
 def test_a_refused_candidate_moves_away_from_the_peak_it_was_refused_for(monkeypatch):
-    p = with_defaults(parse_problem(stage_doc(204, order=4, ms=1.5), "<stage 204>"))
+    # the search path of the pole space alone (``edge_runs = false``): run 3's refusal
+    p = with_defaults(parse_problem(stage_doc(204, order=4, ms=1.5, edge_runs=False),
+                                    "<stage 204>"))
     res = run_problem(p, analyses=False)
     assert res.certified
     moved = _moved(res)

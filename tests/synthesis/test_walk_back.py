@@ -36,8 +36,10 @@ AGAIN = ", polished again"
 
 def _designed(seed, order, ms):
     """The seeded stage's problem and its default design (certified), with what the
-    global phase tried by name."""
-    p = with_defaults(parse_problem(stage_doc(seed, order=order, ms=ms), f"<stage {seed}>"))
+    global phase tried by name; on the search path of the pole space alone (``[solver]
+    edge_runs = false``: the scenarios below are where those runs' polishes end)."""
+    p = with_defaults(parse_problem(stage_doc(seed, order=order, ms=ms, edge_runs=False),
+                                    f"<stage {seed}>"))
     res = run_problem(p, analyses=False)
     assert res.certified
     return p, res, {t[0]: t for t in res.synthesis.tried}
