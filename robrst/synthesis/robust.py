@@ -258,12 +258,13 @@ class PolishOptions:
         budget), then the best answer's basin again from where that ended, up to this many
         polishes in all ...
     again_gain : float
-        ... while each polish gains at least this share of the objective.  Each polish
-        stops short (its iteration limit, its trust region, a grid it left), and a chain
-        climbs on: measured with ``again = 4`` (2026-12-07, not the default: the slow
-        suite failed with it and the edge runs on, not yet traced), ``paper_robust``
-        861,623 -> 1,183,985 (879 k -> 1,184 k, walked back into the specs each time;
-        127 s CPU against 62 s), and with the edge runs stage 102 at ``Ms_max`` 2.5
+        ... while each polish gains at least this share of the objective and ends inside
+        the specs by itself (a point walked back into them answers but is never a
+        chain's next start: where the polish before it stopped turns on rounding).  Each
+        polish stops short (its iteration limit, its trust region, a grid it left), and
+        a chain climbs on: measured with ``again = 4`` and the edge runs (2026-12-07,
+        not the default: twice the CPU), ``paper_robust`` 861,623 -> 879,000 on two
+        OpenBLAS kernel sets (114-122 s CPU against 62 s), stage 102 at ``Ms_max`` 2.5
         324,038 -> 337,784 (2.25: 337,849).
     again_basins : int
         The basins (the outcomes of one candidate of the search) polished again, best
@@ -584,7 +585,11 @@ def _polish_again(ctx, run, outs, bases):
 def _again(ctx, run, outs, name, best, k):
     """Polish ``k`` (from 0) again of the basin ``name`` from its answer ``best``; its
     outcome joins ``run.tried`` and ``outs``.  Returns it when it gained
-    ``POLISH.again_gain`` of the objective (counted), else ``None``."""
+    ``POLISH.again_gain`` of the objective (counted) and ended inside the specs by
+    itself, else ``None``: a point walked back from a polish that ended outside them
+    answers, but a chain never goes on from it (where that polish ended, and so the
+    point, turns on rounding: on another BLAS build the next polish from it converged
+    elsewhere, ``tests/synthesis/test_search_builds.py``)."""
     p = ctx.problem
     run.grant("free")
     how = "polished again" + (f" ({k + 1})" if k else "")
@@ -598,7 +603,7 @@ def _again(ctx, run, outs, name, best, k):
         return None
     run.notes.append(f"global phase: {name} polished again from where its polish"
                      f" ended: {abs(before):.6g} -> {abs(after):.6g}")
-    return out
+    return out if label == how else None
 
 
 def _basins(problem, run, outs):
