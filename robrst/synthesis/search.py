@@ -125,8 +125,9 @@ class SearchOptions:
         such a basin by luck.  Measured on seeded 4th-order stages at ``Ms_max`` 1.5 /
         1.75 / 2.0 / 2.25 / 2.5: 315 k / 430 k / 788 k / 411 k / 471 k -> 376 k / 722 k /
         994 k / 1,088 k / 1,062 k, 87 k / 115 k / 128 k / 139 k / 130 k -> 123 k / 227 k /
-        324 k / 344 k / 364 k; not yet the default (docs/background/synthesis.md: a
-        tested monotone scan, stage 102's, would lose it; 13-18 s CPU more).
+        324 k / 344 k / 364 k; not yet the default (docs/background/synthesis.md: stage
+        102's tested monotone scan keeps it only with the best basin polished on,
+        ``PolishOptions.again``, and both double ``paper_robust``'s CPU).
     edge_sigma : float
         The step size of the first run of each count, from the best point found so far
         (the second from a random mean at ``random_sigma``).
