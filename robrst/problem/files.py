@@ -151,7 +151,7 @@ SCHEMA = {
                             " the problem's start (sweeps)"),
         "starts": Field("int", 2, "nlp global phase: distinct candidates polished beyond the"
                         " best (0: no global phase, one local run)", lo=0, hi=64),
-        "edge_runs": Field("bool", False, "nlp global phase, max_integral_gain: also search"
+        "edge_runs": Field("bool", True, "nlp global phase, max_integral_gain: also search"
                            " the controllers with one and two poles at the controller-pole"
                            " strip's edge (four CMA-ES runs more)"),
         "bound": Field("bool", True, "state what any linear controller could reach on the"

@@ -499,7 +499,8 @@ class SolverOptions:
     edge_runs : bool
         The global phase also searches the controllers whose free ``S`` has one and two
         roots at the controller-pole strip's edge (``max_integral_gain``;
-        :class:`robrst.synthesis.search.EdgeSpace`): four CMA-ES runs more.
+        :class:`robrst.synthesis.search.EdgeSpace`): four CMA-ES runs more (the
+        default since 2026-12-07).
     bound : bool
         State the estimate of what any linear controller could reach on the family
         (:mod:`robrst.synthesis.bound`) beside a certified design (a design that is not
@@ -530,7 +531,7 @@ class SolverOptions:
     starts: int = 2
     method_source: str = "given"
     bound: bool = True
-    edge_runs: bool = False
+    edge_runs: bool = True
 
     @property
     def method_reason(self):

@@ -262,8 +262,8 @@ class PolishOptions:
         the specs by itself (a point walked back into them answers but is never a
         chain's next start: where the polish before it stopped turns on rounding).  Each
         polish stops short (its iteration limit, its trust region, a grid it left), and
-        a chain climbs on: measured with ``again = 4`` and the edge runs (2026-12-07,
-        not the default: twice the CPU), ``paper_robust`` 861,623 -> 879,000 on two
+        a chain climbs on: measured with ``again = 4`` and the edge runs (the defaults
+        since 2026-12-07, at twice the CPU), ``paper_robust`` 861,623 -> 879,000 on two
         OpenBLAS kernel sets (114-122 s CPU against 62 s), stage 102 at ``Ms_max`` 2.5
         324,038 -> 337,784 (2.25: 337,849).
     again_basins : int
@@ -286,7 +286,7 @@ class PolishOptions:
     soft_seeds: int = 3
     walk_steps: int = 6
     floor_slack: float = 1e-3
-    again: int = 1
+    again: int = 4
     again_gain: float = 0.01
     again_basins: int = 3
 

@@ -118,7 +118,7 @@ class SearchOptions:
         ``max_integral_gain`` with a controller-pole strip: after the runs above, runs on
         the controllers whose free ``S`` has this many roots at the strip's edge
         (:class:`EdgeSpace`; a count above that polynomial's degree is skipped; ``()``,
-        the default, none; ``[solver] edge_runs = true``: :data:`EDGE_ROOTS`).  The
+        the default here, none; ``[solver] edge_runs``, true by default: :data:`EDGE_ROOTS`).  The
         integral gain grows as the controller's slow poles approach the strip (a lag at
         its edge multiplies it), and the optima seen sit there with two; the pole space
         names the nominal closed-loop poles, not the controller's, and its runs reached

@@ -524,11 +524,11 @@ def test_edge_space_puts_controller_poles_at_the_strip_edge():
     assert EdgeSpace.of(sp, scr.Lq, scr.q, shift, scr.Lq.shape[0]) is None
 
 
-def test_edge_runs_are_off_unless_a_file_asks_for_them():
-    """``[solver] edge_runs``: false by default (opt-in), ``true`` is kept."""
-    assert not parse_problem(DOC, "<g>").solver.edge_runs
-    on = {**DOC, "solver": {**DOC.get("solver", {}), "edge_runs": True}}
-    assert parse_problem(on, "<g>").solver.edge_runs
+def test_edge_runs_are_on_unless_a_file_turns_them_off():
+    """``[solver] edge_runs``: true by default (since 2026-12-07), ``false`` is kept."""
+    assert parse_problem(DOC, "<g>").solver.edge_runs
+    off = {**DOC, "solver": {**DOC.get("solver", {}), "edge_runs": False}}
+    assert not parse_problem(off, "<g>").solver.edge_runs
 
 
 def test_edge_runs_join_the_search_only_when_asked():

@@ -115,8 +115,8 @@ print(json.dumps([r.integral_gain, [[t[0], t[1], t[2]] for t in r.synthesis.trie
 @pytest.mark.slow
 @pytest.mark.skipif(_cores() is None, reason="OpenBLAS's x86 kernels: two sets needed")
 def test_the_chain_of_polishes_is_the_same_on_other_blas_kernels():
-    """The opt-in search (``edge_runs = true``, the best basin polished on: four polishes
-    in all) on both kernel sets: the same outcomes tried, the same answer.  Before, its
+    """The default search (``edge_runs = true``, the best basin polished on: four polishes
+    in all; both stated, so that the test holds whatever the defaults) on both kernel sets: the same outcomes tried, the same answer.  Before, its
     third polish went on from a point walked back into the specs and converged elsewhere
     on each (1,261,270 against 1,284,099, outside the specs; walked back, the answers
     1,168,492 and 1,183,985); a chain now ends at such a point (879,000 on both,
