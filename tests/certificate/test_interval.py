@@ -156,11 +156,12 @@ def test_refinement_isolates_the_order_change_and_stays_sound(designs):
     assert cert.certified and iv.stability == "guardian_map"
     assert iv.order_change_C and all(a == lo and 0 < b - a <= floor
                                      for a, b in iv.order_change_C)
-    sp = with_defaults(pr).specs
+    full = with_defaults(pr)
+    sp = full.specs
     looser = {f.name: 1.02 * getattr(sp, f.name) for f in fields(sp)
               if "_max" in f.name and type(getattr(sp, f.name)) is float}
     assert {"Ms_max", "Mt_max", "Mu_max", "overshoot_max_pct"} <= looser.keys()
-    roomy = certify_problem(replace(with_defaults(pr), specs=replace(sp, **looser)), ctrl)
+    roomy = certify_problem(replace(full, specs=replace(sp, **looser)), ctrl)
     assert roomy.certified and roomy.interval.order_change_C == iv.order_change_C
     temps = sorted(m.temperature_C for m in roomy.models)
     assert len([T for T in temps if lo < T < lo + 0.05 * (hi - lo)]) <= 2, temps[:8]
