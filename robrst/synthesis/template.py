@@ -113,6 +113,36 @@ def _answer(solver, sol, x, lam_x):
             "lam_x": lam_x, "iterations": int(stats.get("iter_count", 0))}
 
 
+def _chained(solver, space, nx, T, rest, P, n_g):
+    """The derivatives of the program over ``theta`` by the chain rule through the
+    template's own (``solver``'s): with ``x = m(theta)`` and ``J`` the map's Jacobian
+    (the identity on the other variables), the gradient ``J' grad f``, the constraints'
+    Jacobian ``jac g J`` and the Lagrangian's Hessian ``J' H J + sum_k (grad L)_k hess m_k``.
+    The same numbers as CasADi's derivatives through the composed graph, about 4x cheaper
+    (the program's rows are differentiated once, in the coefficients, the small map alone
+    over ``theta``)."""
+    nr = int(rest.numel())
+    xc = space.symbolic(T)
+    Xb = ca.vertcat(xc, rest)
+    J = ca.diagcat(ca.jacobian(xc, T), ca.MX.eye(nr))
+    f, grad = solver.get_function("nlp_grad_f")(Xb, P)
+    g, jac = solver.get_function("nlp_jac_g")(Xb, P)
+    lam_f, lam_g = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", n_g)
+    hb = ca.triu2symm(solver.get_function("nlp_hess_l")(Xb, P, lam_f, lam_g))
+    v = ca.MX.sym("v", nx)
+    curvature = ca.Function("map_curvature", [T, v],
+                            [ca.hessian(ca.dot(v, space.symbolic(T)), T)[0]])
+    gl = lam_f * grad + ca.mtimes(jac.T, lam_g)
+    H = ca.mtimes([J.T, hb, J]) + ca.diagcat(curvature(T, gl[:nx]), ca.MX(nr, nr))
+    X = ca.vertcat(T, rest)
+    return {"grad_f": ca.Function("grad_f", [X, P], [f, ca.mtimes(J.T, grad)],
+                                  ["x", "p"], ["f", "grad_f_x"]),
+            "jac_g": ca.Function("jac_g", [X, P], [g, ca.mtimes(jac, J)],
+                                 ["x", "p"], ["g", "jac_g_x"]),
+            "hess_lag": ca.Function("hess_lag", [X, P, lam_f, lam_g], [ca.triu(H)],
+                                    ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])}
+
+
 class Template:
     """One CasADi NLP with parameters (see the module docstring).
 
@@ -292,6 +322,7 @@ class MappedTemplate:
         f, g = base.program(ca.vertcat(space.symbolic(T), rest), P)
         X = ca.vertcat(T, rest)
         self.stop, opts = _options(st, int(X.numel()), self.n_g)
+        opts.update(_chained(base.solver, space, st.nx, T, rest, P, self.n_g))
         # the map's derivatives span decades (a lightly damped pair's frequency against a
         # real pole's): IPOPT scales every row and the objective by its gradient at the
         # start.  Unscaled, the exchange's later rounds (each started outside the points it

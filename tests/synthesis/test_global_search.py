@@ -549,3 +549,41 @@ def test_edge_runs_join_the_search_only_when_asked():
     first = [next(c for c in r.candidates if c.name.startswith("global run 1")).theta
              for r in (plain, edged)]
     assert np.array_equal(*first)
+
+
+def test_the_program_over_the_poles_has_the_composed_programs_derivatives():
+    """The derivatives a :class:`MappedTemplate` hands IPOPT (the chain rule through the
+    coefficient program's own: gradient, constraint Jacobian, Lagrangian Hessian) equal
+    CasADi's derivatives of the composed program ``program(m(theta), rest)``, at random
+    points, parameters and multipliers."""
+    import casadi as ca
+
+    from robrst.synthesis.context import ipopt_options
+    from robrst.synthesis.template import MappedTemplate, Structure, Template
+
+    p, ctx, setup, _ = _setup()
+    sp = PoleSpace.of(ctx, setup)
+    st = Structure(nx=setup.n_x, placement="free", deg_eq=0, n_dom_real=0,
+                   groups=((setup.n_x + 1, 3),), slots=7, ctrl_deg=2,
+                   ipopt=tuple(sorted(ipopt_options(p.solver).items())), lin=2)
+    base = Template(st)
+    mt = MappedTemplate(base, sp, np.zeros(sp.dim), np.ones(sp.dim), {})
+    T, rest = ca.MX.sym("t", sp.dim), ca.MX.sym("r", st.n_var - st.nx)
+    P, lf, lg = ca.MX.sym("p", base.n_p), ca.MX.sym("lf"), ca.MX.sym("lg", base.n_g)
+    X = ca.vertcat(T, rest)
+    f, g = base.program(ca.vertcat(sp.symbolic(T), rest), P)
+    ref = ca.Function("ref", [X, P, lf, lg], [ca.gradient(f, X), ca.jacobian(g, X),
+                                              ca.hessian(lf * f + ca.dot(lg, g), X)[0]])
+    rng = np.random.default_rng(11)
+    for _ in range(3):
+        values = {k: rng.uniform(0.5, 1.5, size=shape) for k, (_, shape) in base.layout.items()}
+        values["rho"] = np.array([rng.uniform()])
+        x = np.concatenate([rng.uniform(0.1, 0.9, sp.dim), rng.uniform(0.5, 2, st.n_var - st.nx)])
+        pv, lam_f, lam_g = base.pack(values), rng.normal(), rng.normal(size=base.n_g)
+        grad_r, jac_r, hess_r = (np.array(v) for v in ref(x, pv, lam_f, lam_g))
+        grad = np.array(mt.solver.get_function("nlp_grad_f")(x, pv)[1]).ravel()
+        jac = np.array(mt.solver.get_function("nlp_jac_g")(x, pv)[1])
+        hess = np.array(ca.triu2symm(mt.solver.get_function("nlp_hess_l")(x, pv, lam_f, lam_g)))
+        for got, want in ((grad, grad_r.ravel()), (jac, jac_r), (hess, hess_r)):
+            assert np.all(np.isfinite(want))
+            assert np.allclose(got, want, rtol=1e-8, atol=1e-9 * np.max(np.abs(want)))
