@@ -9,6 +9,11 @@
   (``robrst.synthesis._screen.first_samples``: blocks of powers, one matrix product per
   candidate and model) against the same sum over every power (``cumprod`` of every sample,
   then the weighted sum: the implementation before 2026-12-04), alternating, CPU time.
+* **The polish over the poles' derivatives.** The Lagrangian's Hessian and the constraints'
+  Jacobian a ``MappedTemplate`` hands IPOPT (the chain rule through the coefficient
+  program's own derivatives) against CasADi's derivatives of the composed program (what
+  IPOPT was given before 2026-12-07), at ``paper_robust``'s map and structure,
+  alternating, CPU time; and their largest relative difference.
 * **Quality.** On the stages of ``tests/global_references.json`` (each with the best
   certified integral gain an independent differential evolution found, its CPU and its
   controller; ``tests/global_reference.py``) the default design's certified integral gain
@@ -99,12 +104,71 @@ def first_samples_kernel(repeats, calls=20, seed=20261204):
     return {k: [t / calls for t in v] for k, v in times.items()}, diff
 
 
+def pole_program_derivatives(repeats, calls=20, seed=20261207):
+    """CPU [s] per call of the chained and the composed Hessian + Jacobian of the program
+    over the poles (``paper_robust``'s map and structure), alternating; and their largest
+    relative difference."""
+    import casadi as ca
+
+    from robrst.base.resources import builtin_problem
+    from robrst.design import analytic_design
+    from robrst.problem.files import load_problem
+    from robrst.problem.records import with_defaults
+    from robrst.synthesis.attempts import program_models
+    from robrst.synthesis.context import Context, ipopt_options
+    from robrst.synthesis.search import PoleSpace
+    from robrst.synthesis.template import MappedTemplate, Structure, Template
+
+    p = with_defaults(load_problem(builtin_problem("paper_robust")))
+    ctx = Context.of(p, analytic_design(p))
+    setup = ctx.setup(program_models(p), ctx.nu, "free")
+    sp = PoleSpace.of(ctx, setup)
+    # the structure of most of paper_robust's polishes over the poles (546 peak slots, the
+    # Routh rows of 16 closed loops, two controller polynomials, 24 linear rows)
+    st = Structure(nx=setup.n_x, placement="free", deg_eq=0, n_dom_real=0,
+                   groups=((setup.n_x - 1, 4), (setup.n_x, 12)), slots=546, ctrl_deg=4,
+                   ctrl_count=2, ipopt=tuple(sorted(ipopt_options(p.solver).items())), lin=24)
+    base = Template(st)
+    mapped = MappedTemplate(base, sp, np.zeros(sp.dim), np.ones(sp.dim), {})
+    T, rest = ca.MX.sym("t", sp.dim), ca.MX.sym("r", st.n_var - st.nx)
+    P = ca.MX.sym("p", base.n_p)
+    X = ca.vertcat(T, rest)
+    f, g = base.program(ca.vertcat(sp.symbolic(T), rest), P)
+    # the derivatives IPOPT was given before: CasADi's own, through the composed graph
+    plain = ca.nlpsol("composed", "ipopt", {"x": X, "p": P, "f": f, "g": g},
+                      {"print_time": False, "ipopt": {"print_level": 0, "sb": "yes"}})
+    hess, jac = (mapped.solver.get_function(k) for k in ("nlp_hess_l", "nlp_jac_g"))
+    hess0, jac0 = (plain.get_function(k) for k in ("nlp_hess_l", "nlp_jac_g"))
+    rng = np.random.default_rng(seed)
+    values = {k: rng.uniform(0.5, 1.5, size=shape) for k, (_, shape) in base.layout.items()}
+    x = np.concatenate([rng.uniform(0.1, 0.9, sp.dim), rng.uniform(0.5, 2, st.n_var - st.nx)])
+    args = (x, base.pack(values), 1.0, rng.normal(size=base.n_g))
+
+    def chained():
+        for _ in range(calls):
+            out = (hess(*args), jac(*args[:2])[1])
+        return out
+
+    def through():
+        for _ in range(calls):
+            out = (hess0(*args), jac0(*args[:2])[1])
+        return out
+
+    times, outs = alternate({"chained": chained, "composed": through}, repeats,
+                            time.process_time)
+    diff = max(float(np.max(np.abs(np.array(a) - np.array(b))) / np.max(np.abs(np.array(b))))
+               for a, b in zip(outs["chained"], outs["composed"]))
+    return {k: [t / calls for t in v] for k, v in times.items()}, diff
+
+
 def run(tiny=False, repeats=5):
     times = cli_costs(1 if tiny else repeats)
     med = {k: float(np.median(v)) for k, v in times.items()}
     ratio = float(np.median(np.asarray(times["default"]) / np.asarray(times["floor"])))
     kernel, kernel_diff = first_samples_kernel(3 if tiny else 15)
     speedup = median_ratio(kernel, "every_power", "blocks")
+    derivs, derivs_diff = pole_program_derivatives(3 if tiny else 15)
+    derivs_speedup = median_ratio(derivs, "composed", "chained")
     rows = quality(tiny)
     worst = min((r[3] for r in rows), default=np.nan)
     table = ["| stage | reference (DE) | default design | share | design CPU [s] |"
@@ -114,7 +178,12 @@ def run(tiny=False, repeats=5):
     table += ["", f"The screen's first samples (60 candidates x 8 models x 6 modes):"
               f" {1e3 * np.median(kernel['blocks']):.2f} ms per call in blocks against"
               f" {1e3 * np.median(kernel['every_power']):.2f} ms over every power"
-              f" ({speedup:.1f}x, largest difference {kernel_diff:.1e})."]
+              f" ({speedup:.1f}x, largest difference {kernel_diff:.1e}).",
+              "", f"The program over the poles' Hessian and Jacobian (paper_robust's map"
+              f" and structure): {1e3 * np.median(derivs['chained']):.2f} ms per call by"
+              f" the chain rule against {1e3 * np.median(derivs['composed']):.2f} ms through"
+              f" the composed program ({derivs_speedup:.1f}x, largest relative difference"
+              f" {derivs_diff:.1e})."]
     head = (f"design paper_robust {med['default']:.2f} s CPU (children counted) ="
             f" {ratio:.2f}x its import floor ({med['floor']:.2f} s), --starts 0"
             f" {med['starts0']:.2f} s; " + (
@@ -129,5 +198,6 @@ def run(tiny=False, repeats=5):
         headline=head, met=bool(ratio <= 2.0 and (not rows or worst >= 0.95)),
         figures={"cpu_s": times, "median_cpu_s": med, "floor_ratio": ratio,
                  "quality": rows, "load_average": os.getloadavg(),
-                 "first_samples_cpu_s": kernel, "first_samples_speedup": speedup},
+                 "first_samples_cpu_s": kernel, "first_samples_speedup": speedup,
+                 "pole_derivatives_cpu_s": derivs, "pole_derivatives_speedup": derivs_speedup},
         table=tuple(table))
