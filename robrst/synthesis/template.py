@@ -26,7 +26,9 @@ Objective ``c_gamma gamma + c_ki (-log(sign R(0)) + log((S/s^k)(0))) + c_reg |xc
 
 :class:`MappedTemplate` solves the same program over other coordinates (the nominal
 closed-loop poles and Youla degrees of :class:`robrst.synthesis.search.PoleSpace`, the
-coefficients a CasADi expression of them): ``RunOptions.pole_polish``.
+coefficients a CasADi expression of them): ``RunOptions.pole_polish``.  IPOPT gets its
+derivatives by the chain rule through the template's own (the program differentiated
+once, in the coefficients; the map alone over the poles).
 """
 
 from __future__ import annotations
