@@ -11,8 +11,8 @@
   then the weighted sum: the implementation before 2026-12-04), alternating, CPU time.
 * **The polish over the poles' derivatives.** The Lagrangian's Hessian and the constraints'
   Jacobian a ``MappedTemplate`` hands IPOPT (the chain rule through the coefficient
-  program's own derivatives) against CasADi's derivatives of the composed program (what
-  IPOPT was given before 2026-12-07), at ``paper_robust``'s map and structure,
+  program's own derivatives, ``RunOptions.chained_derivatives``) against CasADi's
+  derivatives of the composed program (the default), at ``paper_robust``'s map and structure,
   alternating, CPU time; and their largest relative difference.
 * **Quality.** On the stages of ``tests/global_references.json`` (each with the best
   certified integral gain an independent differential evolution found, its CPU and its
@@ -108,8 +108,6 @@ def pole_program_derivatives(repeats, calls=20, seed=20261207):
     """CPU [s] per call of the chained and the composed Hessian + Jacobian of the program
     over the poles (``paper_robust``'s map and structure), alternating; and their largest
     relative difference."""
-    import casadi as ca
-
     from robrst.base.resources import builtin_problem
     from robrst.design import analytic_design
     from robrst.problem.files import load_problem
@@ -129,16 +127,12 @@ def pole_program_derivatives(repeats, calls=20, seed=20261207):
                    groups=((setup.n_x - 1, 4), (setup.n_x, 12)), slots=546, ctrl_deg=4,
                    ctrl_count=2, ipopt=tuple(sorted(ipopt_options(p.solver).items())), lin=24)
     base = Template(st)
-    mapped = MappedTemplate(base, sp, np.zeros(sp.dim), np.ones(sp.dim), {})
-    T, rest = ca.MX.sym("t", sp.dim), ca.MX.sym("r", st.n_var - st.nx)
-    P = ca.MX.sym("p", base.n_p)
-    X = ca.vertcat(T, rest)
-    f, g = base.program(ca.vertcat(sp.symbolic(T), rest), P)
-    # the derivatives IPOPT was given before: CasADi's own, through the composed graph
-    plain = ca.nlpsol("composed", "ipopt", {"x": X, "p": P, "f": f, "g": g},
-                      {"print_time": False, "ipopt": {"print_level": 0, "sb": "yes"}})
+    lo, hi = np.zeros(sp.dim), np.ones(sp.dim)
+    # chained, and the default: CasADi's derivatives through the composed graph
+    mapped = MappedTemplate(base, sp, lo, hi, {}, chained=True)
+    plain = MappedTemplate(base, sp, lo, hi, {})
     hess, jac = (mapped.solver.get_function(k) for k in ("nlp_hess_l", "nlp_jac_g"))
-    hess0, jac0 = (plain.get_function(k) for k in ("nlp_hess_l", "nlp_jac_g"))
+    hess0, jac0 = (plain.solver.get_function(k) for k in ("nlp_hess_l", "nlp_jac_g"))
     rng = np.random.default_rng(seed)
     values = {k: rng.uniform(0.5, 1.5, size=shape) for k, (_, shape) in base.layout.items()}
     x = np.concatenate([rng.uniform(0.1, 0.9, sp.dim), rng.uniform(0.5, 2, st.n_var - st.nx)])

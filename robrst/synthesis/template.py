@@ -26,9 +26,9 @@ Objective ``c_gamma gamma + c_ki (-log(sign R(0)) + log((S/s^k)(0))) + c_reg |xc
 
 :class:`MappedTemplate` solves the same program over other coordinates (the nominal
 closed-loop poles and Youla degrees of :class:`robrst.synthesis.search.PoleSpace`, the
-coefficients a CasADi expression of them): ``RunOptions.pole_polish``.  IPOPT gets its
-derivatives by the chain rule through the template's own (the program differentiated
-once, in the coefficients; the map alone over the poles).
+coefficients a CasADi expression of them): ``RunOptions.pole_polish``.  With ``chained``
+IPOPT gets its derivatives by the chain rule through the template's own (the program
+differentiated once, in the coefficients; the map alone over the poles).
 """
 
 from __future__ import annotations
@@ -310,10 +310,14 @@ class MappedTemplate:
     memo : dict
         Coefficient vectors (bytes) -> the ``theta`` that gave them, shared by the
         templates of one solve, so a round starts at the previous round's exact point.
+    chained : bool, optional
+        IPOPT's derivatives by the chain rule through the template's own (the same
+        numbers, about 4x cheaper; the paths differ by rounding) instead of CasADi's
+        through the composed program (default).
     """
 
     def __init__(self, base: Template, space: object, lo: np.ndarray, hi: np.ndarray,
-                 memo: dict) -> None:
+                 memo: dict, chained: bool = False) -> None:
         st = self.structure = base.structure
         self.layout, self.n_p, self.n_g = base.layout, base.n_p, base.n_g
         self.base, self.space, self.memo = base, space, memo
@@ -324,7 +328,8 @@ class MappedTemplate:
         f, g = base.program(ca.vertcat(space.symbolic(T), rest), P)
         X = ca.vertcat(T, rest)
         self.stop, opts = _options(st, int(X.numel()), self.n_g)
-        opts.update(_chained(base.solver, space, st.nx, T, rest, P, self.n_g))
+        if chained:
+            opts.update(_chained(base.solver, space, st.nx, T, rest, P, self.n_g))
         # the map's derivatives span decades (a lightly damped pair's frequency against a
         # real pole's): IPOPT scales every row and the objective by its gradient at the
         # start.  Unscaled, the exchange's later rounds (each started outside the points it
@@ -399,10 +404,13 @@ class MappedTemplates:
         The map.
     lo, hi : numpy.ndarray
         The box of ``theta``.
+    chained : bool, optional
+        Derivatives by the chain rule (:class:`MappedTemplate`).
     """
 
-    def __init__(self, base: dict, space: object, lo: np.ndarray, hi: np.ndarray) -> None:
-        self.base, self.space, self.lo, self.hi = base, space, lo, hi
+    def __init__(self, base: dict, space: object, lo: np.ndarray, hi: np.ndarray,
+                 chained: bool = False) -> None:
+        self.base, self.space, self.lo, self.hi, self.chained = base, space, lo, hi, chained
         self.built, self.memo = {}, {}
 
     def __contains__(self, st: Structure) -> bool:
@@ -413,5 +421,5 @@ class MappedTemplates:
             if st not in self.base:
                 self.base[st] = Template(st)
             self.built[st] = MappedTemplate(self.base[st], self.space, self.lo, self.hi,
-                                            self.memo)
+                                            self.memo, self.chained)
         return self.built[st]

@@ -462,9 +462,11 @@ def test_the_symbolic_pole_map_places_the_nominal_poles():
             assert np.allclose(got, want, rtol=1e-6), (got, want)
 
 
-def test_a_solve_over_the_poles_stays_in_its_box_and_meets_the_specs():
-    """The program solved over the poles (``MappedTemplates``) from a candidate of a short
-    search (within the specs on the screen):
+@pytest.mark.parametrize("chained", [False, True])
+def test_a_solve_over_the_poles_stays_in_its_box_and_meets_the_specs(chained):
+    """The program solved over the poles (``MappedTemplates``, with CasADi's derivatives
+    and with the chained ones) from a candidate of a short search (within the specs on
+    the screen):
     the answer is the controller of a point inside the box, its nominal poles those of the
     point on the unscaled polynomials, and its peaks on a dense grid of the unscaled loops
     within the program's bounds; its integral gain is not below the start's."""
@@ -481,7 +483,7 @@ def test_a_solve_over_the_poles_stays_in_its_box_and_meets_the_specs():
     th0 = cand.theta
     x0 = np.concatenate([sp.controllers(th0[None])[0], [1.0]])
     lo, hi = np.clip(th0 - 0.03, 0, 1), np.clip(th0 + 0.03, 0, 1)
-    maps = MappedTemplates({}, sp, lo, hi)
+    maps = MappedTemplates({}, sp, lo, hi, chained=chained)
     res = solve_exchange(setup, x0, ctx.ipopt, Phase("hard"), maps, exact=True)
     assert res.success, res.status
     th = maps.memo[res.x[:-1].tobytes()]
@@ -567,7 +569,7 @@ def test_the_program_over_the_poles_has_the_composed_programs_derivatives():
                    groups=((setup.n_x + 1, 3),), slots=7, ctrl_deg=2,
                    ipopt=tuple(sorted(ipopt_options(p.solver).items())), lin=2)
     base = Template(st)
-    mt = MappedTemplate(base, sp, np.zeros(sp.dim), np.ones(sp.dim), {})
+    mt = MappedTemplate(base, sp, np.zeros(sp.dim), np.ones(sp.dim), {}, chained=True)
     T, rest = ca.MX.sym("t", sp.dim), ca.MX.sym("r", st.n_var - st.nx)
     P, lf, lg = ca.MX.sym("p", base.n_p), ca.MX.sym("lf"), ca.MX.sym("lg", base.n_g)
     X = ca.vertcat(T, rest)
