@@ -132,8 +132,7 @@ def _chained(solver, space, nx, T, rest, P, n_g):
     lam_f, lam_g = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", n_g)
     hb = ca.triu2symm(solver.get_function("nlp_hess_l")(Xb, P, lam_f, lam_g))
     v = ca.MX.sym("v", nx)
-    curvature = ca.Function("map_curvature", [T, v],
-                            [ca.hessian(ca.dot(v, space.symbolic(T)), T)[0]])
+    curvature = ca.Function("map_curvature", [T, v], [ca.hessian(ca.dot(v, xc), T)[0]])
     gl = lam_f * grad + ca.mtimes(jac.T, lam_g)
     H = ca.mtimes([J.T, hb, J]) + ca.diagcat(curvature(T, gl[:nx]), ca.MX(nr, nr))
     X = ca.vertcat(T, rest)
