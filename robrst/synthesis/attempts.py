@@ -144,9 +144,9 @@ class RunOptions:
         The solve over the poles takes its derivatives by the chain rule through the
         coefficient program's own (:class:`robrst.synthesis.template.MappedTemplate`): the
         same numbers, about 4x cheaper per call (``paper_robust`` 72 s CPU against 107,
-        the same answer).  Off by default: IPOPT's iterates then differ by rounding, and
-        which basins the chain of polishes visits moved with them (on ``paper_robust``:
-        with the OpenBLAS kernel set; synthesis background page).
+        the same answer).  Off: CasADi's derivatives through the composed graph (the
+        default until 2026-12-07; IPOPT's iterates differ by rounding, and so may which
+        basins the chain of polishes visits).
     """
 
     gamma_floor: float = 0.97
@@ -167,7 +167,7 @@ class RunOptions:
     rows_first_near: float = 0.3
     pole_polish: bool = True
     pole_box: float = 0.03
-    chained_derivatives: bool = False
+    chained_derivatives: bool = True
 
 
 RUN = RunOptions()

@@ -4,7 +4,10 @@
   of the three best basins (the outcomes of one candidate of the search) is polished
   again from where its polish ended, not only the best one's.  On the seeded 4th-order
   stage 722 at ``Ms_max`` 2.0 the best basin polished again reached 458,998 and the
-  answer was that; the third basin (204,292 after its first polish) reaches 788,122.
+  answer was that; the third basin (204,292 after its first polish) reached 788,122
+  (measured 2026-12-06).  Which basin ends best turns on IPOPT's path (with the chained
+  derivatives the first basin does, 473,245, measured 2026-12-07): tested is what holds
+  on every path, that each basin is polished again and the best end is the answer.
 * **A feasibility problem is not polished**: every certified controller answers it, so the
   first candidate of the search that certifies (as screened, or moved inside the specs)
   is the answer.  The seeded random problem 770032 (6th order, three resonances, a
@@ -39,8 +42,7 @@ def _candidate(name):
 
 @pytest.mark.slow
 def test_every_basin_is_polished_again_and_the_best_end_is_the_answer():
-    # the scenario is on the search path of the pole space alone (``edge_runs = false``):
-    # with the strip's edge runs, the basin best after its first polish also ends best
+    # the search of the pole space alone (``edge_runs = false``): several basins
     p = with_defaults(parse_problem(stage_doc(722, order=4, ms=2.0, edge_runs=False),
                                     "<stage 722>"))
     res = run_problem(p, analyses=False)
@@ -54,19 +56,15 @@ def test_every_basin_is_polished_again_and_the_best_end_is_the_answer():
                key=lambda row: row[2])
     assert res.integral_gain == pytest.approx(best[2], rel=1e-12)
     assert AGAIN in best[0], best[0]
-    # the basin that was best after its first polishes is not the one that ends best:
-    # polishing only the best basin again (as before) would have answered below
-    first = [row for row in tried if row[1] == "certified" and row[2] is not None
-             and AGAIN not in row[0]]
-    top_first = _candidate(max(first, key=lambda row: row[2])[0])
-    ends = {}
-    for row in again:
-        if row[1] == "certified" and row[2] is not None:
-            ends[_candidate(row[0])] = max(ends.get(_candidate(row[0]), 0.0), row[2])
-    assert max(ends.values()) > 1.2 * ends.get(top_first, max(r[2] for r in first)), ends
-    # judged without robrst's numerical code, at the certificate's tolerance; the answer
-    # has two controller poles on the strip's edge (-111.1 and -111.7 rad/s, the edge at
-    # -111.4), within the program's 2 % slack (CTRL_POLE_SLACK), as every lag it places there
+    # each basin polished again is one whose first polish (or screened point) certified
+    first = {}
+    for row in tried:
+        if row[1] == "certified" and row[2] is not None and AGAIN not in row[0]:
+            first[_candidate(row[0])] = max(first.get(_candidate(row[0]), 0.0), row[2])
+    for name in basins:
+        assert name in first, (name, first)
+    # judged without robrst's numerical code, at the certificate's tolerance; controller
+    # poles on the strip's edge are within the program's 2 % slack (CTRL_POLE_SLACK)
     shift, top = gr.strip(p)
     st = gr.setting(p, 0.98 * shift, top)
     st.rtol = p.solver.cert_tol

@@ -116,13 +116,29 @@ print(json.dumps([r.integral_gain, [[t[0], t[1], t[2]] for t in r.synthesis.trie
 @pytest.mark.skipif(_cores() is None, reason="OpenBLAS's x86 kernels: two sets needed")
 def test_the_chain_of_polishes_is_the_same_on_other_blas_kernels():
     """The default search (``edge_runs = true``, the best basin polished on: four polishes
-    in all; both stated, so that the test holds whatever the defaults) on both kernel sets: the same outcomes tried, the same answer.  Before, its
-    third polish went on from a point walked back into the specs and converged elsewhere
-    on each (1,261,270 against 1,284,099, outside the specs; walked back, the answers
-    1,168,492 and 1,183,985); a chain now ends at such a point (879,000 on both,
-    measured 2026-12-07)."""
+    in all; both stated, so that the test holds whatever the defaults) on both kernel sets:
+    the same answer, reached by the same chain.  Before, its third polish went on from a
+    point walked back into the specs and converged elsewhere on each (1,261,270 against
+    1,284,099, outside the specs; walked back, the answers 1,168,492 and 1,183,985); a
+    chain now ends at such a point (879,000 on both, measured 2026-12-07).  What is tried
+    on the way may differ: IPOPT's iteration counts differ by a few between kernel sets,
+    and a synthesis near its iteration budget (``RunOptions.iter_budget``) polishes one
+    basin more on one of them (global run 3, measured with the chained derivatives)."""
     a, b = _on_each_kernel_set(CHAIN)
-    assert [t[0] for t in a[1]] == [t[0] for t in b[1]]
     assert a[0] == pytest.approx(b[0], rel=1e-8)
-    chain = [t for t in a[1] if ", polished again (" in t[0]]
-    assert chain and "walked back into the specs" in chain[-1][0], chain
+    ends = []
+    for run in (a, b):
+        answer = [t for t in run[1] if t[1] == "certified"
+                  and t[2] == pytest.approx(run[0], rel=1e-12)]
+        assert answer, run[1]
+        ends.append(answer[-1][0])
+    assert ends[0] == ends[1]
+    assert ", polished again (" in ends[0] and "walked back into the specs" in ends[0], ends
+    shared = {t[0] for t in a[1]} & {t[0] for t in b[1]}
+    for run in (a, b):        # what both tried ended alike
+        for t in run[1]:
+            if t[0] in shared:
+                other = next(u for u in (b if run is a else a)[1] if u[0] == t[0])
+                assert other[1] == t[1], (t, other)
+                if t[2] is not None:
+                    assert other[2] == pytest.approx(t[2], rel=1e-6), (t, other)
