@@ -134,11 +134,12 @@ def test_the_chain_of_polishes_is_the_same_on_other_blas_kernels():
         ends.append(answer[-1][0])
     assert ends[0] == ends[1]
     assert ", polished again (" in ends[0] and "walked back into the specs" in ends[0], ends
-    shared = {t[0] for t in a[1]} & {t[0] for t in b[1]}
-    for run in (a, b):        # what both tried ended alike
+    rows_a, rows_b = ({}, {})
+    for rows, run in ((rows_a, a), (rows_b, b)):
         for t in run[1]:
-            if t[0] in shared:
-                other = next(u for u in (b if run is a else a)[1] if u[0] == t[0])
-                assert other[1] == t[1], (t, other)
-                if t[2] is not None:
-                    assert other[2] == pytest.approx(t[2], rel=1e-6), (t, other)
+            rows.setdefault(t[0], t)
+    for name in rows_a.keys() & rows_b.keys():      # what both tried ended alike
+        t, other = rows_a[name], rows_b[name]
+        assert other[1] == t[1], (t, other)
+        if t[2] is not None:
+            assert other[2] == pytest.approx(t[2], rel=1e-6), (t, other)
