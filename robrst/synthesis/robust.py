@@ -789,26 +789,42 @@ def _backoff(ctx, run, out, name, floor=None, poles_first=False):
     sampled loop's peak) the time-domain specs the program holds.  The optimum moves
     inside by the miss instead of the polish being lost (``poles_first``: the polish's
     first solve needed the poles, and its back-offs start over them).  Returns the first
-    outcome that meets every spec, else the last one."""
+    outcome that meets every spec, else the nearest to them of the polish's end and its
+    back-offs (:func:`_miss`): a back-off that runs away (on stage 722 at ``Ms_max`` 2.5
+    from a polish 0.8 % outside to an unstable loop) never replaces the end it started
+    from, which the walk back (:func:`_rescued`) then brings inside."""
     margin, problem = ctx.free_margin, ctx.problem
+    nearest = out
     for _ in range(POLISH.backoffs):
         if out is None or run.stop():
-            return out
+            return nearest
         if out.certified:
             miss = time_spec_ratio(problem, out.ctrl)
             if not 1.0 < miss <= POLISH.backoff_near:
-                return out
+                return nearest
             ctx = replace(ctx, problem=_tightened(ctx.problem, miss ** 2))
         elif 1.0 < out.badness <= POLISH.backoff_near:
             margin /= out.badness ** 2
         else:
-            return out
+            return nearest
         again = _solved_again(replace(ctx, free_margin=margin), run, out, f"{name}, backed off",
                               floor, poles_first)
         if again is None:
-            return out
+            return nearest
         out = again
-    return out
+        if _miss(problem, out) < _miss(problem, nearest):
+            nearest = out
+    return nearest
+
+
+def _miss(problem, out):
+    """How far the outcome ``out`` is from every spec, as a key (lower is nearer): a
+    certified one by its reference-step miss
+    (:func:`~robrst.synthesis.tracking.time_spec_ratio`, at most 1 inside), before any
+    uncertified one, those by their certificate's badness."""
+    if out.certified:
+        return (0, time_spec_ratio(problem, out.ctrl))
+    return (1, out.badness)
 
 
 def _solved_again(ctx, run, out, name, floor, poles_first=False):
