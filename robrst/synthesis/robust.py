@@ -794,26 +794,24 @@ def _backoff(ctx, run, out, name, floor=None, poles_first=False):
     from a polish 0.8 % outside to an unstable loop) never replaces the end it started
     from, which the walk back (:func:`_rescued`) then brings inside."""
     margin, problem = ctx.free_margin, ctx.problem
-    nearest = out
-    for _ in range(POLISH.backoffs):
-        if out is None or run.stop():
-            return nearest
-        if out.certified:
-            miss = time_spec_ratio(problem, out.ctrl)
-            if not 1.0 < miss <= POLISH.backoff_near:
-                return nearest
-            ctx = replace(ctx, problem=_tightened(ctx.problem, miss ** 2))
-        elif 1.0 < out.badness <= POLISH.backoff_near:
-            margin /= out.badness ** 2
+    nearest, least = None, None
+    for k in range(POLISH.backoffs + 1):
+        if out is None:
+            break
+        miss = _miss(problem, out)       # each outcome's miss once: a step response each
+        if least is None or miss < least:
+            nearest, least = out, miss
+        if k == POLISH.backoffs or run.stop():
+            break
+        certified, ratio = miss[0] == 0, miss[1]
+        if not 1.0 < ratio <= POLISH.backoff_near:
+            break
+        if certified:
+            ctx = replace(ctx, problem=_tightened(ctx.problem, ratio ** 2))
         else:
-            return nearest
-        again = _solved_again(replace(ctx, free_margin=margin), run, out, f"{name}, backed off",
-                              floor, poles_first)
-        if again is None:
-            return nearest
-        out = again
-        if _miss(problem, out) < _miss(problem, nearest):
-            nearest = out
+            margin /= ratio ** 2
+        out = _solved_again(replace(ctx, free_margin=margin), run, out, f"{name}, backed off",
+                            floor, poles_first)
     return nearest
 
 

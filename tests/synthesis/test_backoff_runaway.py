@@ -33,7 +33,7 @@ def _design(ms):
 
 @pytest.mark.slow
 def test_a_looser_bound_keeps_the_basin_a_runaway_back_off_would_lose():
-    tight_problem, tight = _design(2.25)
+    _, tight = _design(2.25)
     loose_problem, loose = _design(2.5)
     assert tight.certified and loose.certified
     assert loose.integral_gain >= (1.0 - TOL) * tight.integral_gain, (
