@@ -82,10 +82,11 @@ def mc_file(folder, robust, n=24, chunk=4):
     Its spread is mostly of the static gain: the controller cancels the resonance and sits
     on the |T| bound in its band, so a resonance spread of 1 % (1-sigma) already fails nearly
     every drawn actuator, and the Dask test needs both outcomes.  Since the design binds the
-    sampled |T| and the high-frequency |U| together (861,623, 2026-12-04; 879,000 since
-    2026-12-07) a static gain off by more than a few tenths of a percent either way breaks
-    one of them: 0 of 24 certify with a gain spread of 3 % (1-sigma), 8 of 24 with this 1 %
-    (10 of 24 with the 879,000 design; 16 of 24 with 3 % before).
+    sampled |T| and the high-frequency |U| together (861,623, 2026-12-04; 879,000 and
+    1,034,522 since 2026-12-07) a static gain off by more than a few tenths of a percent
+    either way breaks one of them: 0 of 24 certify with a gain spread of 3 % (1-sigma),
+    8 of 24 with this 1 % (10 of 24 with the 879,000 design, 9 with the 1,034,522 one;
+    16 of 24 with 3 % before).
     """
     write(folder, "robust.json", json_text(robust.as_dict()))
     return write(folder, "mc_small.toml", MC.format(n=n, chunk=chunk))

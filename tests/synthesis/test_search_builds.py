@@ -120,7 +120,8 @@ def test_the_chain_of_polishes_is_the_same_on_other_blas_kernels():
     the same answer, reached by the same chain.  Before, its third polish went on from a
     point walked back into the specs and converged elsewhere on each (1,261,270 against
     1,284,099, outside the specs; walked back, the answers 1,168,492 and 1,183,985); a
-    chain now ends at such a point (879,000 on both, measured 2026-12-07).  What is tried
+    chain now ends at such a point (879,000 on both, measured 2026-12-07; 1,034,522 on
+    both since the walk back from each end of a polish, the same day).  What is tried
     on the way may differ: IPOPT's iteration counts differ by a few between kernel sets,
     and a synthesis near its iteration budget (``RunOptions.iter_budget``) polishes one
     basin more on one of them (global run 3, measured with the chained derivatives)."""
