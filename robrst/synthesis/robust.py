@@ -798,9 +798,9 @@ def _backoff(ctx, run, out, name, floor=None, poles_first=False):
     inside by the miss instead of the polish being lost (``poles_first``: the polish's
     first solve needed the poles, and its back-offs start over them).  It stops at the
     first outcome that meets every spec; else the nearest to them of the polish's end and
-    its back-offs (:func:`_miss`) comes first: a back-off that runs away (on stage 722 at ``Ms_max`` 2.5
-    from a polish 0.8 % outside to an unstable loop) never replaces the end it started
-    from, which the walk back (:func:`_rescued`) then brings inside.
+    its back-offs (:func:`_miss`) comes first: a back-off that runs away (on stage 722 at
+    ``Ms_max`` 2.5 from a polish 0.8 % outside to an unstable loop) never replaces the end
+    it started from, which the walk back (:func:`_rescued`) then brings inside.
 
     Returns the ends near the specs, nearest first: the nearest, then each other end
     certified (outside the reference-step specs) or within ``POLISH.backoff_near`` of the
