@@ -455,13 +455,14 @@ def _polished(ctx, run, base, name, how="polished", grid=None):
     ends, notes, poles = _polish(near, run, xr, name, floor, grid)
     out, label = (ends[0] if ends else None), how
     if base.certified and out is not None and not _counts(p, out):
-        best, start = None, base
+        best, at = None, None
         for end in ends:         # walked back from each end near the specs: the best kept
             if run.stop():
                 break
             walked = _rescued(near, run, polished_setup, xr, end, name, poles)
-            if walked is not None and objective_value(p, walked) > objective_value(p, start):
-                best, start, at = walked, walked, end
+            above = base if best is None else best
+            if walked is not None and objective_value(p, walked) > objective_value(p, above):
+                best, at = walked, end
         if best is not None:
             run.tried.append((f"{name}, {label}", out))
             run.notes.append(_walk_note(p, name, at, best, base))
